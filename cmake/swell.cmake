@@ -1,0 +1,11 @@
+# Helpers shared by every part of the tree.
+
+# swell_catch_test(NAME LABEL label [LABEL ...] SOURCES src... [LIBS lib...])
+# One Catch2 executable; every TEST_CASE becomes its own ctest test carrying the labels.
+function(swell_catch_test name)
+  cmake_parse_arguments(T "" "" "LABEL;SOURCES;LIBS" ${ARGN})
+  add_executable(${name} ${T_SOURCES})
+  target_link_libraries(${name} PRIVATE ${T_LIBS} Catch2::Catch2WithMain)
+  set_target_properties(${name} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)
+  catch_discover_tests(${name} TEST_PREFIX "${name}: " PROPERTIES LABELS "${T_LABEL}")
+endfunction()

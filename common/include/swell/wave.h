@@ -1,0 +1,124 @@
+/* The shallow-water height field of the paper's eq. (1) and (2), in fixed point.
+ *
+ *   h(n) = h(n-1) + (1-t) [ h(n-1) - h(n-2) + e L9(n-1) ]
+ *   L9   = -6 h[i,j] + h[i±1,j] + h[i,j±1] + 1/2 (four diagonal neighbours)
+ *   e    = g dt^2 d / dx^2
+ *
+ * Walls reflect: ghost cells mirror the edge cells. The water starts at rest (h(-1) = h(0)).
+ *
+ * Form. L9 is a graph Laplacian, L9_a = sum over neighbours b of w_ab (h_b - h_a), so eq. (1) is solved
+ * in its edge-flux form: every edge (a, b) keeps a flow f, the volume that moves from b into a in one
+ * step,
+ *     f(n) = (1-t) [ f(n-1) + e w_ab (h_b - h_a)(n-1) ],   h_a += f,   h_b -= f.
+ * Summing the flows of a cell gives back eq. (1) exactly (the cell's velocity is the sum of its
+ * flows, zero at rest). In fixed point every rounded flow is added to one cell and subtracted from
+ * another, so the volume sum(h) is conserved exactly, whatever the rounding.
+ * Mirrored ghosts turn into edge weights: diagonals 1/2, inner orthogonal edges 1, and orthogonal
+ * edges that run along a wall 3/2 (the two diagonals through the ghost fold onto them).
+ *
+ * Fixed point. Heights and flows are int32 with 1 LSB = 2^-16 mm (SWELL_H_FRAC), saturated to
+ * +-SWELL_H_MAX (2048 mm), so no intermediate can overflow. Coefficients are Q1.30.
+ * Rounding: e w dh is rounded to nearest (ties up); the damping product (1-t) s is rounded toward
+ * zero, so damping never leaves a flow stuck in a limit cycle (any non-zero flow loses at least one
+ * LSB per step when t > 0). With t = 0 no damping multiply is done at all.
+ *
+ * Stability (von Neumann, q = 1-t): modes are stable iff e_eff < (1+q) / (4q), where e_eff is e for
+ * the paper stencil and e/2 for the calibrated one (L9/2, waves at sqrt(g d)). Parameters outside
+ * that limit are refused, never run.
+ *
+ * Storage is the caller's: SWELL_WAVE_WORDS(nx, ny) int32 words. No allocation, no float. */
+#ifndef SWELL_WAVE_H
+#define SWELL_WAVE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "swell/err.h"
+#include "swell/fixed.h"
+
+#define SWELL_H_FRAC 16                         /* fractional bits of a height, in mm */
+#define SWELL_H_ONE_MM ((int32_t)1 << SWELL_H_FRAC) /* 1 mm in height LSB */
+#define SWELL_H_MAX (((int32_t)1 << 27) - 1)    /* saturation bound of heights and flows */
+
+#define SWELL_WAVE_MIN_SIDE 2
+#define SWELL_WAVE_MAX_SIDE 1024
+#define SWELL_WAVE_ARRAYS 6 /* h, v, and the E, N, NE, NW flows */
+#define SWELL_WAVE_WORDS(nx, ny) ((size_t)SWELL_WAVE_ARRAYS * (size_t)(nx) * (size_t)(ny))
+
+enum swell_stencil {
+	SWELL_STENCIL_PAPER = 0,      /* L9 as printed: waves run sqrt(2) faster than sqrt(g d) */
+	SWELL_STENCIL_CALIBRATED = 1, /* L9 / 2: long waves at sqrt(g d) */
+};
+
+struct swell_wave_params {
+	q30_t e;       /* eq. (2), in (0, 2) */
+	q30_t damping; /* t, in [0, 1) */
+	enum swell_stencil stencil;
+};
+
+struct swell_wave {
+	uint16_t nx, ny;
+	/* Row-major, index j * nx + i (i the column, x; j the row, y). */
+	int32_t *h;    /* h(n): height above rest, LSB 2^-16 mm */
+	int32_t *v;    /* h(n) - h(n-1), the last step's change */
+	int32_t *f_e;  /* flow into cell (i,j) from (i+1,j) */
+	int32_t *f_n;  /* flow into cell (i,j) from (i,j+1) */
+	int32_t *f_ne; /* flow into cell (i,j) from (i+1,j+1) */
+	int32_t *f_nw; /* flow into cell (i,j) from (i-1,j+1) */
+	struct swell_wave_params p;
+	q30_t e_eff;  /* e (paper) or e/2 (calibrated), made even so that e_eff/2 is exact */
+	q30_t c_1;    /* e_eff * 1   inner orthogonal edges */
+	q30_t c_half; /* e_eff * 1/2 diagonal edges */
+	q30_t c_wall; /* e_eff * 3/2 orthogonal edges along a wall */
+	q30_t q;      /* 1 - t */
+	uint32_t steps;
+	uint32_t saturations; /* heights or flows clamped to +-SWELL_H_MAX */
+};
+
+/* Exact integer energy (DESIGN.md 2.1), for tests: with t = 0,
+ *     E * 2^31 = kin * 2^31 + e_eff * pot2
+ * is conserved exactly in exact arithmetic; kin = sum (h(n) - h(n-1))^2 and
+ * pot2 = sum over edges of 2 w (h_b - h_a)(n) (h_b - h_a)(n-1), in LSB^2. Both are exact in int64 while
+ * heights stay below 2^23 LSB (128 mm) on grids up to 256 x 256. */
+struct swell_wave_energy {
+	int64_t kin;
+	int64_t pot2;
+	q30_t e_eff;
+};
+
+/* Validate parameters: SWELL_EINVAL (unknown stencil), SWELL_ERANGE (e <= 0, e_eff > 1,
+ * t outside [0, 1)), SWELL_EUNSTABLE (e_eff >= (1+q)/(4q)). */
+enum swell_err swell_wave_check(const struct swell_wave_params *p);
+
+/* The exclusive stability limit on e (not e_eff) for damping t and a stencil, in Q1.30,
+ * saturated to INT32_MAX when it exceeds the Q1.30 range. */
+q30_t swell_wave_e_limit(q30_t damping, enum swell_stencil stencil);
+
+/* Bind caller storage (at least SWELL_WAVE_WORDS(nx, ny) words) and set the water flat and at rest.
+ * On error *w is untouched. */
+enum swell_err swell_wave_init(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage,
+			       size_t words, const struct swell_wave_params *p);
+
+/* Change parameters on a running field; on error nothing changes. */
+enum swell_err swell_wave_set_params(struct swell_wave *w, const struct swell_wave_params *p);
+
+/* Make the present heights the rest state: all flows and v zero (h(n-1) = h(n)). */
+void swell_wave_rest(struct swell_wave *w);
+
+/* Advance one solver step. Bounded: 4 edges per cell, no data-dependent loops. */
+void swell_wave_step(struct swell_wave *w);
+
+/* sum(h) in LSB: the volume, exact. */
+int64_t swell_wave_volume(const struct swell_wave *w);
+
+struct swell_wave_energy swell_wave_energy(const struct swell_wave *w);
+
+/* CRC-32 of the state (heights then the four flow arrays, each int32 little-endian). */
+uint32_t swell_wave_checksum(const struct swell_wave *w);
+
+/* e = g dt^2 d / dx^2 from integer physical units, rounded to nearest Q1.30.
+ * g in mm/s^2, dt in us, depth and dx in um. SWELL_ERANGE when a value is 0 or e >= 2. */
+enum swell_err swell_wave_e_from_physical(uint32_t g_mm_s2, uint32_t dt_us, uint32_t depth_um,
+					  uint32_t dx_um, q30_t *e);
+
+#endif

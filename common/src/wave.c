@@ -1,0 +1,250 @@
+/* Fixed-point solver of eq. (1) in edge-flux form; see wave.h for the maths and the rounding. */
+#include "swell/wave.h"
+
+#include <string.h>
+
+#include "swell/crc.h"
+
+static int e_eff_stable(uint64_t e_eff, uint64_t q)
+{
+	/* e_eff < (1+q)/(4q) with both in Q1.30:  4 e_eff q < (2^30 + q) 2^30, exact in uint64. */
+	return 4u * e_eff * q < (((uint64_t)1 << 30) + q) << 30;
+}
+
+static q30_t effective_e(const struct swell_wave_params *p)
+{
+	int32_t e = p->stencil == SWELL_STENCIL_CALIBRATED ? p->e / 2 : p->e;
+
+	return e & ~(int32_t)1;
+}
+
+enum swell_err swell_wave_check(const struct swell_wave_params *p)
+{
+	q30_t e_eff;
+
+	if (!p)
+		return SWELL_EINVAL;
+	if (p->stencil != SWELL_STENCIL_PAPER && p->stencil != SWELL_STENCIL_CALIBRATED)
+		return SWELL_EINVAL;
+	if (p->damping < 0 || p->damping >= SWELL_Q30_ONE)
+		return SWELL_ERANGE;
+	e_eff = effective_e(p);
+	if (p->e <= 0 || e_eff <= 0 || e_eff > SWELL_Q30_ONE)
+		return SWELL_ERANGE;
+	if (!e_eff_stable((uint64_t)e_eff, (uint64_t)(SWELL_Q30_ONE - p->damping)))
+		return SWELL_EUNSTABLE;
+	return SWELL_OK;
+}
+
+q30_t swell_wave_e_limit(q30_t damping, enum swell_stencil stencil)
+{
+	uint64_t q, lim;
+
+	if (damping < 0 || damping >= SWELL_Q30_ONE)
+		return 0;
+	q = (uint64_t)(SWELL_Q30_ONE - damping);
+	/* smallest e_eff that is unstable: ceil((2^30 + q) 2^30 / (4 q)) */
+	lim = (((((uint64_t)1 << 30) + q) << 30) + 4 * q - 1) / (4 * q);
+	if (stencil == SWELL_STENCIL_CALIBRATED)
+		lim *= 2;
+	return lim > INT32_MAX ? INT32_MAX : (q30_t)lim;
+}
+
+static void apply_params(struct swell_wave *w, const struct swell_wave_params *p)
+{
+	w->p = *p;
+	w->e_eff = effective_e(p);
+	w->c_1 = w->e_eff;
+	w->c_half = w->e_eff / 2;
+	w->c_wall = w->e_eff + w->c_half;
+	w->q = SWELL_Q30_ONE - p->damping;
+}
+
+enum swell_err swell_wave_init(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage,
+			       size_t words, const struct swell_wave_params *p)
+{
+	size_t n = (size_t)nx * ny;
+	enum swell_err err;
+
+	if (!w || !storage)
+		return SWELL_EINVAL;
+	if (nx < SWELL_WAVE_MIN_SIDE || ny < SWELL_WAVE_MIN_SIDE || nx > SWELL_WAVE_MAX_SIDE ||
+	    ny > SWELL_WAVE_MAX_SIDE || words < SWELL_WAVE_WORDS(nx, ny))
+		return SWELL_ESIZE;
+	err = swell_wave_check(p);
+	if (err != SWELL_OK)
+		return err;
+
+	memset(w, 0, sizeof(*w));
+	w->nx = nx;
+	w->ny = ny;
+	w->h = storage;
+	w->v = storage + n;
+	w->f_e = storage + 2 * n;
+	w->f_n = storage + 3 * n;
+	w->f_ne = storage + 4 * n;
+	w->f_nw = storage + 5 * n;
+	memset(storage, 0, SWELL_WAVE_WORDS(nx, ny) * sizeof(int32_t));
+	apply_params(w, p);
+	return SWELL_OK;
+}
+
+enum swell_err swell_wave_set_params(struct swell_wave *w, const struct swell_wave_params *p)
+{
+	enum swell_err err;
+
+	if (!w)
+		return SWELL_EINVAL;
+	err = swell_wave_check(p);
+	if (err != SWELL_OK)
+		return err;
+	apply_params(w, p);
+	return SWELL_OK;
+}
+
+void swell_wave_rest(struct swell_wave *w)
+{
+	size_t n = (size_t)w->nx * w->ny;
+
+	memset(w->v, 0, 5 * n * sizeof(int32_t)); /* v and the four flow arrays are contiguous */
+}
+
+/* One edge: new flow from the old one and the height difference, then its share to both cells. */
+static inline void edge(struct swell_wave *w, int32_t *f, int a, int b, q30_t c)
+{
+	int32_t s = *f + swell_mul_q30_rn(w->h[b] - w->h[a], c);
+
+	if (w->q != SWELL_Q30_ONE)
+		s = swell_mul_q30_rz(s, w->q);
+	if (s > SWELL_H_MAX || s < -SWELL_H_MAX) {
+		s = swell_clamp(s, -SWELL_H_MAX, SWELL_H_MAX);
+		w->saturations++;
+	}
+	*f = s;
+	w->v[a] += s;
+	w->v[b] -= s;
+}
+
+void swell_wave_step(struct swell_wave *w)
+{
+	const int nx = w->nx, ny = w->ny;
+	const int n = nx * ny;
+	int i, j, a;
+
+	memset(w->v, 0, (size_t)n * sizeof(int32_t));
+	for (j = 0; j < ny; j++) {
+		const q30_t ce = (j == 0 || j == ny - 1) ? w->c_wall : w->c_1;
+		const int up = j + 1 < ny;
+
+		for (i = 0; i < nx; i++) {
+			a = j * nx + i;
+			if (i + 1 < nx)
+				edge(w, &w->f_e[a], a, a + 1, ce);
+			if (!up)
+				continue;
+			edge(w, &w->f_n[a], a, a + nx, (i == 0 || i == nx - 1) ? w->c_wall : w->c_1);
+			if (i + 1 < nx)
+				edge(w, &w->f_ne[a], a, a + nx + 1, w->c_half);
+			if (i > 0)
+				edge(w, &w->f_nw[a], a, a + nx - 1, w->c_half);
+		}
+	}
+	for (a = 0; a < n; a++) {
+		int32_t h = w->h[a] + w->v[a]; /* |h| <= 2^27, |v| <= 8 * 2^27: no overflow */
+
+		if (h > SWELL_H_MAX || h < -SWELL_H_MAX) {
+			h = swell_clamp(h, -SWELL_H_MAX, SWELL_H_MAX);
+			w->saturations++;
+		}
+		w->h[a] = h;
+	}
+	w->steps++;
+}
+
+int64_t swell_wave_volume(const struct swell_wave *w)
+{
+	const int n = w->nx * w->ny;
+	int64_t sum = 0;
+	int a;
+
+	for (a = 0; a < n; a++)
+		sum += w->h[a];
+	return sum;
+}
+
+/* 2 w (h_b - h_a)(n) (h_b - h_a)(n-1) for one edge; h(n-1) = h - v. */
+static int64_t edge_pot2(const struct swell_wave *w, int a, int b, int64_t two_w)
+{
+	int64_t d_now = (int64_t)w->h[b] - w->h[a];
+	int64_t d_prev = d_now - ((int64_t)w->v[b] - w->v[a]);
+
+	return two_w * d_now * d_prev;
+}
+
+struct swell_wave_energy swell_wave_energy(const struct swell_wave *w)
+{
+	const int nx = w->nx, ny = w->ny;
+	struct swell_wave_energy en = {0, 0, w->e_eff};
+	int i, j, a;
+
+	for (j = 0; j < ny; j++) {
+		for (i = 0; i < nx; i++) {
+			a = j * nx + i;
+			en.kin += (int64_t)w->v[a] * w->v[a];
+			if (i + 1 < nx)
+				en.pot2 += edge_pot2(w, a, a + 1, (j == 0 || j == ny - 1) ? 3 : 2);
+			if (j + 1 >= ny)
+				continue;
+			en.pot2 += edge_pot2(w, a, a + nx, (i == 0 || i == nx - 1) ? 3 : 2);
+			if (i + 1 < nx)
+				en.pot2 += edge_pot2(w, a, a + nx + 1, 1);
+			if (i > 0)
+				en.pot2 += edge_pot2(w, a, a + nx - 1, 1);
+		}
+	}
+	return en;
+}
+
+static uint32_t crc_words(uint32_t crc, const int32_t *x, size_t n)
+{
+	size_t k;
+
+	for (k = 0; k < n; k++) {
+		uint32_t u = (uint32_t)x[k];
+		uint8_t le[4] = {(uint8_t)u, (uint8_t)(u >> 8), (uint8_t)(u >> 16), (uint8_t)(u >> 24)};
+
+		crc = swell_crc32(crc, le, sizeof(le));
+	}
+	return crc;
+}
+
+uint32_t swell_wave_checksum(const struct swell_wave *w)
+{
+	size_t n = (size_t)w->nx * w->ny;
+	uint32_t crc = crc_words(0, w->h, n);
+
+	crc = crc_words(crc, w->f_e, n);
+	crc = crc_words(crc, w->f_n, n);
+	crc = crc_words(crc, w->f_ne, n);
+	return crc_words(crc, w->f_nw, n);
+}
+
+enum swell_err swell_wave_e_from_physical(uint32_t g_mm_s2, uint32_t dt_us, uint32_t depth_um,
+					  uint32_t dx_um, q30_t *e)
+{
+	uint64_t x, eq;
+
+	if (!e)
+		return SWELL_EINVAL;
+	if (!g_mm_s2 || !dt_us || !depth_um || !dx_um)
+		return SWELL_ERANGE;
+	/* e = g dt^2 d / dx^2 * 1e-9 in these units; first g d dt^2 / dx^2 (in units of 1e-9), then
+	 * scaled to Q1.30. Both steps round to nearest: relative error below 1e-8 for e > 0.01. */
+	if (!swell_muldiv_u64((uint64_t)g_mm_s2 * depth_um, (uint64_t)dt_us * dt_us,
+			      (uint64_t)dx_um * dx_um, &x))
+		return SWELL_ERANGE;
+	if (!swell_muldiv_u64(x, (uint64_t)1 << 30, 1000000000u, &eq) || eq == 0 || eq > INT32_MAX)
+		return SWELL_ERANGE;
+	*e = (q30_t)eq;
+	return SWELL_OK;
+}
