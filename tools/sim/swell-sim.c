@@ -1,0 +1,420 @@
+/* swell-sim: run the common/ wave solver on a scene on the host (no device, no links) and print a
+ * summary. Host program: it parses decimal arguments with doubles and converts them once, at start,
+ * into the solver's integer units; the solver itself sees integers only. */
+#define _POSIX_C_SOURCE 200809L
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "swell/shape.h"
+#include "swell/wave.h"
+#include "swell/wave_ref.h"
+
+static const char usage[] =
+	"usage: swell-sim [options]\n"
+	"Run the fixed-point shallow-water solver (paper eq. 1 and 2) on the host and print a summary.\n"
+	"\n"
+	"  --grid NXxNY          cells (default 64x64; each side 2..1024)\n"
+	"  --e E                 eq. (2) coefficient directly (default 0.2009, the pool at 250 Hz)\n"
+	"  --dt S --depth M --dx M [--g M_S2]\n"
+	"                        e = g dt^2 d / dx^2 from the time step (s), rest depth (m), cell size (m)\n"
+	"                        and gravity (default 9.81 m/s^2)\n"
+	"  --damping T           t in [0, 1) (default 0)\n"
+	"  --stencil paper|calibrated   L9 as printed (default) or L9/2 (waves at sqrt(g d))\n"
+	"  --steps N             solver steps (default 1000)\n"
+	"  --init SHAPE          zero | seiche:M,N,AMP_MM | gauss:X,Y,SIGMA,AMP_MM (default gauss at the\n"
+	"                        centre, sigma 3 cells, 2 mm); X, Y, SIGMA in cells; starts at rest\n"
+	"  --impl fixed|float64  the fixed-point solver (default) or the float64 reference\n"
+	"  --dump-csv FILE       final heights in mm, one row j per line, columns i\n"
+	"  -h, --help            this text\n"
+	"\n"
+	"Exit status: 0 done, 2 bad arguments or parameters outside the stability limit.\n";
+
+enum init_kind { INIT_ZERO, INIT_SEICHE, INIT_GAUSS };
+
+struct opts {
+	int nx, ny;
+	double e;    /* < 0: from the physical parameters */
+	double dt, depth, dx, g;
+	double damping;
+	enum swell_stencil stencil;
+	long steps;
+	enum init_kind init;
+	double init_arg[4];
+	int float64;
+	const char *dump_csv;
+};
+
+static void die(const char *fmt, const char *a, const char *b)
+{
+	fprintf(stderr, "swell-sim: ");
+	fprintf(stderr, fmt, a, b);
+	fputc('\n', stderr);
+	exit(2);
+}
+
+static double parse_num(const char *opt, const char *s)
+{
+	char *end;
+	double v;
+
+	errno = 0;
+	v = strtod(s, &end);
+	if (errno || end == s || *end || !isfinite(v))
+		die("%s: '%s' is not a number", opt, s);
+	return v;
+}
+
+static void parse_list(const char *opt, const char *s, double *out, int n)
+{
+	char buf[128], *tok, *save = NULL;
+	int k = 0;
+
+	if (strlen(s) >= sizeof(buf))
+		die("%s: '%s' is too long", opt, s);
+	strcpy(buf, s);
+	for (tok = strtok_r(buf, ",", &save); tok; tok = strtok_r(NULL, ",", &save)) {
+		if (k == n)
+			die("%s: too many values in '%s'", opt, s);
+		out[k++] = parse_num(opt, tok);
+	}
+	if (k != n)
+		die("%s: too few values in '%s'", opt, s);
+}
+
+static void parse_args(int argc, char **argv, struct opts *o)
+{
+	int k;
+
+	*o = (struct opts){.nx = 64, .ny = 64, .e = -1, .g = 9.81, .steps = 1000, .init = INIT_GAUSS,
+			   .init_arg = {32, 32, 3, 2}};
+	for (k = 1; k < argc; k++) {
+		const char *a = argv[k], *v = k + 1 < argc ? argv[k + 1] : NULL;
+
+		if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
+			fputs(usage, stdout);
+			exit(0);
+		}
+		if (a[0] != '-' || a[1] != '-')
+			die("unexpected argument '%s'%s (see --help)", a, "");
+		if (!v)
+			die("%s needs a value%s", a, "");
+		k++;
+		if (!strcmp(a, "--grid")) {
+			char tail;
+			if (sscanf(v, "%dx%d%c", &o->nx, &o->ny, &tail) != 2)
+				die("--grid: '%s' is not NXxNY%s", v, "");
+		} else if (!strcmp(a, "--e")) {
+			o->e = parse_num(a, v);
+		} else if (!strcmp(a, "--dt")) {
+			o->dt = parse_num(a, v);
+		} else if (!strcmp(a, "--depth")) {
+			o->depth = parse_num(a, v);
+		} else if (!strcmp(a, "--dx")) {
+			o->dx = parse_num(a, v);
+		} else if (!strcmp(a, "--g")) {
+			o->g = parse_num(a, v);
+		} else if (!strcmp(a, "--damping")) {
+			o->damping = parse_num(a, v);
+		} else if (!strcmp(a, "--stencil")) {
+			if (!strcmp(v, "paper"))
+				o->stencil = SWELL_STENCIL_PAPER;
+			else if (!strcmp(v, "calibrated"))
+				o->stencil = SWELL_STENCIL_CALIBRATED;
+			else
+				die("--stencil: '%s' is neither paper nor calibrated%s", v, "");
+		} else if (!strcmp(a, "--steps")) {
+			double n = parse_num(a, v);
+			if (n < 0 || n > 1e12 || n != floor(n))
+				die("--steps: '%s' is not a whole number in [0, 1e12]%s", v, "");
+			o->steps = (long)n;
+		} else if (!strcmp(a, "--init")) {
+			if (!strcmp(v, "zero")) {
+				o->init = INIT_ZERO;
+			} else if (!strncmp(v, "seiche:", 7)) {
+				o->init = INIT_SEICHE;
+				parse_list(a, v + 7, o->init_arg, 3);
+			} else if (!strncmp(v, "gauss:", 6)) {
+				o->init = INIT_GAUSS;
+				parse_list(a, v + 6, o->init_arg, 4);
+			} else {
+				die("--init: '%s' is not zero, seiche:M,N,AMP_MM or gauss:X,Y,SIGMA,AMP_MM%s", v, "");
+			}
+		} else if (!strcmp(a, "--impl")) {
+			if (!strcmp(v, "fixed"))
+				o->float64 = 0;
+			else if (!strcmp(v, "float64"))
+				o->float64 = 1;
+			else
+				die("--impl: '%s' is neither fixed nor float64%s", v, "");
+		} else if (!strcmp(a, "--dump-csv")) {
+			o->dump_csv = v;
+		} else {
+			die("unknown option '%s'%s (see --help)", a, "");
+		}
+	}
+}
+
+static void die_num(const char *opt, double v, const char *why)
+{
+	fprintf(stderr, "swell-sim: %s %g %s\n", opt, v, why);
+	exit(2);
+}
+
+/* Turn the options into validated solver parameters, or exit with the reason. */
+static struct swell_wave_params make_params(const struct opts *o)
+{
+	struct swell_wave_params p = {0, 0, o->stencil};
+	enum swell_err err;
+
+	if (o->nx < SWELL_WAVE_MIN_SIDE || o->ny < SWELL_WAVE_MIN_SIDE || o->nx > SWELL_WAVE_MAX_SIDE ||
+	    o->ny > SWELL_WAVE_MAX_SIDE) {
+		fprintf(stderr, "swell-sim: --grid %dx%d: each side must be in [%d, %d]\n", o->nx, o->ny,
+			SWELL_WAVE_MIN_SIDE, SWELL_WAVE_MAX_SIDE);
+		exit(2);
+	}
+	if (!(o->damping >= 0 && o->damping < 1))
+		die_num("--damping", o->damping, "is outside [0, 1)");
+	p.damping = (q30_t)llround(o->damping * SWELL_Q30_ONE);
+	if (o->e >= 0) {
+		if (!(o->e > 0 && o->e < 2))
+			die_num("--e", o->e, "is outside (0, 2)");
+		p.e = (q30_t)llround(o->e * SWELL_Q30_ONE);
+	} else if (o->dt > 0 || o->depth > 0 || o->dx > 0) {
+		double us = o->dt * 1e6, d_um = o->depth * 1e6, dx_um = o->dx * 1e6, g = o->g * 1e3;
+		if (!(us >= 1 && us < 4e9))
+			die_num("--dt", o->dt, "s is outside [1e-6, 4000) (or missing)");
+		if (!(d_um >= 1 && d_um < 4e9))
+			die_num("--depth", o->depth, "m is outside [1e-6, 4000) (or missing)");
+		if (!(dx_um >= 1 && dx_um < 4e9))
+			die_num("--dx", o->dx, "m is outside [1e-6, 4000) (or missing)");
+		if (!(g >= 1 && g < 4e9))
+			die_num("--g", o->g, "m/s^2 is outside [1e-3, 4e6)");
+		err = swell_wave_e_from_physical((uint32_t)llround(g), (uint32_t)llround(us),
+						 (uint32_t)llround(d_um), (uint32_t)llround(dx_um), &p.e);
+		if (err != SWELL_OK) {
+			fprintf(stderr, "swell-sim: e = g dt^2 d / dx^2 = %g is outside (0, 2)\n",
+				o->g * o->dt * o->dt * o->depth / (o->dx * o->dx));
+			exit(2);
+		}
+	} else {
+		p.e = (q30_t)llround(0.2009 * SWELL_Q30_ONE);
+	}
+	err = swell_wave_check(&p);
+	if (err == SWELL_EUNSTABLE || err == SWELL_ERANGE) {
+		double lim = (double)swell_wave_e_limit(p.damping, p.stencil) / SWELL_Q30_ONE;
+		fprintf(stderr,
+			"swell-sim: --e %.6g is %s the stability limit %.6g for damping %g (stencil %s): "
+			"refused\n",
+			(double)p.e / SWELL_Q30_ONE, err == SWELL_EUNSTABLE ? "at or above" : "beyond",
+			lim, o->damping, o->stencil == SWELL_STENCIL_PAPER ? "paper" : "calibrated");
+		exit(2);
+	}
+	if (err != SWELL_OK) {
+		fprintf(stderr, "swell-sim: parameters refused: %s\n", swell_err_str(err));
+		exit(2);
+	}
+	return p;
+}
+
+static double now_s(void)
+{
+	struct timespec ts;
+
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
+static int32_t mm_to_lsb(const char *what, double mm)
+{
+	double lsb = mm * SWELL_H_ONE_MM;
+
+	if (!(fabs(lsb) <= SWELL_H_MAX))
+		die_num(what, mm, "mm is beyond the height range +-2048 mm");
+	return (int32_t)llround(lsb);
+}
+
+static void init_field(struct swell_wave *w, const struct opts *o)
+{
+	const double *a = o->init_arg;
+
+	if (o->init == INIT_SEICHE) {
+		if (a[0] < 0 || a[1] < 0 || a[0] > 65535 || a[1] > 65535 || a[0] != floor(a[0]) ||
+		    a[1] != floor(a[1]))
+			die("--init seiche: mode numbers M, N must be whole numbers in [0, 65535]%s%s", "", "");
+		swell_shape_seiche(w->h, w->nx, w->ny, (uint16_t)a[0], (uint16_t)a[1],
+				   mm_to_lsb("--init seiche amplitude", a[2]));
+	} else if (o->init == INIT_GAUSS) {
+		if (!(a[2] >= 0.5 && a[2] < 4096) || !(fabs(a[0]) < 16384 && fabs(a[1]) < 16384))
+			die("--init gauss: sigma must be in [0.5, 4096) cells and X, Y within +-16384%s%s", "",
+			    "");
+		swell_shape_gauss(w->h, w->nx, w->ny, (q16_t)llround(a[0] * SWELL_Q16_ONE),
+				  (q16_t)llround(a[1] * SWELL_Q16_ONE), (q16_t)llround(a[2] * SWELL_Q16_ONE),
+				  mm_to_lsb("--init gauss amplitude", a[3]));
+	}
+	swell_wave_rest(w);
+}
+
+/* Energy of the fixed field in mm^2 (E * 2^31 = kin * 2^31 + e_eff * pot2, heights in LSB). */
+static double energy_mm2(const struct swell_wave *w)
+{
+	struct swell_wave_energy en = swell_wave_energy(w);
+	double lsb2 = (double)en.kin + (double)en.e_eff / SWELL_Q30_ONE * 0.5 * (double)en.pot2;
+
+	return lsb2 / ((double)SWELL_H_ONE_MM * SWELL_H_ONE_MM);
+}
+
+/* Same energy for the float64 field, directly from its three-level state (mirrored ghosts). */
+static double energy_ref_mm2(const struct swell_wave_ref *r)
+{
+	double kin = 0, pot = 0;
+	int i, j;
+
+	for (j = 0; j < r->ny; j++) {
+		for (i = 0; i < r->nx; i++) {
+			int a = j * r->nx + i;
+			double v = r->h[a] - r->hp[a];
+			kin += v * v;
+			/* each edge once, weights from folding the mirrored diagonals onto the walls */
+			if (i + 1 < r->nx) {
+				double wgt = (j == 0 || j == r->ny - 1) ? 1.5 : 1.0;
+				pot += wgt * (r->h[a + 1] - r->h[a]) * (r->hp[a + 1] - r->hp[a]);
+			}
+			if (j + 1 < r->ny) {
+				double wgt = (i == 0 || i == r->nx - 1) ? 1.5 : 1.0;
+				int b = a + r->nx;
+				pot += wgt * (r->h[b] - r->h[a]) * (r->hp[b] - r->hp[a]);
+				if (i + 1 < r->nx)
+					pot += 0.5 * (r->h[b + 1] - r->h[a]) * (r->hp[b + 1] - r->hp[a]);
+				if (i > 0)
+					pot += 0.5 * (r->h[b - 1] - r->h[a]) * (r->hp[b - 1] - r->hp[a]);
+			}
+		}
+	}
+	return kin + r->e_eff * pot;
+}
+
+static void dump_csv(const char *path, const double *mm, int nx, int ny)
+{
+	FILE *f = fopen(path, "w");
+	int i, j;
+
+	if (!f) {
+		fprintf(stderr, "swell-sim: --dump-csv %s: %s\n", path, strerror(errno));
+		exit(2);
+	}
+	for (j = 0; j < ny; j++)
+		for (i = 0; i < nx; i++)
+			fprintf(f, "%.10g%c", mm[j * nx + i], i + 1 < nx ? ',' : '\n');
+	if (fclose(f) != 0) {
+		fprintf(stderr, "swell-sim: --dump-csv %s: %s\n", path, strerror(errno));
+		exit(2);
+	}
+}
+
+static void progress(long k, long steps, double t0, double *next)
+{
+	double t = now_s();
+
+	if (t < *next)
+		return;
+	*next = t + 1.0;
+	fprintf(stderr, "\rswell-sim: step %ld / %ld (%.0f%%), %.1f s", k, steps, 100.0 * k / steps, t - t0);
+}
+
+int main(int argc, char **argv)
+{
+	struct opts o;
+	struct swell_wave_params p;
+	struct swell_wave w;
+	struct swell_wave_ref r;
+	int32_t *store;
+	double *rstore, *mm, t0, t1, e0, e1, vol0, vol1, hmin = 0, hmax = 0, next;
+	long k;
+	int n, a, show = isatty(2);
+
+	parse_args(argc, argv, &o);
+	p = make_params(&o);
+	n = o.nx * o.ny;
+	store = calloc(SWELL_WAVE_WORDS(o.nx, o.ny), sizeof(*store));
+	rstore = calloc(SWELL_WAVE_REF_DOUBLES(o.nx, o.ny), sizeof(*rstore));
+	mm = calloc((size_t)n, sizeof(*mm));
+	if (!store || !rstore || !mm) {
+		fprintf(stderr, "swell-sim: out of memory for a %dx%d grid\n", o.nx, o.ny);
+		return 2;
+	}
+	if (swell_wave_init(&w, (uint16_t)o.nx, (uint16_t)o.ny, store, SWELL_WAVE_WORDS(o.nx, o.ny), &p) !=
+	    SWELL_OK) {
+		fprintf(stderr, "swell-sim: solver refused the parameters\n");
+		return 2;
+	}
+	init_field(&w, &o);
+	swell_wave_ref_from_fixed(&r, &w, rstore);
+
+	if (o.float64) {
+		e0 = energy_ref_mm2(&r);
+		vol0 = swell_wave_ref_volume(&r);
+	} else {
+		e0 = energy_mm2(&w);
+		vol0 = (double)swell_wave_volume(&w);
+	}
+	t0 = now_s();
+	next = t0 + 1.0;
+	for (k = 0; k < o.steps; k++) {
+		if (o.float64)
+			swell_wave_ref_step(&r);
+		else
+			swell_wave_step(&w);
+		if (show && (k & 63) == 0)
+			progress(k, o.steps, t0, &next);
+	}
+	t1 = now_s();
+	if (show && t1 > t0 + 1.0)
+		fprintf(stderr, "\r%60s\r", "");
+
+	for (a = 0; a < n; a++)
+		mm[a] = o.float64 ? r.h[a] : (double)w.h[a] / SWELL_H_ONE_MM;
+	for (a = 0; a < n; a++) {
+		hmin = a == 0 || mm[a] < hmin ? mm[a] : hmin;
+		hmax = a == 0 || mm[a] > hmax ? mm[a] : hmax;
+	}
+	if (o.float64) {
+		e1 = energy_ref_mm2(&r);
+		vol1 = swell_wave_ref_volume(&r);
+	} else {
+		e1 = energy_mm2(&w);
+		vol1 = (double)swell_wave_volume(&w);
+	}
+
+	printf("swell-sim: %dx%d cells, stencil %s, impl %s\n", o.nx, o.ny,
+	       o.stencil == SWELL_STENCIL_PAPER ? "paper" : "calibrated", o.float64 ? "float64" : "fixed");
+	printf("steps           %ld\n", o.steps);
+	printf("e               %.9f (e_eff %.9f), damping t %.9f\n", (double)p.e / SWELL_Q30_ONE,
+	       (double)w.e_eff / SWELL_Q30_ONE, (double)p.damping / SWELL_Q30_ONE);
+	printf("stability limit e < %.9f\n", (double)swell_wave_e_limit(p.damping, p.stencil) / SWELL_Q30_ONE);
+	if (o.float64)
+		printf("volume drift    %+.3e mm*cells\n", vol1 - vol0);
+	else
+		printf("volume drift    %+.0f LSB (1 LSB = 2^-16 mm * cell)\n", vol1 - vol0);
+	printf("energy          %.9e -> %.9e mm^2 (%+.3e relative)\n", e0, e1, e0 != 0 ? (e1 - e0) / e0 : 0.0);
+	printf("height          min %.6f mm, max %.6f mm\n", hmin, hmax);
+	if (o.float64)
+		printf("checksum        n/a (float64)\n");
+	else
+		printf("checksum        0x%08x\n", swell_wave_checksum(&w));
+	if (!o.float64 && w.saturations)
+		printf("saturations     %u\n", w.saturations);
+	if (o.steps > 0)
+		printf("time            %.3f s, %.2f ns per cell-step\n", t1 - t0,
+		       (t1 - t0) * 1e9 / ((double)o.steps * n));
+	if (o.dump_csv)
+		dump_csv(o.dump_csv, mm, o.nx, o.ny);
+	free(store);
+	free(rstore);
+	free(mm);
+	return 0;
+}
