@@ -181,10 +181,10 @@ static int64_t edge_pot2(const struct swell_wave *w, int a, int b, int64_t two_w
 	return two_w * d_now * d_prev;
 }
 
-struct swell_wave_energy swell_wave_energy(const struct swell_wave *w)
+struct swell_energy swell_wave_energy(const struct swell_wave *w)
 {
 	const int nx = w->nx, ny = w->ny;
-	struct swell_wave_energy en = {0, 0, w->e_eff};
+	struct swell_energy en = {0, 0, w->e_eff};
 	int i, j, a;
 
 	for (j = 0; j < ny; j++) {

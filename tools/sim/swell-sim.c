@@ -262,7 +262,7 @@ static void init_field(struct swell_wave *w, const struct opts *o)
 /* Energy of the fixed field in mm^2 (E * 2^31 = kin * 2^31 + e_eff * pot2, heights in LSB). */
 static double energy_mm2(const struct swell_wave *w)
 {
-	struct swell_wave_energy en = swell_wave_energy(w);
+	struct swell_energy en = swell_wave_energy(w);
 	double lsb2 = (double)en.kin + (double)en.e_eff / SWELL_Q30_ONE * 0.5 * (double)en.pot2;
 
 	return lsb2 / ((double)SWELL_H_ONE_MM * SWELL_H_ONE_MM);

@@ -80,7 +80,7 @@ struct swell_wave {
  * is conserved exactly in exact arithmetic; kin = sum (h(n) - h(n-1))^2 and
  * pot2 = sum over edges of 2 w (h_b - h_a)(n) (h_b - h_a)(n-1), in LSB^2. Both are exact in int64 while
  * heights stay below 2^23 LSB (128 mm) on grids up to 256 x 256. */
-struct swell_wave_energy {
+struct swell_energy {
 	int64_t kin;
 	int64_t pot2;
 	q30_t e_eff;
@@ -111,7 +111,7 @@ void swell_wave_step(struct swell_wave *w);
 /* sum(h) in LSB: the volume, exact. */
 int64_t swell_wave_volume(const struct swell_wave *w);
 
-struct swell_wave_energy swell_wave_energy(const struct swell_wave *w);
+struct swell_energy swell_wave_energy(const struct swell_wave *w);
 
 /* CRC-32 of the state (heights then the four flow arrays, each int32 little-endian). */
 uint32_t swell_wave_checksum(const struct swell_wave *w);

@@ -1,0 +1,361 @@
+/* Properties of the fixed-point wave solver (common/src/wave.c) against exact and float64 references. */
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <random>
+#include <vector>
+
+extern "C" {
+#include "swell/shape.h"
+#include "swell/wave.h"
+#include "swell/wave_ref.h"
+}
+
+namespace {
+
+constexpr double kLsbMm = 1.0 / SWELL_H_ONE_MM;
+
+q30_t q30(double x) { return (q30_t)std::llround(x * SWELL_Q30_ONE); }
+
+/* A solver with its own storage. */
+struct Field {
+	std::vector<int32_t> store;
+	swell_wave w{};
+	Field(int nx, int ny, double e, double t = 0, swell_stencil st = SWELL_STENCIL_PAPER)
+	    : store(SWELL_WAVE_WORDS(nx, ny))
+	{
+		swell_wave_params p{q30(e), q30(t), st};
+		REQUIRE(swell_wave_init(&w, (uint16_t)nx, (uint16_t)ny, store.data(), store.size(), &p) ==
+			SWELL_OK);
+	}
+	int n() const { return w.nx * w.ny; }
+	void random(uint32_t seed, double amp_mm)
+	{
+		std::mt19937 rng(seed);
+		std::uniform_int_distribution<int32_t> d(-(int32_t)(amp_mm * SWELL_H_ONE_MM),
+							 (int32_t)(amp_mm * SWELL_H_ONE_MM));
+		for (int a = 0; a < n(); a++)
+			w.h[a] = d(rng);
+		swell_wave_rest(&w);
+	}
+	/* E * 2^31 exactly, as a 128-bit integer. */
+	__int128 energy() const
+	{
+		swell_energy en = swell_wave_energy(&w);
+		return (__int128)en.kin * ((__int128)1 << 31) + (__int128)en.e_eff * en.pot2;
+	}
+	int32_t max_abs() const
+	{
+		int32_t m = 0;
+		for (int a = 0; a < n(); a++)
+			m = std::max(m, std::abs(w.h[a]));
+		return m;
+	}
+};
+
+double to_double(__int128 x) { return (double)x; }
+
+/* The (m, n) eigenmode's discrete angular step for e_eff: cos(omega) = 1 + e_eff S / 2. */
+double discrete_omega(int nx, int ny, int m, int n, double e_eff)
+{
+	double a = m * M_PI / nx, b = n * M_PI / ny;
+	double s = -8 + 2 * (1 + std::cos(a)) * (1 + std::cos(b));
+	return std::acos(1 + e_eff * s / 2);
+}
+
+} // namespace
+
+TEST_CASE("a seiche eigenmode follows the exact discrete solution to rounding error, both stencils",
+	  "[wave][eigenmode]")
+{
+	const int nx = 64, ny = 64, m = 2, n = 1, steps = 2000;
+	const double amp_mm = 2.0;
+	/* pool scene: g 9.81, dt 4 ms, depth 50 mm, dx 6.25 mm */
+	q30_t e;
+	REQUIRE(swell_wave_e_from_physical(9810, 4000, 50000, 6250, &e) == SWELL_OK);
+	CHECK(std::fabs((double)e / SWELL_Q30_ONE - 9.81 * 0.004 * 0.004 * 0.05 / (0.00625 * 0.00625)) < 1e-8);
+
+	for (swell_stencil st : {SWELL_STENCIL_PAPER, SWELL_STENCIL_CALIBRATED}) {
+		Field f(nx, ny, (double)e / SWELL_Q30_ONE, 0, st);
+		swell_shape_seiche(f.w.h, nx, ny, m, n, (int32_t)(amp_mm * SWELL_H_ONE_MM));
+		swell_wave_rest(&f.w);
+		std::vector<double> ref_store(SWELL_WAVE_REF_DOUBLES(nx, ny));
+		swell_wave_ref r;
+		swell_wave_ref_from_fixed(&r, &f.w, ref_store.data());
+
+		const double e_eff = (double)f.w.e_eff / SWELL_Q30_ONE;
+		const double om = discrete_omega(nx, ny, m, n, e_eff);
+		/* continuous seiche: omega = sqrt(g d) pi sqrt((m/Lx)^2 + (n/Ly)^2), per 4 ms step */
+		const double lx = nx * 0.00625, ly = ny * 0.00625;
+		const double om_c = std::sqrt(9.81 * 0.05) * M_PI * std::hypot(m / lx, n / ly) * 0.004;
+		double err_fixed = 0, err_ref = 0, err_cont = 0, l2_fixed = 0;
+		for (int k = 1; k <= steps; k++) {
+			swell_wave_step(&f.w);
+			swell_wave_ref_step(&r);
+			/* at rest at n = 0 means h(-1) = h(0): c_k = cos(omega (k + 1/2)) / cos(omega / 2) */
+			double c = std::cos(om * (k + 0.5)) / std::cos(om / 2);
+			double cc = std::cos(om_c * k);
+			double l2 = 0;
+			for (int j = 0; j < ny; j++)
+				for (int i = 0; i < nx; i++) {
+					double mode = amp_mm * std::cos(m * M_PI * (i + 0.5) / nx) *
+						      std::cos(n * M_PI * (j + 0.5) / ny);
+					int a = j * nx + i;
+					double hf = f.w.h[a] * kLsbMm;
+					err_fixed = std::max(err_fixed, std::fabs(hf - c * mode));
+					err_ref = std::max(err_ref, std::fabs(r.h[a] - c * mode));
+					err_cont = std::max(err_cont, std::fabs(hf - cc * mode));
+					l2 += (hf - c * mode) * (hf - c * mode);
+				}
+			l2_fixed = std::max(l2_fixed, std::sqrt(l2 / (nx * ny)));
+		}
+		const char *name = st == SWELL_STENCIL_PAPER ? "paper" : "calibrated";
+		WARN("stencil " << name << ", mode (" << m << "," << n << "), " << steps << " steps, A = "
+				<< amp_mm << " mm: fixed vs exact discrete Linf " << err_fixed << " mm ("
+				<< err_fixed / kLsbMm << " LSB), L2 " << l2_fixed << " mm; float64 vs exact "
+				<< err_ref << " mm; fixed vs continuous seiche Linf " << err_cont
+				<< " mm; omega_discrete/omega_continuous " << om / om_c);
+		/* float64 starts from the same integer field: the initial rounding (<= 0.5 LSB a cell) excites
+		 * other modes by that much, nothing more */
+		CHECK(err_ref < 3 * kLsbMm);
+		/* fixed point: rounding of every flux increment, accumulated over 2000 steps (8 s): measured
+		 * about 1e-3 of the amplitude; a wrong coefficient or wall weight would be of order 1 */
+		CHECK(err_fixed < 2e-3 * amp_mm);
+		if (st == SWELL_STENCIL_PAPER) {
+			CHECK(om / om_c == Approx(std::sqrt(2.0)).epsilon(0.01)); /* waves sqrt(2) too fast */
+		} else {
+			CHECK(om / om_c == Approx(1.0).epsilon(0.01));
+			/* calibrated: discretisation error after 8 s stays a fraction of the amplitude */
+			CHECK(err_cont < 0.1 * amp_mm);
+		}
+	}
+}
+
+TEST_CASE("the edge-flux solver equals the float64 three-level eq. (1) to rounding, walls included",
+	  "[wave][reference]")
+{
+	struct Case {
+		int nx, ny;
+		double e, t;
+		swell_stencil st;
+	} cases[] = {{17, 9, 0.2, 0, SWELL_STENCIL_PAPER},
+		     {9, 17, 0.49, 0, SWELL_STENCIL_PAPER},
+		     {16, 16, 0.3, 0.05, SWELL_STENCIL_PAPER},
+		     {12, 20, 0.9, 0.02, SWELL_STENCIL_CALIBRATED},
+		     {2, 2, 0.45, 0, SWELL_STENCIL_PAPER}};
+	for (const Case &c : cases) {
+		Field f(c.nx, c.ny, c.e, c.t, c.st);
+		f.random(11, 5.0);
+		std::vector<double> rs(SWELL_WAVE_REF_DOUBLES(c.nx, c.ny));
+		swell_wave_ref r;
+		swell_wave_ref_from_fixed(&r, &f.w, rs.data());
+		double worst = 0;
+		for (int k = 0; k < 300; k++) {
+			swell_wave_step(&f.w);
+			swell_wave_ref_step(&r);
+			for (int a = 0; a < f.n(); a++)
+				worst = std::max(worst, std::fabs(f.w.h[a] * kLsbMm - r.h[a]));
+		}
+		INFO(c.nx << "x" << c.ny << " e " << c.e << " t " << c.t << ": worst difference " << worst
+			  << " mm = " << worst / kLsbMm << " LSB after 300 steps");
+		/* Rounding (and, with damping, the toward-zero rounding of the damping product, which damps
+		 * by up to one extra LSB an edge a step) stays below 1% of the 5 mm field; a wrong wall
+		 * weight or sign shows up as a difference of the order of the field itself. */
+		CHECK(worst < 0.01 * 5.0);
+	}
+}
+
+TEST_CASE("volume is conserved exactly over 1e6 cell-steps from random fields, with and without damping",
+	  "[wave][volume]")
+{
+	for (double t : {0.0, 0.001, 0.05, 0.5}) {
+		for (swell_stencil st : {SWELL_STENCIL_PAPER, SWELL_STENCIL_CALIBRATED}) {
+			const double lim = (double)swell_wave_e_limit(q30(t), st) / SWELL_Q30_ONE;
+			Field f(32, 32, std::min(0.98 * lim, 1.9), t, st);
+			f.random(1234, 20.0);
+			const int64_t v0 = swell_wave_volume(&f.w);
+			long long worst = 0;
+			for (int k = 0; k < 1000; k++) { /* 1000 steps x 1024 cells */
+				swell_wave_step(&f.w);
+				worst = std::max(worst, std::llabs(swell_wave_volume(&f.w) - v0));
+			}
+			INFO("t " << t << " stencil " << st << ": worst volume drift " << worst << " LSB");
+			CHECK(worst == 0);
+			CHECK(f.w.saturations == 0u);
+		}
+	}
+}
+
+TEST_CASE("energy never increases with damping and stays bounded without", "[wave][energy]")
+{
+	SECTION("no damping: the exact integer energy drifts by rounding only")
+	{
+		Field f(32, 32, 0.45);
+		f.random(5, 10.0);
+		const double e0 = to_double(f.energy());
+		double worst = 0;
+		for (int k = 0; k < 5000; k++) {
+			swell_wave_step(&f.w);
+			worst = std::max(worst, std::fabs(to_double(f.energy()) - e0) / e0);
+		}
+		WARN("t = 0, e = 0.45, 5000 steps: worst relative energy drift " << worst);
+		CHECK(e0 > 0);
+		CHECK(worst < 1e-3);
+	}
+	SECTION("damping: energy is non-increasing at every step, down to the rounding floor")
+	{
+		/* Flux increments are rounded to nearest, so once flows are a few LSB the rounding can add
+		 * up to ~1 LSB^2 an edge in a step. A rise is allowed only below that floor: 4 LSB^2 times
+		 * the number of edges (in E * 2^31 units). */
+		for (double t : {0.001, 0.01, 0.2}) {
+			Field f(32, 32, 0.3, t);
+			f.random(6, 10.0);
+			__int128 prev = f.energy();
+			const __int128 e0 = prev;
+			int rises = 0, big_rises = 0;
+			double worst_rise = 0;
+			const __int128 floor_ = (__int128)4 * 4 * 32 * 32 * ((__int128)1 << 31);
+			for (int k = 0; k < 3000; k++) {
+				swell_wave_step(&f.w);
+				__int128 now = f.energy();
+				if (now > prev) {
+					rises++;
+					big_rises += now - prev > floor_;
+					worst_rise = std::max(worst_rise, to_double(now - prev) / to_double(e0));
+				}
+				prev = now;
+			}
+			WARN("t " << t << ": " << rises << " of 3000 steps where energy rose (all at the rounding "
+				  "floor), worst rise " << worst_rise << " of E0; final E/E0 "
+				  << to_double(prev) / to_double(e0));
+			CHECK(big_rises == 0);
+			CHECK(to_double(prev) < 0.1 * to_double(e0));
+		}
+	}
+}
+
+TEST_CASE("just under the stability limit stays bounded for 1e5 steps; at or over it is refused",
+	  "[wave][stability]")
+{
+	for (double t : {0.0, 0.1}) {
+		const q30_t lim = swell_wave_e_limit(q30(t), SWELL_STENCIL_PAPER);
+		std::vector<int32_t> store(SWELL_WAVE_WORDS(12, 12));
+		swell_wave w;
+		swell_wave_params under{lim - 2, q30(t), SWELL_STENCIL_PAPER};
+		REQUIRE(swell_wave_init(&w, 12, 12, store.data(), store.size(), &under) == SWELL_OK);
+		std::mt19937 rng(99);
+		for (int a = 0; a < 144; a++)
+			w.h[a] = (int32_t)(rng() % (2 * SWELL_H_ONE_MM)) - SWELL_H_ONE_MM;
+		swell_wave_rest(&w);
+		int32_t start = 0, worst = 0;
+		for (int a = 0; a < 144; a++)
+			start = std::max(start, std::abs(w.h[a]));
+		for (int k = 0; k < 100000; k++) {
+			swell_wave_step(&w);
+			if ((k & 255) == 0)
+				for (int a = 0; a < 144; a++)
+					worst = std::max(worst, std::abs(w.h[a]));
+		}
+		INFO("t " << t << ": e = limit - 2^-29, max |h| " << worst * kLsbMm << " mm from "
+			  << start * kLsbMm << " mm");
+		CHECK(w.saturations == 0u);
+		CHECK(worst < 20 * start);
+
+		/* at the limit and just over: refused, state untouched */
+		swell_wave before = w;
+		std::vector<int32_t> snap(store);
+		for (q30_t e : {lim, lim + 2, lim + 1000}) {
+			swell_wave_params over{e, q30(t), SWELL_STENCIL_PAPER};
+			CHECK(swell_wave_check(&over) == SWELL_EUNSTABLE);
+			CHECK(swell_wave_set_params(&w, &over) == SWELL_EUNSTABLE);
+			CHECK(std::memcmp(&before, &w, sizeof(w)) == 0);
+			swell_wave fresh{};
+			CHECK(swell_wave_init(&fresh, 12, 12, store.data(), store.size(), &over) == SWELL_EUNSTABLE);
+		}
+		CHECK(snap == store);
+	}
+	/* the analytic limit (1+q)/(4q) */
+	CHECK((double)swell_wave_e_limit(0, SWELL_STENCIL_PAPER) / SWELL_Q30_ONE == Approx(0.5).epsilon(1e-9));
+	CHECK((double)swell_wave_e_limit(q30(0.1), SWELL_STENCIL_PAPER) / SWELL_Q30_ONE ==
+	      Approx(1.9 / 3.6).epsilon(1e-8));
+	CHECK((double)swell_wave_e_limit(0, SWELL_STENCIL_CALIBRATED) / SWELL_Q30_ONE == Approx(1.0).epsilon(1e-9));
+}
+
+TEST_CASE("malformed parameters are refused with a reason and change nothing", "[wave][params]")
+{
+	Field f(8, 8, 0.2);
+	f.random(3, 1.0);
+	swell_wave before = f.w;
+	std::vector<int32_t> snap(f.store);
+	swell_wave_params bad[] = {
+		{0, 0, SWELL_STENCIL_PAPER},                 /* e = 0 */
+		{-q30(0.1), 0, SWELL_STENCIL_PAPER},         /* e < 0 */
+		{q30(0.2), -1, SWELL_STENCIL_PAPER},         /* t < 0 */
+		{q30(0.2), SWELL_Q30_ONE, SWELL_STENCIL_PAPER}, /* t = 1 */
+		{q30(0.2), 0, (swell_stencil)7},             /* unknown stencil */
+		{q30(1.5), q30(0.9), SWELL_STENCIL_PAPER},   /* e_eff above 1: coefficient range */
+	};
+	enum swell_err want[] = {SWELL_ERANGE, SWELL_ERANGE, SWELL_ERANGE, SWELL_ERANGE, SWELL_EINVAL, SWELL_ERANGE};
+	for (size_t k = 0; k < sizeof(bad) / sizeof(bad[0]); k++) {
+		INFO("case " << k);
+		CHECK(swell_wave_set_params(&f.w, &bad[k]) == want[k]);
+	}
+	CHECK(swell_wave_set_params(&f.w, nullptr) == SWELL_EINVAL);
+	CHECK(std::memcmp(&before, &f.w, sizeof(before)) == 0);
+	CHECK(snap == f.store);
+
+	swell_wave w{};
+	std::vector<int32_t> small(SWELL_WAVE_WORDS(8, 8) - 1);
+	swell_wave_params ok{q30(0.2), 0, SWELL_STENCIL_PAPER};
+	CHECK(swell_wave_init(&w, 8, 8, small.data(), small.size(), &ok) == SWELL_ESIZE);
+	CHECK(swell_wave_init(&w, 1, 8, small.data(), small.size(), &ok) == SWELL_ESIZE);
+	CHECK(swell_wave_init(&w, 8, 2000, small.data(), small.size(), &ok) == SWELL_ESIZE);
+	CHECK(w.h == nullptr);
+	q30_t e = 77;
+	CHECK(swell_wave_e_from_physical(9810, 0, 50000, 6250, &e) == SWELL_ERANGE);
+	CHECK(swell_wave_e_from_physical(9810, 400000, 50000, 6250, &e) == SWELL_ERANGE); /* e >= 2 */
+	CHECK(e == 77);
+}
+
+TEST_CASE("extreme inputs saturate at +-2048 mm and never wrap", "[wave][saturation]")
+{
+	Field f(16, 16, 0.49);
+	for (int j = 0; j < 16; j++)
+		for (int i = 0; i < 16; i++) /* checkerboard at full scale: the fastest, largest mode */
+			f.w.h[j * 16 + i] = ((i + j) & 1) ? SWELL_H_MAX : -SWELL_H_MAX;
+	swell_wave_rest(&f.w);
+	for (int k = 0; k < 2000; k++) {
+		swell_wave_step(&f.w);
+		for (int a = 0; a < f.n(); a++) {
+			REQUIRE(f.w.h[a] <= SWELL_H_MAX);
+			REQUIRE(f.w.h[a] >= -SWELL_H_MAX);
+		}
+	}
+	INFO("saturations " << f.w.saturations);
+	CHECK(f.w.saturations > 0u);
+	/* saturated initial shapes clamp too */
+	std::vector<int32_t> h(64, SWELL_H_MAX - 5);
+	swell_shape_gauss(h.data(), 8, 8, 4 << 16, 4 << 16, 2 << 16, SWELL_H_MAX);
+	for (int32_t x : h)
+		CHECK(x == SWELL_H_MAX);
+}
+
+TEST_CASE("integer exp and cos match the exact functions", "[shape]")
+{
+	double worst_exp = 0, worst_cos = 0;
+	for (int k = 0; k < 32 * 64; k++) {
+		q16_t x = (q16_t)(k * (SWELL_Q16_ONE / 64));
+		worst_exp = std::max(worst_exp, std::fabs((double)swell_exp_neg_q16(x) / SWELL_Q30_ONE -
+							  std::exp(-(double)x / SWELL_Q16_ONE)));
+	}
+	for (int num = -500; num <= 500; num++)
+		worst_cos = std::max(worst_cos, std::fabs((double)swell_cos_pi_frac(num, 97) / SWELL_Q30_ONE -
+							  std::cos(M_PI * num / 97)));
+	WARN("integer exp error " << worst_exp << ", cos error " << worst_cos);
+	CHECK(worst_exp < 2e-6);
+	CHECK(worst_cos < 1e-8);
+	CHECK(swell_exp_neg_q16(0) == SWELL_Q30_ONE);
+	CHECK(swell_exp_neg_q16(40 << 16) == 0);
+}
