@@ -109,45 +109,90 @@ void swell_wave_rest(struct swell_wave *w)
 	memset(w->v, 0, 5 * n * sizeof(int32_t)); /* v and the four flow arrays are contiguous */
 }
 
-/* One edge: new flow from the old one and the height difference, then its share to both cells. */
-static inline void edge(struct swell_wave *w, int32_t *f, int a, int b, q30_t c)
+/* New flow of one edge from its old flow and the height difference (see wave.h for the rounding). */
+static inline int32_t flow(int32_t f, int32_t dh, q30_t c, q30_t q, int damp, uint32_t *sat)
 {
-	int32_t s = *f + swell_mul_q30_rn(w->h[b] - w->h[a], c);
+	int32_t s = f + swell_mul_q30_rn(dh, c);
 
-	if (w->q != SWELL_Q30_ONE)
-		s = swell_mul_q30_rz(s, w->q);
+	if (damp)
+		s = swell_mul_q30_rz(s, q);
 	if (s > SWELL_H_MAX || s < -SWELL_H_MAX) {
 		s = swell_clamp(s, -SWELL_H_MAX, SWELL_H_MAX);
-		w->saturations++;
+		(*sat)++;
 	}
-	*f = s;
-	w->v[a] += s;
-	w->v[b] -= s;
+	return s;
+}
+
+/* All edges owned by row j: E edges of the row, and N, NE, NW edges up to row j+1 (none for the
+ * top row). The first and last cells of a row are peeled off so the inner loop has no branches. */
+static inline void step_row(struct swell_wave *w, int j, int damp)
+{
+	const int nx = w->nx;
+	const int up = j + 1 < w->ny;
+	const q30_t ce = (j == 0 || j == w->ny - 1) ? w->c_wall : w->c_1;
+	const q30_t c1 = w->c_1, ch = w->c_half, cw = w->c_wall, q = w->q;
+	const int32_t *restrict h = w->h + j * nx;
+	const int32_t *restrict hu = h + nx;
+	int32_t *restrict v = w->v + j * nx;
+	int32_t *restrict vu = v + nx;
+	int32_t *restrict fe = w->f_e + j * nx;
+	int32_t *restrict fn = w->f_n + j * nx;
+	int32_t *restrict fne = w->f_ne + j * nx;
+	int32_t *restrict fnw = w->f_nw + j * nx;
+	uint32_t sat = 0;
+	int32_t f;
+	int i;
+
+	for (i = 0; i < nx - 1; i++) {
+		fe[i] = f = flow(fe[i], h[i + 1] - h[i], ce, q, damp, &sat);
+		v[i] += f;
+		v[i + 1] -= f;
+	}
+	if (up) {
+		/* i = 0: N edge along the west wall, NE diagonal, no NW */
+		fn[0] = f = flow(fn[0], hu[0] - h[0], cw, q, damp, &sat);
+		v[0] += f;
+		vu[0] -= f;
+		fne[0] = f = flow(fne[0], hu[1] - h[0], ch, q, damp, &sat);
+		v[0] += f;
+		vu[1] -= f;
+		for (i = 1; i < nx - 1; i++) {
+			int32_t fs;
+
+			fn[i] = f = flow(fn[i], hu[i] - h[i], c1, q, damp, &sat);
+			fs = f;
+			vu[i] -= f;
+			fne[i] = f = flow(fne[i], hu[i + 1] - h[i], ch, q, damp, &sat);
+			fs += f;
+			vu[i + 1] -= f;
+			fnw[i] = f = flow(fnw[i], hu[i - 1] - h[i], ch, q, damp, &sat);
+			fs += f;
+			vu[i - 1] -= f;
+			v[i] += fs;
+		}
+		/* i = nx-1: N edge along the east wall, NW diagonal, no NE */
+		fn[i] = f = flow(fn[i], hu[i] - h[i], cw, q, damp, &sat);
+		v[i] += f;
+		vu[i] -= f;
+		fnw[i] = f = flow(fnw[i], hu[i - 1] - h[i], ch, q, damp, &sat);
+		v[i] += f;
+		vu[i - 1] -= f;
+	}
+	w->saturations += sat;
 }
 
 void swell_wave_step(struct swell_wave *w)
 {
-	const int nx = w->nx, ny = w->ny;
-	const int n = nx * ny;
-	int i, j, a;
+	const int n = w->nx * w->ny;
+	const int damp = w->q != SWELL_Q30_ONE; /* t = 0: no damping multiply at all */
+	int j, a;
 
 	memset(w->v, 0, (size_t)n * sizeof(int32_t));
-	for (j = 0; j < ny; j++) {
-		const q30_t ce = (j == 0 || j == ny - 1) ? w->c_wall : w->c_1;
-		const int up = j + 1 < ny;
-
-		for (i = 0; i < nx; i++) {
-			a = j * nx + i;
-			if (i + 1 < nx)
-				edge(w, &w->f_e[a], a, a + 1, ce);
-			if (!up)
-				continue;
-			edge(w, &w->f_n[a], a, a + nx, (i == 0 || i == nx - 1) ? w->c_wall : w->c_1);
-			if (i + 1 < nx)
-				edge(w, &w->f_ne[a], a, a + nx + 1, w->c_half);
-			if (i > 0)
-				edge(w, &w->f_nw[a], a, a + nx - 1, w->c_half);
-		}
+	for (j = 0; j < w->ny; j++) {
+		if (damp)
+			step_row(w, j, 1);
+		else
+			step_row(w, j, 0);
 	}
 	for (a = 0; a < n; a++) {
 		int32_t h = w->h[a] + w->v[a]; /* |h| <= 2^27, |v| <= 8 * 2^27: no overflow */
