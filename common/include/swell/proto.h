@@ -1,0 +1,144 @@
+/* swell wire protocol: encoders and decoders for every carrier, expanded from swell/proto_table.h.
+ *
+ * Carriers (docs/protocol.md has the byte-level description and the bus-load budget):
+ *   classic CAN  one message per 8-byte frame, 11-bit id = type << 4 | node.
+ *   CAN FD       up to 64 bytes: k messages of ONE type and node back to back, same id as classic;
+ *                k is chosen so that k * len is a valid CAN FD length.
+ *   packet       USB bulk (64-byte packets) and UDP datagrams, same bytes:
+ *                magic 0x57, version, node, seq, count, count x (type, payload), CRC-32 LE.
+ * CAN has its own CRC; packets carry one (swell_crc32 over every byte before it).
+ *
+ * Every decoder is strict: truncated, oversized, unknown, wrong-version, wrong-CRC, out-of-range and
+ * reserved-bit frames are rejected with a swell_err reason, counted in struct swell_proto_stats when
+ * one is given, and leave the output untouched. Controller-safe: no allocation, no float. */
+#ifndef SWELL_PROTO_H
+#define SWELL_PROTO_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "swell/err.h"
+#include "swell/proto_table.h"
+
+enum swell_msg_type {
+#define SWELL_X(NAME, name, type, len, from, to, desc) SWELL_MSG_##NAME = type,
+	SWELL_PROTO_MESSAGES(SWELL_X)
+#undef SWELL_X
+};
+
+/* One struct per message; members are raw integers in the unit their name says. */
+#define SWELL_PROTO_MEMBER(m, member, ctype, start, bits, min, max, kind, factor, unit, desc) ctype member;
+#define SWELL_X(NAME, name, type, len, from, to, desc) \
+	struct swell_msg_##name {                      \
+		SWELL_PROTO_FIELDS_##name(SWELL_PROTO_MEMBER, name) \
+	};
+SWELL_PROTO_MESSAGES(SWELL_X)
+#undef SWELL_X
+
+struct swell_msg {
+	uint8_t type; /* enum swell_msg_type */
+	uint8_t node; /* 0 .. SWELL_NODE_MAX */
+	union {
+#define SWELL_X(NAME, name, type, len, from, to, desc) struct swell_msg_##name name;
+		SWELL_PROTO_MESSAGES(SWELL_X)
+#undef SWELL_X
+	} u;
+};
+
+#define SWELL_NODE_MAX 15u
+#define SWELL_CAN_ID(type, node) (((uint32_t)(type) << 4) | (uint32_t)(node))
+#define SWELL_CAN_LEN 8u
+#define SWELL_CANFD_LEN 64u
+#define SWELL_PKT_MAX 64u         /* USB full-speed bulk packet; UDP datagrams use the same bound */
+#define SWELL_PKT_HEADER 5u
+#define SWELL_PKT_MAGIC 0x57u
+#define SWELL_PKT_OVERHEAD (SWELL_PKT_HEADER + 4u)
+#define SWELL_MSG_LEN_MIN 3u      /* shortest payload (checked in proto.c) */
+#define SWELL_CANFD_MSGS_MAX (SWELL_CANFD_LEN / SWELL_MSG_LEN_MIN)
+#define SWELL_PKT_MSGS_MAX ((SWELL_PKT_MAX - SWELL_PKT_OVERHEAD) / (1u + SWELL_MSG_LEN_MIN))
+
+/* ---- the table as data (for generic code, the generator, tests) ---- */
+enum swell_field_kind { SWELL_FK_PLAIN, SWELL_FK_SEQ, SWELL_FK_VERSION };
+
+struct swell_field_desc {
+	const char *name;
+	const char *factor; /* decimal text, physical = raw * factor */
+	const char *unit;
+	const char *desc;
+	int64_t min, max;   /* valid raw range; signed iff min < 0 */
+	uint16_t offset;    /* offsetof in the message struct */
+	uint8_t size;       /* sizeof the member: 1, 2 or 4 */
+	uint8_t start, bits;
+	uint8_t kind;       /* enum swell_field_kind */
+};
+
+struct swell_msg_desc {
+	const char *name;   /* e.g. "FORCE_CMD" */
+	const char *from, *to, *desc;
+	const struct swell_field_desc *fields;
+	uint8_t type, len, nfields;
+};
+
+extern const struct swell_msg_desc swell_msg_descs[];
+extern const unsigned swell_msg_desc_count;
+
+/* Descriptor of a message type, NULL if the type is unknown. */
+const struct swell_msg_desc *swell_msg_desc_find(unsigned type);
+
+/* Raw value of a field of m (m->type must match the descriptor the field came from). */
+int64_t swell_msg_field_get(const struct swell_msg *m, const struct swell_field_desc *f);
+/* Store raw v into a field; SWELL_ERANGE (nothing stored) if v is outside [min, max]. */
+enum swell_err swell_msg_field_set(struct swell_msg *m, const struct swell_field_desc *f, int64_t v);
+/* 1 if a and b have the same type, node and field values (padding ignored). */
+int swell_msg_equal(const struct swell_msg *a, const struct swell_msg *b);
+
+/* ---- counted rejections ---- */
+struct swell_proto_stats {
+	uint32_t ok;                    /* messages accepted */
+	uint32_t rejected[SWELL_ERR_COUNT]; /* frames rejected, by reason (saturating) */
+};
+uint32_t swell_proto_rejected_total(const struct swell_proto_stats *st);
+
+/* ---- payload: the bytes of one message (same on every carrier) ---- */
+/* Writes desc->len bytes to payload (cap >= len). SWELL_ERANGE if a field is out of range,
+ * SWELL_EUNKNOWN for an unknown type, SWELL_ESIZE if cap is too small. */
+enum swell_err swell_payload_encode(const struct swell_msg *m, uint8_t *payload, size_t cap);
+/* Decodes one payload of the given type; len must be exactly the message length. */
+enum swell_err swell_payload_decode(unsigned type, const uint8_t *payload, size_t len,
+				    struct swell_msg *out);
+
+/* ---- classic CAN ---- */
+enum swell_err swell_can_encode(const struct swell_msg *m, uint32_t *id, uint8_t data[8], uint8_t *len);
+/* id: 11-bit identifier without flag bits (anything above 0x7FF is refused as unknown). */
+enum swell_err swell_can_decode(uint32_t id, const uint8_t *data, size_t len, struct swell_msg *out,
+				struct swell_proto_stats *st);
+
+/* ---- CAN FD ---- */
+/* Encodes the longest prefix of m[0..n) (same type and node as m[0]) that gives a valid CAN FD
+ * length; *used says how many messages went in (>= 1 on success). */
+enum swell_err swell_canfd_encode(const struct swell_msg *m, size_t n, uint32_t *id,
+				  uint8_t data[64], uint8_t *len, size_t *used);
+enum swell_err swell_canfd_decode(uint32_t id, const uint8_t *data, size_t len, struct swell_msg *out,
+				  size_t cap, size_t *n, struct swell_proto_stats *st);
+/* 1 if len is a length a CAN FD frame can have (0-8, 12, 16, 20, 24, 32, 48, 64). */
+int swell_canfd_len_valid(size_t len);
+
+/* ---- packets: USB bulk and UDP ---- */
+/* Packs as many of m[0..n) as fit in min(cap, SWELL_PKT_MAX) bytes, all under header node `node`
+ * (the messages' own node fields are ignored). *used >= 1 on success. */
+enum swell_err swell_pkt_encode(uint8_t node, uint8_t seq, const struct swell_msg *m, size_t n,
+				uint8_t *pkt, size_t cap, size_t *len, size_t *used);
+/* On success *n messages (node from the header) and the packet sequence number in *seq. */
+enum swell_err swell_pkt_decode(const uint8_t *pkt, size_t len, struct swell_msg *out, size_t cap,
+				size_t *n, uint8_t *seq, struct swell_proto_stats *st);
+
+/* ---- sequence numbers on streams ---- */
+struct swell_seq_track {
+	uint8_t last;
+	uint8_t started;
+	uint32_t received, lost, repeated; /* repeated: duplicates and reordered (seq went back) */
+};
+/* Accounts for one received sequence number; returns how many were skipped before it. */
+uint32_t swell_seq_track(struct swell_seq_track *t, uint8_t seq);
+
+#endif

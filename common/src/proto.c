@@ -1,0 +1,470 @@
+/* Wire protocol codecs, expanded from the one table in swell/proto_table.h. */
+#include "swell/proto.h"
+
+#include <string.h>
+
+#include "swell/crc.h"
+
+/* ---- the table as data ---- */
+#define FIELD_DESC(m, member, ctype, start, bits, min, max, kind, factor, unit, desc)            \
+	{ #member, factor, unit, desc, (int64_t)(min), (int64_t)(max),                           \
+	  (uint16_t)offsetof(struct swell_msg, u.m.member), (uint8_t)sizeof(ctype), start, bits, \
+	  SWELL_FK_##kind },
+#define FIELD_COUNT(m, ...) +1
+#define FIELD_CHECK(m, member, ctype, start, bits, min, max, kind, factor, unit, desc)           \
+	_Static_assert((start) + (bits) <= 64 && (bits) >= 1 && (bits) <= 32, #m "." #member);   \
+	_Static_assert(sizeof(ctype) * 8 >= (bits), #m "." #member " ctype too narrow");
+
+#define MSG_FIELDS(NAME, name, type, len, from, to, desc)                                        \
+	_Static_assert((len) >= SWELL_MSG_LEN_MIN && (len) <= SWELL_CAN_LEN, #NAME " length");   \
+	_Static_assert((type) > 0 && (type) < 0x80, #NAME " type must be 7 bits and not 0");     \
+	SWELL_PROTO_FIELDS_##name(FIELD_CHECK, name)                                             \
+	static const struct swell_field_desc fields_##name[] = {                                 \
+		SWELL_PROTO_FIELDS_##name(FIELD_DESC, name)                                       \
+	};
+SWELL_PROTO_MESSAGES(MSG_FIELDS)
+
+#define MSG_DESC(NAME, name, type, len, from, to, desc)                                          \
+	{ #NAME, #from, #to, desc, fields_##name, type, len,                                     \
+	  (uint8_t)(0 SWELL_PROTO_FIELDS_##name(FIELD_COUNT, name)) },
+const struct swell_msg_desc swell_msg_descs[] = { SWELL_PROTO_MESSAGES(MSG_DESC) };
+const unsigned swell_msg_desc_count = sizeof(swell_msg_descs) / sizeof(swell_msg_descs[0]);
+
+const struct swell_msg_desc *swell_msg_desc_find(unsigned type)
+{
+	unsigned i;
+
+	for (i = 0; i < swell_msg_desc_count; i++)
+		if (swell_msg_descs[i].type == type)
+			return &swell_msg_descs[i];
+	return NULL;
+}
+
+/* ---- generic field access ---- */
+int64_t swell_msg_field_get(const struct swell_msg *m, const struct swell_field_desc *f)
+{
+	const uint8_t *p = (const uint8_t *)m + f->offset;
+	int sgn = f->min < 0;
+
+	switch (f->size) {
+	case 1: {
+		uint8_t v;
+		memcpy(&v, p, 1);
+		return sgn ? (int64_t)(int8_t)v : (int64_t)v;
+	}
+	case 2: {
+		uint16_t v;
+		memcpy(&v, p, 2);
+		return sgn ? (int64_t)(int16_t)v : (int64_t)v;
+	}
+	default: {
+		uint32_t v;
+		memcpy(&v, p, 4);
+		return sgn ? (int64_t)(int32_t)v : (int64_t)v;
+	}
+	}
+}
+
+enum swell_err swell_msg_field_set(struct swell_msg *m, const struct swell_field_desc *f, int64_t v)
+{
+	uint8_t *p = (uint8_t *)m + f->offset;
+
+	if (v < f->min || v > f->max)
+		return SWELL_ERANGE;
+	switch (f->size) {
+	case 1: {
+		uint8_t b = (uint8_t)v;
+		memcpy(p, &b, 1);
+		break;
+	}
+	case 2: {
+		uint16_t h = (uint16_t)v;
+		memcpy(p, &h, 2);
+		break;
+	}
+	default: {
+		uint32_t w = (uint32_t)v;
+		memcpy(p, &w, 4);
+		break;
+	}
+	}
+	return SWELL_OK;
+}
+
+int swell_msg_equal(const struct swell_msg *a, const struct swell_msg *b)
+{
+	const struct swell_msg_desc *d;
+	unsigned i;
+
+	if (a->type != b->type || a->node != b->node)
+		return 0;
+	d = swell_msg_desc_find(a->type);
+	if (!d)
+		return 0;
+	for (i = 0; i < d->nfields; i++)
+		if (swell_msg_field_get(a, &d->fields[i]) != swell_msg_field_get(b, &d->fields[i]))
+			return 0;
+	return 1;
+}
+
+/* ---- counting ---- */
+static enum swell_err count(struct swell_proto_stats *st, enum swell_err err, uint32_t ok)
+{
+	if (!st)
+		return err;
+	if (err == SWELL_OK) {
+		st->ok = (st->ok > UINT32_MAX - ok) ? UINT32_MAX : st->ok + ok;
+	} else if ((unsigned)err < SWELL_ERR_COUNT && st->rejected[err] != UINT32_MAX) {
+		st->rejected[err]++;
+	}
+	return err;
+}
+
+uint32_t swell_proto_rejected_total(const struct swell_proto_stats *st)
+{
+	uint64_t sum = 0;
+	unsigned i;
+
+	for (i = 0; i < SWELL_ERR_COUNT; i++)
+		sum += st->rejected[i];
+	return sum > UINT32_MAX ? UINT32_MAX : (uint32_t)sum;
+}
+
+/* ---- payload ---- */
+static uint64_t field_mask(const struct swell_field_desc *f)
+{
+	return (f->bits >= 64 ? ~(uint64_t)0 : (((uint64_t)1 << f->bits) - 1)) << f->start;
+}
+
+enum swell_err swell_payload_encode(const struct swell_msg *m, uint8_t *payload, size_t cap)
+{
+	const struct swell_msg_desc *d = swell_msg_desc_find(m->type);
+	uint64_t word = 0;
+	unsigned i;
+
+	if (!d)
+		return SWELL_EUNKNOWN;
+	if (cap < d->len)
+		return SWELL_ESIZE;
+	for (i = 0; i < d->nfields; i++) {
+		const struct swell_field_desc *f = &d->fields[i];
+		int64_t v = swell_msg_field_get(m, f);
+
+		if (v < f->min || v > f->max)
+			return SWELL_ERANGE;
+		word |= ((uint64_t)v << f->start) & field_mask(f);
+	}
+	for (i = 0; i < d->len; i++)
+		payload[i] = (uint8_t)(word >> (8 * i));
+	return SWELL_OK;
+}
+
+enum swell_err swell_payload_decode(unsigned type, const uint8_t *payload, size_t len,
+				    struct swell_msg *out)
+{
+	const struct swell_msg_desc *d = swell_msg_desc_find(type);
+	struct swell_msg tmp;
+	uint64_t word = 0, covered = 0;
+	unsigned i;
+
+	if (!d)
+		return SWELL_EUNKNOWN;
+	if (len < d->len)
+		return SWELL_ETRUNC;
+	if (len > d->len)
+		return SWELL_ESIZE;
+	for (i = 0; i < d->len; i++)
+		word |= (uint64_t)payload[i] << (8 * i);
+	memset(&tmp, 0, sizeof(tmp));
+	tmp.type = (uint8_t)type;
+	for (i = 0; i < d->nfields; i++) {
+		const struct swell_field_desc *f = &d->fields[i];
+		uint64_t raw = (word & field_mask(f)) >> f->start;
+		int64_t v = (int64_t)raw;
+
+		covered |= field_mask(f);
+		if (f->min < 0 && (raw >> (f->bits - 1)) & 1u)
+			v = (int64_t)(raw | ~(((uint64_t)1 << f->bits) - 1)); /* sign-extend */
+		if (f->kind == SWELL_FK_VERSION && v != f->min)
+			return SWELL_EVERSION;
+		if (swell_msg_field_set(&tmp, f, v) != SWELL_OK)
+			return SWELL_ERANGE;
+	}
+	if (word & ~covered)
+		return SWELL_ERANGE; /* reserved bits set */
+	out->type = tmp.type; /* out->node is the carrier's business */
+	out->u = tmp.u;
+	return SWELL_OK;
+}
+
+/* ---- classic CAN ---- */
+enum swell_err swell_can_encode(const struct swell_msg *m, uint32_t *id, uint8_t data[8], uint8_t *len)
+{
+	const struct swell_msg_desc *d = swell_msg_desc_find(m->type);
+	enum swell_err err;
+
+	if (!d)
+		return SWELL_EUNKNOWN;
+	if (m->node > SWELL_NODE_MAX)
+		return SWELL_ERANGE;
+	err = swell_payload_encode(m, data, SWELL_CAN_LEN);
+	if (err)
+		return err;
+	*id = SWELL_CAN_ID(m->type, m->node);
+	*len = d->len;
+	return SWELL_OK;
+}
+
+static enum swell_err can_decode(uint32_t id, const uint8_t *data, size_t len, struct swell_msg *out)
+{
+	struct swell_msg tmp;
+	enum swell_err err;
+
+	if (id > 0x7FFu)
+		return SWELL_EUNKNOWN;
+	if (len > SWELL_CAN_LEN)
+		return SWELL_ESIZE;
+	tmp.node = (uint8_t)(id & 0xFu);
+	err = swell_payload_decode(id >> 4, data, len, &tmp);
+	if (err)
+		return err;
+	*out = tmp;
+	return SWELL_OK;
+}
+
+enum swell_err swell_can_decode(uint32_t id, const uint8_t *data, size_t len, struct swell_msg *out,
+				struct swell_proto_stats *st)
+{
+	return count(st, can_decode(id, data, len, out), 1);
+}
+
+/* ---- CAN FD ---- */
+int swell_canfd_len_valid(size_t len)
+{
+	return len <= 8 || len == 12 || len == 16 || len == 20 || len == 24 || len == 32 ||
+	       len == 48 || len == 64;
+}
+
+enum swell_err swell_canfd_encode(const struct swell_msg *m, size_t n, uint32_t *id,
+				  uint8_t data[64], uint8_t *len, size_t *used)
+{
+	const struct swell_msg_desc *d;
+	uint8_t buf[SWELL_CANFD_LEN];
+	size_t k, i;
+
+	if (n == 0)
+		return SWELL_EINVAL;
+	d = swell_msg_desc_find(m[0].type);
+	if (!d)
+		return SWELL_EUNKNOWN;
+	if (m[0].node > SWELL_NODE_MAX)
+		return SWELL_ERANGE;
+	k = SWELL_CANFD_LEN / d->len;
+	if (k > n)
+		k = n;
+	for (i = 1; i < k; i++)
+		if (m[i].type != m[0].type || m[i].node != m[0].node)
+			break;
+	k = i;
+	while (!swell_canfd_len_valid(k * d->len))
+		k--;
+	for (i = 0; i < k; i++) {
+		enum swell_err err = swell_payload_encode(&m[i], buf + i * d->len, d->len);
+
+		if (err)
+			return err;
+	}
+	memcpy(data, buf, k * d->len);
+	*id = SWELL_CAN_ID(m[0].type, m[0].node);
+	*len = (uint8_t)(k * d->len);
+	*used = k;
+	return SWELL_OK;
+}
+
+static enum swell_err canfd_decode(uint32_t id, const uint8_t *data, size_t len,
+				   struct swell_msg *out, size_t cap, size_t *n)
+{
+	const struct swell_msg_desc *d;
+	struct swell_msg tmp;
+	size_t k, i;
+
+	if (id > 0x7FFu)
+		return SWELL_EUNKNOWN;
+	d = swell_msg_desc_find(id >> 4);
+	if (!d)
+		return SWELL_EUNKNOWN;
+	if (len < d->len)
+		return SWELL_ETRUNC;
+	if (len > SWELL_CANFD_LEN || !swell_canfd_len_valid(len))
+		return SWELL_ESIZE;
+	if (len % d->len)
+		return SWELL_ETRUNC; /* a partial message at the end */
+	k = len / d->len;
+	if (k > cap)
+		return SWELL_ESIZE;
+	/* validate everything first so that a rejected frame leaves out[] untouched */
+	for (i = 0; i < k; i++) {
+		enum swell_err err = swell_payload_decode(d->type, data + i * d->len, d->len, &tmp);
+
+		if (err)
+			return err;
+	}
+	for (i = 0; i < k; i++) {
+		out[i].node = (uint8_t)(id & 0xFu);
+		swell_payload_decode(d->type, data + i * d->len, d->len, &out[i]);
+	}
+	*n = k;
+	return SWELL_OK;
+}
+
+enum swell_err swell_canfd_decode(uint32_t id, const uint8_t *data, size_t len, struct swell_msg *out,
+				  size_t cap, size_t *n, struct swell_proto_stats *st)
+{
+	size_t k = 0;
+	enum swell_err err = canfd_decode(id, data, len, out, cap, &k);
+
+	if (!err)
+		*n = k;
+	return count(st, err, (uint32_t)k);
+}
+
+/* ---- packets ---- */
+enum swell_err swell_pkt_encode(uint8_t node, uint8_t seq, const struct swell_msg *m, size_t n,
+				uint8_t *pkt, size_t cap, size_t *len, size_t *used)
+{
+	uint8_t buf[SWELL_PKT_MAX];
+	size_t pos = SWELL_PKT_HEADER, k = 0, limit = cap < SWELL_PKT_MAX ? cap : SWELL_PKT_MAX;
+	uint32_t crc;
+
+	if (node > SWELL_NODE_MAX)
+		return SWELL_ERANGE;
+	if (n == 0)
+		return SWELL_EINVAL;
+	while (k < n && k < 255) {
+		const struct swell_msg_desc *d = swell_msg_desc_find(m[k].type);
+		enum swell_err err;
+
+		if (!d)
+			return SWELL_EUNKNOWN;
+		if (pos + 1 + d->len + 4 > limit)
+			break;
+		buf[pos] = d->type;
+		err = swell_payload_encode(&m[k], buf + pos + 1, d->len);
+		if (err)
+			return err;
+		pos += 1u + d->len;
+		k++;
+	}
+	if (k == 0)
+		return SWELL_ESIZE;
+	buf[0] = SWELL_PKT_MAGIC;
+	buf[1] = SWELL_PROTO_VERSION;
+	buf[2] = node;
+	buf[3] = seq;
+	buf[4] = (uint8_t)k;
+	crc = swell_crc32(0, buf, pos);
+	buf[pos++] = (uint8_t)crc;
+	buf[pos++] = (uint8_t)(crc >> 8);
+	buf[pos++] = (uint8_t)(crc >> 16);
+	buf[pos++] = (uint8_t)(crc >> 24);
+	memcpy(pkt, buf, pos);
+	*len = pos;
+	*used = k;
+	return SWELL_OK;
+}
+
+/* Walks the records; out may be NULL (validation only). */
+static enum swell_err pkt_records(const uint8_t *pkt, size_t end, struct swell_msg *out, size_t cap,
+				  size_t *n)
+{
+	size_t pos = SWELL_PKT_HEADER, k, count = pkt[4];
+	struct swell_msg tmp;
+
+	if (count == 0)
+		return SWELL_ESIZE;
+	if (count > cap)
+		return SWELL_ESIZE;
+	for (k = 0; k < count; k++) {
+		const struct swell_msg_desc *d;
+		struct swell_msg *dst = out ? &out[k] : &tmp;
+		enum swell_err err;
+
+		if (pos >= end)
+			return SWELL_ETRUNC;
+		d = swell_msg_desc_find(pkt[pos]);
+		if (!d)
+			return SWELL_EUNKNOWN;
+		if (pos + 1 + d->len > end)
+			return SWELL_ETRUNC;
+		dst->node = pkt[2];
+		err = swell_payload_decode(d->type, pkt + pos + 1, d->len, dst);
+		if (err)
+			return err;
+		pos += 1u + d->len;
+	}
+	if (pos != end)
+		return SWELL_ESIZE; /* bytes after the last record */
+	*n = count;
+	return SWELL_OK;
+}
+
+static enum swell_err pkt_decode(const uint8_t *pkt, size_t len, struct swell_msg *out, size_t cap,
+				 size_t *n, uint8_t *seq)
+{
+	uint32_t crc;
+	size_t k;
+	enum swell_err err;
+
+	if (len > SWELL_PKT_MAX)
+		return SWELL_ESIZE;
+	if (len < SWELL_PKT_OVERHEAD)
+		return SWELL_ETRUNC;
+	if (pkt[0] != SWELL_PKT_MAGIC)
+		return SWELL_EUNKNOWN;
+	crc = (uint32_t)pkt[len - 4] | (uint32_t)pkt[len - 3] << 8 | (uint32_t)pkt[len - 2] << 16 |
+	      (uint32_t)pkt[len - 1] << 24;
+	if (swell_crc32(0, pkt, len - 4) != crc)
+		return SWELL_ECRC;
+	if (pkt[1] != SWELL_PROTO_VERSION)
+		return SWELL_EVERSION;
+	if (pkt[2] > SWELL_NODE_MAX)
+		return SWELL_ERANGE;
+	err = pkt_records(pkt, len - 4, NULL, cap, &k);
+	if (err)
+		return err;
+	pkt_records(pkt, len - 4, out, cap, &k);
+	*n = k;
+	*seq = pkt[3];
+	return SWELL_OK;
+}
+
+enum swell_err swell_pkt_decode(const uint8_t *pkt, size_t len, struct swell_msg *out, size_t cap,
+				size_t *n, uint8_t *seq, struct swell_proto_stats *st)
+{
+	size_t k = 0;
+	enum swell_err err = pkt_decode(pkt, len, out, cap, &k, seq);
+
+	if (!err)
+		*n = k;
+	return count(st, err, (uint32_t)k);
+}
+
+/* ---- sequence numbers ---- */
+uint32_t swell_seq_track(struct swell_seq_track *t, uint8_t seq)
+{
+	uint8_t step = (uint8_t)(seq - t->last);
+	uint32_t skipped = 0;
+
+	t->received++;
+	if (t->started && (step == 0 || step >= 128)) {
+		t->repeated++;
+		return 0; /* duplicate or older: keep the newest as reference */
+	}
+	if (t->started && step > 1) {
+		skipped = step - 1u;
+		t->lost += skipped;
+	}
+	t->started = 1;
+	t->last = seq;
+	return skipped;
+}
