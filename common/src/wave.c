@@ -80,10 +80,11 @@ enum swell_err swell_wave_init(struct swell_wave *w, uint16_t nx, uint16_t ny, i
 	w->ny = ny;
 	w->h = storage;
 	w->v = storage + n;
-	w->f_e = storage + 2 * n;
-	w->f_n = storage + 3 * n;
-	w->f_ne = storage + 4 * n;
-	w->f_nw = storage + 5 * n;
+	w->acc = storage + 2 * n;
+	w->f_e = storage + 3 * n;
+	w->f_n = storage + 4 * n;
+	w->f_ne = storage + 5 * n;
+	w->f_nw = storage + 6 * n;
 	memset(storage, 0, SWELL_WAVE_WORDS(nx, ny) * sizeof(int32_t));
 	apply_params(w, p);
 	return SWELL_OK;
@@ -106,7 +107,9 @@ void swell_wave_rest(struct swell_wave *w)
 {
 	size_t n = (size_t)w->nx * w->ny;
 
-	memset(w->v, 0, 5 * n * sizeof(int32_t)); /* v and the four flow arrays are contiguous */
+	/* v, acc and the four flow arrays are contiguous; a step in progress starts over */
+	memset(w->h + n, 0, 6 * n * sizeof(int32_t));
+	w->next_row = 0;
 }
 
 /* New flow of one edge from its old flow and the height difference (see wave.h for the rounding). */
@@ -133,7 +136,7 @@ static inline void step_row(struct swell_wave *w, int j, int damp)
 	const q30_t c1 = w->c_1, ch = w->c_half, cw = w->c_wall, q = w->q;
 	const int32_t *restrict h = w->h + j * nx;
 	const int32_t *restrict hu = h + nx;
-	int32_t *restrict v = w->v + j * nx;
+	int32_t *restrict v = w->acc + j * nx;
 	int32_t *restrict vu = v + nx;
 	int32_t *restrict fe = w->f_e + j * nx;
 	int32_t *restrict fn = w->f_n + j * nx;
@@ -181,21 +184,33 @@ static inline void step_row(struct swell_wave *w, int j, int damp)
 	w->saturations += sat;
 }
 
-void swell_wave_step(struct swell_wave *w)
+int swell_wave_step_rows(struct swell_wave *w, int rows)
 {
-	const int n = w->nx * w->ny;
 	const int damp = w->q != SWELL_Q30_ONE; /* t = 0: no damping multiply at all */
-	int j, a;
+	int j, end = w->next_row + (rows > 0 ? rows : 0);
 
-	memset(w->v, 0, (size_t)n * sizeof(int32_t));
-	for (j = 0; j < w->ny; j++) {
+	if (end > w->ny)
+		end = w->ny;
+	for (j = w->next_row; j < end; j++) {
 		if (damp)
 			step_row(w, j, 1);
 		else
 			step_row(w, j, 0);
 	}
+	w->next_row = (uint16_t)end;
+	return w->ny - end;
+}
+
+void swell_wave_step_finish(struct swell_wave *w)
+{
+	const int n = w->nx * w->ny;
+	int32_t *t;
+	int a;
+
+	/* v and acc swap at every finish: the six arrays after h stay contiguous, in some order */
+	swell_wave_step_rows(w, w->ny);
 	for (a = 0; a < n; a++) {
-		int32_t h = w->h[a] + w->v[a]; /* |h| <= 2^27, |v| <= 8 * 2^27: no overflow */
+		int32_t h = w->h[a] + w->acc[a]; /* |h| <= 2^27, |acc| <= 8 * 2^27: no overflow */
 
 		if (h > SWELL_H_MAX || h < -SWELL_H_MAX) {
 			h = swell_clamp(h, -SWELL_H_MAX, SWELL_H_MAX);
@@ -203,7 +218,29 @@ void swell_wave_step(struct swell_wave *w)
 		}
 		w->h[a] = h;
 	}
+	/* the accumulator becomes v; the old v, cleared, the next accumulator */
+	t = w->v;
+	w->v = w->acc;
+	w->acc = t;
+	memset(w->acc, 0, (size_t)n * sizeof(int32_t));
+	w->next_row = 0;
 	w->steps++;
+}
+
+void swell_wave_step(struct swell_wave *w)
+{
+	swell_wave_step_finish(w);
+}
+
+void swell_wave_add(struct swell_wave *w, int i, int j, int32_t dh)
+{
+	int32_t *a;
+
+	if (i < 0 || j < 0 || i >= w->nx || j >= w->ny)
+		return;
+	a = &w->acc[j * w->nx + i];
+	/* bounded to +-2^30 so that h + acc cannot overflow at the finish */
+	*a = (int32_t)swell_clamp(swell_sat_add(*a, dh), -(1 << 30), 1 << 30);
 }
 
 int64_t swell_wave_volume(const struct swell_wave *w)

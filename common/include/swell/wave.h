@@ -26,7 +26,11 @@
  * the paper stencil and e/2 for the calibrated one (L9/2, waves at sqrt(g d)). Parameters outside
  * that limit are refused, never run.
  *
- * Storage is the caller's: SWELL_WAVE_WORDS(nx, ny) int32 words. No allocation, no float. */
+ * Storage is the caller's: SWELL_WAVE_WORDS(nx, ny) int32 words. No allocation, no float.
+ *
+ * Bounded work per call: a step can be split into row slices (swell_wave_step_rows) and a finishing
+ * pass (swell_wave_step_finish), so that a controller tick never carries a whole grid step. Until the
+ * finish, h and v still hold h(n) and h(n) - h(n-1): a force law may read them between slices. */
 #ifndef SWELL_WAVE_H
 #define SWELL_WAVE_H
 
@@ -42,7 +46,7 @@
 
 #define SWELL_WAVE_MIN_SIDE 2
 #define SWELL_WAVE_MAX_SIDE 1024
-#define SWELL_WAVE_ARRAYS 6 /* h, v, and the E, N, NE, NW flows */
+#define SWELL_WAVE_ARRAYS 7 /* h, v, the step accumulator, and the E, N, NE, NW flows */
 #define SWELL_WAVE_WORDS(nx, ny) ((size_t)SWELL_WAVE_ARRAYS * (size_t)(nx) * (size_t)(ny))
 
 enum swell_stencil {
@@ -61,6 +65,7 @@ struct swell_wave {
 	/* Row-major, index j * nx + i (i the column, x; j the row, y). */
 	int32_t *h;    /* h(n): height above rest, LSB 2^-16 mm */
 	int32_t *v;    /* h(n) - h(n-1), the last step's change */
+	int32_t *acc;  /* the step in progress: sum of the new flows of every cell */
 	int32_t *f_e;  /* flow into cell (i,j) from (i+1,j) */
 	int32_t *f_n;  /* flow into cell (i,j) from (i,j+1) */
 	int32_t *f_ne; /* flow into cell (i,j) from (i+1,j+1) */
@@ -73,6 +78,7 @@ struct swell_wave {
 	q30_t q;      /* 1 - t */
 	uint32_t steps;
 	uint32_t saturations; /* heights or flows clamped to +-SWELL_H_MAX */
+	uint16_t next_row;    /* first row not yet done in the step in progress */
 };
 
 /* Exact integer energy (DESIGN.md 2.1), for tests: with t = 0,
@@ -105,8 +111,21 @@ enum swell_err swell_wave_set_params(struct swell_wave *w, const struct swell_wa
 /* Make the present heights the rest state: all flows and v zero (h(n-1) = h(n)). */
 void swell_wave_rest(struct swell_wave *w);
 
-/* Advance one solver step. Bounded: 4 edges per cell, no data-dependent loops. */
+/* Advance one solver step. Bounded: 4 edges per cell, no data-dependent loops.
+ * Same as swell_wave_step_rows(w, ny) followed by swell_wave_step_finish(w). */
 void swell_wave_step(struct swell_wave *w);
+
+/* Do the edges of the next `rows` rows of the step in progress (at most up to the last row); returns
+ * the number of rows still to do. Reads h, writes the flows and acc only. */
+int swell_wave_step_rows(struct swell_wave *w, int rows);
+
+/* Finish the step: every remaining row, then h += acc, v = acc. One pass over the cells. */
+void swell_wave_step_finish(struct swell_wave *w);
+
+/* Add dh (LSB) to cell (i, j) at the next finish, saturating: the way to move water in from outside
+ * (an object's displacement) without disturbing a step in progress. The step's flows are unchanged,
+ * so the added volume is conserved from then on. */
+void swell_wave_add(struct swell_wave *w, int i, int j, int32_t dh);
 
 /* sum(h) in LSB: the volume, exact. */
 int64_t swell_wave_volume(const struct swell_wave *w);
