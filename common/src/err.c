@@ -13,6 +13,8 @@ const char *swell_err_str(enum swell_err err)
 		[SWELL_EVERSION] = "version mismatch",
 		[SWELL_ETRUNC] = "truncated input",
 		[SWELL_EUNKNOWN] = "unknown identifier",
+		[SWELL_ETIMEOUT] = "link silent",
+		[SWELL_ESTOP] = "emergency stop",
 	};
 
 	if ((unsigned)err >= SWELL_ERR_COUNT)

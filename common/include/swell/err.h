@@ -14,6 +14,8 @@ enum swell_err {
 	SWELL_EVERSION,  /* protocol or image version mismatch */
 	SWELL_ETRUNC,    /* input shorter than its declared length */
 	SWELL_EUNKNOWN,  /* unknown message or identifier */
+	SWELL_ETIMEOUT,  /* a link went silent */
+	SWELL_ESTOP,     /* the device reported its emergency stop */
 	SWELL_ERR_COUNT
 };
 
