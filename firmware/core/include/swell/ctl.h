@@ -1,0 +1,180 @@
+/* The controller core: the same code on every port (Linux process, STM32F405). No OS calls, no
+ * allocation, no float. A port feeds decoded messages in (swell_ctl_rx), calls swell_ctl_tick once per
+ * device tick, and drains the two output queues (swell_ctl_tx) onto its carriers.
+ *
+ * Tick (device rate, 2500 Hz default, 1000 Hz for classic CAN), in this order:
+ *   1. link supervision: the device silent for silent_ticks ticks -> zero force and FAULT;
+ *   2. state machine: BOOT -> IDLE -> ARMED -> RUNNING, any -> FAULT; force is zero outside RUNNING;
+ *   3. force law (swell_body_tick) on the surface interpolated between the two latest solver states,
+ *      then the safety stage (gain, |F| <= F_max, |dF/dt| <= R), then FORCE_CMD to the device, every tick;
+ *   4. solver slice: the solver runs at the scene's own rate; its step is split over the K = tick_hz /
+ *      solver_hz ticks of a period: ticks 0 .. K-2 each do ceil(ny / (K-1)) rows of edges, tick K-1 does
+ *      the finishing pass (h += acc). No tick carries a whole grid step.
+ *   5. telemetry to the host link within its per-tick message budget: heartbeat (10 Hz, also to the
+ *      device), scene (1 Hz), object pose and force (100 Hz), and the heights that changed since they
+ *      were last sent: the grid is scanned round-robin in quads (4 cells of one tile row, one
+ *      HEIGHT_QUAD message), a bounded number a tick, and only quads whose wire samples differ from
+ *      what was last sent go out.
+ * Work per tick is counted in cell-operations (solver cells, footprint cells, tile cells scanned); the
+ * maximum is kept. Overruns are measured by the port and reported here.
+ *
+ * States and the way back (heartbeat state codes 0..4):
+ *   BOOT     until the first tick.
+ *   IDLE     no device: nothing is commanded. -> ARMED when the device has been heard.
+ *   ARMED    device present, force zero. -> RUNNING on the RUN command, or by itself with autorun,
+ *            when the device reports power and no e-stop. -> IDLE when the device goes silent.
+ *   RUNNING  force law active. -> ARMED on STOP; -> FAULT on a silent device or e-stop.
+ *   FAULT    zero force. -> IDLE on CLEAR once the device is heard again and its e-stop released, or
+ *            by itself with autorun after the device has been back for recover_ticks ticks.
+ *
+ * Determinism: the core's outputs depend only on its configuration and the sequence of rx/tick calls,
+ * so a trace recorded at the device link replays to bit-identical outputs on any port. */
+#ifndef SWELL_CTL_H
+#define SWELL_CTL_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "swell/body.h"
+#include "swell/err.h"
+#include "swell/proto.h"
+#include "swell/force_safety.h"
+#include "swell/wave.h"
+
+enum swell_ctl_state {
+	SWELL_CTL_BOOT = 0,
+	SWELL_CTL_IDLE = 1,
+	SWELL_CTL_ARMED = 2,
+	SWELL_CTL_RUNNING = 3,
+	SWELL_CTL_FAULT = 4,
+};
+
+enum swell_link { SWELL_LINK_DEVICE = 0, SWELL_LINK_HOST = 1, SWELL_LINKS = 2 };
+
+/* Commands, written to parameter SWELL_PARAM_COMMAND. */
+enum swell_ctl_command { SWELL_CMD_STOP = 0, SWELL_CMD_RUN = 1, SWELL_CMD_CLEAR = 2 };
+
+/* Parameter ids (PARAM_SET / PARAM_GET). Raw values in the unit their name says. */
+enum swell_param_id {
+	SWELL_PARAM_WAVE_E = 1,         /* Q1.30 */
+	SWELL_PARAM_WAVE_DAMPING = 2,   /* Q1.30 */
+	SWELL_PARAM_WAVE_STENCIL = 3,   /* 0 paper, 1 calibrated */
+	SWELL_PARAM_BODY_MASS_G = 10,
+	SWELL_PARAM_BODY_A_UM = 11,
+	SWELL_PARAM_BODY_B_UM = 12,
+	SWELL_PARAM_BODY_H_UM = 13,
+	SWELL_PARAM_BODY_DAMPER = 14,   /* uN per mm/s */
+	SWELL_PARAM_FORCE_MAX_UN = 20,
+	SWELL_PARAM_FORCE_RATE = 21,    /* uN per s */
+	SWELL_PARAM_FORCE_GAIN = 22,    /* Q15.16 */
+	SWELL_PARAM_SILENT_TICKS = 30,
+	SWELL_PARAM_AUTORUN = 31,       /* 0 or 1 */
+	SWELL_PARAM_COMMAND = 40,       /* enum swell_ctl_command, write only */
+};
+
+#define SWELL_CTL_QUEUE 64
+
+struct swell_ctl_queue {
+	struct swell_msg m[SWELL_CTL_QUEUE];
+	uint16_t head, count;
+	uint32_t dropped; /* messages that found the queue full */
+};
+
+struct swell_ctl_config {
+	uint16_t nx, ny;
+	uint32_t dx_um, depth_um;
+	struct swell_wave_params wave;
+	struct swell_body_params body;
+	struct swell_body_xform xform;
+	struct swell_fsafety_params safety; /* one stage per device axis; tick_hz is set from tick_hz */
+	uint32_t tick_hz, solver_hz; /* solver_hz divides tick_hz, 2 .. SWELL_BODY_MAX_K ticks a step */
+	uint16_t silent_ticks;       /* device silent this many ticks -> fault; 1 .. 10000 */
+	uint16_t recover_ticks;      /* autorun: device back this long before leaving FAULT */
+	uint16_t host_budget;        /* host messages a tick, 1 .. SWELL_CTL_QUEUE / 2 */
+	uint8_t node;                /* 0 .. SWELL_NODE_MAX */
+	uint8_t autorun;
+};
+
+struct swell_ctl_counters {
+	uint32_t ticks, solver_steps;
+	uint32_t overruns;           /* reported by the port */
+	uint32_t bad_frames;         /* reported by the port (decoder rejections) */
+	uint32_t work, work_max;     /* cell-operations in the last tick, and the most in any tick */
+	uint32_t dev_lost;           /* device sequence numbers skipped */
+	uint32_t faults;
+	uint32_t quads_sent;
+	uint32_t params_set, params_refused;
+	uint32_t ignored;            /* messages that make no sense here (wrong direction, bootloader while running) */
+};
+
+struct swell_ctl {
+	struct swell_ctl_config cfg;
+	enum swell_ctl_state state;
+	enum swell_err last_err;
+	struct swell_wave wave;
+	struct swell_body body;
+	struct swell_fsafety safety[3];
+	uint32_t *sent; /* last wire sample sent per cell, two int16 a word; INT16_MIN: never sent */
+
+	/* device link */
+	int32_t pos_um[3], vel_um_s[3];
+	uint8_t dev_status;
+	uint8_t dev_heard;   /* a device message arrived since the last tick */
+	uint32_t since_dev;  /* ticks since the device was last heard (saturating) */
+	uint32_t dev_back;   /* ticks the device has been heard without a gap */
+	struct swell_seq dev_seq;
+	uint8_t run_request, clear_request, bootloader_request;
+
+	/* scheduling */
+	uint32_t ticks_per_step, rows_per_tick, phase;
+
+	/* outputs */
+	struct swell_body_out out;
+	int32_t force_dev_uN[3]; /* after the safety stage, device axes */
+	uint8_t limits;          /* bit 0 |F| clamped, bit 1 rate limited, last tick */
+	uint8_t seq_force, seq_hb, seq_pose;
+	uint8_t scene_id; /* from the scene geometry: a viewer sees a new scene when it changes */
+
+	/* telemetry */
+	uint16_t tiles_x, tiles_y;
+	uint32_t quads, quad_cursor; /* quads in the grid (16 a tile), next one to scan */
+	uint32_t fp_cells;           /* footprint cells of the object, for the work count */
+
+	struct swell_ctl_queue q[SWELL_LINKS];
+	struct swell_ctl_counters n;
+};
+
+/* int32 words of the arena the controller needs for an nx x ny scene (wave storage + sent heights). */
+size_t swell_ctl_arena_words(uint16_t nx, uint16_t ny);
+
+/* A configuration for the reference scene "pool" (DESIGN.md 2.3): 64 x 64 cells of 6.25 mm, depth
+ * 50 mm, solver 250 Hz, device 2500 Hz, a 50 mm cube of 100 g. */
+void swell_ctl_default_config(struct swell_ctl_config *cfg);
+
+/* Validate a configuration without touching anything. */
+enum swell_err swell_ctl_check(const struct swell_ctl_config *cfg);
+
+/* Bind the arena (at least swell_ctl_arena_words words) and start in BOOT with the water at rest.
+ * On error *c is untouched. */
+enum swell_err swell_ctl_init(struct swell_ctl *c, const struct swell_ctl_config *cfg, int32_t *arena,
+			      size_t words);
+
+/* A decoded message from one link. Messages from the wrong side are counted and ignored. */
+void swell_ctl_rx(struct swell_ctl *c, enum swell_link from, const struct swell_msg *m);
+
+/* One device tick (see above). */
+void swell_ctl_tick(struct swell_ctl *c);
+
+/* Up to cap queued messages for a link, oldest first, removed from the queue. */
+size_t swell_ctl_tx(struct swell_ctl *c, enum swell_link link, struct swell_msg *out, size_t cap);
+
+/* Port reports. */
+void swell_ctl_overrun(struct swell_ctl *c);
+void swell_ctl_bad_frames(struct swell_ctl *c, uint32_t n);
+
+/* Force the outputs to zero right now and queue a zero FORCE_CMD (shutdown, signals, faults). */
+void swell_ctl_zero_force(struct swell_ctl *c);
+
+const char *swell_ctl_state_name(enum swell_ctl_state s);
+
+#endif

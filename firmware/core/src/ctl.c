@@ -1,0 +1,677 @@
+/* The controller core; see ctl.h for the tick, the states and the telemetry. */
+#include "swell/ctl.h"
+
+#include <string.h>
+
+#include "swell/crc.h"
+
+#define HEARTBEAT_HZ 10u
+#define SCENE_HZ 1u
+#define POSE_HZ 100u
+#define QUAD_SCAN_PER_TICK 64u /* 256 cells compared a tick at most */
+#define NEVER_SENT INT16_MIN
+
+static const struct swell_ctl_config pool_config = {
+	.nx = 64,
+	.ny = 64,
+	.dx_um = 6250,
+	.depth_um = 50000,
+	/* e = 9.81 * 0.004^2 * 0.05 / 0.00625^2 = 0.200909 */
+	.wave = {.e = 215723192, .damping = 1073742 /* 0.001 */, .stencil = SWELL_STENCIL_PAPER},
+	.body = {.a_um = 50000, .b_um = 50000, .h_um = 50000, .mass_g = 100, .rho_kg_m3 = 1000,
+		 .g_mm_s2 = 9810, .damper_uN_per_mm_s = 2000, .deadband_um = 0},
+	/* device frame: x, y horizontal, z up, origin over the pool centre at rest level */
+	.xform = {.offset_um = {200000, 200000, 0}, .scale = SWELL_Q16_ONE, .axis = {0, 1, 2}, .sign = {1, 1, 1}},
+	.safety = {.gain = SWELL_Q16_ONE, .f_max_uN = 10000000 /* 10 N */, .rate_uN_per_s = 500000000 /* 500 N/s */,
+		   .tick_hz = 2500},
+	.tick_hz = 2500,
+	.solver_hz = 250,
+	.silent_ticks = 2,
+	.recover_ticks = 250,
+	.host_budget = 16,
+	.node = 0,
+	.autorun = 0,
+};
+
+void swell_ctl_default_config(struct swell_ctl_config *cfg)
+{
+	*cfg = pool_config;
+}
+
+const char *swell_ctl_state_name(enum swell_ctl_state s)
+{
+	static const char *const names[] = {"boot", "idle", "armed", "running", "fault"};
+
+	return (unsigned)s < sizeof(names) / sizeof(names[0]) ? names[s] : "?";
+}
+
+static size_t sent_words(uint16_t nx, uint16_t ny)
+{
+	return ((size_t)nx * ny + 1) / 2;
+}
+
+size_t swell_ctl_arena_words(uint16_t nx, uint16_t ny)
+{
+	return SWELL_WAVE_WORDS(nx, ny) + sent_words(nx, ny);
+}
+
+static struct swell_body_scene body_scene(const struct swell_ctl_config *cfg)
+{
+	struct swell_body_scene sc = {cfg->dx_um, cfg->tick_hz, cfg->solver_hz};
+
+	return sc;
+}
+
+static struct swell_fsafety_params safety_params(const struct swell_ctl_config *cfg)
+{
+	struct swell_fsafety_params p = cfg->safety;
+
+	p.tick_hz = cfg->tick_hz;
+	return p;
+}
+
+enum swell_err swell_ctl_check(const struct swell_ctl_config *cfg)
+{
+	struct swell_body_scene sc;
+	struct swell_fsafety_params sp;
+	enum swell_err err;
+
+	if (!cfg)
+		return SWELL_EINVAL;
+	if (cfg->nx < SWELL_WAVE_MIN_SIDE || cfg->ny < SWELL_WAVE_MIN_SIDE || cfg->nx > 256 || cfg->ny > 256)
+		return SWELL_ESIZE; /* the wire carries grids up to 256 x 256 */
+	if (cfg->dx_um < 100 || cfg->dx_um > 65535 || cfg->depth_um < 10 || cfg->depth_um > 655350)
+		return SWELL_ERANGE;
+	if (cfg->tick_hz < 10 || cfg->tick_hz > 100000 || cfg->solver_hz == 0 ||
+	    cfg->tick_hz % cfg->solver_hz != 0 || cfg->tick_hz / cfg->solver_hz < 2 ||
+	    cfg->tick_hz / cfg->solver_hz > SWELL_BODY_MAX_K)
+		return SWELL_ERANGE;
+	if (cfg->silent_ticks < 1 || cfg->silent_ticks > 10000 || cfg->recover_ticks < 1 ||
+	    cfg->host_budget < 1 || cfg->host_budget > SWELL_CTL_QUEUE / 2 || cfg->node > SWELL_NODE_MAX ||
+	    cfg->autorun > 1)
+		return SWELL_ERANGE;
+	err = swell_wave_check(&cfg->wave);
+	if (err != SWELL_OK)
+		return err;
+	sc = body_scene(cfg);
+	err = swell_body_check(&cfg->body, &cfg->xform, &sc);
+	if (err != SWELL_OK)
+		return err;
+	sp = safety_params(cfg);
+	return swell_fsafety_check(&sp);
+}
+
+/* Ticks between two sends of something sent hz times a second (at least every tick). */
+static uint32_t period(const struct swell_ctl *c, uint32_t hz)
+{
+	uint32_t p = c->cfg.tick_hz / hz;
+
+	return p ? p : 1;
+}
+
+static int16_t sent_get(const struct swell_ctl *c, uint32_t a)
+{
+	return (int16_t)(uint16_t)(c->sent[a >> 1] >> ((a & 1u) * 16));
+}
+
+static void sent_set(struct swell_ctl *c, uint32_t a, int16_t v)
+{
+	uint32_t shift = (a & 1u) * 16;
+
+	c->sent[a >> 1] = (c->sent[a >> 1] & ~(0xffffu << shift)) | ((uint32_t)(uint16_t)v << shift);
+}
+
+enum swell_err swell_ctl_init(struct swell_ctl *c, const struct swell_ctl_config *cfg, int32_t *arena,
+			      size_t words)
+{
+	struct swell_body_scene sc;
+	struct swell_fsafety_params sp;
+	enum swell_err err;
+	uint32_t a, n;
+	int k;
+
+	if (!c || !arena)
+		return SWELL_EINVAL;
+	err = swell_ctl_check(cfg);
+	if (err != SWELL_OK)
+		return err;
+	if (words < swell_ctl_arena_words(cfg->nx, cfg->ny))
+		return SWELL_ESIZE;
+
+	memset(c, 0, sizeof(*c));
+	c->cfg = *cfg;
+	sc = body_scene(cfg);
+	sp = safety_params(cfg);
+	/* checked above: none of these can fail */
+	swell_wave_init(&c->wave, cfg->nx, cfg->ny, arena, SWELL_WAVE_WORDS(cfg->nx, cfg->ny), &cfg->wave);
+	swell_body_init(&c->body, &cfg->body, &cfg->xform, &sc, &c->wave);
+	for (k = 0; k < 3; k++)
+		swell_fsafety_init(&c->safety[k], &sp);
+
+	c->sent = (uint32_t *)(arena + SWELL_WAVE_WORDS(cfg->nx, cfg->ny));
+	n = (uint32_t)cfg->nx * cfg->ny;
+	for (a = 0; a < n; a++)
+		sent_set(c, a, NEVER_SENT);
+	c->ticks_per_step = cfg->tick_hz / cfg->solver_hz;
+	c->rows_per_tick = (cfg->ny + c->ticks_per_step - 2) / (c->ticks_per_step - 1);
+	c->tiles_x = (uint16_t)((cfg->nx + SWELL_PROTO_TILE - 1) / SWELL_PROTO_TILE);
+	c->tiles_y = (uint16_t)((cfg->ny + SWELL_PROTO_TILE - 1) / SWELL_PROTO_TILE);
+	c->quads = (uint32_t)c->tiles_x * c->tiles_y * SWELL_PROTO_TILE * 2;
+	c->fp_cells = (cfg->body.a_um / cfg->dx_um + 2) * (cfg->body.b_um / cfg->dx_um + 2);
+	c->since_dev = UINT32_MAX;
+	c->state = SWELL_CTL_BOOT;
+	{
+		uint32_t geo[4] = {cfg->nx, cfg->ny, cfg->dx_um, cfg->depth_um};
+
+		c->scene_id = (uint8_t)swell_crc32(0, geo, sizeof(geo));
+	}
+	return SWELL_OK;
+}
+
+/* ---- queues ---- */
+
+static void push(struct swell_ctl *c, enum swell_link l, const struct swell_msg *m)
+{
+	struct swell_ctl_queue *q = &c->q[l];
+
+	if (q->count == SWELL_CTL_QUEUE) { /* the port is not draining: the oldest goes */
+		q->head = (uint16_t)((q->head + 1) % SWELL_CTL_QUEUE);
+		q->count--;
+		q->dropped++;
+	}
+	q->m[(q->head + q->count) % SWELL_CTL_QUEUE] = *m;
+	q->count++;
+}
+
+size_t swell_ctl_tx(struct swell_ctl *c, enum swell_link link, struct swell_msg *out, size_t cap)
+{
+	struct swell_ctl_queue *q = &c->q[link];
+	size_t k = 0;
+
+	while (k < cap && q->count) {
+		out[k++] = q->m[q->head];
+		q->head = (uint16_t)((q->head + 1) % SWELL_CTL_QUEUE);
+		q->count--;
+	}
+	return k;
+}
+
+static struct swell_msg msg(const struct swell_ctl *c, enum swell_msg_type type)
+{
+	struct swell_msg m;
+
+	memset(&m, 0, sizeof(m));
+	m.type = (uint8_t)type;
+	m.node = c->cfg.node;
+	return m;
+}
+
+/* ---- parameters ---- */
+
+static void answer(struct swell_ctl *c, uint16_t id, uint8_t seq, enum swell_err err, int32_t value)
+{
+	struct swell_msg m;
+
+	if (err == SWELL_OK) {
+		m = msg(c, SWELL_MSG_PARAM_ACK);
+		m.u.param_ack.id = id;
+		m.u.param_ack.value = value;
+		m.u.param_ack.seq = seq;
+	} else {
+		m = msg(c, SWELL_MSG_PARAM_NACK);
+		m.u.param_nack.id = id;
+		m.u.param_nack.err = (uint8_t)err;
+		m.u.param_nack.seq = seq;
+		c->n.params_refused++;
+	}
+	push(c, SWELL_LINK_HOST, &m);
+}
+
+/* The current value of a parameter; SWELL_EUNKNOWN for an id that is not one. */
+static enum swell_err param_get(const struct swell_ctl *c, uint16_t id, int32_t *v)
+{
+	const struct swell_ctl_config *g = &c->cfg;
+
+	switch (id) {
+	case SWELL_PARAM_WAVE_E: *v = g->wave.e; break;
+	case SWELL_PARAM_WAVE_DAMPING: *v = g->wave.damping; break;
+	case SWELL_PARAM_WAVE_STENCIL: *v = (int32_t)g->wave.stencil; break;
+	case SWELL_PARAM_BODY_MASS_G: *v = (int32_t)g->body.mass_g; break;
+	case SWELL_PARAM_BODY_A_UM: *v = (int32_t)g->body.a_um; break;
+	case SWELL_PARAM_BODY_B_UM: *v = (int32_t)g->body.b_um; break;
+	case SWELL_PARAM_BODY_H_UM: *v = (int32_t)g->body.h_um; break;
+	case SWELL_PARAM_BODY_DAMPER: *v = (int32_t)g->body.damper_uN_per_mm_s; break;
+	case SWELL_PARAM_FORCE_MAX_UN: *v = (int32_t)g->safety.f_max_uN; break;
+	case SWELL_PARAM_FORCE_RATE: *v = (int32_t)g->safety.rate_uN_per_s; break;
+	case SWELL_PARAM_FORCE_GAIN: *v = g->safety.gain; break;
+	case SWELL_PARAM_SILENT_TICKS: *v = g->silent_ticks; break;
+	case SWELL_PARAM_AUTORUN: *v = g->autorun; break;
+	case SWELL_PARAM_COMMAND: return SWELL_EINVAL; /* write only */
+	default: return SWELL_EUNKNOWN;
+	}
+	return SWELL_OK;
+}
+
+/* Apply one parameter: validate a whole candidate configuration first, then hand the changed part to
+ * its module, whose own setter validates again; nothing changes unless everything accepts it. */
+static enum swell_err param_set(struct swell_ctl *c, uint16_t id, int32_t v)
+{
+	struct swell_ctl_config g = c->cfg;
+	struct swell_fsafety_params sp;
+	enum swell_err err;
+	int k;
+
+	if (id == SWELL_PARAM_COMMAND) {
+		switch (v) {
+		case SWELL_CMD_STOP:
+			c->run_request = 0;
+			return SWELL_OK;
+		case SWELL_CMD_RUN:
+			c->run_request = 1;
+			return SWELL_OK;
+		case SWELL_CMD_CLEAR:
+			if (c->state != SWELL_CTL_FAULT)
+				return SWELL_ESTATE;
+			c->clear_request = 1;
+			return SWELL_OK;
+		default:
+			return SWELL_ERANGE;
+		}
+	}
+	switch (id) {
+	case SWELL_PARAM_WAVE_E: g.wave.e = v; break;
+	case SWELL_PARAM_WAVE_DAMPING: g.wave.damping = v; break;
+	case SWELL_PARAM_WAVE_STENCIL:
+		if (v != SWELL_STENCIL_PAPER && v != SWELL_STENCIL_CALIBRATED)
+			return SWELL_ERANGE;
+		g.wave.stencil = (enum swell_stencil)v;
+		break;
+	case SWELL_PARAM_BODY_MASS_G: g.body.mass_g = (uint32_t)v; break;
+	case SWELL_PARAM_BODY_A_UM: g.body.a_um = (uint32_t)v; break;
+	case SWELL_PARAM_BODY_B_UM: g.body.b_um = (uint32_t)v; break;
+	case SWELL_PARAM_BODY_H_UM: g.body.h_um = (uint32_t)v; break;
+	case SWELL_PARAM_BODY_DAMPER: g.body.damper_uN_per_mm_s = (uint32_t)v; break;
+	case SWELL_PARAM_FORCE_MAX_UN: g.safety.f_max_uN = (uint32_t)v; break;
+	case SWELL_PARAM_FORCE_RATE: g.safety.rate_uN_per_s = (uint32_t)v; break;
+	case SWELL_PARAM_FORCE_GAIN: g.safety.gain = v; break;
+	case SWELL_PARAM_SILENT_TICKS: g.silent_ticks = (uint16_t)v; break;
+	case SWELL_PARAM_AUTORUN: g.autorun = (uint8_t)v; break;
+	default: return SWELL_EUNKNOWN;
+	}
+	/* unsigned fields: a negative raw value must not wrap into a valid one */
+	if (v < 0 && id != SWELL_PARAM_WAVE_E && id != SWELL_PARAM_WAVE_DAMPING && id != SWELL_PARAM_FORCE_GAIN)
+		return SWELL_ERANGE;
+	if ((id == SWELL_PARAM_SILENT_TICKS && v > 10000) || (id == SWELL_PARAM_AUTORUN && v > 1))
+		return SWELL_ERANGE;
+	err = swell_ctl_check(&g);
+	if (err != SWELL_OK)
+		return err;
+
+	if (id >= SWELL_PARAM_WAVE_E && id <= SWELL_PARAM_WAVE_STENCIL) {
+		err = swell_wave_set_params(&c->wave, &g.wave);
+	} else if (id >= SWELL_PARAM_BODY_MASS_G && id <= SWELL_PARAM_BODY_DAMPER) {
+		err = swell_body_set_params(&c->body, &g.body, &g.xform);
+		if (err == SWELL_OK)
+			c->fp_cells = (g.body.a_um / g.dx_um + 2) * (g.body.b_um / g.dx_um + 2);
+	} else if (id >= SWELL_PARAM_FORCE_MAX_UN && id <= SWELL_PARAM_FORCE_GAIN) {
+		sp = safety_params(&g);
+		for (k = 0; k < 3 && err == SWELL_OK; k++)
+			err = swell_fsafety_set(&c->safety[k], &sp); /* same params: all or none fail */
+	}
+	if (err != SWELL_OK)
+		return err;
+	c->cfg = g;
+	c->n.params_set++;
+	return SWELL_OK;
+}
+
+/* ---- input ---- */
+
+void swell_ctl_rx(struct swell_ctl *c, enum swell_link from, const struct swell_msg *m)
+{
+	enum swell_err err;
+	int32_t v = 0;
+
+	if (from == SWELL_LINK_DEVICE) {
+		switch (m->type) {
+		case SWELL_MSG_DEVICE_POS:
+			c->pos_um[0] = (int32_t)m->u.device_pos.x_10um * 10;
+			c->pos_um[1] = (int32_t)m->u.device_pos.y_10um * 10;
+			c->pos_um[2] = (int32_t)m->u.device_pos.z_10um * 10;
+			c->dev_status = m->u.device_pos.status;
+			c->n.dev_lost += swell_seq_track(&c->dev_seq, m->u.device_pos.seq);
+			c->dev_heard = 1;
+			return;
+		case SWELL_MSG_DEVICE_VEL:
+			c->vel_um_s[0] = (int32_t)m->u.device_vel.vx_100ums * 100;
+			c->vel_um_s[1] = (int32_t)m->u.device_vel.vy_100ums * 100;
+			c->vel_um_s[2] = (int32_t)m->u.device_vel.vz_100ums * 100;
+			c->dev_heard = 1;
+			return;
+		case SWELL_MSG_DEVICE_FORCE:
+			c->dev_heard = 1;
+			return;
+		default:
+			c->n.ignored++;
+			return;
+		}
+	}
+	switch (m->type) {
+	case SWELL_MSG_PARAM_SET:
+		err = param_set(c, m->u.param_set.id, m->u.param_set.value);
+		if (err == SWELL_OK)
+			err = param_get(c, m->u.param_set.id, &v);
+		if (m->u.param_set.id == SWELL_PARAM_COMMAND && err == SWELL_EINVAL) {
+			err = SWELL_OK; /* a command was accepted; its value is echoed */
+			v = m->u.param_set.value;
+		}
+		answer(c, m->u.param_set.id, m->u.param_set.seq, err, v);
+		return;
+	case SWELL_MSG_PARAM_GET:
+		err = param_get(c, m->u.param_get.id, &v);
+		answer(c, m->u.param_get.id, m->u.param_get.seq, err, v);
+		return;
+	case SWELL_MSG_ENTER_BOOTLOADER:
+		if (c->state == SWELL_CTL_RUNNING) {
+			c->n.ignored++; /* never while the force loop runs */
+			return;
+		}
+		swell_ctl_zero_force(c);
+		c->bootloader_request = 1;
+		return;
+	default:
+		c->n.ignored++;
+		return;
+	}
+}
+
+void swell_ctl_overrun(struct swell_ctl *c)
+{
+	c->n.overruns++;
+}
+
+void swell_ctl_bad_frames(struct swell_ctl *c, uint32_t n)
+{
+	c->n.bad_frames = c->n.bad_frames + n < c->n.bad_frames ? UINT32_MAX : c->n.bad_frames + n;
+}
+
+/* ---- output ---- */
+
+static int16_t to_cN(int32_t uN)
+{
+	int32_t cN = (uN >= 0 ? uN + 5000 : uN - 5000) / 10000;
+
+	return (int16_t)swell_clamp(cN, -25000, 25000);
+}
+
+static int16_t to_10um(int32_t um)
+{
+	int32_t t = (um >= 0 ? um + 5 : um - 5) / 10;
+
+	return (int16_t)swell_clamp(t, -30000, 30000);
+}
+
+static void send_force(struct swell_ctl *c)
+{
+	struct swell_msg m = msg(c, SWELL_MSG_FORCE_CMD);
+
+	m.u.force_cmd.fx_cN = to_cN(c->force_dev_uN[0]);
+	m.u.force_cmd.fy_cN = to_cN(c->force_dev_uN[1]);
+	m.u.force_cmd.fz_cN = to_cN(c->force_dev_uN[2]);
+	m.u.force_cmd.seq = c->seq_force++;
+	m.u.force_cmd.enable = c->state == SWELL_CTL_RUNNING;
+	push(c, SWELL_LINK_DEVICE, &m);
+}
+
+void swell_ctl_zero_force(struct swell_ctl *c)
+{
+	int k;
+
+	for (k = 0; k < 3; k++)
+		c->force_dev_uN[k] = swell_fsafety_apply(&c->safety[k], 0, 0);
+	send_force(c);
+}
+
+static uint16_t sat16(uint32_t x)
+{
+	return x > 0xffffu ? 0xffffu : (uint16_t)x;
+}
+
+static void send_heartbeat(struct swell_ctl *c)
+{
+	struct swell_msg m = msg(c, SWELL_MSG_HEARTBEAT);
+
+	m.u.heartbeat.state = (uint8_t)c->state;
+	m.u.heartbeat.err = (uint8_t)c->last_err;
+	m.u.heartbeat.version = SWELL_PROTO_VERSION;
+	m.u.heartbeat.seq = c->seq_hb++;
+	m.u.heartbeat.bad_frames = sat16(c->n.bad_frames);
+	m.u.heartbeat.overruns = sat16(c->n.overruns);
+	push(c, SWELL_LINK_HOST, &m);
+	push(c, SWELL_LINK_DEVICE, &m);
+}
+
+static void send_scene(struct swell_ctl *c)
+{
+	struct swell_msg m = msg(c, SWELL_MSG_SCENE);
+
+	m.u.scene.nx = c->cfg.nx;
+	m.u.scene.ny = c->cfg.ny;
+	m.u.scene.h_shift = SWELL_PROTO_H_SHIFT;
+	m.u.scene.dx_um = (uint16_t)c->cfg.dx_um;
+	m.u.scene.depth_10um = (uint16_t)(c->cfg.depth_um / 10);
+	m.u.scene.scene_id = c->scene_id;
+	push(c, SWELL_LINK_HOST, &m);
+}
+
+static void send_pose(struct swell_ctl *c)
+{
+	struct swell_msg p = msg(c, SWELL_MSG_OBJECT_POSE), f = msg(c, SWELL_MSG_OBJECT_FORCE);
+	int32_t half_pct = 0;
+
+	if (c->cfg.body.h_um > 0)
+		half_pct = (int32_t)(((int64_t)c->out.delta_lsb * 200) /
+				     swell_um_to_lsb((int64_t)c->cfg.body.h_um));
+	p.u.object_pose.x_10um = to_10um(c->out.x_um);
+	p.u.object_pose.y_10um = to_10um(c->out.y_um);
+	p.u.object_pose.z_10um = to_10um(c->out.z_um);
+	p.u.object_pose.submersion_halfpct = (uint8_t)swell_clamp(half_pct, 0, 200);
+	p.u.object_pose.seq = c->seq_pose;
+	f.u.object_force.fx_cN = to_cN(c->force_dev_uN[0]);
+	f.u.object_force.fy_cN = to_cN(c->force_dev_uN[1]);
+	f.u.object_force.fz_cN = to_cN(c->force_dev_uN[2]);
+	f.u.object_force.seq = c->seq_pose++;
+	f.u.object_force.limits = c->limits;
+	push(c, SWELL_LINK_HOST, &p);
+	push(c, SWELL_LINK_HOST, &f);
+}
+
+/* Height on the wire: round to nearest 2^-SWELL_PROTO_H_SHIFT mm, saturated to int12. */
+static int16_t wire_sample(int32_t h_lsb)
+{
+	const int shift = SWELL_H_FRAC - SWELL_PROTO_H_SHIFT;
+	int32_t s = (h_lsb + (1 << (shift - 1))) >> shift;
+
+	return (int16_t)swell_clamp(s, -2048, 2047);
+}
+
+/* Scan quads round-robin and send the ones whose samples changed, within the budget. */
+static uint32_t send_heights(struct swell_ctl *c, uint32_t budget)
+{
+	const uint32_t nx = c->cfg.nx, ny = c->cfg.ny;
+	uint32_t scanned = 0, cells = 0;
+
+	while (budget && scanned < QUAD_SCAN_PER_TICK) {
+		uint32_t q = c->quad_cursor, tile = q >> 4, row = (q >> 1) & 7u, half = q & 1u;
+		uint32_t tx = tile % c->tiles_x, ty = tile / c->tiles_x;
+		uint32_t y = ty * SWELL_PROTO_TILE + row, x0 = tx * SWELL_PROTO_TILE + half * 4;
+		int16_t s[4] = {0, 0, 0, 0};
+		int changed = 0, k;
+
+		c->quad_cursor = q + 1 == c->quads ? 0 : q + 1;
+		scanned++;
+		if (y >= ny || x0 >= nx)
+			continue; /* a quad of a partial tile that lies wholly outside the grid */
+		for (k = 0; k < 4; k++) {
+			uint32_t x = x0 + (uint32_t)k;
+
+			if (x >= nx)
+				continue;
+			s[k] = wire_sample(c->wave.h[y * nx + x]);
+			changed |= s[k] != sent_get(c, y * nx + x);
+			cells++;
+		}
+		if (!changed)
+			continue;
+		{
+			struct swell_msg m = msg(c, SWELL_MSG_HEIGHT_QUAD);
+
+			m.u.height_quad.tile_x = (uint8_t)tx;
+			m.u.height_quad.tile_y = (uint8_t)ty;
+			m.u.height_quad.row = (uint8_t)row;
+			m.u.height_quad.half = (uint8_t)half;
+			m.u.height_quad.frame = (uint8_t)(c->n.solver_steps & 3u);
+			m.u.height_quad.h0 = s[0];
+			m.u.height_quad.h1 = s[1];
+			m.u.height_quad.h2 = s[2];
+			m.u.height_quad.h3 = s[3];
+			push(c, SWELL_LINK_HOST, &m);
+		}
+		for (k = 0; k < 4; k++)
+			if (x0 + (uint32_t)k < nx)
+				sent_set(c, y * nx + x0 + (uint32_t)k, s[k]);
+		c->n.quads_sent++;
+		budget--;
+	}
+	return cells;
+}
+
+/* ---- the tick ---- */
+
+static void enter(struct swell_ctl *c, enum swell_ctl_state s, enum swell_err why)
+{
+	if (s == SWELL_CTL_FAULT) {
+		c->last_err = why;
+		c->n.faults++;
+		c->run_request = 0;
+	}
+	c->clear_request = 0;
+	c->state = s;
+}
+
+static void supervise(struct swell_ctl *c)
+{
+	int alive, estop, powered;
+
+	if (c->dev_heard) {
+		c->since_dev = 0;
+		if (c->dev_back < UINT32_MAX)
+			c->dev_back++;
+	} else {
+		if (c->since_dev < UINT32_MAX)
+			c->since_dev++;
+		c->dev_back = 0;
+	}
+	c->dev_heard = 0;
+	alive = c->since_dev < c->cfg.silent_ticks;
+	estop = (c->dev_status & 4u) != 0;
+	powered = (c->dev_status & 1u) != 0;
+
+	switch (c->state) {
+	case SWELL_CTL_BOOT:
+		enter(c, SWELL_CTL_IDLE, SWELL_OK);
+		break;
+	case SWELL_CTL_IDLE:
+		if (alive)
+			enter(c, SWELL_CTL_ARMED, SWELL_OK);
+		break;
+	case SWELL_CTL_ARMED:
+		if (!alive)
+			enter(c, SWELL_CTL_IDLE, SWELL_OK);
+		else if ((c->run_request || c->cfg.autorun) && powered && !estop)
+			enter(c, SWELL_CTL_RUNNING, SWELL_OK);
+		break;
+	case SWELL_CTL_RUNNING:
+		if (!alive)
+			enter(c, SWELL_CTL_FAULT, SWELL_ETIMEOUT);
+		else if (estop)
+			enter(c, SWELL_CTL_FAULT, SWELL_ESTOP);
+		else if (!c->run_request && !c->cfg.autorun)
+			enter(c, SWELL_CTL_ARMED, SWELL_OK);
+		break;
+	case SWELL_CTL_FAULT:
+		if (alive && !estop &&
+		    (c->clear_request || (c->cfg.autorun && c->dev_back >= c->cfg.recover_ticks)))
+			enter(c, SWELL_CTL_IDLE, SWELL_OK);
+		break;
+	}
+}
+
+static uint32_t force_law(struct swell_ctl *c)
+{
+	const int running = c->state == SWELL_CTL_RUNNING;
+	uint32_t before = 0, after = 0, rate_before = 0, rate_after = 0, work = 1;
+	int k;
+
+	if (c->state == SWELL_CTL_ARMED || running) {
+		swell_body_tick(&c->body, &c->wave, c->pos_um, c->vel_um_s, &c->out);
+		work = c->out.skipped ? 1 : c->fp_cells;
+	}
+	for (k = 0; k < 3; k++) {
+		before += c->safety[k].force_limited;
+		rate_before += c->safety[k].rate_limited;
+		c->force_dev_uN[k] = swell_fsafety_apply(&c->safety[k], running ? c->out.f_dev_uN[k] : 0, running);
+		after += c->safety[k].force_limited;
+		rate_after += c->safety[k].rate_limited;
+	}
+	c->limits = (uint8_t)((after != before ? 1u : 0u) | (rate_after != rate_before ? 2u : 0u));
+	send_force(c);
+	return work;
+}
+
+static uint32_t solver_slice(struct swell_ctl *c)
+{
+	uint32_t work;
+
+	if (c->phase + 1 < c->ticks_per_step) {
+		int left = c->wave.ny - c->wave.next_row;
+
+		swell_wave_step_rows(&c->wave, (int)c->rows_per_tick);
+		work = (uint32_t)(left - (c->wave.ny - c->wave.next_row)) * c->wave.nx;
+	} else {
+		swell_wave_step_finish(&c->wave);
+		swell_body_solver_stepped(&c->body, &c->wave);
+		c->n.solver_steps++;
+		work = 2u * c->wave.nx * c->wave.ny; /* the finishing pass and the body's ceiling scan */
+	}
+	c->phase = c->phase + 1 == c->ticks_per_step ? 0 : c->phase + 1;
+	return work;
+}
+
+void swell_ctl_tick(struct swell_ctl *c)
+{
+	const uint32_t t = c->n.ticks++;
+	uint32_t budget = c->cfg.host_budget, work = 0;
+
+	supervise(c);
+	work += force_law(c);
+	work += solver_slice(c);
+
+	if (t % period(c, HEARTBEAT_HZ) == 0) {
+		send_heartbeat(c);
+		budget--;
+	}
+	if (budget && t % period(c, SCENE_HZ) == 1 % period(c, SCENE_HZ)) {
+		send_scene(c);
+		budget--;
+	}
+	if (budget >= 2 && t % period(c, POSE_HZ) == 2 % period(c, POSE_HZ)) {
+		send_pose(c);
+		budget -= 2;
+	}
+	work += send_heights(c, budget);
+
+	c->n.work = work;
+	if (work > c->n.work_max)
+		c->n.work_max = work;
+}

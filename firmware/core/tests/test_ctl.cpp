@@ -1,0 +1,343 @@
+/* The controller core: states, link supervision, parameters, bounded work, telemetry, determinism. */
+#include <catch2/catch.hpp>
+
+#include <cstring>
+#include <vector>
+
+extern "C" {
+#include "swell/ctl.h"
+}
+
+namespace {
+
+struct Ctl {
+	std::vector<int32_t> arena;
+	swell_ctl c{};
+	explicit Ctl(const swell_ctl_config &cfg) : arena(swell_ctl_arena_words(cfg.nx, cfg.ny))
+	{
+		REQUIRE(swell_ctl_init(&c, &cfg, arena.data(), arena.size()) == SWELL_OK);
+	}
+	/* The device says where it is (um, device frame) and that it is powered. */
+	void device(int32_t x, int32_t y, int32_t z, uint8_t status = 1)
+	{
+		swell_msg m{};
+		m.type = SWELL_MSG_DEVICE_POS;
+		m.u.device_pos.x_10um = (int16_t)(x / 10);
+		m.u.device_pos.y_10um = (int16_t)(y / 10);
+		m.u.device_pos.z_10um = (int16_t)(z / 10);
+		m.u.device_pos.seq = seq++;
+		m.u.device_pos.status = status;
+		swell_ctl_rx(&c, SWELL_LINK_DEVICE, &m);
+	}
+	void param(uint16_t id, int32_t v)
+	{
+		swell_msg m{};
+		m.type = SWELL_MSG_PARAM_SET;
+		m.u.param_set.id = id;
+		m.u.param_set.value = v;
+		m.u.param_set.seq = seq++;
+		swell_ctl_rx(&c, SWELL_LINK_HOST, &m);
+	}
+	std::vector<swell_msg> drain(swell_link l)
+	{
+		std::vector<swell_msg> out(SWELL_CTL_QUEUE);
+		out.resize(swell_ctl_tx(&c, l, out.data(), out.size()));
+		return out;
+	}
+	/* The last FORCE_CMD of a tick. */
+	swell_msg_force_cmd force()
+	{
+		swell_msg_force_cmd f{};
+		for (const swell_msg &m : drain(SWELL_LINK_DEVICE))
+			if (m.type == SWELL_MSG_FORCE_CMD)
+				f = m.u.force_cmd;
+		return f;
+	}
+	uint8_t seq = 0;
+};
+
+swell_ctl_config pool()
+{
+	swell_ctl_config cfg;
+	swell_ctl_default_config(&cfg);
+	return cfg;
+}
+
+} // namespace
+
+TEST_CASE("the reference configuration is valid and its arena is wave storage plus packed samples", "[ctl]")
+{
+	swell_ctl_config cfg = pool();
+	CHECK(swell_ctl_check(&cfg) == SWELL_OK);
+	CHECK(swell_ctl_arena_words(64, 64) == SWELL_WAVE_WORDS(64, 64) + 64 * 64 / 2);
+	cfg.solver_hz = 333; /* does not divide 2500 */
+	CHECK(swell_ctl_check(&cfg) == SWELL_ERANGE);
+	cfg = pool();
+	cfg.nx = 300; /* wider than the wire carries */
+	CHECK(swell_ctl_check(&cfg) == SWELL_ESIZE);
+	cfg = pool();
+	cfg.wave.e = SWELL_Q30_ONE / 10 * 6; /* 0.6: unstable */
+	CHECK(swell_ctl_check(&cfg) == SWELL_EUNSTABLE);
+}
+
+TEST_CASE("states go boot, idle, armed, running and fault, with zero force outside running", "[ctl][state]")
+{
+	Ctl k(pool());
+	CHECK(k.c.state == SWELL_CTL_BOOT);
+	swell_ctl_tick(&k.c);
+	CHECK(k.c.state == SWELL_CTL_IDLE);
+	CHECK(k.force().enable == 0);
+
+	/* device heard: armed, still no force */
+	k.device(0, 0, 100000);
+	swell_ctl_tick(&k.c);
+	CHECK(k.c.state == SWELL_CTL_ARMED);
+	CHECK(k.force().enable == 0);
+
+	/* run command: running; the object held 100 mm above the water feels its weight (0.981 N down) */
+	k.param(SWELL_PARAM_COMMAND, SWELL_CMD_RUN);
+	for (int t = 0; t < 50; t++) {
+		k.device(0, 0, 100000);
+		swell_ctl_tick(&k.c);
+	}
+	CHECK(k.c.state == SWELL_CTL_RUNNING);
+	swell_msg_force_cmd f = k.force();
+	CHECK(f.enable == 1);
+	CHECK(f.fz_cN == -98);
+
+	/* stop: armed, zero at once */
+	k.param(SWELL_PARAM_COMMAND, SWELL_CMD_STOP);
+	k.device(0, 0, 100000);
+	swell_ctl_tick(&k.c);
+	CHECK(k.c.state == SWELL_CTL_ARMED);
+	f = k.force();
+	CHECK(f.enable == 0);
+	CHECK(f.fz_cN == 0);
+}
+
+TEST_CASE("a silent device gives zero force and a fault within 2 ticks; clear brings it back", "[ctl][link]")
+{
+	Ctl k(pool());
+	k.param(SWELL_PARAM_COMMAND, SWELL_CMD_RUN);
+	for (int t = 0; t < 100; t++) {
+		k.device(0, 0, 100000);
+		swell_ctl_tick(&k.c);
+		k.drain(SWELL_LINK_DEVICE);
+	}
+	REQUIRE(k.c.state == SWELL_CTL_RUNNING);
+	/* the device goes silent */
+	int zero_after = -1;
+	for (int t = 1; t <= 10 && zero_after < 0; t++) {
+		swell_ctl_tick(&k.c);
+		swell_msg_force_cmd f = k.force();
+		if (f.enable == 0 && f.fz_cN == 0 && f.fx_cN == 0 && f.fy_cN == 0)
+			zero_after = t;
+	}
+	INFO("zero force after " << zero_after << " silent ticks");
+	CHECK(zero_after >= 1);
+	CHECK(zero_after <= 2);
+	CHECK(k.c.state == SWELL_CTL_FAULT);
+	CHECK(k.c.last_err == SWELL_ETIMEOUT);
+
+	/* the device comes back: still fault (no autorun) until CLEAR, then idle -> armed -> running */
+	for (int t = 0; t < 10; t++) {
+		k.device(0, 0, 100000);
+		swell_ctl_tick(&k.c);
+	}
+	CHECK(k.c.state == SWELL_CTL_FAULT);
+	CHECK(k.force().enable == 0);
+	k.param(SWELL_PARAM_COMMAND, SWELL_CMD_CLEAR);
+	k.param(SWELL_PARAM_COMMAND, SWELL_CMD_RUN);
+	for (int t = 0; t < 5; t++) {
+		k.device(0, 0, 100000);
+		swell_ctl_tick(&k.c);
+	}
+	CHECK(k.c.state == SWELL_CTL_RUNNING);
+	CHECK(k.c.n.faults == 1u);
+}
+
+TEST_CASE("autorun leaves a fault by itself after the device has been back for recover_ticks", "[ctl][link]")
+{
+	swell_ctl_config cfg = pool();
+	cfg.autorun = 1;
+	cfg.recover_ticks = 20;
+	Ctl k(cfg);
+	for (int t = 0; t < 10; t++) {
+		k.device(0, 0, 100000);
+		swell_ctl_tick(&k.c);
+	}
+	REQUIRE(k.c.state == SWELL_CTL_RUNNING);
+	for (int t = 0; t < 5; t++)
+		swell_ctl_tick(&k.c);
+	REQUIRE(k.c.state == SWELL_CTL_FAULT);
+	int back = -1;
+	for (int t = 1; t <= 40 && back < 0; t++) {
+		k.device(0, 0, 100000);
+		swell_ctl_tick(&k.c);
+		if (k.c.state == SWELL_CTL_RUNNING)
+			back = t;
+	}
+	INFO("running again after " << back << " ticks");
+	CHECK(back >= 20);
+	CHECK(back <= 23);
+}
+
+TEST_CASE("the device's emergency stop faults at once", "[ctl][state]")
+{
+	swell_ctl_config cfg = pool();
+	cfg.autorun = 1;
+	Ctl k(cfg);
+	for (int t = 0; t < 10; t++) {
+		k.device(0, 0, 100000);
+		swell_ctl_tick(&k.c);
+	}
+	REQUIRE(k.c.state == SWELL_CTL_RUNNING);
+	k.device(0, 0, 100000, 1 | 4);
+	swell_ctl_tick(&k.c);
+	CHECK(k.c.state == SWELL_CTL_FAULT);
+	CHECK(k.c.last_err == SWELL_ESTOP);
+	CHECK(k.force().enable == 0);
+}
+
+TEST_CASE("bad parameter sets are refused with a nack and change nothing", "[ctl][param]")
+{
+	Ctl k(pool());
+	swell_ctl before = k.c;
+	struct {
+		uint16_t id;
+		int32_t v;
+		swell_err want;
+	} bad[] = {
+		{SWELL_PARAM_WAVE_E, SWELL_Q30_ONE / 10 * 6, SWELL_EUNSTABLE},
+		{SWELL_PARAM_WAVE_E, -5, SWELL_ERANGE},
+		{SWELL_PARAM_WAVE_DAMPING, SWELL_Q30_ONE, SWELL_ERANGE},
+		{SWELL_PARAM_WAVE_STENCIL, 9, SWELL_ERANGE},
+		{SWELL_PARAM_BODY_MASS_G, 0, SWELL_ERANGE},
+		{SWELL_PARAM_BODY_MASS_G, -100, SWELL_ERANGE},
+		{SWELL_PARAM_FORCE_MAX_UN, 0, SWELL_ERANGE},
+		{SWELL_PARAM_FORCE_GAIN, -1, SWELL_ERANGE},
+		{SWELL_PARAM_SILENT_TICKS, 0, SWELL_ERANGE},
+		{SWELL_PARAM_AUTORUN, 2, SWELL_ERANGE},
+		{SWELL_PARAM_COMMAND, 7, SWELL_ERANGE},
+		{SWELL_PARAM_COMMAND, SWELL_CMD_CLEAR, SWELL_ESTATE}, /* not in fault */
+		{999, 1, SWELL_EUNKNOWN},
+	};
+	for (auto &b : bad) {
+		k.param(b.id, b.v);
+		std::vector<swell_msg> out = k.drain(SWELL_LINK_HOST);
+		REQUIRE(out.size() == 1);
+		INFO("param " << b.id << " = " << b.v);
+		CHECK(out[0].type == SWELL_MSG_PARAM_NACK);
+		CHECK(out[0].u.param_nack.id == b.id);
+		CHECK(out[0].u.param_nack.err == b.want);
+	}
+	CHECK(std::memcmp(&before.cfg, &k.c.cfg, sizeof(before.cfg)) == 0);
+	CHECK(std::memcmp(&before.wave, &k.c.wave, sizeof(before.wave)) == 0);
+	CHECK(std::memcmp(&before.safety, &k.c.safety, sizeof(before.safety)) == 0);
+	CHECK(k.c.n.params_refused == sizeof(bad) / sizeof(bad[0]));
+
+	/* a good one is acknowledged with the value in force */
+	k.param(SWELL_PARAM_FORCE_MAX_UN, 5000000);
+	std::vector<swell_msg> out = k.drain(SWELL_LINK_HOST);
+	REQUIRE(out.size() == 1);
+	CHECK(out[0].type == SWELL_MSG_PARAM_ACK);
+	CHECK(out[0].u.param_ack.value == 5000000);
+	CHECK(k.c.cfg.safety.f_max_uN == 5000000u);
+}
+
+TEST_CASE("no tick carries a whole solver step and the solver keeps its own rate", "[ctl][work]")
+{
+	for (uint32_t tick_hz : {2500u, 1000u}) {
+		swell_ctl_config cfg = pool();
+		cfg.tick_hz = tick_hz;
+		cfg.autorun = 1;
+		Ctl k(cfg);
+		for (uint32_t t = 0; t < tick_hz; t++) { /* one second, object in the water */
+			k.device(0, 0, -20000);
+			swell_ctl_tick(&k.c);
+			k.drain(SWELL_LINK_DEVICE);
+			k.drain(SWELL_LINK_HOST);
+		}
+		const uint32_t whole_step = 6u * 64 * 64; /* 4 edges a cell + finish + ceiling scan */
+		WARN(tick_hz << " Hz: " << k.c.n.solver_steps << " solver steps in 1 s, worst tick "
+			     << k.c.n.work_max << " cell-operations, a whole step " << whole_step);
+		CHECK(k.c.n.solver_steps == 250u);
+		CHECK(k.c.n.work_max < whole_step / 2);
+		CHECK(k.c.state == SWELL_CTL_RUNNING);
+	}
+}
+
+TEST_CASE("telemetry: heartbeat, scene, pose and only the heights that changed, within budget", "[ctl][telemetry]")
+{
+	swell_ctl_config cfg = pool();
+	cfg.autorun = 1;
+	Ctl k(cfg);
+	int hb = 0, scene = 0, pose = 0, quads = 0, worst = 0;
+	for (int t = 0; t < 2500; t++) {
+		k.device(0, 0, 100000); /* held above the water: a calm pool */
+		swell_ctl_tick(&k.c);
+		std::vector<swell_msg> out = k.drain(SWELL_LINK_HOST);
+		worst = std::max(worst, (int)out.size());
+		for (auto &m : out) {
+			hb += m.type == SWELL_MSG_HEARTBEAT;
+			scene += m.type == SWELL_MSG_SCENE;
+			pose += m.type == SWELL_MSG_OBJECT_POSE;
+			quads += m.type == SWELL_MSG_HEIGHT_QUAD;
+		}
+		k.drain(SWELL_LINK_DEVICE);
+	}
+	CHECK(hb == 10);
+	CHECK(scene == 1);
+	CHECK(pose == 100);
+	CHECK(worst <= (int)cfg.host_budget);
+	/* a calm pool: every quad once (nothing known yet), then nothing */
+	CHECK(quads == 64 * 64 / 4);
+
+	/* drop the object in: heights change and are sent again */
+	int later = 0;
+	for (int t = 0; t < 500; t++) {
+		k.device(0, 0, -30000);
+		swell_ctl_tick(&k.c);
+		for (auto &m : k.drain(SWELL_LINK_HOST))
+			later += m.type == SWELL_MSG_HEIGHT_QUAD;
+		k.drain(SWELL_LINK_DEVICE);
+	}
+	WARN("calm pool: " << quads << " quads in the first second; after the object entered: " << later
+			   << " quads in 0.2 s");
+	CHECK(later > 0);
+	CHECK(k.c.q[SWELL_LINK_HOST].dropped == 0u);
+}
+
+TEST_CASE("the same device trace gives bit-identical outputs", "[ctl][determinism]")
+{
+	swell_ctl_config cfg = pool();
+	cfg.autorun = 1;
+	auto run = [&](std::vector<swell_msg> &dev_out, uint32_t &checksum) {
+		Ctl k(cfg);
+		for (int t = 0; t < 3000; t++) {
+			/* a scripted hand: lower the object through the surface and shake it */
+			int32_t z = 60000 - 40 * t;
+			if (z < -30000)
+				z = -30000 + ((t / 50) % 2 ? 5000 : -5000);
+			if (t % 97 != 13) /* and drop a few samples */
+				k.device((t % 200) * 50, 0, z);
+			swell_ctl_tick(&k.c);
+			for (auto &m : k.drain(SWELL_LINK_DEVICE))
+				dev_out.push_back(m);
+			k.drain(SWELL_LINK_HOST);
+		}
+		checksum = swell_wave_checksum(&k.c.wave);
+	};
+	std::vector<swell_msg> a, b;
+	uint32_t ca = 0, cb = 1;
+	run(a, ca);
+	run(b, cb);
+	REQUIRE(a.size() == b.size());
+	for (size_t i = 0; i < a.size(); i++)
+		REQUIRE(swell_msg_equal(&a[i], &b[i]));
+	CHECK(ca == cb);
+	int nonzero = 0;
+	for (auto &m : a)
+		nonzero += m.type == SWELL_MSG_FORCE_CMD && m.u.force_cmd.fz_cN != 0;
+	CHECK(nonzero > 1000);
+}
