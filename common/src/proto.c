@@ -245,12 +245,19 @@ int swell_canfd_len_valid(size_t len)
 	       len == 48 || len == 64;
 }
 
+/* On CAN FD every message takes a slot of its length rounded up to 4 bytes (padding zero), so that
+ * 1, 2, 3, 4, 6 or 8 slots of 8 bytes and 1..6, 8, 12 or 16 slots of 4 bytes make valid lengths. */
+static size_t fd_slot(const struct swell_msg_desc *d)
+{
+	return (d->len + 3u) & ~(size_t)3u;
+}
+
 enum swell_err swell_canfd_encode(const struct swell_msg *m, size_t n, uint32_t *id,
 				  uint8_t data[64], uint8_t *len, size_t *used)
 {
 	const struct swell_msg_desc *d;
 	uint8_t buf[SWELL_CANFD_LEN];
-	size_t k, i;
+	size_t k, i, slot;
 
 	if (n == 0)
 		return SWELL_EINVAL;
@@ -259,24 +266,26 @@ enum swell_err swell_canfd_encode(const struct swell_msg *m, size_t n, uint32_t 
 		return SWELL_EUNKNOWN;
 	if (m[0].node > SWELL_NODE_MAX)
 		return SWELL_ERANGE;
-	k = SWELL_CANFD_LEN / d->len;
+	slot = fd_slot(d);
+	k = SWELL_CANFD_LEN / slot;
 	if (k > n)
 		k = n;
 	for (i = 1; i < k; i++)
 		if (m[i].type != m[0].type || m[i].node != m[0].node)
 			break;
 	k = i;
-	while (!swell_canfd_len_valid(k * d->len))
+	while (!swell_canfd_len_valid(k * slot))
 		k--;
+	memset(buf, 0, sizeof(buf));
 	for (i = 0; i < k; i++) {
-		enum swell_err err = swell_payload_encode(&m[i], buf + i * d->len, d->len);
+		enum swell_err err = swell_payload_encode(&m[i], buf + i * slot, d->len);
 
 		if (err)
 			return err;
 	}
-	memcpy(data, buf, k * d->len);
+	memcpy(data, buf, k * slot);
 	*id = SWELL_CAN_ID(m[0].type, m[0].node);
-	*len = (uint8_t)(k * d->len);
+	*len = (uint8_t)(k * slot);
 	*used = k;
 	return SWELL_OK;
 }
@@ -286,32 +295,34 @@ static enum swell_err canfd_decode(uint32_t id, const uint8_t *data, size_t len,
 {
 	const struct swell_msg_desc *d;
 	struct swell_msg tmp;
-	size_t k, i;
+	size_t k, i, j, slot;
 
 	if (id > 0x7FFu)
 		return SWELL_EUNKNOWN;
 	d = swell_msg_desc_find(id >> 4);
 	if (!d)
 		return SWELL_EUNKNOWN;
-	if (len < d->len)
-		return SWELL_ETRUNC;
+	slot = fd_slot(d);
 	if (len > SWELL_CANFD_LEN || !swell_canfd_len_valid(len))
 		return SWELL_ESIZE;
-	if (len % d->len)
-		return SWELL_ETRUNC; /* a partial message at the end */
-	k = len / d->len;
+	if (len < slot || len % slot)
+		return SWELL_ETRUNC; /* a partial slot at the end */
+	k = len / slot;
 	if (k > cap)
 		return SWELL_ESIZE;
 	/* validate everything first so that a rejected frame leaves out[] untouched */
 	for (i = 0; i < k; i++) {
-		enum swell_err err = swell_payload_decode(d->type, data + i * d->len, d->len, &tmp);
+		enum swell_err err = swell_payload_decode(d->type, data + i * slot, d->len, &tmp);
 
 		if (err)
 			return err;
+		for (j = d->len; j < slot; j++)
+			if (data[i * slot + j])
+				return SWELL_ERANGE; /* padding must be zero */
 	}
 	for (i = 0; i < k; i++) {
 		out[i].node = (uint8_t)(id & 0xFu);
-		swell_payload_decode(d->type, data + i * d->len, d->len, &out[i]);
+		swell_payload_decode(d->type, data + i * slot, d->len, &out[i]);
 	}
 	*n = k;
 	return SWELL_OK;
@@ -450,7 +461,7 @@ enum swell_err swell_pkt_decode(const uint8_t *pkt, size_t len, struct swell_msg
 }
 
 /* ---- sequence numbers ---- */
-uint32_t swell_seq_track(struct swell_seq_track *t, uint8_t seq)
+uint32_t swell_seq_track(struct swell_seq *t, uint8_t seq)
 {
 	uint8_t step = (uint8_t)(seq - t->last);
 	uint32_t skipped = 0;

@@ -2,8 +2,8 @@
  *
  * Carriers (docs/protocol.md has the byte-level description and the bus-load budget):
  *   classic CAN  one message per 8-byte frame, 11-bit id = type << 4 | node.
- *   CAN FD       up to 64 bytes: k messages of ONE type and node back to back, same id as classic;
- *                k is chosen so that k * len is a valid CAN FD length.
+ *   CAN FD       up to 64 bytes: k messages of ONE type and node, same id as classic, each in a
+ *                slot of its length rounded up to 4 bytes (zero padding); k * slot is a valid length.
  *   packet       USB bulk (64-byte packets) and UDP datagrams, same bytes:
  *                magic 0x57, version, node, seq, count, count x (type, payload), CRC-32 LE.
  * CAN has its own CRC; packets carry one (swell_crc32 over every byte before it).
@@ -54,7 +54,7 @@ struct swell_msg {
 #define SWELL_PKT_MAGIC 0x57u
 #define SWELL_PKT_OVERHEAD (SWELL_PKT_HEADER + 4u)
 #define SWELL_MSG_LEN_MIN 3u      /* shortest payload (checked in proto.c) */
-#define SWELL_CANFD_MSGS_MAX (SWELL_CANFD_LEN / SWELL_MSG_LEN_MIN)
+#define SWELL_CANFD_MSGS_MAX (SWELL_CANFD_LEN / 4u) /* slots are rounded up to 4 bytes */
 #define SWELL_PKT_MSGS_MAX ((SWELL_PKT_MAX - SWELL_PKT_OVERHEAD) / (1u + SWELL_MSG_LEN_MIN))
 
 /* ---- the table as data (for generic code, the generator, tests) ---- */
@@ -114,8 +114,8 @@ enum swell_err swell_can_decode(uint32_t id, const uint8_t *data, size_t len, st
 				struct swell_proto_stats *st);
 
 /* ---- CAN FD ---- */
-/* Encodes the longest prefix of m[0..n) (same type and node as m[0]) that gives a valid CAN FD
- * length; *used says how many messages went in (>= 1 on success). */
+/* Encodes the longest prefix of m[0..n) (same type and node as m[0]) whose slots make a valid
+ * CAN FD length; *used says how many messages went in (>= 1 on success). */
 enum swell_err swell_canfd_encode(const struct swell_msg *m, size_t n, uint32_t *id,
 				  uint8_t data[64], uint8_t *len, size_t *used);
 enum swell_err swell_canfd_decode(uint32_t id, const uint8_t *data, size_t len, struct swell_msg *out,
@@ -133,12 +133,12 @@ enum swell_err swell_pkt_decode(const uint8_t *pkt, size_t len, struct swell_msg
 				size_t *n, uint8_t *seq, struct swell_proto_stats *st);
 
 /* ---- sequence numbers on streams ---- */
-struct swell_seq_track {
+struct swell_seq {
 	uint8_t last;
 	uint8_t started;
 	uint32_t received, lost, repeated; /* repeated: duplicates and reordered (seq went back) */
 };
 /* Accounts for one received sequence number; returns how many were skipped before it. */
-uint32_t swell_seq_track(struct swell_seq_track *t, uint8_t seq);
+uint32_t swell_seq_track(struct swell_seq *t, uint8_t seq);
 
 #endif
