@@ -1,0 +1,307 @@
+/* The view model, see vm.h. */
+#include "vm.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "swell/wave.h"
+
+#define LATE_WINDOW 256 /* a frame this far behind is late; further back, the stream restarted */
+
+void vm_init(struct view_model *m, uint64_t stale_us)
+{
+	memset(m, 0, sizeof(*m));
+	m->status = VIEW_LINK_DOWN;
+	m->stale_us = stale_us;
+	strcpy(m->ctrl_state, "?");
+}
+
+static void drop_scene(struct view_model *m)
+{
+	free(m->h_mm);
+	free(m->tile_frame);
+	free(m->tile_seen);
+	free(m->dirty);
+	m->h_mm = NULL;
+	m->tile_frame = NULL;
+	m->tile_seen = NULL;
+	m->dirty = NULL;
+	m->have_scene = false;
+	m->dirty_count = 0;
+	m->tiles_x = m->tiles_y = 0;
+	memset(&m->scene, 0, sizeof(m->scene));
+	m->obj.valid = false;
+}
+
+void vm_free(struct view_model *m)
+{
+	drop_scene(m);
+}
+
+void vm_restart(struct view_model *m, uint64_t now_us)
+{
+	drop_scene(m);
+	m->st.restarts++;
+	m->restart_us = now_us ? now_us : 1;
+	m->have_seq = false;
+	m->have_offset = false;
+	m->have_prev_best = false;
+	m->st.latency_valid = false;
+}
+
+void vm_link(struct view_model *m, bool up, uint64_t now_us)
+{
+	if (m->link_up && !up)
+		m->st.link_drops++;
+	if (!m->link_up && up) {
+		/* A replugged link starts a new stream: sequence numbers and clock start over. */
+		m->have_seq = false;
+		m->have_offset = false;
+		m->have_prev_best = false;
+		m->last_rx_us = now_us;
+	}
+	m->link_up = up;
+	vm_tick(m, now_us);
+}
+
+bool vm_frame(struct view_model *m, uint32_t seq, unsigned seq_bits, uint64_t now_us)
+{
+	uint32_t mask = seq_bits >= 32 ? 0xffffffffu : (1u << seq_bits) - 1u;
+	uint32_t half = mask / 2u + 1u;
+
+	m->last_rx_us = now_us;
+	if (!m->link_up)
+		m->link_up = true; /* data proves the link is up */
+	seq &= mask;
+	if (m->have_seq) {
+		uint32_t ahead = (seq - m->seq_next) & mask;
+		uint32_t behind = (m->seq_next - seq) & mask;
+		if (ahead != 0 && behind <= LATE_WINDOW && behind < half) {
+			m->st.late++;
+			return false;
+		}
+		if (ahead < half)
+			m->st.dropped += ahead;
+		/* else: far out of order, the sender restarted its counter; resynchronise. */
+	}
+	m->have_seq = true;
+	m->seq_next = (seq + 1u) & mask;
+	m->st.frames++;
+	m->window_frames++;
+	return true;
+}
+
+void vm_bad(struct view_model *m)
+{
+	m->st.bad++;
+}
+
+static bool scene_equal(const struct view_scene *a, const struct view_scene *b)
+{
+	return a->nx == b->nx && a->ny == b->ny && a->dx_um == b->dx_um && a->depth_um == b->depth_um &&
+	       a->tile_w == b->tile_w && a->tile_h == b->tile_h && a->scene_id == b->scene_id;
+}
+
+enum swell_err vm_scene(struct view_model *m, const struct view_scene *s, uint64_t now_us)
+{
+	if (!s || s->nx < 2 || s->ny < 2 || s->nx > VIEW_MAX_SIDE || s->ny > VIEW_MAX_SIDE ||
+	    s->dx_um == 0 || s->tile_w == 0 || s->tile_h == 0 || s->tile_w > VIEW_MAX_TILE ||
+	    s->tile_h > VIEW_MAX_TILE)
+		return SWELL_ERANGE;
+	if (m->have_scene && scene_equal(&m->scene, s))
+		return SWELL_OK;
+
+	uint16_t tx = (uint16_t)((s->nx + s->tile_w - 1) / s->tile_w);
+	uint16_t ty = (uint16_t)((s->ny + s->tile_h - 1) / s->tile_h);
+	size_t cells = (size_t)s->nx * s->ny, tiles = (size_t)tx * ty;
+	float *h = calloc(cells, sizeof(*h));
+	uint32_t *ts = calloc(tiles, sizeof(*ts));
+	bool *seen = calloc(tiles, sizeof(*seen));
+	uint8_t *dirty = calloc(tiles, 1);
+	if (!h || !ts || !seen || !dirty) {
+		free(h);
+		free(ts);
+		free(seen);
+		free(dirty);
+		return SWELL_ESIZE;
+	}
+	if (m->have_scene)
+		vm_restart(m, now_us); /* a different scene: the controller was restarted or reconfigured */
+	m->h_mm = h;
+	m->tile_frame = ts;
+	m->tile_seen = seen;
+	m->dirty = dirty;
+	m->scene = *s;
+	m->tiles_x = tx;
+	m->tiles_y = ty;
+	/* The flat surface is the first thing to show: every tile starts dirty. */
+	memset(m->dirty, 1, tiles);
+	m->dirty_count = (uint32_t)tiles;
+	m->have_scene = true;
+	return SWELL_OK;
+}
+
+void vm_tile_rect(const struct view_model *m, uint16_t tx, uint16_t ty, uint16_t *i0, uint16_t *j0,
+		  uint16_t *w, uint16_t *h)
+{
+	uint32_t x = (uint32_t)tx * m->scene.tile_w, y = (uint32_t)ty * m->scene.tile_h;
+	uint32_t cw = m->scene.tile_w, ch = m->scene.tile_h;
+
+	if (x + cw > m->scene.nx)
+		cw = m->scene.nx - x;
+	if (y + ch > m->scene.ny)
+		ch = m->scene.ny - y;
+	*i0 = (uint16_t)x;
+	*j0 = (uint16_t)y;
+	*w = (uint16_t)cw;
+	*h = (uint16_t)ch;
+}
+
+enum swell_err vm_cells(struct view_model *m, uint16_t tx, uint16_t ty, uint16_t col, uint16_t row,
+			uint16_t n, uint32_t frame, unsigned frame_bits, const int32_t *h_lsb)
+{
+	if (!m->have_scene) {
+		m->st.ignored++;
+		return SWELL_ESTATE;
+	}
+	if (!h_lsb || tx >= m->tiles_x || ty >= m->tiles_y || frame_bits == 0 || frame_bits > 32)
+		return SWELL_ERANGE;
+	uint16_t i0, j0, w, h;
+	vm_tile_rect(m, tx, ty, &i0, &j0, &w, &h);
+	if (row >= h || n == 0 || (uint32_t)col + n > w)
+		return SWELL_ERANGE;
+	uint32_t mask = frame_bits == 32 ? 0xffffffffu : (1u << frame_bits) - 1u;
+	uint32_t window = (mask >> 2) + 1u; /* how far back counts as late: a quarter, at least 1 */
+	size_t t = (size_t)ty * m->tiles_x + tx;
+	frame &= mask;
+	uint32_t ahead = (frame - m->tile_frame[t]) & mask;
+	if (m->tile_seen[t] && ahead != 0 && ahead > mask - window) {
+		m->st.late++;
+		return SWELL_ESTATE;
+	}
+	float *dst = m->h_mm + (size_t)(j0 + row) * m->scene.nx + i0 + col;
+	for (uint16_t c = 0; c < n; c++)
+		dst[c] = (float)h_lsb[c] / (float)SWELL_H_ONE_MM;
+	m->tile_seen[t] = true;
+	m->tile_frame[t] = frame;
+	if (!m->dirty[t]) {
+		m->dirty[t] = 1;
+		m->dirty_count++;
+	}
+	m->st.cells += n;
+	return SWELL_OK;
+}
+
+enum swell_err vm_object(struct view_model *m, const struct view_object *o)
+{
+	if (!m->have_scene) {
+		m->st.ignored++;
+		return SWELL_ESTATE;
+	}
+	m->obj = *o;
+	return SWELL_OK;
+}
+
+void vm_rx(struct view_model *m, uint64_t now_us)
+{
+	m->last_rx_us = now_us;
+	m->link_up = true;
+	m->st.frames++;
+	m->window_frames++;
+}
+
+void vm_heartbeat(struct view_model *m, const char *state, uint8_t error, uint16_t bad,
+		  uint16_t overruns)
+{
+	m->have_heartbeat = true;
+	m->ctrl_error = error;
+	m->ctrl_bad = bad;
+	m->ctrl_overruns = overruns;
+	size_t n = 0;
+	if (state)
+		for (; state[n] && n < sizeof(m->ctrl_state) - 1; n++)
+			m->ctrl_state[n] = state[n];
+	m->ctrl_state[n] = 0;
+	if (n == 0)
+		strcpy(m->ctrl_state, "?");
+}
+
+void vm_tile_done(struct view_model *m)
+{
+	m->st.tiles++;
+	m->window_tiles++;
+}
+
+void vm_clock(struct view_model *m, uint64_t ctrl_us, uint64_t rx_us)
+{
+	int64_t off = (int64_t)(rx_us - ctrl_us);
+
+	if (m->have_offset && rx_us - m->best_since_us >= 5000000u) {
+		/* Start a new window; the previous window's best still counts until this one is full. */
+		m->prev_best_us = m->best_offset_us;
+		m->have_prev_best = true;
+		m->best_offset_us = off;
+		m->best_since_us = rx_us;
+	}
+	if (!m->have_offset || off < m->best_offset_us) {
+		m->best_offset_us = off;
+		if (!m->have_offset)
+			m->best_since_us = rx_us;
+		m->have_offset = true;
+	}
+	int64_t best = m->best_offset_us;
+	if (m->have_prev_best && m->prev_best_us < best)
+		best = m->prev_best_us;
+	float excess = (float)(off - best);
+	m->lat_avg_us = m->st.latency_valid ? m->lat_avg_us + 0.05f * (excess - m->lat_avg_us) : excess;
+	m->st.latency_ms = m->lat_avg_us / 1000.0f;
+	m->st.latency_valid = true;
+}
+
+void vm_tick(struct view_model *m, uint64_t now_us)
+{
+	if (!m->have_window) {
+		m->window_us = now_us;
+		m->have_window = true;
+	}
+	if (now_us - m->window_us >= VIEW_RATE_WINDOW_US) {
+		float s = (float)(now_us - m->window_us) / 1e6f;
+		m->st.frame_hz = (float)m->window_frames / s;
+		m->st.tile_hz = (float)m->window_tiles / s;
+		m->window_frames = m->window_tiles = 0;
+		m->window_us = now_us;
+	}
+	if (!m->link_up)
+		m->status = VIEW_LINK_DOWN;
+	else if (!m->have_scene)
+		m->status = m->restart_us ? VIEW_RESTARTED : VIEW_WAIT_SCENE;
+	else if (now_us - m->last_rx_us > m->stale_us)
+		m->status = VIEW_STALE;
+	else
+		m->status = VIEW_LIVE;
+}
+
+bool vm_tile_dirty(const struct view_model *m, uint16_t tx, uint16_t ty)
+{
+	return m->have_scene && tx < m->tiles_x && ty < m->tiles_y && m->dirty[(size_t)ty * m->tiles_x + tx];
+}
+
+void vm_tile_clean(struct view_model *m, uint16_t tx, uint16_t ty)
+{
+	if (vm_tile_dirty(m, tx, ty)) {
+		m->dirty[(size_t)ty * m->tiles_x + tx] = 0;
+		m->dirty_count--;
+	}
+}
+
+const char *vm_status_str(enum view_status s)
+{
+	switch (s) {
+	case VIEW_LINK_DOWN: return "LINK DOWN";
+	case VIEW_WAIT_SCENE: return "WAITING FOR SCENE DESCRIPTION";
+	case VIEW_RESTARTED: return "CONTROLLER RESTARTED - WAITING FOR SCENE";
+	case VIEW_STALE: return "NO DATA - STALE";
+	case VIEW_LIVE: return "LIVE";
+	}
+	return "?";
+}

@@ -1,0 +1,157 @@
+/* The view model: everything swell-view shows, and nothing it invents. The decoder side fills it from
+ * received frames (scene description, height tiles, object pose and force, heartbeat, link events);
+ * the renderer and the HUD only read it. Host-only C11 (heights are float mm for the GPU).
+ *
+ * Robustness rules, each with a state the HUD shows:
+ * - late join: until a scene description arrives, tiles and poses are counted and dropped
+ *   (VIEW_WAIT_SCENE);
+ * - loss: gaps in the stream sequence are counted as dropped frames;
+ * - reordering: height data of a solver frame older than the one already held for its tile is
+ *   dropped (counted late);
+ * - controller restart: the decoder calls vm_restart (heartbeat back in the boot state), or a scene
+ *   description that differs arrives: the heights are cleared and the viewer waits for the scene
+ *   again (VIEW_RESTARTED);
+ * - link unplug/replug: the link side reports down/up (VIEW_LINK_DOWN); silence longer than
+ *   stale_us is VIEW_STALE. */
+#ifndef SWELL_VIEW_VM_H
+#define SWELL_VIEW_VM_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "swell/err.h"
+
+#define VIEW_MAX_SIDE 1024
+#define VIEW_MAX_TILE 64
+#define VIEW_RATE_WINDOW_US 1000000u /* rates are counted over one second */
+#define VIEW_RESTART_SHOW_US 3000000u /* how long "controller restarted" stays on screen */
+
+enum view_status {
+	VIEW_LINK_DOWN,   /* the link reports no connection (unplugged, socket error) */
+	VIEW_WAIT_SCENE,  /* connected, no scene description yet */
+	VIEW_RESTARTED,   /* the controller restarted; waiting for its new scene */
+	VIEW_STALE,       /* a scene is known but nothing arrived for stale_us */
+	VIEW_LIVE,
+};
+
+struct view_scene {
+	uint16_t nx, ny;         /* cells */
+	uint32_t dx_um;          /* cell side */
+	uint32_t depth_um;       /* rest depth */
+	uint8_t tile_w, tile_h;  /* cells a tile */
+	uint8_t scene_id;        /* the controller changes it whenever the scene changes */
+};
+
+struct view_object {
+	bool valid;
+	int32_t x_um, y_um, z_um;    /* centre of the box bottom, pool coordinates (origin: pool corner,
+				      * z = 0 the rest surface, up positive) */
+	uint32_t a_um, b_um, h_um;   /* footprint x, y and height */
+	int32_t fx_cN, fy_cN, fz_cN; /* force on the object, the one the device renders */
+};
+
+struct view_stats {
+	uint32_t frames;      /* good frames accepted */
+	uint32_t bad;         /* rejected by the decoder (CRC, truncated, unknown, out of range) */
+	uint32_t dropped;     /* missing sequence numbers */
+	uint32_t late;        /* reordered frames older than what is shown */
+	uint32_t ignored;     /* frames that arrived before the scene description */
+	uint32_t tiles;       /* tiles completed (the decoder calls vm_tile_done) */
+	uint32_t cells;       /* height samples accepted */
+	uint32_t restarts;    /* controller restarts seen */
+	uint32_t link_drops;  /* link up -> down transitions */
+	float frame_hz, tile_hz; /* over the last full rate window */
+	float latency_ms;     /* one-way delay above the best seen (see vm_clock) */
+	bool latency_valid;
+};
+
+struct view_model {
+	enum view_status status;
+	bool link_up;
+	bool have_scene;
+	struct view_scene scene;
+	uint16_t tiles_x, tiles_y;
+	float *h_mm;            /* nx * ny heights above rest, row-major (j * nx + i) */
+	uint32_t *tile_frame;   /* solver frame number of the newest data held for each tile */
+	bool *tile_seen;
+	uint8_t *dirty;         /* one flag a tile: changed since the renderer last took it */
+	uint32_t dirty_count;
+	struct view_object obj;
+	char ctrl_state[16];    /* controller state name from the heartbeat, "?" until one arrives */
+	uint8_t ctrl_error;     /* enum swell_err the controller reports */
+	uint16_t ctrl_bad, ctrl_overruns; /* the controller's own counters */
+	bool have_heartbeat;
+	struct view_stats st;
+	/* bookkeeping */
+	bool have_seq;
+	uint32_t seq_next;
+	uint64_t last_rx_us, restart_us, window_us;
+	bool have_window;
+	uint32_t window_frames, window_tiles;
+	int64_t best_offset_us, prev_best_us;
+	uint64_t best_since_us;
+	bool have_offset, have_prev_best;
+	float lat_avg_us;
+	uint64_t stale_us;
+};
+
+/* Initialise empty (link down, no scene). stale_us: silence after which the data is called stale. */
+void vm_init(struct view_model *m, uint64_t stale_us);
+void vm_free(struct view_model *m);
+
+/* Link events from the link layer. */
+void vm_link(struct view_model *m, bool up, uint64_t now_us);
+
+/* A frame passed the decoder: `seq` is its stream sequence number (modulo 2^seq_bits). Counts loss
+ * and marks the data fresh. Returns false for a frame older than the newest seen (late). */
+bool vm_frame(struct view_model *m, uint32_t seq, unsigned seq_bits, uint64_t now_us);
+/* A frame the decoder rejected. */
+void vm_bad(struct view_model *m);
+
+/* Scene description. A different scene than the one held counts as a controller restart (the
+ * heights are cleared). SWELL_ERANGE for sizes out of range; nothing changes then. */
+enum swell_err vm_scene(struct view_model *m, const struct view_scene *s, uint64_t now_us);
+
+/* n heights of one row of tile (tx, ty), from cell (col, row) of the tile, in LSB of 2^-16 mm, of
+ * solver frame `frame` (modulo 2^frame_bits). Data of an older frame than the newest held for the tile
+ * (up to a quarter of the frame range back, at least one frame) is late: SWELL_ESTATE, nothing
+ * changes. SWELL_ESTATE before a scene, SWELL_ERANGE for cells outside the tile or the grid. */
+enum swell_err vm_cells(struct view_model *m, uint16_t tx, uint16_t ty, uint16_t col, uint16_t row,
+			uint16_t n, uint32_t frame, unsigned frame_bits, const int32_t *h_lsb);
+
+/* The decoder completed a tile (for the tile rate). */
+void vm_tile_done(struct view_model *m);
+
+/* Object pose and force. SWELL_ESTATE before a scene. */
+enum swell_err vm_object(struct view_model *m, const struct view_object *o);
+
+/* A frame without a sequence number (classic CAN): marks the data fresh and counts it. */
+void vm_rx(struct view_model *m, uint64_t now_us);
+
+/* Heartbeat: state name, last error, the controller's bad-frame and overrun counters. */
+void vm_heartbeat(struct view_model *m, const char *state, uint8_t error, uint16_t bad,
+		  uint16_t overruns);
+
+/* The controller restarted: drop the scene and heights, wait for a new scene description. */
+void vm_restart(struct view_model *m, uint64_t now_us);
+
+/* Clock sample: the controller's time of a frame (e.g. heartbeat count x period) against the local
+ * receive time. The latency estimate is how far the offset exceeds the smallest offset seen in the
+ * last 5 to 10 s (the best path; the window lets clock drift through), smoothed. It cannot see the
+ * constant part of the delay, and the HUD says so ("over best"). */
+void vm_clock(struct view_model *m, uint64_t ctrl_us, uint64_t rx_us);
+
+/* Advance time: rates, staleness, how long a restart stays shown. */
+void vm_tick(struct view_model *m, uint64_t now_us);
+
+/* Tile dirty flags: the renderer uploads those and clears them. */
+bool vm_tile_dirty(const struct view_model *m, uint16_t tx, uint16_t ty);
+void vm_tile_clean(struct view_model *m, uint16_t tx, uint16_t ty);
+
+/* Cells of tile (tx, ty): origin and size, clipped at the grid's edge. */
+void vm_tile_rect(const struct view_model *m, uint16_t tx, uint16_t ty, uint16_t *i0, uint16_t *j0,
+		  uint16_t *w, uint16_t *h);
+
+const char *vm_status_str(enum view_status s);
+
+#endif
