@@ -1,0 +1,290 @@
+#define _GNU_SOURCE
+#include "ctl_link.h"
+
+#include <arpa/inet.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <linux/can.h>
+#include <linux/can/error.h>
+#include <linux/can/raw.h>
+#include <net/if.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/ioctl.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include "swell/transport.h"
+
+static int fail(char *err, size_t len, const char *what, const char *spec)
+{
+	snprintf(err, len, "%s %s: %s", what, spec, strerror(errno));
+	return -1;
+}
+
+static int open_udp(struct ctl_link *l, const char *spec, const char *arg, int device_side, char *err,
+		    size_t errlen)
+{
+	long port = device_side ? SWELL_UDP_PORT_DEVICE : SWELL_UDP_PORT_VIEWER;
+	struct sockaddr_in a;
+	char *end;
+
+	if (arg) {
+		port = strtol(arg, &end, 10);
+		if (*arg == '\0' || *end || port < 1 || port > 65535) {
+			snprintf(err, errlen, "%s: port '%s' is not in 1..65535", spec, arg);
+			return -1;
+		}
+	}
+	l->fd = socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+	if (l->fd < 0)
+		return fail(err, errlen, "socket for", spec);
+	memset(&a, 0, sizeof(a));
+	a.sin_family = AF_INET;
+	a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+	a.sin_port = htons((uint16_t)(device_side ? port : 0));
+	if (bind(l->fd, (struct sockaddr *)&a, sizeof(a)) < 0)
+		return fail(err, errlen, "bind", spec);
+	if (!device_side) {
+		a.sin_port = htons((uint16_t)port);
+		l->peer = a;
+		l->have_peer = 1;
+	}
+	snprintf(l->name, sizeof(l->name), "udp:%ld", port);
+	return 0;
+}
+
+static int open_can(struct ctl_link *l, const char *spec, const char *iface, char *err, size_t errlen)
+{
+	struct sockaddr_can a;
+	struct ifreq ifr;
+	can_err_mask_t mask = CAN_ERR_BUSOFF | CAN_ERR_CRTL | CAN_ERR_PROT;
+
+	if (!iface || !*iface || strlen(iface) >= IFNAMSIZ) {
+		snprintf(err, errlen, "%s: give an interface, e.g. can:can0", spec);
+		return -1;
+	}
+	l->fd = socket(PF_CAN, SOCK_RAW | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_RAW);
+	if (l->fd < 0)
+		return fail(err, errlen, "CAN socket for", spec);
+	memset(&ifr, 0, sizeof(ifr));
+	strcpy(ifr.ifr_name, iface);
+	if (ioctl(l->fd, SIOCGIFINDEX, &ifr) < 0)
+		return fail(err, errlen, "no CAN interface", spec);
+	setsockopt(l->fd, SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &mask, sizeof(mask));
+	memset(&a, 0, sizeof(a));
+	a.can_family = AF_CAN;
+	a.can_ifindex = ifr.ifr_ifindex;
+	if (bind(l->fd, (struct sockaddr *)&a, sizeof(a)) < 0)
+		return fail(err, errlen, "bind", spec);
+	snprintf(l->name, sizeof(l->name), "can:%s", iface);
+	return 0;
+}
+
+static int open_usb(struct ctl_link *l, const char *spec, const char *dir, char *err, size_t errlen)
+{
+	const struct swell_usb_ffs_iface iface = {
+		.class_code = SWELL_USB_CLASS,
+		.ep_out = SWELL_USB_EP_OUT,
+		.ep_in = SWELL_USB_EP_IN,
+		.fs_packet = SWELL_USB_PACKET,
+		.name = "swell controller",
+	};
+	enum swell_err e;
+
+	if (!dir || !*dir) {
+		snprintf(err, errlen, "%s: give the FunctionFS mount, e.g. usb:/dev/ffs-swell", spec);
+		return -1;
+	}
+	e = swell_usb_ffs_open(&l->usb, dir, &iface);
+	if (e != SWELL_OK) {
+		snprintf(err, errlen, "%s: FunctionFS open failed: %s (errno %d)", spec, swell_err_str(e),
+			 l->usb.last_errno);
+		return -1;
+	}
+	l->fd = l->usb.ep0;
+	snprintf(l->name, sizeof(l->name), "usb");
+	return 0;
+}
+
+int ctl_link_open(struct ctl_link *l, const char *spec, int device_side, uint8_t node, char *err,
+		  size_t errlen)
+{
+	char kind[8] = "";
+	const char *arg = strchr(spec, ':');
+	size_t klen = arg ? (size_t)(arg - spec) : strlen(spec);
+
+	memset(l, 0, sizeof(*l));
+	l->fd = -1;
+	l->node = node;
+	if (klen >= sizeof(kind)) {
+		snprintf(err, errlen, "link '%s' is not udp[:PORT], can:IFACE or usb:FFS_DIR", spec);
+		return -1;
+	}
+	memcpy(kind, spec, klen);
+	if (arg)
+		arg++;
+	if (!strcmp(kind, "udp")) {
+		l->kind = CTL_LINK_UDP;
+		return open_udp(l, spec, arg, device_side, err, errlen);
+	}
+	if (!strcmp(kind, "can")) {
+		l->kind = CTL_LINK_CAN;
+		return open_can(l, spec, arg, err, errlen);
+	}
+	if (!strcmp(kind, "usb")) {
+		l->kind = CTL_LINK_USB;
+		return open_usb(l, spec, arg, err, errlen);
+	}
+	snprintf(err, errlen, "link '%s' is not udp[:PORT], can:IFACE or usb:FFS_DIR", spec);
+	return -1;
+}
+
+int ctl_link_fd(const struct ctl_link *l)
+{
+	if (l->kind == CTL_LINK_USB)
+		return l->usb_up ? l->usb.ep_out : l->usb.ep0;
+	return l->fd;
+}
+
+static size_t recv_usb(struct ctl_link *l, struct swell_msg *out, size_t cap)
+{
+	uint8_t buf[SWELL_PKT_MAX];
+	size_t len = 0, n = 0;
+	uint8_t seq;
+	enum swell_err e;
+
+	if (!l->usb_up) {
+		enum swell_usb_ffs_event ev = SWELL_USB_FFS_NONE;
+
+		/* endpoints closed: only ep0 events; enable opens the data endpoints */
+		swell_usb_ffs_poll(&l->usb, 0, &ev);
+		l->usb_up = swell_usb_ffs_enabled(&l->usb);
+		return 0;
+	}
+	/* called when poll() said the OUT endpoint is readable: this read does not wait */
+	e = swell_usb_ffs_read(&l->usb, buf, sizeof(buf), &len);
+	if (e == SWELL_ESTATE) {
+		l->usb_up = 0;
+		return 0;
+	}
+	if (e != SWELL_OK || len == 0)
+		return 0;
+	l->frames_rx++;
+	if (swell_pkt_decode(buf, len, out, cap, &n, &seq, &l->st) != SWELL_OK)
+		return 0;
+	return n;
+}
+
+size_t ctl_link_recv(struct ctl_link *l, struct swell_msg *out, size_t cap)
+{
+	uint8_t buf[SWELL_PKT_MAX + 1];
+	size_t n = 0;
+	uint8_t seq;
+
+	if (l->kind == CTL_LINK_USB)
+		return recv_usb(l, out, cap);
+	if (l->kind == CTL_LINK_CAN) {
+		struct can_frame f;
+		ssize_t r = read(l->fd, &f, sizeof(f));
+
+		if (r != (ssize_t)sizeof(f) || cap < 1)
+			return 0;
+		l->frames_rx++;
+		if (f.can_id & (CAN_ERR_FLAG | CAN_RTR_FLAG | CAN_EFF_FLAG)) {
+			l->st.rejected[SWELL_EUNKNOWN]++; /* error frames and foreign formats: counted, dropped */
+			return 0;
+		}
+		if (swell_can_decode(f.can_id, f.data, f.can_dlc, out, &l->st) != SWELL_OK)
+			return 0;
+		return 1;
+	}
+	{
+		struct sockaddr_in from;
+		socklen_t flen = sizeof(from);
+		ssize_t r = recvfrom(l->fd, buf, sizeof(buf), 0, (struct sockaddr *)&from, &flen);
+
+		if (r < 0)
+			return 0;
+		l->frames_rx++;
+		if (swell_pkt_decode(buf, (size_t)r, out, cap, &n, &seq, &l->st) != SWELL_OK)
+			return 0;
+		/* answer whoever spoke last: the device (device link) or a viewer (host link) */
+		if (!l->have_peer || from.sin_port != l->peer.sin_port ||
+		    from.sin_addr.s_addr != l->peer.sin_addr.s_addr) {
+			l->peer = from;
+			l->have_peer = 1;
+		}
+		return n;
+	}
+}
+
+static void send_bytes(struct ctl_link *l, const uint8_t *p, size_t len)
+{
+	ssize_t r;
+
+	if (l->kind == CTL_LINK_USB) {
+		/* FunctionFS writes wait for the host to take the packet: a host that stops reading
+		 * stalls this link, which is why the force path never waits on the host link */
+		if (!l->usb_up || swell_usb_ffs_write(&l->usb, p, len) != SWELL_OK)
+			l->tx_errors++;
+		else
+			l->frames_tx++;
+		return;
+	}
+	if (!l->have_peer)
+		return;
+	r = sendto(l->fd, p, len, 0, (struct sockaddr *)&l->peer, sizeof(l->peer));
+	if (r != (ssize_t)len)
+		l->tx_errors++;
+	else
+		l->frames_tx++;
+}
+
+void ctl_link_send(struct ctl_link *l, const struct swell_msg *m, size_t n)
+{
+	size_t k = 0;
+
+	if (l->kind == CTL_LINK_CAN) {
+		for (k = 0; k < n; k++) {
+			struct can_frame f;
+			uint32_t id;
+			uint8_t len;
+
+			memset(&f, 0, sizeof(f));
+			if (swell_can_encode(&m[k], &id, f.data, &len) != SWELL_OK) {
+				l->tx_errors++;
+				continue;
+			}
+			f.can_id = id;
+			f.can_dlc = len;
+			if (write(l->fd, &f, sizeof(f)) != (ssize_t)sizeof(f))
+				l->tx_errors++; /* a full TX queue drops: the next tick sends a fresher value */
+			else
+				l->frames_tx++;
+		}
+		return;
+	}
+	while (k < n) {
+		uint8_t pkt[SWELL_PKT_MAX];
+		size_t len = 0, used = 0;
+
+		if (swell_pkt_encode(l->node, l->seq++, m + k, n - k, pkt, sizeof(pkt), &len, &used) != SWELL_OK ||
+		    used == 0) {
+			l->tx_errors++;
+			return;
+		}
+		send_bytes(l, pkt, len);
+		k += used;
+	}
+}
+
+void ctl_link_close(struct ctl_link *l)
+{
+	if (l->kind == CTL_LINK_USB)
+		swell_usb_ffs_close(&l->usb);
+	else if (l->fd >= 0)
+		close(l->fd);
+	l->fd = -1;
+}

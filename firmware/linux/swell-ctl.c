@@ -1,0 +1,394 @@
+/* swell-ctl: the controller as a Linux real-time process. The core (firmware/core) does everything
+ * that matters; this port gives it a clock, its two links and a report.
+ *
+ * Clock: absolute-deadline clock_nanosleep on CLOCK_MONOTONIC at the device rate, under SCHED_FIFO
+ * and mlockall where permitted (a warning otherwise); or, with --clock device, one tick per
+ * DEVICE_POS received (the device's servo clock drives the loop, as on a HapticMaster bus), with the
+ * silence of the device still detected by a timeout of silent_ticks periods.
+ * SIGINT/SIGTERM: zero force is sent first, then the report, then a clean exit. */
+#define _GNU_SOURCE
+#include <errno.h>
+#include <math.h>
+#include <poll.h>
+#include <sched.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/mman.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "ctl_link.h"
+#include "swell/ctl.h"
+
+static const char usage[] =
+	"usage: swell-ctl [options]\n"
+	"The swell controller as a Linux real-time process: wave solver, force law and safety on the\n"
+	"device tick, telemetry to a viewer.\n"
+	"\n"
+	"  --device LINK       device (HapticMaster) link: udp[:PORT] (default udp:47800, listen),\n"
+	"                      can:IFACE, usb:FFS_DIR (FunctionFS mount: the controller is the USB device)\n"
+	"  --host LINK         viewer link: udp[:PORT] (default udp:47801, send to 127.0.0.1), can:IFACE,\n"
+	"                      usb:FFS_DIR, or none\n"
+	"  --clock internal|device   own absolute-deadline clock (default) or one tick per device sample\n"
+	"  --tick-hz N         device rate (default 2500; 1000 for classic CAN)\n"
+	"  --solver-hz N       solver rate (default 250; must divide the tick rate)\n"
+	"  --silent-ticks N    device silent this many ticks -> zero force and fault (default 2)\n"
+	"  --autorun           run whenever the device is there; leave a link-loss fault by itself\n"
+	"  --host-budget N     host messages a tick (default 16)\n"
+	"  --node N            node id on the bus, 0..15 (default 0)\n"
+	"  --seconds S         stop after S seconds of ticks (default: until SIGINT/SIGTERM)\n"
+	"  --no-rt             do not ask for SCHED_FIFO and mlockall\n"
+	"  --quiet             no status line while running\n"
+	"  -h, --help          this text\n"
+	"\n"
+	"On exit prints a report: ticks, solver steps, state, tick jitter (p50, p99, max), overruns, frames.\n"
+	"Exit status: 0 clean stop, 1 a link or the real-time set-up failed, 2 bad arguments.\n";
+
+static volatile sig_atomic_t stop_flag;
+
+static void on_signal(int sig)
+{
+	(void)sig;
+	stop_flag = 1;
+}
+
+struct opts {
+	const char *device, *host;
+	int device_clock, rt, quiet;
+	double seconds;
+	struct swell_ctl_config cfg;
+};
+
+static void die(const char *msg, const char *arg)
+{
+	fprintf(stderr, "swell-ctl: %s%s\n", msg, arg ? arg : "");
+	exit(2);
+}
+
+static long num(const char *opt, const char *v, long lo, long hi)
+{
+	char *end;
+	long x;
+
+	errno = 0;
+	x = strtol(v, &end, 10);
+	if (errno || *v == '\0' || *end || x < lo || x > hi) {
+		fprintf(stderr, "swell-ctl: %s '%s' is not a whole number in [%ld, %ld]\n", opt, v, lo, hi);
+		exit(2);
+	}
+	return x;
+}
+
+static void parse(int argc, char **argv, struct opts *o)
+{
+	int k;
+
+	memset(o, 0, sizeof(*o));
+	o->device = "udp";
+	o->host = "udp";
+	o->rt = 1;
+	swell_ctl_default_config(&o->cfg);
+	for (k = 1; k < argc; k++) {
+		const char *a = argv[k], *v = k + 1 < argc ? argv[k + 1] : NULL;
+
+		if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
+			fputs(usage, stdout);
+			exit(0);
+		} else if (!strcmp(a, "--autorun")) {
+			o->cfg.autorun = 1;
+		} else if (!strcmp(a, "--no-rt")) {
+			o->rt = 0;
+		} else if (!strcmp(a, "--quiet")) {
+			o->quiet = 1;
+		} else if (!v || strncmp(a, "--", 2)) {
+			die(v ? "unexpected argument " : "missing value or unknown option ", a);
+		} else {
+			k++;
+			if (!strcmp(a, "--device"))
+				o->device = v;
+			else if (!strcmp(a, "--host"))
+				o->host = v;
+			else if (!strcmp(a, "--clock")) {
+				if (strcmp(v, "internal") && strcmp(v, "device"))
+					die("--clock must be internal or device, not ", v);
+				o->device_clock = !strcmp(v, "device");
+			} else if (!strcmp(a, "--tick-hz"))
+				o->cfg.tick_hz = (uint32_t)num(a, v, 10, 100000);
+			else if (!strcmp(a, "--solver-hz"))
+				o->cfg.solver_hz = (uint32_t)num(a, v, 1, 100000);
+			else if (!strcmp(a, "--silent-ticks"))
+				o->cfg.silent_ticks = (uint16_t)num(a, v, 1, 10000);
+			else if (!strcmp(a, "--host-budget"))
+				o->cfg.host_budget = (uint16_t)num(a, v, 1, SWELL_CTL_QUEUE / 2);
+			else if (!strcmp(a, "--node"))
+				o->cfg.node = (uint8_t)num(a, v, 0, SWELL_NODE_MAX);
+			else if (!strcmp(a, "--seconds")) {
+				char *end;
+				o->seconds = strtod(v, &end);
+				if (*end || !(o->seconds > 0 && o->seconds < 1e7))
+					die("--seconds must be a positive number, not ", v);
+			} else
+				die("unknown option ", a);
+		}
+	}
+	o->cfg.recover_ticks = (uint16_t)(o->cfg.tick_hz / 10 > 0 ? o->cfg.tick_hz / 10 : 1);
+	{
+		enum swell_err e = swell_ctl_check(&o->cfg);
+
+		if (e != SWELL_OK) {
+			fprintf(stderr, "swell-ctl: configuration refused: %s (tick %u Hz, solver %u Hz)\n",
+				swell_err_str(e), o->cfg.tick_hz, o->cfg.solver_hz);
+			exit(2);
+		}
+	}
+}
+
+/* ---- timing statistics: lateness of each wake-up against its deadline ---- */
+
+#define HIST_US 20000 /* 1 us bins up to 20 ms; later goes in the last bin */
+
+struct jitter {
+	uint32_t hist[HIST_US + 1];
+	uint64_t n;
+	int64_t max_ns;
+};
+
+static void jitter_add(struct jitter *j, int64_t late_ns)
+{
+	int64_t us = late_ns < 0 ? 0 : late_ns / 1000;
+
+	j->hist[us > HIST_US ? HIST_US : us]++;
+	j->n++;
+	if (late_ns > j->max_ns)
+		j->max_ns = late_ns;
+}
+
+static double jitter_pct(const struct jitter *j, double p)
+{
+	uint64_t want = (uint64_t)ceil(p * (double)j->n), seen = 0;
+	int k;
+
+	for (k = 0; k <= HIST_US; k++) {
+		seen += j->hist[k];
+		if (seen >= want && want > 0)
+			return k;
+	}
+	return 0;
+}
+
+static int64_t ns_of(const struct timespec *t)
+{
+	return (int64_t)t->tv_sec * 1000000000 + t->tv_nsec;
+}
+
+static struct timespec ts_of(int64_t ns)
+{
+	struct timespec t = {(time_t)(ns / 1000000000), (long)(ns % 1000000000)};
+
+	return t;
+}
+
+static int64_t now_ns(void)
+{
+	struct timespec t;
+
+	clock_gettime(CLOCK_MONOTONIC, &t);
+	return ns_of(&t);
+}
+
+/* ---- the loop ---- */
+
+struct port {
+	struct swell_ctl c;
+	struct ctl_link dev, host;
+	int have_host;
+	uint32_t bad_seen;
+};
+
+static uint32_t rejected(const struct port *p)
+{
+	return swell_proto_rejected_total(&p->dev.st) + (p->have_host ? swell_proto_rejected_total(&p->host.st) : 0);
+}
+
+/* Take everything waiting on both links into the core; returns 1 if a DEVICE_POS came in. */
+static int take_input(struct port *p)
+{
+	struct swell_msg m[SWELL_PKT_MSGS_MAX + 1];
+	size_t n, k;
+	int pos = 0, rounds;
+	uint32_t bad;
+
+	for (rounds = 0; rounds < 64; rounds++) { /* bounded: a flood cannot hold the tick */
+		n = ctl_link_recv(&p->dev, m, sizeof(m) / sizeof(m[0]));
+		if (n == 0 && p->dev.frames_rx == 0)
+			break;
+		for (k = 0; k < n; k++) {
+			swell_ctl_rx(&p->c, SWELL_LINK_DEVICE, &m[k]);
+			pos |= m[k].type == SWELL_MSG_DEVICE_POS;
+		}
+		if (n == 0) {
+			struct pollfd pf = {ctl_link_fd(&p->dev), POLLIN, 0};
+			if (pf.fd < 0 || poll(&pf, 1, 0) <= 0)
+				break;
+		}
+	}
+	for (rounds = 0; p->have_host && rounds < 16; rounds++) {
+		struct pollfd pf = {ctl_link_fd(&p->host), POLLIN, 0};
+
+		if (pf.fd < 0 || poll(&pf, 1, 0) <= 0)
+			break;
+		n = ctl_link_recv(&p->host, m, sizeof(m) / sizeof(m[0]));
+		for (k = 0; k < n; k++)
+			swell_ctl_rx(&p->c, SWELL_LINK_HOST, &m[k]);
+	}
+	bad = rejected(p);
+	if (bad != p->bad_seen) {
+		swell_ctl_bad_frames(&p->c, bad - p->bad_seen);
+		p->bad_seen = bad;
+	}
+	return pos;
+}
+
+static void flush_output(struct port *p)
+{
+	struct swell_msg m[SWELL_CTL_QUEUE];
+	size_t n;
+
+	/* the force first: it is what the device waits for */
+	n = swell_ctl_tx(&p->c, SWELL_LINK_DEVICE, m, SWELL_CTL_QUEUE);
+	if (n)
+		ctl_link_send(&p->dev, m, n);
+	n = swell_ctl_tx(&p->c, SWELL_LINK_HOST, m, SWELL_CTL_QUEUE);
+	if (n && p->have_host)
+		ctl_link_send(&p->host, m, n);
+}
+
+static void setup_rt(int want)
+{
+	struct sched_param sp = {.sched_priority = 80};
+
+	if (!want)
+		return;
+	if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0)
+		fprintf(stderr, "swell-ctl: warning: mlockall: %s; running without locked memory\n", strerror(errno));
+	if (sched_setscheduler(0, SCHED_FIFO, &sp) != 0)
+		fprintf(stderr, "swell-ctl: warning: SCHED_FIFO: %s; running at normal priority\n", strerror(errno));
+}
+
+int main(int argc, char **argv)
+{
+	static struct port p;
+	static struct jitter jit;
+	struct opts o;
+	struct sigaction sa;
+	int32_t *arena;
+	size_t words;
+	char err[160];
+	int64_t period, next, start, last_status;
+	uint64_t max_ticks;
+	enum swell_err e;
+
+	parse(argc, argv, &o);
+	words = swell_ctl_arena_words(o.cfg.nx, o.cfg.ny);
+	arena = calloc(words, sizeof(*arena)); /* the only allocation, before the loop starts */
+	if (!arena) {
+		fprintf(stderr, "swell-ctl: out of memory\n");
+		return 1;
+	}
+	e = swell_ctl_init(&p.c, &o.cfg, arena, words);
+	if (e != SWELL_OK) {
+		fprintf(stderr, "swell-ctl: controller refused its configuration: %s\n", swell_err_str(e));
+		return 2;
+	}
+	if (ctl_link_open(&p.dev, o.device, 1, o.cfg.node, err, sizeof(err)) < 0) {
+		fprintf(stderr, "swell-ctl: device link: %s\n", err);
+		return 1;
+	}
+	if (strcmp(o.host, "none")) {
+		if (ctl_link_open(&p.host, o.host, 0, o.cfg.node, err, sizeof(err)) < 0) {
+			fprintf(stderr, "swell-ctl: host link: %s\n", err);
+			return 1;
+		}
+		p.have_host = 1;
+	}
+	memset(&sa, 0, sizeof(sa));
+	sa.sa_handler = on_signal;
+	sigaction(SIGINT, &sa, NULL);
+	sigaction(SIGTERM, &sa, NULL);
+	setup_rt(o.rt);
+	fprintf(stderr, "swell-ctl: %ux%u pool, tick %u Hz, solver %u Hz, device %s, host %s, clock %s\n",
+		o.cfg.nx, o.cfg.ny, o.cfg.tick_hz, o.cfg.solver_hz, p.dev.name, p.have_host ? p.host.name : "none",
+		o.device_clock ? "device" : "internal");
+
+	period = 1000000000 / o.cfg.tick_hz;
+	max_ticks = o.seconds > 0 ? (uint64_t)(o.seconds * o.cfg.tick_hz + 0.5) : UINT64_MAX;
+	start = next = now_ns();
+	last_status = start;
+	while (!stop_flag && p.c.n.ticks < max_ticks) {
+		if (o.device_clock) {
+			/* tick on each device sample; a silent device still ticks every period */
+			struct pollfd pf = {ctl_link_fd(&p.dev), POLLIN, 0};
+			int r = poll(&pf, 1, (int)(period / 1000000) + 1);
+
+			if (r < 0 && errno == EINTR)
+				continue;
+			take_input(&p);
+		} else {
+			struct timespec dl;
+			int64_t late;
+
+			next += period;
+			dl = ts_of(next);
+			while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &dl, NULL) == EINTR && !stop_flag)
+				;
+			late = now_ns() - next;
+			jitter_add(&jit, late);
+			if (late > period) { /* a whole period lost: count it and start again from now */
+				swell_ctl_overrun(&p.c);
+				next = now_ns();
+			}
+			take_input(&p);
+		}
+		swell_ctl_tick(&p.c);
+		flush_output(&p);
+		if (!o.quiet && now_ns() - last_status > 1000000000) {
+			last_status = now_ns();
+			fprintf(stderr, "\rswell-ctl: %-7s tick %u, solver %u, force %+.2f N, overruns %u   ",
+				swell_ctl_state_name(p.c.state), p.c.n.ticks, p.c.n.solver_steps,
+				p.c.force_dev_uN[2] / 1e6, p.c.n.overruns);
+		}
+	}
+	/* zero force first, then everything else */
+	swell_ctl_zero_force(&p.c);
+	flush_output(&p);
+	if (!o.quiet)
+		fputc('\n', stderr);
+
+	printf("swell-ctl report\n");
+	printf("  ran             %.3f s, %u ticks at %u Hz, %u solver steps at %u Hz\n",
+	       (now_ns() - start) / 1e9, p.c.n.ticks, o.cfg.tick_hz, p.c.n.solver_steps, o.cfg.solver_hz);
+	printf("  state           %s (last error: %s), faults %u\n", swell_ctl_state_name(p.c.state),
+	       swell_err_str(p.c.last_err), p.c.n.faults);
+	if (!o.device_clock)
+		printf("  tick jitter     p50 %.0f us, p99 %.0f us, max %.0f us (lateness of the wake-up)\n",
+		       jitter_pct(&jit, 0.5), jitter_pct(&jit, 0.99), jit.max_ns / 1e3);
+	printf("  overruns        %u\n", p.c.n.overruns);
+	printf("  work            worst tick %u cell-operations (a whole step: %u)\n", p.c.n.work_max,
+	       6u * o.cfg.nx * o.cfg.ny);
+	printf("  device link     %s: %u frames in, %u out, %u bad, %u send errors, %u samples lost\n", p.dev.name,
+	       p.dev.frames_rx, p.dev.frames_tx, swell_proto_rejected_total(&p.dev.st), p.dev.tx_errors,
+	       p.c.n.dev_lost);
+	if (p.have_host)
+		printf("  host link       %s: %u frames in, %u out, %u bad; %u height quads, %u dropped\n",
+		       p.host.name, p.host.frames_rx, p.host.frames_tx, swell_proto_rejected_total(&p.host.st),
+		       p.c.n.quads_sent, p.c.q[SWELL_LINK_HOST].dropped);
+	printf("  parameters      %u set, %u refused\n", p.c.n.params_set, p.c.n.params_refused);
+	printf("  final force     %+.3f N (zero sent on exit)\n", p.c.force_dev_uN[2] / 1e6);
+	ctl_link_close(&p.dev);
+	if (p.have_host)
+		ctl_link_close(&p.host);
+	free(arena);
+	return 0;
+}
