@@ -5,6 +5,17 @@
 
 #include "swell/crc.h"
 
+/* Tile flags. Z1: every flow of the tile's edges was zero after the last finished step. ZERO: after
+ * the last two (then the increments e w dh are zero after damping too, not just cancelling an old
+ * flow). NONZERO: some edge gave a non-zero flow in the step in progress. CHANGED: a cell of the tile
+ * changed in the last finished step. TOUCHED: a cell changed (from outside, or at the finish) in the
+ * step in progress. */
+#define T_ZERO 1u
+#define T_NONZERO 2u
+#define T_CHANGED 4u
+#define T_TOUCHED 8u
+#define T_Z1 16u
+
 static int e_eff_stable(uint64_t e_eff, uint64_t q)
 {
 	/* e_eff < (1+q)/(4q) with both in Q1.30:  4 e_eff q < (2^30 + q) 2^30, exact in uint64. */
@@ -58,6 +69,8 @@ static void apply_params(struct swell_wave *w, const struct swell_wave_params *p
 	w->c_half = w->e_eff / 2;
 	w->c_wall = w->e_eff + w->c_half;
 	w->q = SWELL_Q30_ONE - p->damping;
+	if (w->tile) /* new coefficients round differently: every tile awake */
+		memset(w->tile, 0, (size_t)w->tiles_x * w->tiles_y);
 }
 
 enum swell_err swell_wave_init(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage,
@@ -85,6 +98,10 @@ enum swell_err swell_wave_init(struct swell_wave *w, uint16_t nx, uint16_t ny, i
 	w->f_n = storage + 4 * n;
 	w->f_ne = storage + 5 * n;
 	w->f_nw = storage + 6 * n;
+	w->tile = (uint8_t *)(storage + 7 * n);
+	w->tiles_x = (uint16_t)((nx + SWELL_WAVE_TILE - 1) / SWELL_WAVE_TILE);
+	w->tiles_y = (uint16_t)((ny + SWELL_WAVE_TILE - 1) / SWELL_WAVE_TILE);
+	w->sleep = 1;
 	memset(storage, 0, SWELL_WAVE_WORDS(nx, ny) * sizeof(int32_t));
 	apply_params(w, p);
 	return SWELL_OK;
@@ -109,7 +126,38 @@ void swell_wave_rest(struct swell_wave *w)
 
 	/* v, acc and the four flow arrays are contiguous; a step in progress starts over */
 	memset(w->h + n, 0, 6 * n * sizeof(int32_t));
+	memset(w->tile, 0, (size_t)w->tiles_x * w->tiles_y);
 	w->next_row = 0;
+}
+
+void swell_wave_touched(struct swell_wave *w, int i, int j)
+{
+	if (i < 0 || j < 0 || i >= w->nx || j >= w->ny)
+		return;
+	w->tile[(j / SWELL_WAVE_TILE) * w->tiles_x + i / SWELL_WAVE_TILE] |= T_TOUCHED;
+}
+
+void swell_wave_set_sleep(struct swell_wave *w, int on)
+{
+	w->sleep = on != 0;
+	memset(w->tile, 0, (size_t)w->tiles_x * w->tiles_y);
+}
+
+/* A tile may be skipped: its edges gave zero last step and nothing around it has changed since. */
+static int asleep(const struct swell_wave *w, int tx, int ty)
+{
+	const uint8_t *t = w->tile;
+	int x0 = tx > 0 ? tx - 1 : 0, x1 = tx + 1 < w->tiles_x ? tx + 1 : tx;
+	int y0 = ty > 0 ? ty - 1 : 0, y1 = ty + 1 < w->tiles_y ? ty + 1 : ty;
+	int x, y;
+
+	if (!(t[ty * w->tiles_x + tx] & T_ZERO))
+		return 0;
+	for (y = y0; y <= y1; y++)
+		for (x = x0; x <= x1; x++)
+			if (t[y * w->tiles_x + x] & (T_CHANGED | T_TOUCHED))
+				return 0;
+	return 1;
 }
 
 /* New flow of one edge from its old flow and the height difference (see wave.h for the rounding). */
@@ -126,9 +174,10 @@ static inline int32_t flow(int32_t f, int32_t dh, q30_t c, q30_t q, int damp, ui
 	return s;
 }
 
-/* All edges owned by row j: E edges of the row, and N, NE, NW edges up to row j+1 (none for the
- * top row). The first and last cells of a row are peeled off so the inner loop has no branches. */
-static inline void step_row(struct swell_wave *w, int j, int damp)
+/* The edges owned by cells [i0, i1) of row j: E edges, and N, NE, NW edges up to row j+1 (none for
+ * the top row). Cells on the west and east walls are peeled off so the inner loop has no branches.
+ * Returns non-zero if any new flow is non-zero. */
+static inline int32_t step_segment(struct swell_wave *w, int j, int i0, int i1, int damp)
 {
 	const int nx = w->nx;
 	const int up = j + 1 < w->ny;
@@ -142,46 +191,86 @@ static inline void step_row(struct swell_wave *w, int j, int damp)
 	int32_t *restrict fn = w->f_n + j * nx;
 	int32_t *restrict fne = w->f_ne + j * nx;
 	int32_t *restrict fnw = w->f_nw + j * nx;
+	const int e_end = i1 < nx - 1 ? i1 : nx - 1;
 	uint32_t sat = 0;
-	int32_t f;
+	int32_t f, any = 0;
 	int i;
 
-	for (i = 0; i < nx - 1; i++) {
+	for (i = i0; i < e_end; i++) {
 		fe[i] = f = flow(fe[i], h[i + 1] - h[i], ce, q, damp, &sat);
+		any |= f;
 		v[i] += f;
 		v[i + 1] -= f;
 	}
 	if (up) {
-		/* i = 0: N edge along the west wall, NE diagonal, no NW */
-		fn[0] = f = flow(fn[0], hu[0] - h[0], cw, q, damp, &sat);
-		v[0] += f;
-		vu[0] -= f;
-		fne[0] = f = flow(fne[0], hu[1] - h[0], ch, q, damp, &sat);
-		v[0] += f;
-		vu[1] -= f;
-		for (i = 1; i < nx - 1; i++) {
+		int end = i1 == nx ? nx - 1 : i1;
+
+		i = i0;
+		if (i0 == 0) { /* N edge along the west wall, NE diagonal, no NW */
+			fn[0] = f = flow(fn[0], hu[0] - h[0], cw, q, damp, &sat);
+			any |= f;
+			v[0] += f;
+			vu[0] -= f;
+			fne[0] = f = flow(fne[0], hu[1] - h[0], ch, q, damp, &sat);
+			any |= f;
+			v[0] += f;
+			vu[1] -= f;
+			i = 1;
+		}
+		for (; i < end; i++) {
 			int32_t fs;
 
 			fn[i] = f = flow(fn[i], hu[i] - h[i], c1, q, damp, &sat);
 			fs = f;
+			any |= f;
 			vu[i] -= f;
 			fne[i] = f = flow(fne[i], hu[i + 1] - h[i], ch, q, damp, &sat);
 			fs += f;
+			any |= f;
 			vu[i + 1] -= f;
 			fnw[i] = f = flow(fnw[i], hu[i - 1] - h[i], ch, q, damp, &sat);
 			fs += f;
+			any |= f;
 			vu[i - 1] -= f;
 			v[i] += fs;
 		}
-		/* i = nx-1: N edge along the east wall, NW diagonal, no NE */
-		fn[i] = f = flow(fn[i], hu[i] - h[i], cw, q, damp, &sat);
-		v[i] += f;
-		vu[i] -= f;
-		fnw[i] = f = flow(fnw[i], hu[i - 1] - h[i], ch, q, damp, &sat);
-		v[i] += f;
-		vu[i - 1] -= f;
+		if (i1 == nx) { /* N edge along the east wall, NW diagonal, no NE */
+			i = nx - 1;
+			fn[i] = f = flow(fn[i], hu[i] - h[i], cw, q, damp, &sat);
+			any |= f;
+			v[i] += f;
+			vu[i] -= f;
+			fnw[i] = f = flow(fnw[i], hu[i - 1] - h[i], ch, q, damp, &sat);
+			any |= f;
+			v[i] += f;
+			vu[i - 1] -= f;
+		}
 	}
 	w->saturations += sat;
+	return any;
+}
+
+/* Row j, tile by tile, skipping sleeping tiles. */
+static inline void step_row(struct swell_wave *w, int j, int damp)
+{
+	const int ty = j / SWELL_WAVE_TILE;
+	int tx;
+
+	if (!w->sleep) {
+		step_segment(w, j, 0, w->nx, damp);
+		return;
+	}
+	for (tx = 0; tx < w->tiles_x; tx++) {
+		const int i0 = tx * SWELL_WAVE_TILE;
+		const int i1 = i0 + SWELL_WAVE_TILE < w->nx ? i0 + SWELL_WAVE_TILE : w->nx;
+
+		if (asleep(w, tx, ty)) {
+			w->tiles_skipped++;
+			continue;
+		}
+		if (step_segment(w, j, i0, i1, damp))
+			w->tile[ty * w->tiles_x + tx] |= T_NONZERO;
+	}
 }
 
 int swell_wave_step_rows(struct swell_wave *w, int rows)
@@ -205,18 +294,33 @@ void swell_wave_step_finish(struct swell_wave *w)
 {
 	const int n = w->nx * w->ny;
 	int32_t *t;
-	int a;
+	int a, i, j;
 
 	/* v and acc swap at every finish: the six arrays after h stay contiguous, in some order */
 	swell_wave_step_rows(w, w->ny);
-	for (a = 0; a < n; a++) {
-		int32_t h = w->h[a] + w->acc[a]; /* |h| <= 2^27, |acc| <= 8 * 2^27: no overflow */
+	for (j = 0; j < w->ny; j++) {
+		uint8_t *trow = w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x;
 
-		if (h > SWELL_H_MAX || h < -SWELL_H_MAX) {
-			h = swell_clamp(h, -SWELL_H_MAX, SWELL_H_MAX);
-			w->saturations++;
+		for (i = 0; i < w->nx; i++) {
+			int32_t d = w->acc[a = j * w->nx + i];
+			int32_t h = w->h[a] + d; /* |h| <= 2^27, |acc| <= 2^30: no overflow */
+
+			if (h > SWELL_H_MAX || h < -SWELL_H_MAX) {
+				h = swell_clamp(h, -SWELL_H_MAX, SWELL_H_MAX);
+				w->saturations++;
+			}
+			if (d)
+				trow[i / SWELL_WAVE_TILE] |= T_TOUCHED;
+			w->h[a] = h;
 		}
-		w->h[a] = h;
+	}
+	/* the step is done: its flags become the last finished step's */
+	for (a = 0; a < (int)w->tiles_x * w->tiles_y; a++) {
+		uint8_t f = w->tile[a];
+
+		uint8_t z1 = f & T_NONZERO ? 0u : T_Z1;
+
+		w->tile[a] = (uint8_t)(z1 | (z1 && (f & T_Z1) ? T_ZERO : 0u) | (f & T_TOUCHED ? T_CHANGED : 0u));
 	}
 	/* the accumulator becomes v; the old v, cleared, the next accumulator */
 	t = w->v;

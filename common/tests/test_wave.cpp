@@ -403,3 +403,47 @@ TEST_CASE("water added from outside arrives at the next finish and is conserved 
 	swell_wave_step_finish(&f.w);
 	CHECK(f.w.h[0] == SWELL_H_MAX);
 }
+
+TEST_CASE("sleeping tiles are lossless: bit-identical to the full update, splash, touches and all",
+	  "[wave][sleep]")
+{
+	for (double t : {0.0, 0.02}) {
+		Field awake(45, 37, 0.3, t), sleepy(45, 37, 0.3, t);
+		swell_wave_set_sleep(&awake.w, 0);
+		/* one local splash in a calm pool */
+		for (Field *f : {&awake, &sleepy}) {
+			swell_shape_gauss(f->w.h, 45, 37, 10 << 16, 8 << 16, 1 << 16, 3 * SWELL_H_ONE_MM);
+			swell_wave_rest(&f->w);
+		}
+		std::mt19937 rng(17);
+		for (int k = 0; k < 3000; k++) {
+			if (k % 97 == 50) { /* water moved in from outside, two ways */
+				int i = (int)(rng() % 45), j = (int)(rng() % 37);
+				int32_t d = (int32_t)(rng() % 2000) - 1000;
+				for (Field *f : {&awake, &sleepy}) {
+					swell_wave_add(&f->w, i, j, d);
+					f->w.h[(j * 45 + 44 - i)] += d;
+					swell_wave_touched(&f->w, 44 - i, j);
+				}
+			}
+			swell_wave_step(&awake.w);
+			swell_wave_step(&sleepy.w);
+			REQUIRE(swell_wave_checksum(&awake.w) == swell_wave_checksum(&sleepy.w));
+		}
+		CHECK(std::equal(awake.w.v, awake.w.v + awake.n(), sleepy.w.v));
+		const double total = 3000.0 * 37 * sleepy.w.tiles_x;
+		WARN("t " << t << ": " << sleepy.w.tiles_skipped << " of " << total << " tile-rows skipped ("
+			  << 100.0 * sleepy.w.tiles_skipped / total << "%)");
+		CHECK(awake.w.tiles_skipped == 0u);
+		if (t > 0)
+			CHECK(sleepy.w.tiles_skipped > 0u);
+	}
+	/* a calm pool costs nothing after the first two steps */
+	Field calm(64, 64, 0.2);
+	swell_wave_step(&calm.w);
+	swell_wave_step(&calm.w);
+	const uint32_t before = calm.w.tiles_skipped;
+	for (int k = 0; k < 10; k++)
+		swell_wave_step(&calm.w);
+	CHECK(calm.w.tiles_skipped - before == 10u * 64 * 8);
+}

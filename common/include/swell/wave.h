@@ -30,7 +30,13 @@
  *
  * Bounded work per call: a step can be split into row slices (swell_wave_step_rows) and a finishing
  * pass (swell_wave_step_finish), so that a controller tick never carries a whole grid step. Until the
- * finish, h and v still hold h(n) and h(n) - h(n-1): a force law may read them between slices. */
+ * finish, h and v still hold h(n) and h(n) - h(n-1): a force law may read them between slices.
+ *
+ * Sleeping tiles (lossless): the grid is cut into 8 x 8 tiles. A tile whose edges all gave zero flow
+ * in the last step, and none of whose cells nor its neighbour tiles' cells changed since, would give
+ * zero flows again (same height differences, same rounding): its edges are skipped, bit-identically.
+ * Anything that writes h from outside must say so with swell_wave_touched() (or swell_wave_rest()),
+ * or use swell_wave_add(). */
 #ifndef SWELL_WAVE_H
 #define SWELL_WAVE_H
 
@@ -47,7 +53,12 @@
 #define SWELL_WAVE_MIN_SIDE 2
 #define SWELL_WAVE_MAX_SIDE 1024
 #define SWELL_WAVE_ARRAYS 7 /* h, v, the step accumulator, and the E, N, NE, NW flows */
-#define SWELL_WAVE_WORDS(nx, ny) ((size_t)SWELL_WAVE_ARRAYS * (size_t)(nx) * (size_t)(ny))
+#define SWELL_WAVE_TILE 8   /* side of a sleeping tile, in cells */
+#define SWELL_WAVE_TILES(nx, ny) \
+	((((size_t)(nx) + SWELL_WAVE_TILE - 1) / SWELL_WAVE_TILE) * (((size_t)(ny) + SWELL_WAVE_TILE - 1) / SWELL_WAVE_TILE))
+/* the arrays, then one flag byte a tile */
+#define SWELL_WAVE_WORDS(nx, ny) \
+	((size_t)SWELL_WAVE_ARRAYS * (size_t)(nx) * (size_t)(ny) + (SWELL_WAVE_TILES(nx, ny) + 3) / 4)
 
 enum swell_stencil {
 	SWELL_STENCIL_PAPER = 0,      /* L9 as printed: waves run sqrt(2) faster than sqrt(g d) */
@@ -79,6 +90,10 @@ struct swell_wave {
 	uint32_t steps;
 	uint32_t saturations; /* heights or flows clamped to +-SWELL_H_MAX */
 	uint16_t next_row;    /* first row not yet done in the step in progress */
+	uint16_t tiles_x, tiles_y;
+	uint8_t *tile;        /* flag byte a tile (wave.c) */
+	uint8_t sleep;        /* 1: skip sleeping tiles (default); 0: every edge every step */
+	uint32_t tiles_skipped; /* tile-rows skipped, cumulative: 8 x 4 edges saved each */
 };
 
 /* Exact integer energy (DESIGN.md 2.1), for tests: with t = 0,
@@ -126,6 +141,12 @@ void swell_wave_step_finish(struct swell_wave *w);
  * (an object's displacement) without disturbing a step in progress. The step's flows are unchanged,
  * so the added volume is conserved from then on. */
 void swell_wave_add(struct swell_wave *w, int i, int j, int32_t dh);
+
+/* Cell (i, j) was written from outside: wake its tile and the neighbours (outside the grid: ignored). */
+void swell_wave_touched(struct swell_wave *w, int i, int j);
+
+/* Turn tile sleeping on (default) or off; results are bit-identical either way. */
+void swell_wave_set_sleep(struct swell_wave *w, int on);
 
 /* sum(h) in LSB: the volume, exact. */
 int64_t swell_wave_volume(const struct swell_wave *w);
