@@ -1,0 +1,520 @@
+/* swell-protogen: writes the protocol reference (Markdown), the CAN database (.dbc), test vectors
+ * for the independent DBC decoder and seed inputs for the fuzzers, all from swell/proto_table.h. */
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#include "swell/proto.h"
+#include "swell/transport.h"
+
+static void usage(FILE *f)
+{
+	fputs("usage: swell-protogen [--md FILE] [--dbc FILE] [--vectors FILE [--count N] [--seed S]]\n"
+	      "                      [--corpus DIR]\n"
+	      "Writes, from the one message table (swell/proto_table.h):\n"
+	      "  --md FILE       the protocol reference with the bus-load budget (docs/protocol.md)\n"
+	      "  --dbc FILE      the CAN database for node 0 (docs/swell.dbc)\n"
+	      "  --vectors FILE  classic CAN frames from the C encoder, one line each, with the\n"
+	      "                  physical values they encode (input of tools/protocol/dbc_check.py)\n"
+	      "  --count N       frames per message type in --vectors (default 200)\n"
+	      "  --seed S        random seed for --vectors (default 1)\n"
+	      "  --corpus DIR    seed inputs for the fuzzers in DIR/can, DIR/canfd, DIR/pkt\n",
+	      f);
+}
+
+/* ---- helpers ---- */
+static double factor_of(const struct swell_field_desc *f)
+{
+	return strtod(f->factor, NULL);
+}
+
+static void phys(char *buf, size_t n, int64_t raw, const struct swell_field_desc *f)
+{
+	snprintf(buf, n, "%.15g", (double)raw * factor_of(f));
+}
+
+static uint64_t rng_state = 1;
+static uint64_t rnd(void)
+{
+	/* xorshift64*: deterministic across hosts */
+	rng_state ^= rng_state >> 12;
+	rng_state ^= rng_state << 25;
+	rng_state ^= rng_state >> 27;
+	return rng_state * 2685821657736338717ull;
+}
+
+static int64_t rnd_range(int64_t lo, int64_t hi)
+{
+	uint64_t span = (uint64_t)(hi - lo) + 1u;
+
+	return span == 0 ? (int64_t)rnd() : lo + (int64_t)(rnd() % span);
+}
+
+static void random_msg(const struct swell_msg_desc *d, struct swell_msg *m, int which)
+{
+	unsigned i;
+
+	memset(m, 0, sizeof(*m));
+	m->type = d->type;
+	for (i = 0; i < d->nfields; i++) {
+		const struct swell_field_desc *f = &d->fields[i];
+		int64_t v = which == 0 ? f->min : which == 1 ? f->max : rnd_range(f->min, f->max);
+
+		swell_msg_field_set(m, f, v);
+	}
+}
+
+/* ---- bus load ---- */
+/* Classic CAN, 11-bit id, n data bytes, worst-case bit stuffing: 47 + 8n fixed bits, and at most
+ * one stuff bit per 4 bits of the 34 + 8n bits from SOF to the end of the CRC. */
+static unsigned can_bits(unsigned n)
+{
+	return 47u + 8u * n + (34u + 8u * n - 1u) / 4u;
+}
+
+/* CAN FD, 11-bit id, bit-rate switch: nominal bits (arbitration 17 + 4 stuff, CRC delimiter, ACK,
+ * EOF, IFS: 13) and data-phase bits (ESI, DLC, data, worst-case dynamic stuffing, stuff count,
+ * CRC-17/21 with its fixed stuff bits). Returns microseconds. */
+static double canfd_us(unsigned n, double nominal, double data)
+{
+	unsigned crc = n <= 16 ? 17u : 21u;
+	unsigned dyn = 5u + 8u * n;
+	unsigned dbits = dyn + dyn / 4u + 4u + crc + (4u + crc + 3u) / 4u;
+	unsigned nbits = 17u + 4u + 13u;
+
+	return 1e6 * (nbits / nominal + dbits / data);
+}
+
+static unsigned msg_len(unsigned type)
+{
+	return swell_msg_desc_find(type)->len;
+}
+
+struct load_row {
+	const char *carrier;
+	unsigned rate;
+	int minimal; /* 1: FORCE_CMD + DEVICE_POS only */
+};
+
+/* Telemetry that is not per tick: heartbeat 10 Hz both ways, scene 1 Hz, object pose and force
+ * at 100 Hz (viewer rate). */
+#define HB_HZ 20.0
+#define SCENE_HZ 1.0
+#define OBJ_HZ 100.0
+#define GRID_QUADS ((64 * 64) / 4) /* the reference scene */
+#define USB_PACKETS_PER_MS 19.0    /* USB 2.0 full speed: at most 19 bulk packets of 64 bytes per frame */
+
+static void bus_load(FILE *o)
+{
+	static const struct load_row rows[] = {
+		{ "classic CAN 1 Mbit/s", 1000, 0 }, { "classic CAN 1 Mbit/s", 1000, 1 },
+		{ "classic CAN 1 Mbit/s", 2500, 0 }, { "classic CAN 1 Mbit/s", 2500, 1 },
+		{ "CAN FD 1/2 Mbit/s", 1000, 0 },    { "CAN FD 1/2 Mbit/s", 2500, 0 },
+		{ "USB full speed", 1000, 0 },       { "USB full speed", 2500, 0 },
+	};
+	unsigned i;
+
+	fprintf(o, "## Bus-load budget\n\n");
+	fprintf(o, "Computed by swell-protogen from the message lengths. Per haptic tick the device link\n"
+		   "carries FORCE_CMD down and DEVICE_POS, DEVICE_VEL, DEVICE_FORCE up (\"full\"), or only\n"
+		   "FORCE_CMD and DEVICE_POS (\"minimal\": the controller differentiates position and has no\n"
+		   "measured force). Telemetry on the same bus: HEARTBEAT %.0f/s (both directions), SCENE\n"
+		   "%.0f/s, OBJECT_POSE and OBJECT_FORCE %.0f/s each. What is left carries HEIGHT_QUADs; a full\n"
+		   "refresh of the 64 x 64 reference grid is %d quads.\n\n",
+		HB_HZ, SCENE_HZ, OBJ_HZ, GRID_QUADS);
+	fprintf(o, "- Classic CAN: %u bits per 8-byte frame and %u per 7-byte frame, worst-case bit\n"
+		   "  stuffing (47 + 8n + floor((33 + 8n) / 4)).\n",
+		can_bits(8), can_bits(7));
+	fprintf(o, "- CAN FD: 1 Mbit/s arbitration, 2 Mbit/s data, worst-case stuffing: %.1f us per\n"
+		   "  8-byte frame, %.1f us per 64-byte frame (8 quads). Per-tick messages are of different\n"
+		   "  types, so they go one per frame; quads go 8 per frame.\n",
+		canfd_us(8, 1e6, 2e6), canfd_us(64, 1e6, 2e6));
+	fprintf(o, "- USB full speed bulk: budgeted at %.0f packets of 64 bytes per 1 ms frame (the USB 2.0\n"
+		   "  maximum; real host controllers may schedule fewer). Per tick one packet down (FORCE_CMD)\n"
+		   "  and one up (the three device messages: %u bytes); telemetry %u packets/s; quads go %u\n"
+		   "  per packet.\n",
+		USB_PACKETS_PER_MS,
+		SWELL_PKT_OVERHEAD + 3u + msg_len(SWELL_MSG_DEVICE_POS) + msg_len(SWELL_MSG_DEVICE_VEL) +
+			msg_len(SWELL_MSG_DEVICE_FORCE),
+		(unsigned)(HB_HZ + SCENE_HZ + OBJ_HZ),
+		(SWELL_PKT_MAX - SWELL_PKT_OVERHEAD) / (1u + msg_len(SWELL_MSG_HEIGHT_QUAD)));
+	fprintf(o, "- UDP on loopback: bounded by the host CPU, not budgeted.\n\n");
+	fprintf(o, "| carrier | haptic rate | device traffic | control load | left for heights | "
+		   "64x64 refreshes/s | verdict |\n");
+	fprintf(o, "|---|---|---|---|---|---|---|\n");
+	for (i = 0; i < sizeof(rows) / sizeof(rows[0]); i++) {
+		const struct load_row *r = &rows[i];
+		double busy_s, quads_s, quad_s_each;
+		const char *verdict;
+
+		if (r->carrier[0] == 'c') {
+			double tick = can_bits(msg_len(SWELL_MSG_FORCE_CMD)) +
+				      can_bits(msg_len(SWELL_MSG_DEVICE_POS));
+			if (!r->minimal)
+				tick += can_bits(msg_len(SWELL_MSG_DEVICE_VEL)) +
+					can_bits(msg_len(SWELL_MSG_DEVICE_FORCE));
+			busy_s = (tick * r->rate + can_bits(8) * (HB_HZ + SCENE_HZ + 2 * OBJ_HZ)) / 1e6;
+			quad_s_each = can_bits(msg_len(SWELL_MSG_HEIGHT_QUAD)) / 1e6;
+		} else if (r->carrier[0] == 'C') {
+			double tick = 2 * canfd_us(8, 1e6, 2e6) + 2 * canfd_us(8, 1e6, 2e6); /* 7 bytes -> 8 */
+			busy_s = (tick * r->rate + canfd_us(8, 1e6, 2e6) * (HB_HZ + SCENE_HZ + 2 * OBJ_HZ)) / 1e6;
+			quad_s_each = canfd_us(64, 1e6, 2e6) / 8.0 / 1e6;
+		} else {
+			double per_s = USB_PACKETS_PER_MS * 1000.0;
+			busy_s = (2.0 * r->rate + HB_HZ + SCENE_HZ + OBJ_HZ) / per_s;
+			quad_s_each = 1.0 / per_s / ((SWELL_PKT_MAX - SWELL_PKT_OVERHEAD) /
+						     (1u + msg_len(SWELL_MSG_HEIGHT_QUAD)));
+		}
+		quads_s = busy_s < 1.0 ? (1.0 - busy_s) / quad_s_each : 0.0;
+		verdict = busy_s > 1.0 ? "does not fit" : busy_s > 0.7 ? "fits, tight (> 70 %)" : "fits";
+		fprintf(o, "| %s | %u Hz | %s | %.1f %% | %.0f quads/s | %.1f | %s |\n", r->carrier, r->rate,
+			r->minimal ? "minimal" : "full", 100.0 * busy_s, quads_s, quads_s / GRID_QUADS, verdict);
+	}
+	fprintf(o, "\nConclusions. Classic CAN carries the full device link at 1000 Hz, and at 2500 Hz only\n"
+		   "the minimal one (70 %%, tight); what is left moves a few changed tiles per tick, never the\n"
+		   "whole grid at the solver rate (250 Hz x %d quads). CAN FD helps the heights (8 quads a\n"
+		   "frame) but not the per-tick messages: they are short, one per frame, and the 1 Mbit/s\n"
+		   "arbitration phase dominates, so the full device link at 2500 Hz is tight on CAN FD too.\n"
+		   "USB carries everything at both rates with room for about 80 full refreshes per second.\n"
+		   "Only changed tiles are sent, so a calm pool costs nothing.\n\n",
+		GRID_QUADS);
+}
+
+/* ---- Markdown ---- */
+static const char *type_name(const struct swell_field_desc *f)
+{
+	static char buf[8];
+
+	snprintf(buf, sizeof(buf), "%c%u", f->min < 0 ? 's' : 'u', f->bits);
+	return buf;
+}
+
+static void write_md(FILE *o)
+{
+	unsigned i, j, e;
+
+	fprintf(o, "<!-- Generated by swell-protogen from common/include/swell/proto_table.h: do not edit. -->\n");
+	fprintf(o, "# swell wire protocol, version %d\n\n", SWELL_PROTO_VERSION);
+	fprintf(o, "One table (`common/include/swell/proto_table.h`) is the single source of the C codecs\n"
+		   "(`swell/proto.h`), the CAN database (`docs/swell.dbc`) and this page. Every message has a\n"
+		   "fixed layout of at most 8 bytes, little-endian (Intel) bit order, integer units; the\n"
+		   "physical value is raw x factor. Raw values outside the stated range, and set bits that no\n"
+		   "field covers, make the whole frame invalid.\n\n");
+
+	fprintf(o, "## Carriers\n\n");
+	fprintf(o, "- **Classic CAN** (1 Mbit/s): one message per frame, DLC = message length, 11-bit id =\n"
+		   "  `type << 4 | node` (node 0-%u, so several controllers share a bus; the DBC lists node 0).\n"
+		   "  Lower id wins arbitration: force command and device state first, telemetry last.\n",
+		SWELL_NODE_MAX);
+	fprintf(o, "- **CAN FD** (64 bytes): the same id; the frame holds k messages of that one type, each in\n"
+		   "  a slot of its length rounded up to 4 bytes (zero padding), k chosen so that the length is\n"
+		   "  a CAN FD length (8 slots of 8 bytes or 16 of 4 in a 64-byte frame).\n");
+	fprintf(o, "- **Packets** (USB bulk, UDP datagrams; the same bytes on both), at most %u bytes:\n\n",
+		SWELL_PKT_MAX);
+	fprintf(o, "  | offset | size | content |\n  |---|---|---|\n"
+		   "  | 0 | 1 | magic 0x%02X |\n  | 1 | 1 | protocol version (%d) |\n"
+		   "  | 2 | 1 | node 0-%u |\n  | 3 | 1 | packet sequence number (+1 per packet, wraps) |\n"
+		   "  | 4 | 1 | record count n >= 1 |\n  | 5 | ... | n records: message type (1 byte), payload |\n"
+		   "  | end-4 | 4 | CRC-32 (IEEE, as zlib) of every byte before it, little-endian |\n\n",
+		SWELL_PKT_MAGIC, SWELL_PROTO_VERSION, SWELL_NODE_MAX);
+	fprintf(o, "USB identity: VID 0x%04X, PID 0x%04X (pid.codes test PID), interface %u of class 0x%02X,\n"
+		   "bulk OUT 0x%02X (host to controller), bulk IN 0x%02X (controller to host), %u-byte packets,\n"
+		   "one swell packet per USB packet. UDP (software in the loop): the controller listens on\n"
+		   "%s:%u for the device link and sends telemetry to the viewer at %s:%u.\n\n",
+		SWELL_USB_VID, SWELL_USB_PID, SWELL_USB_IFACE, SWELL_USB_CLASS, SWELL_USB_EP_OUT,
+		SWELL_USB_EP_IN, SWELL_USB_PACKET, SWELL_UDP_HOST, SWELL_UDP_PORT_DEVICE, SWELL_UDP_HOST,
+		SWELL_UDP_PORT_VIEWER);
+	fprintf(o, "Integrity: CAN frames carry the bus CRC; packets carry CRC-32. Streams carry 8-bit\n"
+		   "sequence numbers (field kind SEQ below); the heartbeat carries the protocol version.\n\n");
+
+	fprintf(o, "## Heights\n\n");
+	fprintf(o, "The solver keeps heights as int32 with LSB 2^-16 mm relative to the rest depth. On the\n"
+		   "wire a sample is int12 with LSB 2^-%d mm (%.4g um), saturated to [%.4g, %.6g] mm:\n"
+		   "`sample = clamp((h + 2^%d) >> %d, -2048, 2047)` (round to nearest). The grid is cut into\n"
+		   "tiles of %d x %d cells (up to 32 x 32 tiles, so grids up to 256 x 256); a changed tile is\n"
+		   "sent as 16 HEIGHT_QUADs (4 cells of one tile row each). Cells outside the grid are sent as\n"
+		   "0. SCENE, sent at 1 Hz and on change, gives the grid size, cell size, depth and the height\n"
+		   "LSB, so a viewer can join at any time.\n\n",
+		SWELL_PROTO_H_SHIFT, 1000.0 / (1 << SWELL_PROTO_H_SHIFT), -2048.0 / (1 << SWELL_PROTO_H_SHIFT),
+		2047.0 / (1 << SWELL_PROTO_H_SHIFT), 15 - SWELL_PROTO_H_SHIFT, 16 - SWELL_PROTO_H_SHIFT,
+		SWELL_PROTO_TILE, SWELL_PROTO_TILE);
+
+	fprintf(o, "## Messages\n\n| message | type | CAN id (node 0) | bytes | from | to | purpose |\n"
+		   "|---|---|---|---|---|---|---|\n");
+	for (i = 0; i < swell_msg_desc_count; i++) {
+		const struct swell_msg_desc *d = &swell_msg_descs[i];
+
+		fprintf(o, "| %s | 0x%02X | 0x%03X | %u | %s | %s | %s |\n", d->name, d->type,
+			(unsigned)SWELL_CAN_ID(d->type, 0), d->len, d->from, d->to, d->desc);
+	}
+	fprintf(o, "\nNodes: CTL the controller, DEV the HapticMaster (or its model), VIEW the host viewer\n"
+		   "and tools. CAN id 0x000-0x00F (type 0) is reserved.\n\n");
+
+	for (i = 0; i < swell_msg_desc_count; i++) {
+		const struct swell_msg_desc *d = &swell_msg_descs[i];
+
+		fprintf(o, "### %s (type 0x%02X, %u bytes, %s to %s)\n\n%s\n\n", d->name, d->type, d->len,
+			d->from, d->to, d->desc);
+		fprintf(o, "| field | bits | type | raw range | factor | physical range | unit | kind | meaning |\n"
+			   "|---|---|---|---|---|---|---|---|---|\n");
+		for (j = 0; j < d->nfields; j++) {
+			const struct swell_field_desc *f = &d->fields[j];
+			char lo[32], hi[32];
+
+			phys(lo, sizeof(lo), f->min, f);
+			phys(hi, sizeof(hi), f->max, f);
+			fprintf(o, "| %s | %u-%u | %s | %lld .. %lld | %s | %s .. %s | %s | %s | %s |\n", f->name,
+				f->start, f->start + f->bits - 1u, type_name(f), (long long)f->min,
+				(long long)f->max, f->factor, lo, hi, f->unit[0] ? f->unit : "-",
+				f->kind == SWELL_FK_SEQ ? "SEQ" : f->kind == SWELL_FK_VERSION ? "VERSION" : "",
+				f->desc);
+		}
+		fprintf(o, "\n");
+	}
+
+	fprintf(o, "## Error codes (enum swell_err)\n\nUsed in HEARTBEAT.err, PARAM_NACK.err and as the\n"
+		   "reason a decoder rejects a frame (counted per reason in `struct swell_proto_stats`):\n\n"
+		   "| value | meaning | decoder rejects a frame for |\n|---|---|---|\n");
+	for (e = 0; e < SWELL_ERR_COUNT; e++) {
+		static const char *why[SWELL_ERR_COUNT] = {
+			[SWELL_EUNKNOWN] = "unknown type, 29-bit id, wrong packet magic, unknown record type",
+			[SWELL_ETRUNC] = "shorter than the message, partial CAN FD slot, record past the end",
+			[SWELL_ESIZE] = "longer than the message, no CAN FD length, > 64 bytes, bytes after the "
+					"last record, record count 0 or above the caller's room",
+			[SWELL_EVERSION] = "packet or heartbeat of another protocol version",
+			[SWELL_ECRC] = "packet CRC-32 mismatch",
+			[SWELL_ERANGE] = "field outside its range, reserved or padding bits set, node > 15",
+		};
+		fprintf(o, "| %u | %s | %s |\n", e, swell_err_str((enum swell_err)e), why[e] ? why[e] : "");
+	}
+	fprintf(o, "\n");
+	bus_load(o);
+}
+
+/* ---- DBC ---- */
+static void write_dbc(FILE *o)
+{
+	unsigned i, j;
+
+	fprintf(o, "VERSION \"swell %d\"\n\n\n", SWELL_PROTO_VERSION);
+	fprintf(o, "NS_ :\n\tCM_\n\tBA_DEF_\n\tBA_\n\tVAL_\n\nBS_:\n\nBU_: CTL DEV VIEW\n\n\n");
+	for (i = 0; i < swell_msg_desc_count; i++) {
+		const struct swell_msg_desc *d = &swell_msg_descs[i];
+
+		fprintf(o, "BO_ %u %s: %u %s\n", (unsigned)SWELL_CAN_ID(d->type, 0), d->name, d->len, d->from);
+		for (j = 0; j < d->nfields; j++) {
+			const struct swell_field_desc *f = &d->fields[j];
+			char lo[32], hi[32];
+
+			phys(lo, sizeof(lo), f->min, f);
+			phys(hi, sizeof(hi), f->max, f);
+			fprintf(o, " SG_ %s : %u|%u@1%c (%s,0) [%s|%s] \"%s\" %s\n", f->name, f->start, f->bits,
+				f->min < 0 ? '-' : '+', f->factor, lo, hi, f->unit, d->to);
+		}
+		fprintf(o, "\n");
+	}
+	fprintf(o, "\nCM_ \"swell wire protocol %d, generated by swell-protogen from proto_table.h; "
+		   "ids are for node 0, node n adds n.\";\n",
+		SWELL_PROTO_VERSION);
+	for (i = 0; i < swell_msg_desc_count; i++) {
+		const struct swell_msg_desc *d = &swell_msg_descs[i];
+
+		fprintf(o, "CM_ BO_ %u \"%s\";\n", (unsigned)SWELL_CAN_ID(d->type, 0), d->desc);
+		for (j = 0; j < d->nfields; j++) {
+			const char *s = d->fields[j].desc;
+
+			fprintf(o, "CM_ SG_ %u %s \"", (unsigned)SWELL_CAN_ID(d->type, 0), d->fields[j].name);
+			for (; *s; s++)
+				fputc(*s == '"' ? '\'' : *s, o);
+			fprintf(o, "\";\n");
+		}
+	}
+}
+
+/* ---- test vectors ---- */
+static int write_vectors(FILE *o, unsigned count)
+{
+	unsigned i, k, j;
+
+	fprintf(o, "# swell-protogen test vectors: id(hex) data(hex) then name=physical value per field\n");
+	for (i = 0; i < swell_msg_desc_count; i++) {
+		const struct swell_msg_desc *d = &swell_msg_descs[i];
+
+		for (k = 0; k < count; k++) {
+			struct swell_msg m;
+			uint32_t id;
+			uint8_t data[8], len;
+
+			random_msg(d, &m, k < 2 ? (int)k : 2);
+			if (swell_can_encode(&m, &id, data, &len) != SWELL_OK) {
+				fprintf(stderr, "swell-protogen: encoder refused a valid %s\n", d->name);
+				return 1;
+			}
+			fprintf(o, "%03X ", (unsigned)id);
+			for (j = 0; j < len; j++)
+				fprintf(o, "%02X", data[j]);
+			for (j = 0; j < d->nfields; j++) {
+				char v[32];
+
+				phys(v, sizeof(v), swell_msg_field_get(&m, &d->fields[j]), &d->fields[j]);
+				fprintf(o, " %s=%s", d->fields[j].name, v);
+			}
+			fprintf(o, "\n");
+		}
+	}
+	return 0;
+}
+
+/* ---- fuzz seeds ---- */
+static int put_file(const char *dir, const char *sub, unsigned n, const uint8_t *b, size_t len)
+{
+	char path[1024];
+	FILE *f;
+
+	snprintf(path, sizeof(path), "%s/%s", dir, sub);
+	if (mkdir(path, 0777) && errno != EEXIST)
+		return -1;
+	snprintf(path, sizeof(path), "%s/%s/seed-%03u", dir, sub, n);
+	f = fopen(path, "wb");
+	if (!f)
+		return -1;
+	fwrite(b, 1, len, f);
+	return fclose(f);
+}
+
+/* Fuzz input layouts: can and canfd: 2-byte id (little-endian) then the data; pkt: a mode byte
+ * (bit 0: the harness fixes the CRC) then the packet. */
+static int write_corpus(const char *dir)
+{
+	struct swell_msg all[64];
+	unsigned i, n = 0, s = 0;
+	uint8_t buf[2 + 64];
+
+	if (mkdir(dir, 0777) && errno != EEXIST)
+		return -1;
+	for (i = 0; i < swell_msg_desc_count; i++) {
+		const struct swell_msg_desc *d = &swell_msg_descs[i];
+		struct swell_msg batch[SWELL_CANFD_MSGS_MAX];
+		uint32_t id;
+		uint8_t len;
+		size_t used, k;
+
+		random_msg(d, &all[n], 2);
+		swell_can_encode(&all[n], &id, buf + 2, &len);
+		buf[0] = (uint8_t)id;
+		buf[1] = (uint8_t)(id >> 8);
+		if (put_file(dir, "can", i, buf, 2u + len))
+			return -1;
+		for (k = 0; k < SWELL_CANFD_MSGS_MAX; k++)
+			random_msg(d, &batch[k], 2);
+		swell_canfd_encode(batch, 3, &id, buf + 2, &len, &used);
+		buf[0] = (uint8_t)id;
+		buf[1] = (uint8_t)(id >> 8);
+		if (put_file(dir, "canfd", i, buf, 2u + len))
+			return -1;
+		n++;
+	}
+	for (i = 0; i < n; i += 3) {
+		size_t len, used;
+
+		buf[0] = 1;
+		if (swell_pkt_encode((uint8_t)(i % 16), (uint8_t)i, &all[i], n - i, buf + 1, 64, &len, &used))
+			return -1;
+		if (put_file(dir, "pkt", s++, buf, len + 1))
+			return -1;
+	}
+	return 0;
+}
+
+static int write_with(const char *path, void (*fn)(FILE *))
+{
+	FILE *f = fopen(path, "w");
+
+	if (!f) {
+		fprintf(stderr, "swell-protogen: cannot write %s: %s\n", path, strerror(errno));
+		return 1;
+	}
+	fn(f);
+	if (fclose(f)) {
+		fprintf(stderr, "swell-protogen: error writing %s\n", path);
+		return 1;
+	}
+	printf("swell-protogen: wrote %s\n", path);
+	return 0;
+}
+
+int main(int argc, char **argv)
+{
+	const char *md = NULL, *dbc = NULL, *vec = NULL, *corpus = NULL;
+	unsigned long count = 200;
+	int i;
+
+	if (argc < 2) {
+		usage(stderr);
+		return 2;
+	}
+	for (i = 1; i < argc; i++) {
+		const char *a = argv[i];
+		const char *v = i + 1 < argc ? argv[i + 1] : NULL;
+		char *end;
+
+		if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
+			usage(stdout);
+			return 0;
+		}
+		if (!v) {
+			fprintf(stderr, "swell-protogen: %s needs a value (see --help)\n", a);
+			return 2;
+		}
+		i++;
+		if (!strcmp(a, "--md")) {
+			md = v;
+		} else if (!strcmp(a, "--dbc")) {
+			dbc = v;
+		} else if (!strcmp(a, "--vectors")) {
+			vec = v;
+		} else if (!strcmp(a, "--corpus")) {
+			corpus = v;
+		} else if (!strcmp(a, "--count")) {
+			count = strtoul(v, &end, 10);
+			if (*end || count < 2 || count > 100000) {
+				fprintf(stderr, "swell-protogen: --count must be 2..100000 frames, got '%s'\n", v);
+				return 2;
+			}
+		} else if (!strcmp(a, "--seed")) {
+			rng_state = strtoull(v, &end, 10);
+			if (*end || rng_state == 0) {
+				fprintf(stderr, "swell-protogen: --seed must be a positive integer, got '%s'\n", v);
+				return 2;
+			}
+		} else {
+			fprintf(stderr, "swell-protogen: unknown option '%s' (see --help)\n", a);
+			return 2;
+		}
+	}
+	if (md && write_with(md, write_md))
+		return 1;
+	if (dbc && write_with(dbc, write_dbc))
+		return 1;
+	if (vec) {
+		FILE *f = fopen(vec, "w");
+
+		if (!f || write_vectors(f, (unsigned)count) || fclose(f)) {
+			fprintf(stderr, "swell-protogen: cannot write %s\n", vec);
+			return 1;
+		}
+		printf("swell-protogen: wrote %s (%lu frames per message, %u messages)\n", vec, count,
+		       swell_msg_desc_count);
+	}
+	if (corpus) {
+		if (write_corpus(corpus)) {
+			fprintf(stderr, "swell-protogen: cannot write the corpus in %s: %s\n", corpus,
+				strerror(errno));
+			return 1;
+		}
+		printf("swell-protogen: wrote fuzz seeds in %s/{can,canfd,pkt}\n", corpus);
+	}
+	return 0;
+}
