@@ -287,6 +287,7 @@ int main(int argc, char **argv)
 	size_t words;
 	char err[160];
 	int64_t period, next, start, last_status;
+	int32_t peak_h = 0;
 	uint64_t max_ticks;
 	enum swell_err e;
 
@@ -353,11 +354,19 @@ int main(int argc, char **argv)
 		}
 		swell_ctl_tick(&p.c);
 		flush_output(&p);
-		if (!o.quiet && now_ns() - last_status > 1000000000) {
+		if (now_ns() - last_status > 1000000000) {
+			int a;
+
 			last_status = now_ns();
-			fprintf(stderr, "\rswell-ctl: %-7s tick %u, solver %u, force %+.2f N, overruns %u   ",
-				swell_ctl_state_name(p.c.state), p.c.n.ticks, p.c.n.solver_steps,
-				p.c.force_dev_uN[2] / 1e6, p.c.n.overruns);
+			/* once a second, outside the force path: the largest wave so far */
+			for (a = 0; a < (int)o.cfg.nx * o.cfg.ny; a++) {
+				int32_t h = p.c.wave.h[a] < 0 ? -p.c.wave.h[a] : p.c.wave.h[a];
+				peak_h = h > peak_h ? h : peak_h;
+			}
+			if (!o.quiet)
+				fprintf(stderr, "\rswell-ctl: %-7s tick %u, solver %u, force %+.2f N, overruns %u   ",
+					swell_ctl_state_name(p.c.state), p.c.n.ticks, p.c.n.solver_steps,
+					p.c.force_dev_uN[2] / 1e6, p.c.n.overruns);
 		}
 	}
 	/* zero force first, then everything else */
@@ -385,6 +394,7 @@ int main(int argc, char **argv)
 		       p.host.name, p.host.frames_rx, p.host.frames_tx, swell_proto_rejected_total(&p.host.st),
 		       p.c.n.quads_sent, p.c.q[SWELL_LINK_HOST].dropped);
 	printf("  parameters      %u set, %u refused\n", p.c.n.params_set, p.c.n.params_refused);
+	printf("  waves           largest |h| %.3f mm (sampled once a second)\n", peak_h / (double)SWELL_H_ONE_MM);
 	printf("  final force     %+.3f N (zero sent on exit)\n", p.c.force_dev_uN[2] / 1e6);
 	ctl_link_close(&p.dev);
 	if (p.have_host)
