@@ -460,6 +460,76 @@ enum swell_err swell_pkt_decode(const uint8_t *pkt, size_t len, struct swell_msg
 	return count(st, err, (uint32_t)k);
 }
 
+/* ---- heights ---- */
+int16_t swell_height_to_sample(int32_t h)
+{
+	const int shift = 16 - SWELL_PROTO_H_SHIFT;
+	int64_t s = ((int64_t)h + ((int64_t)1 << (shift - 1))) >> shift;
+
+	return (int16_t)(s < -2048 ? -2048 : s > 2047 ? 2047 : s);
+}
+
+int32_t swell_sample_to_height(int16_t sample)
+{
+	return (int32_t)sample * ((int32_t)1 << (16 - SWELL_PROTO_H_SHIFT));
+}
+
+enum swell_err swell_height_quad_pack(const int32_t *h, unsigned nx, unsigned ny, unsigned tile_x,
+				      unsigned tile_y, unsigned row, unsigned half, unsigned frame,
+				      struct swell_msg *out)
+{
+	struct swell_msg m;
+	int16_t s[4];
+	unsigned k, j, i0;
+
+	if (!h || !out)
+		return SWELL_EINVAL;
+	if (nx < 1 || ny < 1 || nx > 32u * SWELL_PROTO_TILE || ny > 32u * SWELL_PROTO_TILE)
+		return SWELL_ESIZE;
+	if (tile_x > 31 || tile_y > 31 || row >= SWELL_PROTO_TILE || half > 1 || frame > 3)
+		return SWELL_ERANGE;
+	j = tile_y * SWELL_PROTO_TILE + row;
+	i0 = tile_x * SWELL_PROTO_TILE + 4 * half;
+	for (k = 0; k < 4; k++)
+		s[k] = (j < ny && i0 + k < nx) ? swell_height_to_sample(h[(size_t)j * nx + i0 + k]) : 0;
+	memset(&m, 0, sizeof(m));
+	m.type = SWELL_MSG_HEIGHT_QUAD;
+	m.u.height_quad.tile_x = (uint8_t)tile_x;
+	m.u.height_quad.tile_y = (uint8_t)tile_y;
+	m.u.height_quad.row = (uint8_t)row;
+	m.u.height_quad.half = (uint8_t)half;
+	m.u.height_quad.frame = (uint8_t)frame;
+	m.u.height_quad.h0 = s[0];
+	m.u.height_quad.h1 = s[1];
+	m.u.height_quad.h2 = s[2];
+	m.u.height_quad.h3 = s[3];
+	*out = m;
+	return SWELL_OK;
+}
+
+enum swell_err swell_height_quad_unpack(const struct swell_msg *m, int32_t *h, unsigned nx, unsigned ny)
+{
+	const struct swell_msg_height_quad *q;
+	int16_t s[4];
+	unsigned k, j, i0;
+
+	if (!m || !h || m->type != SWELL_MSG_HEIGHT_QUAD)
+		return SWELL_EINVAL;
+	if (nx < 1 || ny < 1 || nx > 32u * SWELL_PROTO_TILE || ny > 32u * SWELL_PROTO_TILE)
+		return SWELL_ESIZE;
+	q = &m->u.height_quad;
+	s[0] = q->h0;
+	s[1] = q->h1;
+	s[2] = q->h2;
+	s[3] = q->h3;
+	j = (unsigned)q->tile_y * SWELL_PROTO_TILE + q->row;
+	i0 = (unsigned)q->tile_x * SWELL_PROTO_TILE + 4u * q->half;
+	for (k = 0; k < 4; k++)
+		if (j < ny && i0 + k < nx)
+			h[(size_t)j * nx + i0 + k] = swell_sample_to_height(s[k]);
+	return SWELL_OK;
+}
+
 /* ---- sequence numbers ---- */
 uint32_t swell_seq_track(struct swell_seq *t, uint8_t seq)
 {

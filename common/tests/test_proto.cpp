@@ -1,7 +1,9 @@
 #include <catch2/catch.hpp>
 
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
+#include <algorithm>
 #include <random>
 #include <set>
 #include <string>
@@ -439,4 +441,71 @@ TEST_CASE("sequence tracking counts lost and repeated numbers across the 8-bit w
 	CHECK(t.received == 6u);
 	CHECK(t.lost == 2u);
 	CHECK(t.repeated == 2u);
+}
+
+TEST_CASE("heights go to the wire rounded to nearest 1/64 mm and saturate at -32 / +31.98 mm", "[proto]")
+{
+	/* every solver value in a band around zero and at the edges: error <= half a wire LSB */
+	const int32_t lsb = 1 << (16 - SWELL_PROTO_H_SHIFT);
+	int32_t worst = 0;
+	for (int64_t h = -2049LL * lsb; h <= 2048LL * lsb; h += 37) {
+		int16_t s = swell_height_to_sample(int32_t(h));
+		REQUIRE(s >= -2048);
+		REQUIRE(s <= 2047);
+		int64_t back = swell_sample_to_height(s);
+		if (h >= -2048LL * lsb && h <= 2047LL * lsb) {
+			int64_t e = back - h;
+			INFO("h = " << h << " sample " << s << " back " << back);
+			REQUIRE(e <= lsb / 2);
+			REQUIRE(e > -lsb / 2 - 1);
+			worst = std::max<int32_t>(worst, int32_t(e < 0 ? -e : e));
+		}
+	}
+	CHECK(worst <= lsb / 2);
+	CHECK(swell_height_to_sample(INT32_MAX) == 2047);
+	CHECK(swell_height_to_sample(INT32_MIN) == -2048);
+	CHECK(swell_height_to_sample(lsb / 2) == 1);      /* tie goes up */
+	CHECK(swell_height_to_sample(-lsb / 2) == 0);     /* tie goes up */
+	CHECK(swell_height_to_sample(-lsb / 2 - 1) == -1);
+}
+
+TEST_CASE("a grid of any size 1..256 survives tiles of quads on the wire within half an LSB", "[proto]")
+{
+	std::mt19937_64 rng(11);
+	const int32_t lsb = 1 << (16 - SWELL_PROTO_H_SHIFT);
+	for (auto dims : {std::pair<unsigned, unsigned>{1, 1}, {20, 13}, {64, 64}, {256, 256}, {9, 256}}) {
+		unsigned nx = dims.first, ny = dims.second;
+		std::uniform_int_distribution<int32_t> pick(-2048 * lsb, 2047 * lsb);
+		std::vector<int32_t> h(size_t(nx) * ny), back(size_t(nx) * ny, INT32_MIN);
+		for (int32_t &v : h)
+			v = pick(rng);
+		unsigned tiles_x = (nx + 7) / 8, tiles_y = (ny + 7) / 8, quads = 0;
+		for (unsigned ty = 0; ty < tiles_y; ty++)
+			for (unsigned tx = 0; tx < tiles_x; tx++)
+				for (unsigned row = 0; row < 8; row++)
+					for (unsigned half = 0; half < 2; half++) {
+						swell_msg q;
+						REQUIRE(swell_height_quad_pack(h.data(), nx, ny, tx, ty, row, half, quads & 3, &q) == SWELL_OK);
+						uint32_t id;
+						uint8_t data[8], len;
+						REQUIRE(swell_can_encode(&q, &id, data, &len) == SWELL_OK);
+						swell_msg got;
+						REQUIRE(swell_can_decode(id, data, len, &got, nullptr) == SWELL_OK);
+						REQUIRE(swell_height_quad_unpack(&got, back.data(), nx, ny) == SWELL_OK);
+						quads++;
+					}
+		CHECK(quads == tiles_x * tiles_y * 16);
+		int64_t worst = 0;
+		for (size_t k = 0; k < h.size(); k++) {
+			REQUIRE(back[k] != INT32_MIN); /* every cell was covered */
+			worst = std::max<int64_t>(worst, std::llabs(int64_t(back[k]) - h[k]));
+		}
+		INFO(nx << " x " << ny << ": worst error " << worst << " LSB 2^-16 mm");
+		CHECK(worst <= lsb / 2);
+	}
+	std::vector<int32_t> g(4);
+	swell_msg q;
+	CHECK(swell_height_quad_pack(g.data(), 257, 1, 0, 0, 0, 0, 0, &q) == SWELL_ESIZE);
+	CHECK(swell_height_quad_pack(g.data(), 2, 2, 32, 0, 0, 0, 0, &q) == SWELL_ERANGE);
+	CHECK(swell_height_quad_pack(g.data(), 2, 2, 0, 0, 8, 0, 0, &q) == SWELL_ERANGE);
 }

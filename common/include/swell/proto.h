@@ -132,6 +132,21 @@ enum swell_err swell_pkt_encode(uint8_t node, uint8_t seq, const struct swell_ms
 enum swell_err swell_pkt_decode(const uint8_t *pkt, size_t len, struct swell_msg *out, size_t cap,
 				size_t *n, uint8_t *seq, struct swell_proto_stats *st);
 
+/* ---- heights on the wire (see SWELL_PROTO_H_SHIFT) ---- */
+/* Solver height (int32, LSB 2^-16 mm) to a wire sample (int12, LSB 2^-6 mm): rounded to nearest
+ * (ties toward +infinity), saturated to [-2048, 2047]. */
+int16_t swell_height_to_sample(int32_t h);
+/* Wire sample to solver units: exact (sample * 2^10). */
+int32_t swell_sample_to_height(int16_t sample);
+/* Fills a HEIGHT_QUAD (node 0) from row-major heights h[j * nx + i] of an nx x ny grid: cells
+ * 4*half .. 4*half+3 of row `row` of tile (tile_x, tile_y); cells outside the grid are sent as 0.
+ * SWELL_ESIZE for a grid outside 1..256, SWELL_ERANGE for a tile, row, half or frame out of range. */
+enum swell_err swell_height_quad_pack(const int32_t *h, unsigned nx, unsigned ny, unsigned tile_x,
+				      unsigned tile_y, unsigned row, unsigned half, unsigned frame,
+				      struct swell_msg *out);
+/* Stores the cells of a decoded HEIGHT_QUAD that lie inside the grid into h (solver units). */
+enum swell_err swell_height_quad_unpack(const struct swell_msg *m, int32_t *h, unsigned nx, unsigned ny);
+
 /* ---- sequence numbers on streams ---- */
 struct swell_seq {
 	uint8_t last;
