@@ -1,0 +1,26 @@
+/* The reference scene of the controller self-test (DESIGN.md 2.3, "pool"): 64 x 64 cells, dx 6.25 mm,
+ * depth 50 mm, dt 4 ms (e = g dt^2 d / dx^2 with g = 9.81 m/s^2), paper stencil, no damping, a
+ * Gaussian bump of 2 mm, sigma 3 cells, at cell (32, 32), water at rest. Integer-only set-up, so the
+ * image and the host start from the same bits (same as `swell-sim --grid 64x64 --dt 0.004
+ * --depth 0.05 --dx 0.00625 --init gauss:32,32,3,2`). */
+#ifndef SWELL_FW_SCENE_H
+#define SWELL_FW_SCENE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "swell/err.h"
+#include "swell/wave.h"
+
+#define FW_SCENE_NX 64
+#define FW_SCENE_NY 64
+#define FW_SCENE_WORDS SWELL_WAVE_WORDS(FW_SCENE_NX, FW_SCENE_NY)
+#define FW_SCENE_G_MM_S2 9810u
+#define FW_SCENE_DT_US 4000u
+#define FW_SCENE_DEPTH_UM 50000u
+#define FW_SCENE_DX_UM 6250u
+
+/* Bind storage (FW_SCENE_WORDS words) and set the initial field. */
+enum swell_err fw_scene_init(struct swell_wave *w, int32_t *storage, size_t words);
+
+#endif

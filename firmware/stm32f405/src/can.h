@@ -1,0 +1,51 @@
+/* bxCAN1 driver (PB8 RX, PB9 TX, AF9) from RM0090 section 32: bit timing from logic/can_timing,
+ * acceptance filters from logic/can_filter, three TX mailboxes sent by identifier priority (lowest
+ * id first, safety frames have the lowest ids), error counters, bus-off handled by the driver:
+ * force zeroed at once, recovery after a hold-off (not the hardware's automatic recovery, so that
+ * a node that keeps going bus-off is counted and rate-limited). */
+#ifndef SWELL_FW_CAN_H
+#define SWELL_FW_CAN_H
+
+#include <stdint.h>
+
+#include "../logic/can_filter.h"
+#include "../logic/can_timing.h"
+#include "loopback.h"
+#include "swell/err.h"
+
+struct can_status {
+	uint8_t tec, rec;       /* transmit and receive error counters */
+	uint8_t lec;            /* last error code (0 none .. 6 CRC) */
+	uint8_t error_passive, bus_off;
+	uint32_t bus_off_count; /* bus-off events since start */
+	uint32_t rx_overruns;   /* frames lost because FIFO 0 was full */
+	uint32_t tx_aborted;    /* lower-priority frames aborted for a more urgent one */
+};
+
+/* Does a bxCAN answer (enters initialisation mode within a bounded wait)? Leaves it in reset. */
+int can_probe(void);
+
+/* Configure and start: bit timing for pclk1_hz / bitrate (SWELL_ERANGE if not exact), filters
+ * (SWELL_ESIZE if they need more than 14 banks), interrupts at the given priorities.
+ * loopback: internal loopback + silent (self-test on silicon without a bus). */
+enum swell_err can_start(uint32_t pclk1_hz, uint32_t bitrate, const struct can_filter_spec *flt,
+			 unsigned nflt, int loopback, uint8_t prio_rx, uint8_t prio_sce);
+
+/* Queue a frame. A free mailbox is used; when all three are busy and the new frame has a lower id
+ * (higher priority) than a pending one, that pending frame is aborted and replaced. SWELL_ESIZE
+ * when every pending frame is more urgent; SWELL_ESTATE when stopped or bus-off. */
+enum swell_err can_send(const struct fw_frame *f);
+
+/* Take a received frame from the driver's ring (filled by the FIFO 0 interrupt); SWELL_ETRUNC
+ * when empty. */
+enum swell_err can_recv(struct fw_frame *f);
+
+/* Abort every pending transmission (used by port_force_zero; safe when CAN is not running). */
+void can_abort_all(void);
+
+/* Call from the main loop: runs the bus-off recovery once the hold-off has passed. */
+void can_poll(uint32_t now_ms);
+
+void can_status(struct can_status *out);
+
+#endif

@@ -1,0 +1,77 @@
+#include "fault.h"
+
+#include <stdint.h>
+
+#include "../regs/cortex_m4.h"
+#include "console.h"
+#include "port.h"
+
+/* Registers the core stacked on exception entry. */
+struct fault_frame {
+	uint32_t r0, r1, r2, r3, r12, lr, pc, xpsr;
+};
+
+void fault_report(const struct fault_frame *f, uint32_t exc_return);
+
+__attribute__((noreturn)) static void halt(void)
+{
+	__asm__ volatile("cpsid i" ::: "memory");
+	for (;;)
+		__asm__ volatile("wfi");
+}
+
+void fault_stop(const char *why)
+{
+	port_force_zero();
+	con_puts("FAULT: ");
+	con_puts(why);
+	con_puts(" (force zeroed, waiting for the watchdog)\n");
+	halt();
+}
+
+/* Called from the naked entries below with the stacked frame of whichever stack was in use. */
+__attribute__((used, noreturn)) void fault_report(const struct fault_frame *f, uint32_t exc_return)
+{
+	uint32_t ipsr;
+
+	port_force_zero();
+	__asm__ volatile("mrs %0, ipsr" : "=r"(ipsr));
+	con_puts("FAULT: exception ");
+	con_put_u32(ipsr & 0x1FFu);
+	con_puts(" pc 0x");
+	con_put_hex32(f->pc);
+	con_puts(" lr 0x");
+	con_put_hex32(f->lr);
+	con_puts(" xpsr 0x");
+	con_put_hex32(f->xpsr);
+	con_puts(" exc_return 0x");
+	con_put_hex32(exc_return);
+	con_puts("\nFAULT: cfsr 0x");
+	con_put_hex32(SCB->CFSR);
+	con_puts(" hfsr 0x");
+	con_put_hex32(SCB->HFSR);
+	con_puts(" mmfar 0x");
+	con_put_hex32(SCB->MMFAR);
+	con_puts(" bfar 0x");
+	con_put_hex32(SCB->BFAR);
+	con_puts(" (force zeroed, waiting for the watchdog)\n");
+	halt();
+}
+
+/* The only assembly: pick MSP or PSP by EXC_RETURN bit 2 and pass the frame to C. */
+#define FAULT_ENTRY(name)                                                                          \
+	__attribute__((naked)) void name(void)                                                     \
+	{                                                                                          \
+		__asm__ volatile("tst lr, #4\n\t"                                                  \
+				 "ite eq\n\t"                                                      \
+				 "mrseq r0, msp\n\t"                                               \
+				 "mrsne r0, psp\n\t"                                               \
+				 "mov r1, lr\n\t"                                                  \
+				 "b fault_report\n\t");                                            \
+	}
+
+FAULT_ENTRY(isr_hardfault)
+FAULT_ENTRY(isr_memmanage)
+FAULT_ENTRY(isr_busfault)
+FAULT_ENTRY(isr_usagefault)
+FAULT_ENTRY(irq_unexpected)

@@ -1,0 +1,136 @@
+/* STM32F405 port: boot, checks, then either the controller (a CAN or USB peripheral answered) or the
+ * self-test (QEMU netduinoplus2 has neither). */
+#include <stdint.h>
+
+#include "../regs/cortex_m4.h"
+#include "../regs/stm32f405_periph.h"
+#include "../regs/stm32f405_rcc.h"
+#include "can.h"
+#include "clock.h"
+#include "console.h"
+#include "fault.h"
+#include "image.h"
+#include "iwdg.h"
+#include "port.h"
+#include "selftest.h"
+#include "timebase.h"
+#include "usb.h"
+
+/* Interrupt priorities (0 = most urgent, preemption only): the force path first. */
+#define PRIO_TICK 0    /* TIM2: the haptic tick, force out */
+#define PRIO_SYSTICK 1 /* wrap counter, a few instructions every 0.1 s: never lose a wrap */
+#define PRIO_CAN_SCE 2 /* bus-off: zero force promptly */
+#define PRIO_CAN_RX 3  /* device frames (position in) */
+#define PRIO_USB 4     /* host link */
+#define PRIO_SOLVER 14 /* PendSV: solver steps, preempted by everything above */
+
+#define WATCHDOG_MS 100u
+
+static void put_reset_cause(uint32_t csr)
+{
+	con_puts("reset:");
+	if (csr & RCC_CSR_IWDGRSTF)
+		con_puts(" watchdog");
+	if (csr & RCC_CSR_SFTRSTF)
+		con_puts(" software");
+	if (csr & RCC_CSR_PORRSTF)
+		con_puts(" power-on");
+	if (csr & RCC_CSR_PINRSTF)
+		con_puts(" pin");
+	if (csr & RCC_CSR_BORRSTF)
+		con_puts(" brown-out");
+	if (!(csr & 0xFE000000u))
+		con_puts(" (no flag)");
+	con_putc('\n');
+}
+
+static void setup_faults(void)
+{
+	SCB->AIRCR = SCB_AIRCR_VECTKEY | (3u << SCB_AIRCR_PRIGROUP_SHIFT); /* 4 bits preemption */
+	SCB->SHCSR |= SCB_SHCSR_MEMFAULTENA | SCB_SHCSR_BUSFAULTENA | SCB_SHCSR_USGFAULTENA;
+	SCB->CCR |= SCB_CCR_DIV_0_TRP;
+	SCB->SHPR[SCB_SHPR_IDX(EXC_PENDSV)] = (uint8_t)(PRIO_SOLVER << (8 - NVIC_PRIO_BITS));
+}
+
+int main(void)
+{
+	struct clock_info ci;
+	struct image_info img;
+	uint32_t csr = RCC->CSR;
+	enum swell_err err;
+	int can_ok, usb_ok;
+
+	RCC->CSR |= RCC_CSR_RMVF;
+	port_force_zero();
+	clock_init(&ci);
+	con_init(ci.pclk2_hz, 115200);
+	setup_faults();
+	con_puts("\nswell-fw stm32f405 ");
+	con_puts(SWELL_FW_VERSION_STR);
+	con_putc('\n');
+	put_reset_cause(csr);
+	con_puts("clock: ");
+	con_puts(clock_src_name(ci.src));
+	con_puts(" sysclk ");
+	con_put_u32(ci.sysclk_hz);
+	con_puts(" Hz, apb1 ");
+	con_put_u32(ci.pclk1_hz);
+	con_puts(" Hz, apb2 ");
+	con_put_u32(ci.pclk2_hz);
+	con_puts(" Hz");
+	if (ci.hse_timeout)
+		con_puts(" (HSE did not start: timeout)");
+	if (ci.pll_timeout)
+		con_puts(" (PLL did not lock: timeout)");
+	if (ci.switch_timeout)
+		con_puts(" (switch to PLL not confirmed: timeout)");
+	con_putc('\n');
+
+	err = image_check(&img);
+	con_puts("image: ");
+	if (err != SWELL_OK) {
+		con_puts("REFUSED: ");
+		con_puts(swell_err_str(err));
+		con_putc('\n');
+		fault_stop("image check failed");
+	}
+	con_puts("version ");
+	con_put_u32(img.version >> 16);
+	con_putc('.');
+	con_put_u32((img.version >> 8) & 0xFFu);
+	con_putc('.');
+	con_put_u32(img.version & 0xFFu);
+	con_puts(", ");
+	con_put_u32(img.length);
+	con_puts(" bytes, crc32 0x");
+	con_put_hex32(img.crc);
+	con_puts(" ok\n");
+
+	timebase_init(PRIO_SYSTICK);
+	con_puts("cycles: ");
+	con_puts(timebase_has_dwt() ? "DWT CYCCNT\n" : "SysTick (no DWT CYCCNT on this core)\n");
+
+	can_ok = can_probe();
+	usb_ok = usb_probe();
+	con_puts("link: CAN1 ");
+	con_puts(can_ok ? "answers" : "absent");
+	con_puts(", USB OTG FS ");
+	con_puts(usb_ok ? "answers" : "absent");
+	con_putc('\n');
+
+	if (!can_ok && !usb_ok) {
+		selftest_run(ci.tim_apb1_hz);
+		for (;;)
+			__asm__ volatile("wfi");
+	}
+
+	/* Controller mode. firmware/core (state machine, tick work) is linked here when it exists; until
+	 * then the port stays idle with zero force, watchdog running. */
+	(void)PRIO_CAN_SCE;
+	(void)PRIO_CAN_RX;
+	(void)PRIO_USB;
+	iwdg_start(WATCHDOG_MS);
+	con_puts("core: not linked in this image; idle, force zero\n");
+	for (;;)
+		iwdg_kick();
+}

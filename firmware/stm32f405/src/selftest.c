@@ -1,0 +1,187 @@
+#include "selftest.h"
+
+#include "../logic/scene.h"
+#include "../regs/stm32f405_periph.h"
+#include "console.h"
+#include "loopback.h"
+#include "port.h"
+#include "tick.h"
+#include "timebase.h"
+
+/* In SRAM (see stm32f405.ld for why not CCM). The naive loop reuses the field's storage once the
+ * scene's checksum is out. */
+static int32_t wave_storage[FW_SCENE_WORDS];
+static struct swell_wave wave;
+#define NAIVE_N (FW_SCENE_NX * FW_SCENE_NY)
+_Static_assert(2 * NAIVE_N <= FW_SCENE_WORDS, "naive buffers fit the field storage");
+static int32_t *const naive_a = wave_storage;
+static int32_t *const naive_b = wave_storage + NAIVE_N;
+
+/* SysTick ticks to QEMU instructions (-icount shift=0: 1 ns each; SysTick at 168 MHz). */
+#define INSN_NUM 125u
+#define INSN_DEN 21u
+
+static void put_insn(uint64_t ticks, uint64_t per)
+{
+	con_put_ratio(ticks * INSN_NUM, per * INSN_DEN, 2);
+}
+
+/* Naive three-level 9-point step on the interior cells, int32 with a Q1.31 e/2 (the DESIGN.md 6
+ * anchor: a plain loop, no flux form, no walls): h' = 2h - h_prev + e L9. */
+__attribute__((noinline)) static void naive_step(int32_t *restrict prev, const int32_t *restrict h,
+						 int32_t e_half_q31)
+{
+	int i, j;
+
+	for (j = 1; j < FW_SCENE_NY - 1; j++) {
+		for (i = 1; i < FW_SCENE_NX - 1; i++) {
+			const int32_t *c = &h[j * FW_SCENE_NX + i];
+			int32_t l2 = -12 * c[0] + 2 * (c[-1] + c[1] + c[-FW_SCENE_NX] + c[FW_SCENE_NX]) +
+				     c[-FW_SCENE_NX - 1] + c[-FW_SCENE_NX + 1] + c[FW_SCENE_NX - 1] +
+				     c[FW_SCENE_NX + 1];
+			int32_t *p = &prev[j * FW_SCENE_NX + i];
+			*p = 2 * c[0] - *p + (int32_t)(((int64_t)l2 * e_half_q31 + (1 << 30)) >> 31);
+		}
+	}
+}
+
+static int run_scene(void)
+{
+	uint64_t t0, dt, sum = 0, min = UINT64_MAX, max = 0, empty;
+	enum swell_err err;
+	uint32_t n;
+
+	err = fw_scene_init(&wave, wave_storage, FW_SCENE_WORDS);
+	if (err != SWELL_OK) {
+		con_puts("selftest: scene refused: ");
+		con_puts(swell_err_str(err));
+		con_putc('\n');
+		return 0;
+	}
+	con_puts("selftest: scene pool 64x64 dx 6.25 mm depth 50 mm dt 4 ms e 0x");
+	con_put_hex32((uint32_t)wave.p.e);
+	con_puts(" (Q1.30) paper stencil, damping 0, gauss 2 mm sigma 3 cells at (32,32)\n");
+	con_puts("selftest: initial checksum 0x");
+	con_put_hex32(swell_wave_checksum(&wave));
+	con_putc('\n');
+
+	t0 = timebase_systick();
+	empty = timebase_systick() - t0; /* cost of the measurement itself */
+	for (n = 0; n < SWELL_FW_SELFTEST_STEPS; n++) {
+		t0 = timebase_systick();
+		swell_wave_step(&wave);
+		dt = timebase_systick() - t0 - empty;
+		sum += dt;
+		min = dt < min ? dt : min;
+		max = dt > max ? dt : max;
+	}
+	con_puts("steps ");
+	con_put_u32(SWELL_FW_SELFTEST_STEPS);
+	con_putc('\n');
+	con_puts("checksum 0x");
+	con_put_hex32(swell_wave_checksum(&wave));
+	con_putc('\n');
+	con_puts("volume ");
+	con_put_i64(swell_wave_volume(&wave));
+	con_puts(" LSB (2^-16 mm per cell)\n");
+	con_puts("saturations ");
+	con_put_u32(wave.saturations);
+	con_putc('\n');
+	con_puts("solver step: mean ");
+	con_put_ratio(sum, SWELL_FW_SELFTEST_STEPS, 1);
+	con_puts(" SysTick ticks (min ");
+	con_put_u64(min);
+	con_puts(", max ");
+	con_put_u64(max);
+	con_puts(") = ");
+	put_insn(sum, SWELL_FW_SELFTEST_STEPS);
+	con_puts(" instructions per step (tick at 168 MHz, 1 tick = 125/21 instructions)\n");
+	con_puts("solver cell-step: ");
+	put_insn(sum, (uint64_t)SWELL_FW_SELFTEST_STEPS * FW_SCENE_NX * FW_SCENE_NY);
+	con_puts(" instructions per cell-step (swell_wave_step, edge-flux, 64x64)\n");
+	return 1;
+}
+
+static void run_naive(void)
+{
+	uint64_t t0, sum = 0;
+	uint32_t n;
+	int32_t *h = naive_a, *p = naive_b, *tmp;
+	int i;
+
+	for (i = 0; i < NAIVE_N; i++) /* any data: the cost does not depend on it */
+		naive_b[i] = naive_a[i] = naive_a[i] & 0xFF;
+	for (n = 0; n < SWELL_FW_SELFTEST_STEPS; n++) {
+		t0 = timebase_systick();
+		naive_step(p, h, wave.e_eff);
+		sum += timebase_systick() - t0;
+		tmp = h;
+		h = p;
+		p = tmp;
+	}
+	con_puts("naive int32 9-point cell-step: ");
+	put_insn(sum, (uint64_t)SWELL_FW_SELFTEST_STEPS * (FW_SCENE_NX - 2) * (FW_SCENE_NY - 2));
+	con_puts(" instructions per interior cell-step (DESIGN.md anchor 23.2)\n");
+}
+
+/* Stand-in for the core's force path until firmware/core is linked: a spring on the height under
+ * the pool centre, in 0.01 N. */
+static void force_tick(void)
+{
+	int32_t h = wave_storage[32 * FW_SCENE_NX + 32];
+
+	port_force_cN[2] = h >> 10;
+}
+
+/* The tick: TIM2 is configured for 1000 Hz and its interrupt (priority 0, the force path) is
+ * pended by software TICK_RUNS times, so the vector, the priority and the per-tick cost are checked
+ * deterministically. Hardware updates are only counted: QEMU 7.2's TIM2 model arms its alarm at
+ * twice the elapsed virtual time (fixed in QEMU 8.2), so it cannot run a periodic tick there. */
+#define TICK_RUNS 10u
+
+static int run_tick(uint32_t tim_clk_hz)
+{
+	struct tick_stats st;
+	uint32_t n, before;
+	enum swell_err err = tick_start(tim_clk_hz, 1000, 0, force_tick);
+
+	if (err != SWELL_OK) {
+		con_puts("tick: refused\n");
+		return 0;
+	}
+	tick_read(&st);
+	before = st.count;
+	for (n = 0; n < TICK_RUNS; n++) {
+		NVIC->ISPR[IRQ_TIM2 / 32] = 1u << (IRQ_TIM2 % 32);
+		__asm__ volatile("dsb\n\tisb" ::: "memory"); /* taken here, before the next line */
+	}
+	tick_read(&st);
+	tick_stop();
+	con_puts("tick: TIM2 1000 Hz from ");
+	con_put_u32(tim_clk_hz);
+	con_puts(" Hz, priority 0: ");
+	con_put_u32(st.count - before);
+	con_puts(" of ");
+	con_put_u32(TICK_RUNS);
+	con_puts(" pended interrupts taken, ");
+	con_put_u32(before);
+	con_puts(" hardware updates; force-path stub ");
+	put_insn(st.max_cost, 1);
+	con_puts(" instructions per tick (max), overruns ");
+	con_put_u32(st.overruns);
+	con_putc('\n');
+	return st.count - before == TICK_RUNS && st.overruns == 0;
+}
+
+int selftest_run(uint32_t tim_clk_hz)
+{
+	int ok = 1;
+
+	con_puts("selftest: begin (no CAN, no USB answered: loopback link)\n");
+	ok &= run_scene();
+	run_naive();
+	ok &= run_tick(tim_clk_hz);
+	ok &= loopback_selftest();
+	con_puts(ok ? "selftest: end ok\n" : "selftest: end FAILED\n");
+	return ok;
+}

@@ -1,0 +1,16 @@
+/* Self-test run when no CAN or USB peripheral answers at boot (QEMU netduinoplus2): the reference
+ * scene for a fixed number of solver steps, its checksum, instruction counts per step and per
+ * cell-step, a naive 9-point loop for comparison, the TIM2 tick, and a loopback link. */
+#ifndef SWELL_FW_SELFTEST_H
+#define SWELL_FW_SELFTEST_H
+
+#include <stdint.h>
+
+#ifndef SWELL_FW_SELFTEST_STEPS
+#define SWELL_FW_SELFTEST_STEPS 200u
+#endif
+
+/* Returns 1 when every check passed. */
+int selftest_run(uint32_t tim_clk_hz);
+
+#endif
