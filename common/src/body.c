@@ -1,0 +1,431 @@
+/* Floating object, force law and coupling; see body.h for units, the model and the invariant. */
+#include "swell/body.h"
+
+#include <string.h>
+
+#define FP_SHIFT 11 /* Q11 cell units */
+#define AREA_SHIFT (2 * FP_SHIFT)
+#define FINE_SHIFT 24 /* spring forces: uN * 2^-24 = k_q8 (2^-8) * LSB (2^-16 mm) */
+#define Z_LIMIT_LSB ((int32_t)1 << 30)
+#define FORCE_LIMIT_UN ((int64_t)1 << 30)
+
+/* Floor division for den > 0. */
+static int64_t div_floor(int64_t num, int64_t den)
+{
+	int64_t q = num / den;
+
+	return (num % den != 0 && num < 0) ? q - 1 : q;
+}
+
+/* num / den rounded to nearest, ties toward +inf, den > 0. */
+static int64_t div_rn(int64_t num, int64_t den)
+{
+	return div_floor(num + den / 2, den);
+}
+
+static int32_t sat32(int64_t x)
+{
+	return swell_sat_i64(x);
+}
+
+int32_t swell_um_to_lsb(int64_t um)
+{
+	/* 2^16 / 1000 = 8192 / 125 */
+	if (um > ((int64_t)1 << 40))
+		um = (int64_t)1 << 40;
+	if (um < -((int64_t)1 << 40))
+		um = -((int64_t)1 << 40);
+	return sat32(div_rn(um * 8192, 125));
+}
+
+int32_t swell_lsb_to_um(int64_t lsb)
+{
+	if (lsb > ((int64_t)1 << 50))
+		lsb = (int64_t)1 << 50;
+	if (lsb < -((int64_t)1 << 50))
+		lsb = -((int64_t)1 << 50);
+	return sat32(div_rn(lsb * 125, 8192));
+}
+
+enum swell_err swell_body_stiffness(const struct swell_body_params *p, int32_t *k_q8)
+{
+	uint64_t k;
+
+	if (!p || !k_q8)
+		return SWELL_EINVAL;
+	/* k [uN/mm] = rho [kg/m^3] g [mm/s^2] a [um] b [um] * 1e-12; times 2^8 for Q24.8 */
+	if (!swell_muldiv_u64((uint64_t)p->rho_kg_m3 * p->g_mm_s2, (uint64_t)p->a_um * p->b_um * 256u,
+			      1000000000000ull, &k))
+		return SWELL_ERANGE;
+	if (k == 0 || k > INT32_MAX)
+		return SWELL_ERANGE;
+	*k_q8 = (int32_t)k;
+	return SWELL_OK;
+}
+
+static enum swell_err check_scene(const struct swell_body_scene *sc)
+{
+	if (!sc)
+		return SWELL_EINVAL;
+	if (sc->dx_um < 100 || sc->dx_um > 1000000)
+		return SWELL_ERANGE;
+	if (sc->tick_hz < 10 || sc->tick_hz > 100000 || sc->solver_hz < 1 || sc->solver_hz > sc->tick_hz)
+		return SWELL_ERANGE;
+	if (sc->tick_hz % sc->solver_hz != 0 || sc->tick_hz / sc->solver_hz > SWELL_BODY_MAX_K)
+		return SWELL_ERANGE;
+	return SWELL_OK;
+}
+
+static enum swell_err check_params(const struct swell_body_params *p, const struct swell_body_scene *sc)
+{
+	uint64_t max_side = (uint64_t)SWELL_BODY_MAX_CELLS * sc->dx_um;
+	int32_t k_q8;
+	enum swell_err err;
+
+	if (!p)
+		return SWELL_EINVAL;
+	if (p->a_um < SWELL_BODY_MIN_SIDE_UM || p->b_um < SWELL_BODY_MIN_SIDE_UM || p->a_um > max_side ||
+	    p->b_um > max_side)
+		return SWELL_ERANGE;
+	if (p->h_um < SWELL_BODY_MIN_SIDE_UM || p->h_um > SWELL_BODY_MAX_H_UM)
+		return SWELL_ERANGE;
+	if (p->mass_g < 1 || p->mass_g > SWELL_BODY_MAX_MASS_G)
+		return SWELL_ERANGE;
+	if (p->rho_kg_m3 < 1 || p->rho_kg_m3 > 20000 || p->g_mm_s2 < 1 || p->g_mm_s2 > 100000)
+		return SWELL_ERANGE;
+	if (p->damper_uN_per_mm_s > SWELL_BODY_MAX_DAMPER || p->deadband_um > SWELL_BODY_MAX_DEADBAND_UM)
+		return SWELL_ERANGE;
+	if ((int64_t)p->mass_g * p->g_mm_s2 > FORCE_LIMIT_UN)
+		return SWELL_ERANGE;
+	err = swell_body_stiffness(p, &k_q8);
+	if (err != SWELL_OK)
+		return err;
+	/* k H in uN: k_q8 * H_lsb / 2^24 */
+	if ((((int64_t)k_q8 * swell_um_to_lsb(p->h_um)) >> FINE_SHIFT) > FORCE_LIMIT_UN)
+		return SWELL_ERANGE;
+	return SWELL_OK;
+}
+
+static enum swell_err check_xform(const struct swell_body_xform *xf)
+{
+	int seen = 0, k;
+
+	if (!xf)
+		return SWELL_EINVAL;
+	for (k = 0; k < 3; k++) {
+		if (xf->axis[k] > 2 || (xf->sign[k] != 1 && xf->sign[k] != -1))
+			return SWELL_EINVAL;
+		seen |= 1 << xf->axis[k];
+	}
+	if (seen != 7)
+		return SWELL_EINVAL;
+	if (xf->scale <= 0 || xf->scale > 16 * SWELL_Q16_ONE)
+		return SWELL_ERANGE;
+	return SWELL_OK;
+}
+
+enum swell_err swell_body_check(const struct swell_body_params *p, const struct swell_body_xform *xf,
+				const struct swell_body_scene *sc)
+{
+	enum swell_err err = check_scene(sc);
+
+	if (err != SWELL_OK)
+		return err;
+	err = check_params(p, sc);
+	if (err != SWELL_OK)
+		return err;
+	return check_xform(xf);
+}
+
+static void apply_params(struct swell_body *b, const struct swell_body_params *p,
+			 const struct swell_body_xform *xf)
+{
+	b->p = *p;
+	b->xf = *xf;
+	(void)swell_body_stiffness(p, &b->k_q8); /* checked before */
+	b->h_lsb = swell_um_to_lsb(p->h_um);
+	b->deadband_lsb = swell_um_to_lsb(p->deadband_um);
+	b->gravity_uN = -(int32_t)((int64_t)p->mass_g * p->g_mm_s2);
+}
+
+/* One pass over the field: the highest surface any interpolation between h(n-1) = h - v and
+ * h(n) = h can show, and sum(h) for the mean level. */
+static void scan_field(struct swell_body *b, const struct swell_wave *w)
+{
+	const int n = w->nx * w->ny;
+	int32_t top = INT32_MIN;
+	int64_t sum = 0;
+	int a;
+
+	for (a = 0; a < n; a++) {
+		int32_t h = w->h[a], hp = w->h[a] - w->v[a];
+
+		top = h > top ? h : top;
+		top = hp > top ? hp : top;
+		sum += h;
+	}
+	b->ceiling_lsb = top;
+	b->water_sum = sum;
+}
+
+enum swell_err swell_body_init(struct swell_body *b, const struct swell_body_params *p,
+			       const struct swell_body_xform *xf, const struct swell_body_scene *sc,
+			       const struct swell_wave *w)
+{
+	enum swell_err err;
+
+	if (!b || !w)
+		return SWELL_EINVAL;
+	err = swell_body_check(p, xf, sc);
+	if (err != SWELL_OK)
+		return err;
+	memset(b, 0, sizeof(*b));
+	b->sc = *sc;
+	b->nx = w->nx;
+	b->ny = w->ny;
+	b->ticks_per_step = sc->tick_hz / sc->solver_hz;
+	apply_params(b, p, xf);
+	scan_field(b, w);
+	return SWELL_OK;
+}
+
+enum swell_err swell_body_set_params(struct swell_body *b, const struct swell_body_params *p,
+				     const struct swell_body_xform *xf)
+{
+	enum swell_err err;
+
+	if (!b)
+		return SWELL_EINVAL;
+	err = swell_body_check(p, xf, &b->sc);
+	if (err != SWELL_OK)
+		return err;
+	if (b->applied.delta_lsb != 0)
+		return SWELL_ESTATE;
+	apply_params(b, p, xf);
+	return SWELL_OK;
+}
+
+void swell_body_solver_stepped(struct swell_body *b, const struct swell_wave *w)
+{
+	b->phase = 0;
+	b->u_prev = b->u_last;
+	scan_field(b, w);
+}
+
+void swell_body_springs(int32_t k_q8, int32_t w_lsb, int32_t z_lsb, int32_t h_lsb, int32_t deadband_lsb,
+			struct swell_springs *s)
+{
+	int64_t pull_stretch = (int64_t)w_lsb - z_lsb - deadband_lsb;
+	int64_t push_stretch = (int64_t)w_lsb - h_lsb - z_lsb - deadband_lsb;
+
+	s->origin_pull_lsb = w_lsb;
+	s->origin_push_lsb = sat32((int64_t)w_lsb - h_lsb);
+	/* the pulling spring draws the object up toward its origin, from first contact */
+	s->pull_fine = pull_stretch > 0 ? (int64_t)k_q8 * pull_stretch : 0;
+	/* the pushing spring pushes it away from its origin (down), from full submersion */
+	s->push_fine = push_stretch > 0 ? -(int64_t)k_q8 * push_stretch : 0;
+}
+
+/* Pose: pool[k] = offset[k] + sign[k] * scale * dev[axis[k]], rounded to nearest um. */
+static int32_t map_axis(const struct swell_body_xform *xf, int k, const int32_t dev[3], int offset)
+{
+	int64_t s = ((int64_t)xf->scale * dev[xf->axis[k]] + (1 << 15)) >> 16;
+
+	return sat32((offset ? xf->offset_um[k] : 0) + xf->sign[k] * s);
+}
+
+/* Footprint of an object centred at (x, y), clipped to the pool; empty when x0 >= x1 or y0 >= y1. */
+static void footprint(const struct swell_body *b, int32_t x_um, int32_t y_um, struct swell_body_fp *f)
+{
+	int64_t dx = b->sc.dx_um;
+	int64_t xa = (int64_t)x_um - b->p.a_um / 2, ya = (int64_t)y_um - b->p.b_um / 2;
+	int64_t x0 = div_rn(xa * SWELL_BODY_FP_ONE, dx), x1 = div_rn((xa + b->p.a_um) * SWELL_BODY_FP_ONE, dx);
+	int64_t y0 = div_rn(ya * SWELL_BODY_FP_ONE, dx), y1 = div_rn((ya + b->p.b_um) * SWELL_BODY_FP_ONE, dx);
+	int64_t xmax = (int64_t)b->nx << FP_SHIFT, ymax = (int64_t)b->ny << FP_SHIFT;
+
+	f->x0 = (int32_t)(x0 < 0 ? 0 : (x0 > xmax ? xmax : x0));
+	f->x1 = (int32_t)(x1 < 0 ? 0 : (x1 > xmax ? xmax : x1));
+	f->y0 = (int32_t)(y0 < 0 ? 0 : (y0 > ymax ? ymax : y0));
+	f->y1 = (int32_t)(y1 < 0 ? 0 : (y1 > ymax ? ymax : y1));
+	f->delta_lsb = 0;
+}
+
+static int fp_empty(const struct swell_body_fp *f)
+{
+	return f->x0 >= f->x1 || f->y0 >= f->y1;
+}
+
+/* Covered length of cell index c by the interval [e0, e1), Q11. */
+static int32_t overlap(int32_t c, int32_t e0, int32_t e1)
+{
+	int32_t lo = c << FP_SHIFT, hi = (c + 1) << FP_SHIFT;
+
+	lo = e0 > lo ? e0 : lo;
+	hi = e1 < hi ? e1 : hi;
+	return hi - lo;
+}
+
+/* Area-weighted sums of h and v under a non-empty footprint. |h| <= 2^27 and |v| <= 2^28 over at
+ * most 65 x 65 cells with weights <= 2^22: every sum stays below 2^62. */
+static void fp_sums(const struct swell_wave *w, const struct swell_body_fp *f, int64_t *sh, int64_t *sv)
+{
+	const int32_t i0 = f->x0 >> FP_SHIFT, i1 = (f->x1 - 1) >> FP_SHIFT;
+	const int32_t j0 = f->y0 >> FP_SHIFT, j1 = (f->y1 - 1) >> FP_SHIFT;
+	int32_t i, j;
+
+	*sh = 0;
+	*sv = 0;
+	for (j = j0; j <= j1; j++) {
+		const int32_t oy = overlap(j, f->y0, f->y1);
+		const int32_t *h = w->h + (size_t)j * w->nx, *v = w->v + (size_t)j * w->nx;
+		int64_t rh = 0, rv = 0;
+
+		for (i = i0; i <= i1; i++) {
+			const int32_t ox = overlap(i, f->x0, f->x1);
+
+			rh += (int64_t)ox * h[i];
+			rv += (int64_t)ox * v[i];
+		}
+		*sh += oy * rh;
+		*sv += oy * rv;
+	}
+}
+
+/* Add sign * D_c to every cell under f, D_c = round(delta * area_c), through swell_wave_add (the
+ * solver puts it into h at its next finish, flows untouched). Returns the volume added. */
+static int64_t deposit(struct swell_wave *w, const struct swell_body_fp *f, int sign)
+{
+	const int32_t i0 = f->x0 >> FP_SHIFT, i1 = (f->x1 - 1) >> FP_SHIFT;
+	const int32_t j0 = f->y0 >> FP_SHIFT, j1 = (f->y1 - 1) >> FP_SHIFT;
+	const int64_t half = (int64_t)1 << (AREA_SHIFT - 1);
+	int64_t added = 0;
+	int32_t i, j;
+
+	for (j = j0; j <= j1; j++) {
+		const int64_t oy = overlap(j, f->y0, f->y1);
+
+		for (i = i0; i <= i1; i++) {
+			/* delta <= H < 2^26 and the area weight <= 2^22: d < 2^26 */
+			int32_t d = (int32_t)(((int64_t)f->delta_lsb * (oy * overlap(i, f->x0, f->x1)) + half) >>
+					      AREA_SHIFT);
+
+			if (d == 0)
+				continue;
+			swell_wave_add(w, i, j, sign * d);
+			added += sign * d;
+		}
+	}
+	return added;
+}
+
+/* Replace what the object holds in the water by f (f->delta_lsb 0: nothing). */
+static void couple(struct swell_body *b, struct swell_wave *w, const struct swell_body_fp *f)
+{
+	const struct swell_body_fp *o = &b->applied;
+	int64_t gained = 0;
+
+	if (o->delta_lsb == 0 && f->delta_lsb == 0)
+		return;
+	if (o->delta_lsb == f->delta_lsb && o->x0 == f->x0 && o->x1 == f->x1 && o->y0 == f->y0 &&
+	    o->y1 == f->y1)
+		return;
+	if (o->delta_lsb != 0)
+		gained += deposit(w, o, -1);
+	if (f->delta_lsb != 0)
+		gained += deposit(w, f, +1);
+	b->v_displaced += gained;
+	b->water_sum += gained;
+	b->applied = *f;
+	b->coupled++;
+}
+
+/* The force is vertical in the pool; it goes back to the device axis that drives pool z. */
+static void device_force(const struct swell_body *b, struct swell_body_out *out)
+{
+	out->f_dev_uN[0] = out->f_dev_uN[1] = out->f_dev_uN[2] = 0;
+	out->f_dev_uN[b->xf.axis[2]] = b->xf.sign[2] * out->f.total_uN;
+}
+
+void swell_body_tick(struct swell_body *b, struct swell_wave *w, const int32_t pos_dev_um[3],
+		     const int32_t vel_dev_um_s[3], struct swell_body_out *out)
+{
+	const uint32_t kk = b->ticks_per_step, k = b->phase;
+	struct swell_body_fp f;
+	struct swell_springs s;
+	int64_t sh, sv, area, u, dv, bs;
+	int32_t z, wl, wv, delta, mean;
+
+	memset(out, 0, sizeof(*out));
+	out->x_um = map_axis(&b->xf, 0, pos_dev_um, 1);
+	out->y_um = map_axis(&b->xf, 1, pos_dev_um, 1);
+	out->z_um = map_axis(&b->xf, 2, pos_dev_um, 1);
+	out->vz_um_s = map_axis(&b->xf, 2, vel_dev_um_s, 0);
+	z = swell_clamp(swell_um_to_lsb(out->z_um), -Z_LIMIT_LSB, Z_LIMIT_LSB);
+	b->ticks++;
+	if (b->phase < kk)
+		b->phase++;
+	out->f.gravity_uN = b->gravity_uN;
+	out->f.total_uN = b->gravity_uN;
+
+	footprint(b, out->x_um, out->y_um, &f);
+	if (b->applied.delta_lsb == 0 && (fp_empty(&f) || z >= b->ceiling_lsb)) {
+		/* clear of the water and holding nothing: no surface read, no coupling */
+		b->skipped++;
+		b->u_last = 0;
+		out->skipped = 1;
+		device_force(b, out);
+		return;
+	}
+	if (fp_empty(&f)) {
+		/* wholly outside the pool: let go of what it held */
+		b->u_last = 0;
+		couple(b, w, &f);
+		device_force(b, out);
+		return;
+	}
+
+	/* surface under the footprint, between h(n-1) and h(n) */
+	fp_sums(w, &f, &sh, &sv);
+	area = (int64_t)(f.x1 - f.x0) * (f.y1 - f.y0);
+	wv = sat32(div_rn(sv, area));
+	wl = sat32(div_rn(sh, area) - div_rn((int64_t)wv * (int64_t)(kk - k), kk));
+	b->u_last = wv;
+	u = (int64_t)b->u_prev + div_rn(((int64_t)wv - b->u_prev) * (int64_t)k, kk);
+	out->surface_lsb = wl;
+	out->surface_um_s = sat32(div_rn(u * (int64_t)b->sc.solver_hz * 125, 8192));
+
+	delta = swell_clamp(sat32((int64_t)wl - z), 0, b->h_lsb);
+	out->delta_lsb = delta;
+
+	swell_body_springs(b->k_q8, wl, z, b->h_lsb, b->deadband_lsb, &s);
+	out->origin_pull_lsb = s.origin_pull_lsb;
+	out->origin_push_lsb = s.origin_push_lsb;
+	out->f.pull_uN = sat32((s.pull_fine + ((int64_t)1 << (FINE_SHIFT - 1))) >> FINE_SHIFT);
+	out->f.push_uN = sat32(-((-s.push_fine + ((int64_t)1 << (FINE_SHIFT - 1))) >> FINE_SHIFT));
+	out->f.up_uN = sat32((s.pull_fine + s.push_fine + ((int64_t)1 << (FINE_SHIFT - 1))) >> FINE_SHIFT);
+
+	/* damper b_max s (v - u_w), s = delta / H */
+	bs = div_rn((int64_t)b->p.damper_uN_per_mm_s * delta, b->h_lsb);
+	dv = (int64_t)out->vz_um_s - out->surface_um_s;
+	out->f.viscous_uN = sat32(-div_rn(bs * dv, 1000));
+	out->f.total_uN = sat32((int64_t)out->f.gravity_uN + out->f.up_uN + out->f.viscous_uN);
+	device_force(b, out);
+
+	/* coupling: the depth below the mean level of the pool (see body.h) */
+	mean = sat32(div_rn(b->water_sum, (int64_t)b->nx * b->ny));
+	f.delta_lsb = swell_clamp(sat32((int64_t)mean - z), 0, b->h_lsb);
+	couple(b, w, &f);
+}
+
+int64_t swell_body_invariant(const struct swell_body *b, const struct swell_wave *w)
+{
+	const int n = w->nx * w->ny;
+	int64_t pending = 0;
+	int a;
+
+	/* the step accumulator sums to the volume added and not yet finished: every flow in it is
+	 * added to one cell and taken from another */
+	for (a = 0; a < n; a++)
+		pending += w->acc[a];
+	return swell_wave_volume(w) + pending - b->v_displaced;
+}
