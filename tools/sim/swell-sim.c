@@ -14,6 +14,8 @@
 #include "swell/wave.h"
 #include "swell/wave_ref.h"
 
+#include "sim_object.h"
+
 static const char usage[] =
 	"usage: swell-sim [options]\n"
 	"Run the fixed-point shallow-water solver (paper eq. 1 and 2) on the host and print a summary.\n"
@@ -99,6 +101,7 @@ static void parse_args(int argc, char **argv, struct opts *o)
 
 		if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
 			fputs(usage, stdout);
+			sim_object_usage(stdout);
 			exit(0);
 		}
 		if (!strcmp(a, "--no-sleep")) {
@@ -159,6 +162,8 @@ static void parse_args(int argc, char **argv, struct opts *o)
 				die("--impl: '%s' is neither fixed nor float64%s", v, "");
 		} else if (!strcmp(a, "--dump-csv")) {
 			o->dump_csv = v;
+		} else if (sim_object_option(a, v)) {
+			/* taken by sim_object.c */
 		} else {
 			die("unknown option '%s'%s (see --help)", a, "");
 		}
@@ -360,6 +365,13 @@ int main(int argc, char **argv)
 	}
 	swell_wave_set_sleep(&w, !o.no_sleep);
 	init_field(&w, &o);
+	if (sim_object_active()) {
+		int rc = sim_object_run(&w, o.dt, o.dx, o.steps, o.float64);
+		free(store);
+		free(rstore);
+		free(mm);
+		return rc;
+	}
 	swell_wave_ref_from_fixed(&r, &w, rstore);
 
 	if (o.float64) {
