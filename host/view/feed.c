@@ -1,0 +1,216 @@
+/* Decoder side of swell-view, see feed.h. */
+#include "feed.h"
+
+#include <string.h>
+
+#include "swell/wave.h"
+
+void feed_init(struct view_feed *f, struct view_model *vm, uint8_t node)
+{
+	memset(f, 0, sizeof(*f));
+	f->vm = vm;
+	f->node = node;
+	/* the reference scene's object (DESIGN.md 2.3): 60 x 60 x 40 mm */
+	f->obj_a_um = 60000;
+	f->obj_b_um = 60000;
+	f->obj_h_um = 40000;
+}
+
+uint32_t feed_rejected(const struct view_feed *f)
+{
+	uint32_t n = 0;
+	for (unsigned k = 0; k < SWELL_ERR_COUNT; k++)
+		n += f->st.rejected[k];
+	return n;
+}
+
+const char *feed_state_name(uint8_t state)
+{
+	static const char *const names[] = {"BOOT", "IDLE", "ARMED", "RUNNING", "FAULT"};
+	return state < sizeof(names) / sizeof(names[0]) ? names[state] : "?";
+}
+
+static void on_scene(struct view_feed *f, const struct swell_msg_scene *s, uint64_t now_us)
+{
+	struct view_scene vs = {
+		.nx = s->nx,
+		.ny = s->ny,
+		.dx_um = s->dx_um,
+		.depth_um = (uint32_t)s->depth_10um * 10u,
+		.tile_w = SWELL_PROTO_TILE,
+		.tile_h = SWELL_PROTO_TILE,
+		.scene_id = s->scene_id,
+	};
+	bool had = f->vm->have_scene;
+	uint32_t restarts = f->vm->st.restarts;
+	if (vm_scene(f->vm, &vs, now_us) != SWELL_OK) {
+		vm_bad(f->vm);
+		return;
+	}
+	if (!had || f->vm->st.restarts != restarts)
+		memset(f->quads, 0, sizeof(f->quads)); /* a new scene: no tile is complete yet */
+}
+
+static void on_quad(struct view_feed *f, const struct swell_msg_height_quad *q)
+{
+	struct view_model *m = f->vm;
+	if (!m->have_scene) {
+		m->st.ignored++;
+		return;
+	}
+	if (q->tile_x >= m->tiles_x || q->tile_y >= m->tiles_y) {
+		vm_bad(m); /* decodable, but not in this scene */
+		return;
+	}
+	uint16_t i0, j0, w, h;
+	vm_tile_rect(m, q->tile_x, q->tile_y, &i0, &j0, &w, &h);
+	uint16_t col = (uint16_t)(q->half * 4u);
+	if (q->row >= h || col >= w)
+		return; /* padding beyond the grid's edge: nothing to show */
+	uint16_t n = (uint16_t)(w - col < 4 ? w - col : 4);
+	int32_t v[4] = {q->h0, q->h1, q->h2, q->h3};
+	for (int k = 0; k < 4; k++)
+		v[k] *= 1 << (SWELL_H_FRAC - SWELL_PROTO_H_SHIFT);
+	if (vm_cells(m, q->tile_x, q->tile_y, col, q->row, n, q->frame, 2, v) != SWELL_OK)
+		return;
+	/* tile completion: all quads of the tile that lie inside the grid, of one frame */
+	size_t t = (size_t)q->tile_y * FEED_MAX_TILES + q->tile_x;
+	if (f->quad_frame[t] != q->frame) {
+		f->quad_frame[t] = q->frame;
+		f->quads[t] = 0;
+	}
+	f->quads[t] |= (uint16_t)(1u << (q->row * 2u + q->half));
+	uint16_t want = 0;
+	for (uint16_t r = 0; r < h; r++)
+		want |= (uint16_t)((w > 4 ? 3u : 1u) << (r * 2u));
+	if ((f->quads[t] & want) == want) {
+		vm_tile_done(m);
+		f->quads[t] = 0;
+		f->quad_frame[t] = 0xff; /* no frame: the next quad starts a new count */
+	}
+}
+
+static void on_heartbeat(struct view_feed *f, const struct swell_msg_heartbeat *hb, uint64_t now_us)
+{
+	/* Back in BOOT after any other state: the controller restarted. */
+	if (f->have_state && hb->state == 0 && f->state != 0)
+		vm_restart(f->vm, now_us);
+	f->have_state = true;
+	f->state = hb->state;
+	vm_heartbeat(f->vm, feed_state_name(hb->state), hb->err, hb->bad_frames, hb->overruns);
+	if (f->have_hb) {
+		uint8_t d = (uint8_t)(hb->seq - f->hb_seq);
+		if (d < 128)
+			f->hb_count += d;
+		else
+			f->have_hb = false; /* went back: a new sender; restart the clock */
+	}
+	if (!f->have_hb) {
+		f->have_hb = true;
+		f->hb_count = 0;
+		f->vm->have_offset = false;
+		f->vm->have_prev_best = false;
+	}
+	f->hb_seq = hb->seq;
+	vm_clock(f->vm, f->hb_count * FEED_HEARTBEAT_US, now_us);
+}
+
+static void on_msg(struct view_feed *f, const struct swell_msg *m, uint64_t now_us, bool can)
+{
+	struct view_model *vm = f->vm;
+
+	switch (m->type) {
+	case SWELL_MSG_SCENE:
+		on_scene(f, &m->u.scene, now_us);
+		break;
+	case SWELL_MSG_HEIGHT_QUAD:
+		on_quad(f, &m->u.height_quad);
+		break;
+	case SWELL_MSG_HEARTBEAT:
+		on_heartbeat(f, &m->u.heartbeat, now_us);
+		break;
+	case SWELL_MSG_OBJECT_POSE: {
+		const struct swell_msg_object_pose *p = &m->u.object_pose;
+		if (can) {
+			if (f->have_pose_seq) {
+				uint8_t d = (uint8_t)(p->seq - f->pose_seq - 1u);
+				if (d < 128)
+					vm->st.dropped += d;
+			}
+			f->have_pose_seq = true;
+			f->pose_seq = p->seq;
+		}
+		struct view_object o = vm->obj;
+		o.valid = true;
+		o.x_um = p->x_10um * 10;
+		o.y_um = p->y_10um * 10;
+		o.z_um = p->z_10um * 10;
+		o.a_um = f->obj_a_um;
+		o.b_um = f->obj_b_um;
+		o.h_um = f->obj_h_um;
+		f->submersion_halfpct = p->submersion_halfpct;
+		vm_object(vm, &o);
+		break;
+	}
+	case SWELL_MSG_OBJECT_FORCE: {
+		const struct swell_msg_object_force *q = &m->u.object_force;
+		if (!vm->obj.valid)
+			break; /* a force needs an object to hang on */
+		struct view_object o = vm->obj;
+		o.fx_cN = q->fx_cN;
+		o.fy_cN = q->fy_cN;
+		o.fz_cN = q->fz_cN;
+		f->force_limits = q->limits;
+		vm_object(vm, &o);
+		break;
+	}
+	default:
+		break; /* device and parameter traffic: not the viewer's business */
+	}
+}
+
+void feed_packet(struct view_feed *f, const uint8_t *pkt, size_t len, uint64_t now_us)
+{
+	struct swell_msg msgs[SWELL_PKT_MSGS_MAX];
+	size_t n = 0;
+	uint8_t seq = 0;
+
+	if (swell_pkt_decode(pkt, len, msgs, SWELL_PKT_MSGS_MAX, &n, &seq, &f->st) != SWELL_OK) {
+		vm_bad(f->vm);
+		return;
+	}
+	if (f->node != FEED_NODE_ANY && n > 0 && msgs[0].node != f->node) {
+		f->other_node++;
+		return;
+	}
+	if (!vm_frame(f->vm, seq, 8, now_us))
+		return; /* reordered: older than what is shown */
+	for (size_t k = 0; k < n; k++)
+		on_msg(f, &msgs[k], now_us, false);
+}
+
+void feed_can(struct view_feed *f, uint32_t id, const uint8_t *data, size_t len, bool fd,
+	      uint64_t now_us)
+{
+	struct swell_msg msgs[SWELL_CANFD_MSGS_MAX];
+	size_t n = 0;
+	enum swell_err err;
+
+	if (!fd) {
+		err = swell_can_decode(id, data, len, &msgs[0], &f->st);
+		n = 1;
+	} else {
+		err = swell_canfd_decode(id, data, len, msgs, SWELL_CANFD_MSGS_MAX, &n, &f->st);
+	}
+	if (err != SWELL_OK) {
+		vm_bad(f->vm);
+		return;
+	}
+	if (f->node != FEED_NODE_ANY && n > 0 && msgs[0].node != f->node) {
+		f->other_node++;
+		return;
+	}
+	vm_rx(f->vm, now_us);
+	for (size_t k = 0; k < n; k++)
+		on_msg(f, &msgs[k], now_us, true);
+}

@@ -1,0 +1,58 @@
+/* The decoder side of swell-view: carrier frames in (packets from UDP/USB, CAN and CAN FD frames),
+ * the view model filled out. Every frame goes through the common/ decoders; a rejected frame is
+ * counted (by reason) and changes nothing.
+ *
+ * Height quads are written into the model as they arrive (each is a complete, checked row piece);
+ * a tile counts as done when all its quads of one solver frame have arrived. */
+#ifndef SWELL_VIEW_FEED_H
+#define SWELL_VIEW_FEED_H
+
+#include <stdbool.h>
+#include <stdint.h>
+#include <stddef.h>
+
+#include "swell/proto.h"
+#include "vm.h"
+
+#define FEED_NODE_ANY 0xffu
+#define FEED_MAX_TILES 32u /* per side, the protocol's tile_x/tile_y range */
+#define FEED_HEARTBEAT_US 100000u /* the controller's heartbeat period (10 Hz) */
+
+struct view_feed {
+	struct view_model *vm;
+	struct swell_proto_stats st;
+	uint8_t node;             /* accept this node, or FEED_NODE_ANY */
+	uint32_t other_node;      /* frames from other nodes, ignored */
+	/* object size: not on the wire, from the command line */
+	uint32_t obj_a_um, obj_b_um, obj_h_um;
+	uint8_t submersion_halfpct;
+	uint8_t force_limits;
+	/* controller state and restart detection */
+	bool have_state;
+	uint8_t state;
+	/* heartbeat counter unwrapped: the controller's clock for the latency estimate */
+	bool have_hb;
+	uint8_t hb_seq;
+	uint64_t hb_count;
+	/* CAN has no packet sequence: loss is counted on the object pose stream */
+	bool have_pose_seq;
+	uint8_t pose_seq;
+	/* tile completion: quads seen of the current frame, per tile */
+	uint16_t quads[FEED_MAX_TILES * FEED_MAX_TILES];
+	uint8_t quad_frame[FEED_MAX_TILES * FEED_MAX_TILES];
+};
+
+void feed_init(struct view_feed *f, struct view_model *vm, uint8_t node);
+
+/* One USB packet or UDP datagram. */
+void feed_packet(struct view_feed *f, const uint8_t *pkt, size_t len, uint64_t now_us);
+/* One CAN frame (classic when len <= 8 and !fd). id: 11-bit identifier. */
+void feed_can(struct view_feed *f, uint32_t id, const uint8_t *data, size_t len, bool fd,
+	      uint64_t now_us);
+
+/* Frames rejected by the decoders, all reasons. */
+uint32_t feed_rejected(const struct view_feed *f);
+
+const char *feed_state_name(uint8_t state);
+
+#endif

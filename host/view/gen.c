@@ -1,0 +1,157 @@
+/* Known-scene packet generator, see gen.h. Host-only (uses libm for the bump). */
+#include "gen.h"
+
+#include <math.h>
+#include <string.h>
+
+#include "swell/proto.h"
+
+void gen_default(struct gen_scene *s)
+{
+	memset(s, 0, sizeof(*s));
+	s->nx = 64;
+	s->ny = 64;
+	s->dx_um = 6250;
+	s->depth_10um = 5000;
+	s->scene_id = 1;
+	s->bump_x_um = (int32_t)(0.70 * 64 * 6250);
+	s->bump_y_um = (int32_t)(0.50 * 64 * 6250);
+	s->bump_sigma_um = 25000;
+	s->bump_amp_um = 3000;
+	s->obj_x_10um = (int16_t)(0.30 * 64 * 625);
+	s->obj_y_10um = (int16_t)(0.35 * 64 * 625);
+	s->obj_z_10um = -1000;
+	s->submersion_halfpct = 50;
+	s->fx_cN = 150;
+	s->fy_cN = -100;
+	s->fz_cN = 80;
+	s->state = 3;
+}
+
+int16_t gen_height(const struct gen_scene *s, uint16_t i, uint16_t j, uint64_t t_us)
+{
+	double x = ((double)i + 0.5) * s->dx_um, y = ((double)j + 0.5) * s->dx_um;
+	double h_um = 0;
+	if (s->bump_sigma_um > 0) {
+		double rx = x - s->bump_x_um, ry = y - s->bump_y_um, sg = s->bump_sigma_um;
+		h_um += s->bump_amp_um * exp(-(rx * rx + ry * ry) / (2 * sg * sg));
+	}
+	if (s->ripple_amp_um && s->ripple_len_um > 0) {
+		/* circular ripple from the pool's corner, fading with distance */
+		double r = sqrt(x * x + y * y), t = (double)t_us * 1e-6;
+		double ph = 2 * 3.14159265358979 * (r - s->ripple_speed_um_s * t) / s->ripple_len_um;
+		h_um += s->ripple_amp_um * cos(ph) * exp(-r / (4.0 * s->ripple_len_um));
+	}
+	double q = h_um * 64.0 / 1000.0; /* LSB 2^-6 mm */
+	q = q > 2047 ? 2047 : q < -2048 ? -2048 : q;
+	return (int16_t)lround(q);
+}
+
+struct packer {
+	struct swell_msg m[SWELL_PKT_MSGS_MAX];
+	size_t n;
+	uint8_t *seq;
+	gen_emit_fn emit;
+	void *ctx;
+	unsigned packets;
+	enum swell_err err;
+};
+
+static void flush(struct packer *p)
+{
+	size_t at = 0;
+	while (at < p->n && p->err == SWELL_OK) {
+		uint8_t pkt[SWELL_PKT_MAX];
+		size_t len = 0, used = 0;
+		p->err = swell_pkt_encode(0, *p->seq, p->m + at, p->n - at, pkt, sizeof(pkt), &len, &used);
+		if (p->err != SWELL_OK)
+			break;
+		p->emit(p->ctx, pkt, len);
+		(*p->seq)++;
+		p->packets++;
+		at += used;
+	}
+	p->n = 0;
+}
+
+static void put(struct packer *p, const struct swell_msg *m)
+{
+	if (p->n == SWELL_PKT_MSGS_MAX)
+		flush(p);
+	p->m[p->n++] = *m;
+}
+
+unsigned gen_frame(const struct gen_scene *s, uint64_t t_us, uint8_t frame, bool heartbeat, uint8_t hb_seq,
+		   bool scene, bool tiles, uint8_t *seq, gen_emit_fn emit, void *ctx, enum swell_err *err)
+{
+	struct packer p = {.seq = seq, .emit = emit, .ctx = ctx, .err = SWELL_OK};
+	struct swell_msg m;
+
+	if (heartbeat) {
+		memset(&m, 0, sizeof(m));
+		m.type = SWELL_MSG_HEARTBEAT;
+		m.u.heartbeat.state = s->state;
+		m.u.heartbeat.version = SWELL_PROTO_VERSION;
+		m.u.heartbeat.seq = hb_seq;
+		put(&p, &m);
+	}
+	if (scene) {
+		memset(&m, 0, sizeof(m));
+		m.type = SWELL_MSG_SCENE;
+		m.u.scene.nx = s->nx;
+		m.u.scene.ny = s->ny;
+		m.u.scene.h_shift = SWELL_PROTO_H_SHIFT;
+		m.u.scene.dx_um = s->dx_um;
+		m.u.scene.depth_10um = s->depth_10um;
+		m.u.scene.scene_id = s->scene_id;
+		put(&p, &m);
+	}
+	if (tiles) {
+		unsigned tx_n = (s->nx + SWELL_PROTO_TILE - 1u) / SWELL_PROTO_TILE;
+		unsigned ty_n = (s->ny + SWELL_PROTO_TILE - 1u) / SWELL_PROTO_TILE;
+		for (unsigned ty = 0; ty < ty_n; ty++)
+			for (unsigned tx = 0; tx < tx_n; tx++)
+				for (unsigned row = 0; row < SWELL_PROTO_TILE; row++)
+					for (unsigned half = 0; half < 2; half++) {
+						memset(&m, 0, sizeof(m));
+						m.type = SWELL_MSG_HEIGHT_QUAD;
+						struct swell_msg_height_quad *q = &m.u.height_quad;
+						q->tile_x = (uint8_t)tx;
+						q->tile_y = (uint8_t)ty;
+						q->row = (uint8_t)row;
+						q->half = (uint8_t)half;
+						q->frame = frame & 3u;
+						int16_t v[4] = {0, 0, 0, 0};
+						unsigned j = ty * SWELL_PROTO_TILE + row;
+						for (unsigned k = 0; k < 4; k++) {
+							unsigned i = tx * SWELL_PROTO_TILE + half * 4 + k;
+							if (i < s->nx && j < s->ny)
+								v[k] = gen_height(s, (uint16_t)i, (uint16_t)j, t_us);
+						}
+						q->h0 = v[0];
+						q->h1 = v[1];
+						q->h2 = v[2];
+						q->h3 = v[3];
+						put(&p, &m);
+					}
+	}
+	memset(&m, 0, sizeof(m));
+	m.type = SWELL_MSG_OBJECT_POSE;
+	m.u.object_pose.x_10um = s->obj_x_10um;
+	m.u.object_pose.y_10um = s->obj_y_10um;
+	m.u.object_pose.z_10um = s->obj_z_10um;
+	m.u.object_pose.submersion_halfpct = s->submersion_halfpct;
+	m.u.object_pose.seq = frame;
+	put(&p, &m);
+	memset(&m, 0, sizeof(m));
+	m.type = SWELL_MSG_OBJECT_FORCE;
+	m.u.object_force.fx_cN = s->fx_cN;
+	m.u.object_force.fy_cN = s->fy_cN;
+	m.u.object_force.fz_cN = s->fz_cN;
+	m.u.object_force.seq = frame;
+	put(&p, &m);
+	flush(&p);
+	if (err)
+		*err = p.err;
+	return p.err == SWELL_OK ? p.packets : 0;
+}

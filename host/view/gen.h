@@ -1,0 +1,45 @@
+/* A known scene, encoded with the real common/ encoders into the packets a controller sends
+ * (scene description, height quads of every tile, object pose and force, heartbeat). It is what the
+ * gui tests and the built-in `pattern` source feed to the viewer, so that they exercise the same
+ * decode path as live data without a controller. */
+#ifndef SWELL_VIEW_GEN_H
+#define SWELL_VIEW_GEN_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "swell/err.h"
+
+struct gen_scene {
+	uint16_t nx, ny;
+	uint16_t dx_um;
+	uint16_t depth_10um;
+	uint8_t scene_id;
+	/* a Gaussian bump on the water */
+	int32_t bump_x_um, bump_y_um, bump_sigma_um, bump_amp_um;
+	/* optional travelling ripple for the demo pattern: amplitude and wavelength, um; speed um/s */
+	int32_t ripple_amp_um, ripple_len_um, ripple_speed_um_s;
+	/* object */
+	int16_t obj_x_10um, obj_y_10um, obj_z_10um;
+	uint8_t submersion_halfpct;
+	int16_t fx_cN, fy_cN, fz_cN;
+	uint8_t state; /* heartbeat state, 3 = running */
+};
+
+/* The reference test scene: 64 x 64 cells of 6.25 mm, 50 mm deep, a 3 mm bump at (0.70, 0.50) of the
+ * pool, the object at (0.30, 0.35) with its bottom 10 mm under the rest level, force (+1.5, -1.0, +0.8) N. */
+void gen_default(struct gen_scene *s);
+
+typedef void (*gen_emit_fn)(void *ctx, const uint8_t *pkt, size_t len);
+
+/* Height of cell (i, j) at time t_us in wire units (LSB 2^-6 mm, saturated to int12). */
+int16_t gen_height(const struct gen_scene *s, uint16_t i, uint16_t j, uint64_t t_us);
+
+/* The packets of one controller frame at time t_us: heartbeat if `heartbeat`, scene if `scene`, the
+ * height quads of every tile if `tiles`, object pose and force. *seq is the packet sequence number,
+ * advanced per packet. Returns the number of packets, or 0 with err set. */
+unsigned gen_frame(const struct gen_scene *s, uint64_t t_us, uint8_t frame, bool heartbeat, uint8_t hb_seq,
+		   bool scene, bool tiles, uint8_t *seq, gen_emit_fn emit, void *ctx, enum swell_err *err);
+
+#endif

@@ -1,0 +1,457 @@
+/* swell-view: shows the heights, object pose, force and controller state it receives; it has no
+ * solver and invents nothing. See render.h for the GL side, vm.h for the robustness rules. */
+#define _GNU_SOURCE
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "feed.h"
+#include "png.h"
+#include "render.h"
+#include "sources.h"
+#include "vm.h"
+
+static const char usage[] =
+	"usage: swell-view [options]\n"
+	"Shows the water, object and force a swell controller sends; no solver inside.\n"
+	"\n"
+	"  --source SRC        udp[:PORT]        datagrams on 127.0.0.1 (default udp:47801, as swell-ctl sends)\n"
+	"                      replay:FILE       a recording, at recorded speed; replay-fast:FILE all at once\n"
+	"                      pattern:bump|ripple  a known scene through the real encoders (labelled on screen)\n"
+	"  --faults LIST       inject into a pattern: garbage,truncate,corrupt,reorder,drop,noscene,restart\n"
+	"  --node N            show only controller node N (0..15; default: any)\n"
+	"  --record FILE       record every received frame (replay with --source replay:FILE)\n"
+	"  --headless          render without a visible window (still needs an X display, e.g. Xvfb)\n"
+	"  --size WxH          framebuffer size in pixels (default 1024x768)\n"
+	"  --screenshot FILE   write a PNG of frame N (see --after) and exit\n"
+	"  --after N           frames before the screenshot (default 30)\n"
+	"  --frames N          exit after N frames\n"
+	"  --view orbit|top    camera: orbit (default; mouse) or straight down, pool fitted (tests)\n"
+	"  --colour            colour the water by height (blue low, red high)\n"
+	"  --range MM          height of full colour and of the water tint (default 2 mm)\n"
+	"  --zscale X          vertical exaggeration of the water (default 4)\n"
+	"  --force-scale MM    force arrow length per newton (default 40 mm/N)\n"
+	"  --object AxBxH      object size in mm, not on the wire (default 60x60x40)\n"
+	"  --stale-ms N        silence after which data is called stale (default 500 ms)\n"
+	"  --no-hud            no text overlay\n"
+	"  --fps N             frame rate limit (default 60)\n"
+	"  -h, --help          this text\n"
+	"\n"
+	"Mouse: left drag orbits, wheel zooms. Keys: R reset view, S screenshot, P or space pause,\n"
+	"C colour scale, H HUD, Q or Esc quit.\n"
+	"Exit status: 0 done, 1 GL/window/file failure, 2 bad arguments.\n";
+
+struct opts {
+	const char *source, *faults, *record, *shot;
+	int node;
+	bool headless;
+	long after, frames;
+	double fps;
+	uint32_t stale_ms;
+	uint32_t obj_um[3];
+	struct render_opts ro;
+};
+
+static void bad(const char *fmt, const char *a)
+{
+	fprintf(stderr, "swell-view: ");
+	fprintf(stderr, fmt, a);
+	fprintf(stderr, " (see --help)\n");
+	exit(2);
+}
+
+static double num(const char *opt, const char *v, double lo, double hi)
+{
+	char *end;
+	errno = 0;
+	double x = strtod(v, &end);
+	if (errno || *v == 0 || *end || !(x >= lo && x <= hi)) {
+		fprintf(stderr, "swell-view: %s '%s' is not a number in [%g, %g]\n", opt, v, lo, hi);
+		exit(2);
+	}
+	return x;
+}
+
+static void parse(int argc, char **argv, struct opts *o)
+{
+	memset(o, 0, sizeof(*o));
+	o->source = "udp";
+	o->node = -1;
+	o->after = 30;
+	o->frames = -1;
+	o->fps = 60;
+	o->stale_ms = 500;
+	o->obj_um[0] = o->obj_um[1] = 60000;
+	o->obj_um[2] = 40000;
+	o->ro.w = 1024;
+	o->ro.h = 768;
+	o->ro.view = RENDER_ORBIT;
+	o->ro.h_range_mm = 2;
+	o->ro.hud = true;
+	o->ro.zscale = 4;
+	o->ro.force_mm_per_N = 40;
+	for (int k = 1; k < argc; k++) {
+		const char *a = argv[k];
+		const char *v = k + 1 < argc ? argv[k + 1] : NULL;
+#define NEED()                                            \
+	do {                                              \
+		if (!v)                                   \
+			bad("%s needs a value", a);       \
+		k++;                                      \
+	} while (0)
+		if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
+			fputs(usage, stdout);
+			exit(0);
+		} else if (!strcmp(a, "--source")) {
+			NEED();
+			o->source = v;
+		} else if (!strcmp(a, "--faults")) {
+			NEED();
+			o->faults = v;
+		} else if (!strcmp(a, "--node")) {
+			NEED();
+			o->node = (int)num(a, v, 0, 15);
+		} else if (!strcmp(a, "--record")) {
+			NEED();
+			o->record = v;
+		} else if (!strcmp(a, "--headless")) {
+			o->headless = true;
+		} else if (!strcmp(a, "--size")) {
+			NEED();
+			int w, h;
+			char c;
+			if (sscanf(v, "%dx%d%c", &w, &h, &c) != 2 || w < 64 || h < 64 || w > 8192 || h > 8192)
+				bad("--size '%s' is not WxH with sides in 64..8192 pixels", v);
+			o->ro.w = w;
+			o->ro.h = h;
+		} else if (!strcmp(a, "--screenshot")) {
+			NEED();
+			o->shot = v;
+		} else if (!strcmp(a, "--after")) {
+			NEED();
+			o->after = (long)num(a, v, 1, 1e7);
+		} else if (!strcmp(a, "--frames")) {
+			NEED();
+			o->frames = (long)num(a, v, 1, 1e9);
+		} else if (!strcmp(a, "--view")) {
+			NEED();
+			if (!strcmp(v, "orbit"))
+				o->ro.view = RENDER_ORBIT;
+			else if (!strcmp(v, "top"))
+				o->ro.view = RENDER_TOP;
+			else
+				bad("--view '%s' is not orbit or top", v);
+		} else if (!strcmp(a, "--colour") || !strcmp(a, "--color")) {
+			o->ro.colour_scale = true;
+		} else if (!strcmp(a, "--range")) {
+			NEED();
+			o->ro.h_range_mm = (float)num(a, v, 0.01, 100);
+		} else if (!strcmp(a, "--zscale")) {
+			NEED();
+			o->ro.zscale = (float)num(a, v, 0.1, 100);
+		} else if (!strcmp(a, "--force-scale")) {
+			NEED();
+			o->ro.force_mm_per_N = (float)num(a, v, 0, 10000);
+		} else if (!strcmp(a, "--object")) {
+			NEED();
+			double x, y, z;
+			char c;
+			if (sscanf(v, "%lfx%lfx%lf%c", &x, &y, &z, &c) != 3 || !(x >= 1 && x <= 500) ||
+			    !(y >= 1 && y <= 500) || !(z >= 1 && z <= 500))
+				bad("--object '%s' is not AxBxH in mm, each 1..500", v);
+			o->obj_um[0] = (uint32_t)lround(x * 1000);
+			o->obj_um[1] = (uint32_t)lround(y * 1000);
+			o->obj_um[2] = (uint32_t)lround(z * 1000);
+		} else if (!strcmp(a, "--stale-ms")) {
+			NEED();
+			o->stale_ms = (uint32_t)num(a, v, 10, 60000);
+		} else if (!strcmp(a, "--no-hud")) {
+			o->ro.hud = false;
+		} else if (!strcmp(a, "--fps")) {
+			NEED();
+			o->fps = num(a, v, 1, 1000);
+		} else {
+			bad("unknown option '%s'", a);
+		}
+#undef NEED
+	}
+	if (o->faults && strncmp(o->source, "pattern:", 8) != 0)
+		bad("--faults applies to pattern sources only, not '%s'", o->source);
+}
+
+static uint64_t now_us(void)
+{
+	struct timespec t;
+	clock_gettime(CLOCK_MONOTONIC, &t);
+	return (uint64_t)t.tv_sec * 1000000u + (uint64_t)t.tv_nsec / 1000u;
+}
+
+/* ---- window input ---- */
+struct app {
+	struct render r;
+	struct view_model vm;
+	bool paused, want_shot, quit, dragging;
+	double mx, my;
+	unsigned shots;
+};
+
+static void on_key(GLFWwindow *w, int key, int sc, int action, int mods)
+{
+	(void)sc;
+	(void)mods;
+	struct app *a = glfwGetWindowUserPointer(w);
+	if (action != GLFW_PRESS)
+		return;
+	switch (key) {
+	case GLFW_KEY_R: render_cam_reset(&a->r, &a->vm); break;
+	case GLFW_KEY_S: a->want_shot = true; break;
+	case GLFW_KEY_P:
+	case GLFW_KEY_SPACE: a->paused = !a->paused; break;
+	case GLFW_KEY_C: a->r.o.colour_scale = !a->r.o.colour_scale; break;
+	case GLFW_KEY_H: a->r.o.hud = !a->r.o.hud; break;
+	case GLFW_KEY_Q:
+	case GLFW_KEY_ESCAPE: a->quit = true; break;
+	default: break;
+	}
+}
+
+static void on_button(GLFWwindow *w, int button, int action, int mods)
+{
+	(void)mods;
+	struct app *a = glfwGetWindowUserPointer(w);
+	if (button == GLFW_MOUSE_BUTTON_LEFT) {
+		a->dragging = action == GLFW_PRESS;
+		glfwGetCursorPos(w, &a->mx, &a->my);
+	}
+}
+
+static void on_cursor(GLFWwindow *w, double x, double y)
+{
+	struct app *a = glfwGetWindowUserPointer(w);
+	if (a->dragging)
+		render_cam_orbit(&a->r, (float)(a->mx - x) * 0.008f, (float)(y - a->my) * 0.008f);
+	a->mx = x;
+	a->my = y;
+}
+
+static void on_scroll(GLFWwindow *w, double dx, double dy)
+{
+	(void)dx;
+	struct app *a = glfwGetWindowUserPointer(w);
+	render_cam_zoom(&a->r, powf(0.9f, (float)dy));
+}
+
+static void on_glfw_error(int code, const char *what)
+{
+	fprintf(stderr, "swell-view: GLFW error %d: %s\n", code, what);
+}
+
+/* ---- HUD ---- */
+static void status_colour(enum view_status s, uint8_t *c)
+{
+	static const uint8_t cols[][3] = {
+		[VIEW_LINK_DOWN] = {255, 80, 70},  [VIEW_WAIT_SCENE] = {255, 200, 60},
+		[VIEW_RESTARTED] = {255, 150, 40}, [VIEW_STALE] = {255, 200, 60}, [VIEW_LIVE] = {90, 230, 120}};
+	memcpy(c, cols[s], 3);
+}
+
+static void hud(struct app *a, const struct view_feed *f, const struct source *src, uint64_t now)
+{
+	const struct view_model *m = &a->vm;
+	const struct view_stats *st = &m->st;
+	char buf[512], lat[48];
+	uint8_t c[3];
+
+	render_text_clear(&a->r);
+	if (st->latency_valid)
+		snprintf(lat, sizeof(lat), "+%.1f MS OVER BEST", (double)st->latency_ms);
+	else
+		snprintf(lat, sizeof(lat), "-");
+	snprintf(buf, sizeof(buf),
+		 "SWELL-VIEW\n"
+		 "LINK   %s\n"
+		 "FRAMES %7.1f /S   TILES %7.1f /S\n"
+		 "LATENCY %s\n"
+		 "DROPPED %u  BAD %u  LATE %u\n"
+		 "CONTROLLER %s  ERR %u\n"
+		 "CTL BAD %u  OVERRUNS %u  RESTARTS %u",
+		 src->desc, (double)st->frame_hz, (double)st->tile_hz, lat, st->dropped, st->bad, st->late,
+		 m->ctrl_state, m->ctrl_error, m->ctrl_bad, m->ctrl_overruns, st->restarts);
+	render_text_add(&a->r, 8, 8, 225, 232, 240, true, buf);
+
+	if (m->have_scene) {
+		char obj[160] = "OBJECT -";
+		if (m->obj.valid)
+			snprintf(obj, sizeof(obj),
+				 "OBJECT X %.1f Y %.1f Z %.1f MM  SUBMERGED %.1f %%\n"
+				 "FORCE  %+.2f %+.2f %+.2f N%s",
+				 m->obj.x_um * 1e-3, m->obj.y_um * 1e-3, m->obj.z_um * 1e-3, f->submersion_halfpct * 0.5,
+				 m->obj.fx_cN * 0.01, m->obj.fy_cN * 0.01, m->obj.fz_cN * 0.01,
+				 f->force_limits ? "  LIMITED" : "");
+		snprintf(buf, sizeof(buf),
+			 "POOL %u X %u CELLS  DX %.2f MM  DEPTH %.1f MM  SCENE %u\n"
+			 "HEIGHTS Z X%.0f  UPLOADED %u TILES\n%s",
+			 m->scene.nx, m->scene.ny, m->scene.dx_um * 1e-3, m->scene.depth_um * 1e-3, m->scene.scene_id,
+			 (double)a->r.o.zscale, a->r.tiles_uploaded_last, obj);
+		render_text_add(&a->r, 8, -8, 200, 210, 220, true, buf);
+	}
+
+	status_colour(m->status, c);
+	const char *s = vm_status_str(m->status);
+	if (m->status == VIEW_STALE)
+		snprintf(buf, sizeof(buf), "NO DATA FOR %.1f S", (double)(now - m->last_rx_us) * 1e-6);
+	else if (m->status == VIEW_LINK_DOWN && src->kind == SOURCE_REPLAY)
+		snprintf(buf, sizeof(buf), "END OF RECORDING");
+	else
+		snprintf(buf, sizeof(buf), "%s", s);
+	if (a->paused)
+		snprintf(buf + strlen(buf), sizeof(buf) - strlen(buf), "  [PAUSED]");
+	if (f->st.rejected[SWELL_EVERSION])
+		snprintf(buf + strlen(buf), sizeof(buf) - strlen(buf), "\nPROTOCOL VERSION MISMATCH");
+	if (m->restart_us && m->status != VIEW_RESTARTED && now - m->restart_us < VIEW_RESTART_SHOW_US)
+		snprintf(buf + strlen(buf), sizeof(buf) - strlen(buf), "\nCONTROLLER RESTARTED");
+	render_text_add(&a->r, -8, 8, c[0], c[1], c[2], true, buf);
+
+	if (!m->have_scene && m->status != VIEW_LINK_DOWN) {
+		/* say it where the pool would be */
+		render_text_add(&a->r, a->r.o.w / 2 / (a->r.o.h >= 700 ? 2 : 1) - 87, a->r.o.h / 2 / (a->r.o.h >= 700 ? 2 : 1),
+				c[0], c[1], c[2], true, "WAITING FOR SCENE DESCRIPTION");
+	}
+}
+
+static int screenshot(struct app *a, const char *path)
+{
+	size_t n = (size_t)a->r.o.w * (size_t)a->r.o.h * 3;
+	uint8_t *rgb = malloc(n);
+	if (!rgb)
+		return 1;
+	render_read(&a->r, rgb);
+	enum swell_err e = swell_png_write(path, rgb, (uint32_t)a->r.o.w, (uint32_t)a->r.o.h, 3, (size_t)a->r.o.w * 3);
+	free(rgb);
+	if (e != SWELL_OK) {
+		fprintf(stderr, "swell-view: cannot write %s: %s\n", path, swell_err_str(e));
+		return 1;
+	}
+	printf("swell-view: wrote %s (%d x %d pixels)\n", path, a->r.o.w, a->r.o.h);
+	return 0;
+}
+
+int main(int argc, char **argv)
+{
+	static struct app app;
+	struct opts o;
+	struct source src;
+	struct view_feed feed;
+	char err[256];
+	int rc = 0;
+
+	parse(argc, argv, &o);
+	if (!source_open(&src, o.source, err, sizeof(err))) {
+		fprintf(stderr, "swell-view: %s\n", err);
+		return 2;
+	}
+	if (o.faults && !source_faults(&src, o.faults, err, sizeof(err))) {
+		fprintf(stderr, "swell-view: %s\n", err);
+		return 2;
+	}
+	if (o.record && !(src.record = rec_create(o.record))) {
+		fprintf(stderr, "swell-view: cannot create %s: %s\n", o.record, strerror(errno));
+		return 1;
+	}
+	vm_init(&app.vm, (uint64_t)o.stale_ms * 1000u);
+	feed_init(&feed, &app.vm, o.node < 0 ? FEED_NODE_ANY : (uint8_t)o.node);
+	feed.obj_a_um = o.obj_um[0];
+	feed.obj_b_um = o.obj_um[1];
+	feed.obj_h_um = o.obj_um[2];
+
+	glfwSetErrorCallback(on_glfw_error);
+	if (!glfwInit()) {
+		fprintf(stderr, "swell-view: no display (set DISPLAY, or run under xvfb-run)\n");
+		return 1;
+	}
+	glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
+	glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
+	glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
+	glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
+	glfwWindowHint(GLFW_VISIBLE, o.headless ? GLFW_FALSE : GLFW_TRUE);
+	GLFWwindow *win = glfwCreateWindow(o.headless ? 64 : o.ro.w, o.headless ? 64 : o.ro.h, "swell-view", NULL, NULL);
+	if (!win) {
+		fprintf(stderr, "swell-view: no OpenGL 3.3 core context\n");
+		glfwTerminate();
+		return 1;
+	}
+	glfwMakeContextCurrent(win);
+	glfwSwapInterval(o.headless ? 0 : 1);
+	glfwSetWindowUserPointer(win, &app);
+	glfwSetKeyCallback(win, on_key);
+	glfwSetMouseButtonCallback(win, on_button);
+	glfwSetCursorPosCallback(win, on_cursor);
+	glfwSetScrollCallback(win, on_scroll);
+	if (!render_init(&app.r, &o.ro)) {
+		glfwTerminate();
+		return 1;
+	}
+
+	uint64_t period = (uint64_t)(1e6 / o.fps), next = now_us();
+	for (long frame = 1; !app.quit && !glfwWindowShouldClose(win); frame++) {
+		uint64_t t = now_us();
+		source_poll(&src, &feed, t);
+		vm_tick(&app.vm, t);
+		if (!o.headless) {
+			int fw, fh;
+			glfwGetFramebufferSize(win, &fw, &fh);
+			if (!render_resize(&app.r, fw, fh))
+				break;
+		}
+		hud(&app, &feed, &src, t);
+		render_frame(&app.r, &app.vm, app.paused);
+		if (!o.headless) {
+			int fw, fh;
+			glfwGetFramebufferSize(win, &fw, &fh);
+			render_blit(&app.r, fw, fh);
+			glfwSwapBuffers(win);
+		}
+		glfwPollEvents();
+		if (app.want_shot) {
+			char name[64];
+			snprintf(name, sizeof(name), "swell-view-%04u.png", app.shots++);
+			screenshot(&app, name);
+			app.want_shot = false;
+		}
+		if (o.shot && frame >= o.after) {
+			rc = screenshot(&app, o.shot);
+			break;
+		}
+		if (o.frames > 0 && frame >= o.frames)
+			break;
+		/* pace the loop (the window's vsync does it too when there is one) */
+		next += period;
+		uint64_t after = now_us();
+		if (next > after) {
+			struct timespec d = {(time_t)((next - after) / 1000000u), (long)((next - after) % 1000000u) * 1000};
+			nanosleep(&d, NULL);
+		} else {
+			next = after;
+		}
+	}
+
+	printf("swell-view: %u frames, %u bad, %u dropped, %u late, %u tiles, %u restarts; uploaded %llu tiles (%llu texels)\n",
+	       app.vm.st.frames, app.vm.st.bad, app.vm.st.dropped, app.vm.st.late, app.vm.st.tiles,
+	       app.vm.st.restarts, (unsigned long long)app.r.tiles_uploaded, (unsigned long long)app.r.texels_uploaded);
+	if (src.record && fclose(src.record) != 0) {
+		fprintf(stderr, "swell-view: writing %s failed\n", o.record);
+		rc = 1;
+	}
+	source_close(&src);
+	render_free(&app.r);
+	vm_free(&app.vm);
+	glfwDestroyWindow(win);
+	glfwTerminate();
+	return rc;
+}
