@@ -1,0 +1,105 @@
+/* swell host links: one small interface over SocketCAN, libusb, UDP and recordings.
+ *
+ * A link moves frames: CAN frames (classic or FD, id + up to 64 bytes) or packets (USB bulk / UDP,
+ * up to 64 bytes, id 0). swell_link_encode / swell_link_decode turn messages into frames and back
+ * for the link's carrier with the strict codecs of swell/proto.h.
+ *
+ * Functions returning int give 0 on success or a negative errno: -ETIMEDOUT when a receive timed
+ * out, -ENODATA at the end of a replay, -ENODEV while a USB device is unplugged. Host only (POSIX);
+ * the controller has its own port drivers. */
+#ifndef SWELL_LINK_H
+#define SWELL_LINK_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "swell/proto.h"
+
+#define SWELL_LINK_MTU 64u
+
+enum swell_carrier {
+	SWELL_CARRIER_CAN,   /* classic CAN: one message per frame */
+	SWELL_CARRIER_CANFD, /* CAN FD: messages of one type per frame */
+	SWELL_CARRIER_PKT,   /* USB bulk or UDP: swell packets with CRC */
+};
+
+#define SWELL_FRAME_FD 0x01u  /* CAN FD frame (send with bit-rate switch) */
+#define SWELL_FRAME_EFF 0x02u /* received with a 29-bit identifier (never a swell frame) */
+
+struct swell_frame {
+	uint64_t t_ns; /* receive time, CLOCK_MONOTONIC; on replay the recorded time since its start */
+	uint32_t id;   /* CAN identifier; 0 for packets */
+	uint16_t len;
+	uint8_t flags; /* SWELL_FRAME_* */
+	uint8_t data[SWELL_LINK_MTU];
+};
+
+struct swell_link_counters {
+	uint64_t tx_frames, tx_bytes, tx_errors;
+	uint64_t rx_frames, rx_bytes, rx_errors; /* rx_errors: failed reads */
+	uint64_t rx_timeouts;
+	uint64_t rx_dropped;  /* oversized datagrams, remote frames: never handed up */
+	uint64_t bus_errors;  /* CAN error frames received */
+	uint64_t reconnects;  /* USB device opened again after an unplug */
+};
+
+struct swell_link;
+
+int swell_link_send(struct swell_link *l, const struct swell_frame *f);
+/* timeout_ms < 0 waits for ever, 0 only takes what is already there. */
+int swell_link_recv(struct swell_link *l, struct swell_frame *f, int timeout_ms);
+void swell_link_close(struct swell_link *l);
+const struct swell_link_counters *swell_link_get_counters(const struct swell_link *l);
+enum swell_carrier swell_link_carrier(const struct swell_link *l);
+const char *swell_link_name(const struct swell_link *l);
+/* CLOCK_MONOTONIC in ns: the clock of swell_frame.t_ns. */
+uint64_t swell_link_now_ns(void);
+
+/* UDP: bind to bind_host:bind_port (port 0: any free port) and send to peer_host:peer_port; with
+ * peer_host NULL, send to whoever sent the last datagram. Hosts are dotted IPv4 ("127.0.0.1"). */
+int swell_link_open_udp(struct swell_link **out, const char *bind_host, uint16_t bind_port,
+			const char *peer_host, uint16_t peer_port);
+/* The local port actually bound (useful after binding port 0); 0 if l is not a UDP link. */
+uint16_t swell_link_udp_port(const struct swell_link *l);
+
+struct swell_can_filter {
+	uint32_t id, mask; /* accept when (frame_id & mask) == (id & mask) */
+};
+struct swell_can_opts {
+	uint32_t bitrate;          /* set through libsocketcan (needs CAP_NET_ADMIN); 0: leave as is */
+	int fd;                    /* 1: CAN FD frames (the interface must be in FD mode) */
+	int error_frames;          /* 1: receive error frames and count them in bus_errors */
+	const struct swell_can_filter *filters; /* NULL: everything */
+	size_t nfilters;
+};
+/* SocketCAN raw socket on ifname ("can0", "vcan0"). */
+int swell_link_open_can(struct swell_link **out, const char *ifname, const struct swell_can_opts *opts);
+
+struct swell_usb_opts {
+	uint16_t vid, pid; /* SWELL_USB_VID / SWELL_USB_PID by default */
+	int iface;         /* interface number */
+	uint8_t ep_out, ep_in;
+};
+/* libusb bulk link. If the device is unplugged, send and receive return -ENODEV and the link
+ * re-opens it (same VID/PID/interface) as soon as it is back, counting a reconnect. */
+int swell_link_open_usb(struct swell_link **out, const struct swell_usb_opts *opts);
+void swell_usb_opts_default(struct swell_usb_opts *o);
+
+/* Recording: a link that passes everything through to `inner` (which it then owns) and writes
+ * every received frame with its time to path. */
+int swell_link_open_record(struct swell_link **out, struct swell_link *inner, const char *path);
+/* Replay of a recording: receive gives the recorded frames, paced as recorded (realtime = 1) or
+ * as fast as possible (realtime = 0); send is refused (-EROFS). */
+int swell_link_open_replay(struct swell_link **out, const char *path, int realtime);
+
+/* ---- messages over a link's carrier ---- */
+/* Packs as many of m[0..n) as one frame of the carrier takes (CAN: 1; CAN FD: same type; packet:
+ * up to 64 bytes under node and pkt_seq). *used says how many went in. */
+enum swell_err swell_link_encode(enum swell_carrier c, uint8_t node, uint8_t pkt_seq,
+				 const struct swell_msg *m, size_t n, struct swell_frame *f, size_t *used);
+/* Decodes a received frame; on packets *pkt_seq gets the packet sequence number (may be NULL).
+ * cap >= SWELL_CANFD_MSGS_MAX takes any frame. Rejections are counted in st (may be NULL). */
+enum swell_err swell_link_decode(enum swell_carrier c, const struct swell_frame *f, struct swell_msg *out,
+				 size_t cap, size_t *n, uint8_t *pkt_seq, struct swell_proto_stats *st);
+
+#endif

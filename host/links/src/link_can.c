@@ -1,0 +1,201 @@
+/* SocketCAN link: raw socket, optional filters, error frames counted, bitrate via libsocketcan. */
+#define _GNU_SOURCE
+#include "link_priv.h"
+
+#include <errno.h>
+#include <libsocketcan.h>
+#include <linux/can.h>
+#include <linux/can/error.h>
+#include <linux/can/raw.h>
+#include <net/if.h>
+#include <poll.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/ioctl.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+struct can_link {
+	struct swell_link base;
+	int fd;
+	int fd_mode;
+};
+
+static int can_send(struct swell_link *l, const struct swell_frame *f)
+{
+	struct can_link *c = (struct can_link *)l;
+	struct canfd_frame fr;
+	size_t size;
+	ssize_t n;
+
+	memset(&fr, 0, sizeof(fr));
+	fr.can_id = f->id & CAN_SFF_MASK;
+	if (f->id > CAN_SFF_MASK)
+		return -EINVAL; /* swell uses 11-bit identifiers only */
+	fr.len = (uint8_t)f->len;
+	memcpy(fr.data, f->data, f->len);
+	if ((f->flags & SWELL_FRAME_FD) || f->len > CAN_MAX_DLEN) {
+		if (!c->fd_mode)
+			return -EMSGSIZE;
+		fr.flags = CANFD_BRS;
+		size = CANFD_MTU;
+	} else {
+		size = CAN_MTU;
+	}
+	for (;;) {
+		n = write(c->fd, &fr, size);
+		if (n < 0 && errno == EINTR)
+			continue;
+		if (n < 0 && errno == ENOBUFS) {
+			/* transmit queue full: wait for room rather than drop a frame */
+			struct pollfd p = { .fd = c->fd, .events = POLLOUT };
+
+			if (poll(&p, 1, 100) <= 0)
+				return -ENOBUFS;
+			continue;
+		}
+		break;
+	}
+	if (n < 0)
+		return -errno;
+	return (size_t)n == size ? 0 : -EIO;
+}
+
+static int can_recv(struct swell_link *l, struct swell_frame *f, int timeout_ms)
+{
+	struct can_link *c = (struct can_link *)l;
+	uint64_t deadline = swell_link_deadline(timeout_ms);
+
+	for (;;) {
+		struct pollfd p = { .fd = c->fd, .events = POLLIN };
+		struct canfd_frame fr;
+		ssize_t n;
+		int rc = poll(&p, 1, swell_link_ms_left(deadline, timeout_ms));
+
+		if (rc < 0 && errno == EINTR)
+			continue;
+		if (rc < 0)
+			return -errno;
+		if (rc == 0)
+			return -ETIMEDOUT;
+		n = read(c->fd, &fr, sizeof(fr));
+		if (n < 0)
+			return -errno;
+		if (n != CAN_MTU && n != CANFD_MTU)
+			return -EIO;
+		if (fr.can_id & CAN_ERR_FLAG) {
+			l->cnt.bus_errors++;
+			continue;
+		}
+		if (fr.can_id & CAN_RTR_FLAG) {
+			l->cnt.rx_dropped++;
+			continue;
+		}
+		memset(f, 0, sizeof(*f));
+		f->t_ns = swell_link_now_ns();
+		if (fr.can_id & CAN_EFF_FLAG) {
+			f->flags |= SWELL_FRAME_EFF;
+			f->id = fr.can_id & CAN_EFF_MASK;
+		} else {
+			f->id = fr.can_id & CAN_SFF_MASK;
+		}
+		if (n == CANFD_MTU)
+			f->flags |= SWELL_FRAME_FD;
+		f->len = fr.len > CANFD_MAX_DLEN ? CANFD_MAX_DLEN : fr.len;
+		memcpy(f->data, fr.data, f->len);
+		return 0;
+	}
+}
+
+static void can_close(struct swell_link *l)
+{
+	struct can_link *c = (struct can_link *)l;
+
+	close(c->fd);
+	free(c);
+}
+
+static const struct swell_link_ops can_ops = { can_send, can_recv, can_close };
+
+static int set_bitrate(const char *ifname, uint32_t bitrate)
+{
+	/* libsocketcan returns -1 and leaves errno from netlink (EPERM without CAP_NET_ADMIN,
+	 * EOPNOTSUPP on vcan) */
+	errno = 0;
+	if (can_do_stop(ifname) < 0 || can_set_bitrate(ifname, bitrate) < 0 || can_do_start(ifname) < 0)
+		return errno ? -errno : -EIO;
+	return 0;
+}
+
+int swell_link_open_can(struct swell_link **out, const char *ifname, const struct swell_can_opts *opts)
+{
+	static const struct swell_can_opts defaults;
+	struct can_link *c;
+	struct sockaddr_can addr;
+	struct ifreq ifr;
+	int rc, on = 1;
+
+	if (!out || !ifname || strlen(ifname) >= IFNAMSIZ)
+		return -EINVAL;
+	if (!opts)
+		opts = &defaults;
+	if (opts->bitrate) {
+		rc = set_bitrate(ifname, opts->bitrate);
+		if (rc)
+			return rc;
+	}
+	c = calloc(1, sizeof(*c));
+	if (!c)
+		return -ENOMEM;
+	c->base.ops = &can_ops;
+	c->base.carrier = opts->fd ? SWELL_CARRIER_CANFD : SWELL_CARRIER_CAN;
+	c->fd_mode = opts->fd;
+	c->fd = socket(PF_CAN, SOCK_RAW | SOCK_CLOEXEC, CAN_RAW);
+	if (c->fd < 0) {
+		rc = -errno;
+		free(c);
+		return rc;
+	}
+	memset(&ifr, 0, sizeof(ifr));
+	memcpy(ifr.ifr_name, ifname, strlen(ifname));
+	if (ioctl(c->fd, SIOCGIFINDEX, &ifr) < 0)
+		goto fail_errno;
+	if (opts->fd && setsockopt(c->fd, SOL_CAN_RAW, CAN_RAW_FD_FRAMES, &on, sizeof(on)) < 0)
+		goto fail_errno;
+	if (opts->filters) {
+		struct can_filter flt[64];
+		size_t i;
+
+		if (opts->nfilters > 64) {
+			errno = EINVAL;
+			goto fail_errno;
+		}
+		for (i = 0; i < opts->nfilters; i++) {
+			flt[i].can_id = opts->filters[i].id & CAN_SFF_MASK;
+			flt[i].can_mask = (opts->filters[i].mask & CAN_SFF_MASK) | CAN_EFF_FLAG | CAN_RTR_FLAG;
+		}
+		if (setsockopt(c->fd, SOL_CAN_RAW, CAN_RAW_FILTER, flt,
+			       (socklen_t)(opts->nfilters * sizeof(flt[0]))) < 0)
+			goto fail_errno;
+	}
+	if (opts->error_frames) {
+		can_err_mask_t em = CAN_ERR_MASK;
+
+		if (setsockopt(c->fd, SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &em, sizeof(em)) < 0)
+			goto fail_errno;
+	}
+	memset(&addr, 0, sizeof(addr));
+	addr.can_family = AF_CAN;
+	addr.can_ifindex = ifr.ifr_ifindex;
+	if (bind(c->fd, (struct sockaddr *)&addr, sizeof(addr)) < 0)
+		goto fail_errno;
+	snprintf(c->base.name, sizeof(c->base.name), "%s %s", opts->fd ? "canfd" : "can", ifname);
+	*out = &c->base;
+	return 0;
+fail_errno:
+	rc = -errno;
+	close(c->fd);
+	free(c);
+	return rc;
+}

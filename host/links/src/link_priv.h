@@ -1,0 +1,24 @@
+/* Inside of a host link: every implementation starts its struct with struct swell_link. */
+#ifndef SWELL_LINK_PRIV_H
+#define SWELL_LINK_PRIV_H
+
+#include "swell/link.h"
+
+struct swell_link_ops {
+	int (*send)(struct swell_link *l, const struct swell_frame *f);
+	int (*recv)(struct swell_link *l, struct swell_frame *f, int timeout_ms);
+	void (*close)(struct swell_link *l);
+};
+
+struct swell_link {
+	const struct swell_link_ops *ops;
+	enum swell_carrier carrier;
+	struct swell_link_counters cnt;
+	char name[80];
+};
+
+/* Milliseconds left until deadline_ns (CLOCK_MONOTONIC); -1 if timeout_ms was < 0. */
+int swell_link_ms_left(uint64_t deadline_ns, int timeout_ms);
+uint64_t swell_link_deadline(int timeout_ms);
+
+#endif

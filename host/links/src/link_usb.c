@@ -1,0 +1,194 @@
+/* libusb link: one swell packet per bulk transfer; survives unplug and replug. */
+#define _GNU_SOURCE
+#include "link_priv.h"
+
+#include <errno.h>
+#include <libusb.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "swell/transport.h"
+
+#define REOPEN_INTERVAL_NS 100000000u /* try to re-open an unplugged device at most every 100 ms */
+
+struct usb_link {
+	struct swell_link base;
+	struct swell_usb_opts o;
+	libusb_context *ctx;
+	libusb_device_handle *h;
+	uint64_t last_try_ns;
+};
+
+void swell_usb_opts_default(struct swell_usb_opts *o)
+{
+	o->vid = SWELL_USB_VID;
+	o->pid = SWELL_USB_PID;
+	o->iface = SWELL_USB_IFACE;
+	o->ep_out = SWELL_USB_EP_OUT;
+	o->ep_in = SWELL_USB_EP_IN;
+}
+
+static int errno_of(int e)
+{
+	switch (e) {
+	case LIBUSB_ERROR_TIMEOUT: return -ETIMEDOUT;
+	case LIBUSB_ERROR_NO_DEVICE: return -ENODEV;
+	case LIBUSB_ERROR_NOT_FOUND: return -ENODEV;
+	case LIBUSB_ERROR_ACCESS: return -EACCES;
+	case LIBUSB_ERROR_BUSY: return -EBUSY;
+	case LIBUSB_ERROR_OVERFLOW: return -EMSGSIZE;
+	case LIBUSB_ERROR_PIPE: return -EPIPE;
+	case LIBUSB_ERROR_NO_MEM: return -ENOMEM;
+	case LIBUSB_ERROR_INTERRUPTED: return -EINTR;
+	default: return -EIO;
+	}
+}
+
+static void drop(struct usb_link *u)
+{
+	if (!u->h)
+		return;
+	libusb_release_interface(u->h, u->o.iface);
+	libusb_close(u->h);
+	u->h = NULL;
+}
+
+static int attach(struct usb_link *u)
+{
+	libusb_device_handle *h;
+	int rc;
+
+	u->last_try_ns = swell_link_now_ns();
+	h = libusb_open_device_with_vid_pid(u->ctx, u->o.vid, u->o.pid);
+	if (!h)
+		return -ENODEV;
+	libusb_set_auto_detach_kernel_driver(h, 1);
+	rc = libusb_claim_interface(h, u->o.iface);
+	if (rc < 0) {
+		libusb_close(h);
+		return errno_of(rc);
+	}
+	u->h = h;
+	return 0;
+}
+
+/* 0 with a handle, or -ENODEV while the device is away (re-opened at most every 100 ms). */
+static int ensure(struct usb_link *u)
+{
+	int rc;
+
+	if (u->h)
+		return 0;
+	if (swell_link_now_ns() - u->last_try_ns < REOPEN_INTERVAL_NS)
+		return -ENODEV;
+	rc = attach(u);
+	if (rc == 0)
+		u->base.cnt.reconnects++;
+	return rc;
+}
+
+static int usb_send(struct swell_link *l, const struct swell_frame *f)
+{
+	struct usb_link *u = (struct usb_link *)l;
+	int done = 0, rc = ensure(u);
+
+	if (rc)
+		return rc;
+	rc = libusb_bulk_transfer(u->h, u->o.ep_out, (unsigned char *)f->data, f->len, &done, 1000);
+	if (rc == LIBUSB_ERROR_NO_DEVICE || rc == LIBUSB_ERROR_IO) {
+		drop(u);
+		return -ENODEV;
+	}
+	if (rc < 0)
+		return errno_of(rc);
+	return done == f->len ? 0 : -EIO;
+}
+
+static int usb_recv(struct swell_link *l, struct swell_frame *f, int timeout_ms)
+{
+	struct usb_link *u = (struct usb_link *)l;
+	uint64_t deadline = swell_link_deadline(timeout_ms);
+
+	for (;;) {
+		unsigned char buf[SWELL_LINK_MTU];
+		int left = swell_link_ms_left(deadline, timeout_ms), got = 0, rc = ensure(u);
+
+		if (rc == -ENODEV) {
+			/* unplugged: wait for it to come back until the deadline */
+			struct timespec ts = { 0, 20000000 };
+
+			if (left == 0)
+				return -ENODEV;
+			nanosleep(&ts, NULL);
+			continue;
+		}
+		if (rc)
+			return rc;
+		/* libusb: 0 means no timeout */
+		rc = libusb_bulk_transfer(u->h, u->o.ep_in, buf, sizeof(buf), &got,
+					  left < 0 ? 0u : left == 0 ? 1u : (unsigned)left);
+		if (rc == LIBUSB_ERROR_TIMEOUT)
+			return -ETIMEDOUT;
+		if (rc == LIBUSB_ERROR_NO_DEVICE || rc == LIBUSB_ERROR_IO) {
+			drop(u);
+			continue;
+		}
+		if (rc == LIBUSB_ERROR_OVERFLOW) {
+			l->cnt.rx_dropped++;
+			continue;
+		}
+		if (rc < 0)
+			return errno_of(rc);
+		memset(f, 0, sizeof(*f));
+		f->t_ns = swell_link_now_ns();
+		f->len = (uint16_t)got;
+		memcpy(f->data, buf, (size_t)got);
+		return 0;
+	}
+}
+
+static void usb_close(struct swell_link *l)
+{
+	struct usb_link *u = (struct usb_link *)l;
+
+	drop(u);
+	libusb_exit(u->ctx);
+	free(u);
+}
+
+static const struct swell_link_ops usb_ops = { usb_send, usb_recv, usb_close };
+
+int swell_link_open_usb(struct swell_link **out, const struct swell_usb_opts *opts)
+{
+	struct usb_link *u;
+	int rc;
+
+	if (!out)
+		return -EINVAL;
+	u = calloc(1, sizeof(*u));
+	if (!u)
+		return -ENOMEM;
+	if (opts)
+		u->o = *opts;
+	else
+		swell_usb_opts_default(&u->o);
+	u->base.ops = &usb_ops;
+	u->base.carrier = SWELL_CARRIER_PKT;
+	rc = libusb_init(&u->ctx);
+	if (rc < 0) {
+		free(u);
+		return errno_of(rc);
+	}
+	rc = attach(u);
+	if (rc) {
+		libusb_exit(u->ctx);
+		free(u);
+		return rc;
+	}
+	snprintf(u->base.name, sizeof(u->base.name), "usb %04x:%04x if %d ep 0x%02x/0x%02x", u->o.vid,
+		 u->o.pid, u->o.iface, u->o.ep_out, u->o.ep_in);
+	*out = &u->base;
+	return 0;
+}

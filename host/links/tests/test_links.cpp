@@ -1,0 +1,265 @@
+#include <catch2/catch.hpp>
+
+#include <arpa/inet.h>
+#include <cerrno>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <netinet/in.h>
+#include <string>
+#include <sys/socket.h>
+#include <thread>
+#include <unistd.h>
+#include <vector>
+
+extern "C" {
+#include "swell/link.h"
+#include "swell/transport.h"
+}
+
+namespace {
+
+struct link_ptr {
+	swell_link *l = nullptr;
+	~link_ptr() { swell_link_close(l); }
+};
+
+swell_msg msg_of(unsigned ti, int salt)
+{
+	const swell_msg_desc &d = swell_msg_descs[ti % swell_msg_desc_count];
+	swell_msg m;
+	std::memset(&m, 0, sizeof(m));
+	m.type = d.type;
+	for (unsigned i = 0; i < d.nfields; i++) {
+		const swell_field_desc &f = d.fields[i];
+		int64_t span = f.max - f.min;
+		int64_t v = span ? f.min + (int64_t(ti) * 7919 + salt * 104729 + i * 31) % (span + 1) : f.min;
+		REQUIRE(swell_msg_field_set(&m, &f, v) == SWELL_OK);
+	}
+	return m;
+}
+
+std::string tmp_path(const char *stem)
+{
+	char buf[256];
+	std::snprintf(buf, sizeof(buf), "%s/swell-%s-%d.rec", P_tmpdir, stem, int(getpid()));
+	return buf;
+}
+
+void open_pair(link_ptr &a, link_ptr &b)
+{
+	REQUIRE(swell_link_open_udp(&b.l, SWELL_UDP_HOST, 0, nullptr, 0) == 0);
+	REQUIRE(swell_link_udp_port(b.l) != 0);
+	REQUIRE(swell_link_open_udp(&a.l, SWELL_UDP_HOST, 0, SWELL_UDP_HOST, swell_link_udp_port(b.l)) == 0);
+}
+
+} // namespace
+
+TEST_CASE("UDP links on loopback carry every message both ways and count frames and bytes", "[links]")
+{
+	link_ptr a, b;
+	open_pair(a, b);
+	CHECK(swell_link_carrier(a.l) == SWELL_CARRIER_PKT);
+	uint64_t bytes = 0;
+	for (unsigned t = 0; t < swell_msg_desc_count; t++) {
+		swell_link *from = (t % 2) ? b.l : a.l, *to = (t % 2) ? a.l : b.l;
+		swell_msg m[2] = {msg_of(t, 1), msg_of(t + 3, 2)};
+		swell_frame f, in;
+		size_t used = 0, n = 0;
+		uint8_t seq = 0;
+		REQUIRE(swell_link_encode(SWELL_CARRIER_PKT, 4, uint8_t(t), m, 2, &f, &used) == SWELL_OK);
+		REQUIRE(used == 2);
+		/* b learns a's address from the first datagram, so a speaks first */
+		REQUIRE(swell_link_send(from, &f) == 0);
+		REQUIRE(swell_link_recv(to, &in, 1000) == 0);
+		bytes += f.len;
+		CHECK(in.len == f.len);
+		CHECK(std::memcmp(in.data, f.data, f.len) == 0);
+		swell_msg got[SWELL_PKT_MSGS_MAX];
+		REQUIRE(swell_link_decode(SWELL_CARRIER_PKT, &in, got, SWELL_PKT_MSGS_MAX, &n, &seq, nullptr) == SWELL_OK);
+		REQUIRE(n == 2);
+		CHECK(seq == uint8_t(t));
+		m[0].node = m[1].node = 4;
+		CHECK(swell_msg_equal(&got[0], &m[0]));
+		CHECK(swell_msg_equal(&got[1], &m[1]));
+	}
+	const struct swell_link_counters *ca = swell_link_get_counters(a.l), *cb = swell_link_get_counters(b.l);
+	CHECK(ca->tx_frames + cb->tx_frames == swell_msg_desc_count);
+	CHECK(ca->rx_frames + cb->rx_frames == swell_msg_desc_count);
+	CHECK(ca->tx_bytes + cb->tx_bytes == bytes);
+	CHECK(ca->rx_bytes + cb->rx_bytes == bytes);
+	CHECK(ca->rx_errors + cb->rx_errors == 0u);
+}
+
+TEST_CASE("a UDP receive with nothing to read times out and counts it; oversized datagrams are dropped", "[links]")
+{
+	link_ptr a, b;
+	open_pair(a, b);
+	swell_frame in;
+	auto t0 = std::chrono::steady_clock::now();
+	CHECK(swell_link_recv(b.l, &in, 50) == -ETIMEDOUT);
+	double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+	INFO("waited " << ms << " ms for a 50 ms timeout");
+	CHECK(ms >= 45.0);
+	CHECK(swell_link_get_counters(b.l)->rx_timeouts == 1u);
+
+	/* a 100-byte datagram is no swell packet: dropped, counted, and the next one is delivered */
+	int s = socket(AF_INET, SOCK_DGRAM, 0);
+	REQUIRE(s >= 0);
+	sockaddr_in to{};
+	to.sin_family = AF_INET;
+	to.sin_port = htons(swell_link_udp_port(b.l));
+	inet_pton(AF_INET, SWELL_UDP_HOST, &to.sin_addr);
+	std::vector<uint8_t> big(100, 0x57);
+	REQUIRE(sendto(s, big.data(), big.size(), 0, reinterpret_cast<sockaddr *>(&to), sizeof(to)) == 100);
+	REQUIRE(sendto(s, big.data(), 10, 0, reinterpret_cast<sockaddr *>(&to), sizeof(to)) == 10);
+	close(s);
+	REQUIRE(swell_link_recv(b.l, &in, 1000) == 0);
+	CHECK(in.len == 10u);
+	CHECK(swell_link_get_counters(b.l)->rx_dropped == 1u);
+	/* and the 10 bytes are rejected by the decoder with a counted reason */
+	swell_msg got[SWELL_PKT_MSGS_MAX];
+	size_t n;
+	swell_proto_stats st = {};
+	CHECK(swell_link_decode(SWELL_CARRIER_PKT, &in, got, SWELL_PKT_MSGS_MAX, &n, nullptr, &st) == SWELL_ECRC);
+	CHECK(st.rejected[SWELL_ECRC] == 1u);
+}
+
+TEST_CASE("a recording replays the same frames and times, as fast as possible or at recorded speed", "[links]")
+{
+	const std::string path = tmp_path("rec");
+	std::vector<swell_frame> sent;
+	uint64_t span_ns = 0;
+	{
+		link_ptr a, b, rec;
+		open_pair(a, b);
+		REQUIRE(swell_link_open_record(&rec.l, b.l, path.c_str()) == 0);
+		b.l = nullptr; /* owned by the recorder now */
+		for (unsigned i = 0; i < 40; i++) {
+			swell_msg m = msg_of(i, 5);
+			swell_frame f, in;
+			size_t used;
+			REQUIRE(swell_link_encode(SWELL_CARRIER_PKT, 0, uint8_t(i), &m, 1, &f, &used) == SWELL_OK);
+			REQUIRE(swell_link_send(a.l, &f) == 0);
+			REQUIRE(swell_link_recv(rec.l, &in, 1000) == 0);
+			sent.push_back(in);
+			std::this_thread::sleep_for(std::chrono::milliseconds(i % 4 == 0 ? 5 : 1));
+		}
+	}
+	std::vector<uint64_t> times;
+	{
+		link_ptr r;
+		REQUIRE(swell_link_open_replay(&r.l, path.c_str(), 0) == 0);
+		CHECK(swell_link_carrier(r.l) == SWELL_CARRIER_PKT);
+		swell_frame f;
+		CHECK(swell_link_send(r.l, &sent[0]) == -EROFS);
+		for (size_t i = 0; i < sent.size(); i++) {
+			INFO("frame " << i);
+			REQUIRE(swell_link_recv(r.l, &f, 0) == 0);
+			CHECK(f.len == sent[i].len);
+			CHECK(std::memcmp(f.data, sent[i].data, f.len) == 0);
+			times.push_back(f.t_ns);
+			if (i)
+				CHECK(f.t_ns - times[i - 1] == sent[i].t_ns - sent[i - 1].t_ns);
+		}
+		CHECK(swell_link_recv(r.l, &f, 0) == -ENODATA);
+		span_ns = times.back() - times.front();
+	}
+	{
+		link_ptr r;
+		REQUIRE(swell_link_open_replay(&r.l, path.c_str(), 1) == 0);
+		swell_frame f;
+		auto t0 = std::chrono::steady_clock::now();
+		REQUIRE(swell_link_recv(r.l, &f, -1) == 0);
+		auto t1 = std::chrono::steady_clock::now();
+		size_t k = 1;
+		while (swell_link_recv(r.l, &f, -1) == 0)
+			k++;
+		CHECK(k == sent.size());
+		double took = std::chrono::duration<double, std::nano>(std::chrono::steady_clock::now() - t1).count();
+		(void)t0;
+		INFO("recorded span " << span_ns / 1e6 << " ms, replay took " << took / 1e6 << " ms");
+		CHECK(took >= 0.95 * double(span_ns));
+	}
+	std::remove(path.c_str());
+}
+
+TEST_CASE("replay refuses a file that is not a recording and reports a truncated one", "[links]")
+{
+	const std::string path = tmp_path("bad");
+	FILE *f = std::fopen(path.c_str(), "wb");
+	REQUIRE(f);
+	std::fputs("not a swell recording at all", f);
+	std::fclose(f);
+	swell_link *l = nullptr;
+	CHECK(swell_link_open_replay(&l, path.c_str(), 0) == -EPROTO);
+	CHECK(l == nullptr);
+	CHECK(swell_link_open_replay(&l, "/nonexistent/swell.rec", 0) == -ENOENT);
+
+	/* a valid header and half a record */
+	const uint8_t hdr[16] = {'S', 'W', 'E', 'L', 'L', 'R', 'E', 'C', 1, 0, 0, 0, SWELL_CARRIER_CAN, 0, 0, 0};
+	const uint8_t rec[10] = {0, 0, 0, 0, 0, 0, 0, 0, 0x10, 0};
+	f = std::fopen(path.c_str(), "wb");
+	REQUIRE(f);
+	std::fwrite(hdr, 1, sizeof(hdr), f);
+	std::fwrite(rec, 1, sizeof(rec), f);
+	std::fclose(f);
+	REQUIRE(swell_link_open_replay(&l, path.c_str(), 0) == 0);
+	CHECK(swell_link_carrier(l) == SWELL_CARRIER_CAN);
+	swell_frame fr;
+	CHECK(swell_link_recv(l, &fr, 0) == -EIO);
+	CHECK(swell_link_get_counters(l)->rx_errors == 1u);
+	swell_link_close(l);
+	std::remove(path.c_str());
+}
+
+TEST_CASE("SocketCAN and libusb links fail cleanly with an errno where there is no such device", "[links]")
+{
+	swell_link *l = nullptr;
+	swell_can_opts co{};
+	int rc = swell_link_open_can(&l, "swellnone0", &co);
+	INFO("open_can: " << std::strerror(-rc));
+	CHECK(rc < 0);
+	CHECK(l == nullptr);
+	CHECK(swell_link_open_can(&l, "an-interface-name-far-too-long", &co) == -EINVAL);
+
+	swell_usb_opts uo;
+	swell_usb_opts_default(&uo);
+	CHECK(uo.vid == 0x1209u);
+	CHECK(uo.pid == 0x0001u);
+	CHECK(uo.ep_out == 0x01u);
+	CHECK(uo.ep_in == 0x81u);
+	uo.pid = 0xFFFE; /* no such device anywhere */
+	rc = swell_link_open_usb(&l, &uo);
+	INFO("open_usb: " << std::strerror(-rc));
+	CHECK(rc < 0);
+	CHECK(l == nullptr);
+}
+
+TEST_CASE("link framing: CAN takes one message, CAN FD one type, packets a mix", "[links]")
+{
+	std::vector<swell_msg> m;
+	for (unsigned k = 0; k < 8; k++)
+		m.push_back(msg_of(0, int(k))); /* eight FORCE_CMDs */
+	m.push_back(msg_of(1, 0));
+	swell_frame f;
+	size_t used = 0;
+	REQUIRE(swell_link_encode(SWELL_CARRIER_CAN, 0, 0, m.data(), m.size(), &f, &used) == SWELL_OK);
+	CHECK(used == 1u);
+	CHECK(f.len == 8u);
+	REQUIRE(swell_link_encode(SWELL_CARRIER_CANFD, 0, 0, m.data(), m.size(), &f, &used) == SWELL_OK);
+	CHECK(used == 8u);
+	CHECK(f.len == 64u);
+	CHECK((f.flags & SWELL_FRAME_FD) != 0);
+	REQUIRE(swell_link_encode(SWELL_CARRIER_PKT, 0, 0, m.data(), m.size(), &f, &used) == SWELL_OK);
+	CHECK(used == 6u); /* 5 + 6 x 9 + 4 = 63 bytes */
+	CHECK(f.len == 63u);
+	/* a 29-bit frame is never taken for a swell frame */
+	swell_frame e = {};
+	e.id = SWELL_CAN_ID(SWELL_MSG_FORCE_CMD, 0);
+	e.flags = SWELL_FRAME_EFF;
+	e.len = 8;
+	swell_msg got[SWELL_CANFD_MSGS_MAX];
+	size_t n;
+	CHECK(swell_link_decode(SWELL_CARRIER_CAN, &e, got, SWELL_CANFD_MSGS_MAX, &n, nullptr, nullptr) == SWELL_EUNKNOWN);
+}
