@@ -45,6 +45,55 @@ __attribute__((noinline)) static void naive_step(int32_t *restrict prev, const i
 	}
 }
 
+static uint32_t scene_checksum;
+
+/* The same steps split the way the core schedules them (DESIGN.md 4, firmware/core): at a device
+ * rate of K ticks per solver step, ticks 0..K-2 each do ceil(ny / (K-1)) rows and tick K-1 the
+ * finishing pass. Gives the solver's share of the worst tick, and must end on the same bits. */
+static int run_split(uint32_t tick_hz, uint32_t solver_hz)
+{
+	uint32_t k = tick_hz / solver_hz, rows = (FW_SCENE_NY + k - 2) / (k - 1), n, t;
+	uint64_t t0, dt, slice_max = 0, finish_max = 0, sum = 0;
+	uint32_t sum_crc;
+
+	if (fw_scene_init(&wave, wave_storage, FW_SCENE_WORDS) != SWELL_OK)
+		return 0;
+	for (n = 0; n < SWELL_FW_SELFTEST_STEPS; n++) {
+		for (t = 0; t + 1 < k; t++) {
+			t0 = timebase_systick();
+			swell_wave_step_rows(&wave, (int)rows);
+			dt = timebase_systick() - t0;
+			sum += dt;
+			slice_max = dt > slice_max ? dt : slice_max;
+		}
+		t0 = timebase_systick();
+		swell_wave_step_finish(&wave);
+		dt = timebase_systick() - t0;
+		sum += dt;
+		finish_max = dt > finish_max ? dt : finish_max;
+	}
+	sum_crc = swell_wave_checksum(&wave);
+	con_puts("solver per tick at ");
+	con_put_u32(tick_hz);
+	con_puts(" Hz (");
+	con_put_u32(k);
+	con_puts(" ticks a step, ");
+	con_put_u32(rows);
+	con_puts(" rows a slice): worst slice ");
+	put_insn(slice_max, 1);
+	con_puts(", finish ");
+	put_insn(finish_max, 1);
+	con_puts(", mean ");
+	put_insn(sum, (uint64_t)SWELL_FW_SELFTEST_STEPS * k);
+	con_puts(" instructions; worst tick uses ");
+	/* instructions / (168e6 / tick_hz) at one instruction a cycle, in % */
+	con_put_ratio((slice_max > finish_max ? slice_max : finish_max) * INSN_NUM * tick_hz * 100u,
+		      (uint64_t)INSN_DEN * 168000000u, 1);
+	con_puts(" % of the tick at 168 MHz; checksum ");
+	con_puts(sum_crc == scene_checksum ? "identical\n" : "DIFFERS\n");
+	return sum_crc == scene_checksum;
+}
+
 static int run_scene(void)
 {
 	uint64_t t0, dt, sum = 0, min = UINT64_MAX, max = 0, empty;
@@ -78,8 +127,9 @@ static int run_scene(void)
 	con_puts("steps ");
 	con_put_u32(SWELL_FW_SELFTEST_STEPS);
 	con_putc('\n');
+	scene_checksum = swell_wave_checksum(&wave);
 	con_puts("checksum 0x");
-	con_put_hex32(swell_wave_checksum(&wave));
+	con_put_hex32(scene_checksum);
 	con_putc('\n');
 	con_puts("volume ");
 	con_put_i64(swell_wave_volume(&wave));
@@ -179,6 +229,8 @@ int selftest_run(uint32_t tim_clk_hz)
 
 	con_puts("selftest: begin (no CAN, no USB answered: loopback link)\n");
 	ok &= run_scene();
+	ok &= run_split(2500, 250); /* HapticMaster servo rate */
+	ok &= run_split(1000, 250); /* classic CAN */
 	run_naive();
 	ok &= run_tick(tim_clk_hz);
 	ok &= loopback_selftest();
