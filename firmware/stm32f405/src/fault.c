@@ -54,7 +54,13 @@ __attribute__((used, noreturn)) void fault_report(const struct fault_frame *f, u
 	con_put_hex32(SCB->MMFAR);
 	con_puts(" bfar 0x");
 	con_put_hex32(SCB->BFAR);
-	con_puts(" (force zeroed, waiting for the watchdog)\n");
+	con_puts("\nFAULT: force now ");
+	con_put_i64(port_force_cN[0]);
+	con_putc(' ');
+	con_put_i64(port_force_cN[1]);
+	con_putc(' ');
+	con_put_i64(port_force_cN[2]);
+	con_puts(" cN (zeroed), waiting for the watchdog\n");
 	halt();
 }
 

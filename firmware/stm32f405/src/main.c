@@ -26,6 +26,13 @@
 
 #define WATCHDOG_MS 100u
 
+/* Boot-mode word in the last 16 bytes of SRAM (outside every section, not cleared at start-up): a
+ * test harness writes it before reset (QEMU: -device loader,addr=0x2001fff0,data=...,data-len=4).
+ * BOOT_MODE_FAULT: after the self-test, command a force and execute an undefined instruction, to
+ * check that the fault handler zeroes the force and reports. Cleared once read. */
+#define BOOT_MODE (*(volatile uint32_t *)0x2001FFF0u)
+#define BOOT_MODE_FAULT 0x544C4146u /* "FALT" */
+
 static void put_reset_cause(uint32_t csr)
 {
 	con_puts("reset:");
@@ -56,10 +63,11 @@ int main(void)
 {
 	struct clock_info ci;
 	struct image_info img;
-	uint32_t csr = RCC->CSR;
+	uint32_t csr = RCC->CSR, boot_mode = BOOT_MODE;
 	enum swell_err err;
 	int can_ok, usb_ok;
 
+	BOOT_MODE = 0;
 	RCC->CSR |= RCC_CSR_RMVF;
 	port_force_zero();
 	clock_init(&ci);
@@ -120,6 +128,11 @@ int main(void)
 
 	if (!can_ok && !usb_ok) {
 		selftest_run(ci.tim_apb1_hz);
+		if (boot_mode == BOOT_MODE_FAULT) {
+			con_puts("boot mode: fault injection (force 1234 cN on z, then an undefined instruction)\n");
+			port_force_cN[2] = 1234;
+			__asm__ volatile("udf #0");
+		}
 		for (;;)
 			__asm__ volatile("wfi");
 	}
