@@ -10,6 +10,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "swell/body.h"
 #include "swell/body_free.h"
@@ -175,6 +176,14 @@ static void script(double t, double x0, double y0, double z_free, double v_free,
 	vel[2] = (int32_t)lround(vz);
 }
 
+static double now_ns(void)
+{
+	struct timespec ts;
+
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return ts.tv_sec * 1e9 + ts.tv_nsec;
+}
+
 int sim_object_run(struct swell_wave *w, double dt_s, double dx_m, long steps, int float64)
 {
 	struct swell_body_params p = {0};
@@ -190,6 +199,8 @@ int sim_object_run(struct swell_wave *w, double dt_s, double dx_m, long steps, i
 	int64_t inv0, drift = 0;
 	long ticks, t, kk, tail;
 	int32_t out_uN = 0;
+	double law_ns = 0, t0;
+	long law_ticks = 0;
 
 	if (float64) {
 		fprintf(stderr, "swell-sim: --object runs on the fixed-point solver only (not --impl float64)\n");
@@ -260,8 +271,13 @@ int sim_object_run(struct swell_wave *w, double dt_s, double dx_m, long steps, i
 			swell_body_solver_stepped(&b, w);
 		}
 		script((double)t / sc.tick_hz, x0, y0, fb.z_um, fb.v_um_s, pos, vel);
+		t0 = now_ns();
 		swell_body_tick(&b, w, pos, vel, &o);
 		out_uN = swell_fsafety_apply(&safe, o.f.total_uN, 1);
+		if (!o.skipped) {
+			law_ns += now_ns() - t0;
+			law_ticks++;
+		}
 		if (so.motion == M_DROP)
 			swell_free_body_step(&fb, out_uN);
 		fmax = fabs(out_uN * 1e-6) > fmax ? fabs(out_uN * 1e-6) : fmax;
@@ -293,7 +309,7 @@ int sim_object_run(struct swell_wave *w, double dt_s, double dx_m, long steps, i
 	       b.k_q8 / 256.0 * p.h_um * 1e-9, p.mass_g * p.g_mm_s2 * 1e-6);
 	if (so.motion == M_DROP && tail > 0) {
 		double d = sum_delta / tail;
-		printf("equilibrium     delta %.4f mm (mean of the last %.3f s), m g / k %.4f mm, error %+.3f %%\n",
+		printf("equilibrium     delta %.4f mm (mean of the last %.3f s), m g / k %.4f mm, error %+.4f %%\n",
 		       d / mm, (double)tail / sc.tick_hz, delta_eq / mm, 100 * (d - delta_eq) / delta_eq);
 		printf("settling        %.3f s to stay within 2 %% of m g / k\n", settle);
 	}
@@ -303,6 +319,9 @@ int sim_object_run(struct swell_wave *w, double dt_s, double dx_m, long steps, i
 	       (long long)drift);
 	printf("work            %u of %u ticks skipped clear of the water, %u couplings\n", b.skipped, b.ticks,
 	       b.coupled);
+	if (law_ticks)
+		printf("cost            %.0f ns per tick in the water (force law, coupling, safety; host)\n",
+		       law_ns / law_ticks);
 	if (w->saturations)
 		printf("saturations     %u\n", w->saturations);
 	return 0;
