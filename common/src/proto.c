@@ -6,8 +6,15 @@
 #include "swell/crc.h"
 
 /* ---- the table as data ---- */
+/* A controller build may define SWELL_PROTO_NO_TEXT to keep factors, units and descriptions (about
+ * 3 KB) out of flash; names stay. */
+#ifdef SWELL_PROTO_NO_TEXT
+#define TXT(s) ""
+#else
+#define TXT(s) s
+#endif
 #define FIELD_DESC(m, member, ctype, start, bits, min, max, kind, factor, unit, desc)            \
-	{ #member, factor, unit, desc, (int64_t)(min), (int64_t)(max),                           \
+	{ #member, TXT(factor), TXT(unit), TXT(desc), (int64_t)(min), (int64_t)(max),            \
 	  (uint16_t)offsetof(struct swell_msg, u.m.member), (uint8_t)sizeof(ctype), start, bits, \
 	  SWELL_FK_##kind },
 #define FIELD_COUNT(m, ...) +1
@@ -25,7 +32,7 @@
 SWELL_PROTO_MESSAGES(MSG_FIELDS)
 
 #define MSG_DESC(NAME, name, type, len, from, to, desc)                                          \
-	{ #NAME, #from, #to, desc, fields_##name, type, len,                                     \
+	{ #NAME, #from, #to, TXT(desc), fields_##name, type, len,                                \
 	  (uint8_t)(0 SWELL_PROTO_FIELDS_##name(FIELD_COUNT, name)) },
 const struct swell_msg_desc swell_msg_descs[] = { SWELL_PROTO_MESSAGES(MSG_DESC) };
 const unsigned swell_msg_desc_count = sizeof(swell_msg_descs) / sizeof(swell_msg_descs[0]);
