@@ -4,19 +4,24 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "../logic/core_run.h"
 #include "../logic/scene.h"
 
 static const char usage[] =
-	"usage: swell-fw-scene [--steps N]\n"
+	"usage: swell-fw-scene [--steps N] [--core TICKS]\n"
 	"Runs the STM32F405 self-test scene on the host: 64x64 pool, dx 6.25 mm, depth 50 mm,\n"
 	"dt 4 ms, paper stencil, no damping, Gaussian 2 mm sigma 3 cells at (32,32); N solver steps\n"
-	"(default 200). Prints the state checksum (CRC-32 of heights and flows) and the volume.\n";
+	"(default 200). Prints the state checksum (CRC-32 of heights and flows) and the volume.\n"
+	"--core TICKS: also run the controller core on that scene at 2500 Hz for TICKS ticks with the\n"
+	"self-test's scripted device, and print its checksum (FORCE_CMD payloads, then the water).\n";
 
 int main(int argc, char **argv)
 {
 	static int32_t storage[FW_SCENE_WORDS];
+	static int32_t arena[FW_CORE_ARENA_WORDS];
+	static struct swell_ctl ctl;
 	struct swell_wave w;
-	unsigned long steps = 200, n;
+	unsigned long steps = 200, n, core_ticks = 0;
 	enum swell_err err;
 	int i;
 
@@ -30,6 +35,15 @@ int main(int argc, char **argv)
 			steps = strtoul(argv[++i], &end, 10);
 			if (*end || !*argv[i] || steps > 100000000ul) {
 				fprintf(stderr, "swell-fw-scene: --steps '%s' is not a count in [0, 1e8]\n",
+					argv[i]);
+				return 2;
+			}
+		} else if (!strcmp(argv[i], "--core") && i + 1 < argc) {
+			char *end;
+
+			core_ticks = strtoul(argv[++i], &end, 10);
+			if (*end || !*argv[i] || core_ticks > 100000000ul) {
+				fprintf(stderr, "swell-fw-scene: --core '%s' is not a tick count in [0, 1e8]\n",
 					argv[i]);
 				return 2;
 			}
@@ -49,5 +63,23 @@ int main(int argc, char **argv)
 	printf("e 0x%08x (Q1.30)\n", (unsigned)w.p.e);
 	printf("checksum 0x%08x\n", (unsigned)swell_wave_checksum(&w));
 	printf("volume %lld LSB (2^-16 mm per cell)\n", (long long)swell_wave_volume(&w));
+	if (core_ticks) {
+		struct fw_core_run r;
+
+		err = fw_core_init(&ctl, &r, arena, FW_CORE_ARENA_WORDS, 2500);
+		if (err != SWELL_OK) {
+			fprintf(stderr, "swell-fw-scene: core refused: %s\n", swell_err_str(err));
+			return 1;
+		}
+		for (n = 0; n < core_ticks; n++) {
+			fw_core_device(&ctl, &r);
+			swell_ctl_tick(&ctl);
+			fw_core_drain(&ctl, &r);
+		}
+		printf("core ticks %lu\n", core_ticks);
+		printf("core checksum 0x%08x\n", (unsigned)fw_core_checksum(&ctl, &r));
+		printf("core: state %s, %u FORCE_CMD, last fz %d uN\n", swell_ctl_state_name(ctl.state),
+		       (unsigned)r.force_cmds, (int)r.last_fz_uN);
+	}
 	return 0;
 }

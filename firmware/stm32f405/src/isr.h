@@ -16,4 +16,10 @@ void isr_can1_rx1(void);
 void isr_can1_sce(void);
 void isr_otg_fs(void);
 
+#include <stdint.h>
+
+/* Deepest stack use since reset (the stack is painted at reset), and the stack size, in bytes. */
+uint32_t stack_used_bytes(void);
+uint32_t stack_size_bytes(void);
+
 #endif

@@ -1,6 +1,8 @@
 #include "selftest.h"
 
+#include "../logic/core_run.h"
 #include "../logic/scene.h"
+#include "isr.h"
 #include "../regs/stm32f405_periph.h"
 #include "console.h"
 #include "loopback.h"
@@ -10,8 +12,10 @@
 
 /* In SRAM (see stm32f405.ld for why not CCM). The naive loop reuses the field's storage once the
  * scene's checksum is out. */
-static int32_t wave_storage[FW_SCENE_WORDS];
+#define ARENA_WORDS (FW_CORE_ARENA_WORDS > FW_SCENE_WORDS ? FW_CORE_ARENA_WORDS : FW_SCENE_WORDS)
+static int32_t wave_storage[ARENA_WORDS]; /* the scene's field, then the core's arena */
 static struct swell_wave wave;
+static struct swell_ctl ctl;
 #define NAIVE_N (FW_SCENE_NX * FW_SCENE_NY)
 _Static_assert(2 * NAIVE_N <= FW_SCENE_WORDS, "naive buffers fit the field storage");
 static int32_t *const naive_a = wave_storage;
@@ -223,6 +227,60 @@ static int run_tick(uint32_t tim_clk_hz)
 	return st.count - before == TICK_RUNS && st.overruns == 0;
 }
 
+#ifndef SWELL_FW_CORE_TICKS
+#define SWELL_FW_CORE_TICKS 2500u
+#endif
+
+/* The controller core on the reference scene at the HapticMaster rate, scripted device. */
+static int run_core(void)
+{
+	struct fw_core_run r;
+	uint64_t t0, dt, sum = 0, max = 0;
+	uint32_t n;
+	enum swell_err err = fw_core_init(&ctl, &r, wave_storage, ARENA_WORDS, 2500);
+
+	if (err != SWELL_OK) {
+		con_puts("core: refused: ");
+		con_puts(swell_err_str(err));
+		con_putc('\n');
+		return 0;
+	}
+	for (n = 0; n < SWELL_FW_CORE_TICKS; n++) {
+		fw_core_device(&ctl, &r);
+		t0 = timebase_systick();
+		swell_ctl_tick(&ctl);
+		dt = timebase_systick() - t0;
+		fw_core_drain(&ctl, &r);
+		sum += dt;
+		max = dt > max ? dt : max;
+	}
+	con_puts("core ticks ");
+	con_put_u32(SWELL_FW_CORE_TICKS);
+	con_putc('\n');
+	con_puts("core checksum 0x");
+	con_put_hex32(fw_core_checksum(&ctl, &r));
+	con_putc('\n');
+	con_puts("core: state ");
+	con_puts(swell_ctl_state_name(ctl.state));
+	con_puts(", ");
+	con_put_u32(r.force_cmds);
+	con_puts(" FORCE_CMD, ");
+	con_put_u32(r.host_msgs);
+	con_puts(" host messages, last fz ");
+	con_put_i64(r.last_fz_uN);
+	con_puts(" uN, solver steps ");
+	con_put_u32(ctl.n.solver_steps);
+	con_putc('\n');
+	con_puts("core tick (swell_ctl_tick, 64x64, 2500 Hz): mean ");
+	put_insn(sum, SWELL_FW_CORE_TICKS);
+	con_puts(", max ");
+	put_insn(max, 1);
+	con_puts(" instructions; worst tick uses ");
+	con_put_ratio(max * INSN_NUM * 2500u * 100u, (uint64_t)INSN_DEN * 168000000u, 1);
+	con_puts(" % of the 400 us tick at 168 MHz\n");
+	return ctl.state == SWELL_CTL_RUNNING && r.force_cmds == SWELL_FW_CORE_TICKS;
+}
+
 int selftest_run(uint32_t tim_clk_hz)
 {
 	int ok = 1;
@@ -234,6 +292,12 @@ int selftest_run(uint32_t tim_clk_hz)
 	run_naive();
 	ok &= run_tick(tim_clk_hz);
 	ok &= loopback_selftest();
+	ok &= run_core();
+	con_puts("stack: ");
+	con_put_u32(stack_used_bytes());
+	con_puts(" of ");
+	con_put_u32(stack_size_bytes());
+	con_puts(" bytes used\n");
 	con_puts(ok ? "selftest: end ok\n" : "selftest: end FAILED\n");
 	return ok;
 }

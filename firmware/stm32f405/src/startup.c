@@ -10,7 +10,9 @@
 #include "isr.h"
 
 extern uint32_t _sidata[], _sdata[], _edata[], _sbss[], _ebss[];
-extern uint32_t _estack[];
+extern uint32_t _sstack[], _estack[];
+
+#define STACK_PAINT 0x5AFE57ACu
 
 int main(void);
 void isr_default(void);
@@ -75,11 +77,36 @@ void isr_nmi(void)
 	fault_stop("NMI (clock security: HSE lost)");
 }
 
+/* Fill the unused stack with a pattern so that the deepest use can be measured later. */
+static void stack_paint(void)
+{
+	uint32_t *p, *sp;
+
+	__asm__ volatile("mov %0, sp" : "=r"(sp));
+	for (p = _sstack; p < sp - 16; p++)
+		*p = STACK_PAINT;
+}
+
+uint32_t stack_used_bytes(void)
+{
+	const uint32_t *p = _sstack;
+
+	while (p < _estack && *p == STACK_PAINT)
+		p++;
+	return (uint32_t)((const char *)_estack - (const char *)p);
+}
+
+uint32_t stack_size_bytes(void)
+{
+	return (uint32_t)((const char *)_estack - (const char *)_sstack);
+}
+
 void isr_reset(void)
 {
 	/* The FPU first: the compiler may use FP registers anywhere after this (hard-float ABI). */
 	SCB->CPACR |= SCB_CPACR_CP10_CP11_FULL;
 	__asm__ volatile("dsb\n\tisb" ::: "memory");
+	stack_paint();
 	memcpy(_sdata, _sidata, (size_t)((char *)_edata - (char *)_sdata));
 	memset(_sbss, 0, (size_t)((char *)_ebss - (char *)_sbss));
 	SCB->VTOR = (uint32_t)(uintptr_t)vectors;

@@ -25,6 +25,13 @@ target=$(sed -n 's/^checksum \(0x[0-9a-f]*\).*/\1/p' "$out" | tr -d '\r')
 host=$("$scene" --steps "$steps" | sed -n 's/^checksum \(0x[0-9a-f]*\).*/\1/p')
 echo "qemu-selftest: $steps steps: target checksum $target, host checksum $host"
 [ -n "$target" ] && [ "$target" = "$host" ] || { echo "qemu-selftest: FAIL: checksums differ"; exit 1; }
+ticks=$(sed -n 's/^core ticks \([0-9]*\).*/\1/p' "$out" | tr -d '\r')
+if [ -n "$ticks" ]; then
+	tcore=$(sed -n 's/^core checksum \(0x[0-9a-f]*\).*/\1/p' "$out" | tr -d '\r')
+	hcore=$("$scene" --steps 0 --core "$ticks" | sed -n 's/^core checksum \(0x[0-9a-f]*\).*/\1/p')
+	echo "qemu-selftest: core $ticks ticks: target checksum $tcore, host checksum $hcore"
+	[ -n "$tcore" ] && [ "$tcore" = "$hcore" ] || { echo "qemu-selftest: FAIL: core checksums differ"; exit 1; }
+fi
 if [ "$sim" != "-" ] && [ -x "$sim" ]; then
 	ref=$("$sim" --grid 64x64 --dt 0.004 --depth 0.05 --dx 0.00625 --init gauss:32,32,3,2 \
 		--steps "$steps" | sed -n 's/^checksum *\(0x[0-9a-f]*\).*/\1/p')
