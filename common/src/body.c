@@ -343,7 +343,7 @@ static void couple(struct swell_body *b, struct swell_wave *w, const struct swel
 static void device_force(const struct swell_body *b, struct swell_body_out *out)
 {
 	out->f_dev_uN[0] = out->f_dev_uN[1] = out->f_dev_uN[2] = 0;
-	out->f_dev_uN[b->xf.axis[2]] = b->xf.sign[2] * out->f.total_uN;
+	out->f_dev_uN[b->xf.axis[2]] = sat32((int64_t)b->xf.sign[2] * out->f.total_uN);
 }
 
 void swell_body_tick(struct swell_body *b, struct swell_wave *w, const int32_t pos_dev_um[3],
@@ -407,8 +407,10 @@ void swell_body_tick(struct swell_body *b, struct swell_wave *w, const int32_t p
 	/* damper b_max s (v - u_w), s = delta / H */
 	bs = div_rn((int64_t)b->p.damper_uN_per_mm_s * delta, b->h_lsb);
 	dv = (int64_t)out->vz_um_s - out->surface_um_s;
-	out->f.viscous_uN = sat32(-div_rn(bs * dv, 1000));
-	out->f.total_uN = sat32((int64_t)out->f.gravity_uN + out->f.up_uN + out->f.viscous_uN);
+	out->f.viscous_uN = swell_clamp(sat32(-div_rn(bs * dv, 1000)), -INT32_MAX, INT32_MAX);
+	/* symmetric saturation: a force and its negation are both representable */
+	out->f.total_uN = swell_clamp(sat32((int64_t)out->f.gravity_uN + out->f.up_uN + out->f.viscous_uN),
+				      -INT32_MAX, INT32_MAX);
 	device_force(b, out);
 
 	/* coupling: the depth below the mean level of the pool (see body.h) */

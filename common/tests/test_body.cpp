@@ -131,7 +131,7 @@ TEST_CASE("a released free object settles at delta = m g / k within 2%", "[body]
 	double settle, delta, eq;
 	drop_and_settle(s, 12.0, &settle, &delta, &eq);
 	double err = (delta - eq) / eq;
-	std::printf("drop 60x60x40 mm, 60 g from 20 mm: delta %.4f mm, m g / k %.4f mm, error %+.3f %%, "
+	std::printf("drop 60x60x40 mm, 60 g from 20 mm: delta %.4f mm, m g / k %.4f mm, error %+.4f %%, "
 		    "settled (within 2%%) after %.3f s\n",
 		    delta / MM, eq / MM, 100 * err, settle);
 	INFO("delta " << delta / MM << " mm, m g / k " << eq / MM << " mm, settling " << settle << " s");
@@ -433,4 +433,97 @@ TEST_CASE("the device transform maps offset, scale and axes, and the force goes 
 	CHECK(out.f_dev_uN[1] == out.f.total_uN);
 	CHECK(out.f_dev_uN[0] == 0);
 	CHECK(out.f_dev_uN[2] == 0);
+}
+
+TEST_CASE("coupling raises covered cells by delta times covered area, and moving lowers the cells left behind",
+	  "[body][coupling]")
+{
+	body_scene s(16);
+	swell_body_out out;
+	// 30 x 20 mm box, edges inside cells, 10 mm under flat water: nothing pending before
+	const double x = 41300, y = 37900, a = 30000, bb = 20000, dx = 6250;
+	s.p.a_um = (uint32_t)a;
+	s.p.b_um = (uint32_t)bb;
+	REQUIRE(swell_body_set_params(&s.b, &s.p, &s.xf) == SWELL_OK);
+	s.tick((int32_t)x, (int32_t)y, -10000, 0, &out);
+	const double delta = swell_um_to_lsb(10000); // the pool's mean level is 0
+	long cells = 0, wrong = 0;
+	for (int j = 0; j < 16; j++)
+		for (int i = 0; i < 16; i++) {
+			double ox = std::fmin((i + 1) * dx, x + a / 2) - std::fmax(i * dx, x - a / 2);
+			double oy = std::fmin((j + 1) * dx, y + bb / 2) - std::fmax(j * dx, y - bb / 2);
+			double frac = ox > 0 && oy > 0 ? ox * oy / (dx * dx) : 0;
+			int32_t got = s.w.acc[j * 16 + i];
+			// edges are placed to 1/2048 cell: the covered fraction to about 1e-3
+			if (std::fabs(got - delta * frac) > 2e-3 * delta + 1) {
+				if (wrong++ < 3)
+					FAIL_CHECK("cell " << i << "," << j << ": raised " << got << " LSB, expected "
+							   << delta * frac << " (covered " << frac << ")");
+			}
+			cells += frac > 0;
+		}
+	CHECK(wrong == 0);
+	CHECK(cells == 6 * 4); // the box spans 6 x 4 partly covered cells
+	// displaced = delta * area, to the edge placement (half of 1/2048 cell an edge) and rounding
+	const double area = a * bb / (dx * dx), tol = delta * (a + bb) / dx / 2048 + cells;
+	const int64_t v0 = s.b.v_displaced;
+	INFO("displaced " << v0 << " LSB*cell, delta * area " << delta * area);
+	CHECK(std::fabs(v0 - delta * area) <= tol);
+
+	// one cell to the right, same depth: the column left behind goes back down, a new one goes up
+	std::vector<int32_t> before(s.w.acc, s.w.acc + 256);
+	s.tick((int32_t)(x + dx), (int32_t)y, -10000, 0, &out);
+	const int i_left = (int)((x - a / 2) / dx), i_new = (int)((x + dx + a / 2) / dx);
+	for (int j = 0; j < 16; j++) {
+		CHECK(s.w.acc[j * 16 + i_left] <= before[j * 16 + i_left]);
+		CHECK(s.w.acc[j * 16 + i_new] >= before[j * 16 + i_new]);
+	}
+	// same depth below the mean level, which the first push raised by v0 / 256 cells
+	INFO("displaced " << s.b.v_displaced << " LSB*cell, expected " << (delta + v0 / 256.0) * area);
+	CHECK(std::fabs(s.b.v_displaced - (delta + v0 / 256.0) * area) <= tol);
+	// pulled out: everything it put in is taken back
+	s.tick((int32_t)(x + dx), (int32_t)y, 5000, 0, &out);
+	CHECK(s.b.v_displaced == 0);
+	int64_t pending = 0;
+	for (int c = 0; c < 256; c++)
+		pending += s.w.acc[c];
+	CHECK(pending == 0);
+}
+
+TEST_CASE("extreme device inputs and transforms stay defined and keep the invariant", "[body][coupling]")
+{
+	body_scene s(16, 0.01);
+	std::mt19937 rng(13);
+	const int64_t inv0 = swell_body_invariant(&s.b, &s.w);
+	const int32_t extremes[] = {INT32_MIN, INT32_MAX, 0, -1, 1, 50000, -50000};
+	swell_body_out out;
+	long bad = 0;
+	for (int t = 0; t < 20000; t++) {
+		if (t % 1000 == 0 && s.b.applied.delta_lsb == 0) {
+			swell_body_xform x = body_scene::identity();
+			x.scale = (q16_t)(1 + rng() % (16 * SWELL_Q16_ONE));
+			for (int k = 0; k < 3; k++) {
+				x.offset_um[k] = (int32_t)(rng() % 200000) - 50000;
+				x.sign[k] = rng() % 2 ? 1 : -1;
+			}
+			REQUIRE(swell_body_set_params(&s.b, &s.p, &x) == SWELL_OK);
+		}
+		int32_t pos[3], vel[3];
+		for (int k = 0; k < 3; k++) {
+			pos[k] = rng() % 4 ? (int32_t)(rng() % 120000) - 60000 : extremes[rng() % 7];
+			vel[k] = rng() % 4 ? (int32_t)(rng() % 2000000) - 1000000 : extremes[rng() % 7];
+		}
+		if (t % 10 == 0) {
+			swell_wave_step(&s.w);
+			swell_body_solver_stepped(&s.b, &s.w);
+		}
+		swell_body_tick(&s.b, &s.w, pos, vel, &out);
+		if (out.delta_lsb < 0 || out.delta_lsb > s.b.h_lsb)
+			bad++;
+		if (swell_body_invariant(&s.b, &s.w) != inv0)
+			bad++;
+	}
+	INFO(bad << " ticks with delta out of [0, H] or the invariant off");
+	CHECK(bad == 0);
+	CHECK(s.w.saturations == 0);
 }
