@@ -5,12 +5,12 @@
 #include "../regs/cortex_m4.h"
 #include "../regs/stm32f405_periph.h"
 #include "../regs/stm32f405_rcc.h"
+#include "app.h"
 #include "can.h"
 #include "clock.h"
 #include "console.h"
 #include "fault.h"
 #include "image.h"
-#include "iwdg.h"
 #include "port.h"
 #include "selftest.h"
 #include "timebase.h"
@@ -22,7 +22,6 @@
 #define PRIO_CAN_SCE 2 /* bus-off: zero force promptly */
 #define PRIO_CAN_RX 3  /* device frames (position in) */
 #define PRIO_USB 4     /* host link */
-#define PRIO_SOLVER 14 /* PendSV: solver steps, preempted by everything above */
 
 #define WATCHDOG_MS 100u
 
@@ -56,7 +55,6 @@ static void setup_faults(void)
 	SCB->AIRCR = SCB_AIRCR_VECTKEY | (3u << SCB_AIRCR_PRIGROUP_SHIFT); /* 4 bits preemption */
 	SCB->SHCSR |= SCB_SHCSR_MEMFAULTENA | SCB_SHCSR_BUSFAULTENA | SCB_SHCSR_USGFAULTENA;
 	SCB->CCR |= SCB_CCR_DIV_0_TRP;
-	SCB->SHPR[SCB_SHPR_IDX(EXC_PENDSV)] = (uint8_t)(PRIO_SOLVER << (8 - NVIC_PRIO_BITS));
 }
 
 int main(void)
@@ -137,13 +135,9 @@ int main(void)
 			__asm__ volatile("wfi");
 	}
 
-	/* Controller mode. firmware/core (state machine, tick work) is linked here when it exists; until
-	 * then the port stays idle with zero force, watchdog running. */
-	(void)PRIO_CAN_SCE;
-	(void)PRIO_CAN_RX;
-	(void)PRIO_USB;
-	iwdg_start(WATCHDOG_MS);
-	con_puts("core: not linked in this image; idle, force zero\n");
-	for (;;)
-		iwdg_kick();
+	{
+		const struct app_prio prio = {PRIO_TICK, PRIO_CAN_RX, PRIO_CAN_SCE, PRIO_USB};
+
+		app_run(&ci, can_ok, usb_ok, &prio, WATCHDOG_MS);
+	}
 }

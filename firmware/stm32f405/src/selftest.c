@@ -2,6 +2,7 @@
 
 #include "../logic/core_run.h"
 #include "../logic/scene.h"
+#include "app.h"
 #include "isr.h"
 #include "../regs/stm32f405_periph.h"
 #include "console.h"
@@ -12,10 +13,10 @@
 
 /* In SRAM (see stm32f405.ld for why not CCM). The naive loop reuses the field's storage once the
  * scene's checksum is out. */
-#define ARENA_WORDS (FW_CORE_ARENA_WORDS > FW_SCENE_WORDS ? FW_CORE_ARENA_WORDS : FW_SCENE_WORDS)
-static int32_t wave_storage[ARENA_WORDS]; /* the scene's field, then the core's arena */
+#define ARENA_WORDS APP_ARENA_WORDS
+#define wave_storage app_arena /* the scene's field, then the core's arena */
+#define ctl app_ctl
 static struct swell_wave wave;
-static struct swell_ctl ctl;
 #define NAIVE_N (FW_SCENE_NX * FW_SCENE_NY)
 _Static_assert(2 * NAIVE_N <= FW_SCENE_WORDS, "naive buffers fit the field storage");
 static int32_t *const naive_a = wave_storage;

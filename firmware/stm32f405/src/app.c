@@ -1,0 +1,193 @@
+#include "app.h"
+
+#include "../logic/scene.h"
+#include "can.h"
+#include "console.h"
+#include "fault.h"
+#include "iwdg.h"
+#include "port.h"
+#include "swell/proto.h"
+#include "swell/transport.h"
+#include "tick.h"
+#include "usb.h"
+
+int32_t app_arena[APP_ARENA_WORDS];
+struct swell_ctl app_ctl;
+
+#define USB_RING 8u /* decoded messages from USB waiting for the tick (SPSC: USB ISR -> tick) */
+
+static struct {
+	int can_on, usb_on, device_on_can;
+	struct swell_msg usb_rx[USB_RING];
+	volatile uint32_t usb_head, usb_tail;
+	uint32_t usb_dropped, bad_frames_reported, overruns_seen;
+	struct swell_proto_stats stats;
+	uint8_t usb_seq;
+} app;
+
+static enum swell_link link_of(const struct swell_msg *m)
+{
+	const struct swell_msg_desc *d = swell_msg_desc_find(m->type);
+
+	return d && d->from[0] == 'D' ? SWELL_LINK_DEVICE : SWELL_LINK_HOST;
+}
+
+static void on_usb_out(const uint8_t *pkt, uint32_t len)
+{
+	struct swell_msg m[SWELL_PKT_MSGS_MAX];
+	size_t n = 0, i;
+	uint8_t seq;
+
+	if (swell_pkt_decode(pkt, len, m, SWELL_PKT_MSGS_MAX, &n, &seq, &app.stats) != SWELL_OK)
+		return; /* counted in stats, reported to the core at the next tick */
+	for (i = 0; i < n; i++) {
+		if (app.usb_head - app.usb_tail >= USB_RING) {
+			app.usb_dropped++;
+			continue;
+		}
+		app.usb_rx[app.usb_head % USB_RING] = m[i];
+		__asm__ volatile("dmb" ::: "memory");
+		app.usb_head++;
+	}
+}
+
+static void send_can(const struct swell_msg *m)
+{
+	struct fw_frame f = {0};
+
+	if (swell_can_encode(m, &f.id, f.data, &f.len) == SWELL_OK)
+		(void)can_send(&f); /* refused when every mailbox holds something more urgent */
+}
+
+static void send_usb(const struct swell_msg *m, size_t n)
+{
+	uint8_t pkt[SWELL_PKT_MAX];
+	size_t len, used;
+
+	while (n && usb_configured()) {
+		if (swell_pkt_encode(app_ctl.cfg.node, app.usb_seq, m, n, pkt, sizeof(pkt), &len, &used) !=
+			    SWELL_OK ||
+		    usb_send(pkt, (uint32_t)len) != SWELL_OK)
+			return; /* IN endpoint busy: telemetry is dropped, the next tick sends fresh data */
+		app.usb_seq++;
+		m += used;
+		n -= used;
+	}
+}
+
+/* The tick (TIM2, priority 0): inputs, the core's tick, outputs. Bounded: at most a CAN RX ring
+ * and a USB ring of messages, one core tick, two queue drains. */
+static void app_tick(void)
+{
+	static struct swell_msg out[SWELL_CTL_QUEUE]; /* 1.3 KB: not on the 3 KB stack (one tick at a time) */
+	struct swell_msg m;
+	struct fw_frame f;
+	struct tick_stats st;
+	uint32_t bad, n;
+	size_t k, i;
+
+	while (app.can_on && can_recv(&f) == SWELL_OK)
+		if (swell_can_decode(f.id, f.data, f.len, &m, &app.stats) == SWELL_OK)
+			swell_ctl_rx(&app_ctl, link_of(&m), &m);
+	for (n = 0; n < USB_RING && app.usb_tail != app.usb_head; n++) {
+		m = app.usb_rx[app.usb_tail % USB_RING];
+		__asm__ volatile("dmb" ::: "memory");
+		app.usb_tail++;
+		swell_ctl_rx(&app_ctl, link_of(&m), &m);
+	}
+	bad = swell_proto_rejected_total(&app.stats);
+	if (bad != app.bad_frames_reported) {
+		swell_ctl_bad_frames(&app_ctl, bad - app.bad_frames_reported);
+		app.bad_frames_reported = bad;
+	}
+	tick_read(&st);
+	if (st.overruns != app.overruns_seen) {
+		app.overruns_seen = st.overruns;
+		swell_ctl_overrun(&app_ctl);
+	}
+
+	swell_ctl_tick(&app_ctl);
+
+	for (i = 0; i < SWELL_LINKS; i++) {
+		enum swell_link l = (enum swell_link)i;
+		int on_can = l == SWELL_LINK_DEVICE ? app.device_on_can : !app.usb_on;
+
+		k = swell_ctl_tx(&app_ctl, l, out, SWELL_CTL_QUEUE);
+		for (size_t j = 0; l == SWELL_LINK_DEVICE && j < k; j++) {
+			if (out[j].type == SWELL_MSG_FORCE_CMD) {
+				int on = out[j].u.force_cmd.enable;
+
+				port_force_cN[0] = on ? out[j].u.force_cmd.fx_cN : 0;
+				port_force_cN[1] = on ? out[j].u.force_cmd.fy_cN : 0;
+				port_force_cN[2] = on ? out[j].u.force_cmd.fz_cN : 0;
+			}
+		}
+		if (on_can) {
+			for (size_t j = 0; j < k; j++)
+				send_can(&out[j]);
+		} else {
+			send_usb(out, k);
+		}
+	}
+}
+
+void app_send_zero_force(void)
+{
+	struct swell_msg m = {.type = SWELL_MSG_FORCE_CMD, .node = app_ctl.cfg.node};
+	struct fw_frame f = {0};
+
+	m.u.force_cmd.enable = 0;
+	if (app.device_on_can && swell_can_encode(&m, &f.id, f.data, &f.len) == SWELL_OK)
+		(void)can_send(&f);
+}
+
+void app_run(const struct clock_info *ci, int can_ok, int usb_ok, const struct app_prio *prio,
+	     uint32_t watchdog_ms)
+{
+	struct swell_ctl_config cfg;
+	struct tick_stats st;
+	/* Accept every message type for our node: id = type << 4 | node. */
+	struct can_filter_spec flt = {.id = 0, .mask = 0x00F, .kind = CAN_FILTER_MASK, .fifo = 0};
+	uint32_t tick_hz = can_ok ? 1000u : 2500u, last_count = 0, now_ms;
+	enum swell_err err;
+
+	swell_ctl_default_config(&cfg);
+	cfg.tick_hz = tick_hz;
+	cfg.safety.tick_hz = tick_hz;
+	flt.id = cfg.node;
+	err = swell_ctl_init(&app_ctl, &cfg, app_arena, APP_ARENA_WORDS);
+	if (err == SWELL_OK && can_ok) {
+		err = can_start(ci->pclk1_hz, SWELL_CAN_BITRATE, &flt, 1, 0, prio->can_rx, prio->can_sce);
+		app.can_on = app.device_on_can = err == SWELL_OK;
+	}
+	if (err == SWELL_OK && usb_ok && ci->src != CLOCK_HSE_PLL)
+		con_puts("usb: not started: 48 MHz needs the crystal (HSE), running on HSI\n");
+	else if (err == SWELL_OK && usb_ok) {
+		err = usb_start(prio->usb, on_usb_out);
+		app.usb_on = err == SWELL_OK;
+	}
+	if (err == SWELL_OK)
+		err = tick_start(ci->tim_apb1_hz, tick_hz, prio->tick, app_tick);
+	con_puts("controller: ");
+	if (err != SWELL_OK) {
+		con_puts("start refused: ");
+		con_puts(swell_err_str(err));
+		con_putc('\n');
+		fault_stop("controller start refused");
+	}
+	con_put_u32(tick_hz);
+	con_puts(" Hz tick, device on ");
+	con_puts(app.device_on_can ? "CAN 1 Mbit/s" : "USB");
+	con_puts(app.usb_on ? ", host on USB\n" : ", host on CAN\n");
+	iwdg_start(watchdog_ms);
+	for (;;) {
+		tick_read(&st);
+		now_ms = (uint32_t)((uint64_t)st.count * 1000u / tick_hz);
+		if (st.count != last_count) { /* a stopped tick lets the watchdog bite */
+			last_count = st.count;
+			iwdg_kick();
+		}
+		if (app.can_on)
+			can_poll(now_ms);
+	}
+}

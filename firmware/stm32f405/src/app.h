@@ -1,0 +1,32 @@
+/* Controller mode on silicon: the core (firmware/core) driven by the TIM2 tick, messages in from
+ * CAN and USB, out to them. The device link runs on CAN at 1000 Hz when CAN answers (DESIGN.md 2.3),
+ * else everything on USB at 2500 Hz. Messages are routed to the core's links by their sender in the
+ * protocol table (DEV -> device link, VIEW -> host link), whatever carrier brought them. */
+#ifndef SWELL_FW_APP_H
+#define SWELL_FW_APP_H
+
+#include <stdint.h>
+
+#include "../logic/core_run.h"
+#include "../logic/scene.h"
+#include "clock.h"
+#include "swell/ctl.h"
+
+/* The core and its arena, shared with the self-test (never both at once): SRAM only, see
+ * stm32f405.ld. The arena also holds the self-test scene's field. */
+#define APP_ARENA_WORDS (FW_CORE_ARENA_WORDS > FW_SCENE_WORDS ? FW_CORE_ARENA_WORDS : FW_SCENE_WORDS)
+extern int32_t app_arena[APP_ARENA_WORDS];
+extern struct swell_ctl app_ctl;
+
+struct app_prio {
+	uint8_t tick, can_rx, can_sce, usb;
+};
+
+/* Never returns; the watchdog is refreshed only while the tick keeps running. */
+__attribute__((noreturn)) void app_run(const struct clock_info *ci, int can_ok, int usb_ok,
+				       const struct app_prio *prio, uint32_t watchdog_ms);
+
+/* Queue a zero FORCE_CMD on the device carrier directly (fault path; no core involved). */
+void app_send_zero_force(void);
+
+#endif
