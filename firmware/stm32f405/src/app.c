@@ -79,8 +79,7 @@ static void send_usb(const struct swell_msg *m, size_t n)
  * and a USB ring of messages, one core tick, two queue drains. */
 static void app_tick(void)
 {
-	static struct swell_msg out[SWELL_CTL_QUEUE]; /* 1.3 KB: not on the 3 KB stack (one tick at a time) */
-	struct swell_msg m;
+	struct swell_msg m, out[8]; /* queues drained 8 at a time: SRAM and stack are tight */
 	struct fw_frame f;
 	struct tick_stats st;
 	uint32_t bad, n;
@@ -112,21 +111,26 @@ static void app_tick(void)
 		enum swell_link l = (enum swell_link)i;
 		int on_can = l == SWELL_LINK_DEVICE ? app.device_on_can : !app.usb_on;
 
-		k = swell_ctl_tx(&app_ctl, l, out, SWELL_CTL_QUEUE);
-		for (size_t j = 0; l == SWELL_LINK_DEVICE && j < k; j++) {
-			if (out[j].type == SWELL_MSG_FORCE_CMD) {
-				int on = out[j].u.force_cmd.enable;
+		/* Bounded: a queue holds at most SWELL_CTL_QUEUE messages. */
+		for (n = 0; n < SWELL_CTL_QUEUE / 8; n++) {
+			k = swell_ctl_tx(&app_ctl, l, out, 8);
+			if (!k)
+				break;
+			for (size_t j = 0; l == SWELL_LINK_DEVICE && j < k; j++) {
+				if (out[j].type == SWELL_MSG_FORCE_CMD) {
+					int on = out[j].u.force_cmd.enable;
 
-				port_force_cN[0] = on ? out[j].u.force_cmd.fx_cN : 0;
-				port_force_cN[1] = on ? out[j].u.force_cmd.fy_cN : 0;
-				port_force_cN[2] = on ? out[j].u.force_cmd.fz_cN : 0;
+					port_force_cN[0] = on ? out[j].u.force_cmd.fx_cN : 0;
+					port_force_cN[1] = on ? out[j].u.force_cmd.fy_cN : 0;
+					port_force_cN[2] = on ? out[j].u.force_cmd.fz_cN : 0;
+				}
 			}
-		}
-		if (on_can) {
-			for (size_t j = 0; j < k; j++)
-				send_can(&out[j]);
-		} else {
-			send_usb(out, k);
+			if (on_can) {
+				for (size_t j = 0; j < k; j++)
+					send_can(&out[j]);
+			} else {
+				send_usb(out, k);
+			}
 		}
 	}
 }
