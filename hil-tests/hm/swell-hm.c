@@ -1,0 +1,553 @@
+/* swell-hm: the HapticMaster model for the bench and the demo. It speaks the device side of the
+ * swell protocol (DEVICE_POS + DEVICE_VEL every tick, FORCE_CMD and HEARTBEAT back) over UDP,
+ * SocketCAN or USB (host links), integrates the admittance model of hm_model.h with a scripted
+ * hand (hm_hand.h), logs every tick to CSV and prints a summary.
+ *
+ * Pacing: real time (absolute-deadline clock_nanosleep on CLOCK_MONOTONIC at --rate), or lockstep:
+ * after sending sample n wait for the controller's answer (the first FORCE_CMD that arrives after
+ * it; swell-ctl --clock device ticks once per DEVICE_POS), with a timeout, then integrate. Lockstep
+ * runs as fast as the two processes go and is deterministic. */
+#define _GNU_SOURCE
+#include <errno.h>
+#include <math.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "hm_hand.h"
+#include "hm_model.h"
+#include "swell/link.h"
+#include "swell/proto.h"
+#include "swell/transport.h"
+
+static const char usage[] =
+	"usage: swell-hm [options]\n"
+	"The HapticMaster model: an admittance-controlled device (virtual mass and damping, workspace\n"
+	"walls, device-side watchdog) moved by a scripted hand, speaking the device side of the swell\n"
+	"protocol to a controller (swell-ctl).\n"
+	"\n"
+	"Link and pacing:\n"
+	"  --link udp|can:IFACE|usb   carrier (default udp: packets to --host:--port)\n"
+	"  --host ADDR         controller's IPv4 address for udp (default 127.0.0.1)\n"
+	"  --port N            controller's UDP port (default 47800)\n"
+	"  --bind-port N       own UDP port (default 0: any free port)\n"
+	"  --node N            node id, 0..15 (default 0)\n"
+	"  --rate HZ           device tick rate (default 2500, the HapticMaster servo rate)\n"
+	"  --lockstep          after each sample wait for the controller's FORCE_CMD (deterministic,\n"
+	"                      as fast as both go); default: real time at --rate\n"
+	"  --timeout-ms MS     lockstep: longest wait for an answer (default 50; counted as a timeout)\n"
+	"  --seconds S         simulated seconds to run (default 10); SIGINT/SIGTERM stop early\n"
+	"Device model (m_v a = F_user + F_cmd - b_v v, per axis; see docs/hm.md):\n"
+	"  --mass KG           virtual mass m_v (default 2)\n"
+	"  --damping NS_M      virtual damping b_v in N s/m (default 2)\n"
+	"  --limit MM          workspace half-range per axis (default 200; a stiff wall beyond)\n"
+	"  --fmax N            largest commanded force applied per axis (default 250)\n"
+	"  --watchdog TICKS    controller silent this many ticks -> no commanded force (default 2)\n"
+	"  --start X,Y,Z       start position in mm (default 0,0,0; drop: 0,0,its height)\n"
+	"  --estop A,B         fault injection: e-stop pressed from A to B seconds\n"
+	"User:\n"
+	"  --hand SPEC         idle (default), drop[:z=20,hold=1], release[:at=0.5],\n"
+	"                      press[:at=3,depth=45,ramp=0.5,hold=2], shake[:at=3,axis=z,f=1,amp=10,for=3];\n"
+	"                      all take k=N/m (default 2000) and b=N s/m (default 60) of the hand\n"
+	"Report:\n"
+	"  --object G,A,B      the floating object, for the expected equilibrium: mass in g and footprint\n"
+	"                      in mm (default 100,50,50: -m g/k = -40 mm)\n"
+	"  --pool LX,LY        pool size in mm, for the level rise (default 400,400)\n"
+	"  --log FILE.csv      one row a tick: time, position, velocity, commanded and hand force, state\n"
+	"  --quiet             no progress line\n"
+	"  -h, --help          this text\n"
+	"\n"
+	"On exit prints a summary: final position, equilibrium z over the last second against -m g/k,\n"
+	"peak commanded force, ticks, timeouts, lost and bad packets, watchdog trips.\n"
+	"Exit status: 0 done, 1 the link failed, 2 bad arguments.\n";
+
+#define RHO_KG_M3 1000.0
+
+struct opts {
+	const char *link, *host, *log;
+	unsigned port, bind_port, node;
+	int lockstep, quiet, have_start;
+	unsigned timeout_ms;
+	double seconds, start_mm[3], estop_s[2];
+	double obj_mass_g, obj_a_mm, obj_b_mm, pool_mm[2];
+	struct hm_params p;
+	struct hm_hand hand;
+};
+
+static void die(const char *fmt, const char *a, const char *b)
+{
+	fprintf(stderr, "swell-hm: ");
+	fprintf(stderr, fmt, a, b);
+	fputc('\n', stderr);
+	exit(2);
+}
+
+static double number(const char *opt, const char *v, double lo, double hi)
+{
+	char *end;
+	double x;
+
+	errno = 0;
+	x = strtod(v, &end);
+	if (errno || end == v || *end || !(x >= lo && x <= hi)) {
+		fprintf(stderr, "swell-hm: %s '%s' is not a number in [%g, %g]\n", opt, v, lo, hi);
+		exit(2);
+	}
+	return x;
+}
+
+/* "a,b[,c]": exactly n numbers in [lo, hi]. */
+static void numbers(const char *opt, const char *v, double *out, int n, double lo, double hi)
+{
+	const char *p = v;
+	char *end;
+	int k;
+
+	for (k = 0; k < n; k++) {
+		errno = 0;
+		out[k] = strtod(p, &end);
+		if (errno || end == p || !(out[k] >= lo && out[k] <= hi) || *end != (k + 1 < n ? ',' : '\0')) {
+			fprintf(stderr, "swell-hm: %s '%s' must be %d comma-separated numbers in [%g, %g]\n", opt, v,
+				n, lo, hi);
+			exit(2);
+		}
+		p = end + 1;
+	}
+}
+
+static void parse(int argc, char **argv, struct opts *o)
+{
+	char why[160];
+	enum swell_err e;
+	int k;
+
+	memset(o, 0, sizeof(*o));
+	o->link = "udp";
+	o->host = SWELL_UDP_HOST;
+	o->port = SWELL_UDP_PORT_DEVICE;
+	o->timeout_ms = 50;
+	o->seconds = 10.0;
+	o->obj_mass_g = 100.0;
+	o->obj_a_mm = o->obj_b_mm = 50.0;
+	o->pool_mm[0] = o->pool_mm[1] = 400.0;
+	o->estop_s[0] = o->estop_s[1] = -1.0;
+	hm_params_default(&o->p);
+	hm_hand_parse("idle", &o->hand, NULL, 0);
+	for (k = 1; k < argc; k++) {
+		const char *a = argv[k], *v = k + 1 < argc ? argv[k + 1] : NULL;
+
+		if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
+			fputs(usage, stdout);
+			exit(0);
+		} else if (!strcmp(a, "--lockstep")) {
+			o->lockstep = 1;
+			continue;
+		} else if (!strcmp(a, "--quiet")) {
+			o->quiet = 1;
+			continue;
+		} else if (strncmp(a, "--", 2)) {
+			die("unexpected argument %s%s", a, "");
+		} else if (!v) {
+			die("missing value or unknown option %s%s", a, "");
+		}
+		k++;
+		if (!strcmp(a, "--link")) {
+			if (strcmp(v, "udp") && strcmp(v, "usb") && (strncmp(v, "can:", 4) || !v[4]))
+				die("--link must be udp, can:IFACE or usb, not '%s'%s", v, "");
+			o->link = v;
+		} else if (!strcmp(a, "--host"))
+			o->host = v;
+		else if (!strcmp(a, "--port"))
+			o->port = (unsigned)number(a, v, 1, 65535);
+		else if (!strcmp(a, "--bind-port"))
+			o->bind_port = (unsigned)number(a, v, 0, 65535);
+		else if (!strcmp(a, "--node"))
+			o->node = (unsigned)number(a, v, 0, SWELL_NODE_MAX);
+		else if (!strcmp(a, "--rate"))
+			o->p.rate_hz = number(a, v, 100, 100000);
+		else if (!strcmp(a, "--timeout-ms"))
+			o->timeout_ms = (unsigned)number(a, v, 1, 10000);
+		else if (!strcmp(a, "--seconds"))
+			o->seconds = number(a, v, 1e-3, 1e6);
+		else if (!strcmp(a, "--mass"))
+			o->p.mass_kg = number(a, v, 0.01, 1000);
+		else if (!strcmp(a, "--damping"))
+			o->p.damping_Ns_m = number(a, v, 0, 10000);
+		else if (!strcmp(a, "--limit"))
+			o->p.limit_m[0] = o->p.limit_m[1] = o->p.limit_m[2] = number(a, v, 1, 300) * 1e-3;
+		else if (!strcmp(a, "--fmax"))
+			o->p.f_max_N = number(a, v, 1e-3, 250);
+		else if (!strcmp(a, "--watchdog"))
+			o->p.watchdog_ticks = (uint32_t)number(a, v, 1, 100000);
+		else if (!strcmp(a, "--start")) {
+			numbers(a, v, o->start_mm, 3, -300, 300);
+			o->have_start = 1;
+		} else if (!strcmp(a, "--estop")) {
+			numbers(a, v, o->estop_s, 2, 0, 1e6);
+			if (o->estop_s[1] <= o->estop_s[0])
+				die("--estop A,B needs A < B, not '%s'%s", v, "");
+		} else if (!strcmp(a, "--hand")) {
+			e = hm_hand_parse(v, &o->hand, why, sizeof(why));
+			if (e != SWELL_OK)
+				die("--hand: %s%s", why, "");
+		} else if (!strcmp(a, "--object")) {
+			double ob[3];
+
+			numbers(a, v, ob, 3, 1e-3, 1e6);
+			o->obj_mass_g = ob[0];
+			o->obj_a_mm = ob[1];
+			o->obj_b_mm = ob[2];
+		} else if (!strcmp(a, "--pool"))
+			numbers(a, v, o->pool_mm, 2, 1, 1e5);
+		else if (!strcmp(a, "--log"))
+			o->log = v;
+		else
+			die("unknown option %s%s", a, "");
+	}
+	e = hm_params_check(&o->p, o->hand.k_N_m, o->hand.b_Ns_m, why, sizeof(why));
+	if (e != SWELL_OK)
+		die("device parameters refused (%s): %s", swell_err_str(e), why);
+	if (o->have_start)
+		for (k = 0; k < 3; k++)
+			if (fabs(o->start_mm[k]) > o->p.limit_m[k] * 1e3) {
+				fprintf(stderr, "swell-hm: --start %.3f mm is outside the workspace (+-%.3f mm)\n",
+					o->start_mm[k], o->p.limit_m[k] * 1e3);
+				exit(2);
+			}
+}
+
+/* ---- link ---- */
+
+struct dev {
+	struct swell_link *l;
+	enum swell_carrier carrier;
+	uint8_t node;
+	struct swell_proto_stats st;
+	struct swell_seq force_seq;
+	uint32_t commands, heartbeats, ignored, send_errors;
+	int ctl_state; /* last HEARTBEAT state, -1 before the first */
+	uint64_t cmds_after_send;
+};
+
+static int dev_open(struct dev *d, const struct opts *o)
+{
+	int rc;
+
+	memset(d, 0, sizeof(*d));
+	d->node = (uint8_t)o->node;
+	d->ctl_state = -1;
+	if (!strcmp(o->link, "udp")) {
+		rc = swell_link_open_udp(&d->l, o->host, (uint16_t)o->bind_port, o->host, (uint16_t)o->port);
+	} else if (!strncmp(o->link, "can:", 4)) {
+		struct swell_can_opts co;
+
+		memset(&co, 0, sizeof(co));
+		rc = swell_link_open_can(&d->l, o->link + 4, &co);
+	} else {
+		struct swell_usb_opts uo;
+
+		swell_usb_opts_default(&uo);
+		rc = swell_link_open_usb(&d->l, &uo);
+	}
+	if (rc < 0) {
+		fprintf(stderr, "swell-hm: cannot open link %s: %s\n", o->link, strerror(-rc));
+		return -1;
+	}
+	d->carrier = swell_link_carrier(d->l);
+	return 0;
+}
+
+static void dev_send(struct dev *d, const struct swell_msg *m, size_t n, uint8_t seq)
+{
+	struct swell_frame f;
+	size_t used;
+
+	while (n > 0) {
+		if (swell_link_encode(d->carrier, d->node, seq, m, n, &f, &used) != SWELL_OK || used == 0) {
+			d->send_errors++;
+			return;
+		}
+		if (swell_link_send(d->l, &f) < 0)
+			d->send_errors++;
+		m += used;
+		n -= used;
+	}
+}
+
+/* Takes one frame if one comes within timeout_ms; returns the number of FORCE_CMD messages in it,
+ * -1 when nothing came. */
+static int dev_recv(struct dev *d, struct hm_state *s, int timeout_ms)
+{
+	struct swell_frame f;
+	struct swell_msg m[SWELL_CANFD_MSGS_MAX];
+	size_t n = 0, k;
+	int cmds = 0;
+
+	if (swell_link_recv(d->l, &f, timeout_ms) < 0)
+		return -1;
+	if (swell_link_decode(d->carrier, &f, m, SWELL_CANFD_MSGS_MAX, &n, NULL, &d->st) != SWELL_OK)
+		return 0; /* counted in st, never acted on */
+	for (k = 0; k < n; k++) {
+		if (m[k].node != d->node) {
+			d->ignored++;
+		} else if (m[k].type == SWELL_MSG_FORCE_CMD) {
+			const struct swell_msg_force_cmd *c = &m[k].u.force_cmd;
+			double fN[3] = {c->fx_cN * 0.01, c->fy_cN * 0.01, c->fz_cN * 0.01};
+
+			swell_seq_track(&d->force_seq, c->seq);
+			hm_command(s, fN, c->enable);
+			d->commands++;
+			cmds++;
+		} else if (m[k].type == SWELL_MSG_HEARTBEAT) {
+			d->ctl_state = m[k].u.heartbeat.state;
+			d->heartbeats++;
+		} else {
+			d->ignored++;
+		}
+	}
+	return cmds;
+}
+
+/* ---- the run ---- */
+
+static volatile sig_atomic_t stop_flag;
+
+static void on_signal(int sig)
+{
+	(void)sig;
+	stop_flag = 1;
+}
+
+static int64_t now_ns(void)
+{
+	struct timespec t;
+
+	clock_gettime(CLOCK_MONOTONIC, &t);
+	return (int64_t)t.tv_sec * 1000000000 + t.tv_nsec;
+}
+
+static int16_t sat16(double v)
+{
+	double r = floor(v + 0.5);
+
+	return (int16_t)(r > 30000.0 ? 30000 : r < -30000.0 ? -30000 : r);
+}
+
+#define HIST_US 10000
+
+struct run {
+	uint64_t ticks, timeouts, zeroed_ticks, late_ticks;
+	double peak_f_N, z_sum, z_min, z_max;
+	uint64_t z_n;
+	uint32_t hist[HIST_US + 1];
+	int64_t late_max_ns;
+};
+
+static double pct(const struct run *r, double p)
+{
+	uint64_t want = (uint64_t)ceil(p * (double)r->ticks), seen = 0;
+	int k;
+
+	for (k = 0; k <= HIST_US; k++) {
+		seen += r->hist[k];
+		if (want > 0 && seen >= want)
+			return k;
+	}
+	return 0;
+}
+
+static void sample(struct dev *d, const struct hm_state *s, uint8_t seq)
+{
+	struct swell_msg m[2];
+	uint8_t status = 1u; /* powered */
+
+	if (!s->estop)
+		status |= 2u; /* force output enabled */
+	else
+		status |= 4u;
+	memset(m, 0, sizeof(m));
+	m[0].type = SWELL_MSG_DEVICE_POS;
+	m[0].node = d->node;
+	m[0].u.device_pos.x_10um = sat16(s->x[0] * 1e5);
+	m[0].u.device_pos.y_10um = sat16(s->x[1] * 1e5);
+	m[0].u.device_pos.z_10um = sat16(s->x[2] * 1e5);
+	m[0].u.device_pos.seq = seq;
+	m[0].u.device_pos.status = status;
+	m[1].type = SWELL_MSG_DEVICE_VEL;
+	m[1].node = d->node;
+	m[1].u.device_vel.vx_100ums = sat16(s->v[0] * 1e4);
+	m[1].u.device_vel.vy_100ums = sat16(s->v[1] * 1e4);
+	m[1].u.device_vel.vz_100ums = sat16(s->v[2] * 1e4);
+	m[1].u.device_vel.seq = seq;
+	dev_send(d, m, 2, seq);
+}
+
+int main(int argc, char **argv)
+{
+	static struct run r;
+	struct opts o;
+	struct dev d;
+	struct hm_state s;
+	struct sigaction sa;
+	FILE *log = NULL;
+	double x0[3], dt, t, z_rest, z_level, last_window;
+	int64_t start, next, period_ns, last_status;
+	uint64_t n, total;
+	int k;
+
+	parse(argc, argv, &o);
+	if (o.have_start)
+		for (k = 0; k < 3; k++)
+			x0[k] = o.start_mm[k] * 1e-3;
+	else
+		hm_hand_start(&o.hand, x0);
+	if (o.log) {
+		log = fopen(o.log, "w");
+		if (!log) {
+			fprintf(stderr, "swell-hm: cannot write %s: %s\n", o.log, strerror(errno));
+			return 2;
+		}
+		fputs("t_s,x_mm,y_mm,z_mm,vx_mm_s,vy_mm_s,vz_mm_s,fcmd_x_N,fcmd_y_N,fcmd_z_N,"
+		      "fhand_x_N,fhand_y_N,fhand_z_N,enable,cmd_age,applied,ctl_state,holding\n",
+		      log);
+	}
+	if (dev_open(&d, &o) < 0)
+		return 1;
+	memset(&sa, 0, sizeof(sa));
+	sa.sa_handler = on_signal;
+	sigaction(SIGINT, &sa, NULL);
+	sigaction(SIGTERM, &sa, NULL);
+
+	hm_init(&s, x0);
+	dt = 1.0 / o.p.rate_hz;
+	period_ns = (int64_t)llround(1e9 / o.p.rate_hz);
+	total = (uint64_t)llround(o.seconds * o.p.rate_hz);
+	last_window = o.seconds > 1.0 ? o.seconds - 1.0 : 0.0;
+	r.z_min = INFINITY;
+	r.z_max = -INFINITY;
+	fprintf(stderr, "swell-hm: %s, %s at %g Hz, hand %s, m_v %g kg, b_v %g N s/m, watchdog %u ticks\n",
+		swell_link_name(d.l), o.lockstep ? "lockstep" : "real time", o.p.rate_hz, hm_hand_name(o.hand.kind),
+		o.p.mass_kg, o.p.damping_Ns_m, o.p.watchdog_ticks);
+	start = next = last_status = now_ns();
+	for (n = 0; n < total && !stop_flag; n++) {
+		double f_hand[3];
+		int holding;
+		uint32_t age;
+
+		t = (double)n * dt;
+		s.estop = t >= o.estop_s[0] && t < o.estop_s[1];
+		/* commands that came in since the last tick (stale ones included: the latest wins) */
+		while (dev_recv(&d, &s, 0) >= 0)
+			;
+		sample(&d, &s, (uint8_t)n);
+		if (o.lockstep) {
+			/* the answer is the first FORCE_CMD after the sample; once the controller is lost
+			 * (the watchdog has dropped its force) wait only 1 ms a tick so that time goes on */
+			int lost = s.cmd_age > o.p.watchdog_ticks;
+			int64_t deadline = now_ns() + (int64_t)(lost ? 1 : o.timeout_ms) * 1000000;
+			int got = 0;
+
+			while (!got && !stop_flag) {
+				int64_t left = deadline - now_ns();
+
+				if (left <= 0)
+					break;
+				got = dev_recv(&d, &s, (int)((left + 999999) / 1000000)) > 0;
+			}
+			if (!got)
+				r.timeouts++;
+		} else {
+			struct timespec dl;
+			int64_t late;
+
+			next += period_ns;
+			dl.tv_sec = (time_t)(next / 1000000000);
+			dl.tv_nsec = (long)(next % 1000000000);
+			while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &dl, NULL) == EINTR && !stop_flag)
+				;
+			late = now_ns() - next;
+			r.hist[late < 0 ? 0 : late / 1000 > HIST_US ? HIST_US : late / 1000]++;
+			if (late > r.late_max_ns)
+				r.late_max_ns = late;
+			if (late > period_ns) { /* a whole period lost: count it, start again from now */
+				r.late_ticks++;
+				next = now_ns();
+			}
+			while (dev_recv(&d, &s, 0) >= 0)
+				;
+		}
+		holding = hm_hand_force(&o.hand, t, s.x, s.v, f_hand);
+		age = s.cmd_age;
+		if (log)
+			fprintf(log, "%.4f,%.3f,%.3f,%.3f,%.2f,%.2f,%.2f", t, s.x[0] * 1e3, s.x[1] * 1e3,
+				s.x[2] * 1e3, s.v[0] * 1e3, s.v[1] * 1e3, s.v[2] * 1e3);
+		hm_step(&o.p, &s, f_hand);
+		r.ticks++;
+		r.zeroed_ticks += !s.applying && s.cmd_enable;
+		{
+			double fc = sqrt(s.f_cmd_N[0] * s.f_cmd_N[0] + s.f_cmd_N[1] * s.f_cmd_N[1] +
+					 s.f_cmd_N[2] * s.f_cmd_N[2]);
+			r.peak_f_N = fc > r.peak_f_N ? fc : r.peak_f_N;
+		}
+		if (t >= last_window) {
+			double z = s.x[2] * 1e3;
+
+			r.z_sum += z;
+			r.z_n++;
+			r.z_min = z < r.z_min ? z : r.z_min;
+			r.z_max = z > r.z_max ? z : r.z_max;
+		}
+		if (log)
+			fprintf(log, ",%.2f,%.2f,%.2f,%.3f,%.3f,%.3f,%d,%u,%d,%d,%d\n", s.f_cmd_N[0], s.f_cmd_N[1],
+				s.f_cmd_N[2], f_hand[0], f_hand[1], f_hand[2], s.cmd_enable, age, s.applying,
+				d.ctl_state, holding);
+		if (!o.quiet && now_ns() - last_status > 1000000000) {
+			last_status = now_ns();
+			fprintf(stderr, "\rswell-hm: t %.1f s, z %+.2f mm, F_cmd %+.3f N, ctl %d   ", t, s.x[2] * 1e3,
+				s.f_cmd_N[2], d.ctl_state);
+		}
+	}
+	if (!o.quiet && now_ns() - start > 1000000000)
+		fputc('\n', stderr);
+	if (log && fclose(log) != 0)
+		fprintf(stderr, "swell-hm: writing %s failed\n", o.log);
+
+	/* at rest the object floats with k delta = m g, k = rho g a b: delta = m / (rho a b); the water
+	 * it displaces raises the pool's mean level by m / (rho A_pool), and delta is measured from it */
+	z_rest = -(o.obj_mass_g * 1e-3) / (RHO_KG_M3 * o.obj_a_mm * o.obj_b_mm * 1e-6) * 1e3;
+	z_level = (o.obj_mass_g * 1e-3 / RHO_KG_M3) / (o.pool_mm[0] * o.pool_mm[1] * 1e-6) * 1e3;
+	printf("swell-hm summary\n");
+	printf("  ran             %.4f s simulated, %llu ticks at %g Hz, %s, %.3f s wall\n", (double)r.ticks * dt,
+	       (unsigned long long)r.ticks, o.p.rate_hz, o.lockstep ? "lockstep" : "real time",
+	       (now_ns() - start) / 1e9);
+	printf("  final position  %+.3f %+.3f %+.3f mm (x y z), velocity %+.2f %+.2f %+.2f mm/s\n", s.x[0] * 1e3,
+	       s.x[1] * 1e3, s.x[2] * 1e3, s.v[0] * 1e3, s.v[1] * 1e3, s.v[2] * 1e3);
+	if (r.z_n > 0) {
+		double zm = r.z_sum / (double)r.z_n;
+
+		printf("  equilibrium z   %+.3f mm mean over the last %.3f s (min %+.3f, max %+.3f mm)\n", zm,
+		       (double)r.z_n * dt, r.z_min, r.z_max);
+		printf("  expected z      %+.3f mm = -m g/k; error %+.3f %%\n", z_rest, (zm - z_rest) / -z_rest * 100.0);
+		printf("  with level rise %+.3f mm (-m g/k + %.3f mm mean level rise); error %+.3f %%\n",
+		       z_rest + z_level, z_level, (zm - z_rest - z_level) / -(z_rest + z_level) * 100.0);
+	}
+	printf("  peak force      %.3f N (|F_cmd| applied)\n", r.peak_f_N);
+	printf("  commands        %u received, %u lost, %u repeated, %u bad frames, %u send errors\n",
+	       d.commands, d.force_seq.lost, d.force_seq.repeated, swell_proto_rejected_total(&d.st),
+	       d.send_errors);
+	if (o.lockstep)
+		printf("  timeouts        %llu (lockstep waits of %u ms without an answer)\n",
+		       (unsigned long long)r.timeouts, o.timeout_ms);
+	else
+		printf("  tick lateness   p50 %.0f us, p99 %.0f us, max %.0f us; %llu periods lost\n", pct(&r, 0.5),
+		       pct(&r, 0.99), r.late_max_ns / 1e3, (unsigned long long)r.late_ticks);
+	printf("  watchdog        %u trips (%u ticks), %llu ticks with an enabled command not applied\n",
+	       s.watchdog_trips, o.p.watchdog_ticks, (unsigned long long)r.zeroed_ticks);
+	printf("  walls           %u ticks in a workspace wall\n", s.wall_ticks);
+	printf("  controller      last state %d (0 boot, 1 idle, 2 armed, 3 running, 4 fault), %u heartbeats\n",
+	       d.ctl_state, d.heartbeats);
+	swell_link_close(d.l);
+	return 0;
+}
