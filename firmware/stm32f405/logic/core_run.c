@@ -18,8 +18,8 @@ enum swell_err fw_core_init(struct swell_ctl *c, struct fw_core_run *r, int32_t 
 void fw_core_device(struct swell_ctl *c, struct fw_core_run *r)
 {
 	struct swell_msg m = {.type = SWELL_MSG_DEVICE_POS, .node = c->cfg.node};
-	/* 60 mm down to -25 mm at 50 mm/s, in 10 um units */
-	int64_t z = 6000 - (int64_t)r->tick * 5000 / c->cfg.tick_hz;
+	/* 20 mm down to -25 mm at 50 mm/s, in 10 um units */
+	int64_t z = 2000 - (int64_t)r->tick * 5000 / c->cfg.tick_hz;
 
 	m.u.device_pos.x_10um = 0;
 	m.u.device_pos.y_10um = 0;

@@ -1,6 +1,6 @@
 /* The controller core (firmware/core) on the reference scene with a scripted device, the same on
  * the image and the host: the device reports a position every tick (powered, force enabled),
- * starting 60 mm above the pool centre and sinking at 50 mm/s to 25 mm below the rest level, then
+ * starting 20 mm above the pool centre and sinking at 50 mm/s to 25 mm below the rest level, then
  * holding. autorun takes the core to RUNNING, so the force law, the safety stage, the solver
  * slices and the telemetry all run. The run's checksum covers every FORCE_CMD payload sent to the
  * device and the final water state, so host and target must agree bit for bit. */
