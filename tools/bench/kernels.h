@@ -61,6 +61,14 @@ struct bench_field {
 	double *hd, *hpd, *hnd;
 };
 
+/* Proposal for wave.c (bench-only here): e w dh rounded to nearest as the high word of (4 dh) c,
+ * which is exactly (dh c + 2^29) >> 30 for |dh| <= 2^28 and needs no saturation (|result| < 2^29):
+ * one SMULL/SMLAL (or SMMULR) on a Cortex-M4 instead of a 64-bit shift and a 64-bit clamp. */
+static inline int32_t bench_mul_q30_rn_hi(int32_t dh, q30_t c)
+{
+	return (int32_t)(((int64_t)(dh * 4) * c + ((int64_t)1 << 31)) >> 32);
+}
+
 const char *bench_impl_name(enum bench_impl impl);
 /* Parse a name as printed by bench_impl_name; BENCH_IMPL_COUNT when unknown. */
 enum bench_impl bench_impl_parse(const char *name);

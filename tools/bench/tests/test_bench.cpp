@@ -306,3 +306,29 @@ TEST_CASE("near the saturation bound every fixed kernel clamps instead of wrappi
 		bench_field_free(&f);
 	}
 }
+
+TEST_CASE("the high-word multiply proposed for wave.c equals swell_mul_q30_rn for every flow input",
+	  "[bench][fixed]")
+{
+	// |dh| <= 2 SWELL_H_MAX (a difference of two saturated heights), c in (0, 2) Q1.30
+	bench_rng r;
+	long mismatches = 0;
+	const int32_t dmax = 2 * SWELL_H_MAX;
+	const int32_t edges[] = {0, 1, -1, 2, -2, dmax, -dmax, dmax - 1, -dmax + 1, 12345, -12345};
+	const q30_t cs[] = {1, 2, SWELL_Q30_ONE / 2, SWELL_Q30_ONE, INT32_MAX, INT32_MAX - 1, 858993459};
+
+	bench_rng_seed(&r, 2026);
+	for (int32_t d : edges)
+		for (q30_t c : cs)
+			mismatches += bench_mul_q30_rn_hi(d, c) != swell_mul_q30_rn(d, c);
+	for (int k = 0; k < 2000000; k++) {
+		int32_t d = (int32_t)(bench_rng_next(&r) % (2 * (uint64_t)dmax + 1)) - dmax;
+		q30_t c = (q30_t)(bench_rng_next(&r) % (uint64_t)INT32_MAX) + 1;
+
+		if (k & 1)
+			d >>= (int)(bench_rng_next(&r) % 28); // small differences too: where rounding matters
+		mismatches += bench_mul_q30_rn_hi(d, c) != swell_mul_q30_rn(d, c);
+	}
+	INFO(mismatches << " mismatches");
+	CHECK(mismatches == 0);
+}
