@@ -17,9 +17,11 @@ static void usage(FILE *f)
 	      "  can-pair TX RX [--count N] [--fd] [--bitrate BPS] [--record FILE]\n"
 	      "      send every message type on SocketCAN interface TX, receive and decode on RX\n"
 	      "      (both on one bus); check values and per-type sequence numbers\n"
-	      "  usb-echo [--vid HEX] [--pid HEX] [--iface N] [--count N]\n"
+	      "  usb-echo [--vid HEX] [--pid HEX] [--iface N] [--count N] [--replug]\n"
 	      "      write packets to bulk OUT 0x01 of the device (default 1209:0001, interface 0),\n"
-	      "      expect each back unchanged on bulk IN 0x81; report round-trip times\n"
+	      "      expect each back unchanged on bulk IN 0x81; report round-trip times. With\n"
+	      "      --replug the device is expected to be unplugged and plugged in meanwhile: packets\n"
+	      "      lost while it is away are counted, and the link must reconnect and go on\n"
 	      "  udp-pair [--count N] [--record FILE]\n"
 	      "      the same check over two UDP links on 127.0.0.1, both directions\n"
 	      "  replay FILE [--fast]\n"
@@ -36,7 +38,7 @@ static void usage(FILE *f)
 
 struct opts {
 	unsigned long count;
-	int fd, fast, timeout_ms;
+	int fd, fast, timeout_ms, replug;
 	unsigned long bitrate;
 	const char *record;
 	struct swell_usb_opts usb;
@@ -295,8 +297,9 @@ static int cmd_usb_echo(const struct opts *o)
 	struct swell_link *l;
 	struct swell_proto_stats st;
 	uint64_t *rtt;
-	unsigned long i, ok = 0, wrong = 0, timeouts = 0;
-	int rc;
+	unsigned long i, ok = 0, wrong = 0, timeouts = 0, away = 0, ok_after = 0;
+	unsigned long long reconnects;
+	int rc, pass;
 
 	rc = swell_link_open_usb(&l, &o->usb);
 	if (rc) {
@@ -327,6 +330,13 @@ static int cmd_usb_echo(const struct opts *o)
 			timeouts++;
 			continue;
 		}
+		if (rc == -ENODEV && o->replug) {
+			struct timespec ts = { 0, 20000000 };
+
+			away++; /* unplugged: the link re-opens it when it is back; try again in 20 ms */
+			nanosleep(&ts, NULL);
+			continue;
+		}
 		if (rc) {
 			fprintf(stderr, "swell-linktest: usb-echo packet %lu: %s\n", i, strerror(-rc));
 			break;
@@ -341,21 +351,30 @@ static int cmd_usb_echo(const struct opts *o)
 		for (k = 0; k < n; k++)
 			if (!swell_msg_equal(&got[k], &sent[k]))
 				break;
-		if (k == n)
+		if (k == n) {
 			ok++;
-		else
+			if (swell_link_get_counters(l)->reconnects)
+				ok_after++;
+		} else {
 			wrong++;
+		}
 	}
+	reconnects = (unsigned long long)swell_link_get_counters(l)->reconnects;
+	if (o->replug) /* a replug may also lose a packet in flight (timeout) */
+		pass = wrong == 0 && reconnects >= 1 && ok_after >= 1 && ok + away + timeouts == o->count;
+	else
+		pass = ok == o->count;
 	qsort(rtt, ok + wrong, sizeof(*rtt), cmp_u64);
-	printf("usb-echo %04x:%04x: %s: %lu/%lu packets echoed intact, %lu wrong, %lu timeouts, "
-	       "%llu reconnects, round trip min %.1f us, median %.1f us, max %.1f us\n",
-	       o->usb.vid, o->usb.pid, ok == o->count ? "OK" : "FAILED", ok, o->count, wrong, timeouts,
-	       (unsigned long long)swell_link_get_counters(l)->reconnects,
+	printf("usb-echo %s: %s: %lu/%lu packets echoed intact, %lu wrong, %lu timeouts, %lu while "
+	       "unplugged, %llu reconnects (%lu intact after), round trip min %.1f us, median %.1f us, "
+	       "max %.1f us\n",
+	       swell_link_name(l), pass ? "OK" : "FAILED", ok, o->count, wrong, timeouts, away,
+	       reconnects, ok_after,
 	       ok + wrong ? rtt[0] / 1e3 : 0.0, ok + wrong ? rtt[(ok + wrong) / 2] / 1e3 : 0.0,
 	       ok + wrong ? rtt[ok + wrong - 1] / 1e3 : 0.0);
 	free(rtt);
 	swell_link_close(l);
-	return ok == o->count ? 0 : 1;
+	return pass ? 0 : 1;
 }
 
 static int cmd_replay(const char *path, const struct opts *o)
@@ -445,6 +464,8 @@ int main(int argc, char **argv)
 			o.fd = 1;
 		} else if (!strcmp(a, "--fast")) {
 			o.fast = 1;
+		} else if (!strcmp(a, "--replug")) {
+			o.replug = 1;
 		} else if (a[0] == '-' && a[1] == '-') {
 			if (!v) {
 				fprintf(stderr, "swell-linktest: %s needs a value (see --help)\n", a);

@@ -18,6 +18,7 @@ struct usb_link {
 	struct swell_usb_opts o;
 	libusb_context *ctx;
 	libusb_device_handle *h;
+	uint8_t ep_out, ep_in; /* in use: the configured ones, or what the descriptor has */
 	uint64_t last_try_ns;
 };
 
@@ -55,6 +56,44 @@ static void drop(struct usb_link *u)
 	u->h = NULL;
 }
 
+/* The device decides its endpoint addresses (a FunctionFS gadget on dummy_hcd gets OUT 0x02, not
+ * 0x01): take the configured ones if the interface has them, else its first bulk OUT and IN. */
+static int find_endpoints(struct usb_link *u, libusb_device_handle *h)
+{
+	struct libusb_config_descriptor *cfg;
+	uint8_t out = 0, in = 0;
+	int i, e;
+
+	if (libusb_get_active_config_descriptor(libusb_get_device(h), &cfg) != 0)
+		return -EIO;
+	for (i = 0; i < cfg->bNumInterfaces; i++) {
+		const struct libusb_interface *itf = &cfg->interface[i];
+		const struct libusb_interface_descriptor *d;
+
+		if (itf->num_altsetting < 1 || itf->altsetting[0].bInterfaceNumber != u->o.iface)
+			continue;
+		d = &itf->altsetting[0];
+		for (e = 0; e < d->bNumEndpoints; e++) {
+			uint8_t a = d->endpoint[e].bEndpointAddress;
+
+			if ((d->endpoint[e].bmAttributes & 3) != LIBUSB_TRANSFER_TYPE_BULK)
+				continue;
+			if (a & LIBUSB_ENDPOINT_IN) {
+				if (!in || a == u->o.ep_in)
+					in = a;
+			} else if (!out || a == u->o.ep_out) {
+				out = a;
+			}
+		}
+	}
+	libusb_free_config_descriptor(cfg);
+	if (!out || !in)
+		return -EPROTO; /* no bulk pair on that interface: not a swell device */
+	u->ep_out = out;
+	u->ep_in = in;
+	return 0;
+}
+
 static int attach(struct usb_link *u)
 {
 	libusb_device_handle *h;
@@ -70,7 +109,15 @@ static int attach(struct usb_link *u)
 		libusb_close(h);
 		return errno_of(rc);
 	}
+	rc = find_endpoints(u, h);
+	if (rc) {
+		libusb_release_interface(h, u->o.iface);
+		libusb_close(h);
+		return rc;
+	}
 	u->h = h;
+	snprintf(u->base.name, sizeof(u->base.name), "usb %04x:%04x if %d ep 0x%02x/0x%02x", u->o.vid,
+		 u->o.pid, u->o.iface, u->ep_out, u->ep_in);
 	return 0;
 }
 
@@ -83,6 +130,16 @@ static int ensure(struct usb_link *u)
 		return 0;
 	if (swell_link_now_ns() - u->last_try_ns < REOPEN_INTERVAL_NS)
 		return -ENODEV;
+	/* a fresh context enumerates afresh: without udev (the VM bench) the old one may not see the
+	 * device come back */
+	libusb_exit(u->ctx);
+	u->ctx = NULL;
+	rc = libusb_init(&u->ctx);
+	if (rc < 0) {
+		u->ctx = NULL;
+		u->last_try_ns = swell_link_now_ns();
+		return -ENODEV;
+	}
 	rc = attach(u);
 	if (rc == 0)
 		u->base.cnt.reconnects++;
@@ -96,7 +153,7 @@ static int usb_send(struct swell_link *l, const struct swell_frame *f)
 
 	if (rc)
 		return rc;
-	rc = libusb_bulk_transfer(u->h, u->o.ep_out, (unsigned char *)f->data, f->len, &done, 1000);
+	rc = libusb_bulk_transfer(u->h, u->ep_out, (unsigned char *)f->data, f->len, &done, 1000);
 	if (rc == LIBUSB_ERROR_NO_DEVICE || rc == LIBUSB_ERROR_IO) {
 		drop(u);
 		return -ENODEV;
@@ -127,7 +184,7 @@ static int usb_recv(struct swell_link *l, struct swell_frame *f, int timeout_ms)
 		if (rc)
 			return rc;
 		/* libusb: 0 means no timeout */
-		rc = libusb_bulk_transfer(u->h, u->o.ep_in, buf, sizeof(buf), &got,
+		rc = libusb_bulk_transfer(u->h, u->ep_in, buf, sizeof(buf), &got,
 					  left < 0 ? 0u : left == 0 ? 1u : (unsigned)left);
 		if (rc == LIBUSB_ERROR_TIMEOUT)
 			return -ETIMEDOUT;
@@ -154,7 +211,8 @@ static void usb_close(struct swell_link *l)
 	struct usb_link *u = (struct usb_link *)l;
 
 	drop(u);
-	libusb_exit(u->ctx);
+	if (u->ctx)
+		libusb_exit(u->ctx);
 	free(u);
 }
 
@@ -187,8 +245,6 @@ int swell_link_open_usb(struct swell_link **out, const struct swell_usb_opts *op
 		free(u);
 		return rc;
 	}
-	snprintf(u->base.name, sizeof(u->base.name), "usb %04x:%04x if %d ep 0x%02x/0x%02x", u->o.vid,
-		 u->o.pid, u->o.iface, u->o.ep_out, u->o.ep_in);
 	*out = &u->base;
 	return 0;
 }

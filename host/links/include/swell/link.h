@@ -78,7 +78,7 @@ int swell_link_open_can(struct swell_link **out, const char *ifname, const struc
 struct swell_usb_opts {
 	uint16_t vid, pid; /* SWELL_USB_VID / SWELL_USB_PID by default */
 	int iface;         /* interface number */
-	uint8_t ep_out, ep_in;
+	uint8_t ep_out, ep_in; /* preferred; if the interface lacks them, its first bulk OUT / IN */
 };
 /* libusb bulk link. If the device is unplugged, send and receive return -ENODEV and the link
  * re-opens it (same VID/PID/interface) as soon as it is back, counting a reconnect. */
