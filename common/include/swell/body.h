@@ -33,12 +33,13 @@
  * taken out and the new ones put in with swell_wave_add() (the solver adds them to h at its next
  * finish, flows untouched; the surface read then ramps them in over the next period, no step).
  * V_displaced is the sum of what was added, so sum(h) + pending adds - V_displaced is constant
- * exactly in integers (at solver step boundaries: sum(h) - V_displaced), whatever the object does (also across a
- * wall, partly outside the pool: cells outside the pool hold nothing). delta_c = clamp(S - z, 0, H) is
- * the depth below the mean level S of the pool (sum(h) / cells, exact: found at each solver step and
- * kept up to date by the coupling itself), not below the surface under the object: measured there,
- * the object would see the volume it just pushed in and push in more every tick, and a held object
- * would pump a passing wave (docs/force-law.md).
+ * exactly in integers (at solver step boundaries: sum(h) - V_displaced), whatever the object does,
+ * also across a wall or partly outside the pool (cells outside the pool hold nothing).
+ * delta_c = clamp(S - z, 0, H) is the depth below the mean level S of the pool (sum(h) / cells,
+ * exact: found at each solver step and kept up to date by the coupling itself), not below the
+ * surface under the object: measured there, the object would see the volume it just pushed in and
+ * push in more every tick; measured against the water around it, volume would move without the
+ * object doing work (docs/force-law.md).
  *
  * Skipped work: when the bottom is above every water height (a ceiling found once per solver step)
  * and the object holds no volume in the water, a tick computes nothing but gravity (counted). */
