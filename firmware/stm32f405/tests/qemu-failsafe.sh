@@ -5,6 +5,7 @@
 #   crc    - a copy of the image with one header byte flipped: the boot check must refuse to run.
 # usage: qemu-failsafe.sh fault|crc QEMU IMAGE.elf OBJCOPY [TIMEOUT_S]
 set -u
+. "$(dirname "$0")/qemu-run.sh"
 what=$1 qemu=$2 elf=$3 objcopy=$4 limit=${5:-60}
 dir=$(mktemp -d) || exit 2
 trap 'rm -rf "$dir"' EXIT
@@ -28,19 +29,7 @@ crc)
 *) echo "qemu-failsafe: unknown case '$what' (fault or crc)"; exit 2 ;;
 esac
 # shellcheck disable=SC2086
-"$qemu" -M netduinoplus2 -nographic -icount shift=0 -monitor none -serial stdio -kernel "$img" \
-	$extra >"$dir/out" 2>&1 </dev/null &
-pid=$!
-t=0
-while ! grep -q "$marker" "$dir/out"; do
-	if ! kill -0 "$pid" 2>/dev/null; then break; fi
-	if [ "$t" -ge $((limit * 10)) ]; then echo "qemu-failsafe: no '$marker' after ${limit} s"; break; fi
-	sleep 0.1
-	t=$((t + 1))
-done
-kill "$pid" 2>/dev/null
-wait "$pid" 2>/dev/null
-tr -d '\r' <"$dir/out"
+qemu_run "$dir/out" "$marker" "$limit" "$qemu" "$img" $extra
 case $what in
 fault)
 	grep -q '^FAULT: exception 6 ' "$dir/out" || { echo "qemu-failsafe: FAIL: no usage fault report"; exit 1; }
