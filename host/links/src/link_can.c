@@ -161,6 +161,17 @@ int swell_link_open_can(struct swell_link **out, const char *ifname, const struc
 	memcpy(ifr.ifr_name, ifname, strlen(ifname));
 	if (ioctl(c->fd, SIOCGIFINDEX, &ifr) < 0)
 		goto fail_errno;
+	if (opts->fd) {
+		/* refuse up front rather than on the first long frame: an FD interface has MTU 72 */
+		struct ifreq mtu = ifr;
+
+		if (ioctl(c->fd, SIOCGIFMTU, &mtu) < 0)
+			goto fail_errno;
+		if (mtu.ifr_mtu != (int)CANFD_MTU) {
+			errno = EOPNOTSUPP;
+			goto fail_errno;
+		}
+	}
 	if (opts->fd && setsockopt(c->fd, SOL_CAN_RAW, CAN_RAW_FD_FRAMES, &on, sizeof(on)) < 0)
 		goto fail_errno;
 	if (opts->filters) {
