@@ -221,7 +221,9 @@ static void write_md(FILE *o)
 		SWELL_PKT_MAGIC, SWELL_PROTO_VERSION, SWELL_NODE_MAX);
 	fprintf(o, "USB identity: VID 0x%04X, PID 0x%04X (pid.codes test PID), interface %u of class 0x%02X,\n"
 		   "bulk OUT 0x%02X (host to controller), bulk IN 0x%02X (controller to host), %u-byte packets,\n"
-		   "one swell packet per USB packet. UDP (software in the loop): the controller listens on\n"
+		   "one swell packet per USB packet. Hosts take the endpoint addresses from the interface\n"
+		   "descriptor: a Linux FunctionFS gadget may be given others by its UDC (dummy_hcd: OUT 0x02).\n"
+		   "UDP (software in the loop): the controller listens on\n"
 		   "%s:%u for the device link and sends telemetry to the viewer at %s:%u.\n\n",
 		SWELL_USB_VID, SWELL_USB_PID, SWELL_USB_IFACE, SWELL_USB_CLASS, SWELL_USB_EP_OUT,
 		SWELL_USB_EP_IN, SWELL_USB_PACKET, SWELL_UDP_HOST, SWELL_UDP_PORT_DEVICE, SWELL_UDP_HOST,
