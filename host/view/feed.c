@@ -47,8 +47,10 @@ static void on_scene(struct view_feed *f, const struct swell_msg_scene *s, uint6
 		vm_bad(f->vm);
 		return;
 	}
-	if (!had || f->vm->st.restarts != restarts)
+	if (!had || f->vm->st.restarts != restarts) {
 		memset(f->quads, 0, sizeof(f->quads)); /* a new scene: no tile is complete yet */
+		f->have_pose_seq = false;
+	}
 }
 
 static void on_quad(struct view_feed *f, const struct swell_msg_height_quad *q)
@@ -93,8 +95,10 @@ static void on_quad(struct view_feed *f, const struct swell_msg_height_quad *q)
 static void on_heartbeat(struct view_feed *f, const struct swell_msg_heartbeat *hb, uint64_t now_us)
 {
 	/* Back in BOOT after any other state: the controller restarted. */
-	if (f->have_state && hb->state == 0 && f->state != 0)
+	if (f->have_state && hb->state == 0 && f->state != 0) {
 		vm_restart(f->vm, now_us);
+		f->have_pose_seq = false;
+	}
 	f->have_state = true;
 	f->state = hb->state;
 	vm_heartbeat(f->vm, feed_state_name(hb->state), hb->err, hb->bad_frames, hb->overruns);
@@ -131,15 +135,16 @@ static void on_msg(struct view_feed *f, const struct swell_msg *m, uint64_t now_
 		break;
 	case SWELL_MSG_OBJECT_POSE: {
 		const struct swell_msg_object_pose *p = &m->u.object_pose;
-		if (can) {
-			if (f->have_pose_seq) {
-				uint8_t d = (uint8_t)(p->seq - f->pose_seq - 1u);
-				if (d < 128)
-					vm->st.dropped += d;
-			}
-			f->have_pose_seq = true;
-			f->pose_seq = p->seq;
+		if (f->have_pose_seq) {
+			uint8_t d = (uint8_t)(p->seq - f->pose_seq);
+			if ((d == 0 || d >= 128) && ++f->pose_stale < 8)
+				break; /* a repeat or an older pose (reordered): keep the newer one */
+			if (can)
+				vm->st.dropped += d - 1u; /* CAN has no packet sequence: count loss here */
 		}
+		f->have_pose_seq = true;
+		f->pose_seq = p->seq;
+		f->pose_stale = 0; /* (after 8 "older" poses in a row the sender has restarted its count) */
 		struct view_object o = vm->obj;
 		o.valid = true;
 		o.x_um = p->x_10um * 10;
@@ -154,8 +159,8 @@ static void on_msg(struct view_feed *f, const struct swell_msg *m, uint64_t now_
 	}
 	case SWELL_MSG_OBJECT_FORCE: {
 		const struct swell_msg_object_force *q = &m->u.object_force;
-		if (!vm->obj.valid)
-			break; /* a force needs an object to hang on */
+		if (!vm->obj.valid || q->seq != f->pose_seq)
+			break; /* a force belongs to the pose of the same sequence number */
 		struct view_object o = vm->obj;
 		o.fx_cN = q->fx_cN;
 		o.fy_cN = q->fy_cN;
@@ -183,8 +188,7 @@ void feed_packet(struct view_feed *f, const uint8_t *pkt, size_t len, uint64_t n
 		f->other_node++;
 		return;
 	}
-	if (!vm_frame(f->vm, seq, 8, now_us))
-		return; /* reordered: older than what is shown */
+	vm_frame(f->vm, seq, 8, now_us); /* a late packet still counts: its items carry their own order */
 	for (size_t k = 0; k < n; k++)
 		on_msg(f, &msgs[k], now_us, false);
 }

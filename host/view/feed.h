@@ -34,9 +34,9 @@ struct view_feed {
 	bool have_hb;
 	uint8_t hb_seq;
 	uint64_t hb_count;
-	/* CAN has no packet sequence: loss is counted on the object pose stream */
+	/* object pose order (and, on CAN, loss: it has no packet sequence) */
 	bool have_pose_seq;
-	uint8_t pose_seq;
+	uint8_t pose_seq, pose_stale;
 	/* tile completion: quads seen of the current frame, per tile */
 	uint16_t quads[FEED_MAX_TILES * FEED_MAX_TILES];
 	uint8_t quad_frame[FEED_MAX_TILES * FEED_MAX_TILES];

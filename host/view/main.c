@@ -40,7 +40,10 @@ static const char usage[] =
 	"  --object AxBxH      object size in mm, not on the wire (default 60x60x40)\n"
 	"  --stale-ms N        silence after which data is called stale (default 500 ms)\n"
 	"  --no-hud            no text overlay\n"
+	"  --msaa N            antialiasing samples a pixel (default 4; 0 is cheaper on software GL)\n"
 	"  --fps N             frame rate limit (default 60)\n"
+	"  --steady            time advances 20 ms per rendered frame, not by the clock: patterns and\n"
+	"                      replays give the same pictures on every run (tests)\n"
 	"  -h, --help          this text\n"
 	"\n"
 	"Mouse: left drag orbits, wheel zooms. Keys: R reset view, S screenshot, P or space pause,\n"
@@ -50,7 +53,7 @@ static const char usage[] =
 struct opts {
 	const char *source, *faults, *record, *shot;
 	int node;
-	bool headless;
+	bool headless, steady;
 	long after, frames;
 	double fps;
 	uint32_t stale_ms;
@@ -96,6 +99,7 @@ static void parse(int argc, char **argv, struct opts *o)
 	o->ro.hud = true;
 	o->ro.zscale = 4;
 	o->ro.force_mm_per_N = 40;
+	o->ro.msaa = 4;
 	for (int k = 1; k < argc; k++) {
 		const char *a = argv[k];
 		const char *v = k + 1 < argc ? argv[k + 1] : NULL;
@@ -122,6 +126,8 @@ static void parse(int argc, char **argv, struct opts *o)
 			o->record = v;
 		} else if (!strcmp(a, "--headless")) {
 			o->headless = true;
+		} else if (!strcmp(a, "--steady")) {
+			o->steady = true;
 		} else if (!strcmp(a, "--size")) {
 			NEED();
 			int w, h;
@@ -171,6 +177,9 @@ static void parse(int argc, char **argv, struct opts *o)
 		} else if (!strcmp(a, "--stale-ms")) {
 			NEED();
 			o->stale_ms = (uint32_t)num(a, v, 10, 60000);
+		} else if (!strcmp(a, "--msaa")) {
+			NEED();
+			o->ro.msaa = (int)num(a, v, 0, 16);
 		} else if (!strcmp(a, "--no-hud")) {
 			o->ro.hud = false;
 		} else if (!strcmp(a, "--fps")) {
@@ -400,7 +409,7 @@ int main(int argc, char **argv)
 
 	uint64_t period = (uint64_t)(1e6 / o.fps), next = now_us();
 	for (long frame = 1; !app.quit && !glfwWindowShouldClose(win); frame++) {
-		uint64_t t = now_us();
+		uint64_t t = o.steady ? 1000000u + (uint64_t)frame * 20000u : now_us();
 		source_poll(&src, &feed, t);
 		vm_tick(&app.vm, t);
 		if (!o.headless) {
@@ -431,6 +440,8 @@ int main(int argc, char **argv)
 		if (o.frames > 0 && frame >= o.frames)
 			break;
 		/* pace the loop (the window's vsync does it too when there is one) */
+		if (o.steady && o.headless)
+			continue;
 		next += period;
 		uint64_t after = now_us();
 		if (next > after) {

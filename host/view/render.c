@@ -232,7 +232,7 @@ static bool fb_make(struct render *r)
 {
 	GLint max_samples = 0;
 	glGetIntegerv(GL_MAX_SAMPLES, &max_samples);
-	r->samples = max_samples >= 4 ? 4 : 0;
+	r->samples = r->o.msaa <= max_samples ? r->o.msaa : max_samples;
 
 	glGenRenderbuffers(1, &r->rb_ms_col);
 	glBindRenderbuffer(GL_RENDERBUFFER, r->rb_ms_col);

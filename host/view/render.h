@@ -27,6 +27,7 @@ struct render_opts {
 	bool hud;
 	float zscale;          /* vertical exaggeration of the water heights */
 	float force_mm_per_N;  /* force arrow length */
+	int msaa;              /* samples a pixel (0: none), capped to what GL offers */
 };
 
 struct render_text {

@@ -12,6 +12,8 @@
 #include "swell/transport.h"
 
 #define PATTERN_FRAME_US 20000u /* the pattern controller sends a frame every 20 ms */
+#define PATTERN_REFRESH 10u     /* scene and unchanged heights again every 10 frames (200 ms) */
+#define PATTERN_RESTART_US 400000u
 
 static bool open_udp(struct source *s, const char *arg, char *err, size_t errlen)
 {
@@ -123,6 +125,16 @@ bool source_open(struct source *s, const char *spec, char *err, size_t errlen)
 		gen_default(&s->g);
 		if (strcmp(spec + 8, "bump") == 0) {
 			s->animate = false;
+		} else if (strcmp(spec + 8, "bump2") == 0) {
+			/* the mirror image of bump: bump left, object right, force the other way */
+			s->animate = false;
+			s->g.bump_x_um = (int32_t)(0.30 * 64 * 6250);
+			s->g.bump_y_um = (int32_t)(0.40 * 64 * 6250);
+			s->g.obj_x_10um = (int16_t)(0.72 * 64 * 625);
+			s->g.obj_y_10um = (int16_t)(0.70 * 64 * 625);
+			s->g.fx_cN = -120;
+			s->g.fy_cN = 160;
+			s->g.scene_id = 2;
 		} else if (strcmp(spec + 8, "ripple") == 0) {
 			s->animate = true;
 			s->g.bump_amp_um = 2000;
@@ -130,7 +142,7 @@ bool source_open(struct source *s, const char *spec, char *err, size_t errlen)
 			s->g.ripple_len_um = 60000;
 			s->g.ripple_speed_um_s = 120000;
 		} else {
-			snprintf(err, errlen, "unknown pattern '%s' (bump, ripple)", spec + 8);
+			snprintf(err, errlen, "unknown pattern '%s' (bump, bump2, ripple)", spec + 8);
 			return false;
 		}
 		snprintf(s->desc, sizeof(s->desc), "PATTERN %s (NOT A CONTROLLER)", spec + 8);
@@ -279,20 +291,20 @@ static void pattern_poll(struct source *s, uint64_t now_us)
 		s->next_us = now_us - 1000000u;
 	while (s->next_us <= now_us) {
 		uint64_t t = s->next_us - s->t0_us;
-		bool restart_now = (s->faults & FAULT_RESTART) && !s->restarted && t >= 1000000u;
+		bool restart_now = (s->faults & FAULT_RESTART) && !s->restarted && t >= PATTERN_RESTART_US;
 		if (restart_now) {
 			s->restarted = true;
 			s->g.state = 0;
 			s->g.scene_id++;
 			s->g.bump_x_um = (int32_t)(0.30 * 64 * 6250); /* the new run starts elsewhere */
 			s->g.obj_x_10um = (int16_t)(0.70 * 64 * 625);
-		} else if (s->restarted && s->g.state == 0 && s->frame % 10 == 0) {
+		} else if (s->restarted && s->g.state == 0 && s->frame % PATTERN_REFRESH == 0) {
 			s->g.state = 3;
 		}
 		bool hb = s->frame % 5 == 0 || restart_now;
-		bool scene = !(s->faults & FAULT_NOSCENE) && s->frame % 50 == 0;
-		/* heights: every frame when animated; otherwise every second (a refresh for late joiners) */
-		bool tiles = s->animate || s->frame % 50 == 0;
+		bool scene = !(s->faults & FAULT_NOSCENE) && (s->frame % PATTERN_REFRESH == 0 || restart_now);
+		/* heights: every frame when animated; otherwise a refresh for late joiners */
+		bool tiles = s->animate || s->frame % PATTERN_REFRESH == 0 || restart_now;
 		gen_frame(&s->g, t, (uint8_t)s->frame, hb, s->hb_seq, scene, tiles, &s->seq, pattern_emit, s, NULL);
 		if (hb)
 			s->hb_seq++;

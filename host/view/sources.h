@@ -4,7 +4,8 @@
  *   replay:FILE        a recording made with --record (or by swell-view-gen), at recorded speed
  *   replay-fast:FILE   the same, everything at once
  *   pattern:NAME       a known scene encoded in-process with the real encoders (gen.h), labelled
- *                      "PATTERN" on screen: bump (static), ripple (animated). Faults can be injected
+ *                      "PATTERN" on screen: bump (static), bump2 (its mirror image),
+ *                      ripple (animated). Faults can be injected
  *                      into its packet stream (see source_faults) to test the decode path. */
 #ifndef SWELL_VIEW_SOURCES_H
 #define SWELL_VIEW_SOURCES_H
@@ -38,7 +39,7 @@ void rec_write(FILE *f, uint64_t t_us, unsigned carrier, uint32_t can_id, const 
 #define FAULT_REORDER  0x08u /* neighbouring packets swapped */
 #define FAULT_DROP     0x10u /* every 7th packet lost */
 #define FAULT_NOSCENE  0x20u /* never send the scene description (a viewer that joined too late) */
-#define FAULT_RESTART  0x40u /* the controller restarts after 1 s (heartbeat back to BOOT, new scene) */
+#define FAULT_RESTART  0x40u /* the controller restarts after 0.4 s (heartbeat back to BOOT, new scene) */
 
 struct source {
 	enum source_kind kind;

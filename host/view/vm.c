@@ -77,7 +77,12 @@ bool vm_frame(struct view_model *m, uint32_t seq, unsigned seq_bits, uint64_t no
 		uint32_t ahead = (seq - m->seq_next) & mask;
 		uint32_t behind = (m->seq_next - seq) & mask;
 		if (ahead != 0 && behind <= LATE_WINDOW && behind < half) {
+			/* a reordered frame: it was counted lost when its successor came */
 			m->st.late++;
+			if (m->st.dropped > 0)
+				m->st.dropped--;
+			m->st.frames++;
+			m->window_frames++;
 			return false;
 		}
 		if (ahead < half)
@@ -180,11 +185,15 @@ enum swell_err vm_cells(struct view_model *m, uint16_t tx, uint16_t ty, uint16_t
 		return SWELL_ESTATE;
 	}
 	float *dst = m->h_mm + (size_t)(j0 + row) * m->scene.nx + i0 + col;
-	for (uint16_t c = 0; c < n; c++)
-		dst[c] = (float)h_lsb[c] / (float)SWELL_H_ONE_MM;
+	bool changed = false;
+	for (uint16_t c = 0; c < n; c++) {
+		float v = (float)h_lsb[c] / (float)SWELL_H_ONE_MM;
+		changed |= dst[c] != v;
+		dst[c] = v;
+	}
 	m->tile_seen[t] = true;
 	m->tile_frame[t] = frame;
-	if (!m->dirty[t]) {
+	if (changed && !m->dirty[t]) { /* the same heights again (a refresh) upload nothing */
 		m->dirty[t] = 1;
 		m->dirty_count++;
 	}

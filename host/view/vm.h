@@ -74,7 +74,7 @@ struct view_model {
 	float *h_mm;            /* nx * ny heights above rest, row-major (j * nx + i) */
 	uint32_t *tile_frame;   /* solver frame number of the newest data held for each tile */
 	bool *tile_seen;
-	uint8_t *dirty;         /* one flag a tile: changed since the renderer last took it */
+	uint8_t *dirty;         /* one flag a tile: heights changed since the renderer last took it */
 	uint32_t dirty_count;
 	struct view_object obj;
 	char ctrl_state[16];    /* controller state name from the heartbeat, "?" until one arrives */
@@ -103,7 +103,9 @@ void vm_free(struct view_model *m);
 void vm_link(struct view_model *m, bool up, uint64_t now_us);
 
 /* A frame passed the decoder: `seq` is its stream sequence number (modulo 2^seq_bits). Counts loss
- * and marks the data fresh. Returns false for a frame older than the newest seen (late). */
+ * and marks the data fresh. Returns false for a frame older than the newest seen (late, reordered):
+ * it is counted late and no longer lost; its contents are still good, and the per-item order (tile
+ * frame numbers, pose sequence numbers) decides what of it is shown. */
 bool vm_frame(struct view_model *m, uint32_t seq, unsigned seq_bits, uint64_t now_us);
 /* A frame the decoder rejected. */
 void vm_bad(struct view_model *m);

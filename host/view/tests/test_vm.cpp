@@ -104,6 +104,13 @@ TEST_CASE("a tile lands in its cells in mm and marks only its own tile dirty")
 	CHECK(m.h_mm[(16 + 3) * 64 + 32 + 5] == Approx((3 * 16 + 5) / 4.0));
 	CHECK(m.h_mm[(16 + 15) * 64 + 47] == Approx(255 / 4.0));
 	CHECK(m.h_mm[(16 + 15) * 64 + 48] == Approx(0.0)); // neighbour tile untouched
+	// the same heights again (a periodic refresh) leave the tile clean: nothing to upload
+	vm_tile_clean(&m, 2, 1);
+	REQUIRE(put_tile(m, 2, 1, 8, t) == SWELL_OK);
+	CHECK(m.dirty_count == 0);
+	t[37] += 1;
+	REQUIRE(put_tile(m, 2, 1, 9, t) == SWELL_OK);
+	CHECK(m.dirty_count == 1);
 	// edge tiles are clipped: 48 rows of 16-row tiles fit, 64 columns too, so use a 50 x 40 grid
 	vm_free(&m);
 	vm_init(&m, S);
@@ -150,7 +157,7 @@ TEST_CASE("reordering: a tile older than the one held is dropped and counted lat
 	vm_free(&m);
 }
 
-TEST_CASE("sequence gaps count dropped frames, modulo the sequence width; late frames are refused")
+TEST_CASE("sequence gaps count dropped frames, modulo the sequence width; a late frame is no longer lost")
 {
 	view_model m;
 	vm_init(&m, S);
@@ -158,14 +165,14 @@ TEST_CASE("sequence gaps count dropped frames, modulo the sequence width; late f
 	CHECK(vm_frame(&m, 65531, 16, 2));
 	CHECK(vm_frame(&m, 2, 16, 3)); // 65532..65535, 0, 1 missing
 	CHECK(m.st.dropped == 6);
-	CHECK_FALSE(vm_frame(&m, 65535, 16, 4)); // one of them arriving late
+	CHECK_FALSE(vm_frame(&m, 65535, 16, 4)); // one of them arriving late: not lost after all
 	CHECK(m.st.late == 1);
-	CHECK(m.st.dropped == 6);
+	CHECK(m.st.dropped == 5);
 	CHECK(vm_frame(&m, 3, 16, 5));
 	// a jump of more than half the range is a new stream, not 30 000 lost frames
 	CHECK(vm_frame(&m, 40000, 16, 6));
-	CHECK(m.st.dropped == 6);
-	CHECK(m.st.frames == 5);
+	CHECK(m.st.dropped == 5);
+	CHECK(m.st.frames == 6);
 	vm_free(&m);
 }
 

@@ -1,0 +1,415 @@
+// swell-view rendering tests (label gui): the real program, headless under its own Xvfb, fed a known
+// scene through the real encoders and decoders (pattern sources) or a recording of one; the PNG it
+// writes is read back with the independent reader and its pixels checked against the scene.
+//
+// Geometry of --view top at 640 x 480 (render.c, camera()): the pool is fitted with a 5 % margin,
+// s = 0.9 * min(640 / Lx, 480 / Ly) pixels a metre, centred; for the 0.4 m test pool s = 1080.
+#include <catch2/catch.hpp>
+
+#include <cerrno>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <string>
+#include <sys/types.h>
+#include <sys/wait.h>
+#include <unistd.h>
+#include <vector>
+
+#include "png_read.hpp"
+
+namespace {
+
+const int W = 640, H = 480;
+const double L = 0.4, S = 0.9 * std::min(W / L, H / L);
+
+double col_of(double x_m) { return W / 2.0 + (x_m - L / 2) * S; }
+double row_of(double y_m) { return H / 2.0 - (y_m - L / 2) * S; }
+
+// One Xvfb for the whole test process, on a display number free at the time (ctest runs test
+// processes side by side: each picks its own number from its pid and waits for the socket).
+struct xserver {
+	pid_t pid = -1;
+	std::string display;
+	xserver()
+	{
+		for (int attempt = 0; attempt < 20 && display.empty(); attempt++) {
+			int n = 100 + int((getpid() * 7 + attempt * 13) % 800);
+			std::string sock = "/tmp/.X11-unix/X" + std::to_string(n), lock = "/tmp/.X" + std::to_string(n) + "-lock";
+			if (access(sock.c_str(), F_OK) == 0 || access(lock.c_str(), F_OK) == 0)
+				continue;
+			std::string num = ":" + std::to_string(n);
+			pid = fork();
+			if (pid == 0) {
+				execlp("Xvfb", "Xvfb", num.c_str(), "-screen", "0", "1024x768x24", "-nolisten", "tcp",
+				       (char *)nullptr);
+				_exit(127);
+			}
+			for (int k = 0; k < 100; k++) {
+				usleep(50000);
+				if (access(sock.c_str(), F_OK) == 0) {
+					display = num;
+					break;
+				}
+				if (waitpid(pid, nullptr, WNOHANG) == pid) {
+					pid = -1;
+					break;
+				}
+			}
+		}
+	}
+	~xserver()
+	{
+		if (pid > 0) {
+			kill(pid, SIGTERM);
+			waitpid(pid, nullptr, 0);
+		}
+	}
+};
+
+xserver &x()
+{
+	static xserver s;
+	return s;
+}
+
+std::string tmpdir()
+{
+	static std::string d;
+	if (d.empty()) {
+		char t[] = "/tmp/swell-view-test-XXXXXX";
+		d = mkdtemp(t) ? t : "/tmp";
+	}
+	return d;
+}
+
+struct run_result {
+	int status = -1;
+	std::string out;
+};
+
+// Runs swell-view with args; stdout and stderr together.
+run_result view(const std::string &args)
+{
+	run_result r;
+	REQUIRE_FALSE(x().display.empty());
+	std::string cmd = "DISPLAY=" + x().display + " ASAN_OPTIONS=detect_leaks=0 " SWELL_VIEW_BIN " " + args + " 2>&1";
+	FILE *p = popen(cmd.c_str(), "r");
+	REQUIRE(p != nullptr);
+	char buf[4096];
+	size_t n;
+	while ((n = fread(buf, 1, sizeof(buf), p)) > 0)
+		r.out.append(buf, n);
+	int st = pclose(p);
+	r.status = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + (WIFSIGNALED(st) ? WTERMSIG(st) : 0);
+	return r;
+}
+
+struct image {
+	pngr::decoded d;
+	const uint8_t *at(int c, int r) const { return &d.pixels[(size_t(r) * d.w + size_t(c)) * 3]; }
+};
+
+// A top view of a source: no HUD, 640 x 480, deterministic time.
+image shot(const std::string &source, const std::string &extra = "", int after = 4, run_result *out = nullptr)
+{
+	std::string path = tmpdir() + "/shot.png";
+	std::remove(path.c_str());
+	// no antialiasing (cheaper on llvmpipe) unless the caller asks for it with --msaa
+	std::string aa = extra.find("--msaa") == std::string::npos ? " --msaa 0" : "";
+	run_result r = view("--headless --steady --view top --no-hud --size 640x480" + aa + " --source " + source +
+			    " --after " + std::to_string(after) + " --screenshot " + path + " " + extra);
+	INFO(r.out);
+	REQUIRE(r.status == 0);
+	if (out)
+		*out = r;
+	image im;
+	im.d = pngr::read_file(path);
+	REQUIRE(im.d.error == "");
+	REQUIRE(im.d.w == unsigned(W));
+	REQUIRE(im.d.h == unsigned(H));
+	return im;
+}
+
+bool is_water(const uint8_t *p) { return p[2] > p[0] + 40 && p[2] > 70; }
+bool is_object(const uint8_t *p) { return p[0] > 150 && p[1] > 60 && p[1] < 160 && p[2] < 70; }
+bool is_arrow(const uint8_t *p) { return p[0] > 90 && p[1] < 50 && p[2] > 25 && p[0] > 2 * p[2]; }
+
+double luma(const uint8_t *p) { return 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]; }
+
+double mean_luma(const image &im, double x_m, double y_m, int half)
+{
+	double s = 0;
+	int n = 0;
+	for (int r = int(row_of(y_m)) - half; r <= int(row_of(y_m)) + half; r++)
+		for (int c = int(col_of(x_m)) - half; c <= int(col_of(x_m)) + half; c++, n++)
+			s += luma(im.at(c, r));
+	return s / n;
+}
+
+struct box {
+	int n = 0;
+	int c0 = 1 << 30, r0 = 1 << 30, c1 = -1, r1 = -1;
+	double sc = 0, sr = 0;
+	void add(int c, int r)
+	{
+		n++;
+		c0 = std::min(c0, c);
+		c1 = std::max(c1, c);
+		r0 = std::min(r0, r);
+		r1 = std::max(r1, r);
+		sc += c;
+		sr += r;
+	}
+};
+
+template <class F> box find(const image &im, F pred)
+{
+	box b;
+	for (int r = 0; r < H; r++)
+		for (int c = 0; c < W; c++)
+			if (pred(im.at(c, r)))
+				b.add(c, r);
+	return b;
+}
+
+long counter(const std::string &out, const std::string &name)
+{
+	// the summary line: "swell-view: F frames, B bad, D dropped, ..."
+	size_t at = out.find(" " + name);
+	if (at == std::string::npos)
+		return -1;
+	size_t start = out.rfind(' ', at - 1);
+	return std::atol(out.c_str() + start + 1);
+}
+
+struct scene_case {
+	const char *source;
+	double bump_x, bump_y;        // pool fractions
+	double obj_x, obj_y;          // m
+	double fx, fy;                // N
+};
+const scene_case cases[] = {
+	{"pattern:bump", 0.70, 0.50, 0.30 * L, 0.35 * L, 1.5, -1.0},
+	{"pattern:bump2", 0.30, 0.40, 0.72 * L, 0.70 * L, -1.2, 1.6},
+};
+
+} // namespace
+
+TEST_CASE("water fills the pool inside its walls and nothing outside them")
+{
+	image im = shot("pattern:bump", "--msaa 4"); // the default antialiasing, as users see it
+	const double t = 0.03 * L; // wall thickness (render.c)
+	long inside = 0, inside_water = 0, outside_water = 0, wall_water = 0;
+	for (int r = 0; r < H; r++)
+		for (int c = 0; c < W; c++) {
+			const uint8_t *p = im.at(c, r);
+			bool in = c > col_of(0) + 2 && c < col_of(L) - 2 && r > row_of(L) + 2 && r < row_of(0) - 2;
+			bool out = c < col_of(-t) - 2 || c > col_of(L + t) + 2 || r < row_of(L + t) - 2 || r > row_of(-t) + 2;
+			bool obj = is_object(p) || is_arrow(p);
+			if (in && !obj) {
+				inside++;
+				inside_water += is_water(p);
+			} else if (out) {
+				outside_water += is_water(p);
+			} else if (!in) {
+				wall_water += is_water(p) && (c < col_of(-1.5 * t / 3) || c > col_of(L + t / 2));
+			}
+		}
+	INFO("inside the pool: " << inside_water << " water pixels of " << inside);
+	CHECK(inside_water >= inside * 99 / 100);
+	CHECK(outside_water == 0);
+	CHECK(wall_water == 0);
+}
+
+TEST_CASE("a raised bump is lit on its +x flank (the light's side) and red in the colour scale")
+{
+	for (const auto &k : cases) {
+		image im = shot(k.source);
+		double bx = k.bump_x * L, by = k.bump_y * L, sg = 0.025;
+		double east = mean_luma(im, bx + sg, by, 3), west = mean_luma(im, bx - sg, by, 3);
+		double flat = mean_luma(im, k.bump_x > 0.5 ? 0.1 * L : 0.9 * L, 0.9 * L, 3);
+		INFO(k.source << ": luma east flank " << east << ", west flank " << west << ", flat water " << flat);
+		CHECK(east > west + 20);
+		CHECK(east > flat + 20);
+
+		image col = shot(k.source, "--colour --range 2");
+		const uint8_t *top = col.at(int(col_of(bx)), int(row_of(by)));
+		const uint8_t *far = col.at(int(col_of(k.bump_x > 0.5 ? 0.1 * L : 0.9 * L)), int(row_of(0.9 * L)));
+		INFO("bump top rgb " << int(top[0]) << "," << int(top[1]) << "," << int(top[2]) << "; flat water rgb "
+				     << int(far[0]) << "," << int(far[1]) << "," << int(far[2]));
+		CHECK(top[0] > top[2] + 60); // 3 mm over a 2 mm range: full red
+		CHECK(std::abs(int(far[0]) - int(far[2])) < 30); // 0 mm: neutral
+	}
+}
+
+TEST_CASE("the object is drawn where its pose says, at its size")
+{
+	for (const auto &k : cases) {
+		image im = shot(k.source);
+		box b = find(im, is_object);
+		double cc = (b.c0 + b.c1) / 2.0, cr = (b.r0 + b.r1) / 2.0;
+		INFO(k.source << ": object pixels " << b.n << ", box centre (" << cc << ", " << cr << ") px, expected ("
+			      << col_of(k.obj_x) << ", " << row_of(k.obj_y) << "); size " << b.c1 - b.c0 + 1 << " x "
+			      << b.r1 - b.r0 + 1 << " px, expected " << 0.06 * S);
+		REQUIRE(b.n > 1000);
+		CHECK(std::abs(cc - col_of(k.obj_x)) < 2.5);
+		CHECK(std::abs(cr - row_of(k.obj_y)) < 2.5);
+		CHECK(std::abs(b.c1 - b.c0 + 1 - 0.06 * S) < 3);
+		CHECK(std::abs(b.r1 - b.r0 + 1 - 0.06 * S) < 3);
+	}
+}
+
+TEST_CASE("the force arrow starts at the object and points the way the force does")
+{
+	for (const auto &k : cases) {
+		image im = shot(k.source);
+		box a = find(im, is_arrow);
+		REQUIRE(a.n > 100);
+		// image rows grow downwards: flip y
+		double dx = a.sc / a.n - col_of(k.obj_x), dy = -(a.sr / a.n - row_of(k.obj_y));
+		double got = std::atan2(dy, dx) * 180 / M_PI, want = std::atan2(k.fy, k.fx) * 180 / M_PI;
+		double err = std::remainder(got - want, 360.0);
+		INFO(k.source << ": arrow centroid " << dx << ", " << dy << " px from the object; direction " << got
+			      << " deg, force " << want << " deg");
+		CHECK(std::abs(err) < 6);
+		// its length in the picture: the horizontal part of 40 mm per newton
+		double horiz = std::hypot(k.fx, k.fy) * 0.040 * S;
+		double far_end = 0;
+		for (int r = a.r0; r <= a.r1; r++)
+			for (int c = a.c0; c <= a.c1; c++)
+				if (is_arrow(im.at(c, r)))
+					far_end = std::max(far_end, std::hypot(c - col_of(k.obj_x), r - row_of(k.obj_y)));
+		INFO("arrow reaches " << far_end << " px, horizontal force length " << horiz << " px");
+		CHECK(std::abs(far_end - horiz) < 0.08 * horiz + 3);
+	}
+}
+
+TEST_CASE("late join: without a scene description nothing is drawn and the screen says so")
+{
+	std::string path = tmpdir() + "/late.png";
+	run_result r = view("--headless --steady --view top --size 640x480 --source pattern:bump --faults noscene "
+			    "--after 12 --screenshot " + path);
+	INFO(r.out);
+	REQUIRE(r.status == 0);
+	pngr::decoded d = pngr::read_file(path);
+	REQUIRE(d.error == "");
+	image im{d};
+	box water = find(im, is_water), obj = find(im, is_object);
+	// the status text, amber, in the middle of the screen where the pool would be
+	box amber;
+	for (int rr = H / 2 - 40; rr < H / 2 + 40; rr++)
+		for (int c = 0; c < W; c++) {
+			const uint8_t *p = im.at(c, rr);
+			if (p[0] > 200 && p[1] > 150 && p[2] < 100)
+				amber.add(c, rr);
+		}
+	CHECK(water.n == 0);
+	CHECK(obj.n == 0);
+	INFO("amber text pixels in the middle: " << amber.n);
+	CHECK(amber.n > 200);
+	CHECK(counter(r.out, "tiles") == 0); // tiles arrived, and none was taken without a scene
+}
+
+TEST_CASE("garbage between the packets changes nothing on screen and is counted")
+{
+	run_result clean_r, junk_r;
+	image clean = shot("pattern:bump", "", 12, &clean_r);
+	image junk = shot("pattern:bump", "--faults garbage", 12, &junk_r);
+	long differ = 0;
+	for (size_t k = 0; k < clean.d.pixels.size(); k++)
+		differ += clean.d.pixels[k] != junk.d.pixels[k];
+	long bad = counter(junk_r.out, "bad"), frames = counter(junk_r.out, "frames");
+	INFO("bytes that differ " << differ << "; bad frames " << bad << " of " << frames << " good");
+	CHECK(differ == 0);
+	CHECK(bad > 100);
+	CHECK(counter(clean_r.out, "bad") == 0);
+}
+
+TEST_CASE("truncated, corrupt, reordered and lost packets: no crash, no wrong heights drawn")
+{
+	run_result clean_r, hurt_r;
+	image clean = shot("pattern:bump", "", 4, &clean_r);
+	// the static scene is refreshed every 200 ms (10 frames): after 5 refreshes every quad has come
+	// through at least once (what is lost shifts from one refresh to the next)
+	image hurt = shot("pattern:bump", "--faults truncate,corrupt,reorder,drop", 50, &hurt_r);
+	long differ = 0;
+	int worst = 0;
+	for (size_t k = 0; k < clean.d.pixels.size(); k++) {
+		int d = std::abs(int(clean.d.pixels[k]) - int(hurt.d.pixels[k]));
+		differ += d > 0;
+		worst = std::max(worst, d);
+	}
+	INFO("bytes that differ " << differ << ", worst " << worst << "; " << hurt_r.out);
+	CHECK(differ == 0);
+	CHECK(counter(hurt_r.out, "bad") > 100);
+	CHECK(counter(hurt_r.out, "dropped") > 10);
+	CHECK(counter(hurt_r.out, "late") > 10);
+}
+
+TEST_CASE("controller restart: the old scene goes, the new one is shown")
+{
+	run_result r;
+	image im = shot("pattern:bump", "--faults restart", 30, &r); // the restart happens at 0.4 s, frame 20
+	CHECK(counter(r.out, "restarts") == 1);
+	box b = find(im, is_object);
+	double cc = (b.c0 + b.c1) / 2.0;
+	INFO("object box centre column " << cc << ", the new run puts it at " << col_of(0.70 * L));
+	CHECK(std::abs(cc - col_of(0.70 * L)) < 2.5);
+	double bump_new = mean_luma(im, 0.30 * L + 0.025, 0.5 * L, 3), bump_old = mean_luma(im, 0.70 * L + 0.025, 0.5 * L, 3);
+	INFO("east flank of the new bump " << bump_new << ", of the old one " << bump_old);
+	CHECK(bump_new > bump_old + 20);
+}
+
+TEST_CASE("only tiles whose heights changed are uploaded")
+{
+	run_result still, moving;
+	shot("pattern:bump", "", 32, &still);    // three refreshes of the same heights
+	shot("pattern:ripple", "", 32, &moving); // every tile changes every frame
+	INFO(still.out << moving.out);
+	// "uploaded N tiles (T texels)": 64 tiles at the scene, then nothing for identical refreshes
+	size_t at = still.out.find("uploaded ");
+	REQUIRE(at != std::string::npos);
+	CHECK(std::atol(still.out.c_str() + at + 9) == 64);
+	at = moving.out.find("uploaded ");
+	REQUIRE(at != std::string::npos);
+	CHECK(std::atol(moving.out.c_str() + at + 9) > 64 * 25);
+}
+
+TEST_CASE("a recording replays to the same picture, and cut or garbage recordings do no harm")
+{
+	std::string rec = tmpdir() + "/bump.rec";
+	image live = shot("pattern:bump", "--record " + rec, 25);
+	image again = shot("replay-fast:" + rec, "", 5);
+	long differ = 0;
+	for (size_t k = 0; k < live.d.pixels.size(); k++)
+		differ += live.d.pixels[k] != again.d.pixels[k];
+	CHECK(differ == 0);
+
+	// cut in the middle of a record: the replay ends there
+	std::ifstream in(rec, std::ios::binary);
+	std::vector<char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+	REQUIRE(bytes.size() > 30000);
+	std::string cut = tmpdir() + "/cut.rec";
+	std::ofstream(cut, std::ios::binary).write(bytes.data(), std::streamsize(bytes.size() * 2 / 3 + 7));
+	image part = shot("replay-fast:" + cut, "", 5);
+	CHECK(find(part, is_water).n > 100000);
+
+	// the right magic, then noise: nothing decodes, nothing is drawn
+	std::string noise = tmpdir() + "/noise.rec";
+	{
+		std::ofstream o(noise, std::ios::binary);
+		o.write(bytes.data(), 8);
+		uint32_t s = 99;
+		for (int k = 0; k < 200000; k++) {
+			s = s * 1664525u + 1013904223u;
+			o.put(char(s >> 24));
+		}
+	}
+	run_result nr;
+	image none = shot("replay-fast:" + noise, "", 5, &nr);
+	CHECK(find(none, is_water).n == 0);
+	CHECK(find(none, is_object).n == 0);
+}
