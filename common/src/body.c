@@ -166,6 +166,8 @@ static void scan_field(struct swell_body *b, const struct swell_wave *w)
 	}
 	b->ceiling_lsb = top;
 	b->water_sum = sum;
+	b->ceiling_ok = 1;
+	b->scans++;
 }
 
 enum swell_err swell_body_init(struct swell_body *b, const struct swell_body_params *p,
@@ -209,6 +211,16 @@ void swell_body_solver_stepped(struct swell_body *b, const struct swell_wave *w)
 {
 	b->phase = 0;
 	b->u_prev = b->u_last;
+	/* In the water the ceiling is not needed (and the solver conserves sum(h)): the scan is paid
+	 * only in periods when the force law is idle. */
+	if (b->wet)
+		b->ceiling_ok = 0;
+	else
+		scan_field(b, w);
+}
+
+void swell_body_rescan(struct swell_body *b, const struct swell_wave *w)
+{
 	scan_field(b, w);
 }
 
@@ -368,7 +380,7 @@ void swell_body_tick(struct swell_body *b, struct swell_wave *w, const int32_t p
 	out->f.total_uN = b->gravity_uN;
 
 	footprint(b, out->x_um, out->y_um, &f);
-	if (b->applied.delta_lsb == 0 && (fp_empty(&f) || z >= b->ceiling_lsb)) {
+	if (b->applied.delta_lsb == 0 && (fp_empty(&f) || (b->ceiling_ok && z >= b->ceiling_lsb))) {
 		/* clear of the water and holding nothing: no surface read, no coupling */
 		b->skipped++;
 		b->u_last = 0;
@@ -380,6 +392,7 @@ void swell_body_tick(struct swell_body *b, struct swell_wave *w, const int32_t p
 		/* wholly outside the pool: let go of what it held */
 		b->u_last = 0;
 		couple(b, w, &f);
+		b->wet = 0;
 		device_force(b, out);
 		return;
 	}
@@ -417,6 +430,7 @@ void swell_body_tick(struct swell_body *b, struct swell_wave *w, const int32_t p
 	mean = sat32(div_rn(b->water_sum, (int64_t)b->nx * b->ny));
 	f.delta_lsb = swell_clamp(sat32((int64_t)mean - z), 0, b->h_lsb);
 	couple(b, w, &f);
+	b->wet = delta > 0 || b->applied.delta_lsb != 0;
 }
 
 int64_t swell_body_invariant(const struct swell_body *b, const struct swell_wave *w)

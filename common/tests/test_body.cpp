@@ -79,7 +79,7 @@ TEST_CASE("the surface under the footprint weights partly covered cells by cover
 	for (int a = 0; a < 16 * 16; a++)
 		s.w.h[a] = hd(rng);
 	swell_wave_rest(&s.w);
-	swell_body_solver_stepped(&s.b, &s.w);
+	swell_body_rescan(&s.b, &s.w);
 	// a 60 x 60 mm footprint with edges inside cells: centre at (41.3 mm, 37.9 mm)
 	const double x = 41300, y = 37900, a = 60000, dx = 6250;
 	double num = 0, den = 0;
@@ -156,7 +156,7 @@ TEST_CASE("the object rides a standing wave: on a 3 mm seiche its vertical motio
 	}
 	// the (1,0) seiche, 3 mm: period 0.8 s on the paper stencil, well below the bob at about 4 Hz
 	swell_shape_seiche(s.w.h, s.w.nx, s.w.ny, 1, 0, 3 * MM);
-	swell_body_solver_stepped(&s.b, &s.w);
+	swell_body_rescan(&s.b, &s.w);
 	std::vector<double> zs, ws;
 	for (long t = 0; t < 4 * 2500; t++) {
 		int32_t pos[3], vel[3];
@@ -226,7 +226,7 @@ TEST_CASE("the object rides a passing wave: a plane pulse lifts it as much as th
 		for (int i = 0; i < n; i++)
 			s.w.h[j * n + i] += (int32_t)std::lround(g[i] - mean);
 	swell_wave_rest(&s.w);
-	swell_body_solver_stepped(&s.b, &s.w);
+	swell_body_rescan(&s.b, &s.w);
 	std::vector<double> zs, ws;
 	for (long t = 0; t < (long)(0.6 * 2500); t++) {
 		step();
@@ -275,7 +275,7 @@ static void force_steps(bool interpolate, double *at_step, double *between)
 	body_scene s(64, 0.0);
 	s.interpolate = interpolate;
 	swell_shape_seiche(s.w.h, s.w.nx, s.w.ny, 1, 1, 4 * MM);
-	swell_body_solver_stepped(&s.b, &s.w);
+	swell_body_rescan(&s.b, &s.w);
 	swell_body_out out;
 	int32_t prev = 0;
 	*at_step = *between = 0;
@@ -377,7 +377,7 @@ TEST_CASE("out-of-water ticks do no force or coupling work", "[body][skip]")
 	body_scene ref(64, 0.0); // the same water without an object
 	for (body_scene *p : {&s, &ref}) {
 		swell_shape_seiche(p->w.h, p->w.nx, p->w.ny, 2, 1, 2 * MM);
-		swell_body_solver_stepped(&p->b, &p->w);
+		swell_body_rescan(&p->b, &p->w);
 	}
 	swell_body_out out, o2;
 	for (int t = 0; t < 1000; t++) {
@@ -600,4 +600,20 @@ TEST_CASE("extreme device inputs and transforms stay defined and keep the invari
 	INFO(bad << " ticks with delta out of [0, H] or the invariant off");
 	CHECK(bad == 0);
 	CHECK(s.w.saturations == 0);
+}
+
+TEST_CASE("the field scan is paid only in solver periods when the object is out of the water", "[body][skip]")
+{
+	body_scene s(64, 0.0);
+	swell_body_out out;
+	for (int t = 0; t < 1000; t++) // 100 solver steps clear of the water
+		s.tick(200000, 200000, 10000, 0, &out);
+	const uint32_t dry = s.b.scans;
+	for (int t = 0; t < 1000; t++) // 100 solver steps in it
+		s.tick(200000, 200000, -10000, 0, &out);
+	const uint32_t wet = s.b.scans - dry;
+	INFO("scans: " << dry << " in 100 dry solver periods (plus the one at init), " << wet << " in 100 wet ones");
+	CHECK(dry == 1 + 99);
+	CHECK(wet <= 1); // the step right after going in may still scan
+	CHECK(out.delta_lsb > 0);
 }

@@ -41,8 +41,9 @@
  * push in more every tick; measured against the water around it, volume would move without the
  * object doing work (docs/force-law.md).
  *
- * Skipped work: when the bottom is above every water height (a ceiling found once per solver step)
- * and the object holds no volume in the water, a tick computes nothing but gravity (counted). */
+ * Skipped work: when the bottom is above every water height (a ceiling found at solver steps while
+ * the object is out of the water) and the object holds no volume in the water, a tick computes
+ * nothing but gravity (counted). */
 #ifndef SWELL_BODY_H
 #define SWELL_BODY_H
 
@@ -103,12 +104,14 @@ struct swell_body {
 	int32_t h_lsb, deadband_lsb;
 	int32_t gravity_uN;
 	int32_t ceiling_lsb;     /* >= every h and h - v: no interpolated surface is above it */
-	int64_t water_sum;       /* sum(h), LSB * cell: found at each solver step, kept by coupling */
+	uint8_t ceiling_ok;      /* ceiling_lsb is valid for this solver period */
+	uint8_t wet;             /* the last computed tick touched the water or held volume */
+	int64_t water_sum;       /* sum(h), LSB * cell: from the last scan, kept by coupling */
 	int32_t u_prev, u_last;  /* footprint velocity, LSB per solver step: last period, this one */
 	struct swell_body_fp applied; /* what is in the water now */
 	int64_t v_displaced;     /* LSB * cell, the sum of what coupling added */
 	/* counters */
-	uint32_t ticks, skipped, coupled;
+	uint32_t ticks, skipped, coupled, scans;
 };
 
 struct swell_body_forces {
@@ -156,9 +159,14 @@ enum swell_err swell_body_init(struct swell_body *b, const struct swell_body_par
 enum swell_err swell_body_set_params(struct swell_body *b, const struct swell_body_params *p,
 				     const struct swell_body_xform *xf);
 
-/* Call right after every swell_wave_step() (and after anything else writes h): restarts the
- * interpolation phase and finds the ceiling (one pass over the field, at the solver rate). */
+/* Call right after every solver step (swell_wave_step or swell_wave_step_finish): restarts the
+ * interpolation phase. When the object was out of the water it also scans the field (one pass) for
+ * the ceiling and sum(h); in the water it does not (the solver conserves sum(h) and the coupling
+ * keeps it), so a tick never pays for both the scan and the force law with coupling. */
 void swell_body_solver_stepped(struct swell_body *b, const struct swell_wave *w);
+
+/* Scan the field now: call after anything other than the solver and this object wrote h. */
+void swell_body_rescan(struct swell_body *b, const struct swell_wave *w);
 
 /* One device tick: pose from the device position (um) and velocity (um/s), forces, coupling. */
 void swell_body_tick(struct swell_body *b, struct swell_wave *w, const int32_t pos_dev_um[3],
