@@ -228,7 +228,7 @@ struct dev {
 	struct swell_seq force_seq;
 	uint32_t commands, heartbeats, ignored, send_errors;
 	int ctl_state; /* last HEARTBEAT state, -1 before the first */
-	uint64_t cmds_after_send;
+	uint8_t force_seq_last;
 };
 
 static int dev_open(struct dev *d, const struct opts *o)
@@ -297,6 +297,7 @@ static int dev_recv(struct dev *d, struct hm_state *s, int timeout_ms)
 			double fN[3] = {c->fx_cN * 0.01, c->fy_cN * 0.01, c->fz_cN * 0.01};
 
 			swell_seq_track(&d->force_seq, c->seq);
+			d->force_seq_last = c->seq;
 			hm_command(s, fN, c->enable);
 			d->commands++;
 			cmds++;
@@ -339,6 +340,9 @@ static int16_t sat16(double v)
 
 struct run {
 	uint64_t ticks, timeouts, zeroed_ticks, late_ticks;
+	uint64_t own_ticks; /* lockstep: controller ticks that no sample drove (its seq moved against ours) */
+	int have_offset;
+	uint8_t offset;
 	double peak_f_N, z_sum, z_min, z_max;
 	uint64_t z_n;
 	uint32_t hist[HIST_US + 1];
@@ -456,8 +460,16 @@ int main(int argc, char **argv)
 					break;
 				got = dev_recv(&d, &s, (int)((left + 999999) / 1000000)) > 0;
 			}
-			if (!got)
+			if (!got) {
 				r.timeouts++;
+			} else {
+				uint8_t off = (uint8_t)(d.force_seq_last - (uint8_t)n);
+
+				if (r.have_offset && off != r.offset)
+					r.own_ticks += (uint8_t)(off - r.offset);
+				r.offset = off;
+				r.have_offset = 1;
+			}
 		} else {
 			struct timespec dl;
 			int64_t late;
@@ -538,8 +550,9 @@ int main(int argc, char **argv)
 	       d.commands, d.force_seq.lost, d.force_seq.repeated, swell_proto_rejected_total(&d.st),
 	       d.send_errors);
 	if (o.lockstep)
-		printf("  timeouts        %llu (lockstep waits of %u ms without an answer)\n",
-		       (unsigned long long)r.timeouts, o.timeout_ms);
+		printf("  timeouts        %llu (lockstep waits of %u ms without an answer); %llu controller ticks "
+		       "between samples\n",
+		       (unsigned long long)r.timeouts, o.timeout_ms, (unsigned long long)r.own_ticks);
 	else
 		printf("  tick lateness   p50 %.0f us, p99 %.0f us, max %.0f us; %llu periods lost\n", pct(&r, 0.5),
 		       pct(&r, 0.99), r.late_max_ns / 1e3, (unsigned long long)r.late_ticks);

@@ -1,0 +1,340 @@
+// Closed loop over UDP loopback: swell-ctl --clock device --autorun against swell-hm --lockstep, for
+// several seconds of simulated time. Each test binds its own free port, so tests run side by side.
+#include <catch2/catch.hpp>
+
+#include <arpa/inet.h>
+#include <fcntl.h>
+#include <netinet/in.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+extern char **environ;
+
+namespace {
+
+const std::string hm_bin = SWELL_HM_BIN;
+const std::string ctl_bin = SWELL_CTL_BIN;
+const std::string work_dir = SWELL_HM_TEST_DIR;
+
+struct proc {
+	pid_t pid = -1;
+	std::string out; // stdout and stderr go here
+};
+
+proc spawn(const std::vector<std::string> &args, const std::string &out)
+{
+	std::vector<char *> argv;
+	for (const auto &a : args)
+		argv.push_back(const_cast<char *>(a.c_str()));
+	argv.push_back(nullptr);
+	posix_spawn_file_actions_t fa;
+	posix_spawn_file_actions_init(&fa);
+	posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+	posix_spawn_file_actions_adddup2(&fa, 1, 2);
+	proc p;
+	p.out = out;
+	const int rc = posix_spawn(&p.pid, argv[0], &fa, nullptr, argv.data(), environ);
+	posix_spawn_file_actions_destroy(&fa);
+	INFO("spawning " << args[0]);
+	REQUIRE(rc == 0);
+	return p;
+}
+
+// Exit status, or -1 if it had to be killed after timeout_s.
+int wait_for(proc &p, double timeout_s)
+{
+	const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+	int st = 0;
+	for (;;) {
+		const pid_t r = waitpid(p.pid, &st, WNOHANG);
+		if (r == p.pid)
+			break;
+		if (std::chrono::steady_clock::now() > until) {
+			kill(p.pid, SIGKILL);
+			waitpid(p.pid, &st, 0);
+			p.pid = -1;
+			return -1;
+		}
+		std::this_thread::sleep_for(std::chrono::milliseconds(10));
+	}
+	p.pid = -1;
+	return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+}
+
+std::string slurp(const std::string &path)
+{
+	std::ifstream f(path);
+	std::stringstream ss;
+	ss << f.rdbuf();
+	return ss.str();
+}
+
+// The first number after "label" on the line that starts with two spaces and label.
+double figure(const std::string &text, const std::string &label)
+{
+	const size_t at = text.find("\n  " + label);
+	INFO("summary has no line '" << label << "':\n" << text);
+	REQUIRE(at != std::string::npos);
+	return std::strtod(text.c_str() + at + 3 + label.size(), nullptr);
+}
+
+uint16_t free_udp_port()
+{
+	const int fd = socket(AF_INET, SOCK_DGRAM, 0);
+	REQUIRE(fd >= 0);
+	sockaddr_in a{};
+	a.sin_family = AF_INET;
+	a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+	socklen_t al = sizeof a;
+	REQUIRE(bind(fd, reinterpret_cast<sockaddr *>(&a), sizeof a) == 0);
+	REQUIRE(getsockname(fd, reinterpret_cast<sockaddr *>(&a), &al) == 0);
+	close(fd);
+	return ntohs(a.sin_port);
+}
+
+struct closed_loop {
+	std::string name, hm_out, ctl_out, csv;
+	uint16_t port;
+	proc ctl;
+
+	explicit closed_loop(const std::string &n)
+	    : name(n), hm_out(work_dir + "/" + n + ".hm.txt"), ctl_out(work_dir + "/" + n + ".ctl.txt"),
+	      csv(work_dir + "/" + n + ".csv"), port(free_udp_port())
+	{
+		// a silent device is a fault after 200 of the controller's own 1 ms waits: a loaded CI machine
+		// must not fault the loop; link loss itself is what the kill test checks
+		ctl = spawn({ctl_bin, "--clock", "device", "--autorun", "--device", "udp:" + std::to_string(port), "--host",
+			     "none", "--no-rt", "--quiet", "--silent-ticks", "200"},
+			    ctl_out);
+		std::this_thread::sleep_for(std::chrono::milliseconds(100));
+	}
+	~closed_loop()
+	{
+		if (ctl.pid > 0) {
+			kill(ctl.pid, SIGKILL);
+			waitpid(ctl.pid, nullptr, 0);
+		}
+	}
+	std::vector<std::string> hm_args(const std::string &hand, double seconds) const
+	{
+		return {hm_bin, "--lockstep", "--port", std::to_string(port), "--hand", hand, "--seconds",
+			std::to_string(seconds), "--quiet", "--log", csv};
+	}
+	// Runs swell-hm to its end, then stops the controller; returns swell-hm's summary.
+	std::string run(const std::vector<std::string> &args)
+	{
+		proc hm = spawn(args, hm_out);
+		const int rc = wait_for(hm, 300.0);
+		kill(ctl.pid, SIGTERM);
+		const int crc = wait_for(ctl, 10.0);
+		const std::string text = slurp(hm_out);
+		INFO("swell-hm exit " << rc << ":\n" << text << "\nswell-ctl exit " << crc << ":\n" << slurp(ctl_out));
+		REQUIRE(rc == 0);
+		REQUIRE(crc == 0);
+		return text;
+	}
+};
+
+struct row {
+	double t, x[3], v[3], fcmd[3], fhand[3];
+	int enable, age, applied, state, holding;
+};
+
+std::vector<row> read_csv(const std::string &path)
+{
+	std::ifstream f(path);
+	std::string line;
+	std::vector<row> rows;
+	std::getline(f, line); // header
+	while (std::getline(f, line)) {
+		row r{};
+		const int n = std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%d,%d,%d,%d,%d",
+					  &r.t, &r.x[0], &r.x[1], &r.x[2], &r.v[0], &r.v[1], &r.v[2], &r.fcmd[0],
+					  &r.fcmd[1], &r.fcmd[2], &r.fhand[0], &r.fhand[1], &r.fhand[2], &r.enable, &r.age,
+					  &r.applied, &r.state, &r.holding);
+		if (n == 18)
+			rows.push_back(r);
+	}
+	return rows;
+}
+
+} // namespace
+
+TEST_CASE("drop: the object falls, floats and settles at -m g/k within 2% (level-corrected within 0.5%)")
+{
+	closed_loop cl("drop");
+	const std::string s = cl.run(cl.hm_args("drop:z=20,hold=0.5", 10.0));
+	const double z = figure(s, "equilibrium z"), z_expected = figure(s, "expected z"),
+		     z_level = figure(s, "with level rise");
+	INFO(s);
+	CHECK(z_expected == Approx(-40.0).margin(1e-9));
+	CHECK(std::fabs(z - z_expected) <= 0.02 * std::fabs(z_expected));
+	CHECK(std::fabs(z - z_level) <= 0.005 * std::fabs(z_level));
+	// settled: the last second moves less than 0.5 mm
+	const std::vector<row> rows = read_csv(cl.csv);
+	REQUIRE(rows.size() == 25000);
+	double lo = 1e9, hi = -1e9;
+	for (size_t k = rows.size() - 2500; k < rows.size(); k++) {
+		lo = std::min(lo, rows[k].x[2]);
+		hi = std::max(hi, rows[k].x[2]);
+	}
+	INFO("z over the last second in [" << lo << ", " << hi << "] mm");
+	CHECK(hi - lo < 0.5);
+	// while held above the water the controller commands the weight, -m g = -0.98 N (0.01 N steps)
+	CHECK(rows[1000].fcmd[2] == Approx(-0.98).margin(0.011));
+	CHECK(rows[1000].state == 3);
+	CHECK(figure(s, "commands") >= 24900);
+}
+
+TEST_CASE("shake: held and shaken vertically and sideways, the closed loop stays bounded and settles again")
+{
+	// released where the hand's target is at rest (a quarter period after whole cycles), at 4.1 s
+	const struct {
+		const char *name, *hand;
+		double f_hz, amp_mm;
+	} shakes[] = {
+		{"shake-z", "shake:at=1,axis=z,f=2,amp=15,for=3.125,k=3000", 2.0, 15.0},
+		{"shake-x", "shake:at=1,axis=x,f=3,amp=20,for=3.0833333,k=3000", 3.0, 20.0},
+	};
+	for (const auto &sh : shakes) {
+		closed_loop cl(sh.name);
+		std::vector<std::string> args = cl.hm_args(sh.hand, 8.0);
+		args.insert(args.end(), {"--start", "0,0,-39.4"}); // floating at rest when the hand takes it
+		const std::string s = cl.run(args);
+		const std::vector<row> rows = read_csv(cl.csv);
+		REQUIRE(rows.size() == 20000);
+		double x_abs = 0.0, v_abs = 0.0, f_abs = 0.0;
+		for (const row &r : rows)
+			for (int k = 0; k < 2; k++) {
+				x_abs = std::max(x_abs, std::fabs(r.x[k]));
+				v_abs = std::max(v_abs, std::fabs(r.v[k]));
+			}
+		double z_lo = 1e9, z_hi = -1e9;
+		for (const row &r : rows) {
+			z_lo = std::min(z_lo, r.x[2]);
+			z_hi = std::max(z_hi, r.x[2]);
+			v_abs = std::max(v_abs, std::fabs(r.v[2]));
+			for (int k = 0; k < 3; k++)
+				f_abs = std::max(f_abs, std::fabs(r.fcmd[k]));
+		}
+		const double v_hand = 2.0 * M_PI * sh.f_hz * sh.amp_mm, z = figure(s, "equilibrium z");
+		INFO(sh.hand << ": max |x|, |y| " << x_abs << " mm, z in [" << z_lo << ", " << z_hi << "] mm, max |v| "
+			     << v_abs << " mm/s (hand " << v_hand << "), max |F_cmd| " << f_abs
+			     << " N, equilibrium z " << z << " mm\n"
+			     << s);
+		CHECK(std::isfinite(z));
+		// inside the pool: the 50 mm footprint stays within the 400 mm pool, the box never flies off
+		CHECK(x_abs < 175.0);
+		CHECK(z_lo > -40.0 - sh.amp_mm * 2.0);
+		CHECK(z_hi < -40.0 + sh.amp_mm * 2.0);
+		CHECK(v_abs < v_hand * 1.5);
+		CHECK(f_abs < 5.0); // weight, buoyancy and drag of a 50 mm cube: a few N at most
+		CHECK(figure(s, "walls") == 0);
+		// 4 s after the release it floats again within 5% of its depth
+		CHECK(std::fabs(z + 40.0) < 2.0);
+	}
+}
+
+TEST_CASE("controller killed mid-run: swell-hm applies zero force within its watchdog (2 ticks)")
+{
+	closed_loop cl("kill");
+	// held above the water: the controller commands the weight, -0.98 N, all along
+	proc hm = spawn(cl.hm_args("drop:z=20,hold=100000", 100000.0), cl.hm_out);
+	std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+	kill(cl.ctl.pid, SIGKILL);
+	REQUIRE(wait_for(cl.ctl, 10.0) == 128 + SIGKILL);
+	std::this_thread::sleep_for(std::chrono::milliseconds(500));
+	kill(hm.pid, SIGTERM);
+	REQUIRE(wait_for(hm, 20.0) == 0);
+	const std::string s = slurp(cl.hm_out);
+	const std::vector<row> rows = read_csv(cl.csv);
+	INFO(s);
+	REQUIRE(rows.size() > 100);
+	size_t last = rows.size();
+	for (size_t k = 0; k < rows.size(); k++)
+		if (rows[k].age == 0)
+			last = k;
+	REQUIRE(last < rows.size());
+	const row &before = rows[last];
+	INFO("last command at t = " << before.t << " s with F_cmd z " << before.fcmd[2] << " N; " << rows.size() - last - 1
+				    << " ticks after it");
+	CHECK(before.applied == 1);
+	CHECK(before.fcmd[2] == Approx(-0.98).margin(0.011));
+	REQUIRE(rows.size() - last > 10);
+	int applied_after = 0;
+	for (size_t k = last + 1; k < rows.size(); k++) {
+		applied_after += rows[k].applied;
+		if (!rows[k].applied)
+			CHECK(rows[k].fcmd[2] == 0.0);
+	}
+	// held for watchdog - 1 = 1 silent tick, zero from the second
+	CHECK(applied_after == 1);
+	CHECK(rows[last + 1].applied == 1);
+	CHECK(rows[last + 2].applied == 0);
+	CHECK(figure(s, "watchdog") == 1);
+	CHECK(figure(s, "timeouts") >= 1);
+}
+
+TEST_CASE("bad parameter sets are refused with a one-line reason, exit 2, nothing sent, no log")
+{
+	const uint16_t port = free_udp_port();
+	const int fd = socket(AF_INET, SOCK_DGRAM, 0);
+	sockaddr_in a{};
+	a.sin_family = AF_INET;
+	a.sin_port = htons(port);
+	a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+	REQUIRE(bind(fd, reinterpret_cast<sockaddr *>(&a), sizeof a) == 0);
+	const std::string csv = work_dir + "/refused.csv", out = work_dir + "/refused.txt";
+	const std::vector<std::vector<std::string>> bad = {
+		{"--mass", "0"},
+		{"--rate", "5"},
+		{"--damping", "-1"},
+		{"--mass", "0.01"}, // the 50 kN/m walls are not resolved on 10 g at 2500 Hz
+		{"--hand", "wave"},
+		{"--hand", "drop:z=999"},
+		{"--hand", "shake:axis=w"},
+		{"--mass", "0.5", "--hand", "press:k=1000000"}, // hand spring too stiff for 0.5 kg at 2500 Hz
+		{"--watchdog", "0"},
+		{"--fmax", "300"},
+		{"--start", "0,0,250"},
+		{"--start", "0,0"},
+		{"--estop", "2,1"},
+		{"--link", "tcp"},
+		{"--seconds", "-1"},
+		{"--bogus", "1"},
+	};
+	for (const auto &b : bad) {
+		std::remove(csv.c_str());
+		std::vector<std::string> args = {hm_bin, "--lockstep", "--port", std::to_string(port), "--log", csv,
+						 "--seconds", "1"};
+		args.insert(args.end(), b.begin(), b.end());
+		proc p = spawn(args, out);
+		const int rc = wait_for(p, 20.0);
+		const std::string text = slurp(out);
+		char buf[128];
+		const ssize_t got = recv(fd, buf, sizeof buf, MSG_DONTWAIT);
+		struct stat st;
+		INFO(b[0] << " " << b.back() << ": exit " << rc << ", output '" << text << "'");
+		CHECK(rc == 2);
+		CHECK(text.rfind("swell-hm: ", 0) == 0);
+		CHECK(std::count(text.begin(), text.end(), '\n') == 1);
+		CHECK(got < 0);
+		CHECK(stat(csv.c_str(), &st) != 0);
+	}
+	close(fd);
+}
