@@ -91,7 +91,7 @@ TEST_CASE("UDP links on loopback carry every message both ways and count frames 
 	CHECK(ca->rx_errors + cb->rx_errors == 0u);
 }
 
-TEST_CASE("a UDP receive with nothing to read times out and counts it; oversized datagrams are dropped", "[links]")
+TEST_CASE("a UDP receive with nothing to read times out and counts it, and oversized datagrams are dropped", "[links]")
 {
 	link_ptr a, b;
 	open_pair(a, b);
