@@ -336,6 +336,13 @@ static int16_t sat16(double v)
 	return (int16_t)(r > 30000.0 ? 30000 : r < -30000.0 ? -30000 : r);
 }
 
+static int16_t force_cN(double f_N)
+{
+	double r = floor(f_N * 100.0 + 0.5);
+
+	return (int16_t)(r > 25000.0 ? 25000 : r < -25000.0 ? -25000 : r);
+}
+
 #define HIST_US 10000
 
 struct run {
@@ -362,9 +369,11 @@ static double pct(const struct run *r, double p)
 	return 0;
 }
 
-static void sample(struct dev *d, const struct hm_state *s, uint8_t seq)
+/* DEVICE_POS and DEVICE_VEL every tick; DEVICE_FORCE (the force sensor under the handle: what the
+ * hand pushes) only where the carrier has room, i.e. not on classic CAN at 2500 Hz. */
+static void sample(struct dev *d, const struct hm_state *s, const double f_hand_N[3], uint8_t seq)
 {
-	struct swell_msg m[2];
+	struct swell_msg m[3];
 	uint8_t status = 1u; /* powered */
 
 	if (!s->estop)
@@ -385,7 +394,13 @@ static void sample(struct dev *d, const struct hm_state *s, uint8_t seq)
 	m[1].u.device_vel.vy_100ums = sat16(s->v[1] * 1e4);
 	m[1].u.device_vel.vz_100ums = sat16(s->v[2] * 1e4);
 	m[1].u.device_vel.seq = seq;
-	dev_send(d, m, 2, seq);
+	m[2].type = SWELL_MSG_DEVICE_FORCE;
+	m[2].node = d->node;
+	m[2].u.device_force.fx_cN = force_cN(f_hand_N[0]);
+	m[2].u.device_force.fy_cN = force_cN(f_hand_N[1]);
+	m[2].u.device_force.fz_cN = force_cN(f_hand_N[2]);
+	m[2].u.device_force.seq = seq;
+	dev_send(d, m, d->carrier == SWELL_CARRIER_PKT ? 3 : 2, seq);
 }
 
 int main(int argc, char **argv)
@@ -445,7 +460,9 @@ int main(int argc, char **argv)
 		/* commands that came in since the last tick (stale ones included: the latest wins) */
 		while (dev_recv(&d, &s, 0) >= 0)
 			;
-		sample(&d, &s, (uint8_t)n);
+		/* the hand acts on the state of this tick, which the wait below does not change */
+		holding = hm_hand_force(&o.hand, t, s.x, s.v, f_hand);
+		sample(&d, &s, f_hand, (uint8_t)n);
 		if (o.lockstep) {
 			/* the answer is the first FORCE_CMD after the sample; once the controller is lost
 			 * (the watchdog has dropped its force) wait only 1 ms a tick so that time goes on */
@@ -490,7 +507,6 @@ int main(int argc, char **argv)
 			while (dev_recv(&d, &s, 0) >= 0)
 				;
 		}
-		holding = hm_hand_force(&o.hand, t, s.x, s.v, f_hand);
 		age = s.cmd_age;
 		if (log)
 			fprintf(log, "%.4f,%.3f,%.3f,%.3f,%.2f,%.2f,%.2f", t, s.x[0] * 1e3, s.x[1] * 1e3,

@@ -250,6 +250,72 @@ TEST_CASE("shake: held and shaken vertically and sideways, the closed loop stays
 	}
 }
 
+TEST_CASE("press: held at depth the hand carries buoyancy minus weight (k delta - m g), released it floats again")
+{
+	closed_loop cl("press");
+	std::vector<std::string> args = cl.hm_args("press:at=1,depth=45,ramp=0.5,hold=3", 9.0);
+	args.insert(args.end(), {"--start", "0,0,-39.4"});
+	const std::string s = cl.run(args);
+	const std::vector<row> rows = read_csv(cl.csv);
+	REQUIRE(rows.size() == 22500);
+	// the last 1.5 s of the hold: the device is at rest on average, so F_hand + F_cmd averages to 0
+	double z = 0.0, f_cmd = 0.0, f_hand = 0.0;
+	int n = 0;
+	for (const row &r : rows)
+		if (r.t >= 3.0 && r.t < 4.5) {
+			z += r.x[2];
+			f_cmd += r.fcmd[2];
+			f_hand += r.fhand[2];
+			n++;
+		}
+	REQUIRE(n == 3750);
+	z /= n;
+	f_cmd /= n;
+	f_hand /= n;
+	// the water the box displaces raises the mean level S = delta a b / A: delta = -z / (1 - a b / A)
+	const double k = 1000.0 * 9.81 * 0.05 * 0.05, mg = 0.1 * 9.81;
+	const double delta = -z * 1e-3 / (1.0 - 0.05 * 0.05 / (0.4 * 0.4));
+	const double f_expected = k * delta - mg;
+	INFO("held at z " << z << " mm (delta " << delta * 1e3 << " mm): mean F_cmd " << f_cmd << " N, k delta - m g "
+			  << f_expected << " N, mean hand force " << f_hand << " N\n"
+			  << s);
+	CHECK(std::fabs(z + 45.0) < 0.5);
+	CHECK(std::fabs(f_cmd - f_expected) < 0.05); // 0.05 N is 2 mm of water under the box
+	CHECK(std::fabs(f_cmd + f_hand) < 0.01);
+	CHECK(f_cmd > 0.1); // pushed under, the water pushes back up
+	const double z_end = figure(s, "equilibrium z");
+	CHECK(std::fabs(z_end + 40.0) <= 0.02 * 40.0);
+}
+
+TEST_CASE("e-stop: while pressed the device applies no force, the controller faults and comes back by itself")
+{
+	closed_loop cl("estop");
+	std::vector<std::string> args = cl.hm_args("drop:z=20,hold=100", 4.0);
+	args.insert(args.end(), {"--estop", "2,3"});
+	const std::string s = cl.run(args);
+	const std::vector<row> rows = read_csv(cl.csv);
+	REQUIRE(rows.size() == 10000);
+	int applied_in = 0, fault_seen = 0;
+	double t_back = -1.0;
+	for (const row &r : rows) {
+		if (r.t >= 2.0 && r.t < 3.0) {
+			applied_in += r.applied;
+			fault_seen |= r.state == 4;
+		}
+		if (r.t >= 3.0 && t_back < 0.0 && r.applied && std::fabs(r.fcmd[2] + 0.98) < 0.011)
+			t_back = r.t;
+	}
+	INFO("ticks with force applied during the e-stop " << applied_in << ", fault seen " << fault_seen
+							   << ", weight back at t = " << t_back << " s\n"
+							   << s);
+	CHECK(rows[2000].fcmd[2] == Approx(-0.98).margin(0.011)); // held, the weight is commanded
+	CHECK(applied_in == 0);
+	CHECK(fault_seen == 1);
+	CHECK(t_back >= 3.0);
+	CHECK(t_back < 3.5);
+	CHECK(rows.back().state == 3);
+}
+
 TEST_CASE("controller killed mid-run: swell-hm applies zero force within its watchdog (2 ticks)")
 {
 	closed_loop cl("kill");
