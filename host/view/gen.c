@@ -28,6 +28,25 @@ void gen_default(struct gen_scene *s)
 	s->state = 3;
 }
 
+void gen_mirror(struct gen_scene *s)
+{
+	s->bump_x_um = (int32_t)(0.30 * 64 * 6250);
+	s->bump_y_um = (int32_t)(0.40 * 64 * 6250);
+	s->obj_x_10um = (int16_t)(0.72 * 64 * 625);
+	s->obj_y_10um = (int16_t)(0.70 * 64 * 625);
+	s->fx_cN = -120;
+	s->fy_cN = 160;
+	s->scene_id = 2;
+}
+
+void gen_ripple(struct gen_scene *s)
+{
+	s->bump_amp_um = 2000;
+	s->ripple_amp_um = 1200;
+	s->ripple_len_um = 60000;
+	s->ripple_speed_um_s = 120000;
+}
+
 int16_t gen_height(const struct gen_scene *s, uint16_t i, uint16_t j, uint64_t t_us)
 {
 	double x = ((double)i + 0.5) * s->dx_um, y = ((double)j + 0.5) * s->dx_um;

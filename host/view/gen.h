@@ -31,6 +31,11 @@ struct gen_scene {
  * pool, the object at (0.30, 0.35) with its bottom 10 mm under the rest level, force (+1.5, -1.0, +0.8) N. */
 void gen_default(struct gen_scene *s);
 
+/* bump2: the mirror image of the default (bump left, object right, force the other way). */
+void gen_mirror(struct gen_scene *s);
+/* ripple: a smaller bump and a travelling ripple from the pool corner (animated). */
+void gen_ripple(struct gen_scene *s);
+
 typedef void (*gen_emit_fn)(void *ctx, const uint8_t *pkt, size_t len);
 
 /* Height of cell (i, j) at time t_us in wire units (LSB 2^-6 mm, saturated to int12). */

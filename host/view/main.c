@@ -22,11 +22,12 @@ static const char usage[] =
 	"Shows the water, object and force a swell controller sends; no solver inside.\n"
 	"\n"
 	"  --source SRC        udp[:PORT]        datagrams on 127.0.0.1 (default udp:47801, as swell-ctl sends)\n"
-	"                      replay:FILE       a recording, at recorded speed; replay-fast:FILE all at once\n"
+	"                      can:IFACE, canfd:IFACE  SocketCAN (classic, FD); usb[:VID:PID]  libusb bulk\n"
+	"                      replay:FILE       a recording, at recorded speed; replay-fast:FILE at full speed\n"
 	"                      pattern:bump|ripple  a known scene through the real encoders (labelled on screen)\n"
 	"  --faults LIST       inject into a pattern: garbage,truncate,corrupt,reorder,drop,noscene,restart\n"
 	"  --node N            show only controller node N (0..15; default: any)\n"
-	"  --record FILE       record every received frame (replay with --source replay:FILE)\n"
+	"  --record FILE       record every received frame of a link (replay with --source replay:FILE)\n"
 	"  --headless          render without a visible window (still needs an X display, e.g. Xvfb)\n"
 	"  --size WxH          framebuffer size in pixels (default 1024x768)\n"
 	"  --screenshot FILE   write a PNG of frame N (see --after) and exit\n"
@@ -315,8 +316,10 @@ static void hud(struct app *a, const struct view_feed *f, const struct source *s
 	const char *s = vm_status_str(m->status);
 	if (m->status == VIEW_STALE)
 		snprintf(buf, sizeof(buf), "NO DATA FOR %.1f S", (double)(now - m->last_rx_us) * 1e-6);
-	else if (m->status == VIEW_LINK_DOWN && src->kind == SOURCE_REPLAY)
-		snprintf(buf, sizeof(buf), "END OF RECORDING");
+	else if (m->status == VIEW_LINK_DOWN && src->ended)
+		snprintf(buf, sizeof(buf), src->rec_damaged ? "END OF RECORDING (DAMAGED)" : "END OF RECORDING");
+	else if (m->status == VIEW_LINK_DOWN && src->kind == SOURCE_LINK && src->lk == LINK_USB)
+		snprintf(buf, sizeof(buf), "USB DEVICE NOT THERE - WAITING FOR IT");
 	else
 		snprintf(buf, sizeof(buf), "%s", s);
 	if (a->paused)
@@ -361,17 +364,13 @@ int main(int argc, char **argv)
 	int rc = 0;
 
 	parse(argc, argv, &o);
-	if (!source_open(&src, o.source, err, sizeof(err))) {
+	if (!source_open(&src, o.source, o.record, err, sizeof(err))) {
 		fprintf(stderr, "swell-view: %s\n", err);
 		return 2;
 	}
 	if (o.faults && !source_faults(&src, o.faults, err, sizeof(err))) {
 		fprintf(stderr, "swell-view: %s\n", err);
 		return 2;
-	}
-	if (o.record && !(src.record = rec_create(o.record))) {
-		fprintf(stderr, "swell-view: cannot create %s: %s\n", o.record, strerror(errno));
-		return 1;
 	}
 	vm_init(&app.vm, (uint64_t)o.stale_ms * 1000u);
 	feed_init(&feed, &app.vm, o.node < 0 ? FEED_NODE_ANY : (uint8_t)o.node);
@@ -455,10 +454,6 @@ int main(int argc, char **argv)
 	printf("swell-view: %u frames, %u bad, %u dropped, %u late, %u tiles, %u restarts; uploaded %llu tiles (%llu texels)\n",
 	       app.vm.st.frames, app.vm.st.bad, app.vm.st.dropped, app.vm.st.late, app.vm.st.tiles,
 	       app.vm.st.restarts, (unsigned long long)app.r.tiles_uploaded, (unsigned long long)app.r.texels_uploaded);
-	if (src.record && fclose(src.record) != 0) {
-		fprintf(stderr, "swell-view: writing %s failed\n", o.record);
-		rc = 1;
-	}
 	source_close(&src);
 	render_free(&app.r);
 	vm_free(&app.vm);

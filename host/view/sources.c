@@ -2,12 +2,10 @@
 #define _GNU_SOURCE
 #include "sources.h"
 
-#include <arpa/inet.h>
 #include <errno.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/socket.h>
-#include <unistd.h>
 
 #include "swell/transport.h"
 
@@ -15,132 +13,102 @@
 #define PATTERN_REFRESH 10u     /* scene and unchanged heights again every 10 frames (200 ms) */
 #define PATTERN_RESTART_US 400000u
 
-static bool open_udp(struct source *s, const char *arg, char *err, size_t errlen)
+/* Open (or re-open) the link of a link source; 0 or a negative errno with the reason in err. */
+static int link_open(struct source *s, char *err, size_t errlen)
 {
-	long port = SWELL_UDP_PORT_VIEWER;
-	if (arg) {
-		char *end;
-		port = strtol(arg, &end, 10);
-		if (*arg == '\0' || *end || port < 1 || port > 65535) {
-			snprintf(err, errlen, "udp port '%s' is not in 1..65535", arg);
-			return false;
+	struct swell_link *l = NULL;
+	int rc = 0;
+	const char *arg = strchr(s->spec, ':');
+
+	arg = arg ? arg + 1 : NULL;
+	switch (s->lk) {
+	case LINK_UDP: {
+		long port = SWELL_UDP_PORT_VIEWER;
+		if (arg) {
+			char *end;
+			port = strtol(arg, &end, 10);
+			if (*arg == '\0' || *end || port < 1 || port > 65535) {
+				snprintf(err, errlen, "udp port '%s' is not in 1..65535", arg);
+				return -EINVAL;
+			}
 		}
+		rc = swell_link_open_udp(&l, SWELL_UDP_HOST, (uint16_t)port, NULL, 0);
+		snprintf(s->desc, sizeof(s->desc), "UDP %s:%ld", SWELL_UDP_HOST, port);
+		break;
 	}
-	s->fd = socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
-	if (s->fd < 0) {
-		snprintf(err, errlen, "udp socket: %s", strerror(errno));
+	case LINK_CAN: {
+		struct swell_can_opts o;
+		memset(&o, 0, sizeof(o));
+		o.fd = strncmp(s->spec, "canfd:", 6) == 0;
+		o.error_frames = 1;
+		rc = swell_link_open_can(&l, arg, &o);
+		snprintf(s->desc, sizeof(s->desc), "%s %.40s", o.fd ? "CAN FD" : "CAN", arg);
+		break;
+	}
+	case LINK_USB:
+		rc = swell_link_open_usb(&l, &s->usb);
+		snprintf(s->desc, sizeof(s->desc), "USB %04x:%04x", s->usb.vid, s->usb.pid);
+		break;
+	case LINK_REPLAY:
+		rc = swell_link_open_replay(&l, arg, strncmp(s->spec, "replay-fast:", 12) != 0);
+		snprintf(s->desc, sizeof(s->desc), "REPLAY %.80s", arg);
+		break;
+	}
+	if (rc < 0) {
+		snprintf(err, errlen, "%s: %s", s->spec, rc == -EPROTO ? "not a swell recording" : strerror(-rc));
+		return rc;
+	}
+	if (s->record) {
+		struct swell_link *r = NULL;
+		rc = swell_link_open_record(&r, l, s->record);
+		if (rc < 0) {
+			swell_link_close(l);
+			snprintf(err, errlen, "record %s: %s", s->record, strerror(-rc));
+			return rc;
+		}
+		l = r;
+		s->record = NULL; /* one recording file: a re-opened USB link is not recorded again */
+	}
+	s->link = l;
+	return 0;
+}
+
+static bool parse_usb(struct source *s, const char *arg, char *err, size_t errlen)
+{
+	swell_usb_opts_default(&s->usb);
+	if (!arg)
+		return true;
+	unsigned vid, pid;
+	char c;
+	if (sscanf(arg, "%x:%x%c", &vid, &pid, &c) != 2 || vid > 0xffff || pid > 0xffff) {
+		snprintf(err, errlen, "usb '%s' is not VID:PID in hex", arg);
 		return false;
 	}
-	struct sockaddr_in a;
-	memset(&a, 0, sizeof(a));
-	a.sin_family = AF_INET;
-	a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-	a.sin_port = htons((uint16_t)port);
-	if (bind(s->fd, (struct sockaddr *)&a, sizeof(a)) < 0) {
-		snprintf(err, errlen, "udp bind 127.0.0.1:%ld: %s", port, strerror(errno));
-		close(s->fd);
-		s->fd = -1;
-		return false;
-	}
-	snprintf(s->desc, sizeof(s->desc), "UDP 127.0.0.1:%ld", port);
+	s->usb.vid = (uint16_t)vid;
+	s->usb.pid = (uint16_t)pid;
 	return true;
 }
 
-FILE *rec_create(const char *path)
-{
-	FILE *f = fopen(path, "wb");
-	if (f && fwrite(REC_MAGIC, 1, 8, f) != 8) {
-		fclose(f);
-		return NULL;
-	}
-	return f;
-}
-
-void rec_write(FILE *f, uint64_t t_us, unsigned carrier, uint32_t can_id, const uint8_t *p, size_t len)
-{
-	uint8_t h[15];
-	for (int k = 0; k < 8; k++)
-		h[k] = (uint8_t)(t_us >> (8 * k));
-	h[8] = (uint8_t)carrier;
-	for (int k = 0; k < 4; k++)
-		h[9 + k] = (uint8_t)(can_id >> (8 * k));
-	h[13] = (uint8_t)len;
-	h[14] = (uint8_t)(len >> 8);
-	fwrite(h, 1, sizeof(h), f);
-	fwrite(p, 1, len, f);
-}
-
-static bool open_replay(struct source *s, const char *path, char *err, size_t errlen)
-{
-	char magic[8];
-	s->in = fopen(path, "rb");
-	if (!s->in) {
-		snprintf(err, errlen, "replay %s: %s", path, strerror(errno));
-		return false;
-	}
-	if (fread(magic, 1, 8, s->in) != 8 || memcmp(magic, REC_MAGIC, 8) != 0) {
-		snprintf(err, errlen, "replay %s: not a swell-view recording (no %s magic)", path, REC_MAGIC);
-		fclose(s->in);
-		s->in = NULL;
-		return false;
-	}
-	snprintf(s->desc, sizeof(s->desc), "REPLAY %.80s", path);
-	return true;
-}
-
-/* Read the next record into the pending slot; false at the end or on a damaged record. */
-static bool replay_next(struct source *s)
-{
-	uint8_t h[15];
-	if (fread(h, 1, sizeof(h), s->in) != sizeof(h))
-		return false;
-	uint64_t t = 0;
-	for (int k = 7; k >= 0; k--)
-		t = t << 8 | h[k];
-	uint32_t id = (uint32_t)h[9] | (uint32_t)h[10] << 8 | (uint32_t)h[11] << 16 | (uint32_t)h[12] << 24;
-	uint16_t len = (uint16_t)(h[13] | h[14] << 8);
-	if (h[8] > REC_CANFD || len > sizeof(s->pend) || fread(s->pend, 1, len, s->in) != len) {
-		s->rec_bad++;
-		return false; /* a damaged or cut recording ends here */
-	}
-	s->pend_t = t;
-	s->pend_carrier = h[8];
-	s->pend_id = id;
-	s->pend_len = len;
-	s->have_pending = true;
-	return true;
-}
-
-bool source_open(struct source *s, const char *spec, char *err, size_t errlen)
+bool source_open(struct source *s, const char *spec, const char *record, char *err, size_t errlen)
 {
 	memset(s, 0, sizeof(*s));
-	s->fd = -1;
 	s->rng = 0x12345678u;
-	if (strncmp(spec, "udp", 3) == 0 && (spec[3] == 0 || spec[3] == ':')) {
-		s->kind = SOURCE_UDP;
-		return open_udp(s, spec[3] ? spec + 4 : NULL, err, errlen);
-	}
+	snprintf(s->spec, sizeof(s->spec), "%s", spec);
+	s->record = record;
 	if (strncmp(spec, "pattern:", 8) == 0) {
+		if (record) {
+			snprintf(err, errlen, "--record needs a link source (record a pattern with swell-view-gen)");
+			return false;
+		}
 		s->kind = SOURCE_PATTERN;
 		gen_default(&s->g);
 		if (strcmp(spec + 8, "bump") == 0) {
 			s->animate = false;
 		} else if (strcmp(spec + 8, "bump2") == 0) {
-			/* the mirror image of bump: bump left, object right, force the other way */
-			s->animate = false;
-			s->g.bump_x_um = (int32_t)(0.30 * 64 * 6250);
-			s->g.bump_y_um = (int32_t)(0.40 * 64 * 6250);
-			s->g.obj_x_10um = (int16_t)(0.72 * 64 * 625);
-			s->g.obj_y_10um = (int16_t)(0.70 * 64 * 625);
-			s->g.fx_cN = -120;
-			s->g.fy_cN = 160;
-			s->g.scene_id = 2;
+			gen_mirror(&s->g);
 		} else if (strcmp(spec + 8, "ripple") == 0) {
+			gen_ripple(&s->g);
 			s->animate = true;
-			s->g.bump_amp_um = 2000;
-			s->g.ripple_amp_um = 1200;
-			s->g.ripple_len_um = 60000;
-			s->g.ripple_speed_um_s = 120000;
 		} else {
 			snprintf(err, errlen, "unknown pattern '%s' (bump, bump2, ripple)", spec + 8);
 			return false;
@@ -148,17 +116,26 @@ bool source_open(struct source *s, const char *spec, char *err, size_t errlen)
 		snprintf(s->desc, sizeof(s->desc), "PATTERN %s (NOT A CONTROLLER)", spec + 8);
 		return true;
 	}
-	if (strncmp(spec, "replay:", 7) == 0 || strncmp(spec, "replay-fast:", 12) == 0) {
-		s->kind = SOURCE_REPLAY;
-		s->fast = spec[6] == '-';
-		return open_replay(s, strchr(spec, ':') + 1, err, errlen);
-	}
-	if (strncmp(spec, "usb", 3) == 0 || strncmp(spec, "can:", 4) == 0) {
-		snprintf(err, errlen, "source '%s' needs the host links (host/links), not built in yet", spec);
+	s->kind = SOURCE_LINK;
+	if (strcmp(spec, "udp") == 0 || strncmp(spec, "udp:", 4) == 0)
+		s->lk = LINK_UDP;
+	else if ((strncmp(spec, "can:", 4) == 0 && spec[4]) || (strncmp(spec, "canfd:", 6) == 0 && spec[6]))
+		s->lk = LINK_CAN;
+	else if (strcmp(spec, "usb") == 0 || strncmp(spec, "usb:", 4) == 0)
+		s->lk = LINK_USB;
+	else if ((strncmp(spec, "replay:", 7) == 0 && spec[7]) || (strncmp(spec, "replay-fast:", 12) == 0 && spec[12]))
+		s->lk = LINK_REPLAY;
+	else {
+		snprintf(err, errlen, "unknown source '%s' (udp[:PORT], can:IFACE, canfd:IFACE, usb[:VID:PID], "
+			 "replay:FILE, replay-fast:FILE, pattern:NAME)", spec);
 		return false;
 	}
-	snprintf(err, errlen, "unknown source '%s' (udp[:PORT], replay:FILE, replay-fast:FILE, pattern:NAME)", spec);
-	return false;
+	if (s->lk == LINK_USB && !parse_usb(s, spec[3] ? spec + 4 : NULL, err, errlen))
+		return false;
+	int rc = link_open(s, err, errlen);
+	if (rc == -ENODEV && s->lk == LINK_USB)
+		return true; /* not plugged in yet: LINK DOWN on screen, tried again every 500 ms */
+	return rc == 0;
 }
 
 bool source_faults(struct source *s, const char *list, char *err, size_t errlen)
@@ -183,44 +160,10 @@ bool source_faults(struct source *s, const char *list, char *err, size_t errlen)
 	return true;
 }
 
-static void deliver_frame(struct source *s, unsigned carrier, uint32_t id, const uint8_t *p, size_t len)
-{
-	if (s->record)
-		rec_write(s->record, s->now_us, carrier, id, p, len);
-	if (carrier == REC_PACKET)
-		feed_packet(s->feed, p, len, s->now_us);
-	else
-		feed_can(s->feed, id, p, len, carrier == REC_CANFD, s->now_us);
-	s->delivered++;
-}
-
 static void deliver(struct source *s, const uint8_t *p, size_t len)
 {
-	deliver_frame(s, REC_PACKET, 0, p, len);
-}
-
-static void replay_poll(struct source *s, uint64_t now_us)
-{
-	if (s->ended)
-		return;
-	if (!s->feed->vm->link_up)
-		vm_link(s->feed->vm, true, now_us);
-	for (;;) {
-		if (!s->have_pending && !replay_next(s)) {
-			s->ended = true;
-			snprintf(s->desc + strlen(s->desc), sizeof(s->desc) - strlen(s->desc), " - ENDED");
-			vm_link(s->feed->vm, false, now_us);
-			return;
-		}
-		if (s->rec_t0 == 0) {
-			s->rec_t0 = now_us ? now_us : 1;
-			s->rec_first = s->pend_t;
-		}
-		if (!s->fast && s->pend_t - s->rec_first > now_us - s->rec_t0)
-			return; /* not yet due */
-		s->have_pending = false;
-		deliver_frame(s, s->pend_carrier, s->pend_id, s->pend, s->pend_len);
-	}
+	feed_packet(s->feed, p, len, s->now_us);
+	s->delivered++;
 }
 
 static uint32_t rnd(struct source *s)
@@ -313,6 +256,58 @@ static void pattern_poll(struct source *s, uint64_t now_us)
 	}
 }
 
+static void link_poll(struct source *s, uint64_t now_us)
+{
+	struct view_model *vm = s->feed->vm;
+
+	if (!s->link) {
+		if (s->lk != LINK_USB || now_us < s->retry_us)
+			return;
+		char err[128];
+		s->retry_us = now_us + 500000u;
+		if (link_open(s, err, sizeof(err)) != 0)
+			return;
+	}
+	if (!vm->link_up && !s->ended)
+		vm_link(vm, true, now_us);
+	/* everything that is there now, bounded so a flood cannot stall the display */
+	for (int k = 0; k < 20000; k++) {
+		struct swell_frame f;
+		int rc = swell_link_recv(s->link, &f, 0);
+		if (rc == -ETIMEDOUT || rc == -EAGAIN)
+			return;
+		if (rc == -ENODEV) { /* unplugged; the link re-opens it when it is back */
+			if (vm->link_up)
+				vm_link(vm, false, now_us);
+			return;
+		}
+		if (rc == -ENODATA || rc == -EIO) { /* end of a replay, or a damaged record */
+			if (rc == -EIO)
+				s->rec_damaged++;
+			s->ended = true;
+			vm_link(vm, false, now_us);
+			swell_link_close(s->link);
+			s->link = NULL;
+			return;
+		}
+		if (rc < 0) {
+			if (vm->link_up)
+				vm_link(vm, false, now_us);
+			return;
+		}
+		if (!vm->link_up)
+			vm_link(vm, true, now_us);
+		s->delivered++;
+		if (swell_link_carrier(s->link) == SWELL_CARRIER_PKT) {
+			feed_packet(s->feed, f.data, f.len, now_us);
+		} else if (f.flags & SWELL_FRAME_EFF) {
+			vm_bad(vm); /* a 29-bit id is never a swell frame */
+		} else {
+			feed_can(s->feed, f.id, f.data, f.len, (f.flags & SWELL_FRAME_FD) != 0, now_us);
+		}
+	}
+}
+
 uint32_t source_poll(struct source *s, struct view_feed *f, uint64_t now_us)
 {
 	s->feed = f;
@@ -324,28 +319,12 @@ uint32_t source_poll(struct source *s, struct view_feed *f, uint64_t now_us)
 		pattern_poll(s, now_us);
 		return s->delivered;
 	}
-	if (s->kind == SOURCE_REPLAY) {
-		replay_poll(s, now_us);
-		return s->delivered;
-	}
-	if (!f->vm->link_up && s->fd >= 0)
-		vm_link(f->vm, true, now_us); /* a bound socket is a link that is up; silence is STALE */
-	for (int k = 0; k < 4096; k++) {
-		uint8_t buf[2048];
-		ssize_t n = recv(s->fd, buf, sizeof(buf), 0);
-		if (n < 0)
-			break;
-		deliver(s, buf, (size_t)n);
-	}
+	link_poll(s, now_us);
 	return s->delivered;
 }
 
 void source_close(struct source *s)
 {
-	if (s->fd >= 0)
-		close(s->fd);
-	s->fd = -1;
-	if (s->in)
-		fclose(s->in);
-	s->in = NULL;
+	swell_link_close(s->link);
+	s->link = NULL;
 }

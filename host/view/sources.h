@@ -1,36 +1,27 @@
-/* Where swell-view's frames come from. Each source delivers whole carrier frames to the feed (and
- * to the recorder, when one is open).
- *   udp[:PORT]         datagrams on 127.0.0.1:PORT (default SWELL_UDP_PORT_VIEWER), as swell-ctl sends
- *   replay:FILE        a recording made with --record (or by swell-view-gen), at recorded speed
- *   replay-fast:FILE   the same, everything at once
- *   pattern:NAME       a known scene encoded in-process with the real encoders (gen.h), labelled
- *                      "PATTERN" on screen: bump (static), bump2 (its mirror image),
- *                      ripple (animated). Faults can be injected
- *                      into its packet stream (see source_faults) to test the decode path. */
+/* Where swell-view's frames come from. Each source hands whole carrier frames to the feed.
+ * Link sources use the host links (host/links, swell/link.h):
+ *   udp[:PORT]         datagrams on 127.0.0.1:PORT (default SWELL_UDP_PORT_VIEWER, where swell-ctl sends)
+ *   can:IFACE          SocketCAN, classic frames; canfd:IFACE for CAN FD
+ *   usb[:VID:PID]      libusb bulk (default the swell VID/PID); waits for the device and follows
+ *                      unplug and replug
+ *   replay:FILE        a recording (--record, or swell-view-gen), at recorded speed
+ *   replay-fast:FILE   the same, as fast as it can be read
+ * and one in-process source for tests and demos:
+ *   pattern:NAME       a known scene encoded with the real encoders (gen.h), labelled "PATTERN" on
+ *                      screen: bump (static), bump2 (its mirror image), ripple (animated). Faults can
+ *                      be injected into its packet stream (source_faults) to test the decode path. */
 #ifndef SWELL_VIEW_SOURCES_H
 #define SWELL_VIEW_SOURCES_H
 
 #include <stdbool.h>
 #include <stdint.h>
-#include <stdio.h>
 
 #include "feed.h"
 #include "gen.h"
+#include "swell/link.h"
 
-enum source_kind { SOURCE_UDP, SOURCE_PATTERN, SOURCE_REPLAY };
-
-/* Recording format (provisional, until host/links has one): the 8-byte magic REC_MAGIC, then one
- * record a received frame: receive time us (u64 LE), carrier (u8: 0 packet, 1 CAN, 2 CAN FD),
- * CAN id (u32 LE, 0 for packets), length (u16 LE), the frame's bytes. */
-#define REC_MAGIC "SWVREC01"
-#define REC_PACKET 0u
-#define REC_CAN 1u
-#define REC_CANFD 2u
-
-/* Open a recording for writing (writes the magic); NULL with errno set on failure. */
-FILE *rec_create(const char *path);
-/* Append one frame. */
-void rec_write(FILE *f, uint64_t t_us, unsigned carrier, uint32_t can_id, const uint8_t *p, size_t len);
+enum source_kind { SOURCE_LINK, SOURCE_PATTERN };
+enum link_kind { LINK_UDP, LINK_CAN, LINK_USB, LINK_REPLAY };
 
 /* Faults injected into the pattern's packets (bit flags). */
 #define FAULT_GARBAGE  0x01u /* random datagrams between the real ones */
@@ -44,7 +35,15 @@ void rec_write(FILE *f, uint64_t t_us, unsigned carrier, uint32_t can_id, const 
 struct source {
 	enum source_kind kind;
 	char desc[96];
-	int fd;
+	/* link */
+	enum link_kind lk;
+	struct swell_link *link;
+	char spec[256];
+	struct swell_usb_opts usb;
+	uint64_t retry_us;     /* USB not there at start: next attempt to open it */
+	bool ended;            /* replay reached the end of the recording */
+	uint32_t rec_damaged;  /* replay stopped at a damaged record */
+	const char *record;    /* record what is received to this file (link sources) */
 	/* pattern */
 	struct gen_scene g;
 	bool animate;
@@ -57,26 +56,15 @@ struct source {
 	size_t held_len;
 	uint32_t emitted;
 	bool restarted;
-	/* replay */
-	FILE *in;
-	bool fast, ended;
-	uint64_t rec_t0, rec_first;
-	bool have_pending;
-	uint64_t pend_t;
-	uint8_t pend_carrier;
-	uint32_t pend_id;
-	uint16_t pend_len;
-	uint8_t pend[2048];
-	uint32_t rec_bad;      /* records that could not be read (truncated file) */
 	/* delivery */
 	struct view_feed *feed;
-	FILE *record;
 	uint64_t now_us;
 	uint32_t delivered;
 };
 
-/* Parse and open a source spec; false with a one-line reason in err. */
-bool source_open(struct source *s, const char *spec, char *err, size_t errlen);
+/* Parse and open a source spec; false with a one-line reason in err. record: a file to record the
+ * received frames to (link sources only), or NULL. */
+bool source_open(struct source *s, const char *spec, const char *record, char *err, size_t errlen);
 /* Parse a fault list ("garbage,truncate,..."); false with the reason in err. */
 bool source_faults(struct source *s, const char *list, char *err, size_t errlen);
 /* Deliver everything available at now_us. Returns frames delivered. */

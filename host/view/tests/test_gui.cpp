@@ -107,6 +107,17 @@ run_result view(const std::string &args)
 	return r;
 }
 
+// A recording of a known scene made by swell-view-gen (cached per test process).
+std::string recording(const std::string &scene)
+{
+	std::string path = tmpdir() + "/" + scene + ".rec";
+	if (access(path.c_str(), F_OK) != 0) {
+		std::string cmd = "ASAN_OPTIONS=detect_leaks=0 " SWELL_VIEW_GEN_BIN " --scene " + scene + " --frames 25 --out " + path + " > /dev/null";
+		REQUIRE(std::system(cmd.c_str()) == 0);
+	}
+	return "replay-fast:" + path;
+}
+
 struct image {
 	pngr::decoded d;
 	const uint8_t *at(int c, int r) const { return &d.pixels[(size_t(r) * d.w + size_t(c)) * 3]; }
@@ -192,15 +203,15 @@ struct scene_case {
 	double fx, fy;                // N
 };
 const scene_case cases[] = {
-	{"pattern:bump", 0.70, 0.50, 0.30 * L, 0.35 * L, 1.5, -1.0},
-	{"pattern:bump2", 0.30, 0.40, 0.72 * L, 0.70 * L, -1.2, 1.6},
+	{"bump", 0.70, 0.50, 0.30 * L, 0.35 * L, 1.5, -1.0},
+	{"bump2", 0.30, 0.40, 0.72 * L, 0.70 * L, -1.2, 1.6},
 };
 
 } // namespace
 
 TEST_CASE("water fills the pool inside its walls and nothing outside them")
 {
-	image im = shot("pattern:bump", "--msaa 4"); // the default antialiasing, as users see it
+	image im = shot(recording("bump"), "--msaa 4"); // the default antialiasing, as users see it
 	const double t = 0.03 * L; // wall thickness (render.c)
 	long inside = 0, inside_water = 0, outside_water = 0, wall_water = 0;
 	for (int r = 0; r < H; r++)
@@ -227,7 +238,7 @@ TEST_CASE("water fills the pool inside its walls and nothing outside them")
 TEST_CASE("a raised bump is lit on its +x flank (the light's side) and red in the colour scale")
 {
 	for (const auto &k : cases) {
-		image im = shot(k.source);
+		image im = shot(recording(k.source));
 		double bx = k.bump_x * L, by = k.bump_y * L, sg = 0.025;
 		double east = mean_luma(im, bx + sg, by, 3), west = mean_luma(im, bx - sg, by, 3);
 		double flat = mean_luma(im, k.bump_x > 0.5 ? 0.1 * L : 0.9 * L, 0.9 * L, 3);
@@ -235,7 +246,7 @@ TEST_CASE("a raised bump is lit on its +x flank (the light's side) and red in th
 		CHECK(east > west + 20);
 		CHECK(east > flat + 20);
 
-		image col = shot(k.source, "--colour --range 2");
+		image col = shot(recording(k.source), "--colour --range 2");
 		const uint8_t *top = col.at(int(col_of(bx)), int(row_of(by)));
 		const uint8_t *far = col.at(int(col_of(k.bump_x > 0.5 ? 0.1 * L : 0.9 * L)), int(row_of(0.9 * L)));
 		INFO("bump top rgb " << int(top[0]) << "," << int(top[1]) << "," << int(top[2]) << "; flat water rgb "
@@ -248,7 +259,7 @@ TEST_CASE("a raised bump is lit on its +x flank (the light's side) and red in th
 TEST_CASE("the object is drawn where its pose says, at its size")
 {
 	for (const auto &k : cases) {
-		image im = shot(k.source);
+		image im = shot(recording(k.source));
 		box b = find(im, is_object);
 		double cc = (b.c0 + b.c1) / 2.0, cr = (b.r0 + b.r1) / 2.0;
 		INFO(k.source << ": object pixels " << b.n << ", box centre (" << cc << ", " << cr << ") px, expected ("
@@ -265,7 +276,7 @@ TEST_CASE("the object is drawn where its pose says, at its size")
 TEST_CASE("the force arrow starts at the object and points the way the force does")
 {
 	for (const auto &k : cases) {
-		image im = shot(k.source);
+		image im = shot(recording(k.source));
 		box a = find(im, is_arrow);
 		REQUIRE(a.n > 100);
 		// image rows grow downwards: flip y
@@ -378,30 +389,42 @@ TEST_CASE("only tiles whose heights changed are uploaded")
 	CHECK(std::atol(moving.out.c_str() + at + 9) > 64 * 25);
 }
 
-TEST_CASE("a recording replays to the same picture, and cut or garbage recordings do no harm")
+TEST_CASE("a recording replays to the picture of the live scene, and --record keeps what was received")
 {
-	std::string rec = tmpdir() + "/bump.rec";
-	image live = shot("pattern:bump", "--record " + rec, 25);
-	image again = shot("replay-fast:" + rec, "", 5);
-	long differ = 0;
-	for (size_t k = 0; k < live.d.pixels.size(); k++)
-		differ += live.d.pixels[k] != again.d.pixels[k];
+	image live = shot("pattern:bump");
+	std::string copy = tmpdir() + "/copy.rec";
+	image replayed = shot(recording("bump"), "--record " + copy);
+	image again = shot("replay-fast:" + copy);
+	long differ = 0, differ2 = 0;
+	for (size_t k = 0; k < live.d.pixels.size(); k++) {
+		differ += live.d.pixels[k] != replayed.d.pixels[k];
+		differ2 += replayed.d.pixels[k] != again.d.pixels[k];
+	}
+	INFO("bytes that differ: live against replay " << differ << ", replay against its re-recording " << differ2);
 	CHECK(differ == 0);
+	CHECK(differ2 == 0);
+}
 
-	// cut in the middle of a record: the replay ends there
+TEST_CASE("a cut recording shows what it holds and a recording of noise draws nothing")
+{
+	std::string rec = recording("bump").substr(12);
 	std::ifstream in(rec, std::ios::binary);
 	std::vector<char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
 	REQUIRE(bytes.size() > 30000);
+	// cut in the middle of a record, after the first full set of tiles
 	std::string cut = tmpdir() + "/cut.rec";
 	std::ofstream(cut, std::ios::binary).write(bytes.data(), std::streamsize(bytes.size() * 2 / 3 + 7));
-	image part = shot("replay-fast:" + cut, "", 5);
+	run_result cr;
+	image part = shot("replay-fast:" + cut, "", 4, &cr);
+	INFO(cr.out);
 	CHECK(find(part, is_water).n > 100000);
+	CHECK(find(part, is_object).n > 1000);
 
-	// the right magic, then noise: nothing decodes, nothing is drawn
+	// the right header, then noise: nothing decodes, nothing is drawn
 	std::string noise = tmpdir() + "/noise.rec";
 	{
 		std::ofstream o(noise, std::ios::binary);
-		o.write(bytes.data(), 8);
+		o.write(bytes.data(), 16);
 		uint32_t s = 99;
 		for (int k = 0; k < 200000; k++) {
 			s = s * 1664525u + 1013904223u;
@@ -409,7 +432,12 @@ TEST_CASE("a recording replays to the same picture, and cut or garbage recording
 		}
 	}
 	run_result nr;
-	image none = shot("replay-fast:" + noise, "", 5, &nr);
+	image none = shot("replay-fast:" + noise, "", 4, &nr);
+	INFO(nr.out);
 	CHECK(find(none, is_water).n == 0);
 	CHECK(find(none, is_object).n == 0);
+
+	// not a recording at all: refused with a reason, exit status 2
+	run_result bad = view("--headless --source replay-fast:" + cut.substr(0, cut.size() - 7) + "bump.rec.nope");
+	CHECK(bad.status == 2);
 }
