@@ -84,7 +84,7 @@ static void die(const char *fmt, const char *a, const char *b)
 	exit(2);
 }
 
-static double number(const char *opt, const char *v, double lo, double hi)
+static double number(const char *opt, const char *v, double lo, double hi, const char *unit)
 {
 	char *end;
 	double x;
@@ -92,14 +92,26 @@ static double number(const char *opt, const char *v, double lo, double hi)
 	errno = 0;
 	x = strtod(v, &end);
 	if (errno || end == v || *end || !(x >= lo && x <= hi)) {
-		fprintf(stderr, "swell-hm: %s '%s' is not a number in [%g, %g]\n", opt, v, lo, hi);
+		fprintf(stderr, "swell-hm: %s '%s' is not a number in [%g, %g]%s%s\n", opt, v, lo, hi, *unit ? " " : "",
+			unit);
 		exit(2);
 	}
 	return x;
 }
 
+static unsigned whole(const char *opt, const char *v, double lo, double hi, const char *unit)
+{
+	double x = number(opt, v, lo, hi, unit);
+
+	if (x != floor(x)) {
+		fprintf(stderr, "swell-hm: %s '%s' is not a whole number%s%s\n", opt, v, *unit ? " of " : "", unit);
+		exit(2);
+	}
+	return (unsigned)x;
+}
+
 /* "a,b[,c]": exactly n numbers in [lo, hi]. */
-static void numbers(const char *opt, const char *v, double *out, int n, double lo, double hi)
+static void numbers(const char *opt, const char *v, double *out, int n, double lo, double hi, const char *unit)
 {
 	const char *p = v;
 	char *end;
@@ -109,8 +121,8 @@ static void numbers(const char *opt, const char *v, double *out, int n, double l
 		errno = 0;
 		out[k] = strtod(p, &end);
 		if (errno || end == p || !(out[k] >= lo && out[k] <= hi) || *end != (k + 1 < n ? ',' : '\0')) {
-			fprintf(stderr, "swell-hm: %s '%s' must be %d comma-separated numbers in [%g, %g]\n", opt, v,
-				n, lo, hi);
+			fprintf(stderr, "swell-hm: %s '%s' must be %d comma-separated numbers in [%g, %g] %s\n", opt,
+				v, n, lo, hi, unit);
 			exit(2);
 		}
 		p = end + 1;
@@ -160,32 +172,32 @@ static void parse(int argc, char **argv, struct opts *o)
 		} else if (!strcmp(a, "--host"))
 			o->host = v;
 		else if (!strcmp(a, "--port"))
-			o->port = (unsigned)number(a, v, 1, 65535);
+			o->port = whole(a, v, 1, 65535, "");
 		else if (!strcmp(a, "--bind-port"))
-			o->bind_port = (unsigned)number(a, v, 0, 65535);
+			o->bind_port = whole(a, v, 0, 65535, "");
 		else if (!strcmp(a, "--node"))
-			o->node = (unsigned)number(a, v, 0, SWELL_NODE_MAX);
+			o->node = whole(a, v, 0, SWELL_NODE_MAX, "");
 		else if (!strcmp(a, "--rate"))
-			o->p.rate_hz = number(a, v, 100, 100000);
+			o->p.rate_hz = number(a, v, 100, 100000, "Hz");
 		else if (!strcmp(a, "--timeout-ms"))
-			o->timeout_ms = (unsigned)number(a, v, 1, 10000);
+			o->timeout_ms = whole(a, v, 1, 10000, "ms");
 		else if (!strcmp(a, "--seconds"))
-			o->seconds = number(a, v, 1e-3, 1e6);
+			o->seconds = number(a, v, 1e-3, 1e6, "s");
 		else if (!strcmp(a, "--mass"))
-			o->p.mass_kg = number(a, v, 0.01, 1000);
+			o->p.mass_kg = number(a, v, 0.01, 1000, "kg");
 		else if (!strcmp(a, "--damping"))
-			o->p.damping_Ns_m = number(a, v, 0, 10000);
+			o->p.damping_Ns_m = number(a, v, 0, 10000, "N s/m");
 		else if (!strcmp(a, "--limit"))
-			o->p.limit_m[0] = o->p.limit_m[1] = o->p.limit_m[2] = number(a, v, 1, 300) * 1e-3;
+			o->p.limit_m[0] = o->p.limit_m[1] = o->p.limit_m[2] = number(a, v, 1, 300, "mm") * 1e-3;
 		else if (!strcmp(a, "--fmax"))
-			o->p.f_max_N = number(a, v, 1e-3, 250);
+			o->p.f_max_N = number(a, v, 1e-3, 250, "N");
 		else if (!strcmp(a, "--watchdog"))
-			o->p.watchdog_ticks = (uint32_t)number(a, v, 1, 100000);
+			o->p.watchdog_ticks = whole(a, v, 1, 100000, "ticks");
 		else if (!strcmp(a, "--start")) {
-			numbers(a, v, o->start_mm, 3, -300, 300);
+			numbers(a, v, o->start_mm, 3, -300, 300, "mm");
 			o->have_start = 1;
 		} else if (!strcmp(a, "--estop")) {
-			numbers(a, v, o->estop_s, 2, 0, 1e6);
+			numbers(a, v, o->estop_s, 2, 0, 1e6, "s");
 			if (o->estop_s[1] <= o->estop_s[0])
 				die("--estop A,B needs A < B, not '%s'%s", v, "");
 		} else if (!strcmp(a, "--hand")) {
@@ -195,12 +207,12 @@ static void parse(int argc, char **argv, struct opts *o)
 		} else if (!strcmp(a, "--object")) {
 			double ob[3];
 
-			numbers(a, v, ob, 3, 1e-3, 1e6);
+			numbers(a, v, ob, 3, 1e-3, 1e6, "g, mm, mm");
 			o->obj_mass_g = ob[0];
 			o->obj_a_mm = ob[1];
 			o->obj_b_mm = ob[2];
 		} else if (!strcmp(a, "--pool"))
-			numbers(a, v, o->pool_mm, 2, 1, 1e5);
+			numbers(a, v, o->pool_mm, 2, 1, 1e5, "mm");
 		else if (!strcmp(a, "--log"))
 			o->log = v;
 		else
@@ -352,6 +364,7 @@ struct run {
 	uint8_t offset;
 	double peak_f_N, z_sum, z_min, z_max;
 	uint64_t z_n;
+	int held_late; /* the hand held the handle in the last second: no free float to compare */
 	uint32_t hist[HIST_US + 1];
 	int64_t late_max_ns;
 };
@@ -526,6 +539,7 @@ int main(int argc, char **argv)
 			r.z_n++;
 			r.z_min = z < r.z_min ? z : r.z_min;
 			r.z_max = z > r.z_max ? z : r.z_max;
+			r.held_late |= holding;
 		}
 		if (log)
 			fprintf(log, ",%.2f,%.2f,%.2f,%.3f,%.3f,%.3f,%d,%u,%d,%d,%d\n", s.f_cmd_N[0], s.f_cmd_N[1],
@@ -557,9 +571,14 @@ int main(int argc, char **argv)
 
 		printf("  equilibrium z   %+.3f mm mean over the last %.3f s (min %+.3f, max %+.3f mm)\n", zm,
 		       (double)r.z_n * dt, r.z_min, r.z_max);
-		printf("  expected z      %+.3f mm = -m g/k; error %+.3f %%\n", z_rest, (zm - z_rest) / -z_rest * 100.0);
-		printf("  with level rise %+.3f mm (-m g/k + %.3f mm mean level rise); error %+.3f %%\n",
-		       z_rest + z_level, z_level, (zm - z_rest - z_level) / -(z_rest + z_level) * 100.0);
+		if (r.held_late) {
+			printf("  expected z      none: the hand held the handle in that second\n");
+		} else {
+			printf("  expected z      %+.3f mm = -m g/k; error %+.3f %%\n", z_rest,
+			       (zm - z_rest) / -z_rest * 100.0);
+			printf("  with level rise %+.3f mm (-m g/k + %.3f mm mean level rise); error %+.3f %%\n",
+			       z_rest + z_level, z_level, (zm - z_rest - z_level) / -(z_rest + z_level) * 100.0);
+		}
 	}
 	printf("  peak force      %.3f N (|F_cmd| applied)\n", r.peak_f_N);
 	printf("  commands        %u received, %u lost, %u repeated, %u bad frames, %u send errors\n",

@@ -376,6 +376,7 @@ TEST_CASE("bad parameter sets are refused with a one-line reason, exit 2, nothin
 		{"--hand", "shake:axis=w"},
 		{"--mass", "0.5", "--hand", "press:k=1000000"}, // hand spring too stiff for 0.5 kg at 2500 Hz
 		{"--watchdog", "0"},
+		{"--watchdog", "1.5"},
 		{"--fmax", "300"},
 		{"--start", "0,0,250"},
 		{"--start", "0,0"},
