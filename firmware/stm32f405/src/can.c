@@ -1,5 +1,6 @@
 #include "can.h"
 
+#include "../logic/can_busoff.h"
 #include "../logic/can_tx.h"
 #include "../regs/stm32f405_can.h"
 #include "../regs/stm32f405_periph.h"
@@ -8,7 +9,6 @@
 #include "port.h"
 
 #define INAK_WAIT_LOOPS 100000u /* leaving init needs 11 recessive bits: 11 us at 1 Mbit/s */
-#define BUSOFF_HOLDOFF_MS 100u  /* wait before asking for recovery (128 x 11 recessive bits) */
 #define RX_RING 16u
 
 static struct {
@@ -16,9 +16,9 @@ static struct {
 	uint32_t pend_id[3];
 	struct fw_frame rx[RX_RING];
 	volatile uint32_t rx_head, rx_tail;
-	volatile uint32_t bus_off_count, rx_overruns, tx_aborted, rx_dropped;
-	volatile int recover_pending;
-	uint32_t bus_off_at_ms, now_ms;
+	volatile uint32_t rx_overruns, tx_aborted, rx_dropped;
+	struct can_busoff busoff; /* written by the status interrupt and can_poll (masked there) */
+	volatile uint32_t now_ms;
 } can;
 
 static int wait_msr(uint32_t mask, uint32_t want)
@@ -101,6 +101,7 @@ enum swell_err can_start(uint32_t pclk1_hz, uint32_t bitrate, const struct can_f
 	CAN1->FMR &= ~CAN_FMR_FINIT;
 
 	can.rx_head = can.rx_tail = 0;
+	can_busoff_init(&can.busoff);
 	CAN1->IER = CAN_IER_FMPIE0 | CAN_IER_FOVIE0 | CAN_IER_BOFIE | CAN_IER_EPVIE | CAN_IER_ERRIE;
 	irq_setup(IRQ_CAN1_RX0, prio_rx);
 	irq_setup(IRQ_CAN1_SCE, prio_sce);
@@ -207,30 +208,33 @@ void isr_can1_sce(void)
 	uint32_t esr = CAN1->ESR;
 
 	CAN1->MSR = CAN_MSR_ERRI; /* rc_w1 */
-	if ((esr & CAN_ESR_BOFF) && !can.recover_pending) {
-		can.bus_off_count++;
-		can.recover_pending = 1;
-		can.bus_off_at_ms = can.now_ms;
+	if ((esr & CAN_ESR_BOFF) && !can.busoff.pending) {
+		can_busoff_event(&can.busoff, can.now_ms);
 		port_force_zero();
 	}
 }
 
 void can_poll(uint32_t now_ms)
 {
+	uint32_t primask;
+	int due, ok = 0;
+
 	can.now_ms = now_ms;
-	if (!can.recover_pending || now_ms - can.bus_off_at_ms < BUSOFF_HOLDOFF_MS)
+	__asm__ volatile("mrs %0, primask\n\tcpsid i" : "=r"(primask)::"memory");
+	due = can_busoff_due(&can.busoff, now_ms);
+	__asm__ volatile("msr primask, %0" ::"r"(primask) : "memory");
+	if (!due)
 		return;
 	/* Manual recovery (ABOM = 0): a pass through initialisation mode clears the error state once
 	 * the controller has seen 128 x 11 recessive bits. Bounded waits; on failure try again later. */
 	CAN1->MCR |= CAN_MCR_INRQ;
 	if (wait_msr(CAN_MSR_INAK, CAN_MSR_INAK)) {
 		CAN1->MCR &= ~CAN_MCR_INRQ;
-		if (wait_msr(CAN_MSR_INAK, 0)) {
-			can.recover_pending = 0;
-			return;
-		}
+		ok = wait_msr(CAN_MSR_INAK, 0);
 	}
-	can.bus_off_at_ms = now_ms;
+	__asm__ volatile("mrs %0, primask\n\tcpsid i" : "=r"(primask)::"memory");
+	can_busoff_attempted(&can.busoff, now_ms, ok);
+	__asm__ volatile("msr primask, %0" ::"r"(primask) : "memory");
 }
 
 void can_status(struct can_status *out)
@@ -242,7 +246,7 @@ void can_status(struct can_status *out)
 	out->lec = (uint8_t)((esr >> CAN_ESR_LEC_SHIFT) & 7u);
 	out->error_passive = !!(esr & CAN_ESR_EPVF);
 	out->bus_off = !!(esr & CAN_ESR_BOFF);
-	out->bus_off_count = can.bus_off_count;
+	out->bus_off_count = can.busoff.count;
 	out->rx_overruns = can.rx_overruns;
 	out->tx_aborted = can.tx_aborted;
 }

@@ -241,3 +241,44 @@ TEST_CASE("mailbox choice prefers a free mailbox and displaces the least urgent 
 	CHECK(can_tx_pick(0x0, id, 0x400, &mb, &ab) == SWELL_ESIZE);
 	CHECK(mb == 9);
 }
+
+extern "C" {
+#include "logic/can_busoff.h"
+}
+
+TEST_CASE("bus-off recovery waits the hold-off, doubles it while the bus keeps failing, and resets "
+	  "after a quiet second",
+	  "[can]")
+{
+	can_busoff b;
+	can_busoff_init(&b);
+	CHECK_FALSE(can_busoff_due(&b, 0));
+	uint32_t t = 0xFFFFFF00u; // wraps during the test
+	can_busoff_event(&b, t);
+	can_busoff_event(&b, t + 5); // repeated report while pending: ignored
+	CHECK(b.count == 1);
+	CHECK_FALSE(can_busoff_due(&b, t + CAN_BUSOFF_BASE_MS - 1));
+	CHECK(can_busoff_due(&b, t + CAN_BUSOFF_BASE_MS));
+	// A failed attempt waits another hold-off.
+	can_busoff_attempted(&b, t + 100, 0);
+	CHECK_FALSE(can_busoff_due(&b, t + 199));
+	CHECK(can_busoff_due(&b, t + 200));
+	can_busoff_attempted(&b, t + 200, 1);
+	CHECK_FALSE(can_busoff_due(&b, t + 5000));
+	// Bus-off again and again right after recovering: 200, 400, 800, 1600, 1600 ms.
+	uint32_t expect[] = {200, 400, 800, 1600, 1600};
+	uint32_t now = t + 300;
+	for (uint32_t e : expect) {
+		can_busoff_event(&b, now);
+		INFO("hold-off " << b.holdoff_ms << " ms, expected " << e);
+		CHECK(b.holdoff_ms == e);
+		CHECK_FALSE(can_busoff_due(&b, now + e - 1));
+		CHECK(can_busoff_due(&b, now + e));
+		can_busoff_attempted(&b, now + e, 1);
+		now += e + 10;
+	}
+	// A quiet second after recovery: back to the base hold-off.
+	can_busoff_event(&b, now + CAN_BUSOFF_QUIET_MS);
+	CHECK(b.holdoff_ms == CAN_BUSOFF_BASE_MS);
+	CHECK(b.count == 7);
+}
