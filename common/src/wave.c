@@ -163,10 +163,16 @@ static int asleep(const struct swell_wave *w, int tx, int ty)
 /* New flow of one edge from its old flow and the height difference (see wave.h for the rounding). */
 static inline int32_t flow(int32_t f, int32_t dh, q30_t c, q30_t q, int damp, uint32_t *sat)
 {
-	int32_t s = f + swell_mul_q30_rn(dh, c);
+	/* No saturation needed inside: |dh| <= 2^28 and c <= 1.5 * 2^30, so the increment is below
+	 * 1.5 * 2^28 and |s| < 2^30; the damping product with q <= 1 only shrinks it. Same rounding as
+	 * swell_mul_q30_rn and swell_mul_q30_rz, without their int64 range checks. */
+	int64_t p = (int64_t)dh * c;
+	int32_t s = f + (int32_t)((p + ((int64_t)1 << 29)) >> 30);
 
-	if (damp)
-		s = swell_mul_q30_rz(s, q);
+	if (damp) {
+		p = (int64_t)s * q;
+		s = (int32_t)((p + (p < 0 ? ((int64_t)1 << 30) - 1 : 0)) >> 30);
+	}
 	if (s > SWELL_H_MAX || s < -SWELL_H_MAX) {
 		s = swell_clamp(s, -SWELL_H_MAX, SWELL_H_MAX);
 		(*sat)++;
@@ -299,20 +305,32 @@ void swell_wave_step_finish(struct swell_wave *w)
 	/* v and acc swap at every finish: the six arrays after h stay contiguous, in some order */
 	swell_wave_step_rows(w, w->ny);
 	for (j = 0; j < w->ny; j++) {
-		uint8_t *trow = w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x;
+		/* locals: the flag byte store below may alias anything, *w included */
+		int32_t *restrict h = w->h + j * w->nx;
+		const int32_t *restrict acc = w->acc + j * w->nx;
+		uint8_t *restrict trow = w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x;
+		const int nx = w->nx;
+		uint32_t sat = 0;
 
-		for (i = 0; i < w->nx; i++) {
-			int32_t d = w->acc[a = j * w->nx + i];
-			int32_t h = w->h[a] + d; /* |h| <= 2^27, |acc| <= 2^30: no overflow */
+		for (i = 0; i < nx; i += SWELL_WAVE_TILE) {
+			const int end = i + SWELL_WAVE_TILE < nx ? i + SWELL_WAVE_TILE : nx;
+			int32_t any = 0;
 
-			if (h > SWELL_H_MAX || h < -SWELL_H_MAX) {
-				h = swell_clamp(h, -SWELL_H_MAX, SWELL_H_MAX);
-				w->saturations++;
+			for (a = i; a < end; a++) {
+				int32_t d = acc[a];
+				int32_t x = h[a] + d; /* |h| <= 2^27, |acc| <= 2^30: no overflow */
+
+				any |= d;
+				if (x > SWELL_H_MAX || x < -SWELL_H_MAX) {
+					x = swell_clamp(x, -SWELL_H_MAX, SWELL_H_MAX);
+					sat++;
+				}
+				h[a] = x;
 			}
-			if (d)
+			if (any)
 				trow[i / SWELL_WAVE_TILE] |= T_TOUCHED;
-			w->h[a] = h;
 		}
+		w->saturations += sat;
 	}
 	/* the step is done: its flags become the last finished step's */
 	for (a = 0; a < (int)w->tiles_x * w->tiles_y; a++) {
