@@ -112,13 +112,13 @@ struct closed_loop {
 	uint16_t port;
 	proc ctl;
 
-	explicit closed_loop(const std::string &n)
+	explicit closed_loop(const std::string &n, const char *clock = "device")
 	    : name(n), hm_out(work_dir + "/" + n + ".hm.txt"), ctl_out(work_dir + "/" + n + ".ctl.txt"),
 	      csv(work_dir + "/" + n + ".csv"), port(free_udp_port())
 	{
-		// a silent device is a fault after 200 of the controller's own 1 ms waits: a loaded CI machine
-		// must not fault the loop; link loss itself is what the kill test checks
-		ctl = spawn({ctl_bin, "--clock", "device", "--autorun", "--device", "udp:" + std::to_string(port), "--host",
+		// a silent device is a fault after 200 of the controller's own ticks (1 ms waits with the
+		// device clock): a loaded CI machine must not fault the loop; link loss is the kill test's
+		ctl = spawn({ctl_bin, "--clock", clock, "--autorun", "--device", "udp:" + std::to_string(port), "--host",
 			     "none", "--no-rt", "--quiet", "--silent-ticks", "200"},
 			    ctl_out);
 		std::this_thread::sleep_for(std::chrono::milliseconds(100));
@@ -354,6 +354,34 @@ TEST_CASE("controller killed mid-run: swell-hm applies zero force within its wat
 	CHECK(rows[last + 2].applied == 0);
 	CHECK(figure(s, "watchdog") == 1);
 	CHECK(figure(s, "timeouts") >= 1);
+}
+
+TEST_CASE("real time: paced by its own absolute-deadline clock, never faster than wall time, commands applied")
+{
+	closed_loop cl("realtime", "internal");
+	std::vector<std::string> args = cl.hm_args("drop:z=20,hold=100", 2.0);
+	args.erase(args.begin() + 1); // no --lockstep: --rate 2500 (the default)
+	const std::string s = cl.run(args);
+	const size_t at = s.find("\n  ran");
+	REQUIRE(at != std::string::npos);
+	double sim_s = 0.0, wall_s = 0.0;
+	REQUIRE(std::sscanf(s.c_str() + at, "\n  ran %lf s simulated, %*u ticks at %*g Hz, real time, %lf s wall", &sim_s,
+			    &wall_s) == 2);
+	const std::vector<row> rows = read_csv(cl.csv);
+	int weight = 0, n = 0;
+	for (const row &r : rows)
+		if (r.t >= 0.5) {
+			n++;
+			weight += r.applied && std::fabs(r.fcmd[2] + 0.98) < 0.011;
+		}
+	INFO("simulated " << sim_s << " s in " << wall_s << " s wall; weight applied in " << weight << " of " << n
+			  << " ticks after 0.5 s\n"
+			  << s);
+	CHECK(sim_s == Approx(2.0).epsilon(1e-9));
+	CHECK(wall_s >= sim_s);
+	CHECK(s.find("\n  tick lateness   p50 ") != std::string::npos);
+	CHECK(figure(s, "commands") >= 0.5 * 5000);
+	CHECK(weight >= n / 2); // two free-running clocks on a loaded machine: most ticks, not all
 }
 
 TEST_CASE("bad parameter sets are refused with a one-line reason, exit 2, nothing sent, no log")
