@@ -301,7 +301,7 @@ static enum swell_err canfd_decode(uint32_t id, const uint8_t *data, size_t len,
 				   struct swell_msg *out, size_t cap, size_t *n)
 {
 	const struct swell_msg_desc *d;
-	struct swell_msg tmp;
+	struct swell_msg tmp[SWELL_CANFD_MSGS_MAX];
 	size_t k, i, j, slot;
 
 	if (id > 0x7FFu)
@@ -315,22 +315,21 @@ static enum swell_err canfd_decode(uint32_t id, const uint8_t *data, size_t len,
 	if (len < slot || len % slot)
 		return SWELL_ETRUNC; /* a partial slot at the end */
 	k = len / slot;
-	if (k > cap)
+	if (k > cap || k > SWELL_CANFD_MSGS_MAX)
 		return SWELL_ESIZE;
-	/* validate everything first so that a rejected frame leaves out[] untouched */
+	/* decode into a local copy so that a rejected frame leaves out[] untouched */
 	for (i = 0; i < k; i++) {
-		enum swell_err err = swell_payload_decode(d->type, data + i * slot, d->len, &tmp);
+		enum swell_err err;
 
+		tmp[i].node = (uint8_t)(id & 0xFu);
+		err = swell_payload_decode(d->type, data + i * slot, d->len, &tmp[i]);
 		if (err)
 			return err;
 		for (j = d->len; j < slot; j++)
 			if (data[i * slot + j])
 				return SWELL_ERANGE; /* padding must be zero */
 	}
-	for (i = 0; i < k; i++) {
-		out[i].node = (uint8_t)(id & 0xFu);
-		swell_payload_decode(d->type, data + i * slot, d->len, &out[i]);
-	}
+	memcpy(out, tmp, k * sizeof(tmp[0]));
 	*n = k;
 	return SWELL_OK;
 }
@@ -391,20 +390,16 @@ enum swell_err swell_pkt_encode(uint8_t node, uint8_t seq, const struct swell_ms
 	return SWELL_OK;
 }
 
-/* Walks the records; out may be NULL (validation only). */
+/* Decodes the records into out[] (room for SWELL_PKT_MSGS_MAX). */
 static enum swell_err pkt_records(const uint8_t *pkt, size_t end, struct swell_msg *out, size_t cap,
 				  size_t *n)
 {
 	size_t pos = SWELL_PKT_HEADER, k, count = pkt[4];
-	struct swell_msg tmp;
 
-	if (count == 0)
-		return SWELL_ESIZE;
-	if (count > cap)
+	if (count == 0 || count > cap || count > SWELL_PKT_MSGS_MAX)
 		return SWELL_ESIZE;
 	for (k = 0; k < count; k++) {
 		const struct swell_msg_desc *d;
-		struct swell_msg *dst = out ? &out[k] : &tmp;
 		enum swell_err err;
 
 		if (pos >= end)
@@ -414,8 +409,8 @@ static enum swell_err pkt_records(const uint8_t *pkt, size_t end, struct swell_m
 			return SWELL_EUNKNOWN;
 		if (pos + 1 + d->len > end)
 			return SWELL_ETRUNC;
-		dst->node = pkt[2];
-		err = swell_payload_decode(d->type, pkt + pos + 1, d->len, dst);
+		out[k].node = pkt[2];
+		err = swell_payload_decode(d->type, pkt + pos + 1, d->len, &out[k]);
 		if (err)
 			return err;
 		pos += 1u + d->len;
@@ -429,6 +424,7 @@ static enum swell_err pkt_records(const uint8_t *pkt, size_t end, struct swell_m
 static enum swell_err pkt_decode(const uint8_t *pkt, size_t len, struct swell_msg *out, size_t cap,
 				 size_t *n, uint8_t *seq)
 {
+	struct swell_msg tmp[SWELL_PKT_MSGS_MAX];
 	uint32_t crc;
 	size_t k;
 	enum swell_err err;
@@ -447,10 +443,11 @@ static enum swell_err pkt_decode(const uint8_t *pkt, size_t len, struct swell_ms
 		return SWELL_EVERSION;
 	if (pkt[2] > SWELL_NODE_MAX)
 		return SWELL_ERANGE;
-	err = pkt_records(pkt, len - 4, NULL, cap, &k);
+	/* decode into a local copy so that a rejected packet leaves out[] untouched */
+	err = pkt_records(pkt, len - 4, tmp, cap, &k);
 	if (err)
 		return err;
-	pkt_records(pkt, len - 4, out, cap, &k);
+	memcpy(out, tmp, k * sizeof(tmp[0]));
 	*n = k;
 	*seq = pkt[3];
 	return SWELL_OK;
