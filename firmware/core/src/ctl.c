@@ -648,15 +648,24 @@ static uint32_t solver_slice(struct swell_ctl *c)
 	return work;
 }
 
-void swell_ctl_tick(struct swell_ctl *c)
+void swell_ctl_tick_force(struct swell_ctl *c)
 {
-	const uint32_t t = c->n.ticks++;
-	uint32_t budget = c->cfg.host_budget, work = 0;
-
+	if (c->bg_pending)
+		c->n.overruns++; /* the last background part has not finished: the force path goes first */
+	c->n.ticks++;
 	supervise(c);
-	work += force_law(c);
-	work += solver_slice(c);
+	c->work_force = force_law(c);
+	c->bg_pending = 1;
+}
 
+void swell_ctl_tick_background(struct swell_ctl *c)
+{
+	const uint32_t t = c->n.ticks - 1;
+	uint32_t budget = c->cfg.host_budget, work = c->work_force;
+
+	if (!c->bg_pending)
+		return;
+	work += solver_slice(c);
 	if (t % period(c, HEARTBEAT_HZ) == 0) {
 		send_heartbeat(c);
 		budget--;
@@ -674,4 +683,11 @@ void swell_ctl_tick(struct swell_ctl *c)
 	c->n.work = work;
 	if (work > c->n.work_max)
 		c->n.work_max = work;
+	c->bg_pending = 0;
+}
+
+void swell_ctl_tick(struct swell_ctl *c)
+{
+	swell_ctl_tick_force(c);
+	swell_ctl_tick_background(c);
 }

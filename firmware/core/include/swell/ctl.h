@@ -127,6 +127,8 @@ struct swell_ctl {
 
 	/* scheduling */
 	uint32_t ticks_per_step, rows_per_tick, phase;
+	uint32_t work_force;   /* work of the force part of the tick in progress */
+	volatile uint8_t bg_pending; /* force part done, background part not yet */
 
 	/* outputs */
 	struct swell_body_out out;
@@ -162,8 +164,17 @@ enum swell_err swell_ctl_init(struct swell_ctl *c, const struct swell_ctl_config
 /* A decoded message from one link. Messages from the wrong side are counted and ignored. */
 void swell_ctl_rx(struct swell_ctl *c, enum swell_link from, const struct swell_msg *m);
 
-/* One device tick (see above). */
+/* One device tick (see above): swell_ctl_tick_force then swell_ctl_tick_background. */
 void swell_ctl_tick(struct swell_ctl *c);
+
+/* The same tick in two parts for ports with interrupt priorities: the force part (steps 1-3:
+ * supervision, state, force law, safety, FORCE_CMD) from the highest-priority tick interrupt, the
+ * background part (steps 4-5: solver slice, telemetry) from a lower priority right after it. The
+ * background of tick k must be done before the force part of tick k+1 starts: that keeps the order of
+ * every read and write the same as swell_ctl_tick's, so results stay bit-identical. If it is not done,
+ * the force part counts an overrun and runs anyway (safety before waves). */
+void swell_ctl_tick_force(struct swell_ctl *c);
+void swell_ctl_tick_background(struct swell_ctl *c);
 
 /* Up to cap queued messages for a link, oldest first, removed from the queue. */
 size_t swell_ctl_tx(struct swell_ctl *c, enum swell_link link, struct swell_msg *out, size_t cap);
