@@ -353,11 +353,18 @@ TEST_CASE("the tick split into a force part and a background part gives the same
 		split.device(0, 0, z);
 		swell_ctl_tick(&whole.c);
 		swell_ctl_tick_force(&split.c);
-		/* the force goes out before the background part runs */
+		/* the force goes out before the background part runs (a heartbeat the background queued for
+		 * the device goes with the next drain instead) */
 		std::vector<swell_msg> a = whole.drain(SWELL_LINK_DEVICE), b = split.drain(SWELL_LINK_DEVICE);
-		REQUIRE(a.size() >= 1);
-		REQUIRE(b.size() >= 1);
-		REQUIRE(swell_msg_equal(&a[0], &b[0]));
+		auto force_of = [](const std::vector<swell_msg> &v) {
+			for (const swell_msg &m : v)
+				if (m.type == SWELL_MSG_FORCE_CMD)
+					return m;
+			return swell_msg{};
+		};
+		swell_msg fa = force_of(a), fb = force_of(b);
+		REQUIRE(fa.type == SWELL_MSG_FORCE_CMD);
+		REQUIRE(swell_msg_equal(&fa, &fb));
 		swell_ctl_tick_background(&split.c);
 		std::vector<swell_msg> ha = whole.drain(SWELL_LINK_HOST), hb = split.drain(SWELL_LINK_HOST);
 		REQUIRE(ha.size() == hb.size());
