@@ -116,6 +116,8 @@ struct closed_loop {
 	    : name(n), hm_out(work_dir + "/" + n + ".hm.txt"), ctl_out(work_dir + "/" + n + ".ctl.txt"),
 	      csv(work_dir + "/" + n + ".csv"), port(free_udp_port())
 	{
+		std::remove(csv.c_str()); // a log of an earlier run must not pass for this one
+		std::remove(hm_out.c_str());
 		// a silent device is a fault after 200 of the controller's own ticks (1 ms waits with the
 		// device clock): a loaded CI machine must not fault the loop; link loss is the kill test's
 		ctl = spawn({ctl_bin, "--clock", clock, "--autorun", "--device", "udp:" + std::to_string(port), "--host",
@@ -321,7 +323,12 @@ TEST_CASE("controller killed mid-run: swell-hm applies zero force within its wat
 	closed_loop cl("kill");
 	// held above the water: the controller commands the weight, -0.98 N, all along
 	proc hm = spawn(cl.hm_args("drop:z=20,hold=100000", 100000.0), cl.hm_out);
-	std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+	// mid-run: once the log holds about 2000 ticks (it is written in blocks), however slow the machine
+	struct stat st {};
+	for (int k = 0; k < 6000 && (stat(cl.csv.c_str(), &st) != 0 || st.st_size < 200000); k++)
+		std::this_thread::sleep_for(std::chrono::milliseconds(10));
+	INFO("log size when the controller is killed: " << st.st_size << " bytes");
+	REQUIRE(st.st_size >= 200000);
 	kill(cl.ctl.pid, SIGKILL);
 	REQUIRE(wait_for(cl.ctl, 10.0) == 128 + SIGKILL);
 	std::this_thread::sleep_for(std::chrono::milliseconds(500));
