@@ -120,9 +120,18 @@ static int cmd_up(int argc, char **argv)
 			iface, bt.bitrate, bitrate);
 		return 1;
 	}
+	char link[128], target[128];
+	const char *driver = "?";
+	snprintf(link, sizeof(link), "/sys/class/net/%s/device/driver", iface);
+	ssize_t n = readlink(link, target, sizeof(target) - 1);
+	if (n > 0) {
+		target[n] = '\0';
+		const char *slash = strrchr(target, '/');
+		driver = slash ? slash + 1 : target;
+	}
 	printf("%s: up at %" PRIu32 " bit/s, sample point %.1f %%, tq %" PRIu32
-	       " ns, restart %ld ms, state %s\n",
-	       iface, bt.bitrate, bt.sample_point / 10.0, bt.tq, restart_ms, state_name(state));
+	       " ns, restart %ld ms, state %s, driver %s\n",
+	       iface, bt.bitrate, bt.sample_point / 10.0, bt.tq, restart_ms, state_name(state), driver);
 	return 0;
 }
 
