@@ -361,7 +361,7 @@ struct run {
 	uint64_t ticks, timeouts, zeroed_ticks, late_ticks;
 	uint64_t own_ticks; /* lockstep: controller ticks that no sample drove (its seq moved against ours) */
 	int have_offset;
-	uint8_t offset;
+	uint8_t offset, offset0; /* FORCE_CMD seq - n: now, and at the first answer */
 	double peak_f_N, z_sum, z_min, z_max;
 	uint64_t z_n;
 	int held_late; /* the hand held the handle in the last second: no free float to compare */
@@ -497,6 +497,8 @@ int main(int argc, char **argv)
 
 				if (r.have_offset && off != r.offset)
 					r.own_ticks += (uint8_t)(off - r.offset);
+				if (!r.have_offset)
+					r.offset0 = off;
 				r.offset = off;
 				r.have_offset = 1;
 			}
@@ -586,8 +588,8 @@ int main(int argc, char **argv)
 	       d.send_errors);
 	if (o.lockstep)
 		printf("  timeouts        %llu (lockstep waits of %u ms without an answer); %llu controller ticks "
-		       "between samples\n",
-		       (unsigned long long)r.timeouts, o.timeout_ms, (unsigned long long)r.own_ticks);
+		       "between samples, %u before the first (mod 256)\n",
+		       (unsigned long long)r.timeouts, o.timeout_ms, (unsigned long long)r.own_ticks, r.offset0);
 	else
 		printf("  tick lateness   p50 %.0f us, p99 %.0f us, max %.0f us; %llu periods lost\n", pct(&r, 0.5),
 		       pct(&r, 0.99), r.late_max_ns / 1e3, (unsigned long long)r.late_ticks);
