@@ -75,15 +75,54 @@ static void send_usb(const struct swell_msg *m, size_t n)
 	}
 }
 
-/* The tick (TIM2, priority 0): inputs, the core's tick, outputs. Bounded: at most a CAN RX ring
- * and a USB ring of messages, one core tick, two queue drains. */
+/* Drain one of the core's queues onto its carrier. Bounded: a queue holds at most SWELL_CTL_QUEUE
+ * messages, taken 8 at a time (SRAM and stack are tight). */
+static void drain(enum swell_link l)
+{
+	struct swell_msg out[8];
+	int on_can = l == SWELL_LINK_DEVICE ? app.device_on_can : !app.usb_on;
+	uint32_t n;
+	size_t k;
+
+	for (n = 0; n < SWELL_CTL_QUEUE / 8; n++) {
+		k = swell_ctl_tx(&app_ctl, l, out, 8);
+		if (!k)
+			break;
+		for (size_t j = 0; l == SWELL_LINK_DEVICE && j < k; j++) {
+			if (out[j].type == SWELL_MSG_FORCE_CMD) {
+				int on = out[j].u.force_cmd.enable;
+
+				port_force_cN[0] = on ? out[j].u.force_cmd.fx_cN : 0;
+				port_force_cN[1] = on ? out[j].u.force_cmd.fy_cN : 0;
+				port_force_cN[2] = on ? out[j].u.force_cmd.fz_cN : 0;
+			}
+		}
+		if (on_can) {
+			for (size_t j = 0; j < k; j++)
+				send_can(&out[j]);
+		} else {
+			send_usb(out, k);
+		}
+	}
+}
+
+/* Device and host on the same carrier: both queues go out from the tick interrupt, so that the
+ * carrier's driver is never entered from two priorities. */
+static int host_shares_device_carrier(void)
+{
+	return app.device_on_can == !app.usb_on;
+}
+
+/* The tick (TIM2, priority 0): inputs, the force part of the core's tick, the force out. The solver
+ * slice and telemetry (the background part) run in thread mode right after, from app_run's loop; if
+ * one is still running when the next tick comes, the core counts an overrun and the force path goes
+ * first. Bounded: at most a CAN RX ring and a USB ring of messages, one force part, one drain. */
 static void app_tick(void)
 {
-	struct swell_msg m, out[8]; /* queues drained 8 at a time: SRAM and stack are tight */
+	struct swell_msg m;
 	struct fw_frame f;
 	struct tick_stats st;
 	uint32_t bad, n;
-	size_t k, i;
 
 	while (app.can_on && can_recv(&f) == SWELL_OK)
 		if (swell_can_decode(f.id, f.data, f.len, &m, &app.stats) == SWELL_OK)
@@ -105,34 +144,20 @@ static void app_tick(void)
 		swell_ctl_overrun(&app_ctl);
 	}
 
-	swell_ctl_tick(&app_ctl);
+	swell_ctl_tick_force(&app_ctl);
+	drain(SWELL_LINK_DEVICE);
+	if (host_shares_device_carrier())
+		drain(SWELL_LINK_HOST);
+}
 
-	for (i = 0; i < SWELL_LINKS; i++) {
-		enum swell_link l = (enum swell_link)i;
-		int on_can = l == SWELL_LINK_DEVICE ? app.device_on_can : !app.usb_on;
-
-		/* Bounded: a queue holds at most SWELL_CTL_QUEUE messages. */
-		for (n = 0; n < SWELL_CTL_QUEUE / 8; n++) {
-			k = swell_ctl_tx(&app_ctl, l, out, 8);
-			if (!k)
-				break;
-			for (size_t j = 0; l == SWELL_LINK_DEVICE && j < k; j++) {
-				if (out[j].type == SWELL_MSG_FORCE_CMD) {
-					int on = out[j].u.force_cmd.enable;
-
-					port_force_cN[0] = on ? out[j].u.force_cmd.fx_cN : 0;
-					port_force_cN[1] = on ? out[j].u.force_cmd.fy_cN : 0;
-					port_force_cN[2] = on ? out[j].u.force_cmd.fz_cN : 0;
-				}
-			}
-			if (on_can) {
-				for (size_t j = 0; j < k; j++)
-					send_can(&out[j]);
-			} else {
-				send_usb(out, k);
-			}
-		}
-	}
+/* Thread mode, lowest priority: the background part of the tick the interrupt just ran. */
+static void app_background(void)
+{
+	if (!app_ctl.bg_pending)
+		return;
+	swell_ctl_tick_background(&app_ctl);
+	if (!host_shares_device_carrier())
+		drain(SWELL_LINK_HOST);
 }
 
 void app_send_zero_force(void)
@@ -193,5 +218,6 @@ void app_run(const struct clock_info *ci, int can_ok, int usb_ok, const struct a
 		}
 		if (app.can_on)
 			can_poll(now_ms);
+		app_background();
 	}
 }
