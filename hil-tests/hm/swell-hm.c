@@ -8,6 +8,7 @@
  * it; swell-ctl --clock device ticks once per DEVICE_POS), with a timeout, then integrate. Lockstep
  * runs as fast as the two processes go and is deterministic. */
 #define _GNU_SOURCE
+#include <arpa/inet.h>
 #include <errno.h>
 #include <math.h>
 #include <signal.h>
@@ -169,8 +170,13 @@ static void parse(int argc, char **argv, struct opts *o)
 			if (strcmp(v, "udp") && strcmp(v, "usb") && (strncmp(v, "can:", 4) || !v[4]))
 				die("--link must be udp, can:IFACE or usb, not '%s'%s", v, "");
 			o->link = v;
-		} else if (!strcmp(a, "--host"))
+		} else if (!strcmp(a, "--host")) {
+			struct in_addr ia;
+
+			if (inet_pton(AF_INET, v, &ia) != 1)
+				die("--host '%s' is not a dotted IPv4 address%s", v, "");
 			o->host = v;
+		}
 		else if (!strcmp(a, "--port"))
 			o->port = whole(a, v, 1, 65535, "");
 		else if (!strcmp(a, "--bind-port"))

@@ -417,6 +417,7 @@ TEST_CASE("bad parameter sets are refused with a one-line reason, exit 2, nothin
 		{"--start", "0,0"},
 		{"--estop", "2,1"},
 		{"--link", "tcp"},
+		{"--host", "999.1.1.1"},
 		{"--seconds", "-1"},
 		{"--bogus", "1"},
 	};
