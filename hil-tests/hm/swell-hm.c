@@ -11,10 +11,12 @@
 #include <arpa/inet.h>
 #include <errno.h>
 #include <math.h>
+#include <sched.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
 #include <time.h>
 
 #include "hm_hand.h"
@@ -39,6 +41,7 @@ static const char usage[] =
 	"  --lockstep          after each sample wait for the controller's FORCE_CMD (deterministic,\n"
 	"                      as fast as both go); default: real time at --rate\n"
 	"  --timeout-ms MS     lockstep: longest wait for an answer (default 50; counted as a timeout)\n"
+	"  --rt                SCHED_FIFO (priority 70, below swell-ctl's 80) and mlockall where permitted\n"
 	"  --seconds S         simulated seconds to run (default 10); SIGINT/SIGTERM stop early\n"
 	"Device model (m_v a = F_user + F_cmd - b_v v, per axis; see docs/hm.md):\n"
 	"  --mass KG           virtual mass m_v (default 2)\n"
@@ -69,7 +72,7 @@ static const char usage[] =
 struct opts {
 	const char *link, *host, *log;
 	unsigned port, bind_port, node;
-	int lockstep, quiet, have_start;
+	int lockstep, quiet, have_start, rt;
 	unsigned timeout_ms;
 	double seconds, start_mm[3], estop_s[2];
 	double obj_mass_g, obj_a_mm, obj_b_mm, pool_mm[2];
@@ -159,6 +162,9 @@ static void parse(int argc, char **argv, struct opts *o)
 			continue;
 		} else if (!strcmp(a, "--quiet")) {
 			o->quiet = 1;
+			continue;
+		} else if (!strcmp(a, "--rt")) {
+			o->rt = 1;
 			continue;
 		} else if (strncmp(a, "--", 2)) {
 			die("unexpected argument %s%s", a, "");
@@ -331,6 +337,16 @@ static int dev_recv(struct dev *d, struct hm_state *s, int timeout_ms)
 
 /* ---- the run ---- */
 
+static void setup_rt(void)
+{
+	struct sched_param sp = {.sched_priority = 70};
+
+	if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0)
+		fprintf(stderr, "swell-hm: warning: mlockall: %s; running without locked memory\n", strerror(errno));
+	if (sched_setscheduler(0, SCHED_FIFO, &sp) != 0)
+		fprintf(stderr, "swell-hm: warning: SCHED_FIFO: %s; running at normal priority\n", strerror(errno));
+}
+
 static volatile sig_atomic_t stop_flag;
 
 static void on_signal(int sig)
@@ -457,6 +473,8 @@ int main(int argc, char **argv)
 	sa.sa_handler = on_signal;
 	sigaction(SIGINT, &sa, NULL);
 	sigaction(SIGTERM, &sa, NULL);
+	if (o.rt)
+		setup_rt();
 
 	hm_init(&s, x0);
 	dt = 1.0 / o.p.rate_hz;
