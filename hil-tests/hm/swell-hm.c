@@ -438,6 +438,122 @@ static void sample(struct dev *d, const struct hm_state *s, const double f_hand_
 	dev_send(d, m, d->carrier == SWELL_CARRIER_PKT ? 3 : 2, seq);
 }
 
+/* Lockstep: the answer to sample n is the first FORCE_CMD after it. Once the controller is lost (the
+ * watchdog has dropped its force) wait only 1 ms a tick, so that simulated time goes on. */
+static void wait_answer(struct dev *d, struct hm_state *s, const struct opts *o, struct run *r, uint64_t n)
+{
+	int lost = s->cmd_age > o->p.watchdog_ticks, got = 0;
+	int64_t deadline = now_ns() + (int64_t)(lost ? 1 : o->timeout_ms) * 1000000;
+	uint8_t off;
+
+	while (!got && !stop_flag) {
+		int64_t left = deadline - now_ns();
+
+		if (left <= 0)
+			break;
+		got = dev_recv(d, s, (int)((left + 999999) / 1000000)) > 0;
+	}
+	if (!got) {
+		r->timeouts++;
+		return;
+	}
+	/* the controller's FORCE_CMD seq against ours moves only when it ticked without a sample */
+	off = (uint8_t)(d->force_seq_last - (uint8_t)n);
+	if (!r->have_offset)
+		r->offset0 = off;
+	else if (off != r->offset)
+		r->own_ticks += (uint8_t)(off - r->offset);
+	r->offset = off;
+	r->have_offset = 1;
+}
+
+/* Real time: sleep to the next absolute deadline, then take what arrived. */
+static void wait_deadline(struct dev *d, struct hm_state *s, struct run *r, int64_t *next, int64_t period_ns)
+{
+	struct timespec dl;
+	int64_t late;
+
+	*next += period_ns;
+	dl.tv_sec = (time_t)(*next / 1000000000);
+	dl.tv_nsec = (long)(*next % 1000000000);
+	while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &dl, NULL) == EINTR && !stop_flag)
+		;
+	late = now_ns() - *next;
+	r->hist[late < 0 ? 0 : late / 1000 > HIST_US ? HIST_US : late / 1000]++;
+	if (late > r->late_max_ns)
+		r->late_max_ns = late;
+	if (late > period_ns) { /* a whole period lost: count it, start again from now */
+		r->late_ticks++;
+		*next = now_ns();
+	}
+	while (dev_recv(d, s, 0) >= 0)
+		;
+}
+
+/* After a tick: the figures of the summary. */
+static void account(struct run *r, const struct hm_state *s, double t, double last_window, int holding)
+{
+	double fc = sqrt(s->f_cmd_N[0] * s->f_cmd_N[0] + s->f_cmd_N[1] * s->f_cmd_N[1] + s->f_cmd_N[2] * s->f_cmd_N[2]);
+	double z = s->x[2] * 1e3;
+
+	r->ticks++;
+	r->zeroed_ticks += !s->applying && s->cmd_enable;
+	r->peak_f_N = fc > r->peak_f_N ? fc : r->peak_f_N;
+	if (t < last_window)
+		return;
+	r->z_sum += z;
+	r->z_n++;
+	r->z_min = z < r->z_min ? z : r->z_min;
+	r->z_max = z > r->z_max ? z : r->z_max;
+	r->held_late |= holding;
+}
+
+static void summary(const struct opts *o, const struct dev *d, const struct hm_state *s, const struct run *r,
+		    double wall_s)
+{
+	double dt = 1.0 / o->p.rate_hz;
+	/* at rest the object floats with k delta = m g, k = rho g a b: delta = m / (rho a b); the water
+	 * it displaces raises the pool's mean level by m / (rho A_pool), and delta is measured from it */
+	double z_rest = -(o->obj_mass_g * 1e-3) / (RHO_KG_M3 * o->obj_a_mm * o->obj_b_mm * 1e-6) * 1e3;
+	double z_level = (o->obj_mass_g * 1e-3 / RHO_KG_M3) / (o->pool_mm[0] * o->pool_mm[1] * 1e-6) * 1e3;
+
+	printf("swell-hm summary\n");
+	printf("  ran             %.4f s simulated, %llu ticks at %g Hz, %s, %.3f s wall\n", (double)r->ticks * dt,
+	       (unsigned long long)r->ticks, o->p.rate_hz, o->lockstep ? "lockstep" : "real time", wall_s);
+	printf("  final position  %+.3f %+.3f %+.3f mm (x y z), velocity %+.2f %+.2f %+.2f mm/s\n", s->x[0] * 1e3,
+	       s->x[1] * 1e3, s->x[2] * 1e3, s->v[0] * 1e3, s->v[1] * 1e3, s->v[2] * 1e3);
+	if (r->z_n > 0) {
+		double zm = r->z_sum / (double)r->z_n;
+
+		printf("  equilibrium z   %+.3f mm mean over the last %.3f s (min %+.3f, max %+.3f mm)\n", zm,
+		       (double)r->z_n * dt, r->z_min, r->z_max);
+		if (r->held_late) {
+			printf("  expected z      none: the hand held the handle in that second\n");
+		} else {
+			printf("  expected z      %+.3f mm = -m g/k; error %+.3f %%\n", z_rest,
+			       (zm - z_rest) / -z_rest * 100.0);
+			printf("  with level rise %+.3f mm (-m g/k + %.3f mm mean level rise); error %+.3f %%\n",
+			       z_rest + z_level, z_level, (zm - z_rest - z_level) / -(z_rest + z_level) * 100.0);
+		}
+	}
+	printf("  peak force      %.3f N (|F_cmd| applied)\n", r->peak_f_N);
+	printf("  commands        %u received, %u lost, %u repeated, %u bad frames, %u send errors\n",
+	       d->commands, d->force_seq.lost, d->force_seq.repeated, swell_proto_rejected_total(&d->st),
+	       d->send_errors);
+	if (o->lockstep)
+		printf("  timeouts        %llu (lockstep waits of %u ms without an answer); %llu controller ticks "
+		       "between samples, %u before the first (mod 256)\n",
+		       (unsigned long long)r->timeouts, o->timeout_ms, (unsigned long long)r->own_ticks, r->offset0);
+	else
+		printf("  tick lateness   p50 %.0f us, p99 %.0f us, max %.0f us; %llu periods lost\n", pct(r, 0.5),
+		       pct(r, 0.99), r->late_max_ns / 1e3, (unsigned long long)r->late_ticks);
+	printf("  watchdog        %u trips (%u ticks), %llu ticks with an enabled command not applied\n",
+	       s->watchdog_trips, o->p.watchdog_ticks, (unsigned long long)r->zeroed_ticks);
+	printf("  walls           %u ticks in a workspace wall\n", s->wall_ticks);
+	printf("  controller      last state %d (0 boot, 1 idle, 2 armed, 3 running, 4 fault), %u heartbeats\n",
+	       d->ctl_state, d->heartbeats);
+}
+
 int main(int argc, char **argv)
 {
 	static struct run r;
@@ -446,7 +562,7 @@ int main(int argc, char **argv)
 	struct hm_state s;
 	struct sigaction sa;
 	FILE *log = NULL;
-	double x0[3], dt, t, z_rest, z_level, last_window;
+	double x0[3], dt, last_window;
 	int64_t start, next, period_ns, last_status;
 	uint64_t n, total;
 	int k;
@@ -488,11 +604,10 @@ int main(int argc, char **argv)
 		o.p.mass_kg, o.p.damping_Ns_m, o.p.watchdog_ticks);
 	start = next = last_status = now_ns();
 	for (n = 0; n < total && !stop_flag; n++) {
-		double f_hand[3];
-		int holding;
+		double t = (double)n * dt, f_hand[3], x[3], v[3];
 		uint32_t age;
+		int holding;
 
-		t = (double)n * dt;
 		s.estop = t >= o.estop_s[0] && t < o.estop_s[1];
 		/* commands that came in since the last tick (stale ones included: the latest wins) */
 		while (dev_recv(&d, &s, 0) >= 0)
@@ -500,77 +615,20 @@ int main(int argc, char **argv)
 		/* the hand acts on the state of this tick, which the wait below does not change */
 		holding = hm_hand_force(&o.hand, t, s.x, s.v, f_hand);
 		sample(&d, &s, f_hand, (uint8_t)n);
-		if (o.lockstep) {
-			/* the answer is the first FORCE_CMD after the sample; once the controller is lost
-			 * (the watchdog has dropped its force) wait only 1 ms a tick so that time goes on */
-			int lost = s.cmd_age > o.p.watchdog_ticks;
-			int64_t deadline = now_ns() + (int64_t)(lost ? 1 : o.timeout_ms) * 1000000;
-			int got = 0;
-
-			while (!got && !stop_flag) {
-				int64_t left = deadline - now_ns();
-
-				if (left <= 0)
-					break;
-				got = dev_recv(&d, &s, (int)((left + 999999) / 1000000)) > 0;
-			}
-			if (!got) {
-				r.timeouts++;
-			} else {
-				uint8_t off = (uint8_t)(d.force_seq_last - (uint8_t)n);
-
-				if (r.have_offset && off != r.offset)
-					r.own_ticks += (uint8_t)(off - r.offset);
-				if (!r.have_offset)
-					r.offset0 = off;
-				r.offset = off;
-				r.have_offset = 1;
-			}
-		} else {
-			struct timespec dl;
-			int64_t late;
-
-			next += period_ns;
-			dl.tv_sec = (time_t)(next / 1000000000);
-			dl.tv_nsec = (long)(next % 1000000000);
-			while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &dl, NULL) == EINTR && !stop_flag)
-				;
-			late = now_ns() - next;
-			r.hist[late < 0 ? 0 : late / 1000 > HIST_US ? HIST_US : late / 1000]++;
-			if (late > r.late_max_ns)
-				r.late_max_ns = late;
-			if (late > period_ns) { /* a whole period lost: count it, start again from now */
-				r.late_ticks++;
-				next = now_ns();
-			}
-			while (dev_recv(&d, &s, 0) >= 0)
-				;
-		}
+		if (o.lockstep)
+			wait_answer(&d, &s, &o, &r, n);
+		else
+			wait_deadline(&d, &s, &r, &next, period_ns);
 		age = s.cmd_age;
-		if (log)
-			fprintf(log, "%.4f,%.3f,%.3f,%.3f,%.2f,%.2f,%.2f", t, s.x[0] * 1e3, s.x[1] * 1e3,
-				s.x[2] * 1e3, s.v[0] * 1e3, s.v[1] * 1e3, s.v[2] * 1e3);
+		memcpy(x, s.x, sizeof(x));
+		memcpy(v, s.v, sizeof(v));
 		hm_step(&o.p, &s, f_hand);
-		r.ticks++;
-		r.zeroed_ticks += !s.applying && s.cmd_enable;
-		{
-			double fc = sqrt(s.f_cmd_N[0] * s.f_cmd_N[0] + s.f_cmd_N[1] * s.f_cmd_N[1] +
-					 s.f_cmd_N[2] * s.f_cmd_N[2]);
-			r.peak_f_N = fc > r.peak_f_N ? fc : r.peak_f_N;
-		}
-		if (t >= last_window) {
-			double z = s.x[2] * 1e3;
-
-			r.z_sum += z;
-			r.z_n++;
-			r.z_min = z < r.z_min ? z : r.z_min;
-			r.z_max = z > r.z_max ? z : r.z_max;
-			r.held_late |= holding;
-		}
+		account(&r, &s, t, last_window, holding);
 		if (log)
-			fprintf(log, ",%.2f,%.2f,%.2f,%.3f,%.3f,%.3f,%d,%u,%d,%d,%d\n", s.f_cmd_N[0], s.f_cmd_N[1],
-				s.f_cmd_N[2], f_hand[0], f_hand[1], f_hand[2], s.cmd_enable, age, s.applying,
-				d.ctl_state, holding);
+			fprintf(log, "%.4f,%.3f,%.3f,%.3f,%.2f,%.2f,%.2f,%.2f,%.2f,%.2f,%.3f,%.3f,%.3f,%d,%u,%d,%d,%d\n", t,
+				x[0] * 1e3, x[1] * 1e3, x[2] * 1e3, v[0] * 1e3, v[1] * 1e3, v[2] * 1e3, s.f_cmd_N[0],
+				s.f_cmd_N[1], s.f_cmd_N[2], f_hand[0], f_hand[1], f_hand[2], s.cmd_enable, age,
+				s.applying, d.ctl_state, holding);
 		if (!o.quiet && now_ns() - last_status > 1000000000) {
 			last_status = now_ns();
 			fprintf(stderr, "\rswell-hm: t %.1f s, z %+.2f mm, F_cmd %+.3f N, ctl %d   ", t, s.x[2] * 1e3,
@@ -581,47 +639,7 @@ int main(int argc, char **argv)
 		fputc('\n', stderr);
 	if (log && fclose(log) != 0)
 		fprintf(stderr, "swell-hm: writing %s failed\n", o.log);
-
-	/* at rest the object floats with k delta = m g, k = rho g a b: delta = m / (rho a b); the water
-	 * it displaces raises the pool's mean level by m / (rho A_pool), and delta is measured from it */
-	z_rest = -(o.obj_mass_g * 1e-3) / (RHO_KG_M3 * o.obj_a_mm * o.obj_b_mm * 1e-6) * 1e3;
-	z_level = (o.obj_mass_g * 1e-3 / RHO_KG_M3) / (o.pool_mm[0] * o.pool_mm[1] * 1e-6) * 1e3;
-	printf("swell-hm summary\n");
-	printf("  ran             %.4f s simulated, %llu ticks at %g Hz, %s, %.3f s wall\n", (double)r.ticks * dt,
-	       (unsigned long long)r.ticks, o.p.rate_hz, o.lockstep ? "lockstep" : "real time",
-	       (now_ns() - start) / 1e9);
-	printf("  final position  %+.3f %+.3f %+.3f mm (x y z), velocity %+.2f %+.2f %+.2f mm/s\n", s.x[0] * 1e3,
-	       s.x[1] * 1e3, s.x[2] * 1e3, s.v[0] * 1e3, s.v[1] * 1e3, s.v[2] * 1e3);
-	if (r.z_n > 0) {
-		double zm = r.z_sum / (double)r.z_n;
-
-		printf("  equilibrium z   %+.3f mm mean over the last %.3f s (min %+.3f, max %+.3f mm)\n", zm,
-		       (double)r.z_n * dt, r.z_min, r.z_max);
-		if (r.held_late) {
-			printf("  expected z      none: the hand held the handle in that second\n");
-		} else {
-			printf("  expected z      %+.3f mm = -m g/k; error %+.3f %%\n", z_rest,
-			       (zm - z_rest) / -z_rest * 100.0);
-			printf("  with level rise %+.3f mm (-m g/k + %.3f mm mean level rise); error %+.3f %%\n",
-			       z_rest + z_level, z_level, (zm - z_rest - z_level) / -(z_rest + z_level) * 100.0);
-		}
-	}
-	printf("  peak force      %.3f N (|F_cmd| applied)\n", r.peak_f_N);
-	printf("  commands        %u received, %u lost, %u repeated, %u bad frames, %u send errors\n",
-	       d.commands, d.force_seq.lost, d.force_seq.repeated, swell_proto_rejected_total(&d.st),
-	       d.send_errors);
-	if (o.lockstep)
-		printf("  timeouts        %llu (lockstep waits of %u ms without an answer); %llu controller ticks "
-		       "between samples, %u before the first (mod 256)\n",
-		       (unsigned long long)r.timeouts, o.timeout_ms, (unsigned long long)r.own_ticks, r.offset0);
-	else
-		printf("  tick lateness   p50 %.0f us, p99 %.0f us, max %.0f us; %llu periods lost\n", pct(&r, 0.5),
-		       pct(&r, 0.99), r.late_max_ns / 1e3, (unsigned long long)r.late_ticks);
-	printf("  watchdog        %u trips (%u ticks), %llu ticks with an enabled command not applied\n",
-	       s.watchdog_trips, o.p.watchdog_ticks, (unsigned long long)r.zeroed_ticks);
-	printf("  walls           %u ticks in a workspace wall\n", s.wall_ticks);
-	printf("  controller      last state %d (0 boot, 1 idle, 2 armed, 3 running, 4 fault), %u heartbeats\n",
-	       d.ctl_state, d.heartbeats);
+	summary(&o, &d, &s, &r, (now_ns() - start) / 1e9);
 	swell_link_close(d.l);
 	return 0;
 }
