@@ -1,5 +1,5 @@
 /* FunctionFS device side of the controller's vendor USB interface. See usb_ffs.h. */
-#define _POSIX_C_SOURCE 200809L
+#define _DEFAULT_SOURCE /* syscall() for Linux AIO */
 
 #include "usb_ffs.h"
 
@@ -10,6 +10,10 @@
 #include <poll.h>
 #include <stdio.h>
 #include <string.h>
+#include <sys/eventfd.h>
+#include <sys/ioctl.h>
+#include <sys/syscall.h>
+#include <time.h>
 #include <unistd.h>
 
 #define HS_BULK_PACKET 512u /* the only bulk wMaxPacketSize USB 2.0 allows at high speed */
@@ -131,6 +135,32 @@ enum swell_err swell_usb_ffs_strings(const struct swell_usb_ffs_iface *iface, ui
 	return SWELL_OK;
 }
 
+/* Linux AIO through its system calls (glibc has no wrappers; libaio is not needed). */
+static int aio_setup(unsigned nr, aio_context_t *ctx)
+{
+	return (int)syscall(SYS_io_setup, nr, ctx);
+}
+
+static int aio_destroy(aio_context_t ctx)
+{
+	return (int)syscall(SYS_io_destroy, ctx);
+}
+
+static int aio_submit(aio_context_t ctx, struct iocb *cb)
+{
+	struct iocb *list[1] = { cb };
+	return (int)syscall(SYS_io_submit, ctx, 1L, list);
+}
+
+static int aio_reap(aio_context_t ctx, struct io_event *ev, long max)
+{
+	struct timespec zero = { 0, 0 };
+	return (int)syscall(SYS_io_getevents, ctx, 0L, max, ev, &zero);
+}
+
+#define RX_TAG 0u
+#define TX_TAG(k) (1u + (unsigned)(k))
+
 static void close_fd(int *fd)
 {
 	if (*fd >= 0)
@@ -138,10 +168,19 @@ static void close_fd(int *fd)
 	*fd = -1;
 }
 
+/* Close the data endpoints. Destroying the AIO context waits for (and cancels) every transfer in
+ * flight, so no buffer of ours is written after this returns. */
 static void close_data(struct swell_usb_ffs *f)
 {
+	if (f->ctx) {
+		aio_destroy(f->ctx);
+		f->ctx = 0;
+	}
 	close_fd(&f->ep_out);
 	close_fd(&f->ep_in);
+	f->rx_state = 0;
+	memset(f->tx_queued, 0, sizeof(f->tx_queued));
+	f->link_lost = 0;
 }
 
 static int open_ep(const struct swell_usb_ffs *f, int n, int flags)
@@ -167,6 +206,57 @@ static enum swell_err write_all(struct swell_usb_ffs *f, int fd, const uint8_t *
 	return SWELL_OK;
 }
 
+static void prep(struct swell_usb_ffs *f, struct iocb *cb, unsigned tag, int fd, uint16_t op,
+		 uint8_t *buf, size_t len)
+{
+	memset(cb, 0, sizeof(*cb));
+	cb->aio_data = tag;
+	cb->aio_lio_opcode = op;
+	cb->aio_fildes = (uint32_t)fd;
+	cb->aio_buf = (uint64_t)(uintptr_t)buf;
+	cb->aio_nbytes = len;
+	cb->aio_flags = IOCB_FLAG_RESFD;
+	cb->aio_resfd = (uint32_t)f->efd;
+}
+
+static enum swell_err queue_rx(struct swell_usb_ffs *f)
+{
+	/* One packet per transfer: a read longer than wMaxPacketSize would only end at a short packet. */
+	prep(f, &f->rx_cb, RX_TAG, f->ep_out, IOCB_CMD_PREAD, f->rx_buf, f->rx_packet);
+	if (aio_submit(f->ctx, &f->rx_cb) != 1) {
+		f->last_errno = errno;
+		return SWELL_ESTATE;
+	}
+	f->rx_state = 1;
+	return SWELL_OK;
+}
+
+/* Collect finished transfers without waiting. */
+static void reap(struct swell_usb_ffs *f)
+{
+	struct io_event ev[1 + SWELL_USB_FFS_TX_SLOTS];
+	uint64_t count;
+
+	if (read(f->efd, &count, sizeof(count)) < 0) {
+		/* EAGAIN: nothing signalled since the last look; the events are read anyway */
+	}
+	int n = aio_reap(f->ctx, ev, (long)(sizeof(ev) / sizeof(ev[0])));
+	for (int i = 0; i < n; i++) {
+		if (ev[i].data == RX_TAG) {
+			f->rx_res = ev[i].res;
+			f->rx_state = 2;
+		} else if (ev[i].data >= TX_TAG(0) && ev[i].data < TX_TAG(SWELL_USB_FFS_TX_SLOTS)) {
+			f->tx_queued[ev[i].data - TX_TAG(0)] = 0;
+		} else {
+			continue;
+		}
+		if (ev[i].res < 0) {
+			f->last_errno = (int)-ev[i].res;
+			f->link_lost = 1;
+		}
+	}
+}
+
 enum swell_err swell_usb_ffs_open(struct swell_usb_ffs *f, const char *dir,
 				  const struct swell_usb_ffs_iface *iface)
 {
@@ -184,9 +274,8 @@ enum swell_err swell_usb_ffs_open(struct swell_usb_ffs *f, const char *dir,
 		err = swell_usb_ffs_strings(iface, str, sizeof(str), &str_len);
 	if (err != SWELL_OK)
 		return err;
-	f->ep0 = f->ep_out = f->ep_in = -1;
-	f->last_errno = 0;
-	f->setup_stalled = 0;
+	memset(f, 0, sizeof(*f));
+	f->ep0 = f->ep_out = f->ep_in = f->efd = -1;
 	memcpy(f->dir, dir, strlen(dir) + 1);
 
 	char path[SWELL_USB_FFS_PATH_MAX + 8];
@@ -196,11 +285,19 @@ enum swell_err swell_usb_ffs_open(struct swell_usb_ffs *f, const char *dir,
 		f->last_errno = errno;
 		return SWELL_ESTATE;
 	}
-	err = write_all(f, f->ep0, desc, desc_len);
+	f->efd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+	if (f->efd < 0) {
+		f->last_errno = errno;
+		err = SWELL_ESTATE;
+	} else {
+		err = write_all(f, f->ep0, desc, desc_len);
+	}
 	if (err == SWELL_OK)
 		err = write_all(f, f->ep0, str, str_len);
-	if (err != SWELL_OK)
+	if (err != SWELL_OK) {
+		close_fd(&f->efd);
 		close_fd(&f->ep0);
+	}
 	return err;
 }
 
@@ -210,8 +307,20 @@ static enum swell_err enable(struct swell_usb_ffs *f)
 	f->ep_out = open_ep(f, 1, O_RDONLY);
 	if (f->ep_out >= 0)
 		f->ep_in = open_ep(f, 2, O_WRONLY);
-	if (f->ep_out < 0 || f->ep_in < 0) {
+	if (f->ep_out < 0 || f->ep_in < 0 || aio_setup(1 + SWELL_USB_FFS_TX_SLOTS, &f->ctx) < 0) {
 		f->last_errno = errno;
+		f->ctx = 0;
+		close_data(f);
+		return SWELL_ESTATE;
+	}
+	/* The descriptor of the speed the host connected at. */
+	struct usb_endpoint_descriptor d;
+	memset(&d, 0, sizeof(d));
+	f->rx_packet = 64;
+	if (ioctl(f->ep_out, FUNCTIONFS_ENDPOINT_DESC, &d) == 0 && d.wMaxPacketSize >= 8 &&
+	    d.wMaxPacketSize <= SWELL_USB_FFS_XFER_MAX)
+		f->rx_packet = d.wMaxPacketSize;
+	if (queue_rx(f) != SWELL_OK) {
 		close_data(f);
 		return SWELL_ESTATE;
 	}
@@ -294,7 +403,12 @@ enum swell_err swell_usb_ffs_poll(struct swell_usb_ffs *f, int timeout_ms,
 
 int swell_usb_ffs_enabled(const struct swell_usb_ffs *f)
 {
-	return f && f->ep_out >= 0 && f->ep_in >= 0;
+	return f && f->ep_out >= 0 && f->ep_in >= 0 && f->ctx != 0;
+}
+
+int swell_usb_ffs_data_fd(const struct swell_usb_ffs *f)
+{
+	return f ? f->efd : -1;
 }
 
 enum swell_err swell_usb_ffs_read(struct swell_usb_ffs *f, uint8_t *buf, size_t cap, size_t *len)
@@ -303,12 +417,16 @@ enum swell_err swell_usb_ffs_read(struct swell_usb_ffs *f, uint8_t *buf, size_t 
 		return SWELL_EINVAL;
 	if (!swell_usb_ffs_enabled(f))
 		return SWELL_ESTATE;
-	ssize_t n = read(f->ep_out, buf, cap);
-	if (n < 0) {
-		f->last_errno = errno;
-		return SWELL_ESTATE;
+	reap(f);
+	if (f->rx_state == 2 && f->rx_res >= 0) {
+		size_t n = (size_t)f->rx_res < cap ? (size_t)f->rx_res : cap;
+		memcpy(buf, f->rx_buf, n);
+		*len = n;
+		return queue_rx(f);
 	}
-	*len = (size_t)n;
+	if (f->link_lost)
+		return SWELL_ESTATE;
+	*len = 0;
 	return SWELL_OK;
 }
 
@@ -316,9 +434,28 @@ enum swell_err swell_usb_ffs_write(struct swell_usb_ffs *f, const uint8_t *buf, 
 {
 	if (!f || (!buf && len))
 		return SWELL_EINVAL;
+	if (len > SWELL_USB_FFS_XFER_MAX)
+		return SWELL_ESIZE;
 	if (!swell_usb_ffs_enabled(f))
 		return SWELL_ESTATE;
-	return write_all(f, f->ep_in, buf, len);
+	reap(f);
+	if (f->link_lost)
+		return SWELL_ESTATE;
+	for (int k = 0; k < SWELL_USB_FFS_TX_SLOTS; k++) {
+		if (f->tx_queued[k])
+			continue;
+		if (len)
+			memcpy(f->tx_buf[k], buf, len);
+		prep(f, &f->tx_cb[k], TX_TAG(k), f->ep_in, IOCB_CMD_PWRITE, f->tx_buf[k], len);
+		if (aio_submit(f->ctx, &f->tx_cb[k]) != 1) {
+			f->last_errno = errno;
+			return SWELL_ESTATE;
+		}
+		f->tx_queued[k] = 1;
+		return SWELL_OK;
+	}
+	f->tx_busy_drops++;
+	return SWELL_ESIZE;
 }
 
 void swell_usb_ffs_close(struct swell_usb_ffs *f)
@@ -326,5 +463,6 @@ void swell_usb_ffs_close(struct swell_usb_ffs *f)
 	if (!f)
 		return;
 	close_data(f);
+	close_fd(&f->efd);
 	close_fd(&f->ep0);
 }

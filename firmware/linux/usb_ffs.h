@@ -8,10 +8,17 @@
  * Life cycle: swell_usb_ffs_open() (descriptors written: the function can now be bound to a UDC),
  * then swell_usb_ffs_poll() for events; after SWELL_USB_FFS_ENABLE, swell_usb_ffs_read() and
  * swell_usb_ffs_write() move packets until SWELL_USB_FFS_DISABLE or a read/write fails with
- * SWELL_ESTATE (host disabled the configuration or unplugged); swell_usb_ffs_close() at the end. */
+ * SWELL_ESTATE (host disabled the configuration or unplugged); swell_usb_ffs_close() at the end.
+ *
+ * Nothing here blocks after open: FunctionFS data endpoints cannot be poll()ed and a plain read()
+ * waits until the host sends, so transfers go through Linux AIO. One OUT transfer is always
+ * queued; read() takes a finished one or returns at once with *len = 0. write() queues up to
+ * SWELL_USB_FFS_TX_SLOTS IN transfers. To sleep until something happens, poll() both
+ * f->ep0 (events) and swell_usb_ffs_data_fd(f) (a transfer finished). */
 #ifndef SWELL_USB_FFS_H
 #define SWELL_USB_FFS_H
 
+#include <linux/aio_abi.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -21,6 +28,8 @@
 #define SWELL_USB_FFS_NAME_MAX 63   /* interface string, ASCII, without the NUL */
 #define SWELL_USB_FFS_DESC_MAX 80   /* bytes of the descriptor block (66 used) */
 #define SWELL_USB_FFS_STR_MAX (18 + SWELL_USB_FFS_NAME_MAX + 1)
+#define SWELL_USB_FFS_XFER_MAX 512  /* bytes of one transfer (a high-speed bulk packet) */
+#define SWELL_USB_FFS_TX_SLOTS 4    /* IN transfers in flight */
 
 struct swell_usb_ffs_iface {
 	uint8_t class_code;   /* 0xFF: vendor specific */
@@ -47,8 +56,21 @@ struct swell_usb_ffs {
 	int ep0;                 /* file descriptors, -1 when closed */
 	int ep_out;
 	int ep_in;
+	int efd;                 /* eventfd: readable when a transfer finished */
 	int last_errno;          /* errno of the last failed system call, 0 if none */
 	uint32_t setup_stalled;  /* control requests answered with a stall */
+	uint32_t tx_busy_drops;  /* writes refused because every IN slot was in flight */
+	/* AIO state: private */
+	aio_context_t ctx;
+	struct iocb rx_cb;
+	struct iocb tx_cb[SWELL_USB_FFS_TX_SLOTS];
+	int64_t rx_res;          /* result of the finished OUT transfer */
+	uint16_t rx_packet;      /* OUT wMaxPacketSize at the connected speed: one packet a read */
+	uint8_t rx_state;        /* 0 idle, 1 queued, 2 finished */
+	uint8_t tx_queued[SWELL_USB_FFS_TX_SLOTS];
+	uint8_t link_lost;       /* a transfer ended with an error: endpoints are going away */
+	uint8_t rx_buf[SWELL_USB_FFS_XFER_MAX];
+	uint8_t tx_buf[SWELL_USB_FFS_TX_SLOTS][SWELL_USB_FFS_XFER_MAX];
 	char dir[SWELL_USB_FFS_PATH_MAX];
 };
 
@@ -74,8 +96,14 @@ enum swell_err swell_usb_ffs_poll(struct swell_usb_ffs *f, int timeout_ms,
 /* 1 when the data endpoints are open (after ENABLE, before DISABLE). */
 int swell_usb_ffs_enabled(const struct swell_usb_ffs *f);
 
-/* Blocking transfer of one packet. read: up to cap bytes of one OUT transfer, *len = bytes received.
- * SWELL_ESTATE when the endpoints are not enabled or the host went away (errno in last_errno). */
+/* File descriptor that becomes readable when a data transfer finishes (-1 before open). */
+int swell_usb_ffs_data_fd(const struct swell_usb_ffs *f);
+
+/* Never wait. read: the next received OUT transfer, up to cap bytes (a longer one is cut to cap),
+ * *len = 0 when none has arrived. write: queue one IN transfer of len <= SWELL_USB_FFS_XFER_MAX
+ * bytes; SWELL_ESIZE when every slot is still in flight (counted in tx_busy_drops), nothing queued.
+ * Both: SWELL_ESTATE when the endpoints are not enabled or the host went away (errno in
+ * last_errno); the DISABLE event follows on ep0. */
 enum swell_err swell_usb_ffs_read(struct swell_usb_ffs *f, uint8_t *buf, size_t cap, size_t *len);
 enum swell_err swell_usb_ffs_write(struct swell_usb_ffs *f, const uint8_t *buf, size_t len);
 

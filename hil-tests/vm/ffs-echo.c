@@ -3,6 +3,7 @@
 #define _POSIX_C_SOURCE 200809L
 
 #include <errno.h>
+#include <poll.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -50,6 +51,7 @@ int main(int argc, char **argv)
 		.ep_out = 0x01, .ep_in = 0x81, .fs_packet = PACKET, .name = "swell vendor link",
 	};
 	unsigned long long count = 0, echoed = 0, bytes = 0;
+	size_t pending = 0; /* bytes of a received packet not yet queued back */
 	const char *dir = NULL;
 	int verbose = 0;
 
@@ -81,7 +83,7 @@ int main(int argc, char **argv)
 
 	struct sigaction sa;
 	memset(&sa, 0, sizeof(sa));
-	sa.sa_handler = on_signal; /* no SA_RESTART: a blocked read returns EINTR */
+	sa.sa_handler = on_signal; /* no SA_RESTART: poll returns EINTR */
 	sigaction(SIGTERM, &sa, NULL);
 	sigaction(SIGINT, &sa, NULL);
 
@@ -96,34 +98,47 @@ int main(int argc, char **argv)
 
 	int rc = 0;
 	while (!stop && (count == 0 || echoed < count)) {
+		/* Sleep until an ep0 event or a finished transfer; nothing below blocks. */
+		struct pollfd pfd[2] = {
+			{ .fd = ffs.ep0, .events = POLLIN, .revents = 0 },
+			{ .fd = swell_usb_ffs_data_fd(&ffs), .events = POLLIN, .revents = 0 },
+		};
+		if (poll(pfd, 2, 100) < 0 && errno != EINTR) {
+			perror("swell-ffs-echo: poll");
+			rc = 1;
+			break;
+		}
 		enum swell_usb_ffs_event ev;
-		int enabled = swell_usb_ffs_enabled(&ffs);
-
-		/* Events first: wait for them while disabled, only look while enabled. */
-		err = swell_usb_ffs_poll(&ffs, enabled ? 0 : 100, &ev);
+		err = swell_usb_ffs_poll(&ffs, 0, &ev);
 		if (err != SWELL_OK) {
 			fprintf(stderr, "swell-ffs-echo: ep0: %s (%s)\n", swell_err_str(err),
 				strerror(ffs.last_errno));
 			rc = 1;
 			break;
 		}
-		if (ev != SWELL_USB_FFS_NONE) {
-			if (verbose)
-				printf("swell-ffs-echo: event %s\n", event_name(ev));
-			continue;
-		}
-		if (!enabled)
+		if (ev != SWELL_USB_FFS_NONE && verbose)
+			printf("swell-ffs-echo: event %s\n", event_name(ev));
+		if (!swell_usb_ffs_enabled(&ffs))
 			continue;
 		size_t n;
-		if (swell_usb_ffs_read(&ffs, buf, sizeof(buf), &n) != SWELL_OK)
-			continue; /* interrupted, or disabled: the event follows on ep0 */
-		if (swell_usb_ffs_write(&ffs, buf, n) != SWELL_OK)
-			continue;
-		echoed++;
-		bytes += n;
+		/* Echo what has arrived; a full IN queue leaves the packet for the next round. */
+		while (!pending && swell_usb_ffs_read(&ffs, buf, sizeof(buf), &n) == SWELL_OK && n > 0) {
+			pending = n;
+			if (swell_usb_ffs_write(&ffs, buf, n) != SWELL_OK)
+				break;
+			pending = 0;
+			echoed++;
+			bytes += n;
+		}
+		if (pending && swell_usb_ffs_write(&ffs, buf, pending) == SWELL_OK) {
+			echoed++;
+			bytes += pending;
+			pending = 0;
+		}
 	}
-	printf("swell-ffs-echo: %llu packets echoed, %llu bytes, %u control requests stalled\n", echoed,
-	       bytes, (unsigned)ffs.setup_stalled);
+	printf("swell-ffs-echo: %llu packets echoed, %llu bytes, %u control requests stalled, "
+	       "%u writes waited for a free IN slot\n", echoed, bytes, (unsigned)ffs.setup_stalled,
+	       (unsigned)ffs.tx_busy_drops);
 	swell_usb_ffs_close(&ffs);
 	return rc;
 }

@@ -19,7 +19,8 @@ static void usage(FILE *to)
 		"Open USB device VID:PID (default 1209:0001) with libusb, claim its vendor interface\n"
 		"(class 0xFF) with one bulk OUT and one bulk IN endpoint, send N numbered packets\n"
 		"(default 1000; 64 bytes, or 1..64 bytes with --lengths vary) and check each comes back\n"
-		"intact and in order within MS (default 1000 ms). --expect-ep-* also checks the endpoint\n"
+		"intact and in order within MS (default 1000 ms). First checks that vendor control\n"
+		"requests to the interface are stalled. --expect-ep-* also checks the endpoint\n"
 		"addresses. Prints speed, endpoints, packets/s and round-trip times; exits non-zero on\n"
 		"any lost, short or corrupted packet.\n");
 }
@@ -188,6 +189,21 @@ int main(int argc, char **argv)
 		goto out_release;
 	}
 
+	/* The device answers control requests to its interface with a stall; the link must survive. */
+	uint8_t ctl[8];
+	int in_r = libusb_control_transfer(h, LIBUSB_ENDPOINT_IN | LIBUSB_REQUEST_TYPE_VENDOR |
+					      LIBUSB_RECIPIENT_INTERFACE, 0x01, 0, (uint16_t)l.iface,
+				   ctl, sizeof(ctl), (unsigned)timeout_ms);
+	int out_r = libusb_control_transfer(h, LIBUSB_ENDPOINT_OUT | LIBUSB_REQUEST_TYPE_VENDOR |
+					       LIBUSB_RECIPIENT_INTERFACE, 0x02, 0, (uint16_t)l.iface,
+				    NULL, 0, (unsigned)timeout_ms);
+	if (in_r != LIBUSB_ERROR_PIPE || out_r != LIBUSB_ERROR_PIPE) {
+		fprintf(stderr, "swell-vm-usbtest: FAIL: vendor control requests gave %s (IN) and %s (OUT), "
+			"expected a stall (%s)\n", in_r < 0 ? libusb_strerror(in_r) : "data",
+			out_r < 0 ? libusb_strerror(out_r) : "success", libusb_strerror(LIBUSB_ERROR_PIPE));
+		goto out_release;
+	}
+
 	uint8_t out[PACKET_MAX], in[PACKET_MAX];
 	uint32_t bad = 0;
 	double rtt_max = 0.0, t0 = now_s();
@@ -218,7 +234,7 @@ int main(int argc, char **argv)
 		}
 	}
 	double dt = now_s() - t0;
-	printf("usb echo: %ld packets (%s lengths), %u bad, %.1f ms, %.0f packets/s, round trip "
+	printf("usb echo: vendor control requests IN and OUT stalled; %ld packets (%s lengths), %u bad, %.1f ms, %.0f packets/s, round trip "
 	       "mean %.0f us, max %.0f us\n",
 	       done, vary ? "1..64 byte" : "64 byte", (unsigned)bad, dt * 1e3, (double)done / dt,
 	       dt / (double)done * 1e6, rtt_max * 1e6);
