@@ -404,38 +404,42 @@ static double pct(const struct run *r, double p)
 	return 0;
 }
 
-/* DEVICE_POS and DEVICE_VEL every tick; DEVICE_FORCE (the force sensor under the handle: what the
- * hand pushes) only where the carrier has room, i.e. not on classic CAN at 2500 Hz. */
+/* DEVICE_VEL, DEVICE_FORCE (the force sensor under the handle: what the hand pushes) and DEVICE_POS
+ * every tick, POS last: swell-ctl --clock device ticks on POS, so the rest of the sample is in by
+ * then. DEVICE_FORCE only where the carrier has room, i.e. not on classic CAN at 2500 Hz. */
 static void sample(struct dev *d, const struct hm_state *s, const double f_hand_N[3], uint8_t seq)
 {
 	struct swell_msg m[3];
 	uint8_t status = 1u; /* powered */
+	int with_force = d->carrier == SWELL_CARRIER_PKT;
 
 	if (!s->estop)
 		status |= 2u; /* force output enabled */
 	else
 		status |= 4u;
 	memset(m, 0, sizeof(m));
-	m[0].type = SWELL_MSG_DEVICE_POS;
+	m[0].type = SWELL_MSG_DEVICE_VEL;
 	m[0].node = d->node;
-	m[0].u.device_pos.x_10um = sat16(s->x[0] * 1e5);
-	m[0].u.device_pos.y_10um = sat16(s->x[1] * 1e5);
-	m[0].u.device_pos.z_10um = sat16(s->x[2] * 1e5);
-	m[0].u.device_pos.seq = seq;
-	m[0].u.device_pos.status = status;
-	m[1].type = SWELL_MSG_DEVICE_VEL;
+	m[0].u.device_vel.vx_100ums = sat16(s->v[0] * 1e4);
+	m[0].u.device_vel.vy_100ums = sat16(s->v[1] * 1e4);
+	m[0].u.device_vel.vz_100ums = sat16(s->v[2] * 1e4);
+	m[0].u.device_vel.seq = seq;
+	m[1].type = SWELL_MSG_DEVICE_FORCE;
 	m[1].node = d->node;
-	m[1].u.device_vel.vx_100ums = sat16(s->v[0] * 1e4);
-	m[1].u.device_vel.vy_100ums = sat16(s->v[1] * 1e4);
-	m[1].u.device_vel.vz_100ums = sat16(s->v[2] * 1e4);
-	m[1].u.device_vel.seq = seq;
-	m[2].type = SWELL_MSG_DEVICE_FORCE;
+	m[1].u.device_force.fx_cN = force_cN(f_hand_N[0]);
+	m[1].u.device_force.fy_cN = force_cN(f_hand_N[1]);
+	m[1].u.device_force.fz_cN = force_cN(f_hand_N[2]);
+	m[1].u.device_force.seq = seq;
+	m[2].type = SWELL_MSG_DEVICE_POS;
 	m[2].node = d->node;
-	m[2].u.device_force.fx_cN = force_cN(f_hand_N[0]);
-	m[2].u.device_force.fy_cN = force_cN(f_hand_N[1]);
-	m[2].u.device_force.fz_cN = force_cN(f_hand_N[2]);
-	m[2].u.device_force.seq = seq;
-	dev_send(d, m, d->carrier == SWELL_CARRIER_PKT ? 3 : 2, seq);
+	m[2].u.device_pos.x_10um = sat16(s->x[0] * 1e5);
+	m[2].u.device_pos.y_10um = sat16(s->x[1] * 1e5);
+	m[2].u.device_pos.z_10um = sat16(s->x[2] * 1e5);
+	m[2].u.device_pos.seq = seq;
+	m[2].u.device_pos.status = status;
+	if (!with_force)
+		m[1] = m[2];
+	dev_send(d, m, with_force ? 3 : 2, seq);
 }
 
 /* Lockstep: the answer to sample n is the first FORCE_CMD after it. Once the controller is lost (the
