@@ -145,10 +145,15 @@ TEST_CASE("usb_ffs_open: a rejected argument leaves the state untouched, a missi
 	CHECK(f.ep_in == -1);
 	CHECK(f.last_errno != 0);
 	CHECK(swell_usb_ffs_enabled(&f) == 0);
-	uint8_t b[4];
+	CHECK(f.efd == -1);
+	CHECK(swell_usb_ffs_data_fd(&f) == -1);
+	uint8_t b[SWELL_USB_FFS_XFER_MAX + 1] = {};
 	size_t n = 0;
-	CHECK(swell_usb_ffs_read(&f, b, sizeof(b), &n) == SWELL_ESTATE);
-	CHECK(swell_usb_ffs_write(&f, b, sizeof(b)) == SWELL_ESTATE);
+	CHECK(swell_usb_ffs_read(&f, b, 4, &n) == SWELL_ESTATE);
+	CHECK(swell_usb_ffs_write(&f, b, 4) == SWELL_ESTATE);
+	CHECK(swell_usb_ffs_write(&f, b, sizeof(b)) == SWELL_ESIZE); // longer than one transfer
+	CHECK(swell_usb_ffs_read(&f, b, 0, &n) == SWELL_EINVAL);
+	CHECK(f.tx_busy_drops == 0);
 	swell_usb_ffs_close(&f);
 	swell_usb_ffs_close(&f); // twice is fine
 }
