@@ -40,7 +40,7 @@ std::string slurp(const std::string &path)
 
 } // namespace
 
-TEST_CASE("wire: a tick sends VEL, FORCE, POS with seq n & 255; FORCE_CMD moves it exactly; bad frames and enable 0 do nothing")
+TEST_CASE("wire: a tick sends VEL, FORCE, POS with seq n mod 256, FORCE_CMD moves it exactly, bad frames and enable 0 do nothing")
 {
 	const int fd = socket(AF_INET, SOCK_DGRAM, 0);
 	REQUIRE(fd >= 0);
