@@ -367,6 +367,8 @@ static int16_t sat16(double v)
 {
 	double r = floor(v + 0.5);
 
+	if (r != r)
+		return 0; /* never a NaN on the wire (the checked parameters keep the model finite) */
 	return (int16_t)(r > 30000.0 ? 30000 : r < -30000.0 ? -30000 : r);
 }
 
@@ -374,6 +376,8 @@ static int16_t force_cN(double f_N)
 {
 	double r = floor(f_N * 100.0 + 0.5);
 
+	if (r != r)
+		return 0;
 	return (int16_t)(r > 25000.0 ? 25000 : r < -25000.0 ? -25000 : r);
 }
 
@@ -541,9 +545,10 @@ static void summary(const struct opts *o, const struct dev *d, const struct hm_s
 		}
 	}
 	printf("  peak force      %.3f N (|F_cmd| applied)\n", r->peak_f_N);
-	printf("  commands        %u received, %u lost, %u repeated, %u bad frames, %u send errors\n",
+	printf("  commands        %u received, %u lost, %u repeated, %u bad frames, %u send errors, %u other "
+	       "messages ignored\n",
 	       d->commands, d->force_seq.lost, d->force_seq.repeated, swell_proto_rejected_total(&d->st),
-	       d->send_errors);
+	       d->send_errors, d->ignored);
 	if (o->lockstep)
 		printf("  timeouts        %llu (lockstep waits of %u ms without an answer); %llu controller ticks "
 		       "between samples, %u before the first (mod 256)\n",
