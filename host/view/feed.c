@@ -10,10 +10,10 @@ void feed_init(struct view_feed *f, struct view_model *vm, uint8_t node)
 	memset(f, 0, sizeof(*f));
 	f->vm = vm;
 	f->node = node;
-	/* the reference scene's object (DESIGN.md 2.3): 60 x 60 x 40 mm */
-	f->obj_a_um = 60000;
-	f->obj_b_um = 60000;
-	f->obj_h_um = 40000;
+	/* the controller's default body: 50 x 50 x 50 mm (the size is not on the wire) */
+	f->obj_a_um = 50000;
+	f->obj_b_um = 50000;
+	f->obj_h_um = 50000;
 }
 
 uint32_t feed_rejected(const struct view_feed *f)
@@ -47,13 +47,11 @@ static void on_scene(struct view_feed *f, const struct swell_msg_scene *s, uint6
 		vm_bad(f->vm);
 		return;
 	}
-	if (!had || f->vm->st.restarts != restarts) {
-		memset(f->quads, 0, sizeof(f->quads)); /* a new scene: no tile is complete yet */
+	if (!had || f->vm->st.restarts != restarts)
 		f->have_pose_seq = false;
-	}
 }
 
-static void on_quad(struct view_feed *f, const struct swell_msg_height_quad *q)
+static void on_quad(struct view_feed *f, const struct swell_msg_height_quad *q, uint32_t pos)
 {
 	struct view_model *m = f->vm;
 	if (!m->have_scene) {
@@ -73,23 +71,7 @@ static void on_quad(struct view_feed *f, const struct swell_msg_height_quad *q)
 	int32_t v[4] = {q->h0, q->h1, q->h2, q->h3};
 	for (int k = 0; k < 4; k++)
 		v[k] *= 1 << (SWELL_H_FRAC - SWELL_PROTO_H_SHIFT);
-	if (vm_cells(m, q->tile_x, q->tile_y, col, q->row, n, q->frame, 2, v) != SWELL_OK)
-		return;
-	/* tile completion: all quads of the tile that lie inside the grid, of one frame */
-	size_t t = (size_t)q->tile_y * FEED_MAX_TILES + q->tile_x;
-	if (f->quad_frame[t] != q->frame) {
-		f->quad_frame[t] = q->frame;
-		f->quads[t] = 0;
-	}
-	f->quads[t] |= (uint16_t)(1u << (q->row * 2u + q->half));
-	uint16_t want = 0;
-	for (uint16_t r = 0; r < h; r++)
-		want |= (uint16_t)((w > 4 ? 3u : 1u) << (r * 2u));
-	if ((f->quads[t] & want) == want) {
-		vm_tile_done(m);
-		f->quads[t] = 0;
-		f->quad_frame[t] = 0xff; /* no frame: the next quad starts a new count */
-	}
+	vm_cells(m, q->tile_x, q->tile_y, col, q->row, n, pos, v);
 }
 
 static void on_heartbeat(struct view_feed *f, const struct swell_msg_heartbeat *hb, uint64_t now_us)
@@ -119,7 +101,7 @@ static void on_heartbeat(struct view_feed *f, const struct swell_msg_heartbeat *
 	vm_clock(f->vm, f->hb_count * FEED_HEARTBEAT_US, now_us);
 }
 
-static void on_msg(struct view_feed *f, const struct swell_msg *m, uint64_t now_us, bool can)
+static void on_msg(struct view_feed *f, const struct swell_msg *m, uint64_t now_us, bool can, uint32_t pos)
 {
 	struct view_model *vm = f->vm;
 
@@ -128,7 +110,7 @@ static void on_msg(struct view_feed *f, const struct swell_msg *m, uint64_t now_
 		on_scene(f, &m->u.scene, now_us);
 		break;
 	case SWELL_MSG_HEIGHT_QUAD:
-		on_quad(f, &m->u.height_quad);
+		on_quad(f, &m->u.height_quad, pos);
 		break;
 	case SWELL_MSG_HEARTBEAT:
 		on_heartbeat(f, &m->u.heartbeat, now_us);
@@ -188,9 +170,26 @@ void feed_packet(struct view_feed *f, const uint8_t *pkt, size_t len, uint64_t n
 		f->other_node++;
 		return;
 	}
-	vm_frame(f->vm, seq, 8, now_us); /* a late packet still counts: its items carry their own order */
+	vm_frame(f->vm, seq, 8, now_us);
+	/* Stream position: the packet sequence unwrapped. A packet a little behind the newest is a
+	 * reordered one (its heights lose to newer ones already held); far behind, the sender started
+	 * counting again. */
+	int d = (int8_t)(uint8_t)(seq - f->last_seq);
+	uint32_t pos;
+	if (!f->have_seq || d > 0 || d < -32) {
+		f->pos += f->have_seq ? (uint8_t)(seq - f->last_seq) : 1u;
+		if (f->pos == 0)
+			f->pos = 1;
+		f->last_seq = seq;
+		f->have_seq = true;
+		pos = f->pos;
+	} else {
+		pos = f->pos + (uint32_t)d; /* d <= 0 */
+		if (pos == 0)
+			pos = 1;
+	}
 	for (size_t k = 0; k < n; k++)
-		on_msg(f, &msgs[k], now_us, false);
+		on_msg(f, &msgs[k], now_us, false, pos);
 }
 
 void feed_can(struct view_feed *f, uint32_t id, const uint8_t *data, size_t len, bool fd,
@@ -215,6 +214,8 @@ void feed_can(struct view_feed *f, uint32_t id, const uint8_t *data, size_t len,
 		return;
 	}
 	vm_rx(f->vm, now_us);
+	if (++f->pos == 0)
+		f->pos = 1; /* CAN: arrival order is the stream order */
 	for (size_t k = 0; k < n; k++)
-		on_msg(f, &msgs[k], now_us, true);
+		on_msg(f, &msgs[k], now_us, true, f->pos);
 }

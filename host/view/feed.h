@@ -2,8 +2,10 @@
  * the view model filled out. Every frame goes through the common/ decoders; a rejected frame is
  * counted (by reason) and changes nothing.
  *
- * Height quads are written into the model as they arrive (each is a complete, checked row piece);
- * a tile counts as done when all its quads of one solver frame have arrived. */
+ * Height quads are written into the model as they arrive (each is a complete, checked row piece),
+ * ordered by stream position (the packet sequence unwrapped; arrival order on CAN): a reordered
+ * packet never overwrites newer heights. The quads' 2-bit frame numbers cannot order quads that the
+ * controller sends many solver steps apart, so they are not used for ordering. */
 #ifndef SWELL_VIEW_FEED_H
 #define SWELL_VIEW_FEED_H
 
@@ -15,7 +17,6 @@
 #include "vm.h"
 
 #define FEED_NODE_ANY 0xffu
-#define FEED_MAX_TILES 32u /* per side, the protocol's tile_x/tile_y range */
 #define FEED_HEARTBEAT_US 100000u /* the controller's heartbeat period (10 Hz) */
 
 struct view_feed {
@@ -37,9 +38,10 @@ struct view_feed {
 	/* object pose order (and, on CAN, loss: it has no packet sequence) */
 	bool have_pose_seq;
 	uint8_t pose_seq, pose_stale;
-	/* tile completion: quads seen of the current frame, per tile */
-	uint16_t quads[FEED_MAX_TILES * FEED_MAX_TILES];
-	uint8_t quad_frame[FEED_MAX_TILES * FEED_MAX_TILES];
+	/* stream position */
+	bool have_seq;
+	uint8_t last_seq;
+	uint32_t pos;
 };
 
 void feed_init(struct view_feed *f, struct view_model *vm, uint8_t node);

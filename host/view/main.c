@@ -36,9 +36,10 @@ static const char usage[] =
 	"  --view orbit|top    camera: orbit (default; mouse) or straight down, pool fitted (tests)\n"
 	"  --colour            colour the water by height (blue low, red high)\n"
 	"  --range MM          height of full colour and of the water tint (default 2 mm)\n"
-	"  --zscale X          vertical exaggeration of the water (default 4)\n"
+	"  --zscale X          vertical exaggeration of the water (default 3; the object keeps its true\n"
+	"                      submersion, riding the exaggerated surface)\n"
 	"  --force-scale MM    force arrow length per newton (default 40 mm/N)\n"
-	"  --object AxBxH      object size in mm, not on the wire (default 60x60x40)\n"
+	"  --object AxBxH      object size in mm, not on the wire (default 50x50x50, the controller's default)\n"
 	"  --stale-ms N        silence after which data is called stale (default 500 ms)\n"
 	"  --no-hud            no text overlay\n"
 	"  --msaa N            antialiasing samples a pixel (default 4; 0 is cheaper on software GL)\n"
@@ -91,14 +92,13 @@ static void parse(int argc, char **argv, struct opts *o)
 	o->frames = -1;
 	o->fps = 60;
 	o->stale_ms = 500;
-	o->obj_um[0] = o->obj_um[1] = 60000;
-	o->obj_um[2] = 40000;
+	o->obj_um[0] = o->obj_um[1] = o->obj_um[2] = 50000; /* the controller's default body */
 	o->ro.w = 1024;
 	o->ro.h = 768;
 	o->ro.view = RENDER_ORBIT;
 	o->ro.h_range_mm = 2;
 	o->ro.hud = true;
-	o->ro.zscale = 4;
+	o->ro.zscale = 3;
 	o->ro.force_mm_per_N = 40;
 	o->ro.msaa = 4;
 	for (int k = 1; k < argc; k++) {
@@ -207,6 +207,8 @@ struct app {
 	struct render r;
 	struct view_model vm;
 	bool paused, want_shot, quit, dragging;
+	float tile_hz;          /* tiles uploaded a second (the tiles whose heights changed) */
+	uint64_t tile_window_us, tile_window_start;
 	double mx, my;
 	unsigned shots;
 };
@@ -280,19 +282,20 @@ static void hud(struct app *a, const struct view_feed *f, const struct source *s
 
 	render_text_clear(&a->r);
 	if (st->latency_valid)
-		snprintf(lat, sizeof(lat), "+%.1f MS OVER BEST", (double)st->latency_ms);
+		snprintf(lat, sizeof(lat), "+%.1f MS OVER BEST (HEARTBEATS)", (double)st->latency_ms);
 	else
 		snprintf(lat, sizeof(lat), "-");
 	snprintf(buf, sizeof(buf),
 		 "SWELL-VIEW\n"
 		 "LINK   %s\n"
-		 "FRAMES %7.1f /S   TILES %7.1f /S\n"
+		 "FRAMES %6.0f /S  QUADS %6.0f /S  TILES %5.0f /S\n"
 		 "LATENCY %s\n"
 		 "DROPPED %u  BAD %u  LATE %u\n"
-		 "CONTROLLER %s  ERR %u\n"
+		 "CONTROLLER %s  LAST ERROR %s\n"
 		 "CTL BAD %u  OVERRUNS %u  RESTARTS %u",
-		 src->desc, (double)st->frame_hz, (double)st->tile_hz, lat, st->dropped, st->bad, st->late,
-		 m->ctrl_state, m->ctrl_error, m->ctrl_bad, m->ctrl_overruns, st->restarts);
+		 src->desc, (double)st->frame_hz, (double)st->piece_hz, (double)a->tile_hz, lat, st->dropped, st->bad,
+		 st->late, m->ctrl_state, m->ctrl_error ? swell_err_str((enum swell_err)m->ctrl_error) : "NONE",
+		 m->ctrl_bad, m->ctrl_overruns, st->restarts);
 	render_text_add(&a->r, 8, 8, 225, 232, 240, true, buf);
 
 	if (m->have_scene) {
@@ -417,6 +420,11 @@ int main(int argc, char **argv)
 			if (!render_resize(&app.r, fw, fh))
 				break;
 		}
+		if (t - app.tile_window_us >= 1000000u) {
+			app.tile_hz = (float)(app.r.tiles_uploaded - app.tile_window_start) * 1e6f / (float)(t - app.tile_window_us);
+			app.tile_window_start = app.r.tiles_uploaded;
+			app.tile_window_us = t;
+		}
 		hud(&app, &feed, &src, t);
 		render_frame(&app.r, &app.vm, app.paused);
 		if (!o.headless) {
@@ -451,8 +459,8 @@ int main(int argc, char **argv)
 		}
 	}
 
-	printf("swell-view: %u frames, %u bad, %u dropped, %u late, %u tiles, %u restarts; uploaded %llu tiles (%llu texels)\n",
-	       app.vm.st.frames, app.vm.st.bad, app.vm.st.dropped, app.vm.st.late, app.vm.st.tiles,
+	printf("swell-view: %u frames, %u bad, %u dropped, %u late, %u quads, %u restarts; uploaded %llu tiles (%llu texels)\n",
+	       app.vm.st.frames, app.vm.st.bad, app.vm.st.dropped, app.vm.st.late, app.vm.st.pieces,
 	       app.vm.st.restarts, (unsigned long long)app.r.tiles_uploaded, (unsigned long long)app.r.texels_uploaded);
 	source_close(&src);
 	render_free(&app.r);

@@ -6,6 +6,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "swell/transport.h"
 
@@ -73,6 +74,56 @@ static int link_open(struct source *s, char *err, size_t errlen)
 	return 0;
 }
 
+static uint64_t mono_us(void)
+{
+	struct timespec t;
+	clock_gettime(CLOCK_MONOTONIC, &t);
+	return (uint64_t)t.tv_sec * 1000000u + (uint64_t)t.tv_nsec / 1000u;
+}
+
+static void ring_put(struct source *s, int rc, const struct swell_frame *f)
+{
+	unsigned h = atomic_load_explicit(&s->head, memory_order_relaxed);
+	unsigned t = atomic_load_explicit(&s->tail, memory_order_acquire);
+	if (h - t >= RX_RING) {
+		atomic_fetch_add(&s->overflow, 1u);
+		return;
+	}
+	struct rx_item *it = &s->ring[h % RX_RING];
+	it->rc = rc;
+	it->t_us = mono_us();
+	if (f)
+		it->f = *f;
+	atomic_store_explicit(&s->head, h + 1u, memory_order_release);
+}
+
+static void *reader(void *arg)
+{
+	struct source *s = arg;
+	int last = 0;
+	while (!atomic_load(&s->stop)) {
+		if (!s->link) { /* USB not there when we started: try again every 500 ms */
+			char err[128];
+			struct timespec d = {0, 500000000};
+			nanosleep(&d, NULL);
+			if (link_open(s, err, sizeof(err)) != 0)
+				continue;
+		}
+		struct swell_frame f;
+		int rc = swell_link_recv(s->link, &f, 50);
+		if (rc == -ETIMEDOUT || rc == -EAGAIN || rc == -EINTR)
+			continue;
+		if (rc == 0 || rc != last)
+			ring_put(s, rc, &f); /* report a lasting error once */
+		if (rc < 0 && rc != -ENODEV) {
+			struct timespec d = {0, 50000000}; /* a broken link: do not spin */
+			nanosleep(&d, NULL);
+		}
+		last = rc;
+	}
+	return NULL;
+}
+
 static bool parse_usb(struct source *s, const char *arg, char *err, size_t errlen)
 {
 	swell_usb_opts_default(&s->usb);
@@ -133,9 +184,21 @@ bool source_open(struct source *s, const char *spec, const char *record, char *e
 	if (s->lk == LINK_USB && !parse_usb(s, spec[3] ? spec + 4 : NULL, err, errlen))
 		return false;
 	int rc = link_open(s, err, errlen);
-	if (rc == -ENODEV && s->lk == LINK_USB)
-		return true; /* not plugged in yet: LINK DOWN on screen, tried again every 500 ms */
-	return rc == 0;
+	if (rc != 0 && !(rc == -ENODEV && s->lk == LINK_USB))
+		return false; /* (USB not plugged in yet: LINK DOWN on screen, tried again every 500 ms) */
+	if (s->lk == LINK_REPLAY)
+		return true; /* replays are read in step with the display: same pictures every run */
+	s->ring = calloc(RX_RING, sizeof(*s->ring));
+	if (!s->ring || pthread_create(&s->thread, NULL, reader, s) != 0) {
+		snprintf(err, errlen, "%s: cannot start the reader thread", spec);
+		free(s->ring);
+		s->ring = NULL;
+		swell_link_close(s->link);
+		s->link = NULL;
+		return false;
+	}
+	s->threaded = true;
+	return true;
 }
 
 bool source_faults(struct source *s, const char *list, char *err, size_t errlen)
@@ -256,9 +319,49 @@ static void pattern_poll(struct source *s, uint64_t now_us)
 	}
 }
 
+static void deliver_link_frame(struct source *s, const struct swell_frame *f, uint64_t t_us)
+{
+	s->delivered++;
+	if (swell_link_carrier(s->link) == SWELL_CARRIER_PKT)
+		feed_packet(s->feed, f->data, f->len, t_us);
+	else if (f->flags & SWELL_FRAME_EFF)
+		vm_bad(s->feed->vm); /* a 29-bit id is never a swell frame */
+	else
+		feed_can(s->feed, f->id, f->data, f->len, (f->flags & SWELL_FRAME_FD) != 0, t_us);
+}
+
+static void ring_poll(struct source *s, uint64_t now_us)
+{
+	struct view_model *vm = s->feed->vm;
+	unsigned t = atomic_load_explicit(&s->tail, memory_order_relaxed);
+	unsigned h = atomic_load_explicit(&s->head, memory_order_acquire);
+
+	if (s->link && !vm->link_up && t == h && vm->st.frames == 0)
+		vm_link(vm, true, now_us); /* open, nothing yet: up and waiting (then STALE) */
+	for (; t != h; t++) {
+		const struct rx_item *it = &s->ring[t % RX_RING];
+		/* times from the reader thread are older than now_us: keep them, they are the truth */
+		uint64_t at = it->t_us < now_us ? it->t_us : now_us;
+		if (it->rc == 0) {
+			if (!vm->link_up)
+				vm_link(vm, true, at);
+			deliver_link_frame(s, &it->f, at);
+		} else if (vm->link_up) {
+			vm_link(vm, false, at); /* unplugged or broken; the link layer reconnects */
+		}
+	}
+	atomic_store_explicit(&s->tail, t, memory_order_release);
+	vm->st.dropped += atomic_exchange(&s->overflow, 0u);
+}
+
 static void link_poll(struct source *s, uint64_t now_us)
 {
 	struct view_model *vm = s->feed->vm;
+
+	if (s->threaded) {
+		ring_poll(s, now_us);
+		return;
+	}
 
 	if (!s->link) {
 		if (s->lk != LINK_USB || now_us < s->retry_us)
@@ -297,14 +400,7 @@ static void link_poll(struct source *s, uint64_t now_us)
 		}
 		if (!vm->link_up)
 			vm_link(vm, true, now_us);
-		s->delivered++;
-		if (swell_link_carrier(s->link) == SWELL_CARRIER_PKT) {
-			feed_packet(s->feed, f.data, f.len, now_us);
-		} else if (f.flags & SWELL_FRAME_EFF) {
-			vm_bad(vm); /* a 29-bit id is never a swell frame */
-		} else {
-			feed_can(s->feed, f.id, f.data, f.len, (f.flags & SWELL_FRAME_FD) != 0, now_us);
-		}
+		deliver_link_frame(s, &f, now_us);
 	}
 }
 
@@ -325,6 +421,13 @@ uint32_t source_poll(struct source *s, struct view_feed *f, uint64_t now_us)
 
 void source_close(struct source *s)
 {
+	if (s->threaded) {
+		atomic_store(&s->stop, true);
+		pthread_join(s->thread, NULL);
+		s->threaded = false;
+	}
+	free(s->ring);
+	s->ring = NULL;
 	swell_link_close(s->link);
 	s->link = NULL;
 }

@@ -13,6 +13,8 @@
 #ifndef SWELL_VIEW_SOURCES_H
 #define SWELL_VIEW_SOURCES_H
 
+#include <pthread.h>
+#include <stdatomic.h>
 #include <stdbool.h>
 #include <stdint.h>
 
@@ -22,6 +24,15 @@
 
 enum source_kind { SOURCE_LINK, SOURCE_PATTERN };
 enum link_kind { LINK_UDP, LINK_CAN, LINK_USB, LINK_REPLAY };
+
+/* Live links are read by a thread of their own into this ring, so frames keep being taken off the
+ * socket (or bus, or USB endpoint) while a frame renders; the display thread drains it. */
+#define RX_RING 32768u
+struct rx_item {
+	int rc;           /* 0: a frame; -ENODEV: device gone; other negative errno: link error */
+	uint64_t t_us;    /* receive time, CLOCK_MONOTONIC */
+	struct swell_frame f;
+};
 
 /* Faults injected into the pattern's packets (bit flags). */
 #define FAULT_GARBAGE  0x01u /* random datagrams between the real ones */
@@ -44,6 +55,13 @@ struct source {
 	bool ended;            /* replay reached the end of the recording */
 	uint32_t rec_damaged;  /* replay stopped at a damaged record */
 	const char *record;    /* record what is received to this file (link sources) */
+	/* reader thread (live links) */
+	bool threaded;
+	pthread_t thread;
+	atomic_bool stop;
+	atomic_uint head, tail;   /* ring indices: the thread writes at head, the display reads at tail */
+	atomic_uint overflow;     /* frames lost because the display fell RX_RING frames behind */
+	struct rx_item *ring;
 	/* pattern */
 	struct gen_scene g;
 	bool animate;
@@ -67,7 +85,8 @@ struct source {
 bool source_open(struct source *s, const char *spec, const char *record, char *err, size_t errlen);
 /* Parse a fault list ("garbage,truncate,..."); false with the reason in err. */
 bool source_faults(struct source *s, const char *list, char *err, size_t errlen);
-/* Deliver everything available at now_us. Returns frames delivered. */
+/* Deliver everything available at now_us (live links: everything their thread has received, with
+ * its receive times). Returns frames delivered. */
 uint32_t source_poll(struct source *s, struct view_feed *f, uint64_t now_us);
 void source_close(struct source *s);
 

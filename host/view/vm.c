@@ -6,7 +6,7 @@
 
 #include "swell/wave.h"
 
-#define LATE_WINDOW 256 /* a frame this far behind is late; further back, the stream restarted */
+#define LATE_WINDOW 256 /* at most this far behind (and a quarter of half the range) is late */
 
 void vm_init(struct view_model *m, uint64_t stale_us)
 {
@@ -19,12 +19,10 @@ void vm_init(struct view_model *m, uint64_t stale_us)
 static void drop_scene(struct view_model *m)
 {
 	free(m->h_mm);
-	free(m->tile_frame);
-	free(m->tile_seen);
+	free(m->cell_pos);
 	free(m->dirty);
 	m->h_mm = NULL;
-	m->tile_frame = NULL;
-	m->tile_seen = NULL;
+	m->cell_pos = NULL;
 	m->dirty = NULL;
 	m->have_scene = false;
 	m->dirty_count = 0;
@@ -76,7 +74,10 @@ bool vm_frame(struct view_model *m, uint32_t seq, unsigned seq_bits, uint64_t no
 	if (m->have_seq) {
 		uint32_t ahead = (seq - m->seq_next) & mask;
 		uint32_t behind = (m->seq_next - seq) & mask;
-		if (ahead != 0 && behind <= LATE_WINDOW && behind < half) {
+		/* Only a little behind is late (reordered); a packet far "behind" is a jump forward past a
+		 * burst of loss, and a run of late ones means the sender started counting again. */
+		uint32_t window = half / 4 < LATE_WINDOW ? half / 4 : LATE_WINDOW;
+		if (ahead != 0 && behind <= window && ++m->late_run < 8) {
 			/* a reordered frame: it was counted lost when its successor came */
 			m->st.late++;
 			if (m->st.dropped > 0)
@@ -85,10 +86,11 @@ bool vm_frame(struct view_model *m, uint32_t seq, unsigned seq_bits, uint64_t no
 			m->window_frames++;
 			return false;
 		}
-		if (ahead < half)
+		if (ahead < mask + 1u - window)
 			m->st.dropped += ahead;
-		/* else: far out of order, the sender restarted its counter; resynchronise. */
+		/* else: a run of late ones, the sender restarted its counter; resynchronise. */
 	}
+	m->late_run = 0;
 	m->have_seq = true;
 	m->seq_next = (seq + 1u) & mask;
 	m->st.frames++;
@@ -120,21 +122,18 @@ enum swell_err vm_scene(struct view_model *m, const struct view_scene *s, uint64
 	uint16_t ty = (uint16_t)((s->ny + s->tile_h - 1) / s->tile_h);
 	size_t cells = (size_t)s->nx * s->ny, tiles = (size_t)tx * ty;
 	float *h = calloc(cells, sizeof(*h));
-	uint32_t *ts = calloc(tiles, sizeof(*ts));
-	bool *seen = calloc(tiles, sizeof(*seen));
+	uint32_t *pos = calloc(cells, sizeof(*pos));
 	uint8_t *dirty = calloc(tiles, 1);
-	if (!h || !ts || !seen || !dirty) {
+	if (!h || !pos || !dirty) {
 		free(h);
-		free(ts);
-		free(seen);
+		free(pos);
 		free(dirty);
 		return SWELL_ESIZE;
 	}
 	if (m->have_scene)
 		vm_restart(m, now_us); /* a different scene: the controller was restarted or reconfigured */
 	m->h_mm = h;
-	m->tile_frame = ts;
-	m->tile_seen = seen;
+	m->cell_pos = pos;
 	m->dirty = dirty;
 	m->scene = *s;
 	m->tiles_x = tx;
@@ -163,41 +162,45 @@ void vm_tile_rect(const struct view_model *m, uint16_t tx, uint16_t ty, uint16_t
 }
 
 enum swell_err vm_cells(struct view_model *m, uint16_t tx, uint16_t ty, uint16_t col, uint16_t row,
-			uint16_t n, uint32_t frame, unsigned frame_bits, const int32_t *h_lsb)
+			uint16_t n, uint32_t pos, const int32_t *h_lsb)
 {
 	if (!m->have_scene) {
 		m->st.ignored++;
 		return SWELL_ESTATE;
 	}
-	if (!h_lsb || tx >= m->tiles_x || ty >= m->tiles_y || frame_bits == 0 || frame_bits > 32)
+	if (!h_lsb || pos == 0 || tx >= m->tiles_x || ty >= m->tiles_y)
 		return SWELL_ERANGE;
 	uint16_t i0, j0, w, h;
 	vm_tile_rect(m, tx, ty, &i0, &j0, &w, &h);
 	if (row >= h || n == 0 || (uint32_t)col + n > w)
 		return SWELL_ERANGE;
-	uint32_t mask = frame_bits == 32 ? 0xffffffffu : (1u << frame_bits) - 1u;
-	uint32_t window = (mask >> 2) + 1u; /* how far back counts as late: a quarter, at least 1 */
-	size_t t = (size_t)ty * m->tiles_x + tx;
-	frame &= mask;
-	uint32_t ahead = (frame - m->tile_frame[t]) & mask;
-	if (m->tile_seen[t] && ahead != 0 && ahead > mask - window) {
-		m->st.late++;
-		return SWELL_ESTATE;
-	}
-	float *dst = m->h_mm + (size_t)(j0 + row) * m->scene.nx + i0 + col;
-	bool changed = false;
+	size_t at = (size_t)(j0 + row) * m->scene.nx + i0 + col;
+	float *dst = m->h_mm + at;
+	uint32_t *held = m->cell_pos + at;
+	bool changed = false, took = false, late = false;
 	for (uint16_t c = 0; c < n; c++) {
+		if (held[c] != 0 && (int32_t)(pos - held[c]) < 0) {
+			late = true; /* newer data is already here */
+			continue;
+		}
 		float v = (float)h_lsb[c] / (float)SWELL_H_ONE_MM;
 		changed |= dst[c] != v;
 		dst[c] = v;
+		held[c] = pos;
+		took = true;
 	}
-	m->tile_seen[t] = true;
-	m->tile_frame[t] = frame;
+	if (late)
+		m->st.late++;
+	if (!took)
+		return SWELL_ESTATE;
+	size_t t = (size_t)ty * m->tiles_x + tx;
 	if (changed && !m->dirty[t]) { /* the same heights again (a refresh) upload nothing */
 		m->dirty[t] = 1;
 		m->dirty_count++;
 	}
 	m->st.cells += n;
+	m->st.pieces++;
+	m->window_pieces++;
 	return SWELL_OK;
 }
 
@@ -235,12 +238,6 @@ void vm_heartbeat(struct view_model *m, const char *state, uint8_t error, uint16
 		strcpy(m->ctrl_state, "?");
 }
 
-void vm_tile_done(struct view_model *m)
-{
-	m->st.tiles++;
-	m->window_tiles++;
-}
-
 void vm_clock(struct view_model *m, uint64_t ctrl_us, uint64_t rx_us)
 {
 	int64_t off = (int64_t)(rx_us - ctrl_us);
@@ -276,8 +273,8 @@ void vm_tick(struct view_model *m, uint64_t now_us)
 	if (now_us - m->window_us >= VIEW_RATE_WINDOW_US) {
 		float s = (float)(now_us - m->window_us) / 1e6f;
 		m->st.frame_hz = (float)m->window_frames / s;
-		m->st.tile_hz = (float)m->window_tiles / s;
-		m->window_frames = m->window_tiles = 0;
+		m->st.piece_hz = (float)m->window_pieces / s;
+		m->window_frames = m->window_pieces = 0;
 		m->window_us = now_us;
 	}
 	if (!m->link_up)

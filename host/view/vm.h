@@ -6,8 +6,8 @@
  * - late join: until a scene description arrives, tiles and poses are counted and dropped
  *   (VIEW_WAIT_SCENE);
  * - loss: gaps in the stream sequence are counted as dropped frames;
- * - reordering: height data of a solver frame older than the one already held for its tile is
- *   dropped (counted late);
+ * - reordering: heights from a frame older (by stream position) than the data already held for
+ *   those cells are dropped (counted late);
  * - controller restart: the decoder calls vm_restart (heartbeat back in the boot state), or a scene
  *   description that differs arrives: the heights are cleared and the viewer waits for the scene
  *   again (VIEW_RESTARTED);
@@ -56,11 +56,11 @@ struct view_stats {
 	uint32_t dropped;     /* missing sequence numbers */
 	uint32_t late;        /* reordered frames older than what is shown */
 	uint32_t ignored;     /* frames that arrived before the scene description */
-	uint32_t tiles;       /* tiles completed (the decoder calls vm_tile_done) */
+	uint32_t pieces;      /* height pieces accepted (vm_cells calls: quads on the wire) */
 	uint32_t cells;       /* height samples accepted */
 	uint32_t restarts;    /* controller restarts seen */
 	uint32_t link_drops;  /* link up -> down transitions */
-	float frame_hz, tile_hz; /* over the last full rate window */
+	float frame_hz, piece_hz; /* over the last full rate window */
 	float latency_ms;     /* one-way delay above the best seen (see vm_clock) */
 	bool latency_valid;
 };
@@ -72,8 +72,7 @@ struct view_model {
 	struct view_scene scene;
 	uint16_t tiles_x, tiles_y;
 	float *h_mm;            /* nx * ny heights above rest, row-major (j * nx + i) */
-	uint32_t *tile_frame;   /* solver frame number of the newest data held for each tile */
-	bool *tile_seen;
+	uint32_t *cell_pos;     /* stream position of the data held for each cell (0: none yet) */
 	uint8_t *dirty;         /* one flag a tile: heights changed since the renderer last took it */
 	uint32_t dirty_count;
 	struct view_object obj;
@@ -85,9 +84,10 @@ struct view_model {
 	/* bookkeeping */
 	bool have_seq;
 	uint32_t seq_next;
+	uint32_t late_run;      /* late frames in a row */
 	uint64_t last_rx_us, restart_us, window_us;
 	bool have_window;
-	uint32_t window_frames, window_tiles;
+	uint32_t window_frames, window_pieces;
 	int64_t best_offset_us, prev_best_us;
 	uint64_t best_since_us;
 	bool have_offset, have_prev_best;
@@ -114,15 +114,13 @@ void vm_bad(struct view_model *m);
  * heights are cleared). SWELL_ERANGE for sizes out of range; nothing changes then. */
 enum swell_err vm_scene(struct view_model *m, const struct view_scene *s, uint64_t now_us);
 
-/* n heights of one row of tile (tx, ty), from cell (col, row) of the tile, in LSB of 2^-16 mm, of
- * solver frame `frame` (modulo 2^frame_bits). Data of an older frame than the newest held for the tile
- * (up to a quarter of the frame range back, at least one frame) is late: SWELL_ESTATE, nothing
- * changes. SWELL_ESTATE before a scene, SWELL_ERANGE for cells outside the tile or the grid. */
+/* n heights of one row of tile (tx, ty), from cell (col, row) of the tile, in LSB of 2^-16 mm, from
+ * the frame at stream position `pos` (the decoder's unwrapped packet sequence, or arrival order;
+ * never 0). Cells already holding data from a later position keep it (a reordered frame): counted
+ * late, SWELL_ESTATE if no cell was taken. SWELL_ESTATE before a scene, SWELL_ERANGE for cells
+ * outside the tile or the grid. */
 enum swell_err vm_cells(struct view_model *m, uint16_t tx, uint16_t ty, uint16_t col, uint16_t row,
-			uint16_t n, uint32_t frame, unsigned frame_bits, const int32_t *h_lsb);
-
-/* The decoder completed a tile (for the tile rate). */
-void vm_tile_done(struct view_model *m);
+			uint16_t n, uint32_t pos, const int32_t *h_lsb);
 
 /* Object pose and force. SWELL_ESTATE before a scene. */
 enum swell_err vm_object(struct view_model *m, const struct view_object *o);

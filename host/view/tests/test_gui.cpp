@@ -23,6 +23,7 @@
 namespace {
 
 const int W = 640, H = 480;
+const double OBJ = 0.05; // the object side, m: swell-view's default (the controller's default body)
 const double L = 0.4, S = 0.9 * std::min(W / L, H / L);
 
 double col_of(double x_m) { return W / 2.0 + (x_m - L / 2) * S; }
@@ -264,12 +265,12 @@ TEST_CASE("the object is drawn where its pose says, at its size")
 		double cc = (b.c0 + b.c1) / 2.0, cr = (b.r0 + b.r1) / 2.0;
 		INFO(k.source << ": object pixels " << b.n << ", box centre (" << cc << ", " << cr << ") px, expected ("
 			      << col_of(k.obj_x) << ", " << row_of(k.obj_y) << "); size " << b.c1 - b.c0 + 1 << " x "
-			      << b.r1 - b.r0 + 1 << " px, expected " << 0.06 * S);
+			      << b.r1 - b.r0 + 1 << " px, expected " << OBJ * S);
 		REQUIRE(b.n > 1000);
 		CHECK(std::abs(cc - col_of(k.obj_x)) < 2.5);
 		CHECK(std::abs(cr - row_of(k.obj_y)) < 2.5);
-		CHECK(std::abs(b.c1 - b.c0 + 1 - 0.06 * S) < 3);
-		CHECK(std::abs(b.r1 - b.r0 + 1 - 0.06 * S) < 3);
+		CHECK(std::abs(b.c1 - b.c0 + 1 - OBJ * S) < 3);
+		CHECK(std::abs(b.r1 - b.r0 + 1 - OBJ * S) < 3);
 	}
 }
 
@@ -321,7 +322,7 @@ TEST_CASE("late join: without a scene description nothing is drawn and the scree
 	CHECK(obj.n == 0);
 	INFO("amber text pixels in the middle: " << amber.n);
 	CHECK(amber.n > 200);
-	CHECK(counter(r.out, "tiles") == 0); // tiles arrived, and none was taken without a scene
+	CHECK(counter(r.out, "quads") == 0); // heights arrived, and none was taken without a scene
 }
 
 TEST_CASE("garbage between the packets changes nothing on screen and is counted")

@@ -27,16 +27,15 @@ view_scene pool64()
 
 std::vector<int32_t> tile_of(int32_t v, size_t n) { return std::vector<int32_t>(n, v); }
 
-// A whole tile, row by row, as the decoder would deliver it (32-bit frame numbers).
-swell_err put_tile(view_model &m, uint16_t tx, uint16_t ty, uint32_t frame, const std::vector<int32_t> &t,
+// A whole tile, row by row, as the decoder would deliver it from stream position pos.
+swell_err put_tile(view_model &m, uint16_t tx, uint16_t ty, uint32_t pos, const std::vector<int32_t> &t,
 		   uint16_t w = 16, uint16_t h = 16)
 {
 	for (uint16_t r = 0; r < h; r++) {
-		swell_err e = vm_cells(&m, tx, ty, 0, r, w, frame, 32, &t[size_t(r) * w]);
+		swell_err e = vm_cells(&m, tx, ty, 0, r, w, pos, &t[size_t(r) * w]);
 		if (e != SWELL_OK)
 			return e;
 	}
-	vm_tile_done(&m);
 	return SWELL_OK;
 }
 
@@ -123,16 +122,17 @@ TEST_CASE("a tile lands in its cells in mm and marks only its own tile dirty")
 	CHECK(j0 == 32);
 	CHECK(w == 2);
 	CHECK(h == 8);
-	CHECK(vm_cells(&m, 3, 2, 0, 0, 3, 1, 32, t.data()) == SWELL_ERANGE); // past the grid's edge
-	CHECK(vm_cells(&m, 3, 2, 0, 8, 2, 1, 32, t.data()) == SWELL_ERANGE); // row past the edge
-	CHECK(vm_cells(&m, 3, 2, 0, 7, 2, 1, 32, t.data()) == SWELL_OK);
-	CHECK(vm_cells(&m, 4, 0, 0, 0, 1, 1, 32, t.data()) == SWELL_ERANGE); // outside the grid
-	CHECK(vm_cells(&m, 0, 0, 15, 0, 2, 1, 32, t.data()) == SWELL_ERANGE); // past the tile
+	CHECK(vm_cells(&m, 3, 2, 0, 0, 3, 1, t.data()) == SWELL_ERANGE); // past the grid's edge
+	CHECK(vm_cells(&m, 3, 2, 0, 8, 2, 1, t.data()) == SWELL_ERANGE); // row past the edge
+	CHECK(vm_cells(&m, 3, 2, 0, 7, 2, 1, t.data()) == SWELL_OK);
+	CHECK(vm_cells(&m, 4, 0, 0, 0, 1, 1, t.data()) == SWELL_ERANGE); // outside the grid
+	CHECK(vm_cells(&m, 0, 0, 15, 0, 2, 1, t.data()) == SWELL_ERANGE); // past the tile
+	CHECK(vm_cells(&m, 0, 0, 0, 0, 2, 0, t.data()) == SWELL_ERANGE); // position 0 is "none"
 	CHECK(m.st.cells == 2);
 	vm_free(&m);
 }
 
-TEST_CASE("reordering: a tile older than the one held is dropped and counted late")
+TEST_CASE("reordering: heights from an older stream position never overwrite newer ones")
 {
 	view_model m;
 	vm_init(&m, S);
@@ -143,17 +143,19 @@ TEST_CASE("reordering: a tile older than the one held is dropped and counted lat
 	CHECK(put_tile(m, 0, 0, 99, older) == SWELL_ESTATE);
 	CHECK(m.h_mm[0] == Approx(2.0));
 	CHECK(m.st.late == 1);
-	// frames compare modulo 2^32
-	REQUIRE(put_tile(m, 1, 0, 0xfffffff0u, newer) == SWELL_OK);
-	CHECK(put_tile(m, 1, 0, 0x10u, older) == SWELL_OK);
-	// with the wire's 2-bit frame numbers only the frame just before is late; 2 ahead is newer
-	int32_t v1 = SWELL_H_ONE_MM, v2 = 3 * SWELL_H_ONE_MM;
-	REQUIRE(vm_cells(&m, 2, 0, 0, 0, 1, 1, 2, &v1) == SWELL_OK);
-	CHECK(vm_cells(&m, 2, 0, 0, 0, 1, 0, 2, &v2) == SWELL_ESTATE);
-	CHECK(vm_cells(&m, 2, 0, 0, 0, 1, 3, 2, &v2) == SWELL_OK);
-	CHECK(vm_cells(&m, 2, 0, 0, 0, 1, 1, 2, &v1) == SWELL_OK);
-	CHECK(m.h_mm[32] == Approx(1.0));
+	// per cell: a late piece still fills cells nothing newer has touched
+	int32_t one[4] = {SWELL_H_ONE_MM, SWELL_H_ONE_MM, SWELL_H_ONE_MM, SWELL_H_ONE_MM};
+	int32_t five[4] = {5 * SWELL_H_ONE_MM, 5 * SWELL_H_ONE_MM, 5 * SWELL_H_ONE_MM, 5 * SWELL_H_ONE_MM};
+	REQUIRE(vm_cells(&m, 1, 0, 2, 0, 2, 200, five) == SWELL_OK); // cells 18, 19 at position 200
+	REQUIRE(vm_cells(&m, 1, 0, 0, 0, 4, 199, one) == SWELL_OK);  // 16..19 from the older 199
+	CHECK(m.h_mm[16] == Approx(1.0));
+	CHECK(m.h_mm[17] == Approx(1.0));
+	CHECK(m.h_mm[18] == Approx(5.0));
+	CHECK(m.h_mm[19] == Approx(5.0));
 	CHECK(m.st.late == 2);
+	// positions compare modulo 2^32
+	REQUIRE(put_tile(m, 2, 0, 0xfffffff0u, newer) == SWELL_OK);
+	CHECK(put_tile(m, 2, 0, 0x10u, older) == SWELL_OK);
 	vm_free(&m);
 }
 
@@ -169,10 +171,28 @@ TEST_CASE("sequence gaps count dropped frames, modulo the sequence width; a late
 	CHECK(m.st.late == 1);
 	CHECK(m.st.dropped == 5);
 	CHECK(vm_frame(&m, 3, 16, 5));
-	// a jump of more than half the range is a new stream, not 30 000 lost frames
+	// a jump of more than half the range forward is a burst of loss, not a late frame
 	CHECK(vm_frame(&m, 40000, 16, 6));
-	CHECK(m.st.dropped == 5);
+	CHECK(m.st.dropped == 5 + 39996);
 	CHECK(m.st.frames == 6);
+	// 8-bit sequences: 90 lost in a burst look like "166 behind": still a loss, and the stream
+	// goes on from there
+	view_model k;
+	vm_init(&k, S);
+	CHECK(vm_frame(&k, 125, 8, 1));
+	CHECK(vm_frame(&k, 215, 8, 2));
+	CHECK(vm_frame(&k, 216, 8, 3));
+	CHECK(vm_frame(&k, 1, 8, 4));   // 41 more lost, wrapping
+	CHECK(vm_frame(&k, 211, 8, 5)); // 209 ahead: a loss, not 46 behind
+	CHECK(vm_frame(&k, 212, 8, 6));
+	CHECK(k.st.late == 0);
+	CHECK(k.st.dropped == 89 + 40 + 209);
+	// a sender that starts counting again from far back: after a few late ones, resynchronised
+	for (uint32_t q = 190; q < 200; q++)
+		vm_frame(&k, q, 8, 7);
+	CHECK(k.st.late == 7);
+	CHECK(vm_frame(&k, 200, 8, 8));
+	vm_free(&k);
 	vm_free(&m);
 }
 
@@ -274,12 +294,12 @@ TEST_CASE("frame and tile rates are counted over one second")
 	auto t = tile_of(0, 256);
 	for (uint32_t k = 0; k < 250; k++) {
 		vm_frame(&m, k, 16, k * 4000);
-		put_tile(m, uint16_t(k % 4), 0, k, t);
-		put_tile(m, uint16_t(k % 4), 1, k, t);
+		put_tile(m, uint16_t(k % 4), 0, k + 1, t); // 16 rows: 16 pieces
+		put_tile(m, uint16_t(k % 4), 1, k + 1, t);
 	}
 	vm_tick(&m, S);
 	CHECK(m.st.frame_hz == Approx(250.0));
-	CHECK(m.st.tile_hz == Approx(500.0));
+	CHECK(m.st.piece_hz == Approx(250.0 * 32));
 	vm_free(&m);
 }
 
