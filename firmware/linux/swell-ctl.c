@@ -32,6 +32,8 @@ static const char usage[] =
 	"  --host LINK         viewer link: udp[:PORT] (default udp:47801, send to 127.0.0.1), can:IFACE,\n"
 	"                      usb:FFS_DIR, or none\n"
 	"  --clock internal|device   own absolute-deadline clock (default) or one tick per device sample\n"
+	"                      (a silent device is still noticed: after silent-ticks periods of wall time\n"
+	"                      the loop ticks on its own every period)\n"
 	"  --tick-hz N         device rate (default 2500; 1000 for classic CAN)\n"
 	"  --solver-hz N       solver rate (default 250; must divide the tick rate)\n"
 	"  --silent-ticks N    device silent this many ticks -> zero force and fault (default 2)\n"
@@ -288,6 +290,7 @@ int main(int argc, char **argv)
 	char err[160];
 	int64_t period, next, start, last_status;
 	int32_t peak_h = 0;
+	int64_t last_sample = 0; /* --clock device: when the last DEVICE_POS came */
 	uint64_t max_ticks;
 	enum swell_err e;
 
@@ -329,13 +332,19 @@ int main(int argc, char **argv)
 	last_status = start;
 	while (!stop_flag && p.c.n.ticks < max_ticks) {
 		if (o.device_clock) {
-			/* tick on each device sample; a silent device still ticks every period */
+			/* One tick per device sample, so that a trace replays bit-identically whatever the
+			 * machine's load. Nothing ticks before the first sample. Once the device has been
+			 * silent for silent_ticks periods of wall time, the loop ticks on its own every period,
+			 * so the core sees the silence (and faults silent_ticks ticks later). */
 			struct pollfd pf = {ctl_link_fd(&p.dev), POLLIN, 0};
 			int r = poll(&pf, 1, (int)(period / 1000000) + 1);
 
 			if (r < 0 && errno == EINTR)
 				continue;
-			take_input(&p);
+			if (take_input(&p))
+				last_sample = now_ns();
+			else if (last_sample == 0 || now_ns() - last_sample < (int64_t)o.cfg.silent_ticks * period)
+				continue;
 		} else {
 			struct timespec dl;
 			int64_t late;
