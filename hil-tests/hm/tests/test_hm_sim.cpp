@@ -441,3 +441,17 @@ TEST_CASE("bad parameter sets are refused with a one-line reason, exit 2, nothin
 	}
 	close(fd);
 }
+
+TEST_CASE("determinism: the same scripted hand in lockstep gives a bit-identical trace twice")
+{
+	std::string logs[2];
+	for (int k = 0; k < 2; k++) {
+		closed_loop cl("determinism-" + std::to_string(k));
+		cl.run(cl.hm_args("shake:at=0.5,axis=z,f=2,amp=10,for=2", 3.0));
+		logs[k] = slurp(cl.csv);
+	}
+	const size_t lines = (size_t)std::count(logs[0].begin(), logs[0].end(), '\n');
+	INFO("trace of " << lines << " lines");
+	CHECK(lines > 7000);
+	CHECK(logs[0] == logs[1]);
+}
