@@ -585,6 +585,7 @@ static void stress_edge(const struct opts *o, const char *scenario, enum bench_i
 	int n = 64 * 64;
 	long steps = (long)ceil(o->stress_cells / n), k, first_sat = -1;
 	double m_first = 0, m_last = 0, m_all = 0, e0, ed_max = 0, v0, t0 = now_s(), ratio, e_end;
+	char sat_at[48] = "";
 	struct bench_rng rng;
 	double *h = xmalloc((size_t)n * sizeof(double));
 	int a;
@@ -621,12 +622,14 @@ static void stress_edge(const struct opts *o, const char *scenario, enum bench_i
 				 bench_impl_name(impl), t, k, steps, m_all * f.lsb_mm, now_s() - t0);
 	}
 	ratio = m_first > 0 ? m_last / m_first : 0;
+	if (first_sat >= 0)
+		snprintf(sat_at, sizeof(sat_at), " (first at step %ld)", first_sat);
 	e_end = bench_field_energy(&f) / e0;
 	printf("%-10s %-10s t=%.2f e_eff=%.9f (limit %.6f): %.2e cell-steps, max|h| %.4g mm (%.4f of bound), "
-	       "last/first quarter %.3f, %s %.2e, vol drift %+.0f LSB, saturations %u (first at step %ld)\n",
+	       "last/first quarter %.3f, %s %.2e, vol drift %+.0f LSB, saturations %u%s\n",
 	       scenario, bench_impl_name(impl), t, f.e_eff, bench_e_limit(1 - t), (double)steps * n,
 	       m_all * f.lsb_mm, m_all / f.h_max, ratio, t == 0 ? "|E drift| max" : "E end/E0",
-	       t == 0 ? ed_max : e_end, bench_field_volume_lsb(&f) - v0, f.saturations, first_sat);
+	       t == 0 ? ed_max : e_end, bench_field_volume_lsb(&f) - v0, f.saturations, sat_at);
 	fprintf(stress_fp, "%s,%s,%.3f,%.9f,%.3e,%.4f,%.3e,%.0f,%u,,\n", scenario, bench_impl_name(impl), t,
 		f.e_eff, (double)steps * n, ratio, t == 0 ? ed_max : e_end, bench_field_volume_lsb(&f) - v0,
 		f.saturations);
