@@ -42,7 +42,7 @@ static const char usage[] =
 	"  --object AxBxH      object size in mm, not on the wire (default 50x50x50, the controller's default)\n"
 	"  --stale-ms N        silence after which data is called stale (default 500 ms)\n"
 	"  --no-hud            no text overlay\n"
-	"  --msaa N            antialiasing samples a pixel (default 4; 0 is cheaper on software GL)\n"
+	"  --msaa N            antialiasing samples a pixel (default 4 on a GPU, 0 on llvmpipe/softpipe)\n"
 	"  --fps N             frame rate limit (default 60)\n"
 	"  --steady            time advances 20 ms per rendered frame, not by the clock: patterns and\n"
 	"                      replays give the same pictures on every run (tests)\n"
@@ -100,7 +100,7 @@ static void parse(int argc, char **argv, struct opts *o)
 	o->ro.hud = true;
 	o->ro.zscale = 3;
 	o->ro.force_mm_per_N = 40;
-	o->ro.msaa = 4;
+	o->ro.msaa = -1;
 	for (int k = 1; k < argc; k++) {
 		const char *a = argv[k];
 		const char *v = k + 1 < argc ? argv[k + 1] : NULL;

@@ -262,6 +262,7 @@ static bool fb_make(struct render *r)
 
 	free(r->hud_rgba);
 	free(r->hud_ink);
+	r->hud_ntext = -1; /* new size: rebuild the HUD */
 	r->hud_rgba = malloc((size_t)r->o.w * (size_t)r->o.h * 4);
 	r->hud_ink = malloc((size_t)r->o.w * (size_t)r->o.h);
 	if (!r->hud_rgba || !r->hud_ink)
@@ -285,6 +286,9 @@ bool render_init(struct render *r, const struct render_opts *o)
 {
 	memset(r, 0, sizeof(*r));
 	r->o = *o;
+	const char *gl = (const char *)glGetString(GL_RENDERER);
+	if (r->o.msaa < 0) /* not chosen: 4 on a GPU, none on a software renderer (it costs 2.4x there) */
+		r->o.msaa = gl && (strstr(gl, "llvmpipe") || strstr(gl, "softpipe")) ? 0 : 4;
 	r->prog_lit = program(lit_vs, lit_fs, "lit");
 	r->prog_water = program(water_vs, water_fs, "water");
 	r->prog_hud = program(hud_vs, hud_fs, "hud");
@@ -632,6 +636,7 @@ void render_text_add(struct render *r, int x, int y, uint8_t cr, uint8_t cg, uin
 	if (r->ntext >= RENDER_HUD_ITEMS)
 		return;
 	struct render_text *t = &r->text[r->ntext++];
+	memset(t, 0, sizeof(*t));
 	t->x = x;
 	t->y = y;
 	t->r = cr;
@@ -761,7 +766,12 @@ void render_frame(struct render *r, struct view_model *m, bool frozen)
 	}
 
 	if (r->o.hud && r->ntext > 0) {
-		build_hud(r);
+		/* rasterise and upload the HUD only when its text changed (rates change once a second) */
+		if (r->ntext != r->hud_ntext || memcmp(r->text, r->hud_text, sizeof(r->text[0]) * (size_t)r->ntext) != 0) {
+			build_hud(r);
+			memcpy(r->hud_text, r->text, sizeof(r->text));
+			r->hud_ntext = r->ntext;
+		}
 		glDisable(GL_DEPTH_TEST);
 		glDisable(GL_CULL_FACE);
 		glEnable(GL_BLEND);

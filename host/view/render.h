@@ -27,7 +27,8 @@ struct render_opts {
 	bool hud;
 	float zscale;          /* vertical exaggeration of the water heights */
 	float force_mm_per_N;  /* force arrow length */
-	int msaa;              /* samples a pixel (0: none), capped to what GL offers */
+	int msaa;              /* samples a pixel (0: none; -1: 4, or 0 on a software renderer), capped
+				* to what GL offers */
 };
 
 struct render_text {
@@ -60,6 +61,8 @@ struct render {
 	uint8_t *hud_rgba, *hud_ink;
 	struct render_text text[RENDER_HUD_ITEMS];
 	int ntext;
+	struct render_text hud_text[RENDER_HUD_ITEMS]; /* what the HUD texture holds */
+	int hud_ntext;
 	/* counters */
 	uint64_t tiles_uploaded, texels_uploaded;
 	uint32_t tiles_uploaded_last;

@@ -242,7 +242,7 @@ void vm_clock(struct view_model *m, uint64_t ctrl_us, uint64_t rx_us)
 {
 	int64_t off = (int64_t)(rx_us - ctrl_us);
 
-	if (m->have_offset && rx_us - m->best_since_us >= 5000000u) {
+	if (m->have_offset && rx_us - m->best_since_us >= VIEW_LATENCY_WINDOW_US) {
 		/* Start a new window; the previous window's best still counts until this one is full. */
 		m->prev_best_us = m->best_offset_us;
 		m->have_prev_best = true;

@@ -24,7 +24,8 @@
 #define VIEW_MAX_SIDE 1024
 #define VIEW_MAX_TILE 64
 #define VIEW_RATE_WINDOW_US 1000000u /* rates are counted over one second */
-#define VIEW_RESTART_SHOW_US 3000000u /* how long "controller restarted" stays on screen */
+#define VIEW_RESTART_SHOW_US 3000000u
+#define VIEW_LATENCY_WINDOW_US 2000000u /* the best path is the best of the last 2 to 4 s */ /* how long "controller restarted" stays on screen */
 
 enum view_status {
 	VIEW_LINK_DOWN,   /* the link reports no connection (unplugged, socket error) */
@@ -137,8 +138,9 @@ void vm_restart(struct view_model *m, uint64_t now_us);
 
 /* Clock sample: the controller's time of a frame (e.g. heartbeat count x period) against the local
  * receive time. The latency estimate is how far the offset exceeds the smallest offset seen in the
- * last 5 to 10 s (the best path; the window lets clock drift through), smoothed. It cannot see the
- * constant part of the delay, and the HUD says so ("over best"). */
+ * last 2 to 4 s (the best path; the window lets clock drift through), smoothed. It cannot see the
+ * constant part of the delay, and the HUD says so ("over best"); a controller that falls behind its
+ * own schedule (overruns) shows as delay, which it is. */
 void vm_clock(struct view_model *m, uint64_t ctrl_us, uint64_t rx_us);
 
 /* Advance time: rates, staleness, how long a restart stays shown. */
