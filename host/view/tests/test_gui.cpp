@@ -76,14 +76,25 @@ xserver &x()
 	return s;
 }
 
+// Scratch files of this test process, removed when it ends.
+struct scratch {
+	std::string dir;
+	~scratch()
+	{
+		if (dir.size() > 5)
+			std::system(("rm -rf '" + dir + "'").c_str());
+	}
+};
+
 std::string tmpdir()
 {
-	static std::string d;
-	if (d.empty()) {
+	static scratch s;
+	if (s.dir.empty()) {
 		char t[] = "/tmp/swell-view-test-XXXXXX";
-		d = mkdtemp(t) ? t : "/tmp";
+		REQUIRE(mkdtemp(t) != nullptr);
+		s.dir = t;
 	}
-	return d;
+	return s.dir;
 }
 
 struct run_result {
@@ -441,4 +452,54 @@ TEST_CASE("a cut recording shows what it holds and a recording of noise draws no
 	// not a recording at all: refused with a reason, exit status 2
 	run_result bad = view("--headless --source replay-fast:" + cut.substr(0, cut.size() - 7) + "bump.rec.nope");
 	CHECK(bad.status == 2);
+}
+
+TEST_CASE("live over UDP: the scene stays on screen when the sender stops, marked as no data")
+{
+	// a port of its own per test process
+	int port = 40000 + int(getpid() % 5000);
+	std::string path = tmpdir() + "/udp.png";
+	std::string cmd = "DISPLAY=" + x().display + " ASAN_OPTIONS=detect_leaks=0 " SWELL_VIEW_BIN
+			  " --headless --view top --size 640x480 --msaa 0 --fps 60 --source udp:" + std::to_string(port) +
+			  " --after 240 --screenshot " + path + " > " + tmpdir() + "/udp.out 2>&1 &";
+	REQUIRE(std::system(cmd.c_str()) == 0);
+	// wait until the viewer has bound its port (/proc/net/udp lists local ports in hex)
+	char hex[8];
+	snprintf(hex, sizeof(hex), ":%04X", port);
+	bool bound = false;
+	for (int k = 0; k < 200 && !bound; k++) {
+		std::ifstream u("/proc/net/udp");
+		std::string line;
+		while (std::getline(u, line))
+			bound |= line.find(hex) != std::string::npos && line.find(hex) < 40;
+		if (!bound)
+			usleep(50000);
+	}
+	REQUIRE(bound);
+	// one second of the known scene, live at 50 frames a second; then silence
+	std::string gen = "ASAN_OPTIONS=detect_leaks=0 " SWELL_VIEW_GEN_BIN " --frames 50 --udp " + std::to_string(port) + " > /dev/null";
+	REQUIRE(std::system(gen.c_str()) == 0);
+	// the viewer writes its picture at frame 240 (4 s at 60 frames a second) and exits
+	for (int k = 0; k < 600 && access(path.c_str(), F_OK) != 0; k++)
+		usleep(100000);
+	usleep(300000);
+	std::ifstream o(tmpdir() + "/udp.out");
+	std::string out((std::istreambuf_iterator<char>(o)), std::istreambuf_iterator<char>());
+	INFO(out);
+	pngr::decoded d = pngr::read_file(path);
+	REQUIRE(d.error == "");
+	image im{d};
+	CHECK(find(im, is_water).n > 100000); // what was received stays shown
+	CHECK(find(im, is_object).n > 500);
+	box amber; // "NO DATA FOR x.x S", amber, top right
+	for (int r = 0; r < 40; r++)
+		for (int c = W / 2; c < W; c++) {
+			const uint8_t *p = im.at(c, r);
+			if (p[0] > 200 && p[1] > 150 && p[2] < 100)
+				amber.add(c, r);
+		}
+	INFO("amber status pixels top right: " << amber.n);
+	CHECK(amber.n > 80);
+	CHECK(counter(out, "bad") == 0);
+	CHECK(counter(out, "dropped") == 0);
 }
