@@ -32,7 +32,7 @@ TEST_CASE("every glyph from '!' to '_' has ink and no two glyphs are the same")
 		CHECK(space[r] == 0);
 }
 
-TEST_CASE("lower case prints as capitals; other bytes print as a box")
+TEST_CASE("lower case prints as capitals, other bytes print as a box")
 {
 	for (char c = 'a'; c <= 'z'; c++)
 		CHECK(memcmp(swell_font_glyph(c), swell_font_glyph(char(c - 'a' + 'A')), SWELL_FONT_H) == 0);

@@ -159,7 +159,7 @@ TEST_CASE("reordering: heights from an older stream position never overwrite new
 	vm_free(&m);
 }
 
-TEST_CASE("sequence gaps count dropped frames, modulo the sequence width; a late frame is no longer lost")
+TEST_CASE("sequence gaps count dropped frames, modulo the sequence width, a late frame is no longer lost")
 {
 	view_model m;
 	vm_init(&m, S);
@@ -222,7 +222,7 @@ TEST_CASE("controller restart clears the heights and waits for the scene again")
 	vm_free(&m);
 }
 
-TEST_CASE("a different scene description restarts; the same one repeated changes nothing")
+TEST_CASE("a different scene description restarts, the same one repeated changes nothing")
 {
 	view_model m;
 	vm_init(&m, S);
@@ -261,7 +261,7 @@ TEST_CASE("a scene out of range is refused and the held scene stays")
 	vm_free(&m);
 }
 
-TEST_CASE("silence makes the data stale; link down wins; replug starts a new sequence")
+TEST_CASE("silence makes the data stale, link down wins, replug starts a new sequence")
 {
 	view_model m;
 	vm_init(&m, S / 2);
