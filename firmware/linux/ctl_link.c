@@ -143,8 +143,8 @@ int ctl_link_open(struct ctl_link *l, const char *spec, int device_side, uint8_t
 
 int ctl_link_fd(const struct ctl_link *l)
 {
-	if (l->kind == CTL_LINK_USB)
-		return l->usb_up ? l->usb.ep_out : l->usb.ep0;
+	if (l->kind == CTL_LINK_USB) /* FunctionFS data endpoints cannot be polled: their AIO eventfd can */
+		return l->usb_up ? swell_usb_ffs_data_fd(&l->usb) : l->usb.ep0;
 	return l->fd;
 }
 
@@ -155,15 +155,14 @@ static size_t recv_usb(struct ctl_link *l, struct swell_msg *out, size_t cap)
 	uint8_t seq;
 	enum swell_err e;
 
-	if (!l->usb_up) {
-		enum swell_usb_ffs_event ev = SWELL_USB_FFS_NONE;
+	enum swell_usb_ffs_event ev = SWELL_USB_FFS_NONE;
 
-		/* endpoints closed: only ep0 events; enable opens the data endpoints */
-		swell_usb_ffs_poll(&l->usb, 0, &ev);
-		l->usb_up = swell_usb_ffs_enabled(&l->usb);
+	/* ep0 events first (enable opens the data endpoints, disable and unbind close them) */
+	swell_usb_ffs_poll(&l->usb, 0, &ev);
+	l->usb_up = swell_usb_ffs_enabled(&l->usb);
+	if (!l->usb_up)
 		return 0;
-	}
-	/* called when poll() said the OUT endpoint is readable: this read does not wait */
+	/* never waits: *len is 0 when no OUT transfer has finished */
 	e = swell_usb_ffs_read(&l->usb, buf, sizeof(buf), &len);
 	if (e == SWELL_ESTATE) {
 		l->usb_up = 0;
@@ -225,8 +224,7 @@ static void send_bytes(struct ctl_link *l, const uint8_t *p, size_t len)
 	ssize_t r;
 
 	if (l->kind == CTL_LINK_USB) {
-		/* FunctionFS writes wait for the host to take the packet: a host that stops reading
-		 * stalls this link, which is why the force path never waits on the host link */
+		/* queued, never waits: a host that stops reading loses packets (counted), not ticks */
 		if (!l->usb_up || swell_usb_ffs_write(&l->usb, p, len) != SWELL_OK)
 			l->tx_errors++;
 		else
