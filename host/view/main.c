@@ -208,6 +208,7 @@ struct app {
 	struct view_model vm;
 	bool paused, want_shot, quit, dragging;
 	float tile_hz;          /* tiles uploaded a second (the tiles whose heights changed) */
+	struct view_object shown_obj; /* the object as drawn (held while paused) */
 	uint64_t tile_window_us, tile_window_start;
 	double mx, my;
 	unsigned shots;
@@ -426,7 +427,13 @@ int main(int argc, char **argv)
 			app.tile_window_us = t;
 		}
 		hud(&app, &feed, &src, t);
+		/* pause freezes the whole picture: heights (no uploads) and the object as it was */
+		if (!app.paused)
+			app.shown_obj = app.vm.obj;
+		struct view_object live_obj = app.vm.obj;
+		app.vm.obj = app.shown_obj;
 		render_frame(&app.r, &app.vm, app.paused);
+		app.vm.obj = live_obj;
 		if (!o.headless) {
 			int fw, fh;
 			glfwGetFramebufferSize(win, &fw, &fh);
