@@ -456,25 +456,29 @@ TEST_CASE("a cut recording shows what it holds and a recording of noise draws no
 
 TEST_CASE("live over UDP: the scene stays on screen when the sender stops, marked as no data")
 {
-	// a port of its own per test process
+	// a port nobody holds (/proc/net/udp lists local ports in hex)
+	auto held = [](int p) {
+		char h[8];
+		snprintf(h, sizeof(h), ":%04X ", p);
+		std::ifstream u("/proc/net/udp");
+		std::string line;
+		while (std::getline(u, line))
+			if (line.find(h) != std::string::npos && line.find(h) < 40)
+				return true;
+		return false;
+	};
 	int port = 40000 + int(getpid() % 5000);
+	while (held(port))
+		port++;
 	std::string path = tmpdir() + "/udp.png";
 	std::string cmd = "DISPLAY=" + x().display + " ASAN_OPTIONS=detect_leaks=0 " SWELL_VIEW_BIN
 			  " --headless --view top --size 640x480 --msaa 0 --fps 60 --source udp:" + std::to_string(port) +
 			  " --after 240 --screenshot " + path + " > " + tmpdir() + "/udp.out 2>&1 &";
 	REQUIRE(std::system(cmd.c_str()) == 0);
-	// wait until the viewer has bound its port (/proc/net/udp lists local ports in hex)
-	char hex[8];
-	snprintf(hex, sizeof(hex), ":%04X", port);
+	// wait until the viewer has bound its port
 	bool bound = false;
-	for (int k = 0; k < 200 && !bound; k++) {
-		std::ifstream u("/proc/net/udp");
-		std::string line;
-		while (std::getline(u, line))
-			bound |= line.find(hex) != std::string::npos && line.find(hex) < 40;
-		if (!bound)
-			usleep(50000);
-	}
+	for (int k = 0; k < 200 && !(bound = held(port)); k++)
+		usleep(50000);
 	REQUIRE(bound);
 	// one second of the known scene, live at 50 frames a second; then silence
 	std::string gen = "ASAN_OPTIONS=detect_leaks=0 " SWELL_VIEW_GEN_BIN " --frames 50 --udp " + std::to_string(port) + " > /dev/null";
