@@ -6,6 +6,7 @@
 // s = 0.9 * min(640 / Lx, 480 / Ly) pixels a metre, centred; for the 0.4 m test pool s = 1080.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <csignal>
@@ -506,4 +507,29 @@ TEST_CASE("live over UDP: the scene stays on screen when the sender stops, marke
 	CHECK(amber.n > 80);
 	CHECK(counter(out, "bad") == 0);
 	CHECK(counter(out, "dropped") == 0);
+}
+
+TEST_CASE("bad arguments: a one-line reason and exit status 2, before any window")
+{
+	const char *bad[] = {"--size 10x10", "--source nowhere", "--view side", "--after 0", "--object 60x60",
+			     "--faults garbage", "--source pattern:bump --faults fire", "--source pattern:plaid",
+			     "--record x.rec --source pattern:bump", "--bogus", "--zscale"};
+	for (const char *a : bad) {
+		std::string cmd = "ASAN_OPTIONS=detect_leaks=0 DISPLAY= " SWELL_VIEW_BIN " " + std::string(a) + " 2>&1";
+		FILE *p = popen(cmd.c_str(), "r");
+		REQUIRE(p != nullptr);
+		std::string out;
+		char buf[512];
+		size_t n;
+		while ((n = fread(buf, 1, sizeof(buf), p)) > 0)
+			out.append(buf, n);
+		int st = pclose(p);
+		INFO("swell-view " << a << " said: " << out);
+		CHECK(WEXITSTATUS(st) == 2);
+		CHECK(std::count(out.begin(), out.end(), '\n') == 1);
+	}
+	std::string gen = "ASAN_OPTIONS=detect_leaks=0 " SWELL_VIEW_GEN_BIN " --scene plaid --out /dev/null > /dev/null 2>&1";
+	CHECK(WEXITSTATUS(std::system(gen.c_str())) == 2);
+	std::string help = "ASAN_OPTIONS=detect_leaks=0 " SWELL_VIEW_BIN " --help > /dev/null";
+	CHECK(std::system(help.c_str()) == 0);
 }
