@@ -495,53 +495,82 @@ static int16_t wire_sample(int32_t h_lsb)
 	return (int16_t)swell_clamp(s, -2048, 2047);
 }
 
-/* Scan quads round-robin and send the ones whose samples changed, within the budget. */
+/* Read quad q (16 a tile: row 0..7, half 0..1) into s[4]; cells outside the grid read 0.
+ * Returns how many of its cells are in the grid (0: a quad of a partial tile wholly outside), and
+ * sets *changed when any sample differs from the one last sent. */
+static uint32_t quad_read(const struct swell_ctl *c, uint32_t q, int16_t s[4], int *changed)
+{
+	const uint32_t nx = c->cfg.nx, tile = q >> 4, row = (q >> 1) & 7u, half = q & 1u;
+	const uint32_t y = (tile / c->tiles_x) * SWELL_PROTO_TILE + row;
+	const uint32_t x0 = (tile % c->tiles_x) * SWELL_PROTO_TILE + half * 4;
+	uint32_t k, cells = 0;
+
+	*changed = 0;
+	s[0] = s[1] = s[2] = s[3] = 0;
+	if (y >= c->cfg.ny)
+		return 0;
+	for (k = 0; k < 4 && x0 + k < nx; k++) {
+		s[k] = wire_sample(c->wave.h[y * nx + x0 + k]);
+		*changed |= s[k] != sent_get(c, y * nx + x0 + k);
+		cells++;
+	}
+	return cells;
+}
+
+static void quad_send(struct swell_ctl *c, uint32_t q, const int16_t s[4], uint32_t cells)
+{
+	const uint32_t tile = q >> 4, row = (q >> 1) & 7u, half = q & 1u;
+	const uint32_t tx = tile % c->tiles_x, ty = tile / c->tiles_x;
+	const uint32_t a = (ty * SWELL_PROTO_TILE + row) * c->cfg.nx + tx * SWELL_PROTO_TILE + half * 4;
+	struct swell_msg m = msg(c, SWELL_MSG_HEIGHT_QUAD);
+	uint32_t k;
+
+	m.u.height_quad.tile_x = (uint8_t)tx;
+	m.u.height_quad.tile_y = (uint8_t)ty;
+	m.u.height_quad.row = (uint8_t)row;
+	m.u.height_quad.half = (uint8_t)half;
+	m.u.height_quad.frame = (uint8_t)(c->n.solver_steps & 3u);
+	m.u.height_quad.h0 = s[0];
+	m.u.height_quad.h1 = s[1];
+	m.u.height_quad.h2 = s[2];
+	m.u.height_quad.h3 = s[3];
+	push(c, SWELL_LINK_HOST, &m);
+	for (k = 0; k < cells; k++)
+		sent_set(c, a + k, s[k]);
+	c->n.quads_sent++;
+}
+
+/* Scan quads round-robin and send the ones whose samples changed, within the budget. A budget left
+ * over sends one quad of a second, slower round-robin whatever its state, so that a quad lost on the
+ * way is put right even where the water no longer moves (every quad within quads / tick_hz s). */
 static uint32_t send_heights(struct swell_ctl *c, uint32_t budget)
 {
-	const uint32_t nx = c->cfg.nx, ny = c->cfg.ny;
-	uint32_t scanned = 0, cells = 0;
+	uint32_t scanned = 0, cells = 0, n;
+	int16_t s[4];
+	int changed;
 
 	while (budget && scanned < QUAD_SCAN_PER_TICK) {
-		uint32_t q = c->quad_cursor, tile = q >> 4, row = (q >> 1) & 7u, half = q & 1u;
-		uint32_t tx = tile % c->tiles_x, ty = tile / c->tiles_x;
-		uint32_t y = ty * SWELL_PROTO_TILE + row, x0 = tx * SWELL_PROTO_TILE + half * 4;
-		int16_t s[4] = {0, 0, 0, 0};
-		int changed = 0, k;
+		uint32_t q = c->quad_cursor;
 
 		c->quad_cursor = q + 1 == c->quads ? 0 : q + 1;
 		scanned++;
-		if (y >= ny || x0 >= nx)
-			continue; /* a quad of a partial tile that lies wholly outside the grid */
-		for (k = 0; k < 4; k++) {
-			uint32_t x = x0 + (uint32_t)k;
-
-			if (x >= nx)
-				continue;
-			s[k] = wire_sample(c->wave.h[y * nx + x]);
-			changed |= s[k] != sent_get(c, y * nx + x);
-			cells++;
+		n = quad_read(c, q, s, &changed);
+		cells += n;
+		if (n && changed) {
+			quad_send(c, q, s, n);
+			budget--;
 		}
-		if (!changed)
-			continue;
-		{
-			struct swell_msg m = msg(c, SWELL_MSG_HEIGHT_QUAD);
+	}
+	for (scanned = 0; budget && scanned < 4; scanned++) { /* skip quads outside a partial tile */
+		uint32_t q = c->refresh_cursor;
 
-			m.u.height_quad.tile_x = (uint8_t)tx;
-			m.u.height_quad.tile_y = (uint8_t)ty;
-			m.u.height_quad.row = (uint8_t)row;
-			m.u.height_quad.half = (uint8_t)half;
-			m.u.height_quad.frame = (uint8_t)(c->n.solver_steps & 3u);
-			m.u.height_quad.h0 = s[0];
-			m.u.height_quad.h1 = s[1];
-			m.u.height_quad.h2 = s[2];
-			m.u.height_quad.h3 = s[3];
-			push(c, SWELL_LINK_HOST, &m);
+		c->refresh_cursor = q + 1 == c->quads ? 0 : q + 1;
+		n = quad_read(c, q, s, &changed);
+		if (n) {
+			quad_send(c, q, s, n);
+			c->n.quads_refreshed++;
+			break;
 		}
-		for (k = 0; k < 4; k++)
-			if (x0 + (uint32_t)k < nx)
-				sent_set(c, y * nx + x0 + (uint32_t)k, s[k]);
-		c->n.quads_sent++;
-		budget--;
 	}
 	return cells;
 }

@@ -14,7 +14,8 @@
  *      device), scene (1 Hz), object pose and force (100 Hz), and the heights that changed since they
  *      were last sent: the grid is scanned round-robin in quads (4 cells of one tile row, one
  *      HEIGHT_QUAD message), a bounded number a tick, and only quads whose wire samples differ from
- *      what was last sent go out.
+ *      what was last sent go out; a budget left over resends one quad of a slower round-robin, so
+ *      that a lost quad is repaired where the water no longer moves.
  * Work per tick is counted in cell-operations (solver cells, footprint cells, tile cells scanned); the
  * maximum is kept. Overruns are measured by the port and reported here.
  *
@@ -103,6 +104,7 @@ struct swell_ctl_counters {
 	uint32_t dev_lost;           /* device sequence numbers skipped */
 	uint32_t faults;
 	uint32_t quads_sent;
+	uint32_t quads_refreshed;    /* of which resent unchanged, to repair losses */
 	uint32_t params_set, params_refused;
 	uint32_t ignored;            /* messages that make no sense here (wrong direction, bootloader while running) */
 };
@@ -140,6 +142,7 @@ struct swell_ctl {
 	/* telemetry */
 	uint16_t tiles_x, tiles_y;
 	uint32_t quads, quad_cursor; /* quads in the grid (16 a tile), next one to scan */
+	uint32_t refresh_cursor;     /* next quad to resend whatever its state */
 	uint32_t fp_cells;           /* footprint cells of the object, for the work count */
 
 	struct swell_ctl_queue q[SWELL_LINKS];
