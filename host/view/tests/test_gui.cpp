@@ -459,8 +459,8 @@ TEST_CASE("live over UDP: the scene stays on screen when the sender stops, marke
 {
 	// a port nobody holds (/proc/net/udp lists local ports in hex)
 	auto held = [](int p) {
-		char h[8];
-		snprintf(h, sizeof(h), ":%04X ", p);
+		char h[16];
+		snprintf(h, sizeof(h), ":%04X ", (unsigned)p & 0xffffu);
 		std::ifstream u("/proc/net/udp");
 		std::string line;
 		while (std::getline(u, line))
