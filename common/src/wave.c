@@ -15,6 +15,45 @@
 #define T_CHANGED 4u
 #define T_TOUCHED 8u
 #define T_Z1 16u
+/* DIRTY: the step in progress may have written acc in this tile (an edge of it or of a neighbour tile
+ * was computed, or water was added). PREV: the same for the last finished step, whose acc is now v. */
+#define T_DIRTY 32u
+#define T_DIRTY_PREV 64u
+/* SLEEPING: decided at the first row of the tile's row in this step (asleep() is a 3 x 3 scan; one
+ * decision serves the tile's eight rows); swell_wave_touched() clears it around the touched cell. */
+#define T_SLEEPING 128u
+
+/* The edges of an awake tile write acc in it and in the tiles right of it and above it: mark the
+ * block of radius r around (tx, ty) so that the finish visits them (r = 1 for a tile found awake,
+ * 2 around a touched tile, whose awake neighbours write around themselves). */
+static void mark_dirty(struct swell_wave *w, int tx, int ty, int r)
+{
+	const int x0 = tx > r ? tx - r : 0, x1 = tx + r < w->tiles_x ? tx + r : w->tiles_x - 1;
+	const int y0 = ty > r ? ty - r : 0, y1 = ty + r < w->tiles_y ? ty + r : w->tiles_y - 1;
+	int x, y;
+
+	for (y = y0; y <= y1; y++)
+		for (x = x0; x <= x1; x++)
+			w->tile[y * w->tiles_x + x] |= T_DIRTY;
+}
+
+/* 1 if any tile of a row of tiles has the flag. */
+static int tile_row_has(const struct swell_wave *w, const uint8_t *trow, uint8_t flag)
+{
+	int x;
+
+	for (x = 0; x < w->tiles_x; x++)
+		if (trow[x] & flag)
+			return 1;
+	return 0;
+}
+
+/* Every tile awake, and every tile's acc and v to be visited at the next finish. */
+static void wake_all(struct swell_wave *w)
+{
+	w->band_asleep = 0;
+	memset(w->tile, T_DIRTY | T_DIRTY_PREV, (size_t)w->tiles_x * w->tiles_y);
+}
 
 static int e_eff_stable(uint64_t e_eff, uint64_t q)
 {
@@ -70,7 +109,7 @@ static void apply_params(struct swell_wave *w, const struct swell_wave_params *p
 	w->c_wall = w->e_eff + w->c_half;
 	w->q = SWELL_Q30_ONE - p->damping;
 	if (w->tile) /* new coefficients round differently: every tile awake */
-		memset(w->tile, 0, (size_t)w->tiles_x * w->tiles_y);
+		wake_all(w);
 }
 
 enum swell_err swell_wave_init(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage,
@@ -126,21 +165,29 @@ void swell_wave_rest(struct swell_wave *w)
 
 	/* v, acc and the four flow arrays are contiguous; a step in progress starts over */
 	memset(w->h + n, 0, 6 * n * sizeof(int32_t));
-	memset(w->tile, 0, (size_t)w->tiles_x * w->tiles_y);
+	wake_all(w);
 	w->next_row = 0;
 }
 
 void swell_wave_touched(struct swell_wave *w, int i, int j)
 {
+	int tx = i / SWELL_WAVE_TILE, ty = j / SWELL_WAVE_TILE, x, y;
+
 	if (i < 0 || j < 0 || i >= w->nx || j >= w->ny)
 		return;
-	w->tile[(j / SWELL_WAVE_TILE) * w->tiles_x + i / SWELL_WAVE_TILE] |= T_TOUCHED;
+	w->tile[ty * w->tiles_x + tx] |= T_TOUCHED;
+	w->band_asleep = 0;
+	mark_dirty(w, tx, ty, 2);
+	for (y = ty - 1; y <= ty + 1; y++) /* the rest of this step must not skip its neighbours */
+		for (x = tx - 1; x <= tx + 1; x++)
+			if (x >= 0 && y >= 0 && x < w->tiles_x && y < w->tiles_y)
+				w->tile[y * w->tiles_x + x] &= (uint8_t)~T_SLEEPING;
 }
 
 void swell_wave_set_sleep(struct swell_wave *w, int on)
 {
 	w->sleep = on != 0;
-	memset(w->tile, 0, (size_t)w->tiles_x * w->tiles_y);
+	wake_all(w);
 }
 
 /* A tile may be skipped: its edges gave zero last step and nothing around it has changed since. */
@@ -266,11 +313,29 @@ static inline void step_row(struct swell_wave *w, int j, int damp)
 		step_segment(w, j, 0, w->nx, damp);
 		return;
 	}
+	if (j % SWELL_WAVE_TILE == 0) {
+		w->band_asleep = 1;
+		for (tx = 0; tx < w->tiles_x; tx++) {
+			uint8_t *f = &w->tile[ty * w->tiles_x + tx];
+
+			if (asleep(w, tx, ty)) {
+				*f |= T_SLEEPING;
+			} else {
+				*f &= (uint8_t)~T_SLEEPING;
+				mark_dirty(w, tx, ty, 1);
+				w->band_asleep = 0;
+			}
+		}
+	}
+	if (w->band_asleep) { /* the whole band of tiles sleeps: nothing to do in this row */
+		w->tiles_skipped += w->tiles_x;
+		return;
+	}
 	for (tx = 0; tx < w->tiles_x; tx++) {
 		const int i0 = tx * SWELL_WAVE_TILE;
 		const int i1 = i0 + SWELL_WAVE_TILE < w->nx ? i0 + SWELL_WAVE_TILE : w->nx;
 
-		if (asleep(w, tx, ty)) {
+		if (w->tile[ty * w->tiles_x + tx] & T_SLEEPING) {
 			w->tiles_skipped++;
 			continue;
 		}
@@ -309,13 +374,19 @@ void swell_wave_step_finish(struct swell_wave *w)
 		int32_t *restrict h = w->h + j * w->nx;
 		const int32_t *restrict acc = w->acc + j * w->nx;
 		uint8_t *restrict trow = w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x;
-		const int nx = w->nx;
+		const int nx = w->nx, all = !w->sleep;
 		uint32_t sat = 0;
 
+		if (!all && j % SWELL_WAVE_TILE == 0 && !tile_row_has(w, trow, T_DIRTY)) {
+			j += SWELL_WAVE_TILE - 1; /* a calm band of tiles: nothing wrote acc in it */
+			continue;
+		}
 		for (i = 0; i < nx; i += SWELL_WAVE_TILE) {
 			const int end = i + SWELL_WAVE_TILE < nx ? i + SWELL_WAVE_TILE : nx;
 			int32_t any = 0;
 
+			if (!all && !(trow[i / SWELL_WAVE_TILE] & T_DIRTY))
+				continue; /* nothing wrote acc here: it is all zero */
 			for (a = i; a < end; a++) {
 				int32_t d = acc[a];
 				int32_t x = h[a] + d; /* |h| <= 2^27, |acc| <= 2^30: no overflow */
@@ -332,19 +403,38 @@ void swell_wave_step_finish(struct swell_wave *w)
 		}
 		w->saturations += sat;
 	}
-	/* the step is done: its flags become the last finished step's */
-	for (a = 0; a < (int)w->tiles_x * w->tiles_y; a++) {
-		uint8_t f = w->tile[a];
-
-		uint8_t z1 = f & T_NONZERO ? 0u : T_Z1;
-
-		w->tile[a] = (uint8_t)(z1 | (z1 && (f & T_Z1) ? T_ZERO : 0u) | (f & T_TOUCHED ? T_CHANGED : 0u));
-	}
-	/* the accumulator becomes v; the old v, cleared, the next accumulator */
+	/* The accumulator becomes v; the old v, cleared, the next accumulator. The old v can be non-zero
+	 * only where the last finished step was dirty. */
 	t = w->v;
 	w->v = w->acc;
 	w->acc = t;
-	memset(w->acc, 0, (size_t)n * sizeof(int32_t));
+	if (!w->sleep) {
+		memset(w->acc, 0, (size_t)n * sizeof(int32_t));
+	} else {
+		for (j = 0; j < w->ny; j++) {
+			const uint8_t *trow = w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x;
+
+			if (j % SWELL_WAVE_TILE == 0 && !tile_row_has(w, trow, T_DIRTY_PREV)) {
+				j += SWELL_WAVE_TILE - 1;
+				continue;
+			}
+			for (i = 0; i < w->tiles_x; i++) {
+				const int i0 = i * SWELL_WAVE_TILE;
+				const int len = i0 + SWELL_WAVE_TILE < w->nx ? SWELL_WAVE_TILE : w->nx - i0;
+
+				if (trow[i] & T_DIRTY_PREV)
+					memset(w->acc + j * w->nx + i0, 0, (size_t)len * sizeof(int32_t));
+			}
+		}
+	}
+	/* the step is done: its flags become the last finished step's */
+	for (a = 0; a < (int)w->tiles_x * w->tiles_y; a++) {
+		uint8_t f = w->tile[a];
+		uint8_t z1 = f & T_NONZERO ? 0u : T_Z1;
+
+		w->tile[a] = (uint8_t)(z1 | (z1 && (f & T_Z1) ? T_ZERO : 0u) | (f & T_TOUCHED ? T_CHANGED : 0u) |
+				       (f & T_DIRTY ? T_DIRTY_PREV : 0u));
+	}
 	w->next_row = 0;
 	w->steps++;
 }
@@ -360,6 +450,7 @@ void swell_wave_add(struct swell_wave *w, int i, int j, int32_t dh)
 
 	if (i < 0 || j < 0 || i >= w->nx || j >= w->ny)
 		return;
+	w->tile[(j / SWELL_WAVE_TILE) * w->tiles_x + i / SWELL_WAVE_TILE] |= T_DIRTY;
 	a = &w->acc[j * w->nx + i];
 	/* bounded to +-2^30 so that h + acc cannot overflow at the finish */
 	*a = (int32_t)swell_clamp(swell_sat_add(*a, dh), -(1 << 30), 1 << 30);

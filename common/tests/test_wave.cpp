@@ -426,6 +426,15 @@ TEST_CASE("sleeping tiles are lossless: bit-identical to the full update, splash
 					swell_wave_touched(&f->w, 44 - i, j);
 				}
 			}
+			if (k % 89 == 30) { /* a write between two slices of a step */
+				int i = (int)(rng() % 45), j = 12 + (int)(rng() % 20);
+				int32_t d = (int32_t)(rng() % 4000) - 2000;
+				for (Field *f : {&awake, &sleepy}) {
+					swell_wave_step_rows(&f->w, 11);
+					f->w.h[j * 45 + i] += d;
+					swell_wave_touched(&f->w, i, j);
+				}
+			}
 			swell_wave_step(&awake.w);
 			swell_wave_step(&sleepy.w);
 			REQUIRE(swell_wave_checksum(&awake.w) == swell_wave_checksum(&sleepy.w));

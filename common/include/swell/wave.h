@@ -93,6 +93,7 @@ struct swell_wave {
 	uint16_t tiles_x, tiles_y;
 	uint8_t *tile;        /* flag byte a tile (wave.c) */
 	uint8_t sleep;        /* 1: skip sleeping tiles (default); 0: every edge every step */
+	uint8_t band_asleep;  /* every tile of the band of rows in progress sleeps */
 	uint32_t tiles_skipped; /* tile-rows skipped, cumulative: 8 x 4 edges saved each */
 };
 
