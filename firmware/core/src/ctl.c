@@ -170,7 +170,7 @@ enum swell_err swell_ctl_init(struct swell_ctl *c, const struct swell_ctl_config
 
 /* ---- queues ---- */
 
-static void push(struct swell_ctl *c, enum swell_link l, const struct swell_msg *m)
+static void push(struct swell_ctl *c, enum swell_ctl_link l, const struct swell_msg *m)
 {
 	struct swell_ctl_queue *q = &c->q[l];
 
@@ -183,7 +183,7 @@ static void push(struct swell_ctl *c, enum swell_link l, const struct swell_msg 
 	q->count++;
 }
 
-size_t swell_ctl_tx(struct swell_ctl *c, enum swell_link link, struct swell_msg *out, size_t cap)
+size_t swell_ctl_tx(struct swell_ctl *c, enum swell_ctl_link link, struct swell_msg *out, size_t cap)
 {
 	struct swell_ctl_queue *q = &c->q[link];
 	size_t k = 0;
@@ -327,7 +327,7 @@ static enum swell_err param_set(struct swell_ctl *c, uint16_t id, int32_t v)
 
 /* ---- input ---- */
 
-void swell_ctl_rx(struct swell_ctl *c, enum swell_link from, const struct swell_msg *m)
+void swell_ctl_rx(struct swell_ctl *c, enum swell_ctl_link from, const struct swell_msg *m)
 {
 	enum swell_err err;
 	int32_t v = 0;

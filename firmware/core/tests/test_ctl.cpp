@@ -38,7 +38,7 @@ struct Ctl {
 		m.u.param_set.seq = seq++;
 		swell_ctl_rx(&c, SWELL_LINK_HOST, &m);
 	}
-	std::vector<swell_msg> drain(swell_link l)
+	std::vector<swell_msg> drain(swell_ctl_link l)
 	{
 		std::vector<swell_msg> out(SWELL_CTL_QUEUE);
 		out.resize(swell_ctl_tx(&c, l, out.data(), out.size()));

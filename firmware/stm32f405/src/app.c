@@ -25,7 +25,7 @@ static struct {
 	uint8_t usb_seq;
 } app;
 
-static enum swell_link link_of(const struct swell_msg *m)
+static enum swell_ctl_link link_of(const struct swell_msg *m)
 {
 	const struct swell_msg_desc *d = swell_msg_desc_find(m->type);
 
@@ -77,7 +77,7 @@ static void send_usb(const struct swell_msg *m, size_t n)
 
 /* Drain one of the core's queues onto its carrier. Bounded: a queue holds at most SWELL_CTL_QUEUE
  * messages, taken 8 at a time (SRAM and stack are tight). */
-static void drain(enum swell_link l)
+static void drain(enum swell_ctl_link l)
 {
 	struct swell_msg out[8];
 	int on_can = l == SWELL_LINK_DEVICE ? app.device_on_can : !app.usb_on;

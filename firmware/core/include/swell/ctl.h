@@ -50,7 +50,7 @@ enum swell_ctl_state {
 	SWELL_CTL_FAULT = 4,
 };
 
-enum swell_link { SWELL_LINK_DEVICE = 0, SWELL_LINK_HOST = 1, SWELL_LINKS = 2 };
+enum swell_ctl_link { SWELL_LINK_DEVICE = 0, SWELL_LINK_HOST = 1, SWELL_LINKS = 2 };
 
 /* Commands, written to parameter SWELL_PARAM_COMMAND. */
 enum swell_ctl_command { SWELL_CMD_STOP = 0, SWELL_CMD_RUN = 1, SWELL_CMD_CLEAR = 2 };
@@ -165,7 +165,7 @@ enum swell_err swell_ctl_init(struct swell_ctl *c, const struct swell_ctl_config
 			      size_t words);
 
 /* A decoded message from one link. Messages from the wrong side are counted and ignored. */
-void swell_ctl_rx(struct swell_ctl *c, enum swell_link from, const struct swell_msg *m);
+void swell_ctl_rx(struct swell_ctl *c, enum swell_ctl_link from, const struct swell_msg *m);
 
 /* One device tick (see above): swell_ctl_tick_force then swell_ctl_tick_background. */
 void swell_ctl_tick(struct swell_ctl *c);
@@ -180,7 +180,7 @@ void swell_ctl_tick_force(struct swell_ctl *c);
 void swell_ctl_tick_background(struct swell_ctl *c);
 
 /* Up to cap queued messages for a link, oldest first, removed from the queue. */
-size_t swell_ctl_tx(struct swell_ctl *c, enum swell_link link, struct swell_msg *out, size_t cap);
+size_t swell_ctl_tx(struct swell_ctl *c, enum swell_ctl_link link, struct swell_msg *out, size_t cap);
 
 /* Port reports. */
 void swell_ctl_overrun(struct swell_ctl *c);
