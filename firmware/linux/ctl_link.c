@@ -148,6 +148,21 @@ int ctl_link_fd(const struct ctl_link *l)
 	return l->fd;
 }
 
+/* Keep the messages addressed to this node; another node's (a second controller or device on the
+ * bus) are counted and dropped, never acted on. */
+static size_t own_node(struct ctl_link *l, struct swell_msg *m, size_t n)
+{
+	size_t k, kept = 0;
+
+	for (k = 0; k < n; k++) {
+		if (m[k].node != l->node)
+			l->foreign++;
+		else
+			m[kept++] = m[k];
+	}
+	return kept;
+}
+
 static size_t recv_usb(struct ctl_link *l, struct swell_msg *out, size_t cap)
 {
 	uint8_t buf[SWELL_PKT_MAX];
@@ -173,7 +188,7 @@ static size_t recv_usb(struct ctl_link *l, struct swell_msg *out, size_t cap)
 	l->frames_rx++;
 	if (swell_pkt_decode(buf, len, out, cap, &n, &seq, &l->st) != SWELL_OK)
 		return 0;
-	return n;
+	return own_node(l, out, n);
 }
 
 size_t ctl_link_recv(struct ctl_link *l, struct swell_msg *out, size_t cap)
@@ -197,7 +212,7 @@ size_t ctl_link_recv(struct ctl_link *l, struct swell_msg *out, size_t cap)
 		}
 		if (swell_can_decode(f.can_id, f.data, f.can_dlc, out, &l->st) != SWELL_OK)
 			return 0;
-		return 1;
+		return own_node(l, out, 1);
 	}
 	{
 		struct sockaddr_in from;
@@ -209,6 +224,9 @@ size_t ctl_link_recv(struct ctl_link *l, struct swell_msg *out, size_t cap)
 		l->frames_rx++;
 		if (swell_pkt_decode(buf, (size_t)r, out, cap, &n, &seq, &l->st) != SWELL_OK)
 			return 0;
+		n = own_node(l, out, n);
+		if (n == 0)
+			return 0; /* another node's packet must not take the answers away from ours */
 		/* answer whoever spoke last: the device (device link) or a viewer (host link) */
 		if (!l->have_peer || from.sin_port != l->peer.sin_port ||
 		    from.sin_addr.s_addr != l->peer.sin_addr.s_addr) {

@@ -24,6 +24,7 @@ struct ctl_link {
 	int usb_up;
 	struct swell_proto_stats st;
 	uint32_t frames_rx, frames_tx, tx_errors;
+	uint32_t foreign; /* valid messages of another node: dropped, never acted on */
 	char name[48];
 };
 

@@ -395,9 +395,9 @@ int main(int argc, char **argv)
 	printf("  overruns        %u\n", p.c.n.overruns);
 	printf("  work            worst tick %u cell-operations (a whole step: %u)\n", p.c.n.work_max,
 	       6u * o.cfg.nx * o.cfg.ny);
-	printf("  device link     %s: %u frames in, %u out, %u bad, %u send errors, %u samples lost\n", p.dev.name,
-	       p.dev.frames_rx, p.dev.frames_tx, swell_proto_rejected_total(&p.dev.st), p.dev.tx_errors,
-	       p.c.n.dev_lost);
+	printf("  device link     %s: %u frames in, %u out, %u bad, %u send errors, %u samples lost, %u of other nodes\n",
+	       p.dev.name, p.dev.frames_rx, p.dev.frames_tx, swell_proto_rejected_total(&p.dev.st), p.dev.tx_errors,
+	       p.c.n.dev_lost, p.dev.foreign);
 	if (p.have_host)
 		printf("  host link       %s: %u frames in, %u out, %u bad; %u height quads, %u dropped\n",
 		       p.host.name, p.host.frames_rx, p.host.frames_tx, swell_proto_rejected_total(&p.host.st),
