@@ -1,0 +1,281 @@
+/* swell-flash backends: see flash_plan.h. Each backend wraps the standard tool. */
+#include "flash_plan.h"
+
+#include <stdarg.h>
+#include <stdio.h>
+#include <string.h>
+
+#define BASE "0x08000000"
+
+static const char *const names[FLASH_BACKEND_COUNT] = {"dfu", "swd", "uart", "gdb"};
+
+const char *flash_backend_name(enum flash_backend b)
+{
+	return (unsigned)b < FLASH_BACKEND_COUNT ? names[b] : "?";
+}
+
+int flash_backend_parse(const char *name)
+{
+	int i;
+
+	for (i = 0; i < FLASH_BACKEND_COUNT; i++)
+		if (!strcmp(name, names[i]))
+			return i;
+	return -1;
+}
+
+struct builder {
+	struct flash_plan *p;
+	struct flash_step *s;
+	int overflow;
+};
+
+static void step(struct builder *b, enum flash_step_kind kind, const char *what)
+{
+	if (b->p->nsteps >= FLASH_MAX_STEPS) {
+		b->overflow = 1;
+		b->s = NULL;
+		return;
+	}
+	b->s = &b->p->step[b->p->nsteps++];
+	b->s->kind = kind;
+	b->s->what = what;
+	b->s->argc = 0;
+}
+
+static void arg(struct builder *b, const char *fmt, ...)
+{
+	va_list ap;
+	int n;
+
+	if (!b->s || b->s->argc >= FLASH_MAX_ARGS) {
+		b->overflow = 1;
+		return;
+	}
+	va_start(ap, fmt);
+	n = vsnprintf(b->s->arg[b->s->argc], FLASH_ARG_LEN, fmt, ap);
+	va_end(ap);
+	if (n < 0 || n >= FLASH_ARG_LEN)
+		b->overflow = 1;
+	b->s->argc++;
+}
+
+static void gdb_begin(struct builder *b, const struct flash_opts *o, enum flash_step_kind kind,
+		      const char *what)
+{
+	step(b, kind, what);
+	arg(b, "gdb-multiarch");
+	arg(b, "-nx");
+	arg(b, "-batch");
+	arg(b, "-ex");
+	arg(b, "set confirm off");
+	arg(b, "-ex");
+	if (o->gdb_server == FLASH_GDB_BMP) {
+		arg(b, "target extended-remote %s", o->gdb_remote);
+		arg(b, "-ex");
+		arg(b, "monitor swdp_scan");
+		arg(b, "-ex");
+		arg(b, "attach 1");
+	} else {
+		arg(b, "target remote %s", o->gdb_remote);
+	}
+}
+
+static void build_gdb(struct builder *b, const struct flash_opts *o)
+{
+	gdb_begin(b, o, STEP_WRITE, "write and read back through the GDB remote");
+	if (o->gdb_server == FLASH_GDB_OPENOCD) {
+		arg(b, "-ex");
+		arg(b, "monitor reset halt");
+	}
+	arg(b, "-ex");
+	if (o->elf)
+		arg(b, "load");
+	else
+		arg(b, "restore %s binary " BASE, o->bin);
+	arg(b, "-ex");
+	arg(b, "dump binary memory %s " BASE " 0x%08lx", o->readback,
+	    (unsigned long)(0x08000000ul + o->len));
+	/* Leave the target halted: it runs only after the read-back has been compared. */
+	arg(b, "-ex");
+	arg(b, "disconnect");
+	if (o->elf)
+		arg(b, "%s", o->elf);
+	/* The dump is in the same session as the write: mark the step as the read-back too. */
+	b->s->kind = STEP_READBACK;
+	gdb_begin(b, o, STEP_RESET, "reset and run");
+	arg(b, "-ex");
+	switch (o->gdb_server) {
+	case FLASH_GDB_QEMU:
+		arg(b, "monitor system_reset");
+		arg(b, "-ex");
+		arg(b, "detach");
+		break;
+	case FLASH_GDB_OPENOCD:
+		arg(b, "monitor reset run");
+		arg(b, "-ex");
+		arg(b, "detach");
+		break;
+	case FLASH_GDB_BMP:
+		arg(b, "kill");
+		break;
+	}
+}
+
+int flash_plan_build(const struct flash_opts *o, struct flash_plan *p, char *why, size_t why_len)
+{
+	struct builder b = {p, NULL, 0};
+
+	memset(p, 0, sizeof(*p));
+	switch (o->backend) {
+	case FLASH_DFU:
+		/* DfuSe (the STM32 ROM bootloader): download erases the pages it writes. */
+		step(&b, STEP_WRITE, "write over USB DFU (DfuSe)");
+		arg(&b, "dfu-util");
+		arg(&b, "-d");
+		arg(&b, "%s", o->dfu_device);
+		arg(&b, "-a");
+		arg(&b, "0");
+		arg(&b, "-s");
+		arg(&b, BASE);
+		arg(&b, "-D");
+		arg(&b, "%s", o->bin);
+		step(&b, STEP_READBACK, "read back over USB DFU");
+		arg(&b, "dfu-util");
+		arg(&b, "-d");
+		arg(&b, "%s", o->dfu_device);
+		arg(&b, "-a");
+		arg(&b, "0");
+		arg(&b, "-s");
+		arg(&b, BASE ":%zu", o->len);
+		arg(&b, "-U");
+		arg(&b, "%s", o->readback);
+		/* Leaving DFU only after the read-back matched: a 4-byte upload with the leave modifier. */
+		step(&b, STEP_RESET, "leave DFU and start the image");
+		arg(&b, "dfu-util");
+		arg(&b, "-d");
+		arg(&b, "%s", o->dfu_device);
+		arg(&b, "-a");
+		arg(&b, "0");
+		arg(&b, "-s");
+		arg(&b, BASE ":4:leave");
+		arg(&b, "-U");
+		arg(&b, "%s.leave", o->readback);
+		break;
+	case FLASH_SWD:
+		if (o->swd_tool == FLASH_SWD_OPENOCD) {
+			/* openocd erases, writes, reads back and compares itself ("verify"). */
+			step(&b, STEP_WRITE, "write, verify and reset over SWD (openocd)");
+			arg(&b, "openocd");
+			arg(&b, "-f");
+			arg(&b, "%s", o->openocd_interface);
+			arg(&b, "-f");
+			arg(&b, "target/stm32f4x.cfg");
+			arg(&b, "-c");
+			if (o->elf)
+				arg(&b, "program %s verify reset exit", o->elf);
+			else
+				arg(&b, "program %s " BASE " verify reset exit", o->bin);
+			p->verify_by_tool = 1;
+			break;
+		}
+		step(&b, STEP_WRITE, "write over SWD (st-flash)");
+		arg(&b, "st-flash");
+		arg(&b, "write");
+		arg(&b, "%s", o->bin);
+		arg(&b, BASE);
+		step(&b, STEP_READBACK, "read back over SWD (st-flash)");
+		arg(&b, "st-flash");
+		arg(&b, "read");
+		arg(&b, "%s", o->readback);
+		arg(&b, BASE);
+		arg(&b, "%zu", o->len);
+		step(&b, STEP_RESET, "reset (st-flash)");
+		arg(&b, "st-flash");
+		arg(&b, "reset");
+		break;
+	case FLASH_UART:
+		/* The ROM bootloader on USART1 (BOOT0 high at reset); stm32flash -v verifies too. */
+		step(&b, STEP_WRITE, "write and verify over the UART ROM bootloader (stm32flash)");
+		arg(&b, "stm32flash");
+		arg(&b, "-b");
+		arg(&b, "%u", o->baud);
+		arg(&b, "-w");
+		arg(&b, "%s", o->bin);
+		arg(&b, "-v");
+		arg(&b, "-S");
+		arg(&b, BASE);
+		arg(&b, "%s", o->serial);
+		step(&b, STEP_READBACK, "read back over the UART ROM bootloader");
+		arg(&b, "stm32flash");
+		arg(&b, "-b");
+		arg(&b, "%u", o->baud);
+		arg(&b, "-r");
+		arg(&b, "%s", o->readback);
+		arg(&b, "-S");
+		arg(&b, BASE ":%zu", o->len);
+		arg(&b, "%s", o->serial);
+		step(&b, STEP_RESET, "start the image (stm32flash -g)");
+		arg(&b, "stm32flash");
+		arg(&b, "-b");
+		arg(&b, "%u", o->baud);
+		arg(&b, "-g");
+		arg(&b, BASE);
+		arg(&b, "%s", o->serial);
+		break;
+	case FLASH_GDB:
+		if (!o->elf && o->gdb_server != FLASH_GDB_QEMU) {
+			snprintf(why, why_len, "the GDB backend with openocd or a Black Magic Probe needs the ELF "
+				 "(flash writes go through 'load'); give swell-fw.elf");
+			return -1;
+		}
+		build_gdb(&b, o);
+		break;
+	default:
+		snprintf(why, why_len, "unknown backend %d", (int)o->backend);
+		return -1;
+	}
+	if (b.overflow) {
+		snprintf(why, why_len, "an argument is longer than %d characters", FLASH_ARG_LEN - 1);
+		return -1;
+	}
+	return 0;
+}
+
+static int plain(const char *s)
+{
+	if (!*s)
+		return 0;
+	for (; *s; s++)
+		if (!strchr("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789-_./:=,+@%",
+			    *s))
+			return 0;
+	return 1;
+}
+
+void flash_step_format(const struct flash_step *s, char *out, size_t out_len)
+{
+	size_t n = 0;
+	int i;
+
+	if (out_len)
+		out[0] = '\0';
+	for (i = 0; i < s->argc && n < out_len; i++) {
+		const char *a = s->arg[i], *c;
+
+		if (i)
+			n += (size_t)snprintf(out + n, out_len - n, " ");
+		if (n >= out_len)
+			break;
+		if (plain(a)) {
+			n += (size_t)snprintf(out + n, out_len - n, "%s", a);
+			continue;
+		}
+		n += (size_t)snprintf(out + n, out_len - n, "'");
+		for (c = a; *c && n < out_len; c++)
+			n += (size_t)(*c == '\'' ? snprintf(out + n, out_len - n, "'\\''")
+						 : snprintf(out + n, out_len - n, "%c", *c));
+		if (n < out_len)
+			n += (size_t)snprintf(out + n, out_len - n, "'");
+	}
+}

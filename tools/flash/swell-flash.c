@@ -1,0 +1,539 @@
+/* swell-flash: check a controller image, then flash it with the standard tool of a backend
+ * (dfu-util, openocd/st-flash, stm32flash, gdb-multiarch), read it back and compare, start it, and
+ * optionally watch its console for the version it boots. */
+#define _GNU_SOURCE
+#include <dirent.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <termios.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "flash_image.h"
+#include "flash_plan.h"
+
+#define MAX_FILE (16u * 1024u * 1024u)
+
+static const char usage[] =
+	"usage: swell-flash IMAGE [--backend dfu|swd|uart|gdb] [--dry-run] [options]\n"
+	"Checks a controller image (ELF or BIN: header magic, MCU, length, CRC-32, version) before\n"
+	"anything touches a target, then flashes it at 0x08000000 with the standard tool, reads it\n"
+	"back and compares, and starts it. A bad or foreign image is refused (exit 2) and no tool runs.\n"
+	"  --backend B          dfu (dfu-util, ROM DfuSe bootloader), swd (openocd or st-flash),\n"
+	"                       uart (stm32flash, ROM bootloader on USART1), gdb (gdb-multiarch on a\n"
+	"                       GDB remote: openocd, Black Magic Probe, QEMU). Without it: auto-detect\n"
+	"                       on USB (sysfs, read only): DfuSe 0483:df11 -> dfu, ST-LINK -> swd;\n"
+	"                       exactly one must be found. uart and gdb are never guessed.\n"
+	"  --dry-run            print the commands it would run and stop\n"
+	"  --check-only         check the image and stop\n"
+	"  --mcu ID             target MCU id (default 0x413, STM32F405/407)\n"
+	"  --expect-version V   refuse an image whose header version is not V (major.minor.patch)\n"
+	"  --dfu-device VID:PID DFU device (default 0483:df11)\n"
+	"  --swd-tool T         openocd (default) or st-flash\n"
+	"  --openocd-interface F  openocd interface script (default interface/stlink.cfg)\n"
+	"  --serial DEV         UART of the ROM bootloader (default /dev/ttyUSB0); --baud N (115200)\n"
+	"  --gdb-remote R       host:port or a Black Magic Probe tty (default localhost:3333)\n"
+	"  --gdb-server S       openocd (default), qemu or bmp (default bmp when R is a /dev path)\n"
+	"  --console PATH       after the start, read the target's console (a tty at 115200 or a file\n"
+	"                       being appended) until it reports the image version; --console-timeout S\n"
+	"  --work-dir DIR       where read-back and converted files go (default a fresh temp dir)\n"
+	"Exit status: 0 flashed and verified, 1 a tool or the verify failed, 2 bad arguments or image refused.\n";
+
+struct cfg {
+	const char *image, *work_dir, *console, *expect_version;
+	int backend, dry_run, check_only, gdb_server_set;
+	unsigned long mcu;
+	double console_timeout_s;
+	struct flash_opts o;
+};
+
+static void die(int code, const char *fmt, ...)
+{
+	va_list ap;
+
+	fputs("swell-flash: ", stderr);
+	va_start(ap, fmt);
+	vfprintf(stderr, fmt, ap);
+	va_end(ap);
+	fputc('\n', stderr);
+	exit(code);
+}
+
+static double now_s(void)
+{
+	struct timespec t;
+
+	clock_gettime(CLOCK_MONOTONIC, &t);
+	return (double)t.tv_sec + (double)t.tv_nsec * 1e-9;
+}
+
+static const char *need(int argc, char **argv, int *i)
+{
+	if (*i + 1 >= argc)
+		die(2, "%s needs a value (see --help)", argv[*i]);
+	return argv[++*i];
+}
+
+static void parse(int argc, char **argv, struct cfg *c)
+{
+	int i;
+
+	for (i = 1; i < argc; i++) {
+		const char *a = argv[i];
+		char *end;
+
+		if (!strcmp(a, "--backend")) {
+			c->backend = flash_backend_parse(need(argc, argv, &i));
+			if (c->backend < 0)
+				die(2, "unknown backend '%s' (dfu, swd, uart or gdb)", argv[i]);
+		} else if (!strcmp(a, "--dry-run")) {
+			c->dry_run = 1;
+		} else if (!strcmp(a, "--check-only")) {
+			c->check_only = 1;
+		} else if (!strcmp(a, "--mcu")) {
+			c->mcu = strtoul(need(argc, argv, &i), &end, 0);
+			if (*end || !*argv[i] || c->mcu > 0xFFFFFFFFul)
+				die(2, "--mcu '%s' is not a number", argv[i]);
+		} else if (!strcmp(a, "--expect-version")) {
+			c->expect_version = need(argc, argv, &i);
+		} else if (!strcmp(a, "--dfu-device")) {
+			unsigned v, p;
+			char tail;
+
+			c->o.dfu_device = need(argc, argv, &i);
+			if (sscanf(c->o.dfu_device, "%4x:%4x%c", &v, &p, &tail) != 2)
+				die(2, "--dfu-device '%s' is not VID:PID in hex", c->o.dfu_device);
+		} else if (!strcmp(a, "--swd-tool")) {
+			const char *t = need(argc, argv, &i);
+
+			if (!strcmp(t, "openocd"))
+				c->o.swd_tool = FLASH_SWD_OPENOCD;
+			else if (!strcmp(t, "st-flash"))
+				c->o.swd_tool = FLASH_SWD_STFLASH;
+			else
+				die(2, "unknown --swd-tool '%s' (openocd or st-flash)", t);
+		} else if (!strcmp(a, "--openocd-interface")) {
+			c->o.openocd_interface = need(argc, argv, &i);
+		} else if (!strcmp(a, "--serial")) {
+			c->o.serial = need(argc, argv, &i);
+		} else if (!strcmp(a, "--baud")) {
+			unsigned long b = strtoul(need(argc, argv, &i), &end, 10);
+
+			if (*end || b < 1200 || b > 4000000)
+				die(2, "--baud '%s' is not a rate in 1200..4000000 bit/s", argv[i]);
+			c->o.baud = (unsigned)b;
+		} else if (!strcmp(a, "--gdb-remote")) {
+			c->o.gdb_remote = need(argc, argv, &i);
+		} else if (!strcmp(a, "--gdb-server")) {
+			const char *s = need(argc, argv, &i);
+
+			if (!strcmp(s, "openocd"))
+				c->o.gdb_server = FLASH_GDB_OPENOCD;
+			else if (!strcmp(s, "qemu"))
+				c->o.gdb_server = FLASH_GDB_QEMU;
+			else if (!strcmp(s, "bmp"))
+				c->o.gdb_server = FLASH_GDB_BMP;
+			else
+				die(2, "unknown --gdb-server '%s' (openocd, qemu or bmp)", s);
+			c->gdb_server_set = 1;
+		} else if (!strcmp(a, "--console")) {
+			c->console = need(argc, argv, &i);
+		} else if (!strcmp(a, "--console-timeout")) {
+			c->console_timeout_s = strtod(need(argc, argv, &i), &end);
+			if (*end || !(c->console_timeout_s > 0 && c->console_timeout_s <= 600))
+				die(2, "--console-timeout '%s' is not a time in (0, 600] s", argv[i]);
+		} else if (!strcmp(a, "--work-dir")) {
+			c->work_dir = need(argc, argv, &i);
+		} else if (a[0] == '-' && a[1]) {
+			die(2, "unknown option '%s' (see --help)", a);
+		} else if (!c->image) {
+			c->image = a;
+		} else {
+			die(2, "more than one image given: '%s' and '%s'", c->image, a);
+		}
+	}
+	if (!c->image)
+		die(2, "no image given (see --help)");
+	if (!c->gdb_server_set && !strncmp(c->o.gdb_remote, "/dev/", 5))
+		c->o.gdb_server = FLASH_GDB_BMP;
+}
+
+/* USB auto-detection: read-only look at idVendor/idProduct under <sysfs>/bus/usb/devices. */
+static int usb_has(const char *root, unsigned vid, const unsigned *pids, int npids)
+{
+	char path[1024], buf[16];
+	struct dirent *e;
+	int found = 0;
+	DIR *d;
+
+	snprintf(path, sizeof(path), "%s/bus/usb/devices", root);
+	d = opendir(path);
+	if (!d)
+		return 0;
+	while ((e = readdir(d)) != NULL && !found) {
+		unsigned v = 0, p = 0;
+		FILE *f;
+		int k;
+
+		if (e->d_name[0] == '.')
+			continue;
+		snprintf(path, sizeof(path), "%s/bus/usb/devices/%s/idVendor", root, e->d_name);
+		f = fopen(path, "r");
+		if (!f)
+			continue;
+		if (fgets(buf, sizeof(buf), f))
+			v = (unsigned)strtoul(buf, NULL, 16);
+		fclose(f);
+		snprintf(path, sizeof(path), "%s/bus/usb/devices/%s/idProduct", root, e->d_name);
+		f = fopen(path, "r");
+		if (!f)
+			continue;
+		if (fgets(buf, sizeof(buf), f))
+			p = (unsigned)strtoul(buf, NULL, 16);
+		fclose(f);
+		for (k = 0; k < npids; k++)
+			if (v == vid && p == pids[k])
+				found = 1;
+	}
+	closedir(d);
+	return found;
+}
+
+static int autodetect(void)
+{
+	static const unsigned dfu[] = {0xdf11}, stlink[] = {0x3748, 0x374b, 0x374e, 0x374f, 0x3752, 0x3753};
+	const char *root = getenv("SWELL_FLASH_SYSFS");
+	int has_dfu, has_stlink;
+
+	if (!root)
+		root = "/sys";
+	has_dfu = usb_has(root, 0x0483, dfu, 1);
+	has_stlink = usb_has(root, 0x0483, stlink, 6);
+	if (has_dfu && has_stlink)
+		die(2, "no --backend given and both a DfuSe device (0483:df11) and an ST-LINK are on USB: choose one");
+	if (has_dfu) {
+		printf("swell-flash: auto-detected a DfuSe bootloader (USB 0483:df11): backend dfu\n");
+		return FLASH_DFU;
+	}
+	if (has_stlink) {
+		printf("swell-flash: auto-detected an ST-LINK on USB (0483:%s): backend swd\n", "3748/374b/374e/374f/3752/3753");
+		return FLASH_SWD;
+	}
+	die(2, "no --backend given and no DfuSe device (0483:df11) or ST-LINK found on USB: use --backend");
+	return -1;
+}
+
+static int in_path(const char *tool)
+{
+	const char *path = getenv("PATH");
+	char buf[4096];
+
+	if (strchr(tool, '/'))
+		return access(tool, X_OK) == 0;
+	while (path && *path) {
+		const char *colon = strchr(path, ':');
+		size_t n = colon ? (size_t)(colon - path) : strlen(path);
+
+		snprintf(buf, sizeof(buf), "%.*s/%s", (int)n, path, tool);
+		if (n && access(buf, X_OK) == 0)
+			return 1;
+		path = colon ? colon + 1 : NULL;
+	}
+	return 0;
+}
+
+static const char *package_of(const char *tool)
+{
+	if (!strcmp(tool, "st-flash"))
+		return "stlink-tools";
+	return tool;
+}
+
+static int run(const struct flash_step *s)
+{
+	char *argv[FLASH_MAX_ARGS + 1];
+	int i, status;
+	pid_t pid;
+
+	for (i = 0; i < s->argc; i++)
+		argv[i] = (char *)s->arg[i];
+	argv[s->argc] = NULL;
+	fflush(stdout);
+	fflush(stderr);
+	pid = fork();
+	if (pid < 0)
+		die(1, "fork: %s", strerror(errno));
+	if (pid == 0) {
+		execvp(argv[0], argv);
+		fprintf(stderr, "swell-flash: cannot run %s: %s\n", argv[0], strerror(errno));
+		_exit(127);
+	}
+	while (waitpid(pid, &status, 0) < 0)
+		if (errno != EINTR)
+			die(1, "waitpid: %s", strerror(errno));
+	if (WIFEXITED(status))
+		return WEXITSTATUS(status);
+	return 128 + (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
+}
+
+static void write_file(const char *path, const uint8_t *b, size_t n)
+{
+	FILE *f = fopen(path, "wb");
+
+	if (!f || fwrite(b, 1, n, f) != n || fclose(f) != 0)
+		die(1, "cannot write %s: %s", path, strerror(errno));
+}
+
+static int compare_readback(const char *path, const struct flash_image *img)
+{
+	uint8_t *rb;
+	size_t n, i;
+	char why[256];
+
+	if (flash_read_file(path, MAX_FILE, &rb, &n, why, sizeof(why)))
+		die(1, "verify FAILED: no read-back: %s", why);
+	if (n < img->len) {
+		free(rb);
+		die(1, "verify FAILED: read back %zu bytes, image has %zu; target not started", n, img->len);
+	}
+	for (i = 0; i < img->len; i++)
+		if (rb[i] != img->bytes[i])
+			break;
+	if (i < img->len) {
+		uint8_t got = rb[i];
+
+		free(rb);
+		die(1, "verify FAILED at 0x%08lx: wrote 0x%02x, read 0x%02x; target not started",
+		    0x08000000ul + i, img->bytes[i], got);
+	}
+	free(rb);
+	return 0;
+}
+
+struct console {
+	int fd;
+	char line[512];
+	size_t n;
+};
+
+static void console_open(struct console *con, const char *path)
+{
+	struct termios t;
+
+	con->n = 0;
+	con->fd = open(path, O_RDONLY | O_NONBLOCK | O_NOCTTY);
+	if (con->fd < 0)
+		die(1, "console %s: %s", path, strerror(errno));
+	if (isatty(con->fd)) {
+		if (tcgetattr(con->fd, &t) == 0) {
+			cfmakeraw(&t);
+			cfsetispeed(&t, B115200);
+			cfsetospeed(&t, B115200);
+			tcsetattr(con->fd, TCSANOW, &t);
+			tcflush(con->fd, TCIFLUSH);
+		}
+	} else {
+		lseek(con->fd, 0, SEEK_END); /* only what the new start prints */
+	}
+}
+
+/* Read the console until the image reports its check; 0 ok, 1 refused/other version, -1 timeout. */
+static int console_watch(struct console *con, double timeout_s, uint32_t want, double *t_boot)
+{
+	double t0 = now_s();
+	char want_s[32], got_s[32];
+
+	flash_version_str(want, want_s, sizeof(want_s));
+	while (now_s() - t0 < timeout_s) {
+		char c;
+		ssize_t r = read(con->fd, &c, 1);
+
+		if (r <= 0) {
+			usleep(20000);
+			continue;
+		}
+		if (c == '\r')
+			continue;
+		if (c != '\n' && con->n < sizeof(con->line) - 1) {
+			con->line[con->n++] = c;
+			continue;
+		}
+		con->line[con->n] = '\0';
+		con->n = 0;
+		if (!strncmp(con->line, "image: REFUSED", 14)) {
+			printf("swell-flash: target console: %s\n", con->line);
+			return 1;
+		}
+		if (sscanf(con->line, "image: version %31[0-9.]", got_s) == 1) {
+			*t_boot = now_s() - t0;
+			printf("swell-flash: target console: %s\n", con->line);
+			if (strcmp(got_s, want_s)) {
+				printf("swell-flash: target boots version %s, the image is %s\n", got_s, want_s);
+				return 1;
+			}
+			return 0;
+		}
+	}
+	return -1;
+}
+
+int main(int argc, char **argv)
+{
+	struct cfg c = {0};
+	struct flash_image img;
+	struct flash_plan plan;
+	struct console con = {-1, {0}, 0};
+	char why[512], ver[32], dir[600], bin[700], rb[700], line[8192];
+	uint8_t *file;
+	size_t file_len;
+	double t_all;
+	int i;
+
+	for (i = 1; i < argc; i++)
+		if (!strcmp(argv[i], "-h") || !strcmp(argv[i], "--help")) {
+			fputs(usage, stdout);
+			return 0;
+		}
+	c.backend = -1;
+	c.mcu = SWELL_FWIMAGE_MCU_STM32F405;
+	c.console_timeout_s = 10;
+	c.o.dfu_device = "0483:df11";
+	c.o.openocd_interface = "interface/stlink.cfg";
+	c.o.serial = "/dev/ttyUSB0";
+	c.o.baud = 115200;
+	c.o.gdb_remote = "localhost:3333";
+	parse(argc, argv, &c);
+
+	/* 1. The image, before anything else. */
+	if (flash_read_file(c.image, MAX_FILE, &file, &file_len, why, sizeof(why)))
+		die(2, "refused: %s", why);
+	if (flash_image_check(file, file_len, (uint32_t)c.mcu, &img, why, sizeof(why))) {
+		free(file);
+		die(2, "%s: refused: %s", c.image, why);
+	}
+	free(file);
+	flash_version_str(img.hdr.version, ver, sizeof(ver));
+	if (c.expect_version && strcmp(c.expect_version, ver))
+		die(2, "%s: refused: version %s, expected %s", c.image, ver, c.expect_version);
+	printf("swell-flash: %s: ok: %s, version %s, %zu bytes, mcu 0x%03x, crc32 0x%08x\n", c.image,
+	       img.fmt == FLASH_FMT_ELF ? "ELF" : "BIN", ver, img.len, (unsigned)img.hdr.mcu_id,
+	       (unsigned)img.hdr.crc);
+	if (c.check_only)
+		goto done;
+
+	/* 2. Backend and the plan. */
+	if (c.backend < 0)
+		c.backend = autodetect();
+	c.o.backend = (enum flash_backend)c.backend;
+	c.o.len = img.len;
+	if (c.work_dir)
+		snprintf(dir, sizeof(dir), "%s", c.work_dir);
+	else if (c.dry_run)
+		snprintf(dir, sizeof(dir), "/tmp/swell-flash.XXXXXX");
+	else {
+		const char *t = getenv("TMPDIR");
+
+		snprintf(dir, sizeof(dir), "%s/swell-flash.XXXXXX", t && *t ? t : "/tmp");
+		if (!mkdtemp(dir))
+			die(1, "cannot make a work directory %s: %s", dir, strerror(errno));
+	}
+	snprintf(rb, sizeof(rb), "%s/readback.bin", dir);
+	if (img.fmt == FLASH_FMT_ELF) {
+		snprintf(bin, sizeof(bin), "%s/image.bin", dir);
+		c.o.elf = c.image;
+	} else {
+		snprintf(bin, sizeof(bin), "%s", c.image);
+	}
+	c.o.bin = bin;
+	c.o.readback = rb;
+	if (flash_plan_build(&c.o, &plan, why, sizeof(why)))
+		die(2, "%s", why);
+	/* The BIN written from the ELF is only needed by commands that name it. */
+	{
+		int uses_bin = 0, k;
+
+		for (i = 0; i < plan.nsteps; i++)
+			for (k = 0; k < plan.step[i].argc; k++)
+				if (strstr(plan.step[i].arg[k], bin) && img.fmt == FLASH_FMT_ELF)
+					uses_bin = 1;
+		if (uses_bin) {
+			if (c.dry_run)
+				printf("swell-flash: would write %s: the ELF's %zu flash bytes\n", bin, img.len);
+			else
+				write_file(bin, img.bytes, img.len);
+		}
+	}
+	if (c.dry_run) {
+		printf("swell-flash: dry run, backend %s, %d steps:\n", flash_backend_name(c.o.backend),
+		       plan.nsteps);
+		for (i = 0; i < plan.nsteps; i++) {
+			flash_step_format(&plan.step[i], line, sizeof(line));
+			printf("[%d/%d] %s\n%s\n", i + 1, plan.nsteps, plan.step[i].what, line);
+			if (plan.step[i].kind == STEP_READBACK)
+				printf("  then compare %s with the image's %zu bytes\n", rb, img.len);
+		}
+		if (c.console)
+			printf("  then read %s until the image reports version %s\n", c.console, ver);
+		goto done;
+	}
+
+	/* 3. Tools present before the first one runs. */
+	for (i = 0; i < plan.nsteps; i++)
+		if (!in_path(plan.step[i].arg[0]))
+			die(1, "%s not found in PATH (Debian package %s): nothing was done",
+			    plan.step[i].arg[0], package_of(plan.step[i].arg[0]));
+
+	/* 4. Run, compare after the read-back, start only a verified image. */
+	t_all = now_s();
+	for (i = 0; i < plan.nsteps; i++) {
+		const struct flash_step *s = &plan.step[i];
+		double t0 = now_s();
+		int rc;
+
+		if (s->kind == STEP_RESET && c.console)
+			console_open(&con, c.console);
+		flash_step_format(s, line, sizeof(line));
+		printf("swell-flash: [%d/%d] %s: %s\n", i + 1, plan.nsteps, s->what, line);
+		rc = run(s);
+		if (rc != 0)
+			die(1, "[%d/%d] %s failed: %s exited with %d", i + 1, plan.nsteps, s->what, s->arg[0], rc);
+		printf("swell-flash: [%d/%d] done in %.3f s\n", i + 1, plan.nsteps, now_s() - t0);
+		if (s->kind == STEP_READBACK) {
+			compare_readback(rb, &img);
+			printf("swell-flash: verify ok: %zu bytes read back at 0x08000000 equal the image\n",
+			       img.len);
+		}
+	}
+	if (plan.verify_by_tool)
+		printf("swell-flash: verify by %s (read back and compared by the tool)\n", plan.step[0].arg[0]);
+	printf("swell-flash: flashed %zu bytes in %.3f s\n", img.len, now_s() - t_all);
+	if (c.console) {
+		double t_boot = 0;
+		int r = console_watch(&con, c.console_timeout_s, img.hdr.version, &t_boot);
+
+		close(con.fd);
+		if (r < 0)
+			die(1, "no image report on %s within %.1f s", c.console, c.console_timeout_s);
+		if (r > 0)
+			die(1, "the target did not boot the flashed image");
+		printf("swell-flash: target runs version %s (crc32 0x%08x) %.3f s after the start\n", ver,
+		       (unsigned)img.hdr.crc, t_boot);
+	}
+	if (!c.work_dir && !c.dry_run) {
+		snprintf(line, sizeof(line), "%s.leave", rb);
+		unlink(line);
+		unlink(rb);
+		if (img.fmt == FLASH_FMT_ELF)
+			unlink(bin);
+		rmdir(dir);
+	}
+done:
+	flash_image_free(&img);
+	return 0;
+}

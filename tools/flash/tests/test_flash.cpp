@@ -1,0 +1,477 @@
+// swell-flash: image checks, the command lines of every backend, and the program run with stub
+// tools on PATH (the stubs record every invocation: a refused image must leave no record).
+#include <catch2/catch.hpp>
+
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+#include <vector>
+
+extern "C" {
+#include "flash_image.h"
+#include "flash_plan.h"
+}
+
+namespace {
+
+using bytes = std::vector<uint8_t>;
+
+void put32(uint8_t *p, uint32_t v)
+{
+	for (int i = 0; i < 4; i++)
+		p[i] = (uint8_t)(v >> (8 * i));
+}
+
+// A stamped image of len bytes: a pseudo-random body and the header at 0x200.
+bytes make_image(size_t len, uint32_t version = SWELL_FWIMAGE_VERSION(1, 2, 3),
+		 uint32_t mcu = SWELL_FWIMAGE_MCU_STM32F405)
+{
+	bytes b(len);
+	uint32_t x = 12345;
+	for (auto &v : b) {
+		x = x * 1103515245u + 12345u;
+		v = (uint8_t)(x >> 16);
+	}
+	uint8_t *h = b.data() + SWELL_FWIMAGE_OFFSET;
+	std::memset(h, 0, SWELL_FWIMAGE_HDR_SIZE);
+	put32(h, SWELL_FWIMAGE_MAGIC);
+	h[4] = SWELL_FWIMAGE_HDR_VERSION;
+	h[6] = SWELL_FWIMAGE_HDR_SIZE;
+	put32(h + 8, mcu);
+	put32(h + 12, version);
+	REQUIRE(swell_fwimage_stamp(b.data(), b.size()) == SWELL_OK);
+	return b;
+}
+
+// A minimal ELF32 executable for `machine` with the image in one PT_LOAD segment at paddr and a
+// second, file-less segment (.bss-like) in RAM.
+bytes make_elf(const bytes &img, uint32_t paddr = FLASH_BASE_ADDR, uint16_t machine = 40)
+{
+	const uint32_t phoff = 52, off = 52 + 2 * 32;
+	bytes e(off + img.size(), 0);
+	std::memcpy(e.data(), "\177ELF", 4);
+	e[4] = 1; // 32-bit
+	e[5] = 1; // little-endian
+	e[6] = 1;
+	e[16] = 2; // ET_EXEC
+	e[18] = (uint8_t)machine;
+	e[19] = (uint8_t)(machine >> 8);
+	put32(&e[20], 1);
+	put32(&e[24], paddr + 0x101);
+	put32(&e[28], phoff);
+	e[40] = 52;
+	e[42] = 32;
+	e[44] = 2;
+	uint8_t *ph = &e[phoff];
+	put32(ph, 1);
+	put32(ph + 4, off);
+	put32(ph + 8, paddr);
+	put32(ph + 12, paddr);
+	put32(ph + 16, (uint32_t)img.size());
+	put32(ph + 20, (uint32_t)img.size());
+	ph += 32;
+	put32(ph, 1);
+	put32(ph + 8, 0x20000000u);
+	put32(ph + 12, 0x20000000u);
+	put32(ph + 20, 4096); // memsz only
+	std::memcpy(&e[off], img.data(), img.size());
+	return e;
+}
+
+std::string check(const bytes &f, uint32_t mcu = SWELL_FWIMAGE_MCU_STM32F405)
+{
+	flash_image img;
+	char why[512] = "";
+	if (flash_image_check(f.data(), f.size(), mcu, &img, why, sizeof(why)) == 0) {
+		flash_image_free(&img);
+		return "ok";
+	}
+	return why;
+}
+
+} // namespace
+
+TEST_CASE("a stamped BIN and its ELF pass and give the same flash bytes and header")
+{
+	bytes bin = make_image(5000);
+	bytes elf = make_elf(bin);
+	flash_image a, b;
+	char why[512] = "";
+	REQUIRE(flash_image_check(bin.data(), bin.size(), 0x413, &a, why, sizeof(why)) == 0);
+	INFO(why);
+	REQUIRE(flash_image_check(elf.data(), elf.size(), 0x413, &b, why, sizeof(why)) == 0);
+	CHECK(a.fmt == FLASH_FMT_BIN);
+	CHECK(b.fmt == FLASH_FMT_ELF);
+	REQUIRE(a.len == bin.size());
+	REQUIRE(b.len == bin.size());
+	CHECK(std::memcmp(a.bytes, b.bytes, a.len) == 0);
+	CHECK(a.hdr.version == SWELL_FWIMAGE_VERSION(1, 2, 3));
+	CHECK(b.hdr.crc == a.hdr.crc);
+	char v[32];
+	flash_version_str(a.hdr.version, v, sizeof(v));
+	CHECK(std::string(v) == "1.2.3");
+	flash_image_free(&a);
+	flash_image_free(&b);
+}
+
+TEST_CASE("every flipped byte of a BIN or an ELF image is refused")
+{
+	bytes bin = make_image(3001);
+	size_t refused = 0, tried = 0;
+	for (size_t i = 0; i < bin.size(); i += 7) {
+		bytes c = bin;
+		c[i] ^= 0x5A;
+		std::string why = check(c);
+		INFO("byte " << i << ": " << why);
+		CHECK(why != "ok");
+		refused += why != "ok";
+		bytes e = make_elf(c);
+		CHECK(check(e) != "ok");
+		tried++;
+	}
+	CHECK(refused == tried);
+	bytes c = bin;
+	c[2000] ^= 1;
+	CHECK(check(c).find("CRC-32 mismatch") != std::string::npos);
+}
+
+TEST_CASE("truncated images are refused with the length in the reason")
+{
+	bytes bin = make_image(4096);
+	for (size_t n : {size_t(0), size_t(4), size_t(100), size_t(0x21f), size_t(0x220), size_t(4095)}) {
+		bytes c(bin.begin(), bin.begin() + (long)n);
+		std::string why = check(c);
+		INFO("kept " << n << " bytes: " << why);
+		CHECK(why.find("truncated") != std::string::npos);
+	}
+	// A BIN with bytes appended is not the image its header describes either.
+	bytes longer = bin;
+	longer.push_back(0);
+	CHECK(check(longer).find("length mismatch") != std::string::npos);
+	// An ELF cut inside its segment.
+	bytes elf = make_elf(bin);
+	elf.resize(elf.size() - 10);
+	CHECK(check(elf).find("ELF truncated") != std::string::npos);
+}
+
+TEST_CASE("foreign images are refused: other MCU, other header, other machine, not flash, no header")
+{
+	CHECK(check(make_image(2048, SWELL_FWIMAGE_VERSION(1, 0, 0), 0x419)).find("foreign image: built for MCU 0x419") !=
+	      std::string::npos);
+	CHECK(check(make_image(2048), 0x419).find("foreign image") != std::string::npos);
+	bytes bin = make_image(2048);
+	CHECK(check(make_elf(bin, FLASH_BASE_ADDR, 62)).find("machine 62, not ARM") != std::string::npos);
+	CHECK(check(make_elf(bin, 0x20000000u)).find("outside flash") != std::string::npos);
+	bytes v2 = bin;
+	v2[SWELL_FWIMAGE_OFFSET + 4] = 2;
+	CHECK(check(v2).find("header version 2") != std::string::npos);
+	bytes nomagic(2048, 0xFF);
+	CHECK(check(nomagic).find("no swell image header") != std::string::npos);
+	bytes flags = bin;
+	put32(&flags[SWELL_FWIMAGE_OFFSET + 24], 1);
+	REQUIRE(swell_fwimage_stamp(flags.data(), flags.size()) == SWELL_OK);
+	CHECK(check(flags).find("flags") != std::string::npos);
+}
+
+namespace {
+
+std::vector<std::string> plan_lines(const flash_opts &o)
+{
+	flash_plan p;
+	char why[256] = "", line[8192];
+	REQUIRE(flash_plan_build(&o, &p, why, sizeof(why)) == 0);
+	std::vector<std::string> out;
+	for (int i = 0; i < p.nsteps; i++) {
+		flash_step_format(&p.step[i], line, sizeof(line));
+		out.push_back(line);
+	}
+	return out;
+}
+
+flash_opts base_opts(flash_backend b)
+{
+	flash_opts o{};
+	o.backend = b;
+	o.bin = "/w/fw.bin";
+	o.readback = "/w/rb.bin";
+	o.len = 41424;
+	o.dfu_device = "0483:df11";
+	o.openocd_interface = "interface/stlink.cfg";
+	o.serial = "/dev/ttyUSB0";
+	o.baud = 115200;
+	o.gdb_remote = "localhost:3333";
+	return o;
+}
+
+} // namespace
+
+TEST_CASE("dry-run command lines: dfu-util DfuSe at 0x08000000, read back, leave only at the end")
+{
+	auto l = plan_lines(base_opts(FLASH_DFU));
+	REQUIRE(l.size() == 3);
+	CHECK(l[0] == "dfu-util -d 0483:df11 -a 0 -s 0x08000000 -D /w/fw.bin");
+	CHECK(l[1] == "dfu-util -d 0483:df11 -a 0 -s 0x08000000:41424 -U /w/rb.bin");
+	CHECK(l[2] == "dfu-util -d 0483:df11 -a 0 -s 0x08000000:4:leave -U /w/rb.bin.leave");
+}
+
+TEST_CASE("dry-run command lines: SWD through openocd (ELF and BIN) and st-flash")
+{
+	flash_opts o = base_opts(FLASH_SWD);
+	auto l = plan_lines(o);
+	REQUIRE(l.size() == 1);
+	CHECK(l[0] == "openocd -f interface/stlink.cfg -f target/stm32f4x.cfg -c "
+		      "'program /w/fw.bin 0x08000000 verify reset exit'");
+	o.elf = "/w/fw.elf";
+	l = plan_lines(o);
+	CHECK(l[0] == "openocd -f interface/stlink.cfg -f target/stm32f4x.cfg -c 'program /w/fw.elf verify reset exit'");
+	o.swd_tool = FLASH_SWD_STFLASH;
+	l = plan_lines(o);
+	REQUIRE(l.size() == 3);
+	CHECK(l[0] == "st-flash write /w/fw.bin 0x08000000");
+	CHECK(l[1] == "st-flash read /w/rb.bin 0x08000000 41424");
+	CHECK(l[2] == "st-flash reset");
+}
+
+TEST_CASE("dry-run command lines: stm32flash on the UART ROM bootloader")
+{
+	flash_opts o = base_opts(FLASH_UART);
+	o.serial = "/dev/ttyACM3";
+	o.baud = 57600;
+	auto l = plan_lines(o);
+	REQUIRE(l.size() == 3);
+	CHECK(l[0] == "stm32flash -b 57600 -w /w/fw.bin -v -S 0x08000000 /dev/ttyACM3");
+	CHECK(l[1] == "stm32flash -b 57600 -r /w/rb.bin -S 0x08000000:41424 /dev/ttyACM3");
+	CHECK(l[2] == "stm32flash -b 57600 -g 0x08000000 /dev/ttyACM3");
+}
+
+TEST_CASE("dry-run command lines: gdb-multiarch on QEMU, openocd and a Black Magic Probe")
+{
+	flash_opts o = base_opts(FLASH_GDB);
+	o.elf = "/w/fw.elf";
+	o.gdb_server = FLASH_GDB_QEMU;
+	o.gdb_remote = "127.0.0.1:1234";
+	auto l = plan_lines(o);
+	REQUIRE(l.size() == 2);
+	CHECK(l[0] == "gdb-multiarch -nx -batch -ex 'set confirm off' -ex 'target remote 127.0.0.1:1234' -ex load "
+		      "-ex 'dump binary memory /w/rb.bin 0x08000000 0x0800a1d0' -ex disconnect /w/fw.elf");
+	CHECK(l[1] == "gdb-multiarch -nx -batch -ex 'set confirm off' -ex 'target remote 127.0.0.1:1234' "
+		      "-ex 'monitor system_reset' -ex detach");
+	o.gdb_server = FLASH_GDB_OPENOCD;
+	l = plan_lines(o);
+	CHECK(l[0].find("-ex 'monitor reset halt' -ex load") != std::string::npos);
+	CHECK(l[1].find("-ex 'monitor reset run' -ex detach") != std::string::npos);
+	o.gdb_server = FLASH_GDB_BMP;
+	o.gdb_remote = "/dev/ttyACM0";
+	l = plan_lines(o);
+	CHECK(l[0].find("-ex 'target extended-remote /dev/ttyACM0' -ex 'monitor swdp_scan' -ex 'attach 1' -ex load") !=
+	      std::string::npos);
+	CHECK(l[1].find("-ex kill") != std::string::npos);
+	// A BIN goes to QEMU with restore; openocd and a probe need the ELF.
+	o.elf = nullptr;
+	o.gdb_server = FLASH_GDB_QEMU;
+	l = plan_lines(o);
+	CHECK(l[0].find("-ex 'restore /w/fw.bin binary 0x08000000'") != std::string::npos);
+	o.gdb_server = FLASH_GDB_OPENOCD;
+	flash_plan p;
+	char why[256] = "";
+	CHECK(flash_plan_build(&o, &p, why, sizeof(why)) == -1);
+	CHECK(std::string(why).find("needs the ELF") != std::string::npos);
+}
+
+// ---- the program, with stub tools that record their invocation ----
+
+namespace {
+
+struct scratch {
+	std::string dir;
+	scratch()
+	{
+		char t[] = "/tmp/swell-flash-test.XXXXXX";
+		REQUIRE(mkdtemp(t) != nullptr);
+		dir = t;
+		mkdir((dir + "/stub").c_str(), 0755);
+		// Every tool a backend may run: log the call; st-flash keeps a "flash" file so a
+		// full run can be verified, and corrupts its read-back when CORRUPT is set.
+		for (const char *tool : {"dfu-util", "openocd", "stm32flash", "gdb-multiarch"})
+			stub(tool, "");
+		stub("st-flash", "case $1 in write) cp \"$2\" \"$FLASH\";; read) cp \"$FLASH\" \"$2\";"
+				 " [ -n \"$CORRUPT\" ] && printf X | dd of=\"$2\" bs=1 seek=1000 conv=notrunc 2>/dev/null;; esac\n");
+	}
+	~scratch() { std::system(("rm -rf '" + dir + "'").c_str()); }
+	void stub(const std::string &tool, const std::string &body)
+	{
+		std::string p = dir + "/stub/" + tool;
+		std::ofstream f(p);
+		f << "#!/bin/sh\necho \"" << tool << " $*\" >> \"$LOG\"\n" << body << "exit 0\n";
+		f.close();
+		chmod(p.c_str(), 0755);
+	}
+	std::string write(const std::string &name, const bytes &b)
+	{
+		std::string p = dir + "/" + name;
+		std::ofstream f(p, std::ios::binary);
+		f.write((const char *)b.data(), (std::streamsize)b.size());
+		return p;
+	}
+	std::string log() const
+	{
+		std::ifstream f(dir + "/log");
+		std::stringstream s;
+		s << f.rdbuf();
+		return s.str();
+	}
+	// Run swell-flash with the stubs first on PATH; returns the exit status, output in *out.
+	int run(const std::string &args, std::string *out, const std::string &env = "")
+	{
+		std::string cmd = "cd '" + dir + "' && PATH='" + dir + "/stub':\"$PATH\" LOG='" + dir + "/log' FLASH='" +
+				  dir + "/flash' " + env + " '" SWELL_FLASH_BIN "' " + args + " >out.txt 2>&1";
+		int st = std::system(cmd.c_str());
+		std::ifstream f(dir + "/out.txt");
+		std::stringstream s;
+		s << f.rdbuf();
+		*out = s.str();
+		return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+	}
+};
+
+} // namespace
+
+TEST_CASE("corrupted, truncated and foreign images are refused with exit 2 before any tool runs")
+{
+	scratch s;
+	bytes good = make_image(6000);
+	bytes corrupt = good;
+	corrupt[4321] ^= 0x10;
+	bytes truncated(good.begin(), good.begin() + 3000);
+	bytes foreign = make_image(6000, SWELL_FWIMAGE_VERSION(1, 2, 3), 0x419);
+	struct {
+		const char *name;
+		bytes b;
+		const char *reason;
+	} bad[] = {{"corrupt.bin", corrupt, "CRC-32 mismatch"},
+		   {"corrupt.elf", make_elf(corrupt), "CRC-32 mismatch"},
+		   {"truncated.bin", truncated, "truncated"},
+		   {"truncated.elf", make_elf(truncated), "truncated"},
+		   {"foreign.bin", foreign, "foreign image"},
+		   {"x86.elf", make_elf(good, FLASH_BASE_ADDR, 62), "foreign ELF"}};
+	const char *backends[] = {"--backend dfu", "--backend swd", "--backend swd --swd-tool st-flash",
+				  "--backend uart", "--backend gdb --gdb-server qemu", ""};
+	for (auto &b : bad) {
+		std::string path = s.write(b.name, b.b);
+		for (const char *be : backends) {
+			std::string out;
+			int rc = s.run(path + " " + be, &out);
+			INFO(b.name << " " << be << ": exit " << rc << ", output: " << out);
+			CHECK(rc == 2);
+			CHECK(out.find("refused") != std::string::npos);
+			CHECK(out.find(b.reason) != std::string::npos);
+			// One line of reason, nothing else.
+			CHECK(std::count(out.begin(), out.end(), '\n') == 1);
+		}
+	}
+	CHECK(s.log().empty());
+	// The stubs do record when a tool is reached (positive control): a good image runs them.
+	std::string out;
+	int rc = s.run(s.write("good.bin", good) + " --backend swd --swd-tool st-flash", &out);
+	INFO(out);
+	CHECK(rc == 0);
+	CHECK(s.log().find("st-flash write") != std::string::npos);
+}
+
+TEST_CASE("a full run verifies the read-back and starts only a verified image")
+{
+	scratch s;
+	std::string img = s.write("good.elf", make_elf(make_image(6000)));
+	std::string out;
+	int rc = s.run(img + " --backend swd --swd-tool st-flash", &out);
+	INFO(out);
+	REQUIRE(rc == 0);
+	CHECK(out.find("verify ok: 6000 bytes") != std::string::npos);
+	CHECK(out.find("[3/3] reset") != std::string::npos);
+	std::string log = s.log();
+	CHECK(log.find("st-flash write") < log.find("st-flash read"));
+	CHECK(log.find("st-flash read") < log.find("st-flash reset"));
+
+	scratch t;
+	img = t.write("good.elf", make_elf(make_image(6000)));
+	rc = t.run(img + " --backend swd --swd-tool st-flash", &out, "CORRUPT=1");
+	INFO(out);
+	CHECK(rc == 1);
+	CHECK(out.find("verify FAILED at 0x080003e8") != std::string::npos);
+	CHECK(t.log().find("st-flash reset") == std::string::npos);
+}
+
+TEST_CASE("--dry-run prints the commands of each backend and runs none")
+{
+	scratch s;
+	std::string img = s.write("good.elf", make_elf(make_image(6000)));
+	struct {
+		const char *args, *expect;
+	} cases[] = {{"--backend dfu", "dfu-util -d 0483:df11 -a 0 -s 0x08000000 -D "},
+		     {"--backend swd", "-c 'program "},
+		     {"--backend swd --swd-tool st-flash", "st-flash write "},
+		     {"--backend uart --serial /dev/ttyS1", "stm32flash -b 115200 -w "},
+		     {"--backend gdb --gdb-remote localhost:3333", "-ex 'monitor reset halt' -ex load"},
+		     {"--backend gdb --gdb-remote /dev/ttyACM0", "-ex 'monitor swdp_scan'"}};
+	for (auto &c : cases) {
+		std::string out;
+		int rc = s.run(img + " --dry-run --work-dir /w " + c.args, &out);
+		INFO(c.args << ": " << out);
+		CHECK(rc == 0);
+		CHECK(out.find(c.expect) != std::string::npos);
+		CHECK(out.find("[1/") != std::string::npos);
+	}
+	CHECK(s.log().empty());
+}
+
+TEST_CASE("bad arguments give one line and exit 2")
+{
+	scratch s;
+	std::string img = s.write("good.bin", make_image(2048));
+	const char *bad[] = {"", "--backend jtag", "--swd-tool jlink", "--baud 12", "--mcu x",
+			     "--dfu-device 0483", "--frobnicate", "--gdb-server foo", "--console-timeout 0",
+			     "second.bin", "--backend"};
+	for (const char *a : bad) {
+		std::string out;
+		int rc = s.run((*a == '\0' ? std::string() : img + " ") + a, &out);
+		INFO("'" << a << "': " << out);
+		CHECK(rc == 2);
+		CHECK(std::count(out.begin(), out.end(), '\n') == 1);
+	}
+	std::string out;
+	CHECK(s.run("--help", &out) == 0);
+	CHECK(out.find("usage: swell-flash") != std::string::npos);
+	CHECK(s.run(img + " --expect-version 9.9.9", &out) == 2);
+	CHECK(out.find("version 1.2.3, expected 9.9.9") != std::string::npos);
+	CHECK(s.log().empty());
+}
+
+TEST_CASE("auto-detection reads USB ids from sysfs and refuses to guess")
+{
+	scratch s;
+	std::string img = s.write("good.bin", make_image(2048));
+	auto dev = [&](const std::string &name, const char *vid, const char *pid) {
+		std::string d = s.dir + "/sys/bus/usb/devices/" + name;
+		std::system(("mkdir -p '" + d + "'").c_str());
+		std::ofstream(d + "/idVendor") << vid << "\n";
+		std::ofstream(d + "/idProduct") << pid << "\n";
+	};
+	std::string env = "SWELL_FLASH_SYSFS='" + s.dir + "/sys'", out;
+	dev("1-1", "1d6b", "0002"); // a root hub: not a target
+	CHECK(s.run(img + " --dry-run", &out, env) == 2);
+	CHECK(out.find("no DfuSe device") != std::string::npos);
+	dev("1-2", "0483", "df11");
+	CHECK(s.run(img + " --dry-run", &out, env) == 0);
+	CHECK(out.find("auto-detected a DfuSe bootloader") != std::string::npos);
+	CHECK(out.find("dfu-util -d 0483:df11") != std::string::npos);
+	dev("1-3", "0483", "374b");
+	CHECK(s.run(img + " --dry-run", &out, env) == 2);
+	CHECK(out.find("choose one") != std::string::npos);
+	CHECK(s.log().empty());
+}
