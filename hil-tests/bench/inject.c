@@ -1,0 +1,529 @@
+/* swell-inject: the bench's third node. Puts bad, foreign or too many frames on a link, and asks a
+ * controller for parameter sets it must refuse. Host code (a bench tool, never on the controller). */
+#define _GNU_SOURCE
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include <linux/can.h>
+#include <net/if.h>
+#include <sys/ioctl.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include "swell/link.h"
+#include "swell/transport.h"
+
+static const char usage[] =
+	"usage: swell-inject garbage LINK [--count N] [--rate HZ] [--seed S]\n"
+	"       swell-inject flood LINK [--seconds S] [--id HEX]\n"
+	"       swell-inject params LINK [--node N] [--timeout-ms MS]\n"
+	"The hardware-in-the-loop bench's third node.\n"
+	"\n"
+	"  garbage  N frames (default 2000) at HZ (default 1000; 0: as fast as the link takes them) that\n"
+	"           a controller must count and drop or ignore: short and long frames, fields out of range,\n"
+	"           unknown and 29-bit ids, remote frames (CAN); bad CRC, magic, version, count (packets);\n"
+	"           valid device samples addressed to another node (--foreign-node, default 5)\n"
+	"  flood    valid-looking frames of one id (default 0x7f5: a HEIGHT_QUAD of node 5, lowest\n"
+	"           priority) as fast as the link takes them for S seconds (default 2)\n"
+	"  params   out-of-range PARAM_SETs to the controller's host link: each must be answered by a\n"
+	"           PARAM_NACK and leave the value (read back with PARAM_GET) unchanged\n"
+	"LINK: can:IFACE (SocketCAN), udp[:PORT] (garbage/flood: to the controller's device port,\n"
+	"      default 47800; params: listen on the viewer port, default 47801, answer the controller),\n"
+	"      usb (params: libusb, VID 1209 PID 0001)\n"
+	"Prints one summary line with counts and rates; exit 0 when every check held, 1 when one failed,\n"
+	"2 for bad arguments or a link that cannot be opened.\n";
+
+static void die(const char *msg, const char *arg)
+{
+	fprintf(stderr, "swell-inject: %s%s\n", msg, arg ? arg : "");
+	exit(2);
+}
+
+static double now_s(void)
+{
+	return swell_link_now_ns() / 1e9;
+}
+
+static void sleep_until(double t)
+{
+	struct timespec ts;
+	double d = t - now_s();
+
+	if (d <= 0)
+		return;
+	ts.tv_sec = (time_t)d;
+	ts.tv_nsec = (long)((d - (double)ts.tv_sec) * 1e9);
+	nanosleep(&ts, NULL);
+}
+
+static uint32_t rng_state = 12345u;
+
+static uint32_t rnd(void)
+{
+	rng_state ^= rng_state << 13;
+	rng_state ^= rng_state >> 17;
+	rng_state ^= rng_state << 5;
+	return rng_state;
+}
+
+static int open_link(struct swell_link **l, const char *spec, int viewer_side)
+{
+	int rc;
+
+	if (!strncmp(spec, "can:", 4) && spec[4]) {
+		struct swell_can_opts co;
+
+		memset(&co, 0, sizeof(co));
+		rc = swell_link_open_can(l, spec + 4, &co);
+	} else if (!strcmp(spec, "usb")) {
+		struct swell_usb_opts uo;
+
+		swell_usb_opts_default(&uo);
+		rc = swell_link_open_usb(l, &uo);
+	} else if (!strncmp(spec, "udp", 3) && (spec[3] == '\0' || spec[3] == ':')) {
+		long port = viewer_side ? SWELL_UDP_PORT_VIEWER : SWELL_UDP_PORT_DEVICE;
+		char *end;
+
+		if (spec[3] == ':') {
+			port = strtol(spec + 4, &end, 10);
+			if (*end || port < 1 || port > 65535)
+				die("bad UDP port in ", spec);
+		}
+		rc = viewer_side ? swell_link_open_udp(l, "127.0.0.1", (uint16_t)port, NULL, 0)
+				 : swell_link_open_udp(l, "127.0.0.1", 0, "127.0.0.1", (uint16_t)port);
+	} else {
+		die("LINK must be can:IFACE, udp[:PORT] or usb, not ", spec);
+		return -1;
+	}
+	if (rc < 0) {
+		fprintf(stderr, "swell-inject: cannot open %s: %s\n", spec, strerror(-rc));
+		exit(2);
+	}
+	return 0;
+}
+
+/* Garbage and floods need frames the host link refuses to send (29-bit ids, remote frames, wrong
+ * lengths), so on CAN they go out through a raw socket of their own. */
+static int raw_can = -1;
+
+static void open_raw_can(const char *iface)
+{
+	struct sockaddr_can a;
+	struct ifreq ifr;
+
+	raw_can = socket(PF_CAN, SOCK_RAW | SOCK_CLOEXEC, CAN_RAW);
+	memset(&ifr, 0, sizeof(ifr));
+	if (raw_can < 0 || strlen(iface) >= IFNAMSIZ) {
+		fprintf(stderr, "swell-inject: CAN socket for %s: %s\n", iface, strerror(errno));
+		exit(2);
+	}
+	strcpy(ifr.ifr_name, iface);
+	memset(&a, 0, sizeof(a));
+	a.can_family = AF_CAN;
+	if (ioctl(raw_can, SIOCGIFINDEX, &ifr) < 0 ||
+	    (a.can_ifindex = ifr.ifr_ifindex, bind(raw_can, (struct sockaddr *)&a, sizeof(a)) < 0)) {
+		fprintf(stderr, "swell-inject: CAN interface %s: %s\n", iface, strerror(errno));
+		exit(2);
+	}
+}
+
+/* 0 sent, -1 not (a full transmit queue is waited for up to 100 ms) */
+static int send_raw(struct swell_link *l, const struct swell_frame *f)
+{
+	struct can_frame fr;
+	int tries;
+
+	if (raw_can < 0)
+		return swell_link_send(l, f) < 0 ? -1 : 0;
+	memset(&fr, 0, sizeof(fr));
+	fr.can_id = f->id & (CAN_EFF_MASK | CAN_RTR_FLAG);
+	if (f->flags & SWELL_FRAME_EFF)
+		fr.can_id |= CAN_EFF_FLAG;
+	fr.can_dlc = (uint8_t)(f->len > 8 ? 8 : f->len);
+	memcpy(fr.data, f->data, 8);
+	for (tries = 0; tries < 1000; tries++) {
+		if (write(raw_can, &fr, sizeof(fr)) == (ssize_t)sizeof(fr))
+			return 0;
+		if (errno != ENOBUFS && errno != EINTR)
+			return -1;
+		sleep_until(now_s() + 100e-6);
+	}
+	return -1;
+}
+
+/* A valid DEVICE_POS: the frame every bad one is made from. */
+static struct swell_msg device_pos(uint8_t node, int16_t z_10um, uint8_t seq)
+{
+	struct swell_msg m;
+
+	memset(&m, 0, sizeof(m));
+	m.type = SWELL_MSG_DEVICE_POS;
+	m.node = node;
+	m.u.device_pos.z_10um = z_10um;
+	m.u.device_pos.seq = seq;
+	m.u.device_pos.status = 3;
+	return m;
+}
+
+enum { K_SHORT, K_LONG, K_RANGE, K_UNKNOWN, K_EFF, K_RTR, K_FOREIGN, K_RANDOM, K_KINDS };
+static const char *const kind_name[K_KINDS] = {"short", "long", "out-of-range", "unknown-id", "29-bit",
+					       "remote", "foreign-node", "random"};
+
+/* One bad frame of kind k on a classic CAN link. A spoofed sample of the controller's own node with
+ * valid contents cannot be told from the device's on CAN, so "foreign" is another node's. */
+static void bad_can(struct swell_frame *f, int k, uint8_t foreign, uint8_t seq)
+{
+	struct swell_msg m = device_pos(0, -25000, seq); /* z = -250 mm: a big force if it were taken */
+	uint32_t id;
+	uint8_t len;
+
+	memset(f, 0, sizeof(*f));
+	swell_can_encode(&m, &id, f->data, &len);
+	f->id = id;
+	f->len = len;
+	switch (k) {
+	case K_SHORT: f->len = (uint16_t)(rnd() % len); break;
+	case K_LONG: /* DEVICE_VEL is 7 bytes: 8 is too long */
+		m.type = SWELL_MSG_DEVICE_VEL;
+		memset(&m.u, 0, sizeof(m.u));
+		m.u.device_vel.vz_100ums = -30000;
+		swell_can_encode(&m, &id, f->data, &len);
+		f->id = id;
+		f->len = 8;
+		f->data[7] = 0xA5;
+		break;
+	case K_RANGE: f->data[4] = 0x00; f->data[5] = 0x80; break; /* z = -32768: below -30000 */
+	case K_UNKNOWN: f->id = SWELL_CAN_ID(0x7E, 0); break;
+	case K_EFF: f->id = id | 0x1000u; f->flags = SWELL_FRAME_EFF; break;
+	case K_RTR: f->len = 0; f->id = id | CAN_RTR_FLAG; break; /* CAN_RTR_FLAG, DLC 0 (QEMU: see hil-vm.md) */
+	case K_FOREIGN:
+		m = device_pos(foreign, -25000, seq);
+		swell_can_encode(&m, &id, f->data, &len);
+		f->id = id;
+		break;
+	default: {
+		int b;
+
+		f->id = SWELL_CAN_ID(rnd() % 0x7F + 1, 0);
+		if (f->id == SWELL_CAN_ID(SWELL_MSG_DEVICE_POS, 0) || f->id == SWELL_CAN_ID(SWELL_MSG_DEVICE_VEL, 0))
+			f->id |= 1; /* random bytes may decode validly: never as the device's own sample */
+		f->len = (uint16_t)(rnd() % 9);
+		for (b = 0; b < 8; b++)
+			f->data[b] = (uint8_t)rnd();
+	}
+	}
+}
+
+/* One bad packet of kind k (UDP, USB). */
+static void bad_pkt(struct swell_frame *f, int k, uint8_t foreign, uint8_t seq)
+{
+	struct swell_msg m = device_pos(0, -25000, seq);
+	size_t used;
+
+	memset(f, 0, sizeof(*f));
+	if (k == K_FOREIGN)
+		m = device_pos(foreign, -25000, seq);
+	swell_link_encode(SWELL_CARRIER_PKT, m.node, seq, &m, 1, f, &used);
+	switch (k) {
+	case K_SHORT: f->len = (uint16_t)(rnd() % (f->len - 1) + 1); break;
+	case K_LONG: f->data[f->len - 1] ^= 0x01; break;  /* bad CRC */
+	case K_RANGE: f->data[0] = 0x58; break;          /* bad magic */
+	case K_UNKNOWN: f->data[1] = 2; break;           /* another protocol version */
+	case K_EFF: f->data[4] = 0; break;               /* record count 0 */
+	case K_RTR: f->data[5] = 0x7E; break;            /* unknown record type */
+	case K_FOREIGN: break;
+	default: {
+		int b;
+
+		f->len = (uint16_t)(rnd() % 64 + 1);
+		for (b = 0; b < f->len; b++)
+			f->data[b] = (uint8_t)rnd();
+	}
+	}
+}
+
+static int cmd_garbage(struct swell_link *l, long count, double rate, uint8_t foreign)
+{
+	long sent[K_KINDS] = {0}, errors = 0, n;
+	int can = swell_link_carrier(l) != SWELL_CARRIER_PKT, k;
+	double t0 = now_s(), t;
+
+	for (n = 0; n < count; n++) {
+		struct swell_frame f;
+
+		k = (int)(n % K_KINDS);
+		if (can)
+			bad_can(&f, k, foreign, (uint8_t)n);
+		else
+			bad_pkt(&f, k, foreign, (uint8_t)n);
+		if (rate > 0)
+			sleep_until(t0 + (double)n / rate);
+		if (send_raw(l, &f) < 0)
+			errors++;
+		else
+			sent[k]++;
+	}
+	t = now_s() - t0;
+	printf("swell-inject garbage %s: %ld frames in %.3f s (%.0f frames/s), %ld send errors:",
+	       swell_link_name(l), count - errors, t, (double)(count - errors) / (t > 0 ? t : 1e-9), errors);
+	for (k = 0; k < K_KINDS; k++)
+		printf(" %s %ld%s", kind_name[k], sent[k], k + 1 < K_KINDS ? "," : "\n");
+	printf("  invalid frames  %ld (must be counted bad)\n", count - errors - sent[K_FOREIGN]);
+	printf("  foreign frames  %ld (node %u: must be ignored)\n", sent[K_FOREIGN], foreign);
+	return errors == count ? 1 : 0;
+}
+
+static int cmd_flood(struct swell_link *l, double seconds, uint32_t id)
+{
+	long sent = 0, errors = 0;
+	double t0 = now_s(), t;
+	struct swell_frame f;
+
+	memset(&f, 0, sizeof(f));
+	f.id = id;
+	f.len = 8;
+	while ((t = now_s() - t0) < seconds) {
+		int b;
+
+		for (b = 0; b < 8; b++)
+			f.data[b] = (uint8_t)rnd();
+		if (swell_link_carrier(l) == SWELL_CARRIER_PKT) {
+			struct swell_msg m = device_pos(5, 0, (uint8_t)sent);
+			size_t used;
+
+			swell_link_encode(SWELL_CARRIER_PKT, 5, (uint8_t)sent, &m, 1, &f, &used);
+		}
+		if (send_raw(l, &f) < 0)
+			errors++;
+		else
+			sent++;
+	}
+	printf("swell-inject flood %s: id 0x%03x, %ld frames in %.3f s (%.0f frames/s), %ld send errors\n",
+	       swell_link_name(l), id, sent, t, sent / t, errors);
+	return sent > 0 ? 0 : 1;
+}
+
+/* ---- params ---- */
+
+struct pset {
+	uint16_t id;
+	int32_t value;
+	const char *why;
+};
+
+static const struct pset bad_sets[] = {
+	{1, 600000000, "wave e 0.56: above the stability limit 1/2"},
+	{1, -1, "wave e negative"},
+	{2, -5, "wave damping negative"},
+	{3, 7, "stencil 7: neither paper nor calibrated"},
+	{10, 0, "mass 0 g"},
+	{10, -100, "mass -100 g"},
+	{11, 0, "footprint a 0 um"},
+	{13, -1, "height negative"},
+	{20, -1, "force limit negative"},
+	{20, 2000000000, "force limit 2000 N: above what FORCE_CMD carries"},
+	{21, -1, "force rate negative"},
+	{30, 0, "silent ticks 0"},
+	{30, 20000, "silent ticks 20000"},
+	{31, 2, "autorun 2"},
+	{40, 9, "command 9"},
+	{999, 1, "unknown parameter id"},
+};
+
+static int send_msg(struct swell_link *l, const struct swell_msg *m, uint8_t seq)
+{
+	struct swell_frame f;
+	size_t used;
+
+	if (swell_link_encode(swell_link_carrier(l), m->node, seq, m, 1, &f, &used) != SWELL_OK)
+		return -1;
+	return swell_link_send(l, &f);
+}
+
+/* Waits for the answer to request seq on id: 1 ACK (*value set), 0 NACK (*err set), -1 none. */
+static int wait_answer(struct swell_link *l, uint16_t id, uint8_t seq, int timeout_ms, int32_t *value, int *err,
+		       struct swell_proto_stats *st)
+{
+	double until = now_s() + timeout_ms / 1e3;
+
+	while (now_s() < until) {
+		struct swell_frame f;
+		struct swell_msg m[SWELL_CANFD_MSGS_MAX];
+		size_t n = 0, k;
+
+		if (swell_link_recv(l, &f, 10) < 0)
+			continue;
+		if (swell_link_decode(swell_link_carrier(l), &f, m, SWELL_CANFD_MSGS_MAX, &n, NULL, st) != SWELL_OK)
+			continue;
+		for (k = 0; k < n; k++) {
+			if (m[k].type == SWELL_MSG_PARAM_ACK && m[k].u.param_ack.id == id && m[k].u.param_ack.seq == seq) {
+				*value = m[k].u.param_ack.value;
+				return 1;
+			}
+			if (m[k].type == SWELL_MSG_PARAM_NACK && m[k].u.param_nack.id == id &&
+			    m[k].u.param_nack.seq == seq) {
+				*err = m[k].u.param_nack.err;
+				return 0;
+			}
+		}
+	}
+	return -1;
+}
+
+static int get_param(struct swell_link *l, uint8_t node, uint16_t id, uint8_t seq, int timeout_ms, int32_t *v,
+		     struct swell_proto_stats *st)
+{
+	struct swell_msg m;
+	int err = 0, tries;
+
+	memset(&m, 0, sizeof(m));
+	m.type = SWELL_MSG_PARAM_GET;
+	m.node = node;
+	m.u.param_get.id = id;
+	m.u.param_get.seq = seq;
+	for (tries = 0; tries < 3; tries++) { /* a lost request or answer is asked again */
+		int r;
+
+		send_msg(l, &m, seq);
+		r = wait_answer(l, id, seq, timeout_ms, v, &err, st);
+		if (r >= 0)
+			return r;
+	}
+	return -1;
+}
+
+static int cmd_params(struct swell_link *l, uint8_t node, int timeout_ms)
+{
+	struct swell_proto_stats st;
+	size_t k, nsets = sizeof(bad_sets) / sizeof(bad_sets[0]);
+	int failed = 0, nacked = 0, unchanged = 0;
+	uint8_t seq = 1;
+
+	memset(&st, 0, sizeof(st));
+	/* over UDP the controller must first send something, so that we know where it listens */
+	if (swell_link_carrier(l) == SWELL_CARRIER_PKT) {
+		struct swell_frame f;
+		double until = now_s() + timeout_ms / 1e3 * 10;
+
+		while (now_s() < until && swell_link_recv(l, &f, 50) < 0)
+			;
+	}
+	for (k = 0; k < nsets; k++) {
+		const struct pset *p = &bad_sets[k];
+		int32_t before = 0, after = 0, v = 0;
+		int err = 0, r, have_before = p->id != 40 && p->id != 999;
+		struct swell_msg m;
+
+		if (have_before && get_param(l, node, p->id, seq++, timeout_ms, &before, &st) != 1) {
+			printf("  FAIL %-48s PARAM_GET %u before: no ACK\n", p->why, p->id);
+			failed++;
+			continue;
+		}
+		memset(&m, 0, sizeof(m));
+		m.type = SWELL_MSG_PARAM_SET;
+		m.node = node;
+		m.u.param_set.id = p->id;
+		m.u.param_set.value = p->value;
+		m.u.param_set.seq = seq;
+		send_msg(l, &m, seq);
+		r = wait_answer(l, p->id, seq, timeout_ms, &v, &err, &st);
+		seq++;
+		if (have_before && get_param(l, node, p->id, seq++, timeout_ms, &after, &st) != 1) {
+			printf("  FAIL %-48s PARAM_GET %u after: no ACK\n", p->why, p->id);
+			failed++;
+			continue;
+		}
+		nacked += r == 0;
+		unchanged += !have_before || after == before;
+		if (r != 0 || (have_before && after != before)) {
+			failed++;
+			printf("  FAIL %-48s id %u value %d: %s, value %d -> %d\n", p->why, p->id, p->value,
+			       r < 0 ? "no answer" : r == 1 ? "ACCEPTED" : "NACK", before, after);
+		} else {
+			printf("  ok   %-48s id %u value %d: NACK %s, value %d unchanged\n", p->why, p->id, p->value,
+			       swell_err_str((enum swell_err)err), before);
+		}
+	}
+	printf("swell-inject params %s: %s: %d of %zu refused with a NACK, %d unchanged, %u bad frames received\n",
+	       swell_link_name(l), failed ? "FAILED" : "OK", nacked, nsets, unchanged, swell_proto_rejected_total(&st));
+	return failed ? 1 : 0;
+}
+
+int main(int argc, char **argv)
+{
+	const char *cmd, *spec;
+	long count = 2000;
+	double rate = 1000, seconds = 2;
+	uint32_t id = SWELL_CAN_ID(SWELL_MSG_HEIGHT_QUAD, 5) | 0x400u;
+	unsigned node = 0, foreign = 5;
+	int timeout_ms = 500, k, rc;
+	struct swell_link *l;
+
+	if (argc >= 2 && (!strcmp(argv[1], "-h") || !strcmp(argv[1], "--help"))) {
+		fputs(usage, stdout);
+		return 0;
+	}
+	if (argc < 3)
+		die("give a command and a LINK (see --help)", NULL);
+	cmd = argv[1];
+	spec = argv[2];
+	if (strcmp(cmd, "garbage") && strcmp(cmd, "flood") && strcmp(cmd, "params"))
+		die("unknown command ", cmd);
+	for (k = 3; k < argc; k += 2) {
+		const char *a = argv[k], *v = k + 1 < argc ? argv[k + 1] : NULL;
+		char *end = NULL;
+
+		if (!v)
+			die("missing value for ", a);
+		errno = 0;
+		if (!strcmp(a, "--count")) {
+			count = strtol(v, &end, 10);
+			if (count < 1 || count > 100000000)
+				die("--count must be 1..1e8, not ", v);
+		} else if (!strcmp(a, "--rate")) {
+			rate = strtod(v, &end);
+			if (!(rate >= 0 && rate <= 1e6))
+				die("--rate must be 0..1e6 Hz, not ", v);
+		} else if (!strcmp(a, "--seed")) {
+			rng_state = (uint32_t)strtoul(v, &end, 10) | 1u;
+		} else if (!strcmp(a, "--seconds")) {
+			seconds = strtod(v, &end);
+			if (!(seconds > 0 && seconds <= 3600))
+				die("--seconds must be in (0, 3600], not ", v);
+		} else if (!strcmp(a, "--id")) {
+			id = (uint32_t)strtoul(v, &end, 16);
+			if (id > 0x7FF)
+				die("--id must be an 11-bit hex id, not ", v);
+		} else if (!strcmp(a, "--node")) {
+			node = (unsigned)strtoul(v, &end, 10);
+			if (node > SWELL_NODE_MAX)
+				die("--node must be 0..15, not ", v);
+		} else if (!strcmp(a, "--foreign-node")) {
+			foreign = (unsigned)strtoul(v, &end, 10);
+			if (foreign > SWELL_NODE_MAX || foreign == 0)
+				die("--foreign-node must be 1..15, not ", v);
+		} else if (!strcmp(a, "--timeout-ms")) {
+			timeout_ms = (int)strtol(v, &end, 10);
+			if (timeout_ms < 1 || timeout_ms > 60000)
+				die("--timeout-ms must be 1..60000, not ", v);
+		} else {
+			die("unknown option ", a);
+		}
+		if (errno || !end || *end || !*v)
+			die("not a number: ", v);
+	}
+	open_link(&l, spec, !strcmp(cmd, "params"));
+	if (strcmp(cmd, "params") && !strncmp(spec, "can:", 4))
+		open_raw_can(spec + 4);
+	if (!strcmp(cmd, "garbage"))
+		rc = cmd_garbage(l, count, rate, (uint8_t)foreign);
+	else if (!strcmp(cmd, "flood"))
+		rc = cmd_flood(l, seconds, id);
+	else
+		rc = cmd_params(l, (uint8_t)node, timeout_ms);
+	swell_link_close(l);
+	return rc;
+}
