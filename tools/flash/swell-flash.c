@@ -15,6 +15,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "flash_boot.h"
 #include "flash_image.h"
 #include "flash_plan.h"
 
@@ -43,11 +44,17 @@ static const char usage[] =
 	"  --console PATH       after the start, read the target's console (a tty at 115200 or a file\n"
 	"                       being appended) until it reports the image version; --console-timeout S\n"
 	"  --work-dir DIR       where read-back and converted files go (default a fresh temp dir)\n"
+	"  --enter-bootloader udp[:PORT]  first ask a running controller to reboot into its bootloader\n"
+	"                       over its UDP host link (listens on 127.0.0.1:PORT, default 47801, for\n"
+	"                       its heartbeat); refused while it is RUNNING unless --force (which sends\n"
+	"                       COMMAND=STOP first); the flash goes on only when its heartbeat stops\n"
+	"  --force              see --enter-bootloader\n"
 	"Exit status: 0 flashed and verified, 1 a tool or the verify failed, 2 bad arguments or image refused.\n";
 
 struct cfg {
 	const char *image, *work_dir, *console, *expect_version;
-	int backend, dry_run, check_only, gdb_server_set;
+	int backend, dry_run, check_only, gdb_server_set, force;
+	long boot_port; /* --enter-bootloader: UDP port, 0 when not asked */
 	unsigned long mcu;
 	double console_timeout_s;
 	struct flash_opts o;
@@ -148,6 +155,20 @@ static void parse(int argc, char **argv, struct cfg *c)
 			c->console_timeout_s = strtod(need(argc, argv, &i), &end);
 			if (*end || !(c->console_timeout_s > 0 && c->console_timeout_s <= 600))
 				die(2, "--console-timeout '%s' is not a time in (0, 600] s", argv[i]);
+		} else if (!strcmp(a, "--enter-bootloader")) {
+			const char *l = need(argc, argv, &i);
+
+			if (!strcmp(l, "udp")) {
+				c->boot_port = 47801;
+			} else if (!strncmp(l, "udp:", 4)) {
+				c->boot_port = strtol(l + 4, &end, 10);
+				if (*end || !l[4] || c->boot_port < 1 || c->boot_port > 65535)
+					die(2, "--enter-bootloader '%s': port not in 1..65535", l);
+			} else {
+				die(2, "--enter-bootloader '%s': only udp[:PORT] (CAN and USB carriers not yet)", l);
+			}
+		} else if (!strcmp(a, "--force")) {
+			c->force = 1;
 		} else if (!strcmp(a, "--work-dir")) {
 			c->work_dir = need(argc, argv, &i);
 		} else if (a[0] == '-' && a[1]) {
@@ -474,6 +495,9 @@ int main(int argc, char **argv)
 		       plan.nsteps);
 		for (i = 0; i < plan.nsteps; i++) {
 			flash_step_format(&plan.step[i], line, sizeof(line));
+			if (i == 0 && c.boot_port)
+				printf("[0/%d] send ENTER_BOOTLOADER over udp:%ld once its heartbeat is heard%s\n",
+				       plan.nsteps, c.boot_port, c.force ? " (COMMAND=STOP first if RUNNING)" : "");
 			printf("[%d/%d] %s\n%s\n", i + 1, plan.nsteps, plan.step[i].what, line);
 			if (plan.step[i].kind == STEP_READBACK)
 				printf("  then compare %s with the image's %zu bytes\n", rb, img.len);
@@ -489,7 +513,19 @@ int main(int argc, char **argv)
 			die(1, "%s not found in PATH (Debian package %s): nothing was done",
 			    plan.step[i].arg[0], package_of(plan.step[i].arg[0]));
 
-	/* 4. Run, compare after the read-back, start only a verified image. */
+	/* 4. A running controller is asked to enter its bootloader first. */
+	if (c.boot_port) {
+		enum flash_boot_result br = flash_enter_bootloader((uint16_t)c.boot_port, c.force, 1000, why,
+								   sizeof(why));
+
+		if (br == BOOT_REFUSED_RUNNING)
+			die(2, "%s", why);
+		if (br != BOOT_ENTERED)
+			die(1, "%s; nothing flashed", why);
+		printf("swell-flash: %s\n", why);
+	}
+
+	/* 5. Run, compare after the read-back, start only a verified image. */
 	t_all = now_s();
 	for (i = 0; i < plan.nsteps; i++) {
 		const struct flash_step *s = &plan.step[i];

@@ -407,7 +407,7 @@ TEST_CASE("a full run verifies the read-back and starts only a verified image")
 	CHECK(t.log().find("st-flash reset") == std::string::npos);
 }
 
-TEST_CASE("--dry-run prints the commands of each backend and runs none")
+TEST_CASE("the dry run prints the commands of each backend and runs none")
 {
 	scratch s;
 	std::string img = s.write("good.elf", make_elf(make_image(6000)));
@@ -474,4 +474,172 @@ TEST_CASE("auto-detection reads USB ids from sysfs and refuses to guess")
 	CHECK(s.run(img + " --dry-run", &out, env) == 2);
 	CHECK(out.find("choose one") != std::string::npos);
 	CHECK(s.log().empty());
+}
+
+// ---- enter-bootloader over the UDP host link, against a scripted controller ----
+
+#include <atomic>
+#include <thread>
+
+extern "C" {
+#include "swell/link.h"
+}
+
+namespace {
+
+// A controller as seen on its host link: heartbeats every 50 ms in `state` to the viewer port;
+// PARAM_SET COMMAND=STOP leaves RUNNING; ENTER_BOOTLOADER stops the heartbeat when `reboots`.
+struct fake_ctl {
+	uint16_t port = 0;
+	std::atomic<int> state{1}, got_stop{0}, got_boot{0}, boot_key_ok{0}, other{0};
+	bool reboots = true;
+	std::atomic<bool> quit{false};
+	std::thread th;
+
+	static uint16_t free_port()
+	{
+		swell_link *l;
+		REQUIRE(swell_link_open_udp(&l, "127.0.0.1", 0, "127.0.0.1", 9) == 0);
+		uint16_t p = swell_link_udp_port(l);
+		swell_link_close(l);
+		return p;
+	}
+	void start(int st, bool reb)
+	{
+		state = st;
+		reboots = reb;
+		port = free_port();
+		th = std::thread([this] { loop(); });
+	}
+	void loop()
+	{
+		swell_link *l;
+		if (swell_link_open_udp(&l, "127.0.0.1", 0, "127.0.0.1", port) != 0)
+			return;
+		uint8_t seq = 0;
+		bool silent = false;
+		uint64_t next = 0;
+		while (!quit) {
+			uint64_t now = swell_link_now_ns();
+			if (!silent && now >= next) {
+				swell_msg hb{};
+				hb.type = SWELL_MSG_HEARTBEAT;
+				hb.u.heartbeat.state = (uint8_t)state.load();
+				hb.u.heartbeat.version = SWELL_PROTO_VERSION;
+				hb.u.heartbeat.seq = seq;
+				swell_frame f;
+				size_t used;
+				if (swell_link_encode(SWELL_CARRIER_PKT, 0, seq++, &hb, 1, &f, &used) == SWELL_OK)
+					swell_link_send(l, &f);
+				next = now + 50000000u;
+			}
+			swell_frame f;
+			if (swell_link_recv(l, &f, 10) != 0)
+				continue;
+			swell_msg m[SWELL_PKT_MSGS_MAX];
+			size_t n;
+			if (swell_link_decode(SWELL_CARRIER_PKT, &f, m, SWELL_PKT_MSGS_MAX, &n, NULL, NULL) != SWELL_OK)
+				continue;
+			for (size_t i = 0; i < n; i++) {
+				if (m[i].type == SWELL_MSG_PARAM_SET && m[i].u.param_set.id == 40 &&
+				    m[i].u.param_set.value == 0) {
+					got_stop++;
+					state = 1;
+				} else if (m[i].type == SWELL_MSG_ENTER_BOOTLOADER) {
+					got_boot++;
+					boot_key_ok = m[i].u.enter_bootloader.key == SWELL_PROTO_BOOT_KEY;
+					if (state.load() == 3)
+						other++; // the controller refuses it while RUNNING: must not happen
+					silent = reboots;
+				} else {
+					other++;
+				}
+			}
+		}
+		swell_link_close(l);
+	}
+	~fake_ctl()
+	{
+		quit = true;
+		if (th.joinable())
+			th.join();
+	}
+};
+
+} // namespace
+
+TEST_CASE("enter-bootloader: refused while the controller is RUNNING, nothing sent, no tool runs")
+{
+	scratch s;
+	std::string img = s.write("good.bin", make_image(2048));
+	fake_ctl c;
+	c.start(3, true);
+	std::string out;
+	int rc = s.run(img + " --backend swd --swd-tool st-flash --enter-bootloader udp:" + std::to_string(c.port), &out);
+	INFO(out);
+	CHECK(rc == 2);
+	CHECK(out.find("controller is RUNNING") != std::string::npos);
+	CHECK(c.got_boot == 0);
+	CHECK(c.got_stop == 0);
+	CHECK(c.other == 0);
+	CHECK(s.log().empty());
+}
+
+TEST_CASE("enter-bootloader --force: COMMAND=STOP first, then the key; flashing follows the silence")
+{
+	scratch s;
+	std::string img = s.write("good.bin", make_image(2048));
+	fake_ctl c;
+	c.start(3, true);
+	std::string out;
+	int rc = s.run(img + " --backend swd --swd-tool st-flash --force --enter-bootloader udp:" +
+			       std::to_string(c.port),
+		       &out);
+	INFO(out);
+	CHECK(rc == 0);
+	CHECK(c.got_stop == 1);
+	CHECK(c.got_boot == 1);
+	CHECK(c.boot_key_ok == 1);
+	CHECK(c.other == 0);
+	CHECK(out.find("it reboots into its bootloader") != std::string::npos);
+	CHECK(s.log().find("st-flash write") != std::string::npos);
+}
+
+TEST_CASE("enter-bootloader: a controller that keeps beating (Linux port) stops the flash with exit 1")
+{
+	scratch s;
+	std::string img = s.write("good.bin", make_image(2048));
+	fake_ctl c;
+	c.start(1, false);
+	std::string out;
+	int rc = s.run(img + " --backend swd --swd-tool st-flash --enter-bootloader udp:" + std::to_string(c.port), &out);
+	INFO(out);
+	CHECK(rc == 1);
+	CHECK(c.got_boot == 1);
+	CHECK(out.find("still sends heartbeats") != std::string::npos);
+	CHECK(s.log().empty());
+	// Nobody there: exit 1, nothing run.
+	rc = s.run(img + " --backend swd --enter-bootloader udp:" + std::to_string(fake_ctl::free_port()), &out);
+	CHECK(rc == 1);
+	CHECK(out.find("no controller heartbeat") != std::string::npos);
+	CHECK(s.log().empty());
+}
+
+TEST_CASE("enter-bootloader against swell-ctl: accepted in IDLE, the Linux port keeps running")
+{
+	scratch s;
+	std::string img = s.write("good.bin", make_image(2048));
+	std::string host = std::to_string(fake_ctl::free_port()), dev = std::to_string(fake_ctl::free_port());
+	std::string ctl = "'" SWELL_CTL_BIN "' --no-rt --quiet --seconds 3 --host udp:" + host + " --device udp:" + dev +
+			  " > '" + s.dir + "/ctl.out' 2>&1 &";
+	REQUIRE(std::system(ctl.c_str()) == 0);
+	std::string out;
+	int rc = s.run(img + " --backend swd --swd-tool st-flash --enter-bootloader udp:" + host, &out);
+	INFO(out);
+	CHECK(rc == 1);
+	CHECK(out.find("state IDLE") != std::string::npos);
+	CHECK(out.find("ENTER_BOOTLOADER sent") != std::string::npos);
+	CHECK(out.find("still sends heartbeats") != std::string::npos);
+	CHECK(s.log().empty());
+	usleep(2500000); // let swell-ctl finish before its scratch directory goes
 }
