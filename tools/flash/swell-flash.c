@@ -339,6 +339,7 @@ static int compare_readback(const char *path, const struct flash_image *img)
 
 struct console {
 	int fd;
+	double t_open; /* the start of the step that starts the image */
 	char line[512];
 	size_t n;
 };
@@ -348,6 +349,7 @@ static void console_open(struct console *con, const char *path)
 	struct termios t;
 
 	con->n = 0;
+	con->t_open = now_s();
 	con->fd = open(path, O_RDONLY | O_NONBLOCK | O_NOCTTY);
 	if (con->fd < 0)
 		die(1, "console %s: %s", path, strerror(errno));
@@ -369,6 +371,7 @@ static int console_watch(struct console *con, double timeout_s, uint32_t want, d
 {
 	double t0 = now_s();
 	char want_s[32], got_s[32];
+
 
 	flash_version_str(want, want_s, sizeof(want_s));
 	while (now_s() - t0 < timeout_s) {
@@ -392,7 +395,7 @@ static int console_watch(struct console *con, double timeout_s, uint32_t want, d
 			return 1;
 		}
 		if (sscanf(con->line, "image: version %31[0-9.]", got_s) == 1) {
-			*t_boot = now_s() - t0;
+			*t_boot = now_s() - con->t_open;
 			printf("swell-flash: target console: %s\n", con->line);
 			if (strcmp(got_s, want_s)) {
 				printf("swell-flash: target boots version %s, the image is %s\n", got_s, want_s);
@@ -409,7 +412,7 @@ int main(int argc, char **argv)
 	struct cfg c = {0};
 	struct flash_image img;
 	struct flash_plan plan;
-	struct console con = {-1, {0}, 0};
+	struct console con = {.fd = -1};
 	char why[512], ver[32], dir[600], bin[700], rb[700], line[8192];
 	uint8_t *file;
 	size_t file_len;
@@ -558,7 +561,7 @@ int main(int argc, char **argv)
 			die(1, "no image report on %s within %.1f s", c.console, c.console_timeout_s);
 		if (r > 0)
 			die(1, "the target did not boot the flashed image");
-		printf("swell-flash: target runs version %s (crc32 0x%08x) %.3f s after the start\n", ver,
+		printf("swell-flash: target runs version %s (crc32 0x%08x), reported %.3f s after the start step began\n", ver,
 		       (unsigned)img.hdr.crc, t_boot);
 	}
 	if (!c.work_dir && !c.dry_run) {

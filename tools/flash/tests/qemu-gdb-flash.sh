@@ -4,9 +4,15 @@
 # flash back and compares it, resets and runs it, and reads USART1 (a file) until the image reports
 # the version from its header. The test then checks, independently of swell-flash, that the serial
 # output shows the image check passing with the header's version, length and CRC.
-# usage: qemu-gdb-flash.sh SWELL_FLASH QEMU IMAGE.elf IMAGE.bin
+# The ELF goes through gdb's load, the BIN (FORMAT bin) through restore at 0x08000000.
+# usage: qemu-gdb-flash.sh SWELL_FLASH QEMU IMAGE.elf IMAGE.bin [elf|bin]
 set -u
-flash=$1 qemu=$2 elf=$3 bin=$4
+flash=$1 qemu=$2 elf=$3 bin=$4 format=${5:-elf}
+case $format in
+elf) image=$elf ;;
+bin) image=$bin ;;
+*) echo "qemu-gdb-flash: format '$format' is not elf or bin"; exit 2 ;;
+esac
 dir=$(mktemp -d) || exit 2
 qpid=""
 cleanup() {
@@ -17,7 +23,7 @@ trap cleanup EXIT
 fail() { echo "qemu-gdb-flash: FAIL: $*"; [ -f "$dir/serial" ] && sed 's/^/  serial: /' "$dir/serial" | head -20; exit 1; }
 
 # The version the header carries, as swell-flash reads it (checked against the serial line below).
-"$flash" "$elf" --check-only >"$dir/check" 2>&1 || fail "image refused: $(cat "$dir/check")"
+"$flash" "$image" --check-only >"$dir/check" 2>&1 || fail "image refused: $(cat "$dir/check")"
 want=$(sed -n 's/.* version \([0-9.]*\), .*/\1/p' "$dir/check")
 crc=$(sed -n 's/.* crc32 \(0x[0-9a-f]*\)$/\1/p' "$dir/check")
 [ -n "$want" ] && [ -n "$crc" ] || fail "no version/crc in: $(cat "$dir/check")"
@@ -38,7 +44,7 @@ done
 [ -n "$port" ] || fail "QEMU did not start with a gdbserver: $(cat "$dir/qemu.log")"
 [ -s "$dir/serial" ] && fail "the empty machine printed before it was flashed"
 
-"$flash" "$elf" --backend gdb --gdb-server qemu --gdb-remote "127.0.0.1:$port" \
+"$flash" "$image" --backend gdb --gdb-server qemu --gdb-remote "127.0.0.1:$port" \
 	--console "$dir/serial" --console-timeout 30 --work-dir "$dir" >"$dir/flash.out" 2>&1
 rc=$?
 sed 's/^/  /' "$dir/flash.out"
@@ -51,4 +57,4 @@ cmp "$dir/readback.bin" "$bin" || fail "read-back differs from $bin"
 grep -q "^image: version $want, [0-9]* bytes, crc32 $crc ok" "$dir/serial" ||
 	fail "the serial output does not show version $want crc32 $crc"
 t=$(sed -n 's/.*flashed [0-9]* bytes in \([0-9.]*\) s/\1/p' "$dir/flash.out")
-echo "qemu-gdb-flash: PASS: version $want crc32 $crc flashed and verified in $t s through QEMU's gdbserver on port $port"
+echo "qemu-gdb-flash: PASS: $format: version $want crc32 $crc flashed and verified in $t s through QEMU's gdbserver on port $port"

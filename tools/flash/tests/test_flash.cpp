@@ -585,7 +585,7 @@ TEST_CASE("enter-bootloader: refused while the controller is RUNNING, nothing se
 	CHECK(s.log().empty());
 }
 
-TEST_CASE("enter-bootloader --force: COMMAND=STOP first, then the key; flashing follows the silence")
+TEST_CASE("enter-bootloader with force sends COMMAND=STOP first, then the key, and flashing follows the silence")
 {
 	scratch s;
 	std::string img = s.write("good.bin", make_image(2048));
@@ -630,7 +630,7 @@ TEST_CASE("enter-bootloader against swell-ctl: accepted in IDLE, the Linux port 
 	scratch s;
 	std::string img = s.write("good.bin", make_image(2048));
 	std::string host = std::to_string(fake_ctl::free_port()), dev = std::to_string(fake_ctl::free_port());
-	std::string ctl = "'" SWELL_CTL_BIN "' --no-rt --quiet --seconds 3 --host udp:" + host + " --device udp:" + dev +
+	std::string ctl = "'" SWELL_CTL_BIN "' --no-rt --quiet --seconds 2 --host udp:" + host + " --device udp:" + dev +
 			  " > '" + s.dir + "/ctl.out' 2>&1 &";
 	REQUIRE(std::system(ctl.c_str()) == 0);
 	std::string out;
@@ -641,5 +641,5 @@ TEST_CASE("enter-bootloader against swell-ctl: accepted in IDLE, the Linux port 
 	CHECK(out.find("ENTER_BOOTLOADER sent") != std::string::npos);
 	CHECK(out.find("still sends heartbeats") != std::string::npos);
 	CHECK(s.log().empty());
-	usleep(2500000); // let swell-ctl finish before its scratch directory goes
+	usleep(1000000); // let swell-ctl finish before its scratch directory goes
 }
