@@ -49,6 +49,8 @@ static const char usage[] =
 	"                       its heartbeat); refused while it is RUNNING unless --force (which sends\n"
 	"                       COMMAND=STOP first); the flash goes on only when its heartbeat stops\n"
 	"  --force              see --enter-bootloader\n"
+	"  --dfu-wait S         after --enter-bootloader with --backend dfu: wait up to S s (default 5)\n"
+	"                       for the DfuSe device to appear on USB\n"
 	"Exit status: 0 flashed and verified, 1 a tool or the verify failed, 2 bad arguments or image refused.\n";
 
 struct cfg {
@@ -56,7 +58,7 @@ struct cfg {
 	int backend, dry_run, check_only, gdb_server_set, force;
 	long boot_port; /* --enter-bootloader: UDP port, 0 when not asked */
 	unsigned long mcu;
-	double console_timeout_s;
+	double console_timeout_s, dfu_wait_s;
 	struct flash_opts o;
 };
 
@@ -167,6 +169,10 @@ static void parse(int argc, char **argv, struct cfg *c)
 			} else {
 				die(2, "--enter-bootloader '%s': only udp[:PORT] (CAN and USB carriers not yet)", l);
 			}
+		} else if (!strcmp(a, "--dfu-wait")) {
+			c->dfu_wait_s = strtod(need(argc, argv, &i), &end);
+			if (*end || !(c->dfu_wait_s >= 0 && c->dfu_wait_s <= 60))
+				die(2, "--dfu-wait '%s' is not a time in [0, 60] s", argv[i]);
 		} else if (!strcmp(a, "--force")) {
 			c->force = 1;
 		} else if (!strcmp(a, "--work-dir")) {
@@ -226,14 +232,35 @@ static int usb_has(const char *root, unsigned vid, const unsigned *pids, int npi
 	return found;
 }
 
+static const char *sysfs_root(void)
+{
+	const char *root = getenv("SWELL_FLASH_SYSFS");
+
+	return root ? root : "/sys";
+}
+
+/* After the reboot the ROM bootloader enumerates anew: wait for its VID:PID. */
+static int wait_dfu_device(const char *vid_pid, double wait_s)
+{
+	unsigned vid = 0, pid = 0;
+	double t0 = now_s();
+
+	if (sscanf(vid_pid, "%x:%x", &vid, &pid) != 2)
+		return 0;
+	do {
+		if (usb_has(sysfs_root(), vid, &pid, 1))
+			return 1;
+		usleep(50000);
+	} while (now_s() - t0 < wait_s);
+	return 0;
+}
+
 static int autodetect(void)
 {
 	static const unsigned dfu[] = {0xdf11}, stlink[] = {0x3748, 0x374b, 0x374e, 0x374f, 0x3752, 0x3753};
-	const char *root = getenv("SWELL_FLASH_SYSFS");
+	const char *root = sysfs_root();
 	int has_dfu, has_stlink;
 
-	if (!root)
-		root = "/sys";
 	has_dfu = usb_has(root, 0x0483, dfu, 1);
 	has_stlink = usb_has(root, 0x0483, stlink, 6);
 	if (has_dfu && has_stlink)
@@ -427,6 +454,7 @@ int main(int argc, char **argv)
 	c.backend = -1;
 	c.mcu = SWELL_FWIMAGE_MCU_STM32F405;
 	c.console_timeout_s = 10;
+	c.dfu_wait_s = 5;
 	c.o.dfu_device = "0483:df11";
 	c.o.openocd_interface = "interface/stlink.cfg";
 	c.o.serial = "/dev/ttyUSB0";
@@ -526,6 +554,14 @@ int main(int argc, char **argv)
 		if (br != BOOT_ENTERED)
 			die(1, "%s; nothing flashed", why);
 		printf("swell-flash: %s\n", why);
+		if (c.o.backend == FLASH_DFU) {
+			double t0 = now_s();
+
+			if (!wait_dfu_device(c.o.dfu_device, c.dfu_wait_s))
+				die(1, "no DfuSe device %s on USB within %.1f s of the request; nothing flashed",
+				    c.o.dfu_device, c.dfu_wait_s);
+			printf("swell-flash: DfuSe device %s on USB after %.3f s\n", c.o.dfu_device, now_s() - t0);
+		}
 	}
 
 	/* 5. Run, compare after the read-back, start only a verified image. */

@@ -643,3 +643,34 @@ TEST_CASE("enter-bootloader against swell-ctl: accepted in IDLE, the Linux port 
 	CHECK(s.log().empty());
 	usleep(1000000); // let swell-ctl finish before its scratch directory goes
 }
+
+TEST_CASE("enter-bootloader then dfu: flashing waits for the DfuSe device and starts only when it is there")
+{
+	scratch s;
+	std::string img = s.write("good.bin", make_image(2048));
+	std::string env = "SWELL_FLASH_SYSFS='" + s.dir + "/sys'", out;
+	{
+		fake_ctl c;
+		c.start(1, true);
+		int rc = s.run(img + " --backend dfu --dfu-wait 0.3 --enter-bootloader udp:" + std::to_string(c.port), &out,
+			       env);
+		INFO(out);
+		CHECK(rc == 1);
+		CHECK(c.got_boot == 1);
+		CHECK(out.find("no DfuSe device 0483:df11 on USB within 0.3 s") != std::string::npos);
+		CHECK(s.log().empty());
+	}
+	std::string d = s.dir + "/sys/bus/usb/devices/1-1";
+	std::system(("mkdir -p '" + d + "'").c_str());
+	std::ofstream(d + "/idVendor") << "0483\n";
+	std::ofstream(d + "/idProduct") << "df11\n";
+	fake_ctl c;
+	c.start(1, true);
+	int rc = s.run(img + " --backend dfu --dfu-wait 0.3 --enter-bootloader udp:" + std::to_string(c.port), &out, env);
+	INFO(out);
+	// The stub dfu-util uploads nothing, so the verify fails: but the write was reached.
+	CHECK(rc == 1);
+	CHECK(out.find("DfuSe device 0483:df11 on USB after") != std::string::npos);
+	CHECK(s.log().find("dfu-util -d 0483:df11 -a 0 -s 0x08000000 -D ") == 0);
+	CHECK(out.find("verify FAILED") != std::string::npos);
+}
