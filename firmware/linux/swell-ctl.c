@@ -362,6 +362,11 @@ int main(int argc, char **argv)
 			take_input(&p);
 		}
 		swell_ctl_tick(&p.c);
+		if (p.c.bootloader_request) { /* the core has zeroed the force already */
+			p.c.bootloader_request = 0;
+			fprintf(stderr, "swell-ctl: enter-bootloader requested: the Linux port has no ROM "
+					"bootloader; force zeroed, controller keeps running\n");
+		}
 		flush_output(&p);
 		if (now_ns() - last_status > 1000000000) {
 			int a;
