@@ -231,7 +231,7 @@ void vm_heartbeat(struct view_model *m, const char *state, uint8_t error, uint16
 	m->ctrl_overruns = overruns;
 	size_t n = 0;
 	if (state)
-		for (; state[n] && n < sizeof(m->ctrl_state) - 1; n++)
+		for (; n < sizeof(m->ctrl_state) - 1 && state[n]; n++)
 			m->ctrl_state[n] = state[n];
 	m->ctrl_state[n] = 0;
 	if (n == 0)

@@ -447,7 +447,7 @@ static void run_error_steps(const struct opts *o)
 			if (dec * mul[k] <= o->long_steps)
 				at[nat++] = (long)(dec * mul[k]);
 	}
-	if (at[nat - 1] != o->long_steps)
+	if (nat == 0 || at[nat - 1] != o->long_steps)
 		at[nat++] = o->long_steps;
 	fprintf(fp, "impl,stencil,nx,e,step,linf_ref64_mm,l2_ref64_mm,linf_eigen_mm,l2_eigen_mm,linf_seiche_mm,"
 		    "energy_drift_rel,volume_drift_lsb\n");

@@ -354,13 +354,14 @@ int main(int argc, char **argv)
 	store = calloc(SWELL_WAVE_WORDS(o.nx, o.ny), sizeof(*store));
 	rstore = calloc(SWELL_WAVE_REF_DOUBLES(o.nx, o.ny), sizeof(*rstore));
 	mm = calloc((size_t)n, sizeof(*mm));
-	if (!store || !rstore || !mm) {
-		fprintf(stderr, "swell-sim: out of memory for a %dx%d grid\n", o.nx, o.ny);
-		return 2;
-	}
-	if (swell_wave_init(&w, (uint16_t)o.nx, (uint16_t)o.ny, store, SWELL_WAVE_WORDS(o.nx, o.ny), &p) !=
-	    SWELL_OK) {
-		fprintf(stderr, "swell-sim: solver refused the parameters\n");
+	if (!store || !rstore || !mm ||
+	    swell_wave_init(&w, (uint16_t)o.nx, (uint16_t)o.ny, store, SWELL_WAVE_WORDS(o.nx, o.ny), &p) !=
+		    SWELL_OK) {
+		fprintf(stderr, "swell-sim: %s for a %dx%d grid\n",
+			store && rstore && mm ? "solver refused the parameters" : "out of memory", o.nx, o.ny);
+		free(store);
+		free(rstore);
+		free(mm);
 		return 2;
 	}
 	swell_wave_set_sleep(&w, !o.no_sleep);
