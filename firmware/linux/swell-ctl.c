@@ -404,9 +404,10 @@ int main(int argc, char **argv)
 	       p.dev.name, p.dev.frames_rx, p.dev.frames_tx, swell_proto_rejected_total(&p.dev.st), p.dev.tx_errors,
 	       p.c.n.dev_lost, p.dev.foreign);
 	if (p.have_host)
-		printf("  host link       %s: %u frames in, %u out, %u bad; %u height quads, %u dropped\n",
+		printf("  host link       %s: %u frames in, %u out, %u bad, %u not sent (no reader or busy); "
+		       "%u height quads (%u refreshes), %u dropped from the queue\n",
 		       p.host.name, p.host.frames_rx, p.host.frames_tx, swell_proto_rejected_total(&p.host.st),
-		       p.c.n.quads_sent, p.c.q[SWELL_LINK_HOST].dropped);
+		       p.host.tx_errors, p.c.n.quads_sent, p.c.n.quads_refreshed, p.c.q[SWELL_LINK_HOST].dropped);
 	printf("  parameters      %u set, %u refused\n", p.c.n.params_set, p.c.n.params_refused);
 	printf("  waves           largest |h| %.3f mm (sampled once a second)\n", peak_h / (double)SWELL_H_ONE_MM);
 	printf("  final force     %+.3f N (zero sent on exit)\n", p.c.force_dev_uN[2] / 1e6);
