@@ -17,6 +17,8 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "vm-util.h"
+
 static void usage(FILE *to)
 {
 	fprintf(to,
@@ -35,23 +37,7 @@ static void usage(FILE *to)
 
 static int parse_num(const char *opt, const char *s, long min, long max, long *out)
 {
-	char *end;
-	errno = 0;
-	long v = strtol(s, &end, 0);
-	if (errno || *end || s[0] == '\0' || v < min || v > max) {
-		fprintf(stderr, "swell-vm-cantest: %s needs a number in %ld..%ld, not '%s'\n", opt, min,
-			max, s);
-		return -1;
-	}
-	*out = v;
-	return 0;
-}
-
-static double now_s(void)
-{
-	struct timespec ts;
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
+	return vm_parse_num("swell-vm-cantest", opt, s, 0, min, max, out);
 }
 
 static const char *state_name(int state)
@@ -240,7 +226,7 @@ static int cmd_pair(int argc, char **argv)
 
 	uint32_t sent = 0, received = 0, bad = 0, errframes = 0, nobufs = 0;
 	double worst_ms = 0.0;
-	double t0 = now_s(), last_rx = t0;
+	double t0 = vm_now_s(), last_rx = t0;
 	int rc = 0;
 	while (received < (uint32_t)count) {
 		while (sent < (uint32_t)count && sent - received < (uint32_t)window) {
@@ -259,7 +245,7 @@ static int cmd_pair(int argc, char **argv)
 		}
 		struct pollfd p = { .fd = rx, .events = POLLIN, .revents = 0 };
 		int r = poll(&p, 1, 1);
-		double t = now_s();
+		double t = vm_now_s();
 		if (r <= 0) {
 			if ((t - last_rx) * 1e3 > (double)timeout_ms) {
 				fprintf(stderr,
@@ -294,7 +280,7 @@ static int cmd_pair(int argc, char **argv)
 		}
 		received++;
 	}
-	double dt = now_s() - t0;
+	double dt = vm_now_s() - t0;
 	printf("%s -> %s: %" PRIu32 " frames sent, %" PRIu32 " received, %" PRIu32
 	       " corrupted or out of order, %" PRIu32 " error frames, %.1f ms, %.0f frames/s, "
 	       "longest gap %.2f ms, window %ld, %" PRIu32 " ENOBUFS retries\n",

@@ -9,6 +9,8 @@
 #include <string.h>
 #include <time.h>
 
+#include "vm-util.h"
+
 #define PACKET_MAX 64
 
 static void usage(FILE *to)
@@ -27,23 +29,7 @@ static void usage(FILE *to)
 
 static int parse_num(const char *opt, const char *s, int base, long min, long max, long *out)
 {
-	char *end;
-	errno = 0;
-	long v = strtol(s, &end, base);
-	if (errno || *end || s[0] == '\0' || v < min || v > max) {
-		fprintf(stderr, "swell-vm-usbtest: %s needs a number in %ld..%ld, not '%s'\n", opt, min,
-			max, s);
-		return -1;
-	}
-	*out = v;
-	return 0;
-}
-
-static double now_s(void)
-{
-	struct timespec ts;
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
+	return vm_parse_num("swell-vm-usbtest", opt, s, base, min, max, out);
 }
 
 static const char *speed_name(int s)
@@ -206,11 +192,11 @@ int main(int argc, char **argv)
 
 	uint8_t out[PACKET_MAX], in[PACKET_MAX];
 	uint32_t bad = 0;
-	double rtt_max = 0.0, t0 = now_s();
+	double rtt_max = 0.0, t0 = vm_now_s();
 	long done = 0;
 	for (; done < count; done++) {
 		int len = fill((uint32_t)done, vary, out), got = 0;
-		double t1 = now_s();
+		double t1 = vm_now_s();
 		r = libusb_bulk_transfer(h, l.ep_out, out, len, &got, (unsigned)timeout_ms);
 		if (r != 0 || got != len) {
 			fprintf(stderr, "swell-vm-usbtest: FAIL: packet %ld OUT: %s, %d of %d bytes sent\n",
@@ -223,7 +209,7 @@ int main(int argc, char **argv)
 				done, libusb_strerror(r), done, count);
 			goto out_release;
 		}
-		double rtt = now_s() - t1;
+		double rtt = vm_now_s() - t1;
 		if (rtt > rtt_max)
 			rtt_max = rtt;
 		if (got != len || memcmp(in, out, (size_t)len) != 0) {
@@ -233,7 +219,7 @@ int main(int argc, char **argv)
 			bad++;
 		}
 	}
-	double dt = now_s() - t0;
+	double dt = vm_now_s() - t0;
 	printf("usb echo: vendor control requests IN and OUT stalled; %ld packets (%s lengths), %u bad, %.1f ms, %.0f packets/s, round trip "
 	       "mean %.0f us, max %.0f us\n",
 	       done, vary ? "1..64 byte" : "64 byte", (unsigned)bad, dt * 1e3, (double)done / dt,
