@@ -359,12 +359,9 @@ void swell_ctl_rx(struct swell_ctl *c, enum swell_ctl_link from, const struct sw
 	switch (m->type) {
 	case SWELL_MSG_PARAM_SET:
 		err = param_set(c, m->u.param_set.id, m->u.param_set.value);
-		if (err == SWELL_OK)
-			err = param_get(c, m->u.param_set.id, &v);
-		if (m->u.param_set.id == SWELL_PARAM_COMMAND && err == SWELL_EINVAL) {
-			err = SWELL_OK; /* a command was accepted; its value is echoed */
-			v = m->u.param_set.value;
-		}
+		v = m->u.param_set.value; /* a command (write only) is echoed as given */
+		if (err == SWELL_OK && m->u.param_set.id != SWELL_PARAM_COMMAND)
+			err = param_get(c, m->u.param_set.id, &v); /* the value now in force */
 		answer(c, m->u.param_set.id, m->u.param_set.seq, err, v);
 		return;
 	case SWELL_MSG_PARAM_GET:
