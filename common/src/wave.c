@@ -108,6 +108,8 @@ static void apply_params(struct swell_wave *w, const struct swell_wave_params *p
 	w->c_half = w->e_eff / 2;
 	w->c_wall = w->e_eff + w->c_half;
 	w->q = SWELL_Q30_ONE - p->damping;
+	if (w->q != SWELL_Q30_ONE)
+		w->q |= 1; /* odd: see wave.h */
 	if (w->tile) /* new coefficients round differently: every tile awake */
 		wake_all(w);
 }
@@ -130,17 +132,15 @@ enum swell_err swell_wave_init(struct swell_wave *w, uint16_t nx, uint16_t ny, i
 	memset(w, 0, sizeof(*w));
 	w->nx = nx;
 	w->ny = ny;
+	w->tiles_x = (uint16_t)SWELL_WAVE_TILES_X(nx);
+	w->tiles_y = (uint16_t)SWELL_WAVE_TILES_X(ny);
 	w->h = storage;
 	w->v = storage + n;
 	w->acc = storage + 2 * n;
-	w->f_e = storage + 3 * n;
-	w->f_n = storage + 4 * n;
-	w->f_ne = storage + 5 * n;
-	w->f_nw = storage + 6 * n;
-	w->tile = (uint8_t *)(storage + 7 * n);
-	w->tiles_x = (uint16_t)((nx + SWELL_WAVE_TILE - 1) / SWELL_WAVE_TILE);
-	w->tiles_y = (uint16_t)((ny + SWELL_WAVE_TILE - 1) / SWELL_WAVE_TILE);
+	w->f = storage + 3 * n;
+	w->tile = (uint8_t *)(w->f + 4 * SWELL_WAVE_TILE * (size_t)w->tiles_x * ny);
 	w->sleep = 1;
+	swell_wave_set_kernel(w, SWELL_KERNEL_AUTO);
 	memset(storage, 0, SWELL_WAVE_WORDS(nx, ny) * sizeof(int32_t));
 	apply_params(w, p);
 	return SWELL_OK;
@@ -163,8 +163,8 @@ void swell_wave_rest(struct swell_wave *w)
 {
 	size_t n = (size_t)w->nx * w->ny;
 
-	/* v, acc and the four flow arrays are contiguous; a step in progress starts over */
-	memset(w->h + n, 0, 6 * n * sizeof(int32_t));
+	/* v, acc and the flows are contiguous, up to the tile flags; a step in progress starts over */
+	memset(w->h + n, 0, (size_t)((uint8_t *)w->tile - (uint8_t *)(w->h + n)));
 	wake_all(w);
 	w->next_row = 0;
 }
@@ -207,93 +207,79 @@ static int asleep(const struct swell_wave *w, int tx, int ty)
 	return 1;
 }
 
-/* New flow of one edge from its old flow and the height difference (see wave.h for the rounding). */
-static inline int32_t flow(int32_t f, int32_t dh, q30_t c, q30_t q, int damp, uint32_t *sat)
-{
-	/* No saturation needed inside: |dh| <= 2^28 and c <= 1.5 * 2^30, so the increment is below
-	 * 1.5 * 2^28 and |s| < 2^30; the damping product with q <= 1 only shrinks it. Same rounding as
-	 * swell_mul_q30_rn and swell_mul_q30_rz, without their int64 range checks. */
-	int64_t p = (int64_t)dh * c;
-	int32_t s = f + (int32_t)((p + ((int64_t)1 << 29)) >> 30);
+/* ---- The kernels ------------------------------------------------------------------------------
+ * Every kernel computes, for every edge of an awake tile, exactly flow_ref() below, and adds each new
+ * flow once to one cell's accumulator and subtracts it once from the other's. They differ only in the
+ * order of those (exact, non-overflowing) integer additions and in the instructions used. */
 
-	if (damp) {
-		p = (int64_t)s * q;
-		s = (int32_t)((p + (p < 0 ? ((int64_t)1 << 30) - 1 : 0)) >> 30);
-	}
-	if (s > SWELL_H_MAX || s < -SWELL_H_MAX) {
-		s = swell_clamp(s, -SWELL_H_MAX, SWELL_H_MAX);
-		(*sat)++;
-	}
-	return s;
+/* The flows of cell (i, j) start at this word; the four kinds are 8 words apart. */
+#define FE 0
+#define FN 8
+#define FNE 16
+#define FNW 24
+
+static inline int32_t *flows_at(const struct swell_wave *w, int i, int j)
+{
+	return w->f + 32 * ((size_t)j * w->tiles_x + (size_t)i / SWELL_WAVE_TILE) + i % SWELL_WAVE_TILE;
 }
 
-/* The edges owned by cells [i0, i1) of row j: E edges, and N, NE, NW edges up to row j+1 (none for
- * the top row). Cells on the west and east walls are peeled off so the inner loop has no branches.
- * Returns non-zero if any new flow is non-zero. */
-static inline int32_t step_segment(struct swell_wave *w, int j, int i0, int i1, int damp)
+/* Bounds that make every intermediate fit int32 (checked by the tests with extreme fields):
+ * |h| <= 2^27 so |dh| < 2^28 and |4 dh| < 2^30; c <= 1.5 * 2^30 so |c dh| / 2^30 < 1.5 * 2^28;
+ * |f| <= 2^27 so |s| < 2^27 + 1.5 * 2^28 = 2^29 and |4 s| < 2^31. */
+static inline int32_t sat28(int32_t x, uint32_t *sat)
+{
+	if (x > SWELL_H_MAX || x < SWELL_H_MIN) {
+		*sat = 1;
+		return x > SWELL_H_MAX ? SWELL_H_MAX : SWELL_H_MIN;
+	}
+	return x;
+}
+
+/* THE definition of one edge: s = f + round_nearest(c dh / 2^30), ties up; damped:
+ * s = round_toward_zero(q s / 2^30), which is floor + (s < 0) because q is odd; then saturated. */
+static inline int32_t flow_ref(int32_t f, int32_t dh, q30_t c, q30_t q, int damp, uint32_t *sat)
+{
+	int32_t s = f + (int32_t)(((int64_t)dh * c + ((int64_t)1 << 29)) >> 30);
+
+	if (damp)
+		s = (int32_t)(((int64_t)s * q) >> 30) - (s >> 31);
+	return sat28(s, sat);
+}
+
+/* The reference: one edge at a time, the E edges of the row, then the N, NE and NW edges up to the
+ * next row; each flow added to its cell and taken from its neighbour at once. */
+static int32_t segment_ref(struct swell_wave *w, int j, int i0, int i1, int damp)
 {
 	const int nx = w->nx;
-	const int up = j + 1 < w->ny;
 	const q30_t ce = (j == 0 || j == w->ny - 1) ? w->c_wall : w->c_1;
-	const q30_t c1 = w->c_1, ch = w->c_half, cw = w->c_wall, q = w->q;
-	const int32_t *restrict h = w->h + j * nx;
-	const int32_t *restrict hu = h + nx;
-	int32_t *restrict v = w->acc + j * nx;
-	int32_t *restrict vu = v + nx;
-	int32_t *restrict fe = w->f_e + j * nx;
-	int32_t *restrict fn = w->f_n + j * nx;
-	int32_t *restrict fne = w->f_ne + j * nx;
-	int32_t *restrict fnw = w->f_nw + j * nx;
-	const int e_end = i1 < nx - 1 ? i1 : nx - 1;
+	const int32_t *h = w->h + j * nx, *hu = h + nx;
+	int32_t *v = w->acc + j * nx, *vu = v + nx;
 	uint32_t sat = 0;
-	int32_t f, any = 0;
+	int32_t f, any = 0, *fp;
 	int i;
 
-	for (i = i0; i < e_end; i++) {
-		fe[i] = f = flow(fe[i], h[i + 1] - h[i], ce, q, damp, &sat);
+	for (i = i0; i < i1 && i + 1 < nx; i++) {
+		fp = flows_at(w, i, j);
+		fp[FE] = f = flow_ref(fp[FE], h[i + 1] - h[i], ce, w->q, damp, &sat);
 		any |= f;
 		v[i] += f;
 		v[i + 1] -= f;
 	}
-	if (up) {
-		int end = i1 == nx ? nx - 1 : i1;
-
-		i = i0;
-		if (i0 == 0) { /* N edge along the west wall, NE diagonal, no NW */
-			fn[0] = f = flow(fn[0], hu[0] - h[0], cw, q, damp, &sat);
-			any |= f;
-			v[0] += f;
-			vu[0] -= f;
-			fne[0] = f = flow(fne[0], hu[1] - h[0], ch, q, damp, &sat);
-			any |= f;
-			v[0] += f;
-			vu[1] -= f;
-			i = 1;
-		}
-		for (; i < end; i++) {
-			int32_t fs;
-
-			fn[i] = f = flow(fn[i], hu[i] - h[i], c1, q, damp, &sat);
-			fs = f;
-			any |= f;
-			vu[i] -= f;
-			fne[i] = f = flow(fne[i], hu[i + 1] - h[i], ch, q, damp, &sat);
-			fs += f;
-			any |= f;
-			vu[i + 1] -= f;
-			fnw[i] = f = flow(fnw[i], hu[i - 1] - h[i], ch, q, damp, &sat);
-			fs += f;
-			any |= f;
-			vu[i - 1] -= f;
-			v[i] += fs;
-		}
-		if (i1 == nx) { /* N edge along the east wall, NW diagonal, no NE */
-			i = nx - 1;
-			fn[i] = f = flow(fn[i], hu[i] - h[i], cw, q, damp, &sat);
+	for (i = i0; i < i1 && j + 1 < w->ny; i++) {
+		fp = flows_at(w, i, j);
+		fp[FN] = f = flow_ref(fp[FN], hu[i] - h[i], (i == 0 || i == nx - 1) ? w->c_wall : w->c_1,
+				      w->q, damp, &sat);
+		any |= f;
+		v[i] += f;
+		vu[i] -= f;
+		if (i + 1 < nx) {
+			fp[FNE] = f = flow_ref(fp[FNE], hu[i + 1] - h[i], w->c_half, w->q, damp, &sat);
 			any |= f;
 			v[i] += f;
-			vu[i] -= f;
-			fnw[i] = f = flow(fnw[i], hu[i - 1] - h[i], ch, q, damp, &sat);
+			vu[i + 1] -= f;
+		}
+		if (i > 0) {
+			fp[FNW] = f = flow_ref(fp[FNW], hu[i - 1] - h[i], w->c_half, w->q, damp, &sat);
 			any |= f;
 			v[i] += f;
 			vu[i - 1] -= f;
@@ -303,31 +289,365 @@ static inline int32_t step_segment(struct swell_wave *w, int j, int i0, int i1, 
 	return any;
 }
 
+#if defined(__ARM_FEATURE_DSP) && defined(__thumb2__)
+#include <arm_acle.h>
+#define WAVE_DSP 1
+/* flow_ref with three DSP instructions: SMMLAR gives f + ((a b + 2^31) >> 32), which is the nearest
+ * rounding of c dh / 2^30 with a b = (4 c) dh (mode 1, when 4 c_wall < 2^31) or c (4 dh) (mode 2);
+ * SMMUL gives floor(4 s q / 2^32) = floor(s q / 2^30); SSAT saturates to int28 and sets the sticky
+ * Q flag, read once a segment. */
+static inline int32_t flow_dsp(int32_t f, int32_t dh, int32_t c, int32_t q, int damp, int c_times4)
+{
+	int32_t s, r;
+
+	if (!c_times4)
+		dh *= 4;
+	__asm__("smmlar %0, %1, %2, %3" : "=r"(s) : "r"(dh), "r"(c), "r"(f));
+	if (damp) {
+		__asm__("smmul %0, %1, %2" : "=r"(r) : "r"(s * 4), "r"(q));
+		s = r - (s >> 31);
+	}
+	return __ssat(s, 28);
+}
+#else
+#define WAVE_DSP 0
+#endif
+
+/* Fused: one pass over the segment's cells computes the cell's four flows, adds them and the
+ * negative of its west neighbour's E flow to the cell's accumulator, and finishes the accumulator
+ * of the cell above-left (its N flow, the NE flow from its left and the NW flow from its right, kept
+ * in registers). Whatever crosses the segment's ends (the last E and NE flows, the first NW flow) is
+ * scattered there, as the reference does. mode 0: flow_ref; 1, 2: flow_dsp (c times 4, dh times 4). */
+struct fused_row {
+	const int32_t *h, *hu;
+	int32_t *v, *vu, *fb;
+	int32_t q, any, fe_prev, fne_prev, up;
+	uint32_t sat;
+};
+
+static inline __attribute__((always_inline)) void
+fused_cell(struct fused_row *r, int i, int k, int32_t ce, int32_t cn, int32_t ch, int has_e, int has_ne,
+	   int has_nw, int damp, int mode)
+{
+	const int32_t ha = r->h[i];
+	int32_t fe = 0, fn, fne = 0, fnw = 0;
+
+#define WAVE_FLOW(old, dh, c)                                                                      \
+	(mode == 0 ? flow_ref(old, dh, c, r->q, damp, &r->sat) : WAVE_FLOW_DSP(old, dh, c))
+#if WAVE_DSP
+#define WAVE_FLOW_DSP(old, dh, c) flow_dsp(old, dh, c, r->q, damp, mode == 1)
+#else
+#define WAVE_FLOW_DSP(old, dh, c) 0
+#endif
+	if (has_e)
+		r->fb[FE + k] = fe = WAVE_FLOW(r->fb[FE + k], r->h[i + 1] - ha, ce);
+	r->fb[FN + k] = fn = WAVE_FLOW(r->fb[FN + k], r->hu[i] - ha, cn);
+	if (has_ne)
+		r->fb[FNE + k] = fne = WAVE_FLOW(r->fb[FNE + k], r->hu[i + 1] - ha, ch);
+	if (has_nw) {
+		r->fb[FNW + k] = fnw = WAVE_FLOW(r->fb[FNW + k], r->hu[i - 1] - ha, ch);
+		r->vu[i - 1] -= r->up + fnw;
+	}
+#undef WAVE_FLOW
+#undef WAVE_FLOW_DSP
+	r->any |= fe | fn | fne | fnw;
+	r->v[i] += fe + fn + fne + fnw - r->fe_prev;
+	r->up = fn + r->fne_prev;
+	r->fne_prev = fne;
+	r->fe_prev = fe;
+}
+
+static inline __attribute__((always_inline)) int32_t segment_fused(struct swell_wave *w, int j, int i0,
+								   int i1, int damp, int mode)
+{
+	const int nx = w->nx, sh = mode == 1 ? 2 : 0;
+	const int32_t c1 = w->c_1 << sh, ch = w->c_half << sh, cw = w->c_wall << sh;
+	const int32_t ce = (j == 0 || j == w->ny - 1) ? cw : c1;
+	struct fused_row r;
+	int i = i0, k;
+
+	r.h = w->h + j * nx;
+	r.hu = r.h + nx;
+	r.v = w->acc + j * nx;
+	r.vu = r.v + nx;
+	r.fb = flows_at(w, i0, j) - i0 % SWELL_WAVE_TILE;
+	r.q = w->q;
+	r.any = r.fe_prev = r.fne_prev = r.up = 0;
+	r.sat = 0;
+#if WAVE_DSP
+	if (mode)
+		__set_saturation_occurred(0);
+#endif
+	if (j + 1 >= w->ny) { /* the top row: E edges only */
+		for (k = 0; i < i1; i++, k++) {
+			int32_t fe = 0;
+
+			if (i + 1 < nx) {
+				fe = mode == 0 ? flow_ref(r.fb[FE + k], r.h[i + 1] - r.h[i], ce, r.q, damp, &r.sat)
+#if WAVE_DSP
+					       : flow_dsp(r.fb[FE + k], r.h[i + 1] - r.h[i], ce, r.q, damp, mode == 1);
+#else
+					       : 0;
+#endif
+				r.fb[FE + k] = fe;
+			}
+			r.any |= fe;
+			r.v[i] += fe - r.fe_prev;
+			r.fe_prev = fe;
+		}
+	} else {
+		const int end = i1 == nx ? nx - 1 : i1;
+
+		k = 0;
+		if (i == 0) /* the west wall: N along it, NE, no NW */
+			fused_cell(&r, i++, k++, ce, cw, ch, 1, 1, 0, damp, mode);
+		for (; i < end; i++, k++)
+			fused_cell(&r, i, k, ce, c1, ch, 1, 1, 1, damp, mode);
+		if (i1 == nx) /* the east wall: N along it, NW, no E, no NE */
+			fused_cell(&r, i++, k, ce, cw, ch, 0, 0, 1, damp, mode);
+		r.vu[i1 - 1] -= r.up;
+		if (i1 < nx)
+			r.vu[i1] -= r.fne_prev;
+	}
+	if (i1 < nx)
+		r.v[i1] -= r.fe_prev;
+#if WAVE_DSP
+	if (mode)
+		r.sat = (uint32_t)__saturation_occurred();
+#endif
+	w->saturations += r.sat;
+	return r.any;
+}
+
+#if !WAVE_DSP
+static int32_t segment_fused_c(struct swell_wave *w, int j, int i0, int i1, int damp)
+{
+	return damp ? segment_fused(w, j, i0, i1, 1, 0) : segment_fused(w, j, i0, i1, 0, 0);
+}
+#endif
+
+#if WAVE_DSP
+static int32_t segment_fused_dsp(struct swell_wave *w, int j, int i0, int i1, int damp)
+{
+	if (w->c_wall < ((int32_t)1 << 29)) /* 4 c fits int32: no multiply of dh */
+		return damp ? segment_fused(w, j, i0, i1, 1, 1) : segment_fused(w, j, i0, i1, 0, 1);
+	return damp ? segment_fused(w, j, i0, i1, 1, 2) : segment_fused(w, j, i0, i1, 0, 2);
+}
+#endif
+
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(SWELL_NO_AVX2)
+#include <immintrin.h>
+#define WAVE_AVX2 1
+#define AVX2_FN __attribute__((target("avx2"))) static
+
+/* flow_ref on 8 lanes. The 64-bit products of even and odd lanes are formed apart; the low 32 bits
+ * of a product shifted right by 30 are the same whether the shift is arithmetic or logical, and
+ * AVX2 has only the logical one for 64-bit lanes. codd holds c in the odd lanes' low halves. */
+AVX2_FN __m256i mulshift30(__m256i a, __m256i b, __m256i bodd, __m256i round)
+{
+	__m256i pe = _mm256_mul_epi32(a, b);
+	__m256i po = _mm256_mul_epi32(_mm256_srli_epi64(a, 32), bodd);
+
+	pe = _mm256_srli_epi64(_mm256_add_epi64(pe, round), 30);
+	po = _mm256_slli_epi64(_mm256_srli_epi64(_mm256_add_epi64(po, round), 30), 32);
+	return _mm256_blend_epi32(pe, po, 0xAA);
+}
+
+struct avx2_k {
+	__m256i q, qodd, half, zero, hmin, hmax;
+};
+
+AVX2_FN __m256i flow8(const struct avx2_k *K, __m256i f, __m256i dh, __m256i c, int damp, __m256i *sat)
+{
+	__m256i s = _mm256_add_epi32(f, mulshift30(dh, c, _mm256_srli_epi64(c, 32), K->half));
+	__m256i t;
+
+	if (damp)
+		s = _mm256_sub_epi32(mulshift30(s, K->q, K->qodd, K->zero), _mm256_srai_epi32(s, 31));
+	t = _mm256_min_epi32(_mm256_max_epi32(s, K->hmin), K->hmax);
+	*sat = _mm256_or_si256(*sat, _mm256_xor_si256(s, t));
+	return t;
+}
+
+/* A whole tile row (i1 = i0 + 8) that is not the top row. Lanes whose edge does not exist (E and NE
+ * on the east wall, NW on the west wall) get coefficient 0: their flow stays 0, and their neighbour
+ * loads are replaced by in-row copies so that nothing outside the field is read. */
+AVX2_FN int32_t segment_avx2_tile(struct swell_wave *w, int j, int i0, int damp)
+{
+	const int nx = w->nx, west = i0 == 0, east = i0 + 8 == nx;
+	const int32_t *h = w->h + j * nx + i0, *hu = h + nx;
+	int32_t *v = w->acc + j * nx + i0, *vu = v + nx;
+	int32_t *fb = flows_at(w, i0, j);
+	const int32_t ce0 = (j == 0) ? w->c_wall : w->c_1;
+	const __m256i up1 = _mm256_setr_epi32(1, 2, 3, 4, 5, 6, 7, 7);
+	const __m256i dn1 = _mm256_setr_epi32(0, 0, 1, 2, 3, 4, 5, 6);
+	struct avx2_k K;
+	__m256i H, Hr, HU, HUr, HUl, ce, cn, cne, cnw, fe, fn, fne, fnw, sat, own, upv, t;
+	int32_t last_fe, last_fne;
+
+	K.q = _mm256_set1_epi32(w->q);
+	K.qodd = _mm256_srli_epi64(K.q, 32);
+	K.half = _mm256_set1_epi64x((int64_t)1 << 29);
+	K.zero = _mm256_setzero_si256();
+	K.hmin = _mm256_set1_epi32(SWELL_H_MIN);
+	K.hmax = _mm256_set1_epi32(SWELL_H_MAX);
+	sat = K.zero;
+
+	H = _mm256_loadu_si256((const __m256i *)h);
+	HU = _mm256_loadu_si256((const __m256i *)hu);
+	Hr = east ? _mm256_permutevar8x32_epi32(H, up1) : _mm256_loadu_si256((const __m256i *)(h + 1));
+	HUr = east ? _mm256_permutevar8x32_epi32(HU, up1) : _mm256_loadu_si256((const __m256i *)(hu + 1));
+	HUl = west ? _mm256_permutevar8x32_epi32(HU, dn1) : _mm256_loadu_si256((const __m256i *)(hu - 1));
+
+	ce = _mm256_set1_epi32(ce0);
+	cn = _mm256_set1_epi32(w->c_1);
+	cne = cnw = _mm256_set1_epi32(w->c_half);
+	if (west) {
+		cn = _mm256_blend_epi32(cn, _mm256_set1_epi32(w->c_wall), 0x01);
+		cnw = _mm256_blend_epi32(cnw, K.zero, 0x01);
+	}
+	if (east) {
+		cn = _mm256_blend_epi32(cn, _mm256_set1_epi32(w->c_wall), 0x80);
+		ce = _mm256_blend_epi32(ce, K.zero, 0x80);
+		cne = _mm256_blend_epi32(cne, K.zero, 0x80);
+	}
+
+	fe = flow8(&K, _mm256_loadu_si256((const __m256i *)(fb + FE)), _mm256_sub_epi32(Hr, H), ce, damp, &sat);
+	fn = flow8(&K, _mm256_loadu_si256((const __m256i *)(fb + FN)), _mm256_sub_epi32(HU, H), cn, damp, &sat);
+	fne = flow8(&K, _mm256_loadu_si256((const __m256i *)(fb + FNE)), _mm256_sub_epi32(HUr, H), cne, damp,
+		    &sat);
+	fnw = flow8(&K, _mm256_loadu_si256((const __m256i *)(fb + FNW)), _mm256_sub_epi32(HUl, H), cnw, damp,
+		    &sat);
+	_mm256_storeu_si256((__m256i *)(fb + FE), fe);
+	_mm256_storeu_si256((__m256i *)(fb + FN), fn);
+	_mm256_storeu_si256((__m256i *)(fb + FNE), fne);
+	_mm256_storeu_si256((__m256i *)(fb + FNW), fnw);
+
+	/* own row: + all four, - the E flow of the west neighbour inside the tile */
+	own = _mm256_add_epi32(_mm256_add_epi32(fe, fn), _mm256_add_epi32(fne, fnw));
+	t = _mm256_blend_epi32(_mm256_permutevar8x32_epi32(fe, _mm256_setr_epi32(0, 0, 1, 2, 3, 4, 5, 6)),
+			       K.zero, 0x01);
+	own = _mm256_sub_epi32(own, t);
+	_mm256_storeu_si256((__m256i *)v, _mm256_add_epi32(_mm256_loadu_si256((const __m256i *)v), own));
+	/* the row above: - N, - NE from the left, - NW from the right, inside the tile */
+	upv = _mm256_add_epi32(
+		fn, _mm256_blend_epi32(_mm256_permutevar8x32_epi32(fne, dn1), K.zero, 0x01));
+	upv = _mm256_add_epi32(
+		upv, _mm256_blend_epi32(_mm256_permutevar8x32_epi32(fnw, up1), K.zero, 0x80));
+	_mm256_storeu_si256((__m256i *)vu, _mm256_sub_epi32(_mm256_loadu_si256((const __m256i *)vu), upv));
+	/* across the tile's ends */
+	last_fe = _mm256_extract_epi32(fe, 7);
+	last_fne = _mm256_extract_epi32(fne, 7);
+	if (!east) {
+		v[8] -= last_fe;
+		vu[8] -= last_fne;
+	}
+	if (!west)
+		vu[-1] -= _mm256_extract_epi32(fnw, 0);
+	if (!_mm256_testz_si256(sat, sat))
+		w->saturations++;
+	t = _mm256_or_si256(_mm256_or_si256(fe, fn), _mm256_or_si256(fne, fnw));
+	return !_mm256_testz_si256(t, t);
+}
+
+static int32_t segment_avx2(struct swell_wave *w, int j, int i0, int i1, int damp)
+{
+	if (i1 - i0 != 8 || j + 1 >= w->ny) /* a ragged tile or the top row */
+		return segment_fused_c(w, j, i0, i1, damp);
+	return segment_avx2_tile(w, j, i0, damp);
+}
+
+static int have_avx2(void)
+{
+	return __builtin_cpu_supports("avx2");
+}
+#else
+#define WAVE_AVX2 0
+#endif
+
+/* The edges owned by cells [i0, i1) of row j (i0 a multiple of 8): E edges, and N, NE, NW edges up
+ * to row j+1 (none for the top row). Returns non-zero if any new flow is non-zero. */
+static int32_t step_segment(struct swell_wave *w, int j, int i0, int i1, int damp)
+{
+	switch (w->kernel) {
+#if WAVE_AVX2
+	case SWELL_KERNEL_AVX2:
+		return segment_avx2(w, j, i0, i1, damp);
+#endif
+	case SWELL_KERNEL_FUSED:
+#if WAVE_DSP
+		return segment_fused_dsp(w, j, i0, i1, damp);
+#else
+		return segment_fused_c(w, j, i0, i1, damp);
+#endif
+	default:
+		return segment_ref(w, j, i0, i1, damp);
+	}
+}
+
+enum swell_err swell_wave_set_kernel(struct swell_wave *w, enum swell_wave_kernel k)
+{
+	if (!w)
+		return SWELL_EINVAL;
+	switch (k) {
+	case SWELL_KERNEL_AUTO:
+#if WAVE_AVX2
+		w->kernel = have_avx2() ? SWELL_KERNEL_AVX2 : SWELL_KERNEL_FUSED;
+#else
+		w->kernel = SWELL_KERNEL_FUSED;
+#endif
+		return SWELL_OK;
+	case SWELL_KERNEL_REF:
+	case SWELL_KERNEL_FUSED:
+		w->kernel = (uint8_t)k;
+		return SWELL_OK;
+	case SWELL_KERNEL_AVX2:
+#if WAVE_AVX2
+		if (have_avx2()) {
+			w->kernel = SWELL_KERNEL_AVX2;
+			return SWELL_OK;
+		}
+#endif
+		return SWELL_EINVAL;
+	default:
+		return SWELL_EINVAL;
+	}
+}
+
+const char *swell_wave_kernel_name(enum swell_wave_kernel k)
+{
+	switch (k) {
+	case SWELL_KERNEL_REF:
+		return "ref";
+	case SWELL_KERNEL_FUSED:
+		return WAVE_DSP ? "fused-dsp" : "fused";
+	case SWELL_KERNEL_AVX2:
+		return "avx2";
+	default:
+		return NULL;
+	}
+}
+
 /* Row j, tile by tile, skipping sleeping tiles. */
 static inline void step_row(struct swell_wave *w, int j, int damp)
 {
 	const int ty = j / SWELL_WAVE_TILE;
+	uint8_t *trow = &w->tile[ty * w->tiles_x];
 	int tx;
 
-	if (!w->sleep) {
-		step_segment(w, j, 0, w->nx, damp);
-		return;
-	}
-	if (j % SWELL_WAVE_TILE == 0) {
+	if (w->sleep && j % SWELL_WAVE_TILE == 0) {
 		w->band_asleep = 1;
 		for (tx = 0; tx < w->tiles_x; tx++) {
-			uint8_t *f = &w->tile[ty * w->tiles_x + tx];
-
 			if (asleep(w, tx, ty)) {
-				*f |= T_SLEEPING;
+				trow[tx] |= T_SLEEPING;
 			} else {
-				*f &= (uint8_t)~T_SLEEPING;
+				trow[tx] &= (uint8_t)~T_SLEEPING;
 				mark_dirty(w, tx, ty, 1);
 				w->band_asleep = 0;
 			}
 		}
 	}
-	if (w->band_asleep) { /* the whole band of tiles sleeps: nothing to do in this row */
+	if (w->sleep && w->band_asleep) { /* the whole band of tiles sleeps: nothing to do in this row */
 		w->tiles_skipped += w->tiles_x;
 		return;
 	}
@@ -335,12 +655,12 @@ static inline void step_row(struct swell_wave *w, int j, int damp)
 		const int i0 = tx * SWELL_WAVE_TILE;
 		const int i1 = i0 + SWELL_WAVE_TILE < w->nx ? i0 + SWELL_WAVE_TILE : w->nx;
 
-		if (w->tile[ty * w->tiles_x + tx] & T_SLEEPING) {
+		if (w->sleep && (trow[tx] & T_SLEEPING)) {
 			w->tiles_skipped++;
 			continue;
 		}
 		if (step_segment(w, j, i0, i1, damp))
-			w->tile[ty * w->tiles_x + tx] |= T_NONZERO;
+			trow[tx] |= T_NONZERO;
 	}
 }
 
@@ -361,72 +681,67 @@ int swell_wave_step_rows(struct swell_wave *w, int rows)
 	return w->ny - end;
 }
 
+/* h += acc over a tile row; returns non-zero if any cell changed. */
+static inline int32_t add_acc(int32_t *restrict h, const int32_t *restrict acc, int len, uint32_t *sat)
+{
+	int32_t any = 0;
+	int a;
+
+	for (a = 0; a < len; a++) {
+		const int32_t d = acc[a];
+
+		any |= d;
+		/* |h| <= 2^27, |acc| <= 2^29 + 8 2^27: no overflow */
+#if WAVE_DSP
+		(void)sat;
+		h[a] = __ssat(h[a] + d, 28);
+#else
+		h[a] = sat28(h[a] + d, sat);
+#endif
+	}
+	return any;
+}
+
 void swell_wave_step_finish(struct swell_wave *w)
 {
-	const int n = w->nx * w->ny;
+	const int nx = w->nx, all = !w->sleep;
 	int32_t *t;
-	int a, i, j;
+	int a, j, tx;
 
-	/* v and acc swap at every finish: the six arrays after h stay contiguous, in some order */
 	swell_wave_step_rows(w, w->ny);
+	/* h += acc where the step wrote acc (DIRTY); the old v, which becomes the next accumulator, is
+	 * cleared where the last step wrote it (DIRTY_PREV); then the two swap. */
 	for (j = 0; j < w->ny; j++) {
-		/* locals: the flag byte store below may alias anything, *w included */
-		int32_t *restrict h = w->h + j * w->nx;
-		const int32_t *restrict acc = w->acc + j * w->nx;
 		uint8_t *restrict trow = w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x;
-		const int nx = w->nx, all = !w->sleep;
+		int32_t *restrict h = w->h + j * nx;
+		const int32_t *restrict acc = w->acc + j * nx;
+		int32_t *restrict v = w->v + j * nx;
 		uint32_t sat = 0;
 
-		if (!all && j % SWELL_WAVE_TILE == 0 && !tile_row_has(w, trow, T_DIRTY)) {
-			j += SWELL_WAVE_TILE - 1; /* a calm band of tiles: nothing wrote acc in it */
+		if (!all && j % SWELL_WAVE_TILE == 0 && !tile_row_has(w, trow, T_DIRTY | T_DIRTY_PREV)) {
+			j += SWELL_WAVE_TILE - 1; /* a calm band of tiles: nothing wrote acc or v in it */
 			continue;
 		}
-		for (i = 0; i < nx; i += SWELL_WAVE_TILE) {
-			const int end = i + SWELL_WAVE_TILE < nx ? i + SWELL_WAVE_TILE : nx;
-			int32_t any = 0;
+#if WAVE_DSP
+		__set_saturation_occurred(0);
+#endif
+		for (tx = 0; tx < w->tiles_x; tx++) {
+			const int i0 = tx * SWELL_WAVE_TILE;
+			const int len = i0 + SWELL_WAVE_TILE < nx ? SWELL_WAVE_TILE : nx - i0;
 
-			if (!all && !(trow[i / SWELL_WAVE_TILE] & T_DIRTY))
-				continue; /* nothing wrote acc here: it is all zero */
-			for (a = i; a < end; a++) {
-				int32_t d = acc[a];
-				int32_t x = h[a] + d; /* |h| <= 2^27, |acc| <= 2^30: no overflow */
-
-				any |= d;
-				if (x > SWELL_H_MAX || x < -SWELL_H_MAX) {
-					x = swell_clamp(x, -SWELL_H_MAX, SWELL_H_MAX);
-					sat++;
-				}
-				h[a] = x;
-			}
-			if (any)
-				trow[i / SWELL_WAVE_TILE] |= T_TOUCHED;
+			if ((all || (trow[tx] & T_DIRTY)) && add_acc(h + i0, acc + i0, len, &sat))
+				trow[tx] |= T_TOUCHED;
+			if (all || (trow[tx] & T_DIRTY_PREV))
+				memset(v + i0, 0, (size_t)len * sizeof(int32_t));
 		}
+#if WAVE_DSP
+		sat = (uint32_t)__saturation_occurred();
+#endif
 		w->saturations += sat;
 	}
-	/* The accumulator becomes v; the old v, cleared, the next accumulator. The old v can be non-zero
-	 * only where the last finished step was dirty. */
 	t = w->v;
 	w->v = w->acc;
 	w->acc = t;
-	if (!w->sleep) {
-		memset(w->acc, 0, (size_t)n * sizeof(int32_t));
-	} else {
-		for (j = 0; j < w->ny; j++) {
-			const uint8_t *trow = w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x;
-
-			if (j % SWELL_WAVE_TILE == 0 && !tile_row_has(w, trow, T_DIRTY_PREV)) {
-				j += SWELL_WAVE_TILE - 1;
-				continue;
-			}
-			for (i = 0; i < w->tiles_x; i++) {
-				const int i0 = i * SWELL_WAVE_TILE;
-				const int len = i0 + SWELL_WAVE_TILE < w->nx ? SWELL_WAVE_TILE : w->nx - i0;
-
-				if (trow[i] & T_DIRTY_PREV)
-					memset(w->acc + j * w->nx + i0, 0, (size_t)len * sizeof(int32_t));
-			}
-		}
-	}
 	/* the step is done: its flags become the last finished step's */
 	for (a = 0; a < (int)w->tiles_x * w->tiles_y; a++) {
 		uint8_t f = w->tile[a];
@@ -452,8 +767,8 @@ void swell_wave_add(struct swell_wave *w, int i, int j, int32_t dh)
 		return;
 	w->tile[(j / SWELL_WAVE_TILE) * w->tiles_x + i / SWELL_WAVE_TILE] |= T_DIRTY;
 	a = &w->acc[j * w->nx + i];
-	/* bounded to +-2^30 so that h + acc cannot overflow at the finish */
-	*a = (int32_t)swell_clamp(swell_sat_add(*a, dh), -(1 << 30), 1 << 30);
+	/* bounded to +-2^29 so that acc plus a step's flows (8 2^27) and h + acc cannot overflow */
+	*a = (int32_t)swell_clamp(swell_sat_add(*a, dh), -(1 << 29), 1 << 29);
 }
 
 int64_t swell_wave_volume(const struct swell_wave *w)
@@ -517,11 +832,13 @@ uint32_t swell_wave_checksum(const struct swell_wave *w)
 {
 	size_t n = (size_t)w->nx * w->ny;
 	uint32_t crc = crc_words(0, w->h, n);
+	int k, i, j;
 
-	crc = crc_words(crc, w->f_e, n);
-	crc = crc_words(crc, w->f_n, n);
-	crc = crc_words(crc, w->f_ne, n);
-	return crc_words(crc, w->f_nw, n);
+	for (k = 0; k < 4; k++)
+		for (j = 0; j < w->ny; j++)
+			for (i = 0; i < w->nx; i++)
+				crc = crc_words(crc, flows_at(w, i, j) + 8 * k, 1);
+	return crc;
 }
 
 enum swell_err swell_wave_e_from_physical(uint32_t g_mm_s2, uint32_t dt_us, uint32_t depth_um,

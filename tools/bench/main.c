@@ -633,7 +633,8 @@ static void stress_edge(const struct opts *o, const char *scenario, enum bench_i
 	fprintf(stress_fp, "%s,%s,%.3f,%.9f,%.3e,%.4f,%.3e,%.0f,%u,,\n", scenario, bench_impl_name(impl), t,
 		f.e_eff, (double)steps * n, ratio, t == 0 ? ed_max : e_end, bench_field_volume_lsb(&f) - v0,
 		f.saturations);
-	check(m_all <= f.h_max, "%s %s: |h| %.0f LSB beyond the saturation bound", scenario, bench_impl_name(impl),
+	/* the shipped kernel saturates to the int28 range: down to -(h_max + 1) */
+	check(m_all <= f.h_max + (impl == BENCH_SHIPPED), "%s %s: |h| %.0f LSB beyond the saturation bound", scenario, bench_impl_name(impl),
 	      m_all);
 	if (impl == BENCH_SHIPPED && noise_frac < 0.01) {
 		check(f.saturations == 0 && ratio < 1.5, "shipped at the stability edge t=%.2f grew %.2fx", t, ratio);

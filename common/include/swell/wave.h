@@ -16,11 +16,18 @@
  * Mirrored ghosts turn into edge weights: diagonals 1/2, inner orthogonal edges 1, and orthogonal
  * edges that run along a wall 3/2 (the two diagonals through the ghost fold onto them).
  *
- * Fixed point. Heights and flows are int32 with 1 LSB = 2^-16 mm (SWELL_H_FRAC), saturated to
- * +-SWELL_H_MAX (2048 mm), so no intermediate can overflow. Coefficients are Q1.30.
- * Rounding: e w dh is rounded to nearest (ties up); the damping product (1-t) s is rounded toward
- * zero, so damping never leaves a flow stuck in a limit cycle (any non-zero flow loses at least one
- * LSB per step when t > 0). With t = 0 no damping multiply is done at all.
+ * Fixed point. Heights and flows are int32 with 1 LSB = 2^-16 mm (SWELL_H_FRAC), saturated to the
+ * int28 range [SWELL_H_MIN, SWELL_H_MAX] (+-2048 mm), so no intermediate can overflow. Coefficients
+ * are Q1.30. Rounding: e w dh is rounded to nearest (ties up); the damping product (1-t) s is rounded
+ * toward zero, so damping never leaves a flow stuck in a limit cycle (any non-zero flow loses at least
+ * one LSB per step when t > 0). With t = 0 no damping multiply is done at all. 1-t is made odd (t
+ * moves by at most 2^-30): then (1-t) s is never a multiple of 2^30 for 0 < |s| < 2^30, so rounding
+ * toward zero is floor + (s < 0), which the Cortex-M4 kernel computes with one SMMUL.
+ *
+ * Kernels (swell_wave_set_kernel): the scalar reference (SWELL_KERNEL_REF, the definition), a fused
+ * scalar kernel (one pass per row: flows, the cell's own sum and the row above's, with the M4's
+ * SMMLAR/SMMUL/SSAT where the compiler targets ARMv7E-M) and, on x86-64 hosts with AVX2, an 8-lane
+ * kernel over whole tile rows. All are bit-identical: same flows, heights and sleeping tiles.
  *
  * Stability (von Neumann, q = 1-t): modes are stable iff e_eff < (1+q) / (4q), where e_eff is e for
  * the paper stencil and e/2 for the calibrated one (L9/2, waves at sqrt(g d)). Parameters outside
@@ -48,17 +55,26 @@
 
 #define SWELL_H_FRAC 16                         /* fractional bits of a height, in mm */
 #define SWELL_H_ONE_MM ((int32_t)1 << SWELL_H_FRAC) /* 1 mm in height LSB */
-#define SWELL_H_MAX (((int32_t)1 << 27) - 1)    /* saturation bound of heights and flows */
+#define SWELL_H_MAX (((int32_t)1 << 27) - 1)    /* saturation bounds of heights and flows: int28 */
+#define SWELL_H_MIN (-((int32_t)1 << 27))
 
 #define SWELL_WAVE_MIN_SIDE 2
 #define SWELL_WAVE_MAX_SIDE 1024
-#define SWELL_WAVE_ARRAYS 7 /* h, v, the step accumulator, and the E, N, NE, NW flows */
 #define SWELL_WAVE_TILE 8   /* side of a sleeping tile, in cells */
-#define SWELL_WAVE_TILES(nx, ny) \
-	((((size_t)(nx) + SWELL_WAVE_TILE - 1) / SWELL_WAVE_TILE) * (((size_t)(ny) + SWELL_WAVE_TILE - 1) / SWELL_WAVE_TILE))
-/* the arrays, then one flag byte a tile */
-#define SWELL_WAVE_WORDS(nx, ny) \
-	((size_t)SWELL_WAVE_ARRAYS * (size_t)(nx) * (size_t)(ny) + (SWELL_WAVE_TILES(nx, ny) + 3) / 4)
+#define SWELL_WAVE_TILES_X(nx) (((size_t)(nx) + SWELL_WAVE_TILE - 1) / SWELL_WAVE_TILE)
+#define SWELL_WAVE_TILES(nx, ny) (SWELL_WAVE_TILES_X(nx) * SWELL_WAVE_TILES_X(ny))
+/* h, v and the step accumulator (nx ny words each); the four flows of every tile row, E N NE NW,
+ * 8 words each (rows padded to whole tiles); then one flag byte a tile */
+#define SWELL_WAVE_WORDS(nx, ny)                                                                   \
+	(3 * (size_t)(nx) * (size_t)(ny) + 4 * SWELL_WAVE_TILE * SWELL_WAVE_TILES_X(nx) * (size_t)(ny) + \
+	 (SWELL_WAVE_TILES(nx, ny) + 3) / 4)
+
+enum swell_wave_kernel {
+	SWELL_KERNEL_AUTO = 0, /* the fastest this build and CPU have (default) */
+	SWELL_KERNEL_REF = 1,  /* the scalar reference: one edge at a time, the definition */
+	SWELL_KERNEL_FUSED = 2, /* one pass per row segment; M4 DSP instructions on ARMv7E-M */
+	SWELL_KERNEL_AVX2 = 3,  /* x86-64 with AVX2: 8 cells at a time (tile rows of 8, else fused) */
+};
 
 enum swell_stencil {
 	SWELL_STENCIL_PAPER = 0,      /* L9 as printed: waves run sqrt(2) faster than sqrt(g d) */
@@ -77,24 +93,25 @@ struct swell_wave {
 	int32_t *h;    /* h(n): height above rest, LSB 2^-16 mm */
 	int32_t *v;    /* h(n) - h(n-1), the last step's change */
 	int32_t *acc;  /* the step in progress: sum of the new flows of every cell */
-	int32_t *f_e;  /* flow into cell (i,j) from (i+1,j) */
-	int32_t *f_n;  /* flow into cell (i,j) from (i,j+1) */
-	int32_t *f_ne; /* flow into cell (i,j) from (i+1,j+1) */
-	int32_t *f_nw; /* flow into cell (i,j) from (i-1,j+1) */
+	/* Flows, by tile row: the 8 cells (i, j) with i / 8 = tx have their flows at
+	 * f + 32 (j tiles_x + tx) + 8 k + i % 8, k = 0 E (into (i,j) from (i+1,j)), 1 N (from (i,j+1)),
+	 * 2 NE (from (i+1,j+1)), 3 NW (from (i-1,j+1)). */
+	int32_t *f;
 	struct swell_wave_params p;
 	q30_t e_eff;  /* e (paper) or e/2 (calibrated), made even so that e_eff/2 is exact */
 	q30_t c_1;    /* e_eff * 1   inner orthogonal edges */
 	q30_t c_half; /* e_eff * 1/2 diagonal edges */
 	q30_t c_wall; /* e_eff * 3/2 orthogonal edges along a wall */
-	q30_t q;      /* 1 - t */
+	q30_t q;      /* 1 - t, made odd when t > 0 */
 	uint32_t steps;
-	uint32_t saturations; /* heights or flows clamped to +-SWELL_H_MAX */
+	uint32_t saturations; /* row segments (up to a tile row) in which a height or flow was clamped */
 	uint16_t next_row;    /* first row not yet done in the step in progress */
 	uint16_t tiles_x, tiles_y;
 	uint8_t *tile;        /* flag byte a tile (wave.c) */
 	uint8_t sleep;        /* 1: skip sleeping tiles (default); 0: every edge every step */
 	uint8_t band_asleep;  /* every tile of the band of rows in progress sleeps */
 	uint32_t tiles_skipped; /* tile-rows skipped, cumulative: 8 x 4 edges saved each */
+	uint8_t kernel;         /* enum swell_wave_kernel in use (never AUTO) */
 };
 
 /* Exact integer energy (DESIGN.md 2.1), for tests: with t = 0,
@@ -149,12 +166,20 @@ void swell_wave_touched(struct swell_wave *w, int i, int j);
 /* Turn tile sleeping on (default) or off; results are bit-identical either way. */
 void swell_wave_set_sleep(struct swell_wave *w, int on);
 
+/* Choose the kernel (results are bit-identical); SWELL_EINVAL if this build or CPU lacks it, and
+ * nothing changes. AUTO picks the fastest available. */
+enum swell_err swell_wave_set_kernel(struct swell_wave *w, enum swell_wave_kernel k);
+
+/* "ref", "fused", "fused-dsp" (ARMv7E-M), "avx2"; NULL for AUTO or an unknown value. */
+const char *swell_wave_kernel_name(enum swell_wave_kernel k);
+
 /* sum(h) in LSB: the volume, exact. */
 int64_t swell_wave_volume(const struct swell_wave *w);
 
 struct swell_energy swell_wave_energy(const struct swell_wave *w);
 
-/* CRC-32 of the state (heights then the four flow arrays, each int32 little-endian). */
+/* CRC-32 of the state (heights, then every E flow in cell order, then N, NE, NW; int32
+ * little-endian). */
 uint32_t swell_wave_checksum(const struct swell_wave *w);
 
 /* e = g dt^2 d / dx^2 from integer physical units, rounded to nearest Q1.30.

@@ -1,0 +1,193 @@
+/* The solver's kernels (swell_wave_set_kernel) against the scalar reference, bit for bit: heights,
+ * v, every flow (through the checksum), the accumulator between slices, sleeping-tile flags and the
+ * saturation count. The Cortex-M4 kernel is checked the same way under QEMU (label qemu-arm). */
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <cstring>
+#include <random>
+#include <string>
+#include <vector>
+
+extern "C" {
+#include "swell/shape.h"
+#include "swell/wave.h"
+}
+
+namespace {
+
+q30_t q30(double x) { return (q30_t)std::llround(x * SWELL_Q30_ONE); }
+
+struct Field {
+	std::vector<int32_t> store;
+	swell_wave w{};
+	Field(int nx, int ny, q30_t e, q30_t t, swell_stencil st, swell_wave_kernel k)
+	    : store(SWELL_WAVE_WORDS(nx, ny))
+	{
+		swell_wave_params p{e, t, st};
+		REQUIRE(swell_wave_init(&w, (uint16_t)nx, (uint16_t)ny, store.data(), store.size(), &p) == SWELL_OK);
+		REQUIRE(swell_wave_set_kernel(&w, k) == SWELL_OK);
+	}
+	int n() const { return w.nx * w.ny; }
+};
+
+std::vector<swell_wave_kernel> fast_kernels()
+{
+	std::vector<swell_wave_kernel> ks{SWELL_KERNEL_FUSED};
+	Field probe(8, 8, q30(0.2), 0, SWELL_STENCIL_PAPER, SWELL_KERNEL_REF);
+	if (swell_wave_set_kernel(&probe.w, SWELL_KERNEL_AVX2) == SWELL_OK)
+		ks.push_back(SWELL_KERNEL_AVX2);
+	return ks;
+}
+
+/* Everything that must agree, with where it first differs (cells only: between slices). */
+std::string differs(const Field &a, const Field &b, bool all = true)
+{
+	for (int i = 0; i < a.n(); i++) {
+		if (a.w.h[i] != b.w.h[i])
+			return "h[" + std::to_string(i) + "] " + std::to_string(a.w.h[i]) + " vs " + std::to_string(b.w.h[i]);
+		if (a.w.v[i] != b.w.v[i])
+			return "v[" + std::to_string(i) + "] " + std::to_string(a.w.v[i]) + " vs " + std::to_string(b.w.v[i]);
+		if (a.w.acc[i] != b.w.acc[i])
+			return "acc[" + std::to_string(i) + "] " + std::to_string(a.w.acc[i]) + " vs " +
+			       std::to_string(b.w.acc[i]);
+	}
+	if (!all)
+		return "";
+	if (std::memcmp(a.w.f, b.w.f, sizeof(int32_t) * 4 * SWELL_WAVE_TILE * a.w.tiles_x * a.w.ny) != 0)
+		return "flows";
+	if (std::memcmp(a.w.tile, b.w.tile, (size_t)a.w.tiles_x * a.w.tiles_y) != 0)
+		return "tile flags";
+	if (a.w.saturations != b.w.saturations)
+		return "saturations " + std::to_string(a.w.saturations) + " vs " + std::to_string(b.w.saturations);
+	if (a.w.tiles_skipped != b.w.tiles_skipped)
+		return "tiles skipped";
+	return "";
+}
+
+struct Case {
+	int nx, ny;
+	double e, t;
+	swell_stencil st;
+	double amp_mm;
+	int sleep;
+};
+
+/* The same run on the reference and on kernel k: random heights (or a splash), steps split into
+ * slices of varying size, water added and cells written between slices. */
+void run_pair(const Case &c, swell_wave_kernel k, uint32_t seed, int steps)
+{
+	Field ref(c.nx, c.ny, q30(c.e), q30(c.t), c.st, SWELL_KERNEL_REF);
+	Field fast(c.nx, c.ny, q30(c.e), q30(c.t), c.st, k);
+	std::mt19937 rng(seed);
+	const int32_t amp = (int32_t)std::min<double>(c.amp_mm * SWELL_H_ONE_MM, SWELL_H_MAX);
+	std::uniform_int_distribution<int32_t> d(-amp, amp);
+	const bool splash = seed % 2 == 0;
+
+	for (int a = 0; a < ref.n(); a++)
+		ref.w.h[a] = splash ? 0 : d(rng);
+	if (splash)
+		swell_shape_gauss(ref.w.h, ref.w.nx, ref.w.ny, (c.nx / 3) << 16, (c.ny / 2) << 16, 2 << 16, amp);
+	std::memcpy(fast.w.h, ref.w.h, sizeof(int32_t) * ref.n());
+	swell_wave_rest(&ref.w);
+	swell_wave_rest(&fast.w);
+	swell_wave_set_sleep(&ref.w, c.sleep);
+	swell_wave_set_sleep(&fast.w, c.sleep);
+
+	for (int s = 0; s < steps; s++) {
+		int left = c.ny;
+		while (left > 0) {
+			const int rows = 1 + (int)(rng() % 9);
+			left = swell_wave_step_rows(&ref.w, rows);
+			REQUIRE(swell_wave_step_rows(&fast.w, rows) == left);
+			if (rng() % 4 == 0) { /* an object pushing water in between slices */
+				const int i = (int)(rng() % c.nx), j = (int)(rng() % c.ny);
+				const int32_t dh = d(rng) / 4;
+				swell_wave_add(&ref.w, i, j, dh);
+				swell_wave_add(&fast.w, i, j, dh);
+			}
+			if (rng() % 16 == 0) { /* a cell written from outside */
+				const int a = (int)(rng() % ref.n());
+				ref.w.h[a] = fast.w.h[a] = d(rng);
+				swell_wave_touched(&ref.w, a % c.nx, a / c.nx);
+				swell_wave_touched(&fast.w, a % c.nx, a / c.nx);
+			}
+			const std::string diff = differs(ref, fast, false);
+			INFO(swell_wave_kernel_name(k) << " " << c.nx << "x" << c.ny << " e " << c.e << " t " << c.t
+						       << " stencil " << c.st << " amp " << c.amp_mm << " mm sleep "
+						       << c.sleep << " seed " << seed << ": step " << s << ", " << left
+						       << " rows left: " << diff);
+			REQUIRE(diff.empty());
+		}
+		swell_wave_step_finish(&ref.w);
+		swell_wave_step_finish(&fast.w);
+		const std::string diff = differs(ref, fast);
+		INFO(swell_wave_kernel_name(k) << " " << c.nx << "x" << c.ny << " e " << c.e << " t " << c.t << " seed "
+					       << seed << ": after step " << s << ": " << diff);
+		REQUIRE(diff.empty());
+	}
+}
+
+} // namespace
+
+TEST_CASE("every kernel is bit-identical to the scalar reference: random fields, splashes, slices, "
+	  "additions, damping, both stencils, walls, ragged grids",
+	  "[wave][kernel]")
+{
+	const Case cases[] = {
+		{64, 64, 0.2, 0.0, SWELL_STENCIL_PAPER, 20, 1},        /* the reference scene, undamped */
+		{64, 64, 0.2, 0.01, SWELL_STENCIL_PAPER, 20, 1},       /* damped */
+		{48, 40, 0.4, 0.3, SWELL_STENCIL_CALIBRATED, 5, 1},    /* calibrated */
+		{45, 37, 0.3, 0.02, SWELL_STENCIL_PAPER, 2, 1},        /* ragged: the last tile column is 5 wide */
+		{16, 9, 0.49, 0.0, SWELL_STENCIL_PAPER, 100, 0},       /* near the limit, no sleeping */
+		{24, 24, 0.9, 0.7, SWELL_STENCIL_PAPER, 50, 1},        /* c_wall >= 2^29 (the M4's second mode) */
+		{8, 8, 0.25, 0.1, SWELL_STENCIL_PAPER, 10, 1},         /* one tile: both walls in it */
+		{2, 2, 0.3, 0.0, SWELL_STENCIL_PAPER, 10, 1},          /* the smallest grid */
+		{17, 3, 0.3, 0.05, SWELL_STENCIL_CALIBRATED, 10, 0},   /* narrow and ragged */
+	};
+	for (swell_wave_kernel k : fast_kernels())
+		for (const Case &c : cases)
+			for (uint32_t seed = 1; seed <= 4; seed++)
+				run_pair(c, k, seed, 80);
+}
+
+TEST_CASE("every kernel saturates exactly like the reference: full-scale checkerboards at the "
+	  "stability limit", "[wave][kernel][saturation]")
+{
+	for (swell_wave_kernel k : fast_kernels()) {
+		for (double t : {0.0, 0.3}) {
+			const q30_t e = swell_wave_e_limit(q30(t), SWELL_STENCIL_PAPER) - 2;
+			Field ref(16, 16, e, q30(t), SWELL_STENCIL_PAPER, SWELL_KERNEL_REF);
+			Field fast(16, 16, e, q30(t), SWELL_STENCIL_PAPER, k);
+			for (int j = 0; j < 16; j++)
+				for (int i = 0; i < 16; i++)
+					ref.w.h[j * 16 + i] = fast.w.h[j * 16 + i] =
+						((i + j) & 1) ? SWELL_H_MAX : SWELL_H_MIN;
+			swell_wave_rest(&ref.w);
+			swell_wave_rest(&fast.w);
+			for (int s = 0; s < 500; s++) {
+				swell_wave_step(&ref.w);
+				swell_wave_step(&fast.w);
+				const std::string diff = differs(ref, fast);
+				INFO(swell_wave_kernel_name(k) << " t " << t << " step " << s << ": " << diff);
+				REQUIRE(diff.empty());
+			}
+			INFO(swell_wave_kernel_name(k) << " t " << t);
+			CHECK(ref.w.saturations > 0u); /* the case does reach the bounds */
+		}
+	}
+}
+
+TEST_CASE("kernel selection: unknown kernels are refused and change nothing; AUTO picks one that "
+	  "exists", "[wave][kernel]")
+{
+	Field f(16, 16, q30(0.2), 0, SWELL_STENCIL_PAPER, SWELL_KERNEL_AUTO);
+	const uint8_t chosen = f.w.kernel;
+	CHECK(chosen != SWELL_KERNEL_AUTO);
+	CHECK(swell_wave_kernel_name((swell_wave_kernel)chosen) != nullptr);
+	CHECK(swell_wave_set_kernel(&f.w, (swell_wave_kernel)9) == SWELL_EINVAL);
+	CHECK(f.w.kernel == chosen);
+	CHECK(swell_wave_set_kernel(nullptr, SWELL_KERNEL_REF) == SWELL_EINVAL);
+	CHECK(swell_wave_kernel_name(SWELL_KERNEL_AUTO) == nullptr);
+	CHECK(std::string(swell_wave_kernel_name(SWELL_KERNEL_REF)) == "ref");
+}
