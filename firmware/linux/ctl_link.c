@@ -55,11 +55,72 @@ static int open_udp(struct ctl_link *l, const char *spec, const char *arg, int d
 	return 0;
 }
 
+const char *ctl_can_state_name(enum ctl_can_state s)
+{
+	switch (s) {
+	case CTL_CAN_ACTIVE: return "error-active";
+	case CTL_CAN_WARNING: return "error-warning";
+	case CTL_CAN_PASSIVE: return "error-passive";
+	case CTL_CAN_BUS_OFF: return "bus-off";
+	}
+	return "?";
+}
+
+enum ctl_can_event ctl_can_error_frame(struct ctl_can_health *h, uint32_t can_id, const uint8_t d[8])
+{
+	enum ctl_can_state before, now;
+
+	if (!h || !d || !(can_id & CAN_ERR_FLAG))
+		return CTL_CAN_EV_NONE;
+	before = now = (enum ctl_can_state)h->state;
+	h->error_frames++;
+	if (can_id & (CAN_ERR_CNT | CAN_ERR_CRTL)) { /* drivers put the counters in data[6], data[7] */
+		h->tx_err = d[6];
+		h->rx_err = d[7];
+	}
+	h->tx_timeouts += (can_id & CAN_ERR_TX_TIMEOUT) != 0;
+	h->lost_arb += (can_id & CAN_ERR_LOSTARB) != 0;
+	h->no_ack += (can_id & CAN_ERR_ACK) != 0;
+	h->prot += (can_id & CAN_ERR_PROT) != 0;
+	h->transceiver += (can_id & CAN_ERR_TRX) != 0;
+	if (can_id & CAN_ERR_CRTL) {
+		h->overflows += (d[1] & (CAN_ERR_CRTL_RX_OVERFLOW | CAN_ERR_CRTL_TX_OVERFLOW)) != 0;
+		if (before != CTL_CAN_BUS_OFF) { /* only a restart leaves bus-off, not a counter report */
+			if (d[1] & (CAN_ERR_CRTL_RX_PASSIVE | CAN_ERR_CRTL_TX_PASSIVE))
+				now = CTL_CAN_PASSIVE;
+			else if (d[1] & (CAN_ERR_CRTL_RX_WARNING | CAN_ERR_CRTL_TX_WARNING))
+				now = CTL_CAN_WARNING;
+		}
+		if (d[1] & CAN_ERR_CRTL_ACTIVE)
+			now = CTL_CAN_ACTIVE;
+	}
+	if (can_id & CAN_ERR_RESTARTED)
+		now = CTL_CAN_ACTIVE;
+	if (can_id & CAN_ERR_BUSOFF) /* wins over a restart in the same frame: fail safe */
+		now = CTL_CAN_BUS_OFF;
+	if (now == before)
+		return CTL_CAN_EV_NONE;
+	h->state = (uint8_t)now;
+	switch (now) {
+	case CTL_CAN_BUS_OFF: h->bus_offs++; return CTL_CAN_EV_BUS_OFF;
+	case CTL_CAN_PASSIVE: h->passives++; break;
+	case CTL_CAN_WARNING: h->warnings++; break;
+	case CTL_CAN_ACTIVE: h->actives++; break;
+	}
+	if (before == CTL_CAN_BUS_OFF) {
+		h->restarts++;
+		return CTL_CAN_EV_RESTARTED;
+	}
+	return CTL_CAN_EV_STATE;
+}
+
 static int open_can(struct ctl_link *l, const char *spec, const char *iface, char *err, size_t errlen)
 {
 	struct sockaddr_can a;
 	struct ifreq ifr;
-	can_err_mask_t mask = CAN_ERR_BUSOFF | CAN_ERR_CRTL | CAN_ERR_PROT;
+	/* every error class but CAN_ERR_BUSERROR, which may flood */
+	can_err_mask_t mask = CAN_ERR_TX_TIMEOUT | CAN_ERR_LOSTARB | CAN_ERR_CRTL | CAN_ERR_PROT | CAN_ERR_TRX |
+			      CAN_ERR_ACK | CAN_ERR_BUSOFF | CAN_ERR_RESTARTED | CAN_ERR_CNT;
 
 	if (!iface || !*iface || strlen(iface) >= IFNAMSIZ) {
 		snprintf(err, errlen, "%s: give an interface, e.g. can:can0", spec);
@@ -72,7 +133,8 @@ static int open_can(struct ctl_link *l, const char *spec, const char *iface, cha
 	strcpy(ifr.ifr_name, iface);
 	if (ioctl(l->fd, SIOCGIFINDEX, &ifr) < 0)
 		return fail(err, errlen, "no CAN interface", spec);
-	setsockopt(l->fd, SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &mask, sizeof(mask));
+	if (setsockopt(l->fd, SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &mask, sizeof(mask)) < 0)
+		return fail(err, errlen, "error frames on", spec);
 	memset(&a, 0, sizeof(a));
 	a.can_family = AF_CAN;
 	a.can_ifindex = ifr.ifr_ifindex;
@@ -82,14 +144,17 @@ static int open_can(struct ctl_link *l, const char *spec, const char *iface, cha
 	return 0;
 }
 
-static int open_usb(struct ctl_link *l, const char *spec, const char *dir, char *err, size_t errlen)
+static int open_usb(struct ctl_link *l, const char *spec, const char *dir, int device_side, char *err,
+		    size_t errlen)
 {
+	/* each link its own FunctionFS function: interface 0 the device link, 1 the host link when both
+	 * are on USB (the gadget numbers them in the order they are linked into the configuration) */
 	const struct swell_usb_ffs_iface iface = {
 		.class_code = SWELL_USB_CLASS,
 		.ep_out = SWELL_USB_EP_OUT,
 		.ep_in = SWELL_USB_EP_IN,
 		.fs_packet = SWELL_USB_PACKET,
-		.name = "swell controller",
+		.name = device_side ? "swell controller: device link" : "swell controller: host link",
 	};
 	enum swell_err e;
 
@@ -104,7 +169,7 @@ static int open_usb(struct ctl_link *l, const char *spec, const char *dir, char 
 		return -1;
 	}
 	l->fd = l->usb.ep0;
-	snprintf(l->name, sizeof(l->name), "usb");
+	snprintf(l->name, sizeof(l->name), "usb:%s", dir);
 	return 0;
 }
 
@@ -135,7 +200,7 @@ int ctl_link_open(struct ctl_link *l, const char *spec, int device_side, uint8_t
 	}
 	if (!strcmp(kind, "usb")) {
 		l->kind = CTL_LINK_USB;
-		return open_usb(l, spec, arg, err, errlen);
+		return open_usb(l, spec, arg, device_side, err, errlen);
 	}
 	snprintf(err, errlen, "link '%s' is not udp[:PORT], can:IFACE or usb:FFS_DIR", spec);
 	return -1;
@@ -201,13 +266,34 @@ size_t ctl_link_recv(struct ctl_link *l, struct swell_msg *out, size_t cap)
 		return recv_usb(l, out, cap);
 	if (l->kind == CTL_LINK_CAN) {
 		struct can_frame f;
-		ssize_t r = read(l->fd, &f, sizeof(f));
+		ssize_t r;
 
-		if (r != (ssize_t)sizeof(f) || cap < 1)
+		if (cap < 1)
+			return 0;
+		r = read(l->fd, &f, sizeof(f));
+		if (r < 0 && errno == ENETDOWN) {
+			/* the interface went down: brought up again it starts error-active (a down/up restart
+			 * sends no RESTARTED frame) */
+			l->can.downs++;
+			if (l->can.state == CTL_CAN_BUS_OFF) {
+				l->can.state = CTL_CAN_ACTIVE;
+				l->can.restarts++;
+			}
+			return 0;
+		}
+		if (r != (ssize_t)sizeof(f))
 			return 0;
 		l->frames_rx++;
-		if (f.can_id & (CAN_ERR_FLAG | CAN_RTR_FLAG | CAN_EFF_FLAG)) {
-			l->st.rejected[SWELL_EUNKNOWN]++; /* error frames and foreign formats: counted, dropped */
+		if (f.can_id & CAN_ERR_FLAG) {
+			ctl_can_error_frame(&l->can, f.can_id, f.data);
+			return 0;
+		}
+		if (l->can.state == CTL_CAN_BUS_OFF) {
+			l->can.dropped_off++;
+			return 0;
+		}
+		if (f.can_id & (CAN_RTR_FLAG | CAN_EFF_FLAG)) {
+			l->st.rejected[SWELL_EUNKNOWN]++; /* foreign formats: counted, dropped */
 			return 0;
 		}
 		if (swell_can_decode(f.can_id, f.data, f.can_dlc, out, &l->st) != SWELL_OK)

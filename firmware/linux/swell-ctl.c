@@ -207,6 +207,7 @@ struct port {
 	struct ctl_link dev, host;
 	int have_host;
 	uint32_t bad_seen;
+	uint32_t bus_offs_seen[2], restarts_seen[2]; /* CAN: device, host link */
 };
 
 static uint32_t rejected(const struct port *p)
@@ -251,6 +252,75 @@ static int take_input(struct port *p)
 		p->bad_seen = bad;
 	}
 	return pos;
+}
+
+static void flush_output(struct port *p);
+
+/* The core's supervision sees the device as gone: the next tick faults (zero force, autorun recovers
+ * once the device has been heard again for recover_ticks). */
+static void device_lost(struct swell_ctl *c)
+{
+	c->dev_heard = 0;
+	c->dev_back = 0;
+	if (c->since_dev < c->cfg.silent_ticks)
+		c->since_dev = c->cfg.silent_ticks;
+}
+
+static double mono_s(void)
+{
+	struct timespec t;
+
+	clock_gettime(CLOCK_MONOTONIC, &t);
+	return (double)t.tv_sec + t.tv_nsec / 1e9;
+}
+
+/* CAN error frames (ctl_link.c keeps the bus state). A bus-off of the device link zeroes the force
+ * at once and faults the loop like a silent device; while the bus is off the link drops whatever
+ * comes in, and after the restart (restart-ms, a manual restart, down/up) the device is heard again
+ * and autorun recovers. Returns 1 when the loop must tick now (to enter the fault). */
+static int link_faults(struct port *p)
+{
+	struct ctl_link *l[2] = {&p->dev, &p->host};
+	int k, tick = 0;
+
+	for (k = 0; k < 2; k++) {
+		const struct ctl_can_health *h = &l[k]->can;
+
+		if (l[k]->kind != CTL_LINK_CAN || (k == 1 && !p->have_host))
+			continue;
+		if (h->bus_offs != p->bus_offs_seen[k]) {
+			p->bus_offs_seen[k] = h->bus_offs;
+			if (k == 0) {
+				swell_ctl_zero_force(&p->c);
+				device_lost(&p->c);
+				flush_output(p);
+				tick = 1;
+			}
+			fprintf(stderr, "swell-ctl: %s link %s: bus-off %u (tx/rx error counters %u/%u)%s at %.6f s\n",
+				k ? "host" : "device", l[k]->name, h->bus_offs, h->tx_err, h->rx_err,
+				k ? "" : ": force zeroed, loop faulted", mono_s());
+		}
+		if (h->restarts != p->restarts_seen[k]) {
+			p->restarts_seen[k] = h->restarts;
+			fprintf(stderr, "swell-ctl: %s link %s: back on the bus (restart %u, %s) at %.6f s\n",
+				k ? "host" : "device", l[k]->name, h->restarts, ctl_can_state_name(h->state), mono_s());
+		}
+	}
+	return tick;
+}
+
+static void report_can(const char *what, const struct ctl_link *l)
+{
+	const struct ctl_can_health *h = &l->can;
+
+	if (l->kind != CTL_LINK_CAN)
+		return;
+	printf("  %s CAN  %s: %s, %u error frames: %u bus-off, %u restarts, %u error-passive, %u warnings, "
+	       "%u back to active; %u no-ACK, %u protocol, %u overflows, %u TX timeouts; counters tx %u rx %u; "
+	       "%u frames dropped while bus-off, interface down %u times\n",
+	       what, l->name, ctl_can_state_name(h->state), h->error_frames, h->bus_offs, h->restarts, h->passives,
+	       h->warnings, h->actives, h->no_ack, h->prot, h->overflows, h->tx_timeouts, h->tx_err, h->rx_err,
+	       h->dropped_off, h->downs);
 }
 
 static void flush_output(struct port *p)
@@ -343,6 +413,8 @@ int main(int argc, char **argv)
 				continue;
 			if (take_input(&p))
 				last_sample = now_ns();
+			else if (link_faults(&p))
+				;
 			else if (last_sample == 0 || now_ns() - last_sample < (int64_t)o.cfg.silent_ticks * period)
 				continue;
 		} else {
@@ -361,6 +433,7 @@ int main(int argc, char **argv)
 			}
 			take_input(&p);
 		}
+		link_faults(&p);
 		swell_ctl_tick(&p.c);
 		if (p.c.bootloader_request) { /* the core has zeroed the force already */
 			p.c.bootloader_request = 0;
@@ -408,6 +481,9 @@ int main(int argc, char **argv)
 		       "%u height quads (%u refreshes), %u dropped from the queue\n",
 		       p.host.name, p.host.frames_rx, p.host.frames_tx, swell_proto_rejected_total(&p.host.st),
 		       p.host.tx_errors, p.c.n.quads_sent, p.c.n.quads_refreshed, p.c.q[SWELL_LINK_HOST].dropped);
+	report_can("device", &p.dev);
+	if (p.have_host)
+		report_can("host  ", &p.host);
 	printf("  parameters      %u set, %u refused\n", p.c.n.params_set, p.c.n.params_refused);
 	printf("  waves           largest |h| %.3f mm (sampled once a second)\n", peak_h / (double)SWELL_H_ONE_MM);
 	printf("  final force     %+.3f N (zero sent on exit)\n", p.c.force_dev_uN[2] / 1e6);
