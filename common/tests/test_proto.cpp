@@ -131,6 +131,49 @@ TEST_CASE("every message round-trips on classic CAN, bit-exact both ways", "[pro
 	}
 }
 
+TEST_CASE("CTL_INFO: the layout of docs/protocol.md byte for byte, sizes outside 0.1 .. 819.1 mm refused", "[proto]")
+{
+	/* version 1.2.3, object 50.0 x 50.1 x 819.1 mm: 1 | 2 << 8 | 3 << 16 | 500 << 24 | 501 << 37 |
+	 * 8191 << 50, little-endian (worked out by hand from the table, not by this codec) */
+	const uint8_t want[8] = {0x01, 0x02, 0x03, 0xf4, 0xa1, 0x3e, 0xfc, 0x7f};
+	swell_msg m;
+	std::memset(&m, 0, sizeof(m));
+	m.type = SWELL_MSG_CTL_INFO;
+	m.node = 5;
+	m.u.ctl_info.fw_major = 1;
+	m.u.ctl_info.fw_minor = 2;
+	m.u.ctl_info.fw_patch = 3;
+	m.u.ctl_info.obj_a_100um = 500;
+	m.u.ctl_info.obj_b_100um = 501;
+	m.u.ctl_info.obj_h_100um = 8191;
+	uint32_t id = 0;
+	uint8_t data[8] = {0}, len = 0;
+	REQUIRE(swell_can_encode(&m, &id, data, &len) == SWELL_OK);
+	CHECK(id == 0x235u); /* type 0x23 << 4 | node 5: after OBJECT_FORCE, before the heights */
+	CHECK(len == 8);
+	for (int k = 0; k < 8; k++) {
+		INFO("byte " << k);
+		CHECK(data[k] == want[k]);
+	}
+	swell_msg back;
+	REQUIRE(swell_can_decode(id, data, len, &back, nullptr) == SWELL_OK);
+	CHECK(swell_msg_equal(&m, &back));
+	/* a size of 0 (the bits a zeroed frame has) is refused on both sides */
+	m.u.ctl_info.obj_b_100um = 0;
+	CHECK(swell_can_encode(&m, &id, data, &len) == SWELL_ERANGE);
+	uint8_t zero_b[8];
+	std::memcpy(zero_b, want, 8);
+	zero_b[4] &= 0x1f; /* obj_b is bits 37..49: clear 37..39 ... */
+	zero_b[5] = 0;     /* ... 40..47 ... */
+	zero_b[6] &= 0xfc; /* ... and 48..49 */
+	swell_proto_stats st = {};
+	std::memset(&back, 0xAB, sizeof(back));
+	swell_msg before = back;
+	CHECK(swell_can_decode(id, zero_b, 8, &back, &st) == SWELL_ERANGE);
+	CHECK(std::memcmp(&back, &before, sizeof(back)) == 0);
+	CHECK(st.rejected[SWELL_ERANGE] == 1u);
+}
+
 TEST_CASE("every message round-trips on CAN FD, batched up to 64 bytes per frame", "[proto]")
 {
 	std::mt19937_64 rng(2);

@@ -6,6 +6,9 @@ optional sign) with the standard library only, decodes every frame of a vectors 
 the C encoder (swell-protogen --vectors) and compares each signal's physical value with the value
 the C side put in. It shares no code with the C implementation.
 
+Besides the C vectors, a few frames worked out by hand from docs/protocol.md (KNOWN below) must
+decode to their stated values, so that C and DBC cannot agree on the same mistake.
+
 Exit status 0 when every frame decodes to the same values and every message and signal of the
 database was exercised; 1 otherwise, with the first differences printed.
 """
@@ -60,6 +63,32 @@ def parse_dbc(path):
     return messages
 
 
+# (CAN id, payload, physical values): CTL_INFO of node 0, firmware 1.2.3, object 50.0 x 50.1 x
+# 819.1 mm = 1 | 2 << 8 | 3 << 16 | 500 << 24 | 501 << 37 | 8191 << 50, little-endian.
+KNOWN = [
+    (0x230, bytes([0x01, 0x02, 0x03, 0xf4, 0xa1, 0x3e, 0xfc, 0x7f]),
+     {'fw_major': 1, 'fw_minor': 2, 'fw_patch': 3,
+      'obj_a_100um': 50.0, 'obj_b_100um': 50.1, 'obj_h_100um': 819.1}),
+]
+
+
+def check_known(db):
+    errors = []
+    for can_id, data, want in KNOWN:
+        msg = db.get(can_id)
+        if msg is None:
+            errors.append(f'known frame 0x{can_id:03X} is not in the database')
+            continue
+        if set(want) != set(msg['signals']):
+            errors.append(f'known frame {msg["name"]}: signals {sorted(msg["signals"])}, expected {sorted(want)}')
+            continue
+        for name, value in want.items():
+            got = msg['signals'][name].decode(data)
+            if abs(got - value) > 1e-9 * max(1.0, abs(value)):
+                errors.append(f'known frame {msg["name"]}.{name}: DBC decodes {got!r}, by hand {value!r}')
+    return errors
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     ap.add_argument('dbc', help='the CAN database (docs/swell.dbc)')
@@ -104,6 +133,7 @@ def main():
                 if not (sig.lo - 1e-9 <= got <= sig.hi + 1e-9):
                     errors.append(f'line {lineno}: {msg["name"]}.{name} = {got} outside the DBC range '
                                   f'[{sig.lo}, {sig.hi}]')
+    errors += check_known(db)
     missing = [db[i]['name'] for i in db if i not in seen_msgs]
     all_sigs = {(i, n) for i in db for n in db[i]['signals']}
     if missing:

@@ -98,10 +98,11 @@ struct load_row {
 	int minimal; /* 1: FORCE_CMD + DEVICE_POS only */
 };
 
-/* Telemetry that is not per tick: heartbeat 10 Hz both ways, scene 1 Hz, object pose and force
- * at 100 Hz (viewer rate). */
+/* Telemetry that is not per tick: heartbeat 10 Hz both ways, scene and controller info 1 Hz each,
+ * object pose and force at 100 Hz (viewer rate). */
 #define HB_HZ 20.0
 #define SCENE_HZ 1.0
+#define INFO_HZ 1.0
 #define OBJ_HZ 100.0
 #define GRID_QUADS ((64 * 64) / 4) /* the reference scene */
 #define USB_PACKETS_PER_MS 19.0    /* USB 2.0 full speed: at most 19 bulk packets of 64 bytes per frame */
@@ -121,9 +122,9 @@ static void bus_load(FILE *o)
 		   "carries FORCE_CMD down and DEVICE_POS, DEVICE_VEL, DEVICE_FORCE up (\"full\"), or only\n"
 		   "FORCE_CMD and DEVICE_POS (\"minimal\": the controller differentiates position and has no\n"
 		   "measured force). Telemetry on the same bus: HEARTBEAT %.0f/s (both directions), SCENE\n"
-		   "%.0f/s, OBJECT_POSE and OBJECT_FORCE %.0f/s each. What is left carries HEIGHT_QUADs; a full\n"
-		   "refresh of the 64 x 64 reference grid is %d quads.\n\n",
-		HB_HZ, SCENE_HZ, OBJ_HZ, GRID_QUADS);
+		   "%.0f/s, CTL_INFO %.0f/s, OBJECT_POSE and OBJECT_FORCE %.0f/s each. What is left carries\n"
+		   "HEIGHT_QUADs; a full refresh of the 64 x 64 reference grid is %d quads.\n\n",
+		HB_HZ, SCENE_HZ, INFO_HZ, OBJ_HZ, GRID_QUADS);
 	fprintf(o, "- Classic CAN: %u bits per 8-byte frame and %u per 7-byte frame, worst-case bit\n"
 		   "  stuffing (47 + 8n + floor((33 + 8n) / 4)).\n",
 		can_bits(8), can_bits(7));
@@ -138,7 +139,7 @@ static void bus_load(FILE *o)
 		USB_PACKETS_PER_MS,
 		SWELL_PKT_OVERHEAD + 3u + msg_len(SWELL_MSG_DEVICE_POS) + msg_len(SWELL_MSG_DEVICE_VEL) +
 			msg_len(SWELL_MSG_DEVICE_FORCE),
-		(unsigned)(HB_HZ + SCENE_HZ + OBJ_HZ),
+		(unsigned)(HB_HZ + SCENE_HZ + INFO_HZ + OBJ_HZ),
 		(SWELL_PKT_MAX - SWELL_PKT_OVERHEAD) / (1u + msg_len(SWELL_MSG_HEIGHT_QUAD)));
 	fprintf(o, "- UDP on loopback: bounded by the host CPU, not budgeted.\n\n");
 	fprintf(o, "| carrier | haptic rate | device traffic | control load | left for heights | "
@@ -155,15 +156,15 @@ static void bus_load(FILE *o)
 			if (!r->minimal)
 				tick += can_bits(msg_len(SWELL_MSG_DEVICE_VEL)) +
 					can_bits(msg_len(SWELL_MSG_DEVICE_FORCE));
-			busy_s = (tick * r->rate + can_bits(8) * (HB_HZ + SCENE_HZ + 2 * OBJ_HZ)) / 1e6;
+			busy_s = (tick * r->rate + can_bits(8) * (HB_HZ + SCENE_HZ + INFO_HZ + 2 * OBJ_HZ)) / 1e6;
 			quad_s_each = can_bits(msg_len(SWELL_MSG_HEIGHT_QUAD)) / 1e6;
 		} else if (r->carrier[0] == 'C') {
 			double tick = 2 * canfd_us(8, 1e6, 2e6) + 2 * canfd_us(8, 1e6, 2e6); /* 7 bytes -> 8 */
-			busy_s = (tick * r->rate + canfd_us(8, 1e6, 2e6) * (HB_HZ + SCENE_HZ + 2 * OBJ_HZ)) / 1e6;
+			busy_s = (tick * r->rate + canfd_us(8, 1e6, 2e6) * (HB_HZ + SCENE_HZ + INFO_HZ + 2 * OBJ_HZ)) / 1e6;
 			quad_s_each = canfd_us(64, 1e6, 2e6) / 8.0 / 1e6;
 		} else {
 			double per_s = USB_PACKETS_PER_MS * 1000.0;
-			busy_s = (2.0 * r->rate + HB_HZ + SCENE_HZ + OBJ_HZ) / per_s;
+			busy_s = (2.0 * r->rate + HB_HZ + SCENE_HZ + INFO_HZ + OBJ_HZ) / per_s;
 			quad_s_each = 1.0 / per_s / ((SWELL_PKT_MAX - SWELL_PKT_OVERHEAD) /
 						     (1u + msg_len(SWELL_MSG_HEIGHT_QUAD)));
 		}

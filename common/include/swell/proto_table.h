@@ -57,6 +57,8 @@
 	  "Scene description, 1 Hz and on change, so that a viewer can join late.")                \
 	M(OBJECT_POSE, object_pose, 0x21, 8, CTL, VIEW, "Floating object pose and submersion, viewer rate.") \
 	M(OBJECT_FORCE, object_force, 0x22, 8, CTL, VIEW, "Force the force law commands, viewer rate.") \
+	M(CTL_INFO, ctl_info, 0x23, 8, CTL, VIEW,                                                  \
+	  "Firmware version and object size, 1 Hz and on change, so that a viewer or flasher can join late.") \
 	M(HEIGHT_QUAD, height_quad, 0x30, 8, CTL, VIEW,                                            \
 	  "Four heights of one tile row; a changed tile is sent as its 16 quads. Lowest priority.")
 
@@ -141,6 +143,14 @@
 	F(m, fz_cN, int16_t, 32, 16, -25000, 25000, PLAIN, "0.01", "N", "force law output z (up)") \
 	F(m, seq, uint8_t, 48, 8, 0, 255, SEQ, "1", "", "sequence number, same as OBJECT_POSE")    \
 	F(m, limits, uint8_t, 56, 2, 0, 3, PLAIN, "1", "", "bit 0 |F| clamped, bit 1 dF/dt limited")
+
+#define SWELL_PROTO_FIELDS_ctl_info(F, m)                                                          \
+	F(m, fw_major, uint8_t, 0, 8, 0, 255, PLAIN, "1", "", "firmware version, major")           \
+	F(m, fw_minor, uint8_t, 8, 8, 0, 255, PLAIN, "1", "", "firmware version, minor")           \
+	F(m, fw_patch, uint8_t, 16, 8, 0, 255, PLAIN, "1", "", "firmware version, patch")          \
+	F(m, obj_a_100um, uint16_t, 24, 13, 1, 8191, PLAIN, "0.1", "mm", "object footprint along x (saturated)") \
+	F(m, obj_b_100um, uint16_t, 37, 13, 1, 8191, PLAIN, "0.1", "mm", "object footprint along y (saturated)") \
+	F(m, obj_h_100um, uint16_t, 50, 13, 1, 8191, PLAIN, "0.1", "mm", "object height (saturated)")
 
 #define SWELL_PROTO_FIELDS_height_quad(F, m)                                                       \
 	F(m, tile_x, uint8_t, 0, 5, 0, 31, PLAIN, "1", "", "tile column")                          \
