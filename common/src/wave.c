@@ -5,6 +5,14 @@
 
 #include "swell/crc.h"
 
+/* A controller image may fix the grid's width at compile time (SWELL_WAVE_FIXED_NX): the row above
+ * is then at a constant offset, which frees registers in the M4 kernel. Other widths are refused. */
+#ifdef SWELL_WAVE_FIXED_NX
+#define WAVE_NX(w) SWELL_WAVE_FIXED_NX
+#else
+#define WAVE_NX(w) ((w)->nx)
+#endif
+
 /* Tile flags. Z1: every flow of the tile's edges was zero after the last finished step. ZERO: after
  * the last two (then the increments e w dh are zero after damping too, not just cancelling an old
  * flow). NONZERO: some edge gave a non-zero flow in the step in progress. CHANGED: a cell of the tile
@@ -125,6 +133,10 @@ enum swell_err swell_wave_init(struct swell_wave *w, uint16_t nx, uint16_t ny, i
 	if (nx < SWELL_WAVE_MIN_SIDE || ny < SWELL_WAVE_MIN_SIDE || nx > SWELL_WAVE_MAX_SIDE ||
 	    ny > SWELL_WAVE_MAX_SIDE || words < SWELL_WAVE_WORDS(nx, ny))
 		return SWELL_ESIZE;
+#ifdef SWELL_WAVE_FIXED_NX
+	if (nx != SWELL_WAVE_FIXED_NX)
+		return SWELL_ESIZE;
+#endif
 	err = swell_wave_check(p);
 	if (err != SWELL_OK)
 		return err;
@@ -317,121 +329,132 @@ static inline int32_t flow_dsp(int32_t f, int32_t dh, int32_t c, int32_t q, int 
  * negative of its west neighbour's E flow to the cell's accumulator, and finishes the accumulator
  * of the cell above-left (its N flow, the NE flow from its left and the NW flow from its right, kept
  * in registers). Whatever crosses the segment's ends (the last E and NE flows, the first NW flow) is
- * scattered there, as the reference does. mode 0: flow_ref; 1, 2: flow_dsp (c times 4, dh times 4). */
-struct fused_row {
-	const int32_t *h, *hu;
-	int32_t *v, *vu, *fb;
-	int32_t q, any, fe_prev, fne_prev, up;
-	uint32_t sat;
-};
-
-static inline __attribute__((always_inline)) void
-fused_cell(struct fused_row *r, int i, int k, int32_t ce, int32_t cn, int32_t ch, int has_e, int has_ne,
-	   int has_nw, int damp, int mode)
-{
-	const int32_t ha = r->h[i];
-	int32_t fe = 0, fn, fne = 0, fnw = 0;
-
-#define WAVE_FLOW(old, dh, c)                                                                      \
-	(mode == 0 ? flow_ref(old, dh, c, r->q, damp, &r->sat) : WAVE_FLOW_DSP(old, dh, c))
-#if WAVE_DSP
-#define WAVE_FLOW_DSP(old, dh, c) flow_dsp(old, dh, c, r->q, damp, mode == 1)
-#else
-#define WAVE_FLOW_DSP(old, dh, c) 0
-#endif
-	if (has_e)
-		r->fb[FE + k] = fe = WAVE_FLOW(r->fb[FE + k], r->h[i + 1] - ha, ce);
-	r->fb[FN + k] = fn = WAVE_FLOW(r->fb[FN + k], r->hu[i] - ha, cn);
-	if (has_ne)
-		r->fb[FNE + k] = fne = WAVE_FLOW(r->fb[FNE + k], r->hu[i + 1] - ha, ch);
-	if (has_nw) {
-		r->fb[FNW + k] = fnw = WAVE_FLOW(r->fb[FNW + k], r->hu[i - 1] - ha, ch);
-		r->vu[i - 1] -= r->up + fnw;
-	}
-#undef WAVE_FLOW
-#undef WAVE_FLOW_DSP
-	r->any |= fe | fn | fne | fnw;
-	r->v[i] += fe + fn + fne + fnw - r->fe_prev;
-	r->up = fn + r->fne_prev;
-	r->fne_prev = fne;
-	r->fe_prev = fe;
-}
-
+ * scattered there, as the reference does. Heights are carried from cell to cell: two loads a cell.
+ * mode 0: flow_ref; 1, 2: flow_dsp (c times 4, dh times 4). */
 static inline __attribute__((always_inline)) int32_t segment_fused(struct swell_wave *w, int j, int i0,
-								   int i1, int damp, int mode)
+								   int i1, int damp, int mode, int inner)
 {
-	const int nx = w->nx, sh = mode == 1 ? 2 : 0;
+	/* inner: a whole tile row away from every wall (i0 > 0, i1 = i0 + 8 < nx, 0 < j < ny - 1), the
+	 * common case, unrolled with constant offsets */
+	const int nx = WAVE_NX(w), n = inner ? SWELL_WAVE_TILE : i1 - i0, sh = mode == 1 ? 2 : 0;
 	const int32_t c1 = w->c_1 << sh, ch = w->c_half << sh, cw = w->c_wall << sh;
-	const int32_t ce = (j == 0 || j == w->ny - 1) ? cw : c1;
-	struct fused_row r;
-	int i = i0, k;
+	const int32_t ce = (!inner && (j == 0 || j == w->ny - 1)) ? cw : c1, q = w->q;
+	const int32_t *restrict h = w->h + j * nx + i0;
+	int32_t *restrict v = w->acc + j * nx + i0;
+	int32_t *restrict fb = flows_at(w, i0, j);
+	int32_t any = 0, fe = 0, fe_prev = 0, fn, fne, fnw, fne_prev = 0, up = 0;
+	int32_t ha = h[0], hr, hul, huc, hur;
+	uint32_t sat = 0;
+	int k = 0;
 
-	r.h = w->h + j * nx;
-	r.hu = r.h + nx;
-	r.v = w->acc + j * nx;
-	r.vu = r.v + nx;
-	r.fb = flows_at(w, i0, j) - i0 % SWELL_WAVE_TILE;
-	r.q = w->q;
-	r.any = r.fe_prev = r.fne_prev = r.up = 0;
-	r.sat = 0;
 #if WAVE_DSP
+#define WAVE_FLOW(old, dh, c)                                                                      \
+	(mode == 0 ? flow_ref(old, dh, c, q, damp, &sat) : flow_dsp(old, dh, c, q, damp, mode == 1))
 	if (mode)
 		__set_saturation_occurred(0);
-#endif
-	if (j + 1 >= w->ny) { /* the top row: E edges only */
-		for (k = 0; i < i1; i++, k++) {
-			int32_t fe = 0;
-
-			if (i + 1 < nx) {
-				fe = mode == 0 ? flow_ref(r.fb[FE + k], r.h[i + 1] - r.h[i], ce, r.q, damp, &r.sat)
-#if WAVE_DSP
-					       : flow_dsp(r.fb[FE + k], r.h[i + 1] - r.h[i], ce, r.q, damp, mode == 1);
 #else
-					       : 0;
+#define WAVE_FLOW(old, dh, c) flow_ref(old, dh, c, q, damp, &sat)
 #endif
-				r.fb[FE + k] = fe;
+	if (!inner && j + 1 >= w->ny) { /* the top row: E edges only */
+		for (; k < n; k++) {
+			fe = 0;
+			if (i0 + k + 1 < nx) {
+				hr = h[k + 1];
+				fb[FE + k] = fe = WAVE_FLOW(fb[FE + k], hr - ha, ce);
+				ha = hr;
 			}
-			r.any |= fe;
-			r.v[i] += fe - r.fe_prev;
-			r.fe_prev = fe;
+			any |= fe;
+			v[k] += fe - fe_prev;
+			fe_prev = fe;
 		}
 	} else {
-		const int end = i1 == nx ? nx - 1 : i1;
+		const int end = !inner && i1 == nx ? n - 1 : n;
 
-		k = 0;
-		if (i == 0) /* the west wall: N along it, NE, no NW */
-			fused_cell(&r, i++, k++, ce, cw, ch, 1, 1, 0, damp, mode);
-		for (; i < end; i++, k++)
-			fused_cell(&r, i, k, ce, c1, ch, 1, 1, 1, damp, mode);
-		if (i1 == nx) /* the east wall: N along it, NW, no E, no NE */
-			fused_cell(&r, i++, k, ce, cw, ch, 0, 0, 1, damp, mode);
-		r.vu[i1 - 1] -= r.up;
-		if (i1 < nx)
-			r.vu[i1] -= r.fne_prev;
+		huc = h[nx];
+		hul = inner || i0 > 0 ? h[nx - 1] : 0;
+		if (!inner && i0 == 0) { /* the west wall: N along it, NE, no NW */
+			hr = h[1];
+			hur = h[nx + 1];
+			fb[FE] = fe = WAVE_FLOW(fb[FE], hr - ha, ce);
+			fb[FN] = fn = WAVE_FLOW(fb[FN], huc - ha, cw);
+			fb[FNE] = fne = WAVE_FLOW(fb[FNE], hur - ha, ch);
+			any |= fe | fn | fne;
+			v[0] += fe + fn + fne;
+			up = fn;
+			fne_prev = fne;
+			fe_prev = fe;
+			ha = hr;
+			hul = huc;
+			huc = hur;
+			k = 1;
+		}
+#pragma GCC unroll 8
+		for (; k < end; k++) {
+			hr = h[k + 1];
+			hur = h[nx + k + 1];
+			fb[FE + k] = fe = WAVE_FLOW(fb[FE + k], hr - ha, ce);
+			fb[FN + k] = fn = WAVE_FLOW(fb[FN + k], huc - ha, c1);
+			fb[FNE + k] = fne = WAVE_FLOW(fb[FNE + k], hur - ha, ch);
+			fb[FNW + k] = fnw = WAVE_FLOW(fb[FNW + k], hul - ha, ch);
+			any |= fe | fn | fne | fnw;
+			v[nx + k - 1] -= up + fnw;
+			v[k] += fe + fn + fne + fnw - fe_prev;
+			up = fn + fne_prev;
+			fne_prev = fne;
+			fe_prev = fe;
+			ha = hr;
+			hul = huc;
+			huc = hur;
+		}
+		if (!inner && i1 == nx) { /* the east wall: N along it, NW, no E, no NE */
+			fb[FN + k] = fn = WAVE_FLOW(fb[FN + k], huc - ha, cw);
+			fb[FNW + k] = fnw = WAVE_FLOW(fb[FNW + k], hul - ha, ch);
+			any |= fn | fnw;
+			v[nx + k - 1] -= up + fnw;
+			v[k] += fn + fnw - fe_prev;
+			up = fn + fne_prev;
+			fne_prev = fe_prev = 0;
+		}
+		v[nx + n - 1] -= up;
+		if (inner || i1 < nx)
+			v[nx + n] -= fne_prev;
 	}
-	if (i1 < nx)
-		r.v[i1] -= r.fe_prev;
+#undef WAVE_FLOW
+	if (inner || i1 < nx)
+		v[n] -= fe_prev;
 #if WAVE_DSP
 	if (mode)
-		r.sat = (uint32_t)__saturation_occurred();
+		sat = (uint32_t)__saturation_occurred();
 #endif
-	w->saturations += r.sat;
-	return r.any;
+	w->saturations += sat;
+	return any;
+}
+
+static inline int segment_inner(const struct swell_wave *w, int j, int i0, int i1)
+{
+	return i0 > 0 && i1 == i0 + SWELL_WAVE_TILE && i1 < WAVE_NX(w) && j > 0 && j + 1 < w->ny;
 }
 
 #if !WAVE_DSP
 static int32_t segment_fused_c(struct swell_wave *w, int j, int i0, int i1, int damp)
 {
-	return damp ? segment_fused(w, j, i0, i1, 1, 0) : segment_fused(w, j, i0, i1, 0, 0);
+	if (segment_inner(w, j, i0, i1))
+		return damp ? segment_fused(w, j, i0, i1, 1, 0, 1) : segment_fused(w, j, i0, i1, 0, 0, 1);
+	return damp ? segment_fused(w, j, i0, i1, 1, 0, 0) : segment_fused(w, j, i0, i1, 0, 0, 0);
 }
 #endif
 
 #if WAVE_DSP
 static int32_t segment_fused_dsp(struct swell_wave *w, int j, int i0, int i1, int damp)
 {
-	if (w->c_wall < ((int32_t)1 << 29)) /* 4 c fits int32: no multiply of dh */
-		return damp ? segment_fused(w, j, i0, i1, 1, 1) : segment_fused(w, j, i0, i1, 0, 1);
-	return damp ? segment_fused(w, j, i0, i1, 1, 2) : segment_fused(w, j, i0, i1, 0, 2);
+	const int inner = segment_inner(w, j, i0, i1);
+
+	if (w->c_wall < ((int32_t)1 << 29)) { /* 4 c fits int32: no multiply of dh */
+		if (inner)
+			return damp ? segment_fused(w, j, i0, i1, 1, 1, 1) : segment_fused(w, j, i0, i1, 0, 1, 1);
+		return damp ? segment_fused(w, j, i0, i1, 1, 1, 0) : segment_fused(w, j, i0, i1, 0, 1, 0);
+	}
+	return damp ? segment_fused(w, j, i0, i1, 1, 2, 0) : segment_fused(w, j, i0, i1, 0, 2, 0);
 }
 #endif
 
@@ -681,23 +704,31 @@ int swell_wave_step_rows(struct swell_wave *w, int rows)
 	return w->ny - end;
 }
 
-/* h += acc over a tile row; returns non-zero if any cell changed. */
-static inline int32_t add_acc(int32_t *restrict h, const int32_t *restrict acc, int len, uint32_t *sat)
+/* One tile row of the finish: h += acc (add), and the old v cleared (clear); returns non-zero if any
+ * cell changed. With len a constant 8 the compiler unrolls it. */
+static inline __attribute__((always_inline)) int32_t finish_seg(int32_t *restrict h, const int32_t *restrict acc,
+								 int32_t *restrict v, int len, int add, int clear,
+								 uint32_t *sat)
 {
 	int32_t any = 0;
 	int a;
 
+#pragma GCC unroll 8
 	for (a = 0; a < len; a++) {
-		const int32_t d = acc[a];
+		if (add) {
+			const int32_t d = acc[a];
 
-		any |= d;
-		/* |h| <= 2^27, |acc| <= 2^29 + 8 2^27: no overflow */
+			any |= d;
+			/* |h| <= 2^27, |acc| <= 2^29 + 8 2^27: no overflow */
 #if WAVE_DSP
-		(void)sat;
-		h[a] = __ssat(h[a] + d, 28);
+			(void)sat;
+			h[a] = __ssat(h[a] + d, 28);
 #else
-		h[a] = sat28(h[a] + d, sat);
+			h[a] = sat28(h[a] + d, sat);
 #endif
+		}
+		if (clear)
+			v[a] = 0;
 	}
 	return any;
 }
@@ -726,13 +757,24 @@ void swell_wave_step_finish(struct swell_wave *w)
 		__set_saturation_occurred(0);
 #endif
 		for (tx = 0; tx < w->tiles_x; tx++) {
-			const int i0 = tx * SWELL_WAVE_TILE;
-			const int len = i0 + SWELL_WAVE_TILE < nx ? SWELL_WAVE_TILE : nx - i0;
+			const int i0 = tx * SWELL_WAVE_TILE, f = all ? T_DIRTY | T_DIRTY_PREV : trow[tx];
+			int32_t any;
 
-			if ((all || (trow[tx] & T_DIRTY)) && add_acc(h + i0, acc + i0, len, &sat))
+			if (i0 + SWELL_WAVE_TILE <= nx) {
+				if ((f & T_DIRTY) && (f & T_DIRTY_PREV))
+					any = finish_seg(h + i0, acc + i0, v + i0, SWELL_WAVE_TILE, 1, 1, &sat);
+				else if (f & T_DIRTY)
+					any = finish_seg(h + i0, acc + i0, v + i0, SWELL_WAVE_TILE, 1, 0, &sat);
+				else if (f & T_DIRTY_PREV)
+					any = finish_seg(h + i0, acc + i0, v + i0, SWELL_WAVE_TILE, 0, 1, &sat);
+				else
+					continue;
+			} else {
+				any = finish_seg(h + i0, acc + i0, v + i0, nx - i0, (f & T_DIRTY) != 0,
+						 (f & T_DIRTY_PREV) != 0, &sat);
+			}
+			if (any)
 				trow[tx] |= T_TOUCHED;
-			if (all || (trow[tx] & T_DIRTY_PREV))
-				memset(v + i0, 0, (size_t)len * sizeof(int32_t));
 		}
 #if WAVE_DSP
 		sat = (uint32_t)__saturation_occurred();
