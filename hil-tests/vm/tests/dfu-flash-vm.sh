@@ -1,0 +1,79 @@
+#!/bin/busybox sh
+# dfu-flash-vm.sh: runs inside the HIL VM (run-vm --usb none; see dfu-flash). swell-flash flashes the
+# emulated STM32F405 DFU bootloader (swell-vm-dfuse, vm-dfu-gadget) with the real dfu-util, and this
+# script checks, independently of swell-flash, what the target stored.
+# Usage: sh dfu-flash-vm.sh BIN ELF RUNS
+#   1. a corrupted BIN is refused by swell-flash (exit 2) before dfu-util runs: the target logs no
+#      DFU request and its flash stays erased;
+#   2. RUNS times the BIN, then once the ELF, each on a fresh erased target: swell-flash --backend dfu
+#      exits 0 with "verify ok", the target leaves DFU (0483:df11 gone, start at 0x08000000), its
+#      flash file equals the BIN byte for byte over the BIN's length and is 0xFF after it.
+# Prints one "figure:" line per run (step times from swell-flash, bytes/s) and "dfu-flash: N failed".
+bin=$1 elf=$2 runs=${3:-1}
+flash=/tmp/dfu-flash.bin log=/tmp/dfuse.log
+fails=0
+fail() { echo "FAIL: $*"; fails=$((fails + 1)); }
+len=$(wc -c <"$bin")
+erased_after() { # erased_after FILE OFFSET: number of bytes after OFFSET that are not 0xFF
+	tail -c +$(($2 + 1)) "$1" | tr -d '\377' | wc -c
+}
+target_up() {
+	rm -f "$flash" "$log"
+	vm-dfu-gadget up --flash "$flash" --log "$log" || { fail "the DFU target did not come up"; return 1; }
+}
+show_log() { echo "--- target log (last 15 lines):"; tail -n 15 "$log"; echo "---"; }
+
+# 1. A corrupted image: one byte flipped after the header, so only the CRC-32 tells.
+target_up || exit 1
+cp "$bin" /tmp/bad.bin
+b=$(dd if="$bin" bs=1 skip=1024 count=1 2>/dev/null | od -An -tu1 | tr -d ' ')
+printf "\\$(printf %o $((b ^ 0x5A)))" | dd of=/tmp/bad.bin bs=1 seek=1024 conv=notrunc 2>/dev/null
+cmp -s "$bin" /tmp/bad.bin && fail "could not corrupt the copy"
+swell-flash /tmp/bad.bin --backend dfu >/tmp/out 2>&1
+rc=$?
+cat /tmp/out
+[ $rc -eq 2 ] || fail "corrupted image: swell-flash exit $rc, expected 2"
+grep -q 'corrupted' /tmp/out || fail "corrupted image: no 'corrupted' reason"
+n=$(grep -c '^dfu ' "$log")
+[ "$n" -eq 0 ] || { fail "corrupted image: the target saw $n DFU requests, expected none"; show_log; }
+[ "$(erased_after "$flash" 0)" -eq 0 ] || fail "corrupted image: the flash is no longer erased"
+echo "check: corrupted image refused by swell-flash (exit $rc), target saw $n DFU requests, flash erased"
+vm-dfu-gadget down || fail "vm-dfu-gadget down"
+
+# 2. Real flashing: the BIN RUNS times, then the ELF.
+i=0
+for img in $(seq 1 "$runs" | sed "s|.*|$bin|") "$elf"; do
+	i=$((i + 1))
+	kind=BIN
+	case "$img" in *.elf) kind=ELF ;; esac
+	target_up || break
+	swell-flash "$img" --backend dfu >/tmp/out 2>&1
+	rc=$?
+	cat /tmp/out
+	if [ $rc -ne 0 ]; then
+		fail "run $i ($kind): swell-flash exit $rc"; show_log; vm-dfu-gadget down; continue
+	fi
+	grep -q "verify ok: $len bytes" /tmp/out || fail "run $i ($kind): no 'verify ok: $len bytes' from swell-flash"
+	vm-dfu-gadget wait-gone 5 || fail "run $i ($kind): the target did not leave DFU"
+	grep -q 'left DFU: disconnected, the image starts at 0x08000000' "$log" ||
+		{ fail "run $i ($kind): the target log has no leave to 0x08000000"; show_log; }
+	# Independent of swell-flash: what the target stored.
+	if cmp -n "$len" "$bin" "$flash" >/tmp/cmp 2>&1; then
+		echo "check: run $i ($kind): flash file equals swell-fw.bin over $len bytes"
+	else
+		fail "run $i ($kind): flash file differs from swell-fw.bin: $(cat /tmp/cmp)"
+	fi
+	nff=$(erased_after "$flash" "$len")
+	[ "$nff" -eq 0 ] || fail "run $i ($kind): $nff bytes after the image are not erased (0xFF)"
+	refused=$(sed -n 's/.* \([0-9]*\) refused$/\1/p' "$log")
+	[ "$refused" = 0 ] || fail "run $i ($kind): the target refused $refused requests"
+	grep 'summary:' "$log" | sed "s/^usb *[0-9.]* /target: run $i ($kind): /"
+	awk -v run="$i" -v kind="$kind" -v len="$len" '
+		/\[1\/3\] done in/ { w = $(NF-1) } /\[2\/3\] done in/ { r = $(NF-1) } /\[3\/3\] done in/ { l = $(NF-1) }
+		/verify ok/ { v = "ok" } /flashed .* bytes in/ { t = $(NF-1) }
+		END { printf "figure: run %d %s: %d bytes, download %.3f s (%.0f B/s), upload %.3f s (%.0f B/s), leave %.3f s, total %.3f s, verify %s\n",
+		      run, kind, len, w, len / w, r, len / r, l, t, v }' /tmp/out
+	vm-dfu-gadget down || fail "vm-dfu-gadget down"
+done
+echo "dfu-flash: $fails failed"
+[ $fails -eq 0 ]
