@@ -8,12 +8,15 @@
 #include "../logic/scene.h"
 
 static const char usage[] =
-	"usage: swell-fw-scene [--steps N] [--core TICKS]\n"
+	"usage: swell-fw-scene [--steps N] [--core TICKS] [--cost]\n"
 	"Runs the STM32F405 self-test scene on the host: 64x64 pool, dx 6.25 mm, depth 50 mm,\n"
 	"dt 4 ms, paper stencil, no damping, Gaussian 2 mm sigma 3 cells at (32,32); N solver steps\n"
 	"(default 200). Prints the state checksum (CRC-32 of heights and flows) and the volume.\n"
 	"--core TICKS: also run the controller core on that scene at 2500 Hz for TICKS ticks with the\n"
-	"self-test's scripted device, and print its checksum (FORCE_CMD payloads, then the water).\n";
+	"self-test's scripted device, and print its checksum (FORCE_CMD payloads, then the water).\n"
+	"--cost: also run the three cost scenes (calm, local, agitated; damped, 40 steps) and print\n"
+	"each one's checksum, as the image's self-test does.\n"
+	"--kernel ref|fused|avx2: the solver kernel (default: the fastest; all are bit-identical).\n";
 
 int main(int argc, char **argv)
 {
@@ -23,7 +26,8 @@ int main(int argc, char **argv)
 	struct swell_wave w;
 	unsigned long steps = 200, n, core_ticks = 0;
 	enum swell_err err;
-	int i;
+	enum swell_wave_kernel kernel = SWELL_KERNEL_AUTO;
+	int i, cost = 0;
 
 	for (i = 1; i < argc; i++) {
 		if (!strcmp(argv[i], "-h") || !strcmp(argv[i], "--help")) {
@@ -47,6 +51,18 @@ int main(int argc, char **argv)
 					argv[i]);
 				return 2;
 			}
+		} else if (!strcmp(argv[i], "--cost")) {
+			cost = 1;
+		} else if (!strcmp(argv[i], "--kernel") && i + 1 < argc) {
+			i++;
+			for (kernel = SWELL_KERNEL_REF; kernel <= SWELL_KERNEL_AVX2; kernel++)
+				if (!strcmp(argv[i], swell_wave_kernel_name(kernel)) ||
+				    (kernel == SWELL_KERNEL_FUSED && !strcmp(argv[i], "fused")))
+					break;
+			if (kernel > SWELL_KERNEL_AVX2) {
+				fprintf(stderr, "swell-fw-scene: --kernel '%s' is not ref, fused or avx2\n", argv[i]);
+				return 2;
+			}
 		} else {
 			fprintf(stderr, "swell-fw-scene: unknown argument '%s' (see --help)\n", argv[i]);
 			return 2;
@@ -57,12 +73,29 @@ int main(int argc, char **argv)
 		fprintf(stderr, "swell-fw-scene: scene refused: %s\n", swell_err_str(err));
 		return 1;
 	}
+	if (swell_wave_set_kernel(&w, kernel) != SWELL_OK) {
+		fprintf(stderr, "swell-fw-scene: kernel %s is not available here\n", swell_wave_kernel_name(kernel));
+		return 2;
+	}
 	for (n = 0; n < steps; n++)
 		swell_wave_step(&w);
+	printf("kernel %s\n", swell_wave_kernel_name((enum swell_wave_kernel)w.kernel));
 	printf("steps %lu\n", steps);
 	printf("e 0x%08x (Q1.30)\n", (unsigned)w.p.e);
 	printf("checksum 0x%08x\n", (unsigned)swell_wave_checksum(&w));
 	printf("volume %lld LSB (2^-16 mm per cell)\n", (long long)swell_wave_volume(&w));
+	for (i = 0; cost && i < FW_COST_SCENES; i++) {
+		err = fw_cost_scene_init(&w, storage, FW_SCENE_WORDS, (enum fw_cost_scene)i);
+		if (err == SWELL_OK)
+			err = swell_wave_set_kernel(&w, kernel);
+		if (err != SWELL_OK) {
+			fprintf(stderr, "swell-fw-scene: cost scene refused: %s\n", swell_err_str(err));
+			return 1;
+		}
+		for (n = 0; n < FW_COST_STEPS; n++)
+			swell_wave_step(&w);
+		printf("cost scene %s checksum 0x%08x\n", fw_cost_scene_name[i], (unsigned)swell_wave_checksum(&w));
+	}
 	if (core_ticks) {
 		struct fw_core_run r;
 

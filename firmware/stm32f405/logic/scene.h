@@ -23,4 +23,16 @@
 /* Bind storage (FW_SCENE_WORDS words) and set the initial field. */
 enum swell_err fw_scene_init(struct swell_wave *w, int32_t *storage, size_t words);
 
+/* The three cost scenes of issue 10, on the same pool with damping t = 0.001 (the demo's), so that
+ * the damped kernel runs: CALM, the water at rest; LOCAL, one 2 mm splash of sigma 2 cells at
+ * (12, 12), FW_COST_STEPS steps from its start; AGITATED, every cell random in [-2, 2] mm (a fixed
+ * integer generator). */
+enum fw_cost_scene { FW_COST_CALM, FW_COST_LOCAL, FW_COST_AGITATED, FW_COST_SCENES };
+#define FW_COST_STEPS 40u
+#define FW_COST_DAMPING 1073742 /* t = 0.001 in Q1.30 */
+
+extern const char *const fw_cost_scene_name[FW_COST_SCENES];
+
+enum swell_err fw_cost_scene_init(struct swell_wave *w, int32_t *storage, size_t words, enum fw_cost_scene s);
+
 #endif

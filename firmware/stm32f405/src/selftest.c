@@ -157,6 +157,44 @@ static int run_scene(void)
 	return 1;
 }
 
+/* The cost scenes of issue 10 (logic/scene.h): instructions per cell-step over the whole grid and per
+ * awake cell-step (tile rows not skipped), and the checksum the host compares. */
+static int run_cost(void)
+{
+	uint32_t k, n;
+
+	for (k = 0; k < FW_COST_SCENES; k++) {
+		uint64_t t0, sum = 0, rows, awake;
+
+		if (fw_cost_scene_init(&wave, wave_storage, FW_SCENE_WORDS, (enum fw_cost_scene)k) != SWELL_OK)
+			return 0;
+		for (n = 0; n < FW_COST_STEPS; n++) {
+			t0 = timebase_systick();
+			swell_wave_step(&wave);
+			sum += timebase_systick() - t0;
+		}
+		rows = (uint64_t)FW_COST_STEPS * FW_SCENE_NY * wave.tiles_x; /* tile rows, 8 cells each */
+		awake = rows - wave.tiles_skipped;
+		con_puts("cost scene ");
+		con_puts(fw_cost_scene_name[k]);
+		con_puts(": ");
+		put_insn(sum, (uint64_t)FW_COST_STEPS * FW_SCENE_NX * FW_SCENE_NY);
+		con_puts(" instructions per cell-step, ");
+		if (awake)
+			put_insn(sum, awake * SWELL_WAVE_TILE);
+		else
+			con_puts("-");
+		con_puts(" per awake cell-step, awake ");
+		con_put_ratio(awake * 100u, rows, 1);
+		con_puts(" % (damped t = 0.001, 64x64, ");
+		con_put_u32(FW_COST_STEPS);
+		con_puts(" steps) checksum 0x");
+		con_put_hex32(swell_wave_checksum(&wave));
+		con_putc('\n');
+	}
+	return 1;
+}
+
 static void run_naive(void)
 {
 	uint64_t t0, sum = 0;
@@ -290,6 +328,7 @@ int selftest_run(uint32_t tim_clk_hz)
 	ok &= run_scene();
 	ok &= run_split(2500, 250); /* HapticMaster servo rate */
 	ok &= run_split(1000, 250); /* classic CAN */
+	ok &= run_cost();
 	run_naive();
 	ok &= run_tick(tim_clk_hz);
 	ok &= loopback_selftest();

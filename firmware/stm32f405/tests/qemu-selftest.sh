@@ -14,6 +14,16 @@ target=$(sed -n 's/^checksum \(0x[0-9a-f]*\).*/\1/p' "$out")
 host=$("$scene" --steps "$steps" | sed -n 's/^checksum \(0x[0-9a-f]*\).*/\1/p')
 echo "qemu-selftest: $steps steps: target checksum $target, host checksum $host"
 [ -n "$target" ] && [ "$target" = "$host" ] || { echo "qemu-selftest: FAIL: checksums differ"; exit 1; }
+# the scalar reference kernel on the host gives the same bits as the image's M4 kernel
+ref=$("$scene" --steps "$steps" --kernel ref | sed -n 's/^checksum \(0x[0-9a-f]*\).*/\1/p')
+echo "qemu-selftest: host scalar reference kernel checksum $ref"
+[ "$target" = "$ref" ] || { echo "qemu-selftest: FAIL: the reference kernel differs"; exit 1; }
+# the three cost scenes (damped: the M4's damped kernel), each against the host
+costs=$(grep '^cost scene ' "$out" | sed -n 's/^cost scene \([a-z]*\):.*checksum \(0x[0-9a-f]*\).*/\1 \2/p')
+[ "$(echo "$costs" | grep -c .)" = 3 ] || { echo "qemu-selftest: FAIL: the image printed $(echo "$costs" | grep -c .) cost scenes, want 3"; exit 1; }
+hcost=$("$scene" --steps 0 --cost --kernel ref | sed -n 's/^cost scene \([a-z]*\) checksum \(0x[0-9a-f]*\).*/\1 \2/p')
+echo "qemu-selftest: cost scenes, target: $(echo $costs); host (reference kernel): $(echo $hcost)"
+[ "$costs" = "$hcost" ] || { echo "qemu-selftest: FAIL: cost scene checksums differ"; exit 1; }
 ticks=$(sed -n 's/^core ticks \([0-9]*\).*/\1/p' "$out")
 if [ -n "$ticks" ]; then
 	tcore=$(sed -n 's/^core checksum \(0x[0-9a-f]*\).*/\1/p' "$out")
