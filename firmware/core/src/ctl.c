@@ -7,6 +7,7 @@
 
 #define HEARTBEAT_HZ 10u
 #define SCENE_HZ 1u
+#define INFO_HZ 1u
 #define POSE_HZ 100u
 #define QUAD_SCAN_PER_TICK 64u /* 256 cells compared a tick at most */
 #define NEVER_SENT INT16_MIN
@@ -160,6 +161,7 @@ enum swell_err swell_ctl_init(struct swell_ctl *c, const struct swell_ctl_config
 	c->fp_cells = (cfg->body.a_um / cfg->dx_um + 2) * (cfg->body.b_um / cfg->dx_um + 2);
 	c->since_dev = UINT32_MAX;
 	c->state = SWELL_CTL_BOOT;
+	c->info_pending = 1;
 	{
 		uint32_t geo[4] = {cfg->nx, cfg->ny, cfg->dx_um, cfg->depth_um};
 
@@ -205,6 +207,8 @@ static struct swell_msg msg(const struct swell_ctl *c, enum swell_msg_type type)
 	m.node = c->cfg.node;
 	return m;
 }
+
+static void send_heartbeat(struct swell_ctl *c);
 
 /* ---- parameters ---- */
 
@@ -311,8 +315,10 @@ static enum swell_err param_set(struct swell_ctl *c, uint16_t id, int32_t v)
 		err = swell_wave_set_params(&c->wave, &g.wave);
 	} else if (id >= SWELL_PARAM_BODY_MASS_G && id <= SWELL_PARAM_BODY_DAMPER) {
 		err = swell_body_set_params(&c->body, &g.body, &g.xform);
-		if (err == SWELL_OK)
+		if (err == SWELL_OK) {
 			c->fp_cells = (g.body.a_um / g.dx_um + 2) * (g.body.b_um / g.dx_um + 2);
+			c->info_pending |= id >= SWELL_PARAM_BODY_A_UM && id <= SWELL_PARAM_BODY_H_UM;
+		}
 	} else if (id >= SWELL_PARAM_FORCE_MAX_UN && id <= SWELL_PARAM_FORCE_GAIN) {
 		sp = safety_params(&g);
 		for (k = 0; k < 3 && err == SWELL_OK; k++)
@@ -375,6 +381,7 @@ void swell_ctl_rx(struct swell_ctl *c, enum swell_ctl_link from, const struct sw
 		}
 		swell_ctl_zero_force(c);
 		c->bootloader_request = 1;
+		send_heartbeat(c); /* the last word before the reboot: state and counters */
 		return;
 	default:
 		c->n.ignored++;
@@ -459,6 +466,29 @@ static void send_scene(struct swell_ctl *c)
 	m.u.scene.depth_10um = (uint16_t)(c->cfg.depth_um / 10);
 	m.u.scene.scene_id = c->scene_id;
 	push(c, SWELL_LINK_HOST, &m);
+}
+
+/* Size on the wire: 0.1 mm, rounded to nearest, saturated to the field's 1 .. 8191. */
+static uint16_t to_100um(uint32_t um)
+{
+	uint32_t v = (um + 50u) / 100u;
+
+	return (uint16_t)(v < 1u ? 1u : v > 8191u ? 8191u : v);
+}
+
+static void send_info(struct swell_ctl *c)
+{
+	struct swell_msg m = msg(c, SWELL_MSG_CTL_INFO);
+
+	m.u.ctl_info.fw_major = c->cfg.fw_version[0];
+	m.u.ctl_info.fw_minor = c->cfg.fw_version[1];
+	m.u.ctl_info.fw_patch = c->cfg.fw_version[2];
+	m.u.ctl_info.obj_a_100um = to_100um(c->cfg.body.a_um);
+	m.u.ctl_info.obj_b_100um = to_100um(c->cfg.body.b_um);
+	m.u.ctl_info.obj_h_100um = to_100um(c->cfg.body.h_um);
+	push(c, SWELL_LINK_HOST, &m);
+	c->info_pending = 0;
+	c->info_wait = period(c, INFO_HZ); /* the next one a second later, unless something changes */
 }
 
 static void send_pose(struct swell_ctl *c)
@@ -698,6 +728,12 @@ void swell_ctl_tick_background(struct swell_ctl *c)
 	}
 	if (budget && t % period(c, SCENE_HZ) == 1 % period(c, SCENE_HZ)) {
 		send_scene(c);
+		budget--;
+	}
+	if (c->info_wait)
+		c->info_wait--;
+	if (budget && (c->info_pending || c->info_wait == 0)) {
+		send_info(c);
 		budget--;
 	}
 	if (budget >= 2 && t % period(c, POSE_HZ) == 2 % period(c, POSE_HZ)) {

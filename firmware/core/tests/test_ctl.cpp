@@ -1,6 +1,7 @@
 /* The controller core: states, link supervision, parameters, bounded work, telemetry, determinism. */
 #include <catch2/catch.hpp>
 
+#include <cstdlib>
 #include <cstring>
 #include <vector>
 
@@ -380,4 +381,106 @@ TEST_CASE("the tick split into a force part and a background part gives the same
 	swell_ctl_tick_force(&split.c);
 	swell_ctl_tick_force(&split.c);
 	CHECK(split.c.n.overruns == 1u);
+}
+
+TEST_CASE("controller info: CTL_INFO at start and once a second with the firmware version and the object size; a new size goes out at once",
+	  "[ctl][telemetry]")
+{
+	swell_ctl_config cfg = pool();
+	cfg.fw_version[0] = 3;
+	cfg.fw_version[1] = 14;
+	cfg.fw_version[2] = 159;
+	cfg.body.a_um = 40040; /* 400.4 x 0.1 mm: rounds down */
+	cfg.body.b_um = 30050; /* 300.5: rounds up */
+	cfg.body.h_um = 20000;
+	Ctl k(cfg);
+	std::vector<int> at;
+	swell_msg_ctl_info last{};
+	for (int t = 0; t < 2 * 2500 + 10; t++) {
+		k.device(0, 0, 100000);
+		swell_ctl_tick(&k.c);
+		for (auto &m : k.drain(SWELL_LINK_HOST))
+			if (m.type == SWELL_MSG_CTL_INFO) {
+				at.push_back(t);
+				last = m.u.ctl_info;
+			}
+		k.drain(SWELL_LINK_DEVICE);
+	}
+	INFO("CTL_INFO sent at ticks " << (at.size() > 0 ? at[0] : -1) << ", " << (at.size() > 1 ? at[1] : -1)
+				       << ", " << (at.size() > 2 ? at[2] : -1) << " (" << at.size() << " in all)");
+	REQUIRE(at.size() == 3);
+	CHECK(at[0] == 0);       /* the first tick: a viewer that is already there learns it at once */
+	CHECK(at[1] - at[0] == 2500); /* then 1 Hz at 2500 Hz ticks */
+	CHECK(at[2] - at[1] == 2500);
+	CHECK(last.fw_major == 3);
+	CHECK(last.fw_minor == 14);
+	CHECK(last.fw_patch == 159);
+	CHECK(last.obj_a_100um == 400);
+	CHECK(last.obj_b_100um == 301);
+	CHECK(last.obj_h_100um == 200);
+
+	/* a new height by PARAM_SET: CTL_INFO on the next tick, not a second later */
+	k.param(SWELL_PARAM_BODY_H_UM, 30000);
+	int seen = -1;
+	for (int t = 0; t < 5 && seen < 0; t++) {
+		k.device(0, 0, 100000);
+		swell_ctl_tick(&k.c);
+		for (auto &m : k.drain(SWELL_LINK_HOST))
+			if (m.type == SWELL_MSG_CTL_INFO && seen < 0) {
+				seen = t;
+				last = m.u.ctl_info;
+			}
+		k.drain(SWELL_LINK_DEVICE);
+	}
+	CHECK(seen == 0);
+	CHECK(last.obj_h_100um == 300);
+	/* a refused size changes nothing and sends nothing new */
+	k.param(SWELL_PARAM_BODY_H_UM, 10); /* below the 1 mm minimum */
+	k.device(0, 0, 100000);
+	swell_ctl_tick(&k.c);
+	int infos = 0;
+	for (auto &m : k.drain(SWELL_LINK_HOST))
+		infos += m.type == SWELL_MSG_CTL_INFO;
+	CHECK(infos == 0);
+	CHECK(k.c.cfg.body.h_um == 30000u);
+}
+
+TEST_CASE("enter bootloader: refused while RUNNING; accepted otherwise with the force zeroed and a last heartbeat",
+	  "[ctl][boot]")
+{
+	swell_ctl_config cfg = pool();
+	cfg.autorun = 1;
+	Ctl k(cfg);
+	for (int t = 0; t < 3000; t++) { /* the object pressed into the water: a real force */
+		k.device(0, 0, -20000);
+		swell_ctl_tick(&k.c);
+		k.drain(SWELL_LINK_HOST);
+		k.drain(SWELL_LINK_DEVICE);
+	}
+	REQUIRE(k.c.state == SWELL_CTL_RUNNING);
+	REQUIRE(std::abs(k.c.force_dev_uN[2]) > 100000);
+	swell_msg req{};
+	req.type = SWELL_MSG_ENTER_BOOTLOADER;
+	req.u.enter_bootloader.key = SWELL_PROTO_BOOT_KEY;
+	uint32_t ignored = k.c.n.ignored;
+	swell_ctl_rx(&k.c, SWELL_LINK_HOST, &req);
+	CHECK(k.c.bootloader_request == 0);
+	CHECK(k.c.n.ignored == ignored + 1);
+	CHECK(k.drain(SWELL_LINK_HOST).empty()); /* nothing answered, nothing changed */
+
+	k.param(SWELL_PARAM_AUTORUN, 0); /* autorun off and no RUN command: RUNNING -> ARMED */
+	k.device(0, 0, -20000);
+	swell_ctl_tick(&k.c);
+	k.drain(SWELL_LINK_HOST);
+	k.drain(SWELL_LINK_DEVICE);
+	REQUIRE(k.c.state == SWELL_CTL_ARMED);
+	swell_ctl_rx(&k.c, SWELL_LINK_HOST, &req);
+	CHECK(k.c.bootloader_request == 1);
+	std::vector<swell_msg> dev = k.drain(SWELL_LINK_DEVICE), host = k.drain(SWELL_LINK_HOST);
+	REQUIRE(!dev.empty());
+	CHECK(dev[0].type == SWELL_MSG_FORCE_CMD);
+	CHECK(dev[0].u.force_cmd.enable == 0);
+	REQUIRE(host.size() == 1);
+	CHECK(host[0].type == SWELL_MSG_HEARTBEAT);
+	CHECK(host[0].u.heartbeat.state == SWELL_CTL_ARMED);
 }

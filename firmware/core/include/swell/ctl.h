@@ -11,7 +11,8 @@
  *      solver_hz ticks of a period: ticks 0 .. K-2 each do ceil(ny / (K-1)) rows of edges, tick K-1 does
  *      the finishing pass (h += acc). No tick carries a whole grid step.
  *   5. telemetry to the host link within its per-tick message budget: heartbeat (10 Hz, also to the
- *      device), scene (1 Hz), object pose and force (100 Hz), and the heights that changed since they
+ *      device), scene (1 Hz), controller info (CTL_INFO: firmware version and object size, 1 Hz and
+ *      on change), object pose and force (100 Hz), and the heights that changed since they
  *      were last sent: the grid is scanned round-robin in quads (4 cells of one tile row, one
  *      HEIGHT_QUAD message), a bounded number a tick, and only quads whose wire samples differ from
  *      what was last sent go out; a budget left over resends one quad of a slower round-robin, so
@@ -94,6 +95,7 @@ struct swell_ctl_config {
 	uint16_t host_budget;        /* host messages a tick, 1 .. SWELL_CTL_QUEUE / 2 */
 	uint8_t node;                /* 0 .. SWELL_NODE_MAX */
 	uint8_t autorun;
+	uint8_t fw_version[3];       /* major, minor, patch of the running firmware, sent in CTL_INFO */
 };
 
 struct swell_ctl_counters {
@@ -125,7 +127,13 @@ struct swell_ctl {
 	uint32_t since_dev;  /* ticks since the device was last heard (saturating) */
 	uint32_t dev_back;   /* ticks the device has been heard without a gap */
 	struct swell_seq dev_seq;
-	uint8_t run_request, clear_request, bootloader_request;
+	uint8_t run_request, clear_request;
+	/* Set when an ENTER_BOOTLOADER was accepted (outside RUNNING, with the key): the core has zeroed
+	 * the force and queued a last heartbeat; the port drains its queues and reboots into its
+	 * bootloader (or, without one, exits). The core never clears it. */
+	uint8_t bootloader_request;
+	uint8_t info_pending; /* CTL_INFO to send at the next tick with budget (start, object changed) */
+	uint32_t info_wait;   /* ticks until the periodic CTL_INFO */
 
 	/* scheduling */
 	uint32_t ticks_per_step, rows_per_tick, phase;
