@@ -44,7 +44,7 @@ static void usage(FILE *to)
 {
 	fprintf(to,
 		"usage: " PROG " --flash FILE [--log FILE] [--gadgetfs DIR] [--transfer-size N] [--poll-ms N]\n"
-		"                      [--leave-ms N] [--serial TEXT]\n"
+		"                      [--leave-ms N] [--serial TEXT] [--bad-cell ADDRESS]\n"
 		"Be an STM32F405 in its ROM DFU bootloader on the VM's USB bus, for dfu-util: VID:PID 0483:df11,\n"
 		"DfuSe 1.1a, alternate setting 0 \"@Internal Flash  /0x08000000/04*016Kg,01*064Kg,07*128Kg\"\n"
 		"(1 MiB; the option bytes, OTP and feature settings are listed but refused). Handles DNLOAD\n"
@@ -62,6 +62,8 @@ static void usage(FILE *to)
 		"  --poll-ms N      bwPollTimeout of the busy answers, ms (default 1)\n"
 		"  --leave-ms N     after reporting dfuMANIFEST, wait N ms, then disconnect (default 50)\n"
 		"  --serial TEXT    serial number string (default 5357454C4C31)\n"
+		"  --bad-cell ADDRESS  fault injection: the byte written at ADDRESS is stored with bit 0\n"
+		"                   inverted (a bad flash cell), so a read-back verify must fail\n"
 		"Exit status: 0 left DFU or stopped by SIGTERM/SIGINT, 1 USB or file error, 2 bad arguments.\n",
 		SWELL_DFUSE_FLASH_SIZE, GADGETFS_EP0_MAX, GADGETFS_EP0_MAX);
 }
@@ -193,6 +195,7 @@ static int open_flash(const char *path)
 }
 
 struct dev {
+	long bad_cell; /* flash offset of the faulty byte, -1: none */
 	int ep0;
 	int flash_fd;
 	const char *serial;
@@ -266,6 +269,12 @@ static int handle_dfu(struct dev *d, const struct usb_ctrlrequest *c)
 		out_len = (size_t)r;
 	}
 	enum swell_dfuse_reply rep = swell_dfuse_request(&target, &s, out, out_len, in, sizeof(in), &in_len);
+	if (d->bad_cell >= 0 && strncmp(target.note, "write ", 6) == 0 && (uint32_t)d->bad_cell >= target.dirty_lo &&
+	    (uint32_t)d->bad_cell < target.dirty_hi) {
+		target.flash[d->bad_cell] ^= 0x01u;
+		logline("dfu", "fault: bad cell 0x%08lx stores bit 0 inverted",
+			(unsigned long)(SWELL_DFUSE_FLASH_BASE + (unsigned long)d->bad_cell));
+	}
 	switch (rep) {
 	case SWELL_DFUSE_DATA:
 		reply_data(d, in, in_len);
@@ -347,7 +356,7 @@ int main(int argc, char **argv)
 {
 	const char *flash_path = NULL, *log_path = NULL, *gfs = "/dev/gadget";
 	long poll_ms = 1, leave_ms = 50, xfer = GADGETFS_EP0_MAX;
-	struct dev d = {.ep0 = -1, .flash_fd = -1, .serial = "5357454C4C31", .dfu_requests = 0};
+	struct dev d = {.bad_cell = -1, .ep0 = -1, .flash_fd = -1, .serial = "5357454C4C31", .dfu_requests = 0};
 
 	for (int i = 1; i < argc; i++) {
 		const char *a = argv[i];
@@ -375,6 +384,12 @@ int main(int argc, char **argv)
 		} else if (!strcmp(a, "--transfer-size")) {
 			if (vm_parse_num(PROG, a, v, 10, 1, GADGETFS_EP0_MAX, &xfer) != 0)
 				return 2;
+		} else if (!strcmp(a, "--bad-cell")) {
+			long addr;
+			if (vm_parse_num(PROG, a, v, 0, SWELL_DFUSE_FLASH_BASE,
+					 SWELL_DFUSE_FLASH_BASE + SWELL_DFUSE_FLASH_SIZE - 1, &addr) != 0)
+				return 2;
+			d.bad_cell = addr - (long)SWELL_DFUSE_FLASH_BASE;
 		} else if (!strcmp(a, "--poll-ms")) {
 			if (vm_parse_num(PROG, a, v, 10, 0, 10000, &poll_ms) != 0)
 				return 2;

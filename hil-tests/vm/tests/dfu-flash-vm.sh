@@ -7,7 +7,9 @@
 #      DFU request and its flash stays erased;
 #   2. RUNS times the BIN, then once the ELF, each on a fresh erased target: swell-flash --backend dfu
 #      exits 0 with "verify ok", the target leaves DFU (0483:df11 gone, start at 0x08000000), its
-#      flash file equals the BIN byte for byte over the BIN's length and is 0xFF after it.
+#      flash file equals the BIN byte for byte over the BIN's length and is 0xFF after it;
+#   3. a target with a bad flash cell (swell-vm-dfuse --bad-cell): swell-flash's read-back verify
+#      fails (exit 1, "verify FAILED at" the cell) and the leave request is never sent.
 # Prints one "figure:" line per run (step times from swell-flash, bytes/s) and "dfu-flash: N failed".
 bin=$1 elf=$2 runs=${3:-1}
 flash=/tmp/dfu-flash.bin log=/tmp/dfuse.log
@@ -17,9 +19,9 @@ len=$(wc -c <"$bin")
 erased_after() { # erased_after FILE OFFSET: number of bytes after OFFSET that are not 0xFF
 	tail -c +$(($2 + 1)) "$1" | tr -d '\377' | wc -c
 }
-target_up() {
+target_up() { # target_up [swell-vm-dfuse options]
 	rm -f "$flash" "$log"
-	vm-dfu-gadget up --flash "$flash" --log "$log" || { fail "the DFU target did not come up"; return 1; }
+	vm-dfu-gadget up --flash "$flash" --log "$log" "$@" || { fail "the DFU target did not come up"; return 1; }
 }
 show_log() { echo "--- target log (last 15 lines):"; tail -n 15 "$log"; echo "---"; }
 
@@ -75,5 +77,18 @@ for img in $(seq 1 "$runs" | sed "s|.*|$bin|") "$elf"; do
 		      run, kind, len, w, len / w, r, len / r, l, t, v }' /tmp/out
 	vm-dfu-gadget down || fail "vm-dfu-gadget down"
 done
+# 3. A bad flash cell: the verify must catch it and the image must not be started.
+if target_up --bad-cell 0x08000400; then
+	swell-flash "$bin" --backend dfu >/tmp/out 2>&1
+	rc=$?
+	grep -vE '^(Erase|Download|Upload)' /tmp/out | grep -E '^swell-flash'
+	[ $rc -eq 1 ] || fail "bad cell: swell-flash exit $rc, expected 1"
+	grep -q 'verify FAILED at 0x08000400' /tmp/out || fail "bad cell: no 'verify FAILED at 0x08000400'"
+	grep -q 'fault: bad cell 0x08000400' "$log" || fail "bad cell: the target never wrote the cell"
+	n=$(grep -c 'leave request' "$log")
+	[ "$n" -eq 0 ] || fail "bad cell: the target got $n leave requests after a failed verify"
+	echo "check: bad cell at 0x08000400: swell-flash exit $rc, verify failed there, $n leave requests"
+	vm-dfu-gadget down || fail "vm-dfu-gadget down"
+fi
 echo "dfu-flash: $fails failed"
 [ $fails -eq 0 ]
