@@ -5,7 +5,10 @@
  * and mlockall where permitted (a warning otherwise); or, with --clock device, one tick per
  * DEVICE_POS received (the device's servo clock drives the loop, as on a HapticMaster bus), with the
  * silence of the device still detected by a timeout of silent_ticks periods.
- * SIGINT/SIGTERM: zero force is sent first, then the report, then a clean exit. */
+ * SIGINT/SIGTERM: zero force is sent first, then the report, then a clean exit.
+ * ENTER_BOOTLOADER accepted by the core (outside RUNNING, with the key): the core has zeroed the force
+ * and queued a last heartbeat; both go out, then the report, then exit status 3, so that a
+ * supervisor can run the flasher and start the new image (the Linux port has no ROM bootloader). */
 #define _GNU_SOURCE
 #include <errno.h>
 #include <math.h>
@@ -42,11 +45,15 @@ static const char usage[] =
 	"  --node N            node id on the bus, 0..15 (default 0)\n"
 	"  --seconds S         stop after S seconds of ticks (default: until SIGINT/SIGTERM)\n"
 	"  --no-rt             do not ask for SCHED_FIFO and mlockall\n"
+	"  --fw-version X.Y.Z  firmware version reported in CTL_INFO (default " SWELL_CTL_FW_VERSION ", the\n"
+	"                      build's; a test can play \"the new image\" with it), each part 0..255\n"
 	"  --quiet             no status line while running\n"
 	"  -h, --help          this text\n"
 	"\n"
 	"On exit prints a report: ticks, solver steps, state, tick jitter (p50, p99, max), overruns, frames.\n"
-	"Exit status: 0 clean stop, 1 a link or the real-time set-up failed, 2 bad arguments.\n";
+	"Exit status: 0 clean stop, 1 a link or the real-time set-up failed, 2 bad arguments,\n"
+	"3 a viewer or swell-flash asked for the bootloader (ENTER_BOOTLOADER accepted: force zeroed,\n"
+	"last heartbeat sent; a supervisor starts the flasher, then the new image).\n";
 
 static volatile sig_atomic_t stop_flag;
 
@@ -83,6 +90,21 @@ static long num(const char *opt, const char *v, long lo, long hi)
 	return x;
 }
 
+/* "X.Y.Z", each part 0..255, into v[3]; 0 on success. */
+static int parse_version(const char *s, uint8_t v[3])
+{
+	unsigned a, b, c;
+	int n = 0;
+
+	if (sscanf(s, "%3u.%3u.%3u%n", &a, &b, &c, &n) != 3 || s[n] || a > 255 || b > 255 || c > 255 ||
+	    !strchr("0123456789", s[0]))
+		return -1;
+	v[0] = (uint8_t)a;
+	v[1] = (uint8_t)b;
+	v[2] = (uint8_t)c;
+	return 0;
+}
+
 static void parse(int argc, char **argv, struct opts *o)
 {
 	int k;
@@ -92,6 +114,8 @@ static void parse(int argc, char **argv, struct opts *o)
 	o->host = "udp";
 	o->rt = 1;
 	swell_ctl_default_config(&o->cfg);
+	if (parse_version(SWELL_CTL_FW_VERSION, o->cfg.fw_version))
+		die("build version is not X.Y.Z: ", SWELL_CTL_FW_VERSION);
 	for (k = 1; k < argc; k++) {
 		const char *a = argv[k], *v = k + 1 < argc ? argv[k + 1] : NULL;
 
@@ -126,7 +150,10 @@ static void parse(int argc, char **argv, struct opts *o)
 				o->cfg.host_budget = (uint16_t)num(a, v, 1, SWELL_CTL_QUEUE / 2);
 			else if (!strcmp(a, "--node"))
 				o->cfg.node = (uint8_t)num(a, v, 0, SWELL_NODE_MAX);
-			else if (!strcmp(a, "--seconds")) {
+			else if (!strcmp(a, "--fw-version")) {
+				if (parse_version(v, o->cfg.fw_version))
+					die("--fw-version must be X.Y.Z with each part 0..255, not ", v);
+			} else if (!strcmp(a, "--seconds")) {
 				char *end;
 				o->seconds = strtod(v, &end);
 				if (*end || !(o->seconds > 0 && o->seconds < 1e7))
@@ -435,12 +462,9 @@ int main(int argc, char **argv)
 		}
 		link_faults(&p);
 		swell_ctl_tick(&p.c);
-		if (p.c.bootloader_request) { /* the core has zeroed the force already */
-			p.c.bootloader_request = 0;
-			fprintf(stderr, "swell-ctl: enter-bootloader requested: the Linux port has no ROM "
-					"bootloader; force zeroed, controller keeps running\n");
-		}
 		flush_output(&p);
+		if (p.c.bootloader_request) /* zero force and the last heartbeat have just gone out */
+			break;
 		if (now_ns() - last_status > 1000000000) {
 			int a;
 
@@ -461,8 +485,14 @@ int main(int argc, char **argv)
 	flush_output(&p);
 	if (!o.quiet)
 		fputc('\n', stderr);
+	if (p.c.bootloader_request)
+		fprintf(stderr, "swell-ctl: enter-bootloader accepted in state %s: force zeroed, last heartbeat "
+				"sent; exiting with status 3 (no ROM bootloader on Linux: the supervisor flashes "
+				"and starts the new image)\n",
+			swell_ctl_state_name(p.c.state));
 
 	printf("swell-ctl report\n");
+	printf("  firmware        %u.%u.%u\n", o.cfg.fw_version[0], o.cfg.fw_version[1], o.cfg.fw_version[2]);
 	printf("  ran             %.3f s, %u ticks at %u Hz, %u solver steps at %u Hz\n",
 	       (now_ns() - start) / 1e9, p.c.n.ticks, o.cfg.tick_hz, p.c.n.solver_steps, o.cfg.solver_hz);
 	printf("  state           %s (last error: %s), faults %u\n", swell_ctl_state_name(p.c.state),
@@ -491,5 +521,5 @@ int main(int argc, char **argv)
 	if (p.have_host)
 		ctl_link_close(&p.host);
 	free(arena);
-	return 0;
+	return p.c.bootloader_request ? 3 : 0;
 }
