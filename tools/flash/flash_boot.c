@@ -131,11 +131,71 @@ enum flash_boot_result flash_enter_bootloader(uint16_t port, int force, int watc
 	if (beats)
 		r = say(BOOT_STILL_RUNNING, msg, msg_len,
 			"controller still sends heartbeats (%u in %d ms after the request, state %s): no bootloader "
-			"entered (swell-ctl, the Linux port, has no ROM bootloader)",
+			"entered (a controller that ignores the request, or firmware without it)",
 			beats, watch_ms, state_name(hb.u.heartbeat.state));
 	else
 		r = say(BOOT_ENTERED, msg, msg_len, "controller silent after ENTER_BOOTLOADER: it reboots into its bootloader");
 out:
 	swell_link_close(l);
 	return r;
+}
+
+int flash_find_controller(uint16_t port, int timeout_ms, struct flash_found *out, char *msg, size_t msg_len)
+{
+	struct swell_link *l;
+	uint64_t t0 = swell_link_now_ns(), end = t0 + (uint64_t)timeout_ms * 1000000u;
+	unsigned beats = 0, others = 0;
+	int rc;
+
+	rc = swell_link_open_udp(&l, "127.0.0.1", port, NULL, 0);
+	if (rc) {
+		say(BOOT_ERROR, msg, msg_len, "cannot listen on udp 127.0.0.1:%u (a viewer there?): error %d",
+		    (unsigned)port, rc);
+		return -2;
+	}
+	for (;;) {
+		struct swell_msg m[SWELL_PKT_MSGS_MAX];
+		struct swell_frame f;
+		uint64_t now = swell_link_now_ns();
+		size_t n, i;
+
+		if (now >= end)
+			break;
+		if (swell_link_recv(l, &f, (int)((end - now) / 1000000u) + 1) != 0)
+			continue;
+		if (swell_link_decode(SWELL_CARRIER_PKT, &f, m, SWELL_PKT_MSGS_MAX, &n, NULL, NULL) != SWELL_OK)
+			continue;
+		for (i = 0; i < n; i++) {
+			const struct swell_msg_ctl_info *c = &m[i].u.ctl_info;
+
+			if (m[i].type == SWELL_MSG_HEARTBEAT) {
+				beats++;
+				continue;
+			}
+			if (m[i].type != SWELL_MSG_CTL_INFO) {
+				others++;
+				continue;
+			}
+			out->node = m[i].node;
+			out->version[0] = c->fw_major;
+			out->version[1] = c->fw_minor;
+			out->version[2] = c->fw_patch;
+			out->obj_100um[0] = c->obj_a_100um;
+			out->obj_100um[1] = c->obj_b_100um;
+			out->obj_100um[2] = c->obj_h_100um;
+			out->after_s = (double)(swell_link_now_ns() - t0) / 1e9;
+			swell_link_close(l);
+			return 0;
+		}
+	}
+	swell_link_close(l);
+	if (beats)
+		say(BOOT_NOT_FOUND, msg, msg_len,
+		    "%u heartbeats but no CTL_INFO on udp 127.0.0.1:%u within %.1f s: firmware older than "
+		    "CTL_INFO (it cannot say its version)",
+		    beats, (unsigned)port, timeout_ms / 1e3);
+	else
+		say(BOOT_NOT_FOUND, msg, msg_len, "controller not heard on udp 127.0.0.1:%u within %.1f s%s",
+		    (unsigned)port, timeout_ms / 1e3, others ? " (other traffic only)" : "");
+	return -1;
 }

@@ -51,14 +51,22 @@ static const char usage[] =
 	"  --force              see --enter-bootloader\n"
 	"  --dfu-wait S         after --enter-bootloader with --backend dfu: wait up to S s (default 5)\n"
 	"                       for the DfuSe device to appear on USB\n"
-	"Exit status: 0 flashed and verified, 1 a tool or the verify failed, 2 bad arguments or image refused.\n";
+	"  --find udp[:PORT]    after flashing (or alone with --check-only), listen on 127.0.0.1:PORT\n"
+	"                       for the controller's CTL_INFO and require the image's version; on by\n"
+	"                       default on the --enter-bootloader port; --find-timeout S (default 10)\n"
+	"  --no-find            do not look for the controller after flashing\n"
+	"Exit status: 0 flashed and verified (and the controller back with the image's version),\n"
+	"1 a tool or the verify failed, or the controller did not come back with that version,\n"
+	"2 bad arguments or image refused.\n";
 
 struct cfg {
 	const char *image, *work_dir, *console, *expect_version;
 	int backend, dry_run, check_only, gdb_server_set, force;
 	long boot_port; /* --enter-bootloader: UDP port, 0 when not asked */
+	long find_port; /* --find: UDP port, 0 when not asked (then the boot port, unless --no-find) */
+	int no_find;
 	unsigned long mcu;
-	double console_timeout_s, dfu_wait_s;
+	double console_timeout_s, dfu_wait_s, find_timeout_s;
 	struct flash_opts o;
 };
 
@@ -169,6 +177,24 @@ static void parse(int argc, char **argv, struct cfg *c)
 			} else {
 				die(2, "--enter-bootloader '%s': only udp[:PORT] (CAN and USB carriers not yet)", l);
 			}
+		} else if (!strcmp(a, "--find")) {
+			const char *l = need(argc, argv, &i);
+
+			if (!strcmp(l, "udp")) {
+				c->find_port = 47801;
+			} else if (!strncmp(l, "udp:", 4)) {
+				c->find_port = strtol(l + 4, &end, 10);
+				if (*end || !l[4] || c->find_port < 1 || c->find_port > 65535)
+					die(2, "--find '%s': port not in 1..65535", l);
+			} else {
+				die(2, "--find '%s': only udp[:PORT] (CAN and USB carriers not yet)", l);
+			}
+		} else if (!strcmp(a, "--find-timeout")) {
+			c->find_timeout_s = strtod(need(argc, argv, &i), &end);
+			if (*end || !(c->find_timeout_s > 0 && c->find_timeout_s <= 600))
+				die(2, "--find-timeout '%s' is not a time in (0, 600] s", argv[i]);
+		} else if (!strcmp(a, "--no-find")) {
+			c->no_find = 1;
 		} else if (!strcmp(a, "--dfu-wait")) {
 			c->dfu_wait_s = strtod(need(argc, argv, &i), &end);
 			if (*end || !(c->dfu_wait_s >= 0 && c->dfu_wait_s <= 60))
@@ -434,6 +460,33 @@ static int console_watch(struct console *con, double timeout_s, uint32_t want, d
 	return -1;
 }
 
+/* After the flash: the controller found again on its host link, running the image's version. */
+static void find_step(const struct cfg *c, const struct flash_image *img, const char *ver)
+{
+	struct flash_found f;
+	char why[300], got[32];
+	uint32_t v = img->hdr.version;
+	int r;
+
+	printf("swell-flash: listening on udp:%ld for the controller's CTL_INFO (up to %.1f s)\n", c->find_port,
+	       c->find_timeout_s);
+	fflush(stdout);
+	r = flash_find_controller((uint16_t)c->find_port, (int)(c->find_timeout_s * 1000 + 0.5), &f, why,
+				  sizeof(why));
+	if (r)
+		die(1, "%s", why);
+	snprintf(got, sizeof(got), "%u.%u.%u", f.version[0], f.version[1], f.version[2]);
+	printf("swell-flash: controller back, running version %s (node %u, heard %.3f s after listening began; "
+	       "object %.1f x %.1f x %.1f mm)\n",
+	       got, (unsigned)f.node, f.after_s, f.obj_100um[0] / 10.0, f.obj_100um[1] / 10.0,
+	       f.obj_100um[2] / 10.0);
+	if (f.version[0] != (v >> 16) || f.version[1] != ((v >> 8) & 0xFFu) || f.version[2] != (v & 0xFFu))
+		die(1, "the controller runs version %s, but the image's header says %s: it did not start the "
+		       "flashed image",
+		    got, ver);
+	printf("swell-flash: the controller runs the image's version %s\n", ver);
+}
+
 int main(int argc, char **argv)
 {
 	struct cfg c = {0};
@@ -454,6 +507,7 @@ int main(int argc, char **argv)
 	c.backend = -1;
 	c.mcu = SWELL_FWIMAGE_MCU_STM32F405;
 	c.console_timeout_s = 10;
+	c.find_timeout_s = 10;
 	c.dfu_wait_s = 5;
 	c.o.dfu_device = "0483:df11";
 	c.o.openocd_interface = "interface/stlink.cfg";
@@ -461,6 +515,10 @@ int main(int argc, char **argv)
 	c.o.baud = 115200;
 	c.o.gdb_remote = "localhost:3333";
 	parse(argc, argv, &c);
+	if (!c.find_port && c.boot_port && !c.no_find)
+		c.find_port = c.boot_port; /* entered through the link: look for it there afterwards */
+	if (c.no_find)
+		c.find_port = 0;
 
 	/* 1. The image, before anything else. */
 	if (flash_read_file(c.image, MAX_FILE, &file, &file_len, why, sizeof(why)))
@@ -476,8 +534,11 @@ int main(int argc, char **argv)
 	printf("swell-flash: %s: ok: %s, version %s, %zu bytes, mcu 0x%03x, crc32 0x%08x\n", c.image,
 	       img.fmt == FLASH_FMT_ELF ? "ELF" : "BIN", ver, img.len, (unsigned)img.hdr.mcu_id,
 	       (unsigned)img.hdr.crc);
-	if (c.check_only)
+	if (c.check_only) {
+		if (c.find_port)
+			find_step(&c, &img, ver);
 		goto done;
+	}
 
 	/* 2. Backend and the plan. */
 	if (c.backend < 0)
@@ -535,6 +596,9 @@ int main(int argc, char **argv)
 		}
 		if (c.console)
 			printf("  then read %s until the image reports version %s\n", c.console, ver);
+		if (c.find_port)
+			printf("  then listen on udp:%ld up to %.1f s for the controller's CTL_INFO, version %s\n",
+			       c.find_port, c.find_timeout_s, ver);
 		goto done;
 	}
 
@@ -608,6 +672,8 @@ int main(int argc, char **argv)
 			unlink(bin);
 		rmdir(dir);
 	}
+	if (c.find_port)
+		find_step(&c, &img, ver); /* after the clean-up: it may end the program */
 done:
 	flash_image_free(&img);
 	return 0;

@@ -300,8 +300,10 @@ struct scratch {
 		// full run can be verified, and corrupts its read-back when CORRUPT is set.
 		for (const char *tool : {"dfu-util", "openocd", "stm32flash", "gdb-multiarch"})
 			stub(tool, "");
+		// Its reset starts $ON_RESET in the background when set: "the new image" (a swell-ctl).
 		stub("st-flash", "case $1 in write) cp \"$2\" \"$FLASH\";; read) cp \"$FLASH\" \"$2\";"
-				 " [ -n \"$CORRUPT\" ] && printf X | dd of=\"$2\" bs=1 seek=1000 conv=notrunc 2>/dev/null;; esac\n");
+				 " [ -n \"$CORRUPT\" ] && printf X | dd of=\"$2\" bs=1 seek=1000 conv=notrunc 2>/dev/null;;"
+				 " reset) [ -z \"$ON_RESET\" ] || sh -c \"$ON_RESET\" </dev/null >/dev/null 2>&1 & ;; esac\n");
 	}
 	~scratch() { std::system(("rm -rf '" + dir + "'").c_str()); }
 	void stub(const std::string &tool, const std::string &body)
@@ -487,12 +489,15 @@ extern "C" {
 
 namespace {
 
-// A controller as seen on its host link: heartbeats every 50 ms in `state` to the viewer port;
-// PARAM_SET COMMAND=STOP leaves RUNNING; ENTER_BOOTLOADER stops the heartbeat when `reboots`.
+// A controller as seen on its host link: heartbeats every 50 ms in `state` to the viewer port, and
+// CTL_INFO with `version` with every 4th; PARAM_SET COMMAND=STOP leaves RUNNING; ENTER_BOOTLOADER
+// stops the heartbeat when `reboots`, for `back_ms` (then it beats again: "the new image").
 struct fake_ctl {
 	uint16_t port = 0;
 	std::atomic<int> state{1}, got_stop{0}, got_boot{0}, boot_key_ok{0}, other{0};
 	bool reboots = true;
+	uint64_t back_ms = 1400;
+	uint8_t version[3] = {1, 2, 3};
 	std::atomic<bool> quit{false};
 	std::thread th;
 
@@ -518,19 +523,31 @@ struct fake_ctl {
 			return;
 		uint8_t seq = 0;
 		bool silent = false;
-		uint64_t next = 0;
+		uint64_t next = 0, silent_since = 0;
 		while (!quit) {
 			uint64_t now = swell_link_now_ns();
+			if (silent && now - silent_since > back_ms * 1000000u) {
+				silent = false; // rebooted into "the new image"
+				state = 1;
+			}
 			if (!silent && now >= next) {
-				swell_msg hb{};
-				hb.type = SWELL_MSG_HEARTBEAT;
-				hb.u.heartbeat.state = (uint8_t)state.load();
-				hb.u.heartbeat.version = SWELL_PROTO_VERSION;
-				hb.u.heartbeat.seq = seq;
+				swell_msg hb[2]{};
+				hb[0].type = SWELL_MSG_HEARTBEAT;
+				hb[0].u.heartbeat.state = (uint8_t)state.load();
+				hb[0].u.heartbeat.version = SWELL_PROTO_VERSION;
+				hb[0].u.heartbeat.seq = seq;
+				hb[1].type = SWELL_MSG_CTL_INFO;
+				hb[1].u.ctl_info.fw_major = version[0];
+				hb[1].u.ctl_info.fw_minor = version[1];
+				hb[1].u.ctl_info.fw_patch = version[2];
+				hb[1].u.ctl_info.obj_a_100um = hb[1].u.ctl_info.obj_b_100um = 500;
+				hb[1].u.ctl_info.obj_h_100um = 500;
 				swell_frame f;
 				size_t used;
-				if (swell_link_encode(SWELL_CARRIER_PKT, 0, seq++, &hb, 1, &f, &used) == SWELL_OK)
+				if (swell_link_encode(SWELL_CARRIER_PKT, 0, seq, hb, seq % 4 == 0 ? 2 : 1, &f, &used) ==
+				    SWELL_OK)
 					swell_link_send(l, &f);
+				seq++;
 				next = now + 50000000u;
 			}
 			swell_frame f;
@@ -551,6 +568,7 @@ struct fake_ctl {
 					if (state.load() == 3)
 						other++; // the controller refuses it while RUNNING: must not happen
 					silent = reboots;
+					silent_since = swell_link_now_ns();
 				} else {
 					other++;
 				}
@@ -603,9 +621,11 @@ TEST_CASE("enter-bootloader with force sends COMMAND=STOP first, then the key, a
 	CHECK(c.other == 0);
 	CHECK(out.find("it reboots into its bootloader") != std::string::npos);
 	CHECK(s.log().find("st-flash write") != std::string::npos);
+	// then, on the same port, the controller is found again with the image's version
+	CHECK(out.find("controller back, running version 1.2.3") != std::string::npos);
 }
 
-TEST_CASE("enter-bootloader: a controller that keeps beating (Linux port) stops the flash with exit 1")
+TEST_CASE("enter-bootloader: a controller that keeps beating (ignores the request) stops the flash with exit 1")
 {
 	scratch s;
 	std::string img = s.write("good.bin", make_image(2048));
@@ -625,23 +645,90 @@ TEST_CASE("enter-bootloader: a controller that keeps beating (Linux port) stops 
 	CHECK(s.log().empty());
 }
 
-TEST_CASE("enter-bootloader against swell-ctl: accepted in IDLE, the Linux port keeps running")
+namespace {
+
+// swell-ctl on UDP as the controller: its exit status goes to DIR/NAME.rc. Host and device ports free.
+std::string ctl_cmd(const scratch &s, const std::string &name, const std::string &host, const std::string &version,
+		    double seconds)
+{
+	std::string dev = std::to_string(fake_ctl::free_port());
+	return "'" SWELL_CTL_BIN "' --no-rt --quiet --seconds " + std::to_string(seconds) + " --fw-version " + version +
+	       " --host udp:" + host + " --device udp:" + dev + " > '" + s.dir + "/" + name + ".out' 2>&1; echo $? > '" +
+	       s.dir + "/" + name + ".rc'";
+}
+
+std::string slurp(const std::string &path)
+{
+	std::ifstream f(path);
+	std::stringstream ss;
+	ss << f.rdbuf();
+	return ss.str();
+}
+
+} // namespace
+
+TEST_CASE("after flashing, swell-ctl is found again and its CTL_INFO version is checked against the image")
+{
+	// The old controller (swell-ctl --fw-version 0.0.9) accepts ENTER_BOOTLOADER in IDLE and exits 3;
+	// the stub st-flash's reset starts "the new image": swell-ctl with the version under test.
+	scratch s;
+	std::string img = s.write("good.bin", make_image(2048)); // header version 1.2.3
+	for (const char *next : {"1.2.3", "0.0.9"}) {
+		INFO("the restarted controller reports " << next);
+		std::string host = std::to_string(fake_ctl::free_port());
+		std::string old_ctl = ctl_cmd(s, "old", host, "0.0.9", 8);
+		std::string new_ctl = ctl_cmd(s, "new", host, next, 2);
+		REQUIRE(std::system(("(" + old_ctl + ") &").c_str()) == 0);
+		std::string quoted;
+		for (char ch : new_ctl) { // into double quotes for the shell that starts swell-flash
+			if (ch == '$' || ch == '"' || ch == '\\')
+				quoted += '\\';
+			quoted += ch;
+		}
+		std::string out, env = "ON_RESET=\"" + quoted + "\"";
+		int rc = s.run(img + " --backend swd --swd-tool st-flash --find-timeout 5 --enter-bootloader udp:" + host, &out,
+			       env);
+		INFO(out);
+		CHECK(out.find("state IDLE") != std::string::npos);
+		CHECK(out.find("controller silent after ENTER_BOOTLOADER") != std::string::npos);
+		CHECK(s.log().find("st-flash write") != std::string::npos);
+		CHECK(out.find(std::string("controller back, running version ") + next) != std::string::npos);
+		CHECK(slurp(s.dir + "/old.rc") == "3\n"); // swell-ctl's "bootloader requested" status
+		INFO(slurp(s.dir + "/old.out"));
+		CHECK(slurp(s.dir + "/old.out").find("enter-bootloader accepted in state idle") != std::string::npos);
+		if (std::string(next) == "1.2.3") {
+			CHECK(rc == 0);
+			CHECK(out.find("the controller runs the image's version 1.2.3") != std::string::npos);
+		} else {
+			CHECK(rc == 1);
+			CHECK(out.find("runs version 0.0.9, but the image's header says 1.2.3") != std::string::npos);
+		}
+		for (int k = 0; k < 100 && slurp(s.dir + "/new.rc").empty(); k++)
+			usleep(100000); // the new swell-ctl ends by itself (--seconds 2)
+		CHECK(slurp(s.dir + "/new.rc") == "0\n");
+		for (const char *f : {"log", "old.rc", "old.out", "new.rc", "new.out"})
+			std::remove((s.dir + "/" + f).c_str());
+	}
+}
+
+TEST_CASE("--find: nobody there is exit 1 within the time limit, --check-only --find checks a running controller")
 {
 	scratch s;
 	std::string img = s.write("good.bin", make_image(2048));
-	std::string host = std::to_string(fake_ctl::free_port()), dev = std::to_string(fake_ctl::free_port());
-	std::string ctl = "'" SWELL_CTL_BIN "' --no-rt --quiet --seconds 2 --host udp:" + host + " --device udp:" + dev +
-			  " > '" + s.dir + "/ctl.out' 2>&1 &";
-	REQUIRE(std::system(ctl.c_str()) == 0);
-	std::string out;
-	int rc = s.run(img + " --backend swd --swd-tool st-flash --enter-bootloader udp:" + host, &out);
+	std::string out, port = std::to_string(fake_ctl::free_port());
+	int rc = s.run(img + " --check-only --find udp:" + port + " --find-timeout 0.4", &out);
 	INFO(out);
 	CHECK(rc == 1);
-	CHECK(out.find("state IDLE") != std::string::npos);
-	CHECK(out.find("ENTER_BOOTLOADER sent") != std::string::npos);
-	CHECK(out.find("still sends heartbeats") != std::string::npos);
+	CHECK(out.find("controller not heard on udp 127.0.0.1:" + port + " within 0.4 s") != std::string::npos);
+	fake_ctl c;
+	c.start(1, true);
+	rc = s.run(img + " --check-only --find udp:" + std::to_string(c.port), &out);
+	CHECK(rc == 0);
+	CHECK(out.find("controller back, running version 1.2.3") != std::string::npos);
 	CHECK(s.log().empty());
-	usleep(1000000); // let swell-ctl finish before its scratch directory goes
+	rc = s.run(img + " --find tcp:1", &out);
+	CHECK(rc == 2);
+	CHECK(out.find("--find 'tcp:1': only udp[:PORT]") != std::string::npos);
 }
 
 TEST_CASE("enter-bootloader then dfu: flashing waits for the DfuSe device and starts only when it is there")
