@@ -33,6 +33,8 @@ static const char usage[] =
 	"\n"
 	"Link and pacing:\n"
 	"  --link udp|can:IFACE|usb   carrier (default udp: packets to --host:--port)\n"
+	"  --iface N           usb: the controller's interface number (default 0, the device link;\n"
+	"                      bulk endpoints are read from its descriptor)\n"
 	"  --host ADDR         controller's IPv4 address for udp (default 127.0.0.1)\n"
 	"  --port N            controller's UDP port (default 47800)\n"
 	"  --bind-port N       own UDP port (default 0: any free port)\n"
@@ -71,7 +73,7 @@ static const char usage[] =
 
 struct opts {
 	const char *link, *host, *log;
-	unsigned port, bind_port, node;
+	unsigned port, bind_port, node, iface;
 	int lockstep, quiet, have_start, rt;
 	unsigned timeout_ms;
 	double seconds, start_mm[3], estop_s[2];
@@ -189,6 +191,8 @@ static void parse(int argc, char **argv, struct opts *o)
 			o->bind_port = whole(a, v, 0, 65535, "");
 		else if (!strcmp(a, "--node"))
 			o->node = whole(a, v, 0, SWELL_NODE_MAX, "");
+		else if (!strcmp(a, "--iface"))
+			o->iface = whole(a, v, 0, 255, "");
 		else if (!strcmp(a, "--rate"))
 			o->p.rate_hz = number(a, v, 100, 100000, "Hz");
 		else if (!strcmp(a, "--timeout-ms"))
@@ -244,6 +248,52 @@ static void parse(int argc, char **argv, struct opts *o)
 
 /* ---- link ---- */
 
+/* State -> force command latency at the device: wall time from sending a sample (DEVICE_POS) to the
+ * first FORCE_CMD that arrives after it: both carriers, the controller's wake-up and its tick. 1 us bins
+ * up to 50 ms, later in the last. */
+#define LAT_US 50000
+static struct latency {
+	uint32_t hist[LAT_US + 1];
+	uint64_t n;
+	int64_t max_ns, sent_ns;
+	int pending;
+} lat;
+
+static int64_t mono_ns(void)
+{
+	struct timespec t;
+
+	clock_gettime(CLOCK_MONOTONIC, &t);
+	return (int64_t)t.tv_sec * 1000000000 + t.tv_nsec;
+}
+
+static void latency_answer(void)
+{
+	int64_t d;
+
+	if (!lat.pending)
+		return;
+	lat.pending = 0;
+	d = mono_ns() - lat.sent_ns;
+	lat.hist[d / 1000 > LAT_US ? LAT_US : d / 1000]++;
+	lat.n++;
+	if (d > lat.max_ns)
+		lat.max_ns = d;
+}
+
+static double latency_pct(double p)
+{
+	uint64_t want = (uint64_t)ceil(p * (double)lat.n), seen = 0;
+	int k;
+
+	for (k = 0; k <= LAT_US; k++) {
+		seen += lat.hist[k];
+		if (want > 0 && seen >= want)
+			return k;
+	}
+	return 0;
+}
+
 struct dev {
 	struct swell_link *l;
 	enum swell_carrier carrier;
@@ -273,6 +323,7 @@ static int dev_open(struct dev *d, const struct opts *o)
 		struct swell_usb_opts uo;
 
 		swell_usb_opts_default(&uo);
+		uo.iface = (int)o->iface;
 		rc = swell_link_open_usb(&d->l, &uo);
 	}
 	if (rc < 0) {
@@ -320,6 +371,7 @@ static int dev_recv(struct dev *d, struct hm_state *s, int timeout_ms)
 			const struct swell_msg_force_cmd *c = &m[k].u.force_cmd;
 			double fN[3] = {c->fx_cN * 0.01, c->fy_cN * 0.01, c->fz_cN * 0.01};
 
+			latency_answer();
 			swell_seq_track(&d->force_seq, c->seq);
 			d->force_seq_last = c->seq;
 			hm_command(s, fN, c->enable);
@@ -443,6 +495,8 @@ static void sample(struct dev *d, const struct hm_state *s, const double f_hand_
 	m[2].u.device_pos.status = status;
 	if (!with_force)
 		m[1] = m[2];
+	lat.sent_ns = mono_ns();
+	lat.pending = 1;
 	dev_send(d, m, with_force ? 3 : 2, seq);
 }
 
@@ -556,6 +610,9 @@ static void summary(const struct opts *o, const struct dev *d, const struct hm_s
 	else
 		printf("  tick lateness   p50 %.0f us, p99 %.0f us, max %.0f us; %llu periods lost\n", pct(r, 0.5),
 		       pct(r, 0.99), r->late_max_ns / 1e3, (unsigned long long)r->late_ticks);
+	printf("  latency         sample -> command p50 %.0f us, p99 %.0f us, max %.0f us (%llu answers: the first "
+	       "FORCE_CMD after each DEVICE_POS, wall clock)\n",
+	       latency_pct(0.5), latency_pct(0.99), lat.max_ns / 1e3, (unsigned long long)lat.n);
 	printf("  watchdog        %u trips (%u ticks), %llu ticks with an enabled command not applied\n",
 	       s->watchdog_trips, o->p.watchdog_ticks, (unsigned long long)r->zeroed_ticks);
 	printf("  walls           %u ticks in a workspace wall\n", s->wall_ticks);
