@@ -8,6 +8,7 @@
 #include <time.h>
 
 #include <linux/can.h>
+#include <linux/can/error.h>
 #include <net/if.h>
 #include <sys/ioctl.h>
 #include <sys/socket.h>
@@ -20,6 +21,7 @@ static const char usage[] =
 	"usage: swell-inject garbage LINK [--count N] [--rate HZ] [--seed S]\n"
 	"       swell-inject flood LINK [--seconds S] [--id HEX]\n"
 	"       swell-inject params LINK [--node N] [--timeout-ms MS]\n"
+	"       swell-inject can-errors can:IFACE [--seconds S]\n"
 	"The hardware-in-the-loop bench's third node.\n"
 	"\n"
 	"  garbage  N frames (default 2000) at HZ (default 1000; 0: as fast as the link takes them) that\n"
@@ -30,9 +32,15 @@ static const char usage[] =
 	"           priority) as fast as the link takes them for S seconds (default 2)\n"
 	"  params   out-of-range PARAM_SETs to the controller's host link: each must be answered by a\n"
 	"           PARAM_NACK and leave the value (read back with PARAM_GET) unchanged\n"
+	"  can-errors  the error frames a CAN driver reports when its controller goes error-warning,\n"
+	"           error-passive and bus-off, then, S seconds later (default 0.5), restarted: written to\n"
+	"           IFACE as error frames, which the kernel hands to every socket that asked for them only\n"
+	"           on a virtual bus (vcan); a controller on IFACE must zero the force, report the bus-off\n"
+	"           and recover after the restart. Prints the CLOCK_MONOTONIC time of each frame.\n"
 	"LINK: can:IFACE (SocketCAN), udp[:PORT] (garbage/flood: to the controller's device port,\n"
 	"      default 47800; params: listen on the viewer port, default 47801, answer the controller),\n"
-	"      usb (params: libusb, VID 1209 PID 0001)\n"
+	"      usb[:N] (params: libusb, VID 1209 PID 0001, interface N, default 0; bulk endpoints\n"
+	"      from its descriptor)\n"
 	"Prints one summary line with counts and rates; exit 0 when every check held, 1 when one failed,\n"
 	"2 for bad arguments or a link that cannot be opened.\n";
 
@@ -78,10 +86,18 @@ static int open_link(struct swell_link **l, const char *spec, int viewer_side)
 
 		memset(&co, 0, sizeof(co));
 		rc = swell_link_open_can(l, spec + 4, &co);
-	} else if (!strcmp(spec, "usb")) {
+	} else if (!strncmp(spec, "usb", 3) && (spec[3] == '\0' || spec[3] == ':')) {
 		struct swell_usb_opts uo;
+		char *end;
 
 		swell_usb_opts_default(&uo);
+		if (spec[3] == ':') { /* the interface: 1 is the host link of a two-interface controller */
+			long n = strtol(spec + 4, &end, 10);
+
+			if (!spec[4] || *end || n < 0 || n > 255)
+				die("USB interface must be 0..255 in ", spec);
+			uo.iface = (int)n;
+		}
 		rc = swell_link_open_usb(l, &uo);
 	} else if (!strncmp(spec, "udp", 3) && (spec[3] == '\0' || spec[3] == ':')) {
 		long port = viewer_side ? SWELL_UDP_PORT_VIEWER : SWELL_UDP_PORT_DEVICE;
@@ -95,7 +111,7 @@ static int open_link(struct swell_link **l, const char *spec, int viewer_side)
 		rc = viewer_side ? swell_link_open_udp(l, "127.0.0.1", (uint16_t)port, NULL, 0)
 				 : swell_link_open_udp(l, "127.0.0.1", 0, "127.0.0.1", (uint16_t)port);
 	} else {
-		die("LINK must be can:IFACE, udp[:PORT] or usb, not ", spec);
+		die("LINK must be can:IFACE, udp[:PORT] or usb[:N], not ", spec);
 		return -1;
 	}
 	if (rc < 0) {
@@ -155,6 +171,44 @@ static int send_raw(struct swell_link *l, const struct swell_frame *f)
 }
 
 /* A valid DEVICE_POS: the frame every bad one is made from. */
+static int put_err(uint32_t classes, uint8_t crtl, uint8_t txerr, uint8_t rxerr, const char *what)
+{
+	struct can_frame f;
+
+	memset(&f, 0, sizeof(f));
+	f.can_id = CAN_ERR_FLAG | classes;
+	f.can_dlc = CAN_ERR_DLC;
+	f.data[1] = crtl;
+	f.data[6] = txerr;
+	f.data[7] = rxerr;
+	if (write(raw_can, &f, sizeof(f)) != (ssize_t)sizeof(f)) {
+		fprintf(stderr, "swell-inject: cannot write the %s error frame: %s\n", what, strerror(errno));
+		return -1;
+	}
+	printf("%s at %.6f s (tx/rx error counters %u/%u)\n", what, now_s(), txerr, rxerr);
+	return 0;
+}
+
+/* The sequence a driver reports for a bus fault (e.g. CANH shorted to CANL, or alone on the bus with
+ * no one to ACK), then the restart (restart-ms or `ip link set IFACE type can restart`). */
+static int cmd_can_errors(double seconds)
+{
+	double t_off;
+
+	if (put_err(CAN_ERR_CRTL | CAN_ERR_CNT, CAN_ERR_CRTL_TX_WARNING, 96, 0, "error-warning") ||
+	    put_err(CAN_ERR_CRTL | CAN_ERR_CNT | CAN_ERR_ACK, CAN_ERR_CRTL_TX_PASSIVE, 128, 0, "error-passive"))
+		return 1;
+	sleep_until(now_s() + 0.05);
+	t_off = now_s();
+	if (put_err(CAN_ERR_BUSOFF | CAN_ERR_CNT, 0, 255, 0, "bus-off"))
+		return 1;
+	sleep_until(t_off + seconds);
+	if (put_err(CAN_ERR_RESTARTED | CAN_ERR_CNT, 0, 0, 0, "restarted"))
+		return 1;
+	printf("can-errors: OK: 4 error frames, bus off for %.3f s\n", now_s() - t_off);
+	return 0;
+}
+
 static struct swell_msg device_pos(uint8_t node, int16_t z_10um, uint8_t seq)
 {
 	struct swell_msg m;
@@ -456,7 +510,7 @@ int main(int argc, char **argv)
 {
 	const char *cmd, *spec;
 	long count = 2000;
-	double rate = 1000, seconds = 2;
+	double rate = 1000, seconds = -1;
 	uint32_t id = SWELL_CAN_ID(SWELL_MSG_HEIGHT_QUAD, 5) | 0x400u;
 	unsigned node = 0, foreign = 5;
 	int timeout_ms = 500, k, rc;
@@ -470,7 +524,7 @@ int main(int argc, char **argv)
 		die("give a command and a LINK (see --help)", NULL);
 	cmd = argv[1];
 	spec = argv[2];
-	if (strcmp(cmd, "garbage") && strcmp(cmd, "flood") && strcmp(cmd, "params"))
+	if (strcmp(cmd, "garbage") && strcmp(cmd, "flood") && strcmp(cmd, "params") && strcmp(cmd, "can-errors"))
 		die("unknown command ", cmd);
 	for (k = 3; k < argc; k += 2) {
 		const char *a = argv[k], *v = k + 1 < argc ? argv[k + 1] : NULL;
@@ -515,9 +569,21 @@ int main(int argc, char **argv)
 		if (errno || !end || *end || !*v)
 			die("not a number: ", v);
 	}
+	if (!strcmp(cmd, "can-errors")) {
+		if (strncmp(spec, "can:", 4) || !spec[4])
+			die("can-errors needs a CAN link, can:IFACE, not ", spec);
+		if (seconds < 0)
+			seconds = 0.5;
+		if (seconds > 60)
+			die("can-errors: --seconds must be at most 60", NULL);
+		open_raw_can(spec + 4);
+		return cmd_can_errors(seconds);
+	}
 	open_link(&l, spec, !strcmp(cmd, "params"));
 	if (strcmp(cmd, "params") && !strncmp(spec, "can:", 4))
 		open_raw_can(spec + 4);
+	if (seconds < 0)
+		seconds = 2;
 	if (!strcmp(cmd, "garbage"))
 		rc = cmd_garbage(l, count, rate, (uint8_t)foreign);
 	else if (!strcmp(cmd, "flood"))
