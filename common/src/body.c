@@ -137,6 +137,38 @@ enum swell_err swell_body_check(const struct swell_body_params *p, const struct 
 	return check_xform(xf);
 }
 
+/* The low-pass gain alpha = w / (tick_hz + w), w = 2 pi f_c with 2 pi as 710 / 113 (8e-8 off), Q16
+ * rounded to nearest: backward Euler of the RC filter, stable and monotone for every rate. */
+static int32_t uw_alpha(uint32_t tick_hz)
+{
+	const int64_t w = 710 * (int64_t)SWELL_BODY_UW_CORNER_HZ;
+
+	return (int32_t)div_rn(w << 16, 113 * (int64_t)tick_hz + w);
+}
+
+/* The floor -d, d = e dx^2 solver_hz^2 / g (eq. 2 solved for the depth), in LSB: e dx^2 2^16 first
+ * (um^2 * 2^16, to 2^-16 um^2), then times f^2 / (g 10^6); both 128-bit products, rounded to nearest.
+ * Out of the height range: the floor is at -Z_LIMIT (no floor). Runs at init and when e or g change. */
+static void floor_update(struct swell_body *b, const struct swell_wave *w)
+{
+	uint64_t t, d;
+
+	if (w->p.e == b->floor_e && b->p.g_mm_s2 == b->floor_g)
+		return;
+	b->floor_e = w->p.e;
+	b->floor_g = b->p.g_mm_s2;
+	b->floor_lsb = -Z_LIMIT_LSB;
+	if (w->p.e <= 0 || b->p.g_mm_s2 == 0)
+		return;
+	if (!swell_muldiv_u64((uint64_t)w->p.e, (uint64_t)b->sc.dx_um * b->sc.dx_um, 1u << 14, &t))
+		return;
+	if (!swell_muldiv_u64(t, (uint64_t)b->sc.solver_hz * b->sc.solver_hz, (uint64_t)b->p.g_mm_s2 * 1000000u,
+			      &d))
+		return;
+	if (d < (uint64_t)Z_LIMIT_LSB)
+		b->floor_lsb = -(int32_t)d;
+}
+
 static void apply_params(struct swell_body *b, const struct swell_body_params *p,
 			 const struct swell_body_xform *xf)
 {
@@ -186,7 +218,9 @@ enum swell_err swell_body_init(struct swell_body *b, const struct swell_body_par
 	b->nx = w->nx;
 	b->ny = w->ny;
 	b->ticks_per_step = sc->tick_hz / sc->solver_hz;
+	b->uw_alpha_q16 = uw_alpha(sc->tick_hz);
 	apply_params(b, p, xf);
+	floor_update(b, w);
 	scan_field(b, w);
 	return SWELL_OK;
 }
@@ -358,6 +392,45 @@ static void device_force(const struct swell_body *b, struct swell_body_out *out)
 	out->f_dev_uN[b->xf.axis[2]] = sat32((int64_t)b->xf.sign[2] * out->f.total_uN);
 }
 
+/* u_w through the low-pass, two equal first-order stages (critically damped second order):
+ * y += alpha (x - y) for each, in LSB per step * 2^16, rounded to nearest. |u| <= 2^28 (a mean of v,
+ * |v| <= 2^28), so every |x - y| < 2^45 and every product < 2^61. At rest each stage stops within
+ * 2^15 / alpha of its input (20 for 10 Hz at 2500 Hz), so the output ends below 41 * 2^-16 LSB a
+ * step: exactly 0 um/s. */
+static int64_t uw_filter(struct swell_body *b, int64_t u)
+{
+	b->uw1_q16 += div_rn((u * 65536 - b->uw1_q16) * b->uw_alpha_q16, (int64_t)1 << 16);
+	b->uw2_q16 += div_rn((b->uw1_q16 - b->uw2_q16) * b->uw_alpha_q16, (int64_t)1 << 16);
+	return b->uw2_q16;
+}
+
+/* LSB per solver step * 2^q -> um/s: 2^-16 mm * solver_hz = solver_hz * 125 / 8192 um/s. */
+static int32_t lsb_step_to_um_s(const struct swell_body *b, int64_t u, int q)
+{
+	return sat32(div_rn(u * (int64_t)b->sc.solver_hz * 125, (int64_t)8192 << q));
+}
+
+/* Contact with the floor at penetration p > 0 (LSB) and velocity v (um/s, up): a spring k_c p and a
+ * damper b_c (-v) that comes in over the first p_r, so the force is continuous in z; it pushes and
+ * never pulls, and never exceeds F_c_max. k_c p: p < 2^31, k_c < 2^24, < 2^55; the damper: |v| < 2^31,
+ * b_c < 2^16, min(p, p_r) <= 2^16: < 2^63. */
+static int32_t floor_force(int32_t p, int32_t v_um_s)
+{
+	const int64_t ramp = ((int64_t)SWELL_BODY_FLOOR_RAMP_UM << 16) / 1000; /* um -> LSB, exact for 1000 */
+	const int64_t pr = p < ramp ? p : ramp;
+	int64_t f = div_rn((int64_t)SWELL_BODY_FLOOR_K * p, (int64_t)1 << 16);
+
+	f -= div_rn((int64_t)SWELL_BODY_FLOOR_DAMPER * v_um_s * pr, ramp * 1000);
+	return (int32_t)(f < 0 ? 0 : (f > SWELL_BODY_FLOOR_F_MAX_UN ? SWELL_BODY_FLOOR_F_MAX_UN : f));
+}
+
+static int32_t total_force(const struct swell_body_forces *f)
+{
+	/* symmetric saturation: a force and its negation are both representable */
+	return swell_clamp(sat32((int64_t)f->gravity_uN + f->up_uN + f->viscous_uN + f->floor_uN), -INT32_MAX,
+			   INT32_MAX);
+}
+
 void swell_body_tick(struct swell_body *b, struct swell_wave *w, const int32_t pos_dev_um[3],
 		     const int32_t vel_dev_um_s[3], struct swell_body_out *out)
 {
@@ -365,7 +438,7 @@ void swell_body_tick(struct swell_body *b, struct swell_wave *w, const int32_t p
 	struct swell_body_fp f;
 	struct swell_springs s;
 	int64_t sh, sv, area, u, dv, bs;
-	int32_t z, wl, wv, delta, mean;
+	int32_t z, zw, wl, wv, delta, mean;
 
 	memset(out, 0, sizeof(*out));
 	out->x_um = map_axis(&b->xf, 0, pos_dev_um, 1);
@@ -376,6 +449,8 @@ void swell_body_tick(struct swell_body *b, struct swell_wave *w, const int32_t p
 	b->ticks++;
 	if (b->phase < kk)
 		b->phase++;
+	floor_update(b, w);
+	out->floor_lsb = b->floor_lsb;
 	out->f.gravity_uN = b->gravity_uN;
 	out->f.total_uN = b->gravity_uN;
 
@@ -384,17 +459,28 @@ void swell_body_tick(struct swell_body *b, struct swell_wave *w, const int32_t p
 		/* clear of the water and holding nothing: no surface read, no coupling */
 		b->skipped++;
 		b->u_last = 0;
+		b->uw1_q16 = b->uw2_q16 = 0;
 		out->skipped = 1;
 		device_force(b, out);
 		return;
 	}
 	if (fp_empty(&f)) {
-		/* wholly outside the pool: let go of what it held */
+		/* wholly outside the pool: let go of what it held (no floor out there) */
 		b->u_last = 0;
+		b->uw1_q16 = b->uw2_q16 = 0;
 		couple(b, w, &f);
 		b->wet = 0;
 		device_force(b, out);
 		return;
+	}
+
+	/* the floor: the water sees the bottom at most down to it, the contact force takes the rest */
+	zw = z;
+	if (z < b->floor_lsb) {
+		zw = b->floor_lsb;
+		out->penetration_lsb = b->floor_lsb - z; /* both within +-2^30 */
+		out->f.floor_uN = floor_force(out->penetration_lsb, out->vz_um_s);
+		b->floor_ticks++;
 	}
 
 	/* surface under the footprint, between h(n-1) and h(n) */
@@ -405,12 +491,14 @@ void swell_body_tick(struct swell_body *b, struct swell_wave *w, const int32_t p
 	b->u_last = wv;
 	u = (int64_t)b->u_prev + div_rn(((int64_t)wv - b->u_prev) * (int64_t)k, kk);
 	out->surface_lsb = wl;
-	out->surface_um_s = sat32(div_rn(u * (int64_t)b->sc.solver_hz * 125, 8192));
+	out->surface_raw_um_s = lsb_step_to_um_s(b, u, 0);
+	/* the damper's u_w: low-passed, 2^8 finer than a LSB per step into the conversion */
+	out->surface_um_s = lsb_step_to_um_s(b, div_rn(uw_filter(b, u), 1 << 8), 8);
 
-	delta = swell_clamp(sat32((int64_t)wl - z), 0, b->h_lsb);
+	delta = swell_clamp(sat32((int64_t)wl - zw), 0, b->h_lsb);
 	out->delta_lsb = delta;
 
-	swell_body_springs(b->k_q8, wl, z, b->h_lsb, b->deadband_lsb, &s);
+	swell_body_springs(b->k_q8, wl, zw, b->h_lsb, b->deadband_lsb, &s);
 	out->origin_pull_lsb = s.origin_pull_lsb;
 	out->origin_push_lsb = s.origin_push_lsb;
 	out->f.pull_uN = sat32((s.pull_fine + ((int64_t)1 << (FINE_SHIFT - 1))) >> FINE_SHIFT);
@@ -421,14 +509,12 @@ void swell_body_tick(struct swell_body *b, struct swell_wave *w, const int32_t p
 	bs = div_rn((int64_t)b->p.damper_uN_per_mm_s * delta, b->h_lsb);
 	dv = (int64_t)out->vz_um_s - out->surface_um_s;
 	out->f.viscous_uN = swell_clamp(sat32(-div_rn(bs * dv, 1000)), -INT32_MAX, INT32_MAX);
-	/* symmetric saturation: a force and its negation are both representable */
-	out->f.total_uN = swell_clamp(sat32((int64_t)out->f.gravity_uN + out->f.up_uN + out->f.viscous_uN),
-				      -INT32_MAX, INT32_MAX);
+	out->f.total_uN = total_force(&out->f);
 	device_force(b, out);
 
-	/* coupling: the depth below the mean level of the pool (see body.h) */
+	/* coupling: the depth below the mean level of the pool (see body.h), the water column at most */
 	mean = sat32(div_rn(b->water_sum, (int64_t)b->nx * b->ny));
-	f.delta_lsb = swell_clamp(sat32((int64_t)mean - z), 0, b->h_lsb);
+	f.delta_lsb = swell_clamp(sat32((int64_t)mean - zw), 0, b->h_lsb);
 	couple(b, w, &f);
 	b->wet = delta > 0 || b->applied.delta_lsb != 0;
 }

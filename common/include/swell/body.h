@@ -22,11 +22,15 @@
  *             origin at the water surface w, active from first contact, the pushing one with its
  *             origin at w - H, active from full submersion. Net: k clamp(w - z - deadband, 0, H).
  *             Both origins move with the surface (its velocity u_w is what moves them).
- *   viscous   F_v = -b_max s (v - u_w), s = delta / H, delta = clamp(w - z, 0, H)
+ *   viscous   F_v = -b_max s (v - u_w), s = delta / H, delta = clamp(w - z, 0, H); u_w low-passed
+ *             (SWELL_BODY_UW_CORNER_HZ) so the grid's short waves do not ripple the force
+ *   floor     below the pool floor z = -d: a contact spring-damper (SWELL_BODY_FLOOR_*); the water
+ *             sees the bottom at max(z, -d) (submersion, springs, coupling)
  * w is the area-weighted mean surface under the footprint (partly covered cells by covered area),
  * read between the two latest solver states: h(n-1) + alpha v = h - (1 - alpha) v, alpha = k / K for
  * the k-th tick after a solver step, so the force has no steps at solver updates. u_w interpolates
- * the footprint velocity of the last two solver periods the same way.
+ * the footprint velocity of the last two solver periods the same way, then goes through the low-pass.
+ * d, the rest depth, is the one the solver's e stands for: d = e dx^2 solver_hz^2 / g (eq. 2).
  *
  * Coupling (paper 2.1): every cell c under the footprint holds D_c = round(delta_c * area_c) of the
  * object's volume (area_c its covered fraction); when the pose or delta_c changes, the old D_c are
@@ -35,8 +39,9 @@
  * V_displaced is the sum of what was added, so sum(h) + pending adds - V_displaced is constant
  * exactly in integers (at solver step boundaries: sum(h) - V_displaced), whatever the object does,
  * also across a wall or partly outside the pool (cells outside the pool hold nothing).
- * delta_c = clamp(S - z, 0, H) is the depth below the mean level S of the pool (sum(h) / cells,
- * exact: found at each solver step and kept up to date by the coupling itself), not below the
+ * delta_c = clamp(S - max(z, -d), 0, H) is the depth below the mean level S of the pool (sum(h) /
+ * cells, exact: found at each solver step and kept up to date by the coupling itself; at the floor
+ * it is the whole water column S + d, and pressing further moves no water), not below the
  * surface under the object: measured there, the object would see the volume it just pushed in and
  * push in more every tick; measured against the water around it, volume would move without the
  * object doing work (docs/force-law.md).
@@ -61,6 +66,24 @@
 #define SWELL_BODY_MAX_DAMPER 10000000u /* uN per mm/s = 10 kN s/m */
 #define SWELL_BODY_MAX_DEADBAND_UM 100000u
 #define SWELL_BODY_MAX_K 256u           /* ticks per solver step */
+
+/* The surface velocity u_w in the damper is low-passed at the device rate so that the short waves
+ * the grid rings with (20-55 Hz) do not reach the force (docs/force-law.md): two equal first-order
+ * stages, each the backward Euler form of an RC filter, y += alpha (x - y), alpha = w / (tick_hz + w),
+ * w = 2 pi f_c: a critically damped second order, gain 1 / (1 + (f / f_c)^2), exactly 1 at rest.
+ * A port may set another corner at build time. */
+#ifndef SWELL_BODY_UW_CORNER_HZ
+#define SWELL_BODY_UW_CORNER_HZ 10u
+#endif
+
+/* The pool floor: z = -d, d the rest depth the solver's e stands for. The box's bottom does not go
+ * below it for the water (submersion and coupling use max(z, -d)); below it the box feels a contact
+ * spring-damper that pushes and never pulls, F_c = clamp(k_c p + b_c min(p, p_r) / p_r (-v), 0,
+ * F_c_max), p = -d - z the penetration. */
+#define SWELL_BODY_FLOOR_K 10000000u      /* k_c, uN/mm = 10 kN/m */
+#define SWELL_BODY_FLOOR_DAMPER 50000u    /* b_c, uN per mm/s = 50 N s/m */
+#define SWELL_BODY_FLOOR_RAMP_UM 1000u    /* p_r: the damper comes in over the first 1 mm */
+#define SWELL_BODY_FLOOR_F_MAX_UN 20000000 /* F_c_max, 20 N (2 mm in) */
 
 struct swell_body_params {
 	uint32_t a_um, b_um;        /* footprint along pool x and y */
@@ -108,22 +131,30 @@ struct swell_body {
 	uint8_t wet;             /* the last computed tick touched the water or held volume */
 	int64_t water_sum;       /* sum(h), LSB * cell: from the last scan, kept by coupling */
 	int32_t u_prev, u_last;  /* footprint velocity, LSB per solver step: last period, this one */
+	int64_t uw1_q16, uw2_q16; /* u_w after the first and second low-pass stage, LSB per step * 2^16 */
+	int32_t uw_alpha_q16;    /* the low-pass gain per tick, Q16 */
+	int32_t floor_lsb;       /* the pool floor -d (-2^30: none, when d is beyond the height range) */
+	q30_t floor_e;           /* the solver's e that floor_lsb was found from */
+	uint32_t floor_g;        /* and the gravity */
 	struct swell_body_fp applied; /* what is in the water now */
 	int64_t v_displaced;     /* LSB * cell, the sum of what coupling added */
 	/* counters */
-	uint32_t ticks, skipped, coupled, scans;
+	uint32_t ticks, skipped, coupled, scans, floor_ticks;
 };
 
 struct swell_body_forces {
-	int32_t gravity_uN, viscous_uN, pull_uN, push_uN, up_uN, total_uN;
+	int32_t gravity_uN, viscous_uN, pull_uN, push_uN, up_uN, floor_uN, total_uN;
 };
 
 struct swell_body_out {
 	int32_t x_um, y_um, z_um;   /* pose in the pool */
 	int32_t vz_um_s;            /* object velocity, up */
 	int32_t surface_lsb;        /* w under the footprint (0 when skipped) */
-	int32_t delta_lsb;          /* submersion clamp(w - z, 0, H) */
-	int32_t surface_um_s;       /* u_w, the velocity passed to both spring origins */
+	int32_t delta_lsb;          /* submersion clamp(w - max(z, -d), 0, H) */
+	int32_t surface_um_s;       /* u_w low-passed: the velocity in the damper and of both spring origins */
+	int32_t surface_raw_um_s;   /* u_w as read from the solver, before the low-pass */
+	int32_t floor_lsb;          /* the pool floor -d under the object */
+	int32_t penetration_lsb;    /* how far the bottom is below the floor (0: above it) */
 	int32_t origin_pull_lsb, origin_push_lsb;
 	struct swell_body_forces f;
 	int32_t f_dev_uN[3];        /* total force on the device axes */
