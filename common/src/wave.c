@@ -332,13 +332,16 @@ static inline int32_t flow_dsp(int32_t f, int32_t dh, int32_t c, int32_t q, int 
  * scattered there, as the reference does. Heights are carried from cell to cell: two loads a cell.
  * mode 0: flow_ref; 1, 2: flow_dsp (c times 4, dh times 4). */
 static inline __attribute__((always_inline)) int32_t segment_fused(struct swell_wave *w, int j, int i0,
-								   int i1, int damp, int mode, int inner)
+								   int i1, int damp, int mode, int shape)
 {
-	/* inner: a whole tile row away from every wall (i0 > 0, i1 = i0 + 8 < nx, 0 < j < ny - 1), the
-	 * common case, unrolled with constant offsets */
-	const int nx = WAVE_NX(w), n = inner ? SWELL_WAVE_TILE : i1 - i0, sh = mode == 1 ? 2 : 0;
+	/* shape (segment_shape): 0 any segment; else a whole tile row (8 cells) of a row other than
+	 * the first and the last, 1 away from the walls, 2 on the west wall, 3 on the east wall: the
+	 * common cases, unrolled with constant offsets */
+	const int fixed = shape != 0, nx = WAVE_NX(w), n = fixed ? SWELL_WAVE_TILE : i1 - i0;
+	const int west = fixed ? shape == 2 : i0 == 0, east = fixed ? shape == 3 : i1 == nx;
+	const int sh = mode == 1 ? 2 : 0;
 	const int32_t c1 = w->c_1 << sh, ch = w->c_half << sh, cw = w->c_wall << sh;
-	const int32_t ce = (!inner && (j == 0 || j == w->ny - 1)) ? cw : c1, q = w->q;
+	const int32_t ce = (!fixed && (j == 0 || j == w->ny - 1)) ? cw : c1, q = w->q;
 	const int32_t *restrict h = w->h + j * nx + i0;
 	int32_t *restrict v = w->acc + j * nx + i0;
 	int32_t *restrict fb = flows_at(w, i0, j);
@@ -355,7 +358,7 @@ static inline __attribute__((always_inline)) int32_t segment_fused(struct swell_
 #else
 #define WAVE_FLOW(old, dh, c) flow_ref(old, dh, c, q, damp, &sat)
 #endif
-	if (!inner && j + 1 >= w->ny) { /* the top row: E edges only */
+	if (!fixed && j + 1 >= w->ny) { /* the top row: E edges only */
 		for (; k < n; k++) {
 			fe = 0;
 			if (i0 + k + 1 < nx) {
@@ -368,11 +371,11 @@ static inline __attribute__((always_inline)) int32_t segment_fused(struct swell_
 			fe_prev = fe;
 		}
 	} else {
-		const int end = !inner && i1 == nx ? n - 1 : n;
+		const int end = east ? n - 1 : n;
 
 		huc = h[nx];
-		hul = inner || i0 > 0 ? h[nx - 1] : 0;
-		if (!inner && i0 == 0) { /* the west wall: N along it, NE, no NW */
+		hul = west ? 0 : h[nx - 1];
+		if (west) { /* the west wall: N along it, NE, no NW */
 			hr = h[1];
 			hur = h[nx + 1];
 			fb[FE] = fe = WAVE_FLOW(fb[FE], hr - ha, ce);
@@ -406,7 +409,7 @@ static inline __attribute__((always_inline)) int32_t segment_fused(struct swell_
 			hul = huc;
 			huc = hur;
 		}
-		if (!inner && i1 == nx) { /* the east wall: N along it, NW, no E, no NE */
+		if (east) { /* the east wall: N along it, NW, no E, no NE */
 			fb[FN + k] = fn = WAVE_FLOW(fb[FN + k], huc - ha, cw);
 			fb[FNW + k] = fnw = WAVE_FLOW(fb[FNW + k], hul - ha, ch);
 			any |= fn | fnw;
@@ -416,11 +419,11 @@ static inline __attribute__((always_inline)) int32_t segment_fused(struct swell_
 			fne_prev = fe_prev = 0;
 		}
 		v[nx + n - 1] -= up;
-		if (inner || i1 < nx)
+		if (!east)
 			v[nx + n] -= fne_prev;
 	}
 #undef WAVE_FLOW
-	if (inner || i1 < nx)
+	if (!east)
 		v[n] -= fe_prev;
 #if WAVE_DSP
 	if (mode)
@@ -430,29 +433,43 @@ static inline __attribute__((always_inline)) int32_t segment_fused(struct swell_
 	return any;
 }
 
-static inline int segment_inner(const struct swell_wave *w, int j, int i0, int i1)
+static inline int segment_shape(const struct swell_wave *w, int j, int i0, int i1)
 {
-	return i0 > 0 && i1 == i0 + SWELL_WAVE_TILE && i1 < WAVE_NX(w) && j > 0 && j + 1 < w->ny;
+	if (i1 != i0 + SWELL_WAVE_TILE || j == 0 || j + 1 >= w->ny || (i0 == 0 && i1 == WAVE_NX(w)))
+		return 0;
+	return i0 == 0 ? 2 : i1 == WAVE_NX(w) ? 3 : 1;
 }
 
 #if !WAVE_DSP
 static int32_t segment_fused_c(struct swell_wave *w, int j, int i0, int i1, int damp)
 {
-	if (segment_inner(w, j, i0, i1))
+	switch (segment_shape(w, j, i0, i1)) {
+	case 1:
 		return damp ? segment_fused(w, j, i0, i1, 1, 0, 1) : segment_fused(w, j, i0, i1, 0, 0, 1);
-	return damp ? segment_fused(w, j, i0, i1, 1, 0, 0) : segment_fused(w, j, i0, i1, 0, 0, 0);
+	case 2:
+		return damp ? segment_fused(w, j, i0, i1, 1, 0, 2) : segment_fused(w, j, i0, i1, 0, 0, 2);
+	case 3:
+		return damp ? segment_fused(w, j, i0, i1, 1, 0, 3) : segment_fused(w, j, i0, i1, 0, 0, 3);
+	default:
+		return damp ? segment_fused(w, j, i0, i1, 1, 0, 0) : segment_fused(w, j, i0, i1, 0, 0, 0);
+	}
 }
 #endif
 
 #if WAVE_DSP
 static int32_t segment_fused_dsp(struct swell_wave *w, int j, int i0, int i1, int damp)
 {
-	const int inner = segment_inner(w, j, i0, i1);
-
 	if (w->c_wall < ((int32_t)1 << 29)) { /* 4 c fits int32: no multiply of dh */
-		if (inner)
+		switch (segment_shape(w, j, i0, i1)) {
+		case 1:
 			return damp ? segment_fused(w, j, i0, i1, 1, 1, 1) : segment_fused(w, j, i0, i1, 0, 1, 1);
-		return damp ? segment_fused(w, j, i0, i1, 1, 1, 0) : segment_fused(w, j, i0, i1, 0, 1, 0);
+		case 2:
+			return damp ? segment_fused(w, j, i0, i1, 1, 1, 2) : segment_fused(w, j, i0, i1, 0, 1, 2);
+		case 3:
+			return damp ? segment_fused(w, j, i0, i1, 1, 1, 3) : segment_fused(w, j, i0, i1, 0, 1, 3);
+		default:
+			return damp ? segment_fused(w, j, i0, i1, 1, 1, 0) : segment_fused(w, j, i0, i1, 0, 1, 0);
+		}
 	}
 	return damp ? segment_fused(w, j, i0, i1, 1, 2, 0) : segment_fused(w, j, i0, i1, 0, 2, 0);
 }
