@@ -1,9 +1,11 @@
 #include "app.h"
 
 #include "../logic/scene.h"
+#include "boot.h"
 #include "can.h"
 #include "console.h"
 #include "fault.h"
+#include "image.h"
 #include "iwdg.h"
 #include "port.h"
 #include "swell/proto.h"
@@ -15,6 +17,9 @@ int32_t app_arena[APP_ARENA_WORDS];
 struct swell_ctl app_ctl;
 
 #define USB_RING 8u /* decoded messages from USB waiting for the tick (SPSC: USB ISR -> tick) */
+/* Ticks between an accepted ENTER_BOOTLOADER and the reset: the zero force and the last heartbeat
+ * leave through the normal drains first. */
+#define BOOT_DRAIN_TICKS 3u
 
 static struct {
 	int can_on, usb_on, device_on_can;
@@ -177,10 +182,15 @@ void app_run(const struct clock_info *ci, int can_ok, int usb_ok, const struct a
 	struct tick_stats st;
 	/* Accept every message type for our node: id = type << 4 | node. */
 	struct can_filter_spec flt = {.id = 0, .mask = 0x00F, .kind = CAN_FILTER_MASK, .fifo = 0};
-	uint32_t tick_hz = can_ok ? 1000u : 2500u, last_count = 0, now_ms;
+	uint32_t tick_hz = can_ok ? 1000u : 2500u, last_count = 0, now_ms, boot_at = 0, version;
+	int boot_armed = 0;
 	enum swell_err err;
 
 	swell_ctl_default_config(&cfg);
+	version = image_version(); /* checked at boot; CTL_INFO reports it (major saturated to 255) */
+	cfg.fw_version[0] = (uint8_t)(version >> 16 > 255u ? 255u : version >> 16);
+	cfg.fw_version[1] = (uint8_t)(version >> 8);
+	cfg.fw_version[2] = (uint8_t)version;
 	cfg.tick_hz = tick_hz;
 	cfg.safety.tick_hz = tick_hz;
 	flt.id = cfg.node;
@@ -219,5 +229,13 @@ void app_run(const struct clock_info *ci, int can_ok, int usb_ok, const struct a
 		if (app.can_on)
 			can_poll(now_ms);
 		app_background();
+		if (app_ctl.bootloader_request) { /* accepted by the core: force zeroed, heartbeat queued */
+			if (!boot_armed) {
+				boot_armed = 1;
+				boot_at = st.count + BOOT_DRAIN_TICKS;
+			}
+			else if ((int32_t)(st.count - boot_at) >= 0)
+				boot_request_reset();
+		}
 	}
 }

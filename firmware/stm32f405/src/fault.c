@@ -3,6 +3,7 @@
 #include <stdint.h>
 
 #include "../regs/cortex_m4.h"
+#include "boot.h"
 #include "console.h"
 #include "port.h"
 
@@ -34,6 +35,7 @@ __attribute__((used, noreturn)) void fault_report(const struct fault_frame *f, u
 {
 	uint32_t ipsr;
 
+	boot_probe_fault(); /* the ROM probe of a bootloader request: no return */
 	port_force_zero();
 	__asm__ volatile("mrs %0, ipsr" : "=r"(ipsr));
 	con_puts("FAULT: exception ");

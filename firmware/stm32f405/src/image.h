@@ -13,4 +13,7 @@ struct image_info {
 /* Verify the header and CRC of the image in flash; the controller refuses to run on any error. */
 enum swell_err image_check(struct image_info *out);
 
+/* The header's version field (major << 16 | minor << 8 | patch) as stamped in flash. */
+uint32_t image_version(void);
+
 #endif

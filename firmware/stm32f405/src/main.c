@@ -6,6 +6,7 @@
 #include "../regs/stm32f405_periph.h"
 #include "../regs/stm32f405_rcc.h"
 #include "app.h"
+#include "boot.h"
 #include "can.h"
 #include "clock.h"
 #include "console.h"
@@ -31,6 +32,9 @@
  * check that the fault handler zeroes the force and reports. Cleared once read. */
 #define BOOT_MODE (*(volatile uint32_t *)0x2001FFF0u)
 #define BOOT_MODE_FAULT 0x544C4146u /* "FALT" */
+/* BOOT_MODE_BOOTLOADER: instead of the self-test, the enter-bootloader path (selftest_boot_request);
+ * after its reset, the boot report and a stop. */
+#define BOOT_MODE_BOOTLOADER 0x544F4F42u /* "BOOT" */
 
 static void put_reset_cause(uint32_t csr)
 {
@@ -63,7 +67,7 @@ int main(void)
 	struct image_info img;
 	uint32_t csr = RCC->CSR, boot_mode = BOOT_MODE;
 	enum swell_err err;
-	int can_ok, usb_ok;
+	int can_ok, usb_ok, came_back;
 
 	BOOT_MODE = 0;
 	RCC->CSR |= RCC_CSR_RMVF;
@@ -75,6 +79,7 @@ int main(void)
 	con_puts(SWELL_FW_VERSION_STR);
 	con_putc('\n');
 	put_reset_cause(csr);
+	came_back = boot_report();
 	con_puts("clock: ");
 	con_puts(clock_src_name(ci.src));
 	con_puts(" sysclk ");
@@ -125,6 +130,13 @@ int main(void)
 	con_putc('\n');
 
 	if (!can_ok && !usb_ok) {
+		if (boot_mode == BOOT_MODE_BOOTLOADER) {
+			if (!came_back)
+				selftest_boot_request(); /* returns only on a failed check */
+			con_puts(came_back ? "boot test: end, back in this image\n" : "boot test: end, FAILED\n");
+			for (;;)
+				__asm__ volatile("wfi");
+		}
 		selftest_run(ci.tim_apb1_hz);
 		if (boot_mode == BOOT_MODE_FAULT) {
 			con_puts("boot mode: fault injection (force 1234 cN on z, then an undefined instruction)\n");

@@ -3,6 +3,7 @@
 #include "../logic/core_run.h"
 #include "../logic/scene.h"
 #include "app.h"
+#include "boot.h"
 #include "isr.h"
 #include "../regs/stm32f405_periph.h"
 #include "console.h"
@@ -340,4 +341,58 @@ int selftest_run(uint32_t tim_clk_hz)
 	con_puts(" bytes used\n");
 	con_puts(ok ? "selftest: end ok\n" : "selftest: end FAILED\n");
 	return ok;
+}
+
+/* Boot mode "bootloader" (QEMU): the enter-bootloader path as far as it goes without a ROM. The core
+ * on the reference scene in RUNNING with the object pressed in must refuse ENTER_BOOTLOADER; once
+ * stopped (autorun off: ARMED) it must accept it with the force zero; then the same call as on a
+ * board (boot_request_reset: line, magic, system reset). */
+void selftest_boot_request(void)
+{
+	struct fw_core_run r;
+	struct swell_msg req = {.type = SWELL_MSG_ENTER_BOOTLOADER}, stop = {.type = SWELL_MSG_PARAM_SET};
+	int32_t f_running;
+	uint32_t n;
+
+	if (fw_core_init(&ctl, &r, wave_storage, ARENA_WORDS, 2500) != SWELL_OK) {
+		con_puts("boot test: core refused its configuration\n");
+		return;
+	}
+	for (n = 0; n < 1250; n++) { /* 0.5 s: the object pressed 5 mm into the water */
+		fw_core_device(&ctl, &r);
+		swell_ctl_tick(&ctl);
+		fw_core_drain(&ctl, &r);
+	}
+	f_running = ctl.force_dev_uN[2];
+	req.u.enter_bootloader.key = SWELL_PROTO_BOOT_KEY;
+	swell_ctl_rx(&ctl, SWELL_LINK_HOST, &req);
+	con_puts("boot test: ENTER_BOOTLOADER in ");
+	con_puts(swell_ctl_state_name(ctl.state));
+	con_puts(" (force z ");
+	con_put_i64(f_running);
+	con_puts(" uN): ");
+	con_puts(ctl.bootloader_request ? "ACCEPTED\n" : "refused\n");
+	if (ctl.bootloader_request)
+		return;
+	stop.u.param_set.id = SWELL_PARAM_AUTORUN;
+	stop.u.param_set.value = 0;
+	swell_ctl_rx(&ctl, SWELL_LINK_HOST, &stop);
+	fw_core_device(&ctl, &r);
+	swell_ctl_tick(&ctl);
+	fw_core_drain(&ctl, &r);
+	swell_ctl_rx(&ctl, SWELL_LINK_HOST, &req);
+	fw_core_drain(&ctl, &r);
+	con_puts("boot test: ENTER_BOOTLOADER in ");
+	con_puts(swell_ctl_state_name(ctl.state));
+	con_puts(": ");
+	con_puts(ctl.bootloader_request ? "accepted" : "REFUSED");
+	con_puts(", force now ");
+	con_put_i64(ctl.force_dev_uN[0]);
+	con_putc(' ');
+	con_put_i64(ctl.force_dev_uN[1]);
+	con_putc(' ');
+	con_put_i64(ctl.force_dev_uN[2]);
+	con_puts(" uN\n");
+	if (ctl.bootloader_request)
+		boot_request_reset();
 }

@@ -13,4 +13,8 @@
 /* Returns 1 when every check passed. */
 int selftest_run(uint32_t tim_clk_hz);
 
+/* Boot mode "bootloader": the core refuses ENTER_BOOTLOADER in RUNNING and accepts it in ARMED, then
+ * boot_request_reset() (no return). Returns only when a check failed (printed). */
+void selftest_boot_request(void);
+
 #endif

@@ -6,6 +6,7 @@
 
 #include "../regs/cortex_m4.h"
 #include "../regs/stm32f405_periph.h"
+#include "boot.h"
 #include "fault.h"
 #include "isr.h"
 
@@ -103,6 +104,8 @@ uint32_t stack_size_bytes(void)
 
 void isr_reset(void)
 {
+	/* A requested jump to the ROM bootloader goes first, from the state the reset left. */
+	boot_early();
 	/* The FPU first: the compiler may use FP registers anywhere after this (hard-float ABI). */
 	SCB->CPACR |= SCB_CPACR_CP10_CP11_FULL;
 	__asm__ volatile("dsb\n\tisb" ::: "memory");
