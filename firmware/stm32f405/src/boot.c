@@ -60,12 +60,10 @@ void boot_early(void)
 		NVIC->ICER[k] = 0xFFFFFFFFu;
 		NVIC->ICPR[k] = 0xFFFFFFFFu;
 	}
-	RCC->APB2ENR |= RCC_APB2ENR_SYSCFG;
-	(void)RCC->APB2ENR;
-	SYSCFG_MEMRMP = SYSCFG_MEMRMP_SYSTEM_FLASH;
-	__asm__ volatile("dsb\n\tisb" ::: "memory");
-	/* Where nothing answers at 0x1FFF0000 (QEMU) the read bus-faults: boot_probe_fault() in the fault
-	 * handler sees PROBING, records the fault and resets into this image. */
+	/* System memory answers at 0x1FFF0000 whatever the remap; it is read before anything is remapped,
+	 * so that a fault here still finds this image's vector table. Where nothing answers (QEMU) the
+	 * read bus-faults: boot_probe_fault() in the fault handler sees PROBING, records the fault and
+	 * resets into this image. */
 	BOOT_WORD(1) = BOOT_PROBING;
 	__asm__ volatile("dsb" ::: "memory");
 	msp = *(volatile const uint32_t *)BOOT_SYSMEM;
@@ -74,17 +72,20 @@ void boot_early(void)
 	BOOT_WORD(2) = msp;
 	BOOT_WORD(3) = pc;
 	if (looks_like_rom(msp, pc)) {
-		/* The ROM sets up its own clocks and interrupts; it is entered as from a reset: MSP from
-		 * its table, PRIMASK clear with every interrupt disabled and nothing pending. */
+		/* System flash at 0x00000000 (VTOR is 0 after reset: the ROM's own vector table), as when
+		 * BOOT0 selects it. The ROM sets up its own clocks and interrupts; it is entered as from a
+		 * reset: MSP from its table, PRIMASK clear with every interrupt disabled and none pending. */
+		RCC->APB2ENR |= RCC_APB2ENR_SYSCFG;
+		(void)RCC->APB2ENR;
+		SYSCFG_MEMRMP = SYSCFG_MEMRMP_SYSTEM_FLASH;
+		__asm__ volatile("dsb\n\tisb" ::: "memory");
 		__asm__ volatile("msr msp, %0\n\t"
 				 "cpsie i\n\t"
 				 "bx %1" ::"r"(msp), "r"(pc) : "memory");
 		__builtin_unreachable();
 	}
-	/* No bootloader there: undo the remap and boot this image as after any reset. */
-	SYSCFG_MEMRMP = 0;
-	RCC->APB2ENR &= ~RCC_APB2ENR_SYSCFG;
-	__asm__ volatile("dsb\n\tisb\n\tcpsie i" ::: "memory");
+	/* No bootloader there: nothing was remapped; boot this image as after any reset. */
+	__asm__ volatile("cpsie i" ::: "memory");
 	BOOT_WORD(1) = BOOT_OUTCOME_NOROM;
 }
 
