@@ -44,7 +44,7 @@ static void usage(FILE *to)
 {
 	fprintf(to,
 		"usage: " PROG " --flash FILE [--log FILE] [--gadgetfs DIR] [--transfer-size N] [--poll-ms N]\n"
-		"                      [--leave-ms N] [--serial TEXT] [--bad-cell ADDRESS]\n"
+		"                      [--leave-ms N] [--serial TEXT] [--bad-cell ADDRESS] [--no-rt]\n"
 		"Be an STM32F405 in its ROM DFU bootloader on the VM's USB bus, for dfu-util: VID:PID 0483:df11,\n"
 		"DfuSe 1.1a, alternate setting 0 \"@Internal Flash  /0x08000000/04*016Kg,01*064Kg,07*128Kg\"\n"
 		"(1 MiB; the option bytes, OTP and feature settings are listed but refused). Handles DNLOAD\n"
@@ -64,6 +64,8 @@ static void usage(FILE *to)
 		"  --serial TEXT    serial number string (default 5357454C4C31)\n"
 		"  --bad-cell ADDRESS  fault injection: the byte written at ADDRESS is stored with bit 0\n"
 		"                   inverted (a bad flash cell), so a read-back verify must fail\n"
+		"  --no-rt          stay a normal process (default: SCHED_FIFO, so that each request is\n"
+		"                   read before the host can send the next one; see docs/hil-vm.md)\n"
 		"Exit status: 0 left DFU or stopped by SIGTERM/SIGINT, 1 USB or file error, 2 bad arguments.\n",
 		SWELL_DFUSE_FLASH_SIZE, GADGETFS_EP0_MAX, GADGETFS_EP0_MAX);
 }
@@ -356,6 +358,7 @@ int main(int argc, char **argv)
 {
 	const char *flash_path = NULL, *log_path = NULL, *gfs = "/dev/gadget";
 	long poll_ms = 1, leave_ms = 50, xfer = GADGETFS_EP0_MAX;
+	int rt = 1;
 	struct dev d = {.bad_cell = -1, .ep0 = -1, .flash_fd = -1, .serial = "5357454C4C31", .dfu_requests = 0};
 
 	for (int i = 1; i < argc; i++) {
@@ -363,6 +366,10 @@ int main(int argc, char **argv)
 		if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
 			usage(stdout);
 			return 0;
+		}
+		if (!strcmp(a, "--no-rt")) {
+			rt = 0;
+			continue;
 		}
 		if (i + 1 >= argc) {
 			fprintf(stderr, PROG ": unexpected argument '%s' or missing value (see --help)\n", a);
@@ -426,7 +433,7 @@ int main(int argc, char **argv)
 	/* GadgetFS queues an OUT data stage as soon as the SETUP arrives and the host's next request
 	 * would overwrite it: answer before the host (a normal process) runs again, like hardware. */
 	struct sched_param sp = {.sched_priority = 10};
-	if (sched_setscheduler(0, SCHED_FIFO, &sp) != 0)
+	if (rt && sched_setscheduler(0, SCHED_FIFO, &sp) != 0)
 		fprintf(stderr, PROG ": warning: no SCHED_FIFO (%s); requests may race the host\n", strerror(errno));
 
 	char ep0_path[512];
