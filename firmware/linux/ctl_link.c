@@ -327,14 +327,6 @@ static void send_bytes(struct ctl_link *l, const uint8_t *p, size_t len)
 {
 	ssize_t r;
 
-	if (l->kind == CTL_LINK_USB) {
-		/* queued, never waits: a host that stops reading loses packets (counted), not ticks */
-		if (!l->usb_up || swell_usb_ffs_write(&l->usb, p, len) != SWELL_OK)
-			l->tx_errors++;
-		else
-			l->frames_tx++;
-		return;
-	}
 	if (!l->have_peer)
 		return;
 	r = sendto(l->fd, p, len, 0, (struct sockaddr *)&l->peer, sizeof(l->peer));
@@ -342,6 +334,51 @@ static void send_bytes(struct ctl_link *l, const uint8_t *p, size_t len)
 		l->tx_errors++;
 	else
 		l->frames_tx++;
+}
+
+static int has_answer(const struct swell_msg *m, size_t n)
+{
+	size_t k;
+
+	for (k = 0; k < n; k++)
+		if (m[k].type == SWELL_MSG_PARAM_ACK || m[k].type == SWELL_MSG_PARAM_NACK)
+			return 1;
+	return 0;
+}
+
+/* USB: the held answer goes first; 0 when nothing is held any more. */
+static int send_held(struct ctl_link *l)
+{
+	if (!l->held_len)
+		return 0;
+	if (!l->usb_up) {
+		l->held_len = 0; /* unplugged: the host asks again */
+		l->answers_dropped++;
+		return 0;
+	}
+	if (swell_usb_ffs_write(&l->usb, l->held, l->held_len) != SWELL_OK)
+		return -1;
+	l->frames_tx++;
+	l->held_len = 0;
+	return 0;
+}
+
+/* Queued, never waits: a host that stops reading loses telemetry (counted), not ticks. An answer that
+ * finds the IN slots busy is held (one) and goes first next time; packets stay in order. */
+static void send_usb(struct ctl_link *l, const uint8_t *pkt, size_t len, int answer)
+{
+	if (send_held(l) == 0 && l->usb_up && swell_usb_ffs_write(&l->usb, pkt, len) == SWELL_OK) {
+		l->frames_tx++;
+		return;
+	}
+	if (answer && l->usb_up && !l->held_len) {
+		memcpy(l->held, pkt, len);
+		l->held_len = (uint16_t)len;
+		l->answers_held++;
+		return;
+	}
+	l->tx_errors++;
+	l->answers_dropped += answer != 0;
 }
 
 void ctl_link_send(struct ctl_link *l, const struct swell_msg *m, size_t n)
@@ -377,7 +414,10 @@ void ctl_link_send(struct ctl_link *l, const struct swell_msg *m, size_t n)
 			l->tx_errors++;
 			return;
 		}
-		send_bytes(l, pkt, len);
+		if (l->kind == CTL_LINK_USB)
+			send_usb(l, pkt, len, has_answer(m + k, used));
+		else
+			send_bytes(l, pkt, len);
 		k += used;
 	}
 }

@@ -54,6 +54,11 @@ struct ctl_link {
 	uint32_t frames_rx, frames_tx, tx_errors;
 	uint32_t foreign; /* valid messages of another node: dropped, never acted on */
 	struct ctl_can_health can;  /* CAN: error frames and bus state (the port compares bus_offs) */
+	/* USB: a packet with a parameter answer that found every IN slot busy (telemetry the host has
+	 * not read yet) is held and sent first next time, not dropped: an answer is asked for once */
+	uint8_t held[SWELL_PKT_MAX];
+	uint16_t held_len;
+	uint32_t answers_held, answers_dropped;
 	char name[48];
 };
 

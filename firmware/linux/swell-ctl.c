@@ -350,6 +350,15 @@ static void report_can(const char *what, const struct ctl_link *l)
 	       h->dropped_off, h->downs);
 }
 
+static void report_usb(const char *what, const struct ctl_link *l)
+{
+	if (l->kind != CTL_LINK_USB)
+		return;
+	printf("  %s USB  %s: %u parameter answers held for a busy IN queue, %u dropped; %u IN writes "
+	       "refused (all %d slots in flight)\n",
+	       what, l->name, l->answers_held, l->answers_dropped, l->usb.tx_busy_drops, SWELL_USB_FFS_TX_SLOTS);
+}
+
 static void flush_output(struct port *p)
 {
 	struct swell_msg m[SWELL_CTL_QUEUE];
@@ -512,8 +521,11 @@ int main(int argc, char **argv)
 		       p.host.name, p.host.frames_rx, p.host.frames_tx, swell_proto_rejected_total(&p.host.st),
 		       p.host.tx_errors, p.c.n.quads_sent, p.c.n.quads_refreshed, p.c.q[SWELL_LINK_HOST].dropped);
 	report_can("device", &p.dev);
-	if (p.have_host)
+	report_usb("device", &p.dev);
+	if (p.have_host) {
 		report_can("host  ", &p.host);
+		report_usb("host  ", &p.host);
+	}
 	printf("  parameters      %u set, %u refused\n", p.c.n.params_set, p.c.n.params_refused);
 	printf("  waves           largest |h| %.3f mm (sampled once a second)\n", peak_h / (double)SWELL_H_ONE_MM);
 	printf("  final force     %+.3f N (zero sent on exit)\n", p.c.force_dev_uN[2] / 1e6);

@@ -164,3 +164,46 @@ TEST_CASE("CAN link names its states", "[ctl_link]")
 	CHECK(std::string(ctl_can_state_name(CTL_CAN_PASSIVE)) == "error-passive");
 	CHECK(std::string(ctl_can_state_name(CTL_CAN_BUS_OFF)) == "bus-off");
 }
+
+TEST_CASE("USB link: an answer that finds the IN queue busy is held and kept in order, telemetry is dropped, "
+	  "an unplug drops the held answer",
+	  "[ctl_link]")
+{
+	struct ctl_link l;
+	struct swell_msg ack, quad;
+
+	memset(&l, 0, sizeof(l));
+	l.kind = CTL_LINK_USB;
+	l.fd = -1;
+	l.usb.ep0 = l.usb.ep_out = l.usb.ep_in = l.usb.efd = -1; /* closed: every write is refused */
+	l.usb_up = 1;                                            /* as between a refusal and DISABLE */
+	memset(&ack, 0, sizeof(ack));
+	ack.type = SWELL_MSG_PARAM_NACK;
+	ack.u.param_nack.id = 999;
+	ack.u.param_nack.err = SWELL_EUNKNOWN;
+	memset(&quad, 0, sizeof(quad));
+	quad.type = SWELL_MSG_HEIGHT_QUAD;
+
+	ctl_link_send(&l, &quad, 1);
+	CHECK(l.tx_errors == 1);
+	CHECK(l.held_len == 0);
+	ctl_link_send(&l, &ack, 1);
+	CHECK(l.held_len > 0);
+	CHECK(l.answers_held == 1);
+	CHECK(l.tx_errors == 1);
+	const uint16_t held = l.held_len;
+	uint8_t first[SWELL_PKT_MAX];
+	memcpy(first, l.held, held);
+	ctl_link_send(&l, &quad, 1); /* cannot overtake the held answer */
+	ctl_link_send(&l, &ack, 1);  /* a second answer while one is held: dropped, counted */
+	INFO("tx errors " << l.tx_errors << ", answers held " << l.answers_held << ", dropped " << l.answers_dropped);
+	CHECK(l.tx_errors == 3);
+	CHECK(l.answers_dropped == 1);
+	CHECK(l.held_len == held);
+	CHECK(memcmp(l.held, first, held) == 0);
+	l.usb_up = 0; /* unplugged: the host asks again after the replug */
+	ctl_link_send(&l, &quad, 1);
+	CHECK(l.held_len == 0);
+	CHECK(l.answers_dropped == 2);
+	CHECK(l.frames_tx == 0);
+}
