@@ -23,6 +23,14 @@ static int64_t div_rn(int64_t num, int64_t den)
 	return div_floor(num + den / 2, den);
 }
 
+/* x / 2^n rounded to nearest, ties toward +inf: the same as div_rn(x, 2^n) without a 64-bit
+ * division (a library call on the Cortex-M4). >> of a negative int64 is arithmetic on every compiler
+ * this project supports (GCC, Clang), so it floors. */
+static int64_t shr_rn(int64_t x, int n)
+{
+	return (x + ((int64_t)1 << (n - 1))) >> n;
+}
+
 static int32_t sat32(int64_t x)
 {
 	return swell_sat_i64(x);
@@ -399,15 +407,15 @@ static void device_force(const struct swell_body *b, struct swell_body_out *out)
  * step: exactly 0 um/s. */
 static int64_t uw_filter(struct swell_body *b, int64_t u)
 {
-	b->uw1_q16 += div_rn((u * 65536 - b->uw1_q16) * b->uw_alpha_q16, (int64_t)1 << 16);
-	b->uw2_q16 += div_rn((b->uw1_q16 - b->uw2_q16) * b->uw_alpha_q16, (int64_t)1 << 16);
+	b->uw1_q16 += shr_rn((u * 65536 - b->uw1_q16) * b->uw_alpha_q16, 16);
+	b->uw2_q16 += shr_rn((b->uw1_q16 - b->uw2_q16) * b->uw_alpha_q16, 16);
 	return b->uw2_q16;
 }
 
 /* LSB per solver step * 2^q -> um/s: 2^-16 mm * solver_hz = solver_hz * 125 / 8192 um/s. */
 static int32_t lsb_step_to_um_s(const struct swell_body *b, int64_t u, int q)
 {
-	return sat32(div_rn(u * (int64_t)b->sc.solver_hz * 125, (int64_t)8192 << q));
+	return sat32(shr_rn(u * (int64_t)b->sc.solver_hz * 125, 13 + q));
 }
 
 /* Contact with the floor at penetration p > 0 (LSB) and velocity v (um/s, up): a spring k_c p and a
@@ -418,7 +426,7 @@ static int32_t floor_force(int32_t p, int32_t v_um_s)
 {
 	const int64_t ramp = ((int64_t)SWELL_BODY_FLOOR_RAMP_UM << 16) / 1000; /* um -> LSB, exact for 1000 */
 	const int64_t pr = p < ramp ? p : ramp;
-	int64_t f = div_rn((int64_t)SWELL_BODY_FLOOR_K * p, (int64_t)1 << 16);
+	int64_t f = shr_rn((int64_t)SWELL_BODY_FLOOR_K * p, 16);
 
 	f -= div_rn((int64_t)SWELL_BODY_FLOOR_DAMPER * v_um_s * pr, ramp * 1000);
 	return (int32_t)(f < 0 ? 0 : (f > SWELL_BODY_FLOOR_F_MAX_UN ? SWELL_BODY_FLOOR_F_MAX_UN : f));
@@ -493,7 +501,7 @@ void swell_body_tick(struct swell_body *b, struct swell_wave *w, const int32_t p
 	out->surface_lsb = wl;
 	out->surface_raw_um_s = lsb_step_to_um_s(b, u, 0);
 	/* the damper's u_w: low-passed, 2^8 finer than a LSB per step into the conversion */
-	out->surface_um_s = lsb_step_to_um_s(b, div_rn(uw_filter(b, u), 1 << 8), 8);
+	out->surface_um_s = lsb_step_to_um_s(b, shr_rn(uw_filter(b, u), 8), 8);
 
 	delta = swell_clamp(sat32((int64_t)wl - zw), 0, b->h_lsb);
 	out->delta_lsb = delta;
