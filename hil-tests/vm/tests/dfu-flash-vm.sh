@@ -5,7 +5,8 @@
 # Usage: sh dfu-flash-vm.sh BIN ELF RUNS
 #   1. a corrupted BIN is refused by swell-flash (exit 2) before dfu-util runs: the target logs no
 #      DFU request and its flash stays erased;
-#   2. RUNS times the BIN, then once the ELF, each on a fresh erased target: swell-flash --backend dfu
+#   2. RUNS times the BIN (--backend dfu), then once the ELF (no --backend: swell-flash must find
+#      the DfuSe device on the VM's USB bus itself), each on a fresh erased target: swell-flash
 #      exits 0 with "verify ok", the target leaves DFU (0483:df11 gone, start at 0x08000000), its
 #      flash file equals the BIN byte for byte over the BIN's length and is 0xFF after it;
 #   3. a target with a bad flash cell (swell-vm-dfuse --bad-cell): swell-flash's read-back verify
@@ -46,12 +47,16 @@ vm-dfu-gadget down || fail "vm-dfu-gadget down"
 i=0
 for img in $(seq 1 "$runs" | sed "s|.*|$bin|") "$elf"; do
 	i=$((i + 1))
-	kind=BIN
-	case "$img" in *.elf) kind=ELF ;; esac
+	kind=BIN backend="--backend dfu"
+	case "$img" in *.elf) kind=ELF backend="" ;; esac
 	target_up || break
-	swell-flash "$img" --backend dfu >/tmp/out 2>&1
+	swell-flash "$img" $backend >/tmp/out 2>&1
 	rc=$?
 	cat /tmp/out
+	if [ -z "$backend" ]; then
+		grep -q 'auto-detected a DfuSe bootloader (USB 0483:df11): backend dfu' /tmp/out ||
+			fail "run $i ($kind): swell-flash did not auto-detect the DfuSe device"
+	fi
 	if [ $rc -ne 0 ]; then
 		fail "run $i ($kind): swell-flash exit $rc"; show_log; vm-dfu-gadget down; continue
 	fi
