@@ -61,7 +61,7 @@ for img in $(seq 1 "$runs" | sed "s|.*|$bin|") "$elf"; do
 		fail "run $i ($kind): swell-flash exit $rc"; show_log; vm-dfu-gadget down; continue
 	fi
 	grep -q "verify ok: $len bytes" /tmp/out || fail "run $i ($kind): no 'verify ok: $len bytes' from swell-flash"
-	vm-dfu-gadget wait-gone 5 || fail "run $i ($kind): the target did not leave DFU"
+	vm-dfu-gadget wait-gone 10 || fail "run $i ($kind): the target did not leave DFU"
 	grep -q 'left DFU: disconnected, the image starts at 0x08000000' "$log" ||
 		{ fail "run $i ($kind): the target log has no leave to 0x08000000"; show_log; }
 	# Independent of swell-flash: what the target stored.
