@@ -10,7 +10,7 @@ void feed_init(struct view_feed *f, struct view_model *vm, uint8_t node)
 	memset(f, 0, sizeof(*f));
 	f->vm = vm;
 	f->node = node;
-	/* the controller's default body: 50 x 50 x 50 mm (the size is not on the wire) */
+	/* the controller's default body, 50 x 50 x 50 mm, until a CTL_INFO says otherwise */
 	f->obj_a_um = 50000;
 	f->obj_b_um = 50000;
 	f->obj_h_um = 50000;
@@ -101,6 +101,17 @@ static void on_heartbeat(struct view_feed *f, const struct swell_msg_heartbeat *
 	vm_clock(f->vm, f->hb_count * FEED_HEARTBEAT_US, now_us);
 }
 
+static void on_info(struct view_feed *f, const struct swell_msg_ctl_info *c)
+{
+	const uint8_t v[3] = {c->fw_major, c->fw_minor, c->fw_patch};
+
+	f->obj_a_um = (uint32_t)c->obj_a_100um * 100u;
+	f->obj_b_um = (uint32_t)c->obj_b_100um * 100u;
+	f->obj_h_um = (uint32_t)c->obj_h_100um * 100u;
+	f->obj_from_wire = true;
+	vm_ctl_info(f->vm, v, f->obj_a_um, f->obj_b_um, f->obj_h_um);
+}
+
 static void on_msg(struct view_feed *f, const struct swell_msg *m, uint64_t now_us, bool can, uint32_t pos)
 {
 	struct view_model *vm = f->vm;
@@ -114,6 +125,9 @@ static void on_msg(struct view_feed *f, const struct swell_msg *m, uint64_t now_
 		break;
 	case SWELL_MSG_HEARTBEAT:
 		on_heartbeat(f, &m->u.heartbeat, now_us);
+		break;
+	case SWELL_MSG_CTL_INFO:
+		on_info(f, &m->u.ctl_info);
 		break;
 	case SWELL_MSG_OBJECT_POSE: {
 		const struct swell_msg_object_pose *p = &m->u.object_pose;

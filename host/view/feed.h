@@ -24,8 +24,10 @@ struct view_feed {
 	struct swell_proto_stats st;
 	uint8_t node;             /* accept this node, or FEED_NODE_ANY */
 	uint32_t other_node;      /* frames from other nodes, ignored */
-	/* object size: not on the wire, from the command line */
+	/* object size: from CTL_INFO once one has arrived (obj_from_wire), until then the fallback the
+	 * caller set (swell-view's --object) */
 	uint32_t obj_a_um, obj_b_um, obj_h_um;
+	bool obj_from_wire;
 	uint8_t submersion_halfpct;
 	uint8_t force_limits;
 	/* controller state and restart detection */

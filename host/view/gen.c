@@ -47,6 +47,18 @@ void gen_ripple(struct gen_scene *s)
 	s->ripple_speed_um_s = 120000;
 }
 
+void gen_info(struct gen_scene *s)
+{
+	gen_default(s);
+	s->info = true;
+	s->fw_version[0] = 2;
+	s->fw_version[1] = 7;
+	s->fw_version[2] = 1;
+	s->obj_100um[0] = 1000;
+	s->obj_100um[1] = 600;
+	s->obj_100um[2] = 400;
+}
+
 int16_t gen_height(const struct gen_scene *s, uint16_t i, uint16_t j, uint64_t t_us)
 {
 	double x = ((double)i + 0.5) * s->dx_um, y = ((double)j + 0.5) * s->dx_um;
@@ -124,6 +136,17 @@ unsigned gen_frame(const struct gen_scene *s, uint64_t t_us, uint8_t frame, bool
 		m.u.scene.depth_10um = s->depth_10um;
 		m.u.scene.scene_id = s->scene_id;
 		put(&p, &m);
+		if (s->info) {
+			memset(&m, 0, sizeof(m));
+			m.type = SWELL_MSG_CTL_INFO;
+			m.u.ctl_info.fw_major = s->fw_version[0];
+			m.u.ctl_info.fw_minor = s->fw_version[1];
+			m.u.ctl_info.fw_patch = s->fw_version[2];
+			m.u.ctl_info.obj_a_100um = s->obj_100um[0];
+			m.u.ctl_info.obj_b_100um = s->obj_100um[1];
+			m.u.ctl_info.obj_h_100um = s->obj_100um[2];
+			put(&p, &m);
+		}
 	}
 	if (tiles) {
 		unsigned tx_n = (s->nx + SWELL_PROTO_TILE - 1u) / SWELL_PROTO_TILE;

@@ -25,6 +25,10 @@ struct gen_scene {
 	uint8_t submersion_halfpct;
 	int16_t fx_cN, fy_cN, fz_cN;
 	uint8_t state; /* heartbeat state, 3 = running */
+	/* CTL_INFO with the scene description when info is set: firmware version, object a, b, H */
+	bool info;
+	uint8_t fw_version[3];
+	uint16_t obj_100um[3];
 };
 
 /* The reference test scene: 64 x 64 cells of 6.25 mm, 50 mm deep, a 3 mm bump at (0.70, 0.50) of the
@@ -35,13 +39,17 @@ void gen_default(struct gen_scene *s);
 void gen_mirror(struct gen_scene *s);
 /* ripple: a smaller bump and a travelling ripple from the pool corner (animated). */
 void gen_ripple(struct gen_scene *s);
+/* bump-info: the default scene from a controller that sends CTL_INFO: firmware 2.7.1, an object of
+ * 100 x 60 x 40 mm (not the viewer's 50 mm default). */
+void gen_info(struct gen_scene *s);
 
 typedef void (*gen_emit_fn)(void *ctx, const uint8_t *pkt, size_t len);
 
 /* Height of cell (i, j) at time t_us in wire units (LSB 2^-6 mm, saturated to int12). */
 int16_t gen_height(const struct gen_scene *s, uint16_t i, uint16_t j, uint64_t t_us);
 
-/* The packets of one controller frame at time t_us: heartbeat if `heartbeat`, scene if `scene`, the
+/* The packets of one controller frame at time t_us: heartbeat if `heartbeat`, scene (and CTL_INFO when
+ * the scene has info) if `scene`, the
  * height quads of every tile if `tiles`, object pose and force. *seq is the packet sequence number,
  * advanced per packet. Returns the number of packets, or 0 with err set. */
 unsigned gen_frame(const struct gen_scene *s, uint64_t t_us, uint8_t frame, bool heartbeat, uint8_t hb_seq,

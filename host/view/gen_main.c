@@ -18,7 +18,8 @@ static const char usage[] =
 	"\n"
 	"  --scene NAME    bump (default): a 3 mm bump at (0.70, 0.50) of a 64 x 64 pool of 6.25 mm cells,\n"
 	"                  the object at (0.30, 0.35), force (+1.5, -1.0, +0.8) N;\n"
-	"                  bump2: its mirror image; ripple: an animated ripple\n"
+	"                  bump2: its mirror image; ripple: an animated ripple; bump-info: bump from\n"
+	"                  a controller that sends CTL_INFO (firmware 2.7.1, object 100 x 60 x 40 mm)\n"
 	"  --frames N      controller frames (default 50, i.e. 1 s)\n"
 	"  --out FILE      write a recording: the packets go through UDP on 127.0.0.1 and a recording\n"
 	"                  link, exactly as swell-view --record stores what it receives\n"
@@ -103,8 +104,10 @@ int main(int argc, char **argv)
 	} else if (!strcmp(scene, "ripple")) {
 		gen_ripple(&g);
 		animate = true;
+	} else if (!strcmp(scene, "bump-info")) {
+		gen_info(&g);
 	} else if (strcmp(scene, "bump") != 0) {
-		fprintf(stderr, "swell-view-gen: unknown scene '%s' (bump, bump2, ripple)\n", scene);
+		fprintf(stderr, "swell-view-gen: unknown scene '%s' (bump, bump2, ripple, bump-info)\n", scene);
 		return 2;
 	}
 

@@ -39,7 +39,8 @@ static const char usage[] =
 	"  --zscale X          vertical exaggeration of the water (default 3; the object keeps its true\n"
 	"                      submersion, riding the exaggerated surface)\n"
 	"  --force-scale MM    force arrow length per newton (default 40 mm/N)\n"
-	"  --object AxBxH      object size in mm, not on the wire (default 50x50x50, the controller's default)\n"
+	"  --object AxBxH      object size in mm until the controller's CTL_INFO gives it (default 50x50x50,\n"
+	"                      the controller's default); the HUD and the exit summary say which is used\n"
 	"  --stale-ms N        silence after which data is called stale (default 500 ms)\n"
 	"  --no-hud            no text overlay\n"
 	"  --msaa N            antialiasing samples a pixel (default 4 on a GPU, 0 on llvmpipe/softpipe)\n"
@@ -278,10 +279,12 @@ static void hud(struct app *a, const struct view_feed *f, const struct source *s
 {
 	const struct view_model *m = &a->vm;
 	const struct view_stats *st = &m->st;
-	char buf[512], lat[48];
+	char buf[512], lat[48], fw[16] = "?";
 	uint8_t c[3];
 
 	render_text_clear(&a->r);
+	if (m->have_info)
+		snprintf(fw, sizeof(fw), "%u.%u.%u", m->fw_version[0], m->fw_version[1], m->fw_version[2]);
 	if (st->latency_valid)
 		snprintf(lat, sizeof(lat), "+%.1f MS OVER BEST (HEARTBEATS)", (double)st->latency_ms);
 	else
@@ -292,10 +295,10 @@ static void hud(struct app *a, const struct view_feed *f, const struct source *s
 		 "FRAMES %6.0f /S  QUADS %6.0f /S  TILES %5.0f /S\n"
 		 "LATENCY %s\n"
 		 "DROPPED %u  BAD %u  LATE %u\n"
-		 "CONTROLLER %s  LAST ERROR %s\n"
+		 "CONTROLLER %s  LAST ERROR %s  FIRMWARE %s\n"
 		 "CTL BAD %u  OVERRUNS %u  RESTARTS %u",
 		 src->desc, (double)st->frame_hz, (double)st->piece_hz, (double)a->tile_hz, lat, st->dropped, st->bad,
-		 st->late, m->ctrl_state, m->ctrl_error ? swell_err_str((enum swell_err)m->ctrl_error) : "NONE",
+		 st->late, m->ctrl_state, m->ctrl_error ? swell_err_str((enum swell_err)m->ctrl_error) : "NONE", fw,
 		 m->ctrl_bad, m->ctrl_overruns, st->restarts);
 	render_text_add(&a->r, 8, 8, 225, 232, 240, true, buf);
 
@@ -310,9 +313,11 @@ static void hud(struct app *a, const struct view_feed *f, const struct source *s
 				 f->force_limits ? "  LIMITED" : "");
 		snprintf(buf, sizeof(buf),
 			 "POOL %u X %u CELLS  DX %.2f MM  DEPTH %.1f MM  SCENE %u\n"
-			 "HEIGHTS Z X%.0f  UPLOADED %u TILES\n%s",
+			 "HEIGHTS Z X%.0f  UPLOADED %u TILES\n"
+			 "BOX %.1f X %.1f X %.1f MM %s\n%s",
 			 m->scene.nx, m->scene.ny, m->scene.dx_um * 1e-3, m->scene.depth_um * 1e-3, m->scene.scene_id,
-			 (double)a->r.o.zscale, a->r.tiles_uploaded_last, obj);
+			 (double)a->r.o.zscale, a->r.tiles_uploaded_last, f->obj_a_um * 1e-3, f->obj_b_um * 1e-3,
+			 f->obj_h_um * 1e-3, f->obj_from_wire ? "(FROM CONTROLLER)" : "(--OBJECT, NO CTL_INFO YET)", obj);
 		render_text_add(&a->r, 8, -8, 200, 210, 220, true, buf);
 	}
 
@@ -469,6 +474,13 @@ int main(int argc, char **argv)
 	printf("swell-view: %u frames, %u bad, %u dropped, %u late, %u quads, %u restarts; uploaded %llu tiles (%llu texels)\n",
 	       app.vm.st.frames, app.vm.st.bad, app.vm.st.dropped, app.vm.st.late, app.vm.st.pieces,
 	       app.vm.st.restarts, (unsigned long long)app.r.tiles_uploaded, (unsigned long long)app.r.texels_uploaded);
+	if (feed.obj_from_wire)
+		printf("swell-view: object %.1f x %.1f x %.1f mm from the controller (CTL_INFO), firmware %u.%u.%u\n",
+		       feed.obj_a_um * 1e-3, feed.obj_b_um * 1e-3, feed.obj_h_um * 1e-3, app.vm.fw_version[0],
+		       app.vm.fw_version[1], app.vm.fw_version[2]);
+	else
+		printf("swell-view: object %.1f x %.1f x %.1f mm from --object (no CTL_INFO received)\n",
+		       feed.obj_a_um * 1e-3, feed.obj_b_um * 1e-3, feed.obj_h_um * 1e-3);
 	source_close(&src);
 	render_free(&app.r);
 	vm_free(&app.vm);

@@ -222,6 +222,17 @@ void vm_rx(struct view_model *m, uint64_t now_us)
 	m->window_frames++;
 }
 
+void vm_ctl_info(struct view_model *m, const uint8_t version[3], uint32_t a_um, uint32_t b_um, uint32_t h_um)
+{
+	m->have_info = true;
+	m->fw_version[0] = version[0];
+	m->fw_version[1] = version[1];
+	m->fw_version[2] = version[2];
+	m->obj.a_um = a_um;
+	m->obj.b_um = b_um;
+	m->obj.h_um = h_um;
+}
+
 void vm_heartbeat(struct view_model *m, const char *state, uint8_t error, uint16_t bad,
 		  uint16_t overruns)
 {

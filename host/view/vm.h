@@ -81,6 +81,10 @@ struct view_model {
 	uint8_t ctrl_error;     /* enum swell_err the controller reports */
 	uint16_t ctrl_bad, ctrl_overruns; /* the controller's own counters */
 	bool have_heartbeat;
+	/* CTL_INFO: the controller's firmware version and the object size it simulates (obj.a/b/h_um
+	 * follow it once one has arrived; until then they are the viewer's --object fallback) */
+	bool have_info;
+	uint8_t fw_version[3];
 	struct view_stats st;
 	/* bookkeeping */
 	bool have_seq;
@@ -132,6 +136,10 @@ void vm_rx(struct view_model *m, uint64_t now_us);
 /* Heartbeat: state name, last error, the controller's bad-frame and overrun counters. */
 void vm_heartbeat(struct view_model *m, const char *state, uint8_t error, uint16_t bad,
 		  uint16_t overruns);
+
+/* Controller info: firmware version (major, minor, patch) and the object's size in um, which from
+ * now on replaces the fallback size in obj (valid or not). */
+void vm_ctl_info(struct view_model *m, const uint8_t version[3], uint32_t a_um, uint32_t b_um, uint32_t h_um);
 
 /* The controller restarted: drop the scene and heights, wait for a new scene description. */
 void vm_restart(struct view_model *m, uint64_t now_us);

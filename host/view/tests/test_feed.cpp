@@ -158,6 +158,48 @@ TEST_CASE("packets: pose, force and heartbeat fill the object and the controller
 	CHECK(r.vm.obj.fx_cN == -250);
 }
 
+TEST_CASE("CTL_INFO: the object size and firmware version come from the controller, the fallback only before it")
+{
+	rig r;
+	r.f.obj_a_um = r.f.obj_b_um = r.f.obj_h_um = 30000; // the viewer's --object 30x30x30
+	swell_msg p, info;
+	memset(&p, 0, sizeof(p));
+	memset(&info, 0, sizeof(info));
+	p.type = SWELL_MSG_OBJECT_POSE;
+	p.u.object_pose.seq = 1;
+	info.type = SWELL_MSG_CTL_INFO;
+	info.u.ctl_info.fw_major = 4;
+	info.u.ctl_info.fw_minor = 0;
+	info.u.ctl_info.fw_patch = 12;
+	info.u.ctl_info.obj_a_100um = 1234; // 123.4 mm
+	info.u.ctl_info.obj_b_100um = 55;   // 5.5 mm
+	info.u.ctl_info.obj_h_100um = 8191; // 819.1 mm, the largest the wire carries
+	r.pkt({scene_msg(), p});
+	REQUIRE(r.vm.obj.valid);
+	CHECK(r.vm.obj.a_um == 30000u); // nothing from the controller yet: the fallback
+	CHECK_FALSE(r.vm.have_info);
+	CHECK_FALSE(r.f.obj_from_wire);
+	r.pkt({info});
+	CHECK(r.vm.have_info);
+	CHECK(r.f.obj_from_wire);
+	CHECK(r.vm.fw_version[0] == 4);
+	CHECK(r.vm.fw_version[1] == 0);
+	CHECK(r.vm.fw_version[2] == 12);
+	CHECK(r.vm.obj.a_um == 123400u); // at once, without waiting for the next pose
+	CHECK(r.vm.obj.b_um == 5500u);
+	CHECK(r.vm.obj.h_um == 819100u);
+	p.u.object_pose.seq = 2;
+	r.pkt({p});
+	CHECK(r.vm.obj.a_um == 123400u); // and the next pose keeps it
+	CHECK(r.vm.obj.h_um == 819100u);
+	// the same CTL_INFO on classic CAN
+	rig c;
+	c.can(scene_msg());
+	c.can(info);
+	CHECK(c.vm.have_info);
+	CHECK(c.vm.obj.b_um == 5500u);
+}
+
 TEST_CASE("heartbeat back in BOOT is a controller restart")
 {
 	rig r;

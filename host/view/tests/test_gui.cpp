@@ -286,6 +286,37 @@ TEST_CASE("the object is drawn where its pose says, at its size")
 	}
 }
 
+TEST_CASE("the object's size comes from the controller's CTL_INFO, --object only until one arrives")
+{
+	// bump-info: the bump scene from a controller that sends CTL_INFO with a 100 x 60 x 40 mm object;
+	// --object 30x30x30 must lose to it. The bump scene sends none: --object 80x80x50 is drawn.
+	struct size_case {
+		const char *scene, *object;
+		double a, b; // m, expected on screen
+		const char *said;
+	};
+	const size_case sizes[] = {
+		{"bump-info", "30x30x30", 0.100, 0.060,
+		 "swell-view: object 100.0 x 60.0 x 40.0 mm from the controller (CTL_INFO), firmware 2.7.1"},
+		{"bump", "80x80x50", 0.080, 0.080, "swell-view: object 80.0 x 80.0 x 50.0 mm from --object (no CTL_INFO received)"},
+	};
+	for (const auto &k : sizes) {
+		run_result r;
+		image im = shot(recording(k.scene), std::string("--object ") + k.object, 4, &r);
+		box b = find(im, is_object);
+		double cc = (b.c0 + b.c1) / 2.0, cr = (b.r0 + b.r1) / 2.0;
+		INFO(k.scene << " with --object " << k.object << ": object " << b.c1 - b.c0 + 1 << " x " << b.r1 - b.r0 + 1
+			     << " px, expected " << k.a * S << " x " << k.b * S << " px, centre (" << cc << ", " << cr
+			     << "); swell-view said: " << r.out);
+		REQUIRE(b.n > 500);
+		CHECK(std::abs(b.c1 - b.c0 + 1 - k.a * S) < 3);
+		CHECK(std::abs(b.r1 - b.r0 + 1 - k.b * S) < 3);
+		CHECK(std::abs(cc - col_of(0.30 * L)) < 2.5); // the pose is the same in both
+		CHECK(std::abs(cr - row_of(0.35 * L)) < 2.5);
+		CHECK(r.out.find(k.said) != std::string::npos);
+	}
+}
+
 TEST_CASE("the force arrow starts at the object and points the way the force does")
 {
 	for (const auto &k : cases) {
