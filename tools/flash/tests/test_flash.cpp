@@ -711,7 +711,7 @@ TEST_CASE("after flashing, swell-ctl is found again and its CTL_INFO version is 
 	}
 }
 
-TEST_CASE("--find: nobody there is exit 1 within the time limit, --check-only --find checks a running controller")
+TEST_CASE("find: nobody there is exit 1 within the time limit, and --check-only --find checks a running controller")
 {
 	scratch s;
 	std::string img = s.write("good.bin", make_image(2048));
