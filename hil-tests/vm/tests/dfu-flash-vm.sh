@@ -5,6 +5,9 @@
 # Usage: sh dfu-flash-vm.sh BIN ELF RUNS
 #   1. a corrupted BIN is refused by swell-flash (exit 2) before dfu-util runs: the target logs no
 #      DFU request and its flash stays erased;
+#   1b. the target itself refuses an address outside its flash with the DFU error status: dfu-util
+#      (set address 0x08100000, forced past its own layout check) fails on dfuERROR/errADDRESS, the
+#      flash stays erased, and the next dfu-util clears the status and reads from 0x08000000;
 #   2. RUNS times the BIN (--backend dfu), then once the ELF (no --backend: swell-flash must find
 #      the DfuSe device on the VM's USB bus itself), each on a fresh erased target: swell-flash
 #      exits 0 with "verify ok", the target leaves DFU (0483:df11 gone, start at 0x08000000), its
@@ -41,6 +44,19 @@ n=$(grep -c '^dfu ' "$log")
 [ "$n" -eq 0 ] || { fail "corrupted image: the target saw $n DFU requests, expected none"; show_log; }
 [ "$(erased_after "$flash" 0)" -eq 0 ] || fail "corrupted image: the flash is no longer erased"
 echo "check: corrupted image refused by swell-flash (exit $rc), target saw $n DFU requests, flash erased"
+
+# 1b. The target's own refusal, through the real dfu-util and USB.
+dfu-util -d 0483:df11 -a 0 -s 0x08100000:force:16 -U /tmp/oob.bin >/tmp/out 2>&1
+rc=$?
+grep -E '^dfu-util: ' /tmp/out
+[ $rc -ne 0 ] || fail "address outside flash: dfu-util exit 0"
+grep -q 'set address 0x08100000 refused: outside flash' "$log" || fail "address outside flash: not refused by the target"
+grep -q 'dfuERROR errADDRESS' "$log" || { fail "address outside flash: no dfuERROR errADDRESS"; show_log; }
+dfu-util -d 0483:df11 -a 0 -s 0x08000000:16 -U /tmp/ok.bin >/tmp/out 2>&1 ||
+	{ fail "after the refusal: dfu-util could not read 0x08000000"; cat /tmp/out; }
+grep -q 'CLRSTATUS .* dfuIDLE OK: status cleared' "$log" || fail "after the refusal: no CLRSTATUS back to dfuIDLE"
+[ "$(erased_after "$flash" 0)" -eq 0 ] || fail "address outside flash: the flash is no longer erased"
+echo "check: set address 0x08100000 refused by the target (dfu-util exit $rc, dfuERROR errADDRESS), status cleared by the next dfu-util"
 vm-dfu-gadget down || fail "vm-dfu-gadget down"
 
 # 2. Real flashing: the BIN RUNS times, then the ELF.
