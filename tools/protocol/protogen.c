@@ -239,7 +239,12 @@ static void write_md(FILE *o)
 		   "tiles of %d x %d cells (up to 32 x 32 tiles, so grids up to 256 x 256); a changed tile is\n"
 		   "sent as 16 HEIGHT_QUADs (4 cells of one tile row each). Cells outside the grid are sent as\n"
 		   "0. SCENE, sent at 1 Hz and on change, gives the grid size, cell size, depth and the height\n"
-		   "LSB, so a viewer can join at any time.\n\n",
+		   "LSB, so a viewer can join at any time. CTL_INFO, sent at the controller's first tick, then\n"
+		   "at 1 Hz and whenever the object's size changes, gives the firmware version (a flasher finds\n"
+		   "the controller again after an update by it) and the object's box a x b x H, so a viewer\n"
+		   "draws what the controller simulates. A new message type: the layouts above it are\n"
+		   "unchanged and the protocol version stays; a decoder older than it rejects the packets that\n"
+		   "carry one (unknown type) and counts them.\n\n",
 		SWELL_PROTO_H_SHIFT, 1000.0 / (1 << SWELL_PROTO_H_SHIFT), -2048.0 / (1 << SWELL_PROTO_H_SHIFT),
 		2047.0 / (1 << SWELL_PROTO_H_SHIFT), 15 - SWELL_PROTO_H_SHIFT, 16 - SWELL_PROTO_H_SHIFT,
 		SWELL_PROTO_TILE, SWELL_PROTO_TILE);
