@@ -158,7 +158,8 @@ static int find_ep0(const char *dir, char *path, size_t cap)
 	if (!d)
 		return -1;
 	while ((e = readdir(d)) != NULL) {
-		if (e->d_name[0] == '.')
+		/* Skip . and .. and the endpoint files GadgetFS adds once bound (ep1in-bulk, ...). */
+		if (e->d_name[0] == '.' || (!strncmp(e->d_name, "ep", 2) && e->d_name[2] >= '0' && e->d_name[2] <= '9'))
 			continue;
 		if ((size_t)snprintf(path, cap, "%s/%s", dir, e->d_name) < cap)
 			rc = 0;
@@ -270,8 +271,10 @@ static int handle_dfu(struct dev *d, const struct usb_ctrlrequest *c)
 		}
 		out_len = (size_t)r;
 	}
+	const uint32_t written = target.bytes_written;
 	enum swell_dfuse_reply rep = swell_dfuse_request(&target, &s, out, out_len, in, sizeof(in), &in_len);
-	if (d->bad_cell >= 0 && strncmp(target.note, "write ", 6) == 0 && (uint32_t)d->bad_cell >= target.dirty_lo &&
+	/* The dirty range is this request's alone (persist() takes it after every request). */
+	if (d->bad_cell >= 0 && target.bytes_written != written && (uint32_t)d->bad_cell >= target.dirty_lo &&
 	    (uint32_t)d->bad_cell < target.dirty_hi) {
 		target.flash[d->bad_cell] ^= 0x01u;
 		logline("dfu", "fault: bad cell 0x%08lx stores bit 0 inverted",
@@ -345,12 +348,13 @@ static int handle_setup(struct dev *d, const struct usb_ctrlrequest *c)
 			break;
 		}
 	}
-	if (!is_in && len > 0) /* an OUT data stage GadgetFS queued: collect it, then drop it */
+	const int drop = !is_in && len > 0;
+	if (drop) /* an OUT data stage GadgetFS has queued cannot be stalled: collect it, drop it */
 		(void)!read(d->ep0, buf, len < sizeof(buf) ? len : sizeof(buf));
 	else
 		reply_stall(d, is_in);
-	logline("usb", "request type 0x%02x req 0x%02x value 0x%04x len %u -> stall", c->bRequestType,
-		c->bRequest, value, len);
+	logline("usb", "request type 0x%02x req 0x%02x value 0x%04x len %u -> %s", c->bRequestType,
+		c->bRequest, value, len, drop ? "data dropped (not stallable)" : "stall");
 	return 0;
 }
 
