@@ -474,8 +474,25 @@ int main(int argc, char **argv)
 			rc = 1;
 			break;
 		}
-		if (pr <= 0 || !(pfd.revents & POLLIN))
+		if (pr <= 0)
 			continue;
+		if (!(pfd.revents & POLLIN)) {
+			/* POLLOUT alone: a request of ours is still open (its SETUP was overtaken, see
+			 * handle_dfu), and GadgetFS shows no events until it is closed. Close it (an IN is
+			 * stalled, an OUT acked) instead of spinning at real-time priority. POLLHUP: the
+			 * host aborted a request; the next read clears it. */
+			if (pfd.revents & POLLOUT) {
+				uint8_t dummy = 0;
+				if (read(d.ep0, &dummy, 0) < 0 && errno != EL2HLT)
+					logline("usb", "closing an unanswered request failed: %s", strerror(errno));
+				else
+					logline("usb", "unanswered request closed (IN stalled, OUT acked)");
+			} else if (pfd.revents & (POLLHUP | POLLERR)) {
+				uint8_t dummy[sizeof(struct usb_gadgetfs_event)];
+				(void)!read(d.ep0, dummy, sizeof(dummy));
+			}
+			continue;
+		}
 		struct usb_gadgetfs_event ev[4];
 		ssize_t r = read(d.ep0, ev, sizeof(ev));
 		if (r < 0) {
