@@ -644,8 +644,8 @@ static void supervise(struct swell_ctl *c)
 	case SWELL_CTL_ARMED:
 		if (!alive)
 			enter(c, SWELL_CTL_IDLE, SWELL_OK);
-		else if ((c->run_request || c->cfg.autorun) && powered && !estop)
-			enter(c, SWELL_CTL_RUNNING, SWELL_OK);
+		else if ((c->run_request || c->cfg.autorun) && powered && !estop && !c->bootloader_request)
+			enter(c, SWELL_CTL_RUNNING, SWELL_OK); /* never again once the reboot is on its way */
 		break;
 	case SWELL_CTL_RUNNING:
 		if (!alive)

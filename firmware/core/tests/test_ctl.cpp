@@ -483,4 +483,16 @@ TEST_CASE("enter bootloader: refused while RUNNING; accepted otherwise with the 
 	REQUIRE(host.size() == 1);
 	CHECK(host[0].type == SWELL_MSG_HEARTBEAT);
 	CHECK(host[0].u.heartbeat.state == SWELL_CTL_ARMED);
+	/* while the port gets ready to reboot, a RUN command must not bring the force back */
+	k.param(SWELL_PARAM_COMMAND, SWELL_CMD_RUN);
+	for (int t = 0; t < 10; t++) {
+		k.device(0, 0, -20000);
+		swell_ctl_tick(&k.c);
+		for (auto &m : k.drain(SWELL_LINK_DEVICE))
+			if (m.type == SWELL_MSG_FORCE_CMD)
+				CHECK(m.u.force_cmd.enable == 0);
+		k.drain(SWELL_LINK_HOST);
+	}
+	CHECK(k.c.state == SWELL_CTL_ARMED);
+	CHECK(k.c.bootloader_request == 1);
 }

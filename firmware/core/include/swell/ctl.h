@@ -24,7 +24,7 @@
  *   BOOT     until the first tick.
  *   IDLE     no device: nothing is commanded. -> ARMED when the device has been heard.
  *   ARMED    device present, force zero. -> RUNNING on the RUN command, or by itself with autorun,
- *            when the device reports power and no e-stop. -> IDLE when the device goes silent.
+ *            when the device reports power and no e-stop (never after an accepted ENTER_BOOTLOADER). -> IDLE when the device goes silent.
  *   RUNNING  force law active. -> ARMED on STOP; -> FAULT on a silent device or e-stop.
  *   FAULT    zero force. -> IDLE on CLEAR once the device is heard again and its e-stop released, or
  *            by itself with autorun after the device has been back for recover_ticks ticks.
