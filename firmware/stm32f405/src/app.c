@@ -165,6 +165,15 @@ static void app_background(void)
 		drain(SWELL_LINK_HOST);
 }
 
+void app_fw_version(uint8_t v[3])
+{
+	uint32_t version = image_version(); /* checked at boot */
+
+	v[0] = (uint8_t)(version >> 16 > 255u ? 255u : version >> 16);
+	v[1] = (uint8_t)(version >> 8);
+	v[2] = (uint8_t)version;
+}
+
 void app_send_zero_force(void)
 {
 	struct swell_msg m = {.type = SWELL_MSG_FORCE_CMD, .node = app_ctl.cfg.node};
@@ -182,15 +191,12 @@ void app_run(const struct clock_info *ci, int can_ok, int usb_ok, const struct a
 	struct tick_stats st;
 	/* Accept every message type for our node: id = type << 4 | node. */
 	struct can_filter_spec flt = {.id = 0, .mask = 0x00F, .kind = CAN_FILTER_MASK, .fifo = 0};
-	uint32_t tick_hz = can_ok ? 1000u : 2500u, last_count = 0, now_ms, boot_at = 0, version;
+	uint32_t tick_hz = can_ok ? 1000u : 2500u, last_count = 0, now_ms, boot_at = 0;
 	int boot_armed = 0;
 	enum swell_err err;
 
 	swell_ctl_default_config(&cfg);
-	version = image_version(); /* checked at boot; CTL_INFO reports it (major saturated to 255) */
-	cfg.fw_version[0] = (uint8_t)(version >> 16 > 255u ? 255u : version >> 16);
-	cfg.fw_version[1] = (uint8_t)(version >> 8);
-	cfg.fw_version[2] = (uint8_t)version;
+	app_fw_version(cfg.fw_version);
 	cfg.tick_hz = tick_hz;
 	cfg.safety.tick_hz = tick_hz;
 	flt.id = cfg.node;

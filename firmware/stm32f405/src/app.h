@@ -26,6 +26,10 @@ struct app_prio {
 __attribute__((noreturn)) void app_run(const struct clock_info *ci, int can_ok, int usb_ok,
 				       const struct app_prio *prio, uint32_t watchdog_ms);
 
+/* The firmware version CTL_INFO reports: the image header's, as stamped in flash (major saturated
+ * to the 8 bits the message has). */
+void app_fw_version(uint8_t v[3]);
+
 /* Queue a zero FORCE_CMD on the device carrier directly (fault path; no core involved). */
 void app_send_zero_force(void);
 

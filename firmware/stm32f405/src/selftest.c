@@ -354,10 +354,31 @@ void selftest_boot_request(void)
 	int32_t f_running;
 	uint32_t n;
 
+	struct swell_msg info[8]; /* the first tick queues the heartbeat, then CTL_INFO */
+	size_t k, got;
+
 	if (fw_core_init(&ctl, &r, wave_storage, ARENA_WORDS, 2500) != SWELL_OK) {
 		con_puts("boot test: core refused its configuration\n");
 		return;
 	}
+	app_fw_version(ctl.cfg.fw_version); /* as app_run does */
+	fw_core_device(&ctl, &r);
+	swell_ctl_tick(&ctl);
+	got = swell_ctl_tx(&ctl, SWELL_LINK_HOST, info, sizeof(info) / sizeof(info[0]));
+	for (k = 0; k < got && info[k].type != SWELL_MSG_CTL_INFO; k++)
+		;
+	con_puts("boot test: CTL_INFO at the first tick: ");
+	if (k == got) {
+		con_puts("NONE\n");
+		return;
+	}
+	con_put_u32(info[k].u.ctl_info.fw_major);
+	con_putc('.');
+	con_put_u32(info[k].u.ctl_info.fw_minor);
+	con_putc('.');
+	con_put_u32(info[k].u.ctl_info.fw_patch);
+	con_putc('\n');
+	fw_core_drain(&ctl, &r);
 	for (n = 0; n < 1250; n++) { /* 0.5 s: the object pressed 5 mm into the water */
 		fw_core_device(&ctl, &r);
 		swell_ctl_tick(&ctl);

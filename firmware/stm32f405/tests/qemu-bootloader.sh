@@ -26,6 +26,11 @@ for pat in \
 	[ -n "$line" ] || fail "no line after line $n matching: $pat"
 	n=$line
 done
+# CTL_INFO carries the version of the image header the boot check printed
+hdr=$(sed -n 's/^image: version \([0-9]*\.[0-9]*\.[0-9]*\),.*/\1/p' "$out" | head -1)
+info=$(sed -n 's/^boot test: CTL_INFO at the first tick: \(.*\)$/\1/p' "$out")
+echo "qemu-bootloader: header version $hdr, CTL_INFO version $info"
+[ -n "$hdr" ] && [ "$info" = "$hdr" ] || fail "CTL_INFO version '$info' is not the header's '$hdr'"
 [ "$(grep -c '^swell-fw stm32f405 ' "$out")" -eq 2 ] || fail "expected exactly two boots (one reset)"
 if grep -q '^selftest:' "$out"; then fail "the self-test ran in boot-mode BOOT"; fi
-echo "qemu-bootloader: PASS (refused in RUNNING, accepted in ARMED with zero force, reset, magic seen, ROM table read at 0x1fff0000, image back)"
+echo "qemu-bootloader: PASS (CTL_INFO has the header's version, refused in RUNNING, accepted in ARMED with zero force, reset, magic seen, ROM table read at 0x1fff0000, image back)"
