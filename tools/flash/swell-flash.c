@@ -90,6 +90,22 @@ static double now_s(void)
 	return (double)t.tv_sec + (double)t.tv_nsec * 1e-9;
 }
 
+/* "udp" (the viewer port 47801) or "udp:PORT" of an option; exit 2 otherwise. */
+static long udp_port(const char *opt, const char *l)
+{
+	char *end;
+	long port;
+
+	if (!strcmp(l, "udp"))
+		return 47801;
+	if (strncmp(l, "udp:", 4))
+		die(2, "%s '%s': only udp[:PORT] (CAN and USB carriers not yet)", opt, l);
+	port = strtol(l + 4, &end, 10);
+	if (*end || !l[4] || port < 1 || port > 65535)
+		die(2, "%s '%s': port not in 1..65535", opt, l);
+	return port;
+}
+
 static const char *need(int argc, char **argv, int *i)
 {
 	if (*i + 1 >= argc)
@@ -166,29 +182,9 @@ static void parse(int argc, char **argv, struct cfg *c)
 			if (*end || !(c->console_timeout_s > 0 && c->console_timeout_s <= 600))
 				die(2, "--console-timeout '%s' is not a time in (0, 600] s", argv[i]);
 		} else if (!strcmp(a, "--enter-bootloader")) {
-			const char *l = need(argc, argv, &i);
-
-			if (!strcmp(l, "udp")) {
-				c->boot_port = 47801;
-			} else if (!strncmp(l, "udp:", 4)) {
-				c->boot_port = strtol(l + 4, &end, 10);
-				if (*end || !l[4] || c->boot_port < 1 || c->boot_port > 65535)
-					die(2, "--enter-bootloader '%s': port not in 1..65535", l);
-			} else {
-				die(2, "--enter-bootloader '%s': only udp[:PORT] (CAN and USB carriers not yet)", l);
-			}
+			c->boot_port = udp_port(a, need(argc, argv, &i));
 		} else if (!strcmp(a, "--find")) {
-			const char *l = need(argc, argv, &i);
-
-			if (!strcmp(l, "udp")) {
-				c->find_port = 47801;
-			} else if (!strncmp(l, "udp:", 4)) {
-				c->find_port = strtol(l + 4, &end, 10);
-				if (*end || !l[4] || c->find_port < 1 || c->find_port > 65535)
-					die(2, "--find '%s': port not in 1..65535", l);
-			} else {
-				die(2, "--find '%s': only udp[:PORT] (CAN and USB carriers not yet)", l);
-			}
+			c->find_port = udp_port(a, need(argc, argv, &i));
 		} else if (!strcmp(a, "--find-timeout")) {
 			c->find_timeout_s = strtod(need(argc, argv, &i), &end);
 			if (*end || !(c->find_timeout_s > 0 && c->find_timeout_s <= 600))
