@@ -24,29 +24,37 @@ static enum flash_boot_result say(enum flash_boot_result r, char *msg, size_t le
 	return r;
 }
 
-/* Wait up to ms for the next heartbeat (and answer bookkeeping); 0 got one, -1 none. */
-static int next_heartbeat(struct swell_link *l, int ms, struct swell_msg *hb)
+/* Wait until `end` (swell_link_now_ns) for the next packet that decodes; 0 with its *n messages in
+ * m[SWELL_PKT_MSGS_MAX], -1 at the time limit. */
+static int next_packet(struct swell_link *l, uint64_t end, struct swell_msg *m, size_t *n)
 {
-	uint64_t end = swell_link_now_ns() + (uint64_t)ms * 1000000u;
-
 	for (;;) {
-		struct swell_msg m[SWELL_PKT_MSGS_MAX];
 		struct swell_frame f;
 		uint64_t now = swell_link_now_ns();
-		size_t n, i;
 
 		if (now >= end)
 			return -1;
 		if (swell_link_recv(l, &f, (int)((end - now) / 1000000u) + 1) != 0)
 			continue;
-		if (swell_link_decode(SWELL_CARRIER_PKT, &f, m, SWELL_PKT_MSGS_MAX, &n, NULL, NULL) != SWELL_OK)
-			continue;
+		if (swell_link_decode(SWELL_CARRIER_PKT, &f, m, SWELL_PKT_MSGS_MAX, n, NULL, NULL) == SWELL_OK)
+			return 0;
+	}
+}
+
+/* Wait up to ms for the next heartbeat; 0 got one, -1 none. */
+static int next_heartbeat(struct swell_link *l, int ms, struct swell_msg *hb)
+{
+	uint64_t end = swell_link_now_ns() + (uint64_t)ms * 1000000u;
+	struct swell_msg m[SWELL_PKT_MSGS_MAX];
+	size_t n, i;
+
+	while (next_packet(l, end, m, &n) == 0)
 		for (i = 0; i < n; i++)
 			if (m[i].type == SWELL_MSG_HEARTBEAT) {
 				*hb = m[i];
 				return 0;
 			}
-	}
+	return -1;
 }
 
 static int send_one(struct swell_link *l, const struct swell_msg *m, uint8_t seq)
@@ -144,7 +152,9 @@ int flash_find_controller(uint16_t port, int timeout_ms, struct flash_found *out
 {
 	struct swell_link *l;
 	uint64_t t0 = swell_link_now_ns(), end = t0 + (uint64_t)timeout_ms * 1000000u;
+	struct swell_msg m[SWELL_PKT_MSGS_MAX];
 	unsigned beats = 0, others = 0;
+	size_t n, i;
 	int rc;
 
 	rc = swell_link_open_udp(&l, "127.0.0.1", port, NULL, 0);
@@ -153,18 +163,7 @@ int flash_find_controller(uint16_t port, int timeout_ms, struct flash_found *out
 		    (unsigned)port, rc);
 		return -2;
 	}
-	for (;;) {
-		struct swell_msg m[SWELL_PKT_MSGS_MAX];
-		struct swell_frame f;
-		uint64_t now = swell_link_now_ns();
-		size_t n, i;
-
-		if (now >= end)
-			break;
-		if (swell_link_recv(l, &f, (int)((end - now) / 1000000u) + 1) != 0)
-			continue;
-		if (swell_link_decode(SWELL_CARRIER_PKT, &f, m, SWELL_PKT_MSGS_MAX, &n, NULL, NULL) != SWELL_OK)
-			continue;
+	while (next_packet(l, end, m, &n) == 0) {
 		for (i = 0; i < n; i++) {
 			const struct swell_msg_ctl_info *c = &m[i].u.ctl_info;
 

@@ -288,6 +288,14 @@ TEST_CASE("dry-run command lines: gdb-multiarch on QEMU, openocd and a Black Mag
 
 namespace {
 
+std::string slurp(const std::string &path)
+{
+	std::ifstream f(path);
+	std::stringstream ss;
+	ss << f.rdbuf();
+	return ss.str();
+}
+
 struct scratch {
 	std::string dir;
 	scratch()
@@ -321,13 +329,7 @@ struct scratch {
 		f.write((const char *)b.data(), (std::streamsize)b.size());
 		return p;
 	}
-	std::string log() const
-	{
-		std::ifstream f(dir + "/log");
-		std::stringstream s;
-		s << f.rdbuf();
-		return s.str();
-	}
+	std::string log() const { return slurp(dir + "/log"); }
 	// Run swell-flash with the stubs first on PATH; returns the exit status, output in *out.
 	int run(const std::string &args, std::string *out, const std::string &env = "")
 	{
@@ -655,14 +657,6 @@ std::string ctl_cmd(const scratch &s, const std::string &name, const std::string
 	return "'" SWELL_CTL_BIN "' --no-rt --quiet --seconds " + std::to_string(seconds) + " --fw-version " + version +
 	       " --host udp:" + host + " --device udp:" + dev + " > '" + s.dir + "/" + name + ".out' 2>&1; echo $? > '" +
 	       s.dir + "/" + name + ".rc'";
-}
-
-std::string slurp(const std::string &path)
-{
-	std::ifstream f(path);
-	std::stringstream ss;
-	ss << f.rdbuf();
-	return ss.str();
 }
 
 } // namespace
