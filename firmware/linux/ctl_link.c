@@ -94,8 +94,11 @@ enum ctl_can_event ctl_can_error_frame(struct ctl_can_health *h, uint32_t can_id
 		if (d[1] & CAN_ERR_CRTL_ACTIVE)
 			now = CTL_CAN_ACTIVE;
 	}
-	if (can_id & CAN_ERR_RESTARTED)
+	if (can_id & CAN_ERR_RESTARTED) {
 		now = CTL_CAN_ACTIVE;
+		if (!(can_id & CAN_ERR_CNT)) /* a restarted controller starts with clear counters */
+			h->tx_err = h->rx_err = 0;
+	}
 	if (can_id & CAN_ERR_BUSOFF) /* wins over a restart in the same frame: fail safe */
 		now = CTL_CAN_BUS_OFF;
 	if (now == before)
@@ -275,6 +278,7 @@ size_t ctl_link_recv(struct ctl_link *l, struct swell_msg *out, size_t cap)
 			/* the interface went down: brought up again it starts error-active (a down/up restart
 			 * sends no RESTARTED frame) */
 			l->can.downs++;
+			l->can.tx_err = l->can.rx_err = 0;
 			if (l->can.state == CTL_CAN_BUS_OFF) {
 				l->can.state = CTL_CAN_ACTIVE;
 				l->can.restarts++;
