@@ -21,7 +21,7 @@ static const char usage[] =
 	"usage: swell-inject garbage LINK [--count N] [--rate HZ] [--seed S]\n"
 	"       swell-inject flood LINK [--seconds S] [--id HEX]\n"
 	"       swell-inject params LINK [--node N] [--timeout-ms MS]\n"
-	"       swell-inject can-errors can:IFACE [--seconds S]\n"
+	"       swell-inject can-errors can:IFACE [--seconds S] [--restart frame|none]\n"
 	"The hardware-in-the-loop bench's third node.\n"
 	"\n"
 	"  garbage  N frames (default 2000) at HZ (default 1000; 0: as fast as the link takes them) that\n"
@@ -37,6 +37,7 @@ static const char usage[] =
 	"           IFACE as error frames, which the kernel hands to every socket that asked for them only\n"
 	"           on a virtual bus (vcan); a controller on IFACE must zero the force, report the bus-off\n"
 	"           and recover after the restart. Prints the CLOCK_MONOTONIC time of each frame.\n"
+	"           --restart none: no restart frame (the bench restarts the interface itself, e.g. down/up)\n"
 	"LINK: can:IFACE (SocketCAN), udp[:PORT] (garbage/flood: to the controller's device port,\n"
 	"      default 47800; params: listen on the viewer port, default 47801, answer the controller),\n"
 	"      usb[:N] (params: libusb, VID 1209 PID 0001, interface N, default 0; bulk endpoints\n"
@@ -191,7 +192,7 @@ static int put_err(uint32_t classes, uint8_t crtl, uint8_t txerr, uint8_t rxerr,
 
 /* The sequence a driver reports for a bus fault (e.g. CANH shorted to CANL, or alone on the bus with
  * no one to ACK), then the restart (restart-ms or `ip link set IFACE type can restart`). */
-static int cmd_can_errors(double seconds)
+static int cmd_can_errors(double seconds, int restart_frame)
 {
 	double t_off;
 
@@ -202,6 +203,10 @@ static int cmd_can_errors(double seconds)
 	t_off = now_s();
 	if (put_err(CAN_ERR_BUSOFF | CAN_ERR_CNT, 0, 255, 0, "bus-off"))
 		return 1;
+	if (!restart_frame) {
+		printf("can-errors: OK: 3 error frames, bus off until the interface is restarted\n");
+		return 0;
+	}
 	sleep_until(t_off + seconds);
 	if (put_err(CAN_ERR_RESTARTED | CAN_ERR_CNT, 0, 0, 0, "restarted"))
 		return 1;
@@ -513,6 +518,7 @@ int main(int argc, char **argv)
 	double rate = 1000, seconds = -1;
 	uint32_t id = SWELL_CAN_ID(SWELL_MSG_HEIGHT_QUAD, 5) | 0x400u;
 	unsigned node = 0, foreign = 5;
+	int restart_frame = 1;
 	int timeout_ms = 500, k, rc;
 	struct swell_link *l;
 
@@ -559,6 +565,11 @@ int main(int argc, char **argv)
 			foreign = (unsigned)strtoul(v, &end, 10);
 			if (foreign > SWELL_NODE_MAX || foreign == 0)
 				die("--foreign-node must be 1..15, not ", v);
+		} else if (!strcmp(a, "--restart")) {
+			if (strcmp(v, "frame") && strcmp(v, "none"))
+				die("--restart must be frame or none, not ", v);
+			restart_frame = !strcmp(v, "frame");
+			continue;
 		} else if (!strcmp(a, "--timeout-ms")) {
 			timeout_ms = (int)strtol(v, &end, 10);
 			if (timeout_ms < 1 || timeout_ms > 60000)
@@ -577,7 +588,7 @@ int main(int argc, char **argv)
 		if (seconds > 60)
 			die("can-errors: --seconds must be at most 60", NULL);
 		open_raw_can(spec + 4);
-		return cmd_can_errors(seconds);
+		return cmd_can_errors(seconds, restart_frame);
 	}
 	open_link(&l, spec, !strcmp(cmd, "params"));
 	if (strcmp(cmd, "params") && !strncmp(spec, "can:", 4))
