@@ -116,7 +116,7 @@ TEST_CASE("states go boot, idle, armed, running and fault, with zero force outsi
 	CHECK(f.fz_cN == 0);
 }
 
-TEST_CASE("a silent device gives zero force and a fault within 2 ticks; clear brings it back", "[ctl][link]")
+TEST_CASE("a silent device gives zero force and a fault within 2 ticks, and clear brings it back", "[ctl][link]")
 {
 	Ctl k(pool());
 	k.param(SWELL_PARAM_COMMAND, SWELL_CMD_RUN);
@@ -383,7 +383,7 @@ TEST_CASE("the tick split into a force part and a background part gives the same
 	CHECK(split.c.n.overruns == 1u);
 }
 
-TEST_CASE("controller info: CTL_INFO at start and once a second with the firmware version and the object size; a new size goes out at once",
+TEST_CASE("controller info: CTL_INFO at start and once a second with the firmware version and the object size, and a new size goes out at once",
 	  "[ctl][telemetry]")
 {
 	swell_ctl_config cfg = pool();
@@ -445,7 +445,7 @@ TEST_CASE("controller info: CTL_INFO at start and once a second with the firmwar
 	CHECK(k.c.cfg.body.h_um == 30000u);
 }
 
-TEST_CASE("enter bootloader: refused while RUNNING; accepted otherwise with the force zeroed and a last heartbeat",
+TEST_CASE("enter bootloader: refused while RUNNING, accepted otherwise with the force zeroed and a last heartbeat",
 	  "[ctl][boot]")
 {
 	swell_ctl_config cfg = pool();
