@@ -1,8 +1,12 @@
-/* swell-flash: enter-bootloader over the UDP host link; see flash_boot.h. */
+/* swell-flash: enter-bootloader and find over a host link; see flash_boot.h. */
+#define _GNU_SOURCE
 #include "flash_boot.h"
 
+#include <errno.h>
 #include <stdarg.h>
 #include <stdio.h>
+#include <string.h>
+#include <time.h>
 
 #include "swell/ctl.h"
 #include "swell/link.h"
@@ -24,71 +28,184 @@ static enum flash_boot_result say(enum flash_boot_result r, char *msg, size_t le
 	return r;
 }
 
-/* Wait until `end` (swell_link_now_ns) for the next packet that decodes; 0 with its *n messages in
- * m[SWELL_PKT_MSGS_MAX], -1 at the time limit. */
-static int next_packet(struct swell_link *l, uint64_t end, struct swell_msg *m, size_t *n)
+static double secs(uint64_t ns)
+{
+	return (double)ns / 1e9;
+}
+
+/* One listening session on a link of any carrier. */
+struct session {
+	struct swell_link *l;
+	enum swell_carrier carrier;
+	int node;          /* -1 any */
+	uint8_t seq;       /* packet sequence (packets only) */
+	uint64_t gone_ns;  /* first time the link said the device left (0: never) */
+	unsigned others;   /* valid messages of nodes other than the chosen one */
+};
+
+/* Wait until `end` (swell_link_now_ns) for the next frame that decodes to messages of the chosen
+ * node; 0 with its *n messages in m[SWELL_PKT_MSGS_MAX], -1 at the time limit. */
+static int next_frame(struct session *s, uint64_t end, struct swell_msg *m, size_t *n)
 {
 	for (;;) {
 		struct swell_frame f;
 		uint64_t now = swell_link_now_ns();
+		size_t i, kept = 0;
+		int rc;
 
 		if (now >= end)
 			return -1;
-		if (swell_link_recv(l, &f, (int)((end - now) / 1000000u) + 1) != 0)
+		rc = swell_link_recv(s->l, &f, (int)((end - now) / 1000000u) + 1);
+		if (rc == -ENODEV && !s->gone_ns)
+			s->gone_ns = swell_link_now_ns();
+		if (rc != 0 && rc != -ETIMEDOUT) { /* a broken link must not spin */
+			struct timespec d = {0, 10000000};
+			nanosleep(&d, NULL);
+		}
+		if (rc != 0)
 			continue;
-		if (swell_link_decode(SWELL_CARRIER_PKT, &f, m, SWELL_PKT_MSGS_MAX, n, NULL, NULL) == SWELL_OK)
+		if (swell_link_decode(s->carrier, &f, m, SWELL_PKT_MSGS_MAX, n, NULL, NULL) != SWELL_OK)
+			continue;
+		for (i = 0; i < *n; i++) {
+			if (s->node >= 0 && m[i].node != s->node)
+				s->others++;
+			else
+				m[kept++] = m[i];
+		}
+		*n = kept;
+		if (kept)
 			return 0;
 	}
 }
 
-/* Wait up to ms for the next heartbeat; 0 got one, -1 none. */
-static int next_heartbeat(struct swell_link *l, int ms, struct swell_msg *hb)
+/* Wait up to ms for the next heartbeat of node (-1: any); 0 got one, -1 none. Heartbeats of other
+ * nodes set the bits of *seen (may be NULL). */
+static int next_heartbeat(struct session *s, int ms, struct swell_msg *hb, uint32_t *seen)
 {
 	uint64_t end = swell_link_now_ns() + (uint64_t)ms * 1000000u;
 	struct swell_msg m[SWELL_PKT_MSGS_MAX];
 	size_t n, i;
 
-	while (next_packet(l, end, m, &n) == 0)
-		for (i = 0; i < n; i++)
-			if (m[i].type == SWELL_MSG_HEARTBEAT) {
-				*hb = m[i];
-				return 0;
-			}
+	while (next_frame(s, end, m, &n) == 0)
+		for (i = 0; i < n; i++) {
+			if (m[i].type != SWELL_MSG_HEARTBEAT)
+				continue;
+			if (seen && m[i].node < 32)
+				*seen |= 1u << m[i].node;
+			*hb = m[i];
+			return 0;
+		}
 	return -1;
 }
 
-static int send_one(struct swell_link *l, const struct swell_msg *m, uint8_t seq)
+static int send_one(struct session *s, const struct swell_msg *m)
 {
 	struct swell_frame f;
 	size_t used;
 
-	if (swell_link_encode(SWELL_CARRIER_PKT, m->node, seq, m, 1, &f, &used) != SWELL_OK || used != 1)
+	if (swell_link_encode(s->carrier, m->node, s->seq++, m, 1, &f, &used) != SWELL_OK || used != 1)
 		return -1;
-	return swell_link_send(l, &f);
+	return swell_link_send(s->l, &f);
 }
 
-enum flash_boot_result flash_enter_bootloader(uint16_t port, int force, int watch_ms, char *msg,
-					      size_t msg_len)
+static int send_param(struct session *s, uint8_t node, uint16_t id, int32_t value, uint8_t seq)
 {
-	struct swell_link *l;
-	struct swell_msg hb, m = {0};
-	enum flash_boot_result r;
-	unsigned beats = 0;
-	uint64_t t_sent;
+	struct swell_msg m;
+
+	memset(&m, 0, sizeof(m));
+	m.type = SWELL_MSG_PARAM_SET;
+	m.node = node;
+	m.u.param_set.id = id;
+	m.u.param_set.value = value;
+	m.u.param_set.seq = seq;
+	return send_one(s, &m);
+}
+
+static int open_session(struct session *s, const struct flash_link_spec *spec, int wait_ms, char *where,
+			size_t wlen)
+{
 	int rc;
 
-	rc = swell_link_open_udp(&l, "127.0.0.1", port, NULL, 0);
-	if (rc)
-		return say(BOOT_ERROR, msg, msg_len, "cannot listen on udp 127.0.0.1:%u (a viewer there?): error %d",
-			   (unsigned)port, rc);
-	if (next_heartbeat(l, 1500, &hb)) {
-		r = say(BOOT_NOT_FOUND, msg, msg_len, "no controller heartbeat on udp 127.0.0.1:%u within 1.5 s",
-			(unsigned)port);
-		goto out;
+	memset(s, 0, sizeof(*s));
+	s->node = spec->node;
+	flash_link_describe(spec, where, wlen);
+	rc = flash_link_open(spec, wait_ms, &s->l);
+	if (rc == 0)
+		s->carrier = swell_link_carrier(s->l);
+	return rc;
+}
+
+static void names_of(uint32_t seen, char *buf, size_t len)
+{
+	size_t used = 0;
+	unsigned k;
+
+	buf[0] = '\0';
+	for (k = 0; k < 32 && used < len; k++)
+		if (seen & (1u << k))
+			used += (size_t)snprintf(buf + used, len - used, "%s%u", used ? ", " : "", k);
+}
+
+/* The controller to talk to: its first heartbeat, then its second (a full heartbeat period: any
+ * other controller on the bus is heard meanwhile, and a packet queued before we listened is not
+ * taken for its state). */
+static enum flash_boot_result find_target(struct session *s, const char *where, struct swell_msg *hb, char *msg,
+					  size_t msg_len)
+{
+	uint32_t seen = 0;
+	uint64_t end;
+	char nodes[96];
+
+	if (next_heartbeat(s, 1500, hb, &seen)) {
+		if (s->node >= 0)
+			return say(BOOT_NOT_FOUND, msg, msg_len, "no heartbeat of controller node %d on %s within 1.5 s%s",
+				   s->node, where, s->others ? " (other nodes heard)" : "");
+		return say(BOOT_NOT_FOUND, msg, msg_len, "no controller heartbeat on %s within 1.5 s", where);
 	}
-	printf("swell-flash: controller node %u on udp:%u: state %s, protocol version %u\n",
-	       (unsigned)hb.node, (unsigned)port, state_name(hb.u.heartbeat.state),
-	       (unsigned)hb.u.heartbeat.version);
+	end = swell_link_now_ns() + 1500000000u;
+	for (;;) {
+		struct swell_msg h;
+		uint64_t now = swell_link_now_ns();
+
+		if (now >= end || next_heartbeat(s, (int)((end - now) / 1000000u) + 1, &h, &seen))
+			return say(BOOT_NOT_FOUND, msg, msg_len, "controller node %u on %s heard once, then silent for 1.5 s",
+				   (unsigned)hb->node, where);
+		if (h.node == hb->node) {
+			*hb = h;
+			break;
+		}
+	}
+	s->node = hb->node; /* from now on only this controller's messages */
+	if (seen & ~(1u << hb->node)) {
+		names_of(seen, nodes, sizeof(nodes));
+		return say(BOOT_REFUSED_NODES, msg, msg_len,
+			   "several controllers on %s (nodes %s): choose one with --node; nothing sent", where, nodes);
+	}
+	return BOOT_ENTERED;
+}
+
+enum flash_boot_result flash_enter_bootloader(const struct flash_link_spec *spec, int force, int watch_ms,
+					      struct flash_boot_times *times, char *msg, size_t msg_len)
+{
+	struct session s;
+	struct swell_msg hb, m;
+	enum flash_boot_result r;
+	char where[96];
+	unsigned beats = 0;
+	uint64_t t_sent, t_last = 0;
+	int rc;
+
+	if (times)
+		times->last_beat_s = times->dev_gone_s = -1;
+	rc = open_session(&s, spec, 1500, where, sizeof(where));
+	if (rc)
+		return say(BOOT_ERROR, msg, msg_len, "cannot open %s%s: %s", where,
+			   spec->kind == FLASH_LINK_UDP ? " (a viewer listening there?)" : "", strerror(-rc));
+	r = find_target(&s, where, &hb, msg, msg_len);
+	if (r != BOOT_ENTERED)
+		goto out;
+	printf("swell-flash: controller node %u on %s: state %s, protocol version %u\n", (unsigned)hb.node, where,
+	       state_name(hb.u.heartbeat.state), (unsigned)hb.u.heartbeat.version);
 	if (hb.u.heartbeat.state == SWELL_CTL_RUNNING) {
 		if (!force) {
 			r = say(BOOT_REFUSED_RUNNING, msg, msg_len,
@@ -96,18 +213,15 @@ enum flash_boot_result flash_enter_bootloader(uint16_t port, int force, int watc
 				"stop it first; nothing sent");
 			goto out;
 		}
-		m.type = SWELL_MSG_PARAM_SET;
-		m.node = hb.node;
-		m.u.param_set.id = SWELL_PARAM_COMMAND;
-		m.u.param_set.value = SWELL_CMD_STOP;
-		m.u.param_set.seq = 1;
-		printf("swell-flash: --force: sending COMMAND=STOP (force zeroed by the controller)\n");
-		if (send_one(l, &m, 1)) {
-			r = say(BOOT_ERROR, msg, msg_len, "cannot send PARAM_SET COMMAND=STOP");
+		/* AUTORUN=0 first: a controller that runs whenever the device is there ignores STOP */
+		printf("swell-flash: --force: sending AUTORUN=0 and COMMAND=STOP (force zeroed by the controller)\n");
+		if (send_param(&s, hb.node, SWELL_PARAM_AUTORUN, 0, 1) ||
+		    send_param(&s, hb.node, SWELL_PARAM_COMMAND, SWELL_CMD_STOP, 2)) {
+			r = say(BOOT_ERROR, msg, msg_len, "cannot send PARAM_SET AUTORUN=0, COMMAND=STOP on %s", where);
 			goto out;
 		}
 		for (;;) {
-			if (next_heartbeat(l, 1500, &hb)) {
+			if (next_heartbeat(&s, 1500, &hb, NULL)) {
 				r = say(BOOT_ERROR, msg, msg_len, "controller silent after COMMAND=STOP");
 				goto out;
 			}
@@ -120,21 +234,30 @@ enum flash_boot_result flash_enter_bootloader(uint16_t port, int force, int watc
 		}
 		printf("swell-flash: controller now %s\n", state_name(hb.u.heartbeat.state));
 	}
+	memset(&m, 0, sizeof(m));
 	m.type = SWELL_MSG_ENTER_BOOTLOADER;
 	m.node = hb.node;
 	m.u.enter_bootloader.key = SWELL_PROTO_BOOT_KEY;
-	if (send_one(l, &m, 2)) {
-		r = say(BOOT_ERROR, msg, msg_len, "cannot send ENTER_BOOTLOADER");
+	s.gone_ns = 0;
+	if (send_one(&s, &m)) {
+		r = say(BOOT_ERROR, msg, msg_len, "cannot send ENTER_BOOTLOADER on %s", where);
 		goto out;
 	}
 	t_sent = swell_link_now_ns();
-	printf("swell-flash: ENTER_BOOTLOADER sent (key 0x%08x); watching the heartbeat for %d ms\n",
-	       SWELL_PROTO_BOOT_KEY, watch_ms);
-	/* A heartbeat already on its way may still come; count those later than 200 ms. */
+	printf("swell-flash: ENTER_BOOTLOADER sent (key 0x%08x) on %s; watching the heartbeat for %d ms\n",
+	       SWELL_PROTO_BOOT_KEY, where, watch_ms);
+	/* A heartbeat already on its way may still come (the controller's last one is sent on purpose);
+	 * count those later than 200 ms. */
 	beats = 0;
 	while (swell_link_now_ns() - t_sent < (uint64_t)watch_ms * 1000000u) {
-		if (next_heartbeat(l, 100, &hb) == 0 && swell_link_now_ns() - t_sent > 200000000u)
-			beats++;
+		if (next_heartbeat(&s, 100, &hb, NULL) == 0) {
+			t_last = swell_link_now_ns();
+			beats += t_last - t_sent > 200000000u;
+		}
+	}
+	if (times) {
+		times->last_beat_s = t_last ? secs(t_last - t_sent) : -1;
+		times->dev_gone_s = s.gone_ns > t_sent ? secs(s.gone_ns - t_sent) : -1;
 	}
 	if (beats)
 		r = say(BOOT_STILL_RUNNING, msg, msg_len,
@@ -144,26 +267,29 @@ enum flash_boot_result flash_enter_bootloader(uint16_t port, int force, int watc
 	else
 		r = say(BOOT_ENTERED, msg, msg_len, "controller silent after ENTER_BOOTLOADER: it reboots into its bootloader");
 out:
-	swell_link_close(l);
+	swell_link_close(s.l);
 	return r;
 }
 
-int flash_find_controller(uint16_t port, int timeout_ms, struct flash_found *out, char *msg, size_t msg_len)
+int flash_find_controller(const struct flash_link_spec *spec, int timeout_ms, struct flash_found *out, char *msg,
+			  size_t msg_len)
 {
-	struct swell_link *l;
+	struct session s;
 	uint64_t t0 = swell_link_now_ns(), end = t0 + (uint64_t)timeout_ms * 1000000u;
 	struct swell_msg m[SWELL_PKT_MSGS_MAX];
 	unsigned beats = 0, others = 0;
+	char where[96];
 	size_t n, i;
 	int rc;
 
-	rc = swell_link_open_udp(&l, "127.0.0.1", port, NULL, 0);
+	rc = open_session(&s, spec, timeout_ms, where, sizeof(where));
 	if (rc) {
-		say(BOOT_ERROR, msg, msg_len, "cannot listen on udp 127.0.0.1:%u (a viewer there?): error %d",
-		    (unsigned)port, rc);
-		return -2;
+		say(BOOT_ERROR, msg, msg_len, "cannot open %s%s: %s", where,
+		    spec->kind == FLASH_LINK_UDP ? " (a viewer listening there?)" : "",
+		    rc == -ENODEV && spec->kind == FLASH_LINK_USB ? "no such device within the time limit" : strerror(-rc));
+		return rc == -ENODEV && spec->kind == FLASH_LINK_USB ? -1 : -2;
 	}
-	while (next_packet(l, end, m, &n) == 0) {
+	while (next_frame(&s, end, m, &n) == 0) {
 		for (i = 0; i < n; i++) {
 			const struct swell_msg_ctl_info *c = &m[i].u.ctl_info;
 
@@ -182,19 +308,21 @@ int flash_find_controller(uint16_t port, int timeout_ms, struct flash_found *out
 			out->obj_100um[0] = c->obj_a_100um;
 			out->obj_100um[1] = c->obj_b_100um;
 			out->obj_100um[2] = c->obj_h_100um;
-			out->after_s = (double)(swell_link_now_ns() - t0) / 1e9;
-			swell_link_close(l);
+			out->mono_s = secs(swell_link_now_ns());
+			out->after_s = secs(swell_link_now_ns() - t0);
+			swell_link_close(s.l);
 			return 0;
 		}
 	}
-	swell_link_close(l);
+	swell_link_close(s.l);
 	if (beats)
 		say(BOOT_NOT_FOUND, msg, msg_len,
-		    "%u heartbeats but no CTL_INFO on udp 127.0.0.1:%u within %.1f s: firmware older than "
-		    "CTL_INFO (it cannot say its version)",
-		    beats, (unsigned)port, timeout_ms / 1e3);
+		    "%u heartbeats but no CTL_INFO on %s within %.1f s: firmware older than CTL_INFO (it cannot say "
+		    "its version)",
+		    beats, where, timeout_ms / 1e3);
 	else
-		say(BOOT_NOT_FOUND, msg, msg_len, "controller not heard on udp 127.0.0.1:%u within %.1f s%s",
-		    (unsigned)port, timeout_ms / 1e3, others ? " (other traffic only)" : "");
+		say(BOOT_NOT_FOUND, msg, msg_len, "controller%s not heard on %s within %.1f s%s",
+		    spec->node >= 0 ? " (the node asked for)" : "", where, timeout_ms / 1e3,
+		    s.others ? " (other nodes heard)" : others ? " (other traffic only)" : "");
 	return -1;
 }

@@ -44,16 +44,24 @@ static const char usage[] =
 	"  --console PATH       after the start, read the target's console (a tty at 115200 or a file\n"
 	"                       being appended) until it reports the image version; --console-timeout S\n"
 	"  --work-dir DIR       where read-back and converted files go (default a fresh temp dir)\n"
-	"  --enter-bootloader udp[:PORT]  first ask a running controller to reboot into its bootloader\n"
-	"                       over its UDP host link (listens on 127.0.0.1:PORT, default 47801, for\n"
-	"                       its heartbeat); refused while it is RUNNING unless --force (which sends\n"
-	"                       COMMAND=STOP first); the flash goes on only when its heartbeat stops\n"
+	"  --enter-bootloader LINK  first ask a running controller to reboot into its bootloader over\n"
+	"                       its host link, as a viewer talks to it. LINK (swell-view's spellings):\n"
+	"                         udp[:PORT]    listen on 127.0.0.1:PORT (default 47801, the viewer port)\n"
+	"                         can:IFACE     SocketCAN, classic frames (e.g. can:can0)\n"
+	"                         usb[:VID:PID] libusb, default 1209:0001; --iface N picks the interface\n"
+	"                                       (default 0; 1 when both of its links are on USB)\n"
+	"                       It listens for the heartbeat; refused while the controller is RUNNING\n"
+	"                       unless --force (which sends AUTORUN=0 and COMMAND=STOP first); the flash\n"
+	"                       goes on only when its heartbeat stops\n"
 	"  --force              see --enter-bootloader\n"
+	"  --node N             the controller's node id, 0..15 (default: the one heard; several\n"
+	"                       controllers on one bus and no --node: refused)\n"
+	"  --iface N            USB interface of the controller's host link, 0..255 (default 0)\n"
 	"  --dfu-wait S         after --enter-bootloader with --backend dfu: wait up to S s (default 5)\n"
 	"                       for the DfuSe device to appear on USB\n"
-	"  --find udp[:PORT]    after flashing (or alone with --check-only), listen on 127.0.0.1:PORT\n"
-	"                       for the controller's CTL_INFO and require the image's version; on by\n"
-	"                       default on the --enter-bootloader port; --find-timeout S (default 10)\n"
+	"  --find LINK          after flashing (or alone with --check-only), listen on LINK for the\n"
+	"                       controller's CTL_INFO and require the image's version; on by default on\n"
+	"                       the --enter-bootloader link; --find-timeout S (default 10)\n"
 	"  --no-find            do not look for the controller after flashing\n"
 	"Exit status: 0 flashed and verified (and the controller back with the image's version),\n"
 	"1 a tool or the verify failed, or the controller did not come back with that version,\n"
@@ -62,8 +70,9 @@ static const char usage[] =
 struct cfg {
 	const char *image, *work_dir, *console, *expect_version;
 	int backend, dry_run, check_only, gdb_server_set, force;
-	long boot_port; /* --enter-bootloader: UDP port, 0 when not asked */
-	long find_port; /* --find: UDP port, 0 when not asked (then the boot port, unless --no-find) */
+	int boot, find; /* --enter-bootloader, --find given (find: also after boot, unless --no-find) */
+	struct flash_link_spec boot_link, find_link;
+	int node, iface; /* --node (-1: the one heard), --iface */
 	int no_find;
 	unsigned long mcu;
 	double console_timeout_s, dfu_wait_s, find_timeout_s;
@@ -90,20 +99,13 @@ static double now_s(void)
 	return (double)t.tv_sec + (double)t.tv_nsec * 1e-9;
 }
 
-/* "udp" (the viewer port 47801) or "udp:PORT" of an option; exit 2 otherwise. */
-static long udp_port(const char *opt, const char *l)
+/* A host link of an option; exit 2 with the reason otherwise. */
+static void link_arg(const char *opt, const char *l, struct flash_link_spec *out)
 {
-	char *end;
-	long port;
+	char why[200];
 
-	if (!strcmp(l, "udp"))
-		return 47801;
-	if (strncmp(l, "udp:", 4))
-		die(2, "%s '%s': only udp[:PORT] (CAN and USB carriers not yet)", opt, l);
-	port = strtol(l + 4, &end, 10);
-	if (*end || !l[4] || port < 1 || port > 65535)
-		die(2, "%s '%s': port not in 1..65535", opt, l);
-	return port;
+	if (flash_link_parse(l, out, why, sizeof(why)))
+		die(2, "%s %s", opt, why);
 }
 
 static const char *need(int argc, char **argv, int *i)
@@ -182,9 +184,23 @@ static void parse(int argc, char **argv, struct cfg *c)
 			if (*end || !(c->console_timeout_s > 0 && c->console_timeout_s <= 600))
 				die(2, "--console-timeout '%s' is not a time in (0, 600] s", argv[i]);
 		} else if (!strcmp(a, "--enter-bootloader")) {
-			c->boot_port = udp_port(a, need(argc, argv, &i));
+			link_arg(a, need(argc, argv, &i), &c->boot_link);
+			c->boot = 1;
 		} else if (!strcmp(a, "--find")) {
-			c->find_port = udp_port(a, need(argc, argv, &i));
+			link_arg(a, need(argc, argv, &i), &c->find_link);
+			c->find = 1;
+		} else if (!strcmp(a, "--node")) {
+			long n = strtol(need(argc, argv, &i), &end, 10);
+
+			if (*end || !*argv[i] || n < 0 || n > 15)
+				die(2, "--node '%s' is not a node id in 0..15", argv[i]);
+			c->node = (int)n;
+		} else if (!strcmp(a, "--iface")) {
+			long n = strtol(need(argc, argv, &i), &end, 10);
+
+			if (*end || !*argv[i] || n < 0 || n > 255)
+				die(2, "--iface '%s' is not a USB interface number in 0..255", argv[i]);
+			c->iface = (int)n;
 		} else if (!strcmp(a, "--find-timeout")) {
 			c->find_timeout_s = strtod(need(argc, argv, &i), &end);
 			if (*end || !(c->find_timeout_s > 0 && c->find_timeout_s <= 600))
@@ -464,17 +480,19 @@ static void find_step(const struct cfg *c, const struct flash_image *img, const 
 	uint32_t v = img->hdr.version;
 	int r;
 
-	printf("swell-flash: listening on udp:%ld for the controller's CTL_INFO (up to %.1f s)\n", c->find_port,
+	char where[96];
+
+	flash_link_describe(&c->find_link, where, sizeof(where));
+	printf("swell-flash: listening on %s for the controller's CTL_INFO (up to %.1f s)\n", where,
 	       c->find_timeout_s);
 	fflush(stdout);
-	r = flash_find_controller((uint16_t)c->find_port, (int)(c->find_timeout_s * 1000 + 0.5), &f, why,
-				  sizeof(why));
+	r = flash_find_controller(&c->find_link, (int)(c->find_timeout_s * 1000 + 0.5), &f, why, sizeof(why));
 	if (r)
 		die(1, "%s", why);
 	snprintf(got, sizeof(got), "%u.%u.%u", f.version[0], f.version[1], f.version[2]);
-	printf("swell-flash: controller back, running version %s (node %u, heard %.3f s after listening began; "
-	       "object %.1f x %.1f x %.1f mm)\n",
-	       got, (unsigned)f.node, f.after_s, f.obj_100um[0] / 10.0, f.obj_100um[1] / 10.0,
+	printf("swell-flash: controller back, running version %s (node %u, heard %.3f s after listening began, "
+	       "at %.3f s CLOCK_MONOTONIC; object %.1f x %.1f x %.1f mm)\n",
+	       got, (unsigned)f.node, f.after_s, f.mono_s, f.obj_100um[0] / 10.0, f.obj_100um[1] / 10.0,
 	       f.obj_100um[2] / 10.0);
 	if (f.version[0] != (v >> 16) || f.version[1] != ((v >> 8) & 0xFFu) || f.version[2] != (v & 0xFFu))
 		die(1, "the controller runs version %s, but the image's header says %s: it did not start the "
@@ -489,7 +507,7 @@ int main(int argc, char **argv)
 	struct flash_image img;
 	struct flash_plan plan;
 	struct console con = {.fd = -1};
-	char why[512], ver[32], dir[600], bin[700], rb[700], line[8192];
+	char why[512], ver[32], dir[600], bin[700], rb[700], line[8192], where[96];
 	uint8_t *file;
 	size_t file_len;
 	double t_all;
@@ -510,11 +528,22 @@ int main(int argc, char **argv)
 	c.o.serial = "/dev/ttyUSB0";
 	c.o.baud = 115200;
 	c.o.gdb_remote = "localhost:3333";
+	c.node = -1;
+	c.iface = -1;
 	parse(argc, argv, &c);
-	if (!c.find_port && c.boot_port && !c.no_find)
-		c.find_port = c.boot_port; /* entered through the link: look for it there afterwards */
+	if (!c.find && c.boot && !c.no_find) { /* entered through the link: look for it there afterwards */
+		c.find_link = c.boot_link;
+		c.find = 1;
+	}
 	if (c.no_find)
-		c.find_port = 0;
+		c.find = 0;
+	if (c.iface >= 0 && !(c.boot && c.boot_link.kind == FLASH_LINK_USB) &&
+	    !(c.find && c.find_link.kind == FLASH_LINK_USB))
+		die(2, "--iface is for a usb link (--enter-bootloader usb or --find usb)");
+	if (c.node >= 0 && !c.boot && !c.find)
+		die(2, "--node is for --enter-bootloader or --find");
+	c.boot_link.node = c.find_link.node = c.node;
+	c.boot_link.usb_iface = c.find_link.usb_iface = (uint8_t)(c.iface >= 0 ? c.iface : 0);
 
 	/* 1. The image, before anything else. */
 	if (flash_read_file(c.image, MAX_FILE, &file, &file_len, why, sizeof(why)))
@@ -531,7 +560,7 @@ int main(int argc, char **argv)
 	       img.fmt == FLASH_FMT_ELF ? "ELF" : "BIN", ver, img.len, (unsigned)img.hdr.mcu_id,
 	       (unsigned)img.hdr.crc);
 	if (c.check_only) {
-		if (c.find_port)
+		if (c.find)
 			find_step(&c, &img, ver);
 		goto done;
 	}
@@ -583,18 +612,22 @@ int main(int argc, char **argv)
 		       plan.nsteps);
 		for (i = 0; i < plan.nsteps; i++) {
 			flash_step_format(&plan.step[i], line, sizeof(line));
-			if (i == 0 && c.boot_port)
-				printf("[0/%d] send ENTER_BOOTLOADER over udp:%ld once its heartbeat is heard%s\n",
-				       plan.nsteps, c.boot_port, c.force ? " (COMMAND=STOP first if RUNNING)" : "");
+			if (i == 0 && c.boot) {
+				flash_link_describe(&c.boot_link, where, sizeof(where));
+				printf("[0/%d] send ENTER_BOOTLOADER on %s once its heartbeat is heard%s\n", plan.nsteps,
+				       where, c.force ? " (AUTORUN=0, COMMAND=STOP first if RUNNING)" : "");
+			}
 			printf("[%d/%d] %s\n%s\n", i + 1, plan.nsteps, plan.step[i].what, line);
 			if (plan.step[i].kind == STEP_READBACK)
 				printf("  then compare %s with the image's %zu bytes\n", rb, img.len);
 		}
 		if (c.console)
 			printf("  then read %s until the image reports version %s\n", c.console, ver);
-		if (c.find_port)
-			printf("  then listen on udp:%ld up to %.1f s for the controller's CTL_INFO, version %s\n",
-			       c.find_port, c.find_timeout_s, ver);
+		if (c.find) {
+			flash_link_describe(&c.find_link, where, sizeof(where));
+			printf("  then listen on %s up to %.1f s for the controller's CTL_INFO, version %s\n", where,
+			       c.find_timeout_s, ver);
+		}
 		goto done;
 	}
 
@@ -605,15 +638,22 @@ int main(int argc, char **argv)
 			    plan.step[i].arg[0], package_of(plan.step[i].arg[0]));
 
 	/* 4. A running controller is asked to enter its bootloader first. */
-	if (c.boot_port) {
-		enum flash_boot_result br = flash_enter_bootloader((uint16_t)c.boot_port, c.force, 1000, why,
-								   sizeof(why));
+	if (c.boot) {
+		struct flash_boot_times bt;
+		enum flash_boot_result br = flash_enter_bootloader(&c.boot_link, c.force, 1000, &bt, why, sizeof(why));
 
-		if (br == BOOT_REFUSED_RUNNING)
+		if (br == BOOT_REFUSED_RUNNING || br == BOOT_REFUSED_NODES)
 			die(2, "%s", why);
 		if (br != BOOT_ENTERED)
 			die(1, "%s; nothing flashed", why);
-		printf("swell-flash: %s\n", why);
+		printf("swell-flash: %s", why);
+		if (bt.last_beat_s >= 0)
+			printf(" (last heartbeat %.3f s after the request", bt.last_beat_s);
+		else
+			printf(" (no heartbeat after the request");
+		if (bt.dev_gone_s >= 0)
+			printf(", device left the bus %.3f s after it", bt.dev_gone_s);
+		printf(")\n");
 		if (c.o.backend == FLASH_DFU) {
 			double t0 = now_s();
 
@@ -668,7 +708,7 @@ int main(int argc, char **argv)
 			unlink(bin);
 		rmdir(dir);
 	}
-	if (c.find_port)
+	if (c.find)
 		find_step(&c, &img, ver); /* after the clean-up: it may end the program */
 done:
 	flash_image_free(&img);

@@ -15,6 +15,7 @@
 
 extern "C" {
 #include "flash_image.h"
+#include "flash_link.h"
 #include "flash_plan.h"
 }
 
@@ -496,7 +497,8 @@ namespace {
 // stops the heartbeat when `reboots`, for `back_ms` (then it beats again: "the new image").
 struct fake_ctl {
 	uint16_t port = 0;
-	std::atomic<int> state{1}, got_stop{0}, got_boot{0}, boot_key_ok{0}, other{0};
+	std::atomic<int> state{1}, got_stop{0}, got_autorun_off{0}, got_boot{0}, boot_key_ok{0}, other{0};
+	uint8_t node = 0;
 	bool reboots = true;
 	uint64_t back_ms = 1400;
 	uint8_t version[3] = {1, 2, 3};
@@ -535,6 +537,7 @@ struct fake_ctl {
 			if (!silent && now >= next) {
 				swell_msg hb[2]{};
 				hb[0].type = SWELL_MSG_HEARTBEAT;
+				hb[0].node = hb[1].node = node;
 				hb[0].u.heartbeat.state = (uint8_t)state.load();
 				hb[0].u.heartbeat.version = SWELL_PROTO_VERSION;
 				hb[0].u.heartbeat.seq = seq;
@@ -546,7 +549,7 @@ struct fake_ctl {
 				hb[1].u.ctl_info.obj_h_100um = 500;
 				swell_frame f;
 				size_t used;
-				if (swell_link_encode(SWELL_CARRIER_PKT, 0, seq, hb, seq % 4 == 0 ? 2 : 1, &f, &used) ==
+				if (swell_link_encode(SWELL_CARRIER_PKT, node, seq, hb, seq % 4 == 0 ? 2 : 1, &f, &used) ==
 				    SWELL_OK)
 					swell_link_send(l, &f);
 				seq++;
@@ -560,8 +563,13 @@ struct fake_ctl {
 			if (swell_link_decode(SWELL_CARRIER_PKT, &f, m, SWELL_PKT_MSGS_MAX, &n, NULL, NULL) != SWELL_OK)
 				continue;
 			for (size_t i = 0; i < n; i++) {
-				if (m[i].type == SWELL_MSG_PARAM_SET && m[i].u.param_set.id == 40 &&
-				    m[i].u.param_set.value == 0) {
+				if (m[i].node != node) {
+					other++; // addressed to another controller
+				} else if (m[i].type == SWELL_MSG_PARAM_SET && m[i].u.param_set.id == 31 &&
+					   m[i].u.param_set.value == 0) {
+					got_autorun_off++; // AUTORUN=0: a controller with autorun ignores STOP
+				} else if (m[i].type == SWELL_MSG_PARAM_SET && m[i].u.param_set.id == 40 &&
+					   m[i].u.param_set.value == 0) {
 					got_stop++;
 					state = 1;
 				} else if (m[i].type == SWELL_MSG_ENTER_BOOTLOADER) {
@@ -617,6 +625,7 @@ TEST_CASE("enter-bootloader with force sends COMMAND=STOP first, then the key, a
 		       &out);
 	INFO(out);
 	CHECK(rc == 0);
+	CHECK(c.got_autorun_off == 1);
 	CHECK(c.got_stop == 1);
 	CHECK(c.got_boot == 1);
 	CHECK(c.boot_key_ok == 1);
@@ -722,7 +731,7 @@ TEST_CASE("find: nobody there is exit 1 within the time limit, and --check-only 
 	CHECK(s.log().empty());
 	rc = s.run(img + " --find tcp:1", &out);
 	CHECK(rc == 2);
-	CHECK(out.find("--find 'tcp:1': only udp[:PORT]") != std::string::npos);
+	CHECK(out.find("--find 'tcp:1': not a host link: udp[:PORT], can:IFACE or usb[:VID:PID]") != std::string::npos);
 }
 
 TEST_CASE("enter-bootloader then dfu: flashing waits for the DfuSe device and starts only when it is there")
@@ -754,4 +763,165 @@ TEST_CASE("enter-bootloader then dfu: flashing waits for the DfuSe device and st
 	CHECK(out.find("DfuSe device 0483:df11 on USB after") != std::string::npos);
 	CHECK(s.log().find("dfu-util -d 0483:df11 -a 0 -s 0x08000000 -D ") == 0);
 	CHECK(out.find("verify FAILED") != std::string::npos);
+}
+
+// ---- host link specs: swell-view's spellings, one line for a bad one, nothing changed ----
+
+TEST_CASE("link specs: udp, can and usb in swell-view's spellings, with their defaults")
+{
+	flash_link_spec l;
+	char err[200] = "", d[96];
+	REQUIRE(flash_link_parse("udp", &l, err, sizeof(err)) == 0);
+	CHECK(l.kind == FLASH_LINK_UDP);
+	CHECK(l.udp_port == 47801);
+	CHECK(l.node == -1);
+	REQUIRE(flash_link_parse("udp:1", &l, err, sizeof(err)) == 0);
+	CHECK(l.udp_port == 1);
+	REQUIRE(flash_link_parse("udp:65535", &l, err, sizeof(err)) == 0);
+	CHECK(l.udp_port == 65535);
+	flash_link_describe(&l, d, sizeof(d));
+	CHECK(std::string(d) == "udp 127.0.0.1:65535");
+	REQUIRE(flash_link_parse("can:can1", &l, err, sizeof(err)) == 0);
+	CHECK(l.kind == FLASH_LINK_CAN);
+	CHECK(std::string(l.can_if) == "can1");
+	REQUIRE(flash_link_parse("can:abcdefghijklmno", &l, err, sizeof(err)) == 0); // 15: the longest
+	CHECK(std::string(l.can_if) == "abcdefghijklmno");
+	flash_link_describe(&l, d, sizeof(d));
+	CHECK(std::string(d) == "can abcdefghijklmno");
+	REQUIRE(flash_link_parse("usb", &l, err, sizeof(err)) == 0);
+	CHECK(l.kind == FLASH_LINK_USB);
+	CHECK(l.usb_vid == 0x1209);
+	CHECK(l.usb_pid == 0x0001);
+	CHECK(l.usb_iface == 0);
+	REQUIRE(flash_link_parse("usb:0483:DF11", &l, err, sizeof(err)) == 0);
+	CHECK(l.usb_vid == 0x0483);
+	CHECK(l.usb_pid == 0xdf11);
+	flash_link_describe(&l, d, sizeof(d));
+	CHECK(std::string(d) == "usb 0483:df11 interface 0");
+	CHECK(std::string(err).empty());
+}
+
+TEST_CASE("link specs: a bad one is refused with one line naming it, and the spec is left untouched")
+{
+	struct {
+		const char *spec, *reason;
+	} bad[] = {{"", "not a host link"},
+		   {"tcp:1", "'tcp:1': not a host link: udp[:PORT], can:IFACE or usb[:VID:PID]"},
+		   {"udpx", "not a host link"},
+		   {"udp:", "UDP port not in 1..65535"},
+		   {"udp:0", "UDP port not in 1..65535"},
+		   {"udp:65536", "UDP port not in 1..65535"},
+		   {"udp:-1", "UDP port not in 1..65535"},
+		   {"udp:+80", "UDP port not in 1..65535"},
+		   {"udp:80x", "UDP port not in 1..65535"},
+		   {"udp:99999999999999999999", "UDP port not in 1..65535"},
+		   {"can:", "give the CAN interface, e.g. can:can0"},
+		   {"can", "not a host link"},
+		   {"can:abcdefghijklmnop", "interface name longer than 15 characters"},
+		   {"can:can0,3", "not an interface name (the node is chosen with --node)"},
+		   {"can:a/b", "not an interface name"},
+		   {"can:..", "not an interface name"},
+		   {"canfd:can0", "host link is classic CAN"},
+		   {"usb:", "not usb:VID:PID in hex"},
+		   {"usb:1209", "not usb:VID:PID in hex"},
+		   {"usb:1209:", "not usb:VID:PID in hex"},
+		   {"usb:12345:1", "not usb:VID:PID in hex"},
+		   {"usb:1209:0001:0", "not usb:VID:PID in hex"},
+		   {"usb:xyz:0001", "not usb:VID:PID in hex"},
+		   {"usb:/dev/ffs-swell", "usb:FFS_DIR is swell-ctl's side of the link"}};
+	for (auto &b : bad) {
+		flash_link_spec l, before;
+		std::memset(&l, 0x5a, sizeof(l));
+		before = l;
+		char err[200] = "";
+		INFO("'" << b.spec << "'");
+		CHECK(flash_link_parse(b.spec, &l, err, sizeof(err)) == -1);
+		INFO(err);
+		CHECK(std::string(err).find(b.reason) != std::string::npos);
+		CHECK(std::strchr(err, '\n') == nullptr);
+		CHECK(std::memcmp(&l, &before, sizeof(l)) == 0);
+	}
+}
+
+TEST_CASE("link options: bad specs, --node and --iface give one line and exit 2, nothing runs")
+{
+	scratch s;
+	std::string img = s.write("good.bin", make_image(2048));
+	struct {
+		const char *args, *reason;
+	} bad[] = {{"--enter-bootloader can:", "--enter-bootloader 'can:': give the CAN interface, e.g. can:can0"},
+		   {"--enter-bootloader usb:1:2:3", "not usb:VID:PID in hex"},
+		   {"--find canfd:can0", "--find 'canfd:can0': the controller's host link is classic CAN"},
+		   {"--find udp --node 16", "--node '16' is not a node id in 0..15"},
+		   {"--find udp --node x", "--node 'x' is not a node id"},
+		   {"--node 3", "--node is for --enter-bootloader or --find"},
+		   {"--find usb --iface 256", "--iface '256' is not a USB interface number"},
+		   {"--find can:can0 --iface 1", "--iface is for a usb link"}};
+	for (auto &b : bad) {
+		std::string out;
+		int rc = s.run(img + " --backend swd --swd-tool st-flash " + b.args, &out);
+		INFO(b.args << ": " << out);
+		CHECK(rc == 2);
+		CHECK(std::count(out.begin(), out.end(), '\n') == 1);
+		CHECK(out.find(b.reason) != std::string::npos);
+	}
+	CHECK(s.log().empty());
+}
+
+TEST_CASE("enter-bootloader: several controllers heard and no --node is refused, nothing sent; --node picks one")
+{
+	scratch s;
+	std::string img = s.write("good.bin", make_image(2048));
+	fake_ctl a, b;
+	a.node = 2;
+	a.version[0] = 9;
+	a.start(1, true);
+	b.node = 5;
+	b.port = a.port; // both send to the one port swell-flash listens on
+	b.th = std::thread([&b] { b.loop(); });
+	std::string out;
+	int rc = s.run(img + " --backend swd --swd-tool st-flash --enter-bootloader udp:" + std::to_string(a.port), &out);
+	INFO(out);
+	CHECK(rc == 2);
+	CHECK(out.find("several controllers on udp 127.0.0.1:" + std::to_string(a.port) + " (nodes 2, 5): choose one "
+		       "with --node; nothing sent") != std::string::npos);
+	CHECK(a.got_boot + b.got_boot == 0);
+	CHECK(a.other + b.other == 0);
+	CHECK(s.log().empty());
+	// --find on a bus with two: --node takes the one asked for (node 2 says 9.2.3, node 5 1.2.3)
+	rc = s.run(img + " --check-only --node 5 --find udp:" + std::to_string(a.port), &out);
+	INFO(out);
+	CHECK(rc == 0);
+	CHECK(out.find("controller back, running version 1.2.3 (node 5,") != std::string::npos);
+	rc = s.run(img + " --check-only --node 2 --find udp:" + std::to_string(a.port), &out);
+	CHECK(rc == 1);
+	CHECK(out.find("runs version 9.2.3, but the image's header says 1.2.3") != std::string::npos);
+}
+
+TEST_CASE("enter-bootloader --node: the request carries the chosen node, and another node is not heard")
+{
+	scratch s;
+	std::string img = s.write("good.bin", make_image(2048));
+	fake_ctl c;
+	c.node = 5;
+	c.start(1, true);
+	std::string out;
+	int rc = s.run(img + " --backend swd --swd-tool st-flash --node 4 --no-find --enter-bootloader udp:" +
+			       std::to_string(c.port),
+		       &out);
+	INFO(out);
+	CHECK(rc == 1);
+	CHECK(out.find("no heartbeat of controller node 4 on udp 127.0.0.1:" + std::to_string(c.port) +
+		       " within 1.5 s (other nodes heard)") != std::string::npos);
+	CHECK(c.got_boot == 0);
+	rc = s.run(img + " --backend swd --swd-tool st-flash --node 5 --no-find --enter-bootloader udp:" +
+			   std::to_string(c.port),
+		   &out);
+	INFO(out);
+	CHECK(rc == 0);
+	CHECK(c.got_boot == 1);
+	CHECK(c.boot_key_ok == 1);
+	CHECK(c.other == 0); // everything it got was addressed to node 5
+	CHECK(out.find("controller node 5 on udp") != std::string::npos);
+	CHECK(out.find("(no heartbeat after the request)") != std::string::npos); // the fake sends no last one
 }
