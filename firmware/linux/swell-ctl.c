@@ -53,7 +53,8 @@ static const char usage[] =
 	"  --quiet             no status line while running\n"
 	"  -h, --help          this text\n"
 	"\n"
-	"On exit prints a report: ticks, solver steps, state, tick jitter (p50, p99, max), overruns, frames.\n"
+	"On exit prints a report: ticks, solver steps, state, tick jitter (p50, p99, max), overruns, frames,\n"
+	"the largest wave and the solver's saturations.\n"
 	"Exit status: 0 clean stop, 1 a link or the real-time set-up failed, 2 bad arguments,\n"
 	"3 a viewer or swell-flash asked for the bootloader (ENTER_BOOTLOADER accepted: force zeroed,\n"
 	"last heartbeat sent; a supervisor starts the flasher, then the new image).\n";
@@ -530,7 +531,8 @@ int main(int argc, char **argv)
 		report_usb("host  ", &p.host);
 	}
 	printf("  parameters      %u set, %u refused\n", p.c.n.params_set, p.c.n.params_refused);
-	printf("  waves           largest |h| %.3f mm (sampled once a second)\n", peak_h / (double)SWELL_H_ONE_MM);
+	printf("  waves           largest |h| %.3f mm (sampled once a second), %u solver saturations "
+	       "(row segments clamped)\n", peak_h / (double)SWELL_H_ONE_MM, p.c.wave.saturations);
 	printf("  final force     %+.3f N (zero sent on exit)\n", p.c.force_dev_uN[2] / 1e6);
 	ctl_link_close(&p.dev);
 	if (p.have_host)
