@@ -8,12 +8,13 @@
 #include "../logic/scene.h"
 
 static const char usage[] =
-	"usage: swell-fw-scene [--steps N] [--core TICKS] [--cost]\n"
+	"usage: swell-fw-scene [--steps N] [--core TICKS] [--core-hz HZ] [--cost]\n"
 	"Runs the STM32F405 self-test scene on the host: 64x64 pool, dx 6.25 mm, depth 50 mm,\n"
 	"dt 4 ms, paper stencil, no damping, Gaussian 2 mm sigma 3 cells at (32,32); N solver steps\n"
 	"(default 200). Prints the state checksum (CRC-32 of heights and flows) and the volume.\n"
 	"--core TICKS: also run the controller core on that scene at 2500 Hz for TICKS ticks with the\n"
 	"self-test's scripted device, and print its checksum (FORCE_CMD payloads, then the water).\n"
+	"--core-hz HZ: the core's tick rate for --core (default 2500; the image also runs 1000).\n"
 	"--cost: also run the three cost scenes (calm, local, agitated; damped, 40 steps) and print\n"
 	"each one's checksum, as the image's self-test does.\n"
 	"--kernel ref|fused|avx2: the solver kernel (default: the fastest; all are bit-identical).\n";
@@ -24,7 +25,7 @@ int main(int argc, char **argv)
 	static int32_t arena[FW_CORE_ARENA_WORDS];
 	static struct swell_ctl ctl;
 	struct swell_wave w;
-	unsigned long steps = 200, n, core_ticks = 0;
+	unsigned long steps = 200, n, core_ticks = 0, core_hz = 2500;
 	enum swell_err err;
 	enum swell_wave_kernel kernel = SWELL_KERNEL_AUTO;
 	int i, cost = 0;
@@ -49,6 +50,15 @@ int main(int argc, char **argv)
 			if (*end || !*argv[i] || core_ticks > 100000000ul) {
 				fprintf(stderr, "swell-fw-scene: --core '%s' is not a tick count in [0, 1e8]\n",
 					argv[i]);
+				return 2;
+			}
+		} else if (!strcmp(argv[i], "--core-hz") && i + 1 < argc) {
+			char *end;
+
+			core_hz = strtoul(argv[++i], &end, 10);
+			if (*end || !*argv[i] || core_hz < 500 || core_hz > 100000 || core_hz % 250 != 0) {
+				fprintf(stderr, "swell-fw-scene: --core-hz '%s' is not a multiple of the 250 Hz solver "
+						"rate in [500, 100000]\n", argv[i]);
 				return 2;
 			}
 		} else if (!strcmp(argv[i], "--cost")) {
@@ -99,7 +109,7 @@ int main(int argc, char **argv)
 	if (core_ticks) {
 		struct fw_core_run r;
 
-		err = fw_core_init(&ctl, &r, arena, FW_CORE_ARENA_WORDS, 2500);
+		err = fw_core_init(&ctl, &r, arena, FW_CORE_ARENA_WORDS, (uint32_t)core_hz);
 		if (err != SWELL_OK) {
 			fprintf(stderr, "swell-fw-scene: core refused: %s\n", swell_err_str(err));
 			return 1;
@@ -109,7 +119,7 @@ int main(int argc, char **argv)
 			swell_ctl_tick(&ctl);
 			fw_core_drain(&ctl, &r);
 		}
-		printf("core ticks %lu\n", core_ticks);
+		printf("core ticks %lu at %lu Hz\n", core_ticks, core_hz);
 		printf("core checksum 0x%08x\n", (unsigned)fw_core_checksum(&ctl, &r));
 		printf("core: state %s, %u FORCE_CMD, last fz %d uN\n", swell_ctl_state_name(ctl.state),
 		       (unsigned)r.force_cmds, (int)r.last_fz_uN);
