@@ -236,7 +236,7 @@ TEST_CASE("energy never increases with damping and stays bounded without", "[wav
 	}
 }
 
-TEST_CASE("just under the stability limit stays bounded for 1e5 steps; at or over it is refused",
+TEST_CASE("just under the stability limit stays bounded for 1e5 steps, at or over it is refused",
 	  "[wave][stability]")
 {
 	for (double t : {0.0, 0.1}) {

@@ -178,7 +178,7 @@ TEST_CASE("every kernel saturates exactly like the reference: full-scale checker
 	}
 }
 
-TEST_CASE("kernel selection: unknown kernels are refused and change nothing; AUTO picks one that "
+TEST_CASE("kernel selection: unknown kernels are refused and change nothing, AUTO picks one that "
 	  "exists", "[wave][kernel]")
 {
 	Field f(16, 16, q30(0.2), 0, SWELL_STENCIL_PAPER, SWELL_KERNEL_AUTO);

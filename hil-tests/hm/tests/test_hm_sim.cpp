@@ -205,12 +205,15 @@ TEST_CASE("drop: the object falls, floats and settles at -m g/k within 2% (level
 
 TEST_CASE("shake: held and shaken vertically and sideways, the closed loop stays bounded and settles again")
 {
-	// released where the hand's target is at rest (a quarter period after whole cycles), at 4.1 s
+	// released where the hand's target is at rest (a quarter period after whole cycles), at 4.1 s;
+	// the vertical shake keeps the bottom (-40 mm at rest) clear of the pool floor at -50 mm: the
+	// hand overshoots its 8 mm by about a quarter, and floor contact (up to 20 N) is not what this
+	// test is about
 	const struct {
 		const char *name, *hand;
 		double f_hz, amp_mm;
 	} shakes[] = {
-		{"shake-z", "shake:at=1,axis=z,f=2,amp=15,for=3.125,k=3000", 2.0, 15.0},
+		{"shake-z", "shake:at=1,axis=z,f=2,amp=8,for=3.125,k=3000", 2.0, 8.0},
 		{"shake-x", "shake:at=1,axis=x,f=3,amp=20,for=3.0833333,k=3000", 3.0, 20.0},
 	};
 	for (const auto &sh : shakes) {
