@@ -45,7 +45,8 @@ void sim_object_usage(FILE *f)
 	      "  --damper B            b_max in N s/m at full submersion (default 3)\n"
 	      "  --safety FMAX_N,RATE_N_S,GAIN   output limits (default 20,2000,1)\n"
 	      "  --trace FILE          CSV, one row a tick: time, pose, submersion, every force term, output,\n"
-	      "                        displaced volume and the volume invariant\n",
+	      "                        displaced volume, the volume invariant, the floor contact force, the\n"
+	      "                        surface velocity before and after its low-pass, and the floor penetration\n",
 	      f);
 }
 
@@ -253,7 +254,8 @@ int sim_object_run(struct swell_wave *w, double dt_s, double dx_m, long steps, i
 			return 2;
 		}
 		fprintf(tr, "t_s,x_mm,y_mm,z_mm,vz_mm_s,surface_mm,delta_mm,f_gravity_N,f_pull_N,f_push_N,"
-			    "f_up_N,f_viscous_N,f_total_N,f_out_N,v_displaced_mm_cells,invariant_lsb_cells\n");
+			    "f_up_N,f_viscous_N,f_total_N,f_out_N,v_displaced_mm_cells,invariant_lsb_cells,f_floor_N,"
+			    "surface_raw_mm_s,surface_mm_s,penetration_mm\n");
 	}
 
 	kk = sc.tick_hz / sc.solver_hz;
@@ -288,11 +290,13 @@ int sim_object_run(struct swell_wave *w, double dt_s, double dx_m, long steps, i
 		inv = tr || t == ticks - 1 || t % 256 == 0 ? swell_body_invariant(&b, w) : inv0;
 		drift = llabs(inv - inv0) > llabs(drift) ? inv - inv0 : drift;
 		if (tr)
-			fprintf(tr, "%.6f,%.4f,%.4f,%.4f,%.3f,%.5f,%.5f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.5f,%lld\n",
+			fprintf(tr, "%.6f,%.4f,%.4f,%.4f,%.3f,%.5f,%.5f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.5f,%lld,"
+				"%.6f,%.3f,%.3f,%.5f\n",
 				(double)t / sc.tick_hz, o.x_um * 1e-3, o.y_um * 1e-3, o.z_um * 1e-3, o.vz_um_s * 1e-3,
 				o.surface_lsb / mm, o.delta_lsb / mm, o.f.gravity_uN * 1e-6, o.f.pull_uN * 1e-6,
 				o.f.push_uN * 1e-6, o.f.up_uN * 1e-6, o.f.viscous_uN * 1e-6, o.f.total_uN * 1e-6,
-				out_uN * 1e-6, b.v_displaced / mm, (long long)inv);
+				out_uN * 1e-6, b.v_displaced / mm, (long long)inv, o.f.floor_uN * 1e-6,
+				o.surface_raw_um_s * 1e-3, o.surface_um_s * 1e-3, o.penetration_lsb / mm);
 	}
 	if (tr && fclose(tr) != 0) {
 		fprintf(stderr, "swell-sim: --trace %s: %s\n", so.trace, strerror(errno));
