@@ -179,6 +179,7 @@ void swell_wave_rest(struct swell_wave *w)
 	memset(w->h + n, 0, (size_t)((uint8_t *)w->tile - (uint8_t *)(w->h + n)));
 	wake_all(w);
 	w->next_row = 0;
+	w->done_row = 0;
 }
 
 void swell_wave_touched(struct swell_wave *w, int i, int j)
@@ -750,66 +751,112 @@ static inline __attribute__((always_inline)) int32_t finish_seg(int32_t *restric
 	return any;
 }
 
-void swell_wave_step_finish(struct swell_wave *w)
+/* Row j of the finishing pass: h += acc where the step wrote acc (add, DIRTY), the old v cleared where
+ * the last step wrote it (clear, DIRTY_PREV); sets TOUCHED where a cell changed. */
+static inline __attribute__((always_inline)) void finish_row(struct swell_wave *w, int j, int add, int clear)
 {
 	const int nx = w->nx, all = !w->sleep;
-	int32_t *t;
-	int a, j, tx;
+	uint8_t *restrict trow = w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x;
+	int32_t *restrict h = w->h + j * nx;
+	const int32_t *restrict acc = w->acc + j * nx;
+	int32_t *restrict v = w->v + j * nx;
+	const uint8_t need = (uint8_t)((add ? T_DIRTY : 0u) | (clear ? T_DIRTY_PREV : 0u));
+	uint32_t sat = 0;
+	int tx;
 
-	swell_wave_step_rows(w, w->ny);
-	/* h += acc where the step wrote acc (DIRTY); the old v, which becomes the next accumulator, is
-	 * cleared where the last step wrote it (DIRTY_PREV); then the two swap. */
-	for (j = 0; j < w->ny; j++) {
-		uint8_t *restrict trow = w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x;
-		int32_t *restrict h = w->h + j * nx;
-		const int32_t *restrict acc = w->acc + j * nx;
-		int32_t *restrict v = w->v + j * nx;
-		uint32_t sat = 0;
+#if WAVE_DSP
+	__set_saturation_occurred(0);
+#endif
+	for (tx = 0; tx < w->tiles_x; tx++) {
+		const int i0 = tx * SWELL_WAVE_TILE, f = (all ? T_DIRTY | T_DIRTY_PREV : trow[tx]) & need;
+		int32_t any;
 
-		if (!all && j % SWELL_WAVE_TILE == 0 && !tile_row_has(w, trow, T_DIRTY | T_DIRTY_PREV)) {
+		if (i0 + SWELL_WAVE_TILE <= nx) {
+			if ((f & T_DIRTY) && (f & T_DIRTY_PREV))
+				any = finish_seg(h + i0, acc + i0, v + i0, SWELL_WAVE_TILE, 1, 1, &sat);
+			else if (f & T_DIRTY)
+				any = finish_seg(h + i0, acc + i0, v + i0, SWELL_WAVE_TILE, 1, 0, &sat);
+			else if (f & T_DIRTY_PREV)
+				any = finish_seg(h + i0, acc + i0, v + i0, SWELL_WAVE_TILE, 0, 1, &sat);
+			else
+				continue;
+		} else {
+			any = finish_seg(h + i0, acc + i0, v + i0, nx - i0, (f & T_DIRTY) != 0, (f & T_DIRTY_PREV) != 0,
+					 &sat);
+		}
+		if (any)
+			trow[tx] |= T_TOUCHED;
+	}
+#if WAVE_DSP
+	sat = (uint32_t)__saturation_occurred();
+#endif
+	w->saturations += sat;
+}
+
+/* Rows [j0, j1) of the finishing pass; a band of tiles without the flags it needs is skipped whole. */
+static inline __attribute__((always_inline)) void finish_range(struct swell_wave *w, int j0, int j1, int add,
+								   int clear)
+{
+	const uint8_t need = (uint8_t)((add ? T_DIRTY : 0u) | (clear ? T_DIRTY_PREV : 0u));
+	int j;
+
+	for (j = j0; j < j1; j++) {
+		if (w->sleep && j % SWELL_WAVE_TILE == 0 && (j + SWELL_WAVE_TILE <= j1 || j1 == w->ny) &&
+		    !tile_row_has(w, w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x, need)) {
 			j += SWELL_WAVE_TILE - 1; /* a calm band of tiles: nothing wrote acc or v in it */
 			continue;
 		}
-#if WAVE_DSP
-		__set_saturation_occurred(0);
-#endif
-		for (tx = 0; tx < w->tiles_x; tx++) {
-			const int i0 = tx * SWELL_WAVE_TILE, f = all ? T_DIRTY | T_DIRTY_PREV : trow[tx];
-			int32_t any;
-
-			if (i0 + SWELL_WAVE_TILE <= nx) {
-				if ((f & T_DIRTY) && (f & T_DIRTY_PREV))
-					any = finish_seg(h + i0, acc + i0, v + i0, SWELL_WAVE_TILE, 1, 1, &sat);
-				else if (f & T_DIRTY)
-					any = finish_seg(h + i0, acc + i0, v + i0, SWELL_WAVE_TILE, 1, 0, &sat);
-				else if (f & T_DIRTY_PREV)
-					any = finish_seg(h + i0, acc + i0, v + i0, SWELL_WAVE_TILE, 0, 1, &sat);
-				else
-					continue;
-			} else {
-				any = finish_seg(h + i0, acc + i0, v + i0, nx - i0, (f & T_DIRTY) != 0,
-						 (f & T_DIRTY_PREV) != 0, &sat);
-			}
-			if (any)
-				trow[tx] |= T_TOUCHED;
-		}
-#if WAVE_DSP
-		sat = (uint32_t)__saturation_occurred();
-#endif
-		w->saturations += sat;
+		finish_row(w, j, add, clear);
 	}
-	t = w->v;
+}
+
+int swell_wave_finish_rows(struct swell_wave *w, int rows)
+{
+	int ready, end;
+
+	if (w->next_row >= w->ny)
+		ready = w->ny;
+	else if (w->next_row == 0)
+		ready = 0;
+	else /* the bands before the one holding the last row done */
+		ready = (w->next_row - 1) / SWELL_WAVE_TILE * SWELL_WAVE_TILE;
+	end = w->done_row + (rows > 0 ? rows : 0);
+	if (end > ready)
+		end = ready;
+	if (end <= w->done_row)
+		return 0;
+	finish_range(w, w->done_row, end, 1, 0);
+	rows = end - w->done_row;
+	w->done_row = (uint16_t)end;
+	return rows;
+}
+
+void swell_wave_step_finish(struct swell_wave *w)
+{
+	uint8_t *t;
+	int32_t *tmp;
+	int a;
+
+	swell_wave_step_rows(w, w->ny);
+	/* h += acc where the step wrote acc (DIRTY; rows finished ahead have it already); the old v,
+	 * which becomes the next accumulator, is cleared where the last step wrote it (DIRTY_PREV); then
+	 * the two swap. */
+	finish_range(w, 0, w->done_row, 0, 1);
+	finish_range(w, w->done_row, w->ny, 1, 1);
+	tmp = w->v;
 	w->v = w->acc;
-	w->acc = t;
+	w->acc = tmp;
 	/* the step is done: its flags become the last finished step's */
+	t = w->tile;
 	for (a = 0; a < (int)w->tiles_x * w->tiles_y; a++) {
-		uint8_t f = w->tile[a];
+		uint8_t f = t[a];
 		uint8_t z1 = f & T_NONZERO ? 0u : T_Z1;
 
-		w->tile[a] = (uint8_t)(z1 | (z1 && (f & T_Z1) ? T_ZERO : 0u) | (f & T_TOUCHED ? T_CHANGED : 0u) |
-				       (f & T_DIRTY ? T_DIRTY_PREV : 0u));
+		t[a] = (uint8_t)(z1 | (z1 && (f & T_Z1) ? T_ZERO : 0u) | (f & T_TOUCHED ? T_CHANGED : 0u) |
+				 (f & T_DIRTY ? T_DIRTY_PREV : 0u));
 	}
 	w->next_row = 0;
+	w->done_row = 0;
 	w->steps++;
 }
 
@@ -824,10 +871,24 @@ void swell_wave_add(struct swell_wave *w, int i, int j, int32_t dh)
 
 	if (i < 0 || j < 0 || i >= w->nx || j >= w->ny)
 		return;
-	w->tile[(j / SWELL_WAVE_TILE) * w->tiles_x + i / SWELL_WAVE_TILE] |= T_DIRTY;
+	uint8_t *t = &w->tile[(j / SWELL_WAVE_TILE) * w->tiles_x + i / SWELL_WAVE_TILE];
+	int32_t old, d;
+	uint32_t sat = 0;
+
+	*t |= T_DIRTY;
 	a = &w->acc[j * w->nx + i];
+	old = *a;
 	/* bounded to +-2^29 so that acc plus a step's flows (8 2^27) and h + acc cannot overflow */
-	*a = (int32_t)swell_clamp(swell_sat_add(*a, dh), -(1 << 29), 1 << 29);
+	*a = (int32_t)swell_clamp(swell_sat_add(old, dh), -(1 << 29), 1 << 29);
+	if (j >= w->done_row)
+		return;
+	/* a row finished ahead: what the finish would add, now (|h| <= 2^27, |d| <= 2^30) */
+	d = *a - old;
+	if (d != 0) {
+		w->h[j * w->nx + i] = sat28(w->h[j * w->nx + i] + d, &sat);
+		w->saturations += sat;
+		*t |= T_TOUCHED;
+	}
 }
 
 int64_t swell_wave_volume(const struct swell_wave *w)

@@ -38,6 +38,10 @@
  * Bounded work per call: a step can be split into row slices (swell_wave_step_rows) and a finishing
  * pass (swell_wave_step_finish), so that a controller tick never carries a whole grid step. Until the
  * finish, h and v still hold h(n) and h(n) - h(n-1): a force law may read them between slices.
+ * The finishing pass can itself be spread over the slices (swell_wave_finish_rows): rows whose flows
+ * are all computed get h += acc ahead of the rest; until the step's finish such a row (j < done_row)
+ * holds h(n+1) in h and its change in acc, so a reader takes h(n) = h - acc there (v is untouched
+ * everywhere until the finish). Results are bit-identical to the unsplit step.
  *
  * Sleeping tiles (lossless): the grid is cut into 8 x 8 tiles. A tile whose edges all gave zero flow
  * in the last step, and none of whose cells nor its neighbour tiles' cells changed since, would give
@@ -106,6 +110,7 @@ struct swell_wave {
 	uint32_t steps;
 	uint32_t saturations; /* row segments (up to a tile row) in which a height or flow was clamped */
 	uint16_t next_row;    /* first row not yet done in the step in progress */
+	uint16_t done_row;    /* rows [0, done_row) of the step in progress finished ahead (h = h(n+1)) */
 	uint16_t tiles_x, tiles_y;
 	uint8_t *tile;        /* flag byte a tile (wave.c) */
 	uint8_t sleep;        /* 1: skip sleeping tiles (default); 0: every edge every step */
@@ -152,12 +157,23 @@ void swell_wave_step(struct swell_wave *w);
  * the number of rows still to do. Reads h, writes the flows and acc only. */
 int swell_wave_step_rows(struct swell_wave *w, int rows);
 
-/* Finish the step: every remaining row, then h += acc, v = acc. One pass over the cells. */
+/* Finish ahead, part of the finishing pass: h += acc on up to `rows` rows of the step in progress
+ * whose flows are all computed; returns how many it finished (done_row advances). Rows of a band of
+ * tiles (8 rows) are ready once the first row of the next band is done (that band's sleeping-tile
+ * decision must not see this step's changes, as in the unsplit step), all rows once all are done.
+ * Between this and the finish, read h(n) as h - acc in rows below done_row (see above); h written
+ * from outside there is taken as h(n+1). Saturated heights (+-2048 mm) are the exception: there
+ * h - acc is not h(n). */
+int swell_wave_finish_rows(struct swell_wave *w, int rows);
+
+/* Finish the step: every remaining row, then h += acc (rows not finished ahead), v = acc. One pass
+ * over the cells. */
 void swell_wave_step_finish(struct swell_wave *w);
 
 /* Add dh (LSB) to cell (i, j) at the next finish, saturating: the way to move water in from outside
  * (an object's displacement) without disturbing a step in progress. The step's flows are unchanged,
- * so the added volume is conserved from then on. */
+ * so the added volume is conserved from then on. In a row finished ahead it goes into h and acc at
+ * once (the same h(n+1) and v(n+1) as at the finish, h(n) = h - acc unchanged). */
 void swell_wave_add(struct swell_wave *w, int i, int j, int32_t dh);
 
 /* Cell (i, j) was written from outside: wake its tile and the neighbours (outside the grid: ignored). */
