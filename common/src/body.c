@@ -188,26 +188,60 @@ static void apply_params(struct swell_body *b, const struct swell_body_params *p
 	b->gravity_uN = -(int32_t)((int64_t)p->mass_g * p->g_mm_s2);
 }
 
-/* One pass over the field: the highest surface any interpolation between h(n-1) = h - v and
- * h(n) = h can show, and sum(h) for the mean level. */
-static void scan_field(struct swell_body *b, const struct swell_wave *w)
+/* Rows [j0, j1): the highest of h and h - d (d = v, or acc in rows finished ahead) into *top, sum(h)
+ * into *sum. Heights are int28: eight of them sum exactly in int32. */
+static void scan_rows(const struct swell_wave *w, const int32_t *d, int j0, int j1, int32_t *top, int64_t *sum)
 {
-	const int n = w->nx * w->ny;
-	int32_t top = INT32_MIN;
-	int64_t sum = 0;
-	int a;
+	const int32_t *h = w->h + (size_t)j0 * w->nx;
+	const int n = (j1 - j0) * w->nx;
+	int32_t t = *top;
+	int64_t s = *sum;
+	int a = 0;
 
-	for (a = 0; a < n; a++) {
-		int32_t h = w->h[a], hp = w->h[a] - w->v[a];
+	d += (size_t)j0 * w->nx;
+	while (a < n) {
+		const int end = a + 8 < n ? a + 8 : n;
+		int32_t part = 0;
 
-		top = h > top ? h : top;
-		top = hp > top ? hp : top;
-		sum += h;
+		for (; a < end; a++) {
+			const int32_t x = h[a], p = h[a] - d[a];
+
+			t = x > t ? x : t;
+			t = p > t ? p : t;
+			part += x;
+		}
+		s += part;
 	}
+	*top = t;
+	*sum = s;
+}
+
+static void scan_reset(struct swell_body *b, const struct swell_wave *w)
+{
+	b->scan_steps = w->steps;
+	b->scan_row = 0;
+	b->scan_top = INT32_MIN;
+	b->scan_sum = 0;
+	b->scan_ok = 1;
+}
+
+static void scan_adopt(struct swell_body *b, int32_t top, int64_t sum)
+{
 	b->ceiling_lsb = top;
 	b->water_sum = sum;
 	b->ceiling_ok = 1;
 	b->scans++;
+}
+
+/* One pass over the field: the highest surface any interpolation between h(n-1) = h - v and
+ * h(n) = h can show, and sum(h) for the mean level. */
+static void scan_field(struct swell_body *b, const struct swell_wave *w)
+{
+	int32_t top = INT32_MIN;
+	int64_t sum = 0;
+
+	scan_rows(w, w->v, 0, w->ny, &top, &sum);
+	scan_adopt(b, top, sum);
 }
 
 enum swell_err swell_body_init(struct swell_body *b, const struct swell_body_params *p,
@@ -230,6 +264,7 @@ enum swell_err swell_body_init(struct swell_body *b, const struct swell_body_par
 	apply_params(b, p, xf);
 	floor_update(b, w);
 	scan_field(b, w);
+	scan_reset(b, w);
 	return SWELL_OK;
 }
 
@@ -255,10 +290,31 @@ void swell_body_solver_stepped(struct swell_body *b, const struct swell_wave *w)
 	b->u_prev = b->u_last;
 	/* In the water the ceiling is not needed (and the solver conserves sum(h)): the scan is paid
 	 * only in periods when the force law is idle. */
-	if (b->wet)
+	if (b->wet) {
 		b->ceiling_ok = 0;
-	else
+	} else if (!b->scan_ahead) {
 		scan_field(b, w);
+	} else if (b->scan_ok && b->scan_steps + 1 == w->steps) {
+		/* the rows scanned ahead hold the same h(n+1) and h(n) as now; the rest now */
+		scan_rows(w, w->v, b->scan_row, w->ny, &b->scan_top, &b->scan_sum);
+		scan_adopt(b, b->scan_top, b->scan_sum);
+	} else {
+		b->ceiling_ok = 0; /* in the water during the period: no whole scan in one tick */
+	}
+	scan_reset(b, w);
+}
+
+void swell_body_scan_ahead(struct swell_body *b, const struct swell_wave *w)
+{
+	b->scan_ahead = 1;
+	if (b->scan_steps != w->steps || b->scan_row > w->done_row) /* stepped without us, or started over */
+		scan_reset(b, w);
+	if (b->wet)
+		b->scan_ok = 0;
+	if (!b->scan_ok || b->scan_row >= w->done_row)
+		return;
+	scan_rows(w, w->acc, b->scan_row, w->done_row, &b->scan_top, &b->scan_sum);
+	b->scan_row = w->done_row;
 }
 
 void swell_body_rescan(struct swell_body *b, const struct swell_wave *w)
@@ -332,13 +388,23 @@ static void fp_sums(const struct swell_wave *w, const struct swell_body_fp *f, i
 	for (j = j0; j <= j1; j++) {
 		const int32_t oy = overlap(j, f->y0, f->y1);
 		const int32_t *h = w->h + (size_t)j * w->nx, *v = w->v + (size_t)j * w->nx;
+		const int32_t *acc = w->acc + (size_t)j * w->nx;
 		int64_t rh = 0, rv = 0;
 
-		for (i = i0; i <= i1; i++) {
-			const int32_t ox = overlap(i, f->x0, f->x1);
+		if (j < w->done_row) { /* finished ahead: h holds h(n+1), h(n) = h - acc */
+			for (i = i0; i <= i1; i++) {
+				const int32_t ox = overlap(i, f->x0, f->x1);
 
-			rh += (int64_t)ox * h[i];
-			rv += (int64_t)ox * v[i];
+				rh += (int64_t)ox * (h[i] - acc[i]); /* int28 - int30: no overflow */
+				rv += (int64_t)ox * v[i];
+			}
+		} else {
+			for (i = i0; i <= i1; i++) {
+				const int32_t ox = overlap(i, f->x0, f->x1);
+
+				rh += (int64_t)ox * h[i];
+				rv += (int64_t)ox * v[i];
+			}
 		}
 		*sh += oy * rh;
 		*sv += oy * rv;
@@ -347,8 +413,9 @@ static void fp_sums(const struct swell_wave *w, const struct swell_body_fp *f, i
 
 /* Add sign * D_c to every cell under f, D_c = round(delta * area_c), through swell_wave_add (the
  * solver puts it into h at its next finish, flows untouched). Returns the volume added. */
-static int64_t deposit(struct swell_wave *w, const struct swell_body_fp *f, int sign)
+static int64_t deposit(struct swell_body *b, struct swell_wave *w, const struct swell_body_fp *f, int sign)
 {
+	const int scanned = b->scan_ok && b->scan_steps == w->steps ? b->scan_row : 0;
 	const int32_t i0 = f->x0 >> FP_SHIFT, i1 = (f->x1 - 1) >> FP_SHIFT;
 	const int32_t j0 = f->y0 >> FP_SHIFT, j1 = (f->y1 - 1) >> FP_SHIFT;
 	const int64_t half = (int64_t)1 << (AREA_SHIFT - 1);
@@ -365,7 +432,15 @@ static int64_t deposit(struct swell_wave *w, const struct swell_body_fp *f, int 
 
 			if (d == 0)
 				continue;
-			swell_wave_add(w, i, j, sign * d);
+			if (j < scanned) { /* a row scanned ahead (finished ahead): the water arrives in h now */
+				const int32_t *h = &w->h[(size_t)j * w->nx + i], h0 = *h;
+
+				swell_wave_add(w, i, j, sign * d);
+				b->scan_sum += *h - h0;
+				b->scan_top = *h > b->scan_top ? *h : b->scan_top;
+			} else {
+				swell_wave_add(w, i, j, sign * d);
+			}
 			added += sign * d;
 		}
 	}
@@ -384,9 +459,9 @@ static void couple(struct swell_body *b, struct swell_wave *w, const struct swel
 	    o->y1 == f->y1)
 		return;
 	if (o->delta_lsb != 0)
-		gained += deposit(w, o, -1);
+		gained += deposit(b, w, o, -1);
 	if (f->delta_lsb != 0)
-		gained += deposit(w, f, +1);
+		gained += deposit(b, w, f, +1);
 	b->v_displaced += gained;
 	b->water_sum += gained;
 	b->applied = *f;
@@ -534,8 +609,8 @@ int64_t swell_body_invariant(const struct swell_body *b, const struct swell_wave
 	int a;
 
 	/* the step accumulator sums to the volume added and not yet finished: every flow in it is
-	 * added to one cell and taken from another */
-	for (a = 0; a < n; a++)
+	 * added to one cell and taken from another (rows finished ahead have theirs in h already) */
+	for (a = w->done_row * w->nx; a < n; a++)
 		pending += w->acc[a];
 	return swell_wave_volume(w) + pending - b->v_displaced;
 }

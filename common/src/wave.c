@@ -867,28 +867,27 @@ void swell_wave_step(struct swell_wave *w)
 
 void swell_wave_add(struct swell_wave *w, int i, int j, int32_t dh)
 {
-	int32_t *a;
+	size_t a;
+	uint8_t *t;
+	int32_t old, now, x;
 
 	if (i < 0 || j < 0 || i >= w->nx || j >= w->ny)
 		return;
-	uint8_t *t = &w->tile[(j / SWELL_WAVE_TILE) * w->tiles_x + i / SWELL_WAVE_TILE];
-	int32_t old, d;
-	uint32_t sat = 0;
-
-	*t |= T_DIRTY;
-	a = &w->acc[j * w->nx + i];
-	old = *a;
+	a = (size_t)j * w->nx + (size_t)i;
+	t = &w->tile[(j / SWELL_WAVE_TILE) * w->tiles_x + i / SWELL_WAVE_TILE];
+	old = w->acc[a];
 	/* bounded to +-2^29 so that acc plus a step's flows (8 2^27) and h + acc cannot overflow */
-	*a = (int32_t)swell_clamp(swell_sat_add(old, dh), -(1 << 29), 1 << 29);
-	if (j >= w->done_row)
+	now = (int32_t)swell_clamp(swell_sat_add(old, dh), -(1 << 29), 1 << 29);
+	w->acc[a] = now;
+	if (j >= w->done_row || now == old) {
+		*t |= T_DIRTY;
 		return;
-	/* a row finished ahead: what the finish would add, now (|h| <= 2^27, |d| <= 2^30) */
-	d = *a - old;
-	if (d != 0) {
-		w->h[j * w->nx + i] = sat28(w->h[j * w->nx + i] + d, &sat);
-		w->saturations += sat;
-		*t |= T_TOUCHED;
 	}
+	/* a row finished ahead: what the finish would add, now (|h| <= 2^27, |now - old| <= 2^30) */
+	*t |= T_DIRTY | T_TOUCHED;
+	x = w->h[a] + (now - old);
+	w->h[a] = x > SWELL_H_MAX ? SWELL_H_MAX : x < SWELL_H_MIN ? SWELL_H_MIN : x;
+	w->saturations += w->h[a] != x;
 }
 
 int64_t swell_wave_volume(const struct swell_wave *w)

@@ -27,7 +27,8 @@
  *   floor     below the pool floor z = -d: a contact spring-damper (SWELL_BODY_FLOOR_*); the water
  *             sees the bottom at max(z, -d) (submersion, springs, coupling)
  * w is the area-weighted mean surface under the footprint (partly covered cells by covered area),
- * read between the two latest solver states: h(n-1) + alpha v = h - (1 - alpha) v, alpha = k / K for
+ * read between the two latest solver states (in rows the solver finished ahead, h(n) = h - acc):
+ * h(n-1) + alpha v = h - (1 - alpha) v, alpha = k / K for
  * the k-th tick after a solver step, so the force has no steps at solver updates. u_w interpolates
  * the footprint velocity of the last two solver periods the same way, then goes through the low-pass.
  * d, the rest depth, is the one the solver's e stands for: d = e dx^2 solver_hz^2 / g (eq. 2).
@@ -138,6 +139,14 @@ struct swell_body {
 	uint32_t floor_g;        /* and the gravity */
 	struct swell_body_fp applied; /* what is in the water now */
 	int64_t v_displaced;     /* LSB * cell, the sum of what coupling added */
+	/* the scan spread over a solver period (swell_body_scan_ahead): rows [0, scan_row) of step
+	 * scan_steps scanned so far, their ceiling and sum; scan_ok 0 once the object was in the water */
+	int64_t scan_sum;
+	int32_t scan_top;
+	uint32_t scan_steps;
+	uint16_t scan_row;
+	uint8_t scan_ok;
+	uint8_t scan_ahead;      /* the caller scans ahead: the step's end never scans the whole field */
 	/* counters */
 	uint32_t ticks, skipped, coupled, scans, floor_ticks;
 };
@@ -195,6 +204,14 @@ enum swell_err swell_body_set_params(struct swell_body *b, const struct swell_bo
  * the ceiling and sum(h); in the water it does not (the solver conserves sum(h) and the coupling
  * keeps it), so a tick never pays for both the scan and the force law with coupling. */
 void swell_body_solver_stepped(struct swell_body *b, const struct swell_wave *w);
+
+/* The same scan spread over the solver period, for a solver that finishes rows ahead
+ * (swell_wave_finish_rows): scans the rows finished since the last call (h(n+1) and h(n) = h - acc),
+ * nothing while the object is in the water. Once a caller uses it, swell_body_solver_stepped only
+ * scans the rows left and takes the result when the whole period was dry; else the ceiling is not
+ * known for the next period (no skipping then; sum(h) stays the one the coupling keeps). Water the
+ * object moves in rows already scanned is accounted for (the ceiling stays an upper bound). */
+void swell_body_scan_ahead(struct swell_body *b, const struct swell_wave *w);
 
 /* Scan the field now: call after anything other than the solver and this object wrote h. */
 void swell_body_rescan(struct swell_body *b, const struct swell_wave *w);
