@@ -305,7 +305,7 @@ size_t ctl_link_recv(struct ctl_link *l, struct swell_msg *out, size_t cap)
 		return own_node(l, out, 1);
 	}
 	{
-		struct sockaddr_in from;
+		struct sockaddr_in from = {0}; /* filled by recvfrom; zeroed for the analyzer */
 		socklen_t flen = sizeof(from);
 		ssize_t r = recvfrom(l->fd, buf, sizeof(buf), 0, (struct sockaddr *)&from, &flen);
 

@@ -117,7 +117,8 @@ enum swell_err hm_hand_parse(const char *spec, struct hm_hand *out, char *why, s
 				 key->name, eq + 1, key->lo, key->hi, key->unit);
 			return SWELL_ERANGE;
 		}
-		*(double *)((char *)&h + key->offset) = v * key->scale;
+		v *= key->scale;
+		memcpy((char *)&h + key->offset, &v, sizeof v); /* the key's double field in h */
 	}
 	*out = h;
 	return SWELL_OK;

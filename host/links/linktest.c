@@ -365,12 +365,13 @@ static int cmd_usb_echo(const struct opts *o)
 	else
 		pass = ok == o->count;
 	qsort(rtt, ok + wrong, sizeof(*rtt), cmp_u64);
+	const unsigned long median = (ok + wrong) / 2; /* index of the median round trip */
 	printf("usb-echo %s: %s: %lu/%lu packets echoed intact, %lu wrong, %lu timeouts, %lu while "
 	       "unplugged, %llu reconnects (%lu intact after), round trip min %.1f us, median %.1f us, "
 	       "max %.1f us\n",
 	       swell_link_name(l), pass ? "OK" : "FAILED", ok, o->count, wrong, timeouts, away,
 	       reconnects, ok_after,
-	       ok + wrong ? rtt[0] / 1e3 : 0.0, ok + wrong ? rtt[(ok + wrong) / 2] / 1e3 : 0.0,
+	       ok + wrong ? rtt[0] / 1e3 : 0.0, ok + wrong ? rtt[median] / 1e3 : 0.0,
 	       ok + wrong ? rtt[ok + wrong - 1] / 1e3 : 0.0);
 	free(rtt);
 	swell_link_close(l);

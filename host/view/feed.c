@@ -188,7 +188,9 @@ void feed_packet(struct view_feed *f, const uint8_t *pkt, size_t len, uint64_t n
 	/* Stream position: the packet sequence unwrapped. A packet a little behind the newest is a
 	 * reordered one (its heights lose to newer ones already held); far behind, the sender started
 	 * counting again. */
-	int d = (int8_t)(uint8_t)(seq - f->last_seq);
+	int d = (uint8_t)(seq - f->last_seq);
+	if (d >= 128)
+		d -= 256; /* the distance modulo 256 taken in [-128, 127] */
 	uint32_t pos;
 	if (!f->have_seq || d > 0 || d < -32) {
 		f->pos += f->have_seq ? (uint8_t)(seq - f->last_seq) : 1u;

@@ -26,7 +26,7 @@ static double now_ns(void)
 	return 1e9 * (double)ts.tv_sec + (double)ts.tv_nsec;
 }
 
-#define POOL 4096
+#define POOL 4096u
 
 int main(int argc, char **argv)
 {

@@ -104,7 +104,7 @@ struct load_row {
 #define SCENE_HZ 1.0
 #define INFO_HZ 1.0
 #define OBJ_HZ 100.0
-#define GRID_QUADS ((64 * 64) / 4) /* the reference scene */
+#define GRID_QUADS 1024 /* the reference scene: 64 x 64 cells in quads of 2 x 2 */
 #define USB_PACKETS_PER_MS 19.0    /* USB 2.0 full speed: at most 19 bulk packets of 64 bytes per frame */
 
 static void bus_load(FILE *o)
@@ -165,8 +165,11 @@ static void bus_load(FILE *o)
 		} else {
 			double per_s = USB_PACKETS_PER_MS * 1000.0;
 			busy_s = (2.0 * r->rate + HB_HZ + SCENE_HZ + INFO_HZ + OBJ_HZ) / per_s;
-			quad_s_each = 1.0 / per_s / ((SWELL_PKT_MAX - SWELL_PKT_OVERHEAD) /
-						     (1u + msg_len(SWELL_MSG_HEIGHT_QUAD)));
+			/* whole records per packet */
+			const unsigned quads_per_pkt =
+				(SWELL_PKT_MAX - SWELL_PKT_OVERHEAD) / (1u + msg_len(SWELL_MSG_HEIGHT_QUAD));
+
+			quad_s_each = 1.0 / per_s / quads_per_pkt;
 		}
 		quads_s = busy_s < 1.0 ? (1.0 - busy_s) / quad_s_each : 0.0;
 		verdict = busy_s > 1.0 ? "does not fit" : busy_s > 0.7 ? "fits, tight (> 70 %)" : "fits";
@@ -289,6 +292,7 @@ static void write_md(FILE *o)
 		static const char *why[SWELL_ERR_COUNT] = {
 			[SWELL_EUNKNOWN] = "unknown type, 29-bit id, wrong packet magic, unknown record type",
 			[SWELL_ETRUNC] = "shorter than the message, partial CAN FD slot, record past the end",
+			/* NOLINTNEXTLINE(bugprone-suspicious-missing-comma): one text on two lines */
 			[SWELL_ESIZE] = "longer than the message, no CAN FD length, > 64 bytes, bytes after the "
 					"last record, record count 0 or above the caller's room",
 			[SWELL_EVERSION] = "packet or heartbeat of another protocol version",

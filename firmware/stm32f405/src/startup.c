@@ -92,14 +92,14 @@ uint32_t stack_used_bytes(void)
 {
 	const uint32_t *p = _sstack;
 
-	while (p < _estack && *p == STACK_PAINT)
+	while ((uintptr_t)p < (uintptr_t)_estack && *p == STACK_PAINT)
 		p++;
-	return (uint32_t)((const char *)_estack - (const char *)p);
+	return (uint32_t)((uintptr_t)_estack - (uintptr_t)p);
 }
 
 uint32_t stack_size_bytes(void)
 {
-	return (uint32_t)((const char *)_estack - (const char *)_sstack);
+	return (uint32_t)((uintptr_t)_estack - (uintptr_t)_sstack);
 }
 
 void isr_reset(void)
@@ -110,8 +110,9 @@ void isr_reset(void)
 	SCB->CPACR |= SCB_CPACR_CP10_CP11_FULL;
 	__asm__ volatile("dsb\n\tisb" ::: "memory");
 	stack_paint();
-	memcpy(_sdata, _sidata, (size_t)((char *)_edata - (char *)_sdata));
-	memset(_sbss, 0, (size_t)((char *)_ebss - (char *)_sbss));
+	/* linker symbols: addresses, not one C object, so their distance is taken as integers */
+	memcpy(_sdata, _sidata, (size_t)((uintptr_t)_edata - (uintptr_t)_sdata));
+	memset(_sbss, 0, (size_t)((uintptr_t)_ebss - (uintptr_t)_sbss));
 	SCB->VTOR = (uint32_t)(uintptr_t)vectors;
 	main();
 	fault_stop("main returned");
