@@ -496,3 +496,55 @@ TEST_CASE("enter bootloader: refused while RUNNING, accepted otherwise with the 
 	CHECK(k.c.state == SWELL_CTL_ARMED);
 	CHECK(k.c.bootloader_request == 1);
 }
+
+TEST_CASE("the solver step spread over the period (finish and scan ahead) gives the force law the same "
+	  "surface as a step finished whole at the period's end, at 2500 and 1000 Hz", "[ctl][split][ahead]")
+{
+	for (uint32_t tick_hz : {2500u, 1000u}) {
+		swell_ctl_config cfg = pool();
+		cfg.tick_hz = tick_hz;
+		cfg.safety.tick_hz = tick_hz;
+		cfg.autorun = 1;
+		Ctl k(cfg);
+		/* the twin: the same water and object, each step finished whole at the period's last tick */
+		std::vector<int32_t> store(SWELL_WAVE_WORDS(cfg.nx, cfg.ny));
+		swell_wave w{};
+		swell_body b{};
+		const swell_body_scene sc = {cfg.dx_um, cfg.tick_hz, cfg.solver_hz};
+		REQUIRE(swell_wave_init(&w, cfg.nx, cfg.ny, store.data(), store.size(), &cfg.wave) == SWELL_OK);
+		REQUIRE(swell_body_init(&b, &cfg.body, &cfg.xform, &sc, &w) == SWELL_OK);
+		const uint32_t kk = tick_hz / cfg.solver_hz;
+		int ahead_ticks = 0, wet = 0;
+		for (uint32_t t = 0; t < tick_hz; t++) { /* 1 s: down into the water from 20 mm above, swaying */
+			const int32_t z = 20000 - (int32_t)(t * 50000 / tick_hz), x = (int32_t)(t % 7) * 300 - 900;
+			k.device(x, 0, z);
+			swell_ctl_tick_force(&k.c);
+			const bool ran = k.c.body.ticks != b.ticks;
+			if (ran) {
+				int32_t pos[3] = {x / 10 * 10, 0, z / 10 * 10}, vel[3] = {0, 0, 0};
+				swell_body_out o;
+				swell_body_tick(&b, &w, pos, vel, &o);
+				INFO(tick_hz << " Hz, tick " << t << ", phase " << k.c.phase << ", rows finished ahead "
+					     << k.c.wave.done_row << ": surface " << k.c.out.surface_lsb << " vs "
+					     << o.surface_lsb);
+				REQUIRE(std::memcmp(&k.c.out, &o, sizeof(o)) == 0);
+				wet += o.delta_lsb > 0;
+			}
+			ahead_ticks += k.c.wave.done_row > 0;
+			swell_ctl_tick_background(&k.c);
+			if (k.c.phase == 0) { /* the step just completed, in both */
+				swell_wave_step_finish(&w);
+				swell_body_solver_stepped(&b, &w);
+				REQUIRE(swell_wave_checksum(&w) == swell_wave_checksum(&k.c.wave));
+			} else {
+				swell_wave_step_rows(&w, (int)(cfg.ny / (kk - 1) + 1));
+			}
+			k.drain(SWELL_LINK_DEVICE);
+			k.drain(SWELL_LINK_HOST);
+		}
+		CHECK(wet > (int)tick_hz / 3);
+		CHECK(k.c.n.solver_steps == 250u);
+		if (tick_hz == 2500u)
+			CHECK(ahead_ticks > 1000);
+	}
+}

@@ -8,8 +8,10 @@
  *   3. force law (swell_body_tick) on the surface interpolated between the two latest solver states,
  *      then the safety stage (gain, |F| <= F_max, |dF/dt| <= R), then FORCE_CMD to the device, every tick;
  *   4. solver slice: the solver runs at the scene's own rate; its step is split over the K = tick_hz /
- *      solver_hz ticks of a period: ticks 0 .. K-2 each do ceil(ny / (K-1)) rows of edges, tick K-1 does
- *      the finishing pass (h += acc). No tick carries a whole grid step.
+ *      solver_hz ticks of a period: ticks 0 .. K-2 each do about ny / (K-1) rows of edges and, within
+ *      an equal share of the period's work, the finishing pass (h += acc) and the body's ceiling scan
+ *      of rows whose edges are all done; tick K-1 finishes the rest. No tick carries a whole grid step,
+ *      and the force law always reads the last finished step (wave.h, finishing ahead).
  *   5. telemetry to the host link within its per-tick message budget: heartbeat (10 Hz, also to the
  *      device), scene (1 Hz), controller info (CTL_INFO: firmware version and object size, 1 Hz and
  *      on change), object pose and force (100 Hz), and the heights that changed since they
@@ -137,6 +139,7 @@ struct swell_ctl {
 
 	/* scheduling */
 	uint32_t ticks_per_step, rows_per_tick, phase;
+	uint32_t units_per_tick; /* the share of a solver step's work a tick carries (ctl.c) */
 	uint32_t work_force;   /* work of the force part of the tick in progress */
 	volatile uint8_t bg_pending; /* force part done, background part not yet */
 
