@@ -53,9 +53,10 @@ __attribute__((noinline)) static void naive_step(int32_t *restrict prev, const i
 
 static uint32_t scene_checksum;
 
-/* The same steps split the way the core schedules them (DESIGN.md 4, firmware/core): at a device
- * rate of K ticks per solver step, ticks 0..K-2 each do ceil(ny / (K-1)) rows and tick K-1 the
- * finishing pass. Gives the solver's share of the worst tick, and must end on the same bits. */
+/* The same steps split into row slices and a whole finishing pass: at a device rate of K ticks per
+ * solver step, ticks 0..K-2 each do ceil(ny / (K-1)) rows and tick K-1 the finishing pass. The cost of
+ * the pieces the core spreads over its period (run_core measures the core's own schedule, which also
+ * finishes rows ahead); must end on the same bits. */
 static int run_split(uint32_t tick_hz, uint32_t solver_hz)
 {
 	uint32_t k = tick_hz / solver_hz, rows = (FW_SCENE_NY + k - 2) / (k - 1), n, t;
@@ -379,7 +380,8 @@ static int run_core(uint32_t tick_hz, uint32_t ticks)
 		put_insn(bphase[k], 1);
 	}
 	con_putc('\n');
-	return ctl.state == SWELL_CTL_RUNNING && r.force_cmds == ticks;
+	/* a deadline missed on the reference scene is a failure, not a figure */
+	return ctl.state == SWELL_CTL_RUNNING && r.force_cmds == ticks && overruns == 0;
 }
 
 int selftest_run(uint32_t tim_clk_hz)
