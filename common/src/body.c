@@ -415,7 +415,7 @@ static void fp_sums(const struct swell_wave *w, const struct swell_body_fp *f, i
  * solver puts it into h at its next finish, flows untouched). Returns the volume added. */
 static int64_t deposit(struct swell_body *b, struct swell_wave *w, const struct swell_body_fp *f, int sign)
 {
-	const int scanned = b->scan_ok && b->scan_steps == w->steps ? b->scan_row : 0;
+	const int32_t scanned = b->scan_ok && b->scan_steps == w->steps ? b->scan_row : 0;
 	const int32_t i0 = f->x0 >> FP_SHIFT, i1 = (f->x1 - 1) >> FP_SHIFT;
 	const int32_t j0 = f->y0 >> FP_SHIFT, j1 = (f->y1 - 1) >> FP_SHIFT;
 	const int64_t half = (int64_t)1 << (AREA_SHIFT - 1);
@@ -424,6 +424,7 @@ static int64_t deposit(struct swell_body *b, struct swell_wave *w, const struct 
 
 	for (j = j0; j <= j1; j++) {
 		const int64_t oy = overlap(j, f->y0, f->y1);
+		int64_t row = 0;
 
 		for (i = i0; i <= i1; i++) {
 			/* delta <= H < 2^26 and the area weight <= 2^22: d < 2^26 */
@@ -432,16 +433,16 @@ static int64_t deposit(struct swell_body *b, struct swell_wave *w, const struct 
 
 			if (d == 0)
 				continue;
-			if (j < scanned) { /* a row scanned ahead (finished ahead): the water arrives in h now */
-				const int32_t *h = &w->h[(size_t)j * w->nx + i], h0 = *h;
+			swell_wave_add(w, i, j, sign * d);
+			row += sign * d;
+		}
+		added += row;
+		if (j < scanned) { /* a row scanned ahead (so finished ahead): the water arrived in h at once */
+			const int32_t *h = w->h + (size_t)j * w->nx;
 
-				swell_wave_add(w, i, j, sign * d);
-				b->scan_sum += *h - h0;
-				b->scan_top = *h > b->scan_top ? *h : b->scan_top;
-			} else {
-				swell_wave_add(w, i, j, sign * d);
-			}
-			added += sign * d;
+			b->scan_sum += row; /* exact unless a height saturated (+-2048 mm) */
+			for (i = i0; sign > 0 && i <= i1; i++)
+				b->scan_top = h[i] > b->scan_top ? h[i] : b->scan_top;
 		}
 	}
 	return added;
