@@ -98,27 +98,35 @@ static int next_heartbeat(struct session *s, int ms, struct swell_msg *hb, uint3
 	return -1;
 }
 
-static int send_one(struct session *s, const struct swell_msg *m)
+/* Send m[0..n) in as few frames as the carrier takes (a packet: all of them; classic CAN: one each).
+ * 0, 1 (not encodable) or a negative errno. */
+static int send_msgs(struct session *s, const struct swell_msg *m, size_t n)
 {
-	struct swell_frame f;
-	size_t used;
+	size_t k = 0;
 
-	if (swell_link_encode(s->carrier, m->node, s->seq++, m, 1, &f, &used) != SWELL_OK || used != 1)
-		return -1;
-	return swell_link_send(s->l, &f);
+	while (k < n) {
+		struct swell_frame f;
+		size_t used = 0;
+		int rc;
+
+		if (swell_link_encode(s->carrier, m[k].node, s->seq++, m + k, n - k, &f, &used) != SWELL_OK || used == 0)
+			return 1;
+		rc = swell_link_send(s->l, &f);
+		if (rc)
+			return rc;
+		k += used;
+	}
+	return 0;
 }
 
-static int send_param(struct session *s, uint8_t node, uint16_t id, int32_t value, uint8_t seq)
+static void param_msg(struct swell_msg *m, uint8_t node, uint16_t id, int32_t value, uint8_t seq)
 {
-	struct swell_msg m;
-
-	memset(&m, 0, sizeof(m));
-	m.type = SWELL_MSG_PARAM_SET;
-	m.node = node;
-	m.u.param_set.id = id;
-	m.u.param_set.value = value;
-	m.u.param_set.seq = seq;
-	return send_one(s, &m);
+	memset(m, 0, sizeof(*m));
+	m->type = SWELL_MSG_PARAM_SET;
+	m->node = node;
+	m->u.param_set.id = id;
+	m->u.param_set.value = value;
+	m->u.param_set.seq = seq;
 }
 
 static int open_session(struct session *s, const struct flash_link_spec *spec, int wait_ms, char *where,
@@ -188,7 +196,7 @@ enum flash_boot_result flash_enter_bootloader(const struct flash_link_spec *spec
 					      struct flash_boot_times *times, char *msg, size_t msg_len)
 {
 	struct session s;
-	struct swell_msg hb, m;
+	struct swell_msg hb, m, stop[2];
 	enum flash_boot_result r;
 	char where[96];
 	unsigned beats = 0;
@@ -215,9 +223,14 @@ enum flash_boot_result flash_enter_bootloader(const struct flash_link_spec *spec
 		}
 		/* AUTORUN=0 first: a controller that runs whenever the device is there ignores STOP */
 		printf("swell-flash: --force: sending AUTORUN=0 and COMMAND=STOP (force zeroed by the controller)\n");
-		if (send_param(&s, hb.node, SWELL_PARAM_AUTORUN, 0, 1) ||
-		    send_param(&s, hb.node, SWELL_PARAM_COMMAND, SWELL_CMD_STOP, 2)) {
-			r = say(BOOT_ERROR, msg, msg_len, "cannot send PARAM_SET AUTORUN=0, COMMAND=STOP on %s", where);
+		/* one packet on USB and UDP: swell-ctl's FunctionFS side may take a second OUT packet late
+		 * while nobody reads its IN endpoint (this process, blocked sending) */
+		param_msg(&stop[0], hb.node, SWELL_PARAM_AUTORUN, 0, 1);
+		param_msg(&stop[1], hb.node, SWELL_PARAM_COMMAND, SWELL_CMD_STOP, 2);
+		rc = send_msgs(&s, stop, 2);
+		if (rc) {
+			r = say(BOOT_ERROR, msg, msg_len, "cannot send PARAM_SET AUTORUN=0, COMMAND=STOP on %s: %s", where,
+				rc > 0 ? "not encodable" : strerror(-rc));
 			goto out;
 		}
 		for (;;) {
@@ -239,8 +252,10 @@ enum flash_boot_result flash_enter_bootloader(const struct flash_link_spec *spec
 	m.node = hb.node;
 	m.u.enter_bootloader.key = SWELL_PROTO_BOOT_KEY;
 	s.gone_ns = 0;
-	if (send_one(&s, &m)) {
-		r = say(BOOT_ERROR, msg, msg_len, "cannot send ENTER_BOOTLOADER on %s", where);
+	rc = send_msgs(&s, &m, 1);
+	if (rc) {
+		r = say(BOOT_ERROR, msg, msg_len, "cannot send ENTER_BOOTLOADER on %s: %s", where,
+			rc > 0 ? "not encodable" : strerror(-rc));
 		goto out;
 	}
 	t_sent = swell_link_now_ns();

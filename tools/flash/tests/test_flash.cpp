@@ -868,7 +868,7 @@ TEST_CASE("link options: bad specs, --node and --iface give one line and exit 2,
 	CHECK(s.log().empty());
 }
 
-TEST_CASE("enter-bootloader: several controllers heard and no --node is refused, nothing sent; --node picks one")
+TEST_CASE("enter-bootloader: several controllers heard and no --node is refused, nothing sent, and --node picks one")
 {
 	scratch s;
 	std::string img = s.write("good.bin", make_image(2048));
