@@ -31,7 +31,8 @@ static const char usage[] =
 	"  flood    valid-looking frames of one id (default 0x7f5: a HEIGHT_QUAD of node 5, lowest\n"
 	"           priority) as fast as the link takes them for S seconds (default 2)\n"
 	"  params   out-of-range PARAM_SETs to the controller's host link: each must be answered by a\n"
-	"           PARAM_NACK and leave the value (read back with PARAM_GET) unchanged\n"
+	"           PARAM_NACK and leave the value (read back with PARAM_GET) unchanged; a request whose\n"
+	"           answer does not come within the timeout is sent again (up to 3 times)\n"
 	"  can-errors  the error frames a CAN driver reports when its controller goes error-warning,\n"
 	"           error-passive and bus-off, then, S seconds later (default 0.5), restarted: written to\n"
 	"           IFACE as error frames, which the kernel hands to every socket that asked for them only\n"
@@ -458,7 +459,7 @@ static int cmd_params(struct swell_link *l, uint8_t node, int timeout_ms)
 {
 	struct swell_proto_stats st;
 	size_t k, nsets = sizeof(bad_sets) / sizeof(bad_sets[0]);
-	int failed = 0, nacked = 0, unchanged = 0;
+	int failed = 0, nacked = 0, unchanged = 0, resent = 0;
 	uint8_t seq = 1;
 
 	memset(&st, 0, sizeof(st));
@@ -473,7 +474,7 @@ static int cmd_params(struct swell_link *l, uint8_t node, int timeout_ms)
 	for (k = 0; k < nsets; k++) {
 		const struct pset *p = &bad_sets[k];
 		int32_t before = 0, after = 0, v = 0;
-		int err = 0, r, have_before = p->id != 40 && p->id != 999;
+		int err = 0, r = -1, tries, have_before = p->id != 40 && p->id != 999;
 		struct swell_msg m;
 
 		if (have_before && get_param(l, node, p->id, seq++, timeout_ms, &before, &st) != 1) {
@@ -487,8 +488,16 @@ static int cmd_params(struct swell_link *l, uint8_t node, int timeout_ms)
 		m.u.param_set.id = p->id;
 		m.u.param_set.value = p->value;
 		m.u.param_set.seq = seq;
-		send_msg(l, &m, seq);
-		r = wait_answer(l, p->id, seq, timeout_ms, &v, &err, &st);
+		/* an answer can be lost on the way back (in lockstep over UDP the telemetry comes several times
+		 * faster than real time and can overflow our receive buffer): the same request is sent again,
+		 * as a host would; the read-back below still shows whether anything was set */
+		for (tries = 0; tries < 3; tries++) {
+			send_msg(l, &m, seq);
+			r = wait_answer(l, p->id, seq, timeout_ms, &v, &err, &st);
+			if (r >= 0)
+				break;
+			resent++;
+		}
 		seq++;
 		if (have_before && get_param(l, node, p->id, seq++, timeout_ms, &after, &st) != 1) {
 			printf("  FAIL %-48s PARAM_GET %u after: no ACK\n", p->why, p->id);
@@ -506,8 +515,10 @@ static int cmd_params(struct swell_link *l, uint8_t node, int timeout_ms)
 			       swell_err_str((enum swell_err)err), before);
 		}
 	}
-	printf("swell-inject params %s: %s: %d of %zu refused with a NACK, %d unchanged, %u bad frames received\n",
-	       swell_link_name(l), failed ? "FAILED" : "OK", nacked, nsets, unchanged, swell_proto_rejected_total(&st));
+	printf("swell-inject params %s: %s: %d of %zu refused with a NACK, %d unchanged, %u bad frames received, "
+	       "%d PARAM_SETs sent again for a lost answer\n",
+	       swell_link_name(l), failed ? "FAILED" : "OK", nacked, nsets, unchanged, swell_proto_rejected_total(&st),
+	       resent);
 	return failed ? 1 : 0;
 }
 
