@@ -16,63 +16,19 @@ extern "C" {
 #include "swell/wave.h"
 }
 
+#include "wave_field.hpp"
+
+using namespace wave_test;
+
 namespace {
 
-q30_t q30(double x) { return (q30_t)std::llround(x * SWELL_Q30_ONE); }
-
-struct Field {
-	std::vector<int32_t> store;
-	swell_wave w{};
-	Field(int nx, int ny, double e, double t, swell_stencil st, swell_wave_kernel k) : store(SWELL_WAVE_WORDS(nx, ny))
-	{
-		swell_wave_params p{q30(e), q30(t), st};
-		REQUIRE(swell_wave_init(&w, (uint16_t)nx, (uint16_t)ny, store.data(), store.size(), &p) == SWELL_OK);
-		REQUIRE(swell_wave_set_kernel(&w, k) == SWELL_OK);
-	}
-	int n() const { return w.nx * w.ny; }
-	/* h(n) of cell a while a step is in progress */
-	int32_t h_last(int a) const { return a / w.nx < w.done_row ? w.h[a] - w.acc[a] : w.h[a]; }
-};
-
+/* The reference too: its own finish ahead against its whole finish. */
 std::vector<swell_wave_kernel> kernels()
 {
-	std::vector<swell_wave_kernel> ks{SWELL_KERNEL_REF, SWELL_KERNEL_FUSED};
-	Field probe(8, 8, 0.2, 0, SWELL_STENCIL_PAPER, SWELL_KERNEL_REF);
-	if (swell_wave_set_kernel(&probe.w, SWELL_KERNEL_AVX2) == SWELL_OK)
-		ks.push_back(SWELL_KERNEL_AVX2);
+	std::vector<swell_wave_kernel> ks = fast_kernels();
+	ks.insert(ks.begin(), SWELL_KERNEL_REF);
 	return ks;
 }
-
-std::string differs(const Field &a, const Field &b)
-{
-	for (int i = 0; i < a.n(); i++) {
-		if (a.w.h[i] != b.w.h[i])
-			return "h[" + std::to_string(i) + "] " + std::to_string(a.w.h[i]) + " vs " + std::to_string(b.w.h[i]);
-		if (a.w.v[i] != b.w.v[i])
-			return "v[" + std::to_string(i) + "] " + std::to_string(a.w.v[i]) + " vs " + std::to_string(b.w.v[i]);
-		if (a.w.acc[i] != b.w.acc[i])
-			return "acc[" + std::to_string(i) + "]";
-	}
-	if (std::memcmp(a.w.f, b.w.f, sizeof(int32_t) * 4 * SWELL_WAVE_TILE * a.w.tiles_x * a.w.ny) != 0)
-		return "flows";
-	if (std::memcmp(a.w.tile, b.w.tile, (size_t)a.w.tiles_x * a.w.tiles_y) != 0)
-		return "tile flags";
-	if (a.w.saturations != b.w.saturations)
-		return "saturations " + std::to_string(a.w.saturations) + " vs " + std::to_string(b.w.saturations);
-	if (a.w.tiles_skipped != b.w.tiles_skipped)
-		return "tiles skipped " + std::to_string(a.w.tiles_skipped) + " vs " + std::to_string(b.w.tiles_skipped);
-	if (a.w.steps != b.w.steps)
-		return "steps";
-	return "";
-}
-
-struct Case {
-	int nx, ny;
-	double e, t;
-	swell_stencil st;
-	double amp_mm;
-	int sleep;
-};
 
 } // namespace
 
@@ -90,7 +46,8 @@ TEST_CASE("the finish spread over the slices is bit-identical to the whole finis
 	for (const Case &c : cases) {
 		for (swell_wave_kernel k : kernels()) {
 			for (uint32_t seed = 1; seed <= 4; seed++) {
-				Field ref(c.nx, c.ny, c.e, c.t, c.st, SWELL_KERNEL_REF), ahead(c.nx, c.ny, c.e, c.t, c.st, k);
+				Field ref(c.nx, c.ny, q30(c.e), q30(c.t), c.st, SWELL_KERNEL_REF),
+				    ahead(c.nx, c.ny, q30(c.e), q30(c.t), c.st, k);
 				std::mt19937 rng(seed);
 				const int32_t amp = (int32_t)std::min<double>(c.amp_mm * SWELL_H_ONE_MM, SWELL_H_MAX);
 				std::uniform_int_distribution<int32_t> d(-amp, amp);
@@ -162,7 +119,7 @@ TEST_CASE("the finish spread over the slices is bit-identical to the whole finis
 
 TEST_CASE("finishing ahead waits for the next band and never passes the rows done", "[wave][split][finish]")
 {
-	Field f(64, 20, 0.2, 0.0, SWELL_STENCIL_PAPER, SWELL_KERNEL_REF);
+	Field f(64, 20, q30(0.2), 0, SWELL_STENCIL_PAPER, SWELL_KERNEL_REF);
 	CHECK(swell_wave_finish_rows(&f.w, 64) == 0); /* nothing computed */
 	swell_wave_step_rows(&f.w, 8);
 	CHECK(swell_wave_finish_rows(&f.w, 64) == 0); /* band 0 waits for band 1's first row */
@@ -187,7 +144,7 @@ TEST_CASE("finishing ahead waits for the next band and never passes the rows don
 TEST_CASE("water added to a row finished ahead is in h at once and conserved like any other",
 	  "[wave][split][finish][add]")
 {
-	Field f(16, 24, 0.25, 0.02, SWELL_STENCIL_PAPER, SWELL_KERNEL_AUTO);
+	Field f(16, 24, q30(0.25), q30(0.02), SWELL_STENCIL_PAPER, SWELL_KERNEL_AUTO);
 	std::mt19937 rng(9);
 	for (int a = 0; a < f.n(); a++)
 		f.w.h[a] = (int32_t)(rng() % 20000) - 10000;

@@ -14,64 +14,11 @@ extern "C" {
 #include "swell/wave.h"
 }
 
+#include "wave_field.hpp"
+
+using namespace wave_test;
+
 namespace {
-
-q30_t q30(double x) { return (q30_t)std::llround(x * SWELL_Q30_ONE); }
-
-struct Field {
-	std::vector<int32_t> store;
-	swell_wave w{};
-	Field(int nx, int ny, q30_t e, q30_t t, swell_stencil st, swell_wave_kernel k)
-	    : store(SWELL_WAVE_WORDS(nx, ny))
-	{
-		swell_wave_params p{e, t, st};
-		REQUIRE(swell_wave_init(&w, (uint16_t)nx, (uint16_t)ny, store.data(), store.size(), &p) == SWELL_OK);
-		REQUIRE(swell_wave_set_kernel(&w, k) == SWELL_OK);
-	}
-	int n() const { return w.nx * w.ny; }
-};
-
-std::vector<swell_wave_kernel> fast_kernels()
-{
-	std::vector<swell_wave_kernel> ks{SWELL_KERNEL_FUSED};
-	Field probe(8, 8, q30(0.2), 0, SWELL_STENCIL_PAPER, SWELL_KERNEL_REF);
-	if (swell_wave_set_kernel(&probe.w, SWELL_KERNEL_AVX2) == SWELL_OK)
-		ks.push_back(SWELL_KERNEL_AVX2);
-	return ks;
-}
-
-/* Everything that must agree, with where it first differs (cells only: between slices). */
-std::string differs(const Field &a, const Field &b, bool all = true)
-{
-	for (int i = 0; i < a.n(); i++) {
-		if (a.w.h[i] != b.w.h[i])
-			return "h[" + std::to_string(i) + "] " + std::to_string(a.w.h[i]) + " vs " + std::to_string(b.w.h[i]);
-		if (a.w.v[i] != b.w.v[i])
-			return "v[" + std::to_string(i) + "] " + std::to_string(a.w.v[i]) + " vs " + std::to_string(b.w.v[i]);
-		if (a.w.acc[i] != b.w.acc[i])
-			return "acc[" + std::to_string(i) + "] " + std::to_string(a.w.acc[i]) + " vs " +
-			       std::to_string(b.w.acc[i]);
-	}
-	if (!all)
-		return "";
-	if (std::memcmp(a.w.f, b.w.f, sizeof(int32_t) * 4 * SWELL_WAVE_TILE * a.w.tiles_x * a.w.ny) != 0)
-		return "flows";
-	if (std::memcmp(a.w.tile, b.w.tile, (size_t)a.w.tiles_x * a.w.tiles_y) != 0)
-		return "tile flags";
-	if (a.w.saturations != b.w.saturations)
-		return "saturations " + std::to_string(a.w.saturations) + " vs " + std::to_string(b.w.saturations);
-	if (a.w.tiles_skipped != b.w.tiles_skipped)
-		return "tiles skipped";
-	return "";
-}
-
-struct Case {
-	int nx, ny;
-	double e, t;
-	swell_stencil st;
-	double amp_mm;
-	int sleep;
-};
 
 /* The same run on the reference and on kernel k: random heights (or a splash), steps split into
  * slices of varying size, water added and cells written between slices. */
