@@ -368,7 +368,7 @@ static int fp_empty(const struct swell_body_fp *f)
 /* Covered length of cell index c by the interval [e0, e1), Q11. */
 static int32_t overlap(int32_t c, int32_t e0, int32_t e1)
 {
-	int32_t lo = c << FP_SHIFT, hi = (c + 1) << FP_SHIFT;
+	int32_t lo = c * (1 << FP_SHIFT), hi = (c + 1) * (1 << FP_SHIFT); /* defined for any sign of c */
 
 	lo = e0 > lo ? e0 : lo;
 	hi = e1 < hi ? e1 : hi;

@@ -196,7 +196,7 @@ enum flash_boot_result flash_enter_bootloader(const struct flash_link_spec *spec
 					      struct flash_boot_times *times, char *msg, size_t msg_len)
 {
 	struct session s;
-	struct swell_msg hb, m, stop[2];
+	struct swell_msg hb = {0}, m, stop[2]; /* hb: zeroed for the analyzer, find_target fills it */
 	enum flash_boot_result r;
 	char where[96];
 	unsigned beats = 0;

@@ -96,11 +96,14 @@ int flash_image_check(const uint8_t *file, size_t file_len, uint32_t want_mcu,
 		      struct flash_image *img, char *why, size_t why_len)
 {
 	struct flash_image r = {0};
+	struct swell_fwimage_hdr hdr = {0}; /* apart from r: a pointer into r hides r.bytes from the analyzer */
 	enum swell_err err;
 
 	if (file_len >= 4 && !memcmp(file, "\177ELF", 4)) {
 		r.fmt = FLASH_FMT_ELF;
-		if (elf_to_flash(file, file_len, &r.bytes, &r.len, why, why_len))
+		/* r.bytes is set whenever elf_to_flash succeeds; the test is for the analyzer, which does
+		 * not follow fail()'s return value through its variadic call */
+		if (elf_to_flash(file, file_len, &r.bytes, &r.len, why, why_len) || !r.bytes)
 			return -1;
 	} else {
 		r.fmt = FLASH_FMT_BIN;
@@ -114,7 +117,10 @@ int flash_image_check(const uint8_t *file, size_t file_len, uint32_t want_mcu,
 			memcpy(r.bytes, file, file_len);
 		r.len = file_len;
 	}
-	err = swell_fwimage_read(r.bytes, r.len, &r.hdr);
+	/* the length first: the messages below read header fields from the bytes */
+	err = r.len < SWELL_FWIMAGE_OFFSET + SWELL_FWIMAGE_HDR_SIZE ? SWELL_ETRUNC
+								     : swell_fwimage_read(r.bytes, r.len, &hdr);
+	r.hdr = hdr;
 	if (err == SWELL_ETRUNC) {
 		fail(why, why_len, "truncated: %zu bytes, the header ends at byte %u", r.len,
 		     SWELL_FWIMAGE_OFFSET + SWELL_FWIMAGE_HDR_SIZE);
@@ -147,7 +153,8 @@ int flash_image_check(const uint8_t *file, size_t file_len, uint32_t want_mcu,
 		     r.hdr.length > r.len ? "truncated" : "length mismatch", (unsigned)r.hdr.length, r.len);
 		goto out;
 	}
-	err = swell_fwimage_verify(r.bytes, r.len, want_mcu, &r.hdr);
+	err = swell_fwimage_verify(r.bytes, r.len, want_mcu, &hdr);
+	r.hdr = hdr;
 	if (err != SWELL_OK) {
 		fail(why, why_len, "corrupted: CRC-32 mismatch (header says image 0x%08x, computed 0x%08x)",
 		     (unsigned)r.hdr.crc, (unsigned)swell_fwimage_crc(r.bytes, r.len));

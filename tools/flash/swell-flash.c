@@ -79,7 +79,7 @@ struct cfg {
 	struct flash_opts o;
 };
 
-static void die(int code, const char *fmt, ...)
+static _Noreturn void die(int code, const char *fmt, ...)
 {
 	va_list ap;
 
