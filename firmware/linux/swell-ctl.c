@@ -268,14 +268,19 @@ static int take_input(struct port *p)
 				break;
 		}
 	}
+	/* Read first, poll only when nothing came: on USB the fd is the AIO eventfd, and a write's reap
+	 * (telemetry, flush_output) can take the event of a finished OUT transfer, whose packet would
+	 * then wait for the next transfer to finish. ctl_link_recv never blocks. */
 	for (rounds = 0; p->have_host && rounds < 16; rounds++) {
-		struct pollfd pf = {ctl_link_fd(&p->host), POLLIN, 0};
-
-		if (pf.fd < 0 || poll(&pf, 1, 0) <= 0)
-			break;
 		n = ctl_link_recv(&p->host, m, sizeof(m) / sizeof(m[0]));
 		for (k = 0; k < n; k++)
 			swell_ctl_rx(&p->c, SWELL_LINK_HOST, &m[k]);
+		if (n == 0) {
+			struct pollfd pf = {ctl_link_fd(&p->host), POLLIN, 0};
+
+			if (pf.fd < 0 || poll(&pf, 1, 0) <= 0)
+				break;
+		}
 	}
 	bad = rejected(p);
 	if (bad != p->bad_seen) {
