@@ -56,11 +56,13 @@ static int tile_row_has(const struct swell_wave *w, const uint8_t *trow, uint8_t
 	return 0;
 }
 
-/* Every tile awake, and every tile's acc and v to be visited at the next finish. */
+/* Every tile awake, and every tile's acc and v to be visited at the next finish. In the middle of a
+ * step the flags lost include NONZERO of the rows done: the step counts as non-zero everywhere, or a
+ * tile whose flows just went to zero would sleep a step early (ZERO needs two zero steps). */
 static void wake_all(struct swell_wave *w)
 {
 	w->band_asleep = 0;
-	memset(w->tile, T_DIRTY | T_DIRTY_PREV, (size_t)w->tiles_x * w->tiles_y);
+	memset(w->tile, T_DIRTY | T_DIRTY_PREV | (w->next_row ? T_NONZERO : 0u), (size_t)w->tiles_x * w->tiles_y);
 }
 
 static int e_eff_stable(uint64_t e_eff, uint64_t q)
@@ -177,9 +179,9 @@ void swell_wave_rest(struct swell_wave *w)
 
 	/* v, acc and the flows are contiguous, up to the tile flags; a step in progress starts over */
 	memset(w->h + n, 0, (size_t)((uint8_t *)w->tile - (uint8_t *)(w->h + n)));
-	wake_all(w);
 	w->next_row = 0;
 	w->done_row = 0;
+	wake_all(w);
 }
 
 void swell_wave_touched(struct swell_wave *w, int i, int j)
