@@ -135,8 +135,10 @@ static void on_msg(struct view_feed *f, const struct swell_msg *m, uint64_t now_
 			uint8_t d = (uint8_t)(p->seq - f->pose_seq);
 			if ((d == 0 || d >= 128) && ++f->pose_stale < 8)
 				break; /* a repeat or an older pose (reordered): keep the newer one */
-			if (can)
-				vm->st.dropped += d - 1u; /* CAN has no packet sequence: count loss here */
+			/* CAN has no packet sequence: count loss here, but not across a count that started
+			 * again (taken after 8 stale poses: d is 0 or "behind" then) */
+			if (can && d > 0 && d < 128)
+				vm->st.dropped += d - 1u;
 		}
 		f->have_pose_seq = true;
 		f->pose_seq = p->seq;

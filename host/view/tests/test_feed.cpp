@@ -309,3 +309,31 @@ TEST_CASE("100 000 random packets and CAN frames: nothing crashes, packets chang
 	CHECK(dirty == r.vm.dirty_count);
 	CHECK(r.vm.st.bad + r.vm.st.frames >= 50001);
 }
+
+TEST_CASE("classic CAN: a pose count that starts again is taken after 8 stale poses and is not counted as loss")
+{
+	rig r;
+	r.can(scene_msg());
+	REQUIRE(r.vm.have_scene);
+	swell_msg p;
+	memset(&p, 0, sizeof(p));
+	p.type = SWELL_MSG_OBJECT_POSE;
+	p.u.object_pose.seq = 100;
+	r.can(p);
+	// the sender counts again from 100 (a repeat 8 times), then from 0 (behind by 100)
+	for (int k = 0; k < 8; k++)
+		r.can(p);
+	INFO("dropped after 8 repeats of one sequence number: " << r.vm.st.dropped);
+	CHECK(r.vm.st.dropped == 0);
+	for (uint8_t s = 0; s < 8; s++) {
+		p.u.object_pose.seq = s;
+		p.u.object_pose.x_10um = (int16_t)(1000 + s);
+		r.can(p);
+	}
+	INFO("dropped after a count that went back: " << r.vm.st.dropped);
+	CHECK(r.vm.st.dropped == 0);
+	CHECK(r.vm.obj.x_um == 10070); // the 8th older pose is taken: the new count
+	p.u.object_pose.seq = 10;      // 8 and 9 lost in the new count
+	r.can(p);
+	CHECK(r.vm.st.dropped == 2);
+}
