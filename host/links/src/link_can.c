@@ -14,6 +14,7 @@
 #include <string.h>
 #include <sys/ioctl.h>
 #include <sys/socket.h>
+#include <time.h>
 #include <unistd.h>
 
 struct can_link {
@@ -28,6 +29,7 @@ static int can_send(struct swell_link *l, const struct swell_frame *f)
 	struct canfd_frame fr;
 	size_t size;
 	ssize_t n;
+	uint64_t deadline = 0;
 
 	memset(&fr, 0, sizeof(fr));
 	fr.can_id = f->id & CAN_SFF_MASK;
@@ -48,11 +50,16 @@ static int can_send(struct swell_link *l, const struct swell_frame *f)
 		if (n < 0 && errno == EINTR)
 			continue;
 		if (n < 0 && errno == ENOBUFS) {
-			/* transmit queue full: wait for room rather than drop a frame */
-			struct pollfd p = { .fd = c->fd, .events = POLLOUT };
+			/* transmit queue full: wait for room rather than drop a frame, 100 ms at most. Not
+			 * with poll: the socket stays writable (its own buffer is not what is full), POLLOUT
+			 * comes at once, and with no node to ACK or a bus-off the queue never drains. */
+			struct timespec ms = { 0, 1000000 };
 
-			if (poll(&p, 1, 100) <= 0)
+			if (!deadline)
+				deadline = swell_link_deadline(100);
+			else if (swell_link_ms_left(deadline, 100) == 0)
 				return -ENOBUFS;
+			nanosleep(&ms, NULL);
 			continue;
 		}
 		break;
