@@ -71,6 +71,14 @@ static int e_eff_stable(uint64_t e_eff, uint64_t q)
 	return 4u * e_eff * q < (((uint64_t)1 << 30) + q) << 30;
 }
 
+/* 1 - t as it runs: odd when t > 0 (see wave.h) */
+static uint64_t run_q(q30_t damping)
+{
+	const uint64_t q = (uint64_t)(SWELL_Q30_ONE - damping);
+
+	return damping ? q | 1u : q;
+}
+
 static q30_t effective_e(const struct swell_wave_params *p)
 {
 	int32_t e = p->stencil == SWELL_STENCIL_CALIBRATED ? p->e / 2 : p->e;
@@ -91,7 +99,7 @@ enum swell_err swell_wave_check(const struct swell_wave_params *p)
 	e_eff = effective_e(p);
 	if (p->e <= 0 || e_eff <= 0 || e_eff > SWELL_Q30_ONE)
 		return SWELL_ERANGE;
-	if (!e_eff_stable((uint64_t)e_eff, (uint64_t)(SWELL_Q30_ONE - p->damping)))
+	if (!e_eff_stable((uint64_t)e_eff, run_q(p->damping)))
 		return SWELL_EUNSTABLE;
 	return SWELL_OK;
 }
@@ -102,9 +110,11 @@ q30_t swell_wave_e_limit(q30_t damping, enum swell_stencil stencil)
 
 	if (damping < 0 || damping >= SWELL_Q30_ONE)
 		return 0;
-	q = (uint64_t)(SWELL_Q30_ONE - damping);
-	/* smallest e_eff that is unstable: ceil((2^30 + q) 2^30 / (4 q)) */
+	q = run_q(damping);
+	/* smallest e_eff that is unstable: ceil((2^30 + q) 2^30 / (4 q)), made even (e_eff is even, so an
+	 * odd one is never run); then the smallest e whose e_eff reaches it */
 	lim = (((((uint64_t)1 << 30) + q) << 30) + 4 * q - 1) / (4 * q);
+	lim = (lim + 1) & ~(uint64_t)1;
 	if (stencil == SWELL_STENCIL_CALIBRATED)
 		lim *= 2;
 	return lim > INT32_MAX ? INT32_MAX : (q30_t)lim;

@@ -1,6 +1,8 @@
 /* Contracts of wave.h checked where they are easiest to break: parameters changed or sleeping turned
- * on while a step is in progress. */
+ * on while a step is in progress, and the stability limit against the coefficients that actually run. */
 #include <catch2/catch.hpp>
+
+#include <random>
 
 #include "wave_field.hpp"
 
@@ -74,3 +76,64 @@ TEST_CASE("turning tile sleeping on in the middle of a step stays lossless", "[w
 	}
 }
 
+namespace {
+
+/* Von Neumann stability of the coefficients that run (wave.h): e_eff < (1 + q) / (4 q), both Q1.30,
+ * decided exactly in 128 bits. */
+bool stable(int64_t e_eff, int64_t q)
+{
+	const __int128 one = (__int128)1 << 30;
+	return (__int128)4 * e_eff * q < (one + q) * one;
+}
+
+/* What wave.h says runs: e (paper) or e / 2 (calibrated) made even, 1 - t made odd when t > 0. */
+int64_t run_e_eff(q30_t e, swell_stencil st) { return (st == SWELL_STENCIL_CALIBRATED ? e / 2 : e) & ~1; }
+int64_t run_q(q30_t t) { return t ? (SWELL_Q30_ONE - t) | 1 : SWELL_Q30_ONE; }
+
+} // namespace
+
+TEST_CASE("accepted parameters are stable in the coefficients that run and e_limit is the first "
+	  "refused e, to the last LSB",
+	  "[wave][stability][params]")
+{
+	/* found by search: stable with q = 1 - t, not with the odd q that runs */
+	{
+		const swell_wave_params p{608207736, 225437260, SWELL_STENCIL_PAPER};
+		INFO("e " << p.e << " t " << p.damping << ": stable with the q that runs: "
+			  << stable(run_e_eff(p.e, p.stencil), run_q(p.damping)));
+		CHECK(swell_wave_check(&p) == (stable(run_e_eff(p.e, p.stencil), run_q(p.damping)) ? SWELL_OK
+												    : SWELL_EUNSTABLE));
+	}
+	std::mt19937_64 rng(20261201);
+	int accepted = 0, refused = 0;
+	for (int k = 0; k < 20000; k++) {
+		const swell_stencil st = (k & 1) ? SWELL_STENCIL_CALIBRATED : SWELL_STENCIL_PAPER;
+		/* damping up to 0.45 keeps the limit inside the coefficient range; half of them even */
+		q30_t t = (q30_t)(rng() % (uint64_t)(0.45 * SWELL_Q30_ONE));
+		if (k & 2)
+			t &= ~1;
+		const q30_t lim = swell_wave_e_limit(t, st);
+		const q30_t below = lim - 1;
+		const swell_wave_params at{lim, t, st}, under{below, t, st};
+		INFO("t " << t << " stencil " << st << ": e_limit " << lim << "; model: e_limit - 1 "
+			  << (stable(run_e_eff(below, st), run_q(t)) ? "stable" : "unstable") << ", e_limit "
+			  << (stable(run_e_eff(lim, st), run_q(t)) ? "stable" : "unstable"));
+		REQUIRE(stable(run_e_eff(below, st), run_q(t)));
+		REQUIRE(!stable(run_e_eff(lim, st), run_q(t)));
+		REQUIRE(swell_wave_check(&under) == SWELL_OK);
+		REQUIRE(swell_wave_check(&at) == SWELL_EUNSTABLE);
+		/* and around the limit, every accepted e runs stable coefficients */
+		for (q30_t e = lim - 6; e <= lim + 6; e++) {
+			const swell_wave_params p{e, t, st};
+			const bool ok = swell_wave_check(&p) == SWELL_OK;
+			REQUIRE(ok == stable(run_e_eff(e, st), run_q(t)));
+			(ok ? accepted : refused)++;
+		}
+	}
+	CHECK(accepted > 0);
+	CHECK(refused > 0);
+	/* the fields' own coefficients are the ones the model assumes */
+	Field f(8, 8, 215723193, 1073742, SWELL_STENCIL_PAPER, SWELL_KERNEL_REF);
+	CHECK(f.w.e_eff == run_e_eff(215723193, SWELL_STENCIL_PAPER));
+	CHECK(f.w.q == run_q(1073742));
+}

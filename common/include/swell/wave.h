@@ -134,8 +134,9 @@ struct swell_energy {
  * t outside [0, 1)), SWELL_EUNSTABLE (e_eff >= (1+q)/(4q)). */
 enum swell_err swell_wave_check(const struct swell_wave_params *p);
 
-/* The exclusive stability limit on e (not e_eff) for damping t and a stencil, in Q1.30,
- * saturated to INT32_MAX when it exceeds the Q1.30 range. */
+/* The exclusive stability limit on e (not e_eff) for damping t and a stencil, in Q1.30: the smallest
+ * e that swell_wave_check refuses as unstable (with the even e_eff and odd 1-t that run), saturated
+ * to INT32_MAX when it exceeds the Q1.30 range. */
 q30_t swell_wave_e_limit(q30_t damping, enum swell_stencil stencil);
 
 /* Bind caller storage (at least SWELL_WAVE_WORDS(nx, ny) words) and set the water flat and at rest.
