@@ -27,6 +27,7 @@ static int open_udp(struct ctl_link *l, const char *spec, const char *arg, int d
 		    size_t errlen)
 {
 	long port = device_side ? SWELL_UDP_PORT_DEVICE : SWELL_UDP_PORT_VIEWER;
+	const int rcvbuf = 2 << 20; /* bytes of queue, about 2700 small datagrams */
 	struct sockaddr_in a;
 	char *end;
 
@@ -40,6 +41,11 @@ static int open_udp(struct ctl_link *l, const char *spec, const char *arg, int d
 	l->fd = socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
 	if (l->fd < 0)
 		return fail(err, errlen, "socket for", spec);
+	/* A burst from a third sender (2000 garbage datagrams in the bench) must not make the kernel drop
+	 * the device's samples while this process waits for the CPU: a deep receive queue (FORCE when
+	 * permitted, else capped by net.core.rmem_max; the default queue holds about 280 datagrams). */
+	if (setsockopt(l->fd, SOL_SOCKET, SO_RCVBUFFORCE, &rcvbuf, sizeof(rcvbuf)) < 0)
+		(void)setsockopt(l->fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof(rcvbuf));
 	memset(&a, 0, sizeof(a));
 	a.sin_family = AF_INET;
 	a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
