@@ -452,7 +452,8 @@ int main(int argc, char **argv)
 			 * silent for silent_ticks periods of wall time, the loop ticks on its own every period,
 			 * so the core sees the silence (and faults silent_ticks ticks later). */
 			struct pollfd pf = {ctl_link_fd(&p.dev), POLLIN, 0};
-			int r = poll(&pf, 1, (int)(period / 1000000) + 1);
+			const struct timespec one = ts_of(period); /* not poll's whole ms: 2.5 periods at 2500 Hz */
+			int r = ppoll(&pf, 1, &one, NULL);
 
 			if (r < 0 && errno == EINTR)
 				continue;

@@ -126,3 +126,71 @@ TEST_CASE("swell-ctl over UDP: bad parameter sets are refused with a reason and 
 	CHECK(WIFEXITED(st));
 	CHECK(WEXITSTATUS(st) == 0);
 }
+
+TEST_CASE("swell-ctl --clock device: a silent device is ticked on every period, not every millisecond",
+	  "[ctl][udp]")
+{
+	const int tick_hz = 2500;
+	swell_link *dev = nullptr;
+	REQUIRE(swell_link_open_udp(&dev, "127.0.0.1", 0, "127.0.0.1", 0) == 0);
+	const uint16_t mine = swell_link_udp_port(dev);
+	swell_link_close(dev);
+	dev = nullptr;
+	const uint16_t ctl_port = (uint16_t)(mine + 1);
+	REQUIRE(swell_link_open_udp(&dev, "127.0.0.1", mine, "127.0.0.1", ctl_port) == 0);
+	std::vector<std::string> args = {SWELL_CTL_BIN, "--device", "udp:" + std::to_string(ctl_port), "--host", "none",
+					 "--clock", "device", "--tick-hz", std::to_string(tick_hz), "--no-rt",
+					 "--quiet", "--seconds", "30"};
+	std::vector<char *> argv;
+	for (auto &a : args)
+		argv.push_back(&a[0]);
+	argv.push_back(nullptr);
+	pid_t pid;
+	REQUIRE(posix_spawn(&pid, argv[0], nullptr, nullptr, argv.data(), environ) == 0);
+
+	/* samples until the controller answers with forces (one tick per sample) */
+	uint8_t seq = 0, pseq = 0;
+	int answered = 0;
+	for (int k = 0; k < 3000 && answered < 20; k++) {
+		swell_msg m{};
+		m.type = SWELL_MSG_DEVICE_POS;
+		m.u.device_pos.seq = seq++;
+		m.u.device_pos.status = 1;
+		swell_frame f{};
+		size_t used = 0;
+		REQUIRE(swell_link_encode(SWELL_CARRIER_PKT, 0, pseq++, &m, 1, &f, &used) == SWELL_OK);
+		swell_link_send(dev, &f);
+		swell_frame in{};
+		while (swell_link_recv(dev, &in, 1) == 0)
+			answered++;
+	}
+	REQUIRE(answered >= 20);
+
+	/* then silence: after silent_ticks periods the loop ticks on its own, a FORCE_CMD each tick */
+	const uint64_t t0 = swell_link_now_ns();
+	const uint64_t window_ns = 500000000u;
+	int forces = 0;
+	while (swell_link_now_ns() - t0 < window_ns) {
+		swell_frame f{};
+		swell_msg m[SWELL_PKT_MSGS_MAX];
+		size_t n = 0;
+		if (swell_link_recv(dev, &f, 10) != 0)
+			continue;
+		if (swell_link_decode(SWELL_CARRIER_PKT, &f, m, SWELL_PKT_MSGS_MAX, &n, nullptr, nullptr) != SWELL_OK)
+			continue;
+		for (size_t k = 0; k < n; k++)
+			forces += m[k].type == SWELL_MSG_FORCE_CMD;
+	}
+	kill(pid, SIGTERM);
+	int st = 0;
+	waitpid(pid, &st, 0);
+	swell_link_close(dev);
+	const double rate = forces / (window_ns / 1e9);
+	INFO("ticks of a silent device: " << forces << " in " << window_ns / 1000000u << " ms, " << rate
+					  << " a second (tick rate " << tick_hz << " Hz)");
+	/* every period (plus the tick's own time, and room for a loaded machine); a whole-millisecond
+	 * wait cannot pass 1000 a second */
+	CHECK(rate > 0.5 * tick_hz);
+	CHECK(rate < 1.2 * tick_hz);
+	CHECK(WIFEXITED(st));
+}
