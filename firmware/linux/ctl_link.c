@@ -17,9 +17,13 @@
 
 #include "swell/transport.h"
 
-static int fail(char *err, size_t len, const char *what, const char *spec)
+/* The reason first (close may change errno), then the socket goes: a failed open leaves nothing open. */
+static int fail(struct ctl_link *l, char *err, size_t len, const char *what, const char *spec)
 {
 	snprintf(err, len, "%s %s: %s", what, spec, strerror(errno));
+	if (l->fd >= 0)
+		close(l->fd);
+	l->fd = -1;
 	return -1;
 }
 
@@ -40,7 +44,7 @@ static int open_udp(struct ctl_link *l, const char *spec, const char *arg, int d
 	}
 	l->fd = socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
 	if (l->fd < 0)
-		return fail(err, errlen, "socket for", spec);
+		return fail(l, err, errlen, "socket for", spec);
 	/* A burst from a third sender (2000 garbage datagrams in the bench) must not make the kernel drop
 	 * the device's samples while this process waits for the CPU: a deep receive queue (FORCE when
 	 * permitted, else capped by net.core.rmem_max; the default queue holds about 280 datagrams). */
@@ -51,7 +55,7 @@ static int open_udp(struct ctl_link *l, const char *spec, const char *arg, int d
 	a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
 	a.sin_port = htons((uint16_t)(device_side ? port : 0));
 	if (bind(l->fd, (struct sockaddr *)&a, sizeof(a)) < 0)
-		return fail(err, errlen, "bind", spec);
+		return fail(l, err, errlen, "bind", spec);
 	if (!device_side) {
 		a.sin_port = htons((uint16_t)port);
 		l->peer = a;
@@ -137,18 +141,18 @@ static int open_can(struct ctl_link *l, const char *spec, const char *iface, cha
 	}
 	l->fd = socket(PF_CAN, SOCK_RAW | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_RAW);
 	if (l->fd < 0)
-		return fail(err, errlen, "CAN socket for", spec);
+		return fail(l, err, errlen, "CAN socket for", spec);
 	memset(&ifr, 0, sizeof(ifr));
 	strcpy(ifr.ifr_name, iface);
 	if (ioctl(l->fd, SIOCGIFINDEX, &ifr) < 0)
-		return fail(err, errlen, "no CAN interface", spec);
+		return fail(l, err, errlen, "no CAN interface", spec);
 	if (setsockopt(l->fd, SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &mask, sizeof(mask)) < 0)
-		return fail(err, errlen, "error frames on", spec);
+		return fail(l, err, errlen, "error frames on", spec);
 	memset(&a, 0, sizeof(a));
 	a.can_family = AF_CAN;
 	a.can_ifindex = ifr.ifr_ifindex;
 	if (bind(l->fd, (struct sockaddr *)&a, sizeof(a)) < 0)
-		return fail(err, errlen, "bind", spec);
+		return fail(l, err, errlen, "bind", spec);
 	snprintf(l->name, sizeof(l->name), "can:%s", iface);
 	return 0;
 }

@@ -3,7 +3,9 @@
  * as a raw CAN socket does; the build machines have no CAN). */
 #include <catch2/catch.hpp>
 
+#include <dirent.h>
 #include <linux/can.h>
+#include <netinet/in.h>
 #include <linux/can/error.h>
 #include <sys/socket.h>
 #include <unistd.h>
@@ -207,4 +209,45 @@ TEST_CASE("USB link: an answer that finds the IN queue busy is held and kept in 
 	CHECK(l.held_len == 0);
 	CHECK(l.answers_dropped == 2);
 	CHECK(l.frames_tx == 0);
+}
+
+namespace {
+
+int open_fds()
+{
+	int n = 0;
+	DIR *d = opendir("/proc/self/fd");
+
+	REQUIRE(d);
+	while (readdir(d))
+		n++;
+	closedir(d);
+	return n;
+}
+
+} // namespace
+
+TEST_CASE("UDP link: an open that fails (port taken) leaves no socket open and names the reason", "[ctl_link]")
+{
+	int taken = socket(AF_INET, SOCK_DGRAM, 0);
+	struct sockaddr_in a;
+	socklen_t al = sizeof(a);
+
+	REQUIRE(taken >= 0);
+	memset(&a, 0, sizeof(a));
+	a.sin_family = AF_INET;
+	a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+	REQUIRE(bind(taken, (struct sockaddr *)&a, sizeof(a)) == 0);
+	REQUIRE(getsockname(taken, (struct sockaddr *)&a, &al) == 0);
+	const std::string spec = "udp:" + std::to_string(ntohs(a.sin_port));
+	struct ctl_link l;
+	char err[160] = "";
+	const int before = open_fds();
+	CHECK(ctl_link_open(&l, spec.c_str(), 1, 0, err, sizeof(err)) == -1);
+	const int after = open_fds();
+	INFO("open files before " << before << ", after " << after << "; reason: " << err);
+	CHECK(after == before);
+	CHECK(l.fd == -1);
+	CHECK(std::string(err).find("Address already in use") != std::string::npos);
+	close(taken);
 }
