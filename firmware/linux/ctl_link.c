@@ -13,6 +13,7 @@
 #include <string.h>
 #include <sys/ioctl.h>
 #include <sys/socket.h>
+#include <time.h>
 #include <unistd.h>
 
 #include "swell/transport.h"
@@ -434,6 +435,31 @@ void ctl_link_send(struct ctl_link *l, const struct swell_msg *m, size_t n)
 			send_bytes(l, pkt, len);
 		k += used;
 	}
+}
+
+int ctl_link_send_wait(struct ctl_link *l, const struct swell_msg *m, size_t n, int wait_ms)
+{
+	const struct timespec ms = {0, 1000000};
+	int rc = 0;
+
+	for (size_t k = 0; k < n; k++) {
+		const uint32_t errors = l->tx_errors;
+		int waited = 0;
+
+		for (;;) {
+			ctl_link_send(l, &m[k], 1);
+			if (l->tx_errors == errors)
+				break;
+			if (waited >= wait_ms) {
+				rc = -1;
+				break;
+			}
+			l->tx_errors = errors; /* refused for now: tried again */
+			nanosleep(&ms, NULL);
+			waited++;
+		}
+	}
+	return rc;
 }
 
 void ctl_link_close(struct ctl_link *l)

@@ -81,6 +81,12 @@ size_t ctl_link_recv(struct ctl_link *l, struct swell_msg *out, size_t cap);
 /* Send messages: packed into as few packets as fit (UDP, USB) or one CAN frame each. */
 void ctl_link_send(struct ctl_link *l, const struct swell_msg *m, size_t n);
 
+/* The same, one message at a time, each tried again every millisecond for up to wait_ms while the
+ * carrier refuses it (a full CAN TX queue, every USB IN slot in flight, a full socket buffer): for the
+ * zero force on exit, which has no next tick to send a fresher value. 0 when every message went out;
+ * only a message that never did counts in tx_errors. Blocks: never on the tick path. */
+int ctl_link_send_wait(struct ctl_link *l, const struct swell_msg *m, size_t n, int wait_ms);
+
 void ctl_link_close(struct ctl_link *l);
 
 #endif

@@ -499,8 +499,18 @@ int main(int argc, char **argv)
 					p.c.force_dev_uN[2] / 1e6, p.c.n.overruns);
 		}
 	}
-	/* zero force first, then everything else */
+	/* zero force first, then everything else. It is the last force the device gets: a full transmit
+	 * queue (CAN TX queue, USB IN slots) must not drop it as it may drop a tick's, so it is tried
+	 * again for up to 100 ms. */
 	swell_ctl_zero_force(&p.c);
+	{
+		struct swell_msg m[SWELL_CTL_QUEUE];
+		size_t n = swell_ctl_tx(&p.c, SWELL_LINK_DEVICE, m, SWELL_CTL_QUEUE);
+
+		if (n && ctl_link_send_wait(&p.dev, m, n, 100) != 0)
+			fprintf(stderr, "swell-ctl: warning: device link %s refused the zero force for 100 ms\n",
+				p.dev.name);
+	}
 	flush_output(&p);
 	if (!o.quiet)
 		fputc('\n', stderr);

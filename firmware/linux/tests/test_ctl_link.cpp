@@ -10,7 +10,10 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <cstring>
+#include <thread>
+#include <vector>
 
 extern "C" {
 #include "ctl_link.h"
@@ -209,6 +212,71 @@ TEST_CASE("USB link: an answer that finds the IN queue busy is held and kept in 
 	CHECK(l.held_len == 0);
 	CHECK(l.answers_dropped == 2);
 	CHECK(l.frames_tx == 0);
+}
+
+TEST_CASE("CAN link: the zero force on exit waits for room in a full TX queue, a tick's force is dropped",
+	  "[ctl_link]")
+{
+	FakeCan c;
+	struct can_frame fill = device_pos(0, 1);
+	struct swell_msg zero;
+	int queued = 0;
+
+	while (write(c.sv[0], &fill, sizeof(fill)) == (ssize_t)sizeof(fill))
+		queued++; /* the stand-in for a TX queue that the bus does not drain */
+	REQUIRE(errno == EAGAIN);
+	memset(&zero, 0, sizeof(zero));
+	zero.type = SWELL_MSG_FORCE_CMD;
+	zero.u.force_cmd.seq = 77;
+	ctl_link_send(&c.l, &zero, 1); /* a tick's send: refused, counted, gone */
+	CHECK(c.l.tx_errors == 1);
+	CHECK(c.l.frames_tx == 0);
+
+	/* the bus takes the queued frames 20 ms later */
+	std::vector<struct can_frame> out;
+	std::thread bus([&] {
+		std::this_thread::sleep_for(std::chrono::milliseconds(20));
+		struct can_frame f;
+		while (read(c.sv[1], &f, sizeof(f)) == (ssize_t)sizeof(f))
+			out.push_back(f);
+	});
+	const int rc = ctl_link_send_wait(&c.l, &zero, 1, 500);
+	bus.join();
+	struct can_frame f;
+	while (read(c.sv[1], &f, sizeof(f)) == (ssize_t)sizeof(f))
+		out.push_back(f);
+	INFO("frames queued before " << queued << ", frames out " << out.size() << ", tx errors " << c.l.tx_errors);
+	CHECK(rc == 0);
+	CHECK(c.l.tx_errors == 1); /* the tick's drop only: the waits are not errors */
+	CHECK(c.l.frames_tx == 1);
+	REQUIRE(out.size() == (size_t)queued + 1);
+	struct swell_msg got;
+	struct swell_proto_stats st;
+	memset(&st, 0, sizeof(st));
+	REQUIRE(swell_can_decode(out.back().can_id, out.back().data, out.back().can_dlc, &got, &st) == SWELL_OK);
+	CHECK(got.type == SWELL_MSG_FORCE_CMD);
+	CHECK(got.u.force_cmd.seq == 77);
+	CHECK(got.u.force_cmd.fz_cN == 0);
+}
+
+TEST_CASE("CAN link: the zero force on exit gives up after its wait when the queue never drains", "[ctl_link]")
+{
+	FakeCan c;
+	struct can_frame fill = device_pos(0, 1);
+	struct swell_msg zero;
+
+	while (write(c.sv[0], &fill, sizeof(fill)) == (ssize_t)sizeof(fill))
+		;
+	memset(&zero, 0, sizeof(zero));
+	zero.type = SWELL_MSG_FORCE_CMD;
+	const auto t0 = std::chrono::steady_clock::now();
+	const int rc = ctl_link_send_wait(&c.l, &zero, 1, 30);
+	const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - t0).count();
+	INFO("gave up after " << ms << " ms");
+	CHECK(rc == -1);
+	CHECK(c.l.tx_errors == 1);
+	CHECK(ms >= 30);
+	CHECK(ms < 1000);
 }
 
 namespace {
