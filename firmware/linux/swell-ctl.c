@@ -406,7 +406,7 @@ int main(int argc, char **argv)
 	int64_t period, next, start, last_status;
 	int32_t peak_h = 0;
 	int64_t last_sample = 0; /* --clock device: when the last DEVICE_POS came */
-	uint64_t max_ticks;
+	uint64_t max_ticks, ticks = 0; /* the core's count is 32 bits: it wraps after 19.9 days at 2500 Hz */
 	enum swell_err e;
 
 	parse(argc, argv, &o);
@@ -445,7 +445,7 @@ int main(int argc, char **argv)
 	max_ticks = o.seconds > 0 ? (uint64_t)(o.seconds * o.cfg.tick_hz + 0.5) : UINT64_MAX;
 	start = next = now_ns();
 	last_status = start;
-	while (!stop_flag && p.c.n.ticks < max_ticks) {
+	while (!stop_flag && ticks < max_ticks) {
 		if (o.device_clock) {
 			/* One tick per device sample, so that a trace replays bit-identically whatever the
 			 * machine's load. Nothing ticks before the first sample. Once the device has been
@@ -481,6 +481,7 @@ int main(int argc, char **argv)
 		}
 		link_faults(&p);
 		swell_ctl_tick(&p.c);
+		ticks++;
 		flush_output(&p);
 		if (p.c.bootloader_request) /* zero force and the last heartbeat have just gone out */
 			break;
@@ -522,8 +523,8 @@ int main(int argc, char **argv)
 
 	printf("swell-ctl report\n");
 	printf("  firmware        %u.%u.%u\n", o.cfg.fw_version[0], o.cfg.fw_version[1], o.cfg.fw_version[2]);
-	printf("  ran             %.3f s, %u ticks at %u Hz, %u solver steps at %u Hz\n",
-	       (now_ns() - start) / 1e9, p.c.n.ticks, o.cfg.tick_hz, p.c.n.solver_steps, o.cfg.solver_hz);
+	printf("  ran             %.3f s, %llu ticks at %u Hz, %u solver steps at %u Hz\n",
+	       (now_ns() - start) / 1e9, (unsigned long long)ticks, o.cfg.tick_hz, p.c.n.solver_steps, o.cfg.solver_hz);
 	printf("  state           %s (last error: %s), faults %u\n", swell_ctl_state_name(p.c.state),
 	       swell_err_str(p.c.last_err), p.c.n.faults);
 	if (!o.device_clock)
