@@ -35,21 +35,30 @@ q30_t swell_exp_neg_q16(q16_t x)
 
 q30_t swell_cos_pi_frac(int64_t num, int64_t den)
 {
-	int64_t x, x2, p;
+	int64_t q, r, x, x2, p;
 	int k, neg = 0;
 
 	if (den <= 0)
 		return 0;
-	num %= 2 * den;
-	if (num < 0)
-		num += 2 * den;
-	if (num > den) /* cos(pi + a) = cos(pi - a): fold [pi, 2pi) onto [0, pi] */
-		num = 2 * den - num;
-	if (2 * num > den) { /* cos(pi - a) = -cos(a) */
-		num = den - num;
+	/* num = q den + r, 0 <= r < den (2 den may not fit int64) */
+	q = num / den;
+	r = num % den;
+	if (r < 0) {
+		r += den;
+		q--; /* den >= 2 here: no overflow */
+	}
+	if ((uint64_t)q & 1u) /* cos(pi + a) = cos(pi - a): fold [pi, 2pi) onto [0, pi] */
+		r = den - r;
+	if (r > den - r) { /* cos(pi - a) = -cos(a) */
+		r = den - r;
 		neg = 1;
 	}
-	x = PI_Q30 * num / den; /* in [0, pi/2] */
+	/* r <= den / 2; pi r overflows int64 above 2^31.35: drop low bits of both (2^-31 of the angle) */
+	while (r > INT64_MAX / PI_Q30) {
+		r >>= 1;
+		den >>= 1;
+	}
+	x = PI_Q30 * r / den; /* in [0, pi/2] */
 	x2 = mul30(x, x);
 	/* cos x = 1 - x^2/2! (1 - x^2/(3*4) (1 - ...)) to degree 14: remainder below 1e-9 */
 	p = ONE;
