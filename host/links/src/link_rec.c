@@ -46,6 +46,8 @@ static uint64_t get_le(const uint8_t *p, int n)
 	return v;
 }
 
+static int replay_recv(struct swell_link *l, struct swell_frame *f, int timeout_ms);
+
 static int rec_send(struct swell_link *l, const struct swell_frame *f)
 {
 	return swell_link_send(((struct rec_link *)l)->inner, f);
@@ -59,7 +61,9 @@ static int rec_recv(struct swell_link *l, struct swell_frame *f, int timeout_ms)
 
 	if (rc)
 		return rc;
-	put_le(hdr, f->t_ns - r->t0, 8);
+	/* a replay's frames carry their time since its start already (swell_frame.t_ns): a recording
+	 * of a replay keeps them, as the original has them */
+	put_le(hdr, r->inner->ops->recv == replay_recv ? f->t_ns : f->t_ns - r->t0, 8);
 	put_le(hdr + 8, f->id, 4);
 	put_le(hdr + 12, f->len, 2);
 	hdr[14] = f->flags;

@@ -263,3 +263,52 @@ TEST_CASE("link framing: CAN takes one message, CAN FD one type, packets a mix",
 	size_t n;
 	CHECK(swell_link_decode(SWELL_CARRIER_CAN, &e, got, SWELL_CANFD_MSGS_MAX, &n, nullptr, nullptr) == SWELL_EUNKNOWN);
 }
+
+TEST_CASE("recording a replay keeps the recorded times: the copy replays as the original", "[links]")
+{
+	const std::string orig = tmp_path("orig"), copy = tmp_path("copy");
+	const uint64_t t_ns[3] = {0, 5000000, 12000000};
+	{
+		const uint8_t hdr[16] = {'S', 'W', 'E', 'L', 'L', 'R', 'E', 'C', 1, 0, 0, 0, SWELL_CARRIER_CAN, 0, 0, 0};
+		FILE *f = std::fopen(orig.c_str(), "wb");
+		REQUIRE(f);
+		std::fwrite(hdr, 1, sizeof(hdr), f);
+		for (int k = 0; k < 3; k++) {
+			uint8_t rec[16 + 2] = {0};
+			for (int b = 0; b < 8; b++)
+				rec[b] = uint8_t(t_ns[k] >> (8 * b));
+			rec[8] = uint8_t(0x100 + k); /* CAN id */
+			rec[9] = 0x01;
+			rec[12] = 2; /* two data bytes */
+			rec[16] = uint8_t(k);
+			rec[17] = 0xA5;
+			std::fwrite(rec, 1, sizeof(rec), f);
+		}
+		std::fclose(f);
+	}
+	{
+		link_ptr replay, rec;
+		REQUIRE(swell_link_open_replay(&replay.l, orig.c_str(), 0) == 0);
+		REQUIRE(swell_link_open_record(&rec.l, replay.l, copy.c_str()) == 0);
+		replay.l = nullptr; /* owned by the recorder now */
+		swell_frame f;
+		for (int k = 0; k < 3; k++)
+			REQUIRE(swell_link_recv(rec.l, &f, 0) == 0);
+		CHECK(swell_link_recv(rec.l, &f, 0) == -ENODATA);
+	}
+	link_ptr r;
+	REQUIRE(swell_link_open_replay(&r.l, copy.c_str(), 0) == 0);
+	CHECK(swell_link_carrier(r.l) == SWELL_CARRIER_CAN);
+	for (int k = 0; k < 3; k++) {
+		swell_frame f;
+		REQUIRE(swell_link_recv(r.l, &f, 0) == 0);
+		INFO("frame " << k << ": time " << f.t_ns << " ns, recorded " << t_ns[k] << " ns");
+		CHECK(f.t_ns == t_ns[k]);
+		CHECK(f.id == uint32_t(0x100 + k));
+		CHECK(f.len == 2);
+		CHECK(f.data[0] == k);
+		CHECK(f.data[1] == 0xA5);
+	}
+	std::remove(orig.c_str());
+	std::remove(copy.c_str());
+}
