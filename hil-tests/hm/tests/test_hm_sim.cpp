@@ -118,8 +118,9 @@ struct closed_loop {
 	{
 		std::remove(csv.c_str()); // a log of an earlier run must not pass for this one
 		std::remove(hm_out.c_str());
-		// a silent device is a fault after 200 of the controller's own ticks (1 ms waits with the
-		// device clock): a loaded CI machine must not fault the loop; link loss is the kill test's
+		// a silent device is a fault after 200 periods and then 200 of the controller's own ticks (one
+		// a period with the device clock): a loaded CI machine must not fault the loop; link loss is
+		// the kill test's
 		ctl = spawn({ctl_bin, "--clock", clock, "--autorun", "--device", "udp:" + std::to_string(port), "--host",
 			     "none", "--no-rt", "--quiet", "--silent-ticks", "200"},
 			    ctl_out);
