@@ -428,13 +428,22 @@ static int16_t to_10um(int32_t um)
 	return (int16_t)swell_clamp(t, -30000, 30000);
 }
 
+/* A limited force on the wire: to the nearest cN, but no more than the whole cN within f_max (a limit
+ * that is not a whole number of cN would otherwise be passed by up to 0.5 cN). */
+static int16_t force_cN(const struct swell_ctl *c, int32_t uN)
+{
+	const int32_t lim = (int32_t)(c->cfg.safety.f_max_uN / 10000u);
+
+	return (int16_t)swell_clamp(to_cN(uN), -lim, lim);
+}
+
 static void send_force(struct swell_ctl *c)
 {
 	struct swell_msg m = msg(c, SWELL_MSG_FORCE_CMD);
 
-	m.u.force_cmd.fx_cN = to_cN(c->force_dev_uN[0]);
-	m.u.force_cmd.fy_cN = to_cN(c->force_dev_uN[1]);
-	m.u.force_cmd.fz_cN = to_cN(c->force_dev_uN[2]);
+	m.u.force_cmd.fx_cN = force_cN(c, c->force_dev_uN[0]);
+	m.u.force_cmd.fy_cN = force_cN(c, c->force_dev_uN[1]);
+	m.u.force_cmd.fz_cN = force_cN(c, c->force_dev_uN[2]);
 	m.u.force_cmd.seq = c->seq_force++;
 	m.u.force_cmd.enable = c->state == SWELL_CTL_RUNNING;
 	push(c, SWELL_LINK_DEVICE, &m);
@@ -517,9 +526,9 @@ static void send_pose(struct swell_ctl *c)
 	p.u.object_pose.z_10um = to_10um(c->out.z_um);
 	p.u.object_pose.submersion_halfpct = (uint8_t)swell_clamp(half_pct, 0, 200);
 	p.u.object_pose.seq = c->seq_pose;
-	f.u.object_force.fx_cN = to_cN(c->force_dev_uN[0]);
-	f.u.object_force.fy_cN = to_cN(c->force_dev_uN[1]);
-	f.u.object_force.fz_cN = to_cN(c->force_dev_uN[2]);
+	f.u.object_force.fx_cN = force_cN(c, c->force_dev_uN[0]);
+	f.u.object_force.fy_cN = force_cN(c, c->force_dev_uN[1]);
+	f.u.object_force.fz_cN = force_cN(c, c->force_dev_uN[2]);
 	f.u.object_force.seq = c->seq_pose++;
 	f.u.object_force.limits = c->limits;
 	push(c, SWELL_LINK_HOST, &p);

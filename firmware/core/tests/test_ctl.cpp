@@ -548,3 +548,36 @@ TEST_CASE("the solver step spread over the period (finish and scan ahead) gives 
 			CHECK(ahead_ticks > 1000);
 	}
 }
+
+TEST_CASE("a force limit that is not a whole number of cN is never exceeded on the wire", "[ctl][safety]")
+{
+	/* the object held 100 mm above the water: the force law asks for its weight, -981000 uN */
+	for (uint32_t f_max : {1u, 9999u, 15000u, 25001u, 123456u, 980999u, 10000000u}) {
+		swell_ctl_config cfg = pool();
+		cfg.autorun = 1;
+		cfg.safety.f_max_uN = f_max;
+		Ctl k(cfg);
+		int running = 0, worst_cN = 0;
+		for (int t = 0; t < 100; t++) {
+			k.device(0, 0, 100000);
+			swell_ctl_tick(&k.c);
+			for (const swell_msg &m : k.drain(SWELL_LINK_DEVICE)) {
+				if (m.type != SWELL_MSG_FORCE_CMD)
+					continue;
+				const swell_msg_force_cmd &f = m.u.force_cmd;
+				for (int cN : {(int)f.fx_cN, (int)f.fy_cN, (int)f.fz_cN})
+					worst_cN = std::max(worst_cN, std::abs(cN));
+				running += f.enable;
+			}
+			for (const swell_msg &m : k.drain(SWELL_LINK_HOST))
+				if (m.type == SWELL_MSG_OBJECT_FORCE)
+					worst_cN = std::max(worst_cN, std::abs((int)m.u.object_force.fz_cN));
+		}
+		INFO("f_max " << f_max << " uN: largest force sent " << worst_cN << " cN = " << worst_cN * 10000
+			      << " uN, limited output " << k.c.force_dev_uN[2] << " uN");
+		REQUIRE(running > 90);
+		CHECK((int64_t)worst_cN * 10000 <= (int64_t)f_max);
+		/* as close as it may be: the weight to the nearest cN (98), or the whole cN within f_max */
+		CHECK(worst_cN == (int)std::min<uint32_t>(98u, f_max / 10000u));
+	}
+}
