@@ -3,6 +3,7 @@
 
 #include <cstdlib>
 #include <cstring>
+#include <random>
 #include <vector>
 
 extern "C" {
@@ -579,5 +580,84 @@ TEST_CASE("a force limit that is not a whole number of cN is never exceeded on t
 		CHECK((int64_t)worst_cN * 10000 <= (int64_t)f_max);
 		/* as close as it may be: the weight to the nearest cN (98), or the whole cN within f_max */
 		CHECK(worst_cN == (int)std::min<uint32_t>(98u, f_max / 10000u));
+	}
+}
+
+TEST_CASE("random device traffic, parameters and commands: every force sent is zero outside RUNNING, "
+	  "within f_max and within the rate step",
+	  "[ctl][safety][random]")
+{
+	std::mt19937 rng(4242);
+	auto pick = [&](int n) { return (int)(rng() % (uint32_t)n); };
+	for (int run = 0; run < 6; run++) {
+		swell_ctl_config cfg = pool();
+		cfg.autorun = (uint8_t)(run & 1);
+		Ctl k(cfg);
+		int32_t prev[3] = {0, 0, 0};
+		uint32_t prev_fmax = k.c.cfg.safety.f_max_uN;
+		int prev_running = 0, forces = 0, running_ticks = 0;
+		int32_t z = 100000, vz = 0;
+		for (int t = 0; t < 4000; t++) {
+			/* the device: mostly there, moving through the water and the floor, sometimes silent,
+			 * sometimes e-stopped or unpowered */
+			if (pick(50) != 0) {
+				z = std::max(-300000, std::min(300000, z + pick(4001) - 2000));
+				vz = pick(600001) - 300000;
+				uint8_t status = (uint8_t)(pick(40) == 0 ? 1 | 4 : pick(60) == 0 ? 0 : 1);
+				k.device(pick(400001) - 200000, pick(400001) - 200000, z, status);
+				swell_msg v{};
+				v.type = SWELL_MSG_DEVICE_VEL;
+				v.u.device_vel.vz_100ums = (int16_t)(vz / 100);
+				swell_ctl_rx(&k.c, SWELL_LINK_DEVICE, &v);
+			}
+			switch (pick(40)) {
+			case 0: k.param(SWELL_PARAM_FORCE_MAX_UN, 1 + pick(3000000)); break;
+			case 1: k.param(SWELL_PARAM_FORCE_RATE, 2500 + pick(2000000000)); break;
+			case 2: k.param(SWELL_PARAM_FORCE_GAIN, pick(5 * SWELL_Q16_ONE)); break;
+			case 3: k.param(SWELL_PARAM_COMMAND, pick(3)); break;
+			case 4: k.param(SWELL_PARAM_WAVE_E, SWELL_Q30_ONE / 20 + pick(SWELL_Q30_ONE / 2)); break;
+			case 5: k.param(SWELL_PARAM_BODY_MASS_G, 1 + pick(2000)); break;
+			case 6: k.param(SWELL_PARAM_COMMAND, SWELL_CMD_RUN); break;
+			default: break;
+			}
+			swell_ctl_tick(&k.c);
+			k.drain(SWELL_LINK_HOST);
+			const int running = k.c.state == SWELL_CTL_RUNNING;
+			const uint32_t fmax = k.c.cfg.safety.f_max_uN;
+			const int32_t step = k.c.safety[2].step_uN;
+			for (const swell_msg &m : k.drain(SWELL_LINK_DEVICE)) {
+				if (m.type != SWELL_MSG_FORCE_CMD)
+					continue;
+				const swell_msg_force_cmd &f = m.u.force_cmd;
+				forces++;
+				INFO("run " << run << " tick " << t << " state " << swell_ctl_state_name(k.c.state)
+					    << " f_max " << fmax << " uN: sent " << f.fx_cN << " " << f.fy_cN << " "
+					    << f.fz_cN << " cN, enable " << (int)f.enable);
+				REQUIRE(f.enable == running);
+				if (!running)
+					REQUIRE((f.fx_cN == 0 && f.fy_cN == 0 && f.fz_cN == 0));
+				for (int cN : {(int)f.fx_cN, (int)f.fy_cN, (int)f.fz_cN})
+					REQUIRE((int64_t)std::abs(cN) * 10000 <= (int64_t)fmax);
+			}
+			for (int a = 0; a < 3; a++) {
+				const int32_t now = k.c.force_dev_uN[a];
+				INFO("run " << run << " tick " << t << " axis " << a << ": " << prev[a] << " -> " << now
+					    << " uN, step " << step << ", f_max " << prev_fmax << " -> " << fmax);
+				REQUIRE(std::abs((int64_t)now) <= (int64_t)fmax);
+				if (!running)
+					REQUIRE(now == 0);
+				else if (prev_running && fmax >= prev_fmax) /* a lowered limit cuts at once */
+					REQUIRE(std::abs((int64_t)now - prev[a]) <= step);
+				else if (!prev_running)
+					REQUIRE(std::abs((int64_t)now) <= step); /* from zero */
+				prev[a] = now;
+			}
+			running_ticks += running;
+			prev_running = running;
+			prev_fmax = fmax;
+		}
+		INFO("run " << run);
+		CHECK(forces >= 4000);
+		CHECK(running_ticks > 200);
 	}
 }
