@@ -27,6 +27,8 @@ static const char usage[] =
 	"                      pattern:bump|ripple  a known scene through the real encoders (labelled on screen)\n"
 	"  --faults LIST       inject into a pattern: garbage,truncate,corrupt,reorder,drop,noscene,restart\n"
 	"  --node N            show only controller node N (0..15; default: any)\n"
+	"  --iface N           USB interface of the controller's host link (0..255; default 0; 1 when\n"
+	"                      the controller has both its links on USB, swell-ctl --host usb:@FFS2@)\n"
 	"  --record FILE       record every received frame of a link (replay with --source replay:FILE)\n"
 	"  --headless          render without a visible window (still needs an X display, e.g. Xvfb)\n"
 	"  --size WxH          framebuffer size in pixels (default 1024x768)\n"
@@ -55,7 +57,7 @@ static const char usage[] =
 
 struct opts {
 	const char *source, *faults, *record, *shot;
-	int node;
+	int node, iface;
 	bool headless, steady;
 	long after, frames;
 	double fps;
@@ -123,6 +125,9 @@ static void parse(int argc, char **argv, struct opts *o)
 		} else if (!strcmp(a, "--node")) {
 			NEED();
 			o->node = (int)num(a, v, 0, 15);
+		} else if (!strcmp(a, "--iface")) {
+			NEED();
+			o->iface = (int)num(a, v, 0, 255);
 		} else if (!strcmp(a, "--record")) {
 			NEED();
 			o->record = v;
@@ -373,7 +378,7 @@ int main(int argc, char **argv)
 	int rc = 0;
 
 	parse(argc, argv, &o);
-	if (!source_open(&src, o.source, o.record, err, sizeof(err))) {
+	if (!source_open(&src, o.source, o.record, o.iface, err, sizeof(err))) {
 		fprintf(stderr, "swell-view: %s\n", err);
 		return 2;
 	}

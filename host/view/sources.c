@@ -48,7 +48,10 @@ static int link_open(struct source *s, char *err, size_t errlen)
 	}
 	case LINK_USB:
 		rc = swell_link_open_usb(&l, &s->usb);
-		snprintf(s->desc, sizeof(s->desc), "USB %04x:%04x", s->usb.vid, s->usb.pid);
+		if (s->usb.iface)
+			snprintf(s->desc, sizeof(s->desc), "USB %04x:%04x IF %d", s->usb.vid, s->usb.pid, s->usb.iface);
+		else
+			snprintf(s->desc, sizeof(s->desc), "USB %04x:%04x", s->usb.vid, s->usb.pid);
 		break;
 	case LINK_REPLAY:
 		rc = swell_link_open_replay(&l, arg, strncmp(s->spec, "replay-fast:", 12) != 0);
@@ -140,8 +143,12 @@ static bool parse_usb(struct source *s, const char *arg, char *err, size_t errle
 	return true;
 }
 
-bool source_open(struct source *s, const char *spec, const char *record, char *err, size_t errlen)
+bool source_open(struct source *s, const char *spec, const char *record, int usb_iface, char *err, size_t errlen)
 {
+	if (usb_iface != 0 && strcmp(spec, "usb") != 0 && strncmp(spec, "usb:", 4) != 0) {
+		snprintf(err, errlen, "--iface %d is for a usb source, not '%s'", usb_iface, spec);
+		return false;
+	}
 	memset(s, 0, sizeof(*s));
 	s->rng = 0x12345678u;
 	snprintf(s->spec, sizeof(s->spec), "%s", spec);
@@ -183,6 +190,7 @@ bool source_open(struct source *s, const char *spec, const char *record, char *e
 	}
 	if (s->lk == LINK_USB && !parse_usb(s, spec[3] ? spec + 4 : NULL, err, errlen))
 		return false;
+	s->usb.iface = usb_iface;
 	int rc = link_open(s, err, errlen);
 	if (rc != 0 && !(rc == -ENODEV && s->lk == LINK_USB))
 		return false; /* (USB not plugged in yet: LINK DOWN on screen, tried again every 500 ms) */

@@ -82,7 +82,7 @@ struct source {
 
 /* Parse and open a source spec; false with a one-line reason in err. record: a file to record the
  * received frames to (link sources only), or NULL. */
-bool source_open(struct source *s, const char *spec, const char *record, char *err, size_t errlen);
+bool source_open(struct source *s, const char *spec, const char *record, int usb_iface, char *err, size_t errlen);
 /* Parse a fault list ("garbage,truncate,..."); false with the reason in err. */
 bool source_faults(struct source *s, const char *list, char *err, size_t errlen);
 /* Deliver everything available at now_us (live links: everything their thread has received, with
