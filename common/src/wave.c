@@ -185,9 +185,13 @@ enum swell_err swell_wave_set_params(struct swell_wave *w, const struct swell_wa
 
 void swell_wave_rest(struct swell_wave *w)
 {
-	size_t n = (size_t)w->nx * w->ny;
+	size_t n = (size_t)w->nx * w->ny, a;
 
-	/* v, acc and the flows are contiguous, up to the tile flags; a step in progress starts over */
+	/* a step in progress starts over: rows finished ahead go back to h(n) (their flows' other ends,
+	 * in acc, are dropped with the step); a saturated height stays within the bounds */
+	for (a = 0; a < (size_t)w->done_row * w->nx; a++)
+		w->h[a] = swell_clamp(w->h[a] - w->acc[a], SWELL_H_MIN, SWELL_H_MAX);
+	/* v, acc and the flows are contiguous, up to the tile flags */
 	memset(w->h + n, 0, (size_t)((uint8_t *)w->tile - (uint8_t *)(w->h + n)));
 	w->next_row = 0;
 	w->done_row = 0;

@@ -137,3 +137,29 @@ TEST_CASE("accepted parameters are stable in the coefficients that run and e_lim
 	CHECK(f.w.e_eff == run_e_eff(215723193, SWELL_STENCIL_PAPER));
 	CHECK(f.w.q == run_q(1073742));
 }
+
+TEST_CASE("coming to rest in the middle of a step with rows finished ahead keeps h(n) and the volume",
+	  "[wave][finish][rest]")
+{
+	Field f(24, 24, q30(0.2), 0, SWELL_STENCIL_PAPER, SWELL_KERNEL_REF);
+	std::mt19937 rng(3);
+	for (int a = 0; a < f.n(); a++)
+		f.w.h[a] = (int32_t)(rng() % (4 * SWELL_H_ONE_MM)) - 2 * SWELL_H_ONE_MM;
+	swell_wave_rest(&f.w);
+	for (int s = 0; s < 3; s++)
+		swell_wave_step(&f.w);
+	const int64_t v0 = swell_wave_volume(&f.w);
+	std::vector<int32_t> hn(f.w.h, f.w.h + f.n());
+	swell_wave_step_rows(&f.w, 17);
+	REQUIRE(swell_wave_finish_rows(&f.w, 24) == 16); /* bands 0 and 1 hold h(n+1) now */
+	swell_wave_rest(&f.w);
+	INFO("volume " << swell_wave_volume(&f.w) << " LSB after the rest, " << v0 << " before the step");
+	CHECK(swell_wave_volume(&f.w) == v0);
+	int differ = 0;
+	for (int a = 0; a < f.n(); a++)
+		differ += f.w.h[a] != hn[a];
+	INFO(differ << " cells differ from h(n)");
+	CHECK(differ == 0);
+	CHECK(f.w.done_row == 0);
+	CHECK(f.w.next_row == 0);
+}

@@ -147,7 +147,8 @@ enum swell_err swell_wave_init(struct swell_wave *w, uint16_t nx, uint16_t ny, i
 /* Change parameters on a running field; on error nothing changes. */
 enum swell_err swell_wave_set_params(struct swell_wave *w, const struct swell_wave_params *p);
 
-/* Make the present heights the rest state: all flows and v zero (h(n-1) = h(n)). */
+/* Make the present heights the rest state: all flows and v zero (h(n-1) = h(n)). A step in progress
+ * is dropped: rows finished ahead go back to h(n). */
 void swell_wave_rest(struct swell_wave *w);
 
 /* Advance one solver step. Bounded: 4 edges per cell, no data-dependent loops.
