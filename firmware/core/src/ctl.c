@@ -666,11 +666,15 @@ static void enter(struct swell_ctl *c, enum swell_ctl_state s, enum swell_err wh
 
 static void supervise(struct swell_ctl *c)
 {
-	int alive, estop, powered;
+	const int estop = (c->dev_status & 4u) != 0, powered = (c->dev_status & 1u) != 0;
+	int alive;
 
 	if (c->dev_heard) {
 		c->since_dev = 0;
-		if (c->dev_back < UINT32_MAX)
+		/* back = heard with the e-stop released: autorun's recovery counts from the release */
+		if (estop)
+			c->dev_back = 0;
+		else if (c->dev_back < UINT32_MAX)
 			c->dev_back++;
 	} else {
 		if (c->since_dev < UINT32_MAX)
@@ -679,8 +683,6 @@ static void supervise(struct swell_ctl *c)
 	}
 	c->dev_heard = 0;
 	alive = c->since_dev < c->cfg.silent_ticks;
-	estop = (c->dev_status & 4u) != 0;
-	powered = (c->dev_status & 1u) != 0;
 
 	switch (c->state) {
 	case SWELL_CTL_BOOT:

@@ -184,6 +184,41 @@ TEST_CASE("autorun leaves a fault by itself after the device has been back for r
 	CHECK(back <= 23);
 }
 
+TEST_CASE("after an e-stop, autorun counts recover_ticks from the release, with zero force until then",
+	  "[ctl][link]")
+{
+	swell_ctl_config cfg = pool();
+	cfg.autorun = 1;
+	cfg.recover_ticks = 20;
+	Ctl k(cfg);
+	for (int t = 0; t < 10; t++) {
+		k.device(0, 0, 100000);
+		swell_ctl_tick(&k.c);
+	}
+	REQUIRE(k.c.state == SWELL_CTL_RUNNING);
+	/* the e-stop pressed for 100 ticks while the device goes on reporting (status: powered, e-stop) */
+	for (int t = 0; t < 100; t++) {
+		k.device(0, 0, 100000, 1 | 4);
+		swell_ctl_tick(&k.c);
+		CHECK(k.c.state == SWELL_CTL_FAULT);
+		CHECK(k.force().enable == 0);
+	}
+	/* released: heard for 100 ticks already, but the recovery starts now */
+	int back = -1;
+	for (int t = 1; t <= 40 && back < 0; t++) {
+		k.device(0, 0, 100000);
+		swell_ctl_tick(&k.c);
+		const swell_msg_force_cmd f = k.force();
+		if (k.c.state == SWELL_CTL_RUNNING)
+			back = t;
+		else
+			CHECK((f.enable == 0 && f.fx_cN == 0 && f.fy_cN == 0 && f.fz_cN == 0));
+	}
+	INFO("running again " << back << " ticks after the release");
+	CHECK(back >= 20);
+	CHECK(back <= 23);
+}
+
 TEST_CASE("the device's emergency stop faults at once", "[ctl][state]")
 {
 	swell_ctl_config cfg = pool();

@@ -29,7 +29,8 @@
  *            when the device reports power and no e-stop (never after an accepted ENTER_BOOTLOADER). -> IDLE when the device goes silent.
  *   RUNNING  force law active. -> ARMED on STOP; -> FAULT on a silent device or e-stop.
  *   FAULT    zero force. -> IDLE on CLEAR once the device is heard again and its e-stop released, or
- *            by itself with autorun after the device has been back for recover_ticks ticks.
+ *            by itself with autorun after the device has been back, heard with its e-stop released,
+ *            for recover_ticks ticks (counted from the release, not from when it was first heard).
  *
  * Determinism: the core's outputs depend only on its configuration and the sequence of rx/tick calls,
  * so a trace recorded at the device link replays to bit-identical outputs on any port. */
@@ -93,7 +94,7 @@ struct swell_ctl_config {
 	struct swell_fsafety_params safety; /* one stage per device axis; tick_hz is set from tick_hz */
 	uint32_t tick_hz, solver_hz; /* solver_hz divides tick_hz, 2 .. SWELL_BODY_MAX_K ticks a step */
 	uint16_t silent_ticks;       /* device silent this many ticks -> fault; 1 .. 10000 */
-	uint16_t recover_ticks;      /* autorun: device back this long before leaving FAULT */
+	uint16_t recover_ticks;      /* autorun: device back (heard, no e-stop) this long before leaving FAULT */
 	uint16_t host_budget;        /* host messages a tick, 1 .. SWELL_CTL_QUEUE / 2 */
 	uint8_t node;                /* 0 .. SWELL_NODE_MAX */
 	uint8_t autorun;
