@@ -221,7 +221,7 @@ enum flash_boot_result flash_enter_bootloader(const struct flash_link_spec *spec
 				"stop it first; nothing sent");
 			goto out;
 		}
-		/* AUTORUN=0 first: a controller that runs whenever the device is there ignores STOP */
+		/* AUTORUN=0 too: in older controllers autorun overrode STOP */
 		printf("swell-flash: --force: sending AUTORUN=0 and COMMAND=STOP (force zeroed by the controller)\n");
 		/* one packet on USB and UDP: swell-ctl's FunctionFS side may take a second OUT packet late
 		 * while nobody reads its IN endpoint (this process, blocked sending) */

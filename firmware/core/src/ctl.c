@@ -282,9 +282,11 @@ static enum swell_err param_set(struct swell_ctl *c, uint16_t id, int32_t v)
 		switch (v) {
 		case SWELL_CMD_STOP:
 			c->run_request = 0;
+			c->host_stop = 1; /* a stop from the host holds with autorun too, until RUN */
 			return SWELL_OK;
 		case SWELL_CMD_RUN:
 			c->run_request = 1;
+			c->host_stop = 0;
 			return SWELL_OK;
 		case SWELL_CMD_CLEAR:
 			if (c->state != SWELL_CTL_FAULT)
@@ -695,7 +697,8 @@ static void supervise(struct swell_ctl *c)
 	case SWELL_CTL_ARMED:
 		if (!alive)
 			enter(c, SWELL_CTL_IDLE, SWELL_OK);
-		else if ((c->run_request || c->cfg.autorun) && powered && !estop && !c->bootloader_request)
+		else if ((c->run_request || (c->cfg.autorun && !c->host_stop)) && powered && !estop &&
+			 !c->bootloader_request)
 			enter(c, SWELL_CTL_RUNNING, SWELL_OK); /* never again once the reboot is on its way */
 		break;
 	case SWELL_CTL_RUNNING:
@@ -703,7 +706,7 @@ static void supervise(struct swell_ctl *c)
 			enter(c, SWELL_CTL_FAULT, SWELL_ETIMEOUT);
 		else if (estop)
 			enter(c, SWELL_CTL_FAULT, SWELL_ESTOP);
-		else if (!c->run_request && !c->cfg.autorun)
+		else if (!c->run_request && (!c->cfg.autorun || c->host_stop))
 			enter(c, SWELL_CTL_ARMED, SWELL_OK);
 		break;
 	case SWELL_CTL_FAULT:

@@ -184,6 +184,43 @@ TEST_CASE("autorun leaves a fault by itself after the device has been back for r
 	CHECK(back <= 23);
 }
 
+TEST_CASE("with autorun, STOP from the host stops the force law and holds until RUN", "[ctl][state]")
+{
+	swell_ctl_config cfg = pool();
+	cfg.autorun = 1;
+	Ctl k(cfg);
+	for (int t = 0; t < 10; t++) {
+		k.device(0, 0, 100000);
+		swell_ctl_tick(&k.c);
+	}
+	REQUIRE(k.c.state == SWELL_CTL_RUNNING);
+	REQUIRE(k.force().enable == 1);
+	k.param(SWELL_PARAM_COMMAND, SWELL_CMD_STOP);
+	for (int t = 0; t < 200; t++) { /* autorun must not start it again */
+		k.device(0, 0, 100000);
+		swell_ctl_tick(&k.c);
+		const swell_msg_force_cmd f = k.force();
+		INFO("tick " << t << " after STOP");
+		CHECK(k.c.state == SWELL_CTL_ARMED);
+		CHECK((f.enable == 0 && f.fz_cN == 0));
+	}
+	k.param(SWELL_PARAM_COMMAND, SWELL_CMD_RUN);
+	k.device(0, 0, 100000);
+	swell_ctl_tick(&k.c);
+	CHECK(k.c.state == SWELL_CTL_RUNNING);
+	/* a fault (the device silent), a STOP while in it: autorun's recovery goes no further than ARMED */
+	for (int t = 0; t < 5; t++)
+		swell_ctl_tick(&k.c);
+	REQUIRE(k.c.state == SWELL_CTL_FAULT);
+	k.param(SWELL_PARAM_COMMAND, SWELL_CMD_STOP);
+	for (int t = 0; t < 400; t++) {
+		k.device(0, 0, 100000);
+		swell_ctl_tick(&k.c);
+		CHECK(k.c.state != SWELL_CTL_RUNNING);
+	}
+	CHECK(k.c.state == SWELL_CTL_ARMED);
+}
+
 TEST_CASE("after an e-stop, autorun counts recover_ticks from the release, with zero force until then",
 	  "[ctl][link]")
 {

@@ -567,7 +567,7 @@ struct fake_ctl {
 					other++; // addressed to another controller
 				} else if (m[i].type == SWELL_MSG_PARAM_SET && m[i].u.param_set.id == 31 &&
 					   m[i].u.param_set.value == 0) {
-					got_autorun_off++; // AUTORUN=0: a controller with autorun ignores STOP
+					got_autorun_off++; // AUTORUN=0: older controllers let autorun override STOP
 				} else if (m[i].type == SWELL_MSG_PARAM_SET && m[i].u.param_set.id == 40 &&
 					   m[i].u.param_set.value == 0) {
 					got_stop++;

@@ -25,9 +25,10 @@
  * States and the way back (heartbeat state codes 0..4):
  *   BOOT     until the first tick.
  *   IDLE     no device: nothing is commanded. -> ARMED when the device has been heard.
- *   ARMED    device present, force zero. -> RUNNING on the RUN command, or by itself with autorun,
+ *   ARMED    device present, force zero. -> RUNNING on the RUN command, or by itself with autorun
+ *            unless the host's last command was STOP,
  *            when the device reports power and no e-stop (never after an accepted ENTER_BOOTLOADER). -> IDLE when the device goes silent.
- *   RUNNING  force law active. -> ARMED on STOP; -> FAULT on a silent device or e-stop.
+ *   RUNNING  force law active. -> ARMED on STOP (with autorun too); -> FAULT on a silent device or e-stop.
  *   FAULT    zero force. -> IDLE on CLEAR once the device is heard again and its e-stop released, or
  *            by itself with autorun after the device has been back, heard with its e-stop released,
  *            for recover_ticks ticks (counted from the release, not from when it was first heard).
@@ -131,6 +132,7 @@ struct swell_ctl {
 	uint32_t dev_back;   /* ticks the device has been heard without a gap */
 	struct swell_seq dev_seq;
 	uint8_t run_request, clear_request;
+	uint8_t host_stop; /* STOP received and no RUN since: autorun does not start the force law */
 	/* Set when an ENTER_BOOTLOADER was accepted (outside RUNNING, with the key): the core has zeroed
 	 * the force and queued a last heartbeat; the port drains its queues and reboots into its
 	 * bootloader (or, without one, exits). The core never clears it. */
