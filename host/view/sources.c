@@ -17,6 +17,9 @@
 /* Open (or re-open) the link of a link source; 0 or a negative errno with the reason in err. */
 static int link_open(struct source *s, char *err, size_t errlen)
 {
+	/* the description is written only when it changes: the reader thread calls this again while the
+	 * display thread shows s->desc */
+	char d[sizeof(s->desc)] = "";
 	struct swell_link *l = NULL;
 	int rc = 0;
 	const char *arg = strchr(s->spec, ':');
@@ -34,7 +37,7 @@ static int link_open(struct source *s, char *err, size_t errlen)
 			}
 		}
 		rc = swell_link_open_udp(&l, SWELL_UDP_HOST, (uint16_t)port, NULL, 0);
-		snprintf(s->desc, sizeof(s->desc), "UDP %s:%ld", SWELL_UDP_HOST, port);
+		snprintf(d, sizeof(d), "UDP %s:%ld", SWELL_UDP_HOST, port);
 		break;
 	}
 	case LINK_CAN: {
@@ -43,21 +46,23 @@ static int link_open(struct source *s, char *err, size_t errlen)
 		o.fd = strncmp(s->spec, "canfd:", 6) == 0;
 		o.error_frames = 1;
 		rc = swell_link_open_can(&l, arg, &o);
-		snprintf(s->desc, sizeof(s->desc), "%s %.40s", o.fd ? "CAN FD" : "CAN", arg);
+		snprintf(d, sizeof(d), "%s %.40s", o.fd ? "CAN FD" : "CAN", arg);
 		break;
 	}
 	case LINK_USB:
 		rc = swell_link_open_usb(&l, &s->usb);
 		if (s->usb.iface)
-			snprintf(s->desc, sizeof(s->desc), "USB %04x:%04x IF %d", s->usb.vid, s->usb.pid, s->usb.iface);
+			snprintf(d, sizeof(d), "USB %04x:%04x IF %d", s->usb.vid, s->usb.pid, s->usb.iface);
 		else
-			snprintf(s->desc, sizeof(s->desc), "USB %04x:%04x", s->usb.vid, s->usb.pid);
+			snprintf(d, sizeof(d), "USB %04x:%04x", s->usb.vid, s->usb.pid);
 		break;
 	case LINK_REPLAY:
 		rc = swell_link_open_replay(&l, arg, strncmp(s->spec, "replay-fast:", 12) != 0);
-		snprintf(s->desc, sizeof(s->desc), "REPLAY %.80s", arg);
+		snprintf(d, sizeof(d), "REPLAY %.80s", arg);
 		break;
 	}
+	if (strcmp(d, s->desc) != 0)
+		memcpy(s->desc, d, sizeof(d));
 	if (rc < 0) {
 		snprintf(err, errlen, "%s: %s", s->spec, rc == -EPROTO ? "not a swell recording" : strerror(-rc));
 		return rc;
@@ -74,6 +79,7 @@ static int link_open(struct source *s, char *err, size_t errlen)
 		s->record = NULL; /* one recording file: a re-opened USB link is not recorded again */
 	}
 	s->link = l;
+	atomic_store_explicit(&s->have_link, true, memory_order_release); /* s->link set before */
 	return 0;
 }
 
@@ -201,6 +207,7 @@ bool source_open(struct source *s, const char *spec, const char *record, int usb
 		snprintf(err, errlen, "%s: cannot start the reader thread", spec);
 		free(s->ring);
 		s->ring = NULL;
+		atomic_store(&s->have_link, false);
 		swell_link_close(s->link);
 		s->link = NULL;
 		return false;
@@ -344,7 +351,7 @@ static void ring_poll(struct source *s, uint64_t now_us)
 	unsigned t = atomic_load_explicit(&s->tail, memory_order_relaxed);
 	unsigned h = atomic_load_explicit(&s->head, memory_order_acquire);
 
-	if (s->link && !vm->link_up && t == h && vm->st.frames == 0)
+	if (atomic_load_explicit(&s->have_link, memory_order_acquire) && !vm->link_up && t == h && vm->st.frames == 0)
 		vm_link(vm, true, now_us); /* open, nothing yet: up and waiting (then STALE) */
 	for (; t != h; t++) {
 		const struct rx_item *it = &s->ring[t % RX_RING];
@@ -397,6 +404,7 @@ static void link_poll(struct source *s, uint64_t now_us)
 				s->rec_damaged++;
 			s->ended = true;
 			vm_link(vm, false, now_us);
+			atomic_store(&s->have_link, false);
 			swell_link_close(s->link);
 			s->link = NULL;
 			return;
@@ -436,6 +444,7 @@ void source_close(struct source *s)
 	}
 	free(s->ring);
 	s->ring = NULL;
+	atomic_store(&s->have_link, false);
 	swell_link_close(s->link);
 	s->link = NULL;
 }

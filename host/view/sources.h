@@ -59,6 +59,7 @@ struct source {
 	bool threaded;
 	pthread_t thread;
 	atomic_bool stop;
+	atomic_bool have_link;    /* link set (by the thread when a USB device appears late) */
 	atomic_uint head, tail;   /* ring indices: the thread writes at head, the display reads at tail */
 	atomic_uint overflow;     /* frames lost because the display fell RX_RING frames behind */
 	struct rx_item *ring;
