@@ -112,7 +112,7 @@ struct closed_loop {
 	uint16_t port;
 	proc ctl;
 
-	explicit closed_loop(const std::string &n, const char *clock = "device")
+	explicit closed_loop(const std::string &n, const char *clock = "device", int silent_ticks = 200)
 	    : name(n), hm_out(work_dir + "/" + n + ".hm.txt"), ctl_out(work_dir + "/" + n + ".ctl.txt"),
 	      csv(work_dir + "/" + n + ".csv"), port(free_udp_port())
 	{
@@ -122,7 +122,7 @@ struct closed_loop {
 		// a period with the device clock): a loaded CI machine must not fault the loop; link loss is
 		// the kill test's
 		ctl = spawn({ctl_bin, "--clock", clock, "--autorun", "--device", "udp:" + std::to_string(port), "--host",
-			     "none", "--no-rt", "--quiet", "--silent-ticks", "200"},
+			     "none", "--no-rt", "--quiet", "--silent-ticks", std::to_string(silent_ticks)},
 			    ctl_out);
 		std::this_thread::sleep_for(std::chrono::milliseconds(100));
 	}
@@ -450,8 +450,14 @@ TEST_CASE("determinism: the same scripted hand in lockstep gives a bit-identical
 {
 	std::string logs[2];
 	for (int k = 0; k < 2; k++) {
-		closed_loop cl("determinism-" + std::to_string(k));
-		cl.run(cl.hm_args("shake:at=0.5,axis=z,f=2,amp=10,for=2", 3.0));
+		// neither side may act on a timeout, which a loaded machine would make happen at different
+		// ticks: the controller ticks by itself only after 4 s of silence, the model waits 5 s
+		closed_loop cl("determinism-" + std::to_string(k), "device", 10000);
+		std::vector<std::string> args = cl.hm_args("shake:at=0.5,axis=z,f=2,amp=10,for=2", 3.0);
+		args.insert(args.end(), {"--timeout-ms", "5000"});
+		const std::string s = cl.run(args);
+		INFO("run " << k << ":\n" << s);
+		CHECK(figure(s, "timeouts") == 0);
 		logs[k] = slurp(cl.csv);
 	}
 	const size_t lines = (size_t)std::count(logs[0].begin(), logs[0].end(), '\n');
