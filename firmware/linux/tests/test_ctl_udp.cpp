@@ -2,6 +2,8 @@
  * ones answered with a NACK and without effect, good ones acknowledged with the value in force. */
 #include <catch2/catch.hpp>
 
+#include <algorithm>
+
 #include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
@@ -166,28 +168,36 @@ TEST_CASE("swell-ctl --clock device: a silent device is ticked on every period, 
 	}
 	REQUIRE(answered >= 20);
 
-	/* then silence: after silent_ticks periods the loop ticks on its own, a FORCE_CMD each tick */
-	const uint64_t t0 = swell_link_now_ns();
+	/* then silence: after silent_ticks periods the loop ticks on its own, a FORCE_CMD each tick.
+	 * Counted over up to three windows of 0.5 s, the best kept: the defect caps the rate at 1000 a
+	 * second whatever the load, while a machine busy with other tests only takes some windows from
+	 * the controller. */
 	const uint64_t window_ns = 500000000u;
+	double rate = 0.0;
 	int forces = 0;
-	while (swell_link_now_ns() - t0 < window_ns) {
-		swell_frame f{};
-		swell_msg m[SWELL_PKT_MSGS_MAX];
-		size_t n = 0;
-		if (swell_link_recv(dev, &f, 10) != 0)
-			continue;
-		if (swell_link_decode(SWELL_CARRIER_PKT, &f, m, SWELL_PKT_MSGS_MAX, &n, nullptr, nullptr) != SWELL_OK)
-			continue;
-		for (size_t k = 0; k < n; k++)
-			forces += m[k].type == SWELL_MSG_FORCE_CMD;
+	for (int w = 0; w < 3 && rate <= 0.5 * tick_hz; w++) {
+		const uint64_t t0 = swell_link_now_ns();
+		forces = 0;
+		while (swell_link_now_ns() - t0 < window_ns) {
+			swell_frame f{};
+			swell_msg m[SWELL_PKT_MSGS_MAX];
+			size_t n = 0;
+			if (swell_link_recv(dev, &f, 10) != 0)
+				continue;
+			if (swell_link_decode(SWELL_CARRIER_PKT, &f, m, SWELL_PKT_MSGS_MAX, &n, nullptr, nullptr) !=
+			    SWELL_OK)
+				continue;
+			for (size_t k = 0; k < n; k++)
+				forces += m[k].type == SWELL_MSG_FORCE_CMD;
+		}
+		rate = std::max(rate, forces / (window_ns / 1e9));
 	}
 	kill(pid, SIGTERM);
 	int st = 0;
 	waitpid(pid, &st, 0);
 	swell_link_close(dev);
-	const double rate = forces / (window_ns / 1e9);
-	INFO("ticks of a silent device: " << forces << " in " << window_ns / 1000000u << " ms, " << rate
-					  << " a second (tick rate " << tick_hz << " Hz)");
+	INFO("ticks of a silent device: " << forces << " in the last " << window_ns / 1000000u << " ms window, best "
+					  << rate << " a second (tick rate " << tick_hz << " Hz)");
 	/* every period (plus the tick's own time, and room for a loaded machine); a whole-millisecond
 	 * wait cannot pass 1000 a second */
 	CHECK(rate > 0.5 * tick_hz);
