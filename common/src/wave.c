@@ -902,7 +902,7 @@ void swell_wave_add(struct swell_wave *w, int i, int j, int32_t dh)
 	/* a row finished ahead: what the finish would add, now (|h| <= 2^27, |now - old| <= 2^30) */
 	*t |= T_DIRTY | T_TOUCHED;
 	x = w->h[a] + (now - old);
-	w->h[a] = x > SWELL_H_MAX ? SWELL_H_MAX : x < SWELL_H_MIN ? SWELL_H_MIN : x;
+	w->h[a] = (int32_t)swell_clamp(x, SWELL_H_MIN, SWELL_H_MAX);
 	w->saturations += w->h[a] != x;
 }
 

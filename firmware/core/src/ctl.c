@@ -165,7 +165,6 @@ enum swell_err swell_ctl_init(struct swell_ctl *c, const struct swell_ctl_config
 	for (a = 0; a < n; a++)
 		sent_set(c, a, NEVER_SENT);
 	c->ticks_per_step = cfg->tick_hz / cfg->solver_hz;
-	c->rows_per_tick = (cfg->ny + c->ticks_per_step - 2) / (c->ticks_per_step - 1);
 	c->units_per_tick = ((COST_EDGE_ROW + COST_FINISH_ROW) * cfg->ny + COST_CLEAR + c->ticks_per_step - 1) /
 			    c->ticks_per_step;
 	c->tiles_x = (uint16_t)((cfg->nx + SWELL_PROTO_TILE - 1) / SWELL_PROTO_TILE);

@@ -31,6 +31,14 @@ struct Ctl {
 		m.u.device_pos.status = status;
 		swell_ctl_rx(&c, SWELL_LINK_DEVICE, &m);
 	}
+	/* n ticks, each with a device sample held 100 mm above the water (status: powered) */
+	void held(int n, uint8_t status = 1)
+	{
+		for (int t = 0; t < n; t++) {
+			device(0, 0, 100000, status);
+			swell_ctl_tick(&c);
+		}
+	}
 	void param(uint16_t id, int32_t v)
 	{
 		swell_msg m{};
@@ -98,10 +106,7 @@ TEST_CASE("states go boot, idle, armed, running and fault, with zero force outsi
 
 	/* run command: running; the object held 100 mm above the water feels its weight (0.981 N down) */
 	k.param(SWELL_PARAM_COMMAND, SWELL_CMD_RUN);
-	for (int t = 0; t < 50; t++) {
-		k.device(0, 0, 100000);
-		swell_ctl_tick(&k.c);
-	}
+	k.held(50);
 	CHECK(k.c.state == SWELL_CTL_RUNNING);
 	swell_msg_force_cmd f = k.force();
 	CHECK(f.enable == 1);
@@ -142,18 +147,12 @@ TEST_CASE("a silent device gives zero force and a fault within 2 ticks, and clea
 	CHECK(k.c.last_err == SWELL_ETIMEOUT);
 
 	/* the device comes back: still fault (no autorun) until CLEAR, then idle -> armed -> running */
-	for (int t = 0; t < 10; t++) {
-		k.device(0, 0, 100000);
-		swell_ctl_tick(&k.c);
-	}
+	k.held(10);
 	CHECK(k.c.state == SWELL_CTL_FAULT);
 	CHECK(k.force().enable == 0);
 	k.param(SWELL_PARAM_COMMAND, SWELL_CMD_CLEAR);
 	k.param(SWELL_PARAM_COMMAND, SWELL_CMD_RUN);
-	for (int t = 0; t < 5; t++) {
-		k.device(0, 0, 100000);
-		swell_ctl_tick(&k.c);
-	}
+	k.held(5);
 	CHECK(k.c.state == SWELL_CTL_RUNNING);
 	CHECK(k.c.n.faults == 1u);
 }
@@ -164,10 +163,7 @@ TEST_CASE("autorun leaves a fault by itself after the device has been back for r
 	cfg.autorun = 1;
 	cfg.recover_ticks = 20;
 	Ctl k(cfg);
-	for (int t = 0; t < 10; t++) {
-		k.device(0, 0, 100000);
-		swell_ctl_tick(&k.c);
-	}
+	k.held(10);
 	REQUIRE(k.c.state == SWELL_CTL_RUNNING);
 	for (int t = 0; t < 5; t++)
 		swell_ctl_tick(&k.c);
@@ -189,10 +185,7 @@ TEST_CASE("with autorun, STOP from the host stops the force law and holds until 
 	swell_ctl_config cfg = pool();
 	cfg.autorun = 1;
 	Ctl k(cfg);
-	for (int t = 0; t < 10; t++) {
-		k.device(0, 0, 100000);
-		swell_ctl_tick(&k.c);
-	}
+	k.held(10);
 	REQUIRE(k.c.state == SWELL_CTL_RUNNING);
 	REQUIRE(k.force().enable == 1);
 	k.param(SWELL_PARAM_COMMAND, SWELL_CMD_STOP);
@@ -228,10 +221,7 @@ TEST_CASE("after an e-stop, autorun counts recover_ticks from the release, with 
 	cfg.autorun = 1;
 	cfg.recover_ticks = 20;
 	Ctl k(cfg);
-	for (int t = 0; t < 10; t++) {
-		k.device(0, 0, 100000);
-		swell_ctl_tick(&k.c);
-	}
+	k.held(10);
 	REQUIRE(k.c.state == SWELL_CTL_RUNNING);
 	/* the e-stop pressed for 100 ticks while the device goes on reporting (status: powered, e-stop) */
 	for (int t = 0; t < 100; t++) {
@@ -261,10 +251,7 @@ TEST_CASE("the device's emergency stop faults at once", "[ctl][state]")
 	swell_ctl_config cfg = pool();
 	cfg.autorun = 1;
 	Ctl k(cfg);
-	for (int t = 0; t < 10; t++) {
-		k.device(0, 0, 100000);
-		swell_ctl_tick(&k.c);
-	}
+	k.held(10);
 	REQUIRE(k.c.state == SWELL_CTL_RUNNING);
 	k.device(0, 0, 100000, 1 | 4);
 	swell_ctl_tick(&k.c);

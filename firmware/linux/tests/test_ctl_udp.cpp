@@ -25,6 +25,18 @@ extern char **environ;
 
 namespace {
 
+/* swell-ctl (or any program) started with args, its pid */
+pid_t spawn(std::vector<std::string> &args)
+{
+	std::vector<char *> argv;
+	for (auto &a : args)
+		argv.push_back(&a[0]);
+	argv.push_back(nullptr);
+	pid_t pid = -1;
+	REQUIRE(posix_spawn(&pid, argv[0], nullptr, nullptr, argv.data(), environ) == 0);
+	return pid;
+}
+
 struct Viewer {
 	swell_link *l = nullptr;
 	uint8_t seq = 0;
@@ -85,12 +97,7 @@ TEST_CASE("swell-ctl over UDP: bad parameter sets are refused with a reason and 
 	const std::string dev = "udp:" + std::to_string(swell_link_udp_port(v.l) + 1);
 	std::vector<std::string> args = {SWELL_CTL_BIN, "--device", dev, "--host", host, "--no-rt", "--quiet",
 					 "--seconds", "30"};
-	std::vector<char *> argv;
-	for (auto &a : args)
-		argv.push_back(&a[0]);
-	argv.push_back(nullptr);
-	pid_t pid;
-	REQUIRE(posix_spawn(&pid, argv[0], nullptr, nullptr, argv.data(), environ) == 0);
+	const pid_t pid = spawn(args);
 
 	/* the controller is alive: its heartbeat reaches the viewer port */
 	swell_msg hb = v.wait_for(SWELL_MSG_HEARTBEAT, 3000);
@@ -147,12 +154,7 @@ TEST_CASE("swell-ctl --clock device: a silent device is ticked on every period, 
 	std::vector<std::string> args = {SWELL_CTL_BIN, "--device", "udp:" + std::to_string(ctl_port), "--host", "none",
 					 "--clock", "device", "--tick-hz", std::to_string(tick_hz), "--no-rt",
 					 "--quiet", "--seconds", "30"};
-	std::vector<char *> argv;
-	for (auto &a : args)
-		argv.push_back(&a[0]);
-	argv.push_back(nullptr);
-	pid_t pid;
-	REQUIRE(posix_spawn(&pid, argv[0], nullptr, nullptr, argv.data(), environ) == 0);
+	const pid_t pid = spawn(args);
 
 	/* samples until the controller answers with forces (one tick per sample) */
 	uint8_t seq = 0, pseq = 0;

@@ -141,7 +141,7 @@ struct swell_ctl {
 	uint32_t info_wait;   /* ticks until the periodic CTL_INFO */
 
 	/* scheduling */
-	uint32_t ticks_per_step, rows_per_tick, phase;
+	uint32_t ticks_per_step, phase;
 	uint32_t units_per_tick; /* the share of a solver step's work a tick carries (ctl.c) */
 	uint32_t work_force;   /* work of the force part of the tick in progress */
 	volatile uint8_t bg_pending; /* force part done, background part not yet */
