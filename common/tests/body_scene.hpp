@@ -1,4 +1,4 @@
-// A pool with one object for the body tests: the reference scene of DESIGN.md 2.3 (64 x 64 cells of
+// A pool with one object for the body tests: the reference scene of docs/design.md, section 4 (64 x 64 cells of
 // 6.25 mm, 50 mm deep, solver at 250 Hz, device at 2500 Hz) unless a test asks for another.
 #pragma once
 

@@ -100,7 +100,7 @@ void bench_field_steps(struct bench_field *f, long n);
 
 /* sum(h) in LSB (exact for fixed kernels). */
 double bench_field_volume_lsb(const struct bench_field *f);
-/* E = kin + e_eff pot2 / 2 (DESIGN.md 2.1) in LSB^2; computed exactly in 128-bit integers for fixed
+/* E = kin + e_eff pot2 / 2 (docs/design.md, section 2) in LSB^2; computed exactly in 128-bit integers for fixed
  * kernels and rounded once to double; float kernels in double. */
 double bench_field_energy(const struct bench_field *f);
 /* max |h| and max |h(n) - h(n-1)| in LSB. */

@@ -931,7 +931,7 @@ static void load_f405(const char *path)
 }
 
 
-/* ---- issue 10: what a scene does not need is skipped ---------------------------------------
+/* ---- what a scene does not need is skipped ---------------------------------------
  * The image's three cost scenes (firmware/stm32f405/logic/scene.c: calm, one local splash, a fully
  * agitated pool; 64x64, damped t = 0.001, FW_COST_STEPS steps from their start) on every kernel this
  * host has, against a float32 loop of the same stencil over the whole grid, timed in the same run; and
@@ -1021,7 +1021,7 @@ static void run_scenes(const struct opts *o)
 		}
 	}
 	if (f405_cost[FW_COST_AGITATED] > 0)
-		printf("  F405 agitated pool: %.2f instructions per cell-step against the issue's target of 8 "
+		printf("  F405 agitated pool: %.2f instructions per cell-step against a target of 8 "
 		       "(%.1f x the target; naive int32 loop %.2f)\n",
 		       f405_cost[FW_COST_AGITATED], f405_cost[FW_COST_AGITATED] / 8.0, f405_naive);
 	bench_field_free(&f);

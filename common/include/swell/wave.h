@@ -119,7 +119,7 @@ struct swell_wave {
 	uint8_t kernel;         /* enum swell_wave_kernel in use (never AUTO) */
 };
 
-/* Exact integer energy (DESIGN.md 2.1), for tests: with t = 0,
+/* Exact integer energy (docs/design.md, section 2), for tests: with t = 0,
  *     E * 2^31 = kin * 2^31 + e_eff * pot2
  * is conserved exactly in exact arithmetic; kin = sum (h(n) - h(n-1))^2 and
  * pot2 = sum over edges of 2 w (h_b - h_a)(n) (h_b - h_a)(n-1), in LSB^2. Both are exact in int64 while

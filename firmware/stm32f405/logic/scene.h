@@ -1,4 +1,4 @@
-/* The reference scene of the controller self-test (DESIGN.md 2.3, "pool"): 64 x 64 cells, dx 6.25 mm,
+/* The reference scene of the controller self-test ("pool", docs/design.md): 64 x 64 cells, dx 6.25 mm,
  * depth 50 mm, dt 4 ms (e = g dt^2 d / dx^2 with g = 9.81 m/s^2), paper stencil, no damping, a
  * Gaussian bump of 2 mm, sigma 3 cells, at cell (32, 32), water at rest. Integer-only set-up, so the
  * image and the host start from the same bits (same as `swell-sim --grid 64x64 --dt 0.004
@@ -23,7 +23,7 @@
 /* Bind storage (FW_SCENE_WORDS words) and set the initial field. */
 enum swell_err fw_scene_init(struct swell_wave *w, int32_t *storage, size_t words);
 
-/* The three cost scenes of issue 10, on the same pool with damping t = 0.001 (the demo's), so that
+/* The three cost scenes (calm, local, agitated), on the same pool with damping t = 0.001 (the demo's), so that
  * the damped kernel runs: CALM, the water at rest; LOCAL, one 2 mm splash of sigma 2 cells at
  * (12, 12), FW_COST_STEPS steps from its start; AGITATED, every cell random in [-2, 2] mm (a fixed
  * integer generator). */

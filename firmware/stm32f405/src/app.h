@@ -1,5 +1,5 @@
 /* Controller mode on silicon: the core (firmware/core) driven by the TIM2 tick, messages in from
- * CAN and USB, out to them. The device link runs on CAN at 1000 Hz when CAN answers (DESIGN.md 2.3),
+ * CAN and USB, out to them. The device link runs on CAN at 1000 Hz when CAN answers (docs/design.md, section 4),
  * else everything on USB at 2500 Hz. Messages are routed to the core's links by their sender in the
  * protocol table (DEV -> device link, VIEW -> host link), whatever carrier brought them. */
 #ifndef SWELL_FW_APP_H

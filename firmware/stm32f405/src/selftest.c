@@ -32,8 +32,8 @@ static void put_insn(uint64_t ticks, uint64_t per)
 	con_put_ratio(ticks * INSN_NUM, per * INSN_DEN, 2);
 }
 
-/* Naive three-level 9-point step on the interior cells, int32 with a Q1.31 e/2 (the DESIGN.md 6
- * anchor: a plain loop, no flux form, no walls): h' = 2h - h_prev + e L9. */
+/* Naive three-level 9-point step on the interior cells, int32 with a Q1.31 e/2 (the cost
+ * anchor of docs/stm32f405.md: a plain loop, no flux form, no walls): h' = 2h - h_prev + e L9. */
 __attribute__((noinline)) static void naive_step(int32_t *restrict prev, const int32_t *restrict h,
 						 int32_t e_half_q31)
 {
@@ -159,7 +159,7 @@ static int run_scene(void)
 	return 1;
 }
 
-/* The cost scenes of issue 10 (logic/scene.h): instructions per cell-step over the whole grid and per
+/* The cost scenes (logic/scene.h): instructions per cell-step over the whole grid and per
  * awake cell-step (tile rows not skipped), and the checksum the host compares. */
 static int run_cost(void)
 {
@@ -216,7 +216,7 @@ static void run_naive(void)
 	}
 	con_puts("naive int32 9-point cell-step: ");
 	put_insn(sum, (uint64_t)SWELL_FW_SELFTEST_STEPS * (FW_SCENE_NX - 2) * (FW_SCENE_NY - 2));
-	con_puts(" instructions per interior cell-step (DESIGN.md anchor 23.2)\n");
+	con_puts(" instructions per interior cell-step (a plain int32 loop)\n");
 }
 
 /* Stand-in for the core's force path until firmware/core is linked: a spring on the height under

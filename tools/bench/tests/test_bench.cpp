@@ -185,7 +185,7 @@ TEST_CASE("a push moves no volume and the edge-flux kernels conserve volume exac
 		if (impl == BENCH_SHIPPED || impl == BENCH_EF16)
 			CHECK(drift == 0);
 		if (impl == BENCH_TL32_FLOOR)
-			CHECK(drift < 0); // floor biases the mean level down, as DESIGN.md 2.1 says
+			CHECK(drift < 0); // floor biases the mean level down, as docs/design.md (rounding traps) says
 		bench_field_free(&f);
 	}
 }

@@ -166,7 +166,7 @@ struct swell_ctl {
 /* int32 words of the arena the controller needs for an nx x ny scene (wave storage + sent heights). */
 size_t swell_ctl_arena_words(uint16_t nx, uint16_t ny);
 
-/* A configuration for the reference scene "pool" (DESIGN.md 2.3): 64 x 64 cells of 6.25 mm, depth
+/* A configuration for the reference scene "pool" (docs/design.md, section 4): 64 x 64 cells of 6.25 mm, depth
  * 50 mm, solver 250 Hz, device 2500 Hz, a 50 mm cube of 100 g. */
 void swell_ctl_default_config(struct swell_ctl_config *cfg);
 
