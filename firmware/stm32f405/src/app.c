@@ -7,7 +7,7 @@
 #include "fault.h"
 #include "image.h"
 #include "iwdg.h"
-#include "port.h"
+#include "safe.h"
 #include "swell/proto.h"
 #include "swell/transport.h"
 #include "tick.h"
@@ -97,9 +97,11 @@ static void drain(enum swell_ctl_link l)
 			if (out[j].type == SWELL_MSG_FORCE_CMD) {
 				int on = out[j].u.force_cmd.enable;
 
-				port_force_cN[0] = on ? out[j].u.force_cmd.fx_cN : 0;
-				port_force_cN[1] = on ? out[j].u.force_cmd.fy_cN : 0;
-				port_force_cN[2] = on ? out[j].u.force_cmd.fz_cN : 0;
+				if (on)
+					safe_force_record(out[j].u.force_cmd.fx_cN, out[j].u.force_cmd.fy_cN,
+							  out[j].u.force_cmd.fz_cN);
+				else
+					safe_force_record(0, 0, 0);
 			}
 		}
 		if (on_can) {
@@ -174,7 +176,9 @@ void app_fw_version(uint8_t v[3])
 	v[2] = (uint8_t)version;
 }
 
-void app_send_zero_force(void)
+/* The safe-state hook of the device carrier: a zero FORCE_CMD queued directly (fault path; no core
+ * involved). */
+static void app_send_zero_force(void)
 {
 	struct swell_msg m = {.type = SWELL_MSG_FORCE_CMD, .node = app_ctl.cfg.node};
 	struct fw_frame f = {0};
@@ -204,6 +208,8 @@ void app_run(const struct clock_info *ci, int can_ok, int usb_ok, const struct a
 	if (err == SWELL_OK && can_ok) {
 		err = can_start(ci->pclk1_hz, SWELL_CAN_BITRATE, &flt, 1, 0, prio->can_rx, prio->can_sce);
 		app.can_on = app.device_on_can = err == SWELL_OK;
+		if (err == SWELL_OK) /* after the driver's transmit abort: the zero command goes out last */
+			err = safe_register(app_send_zero_force);
 	}
 	if (err == SWELL_OK && usb_ok && ci->src != CLOCK_HSE_PLL)
 		con_puts("usb: not started: 48 MHz needs the crystal (HSE), running on HSI\n");

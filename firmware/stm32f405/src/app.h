@@ -30,7 +30,4 @@ __attribute__((noreturn)) void app_run(const struct clock_info *ci, int can_ok, 
  * to the 8 bits the message has). */
 void app_fw_version(uint8_t v[3]);
 
-/* Queue a zero FORCE_CMD on the device carrier directly (fault path; no core involved). */
-void app_send_zero_force(void);
-
 #endif

@@ -4,7 +4,8 @@
 #include "../regs/stm32f405_periph.h"
 #include "../regs/stm32f405_rcc.h"
 #include "console.h"
-#include "port.h"
+#include "irq.h"
+#include "safe.h"
 
 #define SYSCFG_MEMRMP (*(volatile uint32_t *)0x40013800u)
 #define SYSCFG_MEMRMP_SYSTEM_FLASH 1u /* MEM_MODE = 01: system flash at 0x00000000 */
@@ -23,12 +24,12 @@ static void console_drain(void)
 
 void boot_request_reset(void)
 {
-	port_force_zero();
+	safe_force_zero();
 	con_puts("boot: ENTER_BOOTLOADER accepted, force zeroed: resetting into the ROM bootloader at 0x");
 	con_put_hex32(BOOT_SYSMEM);
 	con_putc('\n');
 	console_drain();
-	__asm__ volatile("cpsid i" ::: "memory");
+	irq_disable();
 	BOOT_WORD(1) = BOOT_MAGIC_REQUEST;
 	__asm__ volatile("dsb" ::: "memory");
 	/* keep PRIGROUP, ask for a system reset (RM0090: every register but RCC_CSR and the backup
@@ -52,7 +53,7 @@ void boot_early(void)
 	if (BOOT_WORD(1) != BOOT_MAGIC_REQUEST)
 		return;
 	BOOT_WORD(1) = 0; /* once only: the bootloader's own reset must start this image */
-	__asm__ volatile("cpsid i" ::: "memory");
+	irq_disable();
 	SYSTICK->CTRL = 0;
 	SYSTICK->LOAD = 0;
 	SYSTICK->VAL = 0;

@@ -5,8 +5,9 @@
 #include "../regs/stm32f405_can.h"
 #include "../regs/stm32f405_periph.h"
 #include "../regs/stm32f405_rcc.h"
+#include "irq.h"
 #include "isr.h"
-#include "port.h"
+#include "safe.h"
 
 #define INAK_WAIT_LOOPS 100000u /* leaving init needs 11 recessive bits: 11 us at 1 Mbit/s */
 #define RX_RING 16u
@@ -67,6 +68,9 @@ enum swell_err can_start(uint32_t pclk1_hz, uint32_t bitrate, const struct can_f
 	err = can_filter_plan(flt, nflt, banks, CAN_FILTER_BANKS_CAN1, &nb);
 	if (err != SWELL_OK)
 		return err;
+	err = safe_register(can_abort_all); /* before the first frame can be queued */
+	if (err != SWELL_OK)
+		return err;
 
 	RCC->AHB1ENR |= RCC_AHB1ENR_GPIOB;
 	RCC->APB1ENR |= RCC_APB1ENR_CAN1;
@@ -123,7 +127,7 @@ enum swell_err can_send(const struct fw_frame *f)
 		return SWELL_EINVAL;
 	if (!can.running || (CAN1->ESR & CAN_ESR_BOFF))
 		return SWELL_ESTATE;
-	__asm__ volatile("mrs %0, primask\n\tcpsid i" : "=r"(primask)::"memory");
+	primask = irq_save();
 	tsr = CAN1->TSR;
 	err = can_tx_pick(tsr >> CAN_TSR_TME_SHIFT, can.pend_id, f->id, &mb, &abort);
 	if (err == SWELL_OK && abort) {
@@ -150,7 +154,7 @@ enum swell_err can_send(const struct fw_frame *f)
 		can.pend_id[mb] = f->id;
 		m->TIR = (f->id << CAN_TIR_STID_SHIFT) | CAN_TIR_TXRQ;
 	}
-	__asm__ volatile("msr primask, %0" ::"r"(primask) : "memory");
+	irq_restore(primask);
 	return err;
 }
 
@@ -210,7 +214,7 @@ void isr_can1_sce(void)
 	CAN1->MSR = CAN_MSR_ERRI; /* rc_w1 */
 	if ((esr & CAN_ESR_BOFF) && !can.busoff.pending) {
 		can_busoff_event(&can.busoff, can.now_ms);
-		port_force_zero();
+		safe_force_zero();
 	}
 }
 
@@ -220,9 +224,9 @@ void can_poll(uint32_t now_ms)
 	int due, ok = 0;
 
 	can.now_ms = now_ms;
-	__asm__ volatile("mrs %0, primask\n\tcpsid i" : "=r"(primask)::"memory");
+	primask = irq_save();
 	due = can_busoff_due(&can.busoff, now_ms);
-	__asm__ volatile("msr primask, %0" ::"r"(primask) : "memory");
+	irq_restore(primask);
 	if (!due)
 		return;
 	/* Manual recovery (ABOM = 0): a pass through initialisation mode clears the error state once
@@ -232,9 +236,9 @@ void can_poll(uint32_t now_ms)
 		CAN1->MCR &= ~CAN_MCR_INRQ;
 		ok = wait_msr(CAN_MSR_INAK, 0);
 	}
-	__asm__ volatile("mrs %0, primask\n\tcpsid i" : "=r"(primask)::"memory");
+	primask = irq_save();
 	can_busoff_attempted(&can.busoff, now_ms, ok);
-	__asm__ volatile("msr primask, %0" ::"r"(primask) : "memory");
+	irq_restore(primask);
 }
 
 void can_status(struct can_status *out)

@@ -41,7 +41,7 @@ enum swell_err can_send(const struct fw_frame *f);
  * when empty. */
 enum swell_err can_recv(struct fw_frame *f);
 
-/* Abort every pending transmission (used by port_force_zero; safe when CAN is not running). */
+/* Abort every pending transmission (a safe-state hook, safe_force_zero; safe when CAN is not running). */
 void can_abort_all(void);
 
 /* Call from the main loop: runs the bus-off recovery once the hold-off has passed. */

@@ -5,7 +5,8 @@
 #include "../regs/cortex_m4.h"
 #include "boot.h"
 #include "console.h"
-#include "port.h"
+#include "irq.h"
+#include "safe.h"
 
 /* Registers the core stacked on exception entry. */
 struct fault_frame {
@@ -16,14 +17,14 @@ void fault_report(const struct fault_frame *f, uint32_t exc_return);
 
 __attribute__((noreturn)) static void halt(void)
 {
-	__asm__ volatile("cpsid i" ::: "memory");
+	irq_disable();
 	for (;;)
 		__asm__ volatile("wfi");
 }
 
 void fault_stop(const char *why)
 {
-	port_force_zero();
+	safe_force_zero();
 	con_puts("FAULT: ");
 	con_puts(why);
 	con_puts(" (force zeroed, waiting for the watchdog)\n");
@@ -36,7 +37,7 @@ __attribute__((used, noreturn)) void fault_report(const struct fault_frame *f, u
 	uint32_t ipsr;
 
 	boot_probe_fault(); /* the ROM probe of a bootloader request: no return */
-	port_force_zero();
+	safe_force_zero();
 	__asm__ volatile("mrs %0, ipsr" : "=r"(ipsr));
 	con_puts("FAULT: exception ");
 	con_put_u32(ipsr & 0x1FFu);
@@ -57,11 +58,11 @@ __attribute__((used, noreturn)) void fault_report(const struct fault_frame *f, u
 	con_puts(" bfar 0x");
 	con_put_hex32(SCB->BFAR);
 	con_puts("\nFAULT: force now ");
-	con_put_i64(port_force_cN[0]);
+	con_put_i64(safe_force_cN(0));
 	con_putc(' ');
-	con_put_i64(port_force_cN[1]);
+	con_put_i64(safe_force_cN(1));
 	con_putc(' ');
-	con_put_i64(port_force_cN[2]);
+	con_put_i64(safe_force_cN(2));
 	con_puts(" cN (zeroed), waiting for the watchdog\n");
 	halt();
 }

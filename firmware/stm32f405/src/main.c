@@ -12,7 +12,7 @@
 #include "console.h"
 #include "fault.h"
 #include "image.h"
-#include "port.h"
+#include "safe.h"
 #include "selftest.h"
 #include "timebase.h"
 #include "usb.h"
@@ -71,7 +71,7 @@ int main(void)
 
 	BOOT_MODE = 0;
 	RCC->CSR |= RCC_CSR_RMVF;
-	port_force_zero();
+	safe_force_zero();
 	clock_init(&ci);
 	con_init(ci.pclk2_hz, 115200);
 	setup_faults();
@@ -140,7 +140,7 @@ int main(void)
 		selftest_run(ci.tim_apb1_hz);
 		if (boot_mode == BOOT_MODE_FAULT) {
 			con_puts("boot mode: fault injection (force 1234 cN on z, then an undefined instruction)\n");
-			port_force_cN[2] = 1234;
+			safe_force_record(0, 0, 1234);
 			__asm__ volatile("udf #0");
 		}
 		for (;;)

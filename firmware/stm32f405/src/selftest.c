@@ -8,7 +8,7 @@
 #include "../regs/stm32f405_periph.h"
 #include "console.h"
 #include "loopback.h"
-#include "port.h"
+#include "safe.h"
 #include "tick.h"
 #include "timebase.h"
 
@@ -225,7 +225,7 @@ static void force_tick(void)
 {
 	int32_t h = wave_storage[32 * FW_SCENE_NX + 32];
 
-	port_force_cN[2] = h >> 10;
+	safe_force_record(0, 0, h >> 10);
 }
 
 /* The tick: TIM2 is configured for 1000 Hz and its interrupt (priority 0, the force path) is

@@ -4,21 +4,21 @@
 #include "../regs/stm32f405_periph.h"
 #include "../regs/stm32f405_rcc.h"
 #include "isr.h"
-#include "port.h"
+#include "timebase.h"
 
 static void (*tick_fn)(void);
 static volatile struct tick_stats stats;
 
 void isr_tim2(void)
 {
-	uint64_t t0 = port_cycles(), cost;
+	uint64_t t0 = timebase_cycles(), cost;
 
 	TIM2->SR = ~TIM_SR_UIF; /* rc_w0: write 0 to clear */
 	if (tick_fn)
 		tick_fn();
 	if (TIM2->SR & TIM_SR_UIF)
 		stats.overruns++;
-	cost = port_cycles() - t0;
+	cost = timebase_cycles() - t0;
 	stats.last_cost = cost > UINT32_MAX ? UINT32_MAX : (uint32_t)cost;
 	if (stats.last_cost > stats.max_cost)
 		stats.max_cost = stats.last_cost;

@@ -1,8 +1,8 @@
 #include "timebase.h"
 
 #include "../regs/cortex_m4.h"
+#include "irq.h"
 #include "isr.h"
-#include "port.h"
 
 static volatile uint32_t wraps;
 static int has_dwt;
@@ -39,14 +39,14 @@ uint64_t timebase_systick(void)
 {
 	uint32_t primask, w, v;
 
-	__asm__ volatile("mrs %0, primask\n\tcpsid i" : "=r"(primask)::"memory");
+	primask = irq_save();
 	w = wraps;
 	v = SYSTICK->VAL;
 	if (SCB->ICSR & SCB_ICSR_PENDSTSET) {
 		v = SYSTICK->VAL;
 		w++;
 	}
-	__asm__ volatile("msr primask, %0" ::"r"(primask) : "memory");
+	irq_restore(primask);
 	return ((uint64_t)w << 24) + (SYSTICK_MAX - v);
 }
 
@@ -55,7 +55,7 @@ int timebase_has_dwt(void)
 	return has_dwt;
 }
 
-uint64_t port_cycles(void)
+uint64_t timebase_cycles(void)
 {
 	return has_dwt ? timebase_dwt() : timebase_systick();
 }

@@ -9,6 +9,8 @@
 void timebase_init(uint8_t systick_prio);
 uint64_t timebase_systick(void); /* SysTick ticks since timebase_init, 64 bits */
 int timebase_has_dwt(void);
+/* Cycle counter: DWT CYCCNT where the core has one, else SysTick extended to 64 bits. */
+uint64_t timebase_cycles(void);
 static inline uint32_t timebase_dwt(void)
 {
 	return *(volatile uint32_t *)0xE0001004u;
