@@ -28,21 +28,84 @@ static int fail(struct ctl_link *l, char *err, size_t len, const char *what, con
 	return -1;
 }
 
+/* "[ADDR:]PORT" into a (ADDR default 127.0.0.1; PORT 0 allowed only when zero_ok); 0 on success. */
+static int parse_addr(const char *s, size_t len, int zero_ok, struct sockaddr_in *a)
+{
+	char buf[32], *end;
+	const char *colon;
+	long port;
+
+	if (len == 0 || len >= sizeof(buf))
+		return -1;
+	memcpy(buf, s, len);
+	buf[len] = '\0';
+	memset(a, 0, sizeof(*a));
+	a->sin_family = AF_INET;
+	a->sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+	colon = strrchr(buf, ':');
+	if (colon) {
+		buf[colon - buf] = '\0';
+		if (inet_pton(AF_INET, buf, &a->sin_addr) != 1)
+			return -1;
+		colon++;
+	} else {
+		colon = buf;
+	}
+	port = strtol(colon, &end, 10);
+	if (*colon == '\0' || *end || port < (zero_ok ? 0 : 1) || port > 65535)
+		return -1;
+	a->sin_port = htons((uint16_t)port);
+	return 0;
+}
+
+/* arg: "PORT[,peer=ADDR:PORT]" (device side) or "PORT[,listen=[ADDR:]PORT]" (host side), either part
+ * may be left out ("udp", "udp:,listen=47802" is not a spelling: the port goes first or not at all). */
+static int parse_udp(const char *spec, const char *arg, int device_side, long *port, struct sockaddr_in *opt,
+		     int *have_opt, char *err, size_t errlen)
+{
+	const char *comma = arg ? strchr(arg, ',') : NULL;
+	const char *key = device_side ? "peer=" : "listen=";
+	size_t plen = arg ? (comma ? (size_t)(comma - arg) : strlen(arg)) : 0;
+	char pbuf[8], *end;
+
+	*have_opt = 0;
+	if (arg) {
+		if (plen == 0 || plen >= sizeof(pbuf)) {
+			snprintf(err, errlen, "%s: port '%.*s' is not in 1..65535", spec, (int)plen, arg);
+			return -1;
+		}
+		memcpy(pbuf, arg, plen);
+		pbuf[plen] = '\0';
+		*port = strtol(pbuf, &end, 10);
+		if (*end || *port < 1 || *port > 65535) {
+			snprintf(err, errlen, "%s: port '%s' is not in 1..65535", spec, pbuf);
+			return -1;
+		}
+	}
+	if (!comma)
+		return 0;
+	comma++;
+	if (strncmp(comma, key, strlen(key)) ||
+	    parse_addr(comma + strlen(key), strlen(comma + strlen(key)), !device_side, opt) != 0) {
+		snprintf(err, errlen, "%s: '%s' is not %s", spec, comma,
+			 device_side ? "peer=ADDR:PORT (the device's address)" : "listen=[ADDR:]PORT (the clients' port)");
+		return -1;
+	}
+	*have_opt = 1;
+	return 0;
+}
+
 static int open_udp(struct ctl_link *l, const char *spec, const char *arg, int device_side, char *err,
 		    size_t errlen)
 {
 	long port = device_side ? SWELL_UDP_PORT_DEVICE : SWELL_UDP_PORT_VIEWER;
 	const int rcvbuf = 2 << 20; /* bytes of queue, about 2700 small datagrams */
-	struct sockaddr_in a;
-	char *end;
+	struct sockaddr_in a, opt;
+	socklen_t alen = sizeof(l->local);
+	int have_opt;
 
-	if (arg) {
-		port = strtol(arg, &end, 10);
-		if (*arg == '\0' || *end || port < 1 || port > 65535) {
-			snprintf(err, errlen, "%s: port '%s' is not in 1..65535", spec, arg);
-			return -1;
-		}
-	}
+	if (parse_udp(spec, arg, device_side, &port, &opt, &have_opt, err, errlen) != 0)
+		return -1;
 	l->fd = socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
 	if (l->fd < 0)
 		return fail(l, err, errlen, "socket for", spec);
@@ -55,12 +118,20 @@ static int open_udp(struct ctl_link *l, const char *spec, const char *arg, int d
 	a.sin_family = AF_INET;
 	a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
 	a.sin_port = htons((uint16_t)(device_side ? port : 0));
+	if (!device_side && have_opt)
+		a = opt; /* the clients' port (and address, when spelled out) */
 	if (bind(l->fd, (struct sockaddr *)&a, sizeof(a)) < 0)
 		return fail(l, err, errlen, "bind", spec);
+	if (getsockname(l->fd, (struct sockaddr *)&l->local, &alen) < 0)
+		return fail(l, err, errlen, "address of", spec);
 	if (!device_side) {
+		a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
 		a.sin_port = htons((uint16_t)port);
 		l->peer = a;
-		l->have_peer = 1;
+		l->have_peer = l->peer_fixed = 1;
+	} else if (have_opt) {
+		l->peer = opt;
+		l->have_peer = l->peer_fixed = 1;
 	}
 	snprintf(l->name, sizeof(l->name), "udp:%ld", port);
 	return 0;
@@ -197,6 +268,7 @@ int ctl_link_open(struct ctl_link *l, const char *spec, int device_side, uint8_t
 	memset(l, 0, sizeof(*l));
 	l->fd = -1;
 	l->node = node;
+	l->device_side = device_side;
 	if (klen >= sizeof(kind)) {
 		snprintf(err, errlen, "link '%s' is not udp[:PORT], can:IFACE or usb:FFS_DIR", spec);
 		return -1;
@@ -270,12 +342,143 @@ static size_t recv_usb(struct ctl_link *l, struct swell_msg *out, size_t cap)
 	return own_node(l, out, n);
 }
 
-size_t ctl_link_recv(struct ctl_link *l, struct swell_msg *out, size_t cap)
+static int same_addr(const struct sockaddr_in *a, const struct sockaddr_in *b)
+{
+	return a->sin_port == b->sin_port && a->sin_addr.s_addr == b->sin_addr.s_addr;
+}
+
+static int64_t mono_ns(void)
+{
+	struct timespec t;
+
+	clock_gettime(CLOCK_MONOTONIC, &t);
+	return (int64_t)t.tv_sec * 1000000000 + t.tv_nsec;
+}
+
+static int has_type(const struct swell_msg *m, size_t n, uint8_t type)
+{
+	size_t k;
+
+	for (k = 0; k < n; k++)
+		if (m[k].type == type)
+			return 1;
+	return 0;
+}
+
+/* Host link: clients silent for longer than CTL_LINK_CLIENT_SILENT_MS lose their slot. */
+static void expire_clients(struct ctl_link *l, int64_t now)
+{
+	const int64_t silent_ns = (int64_t)CTL_LINK_CLIENT_SILENT_MS * 1000000;
+	size_t k;
+
+	for (k = 0; k < CTL_LINK_CLIENTS; k++)
+		if (l->clients[k].heard_ns && now - l->clients[k].heard_ns > silent_ns) {
+			l->clients[k].heard_ns = 0;
+			l->clients_silent++;
+		}
+}
+
+/* Host link: the client slot of from (taking a free one when admit), or NULL. */
+static struct ctl_link_client *client_of(struct ctl_link *l, const struct sockaddr_in *from, int admit)
+{
+	struct ctl_link_client *free_slot = NULL;
+	size_t k;
+
+	for (k = 0; k < CTL_LINK_CLIENTS; k++) {
+		struct ctl_link_client *c = &l->clients[k];
+
+		if (c->heard_ns && same_addr(&c->addr, from))
+			return c;
+		if (!c->heard_ns && !free_slot)
+			free_slot = c;
+	}
+	if (!admit || !free_slot)
+		return NULL;
+	free_slot->addr = *from;
+	l->clients_admitted++;
+	return free_slot;
+}
+
+/* UDP. Device link: once the device is held, any other sender's datagram is counted and dropped
+ * before it is decoded; until then only a packet holding this node's DEVICE_POS is taken, and its
+ * sender becomes the device. Host link: the configured viewer address and admitted clients are
+ * heard; a new sender is admitted by its first valid packet while a slot is free, else refused. */
+static size_t recv_udp(struct ctl_link *l, struct swell_msg *out, size_t cap)
 {
 	uint8_t buf[SWELL_PKT_MAX + 1];
+	struct sockaddr_in from = {0}; /* filled by recvfrom; zeroed for the analyzer */
+	socklen_t flen = sizeof(from);
+	struct ctl_link_client *c = NULL;
 	size_t n = 0;
 	uint8_t seq;
+	ssize_t r = recvfrom(l->fd, buf, sizeof(buf), 0, (struct sockaddr *)&from, &flen);
+	int64_t now;
 
+	if (r < 0)
+		return 0;
+	l->frames_rx++;
+	if (l->device_side && l->have_peer && !l->peer_open && !same_addr(&from, &l->peer)) {
+		l->others++;
+		return 0;
+	}
+	if (swell_pkt_decode(buf, (size_t)r, out, cap, &n, &seq, &l->st) != SWELL_OK)
+		return 0;
+	n = own_node(l, out, n);
+	if (n == 0)
+		return 0; /* another node's packet takes nothing, holds nothing */
+	if (l->device_side) {
+		const int pos = has_type(out, n, SWELL_MSG_DEVICE_POS);
+
+		if (l->have_peer && !l->peer_open)
+			return n; /* the device */
+		if (l->have_peer && same_addr(&from, &l->peer)) {
+			l->peer_open = !pos; /* the device let go is back: held again by its next sample */
+			return n;
+		}
+		if (!pos) {
+			l->others++;
+			return 0;
+		}
+		l->peer = from;
+		l->have_peer = 1;
+		l->peer_open = 0;
+		l->peers_taken++;
+		return n;
+	}
+	if (l->have_peer && same_addr(&from, &l->peer))
+		return n;
+	now = mono_ns();
+	expire_clients(l, now);
+	c = client_of(l, &from, 1);
+	if (!c) {
+		l->clients_refused++;
+		return 0;
+	}
+	c->heard_ns = now;
+	return n;
+}
+
+int ctl_link_release_peer(struct ctl_link *l)
+{
+	if (l->kind != CTL_LINK_UDP || !l->device_side || l->peer_fixed || !l->have_peer || l->peer_open)
+		return 0;
+	l->peer_open = 1;
+	return 1;
+}
+
+unsigned ctl_link_clients(const struct ctl_link *l)
+{
+	unsigned k, n = 0;
+
+	if (l->kind != CTL_LINK_UDP || l->device_side)
+		return 0;
+	for (k = 0; k < CTL_LINK_CLIENTS; k++)
+		n += l->clients[k].heard_ns != 0;
+	return n;
+}
+
+size_t ctl_link_recv(struct ctl_link *l, struct swell_msg *out, size_t cap)
+{
 	if (l->kind == CTL_LINK_USB)
 		return recv_usb(l, out, cap);
 	if (l->kind == CTL_LINK_CAN) {
@@ -315,40 +518,33 @@ size_t ctl_link_recv(struct ctl_link *l, struct swell_msg *out, size_t cap)
 			return 0;
 		return own_node(l, out, 1);
 	}
-	{
-		struct sockaddr_in from = {0}; /* filled by recvfrom; zeroed for the analyzer */
-		socklen_t flen = sizeof(from);
-		ssize_t r = recvfrom(l->fd, buf, sizeof(buf), 0, (struct sockaddr *)&from, &flen);
-
-		if (r < 0)
-			return 0;
-		l->frames_rx++;
-		if (swell_pkt_decode(buf, (size_t)r, out, cap, &n, &seq, &l->st) != SWELL_OK)
-			return 0;
-		n = own_node(l, out, n);
-		if (n == 0)
-			return 0; /* another node's packet must not take the answers away from ours */
-		/* answer whoever spoke last: the device (device link) or a viewer (host link) */
-		if (!l->have_peer || from.sin_port != l->peer.sin_port ||
-		    from.sin_addr.s_addr != l->peer.sin_addr.s_addr) {
-			l->peer = from;
-			l->have_peer = 1;
-		}
-		return n;
-	}
+	return recv_udp(l, out, cap);
 }
 
-static void send_bytes(struct ctl_link *l, const uint8_t *p, size_t len)
+static void send_to(struct ctl_link *l, const struct sockaddr_in *to, const uint8_t *p, size_t len)
 {
-	ssize_t r;
-
-	if (!l->have_peer)
-		return;
-	r = sendto(l->fd, p, len, 0, (struct sockaddr *)&l->peer, sizeof(l->peer));
-	if (r != (ssize_t)len)
+	if (sendto(l->fd, p, len, 0, (const struct sockaddr *)to, sizeof(*to)) != (ssize_t)len)
 		l->tx_errors++;
 	else
 		l->frames_tx++;
+}
+
+/* UDP: to the peer (device link: the device; host link: the configured viewer) and every client. */
+static void send_bytes(struct ctl_link *l, const uint8_t *p, size_t len)
+{
+	size_t k;
+
+	if (l->have_peer)
+		send_to(l, &l->peer, p, len);
+	for (k = 0; k < CTL_LINK_CLIENTS; k++)
+		if (l->clients[k].heard_ns)
+			send_to(l, &l->clients[k].addr, p, len);
+}
+
+/* Whether a send has somewhere to go: a UDP link without peer or client has not. */
+static int has_destination(const struct ctl_link *l)
+{
+	return l->kind != CTL_LINK_UDP || l->have_peer || ctl_link_clients(l) > 0;
 }
 
 static int has_answer(const struct swell_msg *m, size_t n)
@@ -396,7 +592,24 @@ static void send_usb(struct ctl_link *l, const uint8_t *pkt, size_t len, int ans
 	l->answers_dropped += answer != 0;
 }
 
+static void send_msgs(struct ctl_link *l, const struct swell_msg *m, size_t n);
+
 void ctl_link_send(struct ctl_link *l, const struct swell_msg *m, size_t n)
+{
+	const uint32_t before = l->frames_tx;
+
+	if (n == 0)
+		return;
+	if (l->kind == CTL_LINK_UDP && !l->device_side)
+		expire_clients(l, mono_ns());
+	send_msgs(l, m, n);
+	if (l->frames_tx != before)
+		l->unsent_run = 0;
+	else if (has_destination(l) && l->unsent_run < UINT32_MAX)
+		l->unsent_run++;
+}
+
+static void send_msgs(struct ctl_link *l, const struct swell_msg *m, size_t n)
 {
 	size_t k = 0;
 

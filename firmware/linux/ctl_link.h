@@ -42,11 +42,33 @@ enum ctl_can_event ctl_can_error_frame(struct ctl_can_health *h, uint32_t can_id
 
 const char *ctl_can_state_name(enum ctl_can_state s);
 
+/* UDP host link: clients beside the configured viewer address, each admitted by its first valid
+ * packet, dropped after CTL_LINK_CLIENT_SILENT_MS without a valid packet. */
+#define CTL_LINK_CLIENTS 4
+#define CTL_LINK_CLIENT_SILENT_MS 3000
+
+struct ctl_link_client {
+	struct sockaddr_in addr;
+	int64_t heard_ns; /* CLOCK_MONOTONIC of its last valid packet; 0: the slot is free */
+};
+
 struct ctl_link {
 	enum ctl_link_kind kind;
 	int fd;
-	struct sockaddr_in peer; /* UDP: where to send (host link: the viewer; device link: last sender) */
-	int have_peer;
+	/* UDP device link: the device, configured (peer_fixed) or the first sender of this node's
+	 * DEVICE_POS, held until ctl_link_release_peer opens it (peer_open: still sent to, and the next
+	 * sender of DEVICE_POS takes it). UDP host link: the configured viewer address, which receives
+	 * telemetry whether or not it speaks. */
+	struct sockaddr_in peer;
+	int have_peer, peer_fixed, peer_open;
+	uint32_t others;       /* device link: datagrams of any other sender, dropped (unread once held) */
+	uint32_t peers_taken;  /* device link: times a sender became the device */
+	uint32_t unsent_run;   /* sends in a row in which nothing reached the carrier though it had a destination */
+	struct ctl_link_client clients[CTL_LINK_CLIENTS];
+	uint32_t clients_admitted, clients_silent; /* host link: admitted, dropped after their silence */
+	uint32_t clients_refused; /* host link: valid packets of senders refused for a full table */
+	struct sockaddr_in local; /* UDP: the address the socket is bound to */
+	int device_side;
 	uint8_t node, seq;
 	struct swell_usb_ffs usb;
 	int usb_up;
@@ -62,9 +84,11 @@ struct ctl_link {
 	char name[48];
 };
 
-/* spec: "udp[:PORT]" (device link: listen on PORT, default 47800; host link: send to 127.0.0.1:PORT,
- * default 47801), "can:IFACE", "usb:FFS_DIR" (a mounted FunctionFS instance). On failure returns -1
- * and writes a one-line reason to err. */
+/* spec: "udp[:PORT][,OPTION]" (device link: listen on 127.0.0.1:PORT, default 47800, option
+ * "peer=ADDR:PORT" fixes the device's address; host link: send telemetry to 127.0.0.1:PORT, default
+ * 47801, and take clients on the port of option "listen=[ADDR:]PORT", default any free port on
+ * 127.0.0.1), "can:IFACE", "usb:FFS_DIR" (a mounted FunctionFS instance). On failure returns -1 and
+ * writes a one-line reason to err. */
 int ctl_link_open(struct ctl_link *l, const char *spec, int device_side, uint8_t node, char *err,
 		  size_t errlen);
 
@@ -86,6 +110,15 @@ void ctl_link_send(struct ctl_link *l, const struct swell_msg *m, size_t n);
  * zero force on exit, which has no next tick to send a fresher value. 0 when every message went out;
  * only a message that never did counts in tx_errors. Blocks: never on the tick path. */
 int ctl_link_send_wait(struct ctl_link *l, const struct swell_msg *m, size_t n, int wait_ms);
+
+/* Device link: the device is declared lost. A learned UDP peer is let go: it still gets what is sent
+ * (the zero force), and the next sender of this node's DEVICE_POS, it or another, becomes the device.
+ * A configured peer is kept. No effect on CAN and USB, whose peer is the bus node or the USB host.
+ * Returns 1 when a peer was let go. */
+int ctl_link_release_peer(struct ctl_link *l);
+
+/* Host link: clients now admitted (CAN, USB: 0). */
+unsigned ctl_link_clients(const struct ctl_link *l);
 
 void ctl_link_close(struct ctl_link *l);
 

@@ -10,6 +10,7 @@
  * and queued a last heartbeat; both go out, then the report, then exit status 3, so that a
  * supervisor can run the flasher and start the new image (the Linux port has no ROM bootloader). */
 #define _GNU_SOURCE
+#include <arpa/inet.h>
 #include <errno.h>
 #include <math.h>
 #include <poll.h>
@@ -30,10 +31,15 @@ static const char usage[] =
 	"The swell controller as a Linux real-time process: wave solver, force law and safety on the\n"
 	"device tick, telemetry to a viewer.\n"
 	"\n"
-	"  --device LINK       device (HapticMaster) link: udp[:PORT] (default udp:47800, listen),\n"
-	"                      can:IFACE, usb:FFS_DIR (FunctionFS mount: the controller is the USB device)\n"
-	"  --host LINK         viewer link: udp[:PORT] (default udp:47801, send to 127.0.0.1), can:IFACE,\n"
-	"                      usb:FFS_DIR, or none\n"
+	"  --device LINK       device (HapticMaster) link: udp[:PORT][,peer=[ADDR:]PORT] (default udp:47800,\n"
+	"                      listen on 127.0.0.1; the device is the peer given, else the first sender of\n"
+	"                      this node's DEVICE_POS, held until it is declared lost; every other sender\n"
+	"                      is counted and ignored), can:IFACE, usb:FFS_DIR (FunctionFS mount: the\n"
+	"                      controller is the USB device)\n"
+	"  --host LINK         viewer link: udp[:PORT][,listen=[ADDR:]PORT] (default udp:47801: telemetry\n"
+	"                      to 127.0.0.1:47801; up to 4 more clients, each admitted by its first valid\n"
+	"                      packet to the listen port (default any free port on 127.0.0.1, printed)\n"
+	"                      and dropped after 3 s of silence), can:IFACE, usb:FFS_DIR, or none\n"
 	"                      Both on USB: two FunctionFS mounts, interfaces 0 (device) and 1 (host) of\n"
 	"                      one gadget. CAN: the driver's error frames are read; a device-link bus-off\n"
 	"                      zeroes the force and faults the loop until the bus is restarted.\n"
@@ -239,6 +245,9 @@ struct port {
 	int have_host;
 	uint32_t bad_seen;
 	uint32_t bus_offs_seen[2], restarts_seen[2]; /* CAN: device, host link */
+	uint32_t starved;  /* times nothing reached the device for silent_ticks ticks in a row */
+	int starving;      /* the present run of unsent ticks has been reported */
+	uint32_t releases; /* times the device was declared lost and a learned UDP device let go */
 };
 
 static uint32_t rejected(const struct port *p)
@@ -254,7 +263,10 @@ static int take_input(struct port *p)
 	int pos = 0, rounds;
 	uint32_t bad;
 
-	for (rounds = 0; rounds < 64; rounds++) { /* bounded: a flood cannot hold the tick */
+	/* Bounded, a flood cannot hold the tick; deep enough that a flood of datagrams from other senders,
+	 * each dropped unread (no CRC), does not hide the device's samples behind it: 256 reads a tick
+	 * drain 640 000 datagrams a second at 2500 Hz. */
+	for (rounds = 0; rounds < 256; rounds++) {
 		n = ctl_link_recv(&p->dev, m, sizeof(m) / sizeof(m[0]));
 		if (n == 0 && p->dev.frames_rx == 0)
 			break;
@@ -300,6 +312,27 @@ static void device_lost(struct swell_ctl *c)
 	c->dev_back = 0;
 	if (c->since_dev < c->cfg.silent_ticks)
 		c->since_dev = c->cfg.silent_ticks;
+}
+
+/* Nothing reached the device (send refused, no destination) for silent_ticks ticks in a row while it
+ * was there: it is starved even if it still talks, and the loop faults as for a silent device (zero
+ * force, the zero goes out as soon as the carrier takes it). Returns 1 while starved. */
+static int device_starved(struct port *p)
+{
+	if (p->dev.unsent_run < p->c.cfg.silent_ticks) {
+		p->starving = 0;
+		return 0;
+	}
+	if (p->c.state != SWELL_CTL_ARMED && p->c.state != SWELL_CTL_RUNNING)
+		return 0;
+	device_lost(&p->c); /* this tick faults: zero force from the safety stage */
+	if (!p->starving) {
+		p->starving = 1;
+		p->starved++;
+		fprintf(stderr, "swell-ctl: device link %s: no command reached the device for %u ticks: force "
+				"zeroed, loop faulted\n", p->dev.name, p->dev.unsent_run);
+	}
+	return 1;
 }
 
 static double mono_s(void)
@@ -382,6 +415,18 @@ static void flush_output(struct port *p)
 		ctl_link_send(&p->host, m, n);
 }
 
+/* "ADDR:PORT" of a, "(fixed)" after a configured one, or "none yet". */
+static const char *addr_str(const struct sockaddr_in *a, int have, int fixed, char *buf, size_t len)
+{
+	char ip[INET_ADDRSTRLEN] = "?";
+
+	if (!have)
+		return "none yet";
+	inet_ntop(AF_INET, &a->sin_addr, ip, sizeof(ip));
+	snprintf(buf, len, "%s:%u%s", ip, ntohs(a->sin_port), fixed ? " (fixed)" : "");
+	return buf;
+}
+
 static void setup_rt(int want)
 {
 	struct sched_param sp = {.sched_priority = 80};
@@ -402,7 +447,7 @@ int main(int argc, char **argv)
 	struct sigaction sa;
 	int32_t *arena;
 	size_t words;
-	char err[160];
+	char err[160], abuf[48];
 	int64_t period, next, start, last_status;
 	int32_t peak_h = 0;
 	int64_t last_sample = 0; /* --clock device: when the last DEVICE_POS came */
@@ -440,6 +485,9 @@ int main(int argc, char **argv)
 	fprintf(stderr, "swell-ctl: %ux%u pool, tick %u Hz, solver %u Hz, device %s, host %s, clock %s\n",
 		o.cfg.nx, o.cfg.ny, o.cfg.tick_hz, o.cfg.solver_hz, p.dev.name, p.have_host ? p.host.name : "none",
 		o.device_clock ? "device" : "internal");
+	if (p.have_host && p.host.kind == CTL_LINK_UDP)
+		fprintf(stderr, "swell-ctl: host link clients: send to %s (up to %u, kept while they speak)\n",
+			addr_str(&p.host.local, 1, 0, abuf, sizeof(abuf)), CTL_LINK_CLIENTS);
 
 	period = 1000000000 / o.cfg.tick_hz;
 	max_ticks = o.seconds > 0 ? (uint64_t)(o.seconds * o.cfg.tick_hz + 0.5) : UINT64_MAX;
@@ -480,9 +528,15 @@ int main(int argc, char **argv)
 			take_input(&p);
 		}
 		link_faults(&p);
+		device_starved(&p);
 		swell_ctl_tick(&p.c);
 		ticks++;
 		flush_output(&p);
+		/* the device declared lost (its zero force has just gone to it): a learned UDP device is let
+		 * go, the next sender of this node's DEVICE_POS becomes the device (the old one still gets the
+		 * zero force until then) */
+		if (p.c.since_dev >= p.c.cfg.silent_ticks)
+			p.releases += (uint32_t)ctl_link_release_peer(&p.dev);
 		if (p.c.bootloader_request) /* zero force and the last heartbeat have just gone out */
 			break;
 		if (now_ns() - last_status > 1000000000) {
@@ -536,11 +590,23 @@ int main(int argc, char **argv)
 	printf("  device link     %s: %u frames in, %u out, %u bad, %u send errors, %u samples lost, %u of other nodes\n",
 	       p.dev.name, p.dev.frames_rx, p.dev.frames_tx, swell_proto_rejected_total(&p.dev.st), p.dev.tx_errors,
 	       p.c.n.dev_lost, p.dev.foreign);
+	if (p.dev.kind == CTL_LINK_UDP)
+		printf("  device peer     %s; %u datagrams of other senders dropped; device taken %u times, "
+		       "let go %u times (declared lost)\n",
+		       addr_str(&p.dev.peer, p.dev.have_peer, p.dev.peer_fixed, abuf, sizeof(abuf)), p.dev.others,
+		       p.dev.peers_taken, p.releases);
+	printf("  device starved  %u times (nothing reached the device for %u ticks in a row)\n", p.starved,
+	       o.cfg.silent_ticks);
 	if (p.have_host)
 		printf("  host link       %s: %u frames in, %u out, %u bad, %u not sent (no reader or busy); "
 		       "%u height quads (%u refreshes), %u dropped from the queue\n",
 		       p.host.name, p.host.frames_rx, p.host.frames_tx, swell_proto_rejected_total(&p.host.st),
 		       p.host.tx_errors, p.c.n.quads_sent, p.c.n.quads_refreshed, p.c.q[SWELL_LINK_HOST].dropped);
+	if (p.have_host && p.host.kind == CTL_LINK_UDP)
+		printf("  host clients    on %s: %u admitted, %u dropped after %u ms of silence, %u now (at most %u); "
+		       "%u packets of senders refused (table full)\n",
+		       addr_str(&p.host.local, 1, 0, abuf, sizeof(abuf)), p.host.clients_admitted, p.host.clients_silent,
+		       CTL_LINK_CLIENT_SILENT_MS, ctl_link_clients(&p.host), CTL_LINK_CLIENTS, p.host.clients_refused);
 	report_can("device", &p.dev);
 	report_usb("device", &p.dev);
 	if (p.have_host) {

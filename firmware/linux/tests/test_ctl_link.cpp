@@ -319,3 +319,182 @@ TEST_CASE("UDP link: an open that fails (port taken) leaves no socket open and n
 	CHECK(std::string(err).find("Address already in use") != std::string::npos);
 	close(taken);
 }
+
+/* ---- UDP: who the device is, who the clients are ---- */
+
+namespace {
+
+struct UdpEnd {
+	int fd = -1;
+	struct sockaddr_in a;
+	UdpEnd()
+	{
+		socklen_t al = sizeof(a);
+
+		fd = socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK, 0);
+		REQUIRE(fd >= 0);
+		memset(&a, 0, sizeof(a));
+		a.sin_family = AF_INET;
+		a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+		REQUIRE(bind(fd, (struct sockaddr *)&a, sizeof(a)) == 0);
+		REQUIRE(getsockname(fd, (struct sockaddr *)&a, &al) == 0);
+	}
+	~UdpEnd() { close(fd); }
+	void send(const struct ctl_link &to, uint8_t type)
+	{
+		struct swell_msg m;
+		uint8_t pkt[SWELL_PKT_MAX];
+		size_t len = 0, used = 0;
+
+		const struct swell_msg_desc *d = swell_msg_desc_find(type);
+
+		REQUIRE(d != nullptr);
+		memset(&m, 0, sizeof(m));
+		m.type = type;
+		for (unsigned k = 0; k < d->nfields; k++) /* every field valid: at its minimum */
+			REQUIRE(swell_msg_field_set(&m, &d->fields[k], d->fields[k].min) == SWELL_OK);
+		REQUIRE(swell_pkt_encode(0, 0, &m, 1, pkt, sizeof(pkt), &len, &used) == SWELL_OK);
+		REQUIRE(sendto(fd, pkt, len, 0, (const struct sockaddr *)&to.local, sizeof(to.local)) == (ssize_t)len);
+	}
+	/* datagrams waiting, read */
+	int got()
+	{
+		uint8_t buf[SWELL_PKT_MAX];
+		int n = 0;
+
+		std::this_thread::sleep_for(std::chrono::milliseconds(5));
+		while (recv(fd, buf, sizeof(buf), 0) > 0)
+			n++;
+		return n;
+	}
+};
+
+size_t take(struct ctl_link &l)
+{
+	struct swell_msg m[SWELL_PKT_MSGS_MAX];
+
+	std::this_thread::sleep_for(std::chrono::milliseconds(5));
+	return ctl_link_recv(&l, m, SWELL_PKT_MSGS_MAX);
+}
+
+void force_cmd(struct ctl_link &l)
+{
+	struct swell_msg m;
+
+	memset(&m, 0, sizeof(m));
+	m.type = SWELL_MSG_FORCE_CMD;
+	ctl_link_send(&l, &m, 1);
+}
+
+} // namespace
+
+TEST_CASE("UDP device link: the first sender of DEVICE_POS is the device, held against every other sender "
+	  "until it is let go, and it keeps the commands",
+	  "[ctl_link]")
+{
+	struct ctl_link l;
+	char err[160] = "";
+	UdpEnd dev, other;
+
+	REQUIRE(ctl_link_open(&l, "udp:0", 1, 0, err, sizeof(err)) == -1); /* port 0 is not a device port */
+	{
+		/* a free port, then the link on it */
+		UdpEnd probe;
+		const std::string spec = "udp:" + std::to_string(ntohs(probe.a.sin_port));
+		close(probe.fd);
+		probe.fd = -1;
+		REQUIRE(ctl_link_open(&l, spec.c_str(), 1, 0, err, sizeof(err)) == 0);
+	}
+	other.send(l, SWELL_MSG_HEARTBEAT); /* valid, but not a position: takes nothing */
+	CHECK(take(l) == 0);
+	CHECK(l.have_peer == 0);
+	dev.send(l, SWELL_MSG_DEVICE_POS);
+	CHECK(take(l) == 1);
+	CHECK(l.peers_taken == 1);
+	/* every type from another sender, positions too: dropped unread */
+	for (unsigned t = 0; t < swell_msg_desc_count; t++)
+		other.send(l, swell_msg_descs[t].type);
+	for (unsigned t = 0; t < swell_msg_desc_count; t++)
+		CHECK(take(l) == 0);
+	dev.send(l, SWELL_MSG_DEVICE_VEL);
+	CHECK(take(l) == 1);
+	force_cmd(l);
+	INFO("other senders' datagrams " << l.others);
+	CHECK(l.others == swell_msg_desc_count + 1);
+	CHECK(dev.got() == 1);
+	CHECK(other.got() == 0);
+
+	/* let go (declared lost): the old device still gets the zero force; the next DEVICE_POS takes it */
+	CHECK(ctl_link_release_peer(&l) == 1);
+	CHECK(ctl_link_release_peer(&l) == 0);
+	force_cmd(l);
+	CHECK(dev.got() == 1);
+	other.send(l, SWELL_MSG_DEVICE_POS);
+	CHECK(take(l) == 1);
+	CHECK(l.peers_taken == 2);
+	force_cmd(l);
+	CHECK(other.got() == 1);
+	CHECK(dev.got() == 0);
+	dev.send(l, SWELL_MSG_DEVICE_POS);
+	CHECK(take(l) == 0);
+	ctl_link_close(&l);
+}
+
+TEST_CASE("UDP device link: a configured device is never let go, others are refused from the start, bad "
+	  "options are refused with the reason",
+	  "[ctl_link]")
+{
+	struct ctl_link l;
+	char err[160] = "";
+	UdpEnd dev, other;
+	const char *bad[] = {"udp:47800,peer=", "udp:47800,peer=1.2.3:5", "udp:47800,peer=127.0.0.1:0",
+			     "udp:47800,listen=5", "udp:,peer=127.0.0.1:5", "udp:47800,peer=127.0.0.1:70000",
+			     "udp:abc"};
+
+	for (const char *b : bad) {
+		INFO(b);
+		CHECK(ctl_link_open(&l, b, 1, 0, err, sizeof(err)) == -1);
+		CHECK(std::string(err).find(b) != std::string::npos);
+		CHECK(l.fd == -1);
+	}
+	/* a free port, then the link on it with the device's address (loopback when only the port is given) */
+	UdpEnd probe;
+	const std::string good = "udp:" + std::to_string(ntohs(probe.a.sin_port)) + ",peer=" +
+				 std::to_string(ntohs(dev.a.sin_port));
+	close(probe.fd);
+	probe.fd = -1;
+	REQUIRE(ctl_link_open(&l, good.c_str(), 1, 0, err, sizeof(err)) == 0);
+	other.send(l, SWELL_MSG_DEVICE_POS);
+	CHECK(take(l) == 0);
+	force_cmd(l);
+	CHECK(dev.got() == 1);
+	CHECK(other.got() == 0);
+	CHECK(ctl_link_release_peer(&l) == 0);
+	other.send(l, SWELL_MSG_DEVICE_POS);
+	CHECK(take(l) == 0);
+	dev.send(l, SWELL_MSG_DEVICE_POS);
+	CHECK(take(l) == 1);
+	CHECK(l.others == 2);
+	CHECK(l.peers_taken == 0);
+	ctl_link_close(&l);
+}
+
+TEST_CASE("links count the sends in a row in which nothing reached the carrier", "[ctl_link]")
+{
+	FakeCan c;
+	struct can_frame fill = device_pos(0, 1);
+	struct swell_msg zero;
+
+	while (write(c.sv[0], &fill, sizeof(fill)) == (ssize_t)sizeof(fill))
+		;
+	memset(&zero, 0, sizeof(zero));
+	zero.type = SWELL_MSG_FORCE_CMD;
+	for (int k = 0; k < 5; k++)
+		ctl_link_send(&c.l, &zero, 1);
+	CHECK(c.l.unsent_run == 5);
+	struct can_frame f;
+	while (read(c.sv[1], &f, sizeof(f)) == (ssize_t)sizeof(f))
+		;
+	ctl_link_send(&c.l, &zero, 1);
+	CHECK(c.l.unsent_run == 0);
+}
