@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "swell/crc.h"
+#include "swell/wave_vel.h"
 
 /* A controller image may fix the grid's width at compile time (SWELL_WAVE_FIXED_NX): the row above
  * is then at a constant offset, which frees registers in the M4 kernel. Other widths are refused. */
@@ -94,6 +95,8 @@ enum swell_err swell_wave_check(const struct swell_wave_params *p)
 		return SWELL_EINVAL;
 	if (p->stencil != SWELL_STENCIL_PAPER && p->stencil != SWELL_STENCIL_CALIBRATED)
 		return SWELL_EINVAL;
+	if (p->form != SWELL_FORM_EDGE && p->form != SWELL_FORM_VELOCITY)
+		return SWELL_EINVAL;
 	if (p->damping < 0 || p->damping >= SWELL_Q30_ONE)
 		return SWELL_ERANGE;
 	e_eff = effective_e(p);
@@ -143,7 +146,7 @@ enum swell_err swell_wave_init(struct swell_wave *w, uint16_t nx, uint16_t ny, i
 	if (!w || !storage)
 		return SWELL_EINVAL;
 	if (nx < SWELL_WAVE_MIN_SIDE || ny < SWELL_WAVE_MIN_SIDE || nx > SWELL_WAVE_MAX_SIDE ||
-	    ny > SWELL_WAVE_MAX_SIDE || words < SWELL_WAVE_WORDS(nx, ny))
+	    ny > SWELL_WAVE_MAX_SIDE)
 		return SWELL_ESIZE;
 #ifdef SWELL_WAVE_FIXED_NX
 	if (nx != SWELL_WAVE_FIXED_NX)
@@ -152,6 +155,8 @@ enum swell_err swell_wave_init(struct swell_wave *w, uint16_t nx, uint16_t ny, i
 	err = swell_wave_check(p);
 	if (err != SWELL_OK)
 		return err;
+	if (words < (p->form == SWELL_FORM_VELOCITY ? SWELL_WAVE_VEL_WORDS(nx, ny) : SWELL_WAVE_WORDS(nx, ny)))
+		return SWELL_ESIZE;
 
 	memset(w, 0, sizeof(*w));
 	w->nx = nx;
@@ -161,11 +166,17 @@ enum swell_err swell_wave_init(struct swell_wave *w, uint16_t nx, uint16_t ny, i
 	w->h = storage;
 	w->v = storage + n;
 	w->acc = storage + 2 * n;
-	w->f = storage + 3 * n;
-	w->tile = (uint8_t *)(w->f + 4 * SWELL_WAVE_TILE * (size_t)w->tiles_x * ny);
+	if (p->form == SWELL_FORM_VELOCITY) {
+		w->u = storage + 3 * n;
+		w->tile = (uint8_t *)(w->u + n);
+	} else {
+		w->f = storage + 3 * n;
+		w->tile = (uint8_t *)(w->f + 4 * SWELL_WAVE_TILE * (size_t)w->tiles_x * ny);
+	}
+	w->p.form = p->form; /* the kernel choice below depends on it */
 	w->sleep = 1;
 	swell_wave_set_kernel(w, SWELL_KERNEL_AUTO);
-	memset(storage, 0, SWELL_WAVE_WORDS(nx, ny) * sizeof(int32_t));
+	memset(storage, 0, (size_t)((w->tile - (uint8_t *)storage) + w->tiles_x * w->tiles_y));
 	apply_params(w, p);
 	return SWELL_OK;
 }
@@ -179,8 +190,21 @@ enum swell_err swell_wave_set_params(struct swell_wave *w, const struct swell_wa
 	err = swell_wave_check(p);
 	if (err != SWELL_OK)
 		return err;
+	if (p->form != w->p.form) /* the storage is laid out for one form */
+		return SWELL_EINVAL;
 	apply_params(w, p);
 	return SWELL_OK;
+}
+
+/* The height bounds of the form: int28, or int27 in the velocity form (2 L9 fits int32). */
+static int32_t h_max(const struct swell_wave *w)
+{
+	return w->p.form == SWELL_FORM_VELOCITY ? SWELL_HV_MAX : SWELL_H_MAX;
+}
+
+static int32_t h_min(const struct swell_wave *w)
+{
+	return w->p.form == SWELL_FORM_VELOCITY ? SWELL_HV_MIN : SWELL_H_MIN;
 }
 
 void swell_wave_rest(struct swell_wave *w)
@@ -190,11 +214,12 @@ void swell_wave_rest(struct swell_wave *w)
 	/* a step in progress starts over: rows finished ahead go back to h(n) (their flows' other ends,
 	 * in acc, are dropped with the step); a saturated height stays within the bounds */
 	for (a = 0; a < (size_t)w->done_row * w->nx; a++)
-		w->h[a] = swell_clamp(w->h[a] - w->acc[a], SWELL_H_MIN, SWELL_H_MAX);
-	/* v, acc and the flows are contiguous, up to the tile flags */
+		w->h[a] = swell_clamp(w->h[a] - w->acc[a], h_min(w), h_max(w));
+	/* v, acc and the flows (or u) are contiguous, up to the tile flags */
 	memset(w->h + n, 0, (size_t)((uint8_t *)w->tile - (uint8_t *)(w->h + n)));
 	w->next_row = 0;
 	w->done_row = 0;
+	w->vel_sum = 0;
 	wake_all(w);
 }
 
@@ -626,6 +651,9 @@ static int have_avx2(void)
  * to row j+1 (none for the top row). Returns non-zero if any new flow is non-zero. */
 static int32_t step_segment(struct swell_wave *w, int j, int i0, int i1, int damp)
 {
+	if (w->p.form == SWELL_FORM_VELOCITY)
+		return w->kernel == SWELL_KERNEL_REF ? swell_wave_vel_ref(w, j, i0, i1, damp, &w->vel_sum)
+						     : swell_wave_vel_fused(w, j, i0, i1, damp, &w->vel_sum);
 	switch (w->kernel) {
 #if WAVE_AVX2
 	case SWELL_KERNEL_AVX2:
@@ -649,7 +677,7 @@ enum swell_err swell_wave_set_kernel(struct swell_wave *w, enum swell_wave_kerne
 	switch (k) {
 	case SWELL_KERNEL_AUTO:
 #if WAVE_AVX2
-		w->kernel = have_avx2() ? SWELL_KERNEL_AVX2 : SWELL_KERNEL_FUSED;
+		w->kernel = have_avx2() && w->p.form == SWELL_FORM_EDGE ? SWELL_KERNEL_AVX2 : SWELL_KERNEL_FUSED;
 #else
 		w->kernel = SWELL_KERNEL_FUSED;
 #endif
@@ -660,7 +688,7 @@ enum swell_err swell_wave_set_kernel(struct swell_wave *w, enum swell_wave_kerne
 		return SWELL_OK;
 	case SWELL_KERNEL_AVX2:
 #if WAVE_AVX2
-		if (have_avx2()) {
+		if (have_avx2() && w->p.form == SWELL_FORM_EDGE) {
 			w->kernel = SWELL_KERNEL_AVX2;
 			return SWELL_OK;
 		}
@@ -668,6 +696,18 @@ enum swell_err swell_wave_set_kernel(struct swell_wave *w, enum swell_wave_kerne
 		return SWELL_EINVAL;
 	default:
 		return SWELL_EINVAL;
+	}
+}
+
+const char *swell_wave_form_name(enum swell_wave_form f)
+{
+	switch (f) {
+	case SWELL_FORM_EDGE:
+		return "edge";
+	case SWELL_FORM_VELOCITY:
+		return "velocity";
+	default:
+		return NULL;
 	}
 }
 
@@ -699,7 +739,8 @@ static inline void step_row(struct swell_wave *w, int j, int damp)
 				trow[tx] |= T_SLEEPING;
 			} else {
 				trow[tx] &= (uint8_t)~T_SLEEPING;
-				mark_dirty(w, tx, ty, 1);
+				/* the velocity form writes acc in the tile's own cells only */
+				mark_dirty(w, tx, ty, w->p.form == SWELL_FORM_VELOCITY ? 0 : 1);
 				w->band_asleep = 0;
 			}
 		}
@@ -742,7 +783,7 @@ int swell_wave_step_rows(struct swell_wave *w, int rows)
  * cell changed. With len a constant 8 the compiler unrolls it. */
 static inline __attribute__((always_inline)) int32_t finish_seg(int32_t *restrict h, const int32_t *restrict acc,
 								 int32_t *restrict v, int len, int add, int clear,
-								 uint32_t *sat)
+								 int vel, uint32_t *sat)
 {
 	int32_t any = 0;
 	int a;
@@ -756,9 +797,16 @@ static inline __attribute__((always_inline)) int32_t finish_seg(int32_t *restric
 			/* |h| <= 2^27, |acc| <= 2^29 + 8 2^27: no overflow */
 #if WAVE_DSP
 			(void)sat;
-			h[a] = __ssat(h[a] + d, 28);
+			h[a] = vel ? __ssat(h[a] + d, 27) : __ssat(h[a] + d, 28);
 #else
-			h[a] = sat28(h[a] + d, sat);
+			if (vel) {
+				const int32_t x = h[a] + d;
+
+				h[a] = x > SWELL_HV_MAX ? SWELL_HV_MAX : x < SWELL_HV_MIN ? SWELL_HV_MIN : x;
+				*sat |= h[a] != x;
+			} else {
+				h[a] = sat28(h[a] + d, sat);
+			}
 #endif
 		}
 		if (clear)
@@ -769,7 +817,8 @@ static inline __attribute__((always_inline)) int32_t finish_seg(int32_t *restric
 
 /* Row j of the finishing pass: h += acc where the step wrote acc (add, DIRTY), the old v cleared where
  * the last step wrote it (clear, DIRTY_PREV); sets TOUCHED where a cell changed. */
-static inline __attribute__((always_inline)) void finish_row(struct swell_wave *w, int j, int add, int clear)
+static inline __attribute__((always_inline)) void finish_row(struct swell_wave *w, int j, int add, int clear,
+							     int vel)
 {
 	const int nx = w->nx, all = !w->sleep;
 	uint8_t *restrict trow = w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x;
@@ -789,16 +838,16 @@ static inline __attribute__((always_inline)) void finish_row(struct swell_wave *
 
 		if (i0 + SWELL_WAVE_TILE <= nx) {
 			if ((f & T_DIRTY) && (f & T_DIRTY_PREV))
-				any = finish_seg(h + i0, acc + i0, v + i0, SWELL_WAVE_TILE, 1, 1, &sat);
+				any = finish_seg(h + i0, acc + i0, v + i0, SWELL_WAVE_TILE, 1, 1, vel, &sat);
 			else if (f & T_DIRTY)
-				any = finish_seg(h + i0, acc + i0, v + i0, SWELL_WAVE_TILE, 1, 0, &sat);
+				any = finish_seg(h + i0, acc + i0, v + i0, SWELL_WAVE_TILE, 1, 0, vel, &sat);
 			else if (f & T_DIRTY_PREV)
-				any = finish_seg(h + i0, acc + i0, v + i0, SWELL_WAVE_TILE, 0, 1, &sat);
+				any = finish_seg(h + i0, acc + i0, v + i0, SWELL_WAVE_TILE, 0, 1, vel, &sat);
 			else
 				continue;
 		} else {
 			any = finish_seg(h + i0, acc + i0, v + i0, nx - i0, (f & T_DIRTY) != 0, (f & T_DIRTY_PREV) != 0,
-					 &sat);
+					 vel, &sat);
 		}
 		if (any)
 			trow[tx] |= T_TOUCHED;
@@ -810,8 +859,8 @@ static inline __attribute__((always_inline)) void finish_row(struct swell_wave *
 }
 
 /* Rows [j0, j1) of the finishing pass; a band of tiles without the flags it needs is skipped whole. */
-static inline __attribute__((always_inline)) void finish_range(struct swell_wave *w, int j0, int j1, int add,
-								   int clear)
+static inline __attribute__((always_inline)) void finish_range_form(struct swell_wave *w, int j0, int j1,
+									int add, int clear, int vel)
 {
 	const uint8_t need = (uint8_t)((add ? T_DIRTY : 0u) | (clear ? T_DIRTY_PREV : 0u));
 	int j;
@@ -822,7 +871,89 @@ static inline __attribute__((always_inline)) void finish_range(struct swell_wave
 			j += SWELL_WAVE_TILE - 1; /* a calm band of tiles: nothing wrote acc or v in it */
 			continue;
 		}
-		finish_row(w, j, add, clear);
+		finish_row(w, j, add, clear, vel);
+	}
+}
+
+static void finish_range(struct swell_wave *w, int j0, int j1, int add, int clear)
+{
+	if (w->p.form == SWELL_FORM_VELOCITY) {
+		if (add)
+			finish_range_form(w, j0, j1, 1, clear, 1);
+		else
+			finish_range_form(w, j0, j1, 0, clear, 1);
+	} else {
+		if (add)
+			finish_range_form(w, j0, j1, 1, clear, 0);
+		else
+			finish_range_form(w, j0, j1, 0, clear, 0);
+	}
+}
+
+/* One LSB (d = +-1, or a whole share) of the fixer into cell a: u and the step's change, and h at
+ * once in a row finished ahead (as swell_wave_add does). */
+static void fix_cell(struct swell_wave *w, size_t a, int32_t d, uint8_t *t)
+{
+	const int32_t u = w->u[a] + d, x = w->h[a] + d;
+
+	w->u[a] = swell_clamp(u, SWELL_H_MIN, SWELL_H_MAX);
+	w->saturations += w->u[a] != u;
+	w->acc[a] += d;
+	*t |= T_DIRTY | T_NONZERO;
+	if (a < (size_t)w->done_row * w->nx) {
+		w->h[a] = swell_clamp(x, SWELL_HV_MIN, SWELL_HV_MAX);
+		w->saturations += w->h[a] != x;
+		*t |= T_TOUCHED;
+	}
+}
+
+/* The velocity form's volume fixer: give back the residual r = sum u(n+1) in whole LSBs, to the
+ * cells of tiles whose momentum moved in this step (the same tiles whether tiles sleep or not), one
+ * LSB a cell from the rotating cursor, after a whole share each when |r| exceeds their count. */
+static void vel_fix(struct swell_wave *w)
+{
+	const int64_t r = w->vel_sum;
+	const int32_t d = r > 0 ? -1 : 1;
+	const size_t n = (size_t)w->nx * w->ny;
+	uint64_t left = (uint64_t)(r > 0 ? r : -r), cells = 0, share;
+	size_t a, tn;
+	int tx, ty, i, j;
+
+	w->vel_sum = 0;
+	if (!r)
+		return;
+	w->fixed_lsb += left;
+	for (ty = 0; ty < w->tiles_y; ty++)
+		for (tx = 0; tx < w->tiles_x; tx++)
+			if (w->tile[ty * w->tiles_x + tx] & T_NONZERO) {
+				i = w->nx - tx * SWELL_WAVE_TILE;
+				j = w->ny - ty * SWELL_WAVE_TILE;
+				cells += (uint64_t)(i < SWELL_WAVE_TILE ? i : SWELL_WAVE_TILE) *
+					 (uint64_t)(j < SWELL_WAVE_TILE ? j : SWELL_WAVE_TILE);
+			}
+	share = left / cells; /* cells > 0: a non-zero sum has a non-zero term */
+	if (share) {
+		for (a = 0; a < n; a++) {
+			i = (int)(a % w->nx);
+			j = (int)(a / w->nx);
+			tn = (size_t)(j / SWELL_WAVE_TILE) * w->tiles_x + (size_t)(i / SWELL_WAVE_TILE);
+			if (w->tile[tn] & T_NONZERO)
+				fix_cell(w, a, d * (int32_t)share, &w->tile[tn]);
+		}
+		left -= share * cells;
+	}
+	for (a = w->fix_cursor % n; left; a = a + 1 < n ? a + 1 : 0) {
+		i = (int)(a % w->nx);
+		j = (int)(a / w->nx);
+		tn = (size_t)(j / SWELL_WAVE_TILE) * w->tiles_x + (size_t)(i / SWELL_WAVE_TILE);
+		if (!(w->tile[tn] & T_NONZERO)) { /* skip to the last cell of this tile's row */
+			i = (i / SWELL_WAVE_TILE + 1) * SWELL_WAVE_TILE;
+			a = (size_t)j * w->nx + (size_t)(i < w->nx ? i : w->nx) - 1;
+			continue;
+		}
+		fix_cell(w, a, d, &w->tile[tn]);
+		left--;
+		w->fix_cursor = (uint32_t)(a + 1 < n ? a + 1 : 0);
 	}
 }
 
@@ -854,6 +985,8 @@ void swell_wave_step_finish(struct swell_wave *w)
 	int a;
 
 	swell_wave_step_rows(w, w->ny);
+	if (w->p.form == SWELL_FORM_VELOCITY)
+		vel_fix(w);
 	/* h += acc where the step wrote acc (DIRTY; rows finished ahead have it already); the old v,
 	 * which becomes the next accumulator, is cleared where the last step wrote it (DIRTY_PREV); then
 	 * the two swap. */
@@ -902,7 +1035,7 @@ void swell_wave_add(struct swell_wave *w, int i, int j, int32_t dh)
 	/* a row finished ahead: what the finish would add, now (|h| <= 2^27, |now - old| <= 2^30) */
 	*t |= T_DIRTY | T_TOUCHED;
 	x = w->h[a] + (now - old);
-	w->h[a] = (int32_t)swell_clamp(x, SWELL_H_MIN, SWELL_H_MAX);
+	w->h[a] = (int32_t)swell_clamp(x, h_min(w), h_max(w));
 	w->saturations += w->h[a] != x;
 }
 
@@ -969,6 +1102,8 @@ uint32_t swell_wave_checksum(const struct swell_wave *w)
 	uint32_t crc = crc_words(0, w->h, n);
 	int k, i, j;
 
+	if (w->p.form == SWELL_FORM_VELOCITY)
+		return crc_words(crc, w->u, n);
 	for (k = 0; k < 4; k++)
 		for (j = 0; j < w->ny; j++)
 			for (i = 0; i < w->nx; i++)

@@ -43,6 +43,22 @@
  * holds h(n+1) in h and its change in acc, so a reader takes h(n) = h - acc there (v is untouched
  * everywhere until the finish). Results are bit-identical to the unsplit step.
  *
+ * Velocity form (SWELL_FORM_VELOCITY, chosen at init in the parameters): eq. (1) as a momentum
+ * per cell, u(n+1) = (1-t) [u(n) + e L9(n)], h(n+1) = h(n) + u(n+1) + water added from outside, with
+ * the separable stencil 2 L9 = ([1 2 1] x [1 2 1]) h - 16 h. Each cell is rounded on its own:
+ * undamped, u + e L9 to nearest (ties up); damped, u + e L9 toward zero and then the damping toward
+ * zero (wave_vel.h has the exact rule). Nearest rounding with damping leaves small limit cycles of
+ * single cells (measured: 2-4 LSB/step forever at e 0.35-0.45); rounding the momentum toward zero
+ * makes every damped step lose at least what it rounds. At the step's finish the integer
+ * residual r = sum u(n+1) is given back in whole LSBs (u and h of cells of tiles that moved, one LSB
+ * a cell, from a cursor that rotates over the grid; whole shares first when |r| exceeds their count),
+ * so sum u = 0 and the volume stays exact. Water added from outside never enters u (as in the
+ * edge-flux form, it is mass, not momentum). Heights saturate to int27 (SWELL_HV_MIN..MAX,
+ * +-1024 mm) so that 2 L9 fits int32; u to int28. Storage SWELL_WAVE_VEL_WORDS: h, v, acc, u and
+ * the tile flags, 16 bytes a cell instead of 28. Kernels: SWELL_KERNEL_REF (the definition, one cell
+ * at a time in int64) and SWELL_KERNEL_FUSED (column sums carried in registers; SMMLAR/SMMUL/SSAT
+ * on ARMv7E-M), bit-identical. The two forms are not bit-identical to each other.
+ *
  * Sleeping tiles (lossless): the grid is cut into 8 x 8 tiles. A tile whose edges all gave zero flow
  * in the last step, and none of whose cells nor its neighbour tiles' cells changed since, would give
  * zero flows again (same height differences, same rounding): its edges are skipped, bit-identically.
@@ -62,6 +78,9 @@
 #define SWELL_H_MAX (((int32_t)1 << 27) - 1)    /* saturation bounds of heights and flows: int28 */
 #define SWELL_H_MIN (-((int32_t)1 << 27))
 
+#define SWELL_HV_MAX (((int32_t)1 << 26) - 1) /* height bounds of the velocity form: int27 */
+#define SWELL_HV_MIN (-((int32_t)1 << 26))
+
 #define SWELL_WAVE_MIN_SIDE 2
 #define SWELL_WAVE_MAX_SIDE 1024
 #define SWELL_WAVE_TILE 8   /* side of a sleeping tile, in cells */
@@ -72,6 +91,14 @@
 #define SWELL_WAVE_WORDS(nx, ny)                                                                   \
 	(3 * (size_t)(nx) * (size_t)(ny) + 4 * SWELL_WAVE_TILE * SWELL_WAVE_TILES_X(nx) * (size_t)(ny) + \
 	 (SWELL_WAVE_TILES(nx, ny) + 3) / 4)
+
+/* The velocity form: h, v, acc and the momentum u (nx ny words each), then the tile flags */
+#define SWELL_WAVE_VEL_WORDS(nx, ny) (4 * (size_t)(nx) * (size_t)(ny) + (SWELL_WAVE_TILES(nx, ny) + 3) / 4)
+
+enum swell_wave_form {
+	SWELL_FORM_EDGE = 0,     /* edge-flux: four flows a cell (default) */
+	SWELL_FORM_VELOCITY = 1, /* three-level: one momentum a cell and a global volume fixer */
+};
 
 enum swell_wave_kernel {
 	SWELL_KERNEL_AUTO = 0, /* the fastest this build and CPU have (default) */
@@ -89,6 +116,7 @@ struct swell_wave_params {
 	q30_t e;       /* eq. (2), in (0, 2) */
 	q30_t damping; /* t, in [0, 1) */
 	enum swell_stencil stencil;
+	enum swell_wave_form form; /* fixed at init: swell_wave_set_params refuses a change */
 };
 
 struct swell_wave {
@@ -117,6 +145,11 @@ struct swell_wave {
 	uint8_t band_asleep;  /* every tile of the band of rows in progress sleeps */
 	uint32_t tiles_skipped; /* tile-rows skipped, cumulative: 8 x 4 edges saved each */
 	uint8_t kernel;         /* enum swell_wave_kernel in use (never AUTO) */
+	/* velocity form only */
+	int32_t *u;             /* momentum u(n), LSB 2^-16 mm per step; u(n+1) in rows done */
+	int64_t vel_sum;        /* sum of u(n+1) over the rows done: the residual the finish gives back */
+	uint32_t fix_cursor;    /* next cell the fixer gives an LSB to */
+	uint64_t fixed_lsb;     /* LSB given back by the fixer, cumulative */
 };
 
 /* Exact integer energy (DESIGN.md 2.1), for tests: with t = 0,
@@ -139,7 +172,8 @@ enum swell_err swell_wave_check(const struct swell_wave_params *p);
  * to INT32_MAX when it exceeds the Q1.30 range. */
 q30_t swell_wave_e_limit(q30_t damping, enum swell_stencil stencil);
 
-/* Bind caller storage (at least SWELL_WAVE_WORDS(nx, ny) words) and set the water flat and at rest.
+/* Bind caller storage (at least SWELL_WAVE_WORDS(nx, ny) words, SWELL_WAVE_VEL_WORDS for the
+ * velocity form) and set the water flat and at rest.
  * On error *w is untouched. */
 enum swell_err swell_wave_init(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage,
 			       size_t words, const struct swell_wave_params *p);
@@ -191,13 +225,16 @@ enum swell_err swell_wave_set_kernel(struct swell_wave *w, enum swell_wave_kerne
 /* "ref", "fused", "fused-dsp" (ARMv7E-M), "avx2"; NULL for AUTO or an unknown value. */
 const char *swell_wave_kernel_name(enum swell_wave_kernel k);
 
+/* "edge" or "velocity"; NULL for an unknown value. */
+const char *swell_wave_form_name(enum swell_wave_form f);
+
 /* sum(h) in LSB: the volume, exact. */
 int64_t swell_wave_volume(const struct swell_wave *w);
 
 struct swell_energy swell_wave_energy(const struct swell_wave *w);
 
 /* CRC-32 of the state (heights, then every E flow in cell order, then N, NE, NW; int32
- * little-endian). */
+ * little-endian). Velocity form: heights, then u in cell order. */
 uint32_t swell_wave_checksum(const struct swell_wave *w);
 
 /* e = g dt^2 d / dx^2 from integer physical units, rounded to nearest Q1.30.

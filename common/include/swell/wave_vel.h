@@ -1,0 +1,25 @@
+/* The velocity form's row kernels (wave.h, "Velocity form"): internal to the solver, one kernel a
+ * file (wave_vel_ref.c, wave_vel_fused.c), called by wave.c for one row segment at a time.
+ *
+ * A kernel computes, for every cell (i, j) with i0 <= i < i1 of row j, from the heights h(n) of
+ * rows j-1 .. j+1 (mirrored at the walls) and the cell's momentum u(n):
+ *     x = 2 L9 = ([1 2 1] x [1 2 1]) h - 16 h          exact in int32 for |h| <= 2^26
+ *     s = u + floor((e_eff x + 2^30) / 2^31)           undamped: e L9 to nearest, ties up
+ *     s = u + floor(e_eff x / 2^31), s += (s < 0)      damped: the sum toward zero (a negative exact
+ *                                                      integer one LSB further): dissipative, so
+ *                                                      damped water comes to rest
+ *     s = clamp(s, SWELL_H_MIN, SWELL_H_MAX)           counted in saturations
+ *     s = floor(q s / 2^30) + (s < 0)   (damp only)    toward zero: q = 1 - t is odd
+ * and stores u = s, acc += s; it adds the sum of the new s to *sum and returns non-zero when some
+ * new s is non-zero. Every kernel gives the same bits as swell_wave_vel_ref. */
+#ifndef SWELL_WAVE_VEL_H
+#define SWELL_WAVE_VEL_H
+
+#include <stdint.h>
+
+#include "swell/wave.h"
+
+int32_t swell_wave_vel_ref(struct swell_wave *w, int j, int i0, int i1, int damp, int64_t *sum);
+int32_t swell_wave_vel_fused(struct swell_wave *w, int j, int i0, int i1, int damp, int64_t *sum);
+
+#endif

@@ -1,0 +1,44 @@
+/* The velocity form's reference kernel: one cell at a time, in int64, walls by mirrored indices. */
+#include "swell/wave_vel.h"
+
+static int64_t h_at(const struct swell_wave *w, int i, int j)
+{
+	i = i < 0 ? 0 : i >= w->nx ? w->nx - 1 : i;
+	j = j < 0 ? 0 : j >= w->ny ? w->ny - 1 : j;
+	return w->h[(size_t)j * w->nx + (size_t)i];
+}
+
+int32_t swell_wave_vel_ref(struct swell_wave *w, int j, int i0, int i1, int damp, int64_t *sum)
+{
+	static const int k[3][3] = {{1, 2, 1}, {2, 4, 2}, {1, 2, 1}};
+	int32_t any = 0;
+	uint32_t sat = 0;
+	int64_t total = 0;
+	int i, di, dj;
+
+	for (i = i0; i < i1; i++) {
+		const size_t a = (size_t)j * w->nx + (size_t)i;
+		int64_t x = -16 * h_at(w, i, j), s;
+
+		for (dj = -1; dj <= 1; dj++)
+			for (di = -1; di <= 1; di++)
+				x += k[dj + 1][di + 1] * h_at(w, i + di, j + dj);
+		if (damp) /* floor of the sum, one LSB toward zero when negative: dissipative */
+			s = w->u[a] + ((x * w->e_eff) >> 31), s += s < 0;
+		else /* to nearest, ties up */
+			s = w->u[a] + ((x * w->e_eff + ((int64_t)1 << 30)) >> 31);
+		if (s > SWELL_H_MAX || s < SWELL_H_MIN) {
+			s = s > SWELL_H_MAX ? SWELL_H_MAX : SWELL_H_MIN;
+			sat = 1;
+		}
+		if (damp) /* toward zero; q odd, so q s / 2^30 is never an integer for s != 0 */
+			s = ((s * w->q) >> 30) + (s < 0);
+		w->u[a] = (int32_t)s;
+		w->acc[a] += (int32_t)s;
+		total += s;
+		any |= (int32_t)s;
+	}
+	w->saturations += sat;
+	*sum += total;
+	return any;
+}
