@@ -1,4 +1,4 @@
-/* Fixed-point solver of eq. (1) in edge-flux form; see wave.h for the maths and the rounding. */
+/* Fixed-point solver of eq. (1) in edge-flux form, and the driver of the velocity form (wave_vel_*.c); see wave.h for the maths and the rounding. */
 #include "swell/wave.h"
 
 #include <string.h>
@@ -95,8 +95,6 @@ enum swell_err swell_wave_check(const struct swell_wave_params *p)
 		return SWELL_EINVAL;
 	if (p->stencil != SWELL_STENCIL_PAPER && p->stencil != SWELL_STENCIL_CALIBRATED)
 		return SWELL_EINVAL;
-	if (p->form != SWELL_FORM_EDGE && p->form != SWELL_FORM_VELOCITY)
-		return SWELL_EINVAL;
 	if (p->damping < 0 || p->damping >= SWELL_Q30_ONE)
 		return SWELL_ERANGE;
 	e_eff = effective_e(p);
@@ -140,10 +138,16 @@ static void apply_params(struct swell_wave *w, const struct swell_wave_params *p
 enum swell_err swell_wave_init(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage,
 			       size_t words, const struct swell_wave_params *p)
 {
+	return swell_wave_init_form(w, nx, ny, storage, words, p, SWELL_FORM_EDGE);
+}
+
+enum swell_err swell_wave_init_form(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage,
+				    size_t words, const struct swell_wave_params *p, enum swell_wave_form form)
+{
 	size_t n = (size_t)nx * ny;
 	enum swell_err err;
 
-	if (!w || !storage)
+	if (!w || !storage || (form != SWELL_FORM_EDGE && form != SWELL_FORM_VELOCITY))
 		return SWELL_EINVAL;
 	if (nx < SWELL_WAVE_MIN_SIDE || ny < SWELL_WAVE_MIN_SIDE || nx > SWELL_WAVE_MAX_SIDE ||
 	    ny > SWELL_WAVE_MAX_SIDE)
@@ -155,7 +159,7 @@ enum swell_err swell_wave_init(struct swell_wave *w, uint16_t nx, uint16_t ny, i
 	err = swell_wave_check(p);
 	if (err != SWELL_OK)
 		return err;
-	if (words < (p->form == SWELL_FORM_VELOCITY ? SWELL_WAVE_VEL_WORDS(nx, ny) : SWELL_WAVE_WORDS(nx, ny)))
+	if (words < (form == SWELL_FORM_VELOCITY ? SWELL_WAVE_VEL_WORDS(nx, ny) : SWELL_WAVE_WORDS(nx, ny)))
 		return SWELL_ESIZE;
 
 	memset(w, 0, sizeof(*w));
@@ -166,14 +170,14 @@ enum swell_err swell_wave_init(struct swell_wave *w, uint16_t nx, uint16_t ny, i
 	w->h = storage;
 	w->v = storage + n;
 	w->acc = storage + 2 * n;
-	if (p->form == SWELL_FORM_VELOCITY) {
+	w->form = (uint8_t)form; /* the kernel choice below depends on it */
+	if (form == SWELL_FORM_VELOCITY) {
 		w->u = storage + 3 * n;
 		w->tile = (uint8_t *)(w->u + n);
 	} else {
 		w->f = storage + 3 * n;
 		w->tile = (uint8_t *)(w->f + 4 * SWELL_WAVE_TILE * (size_t)w->tiles_x * ny);
 	}
-	w->p.form = p->form; /* the kernel choice below depends on it */
 	w->sleep = 1;
 	swell_wave_set_kernel(w, SWELL_KERNEL_AUTO);
 	memset(storage, 0, (size_t)((w->tile - (uint8_t *)storage) + w->tiles_x * w->tiles_y));
@@ -190,8 +194,6 @@ enum swell_err swell_wave_set_params(struct swell_wave *w, const struct swell_wa
 	err = swell_wave_check(p);
 	if (err != SWELL_OK)
 		return err;
-	if (p->form != w->p.form) /* the storage is laid out for one form */
-		return SWELL_EINVAL;
 	apply_params(w, p);
 	return SWELL_OK;
 }
@@ -199,12 +201,12 @@ enum swell_err swell_wave_set_params(struct swell_wave *w, const struct swell_wa
 /* The height bounds of the form: int28, or int27 in the velocity form (2 L9 fits int32). */
 static int32_t h_max(const struct swell_wave *w)
 {
-	return w->p.form == SWELL_FORM_VELOCITY ? SWELL_HV_MAX : SWELL_H_MAX;
+	return w->form == SWELL_FORM_VELOCITY ? SWELL_HV_MAX : SWELL_H_MAX;
 }
 
 static int32_t h_min(const struct swell_wave *w)
 {
-	return w->p.form == SWELL_FORM_VELOCITY ? SWELL_HV_MIN : SWELL_H_MIN;
+	return w->form == SWELL_FORM_VELOCITY ? SWELL_HV_MIN : SWELL_H_MIN;
 }
 
 void swell_wave_rest(struct swell_wave *w)
@@ -651,7 +653,7 @@ static int have_avx2(void)
  * to row j+1 (none for the top row). Returns non-zero if any new flow is non-zero. */
 static int32_t step_segment(struct swell_wave *w, int j, int i0, int i1, int damp)
 {
-	if (w->p.form == SWELL_FORM_VELOCITY)
+	if (w->form == SWELL_FORM_VELOCITY)
 		return w->kernel == SWELL_KERNEL_REF ? swell_wave_vel_ref(w, j, i0, i1, damp, &w->vel_sum)
 						     : swell_wave_vel_fused(w, j, i0, i1, damp, &w->vel_sum);
 	switch (w->kernel) {
@@ -677,7 +679,7 @@ enum swell_err swell_wave_set_kernel(struct swell_wave *w, enum swell_wave_kerne
 	switch (k) {
 	case SWELL_KERNEL_AUTO:
 #if WAVE_AVX2
-		w->kernel = have_avx2() && w->p.form == SWELL_FORM_EDGE ? SWELL_KERNEL_AVX2 : SWELL_KERNEL_FUSED;
+		w->kernel = have_avx2() && w->form == SWELL_FORM_EDGE ? SWELL_KERNEL_AVX2 : SWELL_KERNEL_FUSED;
 #else
 		w->kernel = SWELL_KERNEL_FUSED;
 #endif
@@ -688,7 +690,7 @@ enum swell_err swell_wave_set_kernel(struct swell_wave *w, enum swell_wave_kerne
 		return SWELL_OK;
 	case SWELL_KERNEL_AVX2:
 #if WAVE_AVX2
-		if (have_avx2() && w->p.form == SWELL_FORM_EDGE) {
+		if (have_avx2() && w->form == SWELL_FORM_EDGE) {
 			w->kernel = SWELL_KERNEL_AVX2;
 			return SWELL_OK;
 		}
@@ -740,7 +742,7 @@ static inline void step_row(struct swell_wave *w, int j, int damp)
 			} else {
 				trow[tx] &= (uint8_t)~T_SLEEPING;
 				/* the velocity form writes acc in the tile's own cells only */
-				mark_dirty(w, tx, ty, w->p.form == SWELL_FORM_VELOCITY ? 0 : 1);
+				mark_dirty(w, tx, ty, w->form == SWELL_FORM_VELOCITY ? 0 : 1);
 				w->band_asleep = 0;
 			}
 		}
@@ -877,7 +879,7 @@ static inline __attribute__((always_inline)) void finish_range_form(struct swell
 
 static void finish_range(struct swell_wave *w, int j0, int j1, int add, int clear)
 {
-	if (w->p.form == SWELL_FORM_VELOCITY) {
+	if (w->form == SWELL_FORM_VELOCITY) {
 		if (add)
 			finish_range_form(w, j0, j1, 1, clear, 1);
 		else
@@ -985,7 +987,7 @@ void swell_wave_step_finish(struct swell_wave *w)
 	int a;
 
 	swell_wave_step_rows(w, w->ny);
-	if (w->p.form == SWELL_FORM_VELOCITY)
+	if (w->form == SWELL_FORM_VELOCITY)
 		vel_fix(w);
 	/* h += acc where the step wrote acc (DIRTY; rows finished ahead have it already); the old v,
 	 * which becomes the next accumulator, is cleared where the last step wrote it (DIRTY_PREV); then
@@ -1102,7 +1104,7 @@ uint32_t swell_wave_checksum(const struct swell_wave *w)
 	uint32_t crc = crc_words(0, w->h, n);
 	int k, i, j;
 
-	if (w->p.form == SWELL_FORM_VELOCITY)
+	if (w->form == SWELL_FORM_VELOCITY)
 		return crc_words(crc, w->u, n);
 	for (k = 0; k < 4; k++)
 		for (j = 0; j < w->ny; j++)

@@ -28,8 +28,9 @@ struct Vel {
 	Vel(int nx, int ny, q30_t e, q30_t t, swell_stencil st, swell_wave_kernel k = SWELL_KERNEL_FUSED)
 	    : store(SWELL_WAVE_VEL_WORDS(nx, ny))
 	{
-		swell_wave_params p{e, t, st, SWELL_FORM_VELOCITY};
-		REQUIRE(swell_wave_init(&w, (uint16_t)nx, (uint16_t)ny, store.data(), store.size(), &p) == SWELL_OK);
+		swell_wave_params p{e, t, st};
+		REQUIRE(swell_wave_init_form(&w, (uint16_t)nx, (uint16_t)ny, store.data(), store.size(), &p,
+					     SWELL_FORM_VELOCITY) == SWELL_OK);
 		REQUIRE(swell_wave_set_kernel(&w, k) == SWELL_OK);
 	}
 	int n() const { return w.nx * w.ny; }
@@ -292,20 +293,18 @@ TEST_CASE("velocity form: extreme inputs saturate at the int27 bounds (+-1024 mm
 	CHECK(r.w.saturations > 0);
 }
 
-TEST_CASE("velocity form: the form is fixed at init, needs its own storage and is refused when unknown",
+TEST_CASE("velocity form: chosen at init, kept by set_params, needs its own storage; unknown forms are refused",
 	  "[wave][velocity][params]")
 {
 	std::vector<int32_t> store(SWELL_WAVE_VEL_WORDS(8, 8));
 	swell_wave w{};
-	swell_wave_params p{q30(0.2), 0, SWELL_STENCIL_PAPER, SWELL_FORM_VELOCITY};
-	CHECK(swell_wave_init(&w, 8, 8, store.data(), store.size() - 1, &p) == SWELL_ESIZE);
-	REQUIRE(swell_wave_init(&w, 8, 8, store.data(), store.size(), &p) == SWELL_OK);
-	swell_wave_params edge = p;
-	edge.form = SWELL_FORM_EDGE;
-	CHECK(swell_wave_set_params(&w, &edge) == SWELL_EINVAL);
-	swell_wave_params bad = p;
-	bad.form = (swell_wave_form)7;
-	CHECK(swell_wave_check(&bad) == SWELL_EINVAL);
+	swell_wave_params p{q30(0.2), 0, SWELL_STENCIL_PAPER};
+	CHECK(swell_wave_init_form(&w, 8, 8, store.data(), store.size() - 1, &p, SWELL_FORM_VELOCITY) == SWELL_ESIZE);
+	CHECK(swell_wave_init_form(&w, 8, 8, store.data(), store.size(), &p, (swell_wave_form)7) == SWELL_EINVAL);
+	REQUIRE(swell_wave_init_form(&w, 8, 8, store.data(), store.size(), &p, SWELL_FORM_VELOCITY) == SWELL_OK);
+	p.e = q30(0.3);
+	CHECK(swell_wave_set_params(&w, &p) == SWELL_OK);
+	CHECK(w.form == SWELL_FORM_VELOCITY);
 	CHECK(swell_wave_set_kernel(&w, SWELL_KERNEL_AVX2) == SWELL_EINVAL);
 	CHECK(std::string(swell_wave_form_name(SWELL_FORM_VELOCITY)) == "velocity");
 	CHECK(SWELL_WAVE_VEL_WORDS(64, 64) * 4 < SWELL_WAVE_WORDS(64, 64) * 4 * 6 / 10);

@@ -43,7 +43,7 @@
  * holds h(n+1) in h and its change in acc, so a reader takes h(n) = h - acc there (v is untouched
  * everywhere until the finish). Results are bit-identical to the unsplit step.
  *
- * Velocity form (SWELL_FORM_VELOCITY, chosen at init in the parameters): eq. (1) as a momentum
+ * Velocity form (SWELL_FORM_VELOCITY, chosen at init with swell_wave_init_form): eq. (1) as a momentum
  * per cell, u(n+1) = (1-t) [u(n) + e L9(n)], h(n+1) = h(n) + u(n+1) + water added from outside, with
  * the separable stencil 2 L9 = ([1 2 1] x [1 2 1]) h - 16 h. Each cell is rounded on its own:
  * undamped, u + e L9 to nearest (ties up); damped, u + e L9 toward zero and then the damping toward
@@ -116,7 +116,6 @@ struct swell_wave_params {
 	q30_t e;       /* eq. (2), in (0, 2) */
 	q30_t damping; /* t, in [0, 1) */
 	enum swell_stencil stencil;
-	enum swell_wave_form form; /* fixed at init: swell_wave_set_params refuses a change */
 };
 
 struct swell_wave {
@@ -145,6 +144,7 @@ struct swell_wave {
 	uint8_t band_asleep;  /* every tile of the band of rows in progress sleeps */
 	uint32_t tiles_skipped; /* tile-rows skipped, cumulative: 8 x 4 edges saved each */
 	uint8_t kernel;         /* enum swell_wave_kernel in use (never AUTO) */
+	uint8_t form;           /* enum swell_wave_form, fixed at init */
 	/* velocity form only */
 	int32_t *u;             /* momentum u(n), LSB 2^-16 mm per step; u(n+1) in rows done */
 	int64_t vel_sum;        /* sum of u(n+1) over the rows done: the residual the finish gives back */
@@ -177,6 +177,11 @@ q30_t swell_wave_e_limit(q30_t damping, enum swell_stencil stencil);
  * On error *w is untouched. */
 enum swell_err swell_wave_init(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage,
 			       size_t words, const struct swell_wave_params *p);
+
+/* The same, in the form asked for (swell_wave_init is the edge-flux form); SWELL_EINVAL for an
+ * unknown form. */
+enum swell_err swell_wave_init_form(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage,
+				    size_t words, const struct swell_wave_params *p, enum swell_wave_form form);
 
 /* Change parameters on a running field; on error nothing changes. */
 enum swell_err swell_wave_set_params(struct swell_wave *w, const struct swell_wave_params *p);
