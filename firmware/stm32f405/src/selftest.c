@@ -163,12 +163,14 @@ static int run_scene(void)
  * awake cell-step (tile rows not skipped), and the checksum the host compares. */
 static int run_cost(void)
 {
-	uint32_t k, n;
+	uint32_t k, n, f;
 
+	for (f = SWELL_FORM_EDGE; f <= SWELL_FORM_VELOCITY; f++)
 	for (k = 0; k < FW_COST_SCENES; k++) {
 		uint64_t t0, sum = 0, rows, awake;
 
-		if (fw_cost_scene_init(&wave, wave_storage, FW_SCENE_WORDS, (enum fw_cost_scene)k) != SWELL_OK)
+		if (fw_cost_scene_init(&wave, wave_storage, FW_SCENE_WORDS, (enum fw_cost_scene)k,
+				       (enum swell_wave_form)f) != SWELL_OK)
 			return 0;
 		for (n = 0; n < FW_COST_STEPS; n++) {
 			t0 = timebase_systick();
@@ -178,6 +180,7 @@ static int run_cost(void)
 		rows = (uint64_t)FW_COST_STEPS * FW_SCENE_NY * wave.tiles_x; /* tile rows, 8 cells each */
 		awake = rows - wave.tiles_skipped;
 		con_puts("cost scene ");
+		con_puts(f == SWELL_FORM_VELOCITY ? "velocity-" : "");
 		con_puts(fw_cost_scene_name[k]);
 		con_puts(": ");
 		put_insn(sum, (uint64_t)FW_COST_STEPS * FW_SCENE_NX * FW_SCENE_NY);
