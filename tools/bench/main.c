@@ -566,9 +566,13 @@ static void run_stability(const struct opts *o)
 		fprintf(fb, "%.4f,%.6f,%.6f,%.6f,%.6f\n", t, lim, meas[0], meas[1], meas[2]);
 		printf("%6.3f %12.6f %12.6f %12.6f %12.6f %10.5f %10.5f %10.5f\n", t, lim, meas[0], meas[1], meas[2],
 		       meas[0] / lim, meas[1] / lim, meas[2] / lim);
-		check(isfinite(meas[2]) && fabs(meas[2] / lim - 1) < 0.001,
-		      "velocity form: stability boundary at t = %.3f is %.5f, analytic %.5f (more than 0.1%% apart)", t,
-		      meas[2], lim);
+		/* rounding must not move the boundary: the velocity form's within 0.1 % of float64's measured
+		 * in the same run (how far above the analytic one a finite run resolves depends on its length:
+		 * 0.12 % at t = 0.75 in the quick preset's 1000 steps, for f64 too) */
+		check(isfinite(meas[2]) && fabs(meas[2] / meas[1] - 1) < 0.001 && meas[2] >= lim,
+		      "velocity form: stability boundary at t = %.3f is %.5f, float64 %.5f, analytic %.5f (more than "
+		      "0.1%% from float64, or below the analytic)",
+		      t, meas[2], meas[1], lim);
 		check(isfinite(meas[1]) && fabs(meas[1] / lim - 1) < 0.01,
 		      "f64 stability boundary at t = %.3f is %.5f, analytic %.5f (more than 1%% apart)", t, meas[1],
 		      lim);
@@ -643,7 +647,7 @@ static void stress_edge(const struct opts *o, const char *scenario, enum bench_i
 		f.e_eff, (double)steps * n, ratio, t == 0 ? ed_max : e_end, bench_field_volume_lsb(&f) - v0,
 		f.saturations);
 	/* the shipped kernel saturates to the int28 range: down to -(h_max + 1) */
-	check(m_all <= f.h_max + (impl == BENCH_SHIPPED), "%s %s: |h| %.0f LSB beyond the saturation bound", scenario, bench_impl_name(impl),
+	check(m_all <= f.h_max + (impl == BENCH_SHIPPED || impl == BENCH_VELOCITY), "%s %s: |h| %.0f LSB beyond the saturation bound", scenario, bench_impl_name(impl),
 	      m_all);
 	if (impl == BENCH_SHIPPED && noise_frac < 0.01) {
 		check(f.saturations == 0 && ratio < 1.5, "shipped at the stability edge t=%.2f grew %.2fx", t, ratio);
@@ -910,7 +914,7 @@ static void load_f405(const char *path)
 		int sc;
 
 		for (sc = 0; sc < FW_COST_SCENES; sc++) {
-			char want[64];
+			char want[128];
 			double aw;
 
 			snprintf(want, sizeof(want), "cost scene %s: %%lf instructions per cell-step, %%lf",
