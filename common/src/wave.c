@@ -653,9 +653,6 @@ static int have_avx2(void)
  * to row j+1 (none for the top row). Returns non-zero if any new flow is non-zero. */
 static int32_t step_segment(struct swell_wave *w, int j, int i0, int i1, int damp)
 {
-	if (w->form == SWELL_FORM_VELOCITY)
-		return w->kernel == SWELL_KERNEL_REF ? swell_wave_vel_ref(w, j, i0, i1, damp, &w->vel_sum)
-						     : swell_wave_vel_fused(w, j, i0, i1, damp, &w->vel_sum);
 	switch (w->kernel) {
 #if WAVE_AVX2
 	case SWELL_KERNEL_AVX2:
@@ -727,6 +724,32 @@ const char *swell_wave_kernel_name(enum swell_wave_kernel k)
 	}
 }
 
+/* Row j of the velocity form: runs of up to SWELL_WAVE_VEL_RUN awake tiles in one kernel call. */
+static void step_row_vel(struct swell_wave *w, int j, uint8_t *trow, int damp)
+{
+	int32_t any[SWELL_WAVE_VEL_RUN];
+	int tx = 0, t1, k;
+
+	while (tx < w->tiles_x) {
+		if (w->sleep && (trow[tx] & T_SLEEPING)) {
+			w->tiles_skipped++;
+			tx++;
+			continue;
+		}
+		for (t1 = tx + 1; t1 < w->tiles_x && t1 - tx < SWELL_WAVE_VEL_RUN; t1++)
+			if (w->sleep && (trow[t1] & T_SLEEPING))
+				break;
+		if (w->kernel == SWELL_KERNEL_REF)
+			swell_wave_vel_ref(w, j, tx, t1, damp, &w->vel_sum, any);
+		else
+			swell_wave_vel_fused(w, j, tx, t1, damp, &w->vel_sum, any);
+		for (k = 0; k < t1 - tx; k++)
+			if (any[k])
+				trow[tx + k] |= T_NONZERO;
+		tx = t1;
+	}
+}
+
 /* Row j, tile by tile, skipping sleeping tiles. */
 static inline void step_row(struct swell_wave *w, int j, int damp)
 {
@@ -749,6 +772,10 @@ static inline void step_row(struct swell_wave *w, int j, int damp)
 	}
 	if (w->sleep && w->band_asleep) { /* the whole band of tiles sleeps: nothing to do in this row */
 		w->tiles_skipped += w->tiles_x;
+		return;
+	}
+	if (w->form == SWELL_FORM_VELOCITY) {
+		step_row_vel(w, j, trow, damp);
 		return;
 	}
 	for (tx = 0; tx < w->tiles_x; tx++) {

@@ -61,59 +61,81 @@ static inline __attribute__((always_inline)) int32_t vel_cell(int32_t u, int32_t
 	return s;
 }
 
-/* fixed: a whole tile (8 cells) away from the east wall, unrolled */
-static inline __attribute__((always_inline)) int32_t vel_seg(struct swell_wave *w, int j, int i0, int i1,
-							    int damp, int dsp, int fixed, int64_t *sum)
+/* One cell: the column sum of the cell's right neighbour column (sr, from its three heights; the
+ * centre one is cn), the cell's value, its stores, and the register rotation. */
+#define VEL_CELL(K, SR)                                                                            \
+	do {                                                                                       \
+		sr = (SR);                                                                         \
+		s = vel_cell(u[K], sl + sr + 2 * sc - 16 * c, e, e2, q, damp, dsp, &sat);         \
+		u[K] = s;                                                                          \
+		acc[K] += s;                                                                       \
+		tot += s;                                                                          \
+		a_or |= s;                                                                         \
+		sl = sc;                                                                           \
+		sc = sr;                                                                           \
+		c = cn;                                                                            \
+	} while (0)
+
+/* A run of awake tiles of row j: whole blocks of 8 cells unrolled, the rest one by one, the cell
+ * at the east wall with its mirrored column. mid: a row with rows above and below (the row
+ * pointers are then constant offsets of one pointer when the width is fixed). */
+static inline __attribute__((always_inline)) void vel_run(struct swell_wave *w, int j, int tx0, int tx1,
+							 int damp, int dsp, int mid, int64_t *sum, int32_t *any)
 {
-	const int nx = VEL_NX(w), n = fixed ? 8 : i1 - i0, east = fixed ? 0 : i1 == nx;
+	const int nx = VEL_NX(w), i0 = tx0 * 8, i1 = tx1 * 8 < nx ? tx1 * 8 : nx;
+	const int east = i1 == nx, m = (i1 - i0) - east; /* cells whose right column exists */
 	const int32_t *restrict hc = w->h + (size_t)j * nx + i0;
-	const int32_t *restrict hd = j > 0 ? hc - nx : hc;
-	const int32_t *restrict hu = j + 1 < w->ny ? hc + nx : hc;
+	const int32_t *restrict hd = mid ? hc - nx : j > 0 ? hc - nx : hc;
+	const int32_t *restrict hu = mid ? hc + nx : j + 1 < w->ny ? hc + nx : hc;
 	int32_t *restrict u = w->u + (size_t)j * nx + i0;
 	int32_t *restrict acc = w->acc + (size_t)j * nx + i0;
 	const int32_t e = w->e_eff, e2 = (int32_t)((uint32_t)w->e_eff << 1), q = w->q;
-	const int w0 = i0 > 0 ? -1 : 0, end = east ? n - 1 : n;
+	const int w0 = i0 > 0 ? -1 : 0;
 	int32_t c = hc[0], sl = hd[w0] + hu[w0] + 2 * hc[w0], sc = hd[0] + hu[0] + 2 * c, sr, cn, s;
-	int32_t any = 0, tot = 0;
+	int32_t a_or, tot = 0;
 	uint32_t sat = 0;
-	int k;
+	int b, k;
 
 #if VEL_DSP
 	if (dsp)
 		__set_saturation_occurred(0);
 #endif
+	for (b = 0; b < m / 8; b++) {
+		a_or = 0;
 #pragma GCC unroll 8
-	for (k = 0; k < end; k++) {
+		for (k = 0; k < 8; k++) {
+			cn = hc[k + 1];
+			VEL_CELL(k, hd[k + 1] + hu[k + 1] + 2 * cn);
+		}
+		any[b] = a_or;
+		hc += 8;
+		hd += 8;
+		hu += 8;
+		u += 8;
+		acc += 8;
+	}
+	a_or = 0;
+	for (k = 0; k < m % 8; k++) {
 		cn = hc[k + 1];
-		sr = hd[k + 1] + hu[k + 1] + 2 * cn;
-		s = vel_cell(u[k], sl + sr + 2 * sc - 16 * c, e, e2, q, damp, dsp, &sat);
-		u[k] = s;
-		acc[k] += s;
-		tot += s;
-		any |= s;
-		sl = sc;
-		sc = sr;
-		c = cn;
+		VEL_CELL(k, hd[k + 1] + hu[k + 1] + 2 * cn);
 	}
 	if (east) { /* the mirrored column beyond the east wall is the last one */
-		s = vel_cell(u[k], sl + 3 * sc - 16 * c, e, e2, q, damp, dsp, &sat);
-		u[k] = s;
-		acc[k] += s;
-		tot += s;
-		any |= s;
+		cn = c;
+		VEL_CELL(k, sc);
 	}
+	if (m % 8 || east)
+		any[m / 8] = a_or;
 #if VEL_DSP
 	if (dsp)
 		sat = (uint32_t)__saturation_occurred();
 #endif
 	w->saturations += sat;
 	*sum += tot;
-	return any;
 }
 
-int32_t swell_wave_vel_fused(struct swell_wave *w, int j, int i0, int i1, int damp, int64_t *sum)
+void swell_wave_vel_fused(struct swell_wave *w, int j, int tx0, int tx1, int damp, int64_t *sum, int32_t *any)
 {
-	const int fixed = i1 == i0 + 8 && i1 < VEL_NX(w);
+	const int mid = j > 0 && j + 1 < w->ny;
 #if VEL_DSP
 	const int dsp = w->e_eff < ((int32_t)1 << 30); /* 2 e_eff fits int32 */
 #else
@@ -121,11 +143,14 @@ int32_t swell_wave_vel_fused(struct swell_wave *w, int j, int i0, int i1, int da
 #endif
 
 	if (dsp) {
-		if (fixed)
-			return damp ? vel_seg(w, j, i0, i1, 1, 1, 1, sum) : vel_seg(w, j, i0, i1, 0, 1, 1, sum);
-		return damp ? vel_seg(w, j, i0, i1, 1, 1, 0, sum) : vel_seg(w, j, i0, i1, 0, 1, 0, sum);
+		if (mid)
+			damp ? vel_run(w, j, tx0, tx1, 1, 1, 1, sum, any) : vel_run(w, j, tx0, tx1, 0, 1, 1, sum, any);
+		else
+			damp ? vel_run(w, j, tx0, tx1, 1, 1, 0, sum, any) : vel_run(w, j, tx0, tx1, 0, 1, 0, sum, any);
+		return;
 	}
-	if (fixed)
-		return damp ? vel_seg(w, j, i0, i1, 1, 0, 1, sum) : vel_seg(w, j, i0, i1, 0, 0, 1, sum);
-	return damp ? vel_seg(w, j, i0, i1, 1, 0, 0, sum) : vel_seg(w, j, i0, i1, 0, 0, 0, sum);
+	if (mid)
+		damp ? vel_run(w, j, tx0, tx1, 1, 0, 1, sum, any) : vel_run(w, j, tx0, tx1, 0, 0, 1, sum, any);
+	else
+		damp ? vel_run(w, j, tx0, tx1, 1, 0, 0, sum, any) : vel_run(w, j, tx0, tx1, 0, 0, 0, sum, any);
 }

@@ -8,14 +8,16 @@ static int64_t h_at(const struct swell_wave *w, int i, int j)
 	return w->h[(size_t)j * w->nx + (size_t)i];
 }
 
-int32_t swell_wave_vel_ref(struct swell_wave *w, int j, int i0, int i1, int damp, int64_t *sum)
+void swell_wave_vel_ref(struct swell_wave *w, int j, int tx0, int tx1, int damp, int64_t *sum, int32_t *any)
 {
 	static const int k[3][3] = {{1, 2, 1}, {2, 4, 2}, {1, 2, 1}};
-	int32_t any = 0;
+	const int i0 = tx0 * SWELL_WAVE_TILE, i1 = tx1 * SWELL_WAVE_TILE < w->nx ? tx1 * SWELL_WAVE_TILE : w->nx;
 	uint32_t sat = 0;
 	int64_t total = 0;
 	int i, di, dj;
 
+	for (i = 0; i < tx1 - tx0; i++)
+		any[i] = 0;
 	for (i = i0; i < i1; i++) {
 		const size_t a = (size_t)j * w->nx + (size_t)i;
 		int64_t x = -16 * h_at(w, i, j), s;
@@ -36,9 +38,8 @@ int32_t swell_wave_vel_ref(struct swell_wave *w, int j, int i0, int i1, int damp
 		w->u[a] = (int32_t)s;
 		w->acc[a] += (int32_t)s;
 		total += s;
-		any |= (int32_t)s;
+		any[(i - i0) / SWELL_WAVE_TILE] |= (int32_t)s;
 	}
 	w->saturations += sat;
 	*sum += total;
-	return any;
 }

@@ -1,7 +1,8 @@
 /* The velocity form's row kernels (wave.h, "Velocity form"): internal to the solver, one kernel a
- * file (wave_vel_ref.c, wave_vel_fused.c), called by wave.c for one row segment at a time.
+ * file (wave_vel_ref.c, wave_vel_fused.c), called by wave.c for a run of awake tiles of a row.
  *
- * A kernel computes, for every cell (i, j) with i0 <= i < i1 of row j, from the heights h(n) of
+ * A kernel computes, for every cell (i, j) of the tiles tx0 <= tx < tx1 (at most SWELL_WAVE_VEL_RUN;
+ * the last tile of the row may be narrower) of row j, from the heights h(n) of
  * rows j-1 .. j+1 (mirrored at the walls) and the cell's momentum u(n):
  *     x = 2 L9 = ([1 2 1] x [1 2 1]) h - 16 h          exact in int32 for |h| <= 2^26
  *     s = u + floor((e_eff x + 2^30) / 2^31)           undamped: e L9 to nearest, ties up
@@ -10,8 +11,9 @@
  *                                                      damped water comes to rest
  *     s = clamp(s, SWELL_H_MIN, SWELL_H_MAX)           counted in saturations
  *     s = floor(q s / 2^30) + (s < 0)   (damp only)    toward zero: q = 1 - t is odd
- * and stores u = s, acc += s; it adds the sum of the new s to *sum and returns non-zero when some
- * new s is non-zero. Every kernel gives the same bits as swell_wave_vel_ref. */
+ * and stores u = s, acc += s; it adds the sum of the new s to *sum and sets any[tx - tx0] non-zero
+ * exactly when some new s of that tile is non-zero. Every kernel gives the same bits as
+ * swell_wave_vel_ref. */
 #ifndef SWELL_WAVE_VEL_H
 #define SWELL_WAVE_VEL_H
 
@@ -19,7 +21,9 @@
 
 #include "swell/wave.h"
 
-int32_t swell_wave_vel_ref(struct swell_wave *w, int j, int i0, int i1, int damp, int64_t *sum);
-int32_t swell_wave_vel_fused(struct swell_wave *w, int j, int i0, int i1, int damp, int64_t *sum);
+#define SWELL_WAVE_VEL_RUN 8 /* tiles a call at most */
+
+void swell_wave_vel_ref(struct swell_wave *w, int j, int tx0, int tx1, int damp, int64_t *sum, int32_t *any);
+void swell_wave_vel_fused(struct swell_wave *w, int j, int tx0, int tx1, int damp, int64_t *sum, int32_t *any);
 
 #endif
