@@ -121,6 +121,27 @@ q30_t swell_wave_e_limit(q30_t damping, enum swell_stencil stencil)
 	return lim > INT32_MAX ? INT32_MAX : (q30_t)lim;
 }
 
+/* The velocity form's fraction bits: undamped, as many (up to 4) as keep e_eff 2^(F+1) within int32;
+ * damped, none. u is rescaled when they change (toward zero: the fixer gives back what that loses). */
+static void set_vel_frac(struct swell_wave *w)
+{
+	const size_t n = (size_t)w->nx * w->ny;
+	int f = 4, old = w->vel_frac;
+	size_t a;
+
+	while (f > 0 && ((int64_t)w->e_eff << (f + 1)) > INT32_MAX)
+		f--;
+	if (w->q != SWELL_Q30_ONE) /* damped: whole LSB, or fine momentum keeps single cells cycling */
+		f = 0;
+	w->vel_frac = (uint8_t)f;
+	if (!w->u || f == old)
+		return;
+	for (a = 0; a < n; a++)
+		w->u[a] = f > old ? swell_clamp((int32_t)swell_sat_i64((int64_t)w->u[a] * (1 << (f - old))), SWELL_H_MIN,
+						SWELL_H_MAX)
+				  : w->u[a] / (1 << (old - f));
+}
+
 static void apply_params(struct swell_wave *w, const struct swell_wave_params *p)
 {
 	w->p = *p;
@@ -131,6 +152,8 @@ static void apply_params(struct swell_wave *w, const struct swell_wave_params *p
 	w->q = SWELL_Q30_ONE - p->damping;
 	if (w->q != SWELL_Q30_ONE)
 		w->q |= 1; /* odd: see wave.h */
+	if (w->form == SWELL_FORM_VELOCITY)
+		set_vel_frac(w);
 	if (w->tile) /* new coefficients round differently: every tile awake */
 		wake_all(w);
 }
@@ -222,6 +245,7 @@ void swell_wave_rest(struct swell_wave *w)
 	w->next_row = 0;
 	w->done_row = 0;
 	w->vel_sum = 0;
+	w->vel_sum_h = 0;
 	wake_all(w);
 }
 
@@ -728,6 +752,7 @@ const char *swell_wave_kernel_name(enum swell_wave_kernel k)
 static void step_row_vel(struct swell_wave *w, int j, uint8_t *trow, int damp)
 {
 	int32_t any[SWELL_WAVE_VEL_RUN];
+	int64_t sum[2] = {0, 0};
 	int tx = 0, t1, k;
 
 	while (tx < w->tiles_x) {
@@ -740,14 +765,16 @@ static void step_row_vel(struct swell_wave *w, int j, uint8_t *trow, int damp)
 			if (w->sleep && (trow[t1] & T_SLEEPING))
 				break;
 		if (w->kernel == SWELL_KERNEL_REF)
-			swell_wave_vel_ref(w, j, tx, t1, damp, &w->vel_sum, any);
+			swell_wave_vel_ref(w, j, tx, t1, damp, sum, any);
 		else
-			swell_wave_vel_fused(w, j, tx, t1, damp, &w->vel_sum, any);
+			swell_wave_vel_fused(w, j, tx, t1, damp, sum, any);
 		for (k = 0; k < t1 - tx; k++)
 			if (any[k])
 				trow[tx + k] |= T_NONZERO;
 		tx = t1;
 	}
+	w->vel_sum += sum[0];
+	w->vel_sum_h += sum[1];
 }
 
 /* Row j, tile by tile, skipping sleeping tiles. */
@@ -919,36 +946,39 @@ static void finish_range(struct swell_wave *w, int j0, int j1, int add, int clea
 	}
 }
 
-/* One LSB (d = +-1, or a whole share) of the fixer into cell a: u and the step's change, and h at
- * once in a row finished ahead (as swell_wave_add does). */
-static void fix_cell(struct swell_wave *w, size_t a, int32_t d, uint8_t *t)
+/* d (one LSB, or a whole share) of a fixer into cell a: into u (mom), or into the step's height
+ * change, and h at once in a row finished ahead (as swell_wave_add does). */
+static void fix_cell(struct swell_wave *w, size_t a, int32_t d, int mom, uint8_t *t)
 {
-	const int32_t u = w->u[a] + d, x = w->h[a] + d;
-
-	w->u[a] = swell_clamp(u, SWELL_H_MIN, SWELL_H_MAX);
-	w->saturations += w->u[a] != u;
-	w->acc[a] += d;
 	*t |= T_DIRTY | T_NONZERO;
+	if (mom) {
+		const int32_t u = w->u[a] + d;
+
+		w->u[a] = swell_clamp(u, SWELL_H_MIN, SWELL_H_MAX);
+		w->saturations += w->u[a] != u;
+		return;
+	}
+	w->acc[a] += d;
 	if (a < (size_t)w->done_row * w->nx) {
+		const int32_t x = w->h[a] + d;
+
 		w->h[a] = swell_clamp(x, SWELL_HV_MIN, SWELL_HV_MAX);
 		w->saturations += w->h[a] != x;
 		*t |= T_TOUCHED;
 	}
 }
 
-/* The velocity form's volume fixer: give back the residual r = sum u(n+1) in whole LSBs, to the
- * cells of tiles whose momentum moved in this step (the same tiles whether tiles sleep or not), one
- * LSB a cell from the rotating cursor, after a whole share each when |r| exceeds their count. */
-static void vel_fix(struct swell_wave *w)
+/* Give back a residual r in whole LSBs, into u (mom) or the heights, to the cells of tiles whose
+ * momentum moved in this step (the same tiles whether tiles sleep or not), one LSB a cell from the
+ * rotating cursor, after a whole share each when |r| exceeds their count. */
+static void give_back(struct swell_wave *w, int64_t r, int mom)
 {
-	const int64_t r = w->vel_sum;
 	const int32_t d = r > 0 ? -1 : 1;
 	const size_t n = (size_t)w->nx * w->ny;
 	uint64_t left = (uint64_t)(r > 0 ? r : -r), cells = 0, share;
 	size_t a, tn;
 	int tx, ty, i, j;
 
-	w->vel_sum = 0;
 	if (!r)
 		return;
 	w->fixed_lsb += left;
@@ -960,14 +990,19 @@ static void vel_fix(struct swell_wave *w)
 				cells += (uint64_t)(i < SWELL_WAVE_TILE ? i : SWELL_WAVE_TILE) *
 					 (uint64_t)(j < SWELL_WAVE_TILE ? j : SWELL_WAVE_TILE);
 			}
-	share = left / cells; /* cells > 0: a non-zero sum has a non-zero term */
+	if (!cells) { /* a residual from a rescale of u, with nothing moving: tile 0 takes it */
+		w->tile[0] |= T_NONZERO;
+		cells = (uint64_t)(w->nx < SWELL_WAVE_TILE ? w->nx : SWELL_WAVE_TILE) *
+			(uint64_t)(w->ny < SWELL_WAVE_TILE ? w->ny : SWELL_WAVE_TILE);
+	}
+	share = left / cells;
 	if (share) {
 		for (a = 0; a < n; a++) {
 			i = (int)(a % w->nx);
 			j = (int)(a / w->nx);
 			tn = (size_t)(j / SWELL_WAVE_TILE) * w->tiles_x + (size_t)(i / SWELL_WAVE_TILE);
 			if (w->tile[tn] & T_NONZERO)
-				fix_cell(w, a, d * (int32_t)share, &w->tile[tn]);
+				fix_cell(w, a, d * (int32_t)share, mom, &w->tile[tn]);
 		}
 		left -= share * cells;
 	}
@@ -980,10 +1015,22 @@ static void vel_fix(struct swell_wave *w)
 			a = (size_t)j * w->nx + (size_t)(i < w->nx ? i : w->nx) - 1;
 			continue;
 		}
-		fix_cell(w, a, d, &w->tile[tn]);
+		fix_cell(w, a, d, mom, &w->tile[tn]);
 		left--;
 		w->fix_cursor = (uint32_t)(a + 1 < n ? a + 1 : 0);
 	}
+}
+
+/* The velocity form's fixers: sum u(n+1) = 0 (momentum, in u's LSB) and the heights' changes sum
+ * to the water added from outside (volume, in height LSB). */
+static void vel_fix(struct swell_wave *w)
+{
+	const int64_t r = w->vel_sum, rh = w->vel_sum_h;
+
+	w->vel_sum = 0;
+	w->vel_sum_h = 0;
+	give_back(w, r, 1);
+	give_back(w, rh, 0);
 }
 
 int swell_wave_finish_rows(struct swell_wave *w, int rows)

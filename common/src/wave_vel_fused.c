@@ -1,9 +1,9 @@
-/* The velocity form's fast kernel: one pass along a row segment with the column sums
+/* The velocity form's fast kernel: one pass along a run of awake tiles of a row with the column sums
  * h(j-1) + 2 h(j) + h(j+1) of the cells left, centre and right carried in registers, so that a cell
  * costs three loads of h, a handful of adds and shifts, the product and the momentum's load and
- * store. On ARMv7E-M: SMMLAR gives u + nearest(e_eff x / 2^31) in one instruction (with 2 e_eff as
- * operand, when it fits int32), SSAT #28 the saturation (the sticky Q flag, read once a segment) and
- * SMMUL the damping toward zero, as in the edge-flux kernel. Same bits as swell_wave_vel_ref. */
+ * store. On ARMv7E-M: SMMLAR gives u + nearest(x C / 2^32) in one instruction (SMMUL and a range
+ * test when damped), SSAT #28 the saturation (the sticky Q flag, read once a run) and SMMUL the
+ * damping toward zero, as in the edge-flux kernel. Same bits as swell_wave_vel_ref. */
 #include "swell/wave_vel.h"
 
 #ifdef SWELL_WAVE_FIXED_NX
@@ -19,22 +19,25 @@
 #define VEL_DSP 0
 #endif
 
-static inline __attribute__((always_inline)) int32_t vel_cell(int32_t u, int32_t x, int32_t e, int32_t e2,
+/* The new momentum of one cell from its momentum u and x = 2 L9 (wave_vel.h); c = e_eff 2^(f+1). */
+static inline __attribute__((always_inline)) int32_t vel_cell(int32_t u, int32_t x, int32_t c, int32_t f,
 							     int32_t q, int damp, int dsp, uint32_t *sat)
 {
-	int32_t s;
+	int32_t s, d;
 
 #if VEL_DSP
 	if (dsp) {
 		int32_t r;
 
-		(void)e;
 		(void)sat;
-		if (damp) { /* floor (SMMLA), then one toward zero when negative */
-			__asm__("smmla %0, %1, %2, %3" : "=r"(s) : "r"(x), "r"(e2), "r"(u));
+		if (damp) {
+			__asm__("smmul %0, %1, %2" : "=r"(d) : "r"(x), "r"(c));
+			if ((uint32_t)(d + (1 << f) - 1) < (uint32_t)(2 << f) - 1u) /* |d| < 2^f */
+				d = 0;
+			s = u + d;
 			s += (int32_t)((uint32_t)s >> 31);
 		} else {
-			__asm__("smmlar %0, %1, %2, %3" : "=r"(s) : "r"(x), "r"(e2), "r"(u));
+			__asm__("smmlar %0, %1, %2, %3" : "=r"(s) : "r"(x), "r"(c), "r"(u));
 		}
 		s = __ssat(s, 28);
 		if (damp) {
@@ -44,13 +47,15 @@ static inline __attribute__((always_inline)) int32_t vel_cell(int32_t u, int32_t
 		return s;
 	}
 #endif
-	(void)e2;
 	(void)dsp;
 	if (damp) {
-		s = u + (int32_t)(((int64_t)x * e) >> 31);
+		d = (int32_t)(((int64_t)x * c) >> 32);
+		if (d > -(1 << f) && d < (1 << f))
+			d = 0;
+		s = u + d;
 		s += s < 0;
 	} else {
-		s = u + (int32_t)(((int64_t)x * e + ((int64_t)1 << 30)) >> 31);
+		s = u + (int32_t)(((int64_t)x * c + ((int64_t)1 << 31)) >> 32);
 	}
 	if (s > SWELL_H_MAX || s < SWELL_H_MIN) {
 		s = s > SWELL_H_MAX ? SWELL_H_MAX : SWELL_H_MIN;
@@ -66,10 +71,12 @@ static inline __attribute__((always_inline)) int32_t vel_cell(int32_t u, int32_t
 #define VEL_CELL(K, SR)                                                                            \
 	do {                                                                                       \
 		sr = (SR);                                                                         \
-		s = vel_cell(u[K], sl + sr + 2 * sc - 16 * c, e, e2, q, damp, dsp, &sat);         \
+		s = vel_cell(u[K], sl + sr + 2 * sc - 16 * c, cf, f, q, damp, dsp, &sat);         \
+		dh = (s + half + ((s >> 31) & fm)) >> f; /* nearest, ties away from zero */          \
 		u[K] = s;                                                                          \
-		acc[K] += s;                                                                       \
+		acc[K] += dh;                                                                      \
 		tot += s;                                                                          \
+		tot_h += dh;                                                                       \
 		a_or |= s;                                                                         \
 		sl = sc;                                                                           \
 		sc = sr;                                                                           \
@@ -89,10 +96,11 @@ static inline __attribute__((always_inline)) void vel_run(struct swell_wave *w, 
 	const int32_t *restrict hu = mid ? hc + nx : j + 1 < w->ny ? hc + nx : hc;
 	int32_t *restrict u = w->u + (size_t)j * nx + i0;
 	int32_t *restrict acc = w->acc + (size_t)j * nx + i0;
-	const int32_t e = w->e_eff, e2 = (int32_t)((uint32_t)w->e_eff << 1), q = w->q;
+	const int32_t f = w->vel_frac, half = f ? 1 << (f - 1) : 0, fm = f ? -1 : 0, q = w->q; /* f 0: dh = s */
+	const int32_t cf = (int32_t)((uint32_t)w->e_eff << (f + 1)); /* < 2^31 when dsp */
 	const int w0 = i0 > 0 ? -1 : 0;
 	int32_t c = hc[0], sl = hd[w0] + hu[w0] + 2 * hc[w0], sc = hd[0] + hu[0] + 2 * c, sr, cn, s;
-	int32_t a_or, tot = 0;
+	int32_t a_or, tot = 0, tot_h = 0, dh;
 	uint32_t sat = 0;
 	int b, k;
 
@@ -130,14 +138,15 @@ static inline __attribute__((always_inline)) void vel_run(struct swell_wave *w, 
 		sat = (uint32_t)__saturation_occurred();
 #endif
 	w->saturations += sat;
-	*sum += tot;
+	sum[0] += tot;
+	sum[1] += tot_h;
 }
 
-void swell_wave_vel_fused(struct swell_wave *w, int j, int tx0, int tx1, int damp, int64_t *sum, int32_t *any)
+void swell_wave_vel_fused(struct swell_wave *w, int j, int tx0, int tx1, int damp, int64_t sum[2], int32_t *any)
 {
 	const int mid = j > 0 && j + 1 < w->ny;
 #if VEL_DSP
-	const int dsp = w->e_eff < ((int32_t)1 << 30); /* 2 e_eff fits int32 */
+	const int dsp = ((int64_t)w->e_eff << (w->vel_frac + 1)) <= INT32_MAX; /* the coefficient fits */
 #else
 	const int dsp = 0;
 #endif

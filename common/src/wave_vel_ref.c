@@ -8,12 +8,14 @@ static int64_t h_at(const struct swell_wave *w, int i, int j)
 	return w->h[(size_t)j * w->nx + (size_t)i];
 }
 
-void swell_wave_vel_ref(struct swell_wave *w, int j, int tx0, int tx1, int damp, int64_t *sum, int32_t *any)
+void swell_wave_vel_ref(struct swell_wave *w, int j, int tx0, int tx1, int damp, int64_t sum[2], int32_t *any)
 {
 	static const int k[3][3] = {{1, 2, 1}, {2, 4, 2}, {1, 2, 1}};
 	const int i0 = tx0 * SWELL_WAVE_TILE, i1 = tx1 * SWELL_WAVE_TILE < w->nx ? tx1 * SWELL_WAVE_TILE : w->nx;
+	const int f = w->vel_frac;
+	const int64_t c = (int64_t)w->e_eff << (f + 1);
 	uint32_t sat = 0;
-	int64_t total = 0;
+	int64_t total = 0, total_h = 0, dh;
 	int i, di, dj;
 
 	for (i = 0; i < tx1 - tx0; i++)
@@ -25,21 +27,30 @@ void swell_wave_vel_ref(struct swell_wave *w, int j, int tx0, int tx1, int damp,
 		for (dj = -1; dj <= 1; dj++)
 			for (di = -1; di <= 1; di++)
 				x += k[dj + 1][di + 1] * h_at(w, i + di, j + dj);
-		if (damp) /* floor of the sum, one LSB toward zero when negative: dissipative */
-			s = w->u[a] + ((x * w->e_eff) >> 31), s += s < 0;
-		else /* to nearest, ties up */
-			s = w->u[a] + ((x * w->e_eff + ((int64_t)1 << 30)) >> 31);
+		if (damp) { /* below a height LSB dropped; the sum toward zero: dissipative */
+			int64_t d = (x * c) >> 32;
+
+			if (d > -((int64_t)1 << f) && d < ((int64_t)1 << f))
+				d = 0;
+			s = w->u[a] + d;
+			s += s < 0;
+		} else { /* to nearest, ties up */
+			s = w->u[a] + ((x * c + ((int64_t)1 << 31)) >> 32);
+		}
 		if (s > SWELL_H_MAX || s < SWELL_H_MIN) {
 			s = s > SWELL_H_MAX ? SWELL_H_MAX : SWELL_H_MIN;
 			sat = 1;
 		}
 		if (damp) /* toward zero; q odd, so q s / 2^30 is never an integer for s != 0 */
 			s = ((s * w->q) >> 30) + (s < 0);
+		dh = f ? (s + ((int64_t)1 << (f - 1)) - (s < 0)) >> f : s; /* nearest, ties away from zero */
 		w->u[a] = (int32_t)s;
-		w->acc[a] += (int32_t)s;
+		w->acc[a] += (int32_t)dh;
 		total += s;
+		total_h += dh;
 		any[(i - i0) / SWELL_WAVE_TILE] |= (int32_t)s;
 	}
 	w->saturations += sat;
-	*sum += total;
+	sum[0] += total;
+	sum[1] += total_h;
 }

@@ -205,13 +205,11 @@ TEST_CASE("velocity form: volume is exact (0 LSB) under damping, random pushes a
 	}
 }
 
-/* At e 0.45 a single cell can keep a period-4 cycle of +-1.5 LSB around a half-integer equilibrium
- * (its own stiffness 6 e per LSB overshoots by exactly the damping's loss); keep e_eff <= 0.4. */
 TEST_CASE("velocity form: damped water comes to rest, no limit cycle (0 LSB/step after 4000 free steps, "
-	  "e 0.05 to 0.35)",
+	  "e 0.05 to 0.45)",
 	  "[wave][velocity][rest]")
 {
-	for (double e : {0.05, 0.2, 0.35}) {
+	for (double e : {0.05, 0.2, 0.35, 0.45}) {
 		Vel f(64, 64, q30(e), q30(0.02), SWELL_STENCIL_PAPER);
 		std::mt19937 rng(5);
 		for (int s = 0; s < 2000; s++) {
@@ -262,10 +260,31 @@ TEST_CASE("velocity form: a seiche eigenmode follows the exact discrete solution
 					err_ref = std::max(err_ref, std::fabs(f.w.h[a] * kLsbMm - r.h[a]));
 				}
 		}
+		/* the edge-flux form on the same mode, same run: the velocity form must be no worse */
+		std::vector<int32_t> es(SWELL_WAVE_WORDS(nx, ny));
+		swell_wave ew{};
+		swell_wave_params ep{e, 0, st};
+		REQUIRE(swell_wave_init(&ew, nx, ny, es.data(), es.size(), &ep) == SWELL_OK);
+		swell_shape_seiche(ew.h, nx, ny, 1, 1, SWELL_H_ONE_MM);
+		swell_wave_rest(&ew);
+		double err_edge = 0;
+		for (int k = 1; k <= steps; k++) {
+			swell_wave_step(&ew);
+			const double c = std::cos(om * (k + 0.5)) / std::cos(om / 2);
+			for (int j = 0; j < ny; j++)
+				for (int i = 0; i < nx; i++) {
+					const double mode = std::cos(M_PI * (i + 0.5) / nx) * std::cos(M_PI * (j + 0.5) / ny);
+					err_edge = std::max(err_edge, std::fabs(ew.h[j * nx + i] * kLsbMm - c * mode));
+				}
+		}
 		WARN((st == SWELL_STENCIL_PAPER ? "paper" : "calibrated")
-		     << ": Linf vs exact discrete eigenmode " << err << " mm, vs float64 of the scheme " << err_ref
-		     << " mm; fixer " << f.w.fixed_lsb << " LSB");
+		     << ": Linf vs exact discrete eigenmode " << err << " mm (edge-flux form " << err_edge
+		     << " mm), vs float64 of the scheme " << err_ref << " mm; " << (int)f.w.vel_frac
+		     << " fraction bits; fixer " << f.w.fixed_lsb << " LSB");
+		/* the bar the edge-flux form is held to; which form is closer depends on e (swell-bench's
+		 * matrix: neither is better at every e) */
 		CHECK(err <= 1e-2);
+		CHECK(err_edge <= 1e-2);
 		CHECK(err_ref <= 1e-2);
 	}
 }

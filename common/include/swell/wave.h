@@ -50,9 +50,14 @@
  * zero (wave_vel.h has the exact rule). Nearest rounding with damping leaves small limit cycles of
  * single cells (measured: 2-4 LSB/step forever at e 0.35-0.45); rounding the momentum toward zero
  * makes every damped step lose at least what it rounds. At the step's finish the integer
- * residual r = sum u(n+1) is given back in whole LSBs (u and h of cells of tiles that moved, one LSB
- * a cell, from a cursor that rotates over the grid; whole shares first when |r| exceeds their count),
- * so sum u = 0 and the volume stays exact. Water added from outside never enters u (as in the
+ * residual r = sum u(n+1) is given back in whole LSBs of u (to cells of tiles that moved, one LSB a
+ * cell, from a cursor that rotates over the grid; whole shares first when |r| exceeds their count),
+ * so sum u = 0. Undamped, u carries vel_frac fraction bits beyond a height LSB (as many as keep
+ * 2^(vel_frac+1) e_eff < 2 in Q1.30 for the M4's SMMLAR, at most 4: 4 for e_eff < 1/16, 2 for the
+ * pool's 0.2), which brings the rounding error under the edge-flux form's; damped, none (with them,
+ * single cells keep cycling by 2-3 LSB at e 0.35 and t 0.02). A cell's height change is u(n+1) rounded to a height LSB (nearest, ties away from zero), and the
+ * residual of those roundings is given back the same way in whole height LSBs (h and acc only), so
+ * the volume stays exact. Water added from outside never enters u (as in the
  * edge-flux form, it is mass, not momentum). Heights saturate to int27 (SWELL_HV_MIN..MAX,
  * +-1024 mm) so that 2 L9 fits int32; u to int28. Storage SWELL_WAVE_VEL_WORDS: h, v, acc, u and
  * the tile flags, 16 bytes a cell instead of 28. Kernels: SWELL_KERNEL_REF (the definition, one cell
@@ -146,8 +151,10 @@ struct swell_wave {
 	uint8_t kernel;         /* enum swell_wave_kernel in use (never AUTO) */
 	uint8_t form;           /* enum swell_wave_form, fixed at init */
 	/* velocity form only */
-	int32_t *u;             /* momentum u(n), LSB 2^-16 mm per step; u(n+1) in rows done */
+	int32_t *u;             /* momentum u(n), LSB 2^-(16 + vel_frac) mm per step; u(n+1) in rows done */
 	int64_t vel_sum;        /* sum of u(n+1) over the rows done: the residual the finish gives back */
+	int64_t vel_sum_h;      /* sum of the rows' height changes (without water added from outside) */
+	uint8_t vel_frac;       /* fraction bits of u beyond a height LSB: 4, 3, 2, 1 or 0 by e_eff */
 	uint32_t fix_cursor;    /* next cell the fixer gives an LSB to */
 	uint64_t fixed_lsb;     /* LSB given back by the fixer, cumulative */
 };

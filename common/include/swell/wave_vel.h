@@ -5,15 +5,19 @@
  * the last tile of the row may be narrower) of row j, from the heights h(n) of
  * rows j-1 .. j+1 (mirrored at the walls) and the cell's momentum u(n):
  *     x = 2 L9 = ([1 2 1] x [1 2 1]) h - 16 h          exact in int32 for |h| <= 2^26
- *     s = u + floor((e_eff x + 2^30) / 2^31)           undamped: e L9 to nearest, ties up
- *     s = u + floor(e_eff x / 2^31), s += (s < 0)      damped: the sum toward zero (a negative exact
- *                                                      integer one LSB further): dissipative, so
- *                                                      damped water comes to rest
+ *     C = e_eff 2^(F+1)  (F = vel_frac; C < 2^31)      the coefficient, u in 2^-F height LSB
+ *     s = u + floor((x C + 2^31) / 2^32)               undamped: e L9 to nearest, ties up
+ *     d = floor(x C / 2^32); d = 0 if |d| < 2^F ...    damped: below one height LSB dropped
+ *     s = u + d, s += (s < 0)                          ... and the sum toward zero (a negative
+ *                                                      exact integer one LSB further): dissipative,
+ *                                                      so damped water comes to rest
  *     s = clamp(s, SWELL_H_MIN, SWELL_H_MAX)           counted in saturations
  *     s = floor(q s / 2^30) + (s < 0)   (damp only)    toward zero: q = 1 - t is odd
- * and stores u = s, acc += s; it adds the sum of the new s to *sum and sets any[tx - tx0] non-zero
- * exactly when some new s of that tile is non-zero. Every kernel gives the same bits as
- * swell_wave_vel_ref. */
+ *     dh = (s + 2^(F-1) - (s < 0)) >> F  (dh = s at 0)  the height change, nearest, ties away
+ *                                                      from zero (no bias in the volume residual)
+ * and stores u = s, acc += dh; it adds the sums of the new s and dh to sum[0] and sum[1] and sets
+ * any[tx - tx0] non-zero exactly when some new s of that tile is non-zero. Every kernel gives the
+ * same bits as swell_wave_vel_ref. */
 #ifndef SWELL_WAVE_VEL_H
 #define SWELL_WAVE_VEL_H
 
@@ -23,7 +27,7 @@
 
 #define SWELL_WAVE_VEL_RUN 8 /* tiles a call at most */
 
-void swell_wave_vel_ref(struct swell_wave *w, int j, int tx0, int tx1, int damp, int64_t *sum, int32_t *any);
-void swell_wave_vel_fused(struct swell_wave *w, int j, int tx0, int tx1, int damp, int64_t *sum, int32_t *any);
+void swell_wave_vel_ref(struct swell_wave *w, int j, int tx0, int tx1, int damp, int64_t sum[2], int32_t *any);
+void swell_wave_vel_fused(struct swell_wave *w, int j, int tx0, int tx1, int damp, int64_t sum[2], int32_t *any);
 
 #endif
