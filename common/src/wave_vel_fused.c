@@ -23,18 +23,16 @@
 static inline __attribute__((always_inline)) int32_t vel_cell(int32_t u, int32_t x, int32_t c, int32_t f,
 							     int32_t q, int damp, int dsp, uint32_t *sat)
 {
-	int32_t s, d;
+	int32_t s;
 
 #if VEL_DSP
 	if (dsp) {
 		int32_t r;
 
 		(void)sat;
-		if (damp) {
-			__asm__("smmul %0, %1, %2" : "=r"(d) : "r"(x), "r"(c));
-			if ((uint32_t)(d + (1 << f) - 1) < (uint32_t)(2 << f) - 1u) /* |d| < 2^f */
-				d = 0;
-			s = u + d;
+		(void)f;
+		if (damp) { /* floor (SMMLA), then one toward zero when negative */
+			__asm__("smmla %0, %1, %2, %3" : "=r"(s) : "r"(x), "r"(c), "r"(u));
 			s += (int32_t)((uint32_t)s >> 31);
 		} else {
 			__asm__("smmlar %0, %1, %2, %3" : "=r"(s) : "r"(x), "r"(c), "r"(u));
@@ -48,11 +46,9 @@ static inline __attribute__((always_inline)) int32_t vel_cell(int32_t u, int32_t
 	}
 #endif
 	(void)dsp;
+	(void)f;
 	if (damp) {
-		d = (int32_t)(((int64_t)x * c) >> 32);
-		if (d > -(1 << f) && d < (1 << f))
-			d = 0;
-		s = u + d;
+		s = u + (int32_t)(((int64_t)x * c) >> 32);
 		s += s < 0;
 	} else {
 		s = u + (int32_t)(((int64_t)x * c + ((int64_t)1 << 31)) >> 32);
@@ -72,7 +68,7 @@ static inline __attribute__((always_inline)) int32_t vel_cell(int32_t u, int32_t
 	do {                                                                                       \
 		sr = (SR);                                                                         \
 		s = vel_cell(u[K], sl + sr + 2 * sc - 16 * c, cf, f, q, damp, dsp, &sat);         \
-		dh = (s + half + ((s >> 31) & fm)) >> f; /* nearest, ties away from zero */          \
+		dh = damp ? s : (s + half + ((s >> 31) & fm)) >> f; /* damped: f = 0 */            \
 		u[K] = s;                                                                          \
 		acc[K] += dh;                                                                      \
 		tot += s;                                                                          \

@@ -7,10 +7,9 @@
  *     x = 2 L9 = ([1 2 1] x [1 2 1]) h - 16 h          exact in int32 for |h| <= 2^26
  *     C = e_eff 2^(F+1)  (F = vel_frac; C < 2^31)      the coefficient, u in 2^-F height LSB
  *     s = u + floor((x C + 2^31) / 2^32)               undamped: e L9 to nearest, ties up
- *     d = floor(x C / 2^32); d = 0 if |d| < 2^F ...    damped: below one height LSB dropped
- *     s = u + d, s += (s < 0)                          ... and the sum toward zero (a negative
- *                                                      exact integer one LSB further): dissipative,
- *                                                      so damped water comes to rest
+ *     s = u + floor(x C / 2^32), s += (s < 0)          damped (then F = 0): the sum toward zero (a
+ *                                                      negative exact integer one LSB further):
+ *                                                      dissipative, so damped water comes to rest
  *     s = clamp(s, SWELL_H_MIN, SWELL_H_MAX)           counted in saturations
  *     s = floor(q s / 2^30) + (s < 0)   (damp only)    toward zero: q = 1 - t is odd
  *     dh = (s + 2^(F-1) - (s < 0)) >> F  (dh = s at 0)  the height change, nearest, ties away
