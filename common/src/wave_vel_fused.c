@@ -19,9 +19,10 @@
 #define VEL_DSP 0
 #endif
 
-/* The new momentum of one cell from its momentum u and x = 2 L9 (wave_vel.h); c = e_eff 2^(f+1). */
-static inline __attribute__((always_inline)) int32_t vel_cell(int32_t u, int32_t x, int32_t c, int32_t f,
-							     int32_t q, int damp, int dsp, uint32_t *sat)
+/* The new momentum of one cell from its momentum u and x = 2 L9 (wave_vel.h); c = e_eff 2^(f+1),
+ * as int32 for the DSP path (it fits there) and as int64 (c64) for the portable one. */
+static inline __attribute__((always_inline)) int32_t vel_cell(int32_t u, int32_t x, int32_t c, int64_t c64,
+							     int32_t f, int32_t q, int damp, int dsp, uint32_t *sat)
 {
 	int32_t s;
 
@@ -31,6 +32,7 @@ static inline __attribute__((always_inline)) int32_t vel_cell(int32_t u, int32_t
 
 		(void)sat;
 		(void)f;
+		(void)c64;
 		if (damp) { /* floor (SMMLA), then one toward zero when negative */
 			__asm__("smmla %0, %1, %2, %3" : "=r"(s) : "r"(x), "r"(c), "r"(u));
 			s += (int32_t)((uint32_t)s >> 31);
@@ -47,11 +49,12 @@ static inline __attribute__((always_inline)) int32_t vel_cell(int32_t u, int32_t
 #endif
 	(void)dsp;
 	(void)f;
+	(void)c;
 	if (damp) {
-		s = u + (int32_t)(((int64_t)x * c) >> 32);
+		s = u + (int32_t)(((int64_t)x * c64) >> 32);
 		s += s < 0;
 	} else {
-		s = u + (int32_t)(((int64_t)x * c + ((int64_t)1 << 31)) >> 32);
+		s = u + (int32_t)(((int64_t)x * c64 + ((int64_t)1 << 31)) >> 32);
 	}
 	if (s > SWELL_H_MAX || s < SWELL_H_MIN) {
 		s = s > SWELL_H_MAX ? SWELL_H_MAX : SWELL_H_MIN;
@@ -67,7 +70,7 @@ static inline __attribute__((always_inline)) int32_t vel_cell(int32_t u, int32_t
 #define VEL_CELL(K, SR)                                                                            \
 	do {                                                                                       \
 		sr = (SR);                                                                         \
-		s = vel_cell(u[K], sl + sr + 2 * sc - 16 * c, cf, f, q, damp, dsp, &sat);         \
+		s = vel_cell(u[K], sl + sr + 2 * sc - 16 * c, cf, c64, f, q, damp, dsp, &sat);         \
 		dh = damp ? s : (s + half + ((s >> 31) & fm)) >> f; /* damped: f = 0 */            \
 		u[K] = s;                                                                          \
 		acc[K] += dh;                                                                      \
@@ -93,7 +96,8 @@ static inline __attribute__((always_inline)) void vel_run(struct swell_wave *w, 
 	int32_t *restrict u = w->u + (size_t)j * nx + i0;
 	int32_t *restrict acc = w->acc + (size_t)j * nx + i0;
 	const int32_t f = w->vel_frac, half = f ? 1 << (f - 1) : 0, fm = f ? -1 : 0, q = w->q; /* f 0: dh = s */
-	const int32_t cf = (int32_t)((uint32_t)w->e_eff << (f + 1)); /* < 2^31 when dsp */
+	const int64_t c64 = (int64_t)w->e_eff << (f + 1);
+	const int32_t cf = dsp ? (int32_t)c64 : 0; /* fits int32 when dsp */
 	const int w0 = i0 > 0 ? -1 : 0;
 	int32_t c = hc[0], sl = hd[w0] + hu[w0] + 2 * hc[w0], sc = hd[0] + hu[0] + 2 * c, sr, cn, s;
 	int32_t a_or, tot = 0, tot_h = 0, dh;

@@ -110,7 +110,8 @@ TEST_CASE("velocity form: the fused kernel is bit-identical to the reference aft
 	const C cases[] = {{64, 64, 0.2, 0.0, SWELL_STENCIL_PAPER, 1},   {64, 64, 0.2, 0.02, SWELL_STENCIL_PAPER, 1},
 			   {21, 13, 0.45, 0.0, SWELL_STENCIL_PAPER, 1},  {21, 13, 0.3, 0.1, SWELL_STENCIL_CALIBRATED, 0},
 			   {8, 8, 0.49, 0.001, SWELL_STENCIL_PAPER, 1},  {2, 2, 0.2, 0.0, SWELL_STENCIL_PAPER, 0},
-			   {16, 24, 0.7, 0.5, SWELL_STENCIL_PAPER, 1},   {9, 17, 1.6, 0.6, SWELL_STENCIL_CALIBRATED, 1}};
+			   {16, 24, 0.7, 0.5, SWELL_STENCIL_PAPER, 1},   {9, 17, 1.6, 0.6, SWELL_STENCIL_CALIBRATED, 1},
+			   {16, 16, 1.0, 0.7, SWELL_STENCIL_PAPER, 1},   {24, 8, 0.06, 0.0, SWELL_STENCIL_PAPER, 1}};
 	for (const C &c : cases) {
 		for (uint32_t seed = 1; seed <= 3; seed++) {
 			Vel r(c.nx, c.ny, q30(c.e), q30(c.t), c.st, SWELL_KERNEL_REF);

@@ -217,6 +217,13 @@ enum swell_err bench_field_force(struct bench_field *f, q30_t e_eff, q30_t q)
 		f->w.c_half = e_eff / 2;
 		f->w.c_wall = e_eff + e_eff / 2;
 		f->w.q = q;
+		if (f->impl == BENCH_VELOCITY) { /* its fraction bits, as wave.c chooses them (u is 0 here) */
+			int fr = 4;
+
+			while (fr > 0 && ((int64_t)e_eff << (fr + 1)) > INT32_MAX)
+				fr--;
+			f->w.vel_frac = (uint8_t)(q != SWELL_Q30_ONE ? 0 : fr);
+		}
 		memset(f->w.tile, 0, (size_t)f->w.tiles_x * f->w.tiles_y); /* wake every tile */
 	}
 	f->e_eff_f = (float)f->e_eff;
