@@ -1006,19 +1006,24 @@ static void give_back(struct swell_wave *w, int64_t r, int mom)
 		}
 		left -= share * cells;
 	}
-	for (a = w->fix_cursor % n; left; a = a + 1 < n ? a + 1 : 0) {
-		i = (int)(a % w->nx);
-		j = (int)(a / w->nx);
+	/* the cursor walk: cells carried by column and row, a tile that did not move skipped whole */
+	i = (int)(w->fix_cursor % n % w->nx);
+	j = (int)(w->fix_cursor % n / w->nx);
+	while (left) {
 		tn = (size_t)(j / SWELL_WAVE_TILE) * w->tiles_x + (size_t)(i / SWELL_WAVE_TILE);
-		if (!(w->tile[tn] & T_NONZERO)) { /* skip to the last cell of this tile's row */
+		if (w->tile[tn] & T_NONZERO) {
+			fix_cell(w, (size_t)j * w->nx + (size_t)i, d, mom, &w->tile[tn]);
+			left--;
+			i++;
+		} else {
 			i = (i / SWELL_WAVE_TILE + 1) * SWELL_WAVE_TILE;
-			a = (size_t)j * w->nx + (size_t)(i < w->nx ? i : w->nx) - 1;
-			continue;
 		}
-		fix_cell(w, a, d, mom, &w->tile[tn]);
-		left--;
-		w->fix_cursor = (uint32_t)(a + 1 < n ? a + 1 : 0);
+		if (i >= w->nx) {
+			i = 0;
+			j = j + 1 < w->ny ? j + 1 : 0;
+		}
 	}
+	w->fix_cursor = (uint32_t)((size_t)j * w->nx + (size_t)i);
 }
 
 /* The velocity form's fixers: sum u(n+1) = 0 (momentum, in u's LSB) and the heights' changes sum
