@@ -979,7 +979,7 @@ static void give_back(struct swell_wave *w, int64_t r, int mom)
 	size_t a, tn;
 	int tx, ty, i, j;
 
-	if (!r)
+	if (!r || !w->nx || !w->ny) /* sides are at least 2: the second test is for the analyser */
 		return;
 	w->fixed_lsb += left;
 	for (ty = 0; ty < w->tiles_y; ty++)
@@ -995,20 +995,22 @@ static void give_back(struct swell_wave *w, int64_t r, int mom)
 		cells = (uint64_t)(w->nx < SWELL_WAVE_TILE ? w->nx : SWELL_WAVE_TILE) *
 			(uint64_t)(w->ny < SWELL_WAVE_TILE ? w->ny : SWELL_WAVE_TILE);
 	}
+	if (!cells) /* cannot happen (sides >= 2); keeps the walk below from running forever */
+		return;
 	share = left / cells;
 	if (share) {
-		for (a = 0; a < n; a++) {
-			i = (int)(a % w->nx);
-			j = (int)(a / w->nx);
-			tn = (size_t)(j / SWELL_WAVE_TILE) * w->tiles_x + (size_t)(i / SWELL_WAVE_TILE);
-			if (w->tile[tn] & T_NONZERO)
-				fix_cell(w, a, d * (int32_t)share, mom, &w->tile[tn]);
-		}
+		for (j = 0; j < w->ny; j++)
+			for (i = 0; i < w->nx; i++) {
+				tn = (size_t)(j / SWELL_WAVE_TILE) * w->tiles_x + (size_t)(i / SWELL_WAVE_TILE);
+				if (w->tile[tn] & T_NONZERO)
+					fix_cell(w, (size_t)j * w->nx + (size_t)i, d * (int32_t)share, mom, &w->tile[tn]);
+			}
 		left -= share * cells;
 	}
 	/* the cursor walk: cells carried by column and row, a tile that did not move skipped whole */
-	i = (int)(w->fix_cursor % n % w->nx);
-	j = (int)(w->fix_cursor % n / w->nx);
+	a = w->fix_cursor < n ? w->fix_cursor : 0;
+	i = (int)(a % w->nx);
+	j = (int)(a / w->nx);
 	while (left) {
 		tn = (size_t)(j / SWELL_WAVE_TILE) * w->tiles_x + (size_t)(i / SWELL_WAVE_TILE);
 		if (w->tile[tn] & T_NONZERO) {
