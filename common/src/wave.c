@@ -1,9 +1,10 @@
-/* Fixed-point solver of eq. (1) in edge-flux form; see wave.h for the maths and the rounding. */
+/* Fixed-point solver of eq. (1) in edge-flux form, and the driver of the velocity form (wave_vel_*.c); see wave.h for the maths and the rounding. */
 #include "swell/wave.h"
 
 #include <string.h>
 
 #include "swell/crc.h"
+#include "swell/wave_vel.h"
 
 /* A controller image may fix the grid's width at compile time (SWELL_WAVE_FIXED_NX): the row above
  * is then at a constant offset, which frees registers in the M4 kernel. Other widths are refused. */
@@ -120,6 +121,27 @@ q30_t swell_wave_e_limit(q30_t damping, enum swell_stencil stencil)
 	return lim > INT32_MAX ? INT32_MAX : (q30_t)lim;
 }
 
+/* The velocity form's fraction bits: undamped, as many (up to 4) as keep e_eff 2^(F+1) within int32;
+ * damped, none. u is rescaled when they change (toward zero: the fixer gives back what that loses). */
+static void set_vel_frac(struct swell_wave *w)
+{
+	const size_t n = (size_t)w->nx * w->ny;
+	int f = 4, old = w->vel_frac;
+	size_t a;
+
+	while (f > 0 && ((int64_t)w->e_eff << (f + 1)) > INT32_MAX)
+		f--;
+	if (w->q != SWELL_Q30_ONE) /* damped: whole LSB, or fine momentum keeps single cells cycling */
+		f = 0;
+	w->vel_frac = (uint8_t)f;
+	if (!w->u || f == old)
+		return;
+	for (a = 0; a < n; a++)
+		w->u[a] = f > old ? swell_clamp((int32_t)swell_sat_i64((int64_t)w->u[a] * (1 << (f - old))), SWELL_H_MIN,
+						SWELL_H_MAX)
+				  : w->u[a] / (1 << (old - f));
+}
+
 static void apply_params(struct swell_wave *w, const struct swell_wave_params *p)
 {
 	w->p = *p;
@@ -130,6 +152,8 @@ static void apply_params(struct swell_wave *w, const struct swell_wave_params *p
 	w->q = SWELL_Q30_ONE - p->damping;
 	if (w->q != SWELL_Q30_ONE)
 		w->q |= 1; /* odd: see wave.h */
+	if (w->form == SWELL_FORM_VELOCITY)
+		set_vel_frac(w);
 	if (w->tile) /* new coefficients round differently: every tile awake */
 		wake_all(w);
 }
@@ -137,13 +161,19 @@ static void apply_params(struct swell_wave *w, const struct swell_wave_params *p
 enum swell_err swell_wave_init(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage,
 			       size_t words, const struct swell_wave_params *p)
 {
+	return swell_wave_init_form(w, nx, ny, storage, words, p, SWELL_FORM_EDGE);
+}
+
+enum swell_err swell_wave_init_form(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage,
+				    size_t words, const struct swell_wave_params *p, enum swell_wave_form form)
+{
 	size_t n = (size_t)nx * ny;
 	enum swell_err err;
 
-	if (!w || !storage)
+	if (!w || !storage || (form != SWELL_FORM_EDGE && form != SWELL_FORM_VELOCITY))
 		return SWELL_EINVAL;
 	if (nx < SWELL_WAVE_MIN_SIDE || ny < SWELL_WAVE_MIN_SIDE || nx > SWELL_WAVE_MAX_SIDE ||
-	    ny > SWELL_WAVE_MAX_SIDE || words < SWELL_WAVE_WORDS(nx, ny))
+	    ny > SWELL_WAVE_MAX_SIDE)
 		return SWELL_ESIZE;
 #ifdef SWELL_WAVE_FIXED_NX
 	if (nx != SWELL_WAVE_FIXED_NX)
@@ -152,6 +182,8 @@ enum swell_err swell_wave_init(struct swell_wave *w, uint16_t nx, uint16_t ny, i
 	err = swell_wave_check(p);
 	if (err != SWELL_OK)
 		return err;
+	if (words < (form == SWELL_FORM_VELOCITY ? SWELL_WAVE_VEL_WORDS(nx, ny) : SWELL_WAVE_WORDS(nx, ny)))
+		return SWELL_ESIZE;
 
 	memset(w, 0, sizeof(*w));
 	w->nx = nx;
@@ -161,11 +193,17 @@ enum swell_err swell_wave_init(struct swell_wave *w, uint16_t nx, uint16_t ny, i
 	w->h = storage;
 	w->v = storage + n;
 	w->acc = storage + 2 * n;
-	w->f = storage + 3 * n;
-	w->tile = (uint8_t *)(w->f + 4 * SWELL_WAVE_TILE * (size_t)w->tiles_x * ny);
+	w->form = (uint8_t)form; /* the kernel choice below depends on it */
+	if (form == SWELL_FORM_VELOCITY) {
+		w->u = storage + 3 * n;
+		w->tile = (uint8_t *)(w->u + n);
+	} else {
+		w->f = storage + 3 * n;
+		w->tile = (uint8_t *)(w->f + 4 * SWELL_WAVE_TILE * (size_t)w->tiles_x * ny);
+	}
 	w->sleep = 1;
 	swell_wave_set_kernel(w, SWELL_KERNEL_AUTO);
-	memset(storage, 0, SWELL_WAVE_WORDS(nx, ny) * sizeof(int32_t));
+	memset(storage, 0, (size_t)((w->tile - (uint8_t *)storage) + w->tiles_x * w->tiles_y));
 	apply_params(w, p);
 	return SWELL_OK;
 }
@@ -183,6 +221,17 @@ enum swell_err swell_wave_set_params(struct swell_wave *w, const struct swell_wa
 	return SWELL_OK;
 }
 
+/* The height bounds of the form: int28, or int27 in the velocity form (2 L9 fits int32). */
+static int32_t h_max(const struct swell_wave *w)
+{
+	return w->form == SWELL_FORM_VELOCITY ? SWELL_HV_MAX : SWELL_H_MAX;
+}
+
+static int32_t h_min(const struct swell_wave *w)
+{
+	return w->form == SWELL_FORM_VELOCITY ? SWELL_HV_MIN : SWELL_H_MIN;
+}
+
 void swell_wave_rest(struct swell_wave *w)
 {
 	size_t n = (size_t)w->nx * w->ny, a;
@@ -190,11 +239,13 @@ void swell_wave_rest(struct swell_wave *w)
 	/* a step in progress starts over: rows finished ahead go back to h(n) (their flows' other ends,
 	 * in acc, are dropped with the step); a saturated height stays within the bounds */
 	for (a = 0; a < (size_t)w->done_row * w->nx; a++)
-		w->h[a] = swell_clamp(w->h[a] - w->acc[a], SWELL_H_MIN, SWELL_H_MAX);
-	/* v, acc and the flows are contiguous, up to the tile flags */
+		w->h[a] = swell_clamp(w->h[a] - w->acc[a], h_min(w), h_max(w));
+	/* v, acc and the flows (or u) are contiguous, up to the tile flags */
 	memset(w->h + n, 0, (size_t)((uint8_t *)w->tile - (uint8_t *)(w->h + n)));
 	w->next_row = 0;
 	w->done_row = 0;
+	w->vel_sum = 0;
+	w->vel_sum_h = 0;
 	wake_all(w);
 }
 
@@ -649,7 +700,7 @@ enum swell_err swell_wave_set_kernel(struct swell_wave *w, enum swell_wave_kerne
 	switch (k) {
 	case SWELL_KERNEL_AUTO:
 #if WAVE_AVX2
-		w->kernel = have_avx2() ? SWELL_KERNEL_AVX2 : SWELL_KERNEL_FUSED;
+		w->kernel = have_avx2() && w->form == SWELL_FORM_EDGE ? SWELL_KERNEL_AVX2 : SWELL_KERNEL_FUSED;
 #else
 		w->kernel = SWELL_KERNEL_FUSED;
 #endif
@@ -660,7 +711,7 @@ enum swell_err swell_wave_set_kernel(struct swell_wave *w, enum swell_wave_kerne
 		return SWELL_OK;
 	case SWELL_KERNEL_AVX2:
 #if WAVE_AVX2
-		if (have_avx2()) {
+		if (have_avx2() && w->form == SWELL_FORM_EDGE) {
 			w->kernel = SWELL_KERNEL_AVX2;
 			return SWELL_OK;
 		}
@@ -668,6 +719,18 @@ enum swell_err swell_wave_set_kernel(struct swell_wave *w, enum swell_wave_kerne
 		return SWELL_EINVAL;
 	default:
 		return SWELL_EINVAL;
+	}
+}
+
+const char *swell_wave_form_name(enum swell_wave_form f)
+{
+	switch (f) {
+	case SWELL_FORM_EDGE:
+		return "edge";
+	case SWELL_FORM_VELOCITY:
+		return "velocity";
+	default:
+		return NULL;
 	}
 }
 
@@ -685,6 +748,35 @@ const char *swell_wave_kernel_name(enum swell_wave_kernel k)
 	}
 }
 
+/* Row j of the velocity form: runs of up to SWELL_WAVE_VEL_RUN awake tiles in one kernel call. */
+static void step_row_vel(struct swell_wave *w, int j, uint8_t *trow, int damp)
+{
+	int32_t any[SWELL_WAVE_VEL_RUN];
+	int64_t sum[2] = {0, 0};
+	int tx = 0, t1, k;
+
+	while (tx < w->tiles_x) {
+		if (w->sleep && (trow[tx] & T_SLEEPING)) {
+			w->tiles_skipped++;
+			tx++;
+			continue;
+		}
+		for (t1 = tx + 1; t1 < w->tiles_x && t1 - tx < SWELL_WAVE_VEL_RUN; t1++)
+			if (w->sleep && (trow[t1] & T_SLEEPING))
+				break;
+		if (w->kernel == SWELL_KERNEL_REF)
+			swell_wave_vel_ref(w, j, tx, t1, damp, sum, any);
+		else
+			swell_wave_vel_fused(w, j, tx, t1, damp, sum, any);
+		for (k = 0; k < t1 - tx; k++)
+			if (any[k])
+				trow[tx + k] |= T_NONZERO;
+		tx = t1;
+	}
+	w->vel_sum += sum[0];
+	w->vel_sum_h += sum[1];
+}
+
 /* Row j, tile by tile, skipping sleeping tiles. */
 static inline void step_row(struct swell_wave *w, int j, int damp)
 {
@@ -699,13 +791,18 @@ static inline void step_row(struct swell_wave *w, int j, int damp)
 				trow[tx] |= T_SLEEPING;
 			} else {
 				trow[tx] &= (uint8_t)~T_SLEEPING;
-				mark_dirty(w, tx, ty, 1);
+				/* the velocity form writes acc in the tile's own cells only */
+				mark_dirty(w, tx, ty, w->form == SWELL_FORM_VELOCITY ? 0 : 1);
 				w->band_asleep = 0;
 			}
 		}
 	}
 	if (w->sleep && w->band_asleep) { /* the whole band of tiles sleeps: nothing to do in this row */
 		w->tiles_skipped += w->tiles_x;
+		return;
+	}
+	if (w->form == SWELL_FORM_VELOCITY) {
+		step_row_vel(w, j, trow, damp);
 		return;
 	}
 	for (tx = 0; tx < w->tiles_x; tx++) {
@@ -742,7 +839,7 @@ int swell_wave_step_rows(struct swell_wave *w, int rows)
  * cell changed. With len a constant 8 the compiler unrolls it. */
 static inline __attribute__((always_inline)) int32_t finish_seg(int32_t *restrict h, const int32_t *restrict acc,
 								 int32_t *restrict v, int len, int add, int clear,
-								 uint32_t *sat)
+								 int vel, uint32_t *sat)
 {
 	int32_t any = 0;
 	int a;
@@ -756,9 +853,16 @@ static inline __attribute__((always_inline)) int32_t finish_seg(int32_t *restric
 			/* |h| <= 2^27, |acc| <= 2^29 + 8 2^27: no overflow */
 #if WAVE_DSP
 			(void)sat;
-			h[a] = __ssat(h[a] + d, 28);
+			h[a] = vel ? __ssat(h[a] + d, 27) : __ssat(h[a] + d, 28);
 #else
-			h[a] = sat28(h[a] + d, sat);
+			if (vel) {
+				const int32_t x = h[a] + d;
+
+				h[a] = x > SWELL_HV_MAX ? SWELL_HV_MAX : x < SWELL_HV_MIN ? SWELL_HV_MIN : x;
+				*sat |= h[a] != x;
+			} else {
+				h[a] = sat28(h[a] + d, sat);
+			}
 #endif
 		}
 		if (clear)
@@ -769,7 +873,8 @@ static inline __attribute__((always_inline)) int32_t finish_seg(int32_t *restric
 
 /* Row j of the finishing pass: h += acc where the step wrote acc (add, DIRTY), the old v cleared where
  * the last step wrote it (clear, DIRTY_PREV); sets TOUCHED where a cell changed. */
-static inline __attribute__((always_inline)) void finish_row(struct swell_wave *w, int j, int add, int clear)
+static inline __attribute__((always_inline)) void finish_row(struct swell_wave *w, int j, int add, int clear,
+							     int vel)
 {
 	const int nx = w->nx, all = !w->sleep;
 	uint8_t *restrict trow = w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x;
@@ -789,16 +894,16 @@ static inline __attribute__((always_inline)) void finish_row(struct swell_wave *
 
 		if (i0 + SWELL_WAVE_TILE <= nx) {
 			if ((f & T_DIRTY) && (f & T_DIRTY_PREV))
-				any = finish_seg(h + i0, acc + i0, v + i0, SWELL_WAVE_TILE, 1, 1, &sat);
+				any = finish_seg(h + i0, acc + i0, v + i0, SWELL_WAVE_TILE, 1, 1, vel, &sat);
 			else if (f & T_DIRTY)
-				any = finish_seg(h + i0, acc + i0, v + i0, SWELL_WAVE_TILE, 1, 0, &sat);
+				any = finish_seg(h + i0, acc + i0, v + i0, SWELL_WAVE_TILE, 1, 0, vel, &sat);
 			else if (f & T_DIRTY_PREV)
-				any = finish_seg(h + i0, acc + i0, v + i0, SWELL_WAVE_TILE, 0, 1, &sat);
+				any = finish_seg(h + i0, acc + i0, v + i0, SWELL_WAVE_TILE, 0, 1, vel, &sat);
 			else
 				continue;
 		} else {
 			any = finish_seg(h + i0, acc + i0, v + i0, nx - i0, (f & T_DIRTY) != 0, (f & T_DIRTY_PREV) != 0,
-					 &sat);
+					 vel, &sat);
 		}
 		if (any)
 			trow[tx] |= T_TOUCHED;
@@ -810,8 +915,8 @@ static inline __attribute__((always_inline)) void finish_row(struct swell_wave *
 }
 
 /* Rows [j0, j1) of the finishing pass; a band of tiles without the flags it needs is skipped whole. */
-static inline __attribute__((always_inline)) void finish_range(struct swell_wave *w, int j0, int j1, int add,
-								   int clear)
+static inline __attribute__((always_inline)) void finish_range_form(struct swell_wave *w, int j0, int j1,
+									int add, int clear, int vel)
 {
 	const uint8_t need = (uint8_t)((add ? T_DIRTY : 0u) | (clear ? T_DIRTY_PREV : 0u));
 	int j;
@@ -822,8 +927,117 @@ static inline __attribute__((always_inline)) void finish_range(struct swell_wave
 			j += SWELL_WAVE_TILE - 1; /* a calm band of tiles: nothing wrote acc or v in it */
 			continue;
 		}
-		finish_row(w, j, add, clear);
+		finish_row(w, j, add, clear, vel);
 	}
+}
+
+static void finish_range(struct swell_wave *w, int j0, int j1, int add, int clear)
+{
+	if (w->form == SWELL_FORM_VELOCITY) {
+		if (add)
+			finish_range_form(w, j0, j1, 1, clear, 1);
+		else
+			finish_range_form(w, j0, j1, 0, clear, 1);
+	} else {
+		if (add)
+			finish_range_form(w, j0, j1, 1, clear, 0);
+		else
+			finish_range_form(w, j0, j1, 0, clear, 0);
+	}
+}
+
+/* d (one LSB, or a whole share) of a fixer into cell a: into u (mom), or into the step's height
+ * change, and h at once in a row finished ahead (as swell_wave_add does). */
+static void fix_cell(struct swell_wave *w, size_t a, int32_t d, int mom, uint8_t *t)
+{
+	*t |= T_DIRTY | T_NONZERO;
+	if (mom) {
+		const int32_t u = w->u[a] + d;
+
+		w->u[a] = swell_clamp(u, SWELL_H_MIN, SWELL_H_MAX);
+		w->saturations += w->u[a] != u;
+		return;
+	}
+	w->acc[a] += d;
+	if (a < (size_t)w->done_row * w->nx) {
+		const int32_t x = w->h[a] + d;
+
+		w->h[a] = swell_clamp(x, SWELL_HV_MIN, SWELL_HV_MAX);
+		w->saturations += w->h[a] != x;
+		*t |= T_TOUCHED;
+	}
+}
+
+/* Give back a residual r in whole LSBs, into u (mom) or the heights, to the cells of tiles whose
+ * momentum moved in this step (the same tiles whether tiles sleep or not), one LSB a cell from the
+ * rotating cursor, after a whole share each when |r| exceeds their count. */
+static void give_back(struct swell_wave *w, int64_t r, int mom)
+{
+	const int32_t d = r > 0 ? -1 : 1;
+	const size_t n = (size_t)w->nx * w->ny;
+	uint64_t left = (uint64_t)(r > 0 ? r : -r), cells = 0, share;
+	size_t a, tn;
+	int tx, ty, i, j;
+
+	if (!r || !w->nx || !w->ny) /* sides are at least 2: the second test is for the analyser */
+		return;
+	w->fixed_lsb += left;
+	for (ty = 0; ty < w->tiles_y; ty++)
+		for (tx = 0; tx < w->tiles_x; tx++)
+			if (w->tile[ty * w->tiles_x + tx] & T_NONZERO) {
+				i = w->nx - tx * SWELL_WAVE_TILE;
+				j = w->ny - ty * SWELL_WAVE_TILE;
+				cells += (uint64_t)(i < SWELL_WAVE_TILE ? i : SWELL_WAVE_TILE) *
+					 (uint64_t)(j < SWELL_WAVE_TILE ? j : SWELL_WAVE_TILE);
+			}
+	if (!cells) { /* a residual from a rescale of u, with nothing moving: tile 0 takes it */
+		w->tile[0] |= T_NONZERO;
+		cells = (uint64_t)(w->nx < SWELL_WAVE_TILE ? w->nx : SWELL_WAVE_TILE) *
+			(uint64_t)(w->ny < SWELL_WAVE_TILE ? w->ny : SWELL_WAVE_TILE);
+	}
+	if (!cells) /* cannot happen (sides >= 2); keeps the walk below from running forever */
+		return;
+	share = left / cells;
+	if (share) {
+		for (j = 0; j < w->ny; j++)
+			for (i = 0; i < w->nx; i++) {
+				tn = (size_t)(j / SWELL_WAVE_TILE) * w->tiles_x + (size_t)(i / SWELL_WAVE_TILE);
+				if (w->tile[tn] & T_NONZERO)
+					fix_cell(w, (size_t)j * w->nx + (size_t)i, d * (int32_t)share, mom, &w->tile[tn]);
+			}
+		left -= share * cells;
+	}
+	/* the cursor walk: cells carried by column and row, a tile that did not move skipped whole */
+	a = w->fix_cursor < n ? w->fix_cursor : 0;
+	i = (int)(a % w->nx);
+	j = (int)(a / w->nx);
+	while (left) {
+		tn = (size_t)(j / SWELL_WAVE_TILE) * w->tiles_x + (size_t)(i / SWELL_WAVE_TILE);
+		if (w->tile[tn] & T_NONZERO) {
+			fix_cell(w, (size_t)j * w->nx + (size_t)i, d, mom, &w->tile[tn]);
+			left--;
+			i++;
+		} else {
+			i = (i / SWELL_WAVE_TILE + 1) * SWELL_WAVE_TILE;
+		}
+		if (i >= w->nx) {
+			i = 0;
+			j = j + 1 < w->ny ? j + 1 : 0;
+		}
+	}
+	w->fix_cursor = (uint32_t)((size_t)j * w->nx + (size_t)i);
+}
+
+/* The velocity form's fixers: sum u(n+1) = 0 (momentum, in u's LSB) and the heights' changes sum
+ * to the water added from outside (volume, in height LSB). */
+static void vel_fix(struct swell_wave *w)
+{
+	const int64_t r = w->vel_sum, rh = w->vel_sum_h;
+
+	w->vel_sum = 0;
+	w->vel_sum_h = 0;
+	give_back(w, r, 1);
+	give_back(w, rh, 0);
 }
 
 int swell_wave_finish_rows(struct swell_wave *w, int rows)
@@ -854,6 +1068,8 @@ void swell_wave_step_finish(struct swell_wave *w)
 	int a;
 
 	swell_wave_step_rows(w, w->ny);
+	if (w->form == SWELL_FORM_VELOCITY)
+		vel_fix(w);
 	/* h += acc where the step wrote acc (DIRTY; rows finished ahead have it already); the old v,
 	 * which becomes the next accumulator, is cleared where the last step wrote it (DIRTY_PREV); then
 	 * the two swap. */
@@ -902,7 +1118,7 @@ void swell_wave_add(struct swell_wave *w, int i, int j, int32_t dh)
 	/* a row finished ahead: what the finish would add, now (|h| <= 2^27, |now - old| <= 2^30) */
 	*t |= T_DIRTY | T_TOUCHED;
 	x = w->h[a] + (now - old);
-	w->h[a] = (int32_t)swell_clamp(x, SWELL_H_MIN, SWELL_H_MAX);
+	w->h[a] = (int32_t)swell_clamp(x, h_min(w), h_max(w));
 	w->saturations += w->h[a] != x;
 }
 
@@ -969,6 +1185,8 @@ uint32_t swell_wave_checksum(const struct swell_wave *w)
 	uint32_t crc = crc_words(0, w->h, n);
 	int k, i, j;
 
+	if (w->form == SWELL_FORM_VELOCITY)
+		return crc_words(crc, w->u, n);
 	for (k = 0; k < 4; k++)
 		for (j = 0; j < w->ny; j++)
 			for (i = 0; i < w->nx; i++)

@@ -14,7 +14,7 @@ static const struct {
 	size_t bytes; /* per cell, between steps, scratch included */
 	int fixed;
 } impl_info[BENCH_IMPL_COUNT] = {
-	[BENCH_SHIPPED] = {"shipped", 7 * 4, 1},  [BENCH_EF16] = {"ef16", 5 * 2 + 4, 1},
+	[BENCH_SHIPPED] = {"shipped", 7 * 4, 1},  [BENCH_VELOCITY] = {"velocity", 4 * 4, 1}, [BENCH_EF16] = {"ef16", 5 * 2 + 4, 1},
 	[BENCH_TL32_FLOOR] = {"tl32-floor", 3 * 4, 1}, [BENCH_TL32_RN] = {"tl32-rn", 3 * 4, 1},
 	[BENCH_TL32_RZ] = {"tl32-rz", 3 * 4, 1},  [BENCH_TL16_RN] = {"tl16-rn", 3 * 2, 1},
 	[BENCH_F32] = {"f32", 3 * 4, 0},          [BENCH_F64] = {"f64", 3 * 8, 0},
@@ -108,10 +108,12 @@ enum swell_err bench_field_init(struct bench_field *f, enum bench_impl impl, int
 	np = (size_t)(nx + 2) * (ny + 2);
 	switch (impl) {
 	case BENCH_SHIPPED:
+	case BENCH_VELOCITY:
 		f->mem = calloc(SWELL_WAVE_WORDS(nx, ny), sizeof(int32_t));
 		if (!f->mem)
 			return SWELL_ESIZE;
-		err = swell_wave_init(&f->w, (uint16_t)nx, (uint16_t)ny, f->mem, SWELL_WAVE_WORDS(nx, ny), &p);
+		err = swell_wave_init_form(&f->w, (uint16_t)nx, (uint16_t)ny, f->mem, SWELL_WAVE_WORDS(nx, ny), &p,
+					   impl == BENCH_VELOCITY ? SWELL_FORM_VELOCITY : SWELL_FORM_EDGE);
 		if (err != SWELL_OK) {
 			free(f->mem);
 			return err;
@@ -165,7 +167,7 @@ enum swell_err bench_field_init(struct bench_field *f, enum bench_impl impl, int
 		f->hnd = f->hpd + np;
 		break;
 	}
-	if (impl != BENCH_SHIPPED) {
+	if (impl != BENCH_SHIPPED && impl != BENCH_VELOCITY) {
 		/* the same quantised coefficients as wave.c */
 		q30_t ee = stencil == SWELL_STENCIL_CALIBRATED ? p.e / 2 : p.e;
 
@@ -185,6 +187,7 @@ enum swell_err bench_field_init(struct bench_field *f, enum bench_impl impl, int
 	f->lsb_mm = (impl == BENCH_EF16 || impl == BENCH_TL16_RN) ? 1.0 / (1 << H16_FRAC)
 								   : 1.0 / SWELL_H_ONE_MM;
 	f->h_max = impl == BENCH_EF16 || impl == BENCH_TL16_RN ? H16_MAX
+		   : impl == BENCH_VELOCITY			 ? SWELL_HV_MAX
 		   : bench_impl_is_fixed(impl)			 ? SWELL_H_MAX
 								 : 0;
 	return SWELL_OK;
@@ -206,7 +209,7 @@ enum swell_err bench_field_force(struct bench_field *f, q30_t e_eff, q30_t q)
 		return SWELL_ERANGE;
 	e_eff &= ~(q30_t)1;
 	set_coeffs(f, e_eff, q);
-	if (f->impl == BENCH_SHIPPED) {
+	if (f->impl == BENCH_SHIPPED || f->impl == BENCH_VELOCITY) {
 		/* Bench-only: writes the solver's private coefficients to run it outside the validated
 		 * region. No controller code may do this; swell_wave_set_params refuses such values. */
 		f->w.e_eff = e_eff;
@@ -214,6 +217,13 @@ enum swell_err bench_field_force(struct bench_field *f, q30_t e_eff, q30_t q)
 		f->w.c_half = e_eff / 2;
 		f->w.c_wall = e_eff + e_eff / 2;
 		f->w.q = q;
+		if (f->impl == BENCH_VELOCITY) { /* its fraction bits, as wave.c chooses them (u is 0 here) */
+			int fr = 4;
+
+			while (fr > 0 && ((int64_t)e_eff << (fr + 1)) > INT32_MAX)
+				fr--;
+			f->w.vel_frac = (uint8_t)(q != SWELL_Q30_ONE ? 0 : fr);
+		}
 		memset(f->w.tile, 0, (size_t)f->w.tiles_x * f->w.tiles_y); /* wake every tile */
 	}
 	f->e_eff_f = (float)f->e_eff;
@@ -248,6 +258,7 @@ void bench_field_set_mm(struct bench_field *f, const double *h_mm)
 
 			switch (f->impl) {
 			case BENCH_SHIPPED:
+			case BENCH_VELOCITY:
 				f->w.h[a] = s;
 				break;
 			case BENCH_EF16:
@@ -270,7 +281,7 @@ void bench_field_set_mm(struct bench_field *f, const double *h_mm)
 			}
 		}
 	}
-	if (f->impl == BENCH_SHIPPED)
+	if (f->impl == BENCH_SHIPPED || f->impl == BENCH_VELOCITY)
 		swell_wave_rest(&f->w);
 	if (f->impl == BENCH_EF16) {
 		size_t n = (size_t)f->nx * f->ny;
@@ -288,6 +299,7 @@ static double cell_lsb(const struct bench_field *f, int i, int j, int prev)
 
 	switch (f->impl) {
 	case BENCH_SHIPPED:
+	case BENCH_VELOCITY:
 		return prev ? (double)f->w.h[a] - f->w.v[a] : f->w.h[a];
 	case BENCH_EF16:
 		return prev ? (double)f->h16[a] - f->v32[a] : f->h16[a];
@@ -319,7 +331,8 @@ void bench_field_add_lsb(struct bench_field *f, int i, int j, int32_t k)
 
 	switch (f->impl) {
 	case BENCH_SHIPPED:
-		f->w.h[a] = sat_count(f, (int64_t)f->w.h[a] + k, SWELL_H_MAX);
+	case BENCH_VELOCITY: /* h(n) moves, the momentum does not: an impulse of volume, not of motion */
+		f->w.h[a] = sat_count(f, (int64_t)f->w.h[a] + k, f->h_max);
 		swell_wave_touched(&f->w, i, j); /* written from outside: its tile must wake */
 		break;
 	case BENCH_EF16:
@@ -472,6 +485,7 @@ void bench_field_step(struct bench_field *f)
 {
 	switch (f->impl) {
 	case BENCH_SHIPPED:
+	case BENCH_VELOCITY:
 		swell_wave_step(&f->w);
 		f->saturations = f->w.saturations;
 		break;
@@ -513,7 +527,7 @@ double bench_field_volume_lsb(const struct bench_field *f)
 	double sd = 0;
 	int i, j;
 
-	if (f->impl == BENCH_SHIPPED)
+	if (f->impl == BENCH_SHIPPED || f->impl == BENCH_VELOCITY)
 		return (double)swell_wave_volume(&f->w);
 	for (j = 0; j < f->ny; j++)
 		for (i = 0; i < f->nx; i++) {
@@ -542,7 +556,7 @@ static double energy_fixed(const struct bench_field *f)
 	i128 kin = 0, pot2 = 0;
 	int i, j, k;
 
-	if (f->impl == BENCH_SHIPPED && bench_field_max_abs_lsb(f) < (1 << 23) && f->nx * f->ny <= 65536) {
+	if ((f->impl == BENCH_SHIPPED || f->impl == BENCH_VELOCITY) && bench_field_max_abs_lsb(f) < (1 << 23) && f->nx * f->ny <= 65536) {
 		struct swell_energy en = swell_wave_energy(&f->w);
 
 		kin = en.kin;

@@ -6,6 +6,8 @@
  *
  *   shipped      wave.c: edge-flux, int32 heights and flows (LSB 2^-16 mm), e w dh to nearest,
  *                damping toward zero
+ *   velocity     wave.c's velocity form: one momentum a cell, separable L9, per-cell rounding and
+ *                the exact global volume fixer (int27 heights, LSB 2^-16 mm)
  *   ef16         edge-flux, int16 heights and flows (LSB 2^-10 mm, +-32 mm), same rounding
  *   tl32-floor   three-level eq. (1), int32 heights (LSB 2^-16 mm), both products floored (>>)
  *   tl32-rn      ... both products rounded to nearest (ties up)
@@ -27,6 +29,7 @@
 
 enum bench_impl {
 	BENCH_SHIPPED = 0,
+	BENCH_VELOCITY,
 	BENCH_EF16,
 	BENCH_TL32_FLOOR,
 	BENCH_TL32_RN,
@@ -47,7 +50,7 @@ struct bench_field {
 	double lsb_mm; /* 1 LSB in mm; float kernels report 2^-16 mm so pushes have one unit */
 	int h_max;     /* saturation bound in LSB (0: float, none) */
 	uint32_t saturations;
-	struct swell_wave w; /* shipped */
+	struct swell_wave w; /* shipped and velocity */
 	void *mem;
 	/* three-level fixed: padded h(n), h(n-1), scratch; int32 or int16 */
 	int32_t *h32, *hp32, *hn32;

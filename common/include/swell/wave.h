@@ -43,6 +43,27 @@
  * holds h(n+1) in h and its change in acc, so a reader takes h(n) = h - acc there (v is untouched
  * everywhere until the finish). Results are bit-identical to the unsplit step.
  *
+ * Velocity form (SWELL_FORM_VELOCITY, chosen at init with swell_wave_init_form): eq. (1) as a momentum
+ * per cell, u(n+1) = (1-t) [u(n) + e L9(n)], h(n+1) = h(n) + u(n+1) + water added from outside, with
+ * the separable stencil 2 L9 = ([1 2 1] x [1 2 1]) h - 16 h. Each cell is rounded on its own:
+ * undamped, u + e L9 to nearest (ties up); damped, u + e L9 toward zero and then the damping toward
+ * zero (wave_vel.h has the exact rule). Nearest rounding with damping leaves small limit cycles of
+ * single cells (measured: 2-4 LSB/step forever at e 0.35-0.45); rounding the momentum toward zero
+ * makes every damped step lose at least what it rounds. At the step's finish the integer
+ * residual r = sum u(n+1) is given back in whole LSBs of u (to cells of tiles that moved, one LSB a
+ * cell, from a cursor that rotates over the grid; whole shares first when |r| exceeds their count),
+ * so sum u = 0. Undamped, u carries vel_frac fraction bits beyond a height LSB (as many as keep
+ * 2^(vel_frac+1) e_eff < 2 in Q1.30 for the M4's SMMLAR, at most 4: 4 for e_eff < 1/16, 2 for the
+ * pool's 0.2), which brings the rounding error under the edge-flux form's; damped, none (with them,
+ * single cells keep cycling by 2-3 LSB at e 0.35 and t 0.02). A cell's height change is u(n+1) rounded to a height LSB (nearest, ties away from zero), and the
+ * residual of those roundings is given back the same way in whole height LSBs (h and acc only), so
+ * the volume stays exact. Water added from outside never enters u (as in the
+ * edge-flux form, it is mass, not momentum). Heights saturate to int27 (SWELL_HV_MIN..MAX,
+ * +-1024 mm) so that 2 L9 fits int32; u to int28. Storage SWELL_WAVE_VEL_WORDS: h, v, acc, u and
+ * the tile flags, 16 bytes a cell instead of 28. Kernels: SWELL_KERNEL_REF (the definition, one cell
+ * at a time in int64) and SWELL_KERNEL_FUSED (column sums carried in registers; SMMLAR/SMMUL/SSAT
+ * on ARMv7E-M), bit-identical. The two forms are not bit-identical to each other.
+ *
  * Sleeping tiles (lossless): the grid is cut into 8 x 8 tiles. A tile whose edges all gave zero flow
  * in the last step, and none of whose cells nor its neighbour tiles' cells changed since, would give
  * zero flows again (same height differences, same rounding): its edges are skipped, bit-identically.
@@ -62,6 +83,9 @@
 #define SWELL_H_MAX (((int32_t)1 << 27) - 1)    /* saturation bounds of heights and flows: int28 */
 #define SWELL_H_MIN (-((int32_t)1 << 27))
 
+#define SWELL_HV_MAX (((int32_t)1 << 26) - 1) /* height bounds of the velocity form: int27 */
+#define SWELL_HV_MIN (-((int32_t)1 << 26))
+
 #define SWELL_WAVE_MIN_SIDE 2
 #define SWELL_WAVE_MAX_SIDE 1024
 #define SWELL_WAVE_TILE 8   /* side of a sleeping tile, in cells */
@@ -72,6 +96,14 @@
 #define SWELL_WAVE_WORDS(nx, ny)                                                                   \
 	(3 * (size_t)(nx) * (size_t)(ny) + 4 * SWELL_WAVE_TILE * SWELL_WAVE_TILES_X(nx) * (size_t)(ny) + \
 	 (SWELL_WAVE_TILES(nx, ny) + 3) / 4)
+
+/* The velocity form: h, v, acc and the momentum u (nx ny words each), then the tile flags */
+#define SWELL_WAVE_VEL_WORDS(nx, ny) (4 * (size_t)(nx) * (size_t)(ny) + (SWELL_WAVE_TILES(nx, ny) + 3) / 4)
+
+enum swell_wave_form {
+	SWELL_FORM_EDGE = 0,     /* edge-flux: four flows a cell (default) */
+	SWELL_FORM_VELOCITY = 1, /* three-level: one momentum a cell and a global volume fixer */
+};
 
 enum swell_wave_kernel {
 	SWELL_KERNEL_AUTO = 0, /* the fastest this build and CPU have (default) */
@@ -117,6 +149,14 @@ struct swell_wave {
 	uint8_t band_asleep;  /* every tile of the band of rows in progress sleeps */
 	uint32_t tiles_skipped; /* tile-rows skipped, cumulative: 8 x 4 edges saved each */
 	uint8_t kernel;         /* enum swell_wave_kernel in use (never AUTO) */
+	uint8_t form;           /* enum swell_wave_form, fixed at init */
+	/* velocity form only */
+	int32_t *u;             /* momentum u(n), LSB 2^-(16 + vel_frac) mm per step; u(n+1) in rows done */
+	int64_t vel_sum;        /* sum of u(n+1) over the rows done: the residual the finish gives back */
+	int64_t vel_sum_h;      /* sum of the rows' height changes (without water added from outside) */
+	uint8_t vel_frac;       /* fraction bits of u beyond a height LSB: 4, 3, 2, 1 or 0 by e_eff */
+	uint32_t fix_cursor;    /* next cell the fixer gives an LSB to */
+	uint64_t fixed_lsb;     /* LSB given back by the fixer, cumulative */
 };
 
 /* Exact integer energy (docs/design.md, section 2), for tests: with t = 0,
@@ -139,10 +179,16 @@ enum swell_err swell_wave_check(const struct swell_wave_params *p);
  * to INT32_MAX when it exceeds the Q1.30 range. */
 q30_t swell_wave_e_limit(q30_t damping, enum swell_stencil stencil);
 
-/* Bind caller storage (at least SWELL_WAVE_WORDS(nx, ny) words) and set the water flat and at rest.
+/* Bind caller storage (at least SWELL_WAVE_WORDS(nx, ny) words, SWELL_WAVE_VEL_WORDS for the
+ * velocity form) and set the water flat and at rest.
  * On error *w is untouched. */
 enum swell_err swell_wave_init(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage,
 			       size_t words, const struct swell_wave_params *p);
+
+/* The same, in the form asked for (swell_wave_init is the edge-flux form); SWELL_EINVAL for an
+ * unknown form. */
+enum swell_err swell_wave_init_form(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage,
+				    size_t words, const struct swell_wave_params *p, enum swell_wave_form form);
 
 /* Change parameters on a running field; on error nothing changes. */
 enum swell_err swell_wave_set_params(struct swell_wave *w, const struct swell_wave_params *p);
@@ -191,13 +237,16 @@ enum swell_err swell_wave_set_kernel(struct swell_wave *w, enum swell_wave_kerne
 /* "ref", "fused", "fused-dsp" (ARMv7E-M), "avx2"; NULL for AUTO or an unknown value. */
 const char *swell_wave_kernel_name(enum swell_wave_kernel k);
 
+/* "edge" or "velocity"; NULL for an unknown value. */
+const char *swell_wave_form_name(enum swell_wave_form f);
+
 /* sum(h) in LSB: the volume, exact. */
 int64_t swell_wave_volume(const struct swell_wave *w);
 
 struct swell_energy swell_wave_energy(const struct swell_wave *w);
 
 /* CRC-32 of the state (heights, then every E flow in cell order, then N, NE, NW; int32
- * little-endian). */
+ * little-endian). Velocity form: heights, then u in cell order. */
 uint32_t swell_wave_checksum(const struct swell_wave *w);
 
 /* e = g dt^2 d / dx^2 from integer physical units, rounded to nearest Q1.30.

@@ -15,7 +15,8 @@ static const char usage[] =
 	"--core TICKS: also run the controller core on that scene at 2500 Hz for TICKS ticks with the\n"
 	"self-test's scripted device, and print its checksum (FORCE_CMD payloads, then the water).\n"
 	"--core-hz HZ: the core's tick rate for --core (default 2500; the image also runs 1000).\n"
-	"--cost: also run the three cost scenes (calm, local, agitated; damped, 40 steps) and print\n"
+	"--cost: also run the three cost scenes (calm, local, agitated; damped, 40 steps), in the edge-flux\n"
+	"  and then the velocity form (velocity-calm, ...), and print\n"
 	"each one's checksum, as the image's self-test does.\n"
 	"--kernel ref|fused|avx2: the solver kernel (default: the fastest; all are bit-identical).\n";
 
@@ -94,8 +95,11 @@ int main(int argc, char **argv)
 	printf("e 0x%08x (Q1.30)\n", (unsigned)w.p.e);
 	printf("checksum 0x%08x\n", (unsigned)swell_wave_checksum(&w));
 	printf("volume %lld LSB (2^-16 mm per cell)\n", (long long)swell_wave_volume(&w));
-	for (i = 0; cost && i < FW_COST_SCENES; i++) {
-		err = fw_cost_scene_init(&w, storage, FW_SCENE_WORDS, (enum fw_cost_scene)i);
+	for (i = 0; cost && i < 2 * FW_COST_SCENES; i++) { /* edge-flux, then velocity form */
+		const int velocity = i >= FW_COST_SCENES;
+
+		err = fw_cost_scene_init(&w, storage, FW_SCENE_WORDS, (enum fw_cost_scene)(i % FW_COST_SCENES),
+					 velocity ? SWELL_FORM_VELOCITY : SWELL_FORM_EDGE);
 		if (err == SWELL_OK)
 			err = swell_wave_set_kernel(&w, kernel);
 		if (err != SWELL_OK) {
@@ -104,7 +108,8 @@ int main(int argc, char **argv)
 		}
 		for (n = 0; n < FW_COST_STEPS; n++)
 			swell_wave_step(&w);
-		printf("cost scene %s checksum 0x%08x\n", fw_cost_scene_name[i], (unsigned)swell_wave_checksum(&w));
+		printf("cost scene %s%s checksum 0x%08x\n", velocity ? "velocity-" : "", fw_cost_scene_name[i % FW_COST_SCENES],
+		       (unsigned)swell_wave_checksum(&w));
 	}
 	if (core_ticks) {
 		struct fw_core_run r;

@@ -22,7 +22,8 @@ enum swell_err fw_scene_init(struct swell_wave *w, int32_t *storage, size_t word
 
 const char *const fw_cost_scene_name[FW_COST_SCENES] = {"calm", "local", "agitated"};
 
-enum swell_err fw_cost_scene_init(struct swell_wave *w, int32_t *storage, size_t words, enum fw_cost_scene s)
+enum swell_err fw_cost_scene_init(struct swell_wave *w, int32_t *storage, size_t words, enum fw_cost_scene s,
+				  enum swell_wave_form form)
 {
 	struct swell_wave_params p = {.damping = FW_COST_DAMPING, .stencil = SWELL_STENCIL_PAPER};
 	enum swell_err err;
@@ -35,7 +36,7 @@ enum swell_err fw_cost_scene_init(struct swell_wave *w, int32_t *storage, size_t
 					 FW_SCENE_DX_UM, &p.e);
 	if (err != SWELL_OK)
 		return err;
-	err = swell_wave_init(w, FW_SCENE_NX, FW_SCENE_NY, storage, words, &p);
+	err = swell_wave_init_form(w, FW_SCENE_NX, FW_SCENE_NY, storage, words, &p, form);
 	if (err != SWELL_OK)
 		return err;
 	if (s == FW_COST_LOCAL)

@@ -33,6 +33,8 @@ enum fw_cost_scene { FW_COST_CALM, FW_COST_LOCAL, FW_COST_AGITATED, FW_COST_SCEN
 
 extern const char *const fw_cost_scene_name[FW_COST_SCENES];
 
-enum swell_err fw_cost_scene_init(struct swell_wave *w, int32_t *storage, size_t words, enum fw_cost_scene s);
+/* form: the solver's form (the edge-flux form is the one the controller core runs). */
+enum swell_err fw_cost_scene_init(struct swell_wave *w, int32_t *storage, size_t words, enum fw_cost_scene s,
+				  enum swell_wave_form form);
 
 #endif

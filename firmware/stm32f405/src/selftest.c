@@ -163,12 +163,14 @@ static int run_scene(void)
  * awake cell-step (tile rows not skipped), and the checksum the host compares. */
 static int run_cost(void)
 {
-	uint32_t k, n;
+	uint32_t k, n, f;
 
+	for (f = SWELL_FORM_EDGE; f <= SWELL_FORM_VELOCITY; f++)
 	for (k = 0; k < FW_COST_SCENES; k++) {
 		uint64_t t0, sum = 0, rows, awake;
 
-		if (fw_cost_scene_init(&wave, wave_storage, FW_SCENE_WORDS, (enum fw_cost_scene)k) != SWELL_OK)
+		if (fw_cost_scene_init(&wave, wave_storage, FW_SCENE_WORDS, (enum fw_cost_scene)k,
+				       (enum swell_wave_form)f) != SWELL_OK)
 			return 0;
 		for (n = 0; n < FW_COST_STEPS; n++) {
 			t0 = timebase_systick();
@@ -178,6 +180,7 @@ static int run_cost(void)
 		rows = (uint64_t)FW_COST_STEPS * FW_SCENE_NY * wave.tiles_x; /* tile rows, 8 cells each */
 		awake = rows - wave.tiles_skipped;
 		con_puts("cost scene ");
+		con_puts(f == SWELL_FORM_VELOCITY ? "velocity-" : "");
 		con_puts(fw_cost_scene_name[k]);
 		con_puts(": ");
 		put_insn(sum, (uint64_t)FW_COST_STEPS * FW_SCENE_NX * FW_SCENE_NY);
@@ -194,6 +197,36 @@ static int run_cost(void)
 		con_put_hex32(swell_wave_checksum(&wave));
 		con_putc('\n');
 	}
+	return 1;
+}
+
+/* Where the velocity form's agitated step goes: the row kernels (swell_wave_step_rows) against the
+ * finishing pass with the fixers (swell_wave_step_finish), instructions per cell-step. */
+static int run_cost_split(void)
+{
+	uint64_t t0, rows = 0, fin = 0;
+	uint32_t n;
+
+	if (fw_cost_scene_init(&wave, wave_storage, FW_SCENE_WORDS, FW_COST_AGITATED, SWELL_FORM_VELOCITY) !=
+	    SWELL_OK)
+		return 0;
+	for (n = 0; n < FW_COST_STEPS; n++) {
+		t0 = timebase_systick();
+		swell_wave_step_rows(&wave, FW_SCENE_NY);
+		rows += timebase_systick() - t0;
+		t0 = timebase_systick();
+		swell_wave_step_finish(&wave);
+		fin += timebase_systick() - t0;
+	}
+	con_puts("cost split velocity-agitated: rows ");
+	put_insn(rows, (uint64_t)FW_COST_STEPS * FW_SCENE_NX * FW_SCENE_NY);
+	con_puts(", finish and fixers ");
+	put_insn(fin, (uint64_t)FW_COST_STEPS * FW_SCENE_NX * FW_SCENE_NY);
+	con_puts(" instructions per cell-step; LSB given back ");
+	con_put_u64(wave.fixed_lsb);
+	con_puts(" in ");
+	con_put_u32(FW_COST_STEPS);
+	con_puts(" steps\n");
 	return 1;
 }
 
@@ -393,6 +426,7 @@ int selftest_run(uint32_t tim_clk_hz)
 	ok &= run_split(2500, 250); /* HapticMaster servo rate */
 	ok &= run_split(1000, 250); /* classic CAN */
 	ok &= run_cost();
+	ok &= run_cost_split();
 	run_naive();
 	ok &= run_tick(tim_clk_hz);
 	ok &= loopback_selftest();

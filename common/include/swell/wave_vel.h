@@ -1,0 +1,32 @@
+/* The velocity form's row kernels (wave.h, "Velocity form"): internal to the solver, one kernel a
+ * file (wave_vel_ref.c, wave_vel_fused.c), called by wave.c for a run of awake tiles of a row.
+ *
+ * A kernel computes, for every cell (i, j) of the tiles tx0 <= tx < tx1 (at most SWELL_WAVE_VEL_RUN;
+ * the last tile of the row may be narrower) of row j, from the heights h(n) of
+ * rows j-1 .. j+1 (mirrored at the walls) and the cell's momentum u(n):
+ *     x = 2 L9 = ([1 2 1] x [1 2 1]) h - 16 h          exact in int32 for |h| <= 2^26
+ *     C = e_eff 2^(F+1)  (F = vel_frac; C < 2^31)      the coefficient, u in 2^-F height LSB
+ *     s = u + floor((x C + 2^31) / 2^32)               undamped: e L9 to nearest, ties up
+ *     s = u + floor(x C / 2^32), s += (s < 0)          damped (then F = 0): the sum toward zero (a
+ *                                                      negative exact integer one LSB further):
+ *                                                      dissipative, so damped water comes to rest
+ *     s = clamp(s, SWELL_H_MIN, SWELL_H_MAX)           counted in saturations
+ *     s = floor(q s / 2^30) + (s < 0)   (damp only)    toward zero: q = 1 - t is odd
+ *     dh = (s + 2^(F-1) - (s < 0)) >> F  (dh = s at 0)  the height change, nearest, ties away
+ *                                                      from zero (no bias in the volume residual)
+ * and stores u = s, acc += dh; it adds the sums of the new s and dh to sum[0] and sum[1] and sets
+ * any[tx - tx0] non-zero exactly when some new s of that tile is non-zero. Every kernel gives the
+ * same bits as swell_wave_vel_ref. */
+#ifndef SWELL_WAVE_VEL_H
+#define SWELL_WAVE_VEL_H
+
+#include <stdint.h>
+
+#include "swell/wave.h"
+
+#define SWELL_WAVE_VEL_RUN 8 /* tiles a call at most */
+
+void swell_wave_vel_ref(struct swell_wave *w, int j, int tx0, int tx1, int damp, int64_t sum[2], int32_t *any);
+void swell_wave_vel_fused(struct swell_wave *w, int j, int tx0, int tx1, int damp, int64_t sum[2], int32_t *any);
+
+#endif
