@@ -327,7 +327,7 @@ void charts_draw(const struct charts *c, struct canvas *cv, uint64_t now_us)
 		case 0:
 			x += canvas_text(cv, x, top, col_fz, "Z") + cw;
 			x += canvas_text(cv, x, top, col_fabs, "TOTAL") + cw;
-			snprintf(lim, sizeof(lim), c->force_limit_N <= p.hi ? "LIMIT %.1f" : "LIMIT %.1f OFF SCALE",
+			snprintf(lim, sizeof(lim), c->force_limit_N <= p.hi ? "LIMIT %.1f" : "LIMIT %.1f OFF",
 				 (double)c->force_limit_N);
 			canvas_text(cv, x, top, col_limit, lim);
 			break;

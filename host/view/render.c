@@ -161,8 +161,8 @@ static const char *const water_fs =
 	"  vec3 r = reflect(-v, n);\n"
 	"  vec3 sky = mix(vec3(0.70, 0.80, 0.88), vec3(0.22, 0.42, 0.72), clamp(r.z, 0.0, 1.0));\n"
 	"  float fr = 0.02 + 0.98 * pow(1.0 - max(dot(n, v), 0.0), 5.0);\n"
-	"  float s = pow(max(dot(n, normalize(u_light + v)), 0.0), 120.0);\n"
-	"  vec3 c = mix(base * (0.30 + 0.80 * d), sky, u_colour != 0 ? 0.5 * fr : fr) + vec3(0.75 * s);\n"
+	"  float s = pow(max(dot(n, normalize(u_light + v)), 0.0), 250.0);\n"
+	"  vec3 c = mix(base * (0.30 + 0.80 * d), sky, u_colour != 0 ? 0.5 * fr : fr) + vec3(0.50 * s);\n"
 	"  o_col = vec4(c, u_colour != 0 ? 0.90 : mix(0.80, 1.0, fr));\n"
 	"}\n";
 
@@ -535,9 +535,9 @@ static float height_at(const struct view_model *m, float x, float y)
 	return (1 - b) * ((1 - a) * h[j * nx + i] + a * h[j * nx + i1]) + b * ((1 - a) * h[j1 * nx + i] + a * h[j1 * nx + i1]);
 }
 
-static void build_scene(struct render *r, const struct view_model *m)
+static void build_scene(struct render *r, const struct view_model *m, bool frozen)
 {
-	static const float wall_col[3] = {0.78f, 0.80f, 0.83f}, floor_col[3] = {0.55f, 0.62f, 0.66f};
+	static const float wall_col[3] = {0.78f, 0.80f, 0.83f}, floor_col[3] = {0.78f, 0.76f, 0.66f};
 	static const float obj_col[3] = {1.00f, 0.58f, 0.10f}, arrow_col[3] = {0.92f, 0.10f, 0.30f};
 	float dx = (float)m->scene.dx_um * 1e-6f, depth = (float)m->scene.depth_um * 1e-6f;
 	float lx = dx * (float)m->scene.nx, ly = dx * (float)m->scene.ny;
@@ -556,15 +556,18 @@ static void build_scene(struct render *r, const struct view_model *m)
 	float a = (float)m->obj.a_um * 1e-6f, b = (float)m->obj.b_um * 1e-6f, hgt = (float)m->obj.h_um * 1e-6f;
 	/* The water is drawn zscale times higher; the object rides it the same way, keeping its true
 	 * submersion: its bottom moves with (zscale - 1) x the water height under it. */
-	float w = height_at(m, ox, oy) * 1e-3f;
+	if (!frozen)
+		r->obj_water_mm = height_at(m, ox, oy);
+	float w = r->obj_water_mm * 1e-3f;
 	float z0 = (float)m->obj.z_um * 1e-6f + (r->o.zscale - 1.0f) * w;
 	if (r->o.view == RENDER_MAP) {
-		/* the footprint outlined above everything, so the heights under it stay readable */
+		/* the footprint outlined in black above everything, so the heights under it stay readable */
+		static const float outline_col[3] = {0.02f, 0.02f, 0.02f};
 		float e = fmaxf(0.0015f, 0.004f * fmaxf(lx, ly)), zt = 0.2f * fmaxf(lx, ly);
-		lit_box(r, ox - a / 2 - e, oy - b / 2 - e, zt, ox + a / 2 + e, oy - b / 2, zt + e, obj_col);
-		lit_box(r, ox - a / 2 - e, oy + b / 2, zt, ox + a / 2 + e, oy + b / 2 + e, zt + e, obj_col);
-		lit_box(r, ox - a / 2 - e, oy - b / 2, zt, ox - a / 2, oy + b / 2, zt + e, obj_col);
-		lit_box(r, ox + a / 2, oy - b / 2, zt, ox + a / 2 + e, oy + b / 2, zt + e, obj_col);
+		lit_box(r, ox - a / 2 - e, oy - b / 2 - e, zt, ox + a / 2 + e, oy - b / 2, zt + e, outline_col);
+		lit_box(r, ox - a / 2 - e, oy + b / 2, zt, ox + a / 2 + e, oy + b / 2 + e, zt + e, outline_col);
+		lit_box(r, ox - a / 2 - e, oy - b / 2, zt, ox - a / 2, oy + b / 2, zt + e, outline_col);
+		lit_box(r, ox + a / 2, oy - b / 2, zt, ox + a / 2 + e, oy + b / 2, zt + e, outline_col);
 		z0 = zt - hgt; /* the force arrow starts at the outline's height */
 	} else {
 		lit_box(r, ox - a / 2, oy - b / 2, z0, ox + a / 2, oy + b / 2, z0 + hgt, obj_col);
@@ -810,7 +813,7 @@ void render_frame(struct render *r, struct view_model *m, bool frozen)
 		glEnable(GL_CULL_FACE);
 		glDisable(GL_BLEND);
 
-		build_scene(r, m);
+		build_scene(r, m, frozen);
 		glUseProgram(r->prog_lit);
 		glUniformMatrix4fv(glGetUniformLocation(r->prog_lit, "u_mvp"), 1, GL_FALSE, mvp);
 		glUniform3fv(glGetUniformLocation(r->prog_lit, "u_light"), 1, light);

@@ -58,6 +58,7 @@ struct render_overlay {
 struct render {
 	struct render_opts o;
 	int scene_right;       /* pixels at the right edge kept free of the scene (the charts' panel) */
+	float obj_water_mm;    /* the water under the object as drawn (held with the heights while frozen) */
 	struct render_overlay ov[RENDER_OVERLAYS];
 	struct render_cam cam;
 	bool cam_set;
