@@ -225,6 +225,13 @@ static void parse(int argc, char **argv, struct opts *o)
 		bad("--faults applies to pattern sources only, not '%s'", o->source);
 }
 
+static double cpu_ms(void)
+{
+	struct timespec t;
+	clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+	return (double)t.tv_sec * 1e3 + (double)t.tv_nsec * 1e-6;
+}
+
 static uint64_t now_us(void)
 {
 	struct timespec t;
@@ -433,7 +440,7 @@ static int cmp_float(const void *x, const void *y)
 }
 
 /* Frame-time figures of --timing: median, 95th percentile and mean of the frames measured. */
-static void timing_report(float *ms, long n, const struct app *a)
+static void timing_report(float *ms, long n, double cpu_ms, const struct app *a)
 {
 	if (n < 1)
 		return;
@@ -441,10 +448,10 @@ static void timing_report(float *ms, long n, const struct app *a)
 	for (long k = 0; k < n; k++)
 		sum += ms[k];
 	qsort(ms, (size_t)n, sizeof(ms[0]), cmp_float);
-	printf("swell-view: frame time median %.2f ms, p95 %.2f ms, mean %.2f ms over %ld frames (%d x %d pixels, "
-	       "pool %u x %u, charts %s, msaa %d)\n",
-	       (double)ms[n / 2], (double)ms[(long)((double)(n - 1) * 0.95)], sum / (double)n, n, a->r.o.w, a->r.o.h,
-	       a->vm.scene.nx, a->vm.scene.ny, a->charts_on ? "on" : "off", a->r.samples);
+	printf("swell-view: frame time median %.2f ms, p95 %.2f ms, mean %.2f ms wall, %.2f ms CPU (all threads) "
+	       "over %ld frames (%d x %d pixels, pool %u x %u, charts %s, msaa %d)\n",
+	       (double)ms[n / 2], (double)ms[(long)((double)(n - 1) * 0.95)], sum / (double)n, cpu_ms / (double)n, n,
+	       a->r.o.w, a->r.o.h, a->vm.scene.nx, a->vm.scene.ny, a->charts_on ? "on" : "off", a->r.samples);
 }
 
 static int screenshot(struct app *a, const char *path)
@@ -500,6 +507,7 @@ int main(int argc, char **argv)
 	app.charts_on = o.charts;
 	float *frame_ms = o.timing ? malloc(sizeof(float) * 65536u) : NULL;
 	long timed = 0;
+	double cpu_frames_ms = 0;
 
 	glfwSetErrorCallback(on_glfw_error);
 	if (!glfwInit()) {
@@ -532,6 +540,7 @@ int main(int argc, char **argv)
 	uint64_t period = (uint64_t)(1e6 / o.fps), next = now_us();
 	for (long frame = 1; !app.quit && !glfwWindowShouldClose(win); frame++) {
 		uint64_t t = o.steady ? 1000000u + (uint64_t)frame * 20000u : now_us(), t_start = now_us();
+		double cpu_start = frame_ms ? cpu_ms() : 0;
 		source_poll(&src, &feed, t);
 		vm_tick(&app.vm, t);
 		charts_tick(&app.ch, t, app.vm.st.frames);
@@ -571,6 +580,7 @@ int main(int argc, char **argv)
 		if (frame_ms && timed < 65536) {
 			render_finish(&app.r); /* the frame's GPU work counts */
 			frame_ms[timed++] = (float)(now_us() - t_start) * 1e-3f;
+			cpu_frames_ms += cpu_ms() - cpu_start;
 		}
 		glfwPollEvents();
 		if (app.want_shot) {
@@ -611,7 +621,7 @@ int main(int argc, char **argv)
 	if (app.ch.csv)
 		printf("swell-view: %s: %llu chart samples written\n", o.csv, (unsigned long long)app.ch.csv_rows);
 	if (frame_ms)
-		timing_report(frame_ms, timed, &app);
+		timing_report(frame_ms, timed, cpu_frames_ms, &app);
 	free(frame_ms);
 	charts_free(&app.ch);
 	canvas_free(&app.chart_cv);
