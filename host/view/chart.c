@@ -8,7 +8,7 @@
 
 /* Layout in font cells (canvas_char_w x canvas_line_h): CHART_COLS wide; each chart a title row
  * and CHART_PLOT_ROWS of plot, half a row apart; one row of time labels under the last. */
-#define CHART_COLS 36
+#define CHART_COLS 30
 #define CHART_LABEL_COLS 6
 #define CHART_PLOT_ROWS 4
 
@@ -326,14 +326,14 @@ void charts_draw(const struct charts *c, struct canvas *cv, uint64_t now_us)
 		switch (k) {
 		case 0:
 			x += canvas_text(cv, x, top, col_fz, "Z") + cw;
-			x += canvas_text(cv, x, top, col_fabs, "TOTAL") + cw;
-			snprintf(lim, sizeof(lim), c->force_limit_N <= p.hi ? "LIMIT %.1f" : "LIMIT %.1f OFF",
+			x += canvas_text(cv, x, top, col_fabs, "NORM") + cw;
+			snprintf(lim, sizeof(lim), c->force_limit_N <= p.hi ? "LIMIT %g" : "LIMIT %g OFF",
 				 (double)c->force_limit_N);
 			canvas_text(cv, x, top, col_limit, lim);
 			break;
 		case 1:
 			x += canvas_text(cv, x, top, col_bottom, "BOTTOM") + cw;
-			canvas_text(cv, x, top, col_water, "WATER UNDER IT");
+			canvas_text(cv, x, top, col_water, "WATER");
 			break;
 		default:
 			break;

@@ -157,7 +157,7 @@ static const char *const water_fs =
 	"  vec3 ramp = t < 0.0 ? mix(u_ramp_mid, u_ramp_lo, -t) : mix(u_ramp_mid, u_ramp_hi, t);\n"
 	"  float d = max(dot(n, u_light), 0.0);\n"
 	"  if (u_map != 0) { o_col = vec4(ramp * (0.70 + 0.40 * d), 1.0); return; }\n"
-	"  vec3 base = u_colour != 0 ? ramp : mix(vec3(0.02, 0.20, 0.36), vec3(0.10, 0.52, 0.66), 0.5 + 0.5 * t);\n"
+	"  vec3 base = u_colour != 0 ? ramp : mix(vec3(0.03, 0.22, 0.40), vec3(0.16, 0.55, 0.70), 0.5 + 0.5 * t);\n"
 	"  vec3 r = reflect(-v, n);\n"
 	"  vec3 sky = mix(vec3(0.70, 0.80, 0.88), vec3(0.22, 0.42, 0.72), clamp(r.z, 0.0, 1.0));\n"
 	"  float fr = 0.02 + 0.98 * pow(1.0 - max(dot(n, v), 0.0), 5.0);\n"

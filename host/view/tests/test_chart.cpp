@@ -77,7 +77,7 @@ TEST_CASE("charts_nice rounds up to 1, 2, 2.5 or 5 times a power of ten")
 	}
 }
 
-TEST_CASE("a lost pose leaves a gap in the height line and is counted; consecutive poses are joined")
+TEST_CASE("a lost pose leaves a gap in the height line and is counted, consecutive poses are joined")
 {
 	fixture f;
 	// 5 s of poses at 10 per second, seq 0..49, with seq 20..29 lost (one second)
@@ -194,7 +194,7 @@ TEST_CASE("the water under the object is the mean of the cells whose centres the
 	vm_free(&m);
 }
 
-TEST_CASE("--csv rows carry each received sample with its receive time, empty where a message has none")
+TEST_CASE("CSV rows carry each received sample with its receive time, empty where a message has none")
 {
 	fixture f;
 	char path[] = "/tmp/swell-chart-csv-XXXXXX";

@@ -852,15 +852,15 @@ TEST_CASE("the charts plot the force and pose the pattern sends, at the values a
 	REQUIRE(d.h == 768u);
 	auto px = [&](int c, int rr) { return &d.pixels[(size_t(rr) * w + size_t(c)) * 3]; };
 	double now = 1.0 + after * 0.02;
-	// layout (main.c, chart.c) at scale 2: canvas 432 px wide at (1024 - 432 - 16, 72); chart k's plot
-	// at y 9 + 108 k + 27, 72 px tall, x from 72 to 72 + 354
-	const int cx = w - 432 - 16, cy = 72, lh = 18;
+	// layout (main.c, chart.c) at scale 2: canvas 30 cells of 12 px wide at (1024 - 360 - 16, 72); chart
+	// k's plot at y 9 + 108 k + 27, 72 px tall, x from 72 to 72 + 282
+	const int cx = w - 360 - 16, cy = 72, lh = 18;
 	struct plot_px {
 		int x0, y0, w, h;
 		double lo, hi;
 	};
 	auto plot = [&](int k, double lo, double hi) {
-		return plot_px{cx + 72, cy + lh / 2 + k * (4 * lh + lh + lh / 2 + lh / 2) + lh + lh / 2, 432 - 72 - 6, 4 * lh, lo, hi};
+		return plot_px{cx + 72, cy + lh / 2 + k * (4 * lh + lh + lh / 2 + lh / 2) + lh + lh / 2, 360 - 72 - 6, 4 * lh, lo, hi};
 	};
 	// the curve's value in each column (mean row of its colour) against the pattern at that column's time
 	auto compare = [&](const plot_px &p, const uint8_t rgb[3], double (*truth)(double), double tol, const char *what) {
@@ -920,7 +920,7 @@ TEST_CASE("the charts plot the force and pose the pattern sends, at the values a
 	}
 }
 
-TEST_CASE("--csv writes the received samples: the pattern's pose and force, and the poses lost")
+TEST_CASE("the CSV file of --csv holds the pattern's pose and force as received, and the poses lost")
 {
 	for (const char *faults : {"", "--faults drop"}) {
 		std::string csv = tmpdir() + "/bob.csv";
