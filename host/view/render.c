@@ -162,7 +162,7 @@ static const char *const water_fs =
 	"  vec3 sky = mix(vec3(0.70, 0.80, 0.88), vec3(0.22, 0.42, 0.72), clamp(r.z, 0.0, 1.0));\n"
 	"  float fr = 0.02 + 0.98 * pow(1.0 - max(dot(n, v), 0.0), 5.0);\n"
 	"  float s = pow(max(dot(n, normalize(u_light + v)), 0.0), 250.0);\n"
-	"  vec3 c = mix(base * (0.30 + 0.80 * d), sky, u_colour != 0 ? 0.5 * fr : fr) + vec3(0.50 * s);\n"
+	"  vec3 c = mix(base * (0.22 + 0.95 * d), sky, u_colour != 0 ? 0.5 * fr : fr) + vec3(0.50 * s);\n"
 	"  o_col = vec4(c, u_colour != 0 ? 0.90 : mix(0.80, 1.0, fr));\n"
 	"}\n";
 
