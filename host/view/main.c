@@ -505,9 +505,6 @@ int main(int argc, char **argv)
 	}
 	feed.charts = &app.ch;
 	app.charts_on = o.charts;
-	float *frame_ms = o.timing ? malloc(sizeof(float) * 65536u) : NULL;
-	long timed = 0;
-	double cpu_frames_ms = 0;
 
 	glfwSetErrorCallback(on_glfw_error);
 	if (!glfwInit()) {
@@ -537,6 +534,9 @@ int main(int argc, char **argv)
 		return 1;
 	}
 
+	float *frame_ms = o.timing ? malloc(sizeof(float) * 65536u) : NULL;
+	long timed = 0;
+	double cpu_frames_ms = 0;
 	uint64_t period = (uint64_t)(1e6 / o.fps), next = now_us();
 	for (long frame = 1; !app.quit && !glfwWindowShouldClose(win); frame++) {
 		uint64_t t = o.steady ? 1000000u + (uint64_t)frame * 20000u : now_us(), t_start = now_us();
