@@ -355,10 +355,16 @@ void render_free(struct render *r)
 }
 
 /* ---- the water mesh and height texture, rebuilt when the scene changes ---- */
-static bool water_make(struct render *r, int nx, int ny)
+#define WATER_MESH_MAX 128 /* quads a side at most: the vertex work of a 256 x 256 pool is a quarter */
+
+static bool water_make(struct render *r, int nx_cells, int ny_cells)
 {
 	/* (nx+1) x (ny+1) corner vertices: the surface reaches the walls; a corner samples the
-	 * bilinear mean of the cells around it (clamped at the walls, as the solver's mirror). */
+	 * bilinear mean of the cells around it (clamped at the walls, as the solver's mirror). Pools
+	 * bigger than WATER_MESH_MAX cells a side get a coarser mesh; their normals and colours still
+	 * come from every cell (the fragment shader reads the full texture). */
+	int nx = nx_cells < WATER_MESH_MAX ? nx_cells : WATER_MESH_MAX;
+	int ny = ny_cells < WATER_MESH_MAX ? ny_cells : WATER_MESH_MAX;
 	size_t nv = (size_t)(nx + 1) * (size_t)(ny + 1), ni = (size_t)nx * (size_t)ny * 6;
 	float *uv = malloc(nv * 2 * sizeof(float));
 	unsigned *idx = malloc(ni * sizeof(unsigned));
@@ -395,13 +401,13 @@ static bool water_make(struct render *r, int nx, int ny)
 	free(idx);
 
 	glBindTexture(GL_TEXTURE_2D, r->tex_h);
-	glTexImage2D(GL_TEXTURE_2D, 0, GL_R32F, nx, ny, 0, GL_RED, GL_FLOAT, NULL);
+	glTexImage2D(GL_TEXTURE_2D, 0, GL_R32F, nx_cells, ny_cells, 0, GL_RED, GL_FLOAT, NULL);
 	glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
 	glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
 	glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
 	glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-	r->water_nx = nx;
-	r->water_ny = ny;
+	r->water_nx = nx_cells;
+	r->water_ny = ny_cells;
 	r->water_indices = (int)ni;
 	return true;
 }

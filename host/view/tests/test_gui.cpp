@@ -993,3 +993,21 @@ TEST_CASE("the map view shows heights in the colour scale and the object's footp
 	CHECK(top[0] > top[2] + 100);
 	CHECK(std::abs(int(flat[0]) - int(flat[2])) < 30);
 }
+
+TEST_CASE("a 256 x 256 pool, drawn on a coarser mesh, shows its bump and object where they are")
+{
+	// the same 0.4 m scene in 256 x 256 cells of 1.5625 mm: the mesh has 128 x 128 quads, the
+	// shading every cell
+	image im = shot("pattern:bump:256");
+	box b = find(im, is_object);
+	double cc = (b.c0 + b.c1) / 2.0, cr = (b.r0 + b.r1) / 2.0;
+	double bx = 0.70 * L, by = 0.50 * L, sg = 0.025;
+	double east = mean_luma(im, bx + sg, by, 3), west = mean_luma(im, bx - sg, by, 3);
+	INFO("object box centre (" << cc << ", " << cr << ") px, expected (" << col_of(0.30 * L) << ", " << row_of(0.35 * L)
+				   << "); bump flanks: east luma " << east << ", west " << west);
+	REQUIRE(b.n > 1000);
+	CHECK(std::abs(cc - col_of(0.30 * L)) < 2.5);
+	CHECK(std::abs(cr - row_of(0.35 * L)) < 2.5);
+	CHECK(east > west + 20);
+	CHECK(find(im, is_water).n > 100000);
+}
