@@ -545,7 +545,8 @@ TEST_CASE("bad arguments: a one-line reason and exit status 2, before any window
 	const char *bad[] = {"--size 10x10", "--source nowhere", "--view side", "--after 0", "--object 60x60",
 			     "--faults garbage", "--source pattern:bump --faults fire", "--source pattern:plaid",
 			     "--record x.rec --source pattern:bump", "--bogus", "--zscale", "--iface 256",
-			     "--iface 1", "--iface 1 --source pattern:bump", "--iface -1 --source usb"};
+			     "--iface 1", "--iface 1 --source pattern:bump", "--iface -1 --source usb",
+			     "--force-limit 0", "--csv", "--source pattern:bump:4", "--source pattern:ripple:x"};
 	for (const char *a : bad) {
 		std::string cmd = "ASAN_OPTIONS=detect_leaks=0 DISPLAY= " SWELL_VIEW_BIN " " + std::string(a) + " 2>&1";
 		FILE *p = popen(cmd.c_str(), "r");
