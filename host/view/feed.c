@@ -47,8 +47,11 @@ static void on_scene(struct view_feed *f, const struct swell_msg_scene *s, uint6
 		vm_bad(f->vm);
 		return;
 	}
-	if (!had || f->vm->st.restarts != restarts)
+	if (!had || f->vm->st.restarts != restarts) {
 		f->have_pose_seq = false;
+		if (f->charts)
+			charts_restart(f->charts);
+	}
 }
 
 static void on_quad(struct view_feed *f, const struct swell_msg_height_quad *q, uint32_t pos)
@@ -80,6 +83,8 @@ static void on_heartbeat(struct view_feed *f, const struct swell_msg_heartbeat *
 	if (f->have_state && hb->state == 0 && f->state != 0) {
 		vm_restart(f->vm, now_us);
 		f->have_pose_seq = false;
+		if (f->charts)
+			charts_restart(f->charts);
 	}
 	f->have_state = true;
 	f->state = hb->state;
@@ -99,6 +104,8 @@ static void on_heartbeat(struct view_feed *f, const struct swell_msg_heartbeat *
 	}
 	f->hb_seq = hb->seq;
 	vm_clock(f->vm, f->hb_count * FEED_HEARTBEAT_US, now_us);
+	if (f->charts && f->vm->st.latency_valid)
+		charts_latency(f->charts, now_us, f->vm->st.latency_ms);
 }
 
 static void on_info(struct view_feed *f, const struct swell_msg_ctl_info *c)
@@ -152,7 +159,9 @@ static void on_msg(struct view_feed *f, const struct swell_msg *m, uint64_t now_
 		o.b_um = f->obj_b_um;
 		o.h_um = f->obj_h_um;
 		f->submersion_halfpct = p->submersion_halfpct;
-		vm_object(vm, &o);
+		if (vm_object(vm, &o) == SWELL_OK && f->charts)
+			charts_pose(f->charts, now_us, p->seq, (float)o.z_um * 1e-3f,
+				    charts_water_under(vm, o.x_um, o.y_um, o.a_um, o.b_um), (float)p->submersion_halfpct * 0.5f);
 		break;
 	}
 	case SWELL_MSG_OBJECT_FORCE: {
@@ -164,7 +173,9 @@ static void on_msg(struct view_feed *f, const struct swell_msg *m, uint64_t now_
 		o.fy_cN = q->fy_cN;
 		o.fz_cN = q->fz_cN;
 		f->force_limits = q->limits;
-		vm_object(vm, &o);
+		if (vm_object(vm, &o) == SWELL_OK && f->charts)
+			charts_force(f->charts, now_us, q->seq, (float)q->fx_cN * 0.01f, (float)q->fy_cN * 0.01f,
+				     (float)q->fz_cN * 0.01f, q->limits);
 		break;
 	}
 	default:

@@ -13,6 +13,7 @@
 #include <stdint.h>
 #include <stddef.h>
 
+#include "chart.h"
 #include "swell/proto.h"
 #include "vm.h"
 
@@ -21,6 +22,7 @@
 
 struct view_feed {
 	struct view_model *vm;
+	struct charts *charts;    /* strip-chart samples of poses, forces and latency, or NULL */
 	struct swell_proto_stats st;
 	uint8_t node;             /* accept this node, or FEED_NODE_ANY */
 	uint32_t other_node;      /* frames from other nodes, ignored */

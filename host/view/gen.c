@@ -47,6 +47,36 @@ void gen_ripple(struct gen_scene *s)
 	s->ripple_speed_um_s = 120000;
 }
 
+void gen_bob(struct gen_scene *s)
+{
+	s->bob_period_us = 2000000;
+	s->bob_z_10um = 600;
+	s->bob_fz_cN = 100;
+}
+
+void gen_cells(struct gen_scene *s, uint16_t n)
+{
+	s->nx = n;
+	s->ny = n;
+	s->dx_um = (uint16_t)(400000u / n);
+}
+
+void gen_object_at(const struct gen_scene *s, uint64_t t_us, int16_t *z_10um, uint8_t *submersion_halfpct,
+		   int16_t *fz_cN)
+{
+	*z_10um = s->obj_z_10um;
+	*submersion_halfpct = s->submersion_halfpct;
+	*fz_cN = s->fz_cN;
+	if (s->bob_period_us == 0)
+		return;
+	double ph = sin(2 * 3.14159265358979 * (double)(t_us % s->bob_period_us) / s->bob_period_us);
+	*z_10um = (int16_t)lround(s->obj_z_10um + s->bob_z_10um * ph);
+	/* submerged: -z of the 50 mm box, in half percent */
+	double sub = -(double)*z_10um / 5000.0 * 200.0;
+	*submersion_halfpct = (uint8_t)lround(sub < 0 ? 0 : sub > 200 ? 200 : sub);
+	*fz_cN = (int16_t)lround(s->fz_cN + s->bob_fz_cN * ph);
+}
+
 void gen_info(struct gen_scene *s)
 {
 	gen_default(s);
@@ -177,19 +207,22 @@ unsigned gen_frame(const struct gen_scene *s, uint64_t t_us, uint8_t frame, bool
 						put(&p, &m);
 					}
 	}
+	int16_t z_10um, fz_cN;
+	uint8_t sub;
+	gen_object_at(s, t_us, &z_10um, &sub, &fz_cN);
 	memset(&m, 0, sizeof(m));
 	m.type = SWELL_MSG_OBJECT_POSE;
 	m.u.object_pose.x_10um = s->obj_x_10um;
 	m.u.object_pose.y_10um = s->obj_y_10um;
-	m.u.object_pose.z_10um = s->obj_z_10um;
-	m.u.object_pose.submersion_halfpct = s->submersion_halfpct;
+	m.u.object_pose.z_10um = z_10um;
+	m.u.object_pose.submersion_halfpct = sub;
 	m.u.object_pose.seq = frame;
 	put(&p, &m);
 	memset(&m, 0, sizeof(m));
 	m.type = SWELL_MSG_OBJECT_FORCE;
 	m.u.object_force.fx_cN = s->fx_cN;
 	m.u.object_force.fy_cN = s->fy_cN;
-	m.u.object_force.fz_cN = s->fz_cN;
+	m.u.object_force.fz_cN = fz_cN;
 	m.u.object_force.seq = frame;
 	put(&p, &m);
 	flush(&p);

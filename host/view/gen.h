@@ -24,6 +24,9 @@ struct gen_scene {
 	int16_t obj_x_10um, obj_y_10um, obj_z_10um;
 	uint8_t submersion_halfpct;
 	int16_t fx_cN, fy_cN, fz_cN;
+	/* optional bobbing of the object (pattern bob): z, submersion and fz move as sines of one period */
+	uint32_t bob_period_us;
+	int16_t bob_z_10um, bob_fz_cN;
 	uint8_t state; /* heartbeat state, 3 = running */
 	/* CTL_INFO with the scene description when info is set: firmware version, object a, b, H */
 	bool info;
@@ -39,6 +42,14 @@ void gen_default(struct gen_scene *s);
 void gen_mirror(struct gen_scene *s);
 /* ripple: a smaller bump and a travelling ripple from the pool corner (animated). */
 void gen_ripple(struct gen_scene *s);
+/* bob: the default scene with the object bobbing: z = -10 + 6 sin(2 pi t / 2 s) mm, the submersion
+ * following it (H = 50 mm), fz = 0.8 + 1.0 sin(2 pi t / 2 s) N, fx and fy as in the default. */
+void gen_bob(struct gen_scene *s);
+/* The same pool (0.4 m) in n x n cells (8..256): the benchmarks' bigger grids. */
+void gen_cells(struct gen_scene *s, uint16_t n);
+/* The pose and force of the scene at time t_us (the bob moves them). */
+void gen_object_at(const struct gen_scene *s, uint64_t t_us, int16_t *z_10um, uint8_t *submersion_halfpct,
+		   int16_t *fz_cN);
 /* bump-info: the default scene from a controller that sends CTL_INFO: firmware 2.7.1, an object of
  * 100 x 60 x 40 mm (not the viewer's 50 mm default). */
 void gen_info(struct gen_scene *s);

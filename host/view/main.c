@@ -11,6 +11,8 @@
 #include <string.h>
 #include <time.h>
 
+#include "canvas.h"
+#include "chart.h"
 #include "feed.h"
 #include "png.h"
 #include "render.h"
@@ -24,7 +26,8 @@ static const char usage[] =
 	"  --source SRC        udp[:PORT]        datagrams on 127.0.0.1 (default udp:47801, as swell-ctl sends)\n"
 	"                      can:IFACE, canfd:IFACE  SocketCAN (classic, FD); usb[:VID:PID]  libusb bulk\n"
 	"                      replay:FILE       a recording, at recorded speed; replay-fast:FILE at full speed\n"
-	"                      pattern:bump|ripple  a known scene through the real encoders (labelled on screen)\n"
+	"                      pattern:bump|ripple|bob[:N]  a known scene through the real encoders (labelled\n"
+	"                      on screen; bob: the object bobs, its force follows; N x N cells, 8..256)\n"
 	"  --faults LIST       inject into a pattern: garbage,truncate,corrupt,reorder,drop,noscene,restart\n"
 	"  --node N            show only controller node N (0..15; default: any)\n"
 	"  --iface N           USB interface of the controller's host link (0..255; default 0; 1 when\n"
@@ -35,8 +38,16 @@ static const char usage[] =
 	"  --screenshot FILE   write a PNG of frame N (see --after) and exit\n"
 	"  --after N           frames before the screenshot (default 30)\n"
 	"  --frames N          exit after N frames\n"
-	"  --view orbit|top    camera: orbit (default; mouse) or straight down, pool fitted (tests)\n"
-	"  --colour            colour the water by height (blue low, red high)\n"
+	"  --view orbit|top|map  camera: orbit (default; mouse), top (straight down, pool fitted) or map\n"
+	"                      (straight down: a height map in the colour scale, the object's footprint)\n"
+	"  --colour            colour the water by height (blue low, red high), with a legend in mm\n"
+	"  --charts            strip charts of the last 10 s: force z and |F| against the limit, the\n"
+	"                      object's bottom and the water under it, submersion, frame rate, latency\n"
+	"  --csv FILE          write the charts' samples to FILE as they arrive (CSV, one row a sample)\n"
+	"  --force-limit N     the controller's force limit drawn on the force chart (default 10 N, the\n"
+	"                      controller's default; it is not on the wire)\n"
+	"  --timing            print frame-time figures at exit: median, 95th percentile and mean wall\n"
+	"                      time, and CPU time (all threads), ms a frame\n"
 	"  --range MM          height of full colour and of the water tint (default 2 mm)\n"
 	"  --zscale X          vertical exaggeration of the water (default 3; the object keeps its true\n"
 	"                      submersion, riding the exaggerated surface)\n"
@@ -52,13 +63,14 @@ static const char usage[] =
 	"  -h, --help          this text\n"
 	"\n"
 	"Mouse: left drag orbits, wheel zooms. Keys: R reset view, S screenshot, P or space pause,\n"
-	"C colour scale, H HUD, Q or Esc quit.\n"
+	"C colour scale, G charts, V view (orbit, map), H HUD, Q or Esc quit.\n"
 	"Exit status: 0 done, 1 GL/window/file failure, 2 bad arguments.\n";
 
 struct opts {
-	const char *source, *faults, *record, *shot;
+	const char *source, *faults, *record, *shot, *csv;
 	int node, iface;
-	bool headless, steady;
+	bool headless, steady, charts, timing;
+	float force_limit_N;
 	long after, frames;
 	double fps;
 	uint32_t stale_ms;
@@ -104,6 +116,7 @@ static void parse(int argc, char **argv, struct opts *o)
 	o->ro.zscale = 3;
 	o->ro.force_mm_per_N = 40;
 	o->ro.msaa = -1;
+	o->force_limit_N = 10; /* the controller's default f_max */
 	for (int k = 1; k < argc; k++) {
 		const char *a = argv[k];
 		const char *v = k + 1 < argc ? argv[k + 1] : NULL;
@@ -158,8 +171,20 @@ static void parse(int argc, char **argv, struct opts *o)
 				o->ro.view = RENDER_ORBIT;
 			else if (!strcmp(v, "top"))
 				o->ro.view = RENDER_TOP;
+			else if (!strcmp(v, "map"))
+				o->ro.view = RENDER_MAP;
 			else
-				bad("--view '%s' is not orbit or top", v);
+				bad("--view '%s' is not orbit, top or map", v);
+		} else if (!strcmp(a, "--charts")) {
+			o->charts = true;
+		} else if (!strcmp(a, "--timing")) {
+			o->timing = true;
+		} else if (!strcmp(a, "--csv")) {
+			NEED();
+			o->csv = v;
+		} else if (!strcmp(a, "--force-limit")) {
+			NEED();
+			o->force_limit_N = (float)num(a, v, 0.01, 250);
 		} else if (!strcmp(a, "--colour") || !strcmp(a, "--color")) {
 			o->ro.colour_scale = true;
 		} else if (!strcmp(a, "--range")) {
@@ -201,6 +226,13 @@ static void parse(int argc, char **argv, struct opts *o)
 		bad("--faults applies to pattern sources only, not '%s'", o->source);
 }
 
+static double cpu_ms(void)
+{
+	struct timespec t;
+	clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+	return (double)t.tv_sec * 1e3 + (double)t.tv_nsec * 1e-6;
+}
+
 static uint64_t now_us(void)
 {
 	struct timespec t;
@@ -212,7 +244,11 @@ static uint64_t now_us(void)
 struct app {
 	struct render r;
 	struct view_model vm;
+	struct charts ch;
+	struct canvas chart_cv, legend_cv;
 	bool paused, want_shot, quit, dragging;
+	bool charts_on, frozen;   /* frozen: the HUD and charts of the first paused frame are kept */
+	float legend_range;       /* what legend_cv shows (0: nothing yet) */
 	float tile_hz;          /* tiles uploaded a second (the tiles whose heights changed) */
 	struct view_object shown_obj; /* the object as drawn (held while paused) */
 	uint64_t tile_window_us, tile_window_start;
@@ -233,6 +269,11 @@ static void on_key(GLFWwindow *w, int key, int sc, int action, int mods)
 	case GLFW_KEY_P:
 	case GLFW_KEY_SPACE: a->paused = !a->paused; break;
 	case GLFW_KEY_C: a->r.o.colour_scale = !a->r.o.colour_scale; break;
+	case GLFW_KEY_G:
+		a->charts_on = !a->charts_on;
+		a->frozen = false; /* draw them once even while paused */
+		break;
+	case GLFW_KEY_V: a->r.o.view = a->r.o.view == RENDER_MAP ? RENDER_ORBIT : RENDER_MAP; break;
 	case GLFW_KEY_H: a->r.o.hud = !a->r.o.hud; break;
 	case GLFW_KEY_Q:
 	case GLFW_KEY_ESCAPE: a->quit = true; break;
@@ -351,6 +392,69 @@ static void hud(struct app *a, const struct view_feed *f, const struct source *s
 	}
 }
 
+/* The charts at the right edge (the scene keeps the rest) and the colour legend at the left, drawn
+ * on the CPU and shown as overlays. redraw: false while paused (the picture is frozen). */
+static bool overlays(struct app *a, uint64_t now, bool redraw)
+{
+	int scale = a->r.o.h >= 700 ? 2 : 1, w, h;
+	if (a->charts_on) {
+		charts_size(scale, &w, &h);
+		if (a->chart_cv.w != w || a->chart_cv.h != h) {
+			canvas_free(&a->chart_cv);
+			if (!canvas_init(&a->chart_cv, w, h, scale))
+				return false;
+			redraw = true;
+		}
+		if (redraw) {
+			charts_draw(&a->ch, &a->chart_cv, now);
+			render_overlay(&a->r, 0, a->chart_cv.rgba, w, h, a->r.o.w - w - 8 * scale, 36 * scale);
+		}
+		a->r.scene_right = w + 8 * scale;
+	} else {
+		render_overlay_off(&a->r, 0);
+		a->r.scene_right = 0;
+	}
+	if (a->r.o.colour_scale || a->r.o.view == RENDER_MAP) {
+		canvas_legend_size(scale, &w, &h);
+		if (a->legend_cv.w != w || a->legend_cv.h != h) {
+			canvas_free(&a->legend_cv);
+			if (!canvas_init(&a->legend_cv, w, h, scale))
+				return false;
+			a->legend_range = 0;
+		}
+		if (a->legend_range != a->r.o.h_range_mm) {
+			canvas_legend(&a->legend_cv, a->r.o.h_range_mm);
+			a->legend_range = a->r.o.h_range_mm;
+		}
+		/* below the HUD's top panel (7 lines) */
+		render_overlay(&a->r, 1, a->legend_cv.rgba, w, h, 8 * scale, 8 * scale + 8 * 9 * scale + 4 * scale);
+	} else {
+		render_overlay_off(&a->r, 1);
+	}
+	return true;
+}
+
+static int cmp_float(const void *x, const void *y)
+{
+	float a = *(const float *)x, b = *(const float *)y;
+	return (a > b) - (a < b);
+}
+
+/* Frame-time figures of --timing: median, 95th percentile and mean of the frames measured. */
+static void timing_report(float *ms, long n, double cpu_ms, const struct app *a)
+{
+	if (n < 1)
+		return;
+	double sum = 0;
+	for (long k = 0; k < n; k++)
+		sum += ms[k];
+	qsort(ms, (size_t)n, sizeof(ms[0]), cmp_float);
+	printf("swell-view: frame time median %.2f ms, p95 %.2f ms, mean %.2f ms wall, %.2f ms CPU (all threads) "
+	       "over %ld frames (%d x %d pixels, pool %u x %u, charts %s, msaa %d)\n",
+	       (double)ms[n / 2], (double)ms[(long)((double)(n - 1) * 0.95)], sum / (double)n, cpu_ms / (double)n, n,
+	       a->r.o.w, a->r.o.h, a->vm.scene.nx, a->vm.scene.ny, a->charts_on ? "on" : "off", a->r.samples);
+}
+
 static int screenshot(struct app *a, const char *path)
 {
 	size_t n = (size_t)a->r.o.w * (size_t)a->r.o.h * 3;
@@ -365,6 +469,7 @@ static int screenshot(struct app *a, const char *path)
 		return 1;
 	}
 	printf("swell-view: wrote %s (%d x %d pixels)\n", path, a->r.o.w, a->r.o.h);
+	fflush(stdout); /* whoever waits for the picture reads this line */
 	return 0;
 }
 
@@ -391,6 +496,16 @@ int main(int argc, char **argv)
 	feed.obj_a_um = o.obj_um[0];
 	feed.obj_b_um = o.obj_um[1];
 	feed.obj_h_um = o.obj_um[2];
+	if (!charts_init(&app.ch, o.force_limit_N)) {
+		fprintf(stderr, "swell-view: out of memory for the charts\n");
+		return 1;
+	}
+	if (o.csv && !charts_csv_open(&app.ch, o.csv, err, sizeof(err))) {
+		fprintf(stderr, "swell-view: %s\n", err);
+		return 1;
+	}
+	feed.charts = &app.ch;
+	app.charts_on = o.charts;
 
 	glfwSetErrorCallback(on_glfw_error);
 	if (!glfwInit()) {
@@ -420,11 +535,16 @@ int main(int argc, char **argv)
 		return 1;
 	}
 
+	float *frame_ms = o.timing ? malloc(sizeof(float) * 65536u) : NULL;
+	long timed = 0;
+	double cpu_frames_ms = 0;
 	uint64_t period = (uint64_t)(1e6 / o.fps), next = now_us();
 	for (long frame = 1; !app.quit && !glfwWindowShouldClose(win); frame++) {
-		uint64_t t = o.steady ? 1000000u + (uint64_t)frame * 20000u : now_us();
+		uint64_t t = o.steady ? 1000000u + (uint64_t)frame * 20000u : now_us(), t_start = now_us();
+		double cpu_start = frame_ms ? cpu_ms() : 0;
 		source_poll(&src, &feed, t);
 		vm_tick(&app.vm, t);
+		charts_tick(&app.ch, t, app.vm.st.frames);
 		if (!o.headless) {
 			int fw, fh;
 			glfwGetFramebufferSize(win, &fw, &fh);
@@ -436,8 +556,16 @@ int main(int argc, char **argv)
 			app.tile_window_start = app.r.tiles_uploaded;
 			app.tile_window_us = t;
 		}
-		hud(&app, &feed, &src, t);
-		/* pause freezes the whole picture: heights (no uploads) and the object as it was */
+		/* pause freezes the whole picture: heights (no uploads), the object as it was, the HUD and
+		 * charts of the first paused frame (reception, recording and the charts' data go on) */
+		if (!app.frozen)
+			hud(&app, &feed, &src, t);
+		if (!overlays(&app, t, !app.frozen)) {
+			fprintf(stderr, "swell-view: out of memory for the overlays\n");
+			rc = 1;
+			break;
+		}
+		app.frozen = app.paused;
 		if (!app.paused)
 			app.shown_obj = app.vm.obj;
 		struct view_object live_obj = app.vm.obj;
@@ -449,6 +577,11 @@ int main(int argc, char **argv)
 			glfwGetFramebufferSize(win, &fw, &fh);
 			render_blit(&app.r, fw, fh);
 			glfwSwapBuffers(win);
+		}
+		if (frame_ms && timed < 65536) {
+			render_finish(&app.r); /* the frame's GPU work counts */
+			frame_ms[timed++] = (float)(now_us() - t_start) * 1e-3f;
+			cpu_frames_ms += cpu_ms() - cpu_start;
 		}
 		glfwPollEvents();
 		if (app.want_shot) {
@@ -486,6 +619,14 @@ int main(int argc, char **argv)
 	else
 		printf("swell-view: object %.1f x %.1f x %.1f mm from --object (no CTL_INFO received)\n",
 		       feed.obj_a_um * 1e-3, feed.obj_b_um * 1e-3, feed.obj_h_um * 1e-3);
+	if (app.ch.csv)
+		printf("swell-view: %s: %llu chart samples written\n", o.csv, (unsigned long long)app.ch.csv_rows);
+	if (frame_ms)
+		timing_report(frame_ms, timed, cpu_frames_ms, &app);
+	free(frame_ms);
+	charts_free(&app.ch);
+	canvas_free(&app.chart_cv);
+	canvas_free(&app.legend_cv);
 	source_close(&src);
 	render_free(&app.r);
 	vm_free(&app.vm);

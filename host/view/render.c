@@ -10,6 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "canvas.h"
 #include "font.h"
 
 #define PI_F 3.14159265f
@@ -131,6 +132,10 @@ static const char *const water_vs =
 	"  gl_Position = u_mvp * vec4(v_pos, 1.0);\n"
 	"}\n";
 
+/* Water: Blinn-Phong sun from light_dir, a sky reflected by Schlick's Fresnel term (horizon pale,
+ * zenith blue), a body colour tinted by height, more opaque at grazing angles (the floor shows when
+ * looking down). The colour scale replaces the body colour; the map view is the colour scale with a
+ * little hill shading, opaque. */
 static const char *const water_fs =
 	"#version 330 core\n"
 	"in vec2 v_uv; in vec3 v_pos;\n"
@@ -139,7 +144,8 @@ static const char *const water_fs =
 	"uniform vec2 u_cell;\n"   /* 2 dx in m: central differences span two cells */
 	"uniform float u_zs;\n"
 	"uniform vec3 u_light; uniform vec3 u_eye;\n"
-	"uniform int u_colour; uniform float u_range;\n"
+	"uniform int u_colour; uniform int u_map; uniform float u_range;\n"
+	"uniform vec3 u_ramp_lo; uniform vec3 u_ramp_mid; uniform vec3 u_ramp_hi;\n"
 	"out vec4 o_col;\n"
 	"void main() {\n"
 	"  float hc = texture(u_h, v_uv).r;\n"
@@ -148,17 +154,16 @@ static const char *const water_fs =
 	"  vec3 n = normalize(vec3(-hx * u_zs / u_cell.x, -hy * u_zs / u_cell.y, 1.0));\n"
 	"  vec3 v = normalize(u_eye - v_pos);\n"
 	"  float t = clamp(hc / u_range, -1.0, 1.0);\n"
-	"  vec3 base;\n"
-	"  if (u_colour != 0)\n"
-	"    base = t < 0.0 ? mix(vec3(0.85, 0.88, 0.92), vec3(0.08, 0.25, 0.85), -t)\n"
-	"                   : mix(vec3(0.85, 0.88, 0.92), vec3(0.85, 0.12, 0.08), t);\n"
-	"  else\n"
-	"    base = mix(vec3(0.03, 0.22, 0.40), vec3(0.16, 0.55, 0.70), 0.5 + 0.5 * t);\n"
+	"  vec3 ramp = t < 0.0 ? mix(u_ramp_mid, u_ramp_lo, -t) : mix(u_ramp_mid, u_ramp_hi, t);\n"
 	"  float d = max(dot(n, u_light), 0.0);\n"
-	"  float s = pow(max(dot(n, normalize(u_light + v)), 0.0), 90.0);\n"
-	"  float fr = pow(1.0 - max(dot(n, v), 0.0), 4.0);\n"
-	"  vec3 c = base * (0.30 + 0.80 * d) + mix(vec3(0.0), vec3(0.50, 0.60, 0.70), fr) + vec3(0.55 * s);\n"
-	"  o_col = vec4(c, 0.86);\n"
+	"  if (u_map != 0) { o_col = vec4(ramp * (0.70 + 0.40 * d), 1.0); return; }\n"
+	"  vec3 base = u_colour != 0 ? ramp : mix(vec3(0.03, 0.22, 0.40), vec3(0.16, 0.55, 0.70), 0.5 + 0.5 * t);\n"
+	"  vec3 r = reflect(-v, n);\n"
+	"  vec3 sky = mix(vec3(0.70, 0.80, 0.88), vec3(0.22, 0.42, 0.72), clamp(r.z, 0.0, 1.0));\n"
+	"  float fr = 0.02 + 0.98 * pow(1.0 - max(dot(n, v), 0.0), 5.0);\n"
+	"  float s = pow(max(dot(n, normalize(u_light + v)), 0.0), 250.0);\n"
+	"  vec3 c = mix(base * (0.22 + 0.95 * d), sky, u_colour != 0 ? 0.5 * fr : fr) + vec3(0.50 * s);\n"
+	"  o_col = vec4(c, u_colour != 0 ? 0.90 : mix(0.80, 1.0, fr));\n"
 	"}\n";
 
 static const char *const hud_vs =
@@ -341,6 +346,8 @@ void render_free(struct render *r)
 	glDeleteBuffers(1, &r->vbo_lit);
 	glDeleteTextures(1, &r->tex_h);
 	glDeleteTextures(1, &r->tex_hud);
+	for (int k = 0; k < RENDER_OVERLAYS; k++)
+		glDeleteTextures(1, &r->ov[k].tex);
 	free(r->lit);
 	free(r->hud_rgba);
 	free(r->hud_ink);
@@ -348,10 +355,16 @@ void render_free(struct render *r)
 }
 
 /* ---- the water mesh and height texture, rebuilt when the scene changes ---- */
-static bool water_make(struct render *r, int nx, int ny)
+#define WATER_MESH_MAX 128 /* quads a side at most: the vertex work of a 256 x 256 pool is a quarter */
+
+static bool water_make(struct render *r, int nx_cells, int ny_cells)
 {
 	/* (nx+1) x (ny+1) corner vertices: the surface reaches the walls; a corner samples the
-	 * bilinear mean of the cells around it (clamped at the walls, as the solver's mirror). */
+	 * bilinear mean of the cells around it (clamped at the walls, as the solver's mirror). Pools
+	 * bigger than WATER_MESH_MAX cells a side get a coarser mesh; their normals and colours still
+	 * come from every cell (the fragment shader reads the full texture). */
+	int nx = nx_cells < WATER_MESH_MAX ? nx_cells : WATER_MESH_MAX;
+	int ny = ny_cells < WATER_MESH_MAX ? ny_cells : WATER_MESH_MAX;
 	size_t nv = (size_t)(nx + 1) * (size_t)(ny + 1), ni = (size_t)nx * (size_t)ny * 6;
 	float *uv = malloc(nv * 2 * sizeof(float));
 	unsigned *idx = malloc(ni * sizeof(unsigned));
@@ -388,13 +401,13 @@ static bool water_make(struct render *r, int nx, int ny)
 	free(idx);
 
 	glBindTexture(GL_TEXTURE_2D, r->tex_h);
-	glTexImage2D(GL_TEXTURE_2D, 0, GL_R32F, nx, ny, 0, GL_RED, GL_FLOAT, NULL);
+	glTexImage2D(GL_TEXTURE_2D, 0, GL_R32F, nx_cells, ny_cells, 0, GL_RED, GL_FLOAT, NULL);
 	glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
 	glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
 	glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
 	glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-	r->water_nx = nx;
-	r->water_ny = ny;
+	r->water_nx = nx_cells;
+	r->water_ny = ny_cells;
 	r->water_indices = (int)ni;
 	return true;
 }
@@ -528,9 +541,9 @@ static float height_at(const struct view_model *m, float x, float y)
 	return (1 - b) * ((1 - a) * h[j * nx + i] + a * h[j * nx + i1]) + b * ((1 - a) * h[j1 * nx + i] + a * h[j1 * nx + i1]);
 }
 
-static void build_scene(struct render *r, const struct view_model *m)
+static void build_scene(struct render *r, const struct view_model *m, bool frozen)
 {
-	static const float wall_col[3] = {0.78f, 0.80f, 0.83f}, floor_col[3] = {0.55f, 0.62f, 0.66f};
+	static const float wall_col[3] = {0.78f, 0.80f, 0.83f}, floor_col[3] = {0.78f, 0.76f, 0.66f};
 	static const float obj_col[3] = {1.00f, 0.58f, 0.10f}, arrow_col[3] = {0.92f, 0.10f, 0.30f};
 	float dx = (float)m->scene.dx_um * 1e-6f, depth = (float)m->scene.depth_um * 1e-6f;
 	float lx = dx * (float)m->scene.nx, ly = dx * (float)m->scene.ny;
@@ -549,9 +562,22 @@ static void build_scene(struct render *r, const struct view_model *m)
 	float a = (float)m->obj.a_um * 1e-6f, b = (float)m->obj.b_um * 1e-6f, hgt = (float)m->obj.h_um * 1e-6f;
 	/* The water is drawn zscale times higher; the object rides it the same way, keeping its true
 	 * submersion: its bottom moves with (zscale - 1) x the water height under it. */
-	float w = height_at(m, ox, oy) * 1e-3f;
+	if (!frozen)
+		r->obj_water_mm = height_at(m, ox, oy);
+	float w = r->obj_water_mm * 1e-3f;
 	float z0 = (float)m->obj.z_um * 1e-6f + (r->o.zscale - 1.0f) * w;
-	lit_box(r, ox - a / 2, oy - b / 2, z0, ox + a / 2, oy + b / 2, z0 + hgt, obj_col);
+	if (r->o.view == RENDER_MAP) {
+		/* the footprint outlined in black above everything, so the heights under it stay readable */
+		static const float outline_col[3] = {0.02f, 0.02f, 0.02f};
+		float e = fmaxf(0.0015f, 0.004f * fmaxf(lx, ly)), zt = 0.2f * fmaxf(lx, ly);
+		lit_box(r, ox - a / 2 - e, oy - b / 2 - e, zt, ox + a / 2 + e, oy - b / 2, zt + e, outline_col);
+		lit_box(r, ox - a / 2 - e, oy + b / 2, zt, ox + a / 2 + e, oy + b / 2 + e, zt + e, outline_col);
+		lit_box(r, ox - a / 2 - e, oy - b / 2, zt, ox - a / 2, oy + b / 2, zt + e, outline_col);
+		lit_box(r, ox + a / 2, oy - b / 2, zt, ox + a / 2 + e, oy + b / 2, zt + e, outline_col);
+		z0 = zt - hgt; /* the force arrow starts at the outline's height */
+	} else {
+		lit_box(r, ox - a / 2, oy - b / 2, z0, ox + a / 2, oy + b / 2, z0 + hgt, obj_col);
+	}
 
 	float f[3] = {(float)m->obj.fx_cN * 0.01f, (float)m->obj.fy_cN * 0.01f, (float)m->obj.fz_cN * 0.01f};
 	float fn = sqrtf(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]);
@@ -599,11 +625,12 @@ static void camera(struct render *r, const struct view_model *m, float *mvp, flo
 {
 	float lx, ly, depth, view[16], proj[16];
 	scene_size(m, &lx, &ly, &depth);
-	float aspect = (float)r->o.w / (float)r->o.h;
-	if (r->o.view == RENDER_TOP) {
+	int sw = r->o.w - r->scene_right; /* the scene's part of the framebuffer */
+	float aspect = (float)sw / (float)r->o.h;
+	if (r->o.view != RENDER_ORBIT) {
 		/* Pool centred and fitted with a 5 % margin: pixel = centre + (x - Lx/2) * s. */
-		float s = 0.9f * fminf((float)r->o.w / lx, (float)r->o.h / ly);
-		float hw = (float)r->o.w / (2 * s), hh = (float)r->o.h / (2 * s);
+		float s = 0.9f * fminf((float)sw / lx, (float)r->o.h / ly);
+		float hw = (float)sw / (2 * s), hh = (float)r->o.h / (2 * s);
 		float e[3] = {lx / 2, ly / 2, 5}, at[3] = {lx / 2, ly / 2, 0}, up[3] = {0, 1, 0};
 		mat_lookat(view, e, at, up);
 		/* the eye for lighting: straight above */
@@ -615,11 +642,13 @@ static void camera(struct render *r, const struct view_model *m, float *mvp, flo
 		if (!r->cam_set)
 			render_cam_reset(r, m);
 		float at[3] = {lx / 2 + r->cam.pan_x, ly / 2 + r->cam.pan_y, -depth / 3}, up[3] = {0, 0, 1};
-		eye[0] = at[0] + r->cam.dist * cosf(r->cam.pitch) * cosf(r->cam.yaw);
-		eye[1] = at[1] + r->cam.dist * cosf(r->cam.pitch) * sinf(r->cam.yaw);
-		eye[2] = at[2] + r->cam.dist * sinf(r->cam.pitch);
+		/* a view narrower than 4:3 (the charts take the right) steps back to keep the pool in it */
+		float dist = r->cam.dist * fmaxf(1.0f, (4.0f / 3.0f) / aspect);
+		eye[0] = at[0] + dist * cosf(r->cam.pitch) * cosf(r->cam.yaw);
+		eye[1] = at[1] + dist * cosf(r->cam.pitch) * sinf(r->cam.yaw);
+		eye[2] = at[2] + dist * sinf(r->cam.pitch);
 		mat_lookat(view, eye, at, up);
-		mat_perspective(proj, 0.70f, aspect, r->cam.dist * 0.05f, r->cam.dist * 10);
+		mat_perspective(proj, 0.70f, aspect, dist * 0.05f, dist * 10);
 	}
 	mat_mul(mvp, proj, view);
 }
@@ -706,6 +735,64 @@ static void build_hud(struct render *r)
 	glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
 }
 
+/* ---- overlays: the HUD's full-screen triangle drawn into the overlay's rectangle ---- */
+void render_overlay(struct render *r, int slot, const uint8_t *rgba, int w, int h, int x, int y)
+{
+	if (slot < 0 || slot >= RENDER_OVERLAYS || w < 1 || h < 1)
+		return;
+	struct render_overlay *o = &r->ov[slot];
+	if (!o->tex) {
+		glGenTextures(1, &o->tex);
+		glBindTexture(GL_TEXTURE_2D, o->tex);
+		glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+		glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+		glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+		glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+	}
+	glBindTexture(GL_TEXTURE_2D, o->tex);
+	glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+	if (o->tex_w != w || o->tex_h != h) {
+		glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, w, h, 0, GL_RGBA, GL_UNSIGNED_BYTE, rgba);
+		o->tex_w = w;
+		o->tex_h = h;
+	} else {
+		glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, w, h, GL_RGBA, GL_UNSIGNED_BYTE, rgba);
+	}
+	glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+	o->on = true;
+	o->x = x;
+	o->y = y;
+	o->w = w;
+	o->h = h;
+}
+
+void render_overlay_off(struct render *r, int slot)
+{
+	if (slot >= 0 && slot < RENDER_OVERLAYS)
+		r->ov[slot].on = false;
+}
+
+static void draw_overlays(struct render *r)
+{
+	glDisable(GL_DEPTH_TEST);
+	glDisable(GL_CULL_FACE);
+	glEnable(GL_BLEND);
+	glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+	glUseProgram(r->prog_hud);
+	glActiveTexture(GL_TEXTURE0);
+	glUniform1i(glGetUniformLocation(r->prog_hud, "u_hud"), 0);
+	glBindVertexArray(r->vao_hud);
+	for (int k = 0; k < RENDER_OVERLAYS; k++) {
+		const struct render_overlay *o = &r->ov[k];
+		if (!o->on)
+			continue;
+		glBindTexture(GL_TEXTURE_2D, o->tex);
+		glViewport(o->x, r->o.h - o->y - o->h, o->w, o->h); /* GL's rows count from the bottom */
+		glDrawArrays(GL_TRIANGLES, 0, 3);
+	}
+	glViewport(0, 0, r->o.w, r->o.h);
+}
+
 /* ---- a frame ---- */
 void render_frame(struct render *r, struct view_model *m, bool frozen)
 {
@@ -726,12 +813,13 @@ void render_frame(struct render *r, struct view_model *m, bool frozen)
 	glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
 
 	if (m->have_scene) {
+		glViewport(0, 0, r->o.w - r->scene_right, r->o.h);
 		camera(r, m, mvp, eye);
 		glEnable(GL_DEPTH_TEST);
 		glEnable(GL_CULL_FACE);
 		glDisable(GL_BLEND);
 
-		build_scene(r, m);
+		build_scene(r, m, frozen);
 		glUseProgram(r->prog_lit);
 		glUniformMatrix4fv(glGetUniformLocation(r->prog_lit, "u_mvp"), 1, GL_FALSE, mvp);
 		glUniform3fv(glGetUniformLocation(r->prog_lit, "u_light"), 1, light);
@@ -760,9 +848,14 @@ void render_frame(struct render *r, struct view_model *m, bool frozen)
 		glUniform3fv(glGetUniformLocation(r->prog_water, "u_light"), 1, light);
 		glUniform3fv(glGetUniformLocation(r->prog_water, "u_eye"), 1, eye);
 		glUniform1i(glGetUniformLocation(r->prog_water, "u_colour"), r->o.colour_scale);
+		glUniform1i(glGetUniformLocation(r->prog_water, "u_map"), r->o.view == RENDER_MAP);
+		glUniform3fv(glGetUniformLocation(r->prog_water, "u_ramp_lo"), 1, canvas_ramp_low);
+		glUniform3fv(glGetUniformLocation(r->prog_water, "u_ramp_mid"), 1, canvas_ramp_mid);
+		glUniform3fv(glGetUniformLocation(r->prog_water, "u_ramp_hi"), 1, canvas_ramp_high);
 		glUniform1f(glGetUniformLocation(r->prog_water, "u_range"), r->o.h_range_mm);
 		glBindVertexArray(r->vao_water);
 		glDrawElements(GL_TRIANGLES, r->water_indices, GL_UNSIGNED_INT, (void *)0);
+		glViewport(0, 0, r->o.w, r->o.h);
 	}
 
 	if (r->o.hud && r->ntext > 0) {
@@ -783,6 +876,7 @@ void render_frame(struct render *r, struct view_model *m, bool frozen)
 		glBindVertexArray(r->vao_hud);
 		glDrawArrays(GL_TRIANGLES, 0, 3);
 	}
+	draw_overlays(r);
 	glBindVertexArray(0);
 	glUseProgram(0);
 
@@ -790,6 +884,12 @@ void render_frame(struct render *r, struct view_model *m, bool frozen)
 	glBindFramebuffer(GL_DRAW_FRAMEBUFFER, r->fbo_res);
 	glBlitFramebuffer(0, 0, r->o.w, r->o.h, 0, 0, r->o.w, r->o.h, GL_COLOR_BUFFER_BIT, GL_NEAREST);
 	glBindFramebuffer(GL_FRAMEBUFFER, 0);
+}
+
+void render_finish(struct render *r)
+{
+	(void)r;
+	glFinish();
 }
 
 void render_blit(struct render *r, int win_w, int win_h)

@@ -17,7 +17,11 @@
 
 #define RENDER_HUD_ITEMS 24
 
-enum render_view { RENDER_ORBIT, RENDER_TOP };
+/* orbit: the mouse camera; top: straight down, shaded, pool fitted (tests); map: straight down, a
+ * height map in the colour scale with the object's footprint outlined */
+enum render_view { RENDER_ORBIT, RENDER_TOP, RENDER_MAP };
+
+#define RENDER_OVERLAYS 2 /* CPU-drawn pictures over the scene: the charts, the colour legend */
 
 struct render_opts {
 	int w, h;              /* framebuffer size, pixels */
@@ -44,8 +48,18 @@ struct render_cam {
 	float pan_x, pan_y;    /* metres, target offset */
 };
 
+struct render_overlay {
+	bool on;
+	int x, y, w, h;        /* placement, pixels from the top-left */
+	int tex_w, tex_h;      /* texture storage size */
+	unsigned tex;
+};
+
 struct render {
 	struct render_opts o;
+	int scene_right;       /* pixels at the right edge kept free of the scene (the charts' panel) */
+	float obj_water_mm;    /* the water under the object as drawn (held with the heights while frozen) */
+	struct render_overlay ov[RENDER_OVERLAYS];
 	struct render_cam cam;
 	bool cam_set;
 	/* GL objects */
@@ -82,6 +96,14 @@ void render_frame(struct render *r, struct view_model *m, bool frozen);
 void render_text_clear(struct render *r);
 void render_text_add(struct render *r, int x, int y, uint8_t cr, uint8_t cg, uint8_t cb, bool panel,
 		     const char *s);
+
+/* Show an RGBA picture (w x h, top row first, straight alpha) with its top-left corner at pixel (x, y)
+ * over the scene in every frame from now on; off: no longer. */
+void render_overlay(struct render *r, int slot, const uint8_t *rgba, int w, int h, int x, int y);
+void render_overlay_off(struct render *r, int slot);
+
+/* Wait until GL has carried out every command so far (frame-time measurement). */
+void render_finish(struct render *r);
 
 /* Copy the last frame to the bound window framebuffer of size win_w x win_h. */
 void render_blit(struct render *r, int win_w, int win_h);

@@ -166,15 +166,30 @@ bool source_open(struct source *s, const char *spec, const char *record, int usb
 		}
 		s->kind = SOURCE_PATTERN;
 		gen_default(&s->g);
-		if (strcmp(spec + 8, "bump") == 0) {
+		/* NAME[:N]: N cells a side (8..256) instead of 64 */
+		char name[32];
+		const char *cells = strchr(spec + 8, ':');
+		snprintf(name, sizeof(name), "%.*s", cells ? (int)(cells - spec - 8) : 31, spec + 8);
+		if (cells) {
+			char *end;
+			long n = strtol(cells + 1, &end, 10);
+			if (!cells[1] || *end || n < 8 || n > 256) {
+				snprintf(err, errlen, "pattern cells '%s' is not a number in 8..256", cells + 1);
+				return false;
+			}
+			gen_cells(&s->g, (uint16_t)n);
+		}
+		if (strcmp(name, "bump") == 0) {
 			s->animate = false;
-		} else if (strcmp(spec + 8, "bump2") == 0) {
+		} else if (strcmp(name, "bump2") == 0) {
 			gen_mirror(&s->g);
-		} else if (strcmp(spec + 8, "ripple") == 0) {
+		} else if (strcmp(name, "ripple") == 0) {
 			gen_ripple(&s->g);
 			s->animate = true;
+		} else if (strcmp(name, "bob") == 0) {
+			gen_bob(&s->g);
 		} else {
-			snprintf(err, errlen, "unknown pattern '%s' (bump, bump2, ripple)", spec + 8);
+			snprintf(err, errlen, "unknown pattern '%s' (bump, bump2, ripple, bob; NAME:N for N x N cells)", name);
 			return false;
 		}
 		snprintf(s->desc, sizeof(s->desc), "PATTERN %s (NOT A CONTROLLER)", spec + 8);

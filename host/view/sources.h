@@ -7,9 +7,10 @@
  *   replay:FILE        a recording (--record, or swell-view-gen), at recorded speed
  *   replay-fast:FILE   the same, as fast as it can be read
  * and one in-process source for tests and demos:
- *   pattern:NAME       a known scene encoded with the real encoders (gen.h), labelled "PATTERN" on
- *                      screen: bump (static), bump2 (its mirror image), ripple (animated). Faults can
- *                      be injected into its packet stream (source_faults) to test the decode path. */
+ *   pattern:NAME[:N]   a known scene encoded with the real encoders (gen.h), labelled "PATTERN" on
+ *                      screen: bump (static), bump2 (its mirror image), ripple (animated), bob (the
+ *                      object bobbing, its force following); N x N cells instead of 64 x 64. Faults
+ *                      can be injected into its packet stream (source_faults) to test the decode path. */
 #ifndef SWELL_VIEW_SOURCES_H
 #define SWELL_VIEW_SOURCES_H
 

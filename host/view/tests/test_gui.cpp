@@ -77,12 +77,13 @@ xserver &x()
 	return s;
 }
 
-// Scratch files of this test process, removed when it ends.
+// Scratch files of this test process, removed when it ends (kept, for a look at the pictures, when
+// SWELL_VIEW_TEST_KEEP is set).
 struct scratch {
 	std::string dir;
 	~scratch()
 	{
-		if (dir.size() > 5)
+		if (dir.size() > 5 && !std::getenv("SWELL_VIEW_TEST_KEEP"))
 			std::system(("rm -rf '" + dir + "'").c_str());
 	}
 };
@@ -544,7 +545,8 @@ TEST_CASE("bad arguments: a one-line reason and exit status 2, before any window
 	const char *bad[] = {"--size 10x10", "--source nowhere", "--view side", "--after 0", "--object 60x60",
 			     "--faults garbage", "--source pattern:bump --faults fire", "--source pattern:plaid",
 			     "--record x.rec --source pattern:bump", "--bogus", "--zscale", "--iface 256",
-			     "--iface 1", "--iface 1 --source pattern:bump", "--iface -1 --source usb"};
+			     "--iface 1", "--iface 1 --source pattern:bump", "--iface -1 --source usb",
+			     "--force-limit 0", "--csv", "--source pattern:bump:4", "--source pattern:ripple:x"};
 	for (const char *a : bad) {
 		std::string cmd = "ASAN_OPTIONS=detect_leaks=0 DISPLAY= " SWELL_VIEW_BIN " " + std::string(a) + " 2>&1";
 		FILE *p = popen(cmd.c_str(), "r");
@@ -563,4 +565,450 @@ TEST_CASE("bad arguments: a one-line reason and exit status 2, before any window
 	CHECK(WEXITSTATUS(std::system(gen.c_str())) == 2);
 	std::string help = "ASAN_OPTIONS=detect_leaks=0 " SWELL_VIEW_BIN " --help > /dev/null";
 	CHECK(std::system(help.c_str()) == 0);
+}
+
+// ---- used as a person uses it: a real window, real X input (xdotool), pictures from its own S key ----
+namespace {
+
+// xdotool on the test's display; its exit status.
+int xdo(const std::string &args)
+{
+	std::string cmd = "DISPLAY=" + x().display + " timeout 30 xdotool " + args + " > /dev/null 2>&1";
+	return std::system(cmd.c_str());
+}
+
+std::string slurp(const std::string &path)
+{
+	std::ifstream in(path);
+	return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+// One swell-view with a window, run in its own directory (the S key writes swell-view-NNNN.png there).
+struct session {
+	pid_t pid = -1;
+	std::string dir, out, wid;
+	unsigned shots = 0;
+	explicit session(const std::string &args)
+	{
+		static int n = 0;
+		dir = tmpdir() + "/session" + std::to_string(n++);
+		REQUIRE(std::system(("mkdir -p '" + dir + "'").c_str()) == 0);
+		out = dir + "/out.txt";
+		std::string cmd = "cd '" + dir + "' && DISPLAY=" + x().display + " ASAN_OPTIONS=detect_leaks=0 exec " SWELL_VIEW_BIN " " +
+				  args + " > out.txt 2>&1";
+		pid = fork();
+		if (pid == 0) {
+			execl("/bin/sh", "sh", "-c", cmd.c_str(), (char *)nullptr);
+			_exit(127);
+		}
+		REQUIRE(pid > 0);
+		// wait for the window (xdotool --sync), then give it the pointer and the keyboard
+		std::string f = dir + "/wid";
+		REQUIRE(std::system(("DISPLAY=" + x().display + " timeout 60 xdotool search --sync --onlyvisible --name '^swell-view$' > '" +
+				     f + "' 2> /dev/null").c_str()) == 0);
+		wid = slurp(f);
+		wid = wid.substr(0, wid.find('\n'));
+		REQUIRE_FALSE(wid.empty());
+		REQUIRE(xdo("mousemove --window " + wid + " 320 240") == 0);
+		REQUIRE(xdo("windowfocus --sync " + wid) == 0);
+	}
+	// Press S and wait until swell-view says it wrote the picture; the picture.
+	image press_s()
+	{
+		std::string name = "swell-view-" + std::string(4 - std::to_string(shots).size(), '0') + std::to_string(shots);
+		shots++;
+		REQUIRE(xdo("key s") == 0);
+		bool done = false;
+		for (int k = 0; k < 600 && !(done = slurp(out).find("wrote " + name + ".png") != std::string::npos); k++)
+			usleep(50000);
+		INFO(slurp(out));
+		REQUIRE(done);
+		image im;
+		im.d = pngr::read_file(dir + "/" + name + ".png");
+		REQUIRE(im.d.error == "");
+		REQUIRE(im.d.w == unsigned(W));
+		REQUIRE(im.d.h == unsigned(H));
+		return im;
+	}
+	// A picture rendered after everything sent so far: the first S may share a frame with the input
+	// before it (the frame is drawn before its events are read), the second cannot.
+	image settled()
+	{
+		press_s();
+		return press_s();
+	}
+	// Waits for the program to end; its exit status (-1: still running after 30 s).
+	int wait_exit()
+	{
+		for (int k = 0; k < 300; k++) {
+			int st;
+			if (waitpid(pid, &st, WNOHANG) == pid) {
+				pid = -1;
+				return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+			}
+			usleep(100000);
+		}
+		return -1;
+	}
+	~session()
+	{
+		if (pid > 0) {
+			kill(pid, SIGKILL);
+			waitpid(pid, nullptr, 0);
+		}
+	}
+};
+
+long bytes_differ(const image &a, const image &b)
+{
+	long n = 0;
+	for (size_t k = 0; k < a.d.pixels.size() && k < b.d.pixels.size(); k++)
+		n += a.d.pixels[k] != b.d.pixels[k];
+	return n + long(a.d.pixels.size() > b.d.pixels.size() ? a.d.pixels.size() - b.d.pixels.size()
+							     : b.d.pixels.size() - a.d.pixels.size());
+}
+
+// HUD text pixels: its light grey ink (render: 225, 232, 240 top-left; 200, 210, 220 bottom-left).
+long hud_ink(const image &im)
+{
+	long n = 0;
+	for (int r = 0; r < H; r++)
+		for (int c = 0; c < W; c++) {
+			const uint8_t *p = im.at(c, r);
+			n += (p[0] == 225 && p[1] == 232 && p[2] == 240) || (p[0] == 200 && p[1] == 210 && p[2] == 220);
+		}
+	return n;
+}
+
+bool is_red_water(const uint8_t *p) { return p[0] > p[2] + 60 && p[0] > 120 && p[1] < 150 && !is_arrow(p) && !is_object(p); }
+// The object seen from any side in the orbit view: orange, lit or in shade.
+bool is_orange(const uint8_t *p) { return p[0] > 100 && p[0] > p[1] + 45 && p[1] > p[2] + 35; }
+// The map view's footprint outline: near black, neutral.
+bool is_outline(const uint8_t *p)
+{
+	return p[0] < 70 && p[1] < 70 && p[2] < 70 && std::abs(p[0] - p[1]) < 12 && std::abs(p[1] - p[2]) < 12;
+}
+// Pixels matching pred inside a rectangle of the picture.
+template <class F> box find_in(const image &im, int c0, int r0, int c1, int r1, F pred)
+{
+	box b;
+	for (int r = r0; r < r1; r++)
+		for (int c = c0; c < c1; c++)
+			if (pred(im.at(c, r)))
+				b.add(c, r);
+	return b;
+}
+
+} // namespace
+
+TEST_CASE("a person's session: pause, orbit drag, reset, wheel zoom, HUD, colour, map view, charts, resume, quit")
+{
+	// the animated ripple at 640 x 480 in a real window; time advances 20 ms a frame (--steady)
+	session s("--source pattern:ripple --size 640x480 --msaa 0 --steady");
+	image live0 = s.settled();
+	image live1 = s.press_s();
+	INFO("bytes that differ between two live pictures: " << bytes_differ(live0, live1));
+	CHECK(bytes_differ(live0, live1) > 1000); // the ripple moves
+
+	// P pauses: the picture is frozen, byte for byte, while time and reception go on
+	REQUIRE(xdo("key p") == 0);
+	image a = s.settled();
+	usleep(300000);
+	image a2 = s.press_s();
+	INFO("paused pictures 0.3 s apart differ in " << bytes_differ(a, a2) << " bytes");
+	CHECK(bytes_differ(a, a2) == 0);
+	box obj_a = find(a, is_orange);
+	long water_a = find(a, is_water).n;
+	REQUIRE(obj_a.n > 200);
+
+	// a left drag of 100 px to the right orbits: the object moves across the screen
+	// (at a hand's pace: events a frame apart, not all in one frame's queue)
+	REQUIRE(xdo("mousemove --window " + s.wid + " 250 240 sleep 0.1 mousedown 1 sleep 0.1 mousemove --window " + s.wid +
+		    " 300 240 sleep 0.1 mousemove --window " + s.wid + " 350 240 sleep 0.1 mouseup 1") == 0);
+	image b = s.settled();
+	box obj_b = find(b, is_orange);
+	double moved = std::hypot(obj_b.sc / std::max(obj_b.n, 1) - obj_a.sc / obj_a.n, obj_b.sr / std::max(obj_b.n, 1) - obj_a.sr / obj_a.n);
+	INFO("after the drag: " << bytes_differ(a, b) << " bytes differ, the object (" << obj_b.n << " pixels) moved " << moved
+				 << " px");
+	CHECK(obj_b.n > 200);
+	CHECK(moved > 20);
+
+	// R resets the view: the paused picture of before the drag, byte for byte
+	REQUIRE(xdo("key r") == 0);
+	image c = s.settled();
+	INFO("after R: " << bytes_differ(a, c) << " bytes differ from the picture before the drag");
+	CHECK(bytes_differ(a, c) == 0);
+
+	// the wheel zooms: three notches up bring the pool closer, six down from there take it further
+	REQUIRE(xdo("click --repeat 3 --delay 30 4") == 0);
+	long water_in = find(s.settled(), is_water).n;
+	REQUIRE(xdo("click --repeat 6 --delay 30 5") == 0);
+	long water_out = find(s.settled(), is_water).n;
+	INFO("water pixels: reset " << water_a << ", zoomed in " << water_in << ", zoomed out " << water_out);
+	CHECK(water_in > water_a * 13 / 10);
+	CHECK(water_out < water_a * 8 / 10);
+	REQUIRE(xdo("key r") == 0);
+
+	// H hides the HUD and shows it again
+	REQUIRE(xdo("key h") == 0);
+	image no_hud = s.settled();
+	REQUIRE(xdo("key h") == 0);
+	image hud_back = s.settled();
+	INFO("HUD ink pixels: shown " << hud_ink(a) << ", hidden " << hud_ink(no_hud) << "; back: " << bytes_differ(a, hud_back)
+				      << " bytes differ");
+	CHECK(hud_ink(a) > 1000);
+	CHECK(hud_ink(no_hud) == 0);
+	CHECK(bytes_differ(a, hud_back) == 0);
+
+	// C colours the water by height and draws the legend: red crests, a bar from red (top) to blue
+	REQUIRE(xdo("key c") == 0);
+	image col = s.settled();
+	REQUIRE(xdo("key c") == 0);
+	image col_off = s.settled();
+	// the legend at scale 1 (main.c, canvas.c): canvas at (8, 84); bar 6 px in, 18 wide, rows 18..161
+	const uint8_t *bar_top = col.at(8 + 6 + 9, 84 + 18 + 2), *bar_bottom = col.at(8 + 6 + 9, 84 + 18 + 141);
+	INFO("red water pixels: colour " << find(col, is_red_water).n << ", shaded " << find(a, is_red_water).n
+					 << "; legend top " << int(bar_top[0]) << "," << int(bar_top[1]) << "," << int(bar_top[2])
+					 << " bottom " << int(bar_bottom[0]) << "," << int(bar_bottom[1]) << ","
+					 << int(bar_bottom[2]) << "; C again: " << bytes_differ(a, col_off) << " bytes differ");
+	CHECK(find(col, is_red_water).n > 2000);
+	CHECK(find(a, is_red_water).n == 0);
+	CHECK(bar_top[0] > bar_top[2] + 120);
+	CHECK(bar_bottom[2] > bar_bottom[0] + 120);
+	CHECK(bytes_differ(a, col_off) == 0);
+
+	// V: the height map from above (no shaded box: the footprint outlined) and back to the orbit;
+	// the outline looked for inside the pool between the HUD's panels
+	REQUIRE(xdo("key v") == 0);
+	image map = s.settled();
+	REQUIRE(xdo("key v") == 0);
+	image map_off = s.settled();
+	box outline = find_in(map, int(col_of(0)) + 4, 80, int(col_of(L)) - 4, 410, is_outline);
+	INFO("map: object-coloured pixels " << outline.n << " in a box " << outline.c1 - outline.c0 + 1 << " x "
+					     << outline.r1 - outline.r0 + 1 << "; red water " << find(map, is_red_water).n
+					     << "; V again: " << bytes_differ(a, map_off) << " bytes differ");
+	REQUIRE(outline.n > 50);
+	CHECK(std::abs((outline.c1 - outline.c0) - (outline.r1 - outline.r0)) <= 2); // square from above
+	CHECK(std::abs((outline.c0 + outline.c1) / 2.0 - col_of(0.30 * L)) < 3); // the pose of the ripple pattern
+	CHECK(std::abs((outline.r0 + outline.r1) / 2.0 - row_of(0.35 * L)) < 3);
+	CHECK(!is_outline(map.at((outline.c0 + outline.c1) / 2, (outline.r0 + outline.r1) / 2))); // hollow
+	CHECK(find(map, is_red_water).n > 2000);
+	CHECK(bytes_differ(a, map_off) == 0);
+
+	// G shows the charts at the right (the scene moves over to make room), G again hides them
+	REQUIRE(xdo("key g") == 0);
+	image ch = s.settled();
+	auto is_fabs = [](const uint8_t *p) { return p[0] == 255 && p[1] == 170 && p[2] == 60; };
+	auto is_sub = [](const uint8_t *p) { return p[0] == 110 && p[1] == 220 && p[2] == 130; };
+	box fabs_line = find(ch, is_fabs), sub_line = find(ch, is_sub);
+	// (a flat line each: the ripple's force and submersion are constant; as long as the time received)
+	INFO("charts: |F| pixels " << fabs_line.n << " from column " << fabs_line.c0 << ", submersion pixels " << sub_line.n);
+	CHECK(fabs_line.n > 15);
+	CHECK(fabs_line.c0 > W / 2);
+	CHECK(sub_line.n > 15);
+	REQUIRE(xdo("key g") == 0);
+	CHECK(find(s.settled(), is_fabs).n == 0);
+
+	// space resumes: the ripple moves again
+	REQUIRE(xdo("key space") == 0);
+	image r0 = s.settled();
+	image r1 = s.press_s();
+	INFO("after space: two pictures differ in " << bytes_differ(r0, r1) << " bytes");
+	CHECK(bytes_differ(r0, r1) > 1000);
+
+	// Q quits: exit status 0 and the summary
+	REQUIRE(xdo("key q") == 0);
+	CHECK(s.wait_exit() == 0);
+	CHECK(slurp(s.out).find(" frames, ") != std::string::npos);
+
+	// Esc quits too
+	session e("--source pattern:bump --size 640x480 --msaa 0");
+	REQUIRE(xdo("key Escape") == 0);
+	CHECK(e.wait_exit() == 0);
+}
+
+namespace {
+
+// The bob pattern (gen.h): received at the steady clock, frame k at 1.02 + 0.02 (k - 1) s, its pose
+// and force at phase (t - 1.02 s) / 2 s.
+const double BOB_T0 = 1.02;
+double bob_sin(double t_s) { return std::sin(2 * M_PI * std::fmod(t_s - BOB_T0, 2.0) / 2.0); }
+double bob_fz(double t_s) { return 0.8 + 1.0 * bob_sin(t_s); }
+double bob_bottom_mm(double t_s) { return -10.0 + 6.0 * bob_sin(t_s); }
+
+} // namespace
+
+TEST_CASE("the charts plot the force and pose the pattern sends, at the values and times it sends them")
+{
+	// 1024 x 768: charts at scale 2; frame 300 is t = 7 s: 6 s of samples in the window
+	const int w = 1024, after = 300;
+	std::string path = tmpdir() + "/charts.png";
+	run_result r = view("--headless --steady --no-hud --msaa 0 --size 1024x768 --source pattern:bob --charts "
+			    "--force-limit 2.5 --after " + std::to_string(after) + " --screenshot " + path);
+	INFO(r.out);
+	REQUIRE(r.status == 0);
+	pngr::decoded d = pngr::read_file(path);
+	REQUIRE(d.error == "");
+	REQUIRE(d.w == unsigned(w));
+	REQUIRE(d.h == 768u);
+	auto px = [&](int c, int rr) { return &d.pixels[(size_t(rr) * w + size_t(c)) * 3]; };
+	double now = 1.0 + after * 0.02;
+	// layout (main.c, chart.c) at scale 2: canvas 30 cells of 12 px wide at (1024 - 360 - 16, 72); chart
+	// k's plot at y 9 + 108 k + 27, 72 px tall, x from 72 to 72 + 282
+	const int cx = w - 360 - 16, cy = 72, lh = 18;
+	struct plot_px {
+		int x0, y0, w, h;
+		double lo, hi;
+	};
+	auto plot = [&](int k, double lo, double hi) {
+		return plot_px{cx + 72, cy + lh / 2 + k * (4 * lh + lh + lh / 2 + lh / 2) + lh + lh / 2, 360 - 72 - 6, 4 * lh, lo, hi};
+	};
+	// the curve's value in each column (mean row of its colour) against the pattern at that column's time
+	auto compare = [&](const plot_px &p, const uint8_t rgb[3], double (*truth)(double), double tol, const char *what) {
+		int cols = 0, seen = 0;
+		double worst = 0, worst_t = 0;
+		for (int c = 3; c < p.w - 3; c++) {
+			double t = now - (1.0 - double(c) / (p.w - 1)) * 10.0;
+			if (t < BOB_T0 + 0.1)
+				continue;
+			cols++;
+			double sr = 0;
+			int n = 0;
+			for (int rr = p.y0; rr < p.y0 + p.h; rr++) {
+				const uint8_t *q = px(p.x0 + c, rr);
+				if (q[0] == rgb[0] && q[1] == rgb[1] && q[2] == rgb[2]) {
+					sr += rr;
+					n++;
+				}
+			}
+			if (!n)
+				continue;
+			seen++;
+			double v = p.hi - (sr / n - p.y0) / (p.h - 1) * (p.hi - p.lo);
+			// the line joins samples 20 ms apart; a column spans 28 ms: compare with the nearest truth
+			double best = 1e9;
+			for (double dt = -0.03; dt <= 0.03; dt += 0.005)
+				best = std::min(best, std::abs(v - truth(t + dt)));
+			if (best > worst) {
+				worst = best;
+				worst_t = t;
+			}
+		}
+		INFO(what << ": curve in " << seen << " of " << cols << " columns; worst error " << worst << " at t = " << worst_t
+			  << " s (tolerance " << tol << ")");
+		CHECK(seen >= cols * 95 / 100);
+		CHECK(worst < tol);
+	};
+	// force: |F| peaks at sqrt(1.5^2 + 1^2 + 1.8^2) = 2.55 N: +-(nice(1.1 x 2.55) = 5) N; 0.14 N a pixel
+	const uint8_t fz_rgb[3] = {90, 200, 255}, bottom_rgb[3] = {255, 150, 30}, sub_rgb[3] = {110, 220, 130};
+	compare(plot(0, -5, 5), fz_rgb, bob_fz, 0.25, "force z (N)");
+	// heights: bottom -16..-4 mm, water 0: 5 % margin, steps of nice(17.6 / 4) = 5: -20..5 mm
+	compare(plot(1, -20, 5), bottom_rgb, bob_bottom_mm, 0.6, "object bottom (mm)");
+	compare(
+		plot(2, 0, 100), sub_rgb, [](double t) { return -bob_bottom_mm(t) / 50.0 * 100.0; }, 2.5,
+		"submersion (%)");
+	// the limit line: dashed red at +2.5 N and -2.5 N
+	plot_px f = plot(0, -5, 5);
+	for (double lim : {2.5, -2.5}) {
+		int row = f.y0 + int(std::lround((5 - lim) / 10 * (f.h - 1))), red = 0;
+		for (int c = 0; c < f.w; c++)
+			for (int dr = -1; dr <= 1; dr++) {
+				const uint8_t *q = px(f.x0 + c, row + dr);
+				red += q[0] == 255 && q[1] == 70 && q[2] == 70;
+			}
+		INFO("limit line at " << lim << " N (row " << row << "): " << red << " red pixels over " << f.w << " columns");
+		CHECK(red > f.w * 2 / 3);
+	}
+}
+
+TEST_CASE("the CSV file of --csv holds the pattern's pose and force as received, and the poses lost")
+{
+	for (const char *faults : {"", "--faults drop"}) {
+		std::string csv = tmpdir() + "/bob.csv";
+		run_result r = view("--headless --steady --no-hud --msaa 0 --size 320x240 --source pattern:bob --frames 100 --csv " +
+				    csv + " " + faults);
+		INFO(faults << ": " << r.out);
+		REQUIRE(r.status == 0);
+		std::ifstream in(csv);
+		std::string line;
+		REQUIRE(std::getline(in, line));
+		CHECK(line == "t_s,pose_seq,bottom_mm,water_mm,submersion_pct,fz_N,f_abs_N,limited,frame_hz,latency_ms,lost_poses");
+		int poses = 0, forces = 0, seq_gaps = 0, last_seq = -1;
+		long lost = 0;
+		double worst_z = 0, worst_f = 0;
+		while (std::getline(in, line)) {
+			std::vector<std::string> f;
+			size_t at = 0;
+			for (size_t c; (c = line.find(',', at)) != std::string::npos; at = c + 1)
+				f.push_back(line.substr(at, c - at));
+			f.push_back(line.substr(at));
+			REQUIRE(f.size() == 11);
+			double t = std::atof(f[0].c_str());
+			if (!f[2].empty()) {
+				poses++;
+				worst_z = std::max(worst_z, std::abs(std::atof(f[2].c_str()) - bob_bottom_mm(t)));
+				int seq = std::atoi(f[1].c_str());
+				if (last_seq >= 0)
+					seq_gaps += (seq - last_seq + 256) % 256 - 1;
+				last_seq = seq;
+				lost = std::atol(f[10].c_str());
+			}
+			if (!f[5].empty()) {
+				forces++;
+				worst_f = std::max(worst_f, std::abs(std::atof(f[5].c_str()) - bob_fz(t)));
+			}
+		}
+		INFO(faults << ": " << poses << " poses, " << forces << " forces; worst z error " << worst_z << " mm, fz " << worst_f
+				<< " N; sequence gaps " << seq_gaps << ", lost_poses " << lost);
+		CHECK(worst_z < 0.011); // 10 um on the wire
+		CHECK(worst_f < 0.006); // 0.01 N on the wire
+		CHECK(lost == seq_gaps);
+		if (*faults) {
+			CHECK(lost > 5);
+			CHECK(poses < 100);
+		} else {
+			CHECK(lost == 0);
+			CHECK(poses == 100);
+			CHECK(forces == 100);
+		}
+	}
+}
+
+TEST_CASE("the map view shows heights in the colour scale and the object's footprint where its pose says")
+{
+	image im = shot(recording("bump"), "--view map");
+	box b = find_in(im, int(col_of(0)) + 4, int(row_of(L)) + 4, int(col_of(L)) - 4, int(row_of(0)) - 4, is_outline);
+	double cc = (b.c0 + b.c1) / 2.0, cr = (b.r0 + b.r1) / 2.0;
+	INFO("outline pixels " << b.n << ", box centre (" << cc << ", " << cr << ") px, expected (" << col_of(0.30 * L) << ", "
+			       << row_of(0.35 * L) << "); size " << b.c1 - b.c0 + 1 << " x " << b.r1 - b.r0 + 1 << " px, the footprint "
+			       << OBJ * S << " px and the pen");
+	REQUIRE(b.n > 100);
+	CHECK(b.n < 1000); // an outline, not a filled box
+	CHECK(std::abs(cc - col_of(0.30 * L)) < 2.5);
+	CHECK(std::abs(cr - row_of(0.35 * L)) < 2.5);
+	CHECK(std::abs(b.c1 - b.c0 + 1 - (OBJ + 2 * 0.0016) * S) < 3);
+	const uint8_t *top = im.at(int(col_of(0.70 * L)), int(row_of(0.50 * L)));
+	const uint8_t *flat = im.at(int(col_of(0.90 * L)), int(row_of(0.10 * L)));
+	INFO("bump top rgb " << int(top[0]) << "," << int(top[1]) << "," << int(top[2]) << "; flat " << int(flat[0]) << ","
+			     << int(flat[1]) << "," << int(flat[2]));
+	CHECK(top[0] > top[2] + 100);
+	CHECK(std::abs(int(flat[0]) - int(flat[2])) < 30);
+}
+
+TEST_CASE("a 256 x 256 pool, drawn on a coarser mesh, shows its bump and object where they are")
+{
+	// the same 0.4 m scene in 256 x 256 cells of 1.5625 mm: the mesh has 128 x 128 quads, the
+	// shading every cell
+	image im = shot("pattern:bump:256");
+	box b = find(im, is_object);
+	double cc = (b.c0 + b.c1) / 2.0, cr = (b.r0 + b.r1) / 2.0;
+	double bx = 0.70 * L, by = 0.50 * L, sg = 0.025;
+	double east = mean_luma(im, bx + sg, by, 3), west = mean_luma(im, bx - sg, by, 3);
+	INFO("object box centre (" << cc << ", " << cr << ") px, expected (" << col_of(0.30 * L) << ", " << row_of(0.35 * L)
+				   << "); bump flanks: east luma " << east << ", west " << west);
+	REQUIRE(b.n > 1000);
+	CHECK(std::abs(cc - col_of(0.30 * L)) < 2.5);
+	CHECK(std::abs(cr - row_of(0.35 * L)) < 2.5);
+	CHECK(east > west + 20);
+	CHECK(find(im, is_water).n > 100000);
 }
