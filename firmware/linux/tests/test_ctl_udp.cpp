@@ -3,8 +3,10 @@
 #include <catch2/catch.hpp>
 
 #include <algorithm>
+#include <cstdio>
 #include <cstring>
 
+#include <fcntl.h>
 #include <netinet/in.h>
 #include <signal.h>
 #include <spawn.h>
@@ -243,4 +245,97 @@ TEST_CASE("swell-ctl --clock device: a silent device is ticked on every period, 
 	CHECK(short_gaps >= 100);
 	CHECK(rate < 1.2 * tick_hz); /* never faster than the period */
 	CHECK(WIFEXITED(st));
+}
+
+namespace {
+
+std::string slurp_file(const std::string &path)
+{
+	std::string s;
+	FILE *f = fopen(path.c_str(), "r");
+	if (!f)
+		return s;
+	char buf[4096];
+	size_t n;
+	while ((n = fread(buf, 1, sizeof buf, f)) > 0)
+		s.append(buf, n);
+	fclose(f);
+	return s;
+}
+
+/* swell-ctl with args, standard output and error into files; its pid */
+pid_t spawn_logged(std::vector<std::string> args, const std::string &out, const std::string &err)
+{
+	std::vector<char *> argv;
+	for (auto &a : args)
+		argv.push_back(&a[0]);
+	argv.push_back(nullptr);
+	posix_spawn_file_actions_t fa;
+	posix_spawn_file_actions_init(&fa);
+	posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+	posix_spawn_file_actions_addopen(&fa, 2, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+	pid_t pid = -1;
+	const int rc = posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ);
+	posix_spawn_file_actions_destroy(&fa);
+	REQUIRE(rc == 0);
+	return pid;
+}
+
+} // namespace
+
+TEST_CASE("swell-ctl without real-time scheduling says so and uses a 20 ms silence limit, and a run that "
+	  "faulted says FAULTED in its report",
+	  "[ctl][udp]")
+{
+	swell_link *dev = nullptr;
+	REQUIRE(swell_link_open_udp(&dev, "127.0.0.1", 0, "127.0.0.1", 0) == 0);
+	const uint16_t mine = swell_link_udp_port(dev);
+	swell_link_close(dev);
+	dev = nullptr;
+	const uint16_t ctl_port = (uint16_t)(mine + 1);
+	REQUIRE(swell_link_open_udp(&dev, "127.0.0.1", mine, "127.0.0.1", ctl_port) == 0);
+	const std::string base = "/tmp/swell-ctl-rt-" + std::to_string(getpid());
+	std::vector<std::string> args = {SWELL_CTL_BIN, "--device", "udp:" + std::to_string(ctl_port), "--host", "none",
+					 "--autorun", "--no-rt", "--quiet", "--seconds", "30"};
+	const pid_t pid = spawn_logged(args, base + ".out", base + ".err");
+
+	/* the device talks until the loop runs (an enabled FORCE_CMD), then falls silent */
+	uint8_t seq = 0, pseq = 0;
+	bool running = false;
+	const uint64_t until = swell_link_now_ns() + 10000000000u;
+	while (!running && swell_link_now_ns() < until) {
+		swell_msg m{};
+		m.type = SWELL_MSG_DEVICE_POS;
+		m.u.device_pos.seq = seq++;
+		m.u.device_pos.status = 1;
+		m.u.device_pos.z_10um = 10000;
+		swell_frame f{};
+		size_t used = 0;
+		REQUIRE(swell_link_encode(SWELL_CARRIER_PKT, 0, pseq++, &m, 1, &f, &used) == SWELL_OK);
+		swell_link_send(dev, &f);
+		swell_frame in{};
+		swell_msg got[SWELL_PKT_MSGS_MAX];
+		size_t n = 0;
+		while (!running && swell_link_recv(dev, &in, 1) == 0)
+			if (swell_link_decode(SWELL_CARRIER_PKT, &in, got, SWELL_PKT_MSGS_MAX, &n, nullptr, nullptr) == SWELL_OK)
+				for (size_t k = 0; k < n; k++)
+					running = running || (got[k].type == SWELL_MSG_FORCE_CMD && got[k].u.force_cmd.enable);
+	}
+	const timespec silence{0, 300000000}; /* 15 times the 20 ms limit */
+	nanosleep(&silence, nullptr);
+	swell_link_close(dev);
+	kill(pid, SIGTERM);
+	int st = 0;
+	waitpid(pid, &st, 0);
+	const std::string out = slurp_file(base + ".out"), err = slurp_file(base + ".err");
+	std::remove((base + ".out").c_str());
+	std::remove((base + ".err").c_str());
+	INFO("stderr:\n" << err << "stdout:\n" << out);
+	CHECK(running);
+	CHECK(err.find("no real-time scheduling (--no-rt): device silence limit 50 ticks (20.0 ms) instead of 2") !=
+	      std::string::npos);
+	CHECK(out.find("FAULTED         1 times in this run") != std::string::npos);
+	CHECK(out.find("last error: link silent") != std::string::npos);
+	CHECK(WIFEXITED(st));
+	CHECK(WEXITSTATUS(st) == 0);
 }
