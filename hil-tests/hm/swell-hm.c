@@ -69,7 +69,8 @@ static const char usage[] =
 	"\n"
 	"On exit prints a summary: final position, equilibrium z over the last second against -m g/k,\n"
 	"peak commanded force, ticks, timeouts, lost and bad packets, watchdog trips.\n"
-	"Exit status: 0 done, 1 the link failed, 2 bad arguments.\n";
+	"Exit status: 0 done, 1 a runtime failure (the link, the log, or no controller ever answered),\n"
+	"2 bad arguments (one line on stderr, nothing sent, no log written).\n";
 
 #define RHO_KG_M3 1000.0
 
@@ -237,6 +238,11 @@ static void parse(int argc, char **argv, struct opts *o)
 			o->log = v;
 		else
 			die("unknown option %s%s", a, "");
+	}
+	if (o->pool_mm[0] <= o->obj_a_mm || o->pool_mm[1] <= o->obj_b_mm) {
+		fprintf(stderr, "swell-hm: --pool %g,%g mm is not larger than the object's footprint %g x %g mm\n",
+			o->pool_mm[0], o->pool_mm[1], o->obj_a_mm, o->obj_b_mm);
+		exit(2);
 	}
 	e = hm_params_check(&o->p, o->hand.k_N_m, o->hand.b_Ns_m, why, sizeof(why));
 	if (e != SWELL_OK)
@@ -670,6 +676,7 @@ int main(int argc, char **argv)
 	struct hm_state s;
 	struct sigaction sa;
 	FILE *log = NULL;
+	int rc = 0;
 	double x0[3], dt, last_window;
 	int64_t start, next, period_ns, last_status;
 	uint64_t n, total;
@@ -685,7 +692,7 @@ int main(int argc, char **argv)
 		log = fopen(o.log, "w");
 		if (!log) {
 			fprintf(stderr, "swell-hm: cannot write %s: %s\n", o.log, strerror(errno));
-			return 2;
+			return 1;
 		}
 		fputs("t_s,x_mm,y_mm,z_mm,vx_mm_s,vy_mm_s,vz_mm_s,fcmd_x_N,fcmd_y_N,fcmd_z_N,"
 		      "fhand_x_N,fhand_y_N,fhand_z_N,enable,cmd_age,applied,ctl_state,holding\n",
@@ -744,9 +751,16 @@ int main(int argc, char **argv)
 	}
 	if (!o.quiet && now_ns() - start > 1000000000)
 		fputc('\n', stderr);
-	if (log && fclose(log) != 0)
-		fprintf(stderr, "swell-hm: writing %s failed\n", o.log);
+	if (log && (ferror(log) | fclose(log)) != 0) {
+		fprintf(stderr, "swell-hm: writing %s failed: %s\n", o.log, strerror(errno));
+		rc = 1;
+	}
 	summary(&o, &d, &s, &r, (now_ns() - start) / 1e9);
+	if (d.commands == 0 && d.heartbeats == 0) {
+		fprintf(stderr, "swell-hm: no controller answered on %s in %.1f s (no FORCE_CMD, no HEARTBEAT)\n",
+			swell_link_name(d.l), (now_ns() - start) / 1e9);
+		rc = 1;
+	}
 	swell_link_close(d.l);
-	return 0;
+	return rc;
 }
