@@ -64,7 +64,8 @@ static const char usage[] =
 	"\n"
 	"On exit prints a report: ticks, solver steps, state, tick jitter (p50, p99, max), overruns, frames,\n"
 	"the largest wave and the solver's saturations.\n"
-	"Exit status: 0 clean stop, 1 a link or the real-time set-up failed, 2 bad arguments,\n"
+	"Exit status: 0 clean stop, 1 a runtime failure (a link cannot be opened), 2 bad arguments (one\n"
+	"line on stderr; a malformed link spec or two links on one port or mount included),\n"
 	"3 a viewer or swell-flash asked for the bootloader (ENTER_BOOTLOADER accepted: force zeroed,\n"
 	"last heartbeat sent; a supervisor starts the flasher, then the new image).\n";
 
@@ -121,6 +122,39 @@ static int parse_version(const char *s, uint8_t v[3])
 	return 0;
 }
 
+/* 1 for an option that takes a value. */
+static int takes_value(const char *a)
+{
+	static const char *const with_value[] = {"--device", "--host", "--clock", "--tick-hz", "--solver-hz",
+						 "--silent-ticks", "--host-budget", "--node", "--fw-version",
+						 "--seconds"};
+	size_t k;
+
+	for (k = 0; k < sizeof(with_value) / sizeof(with_value[0]); k++)
+		if (!strcmp(a, with_value[k]))
+			return 1;
+	return 0;
+}
+
+/* The two links must not be one: the host link's telemetry sent into the device port, or one
+ * FunctionFS mount for both. Compared as spelled (udp: the port, the default 47800 / 47801). */
+static void check_links(const struct opts *o)
+{
+	const char *dp = !strcmp(o->device, "udp") ? "47800" : !strncmp(o->device, "udp:", 4) ? o->device + 4 : NULL;
+	const char *hp = !strcmp(o->host, "udp") ? "47801" : !strncmp(o->host, "udp:", 4) ? o->host + 4 : NULL;
+
+	if (dp && hp && strtol(dp, NULL, 10) == strtol(hp, NULL, 10) && strtol(dp, NULL, 10) > 0) {
+		fprintf(stderr, "swell-ctl: --device %s and --host %s: the telemetry would go to the device link's own "
+				"port\n", o->device, o->host);
+		exit(2);
+	}
+	if (!strncmp(o->device, "usb:", 4) && !strcmp(o->device, o->host)) {
+		fprintf(stderr, "swell-ctl: --device and --host are one FunctionFS mount (%s): give each its own\n",
+			o->device);
+		exit(2);
+	}
+}
+
 static void parse(int argc, char **argv, struct opts *o)
 {
 	int k;
@@ -144,8 +178,12 @@ static void parse(int argc, char **argv, struct opts *o)
 			o->rt = 0;
 		} else if (!strcmp(a, "--quiet")) {
 			o->quiet = 1;
-		} else if (!v || strncmp(a, "--", 2)) {
-			die(v ? "unexpected argument " : "missing value or unknown option ", a);
+		} else if (strncmp(a, "--", 2)) {
+			die("unexpected argument (see --help): ", a);
+		} else if (!takes_value(a)) {
+			die("unknown option (see --help): ", a);
+		} else if (!v) {
+			die("this option needs a value: ", a);
 		} else {
 			k++;
 			if (!strcmp(a, "--device"))
@@ -180,6 +218,7 @@ static void parse(int argc, char **argv, struct opts *o)
 				die("unknown option ", a);
 		}
 	}
+	check_links(o);
 	o->cfg.recover_ticks = (uint16_t)(o->cfg.tick_hz / 10 > 0 ? o->cfg.tick_hz / 10 : 1);
 	{
 		enum swell_err e = swell_ctl_check(&o->cfg);
@@ -480,6 +519,7 @@ int main(int argc, char **argv)
 	int32_t *arena;
 	size_t words;
 	char err[160], abuf[48];
+	int rc;
 	int64_t period, next, start, last_status;
 	int32_t peak_h = 0;
 	int64_t last_sample = 0; /* --clock device: when the last DEVICE_POS came */
@@ -497,16 +537,22 @@ int main(int argc, char **argv)
 	e = swell_ctl_init(&p.c, &o.cfg, arena, words);
 	if (e != SWELL_OK) {
 		fprintf(stderr, "swell-ctl: controller refused its configuration: %s\n", swell_err_str(e));
+		free(arena);
 		return 2;
 	}
-	if (ctl_link_open(&p.dev, o.device, 1, o.cfg.node, err, sizeof(err)) < 0) {
+	rc = ctl_link_open(&p.dev, o.device, 1, o.cfg.node, err, sizeof(err));
+	if (rc < 0) {
 		fprintf(stderr, "swell-ctl: device link: %s\n", err);
-		return 1;
+		free(arena);
+		return rc == -2 ? 2 : 1; /* a malformed spec is a bad argument */
 	}
 	if (strcmp(o.host, "none")) {
-		if (ctl_link_open(&p.host, o.host, 0, o.cfg.node, err, sizeof(err)) < 0) {
+		rc = ctl_link_open(&p.host, o.host, 0, o.cfg.node, err, sizeof(err));
+		if (rc < 0) {
 			fprintf(stderr, "swell-ctl: host link: %s\n", err);
-			return 1;
+			ctl_link_close(&p.dev);
+			free(arena);
+			return rc == -2 ? 2 : 1;
 		}
 		p.have_host = 1;
 	}

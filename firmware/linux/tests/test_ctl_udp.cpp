@@ -339,3 +339,72 @@ TEST_CASE("swell-ctl without real-time scheduling says so and uses a 20 ms silen
 	CHECK(WIFEXITED(st));
 	CHECK(WEXITSTATUS(st) == 0);
 }
+
+TEST_CASE("swell-ctl: every bad argument and conflicting pair exits 2 with one line naming it, a link the "
+	  "system refuses exits 1",
+	  "[ctl][args]")
+{
+	const std::string base = "/tmp/swell-ctl-args-" + std::to_string(getpid());
+	struct {
+		std::vector<std::string> args;
+		int code;
+		const char *says;
+	} cases[] = {
+		{{"--bogus"}, 2, "unknown option (see --help): --bogus"},
+		{{"--bogus", "1"}, 2, "unknown option (see --help): --bogus"},
+		{{"--tick-hz"}, 2, "this option needs a value: --tick-hz"},
+		{{"stray"}, 2, "unexpected argument (see --help): stray"},
+		{{"--tick-hz", "abc"}, 2, "--tick-hz 'abc' is not a whole number"},
+		{{"--tick-hz", "5"}, 2, "--tick-hz '5' is not a whole number in [10, 100000]"},
+		{{"--solver-hz", "333"}, 2, "configuration refused"},
+		{{"--silent-ticks", "0"}, 2, "--silent-ticks '0'"},
+		{{"--silent-ticks", "-3"}, 2, "--silent-ticks '-3'"},
+		{{"--node", "16"}, 2, "--node '16'"},
+		{{"--host-budget", "0"}, 2, "--host-budget '0'"},
+		{{"--clock", "wall"}, 2, "--clock must be internal or device, not wall"},
+		{{"--seconds", "-1"}, 2, "--seconds must be a positive number, not -1"},
+		{{"--seconds", "nan"}, 2, "--seconds must be a positive number, not nan"},
+		{{"--fw-version", "1.2"}, 2, "--fw-version must be X.Y.Z"},
+		{{"--device", "tcp:1"}, 2, "device link: link 'tcp:1' is not udp[:PORT], can:IFACE or usb:FFS_DIR"},
+		{{"--device", "udp:99999"}, 2, "device link: udp:99999: port '99999' is not in 1..65535"},
+		{{"--device", "udp:47990,peer=x"}, 2, "is not peer=ADDR:PORT"},
+		{{"--device", "udp:47990,listen=47991"}, 2, "is not peer=ADDR:PORT"},
+		{{"--device", "can:"}, 2, "device link: can:: give an interface"},
+		{{"--device", "usb:"}, 2, "device link: usb:: give the FunctionFS mount"},
+		{{"--device", "udp:47990", "--host", "udp:47991,listen=1.2.3.4.5:1"}, 2, "host link: udp:47991,listen="},
+		{{"--device", "udp:47990", "--host", "udp:47990"}, 2, "the telemetry would go to the device link's own port"},
+		{{"--device", "udp:47801", "--host", "udp"}, 2, "the telemetry would go to the device link's own port"},
+		{{"--device", "usb:/x", "--host", "usb:/x"}, 2, "are one FunctionFS mount (usb:/x)"},
+		{{"--device", "usb:/nonexistent-ffs", "--host", "none"}, 1,
+		 "FunctionFS open failed: No such file or directory"},
+		/* no such interface; on a machine without CAN the socket is refused first */
+		{{"--device", "can:nosuchcan0", "--host", "none"}, 1, "can:nosuchcan0: "},
+	};
+	for (auto &c : cases) {
+		std::vector<std::string> args = {SWELL_CTL_BIN, "--no-rt"};
+		args.insert(args.end(), c.args.begin(), c.args.end());
+		const pid_t pid = spawn_logged(args, base + ".out", base + ".err");
+		int st = 0;
+		waitpid(pid, &st, 0);
+		const std::string out = slurp_file(base + ".out"), err = slurp_file(base + ".err");
+		const std::string &lines = err;
+		/* the start-up line about real time is not an error line: count the others */
+		size_t errors = 0, at = 0;
+		while ((at = lines.find("swell-ctl: ", at)) != std::string::npos) {
+			errors += lines.compare(at, 30, "swell-ctl: no real-time schedu") != 0;
+			at++;
+		}
+		std::string joined;
+		for (auto &a : c.args)
+			joined += a + " ";
+		INFO(joined << "-> exit " << (WIFEXITED(st) ? WEXITSTATUS(st) : -1) << ", stderr '" << err << "', stdout '"
+			    << out << "'");
+		CHECK(WIFEXITED(st));
+		CHECK(WEXITSTATUS(st) == c.code);
+		CHECK(err.find(c.says) != std::string::npos);
+		CHECK(errors == 1);
+		CHECK(out.empty());
+	}
+	std::remove((base + ".out").c_str());
+	std::remove((base + ".err").c_str());
+}
