@@ -44,8 +44,8 @@ const char *ctl_can_state_name(enum ctl_can_state s);
 
 /* UDP host link: clients beside the configured viewer address, each admitted by its first valid
  * packet, dropped after CTL_LINK_CLIENT_SILENT_MS without a valid packet. */
-#define CTL_LINK_CLIENTS 4
-#define CTL_LINK_CLIENT_SILENT_MS 3000
+#define CTL_LINK_CLIENTS 4u
+#define CTL_LINK_CLIENT_SILENT_MS 3000u
 
 struct ctl_link_client {
 	struct sockaddr_in addr;
