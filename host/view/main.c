@@ -476,9 +476,10 @@ int main(int argc, char **argv)
 		}
 	}
 
-	printf("swell-view: %u frames, %u bad, %u dropped, %u late, %u quads, %u restarts; uploaded %llu tiles (%llu texels)\n",
+	printf("swell-view: %u frames, %u bad, %u dropped, %u late, %u quads, %u restarts, %u resyncs; uploaded %llu "
+	       "tiles (%llu texels)\n",
 	       app.vm.st.frames, app.vm.st.bad, app.vm.st.dropped, app.vm.st.late, app.vm.st.pieces,
-	       app.vm.st.restarts, (unsigned long long)app.r.tiles_uploaded, (unsigned long long)app.r.texels_uploaded);
+	       app.vm.st.restarts, app.vm.st.resyncs, (unsigned long long)app.r.tiles_uploaded, (unsigned long long)app.r.texels_uploaded);
 	if (feed.obj_from_wire)
 		printf("swell-view: object %.1f x %.1f x %.1f mm from the controller (CTL_INFO), firmware %u.%u.%u\n",
 		       feed.obj_a_um * 1e-3, feed.obj_b_um * 1e-3, feed.obj_h_um * 1e-3, app.vm.fw_version[0],
