@@ -6,6 +6,7 @@
 
 #include <errno.h>
 #include <math.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -351,6 +352,14 @@ static void hud(struct app *a, const struct view_feed *f, const struct source *s
 	}
 }
 
+/* SIGINT, SIGTERM: leave the frame loop, print the summary as on any other end. */
+static volatile sig_atomic_t stop_signal;
+
+static void on_stop_signal(int sig)
+{
+	stop_signal = sig;
+}
+
 static int screenshot(struct app *a, const char *path)
 {
 	size_t n = (size_t)a->r.o.w * (size_t)a->r.o.h * 3;
@@ -395,6 +404,8 @@ int main(int argc, char **argv)
 	glfwSetErrorCallback(on_glfw_error);
 	if (!glfwInit()) {
 		fprintf(stderr, "swell-view: no display (set DISPLAY, or run under xvfb-run)\n");
+		vm_free(&app.vm);
+		source_close(&src);
 		return 1;
 	}
 	glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
@@ -406,6 +417,8 @@ int main(int argc, char **argv)
 	if (!win) {
 		fprintf(stderr, "swell-view: no OpenGL 3.3 core context\n");
 		glfwTerminate();
+		vm_free(&app.vm);
+		source_close(&src);
 		return 1;
 	}
 	glfwMakeContextCurrent(win);
@@ -417,11 +430,19 @@ int main(int argc, char **argv)
 	glfwSetScrollCallback(win, on_scroll);
 	if (!render_init(&app.r, &o.ro)) {
 		glfwTerminate();
+		vm_free(&app.vm);
+		source_close(&src);
 		return 1;
 	}
 
+	struct sigaction sa;
+	memset(&sa, 0, sizeof(sa));
+	sa.sa_handler = on_stop_signal; /* no SA_RESTART: the frame pacing sleep ends at once */
+	sigaction(SIGINT, &sa, NULL);
+	sigaction(SIGTERM, &sa, NULL);
+
 	uint64_t period = (uint64_t)(1e6 / o.fps), next = now_us();
-	for (long frame = 1; !app.quit && !glfwWindowShouldClose(win); frame++) {
+	for (long frame = 1; !app.quit && !stop_signal && !glfwWindowShouldClose(win); frame++) {
 		uint64_t t = o.steady ? 1000000u + (uint64_t)frame * 20000u : now_us();
 		source_poll(&src, &feed, t);
 		vm_tick(&app.vm, t);
@@ -476,6 +497,8 @@ int main(int argc, char **argv)
 		}
 	}
 
+	if (stop_signal)
+		printf("swell-view: stopped by %s\n", stop_signal == SIGINT ? "SIGINT" : "SIGTERM");
 	printf("swell-view: %u frames, %u bad, %u dropped, %u late, %u quads, %u restarts, %u resyncs; uploaded %llu "
 	       "tiles (%llu texels)\n",
 	       app.vm.st.frames, app.vm.st.bad, app.vm.st.dropped, app.vm.st.late, app.vm.st.pieces,
