@@ -140,6 +140,13 @@ TEST_CASE("every flipped byte of a BIN or an ELF image is refused")
 	bytes c = bin;
 	c[2000] ^= 1;
 	CHECK(check(c).find("CRC-32 mismatch") != std::string::npos);
+	// a zeroed header CRC is the header's fault, said with both numbers (was: an image CRC
+	// "mismatch" of two equal numbers)
+	bytes z = bin;
+	std::fill(z.begin() + 0x200 + 28, z.begin() + 0x200 + 32, 0);
+	const std::string why = check(z);
+	INFO(why);
+	CHECK(why.find("corrupted header: header CRC-32 0x00000000, computed 0x") != std::string::npos);
 }
 
 TEST_CASE("truncated images are refused with the length in the reason")
