@@ -285,6 +285,15 @@ TEST_CASE("dry-run command lines: gdb-multiarch on QEMU, openocd and a Black Mag
 	o.gdb_server = FLASH_GDB_QEMU;
 	l = plan_lines(o);
 	CHECK(l[0].find("-ex 'restore /w/fw.bin binary 0x08000000'") != std::string::npos);
+	// gdb 13 cuts restore's file name at a blank and does not parse quotes: refused, not mangled
+	flash_plan q;
+	char qwhy[256] = "";
+	o.bin = "/w/my fw.bin";
+	CHECK(flash_plan_build(&o, &q, qwhy, sizeof(qwhy)) == -1);
+	CHECK(std::string(qwhy).find("cannot hand '/w/my fw.bin' to gdb") != std::string::npos);
+	o.bin = "/w/fw\"x.bin";
+	CHECK(flash_plan_build(&o, &q, qwhy, sizeof(qwhy)) == -1);
+	o.bin = "/w/fw.bin";
 	o.gdb_server = FLASH_GDB_OPENOCD;
 	flash_plan p;
 	char why[256] = "";
