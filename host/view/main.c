@@ -333,6 +333,8 @@ static void hud(struct app *a, const struct view_feed *f, const struct source *s
 		snprintf(buf, sizeof(buf), "NO DATA FOR %.1f S", (double)(now - m->last_rx_us) * 1e-6);
 	else if (m->status == VIEW_LINK_DOWN && src->ended)
 		snprintf(buf, sizeof(buf), src->rec_damaged ? "END OF RECORDING (DAMAGED)" : "END OF RECORDING");
+	else if (m->status == VIEW_LIVE && src->kind == SOURCE_LINK && src->lk == LINK_REPLAY)
+		snprintf(buf, sizeof(buf), "REPLAY"); /* recorded, not live */
 	else if (m->status == VIEW_LINK_DOWN && src->kind == SOURCE_LINK && src->lk == LINK_USB)
 		snprintf(buf, sizeof(buf), "USB DEVICE NOT THERE - WAITING FOR IT");
 	else
@@ -401,6 +403,13 @@ int main(int argc, char **argv)
 	feed.obj_b_um = o.obj_um[1];
 	feed.obj_h_um = o.obj_um[2];
 
+	/* before the window: a Ctrl-C while it opens also ends with the summary */
+	struct sigaction sa;
+	memset(&sa, 0, sizeof(sa));
+	sa.sa_handler = on_stop_signal; /* no SA_RESTART: the frame pacing sleep ends at once */
+	sigaction(SIGINT, &sa, NULL);
+	sigaction(SIGTERM, &sa, NULL);
+
 	glfwSetErrorCallback(on_glfw_error);
 	if (!glfwInit()) {
 		fprintf(stderr, "swell-view: no display (set DISPLAY, or run under xvfb-run)\n");
@@ -434,12 +443,6 @@ int main(int argc, char **argv)
 		source_close(&src);
 		return 1;
 	}
-
-	struct sigaction sa;
-	memset(&sa, 0, sizeof(sa));
-	sa.sa_handler = on_stop_signal; /* no SA_RESTART: the frame pacing sleep ends at once */
-	sigaction(SIGINT, &sa, NULL);
-	sigaction(SIGTERM, &sa, NULL);
 
 	uint64_t period = (uint64_t)(1e6 / o.fps), next = now_us();
 	for (long frame = 1; !app.quit && !stop_signal && !glfwWindowShouldClose(win); frame++) {
@@ -484,6 +487,10 @@ int main(int argc, char **argv)
 		}
 		if (o.frames > 0 && frame >= o.frames)
 			break;
+		/* headless, a replay that has ended has nothing more to show (unless a screenshot of a later
+		 * frame is asked for): the last state is drawn, the run ends */
+		if (o.headless && src.ended && !o.shot)
+			break;
 		/* pace the loop (the window's vsync does it too when there is one) */
 		if (o.steady && o.headless)
 			continue;
@@ -499,6 +506,12 @@ int main(int argc, char **argv)
 
 	if (stop_signal)
 		printf("swell-view: stopped by %s\n", stop_signal == SIGINT ? "SIGINT" : "SIGTERM");
+	if (src.rec_damaged) {
+		/* what was shown is what came before the damage; the run did not do what was asked */
+		fprintf(stderr, "swell-view: the recording is damaged: the replay stopped at a damaged record after "
+				"%u frames\n", app.vm.st.frames);
+		rc = 1;
+	}
 	printf("swell-view: %u frames, %u bad, %u dropped, %u late, %u quads, %u restarts, %u resyncs; uploaded %llu "
 	       "tiles (%llu texels)\n",
 	       app.vm.st.frames, app.vm.st.bad, app.vm.st.dropped, app.vm.st.late, app.vm.st.pieces,
