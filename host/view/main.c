@@ -369,10 +369,13 @@ static int screenshot(struct app *a, const char *path)
 	if (!rgb)
 		return 1;
 	render_read(&a->r, rgb);
+	errno = 0;
 	enum swell_err e = swell_png_write(path, rgb, (uint32_t)a->r.o.w, (uint32_t)a->r.o.h, 3, (size_t)a->r.o.w * 3);
+	const int os_err = errno; /* the file's reason, when the system gave one */
 	free(rgb);
 	if (e != SWELL_OK) {
-		fprintf(stderr, "swell-view: cannot write %s: %s\n", path, swell_err_str(e));
+		fprintf(stderr, "swell-view: cannot write %s: %s\n", path,
+			e == SWELL_ESTATE && os_err ? strerror(os_err) : swell_err_str(e));
 		return 1;
 	}
 	printf("swell-view: wrote %s (%d x %d pixels)\n", path, a->r.o.w, a->r.o.h);

@@ -667,3 +667,12 @@ TEST_CASE("a headless replay ends by itself at the end of the recording, exit 0 
 	CHECK(counter(r.out, "frames") > 0);
 	CHECK(r.out.find("damaged") == std::string::npos);
 }
+
+TEST_CASE("a screenshot that cannot be written exits 1 with the system's reason")
+{
+	run_result r = view("--headless --msaa 0 --size 160x120 --source pattern:bump --after 1 --screenshot "
+			    "/nonexistent/x.png");
+	INFO(r.out);
+	CHECK(r.status == 1);
+	CHECK(r.out.find("cannot write /nonexistent/x.png: No such file or directory") != std::string::npos);
+}
