@@ -94,7 +94,8 @@ TEST_CASE("swell-fwimage: bad arguments exit 2, refused images and unreadable fi
 		return dir + "/" + name;
 	};
 	std::vector<uint8_t> z = img, c = img, m = img;
-	std::fill(z.begin() + SWELL_FWIMAGE_OFFSET + 28, z.begin() + SWELL_FWIMAGE_OFFSET + 32, 0);
+	for (size_t k = 28; k < 32; k++) /* the header CRC zeroed */
+		z.at(SWELL_FWIMAGE_OFFSET + k) = 0;
 	c[2000] ^= 1;
 	const std::string zeroed = variant("zeroed-hdr-crc.bin", z), flipped = variant("flipped.bin", c),
 			  truncated = variant("truncated.bin", std::vector<uint8_t>(img.begin(), img.begin() + 2500)),
