@@ -19,14 +19,14 @@ static const char usage[] =
 	"Exit status: 0 ok, 1 image refused or a file that cannot be read or written (the reason on one\n"
 	"line), 2 bad arguments.\n";
 
-static void die(const char *what, const char *arg)
+_Noreturn static void die(const char *what, const char *arg)
 {
 	fprintf(stderr, "swell-fwimage: %s%s%s\n", what, arg ? ": " : "", arg ? arg : "");
 	exit(2);
 }
 
 /* A runtime failure (a file): the reason, exit 1. */
-static void fail(const char *path, const char *why)
+_Noreturn static void fail(const char *path, const char *why)
 {
 	fprintf(stderr, "swell-fwimage: %s: %s\n", path, why);
 	exit(1);
@@ -78,29 +78,31 @@ static void explain(const uint8_t *img, size_t len, uint32_t want_mcu, enum swel
 	snprintf(why, n, "%s", swell_err_str(err));
 }
 
+/* The whole file (at most MAX_IMAGE bytes), or NULL with the reason said. */
 static uint8_t *load(const char *path, size_t *len)
 {
-	FILE *f = fopen(path, "rb");
-	uint8_t *buf;
-	size_t n;
+	uint8_t *buf = malloc(MAX_IMAGE + 1);
+	const char *why = NULL;
+	size_t n = 0;
+	FILE *f;
 
-	if (!f)
-		fail(path, strerror(errno));
-	buf = malloc(MAX_IMAGE + 1);
-	if (!buf) {
-		fclose(f);
+	if (!buf)
 		fail(path, "out of memory");
-	}
-	n = fread(buf, 1, MAX_IMAGE + 1, f);
-	if (ferror(f)) {
+	f = fopen(path, "rb");
+	if (!f) {
+		why = strerror(errno);
+	} else {
+		n = fread(buf, 1, MAX_IMAGE + 1, f);
+		if (ferror(f))
+			why = "read error";
+		else if (n > MAX_IMAGE)
+			why = "image larger than 16 MiB";
 		fclose(f);
-		free(buf);
-		fail(path, "read error");
 	}
-	fclose(f);
-	if (n > MAX_IMAGE) {
+	if (why) { /* said here, the caller exits 1 */
+		fprintf(stderr, "swell-fwimage: %s: %s\n", path, why);
 		free(buf);
-		fail(path, "image larger than 16 MiB");
+		return NULL;
 	}
 	*len = n;
 	return buf;
@@ -169,6 +171,8 @@ int main(int argc, char **argv)
 		die("unknown command (stamp or check)", cmd);
 
 	img = load(path, &len);
+	if (!img)
+		return 1;
 	if (!strcmp(cmd, "stamp")) {
 		err = swell_fwimage_stamp(img, len);
 		if (err != SWELL_OK) {
