@@ -105,7 +105,7 @@ static int open_udp(struct ctl_link *l, const char *spec, const char *arg, int d
 	int have_opt;
 
 	if (parse_udp(spec, arg, device_side, &port, &opt, &have_opt, err, errlen) != 0)
-		return -1;
+		return -2;
 	l->fd = socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
 	if (l->fd < 0)
 		return fail(l, err, errlen, "socket for", spec);
@@ -209,7 +209,7 @@ static int open_can(struct ctl_link *l, const char *spec, const char *iface, cha
 
 	if (!iface || !*iface || strlen(iface) >= IFNAMSIZ) {
 		snprintf(err, errlen, "%s: give an interface, e.g. can:can0", spec);
-		return -1;
+		return -2;
 	}
 	l->fd = socket(PF_CAN, SOCK_RAW | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_RAW);
 	if (l->fd < 0)
@@ -245,12 +245,15 @@ static int open_usb(struct ctl_link *l, const char *spec, const char *dir, int d
 
 	if (!dir || !*dir) {
 		snprintf(err, errlen, "%s: give the FunctionFS mount, e.g. usb:/dev/ffs-swell", spec);
-		return -1;
+		return -2;
 	}
 	e = swell_usb_ffs_open(&l->usb, dir, &iface);
 	if (e != SWELL_OK) {
-		snprintf(err, errlen, "%s: FunctionFS open failed: %s (errno %d)", spec, swell_err_str(e),
-			 l->usb.last_errno);
+		/* the OS's reason when there is one, not swell's code for it */
+		if (l->usb.last_errno)
+			snprintf(err, errlen, "%s: FunctionFS open failed: %s", spec, strerror(l->usb.last_errno));
+		else
+			snprintf(err, errlen, "%s: FunctionFS open failed: %s", spec, swell_err_str(e));
 		return -1;
 	}
 	l->fd = l->usb.ep0;
@@ -271,7 +274,7 @@ int ctl_link_open(struct ctl_link *l, const char *spec, int device_side, uint8_t
 	l->device_side = device_side;
 	if (klen >= sizeof(kind)) {
 		snprintf(err, errlen, "link '%s' is not udp[:PORT], can:IFACE or usb:FFS_DIR", spec);
-		return -1;
+		return -2;
 	}
 	memcpy(kind, spec, klen);
 	if (arg)
@@ -289,7 +292,7 @@ int ctl_link_open(struct ctl_link *l, const char *spec, int device_side, uint8_t
 		return open_usb(l, spec, arg, device_side, err, errlen);
 	}
 	snprintf(err, errlen, "link '%s' is not udp[:PORT], can:IFACE or usb:FFS_DIR", spec);
-	return -1;
+	return -2;
 }
 
 int ctl_link_fd(const struct ctl_link *l)

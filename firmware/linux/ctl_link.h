@@ -44,8 +44,8 @@ const char *ctl_can_state_name(enum ctl_can_state s);
 
 /* UDP host link: clients beside the configured viewer address, each admitted by its first valid
  * packet, dropped after CTL_LINK_CLIENT_SILENT_MS without a valid packet. */
-#define CTL_LINK_CLIENTS 4
-#define CTL_LINK_CLIENT_SILENT_MS 3000
+#define CTL_LINK_CLIENTS 4u
+#define CTL_LINK_CLIENT_SILENT_MS 3000u
 
 struct ctl_link_client {
 	struct sockaddr_in addr;
@@ -87,8 +87,9 @@ struct ctl_link {
 /* spec: "udp[:PORT][,OPTION]" (device link: listen on 127.0.0.1:PORT, default 47800, option
  * "peer=ADDR:PORT" fixes the device's address; host link: send telemetry to 127.0.0.1:PORT, default
  * 47801, and take clients on the port of option "listen=[ADDR:]PORT", default any free port on
- * 127.0.0.1), "can:IFACE", "usb:FFS_DIR" (a mounted FunctionFS instance). On failure returns -1 and
- * writes a one-line reason to err. */
+ * 127.0.0.1), "can:IFACE", "usb:FFS_DIR" (a mounted FunctionFS instance). Returns 0, -2 for a spec
+ * that is not one of these (nothing opened), -1 when the system refused (socket, bind, interface,
+ * FunctionFS); either way a one-line reason is in err. */
 int ctl_link_open(struct ctl_link *l, const char *spec, int device_side, uint8_t node, char *err,
 		  size_t errlen);
 

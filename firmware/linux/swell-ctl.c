@@ -48,7 +48,10 @@ static const char usage[] =
 	"                      the loop ticks on its own every period)\n"
 	"  --tick-hz N         device rate (default 2500; 1000 for classic CAN)\n"
 	"  --solver-hz N       solver rate (default 250; must divide the tick rate)\n"
-	"  --silent-ticks N    device silent this many ticks -> zero force and fault (default 2)\n"
+	"  --silent-ticks N    device silent this many ticks -> zero force and fault (default 2 with\n"
+	"                      real-time scheduling; without it, as with --no-rt or when SCHED_FIFO is\n"
+	"                      refused, 20 ms of ticks, said at start: a process that is not real time\n"
+	"                      is late by milliseconds)\n"
 	"  --autorun           run whenever the device is there; leave a link-loss fault by itself\n"
 	"  --host-budget N     host messages a tick (default 16)\n"
 	"  --node N            node id on the bus, 0..15 (default 0)\n"
@@ -61,7 +64,8 @@ static const char usage[] =
 	"\n"
 	"On exit prints a report: ticks, solver steps, state, tick jitter (p50, p99, max), overruns, frames,\n"
 	"the largest wave and the solver's saturations.\n"
-	"Exit status: 0 clean stop, 1 a link or the real-time set-up failed, 2 bad arguments,\n"
+	"Exit status: 0 clean stop, 1 a runtime failure (a link cannot be opened), 2 bad arguments (one\n"
+	"line on stderr; a malformed link spec or two links on one port or mount included),\n"
 	"3 a viewer or swell-flash asked for the bootloader (ENTER_BOOTLOADER accepted: force zeroed,\n"
 	"last heartbeat sent; a supervisor starts the flasher, then the new image).\n";
 
@@ -73,9 +77,12 @@ static void on_signal(int sig)
 	stop_flag = 1;
 }
 
+/* The device silence limit without real-time scheduling: 20 ms of ticks, at least the default. */
+#define SLOW_SILENCE_MS 20
+
 struct opts {
 	const char *device, *host;
-	int device_clock, rt, quiet;
+	int device_clock, rt, quiet, silent_given;
 	double seconds;
 	struct swell_ctl_config cfg;
 };
@@ -115,6 +122,39 @@ static int parse_version(const char *s, uint8_t v[3])
 	return 0;
 }
 
+/* 1 for an option that takes a value. */
+static int takes_value(const char *a)
+{
+	static const char *const with_value[] = {"--device", "--host", "--clock", "--tick-hz", "--solver-hz",
+						 "--silent-ticks", "--host-budget", "--node", "--fw-version",
+						 "--seconds"};
+	size_t k;
+
+	for (k = 0; k < sizeof(with_value) / sizeof(with_value[0]); k++)
+		if (!strcmp(a, with_value[k]))
+			return 1;
+	return 0;
+}
+
+/* The two links must not be one: the host link's telemetry sent into the device port, or one
+ * FunctionFS mount for both. Compared as spelled (udp: the port, the default 47800 / 47801). */
+static void check_links(const struct opts *o)
+{
+	const char *dp = !strcmp(o->device, "udp") ? "47800" : !strncmp(o->device, "udp:", 4) ? o->device + 4 : NULL;
+	const char *hp = !strcmp(o->host, "udp") ? "47801" : !strncmp(o->host, "udp:", 4) ? o->host + 4 : NULL;
+
+	if (dp && hp && strtol(dp, NULL, 10) == strtol(hp, NULL, 10) && strtol(dp, NULL, 10) > 0) {
+		fprintf(stderr, "swell-ctl: --device %s and --host %s: the telemetry would go to the device link's own "
+				"port\n", o->device, o->host);
+		exit(2);
+	}
+	if (!strncmp(o->device, "usb:", 4) && !strcmp(o->device, o->host)) {
+		fprintf(stderr, "swell-ctl: --device and --host are one FunctionFS mount (%s): give each its own\n",
+			o->device);
+		exit(2);
+	}
+}
+
 static void parse(int argc, char **argv, struct opts *o)
 {
 	int k;
@@ -138,8 +178,12 @@ static void parse(int argc, char **argv, struct opts *o)
 			o->rt = 0;
 		} else if (!strcmp(a, "--quiet")) {
 			o->quiet = 1;
-		} else if (!v || strncmp(a, "--", 2)) {
-			die(v ? "unexpected argument " : "missing value or unknown option ", a);
+		} else if (strncmp(a, "--", 2)) {
+			die("unexpected argument (see --help): ", a);
+		} else if (!takes_value(a)) {
+			die("unknown option (see --help): ", a);
+		} else if (!v) {
+			die("this option needs a value: ", a);
 		} else {
 			k++;
 			if (!strcmp(a, "--device"))
@@ -154,8 +198,10 @@ static void parse(int argc, char **argv, struct opts *o)
 				o->cfg.tick_hz = (uint32_t)num(a, v, 10, 100000);
 			else if (!strcmp(a, "--solver-hz"))
 				o->cfg.solver_hz = (uint32_t)num(a, v, 1, 100000);
-			else if (!strcmp(a, "--silent-ticks"))
+			else if (!strcmp(a, "--silent-ticks")) {
 				o->cfg.silent_ticks = (uint16_t)num(a, v, 1, 10000);
+				o->silent_given = 1;
+			}
 			else if (!strcmp(a, "--host-budget"))
 				o->cfg.host_budget = (uint16_t)num(a, v, 1, SWELL_CTL_QUEUE / 2);
 			else if (!strcmp(a, "--node"))
@@ -172,6 +218,7 @@ static void parse(int argc, char **argv, struct opts *o)
 				die("unknown option ", a);
 		}
 	}
+	check_links(o);
 	o->cfg.recover_ticks = (uint16_t)(o->cfg.tick_hz / 10 > 0 ? o->cfg.tick_hz / 10 : 1);
 	{
 		enum swell_err e = swell_ctl_check(&o->cfg);
@@ -427,16 +474,40 @@ static const char *addr_str(const struct sockaddr_in *a, int have, int fixed, ch
 	return buf;
 }
 
-static void setup_rt(int want)
+/* SCHED_FIFO and mlockall where permitted. Without real-time scheduling the tick is late by
+ * milliseconds on a loaded machine: unless --silent-ticks says otherwise, the device silence limit
+ * becomes SLOW_SILENCE_MS of ticks, and the start line says so. Returns 1 with SCHED_FIFO. */
+static int setup_rt(struct opts *o)
 {
 	struct sched_param sp = {.sched_priority = 80};
+	const char *why = "--no-rt";
+	char buf[96];
+	uint32_t slow;
 
-	if (!want)
-		return;
-	if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0)
-		fprintf(stderr, "swell-ctl: warning: mlockall: %s; running without locked memory\n", strerror(errno));
-	if (sched_setscheduler(0, SCHED_FIFO, &sp) != 0)
-		fprintf(stderr, "swell-ctl: warning: SCHED_FIFO: %s; running at normal priority\n", strerror(errno));
+	if (o->rt) {
+		if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0)
+			fprintf(stderr, "swell-ctl: warning: mlockall: %s; running without locked memory\n",
+				strerror(errno));
+		if (sched_setscheduler(0, SCHED_FIFO, &sp) == 0) {
+			fprintf(stderr, "swell-ctl: real-time: SCHED_FIFO priority 80; device silence limit %u ticks "
+					"(%.1f ms)\n",
+				o->cfg.silent_ticks, o->cfg.silent_ticks * 1e3 / o->cfg.tick_hz);
+			return 1;
+		}
+		snprintf(buf, sizeof(buf), "SCHED_FIFO refused: %s", strerror(errno));
+		why = buf;
+	}
+	slow = o->cfg.tick_hz * SLOW_SILENCE_MS / 1000;
+	if (!o->silent_given && slow > o->cfg.silent_ticks) {
+		fprintf(stderr, "swell-ctl: no real-time scheduling (%s): device silence limit %u ticks (%.1f ms) "
+				"instead of %u; --silent-ticks N to choose\n",
+			why, slow, slow * 1e3 / o->cfg.tick_hz, o->cfg.silent_ticks);
+		o->cfg.silent_ticks = (uint16_t)slow;
+	} else {
+		fprintf(stderr, "swell-ctl: no real-time scheduling (%s): device silence limit %u ticks (%.1f ms)\n",
+			why, o->cfg.silent_ticks, o->cfg.silent_ticks * 1e3 / o->cfg.tick_hz);
+	}
+	return 0;
 }
 
 int main(int argc, char **argv)
@@ -448,6 +519,7 @@ int main(int argc, char **argv)
 	int32_t *arena;
 	size_t words;
 	char err[160], abuf[48];
+	int rc;
 	int64_t period, next, start, last_status;
 	int32_t peak_h = 0;
 	int64_t last_sample = 0; /* --clock device: when the last DEVICE_POS came */
@@ -455,6 +527,7 @@ int main(int argc, char **argv)
 	enum swell_err e;
 
 	parse(argc, argv, &o);
+	setup_rt(&o); /* first: it may set the silence limit the core is configured with */
 	words = swell_ctl_arena_words(o.cfg.nx, o.cfg.ny);
 	arena = calloc(words, sizeof(*arena)); /* the only allocation, before the loop starts */
 	if (!arena) {
@@ -464,16 +537,22 @@ int main(int argc, char **argv)
 	e = swell_ctl_init(&p.c, &o.cfg, arena, words);
 	if (e != SWELL_OK) {
 		fprintf(stderr, "swell-ctl: controller refused its configuration: %s\n", swell_err_str(e));
+		free(arena);
 		return 2;
 	}
-	if (ctl_link_open(&p.dev, o.device, 1, o.cfg.node, err, sizeof(err)) < 0) {
+	rc = ctl_link_open(&p.dev, o.device, 1, o.cfg.node, err, sizeof(err));
+	if (rc < 0) {
 		fprintf(stderr, "swell-ctl: device link: %s\n", err);
-		return 1;
+		free(arena);
+		return rc == -2 ? 2 : 1; /* a malformed spec is a bad argument */
 	}
 	if (strcmp(o.host, "none")) {
-		if (ctl_link_open(&p.host, o.host, 0, o.cfg.node, err, sizeof(err)) < 0) {
+		rc = ctl_link_open(&p.host, o.host, 0, o.cfg.node, err, sizeof(err));
+		if (rc < 0) {
 			fprintf(stderr, "swell-ctl: host link: %s\n", err);
-			return 1;
+			ctl_link_close(&p.dev);
+			free(arena);
+			return rc == -2 ? 2 : 1;
 		}
 		p.have_host = 1;
 	}
@@ -481,7 +560,6 @@ int main(int argc, char **argv)
 	sa.sa_handler = on_signal;
 	sigaction(SIGINT, &sa, NULL);
 	sigaction(SIGTERM, &sa, NULL);
-	setup_rt(o.rt);
 	fprintf(stderr, "swell-ctl: %ux%u pool, tick %u Hz, solver %u Hz, device %s, host %s, clock %s\n",
 		o.cfg.nx, o.cfg.ny, o.cfg.tick_hz, o.cfg.solver_hz, p.dev.name, p.have_host ? p.host.name : "none",
 		o.device_clock ? "device" : "internal");
@@ -581,6 +659,10 @@ int main(int argc, char **argv)
 	       (now_ns() - start) / 1e9, (unsigned long long)ticks, o.cfg.tick_hz, p.c.n.solver_steps, o.cfg.solver_hz);
 	printf("  state           %s (last error: %s), faults %u\n", swell_ctl_state_name(p.c.state),
 	       swell_err_str(p.c.last_err), p.c.n.faults);
+	if (p.c.n.faults)
+		printf("  FAULTED         %u times in this run (zero force while faulted; last error: %s; device "
+		       "silence limit %u ticks = %.1f ms)\n",
+		       p.c.n.faults, swell_err_str(p.c.last_err), o.cfg.silent_ticks, o.cfg.silent_ticks * 1e3 / o.cfg.tick_hz);
 	if (!o.device_clock)
 		printf("  tick jitter     p50 %.0f us, p99 %.0f us, max %.0f us (lateness of the wake-up)\n",
 		       jitter_pct(&jit, 0.5), jitter_pct(&jit, 0.99), jit.max_ns / 1e3);

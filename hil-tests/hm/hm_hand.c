@@ -3,6 +3,7 @@
 #include "hm_hand.h"
 
 #include <math.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -64,6 +65,7 @@ enum swell_err hm_hand_parse(const char *spec, struct hm_hand *out, char *why, s
 	char buf[256], *p, *save = NULL, *tok;
 	size_t len;
 	int kind = -1, k;
+	uint32_t seen = 0; /* keys given (bit i: keys[i]; bit 31: axis): each at most once */
 
 	if (!spec || !out)
 		return SWELL_EINVAL;
@@ -100,6 +102,11 @@ enum swell_err hm_hand_parse(const char *spec, struct hm_hand *out, char *why, s
 			if (!strcmp(tok, keys[i].name) && (keys[i].kinds & K(kind)))
 				key = &keys[i];
 		if (!key && !strcmp(tok, "axis") && kind == HM_HAND_SHAKE) {
+			if (seen & (1u << 31)) {
+				snprintf(why, why ? n : 0, "hand %s: axis given twice", names[kind]);
+				return SWELL_EINVAL;
+			}
+			seen |= 1u << 31;
 			if (strlen(eq + 1) != 1 || !strchr("xyz", eq[1])) {
 				snprintf(why, why ? n : 0, "shake axis must be x, y or z, not '%s'", eq + 1);
 				return SWELL_ERANGE;
@@ -111,6 +118,12 @@ enum swell_err hm_hand_parse(const char *spec, struct hm_hand *out, char *why, s
 			snprintf(why, why ? n : 0, "hand %s takes no parameter '%s'", names[kind], tok);
 			return SWELL_EUNKNOWN;
 		}
+		i = (size_t)(key - keys);
+		if (seen & (1u << i)) {
+			snprintf(why, why ? n : 0, "hand %s: %s given twice", names[kind], key->name);
+			return SWELL_EINVAL;
+		}
+		seen |= 1u << i;
 		v = strtod(eq + 1, &end);
 		if (end == eq + 1 || *end || !(v >= key->lo && v <= key->hi)) {
 			snprintf(why, why ? n : 0, "hand %s: %s = '%s' is not a number in [%g, %g] %s", names[kind],

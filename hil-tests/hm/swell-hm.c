@@ -50,7 +50,9 @@ static const char usage[] =
 	"  --damping NS_M      virtual damping b_v in N s/m (default 2)\n"
 	"  --limit MM          workspace half-range per axis (default 200; a stiff wall beyond)\n"
 	"  --fmax N            largest commanded force applied per axis (default 250)\n"
-	"  --watchdog TICKS    controller silent this many ticks -> no commanded force (default 2)\n"
+	"  --watchdog TICKS    controller silent this many ticks -> no commanded force (default 2 in\n"
+	"                      lockstep or with --rt granted; else 20 ms of ticks, said at start: a\n"
+	"                      process that is not real time is late by milliseconds)\n"
 	"  --start X,Y,Z       start position in mm (default 0,0,0; drop: 0,0,its height)\n"
 	"  --estop A,B         fault injection: e-stop pressed from A to B seconds\n"
 	"User:\n"
@@ -67,14 +69,15 @@ static const char usage[] =
 	"\n"
 	"On exit prints a summary: final position, equilibrium z over the last second against -m g/k,\n"
 	"peak commanded force, ticks, timeouts, lost and bad packets, watchdog trips.\n"
-	"Exit status: 0 done, 1 the link failed, 2 bad arguments.\n";
+	"Exit status: 0 done, 1 a runtime failure (the link, the log, or no controller ever answered),\n"
+	"2 bad arguments (one line on stderr, nothing sent, no log written).\n";
 
 #define RHO_KG_M3 1000.0
 
 struct opts {
 	const char *link, *host, *log;
 	unsigned port, bind_port, node, iface;
-	int lockstep, quiet, have_start, rt;
+	int lockstep, quiet, have_start, rt, watchdog_given;
 	unsigned timeout_ms;
 	double seconds, start_mm[3], estop_s[2];
 	double obj_mass_g, obj_a_mm, obj_b_mm, pool_mm[2];
@@ -207,8 +210,10 @@ static void parse(int argc, char **argv, struct opts *o)
 			o->p.limit_m[0] = o->p.limit_m[1] = o->p.limit_m[2] = number(a, v, 1, 300, "mm") * 1e-3;
 		else if (!strcmp(a, "--fmax"))
 			o->p.f_max_N = number(a, v, 1e-3, 250, "N");
-		else if (!strcmp(a, "--watchdog"))
+		else if (!strcmp(a, "--watchdog")) {
 			o->p.watchdog_ticks = whole(a, v, 1, 100000, "ticks");
+			o->watchdog_given = 1;
+		}
 		else if (!strcmp(a, "--start")) {
 			numbers(a, v, o->start_mm, 3, -300, 300, "mm");
 			o->have_start = 1;
@@ -233,6 +238,11 @@ static void parse(int argc, char **argv, struct opts *o)
 			o->log = v;
 		else
 			die("unknown option %s%s", a, "");
+	}
+	if (o->pool_mm[0] <= o->obj_a_mm || o->pool_mm[1] <= o->obj_b_mm) {
+		fprintf(stderr, "swell-hm: --pool %g,%g mm is not larger than the object's footprint %g x %g mm\n",
+			o->pool_mm[0], o->pool_mm[1], o->obj_a_mm, o->obj_b_mm);
+		exit(2);
 	}
 	e = hm_params_check(&o->p, o->hand.k_N_m, o->hand.b_Ns_m, why, sizeof(why));
 	if (e != SWELL_OK)
@@ -302,6 +312,9 @@ struct dev {
 	struct swell_seq force_seq;
 	uint32_t commands, heartbeats, ignored, send_errors;
 	int ctl_state; /* last HEARTBEAT state, -1 before the first */
+	uint32_t ctl_faults;  /* heartbeats that showed the controller entering FAULT */
+	uint32_t fault_beats; /* heartbeats in FAULT */
+	int ctl_err;          /* the last error of the last heartbeat in FAULT */
 	uint8_t force_seq_last;
 };
 
@@ -378,6 +391,11 @@ static int dev_recv(struct dev *d, struct hm_state *s, int timeout_ms)
 			d->commands++;
 			cmds++;
 		} else if (m[k].type == SWELL_MSG_HEARTBEAT) {
+			if (m[k].u.heartbeat.state == 4) {
+				d->ctl_faults += d->ctl_state != 4;
+				d->fault_beats++;
+				d->ctl_err = m[k].u.heartbeat.err;
+			}
 			d->ctl_state = m[k].u.heartbeat.state;
 			d->heartbeats++;
 		} else {
@@ -389,14 +407,37 @@ static int dev_recv(struct dev *d, struct hm_state *s, int timeout_ms)
 
 /* ---- the run ---- */
 
-static void setup_rt(void)
+/* The watchdog without real-time scheduling: 20 ms of ticks (the default 2 trips on every late tick). */
+#define SLOW_WATCHDOG_MS 20
+
+/* SCHED_FIFO and mlockall when asked for. In real time without SCHED_FIFO the ticks are late by
+ * milliseconds: unless --watchdog says otherwise the watchdog becomes SLOW_WATCHDOG_MS of ticks, said
+ * on stderr. Lockstep needs neither. */
+static void setup_rt(struct opts *o, int watchdog_given)
 {
 	struct sched_param sp = {.sched_priority = 70};
+	const char *why = "no --rt";
+	char buf[96];
+	uint32_t slow;
 
-	if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0)
-		fprintf(stderr, "swell-hm: warning: mlockall: %s; running without locked memory\n", strerror(errno));
-	if (sched_setscheduler(0, SCHED_FIFO, &sp) != 0)
-		fprintf(stderr, "swell-hm: warning: SCHED_FIFO: %s; running at normal priority\n", strerror(errno));
+	if (o->rt) {
+		if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0)
+			fprintf(stderr, "swell-hm: warning: mlockall: %s; running without locked memory\n",
+				strerror(errno));
+		if (sched_setscheduler(0, SCHED_FIFO, &sp) == 0)
+			return;
+		snprintf(buf, sizeof(buf), "SCHED_FIFO refused: %s", strerror(errno));
+		why = buf;
+	}
+	if (o->lockstep)
+		return;
+	slow = (uint32_t)llround(o->p.rate_hz * SLOW_WATCHDOG_MS / 1000.0);
+	if (!watchdog_given && slow > o->p.watchdog_ticks) {
+		fprintf(stderr, "swell-hm: real time without real-time scheduling (%s): watchdog %u ticks (%.1f ms) "
+				"instead of %u; --watchdog N to choose\n",
+			why, slow, slow * 1e3 / o->p.rate_hz, o->p.watchdog_ticks);
+		o->p.watchdog_ticks = slow;
+	}
 }
 
 static volatile sig_atomic_t stop_flag;
@@ -592,6 +633,10 @@ static void summary(const struct opts *o, const struct dev *d, const struct hm_s
 		if (r->held_late) {
 			printf("  expected z      none: the hand held the handle in that second\n");
 		} else {
+			if (d->ctl_faults || s->watchdog_trips)
+				printf("  NOT A CLEAN RUN the controller faulted %u times and the watchdog tripped %u "
+				       "times: the figures below include those times without force\n",
+				       d->ctl_faults, s->watchdog_trips);
 			printf("  expected z      %+.3f mm = -m g/k; error %+.3f %%\n", z_rest,
 			       (zm - z_rest) / -z_rest * 100.0);
 			printf("  with level rise %+.3f mm (-m g/k + %.3f mm mean level rise); error %+.3f %%\n",
@@ -618,6 +663,9 @@ static void summary(const struct opts *o, const struct dev *d, const struct hm_s
 	printf("  walls           %u ticks in a workspace wall\n", s->wall_ticks);
 	printf("  controller      last state %d (0 boot, 1 idle, 2 armed, 3 running, 4 fault), %u heartbeats\n",
 	       d->ctl_state, d->heartbeats);
+	if (d->ctl_faults)
+		printf("  FAULTED         the controller faulted %u times (%u heartbeats in FAULT, last error: %s)\n",
+		       d->ctl_faults, d->fault_beats, swell_err_str((enum swell_err)d->ctl_err));
 }
 
 int main(int argc, char **argv)
@@ -628,6 +676,7 @@ int main(int argc, char **argv)
 	struct hm_state s;
 	struct sigaction sa;
 	FILE *log = NULL;
+	int rc = 0;
 	double x0[3], dt, last_window;
 	int64_t start, next, period_ns, last_status;
 	uint64_t n, total;
@@ -643,7 +692,7 @@ int main(int argc, char **argv)
 		log = fopen(o.log, "w");
 		if (!log) {
 			fprintf(stderr, "swell-hm: cannot write %s: %s\n", o.log, strerror(errno));
-			return 2;
+			return 1;
 		}
 		fputs("t_s,x_mm,y_mm,z_mm,vx_mm_s,vy_mm_s,vz_mm_s,fcmd_x_N,fcmd_y_N,fcmd_z_N,"
 		      "fhand_x_N,fhand_y_N,fhand_z_N,enable,cmd_age,applied,ctl_state,holding\n",
@@ -655,8 +704,7 @@ int main(int argc, char **argv)
 	sa.sa_handler = on_signal;
 	sigaction(SIGINT, &sa, NULL);
 	sigaction(SIGTERM, &sa, NULL);
-	if (o.rt)
-		setup_rt();
+	setup_rt(&o, o.watchdog_given);
 
 	hm_init(&s, x0);
 	dt = 1.0 / o.p.rate_hz;
@@ -703,9 +751,16 @@ int main(int argc, char **argv)
 	}
 	if (!o.quiet && now_ns() - start > 1000000000)
 		fputc('\n', stderr);
-	if (log && fclose(log) != 0)
-		fprintf(stderr, "swell-hm: writing %s failed\n", o.log);
+	if (log && (ferror(log) | fclose(log)) != 0) {
+		fprintf(stderr, "swell-hm: writing %s failed: %s\n", o.log, strerror(errno));
+		rc = 1;
+	}
 	summary(&o, &d, &s, &r, (now_ns() - start) / 1e9);
+	if (d.commands == 0 && d.heartbeats == 0) {
+		fprintf(stderr, "swell-hm: no controller answered on %s in %.1f s (no FORCE_CMD, no HEARTBEAT)\n",
+			swell_link_name(d.l), (now_ns() - start) / 1e9);
+		rc = 1;
+	}
 	swell_link_close(d.l);
-	return 0;
+	return rc;
 }

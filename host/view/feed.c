@@ -145,7 +145,7 @@ static void on_msg(struct view_feed *f, const struct swell_msg *m, uint64_t now_
 			/* CAN has no packet sequence: count loss here, but not across a count that started
 			 * again (taken after 8 stale poses: d is 0 or "behind" then) */
 			if (can && d > 0 && d < 128)
-				vm->st.dropped += d - 1u;
+				vm_gap(vm, d - 1u);
 		}
 		f->have_pose_seq = true;
 		f->pose_seq = p->seq;

@@ -6,6 +6,7 @@
 
 #include <errno.h>
 #include <math.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -373,6 +374,8 @@ static void hud(struct app *a, const struct view_feed *f, const struct source *s
 		snprintf(buf, sizeof(buf), "NO DATA FOR %.1f S", (double)(now - m->last_rx_us) * 1e-6);
 	else if (m->status == VIEW_LINK_DOWN && src->ended)
 		snprintf(buf, sizeof(buf), src->rec_damaged ? "END OF RECORDING (DAMAGED)" : "END OF RECORDING");
+	else if (m->status == VIEW_LIVE && src->kind == SOURCE_LINK && src->lk == LINK_REPLAY)
+		snprintf(buf, sizeof(buf), "REPLAY"); /* recorded, not live */
 	else if (m->status == VIEW_LINK_DOWN && src->kind == SOURCE_LINK && src->lk == LINK_USB)
 		snprintf(buf, sizeof(buf), "USB DEVICE NOT THERE - WAITING FOR IT");
 	else
@@ -455,6 +458,14 @@ static void timing_report(float *ms, long n, double cpu_ms, const struct app *a)
 	       a->r.o.w, a->r.o.h, a->vm.scene.nx, a->vm.scene.ny, a->charts_on ? "on" : "off", a->r.samples);
 }
 
+/* SIGINT, SIGTERM: leave the frame loop, print the summary as on any other end. */
+static volatile sig_atomic_t stop_signal;
+
+static void on_stop_signal(int sig)
+{
+	stop_signal = sig;
+}
+
 static int screenshot(struct app *a, const char *path)
 {
 	size_t n = (size_t)a->r.o.w * (size_t)a->r.o.h * 3;
@@ -462,10 +473,13 @@ static int screenshot(struct app *a, const char *path)
 	if (!rgb)
 		return 1;
 	render_read(&a->r, rgb);
+	errno = 0;
 	enum swell_err e = swell_png_write(path, rgb, (uint32_t)a->r.o.w, (uint32_t)a->r.o.h, 3, (size_t)a->r.o.w * 3);
+	const int os_err = errno; /* the file's reason, when the system gave one */
 	free(rgb);
 	if (e != SWELL_OK) {
-		fprintf(stderr, "swell-view: cannot write %s: %s\n", path, swell_err_str(e));
+		fprintf(stderr, "swell-view: cannot write %s: %s\n", path,
+			e == SWELL_ESTATE && os_err ? strerror(os_err) : swell_err_str(e));
 		return 1;
 	}
 	printf("swell-view: wrote %s (%d x %d pixels)\n", path, a->r.o.w, a->r.o.h);
@@ -498,18 +512,33 @@ int main(int argc, char **argv)
 	feed.obj_h_um = o.obj_um[2];
 	if (!charts_init(&app.ch, o.force_limit_N)) {
 		fprintf(stderr, "swell-view: out of memory for the charts\n");
+		vm_free(&app.vm);
+		source_close(&src);
 		return 1;
 	}
 	if (o.csv && !charts_csv_open(&app.ch, o.csv, err, sizeof(err))) {
 		fprintf(stderr, "swell-view: %s\n", err);
+		charts_free(&app.ch);
+		vm_free(&app.vm);
+		source_close(&src);
 		return 1;
 	}
 	feed.charts = &app.ch;
 	app.charts_on = o.charts;
 
+	/* before the window: a Ctrl-C while it opens also ends with the summary */
+	struct sigaction sa;
+	memset(&sa, 0, sizeof(sa));
+	sa.sa_handler = on_stop_signal; /* no SA_RESTART: the frame pacing sleep ends at once */
+	sigaction(SIGINT, &sa, NULL);
+	sigaction(SIGTERM, &sa, NULL);
+
 	glfwSetErrorCallback(on_glfw_error);
 	if (!glfwInit()) {
 		fprintf(stderr, "swell-view: no display (set DISPLAY, or run under xvfb-run)\n");
+		charts_free(&app.ch);
+		vm_free(&app.vm);
+		source_close(&src);
 		return 1;
 	}
 	glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
@@ -521,6 +550,9 @@ int main(int argc, char **argv)
 	if (!win) {
 		fprintf(stderr, "swell-view: no OpenGL 3.3 core context\n");
 		glfwTerminate();
+		charts_free(&app.ch);
+		vm_free(&app.vm);
+		source_close(&src);
 		return 1;
 	}
 	glfwMakeContextCurrent(win);
@@ -532,6 +564,9 @@ int main(int argc, char **argv)
 	glfwSetScrollCallback(win, on_scroll);
 	if (!render_init(&app.r, &o.ro)) {
 		glfwTerminate();
+		charts_free(&app.ch);
+		vm_free(&app.vm);
+		source_close(&src);
 		return 1;
 	}
 
@@ -539,7 +574,7 @@ int main(int argc, char **argv)
 	long timed = 0;
 	double cpu_frames_ms = 0;
 	uint64_t period = (uint64_t)(1e6 / o.fps), next = now_us();
-	for (long frame = 1; !app.quit && !glfwWindowShouldClose(win); frame++) {
+	for (long frame = 1; !app.quit && !stop_signal && !glfwWindowShouldClose(win); frame++) {
 		uint64_t t = o.steady ? 1000000u + (uint64_t)frame * 20000u : now_us(), t_start = now_us();
 		double cpu_start = frame_ms ? cpu_ms() : 0;
 		source_poll(&src, &feed, t);
@@ -596,6 +631,10 @@ int main(int argc, char **argv)
 		}
 		if (o.frames > 0 && frame >= o.frames)
 			break;
+		/* headless, a replay that has ended has nothing more to show (unless a screenshot of a later
+		 * frame is asked for): the last state is drawn, the run ends */
+		if (o.headless && src.ended && !o.shot)
+			break;
 		/* pace the loop (the window's vsync does it too when there is one) */
 		if (o.steady && o.headless)
 			continue;
@@ -609,9 +648,18 @@ int main(int argc, char **argv)
 		}
 	}
 
-	printf("swell-view: %u frames, %u bad, %u dropped, %u late, %u quads, %u restarts; uploaded %llu tiles (%llu texels)\n",
+	if (stop_signal)
+		printf("swell-view: stopped by %s\n", stop_signal == SIGINT ? "SIGINT" : "SIGTERM");
+	if (src.rec_damaged) {
+		/* what was shown is what came before the damage; the run did not do what was asked */
+		fprintf(stderr, "swell-view: the recording is damaged: the replay stopped at a damaged record after "
+				"%u frames\n", app.vm.st.frames);
+		rc = 1;
+	}
+	printf("swell-view: %u frames, %u bad, %u dropped, %u late, %u quads, %u restarts, %u resyncs; uploaded %llu "
+	       "tiles (%llu texels)\n",
 	       app.vm.st.frames, app.vm.st.bad, app.vm.st.dropped, app.vm.st.late, app.vm.st.pieces,
-	       app.vm.st.restarts, (unsigned long long)app.r.tiles_uploaded, (unsigned long long)app.r.texels_uploaded);
+	       app.vm.st.restarts, app.vm.st.resyncs, (unsigned long long)app.r.tiles_uploaded, (unsigned long long)app.r.texels_uploaded);
 	if (feed.obj_from_wire)
 		printf("swell-view: object %.1f x %.1f x %.1f mm from the controller (CTL_INFO), firmware %u.%u.%u\n",
 		       feed.obj_a_um * 1e-3, feed.obj_b_um * 1e-3, feed.obj_h_um * 1e-3, app.vm.fw_version[0],

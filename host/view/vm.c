@@ -62,6 +62,14 @@ void vm_link(struct view_model *m, bool up, uint64_t now_us)
 	vm_tick(m, now_us);
 }
 
+void vm_gap(struct view_model *m, uint32_t gap)
+{
+	if (gap <= VM_LOSS_WINDOW)
+		m->st.dropped += gap;
+	else
+		m->st.resyncs++;
+}
+
 bool vm_frame(struct view_model *m, uint32_t seq, unsigned seq_bits, uint64_t now_us)
 {
 	uint32_t mask = seq_bits >= 32 ? 0xffffffffu : (1u << seq_bits) - 1u;
@@ -86,9 +94,12 @@ bool vm_frame(struct view_model *m, uint32_t seq, unsigned seq_bits, uint64_t no
 			m->window_frames++;
 			return false;
 		}
-		if (ahead < mask + 1u - window)
+		/* a jump beyond the window (another sender, a run of late ones: the sender restarted its
+		 * count) is one resynchronisation, not hundreds lost */
+		if (ahead <= (window < VM_LOSS_WINDOW ? window : VM_LOSS_WINDOW))
 			m->st.dropped += ahead;
-		/* else: a run of late ones, the sender restarted its counter; resynchronise. */
+		else
+			m->st.resyncs++;
 	}
 	m->late_run = 0;
 	m->have_seq = true;

@@ -54,7 +54,8 @@ struct view_object {
 struct view_stats {
 	uint32_t frames;      /* good frames accepted */
 	uint32_t bad;         /* rejected by the decoder (CRC, truncated, unknown, out of range) */
-	uint32_t dropped;     /* missing sequence numbers */
+	uint32_t dropped;     /* missing sequence numbers, in gaps up to VM_LOSS_WINDOW */
+	uint32_t resyncs;     /* jumps beyond it (another sender, a restarted count): one each, not losses */
 	uint32_t late;        /* reordered frames older than what is shown */
 	uint32_t ignored;     /* frames that arrived before the scene description */
 	uint32_t pieces;      /* height pieces accepted (vm_cells calls: quads on the wire) */
@@ -106,6 +107,13 @@ void vm_free(struct view_model *m);
 
 /* Link events from the link layer. */
 void vm_link(struct view_model *m, bool up, uint64_t now_us);
+
+/* A gap in a sequence of at most this many numbers is counted as lost; a longer jump is one
+ * resynchronisation (8-bit sequences: a quarter of the half range). */
+#define VM_LOSS_WINDOW 32u
+
+/* gap numbers missing before the one just received: dropped, or one resync beyond the window. */
+void vm_gap(struct view_model *m, uint32_t gap);
 
 /* A frame passed the decoder: `seq` is its stream sequence number (modulo 2^seq_bits). Counts loss
  * and marks the data fresh. Returns false for a frame older than the newest seen (late, reordered):

@@ -11,6 +11,7 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "kernels.h"
 #include "scene.h"
@@ -738,7 +739,8 @@ static void run_stress(const struct opts *o)
 
 /* ---- plots ------------------------------------------------------------------------------ */
 
-static void write_plots(const struct opts *o)
+/* 0 when the plots were made. */
+static int write_plots(const struct opts *o)
 {
 	FILE *fp = open_out(o, "plots.gp");
 	char cmd[4200];
@@ -810,14 +812,32 @@ static void write_plots(const struct opts *o)
 	fclose(fp);
 	if (strchr(o->out, '\'')) {
 		progress("output path contains a quote; run gnuplot plots.gp there by hand");
-		return;
+		return -1;
 	}
 	snprintf(cmd, sizeof(cmd), "cd '%s' && gnuplot plots.gp", o->out);
 	rc = system(cmd);
-	if (rc != 0)
+	if (rc != 0) {
 		progress("gnuplot failed (exit %d); CSV files are complete, plots not made", rc);
-	else
-		progress("plots: %s/pareto.png, error_steps.png, stability.png", o->out);
+		return -1;
+	}
+	progress("plots: %s/pareto.png, error_steps.png, stability.png", o->out);
+	return 0;
+}
+
+/* --replot: the CSV files the plots read, each there and not empty; else the one missing. */
+static const char *missing_results(const struct opts *o)
+{
+	static const char *const need[] = {"matrix.csv", "error_steps.csv", "stability.csv", "boundary.csv"};
+	char path[4096];
+	struct stat st;
+	size_t k;
+
+	for (k = 0; k < sizeof(need) / sizeof(need[0]); k++) {
+		snprintf(path, sizeof(path), "%s/%s", o->out, need[k]);
+		if (stat(path, &st) != 0 || st.st_size == 0)
+			return need[k];
+	}
+	return NULL;
 }
 
 /* ---- arguments -------------------------------------------------------------------------- */
@@ -1137,13 +1157,28 @@ int main(int argc, char **argv)
 			bad("unknown option %s", a);
 		}
 	}
-	if (mkdir(o.out, 0777) != 0 && errno != EEXIST) {
+	if (!replot && mkdir(o.out, 0777) != 0 && errno != EEXIST) {
 		fprintf(stderr, "swell-bench: cannot create %s: %s\n", o.out, strerror(errno));
 		return 2;
 	}
+	{
+		/* before the run, not when its first CSV file is written */
+		struct stat st;
+
+		if (stat(o.out, &st) != 0 || !S_ISDIR(st.st_mode) || access(o.out, W_OK | X_OK) != 0) {
+			fprintf(stderr, "swell-bench: --out %s is not a writable directory\n", o.out);
+			return 2;
+		}
+	}
 	if (replot) { /* the CSV files of an earlier run in --out: plots only */
-		write_plots(&o);
-		return 0;
+		const char *miss = missing_results(&o);
+
+		if (miss) {
+			fprintf(stderr, "swell-bench: --replot: %s/%s is missing or empty (no results of a run to plot)\n",
+				o.out, miss);
+			return 1;
+		}
+		return write_plots(&o) == 0 ? 0 : 1;
 	}
 	if (o.f405)
 		load_f405(o.f405);

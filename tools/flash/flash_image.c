@@ -7,6 +7,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "swell/crc.h"
+
 #define EM_ARM 40u
 #define PT_LOAD 1u
 
@@ -154,12 +156,19 @@ int flash_image_check(const uint8_t *file, size_t file_len, uint32_t want_mcu,
 		goto out;
 	}
 	err = swell_fwimage_verify(r.bytes, r.len, want_mcu, &hdr);
-	r.hdr = hdr;
 	if (err != SWELL_OK) {
-		fail(why, why_len, "corrupted: CRC-32 mismatch (header says image 0x%08x, computed 0x%08x)",
-		     (unsigned)r.hdr.crc, (unsigned)swell_fwimage_crc(r.bytes, r.len));
+		/* which CRC: a zeroed header CRC was reported as an image CRC "mismatch" of two equal numbers */
+		const uint32_t hdr_crc = swell_crc32(0, r.bytes + SWELL_FWIMAGE_OFFSET, 28);
+
+		if (hdr_crc != r.hdr.hdr_crc)
+			fail(why, why_len, "corrupted header: header CRC-32 0x%08x, computed 0x%08x",
+			     (unsigned)r.hdr.hdr_crc, (unsigned)hdr_crc);
+		else
+			fail(why, why_len, "corrupted: CRC-32 mismatch (header says image 0x%08x, computed 0x%08x)",
+			     (unsigned)r.hdr.crc, (unsigned)swell_fwimage_crc(r.bytes, r.len));
 		goto out;
 	}
+	r.hdr = hdr;
 	if (r.hdr.flags != 0) {
 		fail(why, why_len, "header flags 0x%08x unknown to this tool (want 0)", (unsigned)r.hdr.flags);
 		goto out;

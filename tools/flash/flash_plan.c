@@ -60,6 +60,12 @@ static void arg(struct builder *b, const char *fmt, ...)
 	b->s->argc++;
 }
 
+/* 1 when path holds a character that gdb's file name parsing cuts at or keeps literally. */
+static int gdb_unsafe(const char *path)
+{
+	return path && path[strcspn(path, " \t\n\"'\\")] != '\0';
+}
+
 static void gdb_begin(struct builder *b, const struct flash_opts *o, enum flash_step_kind kind,
 		      const char *what)
 {
@@ -227,6 +233,14 @@ int flash_plan_build(const struct flash_opts *o, struct flash_plan *p, char *why
 		if (!o->elf && o->gdb_server != FLASH_GDB_QEMU) {
 			snprintf(why, why_len, "the GDB backend with openocd or a Black Magic Probe needs the ELF "
 				 "(flash writes go through 'load'); give swell-fw.elf");
+			return -1;
+		}
+		/* gdb's restore and dump take the file name up to the first blank and do not parse
+		 * quotes (gdb 13, Debian 12): a path with a blank or a quote would be cut short */
+		if ((!o->elf && gdb_unsafe(o->bin)) || gdb_unsafe(o->readback)) {
+			snprintf(why, why_len, "the GDB backend cannot hand '%s' to gdb: its restore and dump cut a "
+				 "file name at a blank and keep quotes; use a path without them",
+				 !o->elf && gdb_unsafe(o->bin) ? o->bin : o->readback);
 			return -1;
 		}
 		build_gdb(&b, o);

@@ -29,6 +29,7 @@ static struct {
 	double damper; /* N s/m */
 	double f_max, rate, gain;
 	const char *trace;
+	const char *first; /* the first object option other than --object */
 } so = {.motion = M_DROP, .arg = {0.02, 0, 0}, .tick_hz = 2500, .damper = 3.0, .f_max = 20, .rate = 2000,
 	.gain = 1};
 
@@ -82,6 +83,10 @@ int sim_object_option(const char *a, const char *v)
 {
 	double x[3];
 
+	if (!so.first && strcmp(a, "--object") &&
+	    (!strcmp(a, "--motion") || !strcmp(a, "--at") || !strcmp(a, "--tick-hz") || !strcmp(a, "--damper") ||
+	     !strcmp(a, "--safety") || !strcmp(a, "--trace")))
+		so.first = a;
 	if (!strcmp(a, "--object")) {
 		parse_list(a, v, so.box, 4, 4);
 		so.on = 1;
@@ -132,6 +137,11 @@ int sim_object_option(const char *a, const char *v)
 int sim_object_active(void)
 {
 	return so.on;
+}
+
+const char *sim_object_orphan(void)
+{
+	return so.on ? NULL : so.first;
 }
 
 static uint32_t to_u32(const char *what, double x, double scale)
@@ -315,7 +325,10 @@ int sim_object_run(struct swell_wave *w, double dt_s, double dx_m, long steps, i
 		double d = sum_delta / tail;
 		printf("equilibrium     delta %.4f mm (mean of the last %.3f s), m g / k %.4f mm, error %+.4f %%\n",
 		       d / mm, (double)tail / sc.tick_hz, delta_eq / mm, 100 * (d - delta_eq) / delta_eq);
-		printf("settling        %.3f s to stay within 2 %% of m g / k\n", settle);
+		if (settle >= (double)ticks / sc.tick_hz) /* outside at the last tick: it never settled */
+			printf("settling        none: still outside 2 %% of m g / k at the end (%.3f s)\n", settle);
+		else
+			printf("settling        %.3f s to stay within 2 %% of m g / k\n", settle);
 	}
 	printf("largest output  %.4f N (F_max %.3f N)\n", fmax, sp.f_max_uN * 1e-6);
 	printf("displaced       %.3f mm*cells at the end\n", b.v_displaced / mm);

@@ -17,6 +17,9 @@ int sim_object_option(const char *a, const char *v);
 /* 1 when --object was given. */
 int sim_object_active(void);
 
+/* The first object option given without --object (it would be ignored), or NULL. */
+const char *sim_object_orphan(void);
+
 /* Run the scene with the object for `steps` solver steps of dt_s (cells dx_m; 0: the defaults
  * 0.004 s and 0.00625 m) and print the summary. Returns the exit status. */
 int sim_object_run(struct swell_wave *w, double dt_s, double dx_m, long steps, int float64);

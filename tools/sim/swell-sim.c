@@ -35,14 +35,17 @@ static const char usage[] =
 	"  --no-sleep            update every tile every step (default: skip sleeping tiles, bit-identical)\n"
 	"  -h, --help            this text\n"
 	"\n"
-	"Exit status: 0 done, 2 bad arguments or parameters outside the stability limit.\n";
+	"Exit status: 0 done, 1 a runtime failure (a file cannot be written), 2 bad arguments, conflicting\n"
+	"options or parameters outside the stability limit (one line on stderr).\n";
 
 enum init_kind { INIT_ZERO, INIT_SEICHE, INIT_GAUSS };
 
 struct opts {
 	int nx, ny;
-	double e;    /* < 0: from the physical parameters */
+	double e;
 	double dt, depth, dx, g;
+	int have_e;  /* --e given; else e from dt, depth, dx (and g) when any of them is given */
+	int have_dt, have_depth, have_dx;
 	double damping;
 	enum swell_stencil stencil;
 	long steps;
@@ -94,7 +97,7 @@ static void parse_args(int argc, char **argv, struct opts *o)
 {
 	int k;
 
-	*o = (struct opts){.nx = 64, .ny = 64, .e = -1, .g = 9.81, .steps = 1000, .init = INIT_GAUSS,
+	*o = (struct opts){.nx = 64, .ny = 64, .g = 9.81, .steps = 1000, .init = INIT_GAUSS,
 			   .init_arg = {32, 32, 3, 2}};
 	for (k = 1; k < argc; k++) {
 		const char *a = argv[k], *v = k + 1 < argc ? argv[k + 1] : NULL;
@@ -119,12 +122,16 @@ static void parse_args(int argc, char **argv, struct opts *o)
 				die("--grid: '%s' is not NXxNY%s", v, "");
 		} else if (!strcmp(a, "--e")) {
 			o->e = parse_num(a, v);
+			o->have_e = 1;
 		} else if (!strcmp(a, "--dt")) {
 			o->dt = parse_num(a, v);
+			o->have_dt = 1;
 		} else if (!strcmp(a, "--depth")) {
 			o->depth = parse_num(a, v);
+			o->have_depth = 1;
 		} else if (!strcmp(a, "--dx")) {
 			o->dx = parse_num(a, v);
+			o->have_dx = 1;
 		} else if (!strcmp(a, "--g")) {
 			o->g = parse_num(a, v);
 		} else if (!strcmp(a, "--damping")) {
@@ -168,6 +175,8 @@ static void parse_args(int argc, char **argv, struct opts *o)
 			die("unknown option '%s'%s (see --help)", a, "");
 		}
 	}
+	if (sim_object_orphan())
+		die("%s is an option of the floating object: give --object too%s", sim_object_orphan(), "");
 }
 
 static void die_num(const char *opt, double v, const char *why)
@@ -191,20 +200,31 @@ static struct swell_wave_params make_params(const struct opts *o)
 	if (!(o->damping >= 0 && o->damping < 1))
 		die_num("--damping", o->damping, "is outside [0, 1)");
 	p.damping = (q30_t)llround(o->damping * SWELL_Q30_ONE);
-	if (o->e >= 0) {
+	/* every value given is checked, used or not (a negative one used to fall back to the defaults) */
+	if (o->have_dt && !(o->dt * 1e6 >= 1 && o->dt * 1e6 < 4e9))
+		die_num("--dt", o->dt, "s is outside [1e-6, 4000)");
+	if (o->have_depth && !(o->depth * 1e6 >= 1 && o->depth * 1e6 < 4e9))
+		die_num("--depth", o->depth, "m is outside [1e-6, 4000)");
+	if (o->have_dx && !(o->dx * 1e6 >= 1 && o->dx * 1e6 < 4e9))
+		die_num("--dx", o->dx, "m is outside [1e-6, 4000)");
+	if (!(o->g * 1e3 >= 1 && o->g * 1e3 < 4e9))
+		die_num("--g", o->g, "m/s^2 is outside [1e-3, 4e6)");
+	if (o->have_e) {
 		if (!(o->e > 0 && o->e < 2))
 			die_num("--e", o->e, "is outside (0, 2)");
+		if (o->have_depth) {
+			fprintf(stderr, "swell-sim: --e and --depth both set e (e = g dt^2 d / dx^2): give one\n");
+			exit(2);
+		}
 		p.e = (q30_t)llround(o->e * SWELL_Q30_ONE);
-	} else if (o->dt > 0 || o->depth > 0 || o->dx > 0) {
+	} else if (o->have_dt || o->have_depth || o->have_dx) {
 		double us = o->dt * 1e6, d_um = o->depth * 1e6, dx_um = o->dx * 1e6, g = o->g * 1e3;
-		if (!(us >= 1 && us < 4e9))
-			die_num("--dt", o->dt, "s is outside [1e-6, 4000) (or missing)");
-		if (!(d_um >= 1 && d_um < 4e9))
-			die_num("--depth", o->depth, "m is outside [1e-6, 4000) (or missing)");
-		if (!(dx_um >= 1 && dx_um < 4e9))
-			die_num("--dx", o->dx, "m is outside [1e-6, 4000) (or missing)");
-		if (!(g >= 1 && g < 4e9))
-			die_num("--g", o->g, "m/s^2 is outside [1e-3, 4e6)");
+
+		if (!o->have_dt || !o->have_depth || !o->have_dx) {
+			fprintf(stderr, "swell-sim: e from the physical parameters needs all of --dt, --depth and --dx "
+					"(missing %s)\n", !o->have_dt ? "--dt" : !o->have_depth ? "--depth" : "--dx");
+			exit(2);
+		}
 		err = swell_wave_e_from_physical((uint32_t)llround(g), (uint32_t)llround(us),
 						 (uint32_t)llround(d_um), (uint32_t)llround(dx_um), &p.e);
 		if (err != SWELL_OK) {

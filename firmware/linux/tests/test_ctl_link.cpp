@@ -396,7 +396,7 @@ TEST_CASE("UDP device link: the first sender of DEVICE_POS is the device, held a
 	char err[160] = "";
 	UdpEnd dev, other;
 
-	REQUIRE(ctl_link_open(&l, "udp:0", 1, 0, err, sizeof(err)) == -1); /* port 0 is not a device port */
+	REQUIRE(ctl_link_open(&l, "udp:0", 1, 0, err, sizeof(err)) == -2); /* port 0 is not a device port */
 	{
 		/* a free port, then the link on it */
 		UdpEnd probe;
@@ -453,7 +453,7 @@ TEST_CASE("UDP device link: a configured device is never let go, others are refu
 
 	for (const char *b : bad) {
 		INFO(b);
-		CHECK(ctl_link_open(&l, b, 1, 0, err, sizeof(err)) == -1);
+		CHECK(ctl_link_open(&l, b, 1, 0, err, sizeof(err)) == -2); /* a malformed spec, not a system failure */
 		CHECK(std::string(err).find(b) != std::string::npos);
 		CHECK(l.fd == -1);
 	}

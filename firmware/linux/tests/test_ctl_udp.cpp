@@ -3,8 +3,10 @@
 #include <catch2/catch.hpp>
 
 #include <algorithm>
+#include <cstdio>
 #include <cstring>
 
+#include <fcntl.h>
 #include <netinet/in.h>
 #include <signal.h>
 #include <spawn.h>
@@ -243,4 +245,166 @@ TEST_CASE("swell-ctl --clock device: a silent device is ticked on every period, 
 	CHECK(short_gaps >= 100);
 	CHECK(rate < 1.2 * tick_hz); /* never faster than the period */
 	CHECK(WIFEXITED(st));
+}
+
+namespace {
+
+std::string slurp_file(const std::string &path)
+{
+	std::string s;
+	FILE *f = fopen(path.c_str(), "r");
+	if (!f)
+		return s;
+	char buf[4096];
+	size_t n;
+	while ((n = fread(buf, 1, sizeof buf, f)) > 0)
+		s.append(buf, n);
+	fclose(f);
+	return s;
+}
+
+/* swell-ctl with args, standard output and error into files; its pid */
+pid_t spawn_logged(std::vector<std::string> args, const std::string &out, const std::string &err)
+{
+	std::vector<char *> argv;
+	for (auto &a : args)
+		argv.push_back(&a[0]);
+	argv.push_back(nullptr);
+	posix_spawn_file_actions_t fa;
+	posix_spawn_file_actions_init(&fa);
+	posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+	posix_spawn_file_actions_addopen(&fa, 2, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+	pid_t pid = -1;
+	const int rc = posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ);
+	posix_spawn_file_actions_destroy(&fa);
+	REQUIRE(rc == 0);
+	return pid;
+}
+
+} // namespace
+
+TEST_CASE("swell-ctl without real-time scheduling says so and uses a 20 ms silence limit, and a run that "
+	  "faulted says FAULTED in its report",
+	  "[ctl][udp]")
+{
+	swell_link *dev = nullptr;
+	REQUIRE(swell_link_open_udp(&dev, "127.0.0.1", 0, "127.0.0.1", 0) == 0);
+	const uint16_t mine = swell_link_udp_port(dev);
+	swell_link_close(dev);
+	dev = nullptr;
+	const uint16_t ctl_port = (uint16_t)(mine + 1);
+	REQUIRE(swell_link_open_udp(&dev, "127.0.0.1", mine, "127.0.0.1", ctl_port) == 0);
+	const std::string base = "/tmp/swell-ctl-rt-" + std::to_string(getpid());
+	std::vector<std::string> args = {SWELL_CTL_BIN, "--device", "udp:" + std::to_string(ctl_port), "--host", "none",
+					 "--autorun", "--no-rt", "--quiet", "--seconds", "30"};
+	const pid_t pid = spawn_logged(args, base + ".out", base + ".err");
+
+	/* the device talks until the loop runs (an enabled FORCE_CMD), then falls silent */
+	uint8_t seq = 0, pseq = 0;
+	bool running = false;
+	const uint64_t until = swell_link_now_ns() + 10000000000u;
+	while (!running && swell_link_now_ns() < until) {
+		swell_msg m{};
+		m.type = SWELL_MSG_DEVICE_POS;
+		m.u.device_pos.seq = seq++;
+		m.u.device_pos.status = 1;
+		m.u.device_pos.z_10um = 10000;
+		swell_frame f{};
+		size_t used = 0;
+		REQUIRE(swell_link_encode(SWELL_CARRIER_PKT, 0, pseq++, &m, 1, &f, &used) == SWELL_OK);
+		swell_link_send(dev, &f);
+		swell_frame in{};
+		swell_msg got[SWELL_PKT_MSGS_MAX];
+		size_t n = 0;
+		while (!running && swell_link_recv(dev, &in, 1) == 0)
+			if (swell_link_decode(SWELL_CARRIER_PKT, &in, got, SWELL_PKT_MSGS_MAX, &n, nullptr, nullptr) == SWELL_OK)
+				for (size_t k = 0; k < n; k++)
+					running = running || (got[k].type == SWELL_MSG_FORCE_CMD && got[k].u.force_cmd.enable);
+	}
+	const timespec silence{0, 300000000}; /* 15 times the 20 ms limit */
+	nanosleep(&silence, nullptr);
+	swell_link_close(dev);
+	kill(pid, SIGTERM);
+	int st = 0;
+	waitpid(pid, &st, 0);
+	const std::string out = slurp_file(base + ".out"), err = slurp_file(base + ".err");
+	std::remove((base + ".out").c_str());
+	std::remove((base + ".err").c_str());
+	INFO("stderr:\n" << err << "stdout:\n" << out);
+	CHECK(running);
+	CHECK(err.find("no real-time scheduling (--no-rt): device silence limit 50 ticks (20.0 ms) instead of 2") !=
+	      std::string::npos);
+	CHECK(out.find("FAULTED         1 times in this run") != std::string::npos);
+	CHECK(out.find("last error: link silent") != std::string::npos);
+	CHECK(WIFEXITED(st));
+	CHECK(WEXITSTATUS(st) == 0);
+}
+
+TEST_CASE("swell-ctl: every bad argument and conflicting pair exits 2 with one line naming it, a link the "
+	  "system refuses exits 1",
+	  "[ctl][args]")
+{
+	const std::string base = "/tmp/swell-ctl-args-" + std::to_string(getpid());
+	struct {
+		std::vector<std::string> args;
+		int code;
+		const char *says;
+	} cases[] = {
+		{{"--bogus"}, 2, "unknown option (see --help): --bogus"},
+		{{"--bogus", "1"}, 2, "unknown option (see --help): --bogus"},
+		{{"--tick-hz"}, 2, "this option needs a value: --tick-hz"},
+		{{"stray"}, 2, "unexpected argument (see --help): stray"},
+		{{"--tick-hz", "abc"}, 2, "--tick-hz 'abc' is not a whole number"},
+		{{"--tick-hz", "5"}, 2, "--tick-hz '5' is not a whole number in [10, 100000]"},
+		{{"--solver-hz", "333"}, 2, "configuration refused"},
+		{{"--silent-ticks", "0"}, 2, "--silent-ticks '0'"},
+		{{"--silent-ticks", "-3"}, 2, "--silent-ticks '-3'"},
+		{{"--node", "16"}, 2, "--node '16'"},
+		{{"--host-budget", "0"}, 2, "--host-budget '0'"},
+		{{"--clock", "wall"}, 2, "--clock must be internal or device, not wall"},
+		{{"--seconds", "-1"}, 2, "--seconds must be a positive number, not -1"},
+		{{"--seconds", "nan"}, 2, "--seconds must be a positive number, not nan"},
+		{{"--fw-version", "1.2"}, 2, "--fw-version must be X.Y.Z"},
+		{{"--device", "tcp:1"}, 2, "device link: link 'tcp:1' is not udp[:PORT], can:IFACE or usb:FFS_DIR"},
+		{{"--device", "udp:99999"}, 2, "device link: udp:99999: port '99999' is not in 1..65535"},
+		{{"--device", "udp:47990,peer=x"}, 2, "is not peer=ADDR:PORT"},
+		{{"--device", "udp:47990,listen=47991"}, 2, "is not peer=ADDR:PORT"},
+		{{"--device", "can:"}, 2, "device link: can:: give an interface"},
+		{{"--device", "usb:"}, 2, "device link: usb:: give the FunctionFS mount"},
+		{{"--device", "udp:47990", "--host", "udp:47991,listen=1.2.3.4.5:1"}, 2, "host link: udp:47991,listen="},
+		{{"--device", "udp:47990", "--host", "udp:47990"}, 2, "the telemetry would go to the device link's own port"},
+		{{"--device", "udp:47801", "--host", "udp"}, 2, "the telemetry would go to the device link's own port"},
+		{{"--device", "usb:/x", "--host", "usb:/x"}, 2, "are one FunctionFS mount (usb:/x)"},
+		{{"--device", "usb:/nonexistent-ffs", "--host", "none"}, 1,
+		 "FunctionFS open failed: No such file or directory"},
+		/* no such interface; on a machine without CAN the socket is refused first */
+		{{"--device", "can:nosuchcan0", "--host", "none"}, 1, "can:nosuchcan0: "},
+	};
+	for (auto &c : cases) {
+		std::vector<std::string> args = {SWELL_CTL_BIN, "--no-rt"};
+		args.insert(args.end(), c.args.begin(), c.args.end());
+		const pid_t pid = spawn_logged(args, base + ".out", base + ".err");
+		int st = 0;
+		waitpid(pid, &st, 0);
+		const std::string out = slurp_file(base + ".out"), err = slurp_file(base + ".err");
+		const std::string &lines = err;
+		/* the start-up line about real time is not an error line: count the others */
+		size_t errors = 0, at = 0;
+		while ((at = lines.find("swell-ctl: ", at)) != std::string::npos) {
+			errors += lines.compare(at, 30, "swell-ctl: no real-time schedu") != 0;
+			at++;
+		}
+		std::string joined;
+		for (auto &a : c.args)
+			joined += a + " ";
+		INFO(joined << "-> exit " << (WIFEXITED(st) ? WEXITSTATUS(st) : -1) << ", stderr '" << err << "', stdout '"
+			    << out << "'");
+		CHECK(WIFEXITED(st));
+		CHECK(WEXITSTATUS(st) == c.code);
+		CHECK(err.find(c.says) != std::string::npos);
+		CHECK(errors == 1);
+		CHECK(out.empty());
+	}
+	std::remove((base + ".out").c_str());
+	std::remove((base + ".err").c_str());
 }

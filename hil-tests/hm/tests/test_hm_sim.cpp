@@ -424,6 +424,10 @@ TEST_CASE("bad parameter sets are refused with a one-line reason, exit 2, nothin
 		{"--host", "999.1.1.1"},
 		{"--seconds", "-1"},
 		{"--bogus", "1"},
+		{"--pool", "10,10"},                 // smaller than the 50 mm object
+		{"--object", "100,60,60", "--pool", "400,50"},
+		{"--hand", "drop:z=20,z=30"},        // a key given twice
+		{"--hand", "shake:axis=x,axis=y"},
 	};
 	for (const auto &b : bad) {
 		std::remove(csv.c_str());
@@ -464,4 +468,29 @@ TEST_CASE("determinism: the same scripted hand in lockstep gives a bit-identical
 	INFO("trace of " << lines << " lines");
 	CHECK(lines > 7000);
 	CHECK(logs[0] == logs[1]);
+}
+
+TEST_CASE("runtime failures exit 1 with the reason: no controller ever answered, a log that cannot be written")
+{
+	const uint16_t port = free_udp_port(); // nobody listens there
+	const std::string out = work_dir + "/nobody.txt";
+	struct {
+		std::vector<std::string> extra;
+		const char *why;
+	} cases[] = {
+		{{}, "swell-hm: no controller answered on"},
+		{{"--log", "/dev/full"}, "swell-hm: writing /dev/full failed: No space left on device"},
+		{{"--log", "/nonexistent/x.csv"}, "swell-hm: cannot write /nonexistent/x.csv: No such file or directory"},
+	};
+	for (const auto &c : cases) {
+		std::vector<std::string> args = {hm_bin, "--lockstep", "--timeout-ms", "1", "--port", std::to_string(port),
+						 "--seconds", "0.1", "--quiet"};
+		args.insert(args.end(), c.extra.begin(), c.extra.end());
+		proc p = spawn(args, out);
+		const int rc = wait_for(p, 20.0);
+		const std::string text = slurp(out);
+		INFO(c.why << ": exit " << rc << ", output '" << text << "'");
+		CHECK(rc == 1);
+		CHECK(text.find(c.why) != std::string::npos);
+	}
 }

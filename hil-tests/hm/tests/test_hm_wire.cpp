@@ -169,3 +169,70 @@ TEST_CASE("wire: a tick sends VEL, FORCE, POS with seq n mod 256, FORCE_CMD move
 	CHECK(rows[501][applied] == 0.0);
 	CHECK(rows[599][applied] == 0.0);
 }
+
+TEST_CASE("wire: a controller that faulted is named in the summary (NOT A CLEAN RUN, FAULTED), and real time "
+	  "without SCHED_FIFO says which watchdog it uses")
+{
+	const int fd = socket(AF_INET, SOCK_DGRAM, 0);
+	REQUIRE(fd >= 0);
+	sockaddr_in a{};
+	a.sin_family = AF_INET;
+	a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+	socklen_t al = sizeof a;
+	REQUIRE(bind(fd, reinterpret_cast<sockaddr *>(&a), sizeof a) == 0);
+	REQUIRE(getsockname(fd, reinterpret_cast<sockaddr *>(&a), &al) == 0);
+	const std::string port = std::to_string(ntohs(a.sin_port)), out = work_dir + "/faulted.txt";
+
+	// real time (no --rt): 1.5 s, every sample answered; the heartbeats say RUNNING, then FAULT for a
+	// while (samples 1000..1499), then RUNNING again
+	std::vector<std::string> args = {hm_bin, "--port", port, "--seconds", "1.5", "--hand", "idle", "--quiet"};
+	std::vector<char *> argv;
+	for (auto &s : args)
+		argv.push_back(&s[0]);
+	argv.push_back(nullptr);
+	posix_spawn_file_actions_t fa;
+	posix_spawn_file_actions_init(&fa);
+	posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+	posix_spawn_file_actions_adddup2(&fa, 1, 2);
+	pid_t pid;
+	REQUIRE(posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ) == 0);
+	posix_spawn_file_actions_destroy(&fa);
+
+	int samples = 0;
+	for (;;) {
+		pollfd p = {fd, POLLIN, 0};
+		if (poll(&p, 1, samples ? 500 : 3000) <= 0) /* swell-hm has ended */
+			break;
+		uint8_t buf[128];
+		sockaddr_in from{};
+		socklen_t fl = sizeof from;
+		if (recvfrom(fd, buf, sizeof buf, 0, reinterpret_cast<sockaddr *>(&from), &fl) <= 0)
+			break;
+		swell_msg c[2]{};
+		c[0].type = SWELL_MSG_FORCE_CMD;
+		c[0].u.force_cmd.seq = (uint8_t)samples;
+		c[1].type = SWELL_MSG_HEARTBEAT;
+		c[1].u.heartbeat.version = SWELL_PROTO_VERSION;
+		c[1].u.heartbeat.seq = (uint8_t)samples;
+		c[1].u.heartbeat.state = samples >= 1000 && samples < 1500 ? 4 : 3;
+		c[1].u.heartbeat.err = samples >= 1000 && samples < 1500 ? SWELL_ETIMEOUT : SWELL_OK;
+		uint8_t pkt[SWELL_PKT_MAX];
+		size_t plen = 0, used = 0;
+		REQUIRE(swell_pkt_encode(0, (uint8_t)samples, c, 2, pkt, sizeof pkt, &plen, &used) == SWELL_OK);
+		sendto(fd, pkt, plen, 0, reinterpret_cast<sockaddr *>(&from), fl);
+		samples++;
+	}
+	int st = 0;
+	waitpid(pid, &st, 0);
+	close(fd);
+	const std::string text = slurp(out);
+	INFO("samples answered " << samples << "\n" << text);
+	REQUIRE(samples > 1500);
+	CHECK(text.find("without real-time scheduling (no --rt): watchdog 50 ticks (20.0 ms) instead of 2") !=
+	      std::string::npos);
+	CHECK(text.find("FAULTED         the controller faulted 1 times (500 heartbeats in FAULT, last error: link "
+			"silent)") != std::string::npos);
+	CHECK(text.find("NOT A CLEAN RUN the controller faulted 1 times") != std::string::npos);
+	REQUIRE(WIFEXITED(st));
+	CHECK(WEXITSTATUS(st) == 0);
+}

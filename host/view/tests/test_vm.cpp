@@ -171,26 +171,30 @@ TEST_CASE("sequence gaps count dropped frames, modulo the sequence width, a late
 	CHECK(m.st.late == 1);
 	CHECK(m.st.dropped == 5);
 	CHECK(vm_frame(&m, 3, 16, 5));
-	// a jump of more than half the range forward is a burst of loss, not a late frame
+	// a jump of more than the loss window forward is one resynchronisation, not 39996 lost
 	CHECK(vm_frame(&m, 40000, 16, 6));
-	CHECK(m.st.dropped == 5 + 39996);
+	CHECK(m.st.dropped == 5);
+	CHECK(m.st.resyncs == 1);
 	CHECK(m.st.frames == 6);
-	// 8-bit sequences: 90 lost in a burst look like "166 behind": still a loss, and the stream
-	// goes on from there
+	// 8-bit sequences: gaps up to 32 are losses, a jump beyond (89, 40, 209 ahead) one resync each,
+	// wrapping or not, and the stream goes on from there
 	view_model k;
 	vm_init(&k, S);
 	CHECK(vm_frame(&k, 125, 8, 1));
-	CHECK(vm_frame(&k, 215, 8, 2));
+	CHECK(vm_frame(&k, 150, 8, 2)); // 24 lost
+	CHECK(vm_frame(&k, 215, 8, 2)); // 64 ahead
 	CHECK(vm_frame(&k, 216, 8, 3));
-	CHECK(vm_frame(&k, 1, 8, 4));   // 41 more lost, wrapping
-	CHECK(vm_frame(&k, 211, 8, 5)); // 209 ahead: a loss, not 46 behind
+	CHECK(vm_frame(&k, 1, 8, 4));   // 40 ahead, wrapping
+	CHECK(vm_frame(&k, 211, 8, 5)); // 209 ahead, not 46 behind
 	CHECK(vm_frame(&k, 212, 8, 6));
 	CHECK(k.st.late == 0);
-	CHECK(k.st.dropped == 89 + 40 + 209);
-	// a sender that starts counting again from far back: after a few late ones, resynchronised
+	CHECK(k.st.dropped == 24);
+	CHECK(k.st.resyncs == 3);
+	// a sender that starts counting again from far back: after a few late ones, one resync
 	for (uint32_t q = 190; q < 200; q++)
 		vm_frame(&k, q, 8, 7);
 	CHECK(k.st.late == 7);
+	CHECK(k.st.resyncs == 4);
 	CHECK(vm_frame(&k, 200, 8, 8));
 	vm_free(&k);
 	vm_free(&m);
@@ -327,5 +331,22 @@ TEST_CASE("latency estimate is the delay above the best path seen, and follows c
 	INFO("latency estimate " << m.st.latency_ms << " ms");
 	CHECK(m.st.latency_ms < 1.45);
 	CHECK(m.st.latency_ms > 0.95);
+	vm_free(&m);
+}
+
+TEST_CASE("two interleaved 8-bit counts (two senders) are resynchronisations, never more lost than received")
+{
+	view_model m;
+	vm_init(&m, S);
+	uint8_t a = 0, b = 128;
+	for (int k = 0; k < 1000; k++) {
+		vm_frame(&m, a++, 8, (uint64_t)k);
+		vm_frame(&m, b++, 8, (uint64_t)k);
+	}
+	INFO("frames " << m.st.frames << ", dropped " << m.st.dropped << ", late " << m.st.late << ", resyncs "
+		       << m.st.resyncs);
+	CHECK(m.st.dropped <= m.st.frames);
+	CHECK(m.st.dropped == 0);
+	CHECK(m.st.resyncs >= 1000);
 	vm_free(&m);
 }

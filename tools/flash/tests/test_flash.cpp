@@ -140,6 +140,14 @@ TEST_CASE("every flipped byte of a BIN or an ELF image is refused")
 	bytes c = bin;
 	c[2000] ^= 1;
 	CHECK(check(c).find("CRC-32 mismatch") != std::string::npos);
+	// a zeroed header CRC is the header's fault, said with both numbers (was: an image CRC
+	// "mismatch" of two equal numbers)
+	bytes z = bin;
+	for (size_t k = 0x200 + 28; k < 0x200 + 32; k++)
+		z.at(k) = 0;
+	const std::string why = check(z);
+	INFO(why);
+	CHECK(why.find("corrupted header: header CRC-32 0x00000000, computed 0x") != std::string::npos);
 }
 
 TEST_CASE("truncated images are refused with the length in the reason")
@@ -278,6 +286,15 @@ TEST_CASE("dry-run command lines: gdb-multiarch on QEMU, openocd and a Black Mag
 	o.gdb_server = FLASH_GDB_QEMU;
 	l = plan_lines(o);
 	CHECK(l[0].find("-ex 'restore /w/fw.bin binary 0x08000000'") != std::string::npos);
+	// gdb 13 cuts restore's file name at a blank and does not parse quotes: refused, not mangled
+	flash_plan q;
+	char qwhy[256] = "";
+	o.bin = "/w/my fw.bin";
+	CHECK(flash_plan_build(&o, &q, qwhy, sizeof(qwhy)) == -1);
+	CHECK(std::string(qwhy).find("cannot hand '/w/my fw.bin' to gdb") != std::string::npos);
+	o.bin = "/w/fw\"x.bin";
+	CHECK(flash_plan_build(&o, &q, qwhy, sizeof(qwhy)) == -1);
+	o.bin = "/w/fw.bin";
 	o.gdb_server = FLASH_GDB_OPENOCD;
 	flash_plan p;
 	char why[256] = "";
