@@ -22,7 +22,8 @@ static void usage(FILE *f)
 	      "  --link SPEC      udp[:PORT] (default udp:47801, where swell-ctl's host link sends; a\n"
 	      "                   viewer on the same port must be stopped first), can:IFACE, usb[:VID:PID]\n"
 	      "  --node N         the controller's node, 0..15 (default: the one controller heard)\n"
-	      "  --timeout-ms MS  how long to wait for the controller and for each answer (default 1000)\n"
+	      "  --timeout-ms MS  how long to wait for the controller and for each answer, and the silence\n"
+	      "                   that means it is gone (default 1000; 600 at least)\n"
 	      "Commands:\n"
 	      "  status [--json]          state, last error, protocol and firmware version, counters, scene,\n"
 	      "                           object (size, mass, height, submersion, force)\n"
@@ -367,7 +368,7 @@ static int cmd_status(struct tool_session *s, const struct opts *o)
 {
 	const struct tool_telemetry *t = &s->t;
 	const struct swell_param_desc *md = swell_param_by_id(SWELL_PARAM_BODY_MASS_G);
-	enum tool_rc rc = tool_wait_full(s, o->timeout_ms + 1200); /* scene and info come at 1 Hz */
+	enum tool_rc rc = tool_wait_full(s, 11 * o->timeout_ms / 10 + 1200); /* scene and info: 1 Hz */
 	int32_t mass = 0;
 	char fw[16];
 
@@ -451,7 +452,7 @@ static int cmd_watch(struct tool_session *s, const struct opts *o)
 		tool_pump(s, 100);
 		if (tool_silent(s)) {
 			fprintf(stderr, "%sswell-tool: watch: the controller went silent (no heartbeat for %d ms)\n",
-				tty ? "\n" : "", TOOL_SILENT_MS);
+				tty ? "\n" : "", s->silent_ms);
 			return TOOL_TIMEOUT;
 		}
 		load_line(s, &l, lb, sizeof(lb));
@@ -502,7 +503,7 @@ static int cmd_log(struct tool_session *s, const struct opts *o)
 		return TOOL_FAIL;
 	}
 	lg.rows = 0;
-	tool_wait_full(s, 1500); /* scene and info, for the water under the object */
+	tool_wait_full(s, 11 * o->timeout_ms / 10 + 1200); /* scene and info, for the water under the object */
 	lg.t0 = tool_elapsed_s(s);
 	fprintf(lg.f, "t_s,state,x_mm,y_mm,z_mm,submersion_pct,fx_N,fy_N,fz_N,water_mm,wave_max_mm\n");
 	s->on_msg = log_row;

@@ -172,6 +172,7 @@ enum tool_rc tool_open(struct tool_session *s, const struct flash_link_spec *spe
 	s->spec = *spec;
 	s->node = -1;
 	s->other = -1;
+	s->silent_ms = timeout_ms > TOOL_SILENT_MS ? timeout_ms : TOOL_SILENT_MS;
 	s->t0_ns = swell_link_now_ns();
 	flash_link_describe(spec, s->name, sizeof(s->name));
 	rc = flash_link_open(spec, timeout_ms, &s->l);
@@ -227,7 +228,7 @@ enum tool_rc tool_wait_full(struct tool_session *s, int timeout_ms)
 
 int tool_silent(const struct tool_session *s)
 {
-	return !s->t.have_hb || swell_link_now_ns() - s->t.hb_ns > ms_ns(TOOL_SILENT_MS);
+	return !s->t.have_hb || swell_link_now_ns() - s->t.hb_ns > ms_ns(s->silent_ms);
 }
 
 static int send_msg(struct tool_session *s, const struct swell_msg *m)

@@ -24,7 +24,7 @@ enum tool_rc {
 };
 
 #define TOOL_GRID_MAX 256
-#define TOOL_SILENT_MS 600 /* heartbeats come at 10 Hz: six missed and the controller is gone */
+#define TOOL_SILENT_MS 600 /* at least: heartbeats come at 10 Hz, six missed and the controller is gone */
 
 struct tool_telemetry {
 	int have_hb, have_scene, have_info, have_pose, have_force;
@@ -45,6 +45,7 @@ struct tool_session {
 	char name[64];
 	struct swell_link *l;
 	int node;      /* the controller's node once found; -1 before */
+	int silent_ms; /* no heartbeat this long: the controller is gone (the timeout, TOOL_SILENT_MS at least) */
 	int other;     /* another node heard (-1 none) */
 	uint8_t seq, pkt_seq;
 	uint64_t t0_ns;
@@ -57,7 +58,8 @@ struct tool_session {
 };
 
 /* Open the link and wait up to timeout_ms for the controller's heartbeat (node spec->node, or the
- * one controller heard). TOOL_OK, or NO_CTL / WRONG_NODE / FAIL with a one-line reason in err. */
+ * one controller heard). Silence longer than timeout_ms (TOOL_SILENT_MS at least) later means the
+ * controller is gone. TOOL_OK, or NO_CTL / WRONG_NODE / FAIL with a one-line reason in err. */
 enum tool_rc tool_open(struct tool_session *s, const struct flash_link_spec *spec, int timeout_ms, char *err,
 		       size_t errlen);
 void tool_close(struct tool_session *s);
@@ -70,7 +72,7 @@ int tool_pump(struct tool_session *s, int ms);
  * at most timeout_ms. TOOL_OK or TOOL_TIMEOUT. */
 enum tool_rc tool_wait_full(struct tool_session *s, int timeout_ms);
 
-/* The controller is silent: no heartbeat for TOOL_SILENT_MS. */
+/* The controller is silent: no heartbeat for silent_ms. */
 int tool_silent(const struct tool_session *s);
 
 /* PARAM_SET (set 1) or PARAM_GET (set 0) of id; waits for the answer for up to timeout_ms, sending
