@@ -11,8 +11,9 @@
 
 #include "swell/link.h"
 #include "swell/param.h"
+#include "tool_scene.h"
 #include "tool_session.h"
-#include "tool_units.h"
+#include "swell/param_text.h"
 
 static void usage(FILE *f)
 {
@@ -40,6 +41,9 @@ static void usage(FILE *f)
 	      "                           largest wave, link load (until SIGINT, or S seconds)\n"
 	      "  log FILE.csv [--seconds S]  S seconds (default 10) of telemetry at 100 Hz to a CSV file,\n"
 	      "                           with a progress line\n"
+	      "  scene load FILE.scene    a scene file as one change: its pool must be the controller's; a\n"
+	      "                           refused value puts back what was set and names the line\n"
+	      "  scene save FILE.scene    the scene in force, every parameter, to a file\n"
 	      "  plot FILE.csv [--out FILE.png]  gnuplot PNG of a log: force, object bottom against the water\n"
 	      "                           under it, submersion (default FILE.png beside the CSV)\n"
 	      "Exit status: 0 done; 1 runtime failure (link, file); 2 bad arguments; 3 no controller heard;\n"
@@ -195,7 +199,7 @@ static int cmd_get(struct tool_session *s, const struct opts *o)
 	rc = get_value(s, o, d, &v);
 	if (rc != TOOL_OK)
 		return rc;
-	tool_units_format(d, v, buf, sizeof(buf));
+	swell_param_format(d, v, buf, sizeof(buf));
 	printf("%s = %s (raw %ld)\n", d->name, buf, (long)v);
 	return TOOL_OK;
 }
@@ -210,7 +214,7 @@ static int cmd_set(struct tool_session *s, const struct opts *o, const struct sw
 	rc = get_value(s, o, d, &before);
 	if (rc != TOOL_OK)
 		return rc;
-	tool_units_format(d, before, was, sizeof(was));
+	swell_param_format(d, before, was, sizeof(was));
 	rc = tool_request(s, 1, d->id, raw, o->timeout_ms, &v, &why, err, sizeof(err));
 	if (rc == TOOL_REFUSED) {
 		fprintf(stderr, "swell-tool: set %s refused by the controller: %s (state %s); %s stays %s\n", d->name,
@@ -221,7 +225,7 @@ static int cmd_set(struct tool_session *s, const struct opts *o, const struct sw
 		fprintf(stderr, "swell-tool: set %s: %s\n", d->name, err);
 		return rc;
 	}
-	tool_units_format(d, v, now, sizeof(now));
+	swell_param_format(d, v, now, sizeof(now));
 	printf("%s = %s (was %s)\n", d->name, now, was);
 	return TOOL_OK;
 }
@@ -242,7 +246,7 @@ static int cmd_set_args(struct tool_session *s, const struct opts *o)
 		if (strlen(text) + strlen(o->argv[k]) + 1 < sizeof(text)) {
 			strcat(text, o->argv[k]);
 		}
-	if (tool_units_parse(d, text, &raw, err, sizeof(err)) < 0)
+	if (swell_param_parse(d, text, &raw, err, sizeof(err)) < 0)
 		return bad("%s", err);
 	return cmd_set(s, o, d, raw);
 }
@@ -273,10 +277,10 @@ static int cmd_params(struct tool_session *s, const struct opts *o)
 				return rc;
 			continue;
 		}
-		tool_units_format(&t[k], raw, v, sizeof(v));
-		tool_units_format(&t[k], t[k].min, lo, sizeof(lo));
-		tool_units_format(&t[k], t[k].max, hi, sizeof(hi));
-		tool_units_format(&t[k], t[k].def, def, sizeof(def));
+		swell_param_format(&t[k], raw, v, sizeof(v));
+		swell_param_format(&t[k], t[k].min, lo, sizeof(lo));
+		swell_param_format(&t[k], t[k].max, hi, sizeof(hi));
+		swell_param_format(&t[k], t[k].def, def, sizeof(def));
 		snprintf(range, sizeof(range), "%s .. %s", lo, hi);
 		printf("%-18s %-16s %-30s %-14s %s\n", t[k].name, v, range, def,
 		       t[k].when == SWELL_PWHEN_DRY && wet(s) ? "no: the object displaces water" : "yes");
@@ -593,7 +597,7 @@ static int cmd_plot(const struct opts *o)
 }
 
 static const char *const session_cmds[] = {"status", "get", "set", "params", "arm", "run", "stop",
-					   "clear", "estop", "watch", "log"};
+					   "clear", "estop", "watch", "log", "scene"};
 
 int main(int argc, char **argv)
 {
@@ -614,6 +618,8 @@ int main(int argc, char **argv)
 		known |= !strcmp(cmd, session_cmds[k]);
 	if (!known)
 		return bad("unknown command '%s'", cmd);
+	if (!strcmp(cmd, "scene") && (o.argc != 3 || (strcmp(o.argv[1], "load") && strcmp(o.argv[1], "save"))))
+		return bad("%s", "scene takes load FILE or save FILE");
 	signal(SIGINT, on_signal);
 	signal(SIGTERM, on_signal);
 	rc = tool_open(&s, &o.spec, o.timeout_ms, err, sizeof(err));
@@ -642,6 +648,9 @@ int main(int argc, char **argv)
 		rc = cmd_estop(&s, &o);
 	else if (!strcmp(cmd, "watch"))
 		rc = cmd_watch(&s, &o);
+	else if (!strcmp(cmd, "scene"))
+		rc = !strcmp(o.argv[1], "load") ? tool_scene_load(&s, o.argv[2], o.timeout_ms)
+						 : tool_scene_save(&s, o.argv[2], o.timeout_ms);
 	else
 		rc = cmd_log(&s, &o);
 	tool_close(&s);

@@ -263,3 +263,52 @@ TEST_CASE("swell-tool exit status: 3 with no controller, 4 for a wrong node, 5 w
 	/* and a request to a controller that is gone: no heartbeat, so no controller */
 	CHECK(r.tool("--timeout-ms 300 get body.mass").status == 3);
 }
+
+TEST_CASE("swell-tool scene files over UDP: save and load back unchanged, another pool refused with its line, a "
+	  "refused value puts back what was set",
+	  "[tool][udp][scene]")
+{
+	Rig r("scene");
+	const std::string saved = r.dir + "/saved.scene";
+	Result sv = r.tool("scene save " + saved);
+	REQUIRE(sv.status == 0);
+	const std::string text = slurp(saved);
+	CHECK(has(text, "pool.nx            = 64 cells"));
+	CHECK(has(text, "solver.hz          = 250 Hz"));
+	CHECK(has(text, "body.mass          = 100 g"));
+	Result back = r.tool("scene load " + saved);
+	CHECK(back.status == 0);
+	CHECK(has(back.out, "0 changed"));
+
+	/* another pool: a start-up parameter, refused before anything is sent */
+	Result other = r.tool("scene load " + std::string(SWELL_SCENES_DIR) + "/shallow.scene");
+	CHECK(other.status == 6);
+	CHECK(has(other.out, "shallow.scene:4: pool.nx = 128 cells, the controller runs 64 cells"));
+
+	/* a file that does not parse: its line, nothing sent */
+	const std::string bad = r.dir + "/bad.scene";
+	{
+		std::ofstream f(bad);
+		f << "# a bad file\nwave.damping = 0.01\nbody.mass = 80 mm\n";
+	}
+	Result parse = r.tool("scene load " + bad);
+	CHECK(parse.status == 2);
+	CHECK(has(parse.out, "bad.scene:3: body.mass: unit 'mm' is not g"));
+	CHECK(has(r.tool("get wave.damping").out, "wave.damping = 0.001 "));
+
+	/* running, the object in the water: heavy.scene's damping goes in, its mass is refused, and the
+	 * damping is put back */
+	REQUIRE(r.tool("set wave.damping 0.05").status == 0);
+	REQUIRE(r.tool("run").status == 0);
+	std::string wet;
+	for (int k = 0; k < 20 && !has(wet, "displaces water"); k++) {
+		std::this_thread::sleep_for(std::chrono::milliseconds(200));
+		wet = r.tool("params").out;
+	}
+	Result heavy = r.tool("scene load " + std::string(SWELL_SCENES_DIR) + "/heavy.scene");
+	CHECK(heavy.status == 6);
+	CHECK(has(heavy.out, "heavy.scene:9: body.mass refused by the controller: not allowed in this state"));
+	CHECK(has(heavy.out, "the controller is as it was"));
+	CHECK(has(r.tool("get wave.damping").out, "wave.damping = 0.05 "));
+	CHECK(has(r.tool("get body.mass").out, "body.mass = 100 g"));
+}

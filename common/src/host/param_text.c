@@ -1,5 +1,5 @@
-/* swell-tool: values with units; see tool_units.h. */
-#include "tool_units.h"
+/* Parameter values with units; see swell/param_text.h. */
+#include "swell/param_text.h"
 
 #include <errno.h>
 #include <math.h>
@@ -7,14 +7,14 @@
 #include <stdlib.h>
 #include <string.h>
 
-double tool_units_phys(const struct swell_param_desc *d, int32_t raw)
+double swell_param_phys(const struct swell_param_desc *d, int32_t raw)
 {
 	return (double)raw * strtod(d->factor, NULL);
 }
 
-void tool_units_format(const struct swell_param_desc *d, int32_t raw, char *buf, size_t len)
+void swell_param_format(const struct swell_param_desc *d, int32_t raw, char *buf, size_t len)
 {
-	snprintf(buf, len, "%.7g%s%s", tool_units_phys(d, raw), d->unit[0] ? " " : "", d->unit);
+	snprintf(buf, len, "%.7g%s%s", swell_param_phys(d, raw), d->unit[0] ? " " : "", d->unit);
 }
 
 /* The scale of an SI prefix; 0 for none known. */
@@ -54,7 +54,7 @@ static double unit_scale(const char *u, const char *pu)
 	return su / sp;
 }
 
-int tool_units_parse(const struct swell_param_desc *d, const char *text, int32_t *raw, char *err, size_t errlen)
+int swell_param_parse(const struct swell_param_desc *d, const char *text, int32_t *raw, char *err, size_t errlen)
 {
 	const double factor = strtod(d->factor, NULL);
 	char unit[16];
@@ -93,8 +93,8 @@ int tool_units_parse(const struct swell_param_desc *d, const char *text, int32_t
 	if (r < (double)d->min || r > (double)d->max) {
 		char lo[48], hi[48];
 
-		tool_units_format(d, d->min, lo, sizeof(lo));
-		tool_units_format(d, d->max, hi, sizeof(hi));
+		swell_param_format(d, d->min, lo, sizeof(lo));
+		swell_param_format(d, d->max, hi, sizeof(hi));
 		snprintf(err, errlen, "%s: %s is outside %s .. %s", d->name, text, lo, hi);
 		return -1;
 	}

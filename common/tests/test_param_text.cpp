@@ -1,11 +1,11 @@
-/* swell-tool's values with units against the parameter table: what people type becomes the raw value
+/* Values with units against the parameter table: what people type becomes the raw value
  * the controller takes, and a value of another kind or out of range is refused before anything is sent. */
 #include <catch2/catch.hpp>
 
 #include <string>
 
 extern "C" {
-#include "tool_units.h"
+#include "swell/param_text.h"
 }
 
 namespace {
@@ -17,7 +17,7 @@ int32_t parse_ok(const char *name, const char *text)
 	char err[200] = "";
 	int32_t raw = -12345;
 	INFO(name << " '" << text << "': " << err);
-	REQUIRE(tool_units_parse(d, text, &raw, err, sizeof(err)) == 0);
+	REQUIRE(swell_param_parse(d, text, &raw, err, sizeof(err)) == 0);
 	return raw;
 }
 
@@ -27,14 +27,14 @@ std::string parse_err(const char *name, const char *text)
 	REQUIRE(d != nullptr);
 	char err[200] = "";
 	int32_t raw = -12345;
-	CHECK(tool_units_parse(d, text, &raw, err, sizeof(err)) == -1);
+	CHECK(swell_param_parse(d, text, &raw, err, sizeof(err)) == -1);
 	CHECK(raw == -12345); /* untouched */
 	return err;
 }
 
 } // namespace
 
-TEST_CASE("values with units and SI prefixes become the parameter's raw integers", "[tool][units]")
+TEST_CASE("values with units and SI prefixes become the parameter's raw integers", "[param][units]")
 {
 	CHECK(parse_ok("body.mass", "80g") == 80);
 	CHECK(parse_ok("body.mass", "80 g") == 80);
@@ -54,7 +54,7 @@ TEST_CASE("values with units and SI prefixes become the parameter's raw integers
 }
 
 TEST_CASE("a unit of another kind, a non-number or a value out of range is refused with the range in units",
-	  "[tool][units]")
+	  "[param][units]")
 {
 	CHECK(parse_err("body.mass", "80mm").find("unit 'mm' is not g") != std::string::npos);
 	CHECK(parse_err("wave.damping", "0.02g").find("has no unit") != std::string::npos);
@@ -66,15 +66,15 @@ TEST_CASE("a unit of another kind, a non-number or a value out of range is refus
 	CHECK(!parse_err("ctl.autorun", "2").empty());
 }
 
-TEST_CASE("raw values print in the parameter's unit", "[tool][units]")
+TEST_CASE("raw values print in the parameter's unit", "[param][units]")
 {
 	char buf[64];
-	tool_units_format(swell_param_by_name("body.mass"), 100, buf, sizeof(buf));
+	swell_param_format(swell_param_by_name("body.mass"), 100, buf, sizeof(buf));
 	CHECK(std::string(buf) == "100 g");
-	tool_units_format(swell_param_by_name("body.h"), 50000, buf, sizeof(buf));
+	swell_param_format(swell_param_by_name("body.h"), 50000, buf, sizeof(buf));
 	CHECK(std::string(buf) == "50 mm");
-	tool_units_format(swell_param_by_name("force.max"), 10000000, buf, sizeof(buf));
+	swell_param_format(swell_param_by_name("force.max"), 10000000, buf, sizeof(buf));
 	CHECK(std::string(buf) == "10 N");
-	tool_units_format(swell_param_by_name("force.gain"), 65536, buf, sizeof(buf));
+	swell_param_format(swell_param_by_name("force.gain"), 65536, buf, sizeof(buf));
 	CHECK(std::string(buf) == "1");
 }
