@@ -66,6 +66,17 @@ int32_t swell_command_by_name(const char *name)
 	return -1;
 }
 
+const char *swell_state_name(unsigned state)
+{
+	static const char *const names[] = {
+#define SWELL_X(NAME, code, name) [code] = name,
+		SWELL_STATES(SWELL_X)
+#undef SWELL_X
+	};
+
+	return state < sizeof(names) / sizeof(names[0]) ? names[state] : "?";
+}
+
 const char *swell_param_group_name(enum swell_param_group g)
 {
 	static const char *const names[] = {"wave", "body", "size", "safety", "core"};

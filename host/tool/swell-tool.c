@@ -218,7 +218,7 @@ static int cmd_set(struct tool_session *s, const struct opts *o, const struct sw
 	rc = tool_request(s, 1, d->id, raw, o->timeout_ms, &v, &why, err, sizeof(err));
 	if (rc == TOOL_REFUSED) {
 		fprintf(stderr, "swell-tool: set %s refused by the controller: %s (state %s); %s stays %s\n", d->name,
-			swell_err_str(why), tool_state_name(s->t.hb.state), d->name, was);
+			swell_err_str(why), swell_state_name(s->t.hb.state), d->name, was);
 		return rc;
 	}
 	if (rc != TOOL_OK) {
@@ -302,7 +302,7 @@ static int command(struct tool_session *s, const struct opts *o, int32_t cmd, un
 
 	if (rc == TOOL_REFUSED) {
 		fprintf(stderr, "swell-tool: %s refused by the controller: %s (state %s)\n", swell_command_name(cmd),
-			swell_err_str(why), tool_state_name(s->t.hb.state));
+			swell_err_str(why), swell_state_name(s->t.hb.state));
 		return rc;
 	}
 	if (rc != TOOL_OK) {
@@ -325,12 +325,12 @@ static int command(struct tool_session *s, const struct opts *o, int32_t cmd, un
 			}
 		}
 	}
-	printf("%s: acknowledged; state %s -> %s (%.0f ms)%s%s\n", swell_command_name(cmd), tool_state_name(before),
-	       tool_state_name(s->t.hb.state), (double)(swell_link_now_ns() - t0) / 1e6,
+	printf("%s: acknowledged; state %s -> %s (%.0f ms)%s%s\n", swell_command_name(cmd), swell_state_name(before),
+	       swell_state_name(s->t.hb.state), (double)(swell_link_now_ns() - t0) / 1e6,
 	       s->t.hb.err ? ", last error: " : "", s->t.hb.err ? swell_err_str((enum swell_err)s->t.hb.err) : "");
 	if (!(want_mask >> s->t.hb.state & 1u)) {
 		fprintf(stderr, "swell-tool: %s: the state did not follow (still %s)%s\n", swell_command_name(cmd),
-			tool_state_name(s->t.hb.state),
+			swell_state_name(s->t.hb.state),
 			cmd == SWELL_CMD_RUN ? ": the device must be there, powered and its e-stop released" : "");
 		return TOOL_REFUSED;
 	}
@@ -390,7 +390,7 @@ static int cmd_status(struct tool_session *s, const struct opts *o)
 		printf("{\n");
 		json_str("link", s->name, 0);
 		printf("  \"node\": %d,\n", s->node);
-		json_str("state", tool_state_name(t->hb.state), 0);
+		json_str("state", swell_state_name(t->hb.state), 0);
 		json_str("last_error", swell_err_str((enum swell_err)t->hb.err), 0);
 		printf("  \"protocol_version\": %u,\n", t->hb.version);
 		json_str("firmware_version", fw, 0);
@@ -406,7 +406,7 @@ static int cmd_status(struct tool_session *s, const struct opts *o)
 		       t->force.fy_cN / 100.0, t->force.fz_cN / 100.0, t->force.limits);
 		return TOOL_OK;
 	}
-	printf("controller   node %d on %s, state %s, last error: %s\n", s->node, s->name, tool_state_name(t->hb.state),
+	printf("controller   node %d on %s, state %s, last error: %s\n", s->node, s->name, swell_state_name(t->hb.state),
 	       swell_err_str((enum swell_err)t->hb.err));
 	printf("versions     protocol %u, firmware %s\n", t->hb.version, fw);
 	printf("counters     %u bad frames, %u tick overruns (saturating at 65535)\n", t->hb.bad_frames,
@@ -461,7 +461,7 @@ static int cmd_watch(struct tool_session *s, const struct opts *o)
 		}
 		load_line(s, &l, lb, sizeof(lb));
 		printf("%s%7.1f s  %-7s  z %7.2f mm  sub %5.1f %%  F %6.2f %6.2f %6.2f N  wave %5.2f mm  %s%s",
-		       tty ? "\r" : "", tool_elapsed_s(s), tool_state_name(s->t.hb.state), s->t.pose.z_10um / 100.0,
+		       tty ? "\r" : "", tool_elapsed_s(s), swell_state_name(s->t.hb.state), s->t.pose.z_10um / 100.0,
 		       s->t.pose.submersion_halfpct / 2.0, s->t.force.fx_cN / 100.0, s->t.force.fy_cN / 100.0,
 		       s->t.force.fz_cN / 100.0, tool_wave_max_mm(s), lb, tty ? "   " : "\n");
 		fflush(stdout);
@@ -485,7 +485,7 @@ static void log_row(struct tool_session *s, const struct swell_msg *m, void *use
 	if (m->type != SWELL_MSG_OBJECT_FORCE || !s->t.have_pose || s->t.pose.seq != m->u.object_force.seq)
 		return;
 	fprintf(lg->f, "%.4f,%s,%.2f,%.2f,%.2f,%.1f,%.2f,%.2f,%.2f,%.4f,%.4f\n",
-		(double)(s->t.force_ns - s->t0_ns) / 1e9 - lg->t0, tool_state_name(s->t.hb.state),
+		(double)(s->t.force_ns - s->t0_ns) / 1e9 - lg->t0, swell_state_name(s->t.hb.state),
 		s->t.pose.x_10um / 100.0, s->t.pose.y_10um / 100.0, s->t.pose.z_10um / 100.0,
 		s->t.pose.submersion_halfpct / 2.0, s->t.force.fx_cN / 100.0, s->t.force.fy_cN / 100.0,
 		s->t.force.fz_cN / 100.0, tool_water_under_mm(s), tool_wave_max_mm(s));

@@ -5,6 +5,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "swell/param.h"
 #include "swell/param_text.h"
 #include "swell/scene.h"
 #include "swell/wave.h"
@@ -132,7 +133,7 @@ enum tool_rc tool_scene_load(struct tool_session *s, const char *path, int timeo
 	}
 	if (rc == TOOL_OK) {
 		printf("scene load %s: %zu values, %zu changed, state %s\n", path, sc.n, changed,
-		       tool_state_name(s->t.hb.state));
+		       swell_state_name(s->t.hb.state));
 		for (k = 0; k < sc.n; k++) {
 			if (swell_scene_key(sc.v[k].d->id) || old[k] == sc.v[k].raw)
 				continue;
@@ -144,7 +145,7 @@ enum tool_rc tool_scene_load(struct tool_session *s, const char *path, int timeo
 	}
 	if (rc == TOOL_REFUSED)
 		fprintf(stderr, "swell-tool: scene load: %s:%d: %s refused by the controller: %s (state %s)\n", path,
-			sc.v[k].line, sc.v[k].d->name, swell_err_str(why), tool_state_name(s->t.hb.state));
+			sc.v[k].line, sc.v[k].d->name, swell_err_str(why), swell_state_name(s->t.hb.state));
 	else
 		fprintf(stderr, "swell-tool: scene load: %s:%d: %s: %s\n", path, sc.v[k].line, sc.v[k].d->name, err);
 	/* put back, newest first: each earlier state was accepted, so each step back is too */

@@ -10,19 +10,9 @@
 #include <time.h>
 
 #include "swell/link.h"
+#include "swell/param.h"
 
 #define RESEND_MS 250
-
-const char *tool_state_name(unsigned state)
-{
-	static const char *const names[] = {
-#define SWELL_X(NAME, code, name) [code] = name,
-		SWELL_STATES(SWELL_X)
-#undef SWELL_X
-	};
-
-	return state < sizeof(names) / sizeof(names[0]) ? names[state] : "?";
-}
 
 static uint64_t ms_ns(int ms)
 {

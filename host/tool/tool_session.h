@@ -90,6 +90,4 @@ double tool_wave_max_mm(const struct tool_session *s);
 /* Seconds since the session opened. */
 double tool_elapsed_s(const struct tool_session *s);
 
-const char *tool_state_name(unsigned state);
-
 #endif

@@ -1,5 +1,5 @@
 /* The parameter table (swell/param_table.h) as data, for tools, the generator and tests: look a
- * parameter up by id or by name. No allocation, no float. */
+ * parameter up by id or by name; the names of commands and states. No allocation, no float. */
 #ifndef SWELL_PARAM_H
 #define SWELL_PARAM_H
 
@@ -7,6 +7,7 @@
 #include <stdint.h>
 
 #include "swell/param_table.h"
+#include "swell/proto_table.h"
 
 enum swell_param_group { SWELL_PGROUP_WAVE, SWELL_PGROUP_BODY, SWELL_PGROUP_SIZE, SWELL_PGROUP_SAFETY, SWELL_PGROUP_CORE };
 enum swell_param_when { SWELL_PWHEN_ANY, SWELL_PWHEN_DRY };
@@ -32,6 +33,9 @@ const struct swell_param_desc *swell_param_by_name(const char *name);
 /* A command's name ("run") from its value, NULL for none; its value from its name, -1 for none. */
 const char *swell_command_name(int32_t value);
 int32_t swell_command_by_name(const char *name);
+
+/* A controller state's name (HEARTBEAT.state, swell/proto_table.h: "running"); "?" for none. */
+const char *swell_state_name(unsigned state);
 
 const char *swell_param_group_name(enum swell_param_group g);
 /* "any state" or "not while the object displaces water" */

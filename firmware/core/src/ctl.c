@@ -55,13 +55,7 @@ void swell_ctl_default_config(struct swell_ctl_config *cfg)
 
 const char *swell_ctl_state_name(enum swell_ctl_state s)
 {
-	static const char *const names[] = {
-#define SWELL_X(NAME, code, name) [code] = name,
-		SWELL_STATES(SWELL_X)
-#undef SWELL_X
-	};
-
-	return (unsigned)s < sizeof(names) / sizeof(names[0]) ? names[s] : "?";
+	return swell_state_name((unsigned)s);
 }
 
 static size_t sent_words(uint16_t nx, uint16_t ny)
