@@ -205,7 +205,7 @@ TEST_CASE("swell-tool over UDP: run, stop, clear and estop answer with the state
 			rows++;
 	}
 	INFO("rows in 2 s: " << rows);
-	CHECK(rows >= 150); /* 100 Hz telemetry; a loaded machine may lose a few datagrams, not a quarter */
+	CHECK(rows >= 100); /* 100 Hz telemetry; a loaded machine may drop datagrams, not half of them */
 	CHECK(rows <= 210);
 	Result pl = r.tool("plot " + csv);
 	CHECK(pl.status == 0);
@@ -257,7 +257,7 @@ TEST_CASE("swell-tool exit status: 3 with no controller, 4 for a wrong node, 5 w
 	const std::string said = slurp(out);
 	INFO("swell-tool log after the kill: exit " << rc << " after " << gone_s << " s:\n" << said);
 	CHECK(rc == 5);
-	CHECK(gone_s < 2.0); /* 0.6 s of silence, and the scheduling of a loaded machine */
+	CHECK(gone_s < 2.5); /* 1 s of silence (--timeout-ms 1000), and the scheduling of a loaded machine */
 	CHECK(has(said, "the controller went silent"));
 	CHECK(has(said, "rows kept in"));
 	/* and a request to a controller that is gone: no heartbeat, so no controller */
