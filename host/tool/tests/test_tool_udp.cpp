@@ -74,6 +74,11 @@ std::string slurp(const std::string &path)
 	return ss.str();
 }
 
+bool has(const std::string &s, const std::string &what)
+{
+	return s.find(what) != std::string::npos;
+}
+
 struct Result {
 	int status;
 	std::string out;
@@ -89,15 +94,35 @@ struct Rig {
 	{
 		dir = std::string(SWELL_TOOL_TEST_DIR) + "/" + name;
 		REQUIRE(system(("mkdir -p '" + dir + "'").c_str()) == 0);
-		/* silent_ticks 250 (0.1 s): a loaded test machine must not fault the device link; the link
-		 * supervision has its own tests, this one is about the console */
+		/* silent_ticks 2500 (1 s): a loaded test machine must not fault the device link; the link
+		 * supervision has its own tests, these are about the console */
 		ctl = spawn({SWELL_CTL_BIN, "--device", "udp:" + std::to_string(dev_port), "--host",
-			     "udp:" + std::to_string(host_port), "--no-rt", "--quiet", "--silent-ticks", "250",
+			     "udp:" + std::to_string(host_port), "--no-rt", "--quiet", "--silent-ticks", "2500",
 			     "--seconds", "60"},
 			    dir + "/ctl.log");
 		hm = spawn({SWELL_HM_BIN, "--port", std::to_string(dev_port), "--quiet", "--seconds", "60", "--hand",
 			    hand},
 			   dir + "/hm.log");
+	}
+	/* after RUN: the dropped object splashes (it may leave the water for a moment) and floats
+	 * after about 4 s; then params says it displaces water */
+	std::string floating()
+	{
+		std::this_thread::sleep_for(std::chrono::seconds(4));
+		std::string wet;
+		for (int k = 0; k < 20 && !has(wet, "displaces water"); k++) {
+			std::this_thread::sleep_for(std::chrono::milliseconds(200));
+			wet = tool("params").out;
+		}
+		return wet;
+	}
+	/* until the controller has heard the device (ARMED): a loaded machine starts the two slowly */
+	void armed()
+	{
+		int st = -1;
+		for (int k = 0; k < 20 && st != 0; k++)
+			st = tool("arm").status;
+		REQUIRE(st == 0);
 	}
 	~Rig()
 	{
@@ -121,11 +146,6 @@ struct Rig {
 		return r;
 	}
 };
-
-bool has(const std::string &s, const std::string &what)
-{
-	return s.find(what) != std::string::npos;
-}
 
 } // namespace
 
@@ -165,12 +185,9 @@ TEST_CASE("swell-tool over UDP: status in text and JSON, get and set with units,
 	CHECK(r.tool("frobnicate").status == 2);
 
 	/* the object is in the water (run: the drop lands): mass and size are refused with the state */
+	r.armed();
 	REQUIRE(r.tool("run").status == 0);
-	std::string wet;
-	for (int k = 0; k < 20 && !has(wet, "displaces water"); k++) {
-		std::this_thread::sleep_for(std::chrono::milliseconds(200));
-		wet = r.tool("params").out;
-	}
+	std::string wet = r.floating();
 	CHECK(has(wet, "body.mass          100 g"));
 	CHECK(has(wet, "no: the object displaces water"));
 	Result dry = r.tool("set body.mass 80g");
@@ -183,6 +200,7 @@ TEST_CASE("swell-tool over UDP: run, stop, clear and estop answer with the state
 	  "[tool][udp]")
 {
 	Rig r("commands");
+	r.armed();
 	Result run = r.tool("run");
 	CHECK(run.status == 0);
 	CHECK(has(run.out, "run: acknowledged; state armed -> running"));
@@ -299,12 +317,9 @@ TEST_CASE("swell-tool scene files over UDP: save and load back unchanged, anothe
 	/* running, the object in the water: heavy.scene's damping goes in, its mass is refused, and the
 	 * damping is put back */
 	REQUIRE(r.tool("set wave.damping 0.05").status == 0);
+	r.armed();
 	REQUIRE(r.tool("run").status == 0);
-	std::string wet;
-	for (int k = 0; k < 20 && !has(wet, "displaces water"); k++) {
-		std::this_thread::sleep_for(std::chrono::milliseconds(200));
-		wet = r.tool("params").out;
-	}
+	std::string wet = r.floating();
 	Result heavy = r.tool("scene load " + std::string(SWELL_SCENES_DIR) + "/heavy.scene");
 	CHECK(heavy.status == 6);
 	CHECK(has(heavy.out, "heavy.scene:9: body.mass refused by the controller: not allowed in this state"));
