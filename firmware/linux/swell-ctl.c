@@ -25,6 +25,7 @@
 
 #include "ctl_link.h"
 #include "swell/ctl.h"
+#include "swell/scene.h"
 
 static const char usage[] =
 	"usage: swell-ctl [options]\n"
@@ -55,6 +56,10 @@ static const char usage[] =
 	"  --autorun           run whenever the device is there; leave a link-loss fault by itself\n"
 	"  --host-budget N     host messages a tick (default 16)\n"
 	"  --node N            node id on the bus, 0..15 (default 0)\n"
+	"  --scene FILE        start with a scene file (*.scene: pool size, cell size, depth, solver rate,\n"
+	"                      object, damping, force limits; docs/tool.md); options after it override\n"
+	"                      its pool and rates, its parameters override the options; a bad line or a\n"
+	"                      refused value: exit 2 naming the line\n"
 	"  --seconds S         stop after S seconds of ticks (default: until SIGINT/SIGTERM)\n"
 	"  --no-rt             do not ask for SCHED_FIFO and mlockall\n"
 	"  --fw-version X.Y.Z  firmware version reported in CTL_INFO (default " SWELL_CTL_FW_VERSION ", the\n"
@@ -81,10 +86,11 @@ static void on_signal(int sig)
 #define SLOW_SILENCE_MS 20
 
 struct opts {
-	const char *device, *host;
+	const char *device, *host, *scene_path;
 	int device_clock, rt, quiet, silent_given;
 	double seconds;
 	struct swell_ctl_config cfg;
+	struct swell_scene scene;
 };
 
 static void die(const char *msg, const char *arg)
@@ -127,7 +133,7 @@ static int takes_value(const char *a)
 {
 	static const char *const with_value[] = {"--device", "--host", "--clock", "--tick-hz", "--solver-hz",
 						 "--silent-ticks", "--host-budget", "--node", "--fw-version",
-						 "--seconds"};
+						 "--seconds", "--scene"};
 	size_t k;
 
 	for (k = 0; k < sizeof(with_value) / sizeof(with_value[0]); k++)
@@ -153,6 +159,85 @@ static void check_links(const struct opts *o)
 			o->device);
 		exit(2);
 	}
+}
+
+/* ---- scene files (start-up only, before the loop: parsing uses double, the loop never does) ---- */
+
+/* The scene's start-up parameters (pool and solver rate) into the configuration. */
+static void scene_start(struct opts *o, const char *path)
+{
+	const struct swell_scene_value *v;
+	char err[300];
+
+	if (swell_scene_load(path, &o->scene, err, sizeof(err)) < 0) {
+		fprintf(stderr, "swell-ctl: --scene %s\n", err);
+		exit(2);
+	}
+	o->scene_path = path;
+	if ((v = swell_scene_get(&o->scene, SWELL_SCENE_NX)))
+		o->cfg.nx = (uint16_t)v->raw;
+	if ((v = swell_scene_get(&o->scene, SWELL_SCENE_NY)))
+		o->cfg.ny = (uint16_t)v->raw;
+	if ((v = swell_scene_get(&o->scene, SWELL_SCENE_DX_UM)))
+		o->cfg.dx_um = (uint32_t)v->raw;
+	if ((v = swell_scene_get(&o->scene, SWELL_SCENE_DEPTH_UM)))
+		o->cfg.depth_um = (uint32_t)v->raw;
+	if ((v = swell_scene_get(&o->scene, SWELL_SCENE_SOLVER_HZ)))
+		o->cfg.solver_hz = (uint32_t)v->raw;
+}
+
+/* e from eq. 2 when the scene sets the pool or the rate and not e itself (then by its PARAM_SET). */
+static void scene_e(struct opts *o)
+{
+	const struct swell_scene *sc = &o->scene;
+	enum swell_err e;
+
+	if (swell_scene_get(sc, SWELL_PARAM_WAVE_E) ||
+	    !(swell_scene_get(sc, SWELL_SCENE_DX_UM) || swell_scene_get(sc, SWELL_SCENE_DEPTH_UM) ||
+	      swell_scene_get(sc, SWELL_SCENE_SOLVER_HZ)))
+		return;
+	if (o->cfg.solver_hz == 0 || 1000000u % o->cfg.solver_hz != 0) {
+		fprintf(stderr, "swell-ctl: --scene %s: solver rate %u Hz is not a whole number of us a step: give "
+				"wave.e\n", o->scene_path, o->cfg.solver_hz);
+		exit(2);
+	}
+	e = swell_wave_e_from_physical(o->cfg.body.g_mm_s2, 1000000u / o->cfg.solver_hz, o->cfg.depth_um,
+				       o->cfg.dx_um, &o->cfg.wave.e);
+	if (e != SWELL_OK) {
+		fprintf(stderr, "swell-ctl: --scene %s: e = g dt^2 d / dx^2 from the pool: %s\n", o->scene_path,
+			swell_err_str(e));
+		exit(2);
+	}
+}
+
+/* The scene's parameters through the core's own validated path (PARAM_SET on the host link, before
+ * the link exists): the first refusal stops the start with its line. */
+static int scene_params(struct swell_ctl *c, const struct opts *o)
+{
+	size_t k;
+
+	for (k = 0; k < o->scene.n; k++) {
+		const struct swell_scene_value *v = &o->scene.v[k];
+		struct swell_msg m, a;
+
+		if (swell_scene_key(v->d->id))
+			continue; /* start-up: already in the configuration */
+		memset(&m, 0, sizeof(m));
+		memset(&a, 0, sizeof(a));
+		m.type = SWELL_MSG_PARAM_SET;
+		m.node = o->cfg.node;
+		m.u.param_set.id = v->d->id;
+		m.u.param_set.value = v->raw;
+		m.u.param_set.seq = (uint8_t)k;
+		swell_ctl_rx(c, SWELL_LINK_HOST, &m);
+		if (swell_ctl_tx(c, SWELL_LINK_HOST, &a, 1) != 1 || a.type != SWELL_MSG_PARAM_ACK) {
+			fprintf(stderr, "swell-ctl: --scene %s:%d: %s refused: %s\n", o->scene_path, v->line, v->d->name,
+				a.type == SWELL_MSG_PARAM_NACK ? swell_err_str((enum swell_err)a.u.param_nack.err)
+							       : "no answer");
+			return -1;
+		}
+	}
+	return 0;
 }
 
 static void parse(int argc, char **argv, struct opts *o)
@@ -190,6 +275,8 @@ static void parse(int argc, char **argv, struct opts *o)
 				o->device = v;
 			else if (!strcmp(a, "--host"))
 				o->host = v;
+			else if (!strcmp(a, "--scene"))
+				scene_start(o, v);
 			else if (!strcmp(a, "--clock")) {
 				if (strcmp(v, "internal") && strcmp(v, "device"))
 					die("--clock must be internal or device, not ", v);
@@ -220,6 +307,8 @@ static void parse(int argc, char **argv, struct opts *o)
 	}
 	check_links(o);
 	o->cfg.recover_ticks = (uint16_t)(o->cfg.tick_hz / 10 > 0 ? o->cfg.tick_hz / 10 : 1);
+	if (o->scene_path)
+		scene_e(o);
 	{
 		enum swell_err e = swell_ctl_check(&o->cfg);
 
@@ -537,6 +626,10 @@ int main(int argc, char **argv)
 	e = swell_ctl_init(&p.c, &o.cfg, arena, words);
 	if (e != SWELL_OK) {
 		fprintf(stderr, "swell-ctl: controller refused its configuration: %s\n", swell_err_str(e));
+		free(arena);
+		return 2;
+	}
+	if (o.scene_path && scene_params(&p.c, &o) < 0) {
 		free(arena);
 		return 2;
 	}

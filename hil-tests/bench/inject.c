@@ -15,6 +15,7 @@
 #include <unistd.h>
 
 #include "swell/link.h"
+#include "swell/param_table.h"
 #include "swell/transport.h"
 
 static const char usage[] =
@@ -375,21 +376,21 @@ struct pset {
 };
 
 static const struct pset bad_sets[] = {
-	{1, 600000000, "wave e 0.56: above the stability limit 1/2"},
-	{1, -1, "wave e negative"},
-	{2, -5, "wave damping negative"},
-	{3, 7, "stencil 7: neither paper nor calibrated"},
-	{10, 0, "mass 0 g"},
-	{10, -100, "mass -100 g"},
-	{11, 0, "footprint a 0 um"},
-	{13, -1, "height negative"},
-	{20, -1, "force limit negative"},
-	{20, 2000000000, "force limit 2000 N: above what FORCE_CMD carries"},
-	{21, -1, "force rate negative"},
-	{30, 0, "silent ticks 0"},
-	{30, 20000, "silent ticks 20000"},
-	{31, 2, "autorun 2"},
-	{40, 9, "command 9"},
+	{SWELL_PARAM_WAVE_E, 600000000, "wave e 0.56: above the stability limit 1/2"},
+	{SWELL_PARAM_WAVE_E, -1, "wave e negative"},
+	{SWELL_PARAM_WAVE_DAMPING, -5, "wave damping negative"},
+	{SWELL_PARAM_WAVE_STENCIL, 7, "stencil 7: neither paper nor calibrated"},
+	{SWELL_PARAM_BODY_MASS_G, 0, "mass 0 g"},
+	{SWELL_PARAM_BODY_MASS_G, -100, "mass -100 g"},
+	{SWELL_PARAM_BODY_A_UM, 0, "footprint a 0 um"},
+	{SWELL_PARAM_BODY_H_UM, -1, "height negative"},
+	{SWELL_PARAM_FORCE_MAX_UN, -1, "force limit negative"},
+	{SWELL_PARAM_FORCE_MAX_UN, 2000000000, "force limit 2000 N: above what FORCE_CMD carries"},
+	{SWELL_PARAM_FORCE_RATE, -1, "force rate negative"},
+	{SWELL_PARAM_SILENT_TICKS, 0, "silent ticks 0"},
+	{SWELL_PARAM_SILENT_TICKS, 20000, "silent ticks 20000"},
+	{SWELL_PARAM_AUTORUN, 2, "autorun 2"},
+	{SWELL_PARAM_COMMAND, 9, "command 9"},
 	{999, 1, "unknown parameter id"},
 };
 
@@ -474,7 +475,7 @@ static int cmd_params(struct swell_link *l, uint8_t node, int timeout_ms)
 	for (k = 0; k < nsets; k++) {
 		const struct pset *p = &bad_sets[k];
 		int32_t before = 0, after = 0, v = 0;
-		int err = 0, r = -1, tries, have_before = p->id != 40 && p->id != 999;
+		int err = 0, r = -1, tries, have_before = p->id != SWELL_PARAM_COMMAND && p->id != 999;
 		struct swell_msg m;
 
 		if (have_before && get_param(l, node, p->id, seq++, timeout_ms, &before, &st) != 1) {

@@ -23,6 +23,7 @@
 #include "hm_model.h"
 #include "swell/link.h"
 #include "swell/proto.h"
+#include "swell/scene.h"
 #include "swell/transport.h"
 
 static const char usage[] =
@@ -63,6 +64,9 @@ static const char usage[] =
 	"  --object G,A,B      the floating object, for the expected equilibrium: mass in g and footprint\n"
 	"                      in mm (default 100,50,50: -m g/k = -40 mm)\n"
 	"  --pool LX,LY        pool size in mm, for the level rise (default 400,400)\n"
+	"  --scene FILE        the controller's scene file (*.scene): object and pool from it, as swell-ctl\n"
+	"                      --scene FILE has them; an object heavier than the water it can displace is\n"
+	"                      expected on the floor\n"
 	"  --log FILE.csv      one row a tick: time, position, velocity, commanded and hand force, state\n"
 	"  --quiet             no progress line\n"
 	"  -h, --help          this text\n"
@@ -81,6 +85,7 @@ struct opts {
 	unsigned timeout_ms;
 	double seconds, start_mm[3], estop_s[2];
 	double obj_mass_g, obj_a_mm, obj_b_mm, pool_mm[2];
+	double obj_h_mm, depth_mm; /* from --scene: the object sinks to the floor when m > rho a b H */
 	struct hm_params p;
 	struct hm_hand hand;
 };
@@ -138,6 +143,36 @@ static void numbers(const char *opt, const char *v, double *out, int n, double l
 	}
 }
 
+/* Object and pool from a scene file: the defaults of the reference scene where it says nothing. */
+static void scene_object(struct opts *o, const char *path)
+{
+	struct swell_scene sc;
+	const struct swell_scene_value *v;
+	double dx = 6.25, nx = 64, ny = 64;
+	char err[300];
+
+	if (swell_scene_load(path, &sc, err, sizeof(err)) < 0)
+		die("--scene %s%s", err, "");
+	if ((v = swell_scene_get(&sc, SWELL_PARAM_BODY_MASS_G)))
+		o->obj_mass_g = v->raw;
+	if ((v = swell_scene_get(&sc, SWELL_PARAM_BODY_A_UM)))
+		o->obj_a_mm = v->raw / 1000.0;
+	if ((v = swell_scene_get(&sc, SWELL_PARAM_BODY_B_UM)))
+		o->obj_b_mm = v->raw / 1000.0;
+	if ((v = swell_scene_get(&sc, SWELL_PARAM_BODY_H_UM)))
+		o->obj_h_mm = v->raw / 1000.0;
+	if ((v = swell_scene_get(&sc, SWELL_SCENE_DX_UM)))
+		dx = v->raw / 1000.0;
+	if ((v = swell_scene_get(&sc, SWELL_SCENE_NX)))
+		nx = v->raw;
+	if ((v = swell_scene_get(&sc, SWELL_SCENE_NY)))
+		ny = v->raw;
+	if ((v = swell_scene_get(&sc, SWELL_SCENE_DEPTH_UM)))
+		o->depth_mm = v->raw / 1000.0;
+	o->pool_mm[0] = nx * dx;
+	o->pool_mm[1] = ny * dx;
+}
+
 static void parse(int argc, char **argv, struct opts *o)
 {
 	char why[160];
@@ -151,7 +186,8 @@ static void parse(int argc, char **argv, struct opts *o)
 	o->timeout_ms = 50;
 	o->seconds = 10.0;
 	o->obj_mass_g = 100.0;
-	o->obj_a_mm = o->obj_b_mm = 50.0;
+	o->obj_a_mm = o->obj_b_mm = o->obj_h_mm = 50.0;
+	o->depth_mm = 50.0;
 	o->pool_mm[0] = o->pool_mm[1] = 400.0;
 	o->estop_s[0] = o->estop_s[1] = -1.0;
 	hm_params_default(&o->p);
@@ -232,8 +268,11 @@ static void parse(int argc, char **argv, struct opts *o)
 			o->obj_mass_g = ob[0];
 			o->obj_a_mm = ob[1];
 			o->obj_b_mm = ob[2];
-		} else if (!strcmp(a, "--pool"))
+		} else if (!strcmp(a, "--pool")) {
 			numbers(a, v, o->pool_mm, 2, 1, 1e5, "mm");
+		} else if (!strcmp(a, "--scene")) {
+			scene_object(o, v);
+		}
 		else if (!strcmp(a, "--log"))
 			o->log = v;
 		else
@@ -632,6 +671,11 @@ static void summary(const struct opts *o, const struct dev *d, const struct hm_s
 		       (double)r->z_n * dt, r->z_min, r->z_max);
 		if (r->held_late) {
 			printf("  expected z      none: the hand held the handle in that second\n");
+		} else if (o->obj_mass_g * 1e-3 > RHO_KG_M3 * o->obj_a_mm * o->obj_b_mm * o->obj_h_mm * 1e-9) {
+			/* heavier than the water it can displace: it sinks until the floor carries it */
+			printf("  expected z      %+.3f mm on the floor: m %.0f g > rho a b H %.0f g (sinks); error %+.3f mm\n",
+			       -o->depth_mm, o->obj_mass_g, RHO_KG_M3 * o->obj_a_mm * o->obj_b_mm * o->obj_h_mm * 1e-6,
+			       zm + o->depth_mm);
 		} else {
 			if (d->ctl_faults || s->watchdog_trips)
 				printf("  NOT A CLEAN RUN the controller faulted %u times and the watchdog tripped %u "

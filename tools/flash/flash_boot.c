@@ -8,7 +8,8 @@
 #include <string.h>
 #include <time.h>
 
-#include "swell/ctl.h"
+#include "swell/param_table.h"
+#include "swell/proto.h"
 #include "swell/link.h"
 
 static const char *const state_names[] = {"BOOT", "IDLE", "ARMED", "RUNNING", "FAULT"};

@@ -6,6 +6,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
+#include "swell/param.h"
 #include "swell/proto.h"
 #include "swell/transport.h"
 
@@ -195,6 +196,44 @@ static const char *type_name(const struct swell_field_desc *f)
 	return buf;
 }
 
+static void write_md_params(FILE *o)
+{
+	const struct swell_param_desc *t;
+	size_t n, k;
+
+	fprintf(o, "## Controller states\n\nHEARTBEAT.state:");
+#define SWELL_X(NAME, code, name) fprintf(o, " %d %s%s", code, name, code < SWELL_CTL_FAULT ? "," : ".");
+	SWELL_STATES(SWELL_X)
+#undef SWELL_X
+	fprintf(o, "\n\n");
+
+	fprintf(o, "## Parameters\n\nFrom `common/include/swell/param_table.h`. PARAM_SET and PARAM_GET carry the\n"
+		   "id and a raw int32 value; physical value = raw x factor, in the unit given. A set outside\n"
+		   "the raw range is refused with PARAM_NACK (range) before anything else; inside it the\n"
+		   "owning module checks the whole configuration (stability of the solver, the force law's\n"
+		   "limits) and refuses with its reason; a refused set changes nothing. Every parameter is\n"
+		   "written by the host link (VIEW: viewers, swell-tool); the controller answers with the\n"
+		   "value now in force. \"when\" says in which states a write is taken: the object's mass,\n"
+		   "size and damper are refused (state) while the object displaces water. Defaults are the\n"
+		   "reference scene's (64 x 64 cells of 6.25 mm, depth 50 mm, 250 Hz solver, a 50 mm cube of\n"
+		   "100 g).\n\n");
+	fprintf(o, "| id | name | C type | raw range | default (raw) | factor | unit | when | meaning |\n"
+		   "|---|---|---|---|---|---|---|---|---|\n");
+	t = swell_param_table(&n);
+	for (k = 0; k < n; k++)
+		fprintf(o, "| %u | `%s` | %s | %ld .. %ld | %ld | %s | %s | %s | %s |\n", t[k].id, t[k].name,
+			t[k].ctype, (long)t[k].min, (long)t[k].max, (long)t[k].def, t[k].factor,
+			t[k].unit[0] ? t[k].unit : "-", swell_param_when_text(t[k].when), t[k].desc);
+	fprintf(o, "\nParameter %d (`%s`) is write only: its value is a command, answered by PARAM_ACK\n"
+		   "with the value echoed, or PARAM_NACK (a GET is refused as invalid):\n\n"
+		   "| value | command | effect |\n|---|---|---|\n",
+		SWELL_PARAM_COMMAND_ID, SWELL_PARAM_COMMAND_NAME);
+#define SWELL_X(NAME, value, name, desc) fprintf(o, "| %d | %s | %s |\n", value, name, desc);
+	SWELL_COMMANDS(SWELL_X)
+#undef SWELL_X
+	fprintf(o, "\n");
+}
+
 static void write_md(FILE *o)
 {
 	unsigned i, j, e;
@@ -302,10 +341,46 @@ static void write_md(FILE *o)
 		fprintf(o, "| %u | %s | %s |\n", e, swell_err_str((enum swell_err)e), why[e] ? why[e] : "");
 	}
 	fprintf(o, "\n");
+	write_md_params(o);
 	bus_load(o);
 }
 
 /* ---- DBC ---- */
+/* Value tables: state and error names, parameter names on the ids of the parameter messages. */
+static void write_dbc_values(FILE *o)
+{
+	static const struct {
+		unsigned type;
+		const char *sig;
+		int what; /* 0 states, 1 errors, 2 parameters */
+	} vals[] = {
+		{SWELL_MSG_HEARTBEAT, "state", 0},   {SWELL_MSG_HEARTBEAT, "err", 1}, {SWELL_MSG_PARAM_SET, "id", 2},
+		{SWELL_MSG_PARAM_GET, "id", 2},      {SWELL_MSG_PARAM_ACK, "id", 2},  {SWELL_MSG_PARAM_NACK, "id", 2},
+		{SWELL_MSG_PARAM_NACK, "err", 1},
+	};
+	const struct swell_param_desc *t;
+	size_t i, k, n;
+
+	fprintf(o, "\n");
+	for (i = 0; i < sizeof(vals) / sizeof(vals[0]); i++) {
+		fprintf(o, "VAL_ %u %s", (unsigned)SWELL_CAN_ID(vals[i].type, 0), vals[i].sig);
+		if (vals[i].what == 0) {
+#define SWELL_X(NAME, code, name) fprintf(o, " %d \"%s\"", code, name);
+			SWELL_STATES(SWELL_X)
+#undef SWELL_X
+		} else if (vals[i].what == 1) {
+			for (k = 0; k < SWELL_ERR_COUNT; k++)
+				fprintf(o, " %u \"%s\"", (unsigned)k, swell_err_str((enum swell_err)k));
+		} else {
+			t = swell_param_table(&n);
+			for (k = 0; k < n; k++)
+				fprintf(o, " %u \"%s\"", t[k].id, t[k].name);
+			fprintf(o, " %d \"%s\"", SWELL_PARAM_COMMAND_ID, SWELL_PARAM_COMMAND_NAME);
+		}
+		fprintf(o, " ;\n");
+	}
+}
+
 static void write_dbc(FILE *o)
 {
 	unsigned i, j;
@@ -343,6 +418,7 @@ static void write_dbc(FILE *o)
 			fprintf(o, "\";\n");
 		}
 	}
+	write_dbc_values(o);
 }
 
 /* ---- test vectors ---- */

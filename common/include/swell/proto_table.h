@@ -35,6 +35,15 @@
 #define SWELL_PROTO_TILE 8
 #define SWELL_PROTO_BOOT_KEY 0x4C425753u /* "SWBL" little-endian */
 
+/* Controller states, as HEARTBEAT.state carries them: S(NAME, code, "name"). */
+#define SWELL_STATES(S) S(BOOT, 0, "boot") S(IDLE, 1, "idle") S(ARMED, 2, "armed") S(RUNNING, 3, "running") S(FAULT, 4, "fault")
+
+enum swell_ctl_state {
+#define SWELL_X(NAME, code, name) SWELL_CTL_##NAME = code,
+	SWELL_STATES(SWELL_X)
+#undef SWELL_X
+};
+
 #define SWELL_PROTO_MESSAGES(M)                                                                    \
 	M(FORCE_CMD, force_cmd, 0x01, 8, CTL, DEV,                                                 \
 	  "Force command to the HapticMaster, every haptic tick. Zero force unless ENABLE is set.") \

@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "swell/crc.h"
+#include "swell/param.h"
 
 #if defined(__ARM_FEATURE_SAT)
 #include <arm_acle.h>
@@ -29,20 +30,22 @@ static const struct swell_ctl_config pool_config = {
 	.dx_um = 6250,
 	.depth_um = 50000,
 	/* e = 9.81 * 0.004^2 * 0.05 / 0.00625^2 = 0.200909 */
-	.wave = {.e = 215723192, .damping = 1073742 /* 0.001 */, .stencil = SWELL_STENCIL_PAPER},
-	.body = {.a_um = 50000, .b_um = 50000, .h_um = 50000, .mass_g = 100, .rho_kg_m3 = 1000,
-		 .g_mm_s2 = 9810, .damper_uN_per_mm_s = 2000, .deadband_um = 0},
+	.wave = {.e = SWELL_PARAM_DEF_WAVE_E, .damping = SWELL_PARAM_DEF_WAVE_DAMPING,
+		 .stencil = (enum swell_stencil)SWELL_PARAM_DEF_WAVE_STENCIL},
+	.body = {.a_um = SWELL_PARAM_DEF_BODY_A_UM, .b_um = SWELL_PARAM_DEF_BODY_B_UM, .h_um = SWELL_PARAM_DEF_BODY_H_UM,
+		 .mass_g = SWELL_PARAM_DEF_BODY_MASS_G, .rho_kg_m3 = 1000, .g_mm_s2 = 9810,
+		 .damper_uN_per_mm_s = SWELL_PARAM_DEF_BODY_DAMPER, .deadband_um = 0},
 	/* device frame: x, y horizontal, z up, origin over the pool centre at rest level */
 	.xform = {.offset_um = {200000, 200000, 0}, .scale = SWELL_Q16_ONE, .axis = {0, 1, 2}, .sign = {1, 1, 1}},
-	.safety = {.gain = SWELL_Q16_ONE, .f_max_uN = 10000000 /* 10 N */, .rate_uN_per_s = 500000000 /* 500 N/s */,
-		   .tick_hz = 2500},
+	.safety = {.gain = SWELL_PARAM_DEF_FORCE_GAIN, .f_max_uN = SWELL_PARAM_DEF_FORCE_MAX_UN,
+		   .rate_uN_per_s = SWELL_PARAM_DEF_FORCE_RATE, .tick_hz = 2500},
 	.tick_hz = 2500,
 	.solver_hz = 250,
-	.silent_ticks = 2,
+	.silent_ticks = SWELL_PARAM_DEF_SILENT_TICKS,
 	.recover_ticks = 250,
 	.host_budget = 16,
 	.node = 0,
-	.autorun = 0,
+	.autorun = SWELL_PARAM_DEF_AUTORUN,
 };
 
 void swell_ctl_default_config(struct swell_ctl_config *cfg)
@@ -52,9 +55,7 @@ void swell_ctl_default_config(struct swell_ctl_config *cfg)
 
 const char *swell_ctl_state_name(enum swell_ctl_state s)
 {
-	static const char *const names[] = {"boot", "idle", "armed", "running", "fault"};
-
-	return (unsigned)s < sizeof(names) / sizeof(names[0]) ? names[s] : "?";
+	return swell_state_name((unsigned)s);
 }
 
 static size_t sent_words(uint16_t nx, uint16_t ny)
@@ -243,100 +244,114 @@ static void answer(struct swell_ctl *c, uint16_t id, uint8_t seq, enum swell_err
 	push(c, SWELL_LINK_HOST, &m);
 }
 
+/* The parameter table as the core needs it: each row's range, group and accessors to
+ * its field of the configuration (one pair of functions a row, expanded from swell/param_table.h). */
+struct param {
+	uint16_t id;
+	uint8_t group;
+	int32_t min, max;
+	int32_t (*get)(const struct swell_ctl_config *g);
+	void (*set)(struct swell_ctl_config *g, int32_t v);
+};
+
+#define SWELL_X(NAME, id, name, member, ctype, group, min, max, def, factor, unit, access, when, desc) \
+	static int32_t get_##NAME(const struct swell_ctl_config *g) { return (int32_t)g->member; }      \
+	static void set_##NAME(struct swell_ctl_config *g, int32_t v) { g->member = (ctype)v; }
+SWELL_PARAMS(SWELL_X)
+#undef SWELL_X
+
+static const struct param params[] = {
+#define SWELL_X(NAME, id, name, member, ctype, group, min, max, def, factor, unit, access, when, desc) \
+	{id, SWELL_PGROUP_##group, min, max, get_##NAME, set_##NAME},
+	SWELL_PARAMS(SWELL_X)
+#undef SWELL_X
+};
+
+static const struct param *param_find(uint16_t id)
+{
+	size_t k;
+
+	for (k = 0; k < sizeof(params) / sizeof(params[0]); k++)
+		if (params[k].id == id)
+			return &params[k];
+	return NULL;
+}
+
 /* The current value of a parameter; SWELL_EUNKNOWN for an id that is not one. */
 static enum swell_err param_get(const struct swell_ctl *c, uint16_t id, int32_t *v)
 {
-	const struct swell_ctl_config *g = &c->cfg;
+	const struct param *p = param_find(id);
 
-	switch (id) {
-	case SWELL_PARAM_WAVE_E: *v = g->wave.e; break;
-	case SWELL_PARAM_WAVE_DAMPING: *v = g->wave.damping; break;
-	case SWELL_PARAM_WAVE_STENCIL: *v = (int32_t)g->wave.stencil; break;
-	case SWELL_PARAM_BODY_MASS_G: *v = (int32_t)g->body.mass_g; break;
-	case SWELL_PARAM_BODY_A_UM: *v = (int32_t)g->body.a_um; break;
-	case SWELL_PARAM_BODY_B_UM: *v = (int32_t)g->body.b_um; break;
-	case SWELL_PARAM_BODY_H_UM: *v = (int32_t)g->body.h_um; break;
-	case SWELL_PARAM_BODY_DAMPER: *v = (int32_t)g->body.damper_uN_per_mm_s; break;
-	case SWELL_PARAM_FORCE_MAX_UN: *v = (int32_t)g->safety.f_max_uN; break;
-	case SWELL_PARAM_FORCE_RATE: *v = (int32_t)g->safety.rate_uN_per_s; break;
-	case SWELL_PARAM_FORCE_GAIN: *v = g->safety.gain; break;
-	case SWELL_PARAM_SILENT_TICKS: *v = g->silent_ticks; break;
-	case SWELL_PARAM_AUTORUN: *v = g->autorun; break;
-	case SWELL_PARAM_COMMAND: return SWELL_EINVAL; /* write only */
-	default: return SWELL_EUNKNOWN;
-	}
+	if (id == SWELL_PARAM_COMMAND)
+		return SWELL_EINVAL; /* write only */
+	if (!p)
+		return SWELL_EUNKNOWN;
+	*v = p->get(&c->cfg);
 	return SWELL_OK;
 }
 
-/* Apply one parameter: validate a whole candidate configuration first, then hand the changed part to
- * its module, whose own setter validates again; nothing changes unless everything accepts it. */
+static enum swell_err command(struct swell_ctl *c, int32_t v)
+{
+	switch (v) {
+	case SWELL_CMD_STOP:
+		c->run_request = 0;
+		c->host_stop = 1; /* a stop from the host holds with autorun too, until RUN */
+		return SWELL_OK;
+	case SWELL_CMD_RUN:
+		c->run_request = 1;
+		c->host_stop = 0;
+		return SWELL_OK;
+	case SWELL_CMD_CLEAR:
+		if (c->state != SWELL_CTL_FAULT)
+			return SWELL_ESTATE;
+		c->clear_request = 1;
+		return SWELL_OK;
+	default:
+		return SWELL_ERANGE;
+	}
+}
+
+/* Apply one parameter: its raw range first, then a whole candidate configuration, then the changed
+ * part goes to its module, whose own setter validates again (the body refuses a change while the
+ * object displaces water: the table's DRY rule); nothing changes unless everything accepts it. */
 static enum swell_err param_set(struct swell_ctl *c, uint16_t id, int32_t v)
 {
+	const struct param *p = param_find(id);
 	struct swell_ctl_config g = c->cfg;
 	struct swell_fsafety_params sp;
-	enum swell_err err;
+	enum swell_err err = SWELL_OK;
 	int k;
 
-	if (id == SWELL_PARAM_COMMAND) {
-		switch (v) {
-		case SWELL_CMD_STOP:
-			c->run_request = 0;
-			c->host_stop = 1; /* a stop from the host holds with autorun too, until RUN */
-			return SWELL_OK;
-		case SWELL_CMD_RUN:
-			c->run_request = 1;
-			c->host_stop = 0;
-			return SWELL_OK;
-		case SWELL_CMD_CLEAR:
-			if (c->state != SWELL_CTL_FAULT)
-				return SWELL_ESTATE;
-			c->clear_request = 1;
-			return SWELL_OK;
-		default:
-			return SWELL_ERANGE;
-		}
-	}
-	switch (id) {
-	case SWELL_PARAM_WAVE_E: g.wave.e = v; break;
-	case SWELL_PARAM_WAVE_DAMPING: g.wave.damping = v; break;
-	case SWELL_PARAM_WAVE_STENCIL:
-		if (v != SWELL_STENCIL_PAPER && v != SWELL_STENCIL_CALIBRATED)
-			return SWELL_ERANGE;
-		g.wave.stencil = (enum swell_stencil)v;
-		break;
-	case SWELL_PARAM_BODY_MASS_G: g.body.mass_g = (uint32_t)v; break;
-	case SWELL_PARAM_BODY_A_UM: g.body.a_um = (uint32_t)v; break;
-	case SWELL_PARAM_BODY_B_UM: g.body.b_um = (uint32_t)v; break;
-	case SWELL_PARAM_BODY_H_UM: g.body.h_um = (uint32_t)v; break;
-	case SWELL_PARAM_BODY_DAMPER: g.body.damper_uN_per_mm_s = (uint32_t)v; break;
-	case SWELL_PARAM_FORCE_MAX_UN: g.safety.f_max_uN = (uint32_t)v; break;
-	case SWELL_PARAM_FORCE_RATE: g.safety.rate_uN_per_s = (uint32_t)v; break;
-	case SWELL_PARAM_FORCE_GAIN: g.safety.gain = v; break;
-	case SWELL_PARAM_SILENT_TICKS: g.silent_ticks = (uint16_t)v; break;
-	case SWELL_PARAM_AUTORUN: g.autorun = (uint8_t)v; break;
-	default: return SWELL_EUNKNOWN;
-	}
-	/* unsigned fields: a negative raw value must not wrap into a valid one */
-	if (v < 0 && id != SWELL_PARAM_WAVE_E && id != SWELL_PARAM_WAVE_DAMPING && id != SWELL_PARAM_FORCE_GAIN)
+	if (id == SWELL_PARAM_COMMAND)
+		return command(c, v);
+	if (!p)
+		return SWELL_EUNKNOWN;
+	if (v < p->min || v > p->max)
 		return SWELL_ERANGE;
-	if ((id == SWELL_PARAM_SILENT_TICKS && v > 10000) || (id == SWELL_PARAM_AUTORUN && v > 1))
-		return SWELL_ERANGE;
+	p->set(&g, v);
 	err = swell_ctl_check(&g);
 	if (err != SWELL_OK)
 		return err;
 
-	if (id >= SWELL_PARAM_WAVE_E && id <= SWELL_PARAM_WAVE_STENCIL) {
+	switch (p->group) {
+	case SWELL_PGROUP_WAVE:
 		err = swell_wave_set_params(&c->wave, &g.wave);
-	} else if (id >= SWELL_PARAM_BODY_MASS_G && id <= SWELL_PARAM_BODY_DAMPER) {
+		break;
+	case SWELL_PGROUP_BODY:
+	case SWELL_PGROUP_SIZE:
 		err = swell_body_set_params(&c->body, &g.body, &g.xform);
 		if (err == SWELL_OK) {
 			c->fp_cells = (g.body.a_um / g.dx_um + 2) * (g.body.b_um / g.dx_um + 2);
-			c->info_pending |= id >= SWELL_PARAM_BODY_A_UM && id <= SWELL_PARAM_BODY_H_UM;
+			c->info_pending |= p->group == SWELL_PGROUP_SIZE; /* CTL_INFO carries the size */
 		}
-	} else if (id >= SWELL_PARAM_FORCE_MAX_UN && id <= SWELL_PARAM_FORCE_GAIN) {
+		break;
+	case SWELL_PGROUP_SAFETY:
 		sp = safety_params(&g);
 		for (k = 0; k < 3 && err == SWELL_OK; k++)
 			err = swell_fsafety_set(&c->safety[k], &sp); /* same params: all or none fail */
+		break;
+	default:
+		break;
 	}
 	if (err != SWELL_OK)
 		return err;

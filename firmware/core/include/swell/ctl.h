@@ -45,38 +45,14 @@
 #include "swell/err.h"
 #include "swell/proto.h"
 #include "swell/force_safety.h"
+#include "swell/param_table.h"
 #include "swell/wave.h"
 
-enum swell_ctl_state {
-	SWELL_CTL_BOOT = 0,
-	SWELL_CTL_IDLE = 1,
-	SWELL_CTL_ARMED = 2,
-	SWELL_CTL_RUNNING = 3,
-	SWELL_CTL_FAULT = 4,
-};
+/* enum swell_ctl_state (the heartbeat's state codes) is in swell/proto_table.h. */
 
 enum swell_ctl_link { SWELL_LINK_DEVICE = 0, SWELL_LINK_HOST = 1, SWELL_LINKS = 2 };
 
-/* Commands, written to parameter SWELL_PARAM_COMMAND. */
-enum swell_ctl_command { SWELL_CMD_STOP = 0, SWELL_CMD_RUN = 1, SWELL_CMD_CLEAR = 2 };
-
-/* Parameter ids (PARAM_SET / PARAM_GET). Raw values in the unit their name says. */
-enum swell_param_id {
-	SWELL_PARAM_WAVE_E = 1,         /* Q1.30 */
-	SWELL_PARAM_WAVE_DAMPING = 2,   /* Q1.30 */
-	SWELL_PARAM_WAVE_STENCIL = 3,   /* 0 paper, 1 calibrated */
-	SWELL_PARAM_BODY_MASS_G = 10,
-	SWELL_PARAM_BODY_A_UM = 11,
-	SWELL_PARAM_BODY_B_UM = 12,
-	SWELL_PARAM_BODY_H_UM = 13,
-	SWELL_PARAM_BODY_DAMPER = 14,   /* uN per mm/s */
-	SWELL_PARAM_FORCE_MAX_UN = 20,
-	SWELL_PARAM_FORCE_RATE = 21,    /* uN per s */
-	SWELL_PARAM_FORCE_GAIN = 22,    /* Q15.16 */
-	SWELL_PARAM_SILENT_TICKS = 30,
-	SWELL_PARAM_AUTORUN = 31,       /* 0 or 1 */
-	SWELL_PARAM_COMMAND = 40,       /* enum swell_ctl_command, write only */
-};
+/* Parameter ids, commands and their ranges: swell/param_table.h. */
 
 #define SWELL_CTL_QUEUE 64
 

@@ -1,0 +1,684 @@
+/* swell-tool: the operator's console for a running controller (status, parameters, commands, live
+ * telemetry, CSV logs and plots), over the controller's host link. */
+#define _GNU_SOURCE
+#include <errno.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "swell/link.h"
+#include "swell/param.h"
+#include "tool_scene.h"
+#include "tool_session.h"
+#include "swell/param_text.h"
+
+static void usage(FILE *f)
+{
+	fputs("usage: swell-tool [--link SPEC] [--node N] [--timeout-ms MS] COMMAND [ARGS]\n"
+	      "The operator's console for a running controller (swell-ctl or the STM32F405 image), over its\n"
+	      "host link, the way swell-view listens to it.\n"
+	      "  --link SPEC      udp[:PORT] (default udp:47801, where swell-ctl's host link sends; a\n"
+	      "                   viewer on the same port must be stopped first), can:IFACE, usb[:VID:PID]\n"
+	      "  --node N         the controller's node, 0..15 (default: the one controller heard)\n"
+	      "  --timeout-ms MS  how long to wait for the controller and for each answer, and the silence\n"
+	      "                   that means it is gone (default 1000; 600 at least)\n"
+	      "Commands:\n"
+	      "  status [--json]          state, last error, protocol and firmware version, counters, scene,\n"
+	      "                           object (size, mass, height, submersion, force)\n"
+	      "  get NAME                 one parameter, with its unit\n"
+	      "  set NAME VALUE[UNIT]     e.g. set body.mass 80g, set wave.damping 0.02, set body.h 4cm;\n"
+	      "                           prints the value now in force, or the controller's reason\n"
+	      "  params                   every parameter: value, unit, range, default, changeable now\n"
+	      "  arm                      force law off, device held (STOP; from a fault: CLEAR)\n"
+	      "  run | stop | clear       the commands RUN, STOP, CLEAR; each prints the answer and the\n"
+	      "                           state after it\n"
+	      "  estop                    software stop: autorun off and STOP at once (zero force within a\n"
+	      "                           tick); not the device's own e-stop\n"
+	      "  watch [--seconds S]      a live line at 10 Hz: state, object z and submersion, force,\n"
+	      "                           largest wave, link load (until SIGINT, or S seconds)\n"
+	      "  log FILE.csv [--seconds S]  S seconds (default 10) of telemetry at 100 Hz to a CSV file,\n"
+	      "                           with a progress line\n"
+	      "  scene load FILE.scene    a scene file as one change: its pool must be the controller's; a\n"
+	      "                           refused value puts back what was set and names the line\n"
+	      "  scene save FILE.scene    the scene in force, every parameter, to a file\n"
+	      "  plot FILE.csv [--out FILE.png]  gnuplot PNG of a log: force, object bottom against the water\n"
+	      "                           under it, submersion (default FILE.png beside the CSV)\n"
+	      "Exit status: 0 done; 1 runtime failure (link, file); 2 bad arguments; 3 no controller heard;\n"
+	      "4 wrong node (another node heard, or several and no --node); 5 timeout (no answer, or the\n"
+	      "controller went silent); 6 refused (the controller's reason is printed; nothing changed).\n",
+	      f);
+}
+
+struct opts {
+	struct flash_link_spec spec;
+	int timeout_ms;
+	int json;
+	double seconds;
+	const char *out;
+	int argc;
+	char *argv[16]; /* the command and its arguments, options taken out */
+};
+
+static volatile sig_atomic_t stop_flag;
+
+static void on_signal(int sig)
+{
+	(void)sig;
+	stop_flag = 1;
+}
+
+static int bad(const char *fmt, const char *arg)
+{
+	fprintf(stderr, "swell-tool: ");
+	fprintf(stderr, fmt, arg);
+	fprintf(stderr, " (swell-tool --help)\n");
+	return TOOL_USAGE;
+}
+
+static int parse_long(const char *s, long lo, long hi, long *v)
+{
+	char *end;
+
+	if (!s)
+		return -1;
+	errno = 0;
+	*v = strtol(s, &end, 10);
+	return !*s || *end || errno || *v < lo || *v > hi ? -1 : 0;
+}
+
+static int parse_args(int argc, char **argv, struct opts *o)
+{
+	char err[160];
+	int k;
+	long v;
+
+	memset(o, 0, sizeof(o[0]));
+	o->timeout_ms = 1000;
+	o->seconds = -1;
+	if (flash_link_parse("udp", &o->spec, err, sizeof(err)) < 0)
+		return bad("%s", err);
+	for (k = 1; k < argc; k++) {
+		const char *a = argv[k], *val = k + 1 < argc ? argv[k + 1] : NULL;
+
+		if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
+			usage(stdout);
+			exit(0);
+		} else if (!strcmp(a, "--json")) {
+			o->json = 1;
+		} else if (a[0] == '-' && a[1] == '-' && !val) {
+			return bad("%s needs a value", a);
+		} else if (!strcmp(a, "--link")) {
+			int node = o->spec.node;
+
+			if (flash_link_parse(val, &o->spec, err, sizeof(err)) < 0)
+				return bad("%s", err);
+			o->spec.node = node;
+			k++;
+		} else if (!strcmp(a, "--node")) {
+			if (parse_long(val, 0, SWELL_NODE_MAX, &v) < 0)
+				return bad("--node must be 0..15, not '%s'", val);
+			o->spec.node = (int)v;
+			k++;
+		} else if (!strcmp(a, "--timeout-ms")) {
+			if (parse_long(val, 1, 600000, &v) < 0)
+				return bad("--timeout-ms must be 1..600000, not '%s'", val);
+			o->timeout_ms = (int)v;
+			k++;
+		} else if (!strcmp(a, "--seconds")) {
+			char *end;
+
+			if (!val)
+				return bad("%s needs a value", a);
+			o->seconds = strtod(val, &end);
+			if (!*val || *end || !(o->seconds > 0 && o->seconds <= 86400))
+				return bad("--seconds must be in (0, 86400], not '%s'", val);
+			k++;
+		} else if (!strcmp(a, "--out")) {
+			o->out = val;
+			k++;
+		} else if (a[0] == '-' && a[1] && !(a[1] >= '0' && a[1] <= '9') && a[1] != '.') {
+			return bad("unknown option '%s'", a);
+		} else {
+			if (o->argc == (int)(sizeof(o->argv) / sizeof(o->argv[0])))
+				return bad("%s", "too many words");
+			o->argv[o->argc++] = argv[k];
+		}
+	}
+	if (o->argc == 0)
+		return bad("%s", "no command given");
+	return TOOL_OK;
+}
+
+/* ---- commands ---- */
+
+static const struct swell_param_desc *param_named(const char *name)
+{
+	const struct swell_param_desc *d = swell_param_by_name(name);
+	size_t n, k;
+
+	if (!d) {
+		const struct swell_param_desc *t = swell_param_table(&n);
+
+		fprintf(stderr, "swell-tool: no parameter '%s'; there are:", name);
+		for (k = 0; k < n; k++)
+			fprintf(stderr, " %s", t[k].name);
+		fprintf(stderr, "\n");
+	}
+	return d;
+}
+
+static enum tool_rc get_value(struct tool_session *s, const struct opts *o, const struct swell_param_desc *d,
+			      int32_t *v)
+{
+	enum swell_err why = SWELL_OK;
+	char err[200];
+	enum tool_rc rc = tool_request(s, 0, d->id, 0, o->timeout_ms, v, &why, err, sizeof(err));
+
+	if (rc == TOOL_REFUSED)
+		fprintf(stderr, "swell-tool: get %s refused: %s\n", d->name, swell_err_str(why));
+	else if (rc != TOOL_OK)
+		fprintf(stderr, "swell-tool: get %s: %s\n", d->name, err);
+	return rc;
+}
+
+static int cmd_get(struct tool_session *s, const struct opts *o)
+{
+	const struct swell_param_desc *d;
+	char buf[64];
+	int32_t v = 0;
+	enum tool_rc rc;
+
+	if (o->argc != 2)
+		return bad("%s", "get takes one parameter name");
+	d = param_named(o->argv[1]);
+	if (!d)
+		return TOOL_USAGE;
+	rc = get_value(s, o, d, &v);
+	if (rc != TOOL_OK)
+		return rc;
+	swell_param_format(d, v, buf, sizeof(buf));
+	printf("%s = %s (raw %ld)\n", d->name, buf, (long)v);
+	return TOOL_OK;
+}
+
+static int cmd_set(struct tool_session *s, const struct opts *o, const struct swell_param_desc *d, int32_t raw)
+{
+	enum swell_err why = SWELL_OK;
+	char err[200], was[64], now[64];
+	int32_t before = 0, v = 0;
+	enum tool_rc rc;
+
+	rc = get_value(s, o, d, &before);
+	if (rc != TOOL_OK)
+		return rc;
+	swell_param_format(d, before, was, sizeof(was));
+	rc = tool_request(s, 1, d->id, raw, o->timeout_ms, &v, &why, err, sizeof(err));
+	if (rc == TOOL_REFUSED) {
+		fprintf(stderr, "swell-tool: set %s refused by the controller: %s (state %s); %s stays %s\n", d->name,
+			swell_err_str(why), swell_state_name(s->t.hb.state), d->name, was);
+		return rc;
+	}
+	if (rc != TOOL_OK) {
+		fprintf(stderr, "swell-tool: set %s: %s\n", d->name, err);
+		return rc;
+	}
+	swell_param_format(d, v, now, sizeof(now));
+	printf("%s = %s (was %s)\n", d->name, now, was);
+	return TOOL_OK;
+}
+
+static int cmd_set_args(struct tool_session *s, const struct opts *o)
+{
+	const struct swell_param_desc *d;
+	char text[64] = "", err[200];
+	int32_t raw = 0;
+	int k;
+
+	if (o->argc < 3)
+		return bad("%s", "set takes a parameter name and a value, e.g. set body.mass 80g");
+	d = param_named(o->argv[1]);
+	if (!d)
+		return TOOL_USAGE;
+	for (k = 2; k < o->argc; k++) /* "80 g" as two words, too */
+		if (strlen(text) + strlen(o->argv[k]) + 1 < sizeof(text)) {
+			strcat(text, o->argv[k]);
+		}
+	if (swell_param_parse(d, text, &raw, err, sizeof(err)) < 0)
+		return bad("%s", err);
+	return cmd_set(s, o, d, raw);
+}
+
+/* Whether the object is in the water now (its DRY parameters are refused then). */
+static int wet(const struct tool_session *s)
+{
+	return s->t.have_pose && s->t.pose.submersion_halfpct > 0;
+}
+
+static int cmd_params(struct tool_session *s, const struct opts *o)
+{
+	const struct swell_param_desc *t;
+	size_t n, k;
+	int worst = TOOL_OK;
+
+	tool_pump(s, 50);
+	t = swell_param_table(&n);
+	printf("%-18s %-16s %-30s %-14s %s\n", "parameter", "value", "range", "default", "changeable now");
+	for (k = 0; k < n; k++) {
+		char v[48], lo[48], hi[48], def[48], range[100];
+		int32_t raw = 0;
+		int rc = get_value(s, o, &t[k], &raw);
+
+		if (rc != TOOL_OK) {
+			worst = rc;
+			if (rc == TOOL_TIMEOUT)
+				return rc;
+			continue;
+		}
+		swell_param_format(&t[k], raw, v, sizeof(v));
+		swell_param_format(&t[k], t[k].min, lo, sizeof(lo));
+		swell_param_format(&t[k], t[k].max, hi, sizeof(hi));
+		swell_param_format(&t[k], t[k].def, def, sizeof(def));
+		snprintf(range, sizeof(range), "%s .. %s", lo, hi);
+		printf("%-18s %-16s %-30s %-14s %s\n", t[k].name, v, range, def,
+		       t[k].when == SWELL_PWHEN_DRY && wet(s) ? "no: the object displaces water" : "yes");
+	}
+	printf("%-18s %-16s %-30s %-14s %s\n", SWELL_PARAM_COMMAND_NAME, "(write only)", "stop, run, clear", "-",
+	       "yes (clear: in fault)");
+	return worst;
+}
+
+/* Send a command, print its answer and the state it leads to (waited for up to the timeout). */
+static int command(struct tool_session *s, const struct opts *o, int32_t cmd, unsigned want_mask)
+{
+	enum swell_err why = SWELL_OK;
+	char err[200];
+	int32_t v = 0;
+	const unsigned before = s->t.hb.state;
+	const uint64_t t0 = swell_link_now_ns();
+	enum tool_rc rc = tool_request(s, 1, SWELL_PARAM_COMMAND, cmd, o->timeout_ms, &v, &why, err, sizeof(err));
+
+	if (rc == TOOL_REFUSED) {
+		fprintf(stderr, "swell-tool: %s refused by the controller: %s (state %s)\n", swell_command_name(cmd),
+			swell_err_str(why), swell_state_name(s->t.hb.state));
+		return rc;
+	}
+	if (rc != TOOL_OK) {
+		fprintf(stderr, "swell-tool: %s: %s\n", swell_command_name(cmd), err);
+		return rc;
+	}
+	/* the heartbeat (10 Hz) tells the state after it */
+	{
+		const uint32_t seq0 = s->t.hb.seq;
+		const uint64_t until = t0 + (uint64_t)o->timeout_ms * 1000000u;
+
+		while (swell_link_now_ns() < until) {
+			tool_pump(s, 20);
+			if (s->t.hb.seq != seq0 && (want_mask >> s->t.hb.state & 1u))
+				break;
+			if (tool_silent(s)) {
+				fprintf(stderr, "swell-tool: %s acknowledged, then the controller went silent\n",
+					swell_command_name(cmd));
+				return TOOL_TIMEOUT;
+			}
+		}
+	}
+	printf("%s: acknowledged; state %s -> %s (%.0f ms)%s%s\n", swell_command_name(cmd), swell_state_name(before),
+	       swell_state_name(s->t.hb.state), (double)(swell_link_now_ns() - t0) / 1e6,
+	       s->t.hb.err ? ", last error: " : "", s->t.hb.err ? swell_err_str((enum swell_err)s->t.hb.err) : "");
+	if (!(want_mask >> s->t.hb.state & 1u)) {
+		fprintf(stderr, "swell-tool: %s: the state did not follow (still %s)%s\n", swell_command_name(cmd),
+			swell_state_name(s->t.hb.state),
+			cmd == SWELL_CMD_RUN ? ": the device must be there, powered and its e-stop released" : "");
+		return TOOL_REFUSED;
+	}
+	return TOOL_OK;
+}
+
+#define STATE_BIT(st) (1u << (st))
+
+static int cmd_estop(struct tool_session *s, const struct opts *o)
+{
+	struct swell_msg m[2];
+	struct swell_frame f;
+	size_t used, k;
+
+	/* both requests at once, no waiting in between: the force is zero within a tick of the second */
+	memset(m, 0, sizeof(m));
+	for (k = 0; k < 2; k++) {
+		m[k].type = SWELL_MSG_PARAM_SET;
+		m[k].node = (uint8_t)s->node;
+		m[k].u.param_set.seq = ++s->seq;
+	}
+	m[0].u.param_set.id = SWELL_PARAM_AUTORUN;
+	m[0].u.param_set.value = 0;
+	m[1].u.param_set.id = SWELL_PARAM_COMMAND;
+	m[1].u.param_set.value = SWELL_CMD_STOP;
+	for (k = 0; k < 2; k++)
+		if (swell_link_encode(swell_link_carrier(s->l), m[k].node, s->pkt_seq++, &m[k], 1, &f, &used) == SWELL_OK)
+			(void)swell_link_send(s->l, &f);
+	/* then the same through the acknowledged path: a lost frame is sent again */
+	return command(s, o, SWELL_CMD_STOP, ~STATE_BIT(SWELL_CTL_RUNNING) & 0x1fu);
+}
+
+static void json_str(const char *k, const char *v, int last)
+{
+	printf("  \"%s\": \"%s\"%s\n", k, v, last ? "" : ",");
+}
+
+static int cmd_status(struct tool_session *s, const struct opts *o)
+{
+	const struct tool_telemetry *t = &s->t;
+	const struct swell_param_desc *md = swell_param_by_id(SWELL_PARAM_BODY_MASS_G);
+	const int wait_ms = 11 * o->timeout_ms / 10 + 1200; /* scene and info come at 1 Hz */
+	int32_t mass = 0;
+	char fw[16] = "?";
+	enum tool_rc rc;
+
+	/* the heartbeat is the controller's status; a scene or info that is late (a controller running
+	 * below real time) is reported as not heard, not as a failure */
+	tool_wait_full(s, wait_ms);
+	if (tool_silent(s)) {
+		fprintf(stderr, "swell-tool: status: the controller went silent\n");
+		return TOOL_TIMEOUT;
+	}
+	rc = get_value(s, o, md, &mass);
+	if (rc != TOOL_OK)
+		return rc;
+	tool_pump(s, 30); /* a pose and a force (100 Hz) */
+	if (t->have_info)
+		snprintf(fw, sizeof(fw), "%u.%u.%u", t->info.fw_major, t->info.fw_minor, t->info.fw_patch);
+	if (o->json) {
+		printf("{\n");
+		json_str("link", s->name, 0);
+		printf("  \"node\": %d,\n", s->node);
+		json_str("state", swell_state_name(t->hb.state), 0);
+		json_str("last_error", swell_err_str((enum swell_err)t->hb.err), 0);
+		printf("  \"protocol_version\": %u,\n", t->hb.version);
+		if (t->have_info)
+			json_str("firmware_version", fw, 0);
+		else
+			printf("  \"firmware_version\": null,\n");
+		printf("  \"bad_frames\": %u,\n  \"overruns\": %u,\n", t->hb.bad_frames, t->hb.overruns);
+		if (t->have_scene)
+			printf("  \"scene\": {\"id\": %u, \"nx\": %u, \"ny\": %u, \"dx_mm\": %.3f, \"depth_mm\": %.2f},\n",
+			       t->scene.scene_id, t->scene.nx, t->scene.ny, t->scene.dx_um / 1000.0,
+			       t->scene.depth_10um / 100.0);
+		else
+			printf("  \"scene\": null,\n");
+		printf("  \"object\": {");
+		if (t->have_info)
+			printf("\"a_mm\": %.1f, \"b_mm\": %.1f, \"h_mm\": %.1f, ", t->info.obj_a_100um / 10.0,
+			       t->info.obj_b_100um / 10.0, t->info.obj_h_100um / 10.0);
+		printf("\"mass_g\": %ld", (long)mass);
+		if (t->have_pose && t->have_force)
+			printf(", \"x_mm\": %.2f, \"y_mm\": %.2f, \"z_mm\": %.2f, \"submersion_pct\": %.1f, "
+			       "\"force_N\": [%.2f, %.2f, %.2f], \"limits\": %u",
+			       t->pose.x_10um / 100.0, t->pose.y_10um / 100.0, t->pose.z_10um / 100.0,
+			       t->pose.submersion_halfpct / 2.0, t->force.fx_cN / 100.0, t->force.fy_cN / 100.0,
+			       t->force.fz_cN / 100.0, t->force.limits);
+		printf("}\n}\n");
+		return TOOL_OK;
+	}
+	printf("controller   node %d on %s, state %s, last error: %s\n", s->node, s->name, swell_state_name(t->hb.state),
+	       swell_err_str((enum swell_err)t->hb.err));
+	printf("versions     protocol %u, firmware %s\n", t->hb.version, t->have_info ? fw : "not heard yet");
+	printf("counters     %u bad frames, %u tick overruns (saturating at 65535)\n", t->hb.bad_frames,
+	       t->hb.overruns);
+	if (t->have_scene)
+		printf("scene        %u x %u cells of %.3f mm (%.1f x %.1f mm), depth %.2f mm, id %u\n", t->scene.nx,
+		       t->scene.ny, t->scene.dx_um / 1000.0, t->scene.nx * t->scene.dx_um / 1000.0,
+		       t->scene.ny * t->scene.dx_um / 1000.0, t->scene.depth_10um / 100.0, t->scene.scene_id);
+	else
+		printf("scene        not heard within %.1f s (sent once a second of the controller's time)\n",
+		       wait_ms / 1000.0);
+	if (t->have_info)
+		printf("object       %.1f x %.1f x %.1f mm, %ld g", t->info.obj_a_100um / 10.0, t->info.obj_b_100um / 10.0,
+		       t->info.obj_h_100um / 10.0, (long)mass);
+	else
+		printf("object       %ld g (size not heard yet)", (long)mass);
+	if (t->have_pose)
+		printf("; bottom at %.2f mm, %.1f %% submerged", t->pose.z_10um / 100.0, t->pose.submersion_halfpct / 2.0);
+	printf("\n");
+	if (t->have_force)
+		printf("force        %.2f %.2f %.2f N%s%s\n", t->force.fx_cN / 100.0, t->force.fy_cN / 100.0,
+		       t->force.fz_cN / 100.0, t->force.limits & 1u ? ", clamped to the limit" : "",
+		       t->force.limits & 2u ? ", rate limited" : "");
+	return TOOL_OK;
+}
+
+/* Link load since the last call: frames/s, kB/s and (CAN) the share of a 1 Mbit/s bus. */
+struct load {
+	uint64_t frames, bytes, bits, t_ns;
+};
+
+static void load_line(struct tool_session *s, struct load *l, char *buf, size_t len)
+{
+	const uint64_t now = swell_link_now_ns();
+	const double dt = (double)(now - l->t_ns) / 1e9;
+
+	if (swell_link_carrier(s->l) == SWELL_CARRIER_PKT)
+		snprintf(buf, len, "%.0f packets/s %.1f kB/s", (double)(s->t.frames - l->frames) / dt,
+			 (double)(s->t.bytes - l->bytes) / dt / 1e3);
+	else
+		snprintf(buf, len, "%.0f frames/s, bus %.1f %% of 1 Mbit/s", (double)(s->t.frames - l->frames) / dt,
+			 (double)(s->t.can_bits - l->bits) / dt / 1e4);
+	l->frames = s->t.frames;
+	l->bytes = s->t.bytes;
+	l->bits = s->t.can_bits;
+	l->t_ns = now;
+}
+
+static int cmd_watch(struct tool_session *s, const struct opts *o)
+{
+	const double seconds = o->seconds > 0 ? o->seconds : 1e9;
+	const int tty = isatty(fileno(stdout));
+	struct load l = {s->t.frames, s->t.bytes, s->t.can_bits, swell_link_now_ns()};
+	char lb[80];
+
+	while (!stop_flag && tool_elapsed_s(s) < seconds) {
+		tool_pump(s, 100);
+		if (tool_silent(s)) {
+			fprintf(stderr, "%sswell-tool: watch: the controller went silent (no heartbeat for %d ms)\n",
+				tty ? "\n" : "", s->silent_ms);
+			return TOOL_TIMEOUT;
+		}
+		load_line(s, &l, lb, sizeof(lb));
+		printf("%s%7.1f s  %-7s  z %7.2f mm  sub %5.1f %%  F %6.2f %6.2f %6.2f N  wave %5.2f mm  %s%s",
+		       tty ? "\r" : "", tool_elapsed_s(s), swell_state_name(s->t.hb.state), s->t.pose.z_10um / 100.0,
+		       s->t.pose.submersion_halfpct / 2.0, s->t.force.fx_cN / 100.0, s->t.force.fy_cN / 100.0,
+		       s->t.force.fz_cN / 100.0, tool_wave_max_mm(s), lb, tty ? "   " : "\n");
+		fflush(stdout);
+	}
+	if (tty)
+		printf("\n");
+	return TOOL_OK;
+}
+
+struct log_state {
+	FILE *f;
+	uint32_t rows;
+	double t0;
+};
+
+/* One row per OBJECT_FORCE (100 Hz), which follows its OBJECT_POSE (same seq). */
+static void log_row(struct tool_session *s, const struct swell_msg *m, void *user)
+{
+	struct log_state *lg = user;
+
+	if (m->type != SWELL_MSG_OBJECT_FORCE || !s->t.have_pose || s->t.pose.seq != m->u.object_force.seq)
+		return;
+	fprintf(lg->f, "%.4f,%s,%.2f,%.2f,%.2f,%.1f,%.2f,%.2f,%.2f,%.4f,%.4f\n",
+		(double)(s->t.force_ns - s->t0_ns) / 1e9 - lg->t0, swell_state_name(s->t.hb.state),
+		s->t.pose.x_10um / 100.0, s->t.pose.y_10um / 100.0, s->t.pose.z_10um / 100.0,
+		s->t.pose.submersion_halfpct / 2.0, s->t.force.fx_cN / 100.0, s->t.force.fy_cN / 100.0,
+		s->t.force.fz_cN / 100.0, tool_water_under_mm(s), tool_wave_max_mm(s));
+	lg->rows++;
+}
+
+static int cmd_log(struct tool_session *s, const struct opts *o)
+{
+	const double seconds = o->seconds > 0 ? o->seconds : 10;
+	const int tty = isatty(fileno(stderr));
+	static struct log_state lg; /* reached from the session's callback */
+	double next_progress = 0, t;
+
+	if (o->argc != 2)
+		return bad("%s", "log takes one file name, e.g. log run.csv --seconds 10");
+	lg.f = fopen(o->argv[1], "w");
+	if (!lg.f) {
+		fprintf(stderr, "swell-tool: log: cannot write %s: %s\n", o->argv[1], strerror(errno));
+		return TOOL_FAIL;
+	}
+	lg.rows = 0;
+	tool_wait_full(s, 11 * o->timeout_ms / 10 + 1200); /* scene and info, for the water under the object */
+	lg.t0 = tool_elapsed_s(s);
+	fprintf(lg.f, "t_s,state,x_mm,y_mm,z_mm,submersion_pct,fx_N,fy_N,fz_N,water_mm,wave_max_mm\n");
+	s->on_msg = log_row;
+	s->user = &lg;
+	while (!stop_flag && (t = tool_elapsed_s(s) - lg.t0) < seconds) {
+		tool_pump(s, 20);
+		if (tool_silent(s)) {
+			s->on_msg = NULL;
+			fclose(lg.f);
+			fprintf(stderr, "%sswell-tool: log: the controller went silent after %.1f s; %u rows kept in %s\n",
+				tty ? "\n" : "", t, lg.rows, o->argv[1]);
+			return TOOL_TIMEOUT;
+		}
+		if (t >= next_progress) { /* a line a second, in place on a terminal */
+			fprintf(stderr, "%slog: %5.1f of %.1f s, %u rows to %s%s", tty ? "\r" : "", t, seconds, lg.rows,
+				o->argv[1], tty ? "" : "\n");
+			next_progress += 1;
+		}
+	}
+	s->on_msg = NULL;
+	if (fclose(lg.f) != 0) {
+		fprintf(stderr, "\nswell-tool: log: writing %s failed: %s\n", o->argv[1], strerror(errno));
+		return TOOL_FAIL;
+	}
+	fprintf(stderr, "%slog: %.1f s, %u rows (%.0f a second) to %s\n", tty ? "\r" : "", tool_elapsed_s(s) - lg.t0,
+		lg.rows, lg.rows / (tool_elapsed_s(s) - lg.t0), o->argv[1]);
+	return TOOL_OK;
+}
+
+static int cmd_plot(const struct opts *o)
+{
+	char png[4096], line[256];
+	FILE *f, *g;
+	int rows = 0, rc;
+
+	if (o->argc != 2)
+		return bad("%s", "plot takes one CSV file written by log");
+	f = fopen(o->argv[1], "r");
+	if (!f) {
+		fprintf(stderr, "swell-tool: plot: cannot read %s: %s\n", o->argv[1], strerror(errno));
+		return TOOL_FAIL;
+	}
+	if (!fgets(line, sizeof(line), f) || strncmp(line, "t_s,state,x_mm", 14) != 0) {
+		fclose(f);
+		fprintf(stderr, "swell-tool: plot: %s is not a swell-tool log (header t_s,state,x_mm,...)\n", o->argv[1]);
+		return TOOL_FAIL;
+	}
+	while (fgets(line, sizeof(line), f))
+		rows++;
+	fclose(f);
+	if (rows < 2) {
+		fprintf(stderr, "swell-tool: plot: %s has %d rows, nothing to plot\n", o->argv[1], rows);
+		return TOOL_FAIL;
+	}
+	if (o->out)
+		snprintf(png, sizeof(png), "%s", o->out);
+	else {
+		size_t n = strlen(o->argv[1]);
+
+		snprintf(png, sizeof(png), "%.*s.png",
+			 (int)(n > 4 && !strcmp(o->argv[1] + n - 4, ".csv") ? n - 4 : n), o->argv[1]);
+	}
+	if (strpbrk(png, "\"\\") || strpbrk(o->argv[1], "\"\\"))
+		return bad("%s", "file names with quotes or backslashes cannot be handed to gnuplot");
+	g = popen("gnuplot", "w");
+	if (!g) {
+		fprintf(stderr, "swell-tool: plot: cannot run gnuplot (tools/setup installs gnuplot-nox)\n");
+		return TOOL_FAIL;
+	}
+	fprintf(g, "set terminal pngcairo size 1000,900 font 'sans,10'\nset output \"%s\"\n"
+		   "set datafile separator ','\nset key autotitle columnhead top right\nset grid\n"
+		   "set multiplot layout 3,1 title \"swell-tool log %s (%d rows)\"\n"
+		   "set ylabel 'force (N)'\nplot \"%s\" using 1:9 with lines lw 2 title 'Fz', '' using 1:7 with lines "
+		   "title 'Fx', '' using 1:8 with lines title 'Fy'\n"
+		   "set ylabel 'height (mm)'\nplot \"%s\" using 1:5 with lines lw 2 title 'object bottom z', '' using "
+		   "1:10 with lines lw 2 title 'water under the object', '' using 1:11 with lines title 'largest wave'\n"
+		   "set ylabel 'submersion (%%)'\nset xlabel 'time (s)'\nset yrange [0:105]\nplot \"%s\" using 1:6 with "
+		   "lines lw 2 title 'submerged'\nunset multiplot\n",
+		png, o->argv[1], rows, o->argv[1], o->argv[1], o->argv[1]);
+	rc = pclose(g);
+	if (rc != 0) {
+		fprintf(stderr, "swell-tool: plot: gnuplot failed (status %d)\n", rc);
+		return TOOL_FAIL;
+	}
+	printf("plot: %s (%d rows of %s)\n", png, rows, o->argv[1]);
+	return TOOL_OK;
+}
+
+static const char *const session_cmds[] = {"status", "get", "set", "params", "arm", "run", "stop",
+					   "clear", "estop", "watch", "log", "scene"};
+
+int main(int argc, char **argv)
+{
+	static struct tool_session s; /* the height grid: 256 KB, not on the stack */
+	struct opts o;
+	char err[256];
+	const char *cmd;
+	size_t k;
+	int rc, known = 0;
+
+	rc = parse_args(argc, argv, &o);
+	if (rc != TOOL_OK)
+		return rc;
+	cmd = o.argv[0];
+	if (!strcmp(cmd, "plot"))
+		return cmd_plot(&o);
+	for (k = 0; k < sizeof(session_cmds) / sizeof(session_cmds[0]); k++)
+		known |= !strcmp(cmd, session_cmds[k]);
+	if (!known)
+		return bad("unknown command '%s'", cmd);
+	if (!strcmp(cmd, "scene") && (o.argc != 3 || (strcmp(o.argv[1], "load") && strcmp(o.argv[1], "save"))))
+		return bad("%s", "scene takes load FILE or save FILE");
+	signal(SIGINT, on_signal);
+	signal(SIGTERM, on_signal);
+	rc = tool_open(&s, &o.spec, o.timeout_ms, err, sizeof(err));
+	if (rc != TOOL_OK) {
+		fprintf(stderr, "swell-tool: %s\n", err);
+		return rc;
+	}
+	if (!strcmp(cmd, "status"))
+		rc = cmd_status(&s, &o);
+	else if (!strcmp(cmd, "get"))
+		rc = cmd_get(&s, &o);
+	else if (!strcmp(cmd, "set"))
+		rc = cmd_set_args(&s, &o);
+	else if (!strcmp(cmd, "params"))
+		rc = cmd_params(&s, &o);
+	else if (!strcmp(cmd, "arm"))
+		rc = command(&s, &o, s.t.hb.state == SWELL_CTL_FAULT ? SWELL_CMD_CLEAR : SWELL_CMD_STOP,
+			     STATE_BIT(SWELL_CTL_ARMED) | (s.t.hb.state == SWELL_CTL_FAULT ? STATE_BIT(SWELL_CTL_IDLE) : 0));
+	else if (!strcmp(cmd, "run"))
+		rc = command(&s, &o, SWELL_CMD_RUN, STATE_BIT(SWELL_CTL_RUNNING));
+	else if (!strcmp(cmd, "stop"))
+		rc = command(&s, &o, SWELL_CMD_STOP, ~STATE_BIT(SWELL_CTL_RUNNING) & 0x1fu);
+	else if (!strcmp(cmd, "clear"))
+		rc = command(&s, &o, SWELL_CMD_CLEAR, ~STATE_BIT(SWELL_CTL_FAULT) & 0x1fu);
+	else if (!strcmp(cmd, "estop"))
+		rc = cmd_estop(&s, &o);
+	else if (!strcmp(cmd, "watch"))
+		rc = cmd_watch(&s, &o);
+	else if (!strcmp(cmd, "scene"))
+		rc = !strcmp(o.argv[1], "load") ? tool_scene_load(&s, o.argv[2], o.timeout_ms)
+						 : tool_scene_save(&s, o.argv[2], o.timeout_ms);
+	else
+		rc = cmd_log(&s, &o);
+	tool_close(&s);
+	return rc;
+}
