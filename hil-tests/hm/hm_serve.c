@@ -1,0 +1,273 @@
+/* The HapticMaster's TCP interface; see hm_serve.h. */
+#define _GNU_SOURCE
+#include "hm_serve.h"
+
+#include <arpa/inet.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+int hm_serve_open(struct hm_serve *s, const char *spec, char *err, size_t errlen)
+{
+	char addr[48] = "127.0.0.1";
+	const char *colon = strrchr(spec, ':');
+	long port = HM_SERVE_PORT;
+	struct sockaddr_in sa;
+	int k, one = 1;
+
+	memset(s, 0, sizeof(*s));
+	s->lfd = -1;
+	for (k = 0; k < HM_SERVE_CLIENTS; k++)
+		s->c[k].fd = -1;
+	if (colon || strspn(spec, "0123456789") == strlen(spec)) {
+		const char *p = colon ? colon + 1 : spec;
+		char *end;
+
+		if (colon) {
+			if ((size_t)(colon - spec) >= sizeof(addr) || colon == spec) {
+				snprintf(err, errlen, "'%s' is not [ADDR:]PORT", spec);
+				return -1;
+			}
+			memcpy(addr, spec, (size_t)(colon - spec));
+			addr[colon - spec] = '\0';
+		}
+		errno = 0;
+		port = strtol(p, &end, 10);
+		if (errno || end == p || *end || port < 1 || port > 65535) {
+			snprintf(err, errlen, "port '%s' is not a number in [1, 65535]", p);
+			return -1;
+		}
+	} else {
+		if (strlen(spec) >= sizeof(addr)) {
+			snprintf(err, errlen, "address '%.40s...' is too long", spec);
+			return -1;
+		}
+		snprintf(addr, sizeof(addr), "%s", spec);
+	}
+	memset(&sa, 0, sizeof(sa));
+	sa.sin_family = AF_INET;
+	sa.sin_port = htons((uint16_t)port);
+	if (inet_pton(AF_INET, addr, &sa.sin_addr) != 1) {
+		snprintf(err, errlen, "'%s' is not a dotted IPv4 address", addr);
+		return -1;
+	}
+	s->lfd = socket(AF_INET, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+	if (s->lfd < 0) {
+		snprintf(err, errlen, "socket: %s", strerror(errno));
+		return -1;
+	}
+	setsockopt(s->lfd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof(one));
+	if (bind(s->lfd, (struct sockaddr *)&sa, sizeof(sa)) < 0 || listen(s->lfd, HM_SERVE_CLIENTS) < 0) {
+		snprintf(err, errlen, "cannot listen on %s:%ld: %s", addr, port, strerror(errno));
+		close(s->lfd);
+		s->lfd = -1;
+		return -1;
+	}
+	snprintf(s->name, sizeof(s->name), "tcp %s:%ld", addr, port);
+	return 0;
+}
+
+static void drop(struct hm_serve *s, struct hm_dev *d, int k)
+{
+	close(s->c[k].fd);
+	s->c[k].fd = -1;
+	s->c[k].in_len = s->c[k].out_len = 0;
+	s->c[k].partial_since_ns = 0;
+	s->c[k].closing = 0;
+	hm_dev_client_gone(d, k);
+}
+
+/* Writes what waits in the reply buffer; 0 while the connection is fine. */
+static int flush(struct hm_serve *s, int k)
+{
+	struct hm_conn *c = &s->c[k];
+	ssize_t n;
+
+	while (c->out_len > 0) {
+		n = send(c->fd, c->out, c->out_len, MSG_DONTWAIT | MSG_NOSIGNAL);
+		if (n < 0)
+			return errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR ? 0 : -1;
+		s->st.bytes_out += (uint64_t)n;
+		memmove(c->out, c->out + n, c->out_len - (size_t)n);
+		c->out_len -= (size_t)n;
+	}
+	return 0;
+}
+
+/* Queues one framed reply; -1 when the client has not read enough of the earlier ones. */
+static int queue(struct hm_serve *s, int k, const char *text, size_t n)
+{
+	struct hm_conn *c = &s->c[k];
+
+	if (c->out_len + 8 + n > sizeof(c->out))
+		return -1;
+	c->out[c->out_len + 0] = (uint8_t)(n >> 24);
+	c->out[c->out_len + 1] = (uint8_t)(n >> 16);
+	c->out[c->out_len + 2] = (uint8_t)(n >> 8);
+	c->out[c->out_len + 3] = (uint8_t)n;
+	memset(c->out + c->out_len + 4, 0, 4);
+	memcpy(c->out + c->out_len + 8, text, n);
+	c->out_len += 8 + n;
+	s->st.replies++;
+	return 0;
+}
+
+static void accept_new(struct hm_serve *s)
+{
+	int fd, k, one = 1;
+
+	while ((fd = accept4(s->lfd, NULL, NULL, SOCK_NONBLOCK | SOCK_CLOEXEC)) >= 0) {
+		for (k = 0; k < HM_SERVE_CLIENTS && s->c[k].fd >= 0; k++)
+			;
+		if (k == HM_SERVE_CLIENTS) {
+			s->st.refused_full++;
+			close(fd);
+			continue;
+		}
+		setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof(one));
+		memset(&s->c[k], 0, sizeof(s->c[k]));
+		s->c[k].fd = fd;
+		s->st.accepted++;
+	}
+}
+
+static uint32_t be32(const uint8_t *p)
+{
+	return (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | p[3];
+}
+
+/* Runs the whole requests in the input buffer, up to the tick's budget. -1: drop the client. */
+static int run_requests(struct hm_serve *s, struct hm_dev *d, int k, int64_t now_ns)
+{
+	struct hm_conn *c = &s->c[k];
+	int done = 0;
+	size_t k2;
+
+	while (c->in_len >= 8 && done < HM_SERVE_REQS_PER_TICK) {
+		uint32_t len = be32(c->in);
+		size_t n;
+
+		if (len == 0 || len > HM_SERVE_TEXT_MAX || be32(c->in + 4) != 0) {
+			n = (size_t)snprintf(s->reply, sizeof(s->reply),
+					     "--- ERROR: bad header (length %u, bytes 4-7 %08x; text of 1..%d bytes after a "
+					     "big-endian length and four zero bytes): closing",
+					     len, be32(c->in + 4), HM_SERVE_TEXT_MAX);
+			s->st.drop_header++;
+			queue(s, k, s->reply, n);
+			c->closing = 1;
+			c->in_len = 0;
+			return 0;
+		}
+		if (c->in_len < 8 + (size_t)len) {
+			if (!c->partial_since_ns)
+				c->partial_since_ns = now_ns;
+			return 0;
+		}
+		c->partial_since_ns = 0;
+		for (k2 = 0; k2 < len; k2++) {
+			uint8_t b = c->in[8 + k2];
+
+			if (!((b >= 0x20 && b < 0x7f) || b == '\t' || b == '\n' || b == '\r'))
+				break;
+		}
+		s->st.requests++;
+		if (k2 < len) {
+			s->st.garbage++;
+			d->errors++;
+			n = (size_t)snprintf(s->reply, sizeof(s->reply),
+					     "--- ERROR: byte 0x%02x at offset %zu is not text: request ignored",
+					     c->in[8 + k2], k2);
+		} else {
+			n = hm_dev_request(d, k, (const char *)c->in + 8, len, s->reply, sizeof(s->reply));
+		}
+		if (queue(s, k, s->reply, n) < 0) {
+			s->st.drop_not_reading++;
+			return -1;
+		}
+		memmove(c->in, c->in + 8 + len, c->in_len - 8 - len);
+		c->in_len -= 8 + len;
+		done++;
+	}
+	if (c->in_len >= 8 && done == HM_SERVE_REQS_PER_TICK)
+		s->st.deferred_ticks++;
+	if (c->in_len > 0 && c->in_len < 8 && !c->partial_since_ns)
+		c->partial_since_ns = now_ns;
+	return 0;
+}
+
+void hm_serve_poll(struct hm_serve *s, struct hm_dev *d, int64_t now_ns)
+{
+	int k;
+
+	if (s->lfd < 0)
+		return;
+	accept_new(s);
+	for (k = 0; k < HM_SERVE_CLIENTS; k++) {
+		struct hm_conn *c = &s->c[k];
+		ssize_t n;
+
+		if (c->fd < 0)
+			continue;
+		if (c->closing) {
+			if (flush(s, k) < 0 || c->out_len == 0) {
+				s->st.drop_closing_write += c->out_len > 0;
+				drop(s, d, k);
+			}
+			continue;
+		}
+		/* read only what fits: a client's flood waits in its own socket, not in ours */
+		n = 0;
+		if (c->in_len < sizeof(c->in)) {
+			n = recv(c->fd, c->in + c->in_len, sizeof(c->in) - c->in_len, MSG_DONTWAIT);
+			if (n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR)) {
+				s->st.vanished++;
+				drop(s, d, k);
+				continue;
+			}
+			if (n > 0) {
+				c->in_len += (size_t)n;
+				s->st.bytes_in += (uint64_t)n;
+			}
+		}
+		if (run_requests(s, d, k, now_ns) < 0) {
+			drop(s, d, k);
+			continue;
+		}
+		if (flush(s, k) < 0) {
+			s->st.vanished++;
+			drop(s, d, k);
+			continue;
+		}
+		if (c->partial_since_ns && now_ns - c->partial_since_ns > (int64_t)HM_SERVE_STALL_MS * 1000000) {
+			s->st.drop_stalled++;
+			drop(s, d, k);
+		}
+	}
+}
+
+int hm_serve_clients(const struct hm_serve *s)
+{
+	int k, n = 0;
+
+	for (k = 0; k < HM_SERVE_CLIENTS; k++)
+		n += s->c[k].fd >= 0;
+	return n;
+}
+
+void hm_serve_close(struct hm_serve *s, struct hm_dev *d)
+{
+	int k;
+
+	for (k = 0; k < HM_SERVE_CLIENTS; k++)
+		if (s->c[k].fd >= 0)
+			drop(s, d, k);
+	if (s->lfd >= 0)
+		close(s->lfd);
+	s->lfd = -1;
+}
