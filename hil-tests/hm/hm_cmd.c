@@ -459,7 +459,7 @@ static void cmd_create(struct hm_dev *d, struct out *o, const char *kind, const 
 	e->owner = -1;
 	e->att[3] = 1.0;
 	e->spring.maxforce_N = d->f_max_N;
-	snprintf(e->name, sizeof(e->name), "%s", name);
+	memcpy(e->name, name, strlen(name) + 1); /* valid_name: shorter than HM_NAME_MAX */
 	put(o, "Effect %s with name %s created", kind, name);
 }
 
