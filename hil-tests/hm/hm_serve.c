@@ -39,8 +39,8 @@ int hm_serve_open(struct hm_serve *s, const char *spec, char *err, size_t errlen
 		}
 		errno = 0;
 		port = strtol(p, &end, 10);
-		if (errno || end == p || *end || port < 1 || port > 65535) {
-			snprintf(err, errlen, "port '%s' is not a number in [1, 65535]", p);
+		if (errno || end == p || *end || port < 0 || port > 65535) {
+			snprintf(err, errlen, "port '%s' is not a number in [0, 65535] (0: any free port)", p);
 			return -1;
 		}
 	} else {
@@ -68,6 +68,12 @@ int hm_serve_open(struct hm_serve *s, const char *spec, char *err, size_t errlen
 		close(s->lfd);
 		s->lfd = -1;
 		return -1;
+	}
+	{
+		socklen_t sl = sizeof(sa);
+
+		if (getsockname(s->lfd, (struct sockaddr *)&sa, &sl) == 0) /* port 0: the one the kernel chose */
+			port = ntohs(sa.sin_port);
 	}
 	snprintf(s->name, sizeof(s->name), "tcp %s:%ld", addr, port);
 	return 0;
@@ -120,7 +126,7 @@ static int queue(struct hm_serve *s, int k, const char *text, size_t n)
 
 static void accept_new(struct hm_serve *s)
 {
-	int fd, k, one = 1;
+	int fd, k, one = 1, sndbuf = HM_SERVE_SNDBUF;
 
 	while ((fd = accept4(s->lfd, NULL, NULL, SOCK_NONBLOCK | SOCK_CLOEXEC)) >= 0) {
 		for (k = 0; k < HM_SERVE_CLIENTS && s->c[k].fd >= 0; k++)
@@ -131,6 +137,9 @@ static void accept_new(struct hm_serve *s)
 			continue;
 		}
 		setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof(one));
+		/* a fixed kernel buffer too: a client that does not read is found out within a fraction of a
+		 * second, not after megabytes of autotuned buffer */
+		setsockopt(fd, SOL_SOCKET, SO_SNDBUF, &sndbuf, sizeof(sndbuf));
 		memset(&s->c[k], 0, sizeof(s->c[k]));
 		s->c[k].fd = fd;
 		s->st.accepted++;

@@ -28,6 +28,7 @@
 #define HM_SERVE_TEXT_MAX 2048      /* longest request text */
 #define HM_SERVE_REPLY_MAX 4096     /* longest reply text */
 #define HM_SERVE_OUT_MAX 16384      /* replies waiting for a slow reader */
+#define HM_SERVE_SNDBUF 65536       /* kernel send buffer of a connection */
 #define HM_SERVE_REQS_PER_TICK 4
 #define HM_SERVE_STALL_MS 500
 #define HM_SERVE_PORT 7654
