@@ -31,7 +31,9 @@ static const char usage[] =
 	"device tick, telemetry to a viewer.\n"
 	"\n"
 	"  --device LINK       device (HapticMaster) link: udp[:PORT] (default udp:47800, listen),\n"
-	"                      can:IFACE, usb:FFS_DIR (FunctionFS mount: the controller is the USB device)\n"
+	"                      can:IFACE, usb:FFS_DIR (FunctionFS mount: the controller is the USB device),\n"
+	"                      hm:HOST[:PORT] (a HapticMaster's TCP command interface, port 7654 unless\n"
+	"                      given: one pipelined request a tick, docs/hapticmaster.md)\n"
 	"  --host LINK         viewer link: udp[:PORT] (default udp:47801, send to 127.0.0.1), can:IFACE,\n"
 	"                      usb:FFS_DIR, or none\n"
 	"                      Both on USB: two FunctionFS mounts, interfaces 0 (device) and 1 (host) of\n"
@@ -541,6 +543,8 @@ int main(int argc, char **argv)
 		       "%u height quads (%u refreshes), %u dropped from the queue\n",
 		       p.host.name, p.host.frames_rx, p.host.frames_tx, swell_proto_rejected_total(&p.host.st),
 		       p.host.tx_errors, p.c.n.quads_sent, p.c.n.quads_refreshed, p.c.q[SWELL_LINK_HOST].dropped);
+	if (p.dev.kind == CTL_LINK_HM)
+		hm_client_report(&p.dev.hm, stdout);
 	report_can("device", &p.dev);
 	report_usb("device", &p.dev);
 	if (p.have_host) {
