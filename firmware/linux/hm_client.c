@@ -442,7 +442,7 @@ size_t hm_client_poll(struct hm_client *c, struct swell_msg *out, size_t cap, ui
 		startup(c);
 		return 0;
 	}
-	if (c->phase == HMC_HOLDOFF && now_ns() >= c->retry_at_ns && c->ring_n == 0)
+	if (c->phase == HMC_HOLDOFF && now_ns() >= c->retry_at_ns)
 		startup(c);
 	if (flush(c) < 0) {
 		disconnect(c, 1);

@@ -6,8 +6,8 @@
  * and each answer becomes DEVICE_VEL + DEVICE_POS (status: bit 0 powered, bit 1 force rendered (state
  * `force`), bit 2 not rendering (`stop`, e-stop, any other state, or the bias force refused), bit 3
  * an error answer). Nothing blocks a tick: the socket is non-blocking, requests are written as they
- * come, answers are read as they arrive. An answer to a request older than max_age_ticks is late: it
- * is counted and dropped (a stale position must not drive the force law), so the controller sees a
+ * come, answers are read as they arrive. An answer read more than max_age_ticks ticks after the tick
+ * that asked for it (0: read before the next tick's request) is late: it is counted and dropped (a stale position must not drive the force law), so the controller sees a
  * silent device tick. Integers only: forces in 0.01 N, positions in 0.01 mm, velocities in 0.1 mm/s,
  * the device's decimal text parsed without floating point.
  *
