@@ -765,7 +765,7 @@ static int serve_main(struct opts *o, FILE *log, const double x0[3])
 			fprintf(log, "%.4f,%.3f,%.3f,%.3f,%.2f,%.2f,%.2f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%d,%d,%d,%d,%d\n", t,
 				x[0] * 1e3, x[1] * 1e3, x[2] * 1e3, v[0] * 1e3, v[1] * 1e3, v[2] * 1e3, s.f_cmd_N[0],
 				s.f_cmd_N[1], s.f_cmd_N[2], f_hand[0], f_hand[1], f_hand[2], dev.state == HM_STATE_FORCE,
-				0, s.applying, (int)dev.state, holding);
+				hm_serve_clients(&srv), s.applying, (int)dev.state, holding);
 		if (!o->quiet && now_ns() - last_status > 1000000000) {
 			last_status = now_ns();
 			fprintf(stderr, "\rswell-hm: t %.1f s, z %+.2f mm, F %+.3f N, state %s, %d clients   ", t,
@@ -807,7 +807,11 @@ int main(int argc, char **argv)
 			return 2;
 		}
 		fputs("t_s,x_mm,y_mm,z_mm,vx_mm_s,vy_mm_s,vz_mm_s,fcmd_x_N,fcmd_y_N,fcmd_z_N,"
-		      "fhand_x_N,fhand_y_N,fhand_z_N,enable,cmd_age,applied,ctl_state,holding\n",
+		      "fhand_x_N,fhand_y_N,fhand_z_N,",
+		      log);
+		/* --serve: the effects' force, the device state (0 off, 1 init, 2 home, 3 force, 4 position,
+		 * 5 stop) and the number of clients instead of the swell protocol's command columns */
+		fputs(o.serve ? "rendering,clients,applied,dev_state,holding\n" : "enable,cmd_age,applied,ctl_state,holding\n",
 		      log);
 	}
 	memset(&sa, 0, sizeof(sa));
