@@ -343,6 +343,7 @@ static size_t answer(struct hm_client *c, char *text, struct swell_msg *out, siz
 	c->st.rtt_ns_sum += (uint64_t)rtt;
 	if ((uint64_t)rtt > c->st.rtt_ns_max)
 		c->st.rtt_ns_max = (uint64_t)rtt;
+	c->st.rtt_hist[rtt / 1000 > HMC_RTT_US ? HMC_RTT_US : rtt / 1000]++;
 	if (kind == KIND_START) {
 		/* every answer but the remove's must be a success */
 		int i, bad = 0;
@@ -512,6 +513,19 @@ int hm_client_zero_wait(struct hm_client *c, int wait_ms)
 	return c->fd >= 0 && c->st.answers >= want ? 0 : -1;
 }
 
+double hm_client_rtt_pct(const struct hm_client *c, double p)
+{
+	uint64_t want = (uint64_t)(p * (double)c->st.answers + 0.999999), seen = 0;
+	int k;
+
+	for (k = 0; k <= HMC_RTT_US; k++) {
+		seen += c->st.rtt_hist[k];
+		if (want > 0 && seen >= want)
+			return k;
+	}
+	return 0;
+}
+
 void hm_client_report(const struct hm_client *c, FILE *f)
 {
 	const struct hmc_stats *s = &c->st;
@@ -520,8 +534,9 @@ void hm_client_report(const struct hm_client *c, FILE *f)
 		   "dropped), %u lost in resets, %u not sent (%d in flight), %u error answers, %u not understood\n",
 		c->name, hm_client_phase_name(c->phase), s->requests, s->answers, s->samples, s->late, c->max_age_ticks,
 		s->lost, s->skipped, HMC_INFLIGHT_FORCE, s->error_answers, s->garbage);
-	fprintf(f, "  hm round trip   mean %.0f us, max %.0f us; most in flight %u\n",
-		s->answers ? (double)s->rtt_ns_sum / s->answers / 1e3 : 0.0, (double)s->rtt_ns_max / 1e3, s->max_inflight);
+	fprintf(f, "  hm round trip   p50 %.0f us, p99 %.0f us, max %.0f us, mean %.0f us; most in flight %u\n",
+		hm_client_rtt_pct(c, 0.5), hm_client_rtt_pct(c, 0.99), (double)s->rtt_ns_max / 1e3,
+		s->answers ? (double)s->rtt_ns_sum / s->answers / 1e3 : 0.0, s->max_inflight);
 	fprintf(f, "  hm sessions     %u connections, %u resets, %u start-ups (%u failed), %u times found not in "
 		   "force\n",
 		s->connects, s->resets, s->startups, s->startup_failures, s->not_force);

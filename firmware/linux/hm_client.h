@@ -37,6 +37,7 @@
 #define HMC_RING 32           /* requests in flight at most (zero forces may use them all) */
 #define HMC_INFLIGHT_FORCE 8  /* a nonzero force is not sent with this many requests unanswered */
 #define HMC_RETRY_MS 200      /* reconnect and start-up retry period */
+#define HMC_RTT_US 20000      /* round-trip histogram range */
 
 enum hmc_phase { HMC_DOWN, HMC_CONNECTING, HMC_STARTING, HMC_RUNNING, HMC_HOLDOFF };
 
@@ -47,6 +48,7 @@ struct hmc_stats {
 	uint32_t connects, resets, startups, startup_failures, not_force;
 	uint32_t max_inflight;
 	uint64_t rtt_ns_sum, rtt_ns_max;       /* request written -> answer read */
+	uint32_t rtt_hist[HMC_RTT_US + 1];     /* 1 us bins, later ones in the last */
 };
 
 struct hm_client {
@@ -95,6 +97,9 @@ int hm_client_zero_wait(struct hm_client *c, int wait_ms);
  * (scale 5: metres to 0.01 mm), rounded half away from zero and saturated to +-limit; *s moves past
  * it. -1 (nothing moved) when no number is there. No floating point. */
 int hm_client_parse_fixed(const char **s, int scale, int32_t limit, int32_t *out);
+
+/* Percentile p (0..1) of the round trip, in us. */
+double hm_client_rtt_pct(const struct hm_client *c, double p);
 
 /* The counters and round-trip times, a few lines of "  hm ..." for a program's report. */
 void hm_client_report(const struct hm_client *c, FILE *f);

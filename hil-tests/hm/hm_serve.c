@@ -11,6 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/socket.h>
+#include <time.h>
 #include <unistd.h>
 
 int hm_serve_open(struct hm_serve *s, const char *spec, char *err, size_t errlen)
@@ -140,10 +141,72 @@ static void accept_new(struct hm_serve *s)
 		/* a fixed kernel buffer too: a client that does not read is found out within a fraction of a
 		 * second, not after megabytes of autotuned buffer */
 		setsockopt(fd, SOL_SOCKET, SO_SNDBUF, &sndbuf, sizeof(sndbuf));
+		setsockopt(fd, SOL_SOCKET, SO_TIMESTAMPNS, &one, sizeof(one)); /* arrival times, for the age */
 		memset(&s->c[k], 0, sizeof(s->c[k]));
 		s->c[k].fd = fd;
 		s->st.accepted++;
 	}
+}
+
+/* recv that also keeps the kernel's arrival time of the data read */
+static ssize_t recv_stamped(struct hm_conn *c)
+{
+	union {
+		char buf[CMSG_SPACE(sizeof(struct timespec))];
+		struct cmsghdr align;
+	} ctl;
+	struct iovec iov = {c->in + c->in_len, sizeof(c->in) - c->in_len};
+	struct msghdr mh;
+	struct cmsghdr *cm;
+	ssize_t n;
+
+	memset(&mh, 0, sizeof(mh));
+	mh.msg_iov = &iov;
+	mh.msg_iovlen = 1;
+	mh.msg_control = ctl.buf;
+	mh.msg_controllen = sizeof(ctl.buf);
+	n = recvmsg(c->fd, &mh, MSG_DONTWAIT);
+	if (n <= 0)
+		return n;
+	for (cm = CMSG_FIRSTHDR(&mh); cm; cm = CMSG_NXTHDR(&mh, cm))
+		if (cm->cmsg_level == SOL_SOCKET && cm->cmsg_type == SCM_TIMESTAMPNS) {
+			struct timespec ts;
+
+			memcpy(&ts, CMSG_DATA(cm), sizeof(ts));
+			c->arrived_rt_ns = (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
+		}
+	return n;
+}
+
+void hm_serve_applied(struct hm_serve *s)
+{
+	struct timespec t;
+	int64_t age;
+
+	if (!s->tick_first_rt_ns)
+		return;
+	clock_gettime(CLOCK_REALTIME, &t);
+	age = (int64_t)t.tv_sec * 1000000000 + t.tv_nsec - s->tick_first_rt_ns;
+	s->tick_first_rt_ns = 0;
+	if (age < 0)
+		age = 0;
+	s->st.age_hist[age / 1000 > HM_SERVE_AGE_US ? HM_SERVE_AGE_US : age / 1000]++;
+	s->st.ages++;
+	if (age > s->st.age_max_ns)
+		s->st.age_max_ns = age;
+}
+
+double hm_serve_age_pct(const struct hm_serve *s, double p)
+{
+	uint64_t want = (uint64_t)(p * (double)s->st.ages + 0.999999), seen = 0;
+	int k;
+
+	for (k = 0; k <= HM_SERVE_AGE_US; k++) {
+		seen += s->st.age_hist[k];
+		if (want > 0 && seen >= want)
+			return k;
+	}
+	return 0;
 }
 
 static uint32_t be32(const uint8_t *p)
@@ -179,6 +242,8 @@ static int run_requests(struct hm_serve *s, struct hm_dev *d, int k, int64_t now
 			return 0;
 		}
 		c->partial_since_ns = 0;
+		if (c->arrived_rt_ns && (!s->tick_first_rt_ns || c->arrived_rt_ns < s->tick_first_rt_ns))
+			s->tick_first_rt_ns = c->arrived_rt_ns;
 		for (k2 = 0; k2 < len; k2++) {
 			uint8_t b = c->in[8 + k2];
 
@@ -233,7 +298,7 @@ void hm_serve_poll(struct hm_serve *s, struct hm_dev *d, int64_t now_ns)
 		/* read only what fits: a client's flood waits in its own socket, not in ours */
 		n = 0;
 		if (c->in_len < sizeof(c->in)) {
-			n = recv(c->fd, c->in + c->in_len, sizeof(c->in) - c->in_len, MSG_DONTWAIT);
+			n = recv_stamped(c);
 			if (n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR)) {
 				s->st.vanished++;
 				drop(s, d, k);

@@ -41,13 +41,20 @@ struct hm_conn {
 	size_t out_len;
 	int64_t partial_since_ns; /* a request began arriving then and is not whole yet (0: none) */
 	int closing;              /* answered a fatal error: close once the answer is out */
+	int64_t arrived_rt_ns;    /* kernel receive time (CLOCK_REALTIME) of the last bytes read */
 };
+
+#define HM_SERVE_AGE_US 10000 /* request age histogram: 1 us bins, later ones in the last */
 
 struct hm_serve_stats {
 	uint32_t accepted, refused_full, requests, replies;
 	uint32_t drop_header, drop_stalled, drop_not_reading, drop_closing_write;
 	uint32_t garbage, vanished, deferred_ticks;
 	uint64_t bytes_in, bytes_out;
+	/* age of a request when the device applies it: kernel arrival to the end of the tick's step */
+	uint32_t age_hist[HM_SERVE_AGE_US + 1];
+	uint64_t ages;
+	int64_t age_max_ns;
 };
 
 struct hm_serve {
@@ -56,6 +63,7 @@ struct hm_serve {
 	struct hm_conn c[HM_SERVE_CLIENTS];
 	struct hm_serve_stats st;
 	char reply[HM_SERVE_REPLY_MAX];
+	int64_t tick_first_rt_ns; /* kernel arrival of the oldest request run since the last step (0: none) */
 };
 
 /* spec: "[ADDR:]PORT" or "ADDR" (IPv4; ADDR defaults to 127.0.0.1, PORT to 7654). Listens
@@ -64,6 +72,13 @@ int hm_serve_open(struct hm_serve *s, const char *spec, char *err, size_t errlen
 
 /* One tick's share of the network: accept, read, answer requests through d, write. Never blocks. */
 void hm_serve_poll(struct hm_serve *s, struct hm_dev *d, int64_t now_ns);
+
+/* The device has just applied this tick's step: the requests run before it are counted with their
+ * age (kernel arrival to now). */
+void hm_serve_applied(struct hm_serve *s);
+
+/* Percentile p (0..1) of the request age at application, in us. */
+double hm_serve_age_pct(const struct hm_serve *s, double p);
 
 /* Connections open now. */
 int hm_serve_clients(const struct hm_serve *s);

@@ -693,6 +693,10 @@ static void serve_summary(const struct opts *o, const struct hm_serve *srv, cons
 		st->deferred_ticks);
 	printf("  bytes           %llu in, %llu out\n", (unsigned long long)st->bytes_in,
 	       (unsigned long long)st->bytes_out);
+	printf("  request age     p50 %.0f us, p99 %.0f us, max %.0f us at application (kernel arrival to the end "
+	       "of the step that applies it; %llu ticks)\n",
+	       hm_serve_age_pct(srv, 0.5), hm_serve_age_pct(srv, 0.99), st->age_max_ns / 1e3,
+	       (unsigned long long)st->ages);
 	if (o->lockstep)
 		printf("  timeouts        %llu (lockstep waits of %u ms without a request)\n",
 		       (unsigned long long)r->timeouts, o->timeout_ms);
@@ -758,6 +762,7 @@ static int serve_main(struct opts *o, FILE *log, const double x0[3])
 		hm_command(&s, f_fx, 1);
 		o->p.mass_kg = dev.inertia_kg;
 		hm_step(&o->p, &s, f_hand);
+		hm_serve_applied(&srv);
 		for (k = 0; k < 3; k++)
 			dev.a_m_s2[k] = (s.v[k] - v[k]) / dt;
 		account(&r, &s, t, last_window, holding);
