@@ -137,13 +137,17 @@ static int valid_name(const char *s)
 	static const char *const reserved[] = {"state", "inertia", "coulombfriction", "all", "measpos", "measforce",
 					       "modelpos", "modelvel", "modelacc", "emergencybuttonpushed",
 					       "position_calibrated", "force_calibrated"};
-	size_t k, n = strlen(s);
+	size_t k;
 
-	if (n == 0 || n >= HM_NAME_MAX || !(isalpha((unsigned char)s[0]) || s[0] == '_'))
-		return 0;
-	for (k = 0; k < n; k++)
-		if (!(isalnum((unsigned char)s[k]) || s[k] == '_'))
+	for (k = 0; s[k]; k++) {
+		const char c = s[k];
+
+		if (k + 1 >= HM_NAME_MAX || !((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || c == '_' ||
+					      (k > 0 && c >= '0' && c <= '9')))
 			return 0;
+	}
+	if (k == 0)
+		return 0;
 	for (k = 0; k < sizeof(reserved) / sizeof(reserved[0]); k++)
 		if (!strcmp(s, reserved[k]))
 			return 0;
@@ -490,8 +494,10 @@ static int word(const char *s, size_t *i, char *w, size_t cap)
 	while (s[*i] == ' ' || s[*i] == '\t')
 		(*i)++;
 	while (s[*i] && s[*i] != ' ' && s[*i] != '\t') {
-		if (n + 1 >= cap)
+		if (n + 1 >= cap) {
+			w[n] = '\0';
 			return 0;
+		}
 		w[n++] = s[(*i)++];
 	}
 	w[n] = '\0';
@@ -513,7 +519,10 @@ static void command(struct hm_dev *d, struct out *o, int client, const char *s)
 	for (j = i; s[j] == ' ' || s[j] == '\t'; j++)
 		;
 	after_w1 = s + j;
-	word(s, &i, w2, sizeof(w2));
+	if (!word(s, &i, w2, sizeof(w2))) {
+		fail(d, o, "word too long in '%.40s'", s);
+		return;
+	}
 	for (; s[i] == ' ' || s[i] == '\t'; i++)
 		;
 	rest = s + i;

@@ -296,7 +296,6 @@ void hm_serve_poll(struct hm_serve *s, struct hm_dev *d, int64_t now_ns)
 			continue;
 		}
 		/* read only what fits: a client's flood waits in its own socket, not in ours */
-		n = 0;
 		if (c->in_len < sizeof(c->in)) {
 			n = recv_stamped(c);
 			if (n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR)) {
