@@ -270,7 +270,9 @@ void hm_client_force(struct hm_client *c, const int16_t f_cN[3], int enable)
 	c->tick++;
 	if (c->phase == HMC_DOWN || c->phase == HMC_CONNECTING)
 		return;
-	if (!zero && c->ring_n >= HMC_INFLIGHT_FORCE) {
+	/* an answer to a request sent behind max_age_ticks others would be stale on arrival: do not
+	 * deepen the pipeline, let it drain; only a change to zero force always goes */
+	if (c->ring_n > c->max_age_ticks && !(zero && !c->sent_zero)) {
 		c->st.skipped++;
 		return;
 	}
@@ -279,10 +281,12 @@ void hm_client_force(struct hm_client *c, const int16_t f_cN[3], int enable)
 	n = snprintf(text, sizeof(text), "set " BIAS " force [%s,%s,%s];get measpos;get modelvel;get state%s%s", f[0], f[1],
 		     f[2], c->extra[0] ? ";" : "", c->extra);
 	c->extra[0] = '\0';
-	if (n < 0 || (size_t)n >= sizeof(text) || request(c, KIND_TICK, text, (size_t)n) < 0)
+	if (n < 0 || (size_t)n >= sizeof(text) || request(c, KIND_TICK, text, (size_t)n) < 0) {
 		c->st.skipped += c->fd >= 0;
-	else
+	} else {
 		c->st.requests++;
+		c->sent_zero = zero;
+	}
 }
 
 int hm_client_set_extra(struct hm_client *c, const char *cmds)
@@ -531,9 +535,9 @@ void hm_client_report(const struct hm_client *c, FILE *f)
 	const struct hmc_stats *s = &c->st;
 
 	fprintf(f, "  hm link         %s: %s; %u requests, %u answers, %u samples; %u late (older than %u ticks, "
-		   "dropped), %u lost in resets, %u not sent (%d in flight), %u error answers, %u not understood\n",
+		   "dropped), %u lost in resets, %u not sent (%u in flight), %u error answers, %u not understood\n",
 		c->name, hm_client_phase_name(c->phase), s->requests, s->answers, s->samples, s->late, c->max_age_ticks,
-		s->lost, s->skipped, HMC_INFLIGHT_FORCE, s->error_answers, s->garbage);
+		s->lost, s->skipped, c->max_age_ticks + 1, s->error_answers, s->garbage);
 	fprintf(f, "  hm round trip   p50 %.0f us, p99 %.0f us, max %.0f us, mean %.0f us; most in flight %u\n",
 		hm_client_rtt_pct(c, 0.5), hm_client_rtt_pct(c, 0.99), (double)s->rtt_ns_max / 1e3,
 		s->answers ? (double)s->rtt_ns_sum / s->answers / 1e3 : 0.0, s->max_inflight);

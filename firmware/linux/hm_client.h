@@ -34,8 +34,7 @@
 
 #define HMC_PORT 7654
 #define HMC_TEXT_MAX 1024     /* longest request or answer text */
-#define HMC_RING 32           /* requests in flight at most (zero forces may use them all) */
-#define HMC_INFLIGHT_FORCE 8  /* a nonzero force is not sent with this many requests unanswered */
+#define HMC_RING 32           /* requests in flight at most */
 #define HMC_RETRY_MS 200      /* reconnect and start-up retry period */
 #define HMC_RTT_US 20000      /* round-trip histogram range */
 
@@ -71,6 +70,7 @@ struct hm_client {
 	uint32_t tick;                         /* hm_client_force calls */
 	uint8_t seq;
 	uint8_t status;                        /* of the last sample */
+	int sent_zero;                         /* the last tick request sent carried zero force */
 	char extra[HMC_TEXT_MAX / 2];          /* commands for the next request (effect mode) */
 	struct hmc_stats st;
 };

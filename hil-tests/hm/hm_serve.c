@@ -87,22 +87,55 @@ static void drop(struct hm_serve *s, struct hm_dev *d, int k)
 	s->c[k].in_len = s->c[k].out_len = 0;
 	s->c[k].partial_since_ns = 0;
 	s->c[k].closing = 0;
+	s->c[k].held_n = 0;
 	hm_dev_client_gone(d, k);
+}
+
+/* Bytes of the reply buffer that may go out now (an injected delay holds the later ones). */
+static size_t releasable(struct hm_conn *c, int64_t now)
+{
+	size_t end = c->out_len;
+	unsigned k;
+
+	for (k = 0; k < c->held_n; k++)
+		if (c->held_until_ns[k] > now) {
+			end = k ? c->held_end[k - 1] : 0;
+			if (end > c->out_len)
+				end = c->out_len;
+			/* held replies are after any unheld bytes queued before the delay began */
+			return end;
+		}
+	return end;
 }
 
 /* Writes what waits in the reply buffer; 0 while the connection is fine. */
 static int flush(struct hm_serve *s, int k)
 {
 	struct hm_conn *c = &s->c[k];
+	struct timespec t;
+	int64_t now;
+	size_t want;
+	unsigned j, keep;
 	ssize_t n;
 
-	while (c->out_len > 0) {
-		n = send(c->fd, c->out, c->out_len, MSG_DONTWAIT | MSG_NOSIGNAL);
+	clock_gettime(CLOCK_MONOTONIC, &t);
+	now = (int64_t)t.tv_sec * 1000000000 + t.tv_nsec;
+	want = releasable(c, now);
+	while (want > 0) {
+		n = send(c->fd, c->out, want, MSG_DONTWAIT | MSG_NOSIGNAL);
 		if (n < 0)
 			return errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR ? 0 : -1;
 		s->st.bytes_out += (uint64_t)n;
 		memmove(c->out, c->out + n, c->out_len - (size_t)n);
 		c->out_len -= (size_t)n;
+		want -= (size_t)n;
+		for (j = keep = 0; j < c->held_n; j++) {
+			if (c->held_end[j] <= (size_t)n)
+				continue; /* sent */
+			c->held_end[keep] = c->held_end[j] - (size_t)n;
+			c->held_until_ns[keep++] = c->held_until_ns[j];
+		}
+		c->held_n = keep;
 	}
 	return 0;
 }
@@ -122,6 +155,14 @@ static int queue(struct hm_serve *s, int k, const char *text, size_t n)
 	memcpy(c->out + c->out_len + 8, text, n);
 	c->out_len += 8 + n;
 	s->st.replies++;
+	if (s->reply_delay_ns > 0 && c->held_n < HM_SERVE_HELD) {
+		struct timespec t;
+
+		clock_gettime(CLOCK_MONOTONIC, &t);
+		c->held_end[c->held_n] = c->out_len;
+		c->held_until_ns[c->held_n++] = (int64_t)t.tv_sec * 1000000000 + t.tv_nsec + s->reply_delay_ns;
+		s->st.delayed_replies++;
+	}
 	return 0;
 }
 
@@ -321,6 +362,35 @@ void hm_serve_poll(struct hm_serve *s, struct hm_dev *d, int64_t now_ns)
 			s->st.drop_stalled++;
 			drop(s, d, k);
 		}
+	}
+}
+
+void hm_serve_inject_reset(struct hm_serve *s, struct hm_dev *d)
+{
+	struct linger lg = {1, 0};
+	int k;
+
+	for (k = 0; k < HM_SERVE_CLIENTS; k++)
+		if (s->c[k].fd >= 0) {
+			setsockopt(s->c[k].fd, SOL_SOCKET, SO_LINGER, &lg, sizeof(lg)); /* close sends RST */
+			s->st.injected_resets++;
+			drop(s, d, k);
+		}
+}
+
+void hm_serve_inject_garbage(struct hm_serve *s)
+{
+	static const char junk[16] = "\x7f\xde\xad garbage !!\x01";
+	int k;
+
+	for (k = 0; k < HM_SERVE_CLIENTS; k++) {
+		struct hm_conn *c = &s->c[k];
+
+		if (c->fd < 0 || c->out_len + sizeof(junk) > sizeof(c->out))
+			continue;
+		memcpy(c->out + c->out_len, junk, sizeof(junk));
+		c->out_len += sizeof(junk);
+		s->st.injected_garbage++;
 	}
 }
 

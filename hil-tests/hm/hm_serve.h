@@ -32,6 +32,7 @@
 #define HM_SERVE_REQS_PER_TICK 4
 #define HM_SERVE_STALL_MS 500
 #define HM_SERVE_PORT 7654
+#define HM_SERVE_HELD 256           /* replies held back at once by an injected delay */
 
 struct hm_conn {
 	int fd;
@@ -42,6 +43,10 @@ struct hm_conn {
 	int64_t partial_since_ns; /* a request began arriving then and is not whole yet (0: none) */
 	int closing;              /* answered a fatal error: close once the answer is out */
 	int64_t arrived_rt_ns;    /* kernel receive time (CLOCK_REALTIME) of the last bytes read */
+	/* fault injection: replies held until their release time (ends in out[], oldest first) */
+	size_t held_end[HM_SERVE_HELD];
+	int64_t held_until_ns[HM_SERVE_HELD];
+	unsigned held_n;
 };
 
 #define HM_SERVE_AGE_US 10000 /* request age histogram: 1 us bins, later ones in the last */
@@ -50,6 +55,7 @@ struct hm_serve_stats {
 	uint32_t accepted, refused_full, requests, replies;
 	uint32_t drop_header, drop_stalled, drop_not_reading, drop_closing_write;
 	uint32_t garbage, vanished, deferred_ticks;
+	uint32_t injected_resets, injected_garbage, delayed_replies;
 	uint64_t bytes_in, bytes_out;
 	/* age of a request when the device applies it: kernel arrival to the end of the tick's step */
 	uint32_t age_hist[HM_SERVE_AGE_US + 1];
@@ -64,6 +70,7 @@ struct hm_serve {
 	struct hm_serve_stats st;
 	char reply[HM_SERVE_REPLY_MAX];
 	int64_t tick_first_rt_ns; /* kernel arrival of the oldest request run since the last step (0: none) */
+	int64_t reply_delay_ns;   /* fault injection: replies go out this much later (0: at once) */
 };
 
 /* spec: "[ADDR:]PORT" or "ADDR" (IPv4; ADDR defaults to 127.0.0.1, PORT to 7654). Listens
@@ -79,6 +86,11 @@ void hm_serve_applied(struct hm_serve *s);
 
 /* Percentile p (0..1) of the request age at application, in us. */
 double hm_serve_age_pct(const struct hm_serve *s, double p);
+
+/* Fault injection (the bench's TCP faults): every client's connection reset (RST), or 16 bytes of
+ * unframed garbage written to every client; replies delayed by setting reply_delay_ns. */
+void hm_serve_inject_reset(struct hm_serve *s, struct hm_dev *d);
+void hm_serve_inject_garbage(struct hm_serve *s);
 
 /* Connections open now. */
 int hm_serve_clients(const struct hm_serve *s);

@@ -53,6 +53,9 @@ static const char usage[] =
 	"                      forces come from the effects clients create (docs/hapticmaster.md)\n"
 	"  --bias-watchdog MS  --serve: a client silent this long loses its bias forces (default 100;\n"
 	"                      0: off)\n"
+	"  --inject SPEC       --serve fault injection (repeatable, up to 8): delay:at=S,for=S,ms=N (replies\n"
+	"                      held N ms), garbage:at=S (16 unframed bytes to every client), reset:at=S\n"
+	"                      (every connection reset), stop:at=S (the device put in stop, as by a client)\n"
 	"Device model (m_v a = F_user + F_cmd - b_v v, per axis; see docs/hm.md):\n"
 	"  --mass KG           virtual mass m_v (default 2)\n"
 	"  --damping NS_M      virtual damping b_v in N s/m (default 2)\n"
@@ -82,6 +85,12 @@ static const char usage[] =
 struct opts {
 	const char *link, *host, *log, *serve;
 	unsigned bias_watchdog_ms;
+	struct inject {
+		char kind; /* 'd' delay, 'g' garbage, 'r' reset, 's' stop */
+		double at_s, for_s, ms;
+		int done;
+	} inj[8];
+	int n_inj;
 	unsigned port, bind_port, node, iface;
 	int lockstep, quiet, have_start, rt;
 	unsigned timeout_ms;
@@ -202,7 +211,26 @@ static void parse(int argc, char **argv, struct opts *o)
 			o->port = whole(a, v, 1, 65535, "");
 		else if (!strcmp(a, "--serve"))
 			o->serve = v;
-		else if (!strcmp(a, "--bias-watchdog"))
+		else if (!strcmp(a, "--inject")) {
+			struct inject *j = &o->inj[o->n_inj];
+			char kind[16];
+			int used = 0;
+
+			if (o->n_inj >= 8)
+				die("--inject: at most 8 injections%s%s", "", "");
+			memset(j, 0, sizeof(*j));
+			j->at_s = -1;
+			if (sscanf(v, "delay:at=%lf,for=%lf,ms=%lf%n", &j->at_s, &j->for_s, &j->ms, &used) == 3 && !v[used] &&
+			    j->for_s > 0 && j->ms > 0 && j->ms <= 10000)
+				j->kind = 'd';
+			else if (sscanf(v, "%15[a-z]:at=%lf%n", kind, &j->at_s, &used) == 2 && !v[used] &&
+				 (!strcmp(kind, "garbage") || !strcmp(kind, "reset") || !strcmp(kind, "stop")))
+				j->kind = kind[0];
+			if (!j->kind || !(j->at_s >= 0))
+				die("--inject '%s' is not delay:at=S,for=S,ms=N (0 < N <= 10000), garbage:at=S, reset:at=S "
+				    "or stop:at=S%s", v, "");
+			o->n_inj++;
+		} else if (!strcmp(a, "--bias-watchdog"))
 			o->bias_watchdog_ms = whole(a, v, 0, 60000, "ms");
 		else if (!strcmp(a, "--bind-port"))
 			o->bind_port = whole(a, v, 0, 65535, "");
@@ -691,6 +719,9 @@ static void serve_summary(const struct opts *o, const struct hm_serve *srv, cons
 	       "(dropped), %u not reading (dropped), %u vanished, %u ticks with requests left for the next\n",
 		st->drop_header, st->garbage, st->drop_stalled, st->drop_not_reading, st->vanished,
 		st->deferred_ticks);
+	if (o->n_inj)
+		printf("  injected        %u connection resets, %u garbage bursts, %u replies delayed\n",
+		       st->injected_resets, st->injected_garbage, st->delayed_replies);
 	printf("  bytes           %llu in, %llu out\n", (unsigned long long)st->bytes_in,
 	       (unsigned long long)st->bytes_out);
 	printf("  request age     p50 %.0f us, p99 %.0f us, max %.0f us at application (kernel arrival to the end "
@@ -708,6 +739,34 @@ static void serve_summary(const struct opts *o, const struct hm_serve *srv, cons
 	       hm_dev_state_name(dev->state), dev->watchdog_trips, dev->watchdog_ticks, dev->vanished_zeroed,
 	       dev->estop_stops);
 	printf("  walls           %u ticks in a workspace wall\n", s->wall_ticks);
+}
+
+/* --inject: the bench's TCP faults at their simulated times, each announced on stderr. */
+static void inject(struct opts *o, struct hm_serve *srv, struct hm_dev *dev, double t)
+{
+	int k;
+
+	srv->reply_delay_ns = 0;
+	for (k = 0; k < o->n_inj; k++) {
+		struct inject *j = &o->inj[k];
+
+		if (j->kind == 'd' && t >= j->at_s && t < j->at_s + j->for_s)
+			srv->reply_delay_ns = (int64_t)(j->ms * 1e6);
+		if (j->done || t < j->at_s)
+			continue;
+		j->done = 1;
+		fprintf(stderr, "swell-hm: inject %s at %.4f s\n",
+			j->kind == 'd' ? "delay" : j->kind == 'g' ? "garbage" : j->kind == 'r' ? "reset" : "stop", t);
+		if (j->kind == 'g')
+			hm_serve_inject_garbage(srv);
+		else if (j->kind == 'r')
+			hm_serve_inject_reset(srv, dev);
+		else if (j->kind == 's') {
+			char reply[64];
+
+			hm_dev_request(dev, -1, "set state stop", 14, reply, sizeof(reply));
+		}
+	}
 }
 
 /* The device loop with the HapticMaster's TCP interface: each tick, run what the clients sent
@@ -745,6 +804,7 @@ static int serve_main(struct opts *o, FILE *log, const double x0[3])
 		int holding, k;
 
 		hm_dev_set_estop(&dev, t >= o->estop_s[0] && t < o->estop_s[1]);
+		inject(o, &srv, &dev, t);
 		memcpy(dev.x_m, s.x, sizeof(dev.x_m));
 		memcpy(dev.v_m_s, s.v, sizeof(dev.v_m_s));
 		holding = hm_hand_force(&o->hand, t, s.x, s.v, f_hand);

@@ -197,3 +197,85 @@ TEST_CASE("hm loop: a second client's set state stop zeroes the force at once an
 	CHECK(hmtcp::count_before(rep, " times found not in") >= 1);
 	WARN("hm stop: force back " << back_at - rows[stop_at].t << " s after the stop");
 }
+
+TEST_CASE("hm loop: TCP faults (replies 5 ms and 50 ms late, garbage, a reset) each give zero force within 2 device ticks, a fault, nothing over the limit, and recovery")
+{
+	const std::string csv = work_dir + "/hm-faults.csv";
+	std::remove(csv.c_str());
+	struct fault {
+		double at, window;
+		const char *what;
+	} faults[] = {{3.0, 0.3, "replies 5 ms late"}, {5.0, 0.5, "replies 50 ms late"}, {7.0, 0.0, "garbage"},
+		      {9.0, 0.0, "reset"}};
+	Server srv(hm_bin, work_dir + "/hm-faults.hm.txt",
+		   {"--lockstep", "--hand", "drop:z=20,hold=0.5", "--seconds", "12", "--log", csv, "--inject",
+		    "delay:at=3,for=0.3,ms=5", "--inject", "delay:at=5,for=0.5,ms=50", "--inject", "garbage:at=7",
+		    "--inject", "reset:at=9"});
+	REQUIRE(srv.port > 0);
+	// the controller's default silence limit (2 ticks) here: the faults are the point
+	const std::string ctl_out = work_dir + "/hm-faults.ctl.txt";
+	pid_t ctl = -1;
+	{
+		std::vector<std::string> args = {ctl_bin, "--clock", "device", "--autorun", "--device",
+						 "hm:127.0.0.1:" + std::to_string(srv.port), "--host", "none", "--no-rt", "--quiet"};
+		std::vector<char *> argv;
+		for (auto &s : args)
+			argv.push_back(&s[0]);
+		argv.push_back(nullptr);
+		posix_spawn_file_actions_t fa;
+		posix_spawn_file_actions_init(&fa);
+		posix_spawn_file_actions_addopen(&fa, 1, ctl_out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+		posix_spawn_file_actions_adddup2(&fa, 1, 2);
+		REQUIRE(posix_spawn(&ctl, argv[0], &fa, nullptr, argv.data(), environ) == 0);
+		posix_spawn_file_actions_destroy(&fa);
+	}
+	const int hm_rc = srv.wait(300000);
+	kill(ctl, SIGTERM);
+	int st = 0;
+	waitpid(ctl, &st, 0);
+	const std::string sum = hmtcp::slurp(srv.out), rep = hmtcp::slurp(ctl_out);
+	INFO(sum << "\n" << rep);
+	REQUIRE(hm_rc == 0);
+	CHECK((WIFEXITED(st) && WEXITSTATUS(st) == 0));
+	CHECK(sum.find("injected        1 connection resets, 1 garbage bursts") != std::string::npos);
+	const std::vector<row> rows = read_csv(csv);
+	REQUIRE(rows.size() == 30000);
+	int over = 0;
+	for (const row &r : rows)
+		over += std::fabs(r.fcmd[0]) > f_limit_N * 1.0001 || std::fabs(r.fcmd[1]) > f_limit_N * 1.0001 ||
+			std::fabs(r.fcmd[2]) > f_limit_N * 1.0001;
+	CHECK(over == 0);
+	std::string figures;
+	for (const fault &f : faults) {
+		size_t i = 0;
+		while (i < rows.size() && rows[i].t < f.at)
+			i++;
+		// zero force: the first tick of a run of 25 zero ticks (a fault's zero, not a crossing of 0)
+		size_t z = i;
+		auto zero_run = [&](size_t k) {
+			for (size_t m = k; m < k + 25 && m < rows.size(); m++)
+				if (rows[m].fcmd[2] != 0.0)
+					return false;
+			return true;
+		};
+		while (z < rows.size() && !zero_run(z))
+			z++;
+		size_t b = z;
+		while (b < rows.size() && rows[b].fcmd[2] == 0.0)
+			b++;
+		INFO(f.what << " at " << f.at << " s: zero after " << z - i << " ticks, force back "
+			     << (b < rows.size() ? rows[b].t - f.at : -1) << " s after the fault began");
+		CHECK(z - i <= 2);
+		REQUIRE(b < rows.size());
+		CHECK(rows[b].t - f.at < f.window + 1.5);
+		figures += std::string(f.what) + ": zero after " + std::to_string(z - i) + " ticks, back after " +
+			   std::to_string(rows[b].t - f.at) + " s; ";
+	}
+	// each fault faulted the controller, and it ends floating where it should
+	const size_t fat = rep.find("faults ");
+	REQUIRE(fat != std::string::npos);
+	CHECK(std::stol(rep.substr(fat + 7)) >= 4);
+	const double z = figure(sum, "equilibrium z"), z_level = figure(sum, "with level rise");
+	CHECK(std::fabs(z - z_level) <= 0.02 * std::fabs(z_level));
+	WARN("hm TCP faults: " << figures);
+}
