@@ -14,18 +14,12 @@
 #include <time.h>
 #include <unistd.h>
 
-int hm_serve_open(struct hm_serve *s, const char *spec, char *err, size_t errlen)
+int hm_serve_parse(const char *spec, struct sockaddr_in *sa, char *err, size_t errlen)
 {
 	char addr[48] = "127.0.0.1";
 	const char *colon = strrchr(spec, ':');
 	long port = HM_SERVE_PORT;
-	struct sockaddr_in sa;
-	int k, one = 1;
 
-	memset(s, 0, sizeof(*s));
-	s->lfd = -1;
-	for (k = 0; k < HM_SERVE_CLIENTS; k++)
-		s->c[k].fd = -1;
 	if (colon || strspn(spec, "0123456789") == strlen(spec)) {
 		const char *p = colon ? colon + 1 : spec;
 		char *end;
@@ -51,13 +45,31 @@ int hm_serve_open(struct hm_serve *s, const char *spec, char *err, size_t errlen
 		}
 		snprintf(addr, sizeof(addr), "%s", spec);
 	}
-	memset(&sa, 0, sizeof(sa));
-	sa.sin_family = AF_INET;
-	sa.sin_port = htons((uint16_t)port);
-	if (inet_pton(AF_INET, addr, &sa.sin_addr) != 1) {
+	memset(sa, 0, sizeof(*sa));
+	sa->sin_family = AF_INET;
+	sa->sin_port = htons((uint16_t)port);
+	if (inet_pton(AF_INET, addr, &sa->sin_addr) != 1) {
 		snprintf(err, errlen, "'%s' is not a dotted IPv4 address", addr);
 		return -1;
 	}
+	return 0;
+}
+
+int hm_serve_open(struct hm_serve *s, const char *spec, char *err, size_t errlen)
+{
+	struct sockaddr_in sa;
+	char addr[INET_ADDRSTRLEN];
+	long port;
+	int k, one = 1;
+
+	memset(s, 0, sizeof(*s));
+	s->lfd = -1;
+	for (k = 0; k < HM_SERVE_CLIENTS; k++)
+		s->c[k].fd = -1;
+	if (hm_serve_parse(spec, &sa, err, errlen) < 0)
+		return -1;
+	inet_ntop(AF_INET, &sa.sin_addr, addr, sizeof(addr));
+	port = ntohs(sa.sin_port);
 	s->lfd = socket(AF_INET, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
 	if (s->lfd < 0) {
 		snprintf(err, errlen, "socket: %s", strerror(errno));

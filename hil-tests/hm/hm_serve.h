@@ -19,6 +19,7 @@
 #ifndef SWELL_HM_SERVE_H
 #define SWELL_HM_SERVE_H
 
+#include <netinet/in.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -72,6 +73,9 @@ struct hm_serve {
 	int64_t tick_first_rt_ns; /* kernel arrival of the oldest request run since the last step (0: none) */
 	int64_t reply_delay_ns;   /* fault injection: replies go out this much later (0: at once) */
 };
+
+/* Checks spec ("[ADDR:]PORT" or "ADDR") into sa; -1 with a one-line reason in err. */
+int hm_serve_parse(const char *spec, struct sockaddr_in *sa, char *err, size_t errlen);
 
 /* spec: "[ADDR:]PORT" or "ADDR" (IPv4; ADDR defaults to 127.0.0.1, PORT to 7654). Listens
  * non-blocking. On failure returns -1 with a one-line reason in err. */

@@ -209,8 +209,13 @@ static void parse(int argc, char **argv, struct opts *o)
 		}
 		else if (!strcmp(a, "--port"))
 			o->port = whole(a, v, 1, 65535, "");
-		else if (!strcmp(a, "--serve"))
+		else if (!strcmp(a, "--serve")) {
+			struct sockaddr_in sa;
+
+			if (hm_serve_parse(v, &sa, why, sizeof(why)) < 0)
+				die("--serve: %s%s", why, "");
 			o->serve = v;
+		}
 		else if (!strcmp(a, "--inject")) {
 			struct inject *j = &o->inj[o->n_inj];
 			char kind[16];

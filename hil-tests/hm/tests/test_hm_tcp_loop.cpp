@@ -279,3 +279,58 @@ TEST_CASE("hm loop: TCP faults (replies 5 ms and 50 ms late, garbage, a reset) e
 	CHECK(std::fabs(z - z_level) <= 0.02 * std::fabs(z_level));
 	WARN("hm TCP faults: " << figures);
 }
+
+TEST_CASE("hm loop: the controller killed mid-run: the device zeroes its bias force when the connection ends, a new controller takes the device back")
+{
+	const std::string csv = work_dir + "/hm-restart.csv";
+	std::remove(csv.c_str());
+	Server srv(hm_bin, work_dir + "/hm-restart.hm.txt",
+		   {"--lockstep", "--hand", "drop:z=20,hold=0.5", "--seconds", "60", "--log", csv});
+	REQUIRE(srv.port > 0);
+	double killed_at = 0;
+	{
+		Ctl first(srv.port, "hm-restart-1");
+		for (int k = 0; k < 6000 && logged_until(csv) < 4.0; k++)
+			std::this_thread::sleep_for(std::chrono::milliseconds(10));
+		killed_at = logged_until(csv);
+		kill(first.pid, SIGKILL);
+		waitpid(first.pid, nullptr, 0);
+		first.pid = -1;
+	}
+	Ctl second(srv.port, "hm-restart-2");
+	for (int k = 0; k < 6000 && logged_until(csv) < killed_at + 5.0; k++)
+		std::this_thread::sleep_for(std::chrono::milliseconds(10));
+	CHECK(second.stop() == 0);
+	kill(srv.pid, SIGTERM);
+	CHECK(srv.wait(10000) == 0);
+	const std::string sum = hmtcp::slurp(srv.out);
+	INFO(sum);
+	// the server zeroed the first controller's bias force when its connection ended, before the next
+	// step (a connection that ends is seen in the same poll that runs requests)
+	CHECK(hmtcp::count_before(sum, " by a vanished client") == 1);
+	const std::vector<row> rows = read_csv(csv);
+	REQUIRE(rows.size() > 2500);
+	int forced_alone = 0, over = 0, rendered_late = 0, late = 0;
+	for (const row &r : rows) {
+		forced_alone += r.clients == 0 && r.fcmd[2] != 0.0;
+		over += std::fabs(r.fcmd[2]) > f_limit_N * 1.0001;
+		if (r.t > rows.back().t - 2.0) {
+			late++;
+			rendered_late += r.clients == 1 && r.fcmd[2] != 0.0;
+		}
+	}
+	CHECK(forced_alone == 0);
+	CHECK(over == 0);
+	CHECK(rendered_late > late / 2); // the second controller renders the force
+	// floating again at the end: the last second of the log
+	double zs = 0;
+	int zn = 0;
+	for (const row &r : rows)
+		if (r.t > rows.back().t - 1.0) {
+			zs += r.x[2];
+			zn++;
+		}
+	CHECK(std::fabs(zs / zn - -39.375) <= 0.02 * 39.375);
+	WARN("hm restart: " << rendered_late << " of the last " << late << " ticks rendered by the new controller, z "
+			    << zs / zn << " mm");
+}
