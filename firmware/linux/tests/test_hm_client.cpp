@@ -203,7 +203,7 @@ TEST_CASE("hm_client: start-up to force, then one request a tick, answers become
 	hm_client_close(&c);
 }
 
-TEST_CASE("hm_client: an answer older than 2 ticks is dropped, a stopped device is reported and started again")
+TEST_CASE("hm_client: an answer older than 2 ticks is dropped, the pipeline is not deepened past it, a stopped device is reported and started again")
 {
 	Device dev;
 	hm_client c;
@@ -218,18 +218,27 @@ TEST_CASE("hm_client: an answer older than 2 ticks is dropped, a stopped device 
 	swell_msg m[8];
 	REQUIRE(collect(c, m, 8) == 2);
 	const int16_t f[3] = {0, 0, 100};
-	for (int k = 0; k < 4; k++) { // four ticks, answered only after the fourth
+	for (int k = 0; k < 3; k++) { // three ticks sent, answered only after a fourth
 		hm_client_force(&c, f, 1);
 		REQUIRE(dev.request(c).rfind("set swell_bias force [0.00,0.00,1.00]", 0) == 0);
 	}
+	// three unanswered: a fourth answer would be stale on arrival, so the tick sends nothing...
+	hm_client_force(&c, f, 1);
+	CHECK(c.st.skipped == 1);
+	CHECK(c.ring_n == 3);
+	// ...except a change to zero force, which always goes
+	hm_client_force(&c, f, 0);
+	CHECK(dev.request(c) == "set swell_bias force [0.00,0.00,0.00];get measpos;get modelvel;get state");
+	hm_client_force(&c, f, 0); // zero again: the pipeline is deep, nothing new to say
+	CHECK(c.st.skipped == 2);
 	for (int k = 0; k < 4; k++)
 		dev.answer(ok);
 	size_t got = 0;
 	for (int k = 0; k < 200 && c.st.answers < 6; k++)
 		got += collect(c, m + got, 8 - got, 5);
 	CHECK(c.st.answers == 6); // start-up, the first sample, four ticks
-	CHECK(c.st.late == 1);    // read 3 ticks after it was asked for
-	CHECK(got == 6);          // the other three are samples
+	CHECK(c.st.late == 3);    // read 5, 4 and 3 ticks after they were asked for (6 ticks have passed)
+	CHECK(got == 2);          // the zero's answer, 1 tick old, is a sample
 	// another client stopped the device: not rendering (bit 2), and a new start-up after the pause
 	hm_client_force(&c, f, 1);
 	REQUIRE(dev.request(c).rfind("set swell_bias force", 0) == 0);
