@@ -18,6 +18,9 @@
 
 #include "swell/transport.h"
 
+/* hm: an answer to a request sent more than this many ticks ago is stale: a silent device tick */
+#define CTL_HM_MAX_AGE_TICKS 2
+
 /* The reason first (close may change errno), then the socket goes: a failed open leaves nothing open. */
 static int fail(struct ctl_link *l, char *err, size_t len, const char *what, const char *spec)
 {
@@ -283,6 +286,11 @@ int ctl_link_open(struct ctl_link *l, const char *spec, int device_side, uint8_t
 		l->kind = CTL_LINK_UDP;
 		return open_udp(l, spec, arg, device_side, err, errlen);
 	}
+	if (!strcmp(kind, "hm") && device_side) {
+		l->kind = CTL_LINK_HM;
+		snprintf(l->name, sizeof(l->name), "%s", spec);
+		return hm_client_open(&l->hm, arg ? arg : "", CTL_HM_MAX_AGE_TICKS, err, errlen);
+	}
 	if (!strcmp(kind, "can")) {
 		l->kind = CTL_LINK_CAN;
 		return open_can(l, spec, arg, err, errlen);
@@ -297,6 +305,8 @@ int ctl_link_open(struct ctl_link *l, const char *spec, int device_side, uint8_t
 
 int ctl_link_fd(const struct ctl_link *l)
 {
+	if (l->kind == CTL_LINK_HM)
+		return hm_client_fd(&l->hm);
 	if (l->kind == CTL_LINK_USB) /* FunctionFS data endpoints cannot be polled: their AIO eventfd can */
 		return l->usb_up ? swell_usb_ffs_data_fd(&l->usb) : l->usb.ep0;
 	return l->fd;
@@ -482,6 +492,12 @@ unsigned ctl_link_clients(const struct ctl_link *l)
 
 size_t ctl_link_recv(struct ctl_link *l, struct swell_msg *out, size_t cap)
 {
+	if (l->kind == CTL_LINK_HM) {
+		size_t n = hm_client_poll(&l->hm, out, cap, l->node);
+
+		l->frames_rx += n > 0;
+		return n;
+	}
 	if (l->kind == CTL_LINK_USB)
 		return recv_usb(l, out, cap);
 	if (l->kind == CTL_LINK_CAN) {
@@ -616,6 +632,17 @@ static void send_msgs(struct ctl_link *l, const struct swell_msg *m, size_t n)
 {
 	size_t k = 0;
 
+	if (l->kind == CTL_LINK_HM) {
+		for (k = 0; k < n; k++)
+			if (m[k].type == SWELL_MSG_FORCE_CMD) {
+				const struct swell_msg_force_cmd *f = &m[k].u.force_cmd;
+				const int16_t cN[3] = {f->fx_cN, f->fy_cN, f->fz_cN};
+
+				hm_client_force(&l->hm, cN, f->enable);
+				l->frames_tx++;
+			}
+		return;
+	}
 	if (l->kind == CTL_LINK_CAN) {
 		for (k = 0; k < n; k++) {
 			struct can_frame f;
@@ -658,6 +685,12 @@ int ctl_link_send_wait(struct ctl_link *l, const struct swell_msg *m, size_t n, 
 	const struct timespec ms = {0, 1000000};
 	int rc = 0;
 
+	if (l->kind == CTL_LINK_HM) { /* the device confirms the zero bias force, or the wait ends */
+		ctl_link_send(l, m, n);
+		rc = hm_client_zero_wait(&l->hm, wait_ms);
+		l->tx_errors += rc != 0;
+		return rc;
+	}
 	for (size_t k = 0; k < n; k++) {
 		const uint32_t errors = l->tx_errors;
 		int waited = 0;
@@ -680,7 +713,9 @@ int ctl_link_send_wait(struct ctl_link *l, const struct swell_msg *m, size_t n, 
 
 void ctl_link_close(struct ctl_link *l)
 {
-	if (l->kind == CTL_LINK_USB)
+	if (l->kind == CTL_LINK_HM)
+		hm_client_close(&l->hm);
+	else if (l->kind == CTL_LINK_USB)
 		swell_usb_ffs_close(&l->usb);
 	else if (l->fd >= 0)
 		close(l->fd);

@@ -9,10 +9,11 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "hm_client.h"
 #include "swell/proto.h"
 #include "usb_ffs.h"
 
-enum ctl_link_kind { CTL_LINK_UDP, CTL_LINK_CAN, CTL_LINK_USB };
+enum ctl_link_kind { CTL_LINK_UDP, CTL_LINK_CAN, CTL_LINK_USB, CTL_LINK_HM };
 
 /* The CAN controller's fault confinement state, as the driver's error frames tell it. */
 enum ctl_can_state { CTL_CAN_ACTIVE = 0, CTL_CAN_WARNING, CTL_CAN_PASSIVE, CTL_CAN_BUS_OFF };
@@ -81,15 +82,17 @@ struct ctl_link {
 	uint8_t held[SWELL_PKT_MAX];
 	uint16_t held_len;
 	uint32_t answers_held, answers_dropped;
+	struct hm_client hm; /* hm: a HapticMaster on its TCP command interface (device side only) */
 	char name[48];
 };
 
 /* spec: "udp[:PORT][,OPTION]" (device link: listen on 127.0.0.1:PORT, default 47800, option
  * "peer=ADDR:PORT" fixes the device's address; host link: send telemetry to 127.0.0.1:PORT, default
  * 47801, and take clients on the port of option "listen=[ADDR:]PORT", default any free port on
- * 127.0.0.1), "can:IFACE", "usb:FFS_DIR" (a mounted FunctionFS instance). Returns 0, -2 for a spec
- * that is not one of these (nothing opened), -1 when the system refused (socket, bind, interface,
- * FunctionFS); either way a one-line reason is in err. */
+ * 127.0.0.1), "can:IFACE", "usb:FFS_DIR" (a mounted FunctionFS instance), "hm:HOST[:PORT]" (device
+ * link only: a HapticMaster's TCP interface, hm_client.h). Returns 0, -2 for a spec that is not one
+ * of these (nothing opened), -1 when the system refused (socket, bind, interface, FunctionFS,
+ * connection); either way a one-line reason is in err. */
 int ctl_link_open(struct ctl_link *l, const char *spec, int device_side, uint8_t node, char *err,
 		  size_t errlen);
 

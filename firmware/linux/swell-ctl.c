@@ -36,7 +36,9 @@ static const char usage[] =
 	"                      listen on 127.0.0.1; the device is the peer given, else the first sender of\n"
 	"                      this node's DEVICE_POS, held until it is declared lost; every other sender\n"
 	"                      is counted and ignored), can:IFACE, usb:FFS_DIR (FunctionFS mount: the\n"
-	"                      controller is the USB device)\n"
+	"                      controller is the USB device), hm:HOST[:PORT] (a HapticMaster's TCP command\n"
+	"                      interface, port 7654 unless given: one pipelined request a tick,\n"
+	"                      docs/hapticmaster.md)\n"
 	"  --host LINK         viewer link: udp[:PORT][,listen=[ADDR:]PORT] (default udp:47801: telemetry\n"
 	"                      to 127.0.0.1:47801; up to 4 more clients, each admitted by its first valid\n"
 	"                      packet to the listen port (default any free port on 127.0.0.1, printed)\n"
@@ -782,6 +784,8 @@ int main(int argc, char **argv)
 		       "%u packets of senders refused (table full)\n",
 		       addr_str(&p.host.local, 1, 0, abuf, sizeof(abuf)), p.host.clients_admitted, p.host.clients_silent,
 		       CTL_LINK_CLIENT_SILENT_MS, ctl_link_clients(&p.host), CTL_LINK_CLIENTS, p.host.clients_refused);
+	if (p.dev.kind == CTL_LINK_HM)
+		hm_client_report(&p.dev.hm, stdout);
 	report_can("device", &p.dev);
 	report_usb("device", &p.dev);
 	if (p.have_host) {

@@ -11,6 +11,7 @@
 #include <arpa/inet.h>
 #include <errno.h>
 #include <math.h>
+#include <poll.h>
 #include <sched.h>
 #include <signal.h>
 #include <stdio.h>
@@ -19,8 +20,10 @@
 #include <sys/mman.h>
 #include <time.h>
 
+#include "hm_cmd.h"
 #include "hm_hand.h"
 #include "hm_model.h"
+#include "hm_serve.h"
 #include "swell/link.h"
 #include "swell/proto.h"
 #include "swell/scene.h"
@@ -46,6 +49,14 @@ static const char usage[] =
 	"  --timeout-ms MS     lockstep: longest wait for an answer (default 50; counted as a timeout)\n"
 	"  --rt                SCHED_FIFO (priority 70, below swell-ctl's 80) and mlockall where permitted\n"
 	"  --seconds S         simulated seconds to run (default 10); SIGINT/SIGTERM stop early\n"
+	"  --serve [ADDR:]PORT serve the HapticMaster's own TCP command interface instead of the swell\n"
+	"                      protocol (default 127.0.0.1:7654; any other address must be spelled out);\n"
+	"                      forces come from the effects clients create (docs/hapticmaster.md)\n"
+	"  --bias-watchdog MS  --serve: a client silent this long loses its bias forces (default 100;\n"
+	"                      0: off)\n"
+	"  --inject SPEC       --serve fault injection (repeatable, up to 8): delay:at=S,for=S,ms=N (replies\n"
+	"                      held N ms), garbage:at=S (16 unframed bytes to every client), reset:at=S\n"
+	"                      (every connection reset), stop:at=S (the device put in stop, as by a client)\n"
 	"Device model (m_v a = F_user + F_cmd - b_v v, per axis; see docs/hm.md):\n"
 	"  --mass KG           virtual mass m_v (default 2)\n"
 	"  --damping NS_M      virtual damping b_v in N s/m (default 2)\n"
@@ -79,7 +90,14 @@ static const char usage[] =
 #define RHO_KG_M3 1000.0
 
 struct opts {
-	const char *link, *host, *log;
+	const char *link, *host, *log, *serve;
+	unsigned bias_watchdog_ms;
+	struct inject {
+		char kind; /* 'd' delay, 'g' garbage, 'r' reset, 's' stop */
+		double at_s, for_s, ms;
+		int done;
+	} inj[8];
+	int n_inj;
 	unsigned port, bind_port, node, iface;
 	int lockstep, quiet, have_start, rt, watchdog_given;
 	unsigned timeout_ms;
@@ -184,6 +202,7 @@ static void parse(int argc, char **argv, struct opts *o)
 	o->host = SWELL_UDP_HOST;
 	o->port = SWELL_UDP_PORT_DEVICE;
 	o->timeout_ms = 50;
+	o->bias_watchdog_ms = 100;
 	o->seconds = 10.0;
 	o->obj_mass_g = 100.0;
 	o->obj_a_mm = o->obj_b_mm = o->obj_h_mm = 50.0;
@@ -207,6 +226,9 @@ static void parse(int argc, char **argv, struct opts *o)
 		} else if (!strcmp(a, "--rt")) {
 			o->rt = 1;
 			continue;
+		} else if (!strcmp(a, "--serve") && (!v || !strncmp(v, "--", 2))) {
+			o->serve = "127.0.0.1:7654";
+			continue;
 		} else if (strncmp(a, "--", 2)) {
 			die("unexpected argument %s%s", a, "");
 		} else if (!v) {
@@ -226,6 +248,34 @@ static void parse(int argc, char **argv, struct opts *o)
 		}
 		else if (!strcmp(a, "--port"))
 			o->port = whole(a, v, 1, 65535, "");
+		else if (!strcmp(a, "--serve")) {
+			struct sockaddr_in sa;
+
+			if (hm_serve_parse(v, &sa, why, sizeof(why)) < 0)
+				die("--serve: %s%s", why, "");
+			o->serve = v;
+		}
+		else if (!strcmp(a, "--inject")) {
+			struct inject *j = &o->inj[o->n_inj];
+			char kind[16];
+			int used = 0;
+
+			if (o->n_inj >= 8)
+				die("--inject: at most 8 injections%s%s", "", "");
+			memset(j, 0, sizeof(*j));
+			j->at_s = -1;
+			if (sscanf(v, "delay:at=%lf,for=%lf,ms=%lf%n", &j->at_s, &j->for_s, &j->ms, &used) == 3 && !v[used] &&
+			    j->for_s > 0 && j->ms > 0 && j->ms <= 10000)
+				j->kind = 'd';
+			else if (sscanf(v, "%15[a-z]:at=%lf%n", kind, &j->at_s, &used) == 2 && !v[used] &&
+				 (!strcmp(kind, "garbage") || !strcmp(kind, "reset") || !strcmp(kind, "stop")))
+				j->kind = kind[0];
+			if (!j->kind || !(j->at_s >= 0))
+				die("--inject '%s' is not delay:at=S,for=S,ms=N (0 < N <= 10000), garbage:at=S, reset:at=S "
+				    "or stop:at=S%s", v, "");
+			o->n_inj++;
+		} else if (!strcmp(a, "--bias-watchdog"))
+			o->bias_watchdog_ms = whole(a, v, 0, 60000, "ms");
 		else if (!strcmp(a, "--bind-port"))
 			o->bind_port = whole(a, v, 0, 65535, "");
 		else if (!strcmp(a, "--node"))
@@ -609,8 +659,8 @@ static void wait_answer(struct dev *d, struct hm_state *s, const struct opts *o,
 	r->have_offset = 1;
 }
 
-/* Real time: sleep to the next absolute deadline, then take what arrived. */
-static void wait_deadline(struct dev *d, struct hm_state *s, struct run *r, int64_t *next, int64_t period_ns)
+/* Real time: sleep to the next absolute deadline; the lateness of the wake-up goes into r. */
+static void sleep_deadline(struct run *r, int64_t *next, int64_t period_ns)
 {
 	struct timespec dl;
 	int64_t late;
@@ -628,6 +678,12 @@ static void wait_deadline(struct dev *d, struct hm_state *s, struct run *r, int6
 		r->late_ticks++;
 		*next = now_ns();
 	}
+}
+
+/* Real time: sleep to the next absolute deadline, then take what arrived. */
+static void wait_deadline(struct dev *d, struct hm_state *s, struct run *r, int64_t *next, int64_t period_ns)
+{
+	sleep_deadline(r, next, period_ns);
 	while (dev_recv(d, s, 0) >= 0)
 		;
 }
@@ -650,8 +706,8 @@ static void account(struct run *r, const struct hm_state *s, double t, double la
 	r->held_late |= holding;
 }
 
-static void summary(const struct opts *o, const struct dev *d, const struct hm_state *s, const struct run *r,
-		    double wall_s)
+/* The summary's head: time run, final position, equilibrium against -m g/k and the level rise. */
+static void summary_head(const struct opts *o, const struct hm_state *s, const struct run *r, double wall_s)
 {
 	double dt = 1.0 / o->p.rate_hz;
 	/* at rest the object floats with k delta = m g, k = rho g a b: delta = m / (rho a b); the water
@@ -687,6 +743,12 @@ static void summary(const struct opts *o, const struct dev *d, const struct hm_s
 			       z_rest + z_level, z_level, (zm - z_rest - z_level) / -(z_rest + z_level) * 100.0);
 		}
 	}
+}
+
+static void summary(const struct opts *o, const struct dev *d, const struct hm_state *s, const struct run *r,
+		    double wall_s)
+{
+	summary_head(o, s, r, wall_s);
 	printf("  peak force      %.3f N (|F_cmd| applied)\n", r->peak_f_N);
 	printf("  commands        %u received, %u lost, %u repeated, %u bad frames, %u send errors, %u other "
 	       "messages ignored\n",
@@ -710,6 +772,175 @@ static void summary(const struct opts *o, const struct dev *d, const struct hm_s
 	if (d->ctl_faults)
 		printf("  FAULTED         the controller faulted %u times (%u heartbeats in FAULT, last error: %s)\n",
 		       d->ctl_faults, d->fault_beats, swell_err_str((enum swell_err)d->ctl_err));
+}
+
+/* ---- --serve: the HapticMaster's own TCP interface ---- */
+
+/* Lockstep with --serve: wait until some client's request has been run (or the timeout). */
+static void serve_wait(struct hm_serve *srv, struct hm_dev *dev, const struct opts *o, struct run *r)
+{
+	uint32_t before = srv->st.requests;
+	int64_t deadline = now_ns() + (int64_t)o->timeout_ms * 1000000;
+
+	for (;;) {
+		struct pollfd pf[HM_SERVE_CLIENTS + 1];
+		int n = 0, k;
+		int64_t left;
+
+		hm_serve_poll(srv, dev, now_ns());
+		if (srv->st.requests != before || stop_flag)
+			return;
+		left = deadline - now_ns();
+		if (left <= 0)
+			break;
+		pf[n++] = (struct pollfd){srv->lfd, POLLIN, 0};
+		for (k = 0; k < HM_SERVE_CLIENTS; k++)
+			if (srv->c[k].fd >= 0)
+				pf[n++] = (struct pollfd){srv->c[k].fd, POLLIN, 0};
+		poll(pf, (nfds_t)n, (int)((left + 999999) / 1000000));
+	}
+	r->timeouts++;
+}
+
+static void serve_summary(const struct opts *o, const struct hm_serve *srv, const struct hm_dev *dev,
+			  const struct hm_state *s, const struct run *r, double wall_s)
+{
+	const struct hm_serve_stats *st = &srv->st;
+
+	summary_head(o, s, r, wall_s);
+	printf("  peak force      %.3f N (|F| of the effects applied)\n", r->peak_f_N);
+	printf("  server          %s: %u clients accepted, %u refused (table full), %u requests, %u commands, "
+	       "%u error answers, %u replies\n",
+	       srv->name, st->accepted, st->refused_full, st->requests, dev->commands, dev->errors, st->replies);
+	printf("  bad clients     %u bad headers (closed), %u binary garbage (answered), %u stalled mid-request "
+	       "(dropped), %u not reading (dropped), %u vanished, %u ticks with requests left for the next\n",
+		st->drop_header, st->garbage, st->drop_stalled, st->drop_not_reading, st->vanished,
+		st->deferred_ticks);
+	if (o->n_inj)
+		printf("  injected        %u connection resets, %u garbage bursts, %u replies delayed\n",
+		       st->injected_resets, st->injected_garbage, st->delayed_replies);
+	printf("  bytes           %llu in, %llu out\n", (unsigned long long)st->bytes_in,
+	       (unsigned long long)st->bytes_out);
+	printf("  request age     p50 %.0f us, p99 %.0f us, max %.0f us at application (kernel arrival to the end "
+	       "of the step that applies it; %llu ticks)\n",
+	       hm_serve_age_pct(srv, 0.5), hm_serve_age_pct(srv, 0.99), st->age_max_ns / 1e3,
+	       (unsigned long long)st->ages);
+	if (o->lockstep)
+		printf("  timeouts        %llu (lockstep waits of %u ms without a request)\n",
+		       (unsigned long long)r->timeouts, o->timeout_ms);
+	else
+		printf("  tick lateness   p50 %.0f us, p99 %.0f us, max %.0f us; %llu periods lost\n", pct(r, 0.5),
+		       pct(r, 0.99), r->late_max_ns / 1e3, (unsigned long long)r->late_ticks);
+	printf("  device          state %s, %u bias forces zeroed by the watchdog (%u ticks), %u by a vanished "
+	       "client, %u e-stops\n",
+	       hm_dev_state_name(dev->state), dev->watchdog_trips, dev->watchdog_ticks, dev->vanished_zeroed,
+	       dev->estop_stops);
+	printf("  walls           %u ticks in a workspace wall\n", s->wall_ticks);
+}
+
+/* --inject: the bench's TCP faults at their simulated times, each announced on stderr. */
+static void inject(struct opts *o, struct hm_serve *srv, struct hm_dev *dev, double t)
+{
+	int k;
+
+	srv->reply_delay_ns = 0;
+	for (k = 0; k < o->n_inj; k++) {
+		struct inject *j = &o->inj[k];
+
+		if (j->kind == 'd' && t >= j->at_s && t < j->at_s + j->for_s)
+			srv->reply_delay_ns = (int64_t)(j->ms * 1e6);
+		if (j->done || t < j->at_s)
+			continue;
+		j->done = 1;
+		fprintf(stderr, "swell-hm: inject %s at %.4f s\n",
+			j->kind == 'd' ? "delay" : j->kind == 'g' ? "garbage" : j->kind == 'r' ? "reset" : "stop", t);
+		if (j->kind == 'g')
+			hm_serve_inject_garbage(srv);
+		else if (j->kind == 'r')
+			hm_serve_inject_reset(srv, dev);
+		else if (j->kind == 's') {
+			char reply[64];
+
+			hm_dev_request(dev, -1, "set state stop", 14, reply, sizeof(reply));
+		}
+	}
+}
+
+/* The device loop with the HapticMaster's TCP interface: each tick, run what the clients sent
+ * (answers describe the state before this tick's step), then render the effects and integrate. */
+static int serve_main(struct opts *o, FILE *log, const double x0[3])
+{
+	static struct hm_serve srv;
+	static struct hm_dev dev;
+	static struct run r;
+	struct hm_state s;
+	char err[160];
+	double dt = 1.0 / o->p.rate_hz, last_window = o->seconds > 1.0 ? o->seconds - 1.0 : 0.0;
+	int64_t start, next, period_ns = (int64_t)llround(1e9 / o->p.rate_hz), last_status;
+	uint64_t n, total = (uint64_t)llround(o->seconds * o->p.rate_hz);
+
+	if (hm_serve_open(&srv, o->serve, err, sizeof(err)) < 0) {
+		fprintf(stderr, "swell-hm: --serve: %s\n", err);
+		return 1;
+	}
+	hm_dev_init(&dev, o->p.rate_hz, o->p.f_max_N);
+	dev.inertia_kg = o->p.mass_kg;
+	dev.watchdog_ticks = (uint32_t)llround(o->bias_watchdog_ms * 1e-3 * o->p.rate_hz);
+	if (o->bias_watchdog_ms > 0 && dev.watchdog_ticks == 0)
+		dev.watchdog_ticks = 1;
+	hm_init(&s, x0);
+	r.z_min = INFINITY;
+	r.z_max = -INFINITY;
+	fprintf(stderr, "swell-hm: serving the HapticMaster interface on %s, %s at %g Hz, hand %s, inertia %g kg, "
+			"bias watchdog %u ms\n",
+		srv.name, o->lockstep ? "lockstep" : "real time", o->p.rate_hz, hm_hand_name(o->hand.kind),
+		dev.inertia_kg, o->bias_watchdog_ms);
+	start = next = last_status = now_ns();
+	for (n = 0; n < total && !stop_flag; n++) {
+		double t = (double)n * dt, f_hand[3], f_fx[3], x[3], v[3];
+		int holding, k;
+
+		hm_dev_set_estop(&dev, t >= o->estop_s[0] && t < o->estop_s[1]);
+		inject(o, &srv, &dev, t);
+		memcpy(dev.x_m, s.x, sizeof(dev.x_m));
+		memcpy(dev.v_m_s, s.v, sizeof(dev.v_m_s));
+		holding = hm_hand_force(&o->hand, t, s.x, s.v, f_hand);
+		for (k = 0; k < 3; k++)
+			dev.fmeas_N[k] = f_hand[k];
+		if (o->lockstep)
+			serve_wait(&srv, &dev, o, &r);
+		else {
+			sleep_deadline(&r, &next, period_ns);
+			hm_serve_poll(&srv, &dev, now_ns());
+		}
+		memcpy(x, s.x, sizeof(x));
+		memcpy(v, s.v, sizeof(v));
+		hm_dev_tick(&dev, s.x, s.v, f_fx);
+		hm_command(&s, f_fx, 1);
+		o->p.mass_kg = dev.inertia_kg;
+		hm_step(&o->p, &s, f_hand);
+		hm_serve_applied(&srv);
+		for (k = 0; k < 3; k++)
+			dev.a_m_s2[k] = (s.v[k] - v[k]) / dt;
+		account(&r, &s, t, last_window, holding);
+		if (log)
+			fprintf(log, "%.4f,%.3f,%.3f,%.3f,%.2f,%.2f,%.2f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%d,%d,%d,%d,%d\n", t,
+				x[0] * 1e3, x[1] * 1e3, x[2] * 1e3, v[0] * 1e3, v[1] * 1e3, v[2] * 1e3, s.f_cmd_N[0],
+				s.f_cmd_N[1], s.f_cmd_N[2], f_hand[0], f_hand[1], f_hand[2], dev.state == HM_STATE_FORCE,
+				hm_serve_clients(&srv), s.applying, (int)dev.state, holding);
+		if (!o->quiet && now_ns() - last_status > 1000000000) {
+			last_status = now_ns();
+			fprintf(stderr, "\rswell-hm: t %.1f s, z %+.2f mm, F %+.3f N, state %s, %d clients   ", t,
+				s.x[2] * 1e3, s.f_cmd_N[2], hm_dev_state_name(dev.state), hm_serve_clients(&srv));
+		}
+	}
+	if (!o->quiet && now_ns() - start > 1000000000)
+		fputc('\n', stderr);
+	if (log && fclose(log) != 0)
+		fprintf(stderr, "swell-hm: writing %s failed\n", o->log);
+	serve_summary(o, &srv, &dev, &s, &r, (now_ns() - start) / 1e9);
+	hm_serve_close(&srv, &dev);
+	return 0;
 }
 
 int main(int argc, char **argv)
@@ -739,16 +970,23 @@ int main(int argc, char **argv)
 			return 1;
 		}
 		fputs("t_s,x_mm,y_mm,z_mm,vx_mm_s,vy_mm_s,vz_mm_s,fcmd_x_N,fcmd_y_N,fcmd_z_N,"
-		      "fhand_x_N,fhand_y_N,fhand_z_N,enable,cmd_age,applied,ctl_state,holding\n",
+		      "fhand_x_N,fhand_y_N,fhand_z_N,",
+		      log);
+		/* --serve: the effects' force, the device state (0 off, 1 init, 2 home, 3 force, 4 position,
+		 * 5 stop) and the number of clients instead of the swell protocol's command columns */
+		fputs(o.serve ? "rendering,clients,applied,dev_state,holding\n" : "enable,cmd_age,applied,ctl_state,holding\n",
 		      log);
 	}
-	if (dev_open(&d, &o) < 0)
-		return 1;
 	memset(&sa, 0, sizeof(sa));
 	sa.sa_handler = on_signal;
 	sigaction(SIGINT, &sa, NULL);
 	sigaction(SIGTERM, &sa, NULL);
+	signal(SIGPIPE, SIG_IGN);
 	setup_rt(&o, o.watchdog_given);
+	if (o.serve)
+		return serve_main(&o, log, x0);
+	if (dev_open(&d, &o) < 0)
+		return 1;
 
 	hm_init(&s, x0);
 	dt = 1.0 / o.p.rate_hz;

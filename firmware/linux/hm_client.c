@@ -1,0 +1,560 @@
+/* A HapticMaster client on its TCP command interface; see hm_client.h. */
+#define _GNU_SOURCE
+#include "hm_client.h"
+
+#include <arpa/inet.h>
+#include <errno.h>
+#include <netdb.h>
+#include <netinet/tcp.h>
+#include <poll.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <time.h>
+#include <unistd.h>
+
+#define BIAS "swell_bias"
+
+enum { KIND_TICK, KIND_START, KIND_ZERO };
+
+static const char startup_text[] = "set state init;set state force;remove " BIAS ";create biasforce " BIAS
+				   ";set " BIAS " force [0,0,0];set " BIAS " enable";
+
+static int64_t now_ns(void)
+{
+	struct timespec t;
+
+	clock_gettime(CLOCK_MONOTONIC, &t);
+	return (int64_t)t.tv_sec * 1000000000 + t.tv_nsec;
+}
+
+const char *hm_client_phase_name(enum hmc_phase p)
+{
+	static const char *const n[] = {"down", "connecting", "starting", "running", "holding off"};
+
+	return (unsigned)p < sizeof(n) / sizeof(n[0]) ? n[p] : "?";
+}
+
+int hm_client_parse_fixed(const char **s, int scale, int32_t limit, int32_t *out)
+{
+	const char *p = *s;
+	uint64_t mant = 0, q, r, pow = 1;
+	int neg = 0, digits = 0, exp10 = 0, any = 0, e;
+
+	if (*p == '-' || *p == '+')
+		neg = *p++ == '-';
+	for (; *p >= '0' && *p <= '9'; p++, any = 1) {
+		if (digits < 18) {
+			mant = mant * 10u + (uint64_t)(*p - '0');
+			digits += mant != 0;
+		} else {
+			exp10++; /* digits past 18 only scale */
+		}
+	}
+	if (*p == '.') {
+		for (p++; *p >= '0' && *p <= '9'; p++, any = 1) {
+			if (digits < 18) {
+				mant = mant * 10u + (uint64_t)(*p - '0');
+				digits += mant != 0;
+				exp10--;
+			}
+		}
+	}
+	if (!any)
+		return -1;
+	if ((*p == 'e' || *p == 'E') && (p[1] == '-' || p[1] == '+' || (p[1] >= '0' && p[1] <= '9'))) {
+		const char *x = p + 1;
+		int eneg = 0, ev = 0;
+
+		if (*x == '-' || *x == '+')
+			eneg = *x++ == '-';
+		if (*x >= '0' && *x <= '9') {
+			for (; *x >= '0' && *x <= '9'; x++)
+				ev = ev < 1000 ? ev * 10 + (*x - '0') : ev;
+			exp10 += eneg ? -ev : ev;
+			p = x;
+		}
+	}
+	e = exp10 + scale;
+	if (mant == 0) {
+		q = 0;
+	} else if (e >= 0) {
+		q = mant;
+		for (; e > 0 && q <= (uint64_t)limit; e--)
+			q *= 10u;
+	} else if (e < -19) {
+		q = 0;
+	} else {
+		for (; e < 0; e++)
+			pow *= 10u;
+		q = mant / pow;
+		r = mant % pow;
+		if (r >= pow - r) /* r >= pow / 2 without rounding pow: half away from zero */
+			q++;
+	}
+	if (q > (uint64_t)limit)
+		q = (uint64_t)limit;
+	*out = neg ? -(int32_t)q : (int32_t)q;
+	*s = p;
+	return 0;
+}
+
+/* "[a,b,c]" into three fixed-point integers; *s moves past it. */
+static int parse_vec3(const char **s, int scale, int32_t limit, int32_t v[3])
+{
+	const char *p = *s;
+	int k;
+
+	while (*p == ' ' || *p == '"')
+		p++;
+	if (*p++ != '[')
+		return -1;
+	for (k = 0; k < 3; k++) {
+		while (*p == ' ')
+			p++;
+		if (hm_client_parse_fixed(&p, scale, limit, &v[k]) < 0)
+			return -1;
+		while (*p == ' ')
+			p++;
+		if (*p++ != (k < 2 ? ',' : ']'))
+			return -1;
+	}
+	while (*p == ' ' || *p == '"')
+		p++;
+	*s = p;
+	return 0;
+}
+
+static void disconnect(struct hm_client *c, int counted_reset)
+{
+	if (c->fd >= 0)
+		close(c->fd);
+	c->fd = -1;
+	c->st.lost += c->ring_n;
+	c->ring_n = 0;
+	c->in_len = c->out_len = 0;
+	if (counted_reset)
+		c->st.resets++;
+	c->phase = HMC_DOWN;
+	c->retry_at_ns = now_ns() + (int64_t)HMC_RETRY_MS * 1000000;
+	c->status = 0;
+}
+
+static void start_connect(struct hm_client *c)
+{
+	int one = 1;
+
+	c->fd = socket(AF_INET, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+	if (c->fd < 0) {
+		c->retry_at_ns = now_ns() + (int64_t)HMC_RETRY_MS * 1000000;
+		return;
+	}
+	setsockopt(c->fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof(one));
+	if (connect(c->fd, (const struct sockaddr *)&c->addr, sizeof(c->addr)) == 0 || errno == EINPROGRESS) {
+		c->phase = HMC_CONNECTING;
+		return;
+	}
+	disconnect(c, 0);
+}
+
+int hm_client_open(struct hm_client *c, const char *spec, uint32_t max_age_ticks, char *err, size_t errlen)
+{
+	char host[64];
+	const char *colon = strrchr(spec, ':');
+	long port = HMC_PORT;
+	size_t hl = colon ? (size_t)(colon - spec) : strlen(spec);
+
+	memset(c, 0, sizeof(*c));
+	c->fd = -1;
+	c->max_age_ticks = max_age_ticks ? max_age_ticks : 1;
+	if (hl == 0 || hl >= sizeof(host)) {
+		snprintf(err, errlen, "hm:%s: want hm:HOST[:PORT]", spec);
+		return -1;
+	}
+	memcpy(host, spec, hl);
+	host[hl] = '\0';
+	if (colon) {
+		char *end;
+
+		errno = 0;
+		port = strtol(colon + 1, &end, 10);
+		if (errno || end == colon + 1 || *end || port < 1 || port > 65535) {
+			snprintf(err, errlen, "hm:%s: port '%s' is not a number in [1, 65535]", spec, colon + 1);
+			return -1;
+		}
+	}
+	c->addr.sin_family = AF_INET;
+	c->addr.sin_port = htons((uint16_t)port);
+	if (inet_pton(AF_INET, host, &c->addr.sin_addr) != 1) {
+		struct addrinfo hints, *res = NULL;
+
+		memset(&hints, 0, sizeof(hints));
+		hints.ai_family = AF_INET;
+		hints.ai_socktype = SOCK_STREAM;
+		if (getaddrinfo(host, NULL, &hints, &res) != 0 || !res) {
+			snprintf(err, errlen, "hm:%s: cannot resolve '%s'", spec, host);
+			return -1;
+		}
+		c->addr.sin_addr = ((const struct sockaddr_in *)(const void *)res->ai_addr)->sin_addr;
+		freeaddrinfo(res);
+	}
+	snprintf(c->name, sizeof(c->name), "hm:%s:%ld", host, port);
+	start_connect(c);
+	return 0;
+}
+
+/* Writes what is queued; -1 when the connection failed. */
+static int flush(struct hm_client *c)
+{
+	while (c->out_len > 0) {
+		ssize_t n = send(c->fd, c->out, c->out_len, MSG_DONTWAIT | MSG_NOSIGNAL);
+
+		if (n < 0)
+			return errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR ? 0 : -1;
+		memmove(c->out, c->out + n, c->out_len - (size_t)n);
+		c->out_len -= (size_t)n;
+	}
+	return 0;
+}
+
+/* Queues a framed request and notes it in flight; -1 when there is no room (nothing queued). */
+static int request(struct hm_client *c, int kind, const char *text, size_t n)
+{
+	unsigned slot;
+
+	if (c->ring_n >= HMC_RING || c->out_len + 8 + n > sizeof(c->out))
+		return -1;
+	c->out[c->out_len + 0] = (uint8_t)(n >> 24);
+	c->out[c->out_len + 1] = (uint8_t)(n >> 16);
+	c->out[c->out_len + 2] = (uint8_t)(n >> 8);
+	c->out[c->out_len + 3] = (uint8_t)n;
+	memset(c->out + c->out_len + 4, 0, 4);
+	memcpy(c->out + c->out_len + 8, text, n);
+	c->out_len += 8 + n;
+	slot = (c->ring_head + c->ring_n) % HMC_RING;
+	c->ring_kind[slot] = (uint8_t)kind;
+	c->ring_tick[slot] = c->tick;
+	c->ring_ns[slot] = now_ns();
+	c->ring_n++;
+	if (c->ring_n > c->st.max_inflight)
+		c->st.max_inflight = c->ring_n;
+	if (flush(c) < 0) {
+		disconnect(c, 1);
+		return -1;
+	}
+	return 0;
+}
+
+static void startup(struct hm_client *c)
+{
+	if (request(c, KIND_START, startup_text, sizeof(startup_text) - 1) == 0) {
+		c->phase = HMC_STARTING;
+		c->st.startups++;
+	}
+}
+
+/* "-1.23" from -123 cN */
+static int fmt_cN(char *b, size_t n, int16_t v)
+{
+	int a = v < 0 ? -v : v;
+
+	return snprintf(b, n, "%s%d.%02d", v < 0 ? "-" : "", a / 100, a % 100);
+}
+
+void hm_client_force(struct hm_client *c, const int16_t f_cN[3], int enable)
+{
+	char text[HMC_TEXT_MAX], f[3][16];
+	int n, k, zero = !enable || (f_cN[0] == 0 && f_cN[1] == 0 && f_cN[2] == 0);
+
+	c->tick++;
+	if (c->phase == HMC_DOWN || c->phase == HMC_CONNECTING)
+		return;
+	/* an answer to a request sent behind max_age_ticks others would be stale on arrival: do not
+	 * deepen the pipeline, let it drain; only a change to zero force always goes */
+	if (c->ring_n > c->max_age_ticks && !(zero && !c->sent_zero)) {
+		c->st.skipped++;
+		return;
+	}
+	for (k = 0; k < 3; k++)
+		fmt_cN(f[k], sizeof(f[k]), zero ? 0 : f_cN[k]);
+	n = snprintf(text, sizeof(text), "set " BIAS " force [%s,%s,%s];get measpos;get modelvel;get state%s%s", f[0], f[1],
+		     f[2], c->extra[0] ? ";" : "", c->extra);
+	c->extra[0] = '\0';
+	if (n < 0 || (size_t)n >= sizeof(text) || request(c, KIND_TICK, text, (size_t)n) < 0) {
+		c->st.skipped += c->fd >= 0;
+	} else {
+		c->st.requests++;
+		c->sent_zero = zero;
+	}
+}
+
+int hm_client_set_extra(struct hm_client *c, const char *cmds)
+{
+	size_t n = strlen(cmds);
+
+	if (n >= sizeof(c->extra))
+		return -1;
+	memcpy(c->extra, cmds, n + 1);
+	return 0;
+}
+
+/* The i-th ';'-separated part of text (length n) */
+static const char *part(const char *text, int i)
+{
+	for (; i > 0; i--) {
+		text = strchr(text, ';');
+		if (!text)
+			return NULL;
+		text++;
+	}
+	while (*text == ' ')
+		text++;
+	return text;
+}
+
+static uint8_t status_of_state(const char *st)
+{
+	size_t n = strcspn(st, ";");
+
+	while (n > 0 && (st[n - 1] == ' ' || st[n - 1] == '"'))
+		n--;
+	if (*st == '"') {
+		st++;
+		n = n ? n - 1 : 0;
+	}
+	if (n == 5 && !strncmp(st, "force", 5))
+		return 1u | 2u;
+	if (n == 3 && !strncmp(st, "off", 3))
+		return 0u;
+	return 1u | 4u; /* stop (e-stop), init, home, position: not rendering our force */
+}
+
+/* One answer of len bytes; may write a sample into out. Returns messages written. */
+static size_t answer(struct hm_client *c, char *text, struct swell_msg *out, size_t cap, uint8_t node)
+{
+	unsigned slot = c->ring_head;
+	int kind = c->ring_kind[slot];
+	uint32_t age = c->tick - c->ring_tick[slot];
+	int64_t rtt = now_ns() - c->ring_ns[slot];
+	const char *p1, *p2, *p3;
+	int32_t pos[3], vel[3];
+	uint8_t status;
+
+	c->ring_head = (c->ring_head + 1) % HMC_RING;
+	c->ring_n--;
+	c->st.answers++;
+	c->st.rtt_ns_sum += (uint64_t)rtt;
+	if ((uint64_t)rtt > c->st.rtt_ns_max)
+		c->st.rtt_ns_max = (uint64_t)rtt;
+	c->st.rtt_hist[rtt / 1000 > HMC_RTT_US ? HMC_RTT_US : rtt / 1000]++;
+	if (kind == KIND_START) {
+		/* every answer but the remove's must be a success */
+		int i, bad = 0;
+
+		for (i = 0; i < 6; i++) {
+			const char *p = part(text, i);
+
+			if (!p || (i != 2 && !strncmp(p, "---", 3)))
+				bad = 1;
+		}
+		if (bad) {
+			c->st.startup_failures++;
+			c->phase = HMC_HOLDOFF;
+			c->retry_at_ns = now_ns() + (int64_t)HMC_RETRY_MS * 1000000;
+		} else {
+			static const int16_t none[3] = {0, 0, 0};
+
+			c->phase = HMC_RUNNING;
+			/* a first sample at once: a controller clocked by the device ticks on it */
+			c->tick--;
+			hm_client_force(c, none, 0);
+		}
+		return 0;
+	}
+	if (kind != KIND_TICK)
+		return 0;
+	p1 = part(text, 1);
+	p2 = part(text, 2);
+	p3 = part(text, 3);
+	if (!p1 || !p2 || !p3 || parse_vec3(&p1, 5, 30000, pos) < 0 || parse_vec3(&p2, 4, 30000, vel) < 0) {
+		c->st.garbage++;
+		return 0;
+	}
+	status = status_of_state(p3);
+	if (!strncmp(text, "---", 3) || strstr(p3, "---")) {
+		c->st.error_answers++;
+		status = (uint8_t)((status & ~2u) | 4u | 8u);
+	}
+	c->status = status;
+	if (!(status & 2u) && c->phase == HMC_RUNNING) {
+		/* stopped by someone else, e-stop, or our effect is gone: start again after a pause */
+		c->st.not_force++;
+		c->phase = HMC_HOLDOFF;
+		c->retry_at_ns = now_ns() + (int64_t)HMC_RETRY_MS * 1000000;
+	}
+	if (age > c->max_age_ticks) {
+		c->st.late++;
+		return 0;
+	}
+	if (cap < 2)
+		return 0;
+	memset(out, 0, 2 * sizeof(*out));
+	out[0].type = SWELL_MSG_DEVICE_VEL;
+	out[0].node = node;
+	out[0].u.device_vel.vx_100ums = (int16_t)vel[0];
+	out[0].u.device_vel.vy_100ums = (int16_t)vel[1];
+	out[0].u.device_vel.vz_100ums = (int16_t)vel[2];
+	out[0].u.device_vel.seq = c->seq;
+	out[1].type = SWELL_MSG_DEVICE_POS;
+	out[1].node = node;
+	out[1].u.device_pos.x_10um = (int16_t)pos[0];
+	out[1].u.device_pos.y_10um = (int16_t)pos[1];
+	out[1].u.device_pos.z_10um = (int16_t)pos[2];
+	out[1].u.device_pos.seq = c->seq++;
+	out[1].u.device_pos.status = status;
+	c->st.samples++;
+	return 2;
+}
+
+static uint32_t be32(const uint8_t *p)
+{
+	return (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | p[3];
+}
+
+size_t hm_client_poll(struct hm_client *c, struct swell_msg *out, size_t cap, uint8_t node)
+{
+	size_t n = 0;
+	int rounds;
+
+	if (c->phase == HMC_DOWN) {
+		if (now_ns() >= c->retry_at_ns)
+			start_connect(c);
+		return 0;
+	}
+	if (c->phase == HMC_CONNECTING) {
+		struct pollfd pf = {c->fd, POLLOUT, 0};
+		int e = 0;
+		socklen_t el = sizeof(e);
+
+		if (poll(&pf, 1, 0) <= 0)
+			return 0;
+		if (getsockopt(c->fd, SOL_SOCKET, SO_ERROR, &e, &el) < 0 || e != 0) {
+			disconnect(c, 0);
+			return 0;
+		}
+		c->st.connects++;
+		startup(c);
+		return 0;
+	}
+	if (c->phase == HMC_HOLDOFF && now_ns() >= c->retry_at_ns)
+		startup(c);
+	if (flush(c) < 0) {
+		disconnect(c, 1);
+		return 0;
+	}
+	for (rounds = 0; rounds < 8; rounds++) { /* bounded: a flood of answers cannot hold the tick */
+		ssize_t r;
+
+		if (c->in_len < sizeof(c->in)) {
+			r = recv(c->fd, c->in + c->in_len, sizeof(c->in) - c->in_len, MSG_DONTWAIT);
+			if (r == 0 || (r < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR)) {
+				disconnect(c, 1);
+				return n;
+			}
+			if (r > 0)
+				c->in_len += (size_t)r;
+		}
+		while (c->in_len >= 8) {
+			uint32_t len = be32(c->in);
+			char text[HMC_TEXT_MAX + 1];
+
+			if (len == 0 || len > HMC_TEXT_MAX || be32(c->in + 4) != 0 || c->ring_n == 0) {
+				/* not an answer to anything we asked: the stream cannot be trusted any more */
+				c->st.garbage++;
+				disconnect(c, 1);
+				return n;
+			}
+			if (c->in_len < 8 + (size_t)len)
+				break;
+			memcpy(text, c->in + 8, len);
+			text[len] = '\0';
+			memmove(c->in, c->in + 8 + len, c->in_len - 8 - len);
+			c->in_len -= 8 + len;
+			n += answer(c, text, out + n, cap - n, node);
+		}
+		if (c->in_len < sizeof(c->in)) {
+			struct pollfd pf = {c->fd, POLLIN, 0};
+
+			if (poll(&pf, 1, 0) <= 0)
+				break;
+		}
+	}
+	return n;
+}
+
+int hm_client_zero_wait(struct hm_client *c, int wait_ms)
+{
+	static const char zero[] = "set " BIAS " force [0,0,0]";
+	int64_t end = now_ns() + (int64_t)wait_ms * 1000000;
+	uint32_t want;
+
+	if (c->fd < 0 || c->phase == HMC_CONNECTING || c->phase == HMC_DOWN)
+		return -1;
+	if (request(c, KIND_ZERO, zero, sizeof(zero) - 1) < 0)
+		return -1;
+	want = c->st.answers + c->ring_n; /* every request before it, then the zero's answer */
+	while (c->fd >= 0 && c->st.answers < want && now_ns() < end) {
+		struct swell_msg m[2 * HMC_RING];
+		struct pollfd pf = {c->fd, (short)(POLLIN | (c->out_len ? POLLOUT : 0)), 0};
+
+		poll(&pf, 1, 1);
+		if (flush(c) < 0)
+			disconnect(c, 1);
+		else
+			hm_client_poll(c, m, sizeof(m) / sizeof(m[0]), 0);
+	}
+	return c->fd >= 0 && c->st.answers >= want ? 0 : -1;
+}
+
+double hm_client_rtt_pct(const struct hm_client *c, double p)
+{
+	uint64_t want = (uint64_t)(p * (double)c->st.answers + 0.999999), seen = 0;
+	int k;
+
+	for (k = 0; k <= HMC_RTT_US; k++) {
+		seen += c->st.rtt_hist[k];
+		if (want > 0 && seen >= want)
+			return k;
+	}
+	return 0;
+}
+
+void hm_client_report(const struct hm_client *c, FILE *f)
+{
+	const struct hmc_stats *s = &c->st;
+
+	fprintf(f, "  hm link         %s: %s; %u requests, %u answers, %u samples; %u late (older than %u ticks, "
+		   "dropped), %u lost in resets, %u not sent (%u in flight), %u error answers, %u not understood\n",
+		c->name, hm_client_phase_name(c->phase), s->requests, s->answers, s->samples, s->late, c->max_age_ticks,
+		s->lost, s->skipped, c->max_age_ticks + 1, s->error_answers, s->garbage);
+	fprintf(f, "  hm round trip   p50 %.0f us, p99 %.0f us, max %.0f us, mean %.0f us; most in flight %u\n",
+		hm_client_rtt_pct(c, 0.5), hm_client_rtt_pct(c, 0.99), (double)s->rtt_ns_max / 1e3,
+		s->answers ? (double)s->rtt_ns_sum / s->answers / 1e3 : 0.0, s->max_inflight);
+	fprintf(f, "  hm sessions     %u connections, %u resets, %u start-ups (%u failed), %u times found not in "
+		   "force\n",
+		s->connects, s->resets, s->startups, s->startup_failures, s->not_force);
+}
+
+int hm_client_fd(const struct hm_client *c)
+{
+	return c->phase == HMC_DOWN || c->phase == HMC_CONNECTING ? -1 : c->fd;
+}
+
+void hm_client_close(struct hm_client *c)
+{
+	if (c->fd >= 0)
+		close(c->fd);
+	c->fd = -1;
+	c->phase = HMC_DOWN;
+}

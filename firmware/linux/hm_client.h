@@ -1,0 +1,111 @@
+/* A HapticMaster client on its TCP command interface (docs/hapticmaster.md), for the controller's
+ * device link (swell-ctl --device hm:HOST[:PORT]) and for swell-hmbridge.
+ *
+ * Inside it speaks swell's device protocol: each tick's FORCE_CMD becomes one pipelined request
+ *     set swell_bias force [fx,fy,fz];get measpos;get modelvel;get state
+ * and each answer becomes DEVICE_VEL + DEVICE_POS (status: bit 0 powered, bit 1 force rendered (state
+ * `force`), bit 2 not rendering (`stop`, e-stop, any other state, or the bias force refused), bit 3
+ * an error answer). Nothing blocks a tick: the socket is non-blocking, requests are written as they
+ * come, answers are read as they arrive. An answer read more than max_age_ticks ticks after the tick
+ * that asked for it (0: read before the next tick's request) is late: it is counted and dropped (a stale position must not drive the force law), so the controller sees a
+ * silent device tick. Integers only: forces in 0.01 N, positions in 0.01 mm, velocities in 0.1 mm/s,
+ * the device's decimal text parsed without floating point.
+ *
+ * Start-up, on every (re)connection: one request
+ *     set state init;set state force;remove swell_bias;create biasforce swell_bias;
+ *     set swell_bias force [0,0,0];set swell_bias enable
+ * (the remove may fail: there was no such effect). A device found in any state but `force` while
+ * running (another client's `set state stop`, the e-stop) is reported as not rendering at once, and
+ * the start-up is tried again every HMC_RETRY_MS. A reset or EOF closes the socket, counts the
+ * requests in flight as lost, and a new connection is tried every HMC_RETRY_MS.
+ *
+ * For an effect mode (the controller updating the device's spring, damper and bias effects at the
+ * solver rate instead of streaming a force), hm_client_set_extra appends commands to the next tick's
+ * request: the same pipeline carries them and their answers are checked for errors. */
+#ifndef SWELL_HM_CLIENT_H
+#define SWELL_HM_CLIENT_H
+
+#include <netinet/in.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdint.h>
+
+#include "swell/proto.h"
+
+#define HMC_PORT 7654
+#define HMC_TEXT_MAX 1024     /* longest request or answer text */
+#define HMC_RING 32           /* requests in flight at most */
+#define HMC_RETRY_MS 200      /* reconnect and start-up retry period */
+#define HMC_RTT_US 20000      /* round-trip histogram range */
+
+enum hmc_phase { HMC_DOWN, HMC_CONNECTING, HMC_STARTING, HMC_RUNNING, HMC_HOLDOFF };
+
+struct hmc_stats {
+	uint32_t requests, answers, samples;   /* tick requests sent, answers read, samples produced */
+	uint32_t late, lost, skipped;          /* too old / never answered / not sent (too many in flight) */
+	uint32_t error_answers, garbage;       /* "--- ERROR:" in a tick answer / an answer not understood */
+	uint32_t connects, resets, startups, startup_failures, not_force;
+	uint32_t max_inflight;
+	uint64_t rtt_ns_sum, rtt_ns_max;       /* request written -> answer read */
+	uint32_t rtt_hist[HMC_RTT_US + 1];     /* 1 us bins, later ones in the last */
+};
+
+struct hm_client {
+	int fd;
+	enum hmc_phase phase;
+	struct sockaddr_in addr;
+	char name[80];
+	int64_t retry_at_ns;
+	uint32_t max_age_ticks;
+	/* bytes */
+	uint8_t in[2 * (8 + HMC_TEXT_MAX)];
+	size_t in_len;
+	uint8_t out[4 * (8 + HMC_TEXT_MAX)];
+	size_t out_len;
+	/* requests in flight, oldest first: kind (0 tick, 1 start-up, 2 extra-only), tick and time sent */
+	uint8_t ring_kind[HMC_RING];
+	uint32_t ring_tick[HMC_RING];
+	int64_t ring_ns[HMC_RING];
+	unsigned ring_head, ring_n;
+	uint32_t tick;                         /* hm_client_force calls */
+	uint8_t seq;
+	uint8_t status;                        /* of the last sample */
+	int sent_zero;                         /* the last tick request sent carried zero force */
+	char extra[HMC_TEXT_MAX / 2];          /* commands for the next request (effect mode) */
+	struct hmc_stats st;
+};
+
+/* spec "HOST[:PORT]" (IPv4 address or host name, resolved here, at start-up). Starts connecting;
+ * never blocks. -1 with a one-line reason in err. */
+int hm_client_open(struct hm_client *c, const char *spec, uint32_t max_age_ticks, char *err, size_t errlen);
+
+/* One tick: the force to render (enable 0: zero), written at once. */
+void hm_client_force(struct hm_client *c, const int16_t f_cN[3], int enable);
+
+/* Everything that arrived: connection progress, answers. Each fresh tick answer gives DEVICE_VEL and
+ * DEVICE_POS (node as given) in out; returns the number of messages (cap >= 2 for one sample). */
+size_t hm_client_poll(struct hm_client *c, struct swell_msg *out, size_t cap, uint8_t node);
+
+/* Commands appended to the next tick's request (effect mode); -1 if they do not fit. */
+int hm_client_set_extra(struct hm_client *c, const char *cmds);
+
+/* The exit and fault path: zero bias force on the device now, waiting up to wait_ms for the request to
+ * go out and its answer to come. 0 when the device confirmed it. Blocks: never on the tick path. */
+int hm_client_zero_wait(struct hm_client *c, int wait_ms);
+
+/* Parses the decimal text at *s ("-0.0123", "1.5e-05", "2") into an integer in units of 10^-scale
+ * (scale 5: metres to 0.01 mm), rounded half away from zero and saturated to +-limit; *s moves past
+ * it. -1 (nothing moved) when no number is there. No floating point. */
+int hm_client_parse_fixed(const char **s, int scale, int32_t limit, int32_t *out);
+
+/* Percentile p (0..1) of the round trip, in us. */
+double hm_client_rtt_pct(const struct hm_client *c, double p);
+
+/* The counters and round-trip times, a few lines of "  hm ..." for a program's report. */
+void hm_client_report(const struct hm_client *c, FILE *f);
+
+int hm_client_fd(const struct hm_client *c);
+const char *hm_client_phase_name(enum hmc_phase p);
+void hm_client_close(struct hm_client *c);
+
+#endif

@@ -1,0 +1,336 @@
+// Closed loop on the HapticMaster's own interface: swell-ctl --device hm:127.0.0.1:PORT --clock device
+// against swell-hm --serve --lockstep over loopback TCP. The drop settles at the level-corrected depth;
+// the e-stop, a `set state stop` from a second client and the emulator's death each give zero force at
+// once on the device, a controller fault, nothing over the force limit, and recovery where the cause
+// goes away.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <cstdio>
+
+#include "hm_tcp.hpp"
+
+using hmtcp::Client;
+using hmtcp::Server;
+
+namespace {
+
+const std::string hm_bin = SWELL_HM_BIN;
+const std::string ctl_bin = SWELL_CTL_BIN;
+const std::string work_dir = SWELL_HM_TEST_DIR;
+constexpr double f_limit_N = 10.0; // the controller's default F_max
+
+struct row {
+	double t, x[3], fcmd[3];
+	int rendering, clients, state;
+};
+
+std::vector<row> read_csv(const std::string &path)
+{
+	std::ifstream f(path);
+	std::string line;
+	std::vector<row> rows;
+	std::getline(f, line);
+	while (std::getline(f, line)) {
+		row r{};
+		double v[3], fh[3];
+		int applied, holding;
+		if (std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%d,%d,%d,%d,%d", &r.t,
+				&r.x[0], &r.x[1], &r.x[2], &v[0], &v[1], &v[2], &r.fcmd[0], &r.fcmd[1], &r.fcmd[2], &fh[0],
+				&fh[1], &fh[2], &r.rendering, &r.clients, &applied, &r.state, &holding) == 18)
+			rows.push_back(r);
+	}
+	return rows;
+}
+
+double figure(const std::string &s, const std::string &key)
+{
+	const size_t at = s.find(key);
+	return at == std::string::npos ? NAN : std::strtod(s.c_str() + at + key.size(), nullptr);
+}
+
+// swell-ctl on the hm: link, clocked by the device's answers; 200 silent periods before a fault so
+// that a loaded machine does not fault the loop (the faults here are the device's)
+struct Ctl {
+	pid_t pid = -1;
+	std::string out;
+	Ctl(int port, const std::string &name) : out(work_dir + "/" + name + ".ctl.txt")
+	{
+		std::vector<std::string> args = {ctl_bin,	 "--clock", "device", "--autorun", "--device",
+						 "hm:127.0.0.1:" + std::to_string(port), "--host", "none",
+						 "--no-rt",	 "--quiet", "--silent-ticks", "200"};
+		std::vector<char *> argv;
+		for (auto &s : args)
+			argv.push_back(&s[0]);
+		argv.push_back(nullptr);
+		posix_spawn_file_actions_t fa;
+		posix_spawn_file_actions_init(&fa);
+		posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+		posix_spawn_file_actions_adddup2(&fa, 1, 2);
+		if (posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ) != 0)
+			pid = -1;
+		posix_spawn_file_actions_destroy(&fa);
+	}
+	int stop()
+	{
+		kill(pid, SIGTERM);
+		for (int k = 0; k < 1000; k++) {
+			int st = 0;
+			if (waitpid(pid, &st, WNOHANG) == pid) {
+				pid = -1;
+				return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+			}
+			std::this_thread::sleep_for(std::chrono::milliseconds(10));
+		}
+		return -1;
+	}
+	~Ctl()
+	{
+		if (pid > 0) {
+			kill(pid, SIGKILL);
+			waitpid(pid, nullptr, 0);
+		}
+	}
+};
+
+// simulated time of the last whole row logged so far (the log is written in blocks)
+double logged_until(const std::string &csv)
+{
+	const std::vector<row> r = read_csv(csv);
+	return r.empty() ? 0.0 : r.back().t;
+}
+
+} // namespace
+
+TEST_CASE("hm loop: a drop settles within 2% of the level-corrected depth: the e-stop zeroes the force at once, faults the controller, and it floats again")
+{
+	const std::string csv = work_dir + "/hm-drop.csv";
+	std::remove(csv.c_str());
+	Server srv(hm_bin, work_dir + "/hm-drop.hm.txt",
+		   {"--lockstep", "--hand", "drop:z=20,hold=0.5", "--seconds", "12", "--estop", "5,5.5", "--log", csv});
+	REQUIRE(srv.port > 0);
+	Ctl ctl(srv.port, "hm-drop");
+	const int hm_rc = srv.wait(300000);
+	const int ctl_rc = ctl.stop();
+	const std::string sum = hmtcp::slurp(srv.out), rep = hmtcp::slurp(ctl.out);
+	INFO(sum << "\n" << rep);
+	REQUIRE(hm_rc == 0);
+	CHECK(ctl_rc == 0);
+	const double z = figure(sum, "equilibrium z"), z_level = figure(sum, "with level rise");
+	CHECK(z_level == Approx(-39.375).margin(1e-9));
+	CHECK(std::fabs(z - z_level) <= 0.02 * std::fabs(z_level));
+	CHECK(std::fabs(z - z_level) <= 0.005 * std::fabs(z_level));
+	const std::vector<row> rows = read_csv(csv);
+	REQUIRE(rows.size() == 30000);
+	int over = 0, forced_in_estop = 0;
+	double back_at = -1, peak = 0;
+	for (const row &r : rows) {
+		const double f = std::sqrt(r.fcmd[0] * r.fcmd[0] + r.fcmd[1] * r.fcmd[1] + r.fcmd[2] * r.fcmd[2]);
+		peak = std::max(peak, f);
+		over += f > f_limit_N * 1.0001;
+		if (r.t >= 5.0 && r.t < 5.5)
+			forced_in_estop += f != 0.0 || r.state != 5;
+		if (r.t >= 5.5 && back_at < 0 && r.state == 3 && r.fcmd[2] != 0.0)
+			back_at = r.t;
+	}
+	INFO("peak |F| " << peak << " N; force rendered again " << back_at - 5.5 << " s after the e-stop's release");
+	CHECK(over == 0);
+	CHECK(forced_in_estop == 0); // from the e-stop's first tick: no force
+	CHECK(back_at > 5.5);
+	CHECK(back_at < 8.0);
+	CHECK(hmtcp::count_before(rep, " times found not in") >= 1);
+	CHECK(rep.find("faults 0") == std::string::npos);
+	WARN("hm drop: equilibrium " << z << " mm against " << z_level << " mm level-corrected; force back "
+				   << back_at - 5.5 << " s after the e-stop's release");
+}
+
+TEST_CASE("hm loop: a second client's set state stop zeroes the force at once and the controller brings the device back: the emulator killed faults the controller")
+{
+	const std::string csv = work_dir + "/hm-stop.csv";
+	std::remove(csv.c_str());
+	Server srv(hm_bin, work_dir + "/hm-stop.hm.txt",
+		   {"--lockstep", "--hand", "drop:z=20,hold=0.5", "--seconds", "60", "--log", csv});
+	REQUIRE(srv.port > 0);
+	Ctl ctl(srv.port, "hm-stop");
+	for (int k = 0; k < 6000 && logged_until(csv) < 4.0; k++)
+		std::this_thread::sleep_for(std::chrono::milliseconds(10));
+	{
+		Client other(srv.port);
+		CHECK(other.ask("set state stop") == "state set to 'stop'");
+		const double stop_t = logged_until(csv);
+		for (int k = 0; k < 6000 && logged_until(csv) < stop_t + 3.0; k++)
+			std::this_thread::sleep_for(std::chrono::milliseconds(10));
+	}
+	const std::vector<row> rows = read_csv(csv);
+	REQUIRE(!rows.empty());
+	size_t stop_at = 0;
+	while (stop_at < rows.size() && rows[stop_at].state != 5)
+		stop_at++;
+	REQUIRE(stop_at < rows.size());
+	int forced_while_stopped = 0, over = 0;
+	double back_at = -1;
+	for (size_t k = stop_at; k < rows.size(); k++) {
+		const row &r = rows[k];
+		if (r.state == 5)
+			forced_while_stopped += r.fcmd[0] != 0.0 || r.fcmd[1] != 0.0 || r.fcmd[2] != 0.0;
+		if (back_at < 0 && r.state == 3 && r.fcmd[2] != 0.0)
+			back_at = r.t;
+	}
+	for (const row &r : rows)
+		over += std::fabs(r.fcmd[2]) > f_limit_N * 1.0001;
+	INFO("stopped at " << rows[stop_at].t << " s, force back at " << back_at << " s");
+	CHECK(forced_while_stopped == 0);
+	CHECK(over == 0);
+	CHECK(back_at > rows[stop_at].t);
+	CHECK(back_at < rows[stop_at].t + 3.0);
+	// the emulator dies: the controller faults (link silent) and keeps trying to reconnect
+	kill(srv.pid, SIGKILL);
+	waitpid(srv.pid, nullptr, 0);
+	srv.pid = -1;
+	std::this_thread::sleep_for(std::chrono::milliseconds(500));
+	const int ctl_rc = ctl.stop();
+	const std::string rep = hmtcp::slurp(ctl.out);
+	INFO(rep);
+	CHECK(ctl_rc == 0);
+	CHECK(rep.find("state           fault (last error: link silent)") != std::string::npos);
+	CHECK(rep.find("1 connections, 1 resets") != std::string::npos);
+	CHECK(hmtcp::count_before(rep, " times found not in") >= 1);
+	WARN("hm stop: force back " << back_at - rows[stop_at].t << " s after the stop");
+}
+
+TEST_CASE("hm loop: TCP faults (replies 5 ms and 50 ms late, garbage, a reset) each give zero force within 2 device ticks, a fault, nothing over the limit, and recovery")
+{
+	const std::string csv = work_dir + "/hm-faults.csv";
+	std::remove(csv.c_str());
+	struct fault {
+		double at, window;
+		const char *what;
+	} faults[] = {{3.0, 0.3, "replies 5 ms late"}, {5.0, 0.5, "replies 50 ms late"}, {7.0, 0.0, "garbage"},
+		      {9.0, 0.0, "reset"}};
+	Server srv(hm_bin, work_dir + "/hm-faults.hm.txt",
+		   {"--lockstep", "--hand", "drop:z=20,hold=0.5", "--seconds", "12", "--log", csv, "--inject",
+		    "delay:at=3,for=0.3,ms=5", "--inject", "delay:at=5,for=0.5,ms=50", "--inject", "garbage:at=7",
+		    "--inject", "reset:at=9"});
+	REQUIRE(srv.port > 0);
+	// the controller's default silence limit (2 ticks) here: the faults are the point
+	const std::string ctl_out = work_dir + "/hm-faults.ctl.txt";
+	pid_t ctl = -1;
+	{
+		std::vector<std::string> args = {ctl_bin, "--clock", "device", "--autorun", "--device",
+						 "hm:127.0.0.1:" + std::to_string(srv.port), "--host", "none", "--no-rt", "--quiet"};
+		std::vector<char *> argv;
+		for (auto &s : args)
+			argv.push_back(&s[0]);
+		argv.push_back(nullptr);
+		posix_spawn_file_actions_t fa;
+		posix_spawn_file_actions_init(&fa);
+		posix_spawn_file_actions_addopen(&fa, 1, ctl_out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+		posix_spawn_file_actions_adddup2(&fa, 1, 2);
+		REQUIRE(posix_spawn(&ctl, argv[0], &fa, nullptr, argv.data(), environ) == 0);
+		posix_spawn_file_actions_destroy(&fa);
+	}
+	const int hm_rc = srv.wait(300000);
+	kill(ctl, SIGTERM);
+	int st = 0;
+	waitpid(ctl, &st, 0);
+	const std::string sum = hmtcp::slurp(srv.out), rep = hmtcp::slurp(ctl_out);
+	INFO(sum << "\n" << rep);
+	REQUIRE(hm_rc == 0);
+	CHECK((WIFEXITED(st) && WEXITSTATUS(st) == 0));
+	CHECK(sum.find("injected        1 connection resets, 1 garbage bursts") != std::string::npos);
+	const std::vector<row> rows = read_csv(csv);
+	REQUIRE(rows.size() == 30000);
+	int over = 0;
+	for (const row &r : rows)
+		over += std::fabs(r.fcmd[0]) > f_limit_N * 1.0001 || std::fabs(r.fcmd[1]) > f_limit_N * 1.0001 ||
+			std::fabs(r.fcmd[2]) > f_limit_N * 1.0001;
+	CHECK(over == 0);
+	std::string figures;
+	for (const fault &f : faults) {
+		size_t i = 0;
+		while (i < rows.size() && rows[i].t < f.at)
+			i++;
+		// zero force: the first tick of a run of 25 zero ticks (a fault's zero, not a crossing of 0)
+		size_t z = i;
+		auto zero_run = [&](size_t k) {
+			for (size_t m = k; m < k + 25 && m < rows.size(); m++)
+				if (rows[m].fcmd[2] != 0.0)
+					return false;
+			return true;
+		};
+		while (z < rows.size() && !zero_run(z))
+			z++;
+		size_t b = z;
+		while (b < rows.size() && rows[b].fcmd[2] == 0.0)
+			b++;
+		INFO(f.what << " at " << f.at << " s: zero after " << z - i << " ticks, force back "
+			     << (b < rows.size() ? rows[b].t - f.at : -1) << " s after the fault began");
+		CHECK(z - i <= 2);
+		REQUIRE(b < rows.size());
+		CHECK(rows[b].t - f.at < f.window + 1.5);
+		figures += std::string(f.what) + ": zero after " + std::to_string(z - i) + " ticks, back after " +
+			   std::to_string(rows[b].t - f.at) + " s; ";
+	}
+	// each fault faulted the controller, and it ends floating where it should
+	const size_t fat = rep.find("faults ");
+	REQUIRE(fat != std::string::npos);
+	CHECK(std::stol(rep.substr(fat + 7)) >= 4);
+	const double z = figure(sum, "equilibrium z"), z_level = figure(sum, "with level rise");
+	CHECK(std::fabs(z - z_level) <= 0.02 * std::fabs(z_level));
+	WARN("hm TCP faults: " << figures);
+}
+
+TEST_CASE("hm loop: the controller killed mid-run: the device zeroes its bias force when the connection ends, a new controller takes the device back")
+{
+	const std::string csv = work_dir + "/hm-restart.csv";
+	std::remove(csv.c_str());
+	Server srv(hm_bin, work_dir + "/hm-restart.hm.txt",
+		   {"--lockstep", "--hand", "drop:z=20,hold=0.5", "--seconds", "60", "--log", csv});
+	REQUIRE(srv.port > 0);
+	double killed_at = 0;
+	{
+		Ctl first(srv.port, "hm-restart-1");
+		for (int k = 0; k < 6000 && logged_until(csv) < 4.0; k++)
+			std::this_thread::sleep_for(std::chrono::milliseconds(10));
+		killed_at = logged_until(csv);
+		kill(first.pid, SIGKILL);
+		waitpid(first.pid, nullptr, 0);
+		first.pid = -1;
+	}
+	Ctl second(srv.port, "hm-restart-2");
+	for (int k = 0; k < 6000 && logged_until(csv) < killed_at + 5.0; k++)
+		std::this_thread::sleep_for(std::chrono::milliseconds(10));
+	CHECK(second.stop() == 0);
+	kill(srv.pid, SIGTERM);
+	CHECK(srv.wait(10000) == 0);
+	const std::string sum = hmtcp::slurp(srv.out);
+	INFO(sum);
+	// the server zeroed the first controller's bias force when its connection ended, before the next
+	// step (a connection that ends is seen in the same poll that runs requests)
+	CHECK(hmtcp::count_before(sum, " by a vanished client") == 1);
+	const std::vector<row> rows = read_csv(csv);
+	REQUIRE(rows.size() > 2500);
+	int forced_alone = 0, over = 0, rendered_late = 0, late = 0;
+	for (const row &r : rows) {
+		forced_alone += r.clients == 0 && r.fcmd[2] != 0.0;
+		over += std::fabs(r.fcmd[2]) > f_limit_N * 1.0001;
+		if (r.t > rows.back().t - 2.0) {
+			late++;
+			rendered_late += r.clients == 1 && r.fcmd[2] != 0.0;
+		}
+	}
+	CHECK(forced_alone == 0);
+	CHECK(over == 0);
+	CHECK(rendered_late > late / 2); // the second controller renders the force
+	// floating again at the end: the last second of the log
+	double zs = 0;
+	int zn = 0;
+	for (const row &r : rows)
+		if (r.t > rows.back().t - 1.0) {
+			zs += r.x[2];
+			zn++;
+		}
+	CHECK(std::fabs(zs / zn - -39.375) <= 0.02 * 39.375);
+	WARN("hm restart: " << rendered_late << " of the last " << late << " ticks rendered by the new controller, z "
+			    << zs / zn << " mm");
+}

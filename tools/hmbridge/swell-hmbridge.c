@@ -1,0 +1,345 @@
+/* swell-hmbridge: puts a HapticMaster (its TCP command interface) under a controller that speaks
+ * swell's device protocol on CAN, USB or UDP (the MCU controller). To the controller it is the device
+ * node; to the HapticMaster it is a client (hm_client.h).
+ *
+ * It ticks at the device rate on its own absolute-deadline clock. Each tick: the latest FORCE_CMD
+ * that arrived is taken; the newest HapticMaster answer, if one came since the last tick, goes to the
+ * controller as DEVICE_VEL + DEVICE_POS (none came: nothing goes, and the controller sees a silent
+ * device); one request goes to the HapticMaster with the force, or zero when the command is disabled
+ * or the controller has been silent for --watchdog ticks (the bridge's own watchdog, default 2). On
+ * exit the zero force is confirmed by the device first. */
+#define _GNU_SOURCE
+#include <arpa/inet.h>
+#include <errno.h>
+#include <math.h>
+#include <sched.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/mman.h>
+#include <time.h>
+
+#include "hm_client.h"
+#include "swell/link.h"
+#include "swell/proto.h"
+#include "swell/transport.h"
+
+static const char usage[] =
+	"usage: swell-hmbridge --hm HOST[:PORT] [options]\n"
+	"A HapticMaster (TCP command interface, port 7654) as the device node of swell's protocol for a\n"
+	"controller on CAN, USB or UDP. Each device tick: the newest sample to the controller, one request\n"
+	"with its latest force to the HapticMaster (zero once the controller is silent for --watchdog ticks).\n"
+	"\n"
+	"  --hm HOST[:PORT]    the HapticMaster (required; an address or a host name)\n"
+	"  --link udp|can:IFACE|usb   carrier to the controller (default udp: packets to --host:--port)\n"
+	"  --host ADDR         controller's IPv4 address for udp (default 127.0.0.1)\n"
+	"  --port N            controller's UDP port (default 47800)\n"
+	"  --bind-port N       own UDP port (default 0: any free port)\n"
+	"  --iface N           usb: the controller's interface number (default 0)\n"
+	"  --node N            node id, 0..15 (default 0)\n"
+	"  --rate HZ           device tick rate (default 2500; 1000 for classic CAN)\n"
+	"  --watchdog TICKS    controller silent this many ticks -> zero force on the HapticMaster (default 2)\n"
+	"  --seconds S         stop after S seconds (default: until SIGINT/SIGTERM)\n"
+	"  --rt                SCHED_FIFO (priority 70) and mlockall where permitted\n"
+	"  --quiet             no status line\n"
+	"  -h, --help          this text\n"
+	"\n"
+	"On exit prints a summary: ticks, commands, samples forwarded, watchdog trips, the HapticMaster\n"
+	"link's counters and round trip.\n"
+	"Exit status: 0 done, 1 a link failed, 2 bad arguments.\n";
+
+struct opts {
+	const char *hm, *link, *host;
+	unsigned port, bind_port, iface, node, watchdog;
+	double rate_hz, seconds;
+	int rt, quiet;
+};
+
+static void bad(const char *fmt, const char *a)
+{
+	fprintf(stderr, "swell-hmbridge: ");
+	fprintf(stderr, fmt, a);
+	fputc('\n', stderr);
+	exit(2);
+}
+
+static double number(const char *opt, const char *v, double lo, double hi, int whole)
+{
+	char *end;
+	double x;
+
+	errno = 0;
+	x = strtod(v, &end);
+	if (errno || end == v || *end || !(x >= lo && x <= hi) || (whole && x != floor(x))) {
+		fprintf(stderr, "swell-hmbridge: %s '%s' is not a %s in [%g, %g]\n", opt, v,
+			whole ? "whole number" : "number", lo, hi);
+		exit(2);
+	}
+	return x;
+}
+
+static void parse(int argc, char **argv, struct opts *o)
+{
+	int k;
+
+	memset(o, 0, sizeof(*o));
+	o->link = "udp";
+	o->host = SWELL_UDP_HOST;
+	o->port = SWELL_UDP_PORT_DEVICE;
+	o->rate_hz = 2500.0;
+	o->watchdog = 2;
+	for (k = 1; k < argc; k++) {
+		const char *a = argv[k], *v = k + 1 < argc ? argv[k + 1] : NULL;
+
+		if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
+			fputs(usage, stdout);
+			exit(0);
+		} else if (!strcmp(a, "--rt")) {
+			o->rt = 1;
+			continue;
+		} else if (!strcmp(a, "--quiet")) {
+			o->quiet = 1;
+			continue;
+		} else if (strncmp(a, "--", 2)) {
+			bad("unexpected argument %s", a);
+		} else if (!v) {
+			bad("missing value or unknown option %s", a);
+		}
+		k++;
+		if (!strcmp(a, "--hm"))
+			o->hm = v;
+		else if (!strcmp(a, "--link")) {
+			if (strcmp(v, "udp") && strcmp(v, "usb") && (strncmp(v, "can:", 4) || !v[4]))
+				bad("--link must be udp, can:IFACE or usb, not '%s'", v);
+			o->link = v;
+		} else if (!strcmp(a, "--host")) {
+			struct in_addr ia;
+
+			if (inet_pton(AF_INET, v, &ia) != 1)
+				bad("--host '%s' is not a dotted IPv4 address", v);
+			o->host = v;
+		} else if (!strcmp(a, "--port"))
+			o->port = (unsigned)number(a, v, 1, 65535, 1);
+		else if (!strcmp(a, "--bind-port"))
+			o->bind_port = (unsigned)number(a, v, 0, 65535, 1);
+		else if (!strcmp(a, "--iface"))
+			o->iface = (unsigned)number(a, v, 0, 255, 1);
+		else if (!strcmp(a, "--node"))
+			o->node = (unsigned)number(a, v, 0, SWELL_NODE_MAX, 1);
+		else if (!strcmp(a, "--rate"))
+			o->rate_hz = number(a, v, 100, 10000, 0);
+		else if (!strcmp(a, "--watchdog"))
+			o->watchdog = (unsigned)number(a, v, 1, 1000, 1);
+		else if (!strcmp(a, "--seconds"))
+			o->seconds = number(a, v, 1e-3, 1e7, 0);
+		else
+			bad("unknown option %s", a);
+	}
+	if (!o->hm)
+		bad("--hm HOST[:PORT] is required (the HapticMaster's address)%s", "");
+}
+
+static volatile sig_atomic_t stop_flag;
+
+static void on_signal(int sig)
+{
+	(void)sig;
+	stop_flag = 1;
+}
+
+static int64_t now_ns(void)
+{
+	struct timespec t;
+
+	clock_gettime(CLOCK_MONOTONIC, &t);
+	return (int64_t)t.tv_sec * 1000000000 + t.tv_nsec;
+}
+
+struct bridge {
+	struct swell_link *l;
+	enum swell_carrier carrier;
+	uint8_t node;
+	struct swell_proto_stats st;
+	struct hm_client hm;
+	int16_t f_cN[3];
+	int enable;
+	uint32_t cmd_age; /* ticks since the last FORCE_CMD (saturating) */
+	uint64_t ticks, commands, samples_fwd, samples_dropped, silent_ticks, trips, send_errors, ignored;
+	int zeroed;       /* the watchdog has zeroed the force since the last command */
+};
+
+static int open_link(struct bridge *b, const struct opts *o)
+{
+	int rc;
+
+	if (!strcmp(o->link, "udp")) {
+		rc = swell_link_open_udp(&b->l, o->host, (uint16_t)o->bind_port, o->host, (uint16_t)o->port);
+	} else if (!strncmp(o->link, "can:", 4)) {
+		struct swell_can_opts co;
+
+		memset(&co, 0, sizeof(co));
+		rc = swell_link_open_can(&b->l, o->link + 4, &co);
+	} else {
+		struct swell_usb_opts uo;
+
+		swell_usb_opts_default(&uo);
+		uo.iface = (int)o->iface;
+		rc = swell_link_open_usb(&b->l, &uo);
+	}
+	if (rc < 0) {
+		fprintf(stderr, "swell-hmbridge: cannot open link %s: %s\n", o->link, strerror(-rc));
+		return -1;
+	}
+	b->carrier = swell_link_carrier(b->l);
+	return 0;
+}
+
+/* Every FORCE_CMD waiting: the latest wins. */
+static void take_commands(struct bridge *b)
+{
+	struct swell_frame f;
+	struct swell_msg m[SWELL_CANFD_MSGS_MAX];
+	size_t n, k;
+	int rounds;
+
+	for (rounds = 0; rounds < 64 && swell_link_recv(b->l, &f, 0) >= 0; rounds++) {
+		n = 0;
+		if (swell_link_decode(b->carrier, &f, m, SWELL_CANFD_MSGS_MAX, &n, NULL, &b->st) != SWELL_OK)
+			continue; /* counted in st, never acted on */
+		for (k = 0; k < n; k++) {
+			if (m[k].node != b->node || m[k].type != SWELL_MSG_FORCE_CMD) {
+				b->ignored += m[k].type != SWELL_MSG_HEARTBEAT;
+				continue;
+			}
+			b->f_cN[0] = m[k].u.force_cmd.fx_cN;
+			b->f_cN[1] = m[k].u.force_cmd.fy_cN;
+			b->f_cN[2] = m[k].u.force_cmd.fz_cN;
+			b->enable = m[k].u.force_cmd.enable;
+			b->cmd_age = 0;
+			b->zeroed = 0;
+			b->commands++;
+		}
+	}
+}
+
+static void send_msgs(struct bridge *b, const struct swell_msg *m, size_t n, uint8_t seq)
+{
+	struct swell_frame f;
+	size_t used;
+
+	while (n > 0) {
+		if (swell_link_encode(b->carrier, b->node, seq, m, n, &f, &used) != SWELL_OK || used == 0) {
+			b->send_errors++;
+			return;
+		}
+		if (swell_link_send(b->l, &f) < 0)
+			b->send_errors++;
+		m += used;
+		n -= used;
+	}
+}
+
+static void tick(struct bridge *b, const struct opts *o)
+{
+	struct swell_msg in[2 * HMC_RING], *newest = NULL;
+	size_t n, k;
+	static const int16_t zero[3] = {0, 0, 0};
+
+	take_commands(b);
+	/* the newest answer only: the controller gets one sample a tick */
+	n = hm_client_poll(&b->hm, in, sizeof(in) / sizeof(in[0]), b->node);
+	for (k = 0; k + 1 < n; k += 2)
+		newest = &in[k];
+	if (newest) {
+		b->samples_dropped += n / 2 - 1;
+		b->samples_fwd++;
+		send_msgs(b, newest, 2, newest[1].u.device_pos.seq);
+	} else {
+		b->silent_ticks++;
+	}
+	if (b->cmd_age >= o->watchdog && !b->zeroed) {
+		b->zeroed = 1;
+		b->trips += b->enable != 0;
+	}
+	hm_client_force(&b->hm, b->zeroed ? zero : b->f_cN, b->enable && !b->zeroed);
+	if (b->cmd_age < UINT32_MAX)
+		b->cmd_age++;
+	b->ticks++;
+}
+
+int main(int argc, char **argv)
+{
+	static struct bridge b;
+	struct opts o;
+	struct sigaction sa;
+	char err[160];
+	int64_t period, next, start, last_status;
+	uint64_t max_ticks;
+
+	parse(argc, argv, &o);
+	b.node = (uint8_t)o.node;
+	b.cmd_age = UINT32_MAX;
+	b.zeroed = 1;
+	if (hm_client_open(&b.hm, o.hm, 2, err, sizeof(err)) < 0) {
+		fprintf(stderr, "swell-hmbridge: %s\n", err);
+		return 2;
+	}
+	if (open_link(&b, &o) < 0)
+		return 1;
+	memset(&sa, 0, sizeof(sa));
+	sa.sa_handler = on_signal;
+	sigaction(SIGINT, &sa, NULL);
+	sigaction(SIGTERM, &sa, NULL);
+	signal(SIGPIPE, SIG_IGN);
+	if (o.rt) {
+		struct sched_param sp = {.sched_priority = 70};
+
+		if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0)
+			fprintf(stderr, "swell-hmbridge: warning: mlockall: %s\n", strerror(errno));
+		if (sched_setscheduler(0, SCHED_FIFO, &sp) != 0)
+			fprintf(stderr, "swell-hmbridge: warning: SCHED_FIFO: %s; normal priority\n", strerror(errno));
+	}
+	fprintf(stderr, "swell-hmbridge: %s <-> %s at %g Hz, watchdog %u ticks\n", swell_link_name(b.l), b.hm.name,
+		o.rate_hz, o.watchdog);
+	period = (int64_t)llround(1e9 / o.rate_hz);
+	max_ticks = o.seconds > 0 ? (uint64_t)llround(o.seconds * o.rate_hz) : UINT64_MAX;
+	start = next = last_status = now_ns();
+	while (!stop_flag && b.ticks < max_ticks) {
+		struct timespec dl;
+
+		next += period;
+		dl.tv_sec = (time_t)(next / 1000000000);
+		dl.tv_nsec = (long)(next % 1000000000);
+		while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &dl, NULL) == EINTR && !stop_flag)
+			;
+		if (now_ns() - next > period)
+			next = now_ns(); /* a whole period lost: start again from now */
+		tick(&b, &o);
+		if (!o.quiet && now_ns() - last_status > 1000000000) {
+			last_status = now_ns();
+			fprintf(stderr, "\rswell-hmbridge: %s, %llu commands, %llu samples, %u in flight   ",
+				hm_client_phase_name(b.hm.phase), (unsigned long long)b.commands,
+				(unsigned long long)b.samples_fwd, b.hm.ring_n);
+		}
+	}
+	if (hm_client_zero_wait(&b.hm, 100) != 0)
+		fprintf(stderr, "swell-hmbridge: warning: the HapticMaster did not confirm the zero force within 100 ms\n");
+	if (!o.quiet)
+		fputc('\n', stderr);
+	printf("swell-hmbridge summary\n");
+	printf("  ran             %.3f s, %llu ticks at %g Hz\n", (now_ns() - start) / 1e9, (unsigned long long)b.ticks,
+	       o.rate_hz);
+	printf("  controller      %s: %llu commands, %u bad frames, %llu other messages ignored, %llu send errors\n",
+	       swell_link_name(b.l), (unsigned long long)b.commands, swell_proto_rejected_total(&b.st),
+	       (unsigned long long)b.ignored, (unsigned long long)b.send_errors);
+	printf("  samples         %llu forwarded, %llu older ones skipped, %llu ticks without an answer\n",
+	       (unsigned long long)b.samples_fwd, (unsigned long long)b.samples_dropped,
+	       (unsigned long long)b.silent_ticks);
+	printf("  watchdog        %llu trips (%u ticks without a command -> zero force)\n", (unsigned long long)b.trips,
+	       o.watchdog);
+	hm_client_report(&b.hm, stdout);
+	hm_client_close(&b.hm);
+	swell_link_close(b.l);
+	return 0;
+}

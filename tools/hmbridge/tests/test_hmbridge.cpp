@@ -1,0 +1,192 @@
+// swell-hmbridge between a controller scripted in this test (swell's protocol over UDP loopback) and
+// swell-hm --serve (the HapticMaster's TCP interface): samples go up with the device's state, a
+// FORCE_CMD becomes the device's bias force, the bridge's watchdog zeroes it when the controller
+// falls silent, and a dead HapticMaster means no samples, so the controller would fault.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+
+#include "hm_tcp.hpp"
+
+extern "C" {
+#include "swell/proto.h"
+#include "swell/transport.h"
+}
+
+using hmtcp::Server;
+
+namespace {
+
+const std::string hm_bin = SWELL_HM_BIN;
+const std::string bridge_bin = SWELL_HMBRIDGE_BIN;
+const std::string work_dir = SWELL_BRIDGE_TEST_DIR;
+
+struct Proc {
+	pid_t pid = -1;
+	std::string out;
+	Proc(std::vector<std::string> args, const std::string &o) : out(o)
+	{
+		std::vector<char *> argv;
+		for (auto &s : args)
+			argv.push_back(&s[0]);
+		argv.push_back(nullptr);
+		posix_spawn_file_actions_t fa;
+		posix_spawn_file_actions_init(&fa);
+		posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+		posix_spawn_file_actions_adddup2(&fa, 1, 2);
+		if (posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ) != 0)
+			pid = -1;
+		posix_spawn_file_actions_destroy(&fa);
+	}
+	int stop()
+	{
+		kill(pid, SIGTERM);
+		int st = 0;
+		waitpid(pid, &st, 0);
+		pid = -1;
+		return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+	}
+	~Proc()
+	{
+		if (pid > 0) {
+			kill(pid, SIGKILL);
+			waitpid(pid, nullptr, 0);
+		}
+	}
+};
+
+struct Ctl {
+	int fd = -1;
+	int port = 0;
+	sockaddr_in peer{};
+	bool have_peer = false;
+	uint8_t seq = 0;
+	Ctl()
+	{
+		fd = socket(AF_INET, SOCK_DGRAM, 0);
+		sockaddr_in a{};
+		a.sin_family = AF_INET;
+		a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+		bind(fd, reinterpret_cast<sockaddr *>(&a), sizeof a);
+		socklen_t l = sizeof a;
+		getsockname(fd, reinterpret_cast<sockaddr *>(&a), &l);
+		port = ntohs(a.sin_port);
+	}
+	~Ctl() { close(fd); }
+	// samples that arrive within ms: count, and the last DEVICE_POS
+	int samples(int ms, swell_msg_device_pos *last)
+	{
+		int n = 0;
+		const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(ms);
+		while (std::chrono::steady_clock::now() < until) {
+			pollfd p = {fd, POLLIN, 0};
+			if (poll(&p, 1, 1) <= 0)
+				continue;
+			uint8_t buf[128];
+			socklen_t l = sizeof peer;
+			const ssize_t r = recvfrom(fd, buf, sizeof buf, 0, reinterpret_cast<sockaddr *>(&peer), &l);
+			have_peer = true;
+			swell_msg m[8];
+			size_t k = 0;
+			uint8_t ps;
+			if (r > 0 && swell_pkt_decode(buf, (size_t)r, m, 8, &k, &ps, nullptr) == SWELL_OK)
+				for (size_t j = 0; j < k; j++)
+					if (m[j].type == SWELL_MSG_DEVICE_POS) {
+						n++;
+						if (last)
+							*last = m[j].u.device_pos;
+					}
+		}
+		return n;
+	}
+	void force(int16_t fz_cN, int enable)
+	{
+		swell_msg m{};
+		m.type = SWELL_MSG_FORCE_CMD;
+		m.u.force_cmd.fz_cN = fz_cN;
+		m.u.force_cmd.enable = (uint8_t)enable;
+		m.u.force_cmd.seq = seq;
+		uint8_t buf[SWELL_PKT_MAX];
+		size_t len = 0, used = 0;
+		REQUIRE(swell_pkt_encode(0, seq++, &m, 1, buf, sizeof buf, &len, &used) == SWELL_OK);
+		sendto(fd, buf, len, 0, reinterpret_cast<sockaddr *>(&peer), sizeof peer);
+	}
+};
+
+struct row {
+	double t, fz;
+	int state;
+};
+
+std::vector<row> read_log(const std::string &path)
+{
+	std::vector<row> rows;
+	std::ifstream f(path);
+	std::string line;
+	std::getline(f, line);
+	while (std::getline(f, line)) {
+		double v[13];
+		int i[5];
+		if (std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%d,%d,%d,%d,%d", &v[0], &v[1],
+				&v[2], &v[3], &v[4], &v[5], &v[6], &v[7], &v[8], &v[9], &v[10], &v[11], &v[12], &i[0], &i[1],
+				&i[2], &i[3], &i[4]) == 18)
+			rows.push_back({v[0], v[9], i[3]});
+	}
+	return rows;
+}
+
+} // namespace
+
+TEST_CASE("bridge: samples go up, a FORCE_CMD becomes the bias force, silence is zero force, a dead HapticMaster stops the samples")
+{
+	const std::string csv = work_dir + "/bridge.csv";
+	std::remove(csv.c_str());
+	Server hm(hm_bin, work_dir + "/bridge.hm.txt", {"--seconds", "60", "--log", csv});
+	REQUIRE(hm.port > 0);
+	Ctl ctl;
+	Proc br({bridge_bin, "--hm", "127.0.0.1:" + std::to_string(hm.port), "--port", std::to_string(ctl.port), "--quiet"},
+		work_dir + "/bridge.txt");
+	swell_msg_device_pos pos{};
+	// the bridge starts the device and streams its samples, one a tick, whether or not commands come
+	int n = ctl.samples(1000, &pos);
+	for (int k = 0; k < 50 && !(pos.status & 2u); k++)
+		n += ctl.samples(100, &pos);
+	CHECK(n > 100);
+	CHECK(pos.status == 3); // powered, force rendered
+	// a controller streaming +1.50 N for 0.5 s
+	for (int k = 0; k < 1250; k++) {
+		ctl.force(150, 1);
+		ctl.samples(0, nullptr);
+		std::this_thread::sleep_for(std::chrono::microseconds(400));
+	}
+	ctl.samples(300, &pos); // silent now: the bridge's watchdog zeroes the force
+	kill(hm.pid, SIGKILL);  // the HapticMaster dies: the log holds what it rendered
+	waitpid(hm.pid, nullptr, 0);
+	hm.pid = -1;
+	ctl.samples(200, nullptr);
+	const int after_death = ctl.samples(300, nullptr);
+	CHECK(after_death == 0);
+	const int rc = br.stop();
+	const std::string sum = hmtcp::slurp(br.out);
+	INFO(sum);
+	CHECK(rc == 0);
+	CHECK(hmtcp::count_before(sum, " trips (2 ticks") >= 1);
+	CHECK(sum.find("1 resets") != std::string::npos);
+	const std::vector<row> rows = read_log(csv);
+	REQUIRE(rows.size() > 100);
+	int at_1_5 = 0, other = 0;
+	size_t last_force = 0;
+	for (size_t k = 0; k < rows.size(); k++) {
+		if (std::fabs(rows[k].fz - 1.5) < 1e-9) {
+			at_1_5++;
+			last_force = k;
+		} else if (rows[k].fz != 0.0) {
+			other++;
+		}
+	}
+	INFO(at_1_5 << " ticks at 1.5 N, " << other << " at another nonzero force");
+	CHECK(at_1_5 > 500);
+	CHECK(other == 0);
+	CHECK(last_force + 1 < rows.size());
+	CHECK(rows.back().fz == 0.0);
+}
