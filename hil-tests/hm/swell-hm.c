@@ -707,7 +707,9 @@ static void account(struct run *r, const struct hm_state *s, double t, double la
 }
 
 /* The summary's head: time run, final position, equilibrium against -m g/k and the level rise. */
-static void summary_head(const struct opts *o, const struct hm_state *s, const struct run *r, double wall_s)
+/* d: the swell-protocol device (its controller faults are told), NULL with --serve. */
+static void summary_head(const struct opts *o, const struct hm_state *s, const struct run *r, const struct dev *d,
+			 double wall_s)
 {
 	double dt = 1.0 / o->p.rate_hz;
 	/* at rest the object floats with k delta = m g, k = rho g a b: delta = m / (rho a b); the water
@@ -733,10 +735,10 @@ static void summary_head(const struct opts *o, const struct hm_state *s, const s
 			       -o->depth_mm, o->obj_mass_g, RHO_KG_M3 * o->obj_a_mm * o->obj_b_mm * o->obj_h_mm * 1e-6,
 			       zm + o->depth_mm);
 		} else {
-			if (d->ctl_faults || s->watchdog_trips)
+			if ((d && d->ctl_faults) || s->watchdog_trips)
 				printf("  NOT A CLEAN RUN the controller faulted %u times and the watchdog tripped %u "
 				       "times: the figures below include those times without force\n",
-				       d->ctl_faults, s->watchdog_trips);
+				       d ? d->ctl_faults : 0u, s->watchdog_trips);
 			printf("  expected z      %+.3f mm = -m g/k; error %+.3f %%\n", z_rest,
 			       (zm - z_rest) / -z_rest * 100.0);
 			printf("  with level rise %+.3f mm (-m g/k + %.3f mm mean level rise); error %+.3f %%\n",
@@ -748,7 +750,7 @@ static void summary_head(const struct opts *o, const struct hm_state *s, const s
 static void summary(const struct opts *o, const struct dev *d, const struct hm_state *s, const struct run *r,
 		    double wall_s)
 {
-	summary_head(o, s, r, wall_s);
+	summary_head(o, s, r, d, wall_s);
 	printf("  peak force      %.3f N (|F_cmd| applied)\n", r->peak_f_N);
 	printf("  commands        %u received, %u lost, %u repeated, %u bad frames, %u send errors, %u other "
 	       "messages ignored\n",
@@ -807,7 +809,7 @@ static void serve_summary(const struct opts *o, const struct hm_serve *srv, cons
 {
 	const struct hm_serve_stats *st = &srv->st;
 
-	summary_head(o, s, r, wall_s);
+	summary_head(o, s, r, NULL, wall_s);
 	printf("  peak force      %.3f N (|F| of the effects applied)\n", r->peak_f_N);
 	printf("  server          %s: %u clients accepted, %u refused (table full), %u requests, %u commands, "
 	       "%u error answers, %u replies\n",

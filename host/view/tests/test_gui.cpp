@@ -1024,6 +1024,7 @@ TEST_CASE("a 256 x 256 pool, drawn on a coarser mesh, shows its bump and object 
 	CHECK(std::abs(cr - row_of(0.35 * L)) < 2.5);
 	CHECK(east > west + 20);
 	CHECK(find(im, is_water).n > 100000);
+}
 
 TEST_CASE("SIGINT and SIGTERM end a run with its summary and exit 0, without a display exit 1 and nothing leaked")
 {
