@@ -180,7 +180,7 @@ TEST_CASE("velocity form: sleeping tiles are lossless (bit-identical to every ti
 	CHECK(a.w.tiles_skipped > 0);
 }
 
-TEST_CASE("velocity form: volume is exact (0 LSB) under damping, random pushes and slices; the fixer gives "
+TEST_CASE("velocity form: volume is exact (0 LSB) under damping, random pushes and slices, and the fixer gives "
 	  "back the residual",
 	  "[wave][velocity][volume]")
 {
@@ -313,7 +313,7 @@ TEST_CASE("velocity form: extreme inputs saturate at the int27 bounds (+-1024 mm
 	CHECK(r.w.saturations > 0);
 }
 
-TEST_CASE("velocity form: chosen at init, kept by set_params, needs its own storage; unknown forms are refused",
+TEST_CASE("velocity form: chosen at init, kept by set_params, needs its own storage, and unknown forms are refused",
 	  "[wave][velocity][params]")
 {
 	std::vector<int32_t> store(SWELL_WAVE_VEL_WORDS(8, 8));
