@@ -226,7 +226,7 @@ static void parse(int argc, char **argv, struct opts *o)
 		} else if (!strcmp(a, "--rt")) {
 			o->rt = 1;
 			continue;
-		} else if (!strcmp(a, "--serve") && (!v || !strncmp(v, "--", 2))) {
+		} else if (!strcmp(a, "--serve") && (k + 1 >= argc || !strncmp(argv[k + 1], "--", 2))) {
 			o->serve = "127.0.0.1:7654";
 			continue;
 		} else if (strncmp(a, "--", 2)) {
