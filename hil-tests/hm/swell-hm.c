@@ -191,6 +191,22 @@ static void scene_object(struct opts *o, const char *path)
 	o->pool_mm[1] = ny * dx;
 }
 
+/* 1 for an option of this program that takes a value. */
+static int takes_value(const char *a)
+{
+	static const char *const with_value[] = {"--bias-watchdog", "--bind-port", "--damping", "--estop", "--fmax",
+						 "--hand", "--host", "--iface", "--inject", "--limit", "--link",
+						 "--log", "--mass", "--node", "--object", "--pool", "--port", "--rate",
+						 "--scene", "--seconds", "--serve", "--start", "--timeout-ms",
+						 "--watchdog"};
+	size_t k;
+
+	for (k = 0; k < sizeof(with_value) / sizeof(with_value[0]); k++)
+		if (!strcmp(a, with_value[k]))
+			return 1;
+	return 0;
+}
+
 static void parse(int argc, char **argv, struct opts *o)
 {
 	char why[160];
@@ -232,7 +248,7 @@ static void parse(int argc, char **argv, struct opts *o)
 		} else if (strncmp(a, "--", 2)) {
 			die("unexpected argument %s%s", a, "");
 		} else if (!v) {
-			die("missing value or unknown option %s%s", a, "");
+			die(takes_value(a) ? "%s needs a value%s" : "unknown option %s%s (see --help)", a, "");
 		}
 		k++;
 		if (!strcmp(a, "--link")) {

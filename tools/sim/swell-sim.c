@@ -93,6 +93,20 @@ static void parse_list(const char *opt, const char *s, double *out, int n)
 		die("%s: too few values in '%s'", opt, s);
 }
 
+/* 1 for an option of this program (or of --object's) that takes a value. */
+static int takes_value(const char *a)
+{
+	static const char *const with_value[] = {"--grid", "--e", "--dt", "--depth", "--dx", "--g", "--damping",
+						 "--stencil", "--steps", "--init", "--impl", "--dump-csv", "--object",
+						 "--motion", "--at", "--tick-hz", "--damper", "--safety", "--trace"};
+	size_t k;
+
+	for (k = 0; k < sizeof(with_value) / sizeof(with_value[0]); k++)
+		if (!strcmp(a, with_value[k]))
+			return 1;
+	return 0;
+}
+
 static void parse_args(int argc, char **argv, struct opts *o)
 {
 	int k;
@@ -114,7 +128,7 @@ static void parse_args(int argc, char **argv, struct opts *o)
 		if (a[0] != '-' || a[1] != '-')
 			die("unexpected argument '%s'%s (see --help)", a, "");
 		if (!v)
-			die("%s needs a value%s", a, "");
+			die(takes_value(a) ? "%s needs a value%s" : "unknown option '%s'%s (see --help)", a, "");
 		k++;
 		if (!strcmp(a, "--grid")) {
 			char tail;
