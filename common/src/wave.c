@@ -4,7 +4,7 @@
 #include <string.h>
 
 #include "swell/crc.h"
-#include "swell/wave_vel.h"
+#include "wave_priv.h"
 
 /* A controller image may fix the grid's width at compile time (SWELL_WAVE_FIXED_NX): the row above
  * is then at a constant offset, which frees registers in the M4 kernel. Other widths are refused. */

@@ -4,7 +4,7 @@
  * store. On ARMv7E-M: SMMLAR gives u + nearest(x C / 2^32) in one instruction (SMMUL and a range
  * test when damped), SSAT #28 the saturation (the sticky Q flag, read once a run) and SMMUL the
  * damping toward zero, as in the edge-flux kernel. Same bits as swell_wave_vel_ref. */
-#include "swell/wave_vel.h"
+#include "wave_priv.h"
 
 #ifdef SWELL_WAVE_FIXED_NX
 #define VEL_NX(w) SWELL_WAVE_FIXED_NX
@@ -19,7 +19,7 @@
 #define VEL_DSP 0
 #endif
 
-/* The new momentum of one cell from its momentum u and x = 2 L9 (wave_vel.h); c = e_eff 2^(f+1),
+/* The new momentum of one cell from its momentum u and x = 2 L9 (wave_priv.h); c = e_eff 2^(f+1),
  * as int32 for the DSP path (it fits there) and as int64 (c64) for the portable one. */
 static inline __attribute__((always_inline)) int32_t vel_cell(int32_t u, int32_t x, int32_t c, int64_t c64,
 							     int32_t f, int32_t q, int damp, int dsp, uint32_t *sat)

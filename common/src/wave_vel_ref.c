@@ -1,5 +1,5 @@
 /* The velocity form's reference kernel: one cell at a time, in int64, walls by mirrored indices. */
-#include "swell/wave_vel.h"
+#include "wave_priv.h"
 
 static int64_t h_at(const struct swell_wave *w, int i, int j)
 {

@@ -47,7 +47,7 @@
  * per cell, u(n+1) = (1-t) [u(n) + e L9(n)], h(n+1) = h(n) + u(n+1) + water added from outside, with
  * the separable stencil 2 L9 = ([1 2 1] x [1 2 1]) h - 16 h. Each cell is rounded on its own:
  * undamped, u + e L9 to nearest (ties up); damped, u + e L9 toward zero and then the damping toward
- * zero (wave_vel.h has the exact rule). Nearest rounding with damping leaves small limit cycles of
+ * zero (common/src/wave_priv.h has the exact rule). Nearest rounding with damping leaves small limit cycles of
  * single cells (measured: 2-4 LSB/step forever at e 0.35-0.45); rounding the momentum toward zero
  * makes every damped step lose at least what it rounds. At the step's finish the integer
  * residual r = sum u(n+1) is given back in whole LSBs of u (to cells of tiles that moved, one LSB a

@@ -1,4 +1,4 @@
-/* The velocity form's row kernels (wave.h, "Velocity form"): internal to the solver, one kernel a
+/* The velocity form's row kernels (wave.h, "Velocity form"): private to the solver, one kernel a
  * file (wave_vel_ref.c, wave_vel_fused.c), called by wave.c for a run of awake tiles of a row.
  *
  * A kernel computes, for every cell (i, j) of the tiles tx0 <= tx < tx1 (at most SWELL_WAVE_VEL_RUN;
@@ -17,8 +17,8 @@
  * and stores u = s, acc += dh; it adds the sums of the new s and dh to sum[0] and sum[1] and sets
  * any[tx - tx0] non-zero exactly when some new s of that tile is non-zero. Every kernel gives the
  * same bits as swell_wave_vel_ref. */
-#ifndef SWELL_WAVE_VEL_H
-#define SWELL_WAVE_VEL_H
+#ifndef SWELL_WAVE_PRIV_H
+#define SWELL_WAVE_PRIV_H
 
 #include <stdint.h>
 
