@@ -62,8 +62,8 @@ enum swell_err swell_body_stiffness(const struct swell_body_params *p, int32_t *
 	if (!p || !k_q8)
 		return SWELL_EINVAL;
 	/* k [uN/mm] = rho [kg/m^3] g [mm/s^2] a [um] b [um] * 1e-12; times 2^8 for Q24.8 */
-	if (!swell_muldiv_u64((uint64_t)p->rho_kg_m3 * p->g_mm_s2, (uint64_t)p->a_um * p->b_um * 256u,
-			      1000000000000ull, &k))
+	if (!swell_muldiv_u64((uint64_t)p->rho_kg_m3 * p->g_mm_s2, (uint64_t)p->a_um * p->b_um * 256u, 1000000000000ull,
+			      &k))
 		return SWELL_ERANGE;
 	if (k == 0 || k > INT32_MAX)
 		return SWELL_ERANGE;
@@ -170,15 +170,13 @@ static void floor_update(struct swell_body *b, const struct swell_wave *w)
 		return;
 	if (!swell_muldiv_u64((uint64_t)w->p.e, (uint64_t)b->sc.dx_um * b->sc.dx_um, 1u << 14, &t))
 		return;
-	if (!swell_muldiv_u64(t, (uint64_t)b->sc.solver_hz * b->sc.solver_hz, (uint64_t)b->p.g_mm_s2 * 1000000u,
-			      &d))
+	if (!swell_muldiv_u64(t, (uint64_t)b->sc.solver_hz * b->sc.solver_hz, (uint64_t)b->p.g_mm_s2 * 1000000u, &d))
 		return;
 	if (d < (uint64_t)Z_LIMIT_LSB)
 		b->floor_lsb = -(int32_t)d;
 }
 
-static void apply_params(struct swell_body *b, const struct swell_body_params *p,
-			 const struct swell_body_xform *xf)
+static void apply_params(struct swell_body *b, const struct swell_body_params *p, const struct swell_body_xform *xf)
 {
 	b->p = *p;
 	b->xf = *xf;
@@ -456,8 +454,7 @@ static void couple(struct swell_body *b, struct swell_wave *w, const struct swel
 
 	if (o->delta_lsb == 0 && f->delta_lsb == 0)
 		return;
-	if (o->delta_lsb == f->delta_lsb && o->x0 == f->x0 && o->x1 == f->x1 && o->y0 == f->y0 &&
-	    o->y1 == f->y1)
+	if (o->delta_lsb == f->delta_lsb && o->x0 == f->x0 && o->x1 == f->x1 && o->y0 == f->y0 && o->y1 == f->y1)
 		return;
 	if (o->delta_lsb != 0)
 		gained += deposit(b, w, o, -1);

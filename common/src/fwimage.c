@@ -75,8 +75,7 @@ enum swell_err swell_fwimage_stamp(uint8_t *img, size_t len)
 	return SWELL_OK;
 }
 
-enum swell_err swell_fwimage_verify(const uint8_t *img, size_t avail, uint32_t want_mcu,
-				    struct swell_fwimage_hdr *out)
+enum swell_err swell_fwimage_verify(const uint8_t *img, size_t avail, uint32_t want_mcu, struct swell_fwimage_hdr *out)
 {
 	struct swell_fwimage_hdr h;
 	enum swell_err err = swell_fwimage_read(img, avail, &h);
@@ -87,8 +86,7 @@ enum swell_err swell_fwimage_verify(const uint8_t *img, size_t avail, uint32_t w
 		return SWELL_EINVAL;
 	if (h.length < SWELL_FWIMAGE_OFFSET + SWELL_FWIMAGE_HDR_SIZE || h.length > avail)
 		return SWELL_ETRUNC;
-	if (swell_crc32(0, img + SWELL_FWIMAGE_OFFSET, 28) != h.hdr_crc ||
-	    swell_fwimage_crc(img, h.length) != h.crc)
+	if (swell_crc32(0, img + SWELL_FWIMAGE_OFFSET, 28) != h.hdr_crc || swell_fwimage_crc(img, h.length) != h.crc)
 		return SWELL_ECRC;
 	if (out)
 		*out = h;

@@ -4,7 +4,7 @@
 
 static const struct swell_param_desc table[] = {
 #define SWELL_X(NAME, id, name, member, ctype, group, min, max, def, factor, unit, access, when, desc) \
-	{id, name, #ctype, SWELL_PGROUP_##group, min, max, def, factor, unit, SWELL_PWHEN_##when, desc},
+	{ id, name, #ctype, SWELL_PGROUP_##group, min, max, def, factor, unit, SWELL_PWHEN_##when, desc },
 	SWELL_PARAMS(SWELL_X)
 #undef SWELL_X
 };
@@ -41,7 +41,7 @@ static const struct {
 	int32_t value;
 	const char *name;
 } commands[] = {
-#define SWELL_X(NAME, value, name, desc) {value, name},
+#define SWELL_X(NAME, value, name, desc) { value, name },
 	SWELL_COMMANDS(SWELL_X)
 #undef SWELL_X
 };
@@ -79,7 +79,7 @@ const char *swell_state_name(unsigned state)
 
 const char *swell_param_group_name(enum swell_param_group g)
 {
-	static const char *const names[] = {"wave", "body", "size", "safety", "core"};
+	static const char *const names[] = { "wave", "body", "size", "safety", "core" };
 
 	return (unsigned)g < sizeof(names) / sizeof(names[0]) ? names[g] : "?";
 }

@@ -13,27 +13,34 @@
 #else
 #define TXT(s) s
 #endif
-#define FIELD_DESC(m, member, ctype, start, bits, min, max, kind, factor, unit, desc)            \
-	{ #member, TXT(factor), TXT(unit), TXT(desc), (int64_t)(min), (int64_t)(max),            \
-	  (uint16_t)offsetof(struct swell_msg, u.m.member), (uint8_t)sizeof(ctype), start, bits, \
+#define FIELD_DESC(m, member, ctype, start, bits, min, max, kind, factor, unit, desc) \
+	{ #member,                                                                    \
+	  TXT(factor),                                                                \
+	  TXT(unit),                                                                  \
+	  TXT(desc),                                                                  \
+	  (int64_t)(min),                                                             \
+	  (int64_t)(max),                                                             \
+	  (uint16_t)offsetof(struct swell_msg, u.m.member),                           \
+	  (uint8_t)sizeof(ctype),                                                     \
+	  start,                                                                      \
+	  bits,                                                                       \
 	  SWELL_FK_##kind },
 #define FIELD_COUNT(m, ...) +1
-#define FIELD_CHECK(m, member, ctype, start, bits, min, max, kind, factor, unit, desc)           \
-	_Static_assert((start) + (bits) <= 64 && (bits) >= 1 && (bits) <= 32, #m "." #member);   \
+#define FIELD_CHECK(m, member, ctype, start, bits, min, max, kind, factor, unit, desc)         \
+	_Static_assert((start) + (bits) <= 64 && (bits) >= 1 && (bits) <= 32, #m "." #member); \
 	_Static_assert(sizeof(ctype) * 8 >= (bits), #m "." #member " ctype too narrow");
 
-#define MSG_FIELDS(NAME, name, type, len, from, to, desc)                                        \
-	_Static_assert((len) >= SWELL_MSG_LEN_MIN && (len) <= SWELL_CAN_LEN, #NAME " length");   \
-	_Static_assert((type) > 0 && (type) < 0x80, #NAME " type must be 7 bits and not 0");     \
-	SWELL_PROTO_FIELDS_##name(FIELD_CHECK, name)                                             \
-	static const struct swell_field_desc fields_##name[] = {                                 \
-		SWELL_PROTO_FIELDS_##name(FIELD_DESC, name)                                       \
+#define MSG_FIELDS(NAME, name, type, len, from, to, desc)                                                     \
+	_Static_assert((len) >= SWELL_MSG_LEN_MIN && (len) <= SWELL_CAN_LEN, #NAME " length");                \
+	_Static_assert((type) > 0 && (type) < 0x80, #NAME " type must be 7 bits and not 0");                  \
+	SWELL_PROTO_FIELDS_##name(FIELD_CHECK, name) static const struct swell_field_desc fields_##name[] = { \
+		SWELL_PROTO_FIELDS_##name(FIELD_DESC, name)                                                   \
 	};
 SWELL_PROTO_MESSAGES(MSG_FIELDS)
 
-#define MSG_DESC(NAME, name, type, len, from, to, desc)                                          \
-	{ #NAME, #from, #to, TXT(desc), fields_##name, type, len,                                \
-	  (uint8_t)(0 SWELL_PROTO_FIELDS_##name(FIELD_COUNT, name)) },
+#define MSG_DESC(NAME, name, type, len, from, to, desc) \
+	{ #NAME,         #from, #to, TXT(desc),         \
+	  fields_##name, type,  len, (uint8_t)(0 SWELL_PROTO_FIELDS_##name(FIELD_COUNT, name)) },
 const struct swell_msg_desc swell_msg_descs[] = { SWELL_PROTO_MESSAGES(MSG_DESC) };
 const unsigned swell_msg_desc_count = sizeof(swell_msg_descs) / sizeof(swell_msg_descs[0]);
 
@@ -166,8 +173,7 @@ enum swell_err swell_payload_encode(const struct swell_msg *m, uint8_t *payload,
 	return SWELL_OK;
 }
 
-enum swell_err swell_payload_decode(unsigned type, const uint8_t *payload, size_t len,
-				    struct swell_msg *out)
+enum swell_err swell_payload_decode(unsigned type, const uint8_t *payload, size_t len, struct swell_msg *out)
 {
 	const struct swell_msg_desc *d = swell_msg_desc_find(type);
 	struct swell_msg tmp;
@@ -248,8 +254,7 @@ enum swell_err swell_can_decode(uint32_t id, const uint8_t *data, size_t len, st
 /* ---- CAN FD ---- */
 int swell_canfd_len_valid(size_t len)
 {
-	return len <= 8 || len == 12 || len == 16 || len == 20 || len == 24 || len == 32 ||
-	       len == 48 || len == 64;
+	return len <= 8 || len == 12 || len == 16 || len == 20 || len == 24 || len == 32 || len == 48 || len == 64;
 }
 
 /* On CAN FD every message takes a slot of its length rounded up to 4 bytes (padding zero), so that
@@ -259,8 +264,8 @@ static size_t fd_slot(const struct swell_msg_desc *d)
 	return (d->len + 3u) & ~(size_t)3u;
 }
 
-enum swell_err swell_canfd_encode(const struct swell_msg *m, size_t n, uint32_t *id,
-				  uint8_t data[64], uint8_t *len, size_t *used)
+enum swell_err swell_canfd_encode(const struct swell_msg *m, size_t n, uint32_t *id, uint8_t data[64], uint8_t *len,
+				  size_t *used)
 {
 	const struct swell_msg_desc *d;
 	uint8_t buf[SWELL_CANFD_LEN];
@@ -297,8 +302,8 @@ enum swell_err swell_canfd_encode(const struct swell_msg *m, size_t n, uint32_t 
 	return SWELL_OK;
 }
 
-static enum swell_err canfd_decode(uint32_t id, const uint8_t *data, size_t len,
-				   struct swell_msg *out, size_t cap, size_t *n)
+static enum swell_err canfd_decode(uint32_t id, const uint8_t *data, size_t len, struct swell_msg *out, size_t cap,
+				   size_t *n)
 {
 	const struct swell_msg_desc *d;
 	struct swell_msg tmp[SWELL_CANFD_MSGS_MAX];
@@ -334,8 +339,8 @@ static enum swell_err canfd_decode(uint32_t id, const uint8_t *data, size_t len,
 	return SWELL_OK;
 }
 
-enum swell_err swell_canfd_decode(uint32_t id, const uint8_t *data, size_t len, struct swell_msg *out,
-				  size_t cap, size_t *n, struct swell_proto_stats *st)
+enum swell_err swell_canfd_decode(uint32_t id, const uint8_t *data, size_t len, struct swell_msg *out, size_t cap,
+				  size_t *n, struct swell_proto_stats *st)
 {
 	size_t k = 0;
 	enum swell_err err = canfd_decode(id, data, len, out, cap, &k);
@@ -346,8 +351,8 @@ enum swell_err swell_canfd_decode(uint32_t id, const uint8_t *data, size_t len, 
 }
 
 /* ---- packets ---- */
-enum swell_err swell_pkt_encode(uint8_t node, uint8_t seq, const struct swell_msg *m, size_t n,
-				uint8_t *pkt, size_t cap, size_t *len, size_t *used)
+enum swell_err swell_pkt_encode(uint8_t node, uint8_t seq, const struct swell_msg *m, size_t n, uint8_t *pkt,
+				size_t cap, size_t *len, size_t *used)
 {
 	uint8_t buf[SWELL_PKT_MAX];
 	size_t pos = SWELL_PKT_HEADER, k = 0, limit = cap < SWELL_PKT_MAX ? cap : SWELL_PKT_MAX;
@@ -391,8 +396,7 @@ enum swell_err swell_pkt_encode(uint8_t node, uint8_t seq, const struct swell_ms
 }
 
 /* Decodes the records into out[] (room for SWELL_PKT_MSGS_MAX). */
-static enum swell_err pkt_records(const uint8_t *pkt, size_t end, struct swell_msg *out, size_t cap,
-				  size_t *n)
+static enum swell_err pkt_records(const uint8_t *pkt, size_t end, struct swell_msg *out, size_t cap, size_t *n)
 {
 	size_t pos = SWELL_PKT_HEADER, k, count = pkt[4];
 
@@ -421,8 +425,8 @@ static enum swell_err pkt_records(const uint8_t *pkt, size_t end, struct swell_m
 	return SWELL_OK;
 }
 
-static enum swell_err pkt_decode(const uint8_t *pkt, size_t len, struct swell_msg *out, size_t cap,
-				 size_t *n, uint8_t *seq)
+static enum swell_err pkt_decode(const uint8_t *pkt, size_t len, struct swell_msg *out, size_t cap, size_t *n,
+				 uint8_t *seq)
 {
 	struct swell_msg tmp[SWELL_PKT_MSGS_MAX];
 	uint32_t crc;
@@ -436,7 +440,7 @@ static enum swell_err pkt_decode(const uint8_t *pkt, size_t len, struct swell_ms
 	if (pkt[0] != SWELL_PKT_MAGIC)
 		return SWELL_EUNKNOWN;
 	crc = (uint32_t)pkt[len - 4] | (uint32_t)pkt[len - 3] << 8 | (uint32_t)pkt[len - 2] << 16 |
-	      (uint32_t)pkt[len - 1] << 24;
+		(uint32_t)pkt[len - 1] << 24;
 	if (swell_crc32(0, pkt, len - 4) != crc)
 		return SWELL_ECRC;
 	if (pkt[1] != SWELL_PROTO_VERSION)
@@ -453,8 +457,8 @@ static enum swell_err pkt_decode(const uint8_t *pkt, size_t len, struct swell_ms
 	return SWELL_OK;
 }
 
-enum swell_err swell_pkt_decode(const uint8_t *pkt, size_t len, struct swell_msg *out, size_t cap,
-				size_t *n, uint8_t *seq, struct swell_proto_stats *st)
+enum swell_err swell_pkt_decode(const uint8_t *pkt, size_t len, struct swell_msg *out, size_t cap, size_t *n,
+				uint8_t *seq, struct swell_proto_stats *st)
 {
 	size_t k = 0;
 	enum swell_err err = pkt_decode(pkt, len, out, cap, &k, seq);
@@ -478,9 +482,8 @@ int32_t swell_sample_to_height(int16_t sample)
 	return (int32_t)sample * ((int32_t)1 << (16 - SWELL_PROTO_H_SHIFT));
 }
 
-enum swell_err swell_height_quad_pack(const int32_t *h, unsigned nx, unsigned ny, unsigned tile_x,
-				      unsigned tile_y, unsigned row, unsigned half, unsigned frame,
-				      struct swell_msg *out)
+enum swell_err swell_height_quad_pack(const int32_t *h, unsigned nx, unsigned ny, unsigned tile_x, unsigned tile_y,
+				      unsigned row, unsigned half, unsigned frame, struct swell_msg *out)
 {
 	struct swell_msg m;
 	int16_t s[4];

@@ -4,9 +4,9 @@
 #include "swell/wave.h"
 
 #define ONE ((int64_t)1 << 30)
-#define LN2_Q30 ((int64_t)744261118)   /* ln 2 * 2^30 */
-#define LOG2E_Q16 ((int64_t)94548)     /* log2(e) * 2^16 */
-#define PI_Q30 ((int64_t)3373259426)   /* pi * 2^30 */
+#define LN2_Q30 ((int64_t)744261118) /* ln 2 * 2^30 */
+#define LOG2E_Q16 ((int64_t)94548) /* log2(e) * 2^16 */
+#define PI_Q30 ((int64_t)3373259426) /* pi * 2^30 */
 
 static int64_t mul30(int64_t a, int64_t b)
 {
@@ -24,7 +24,7 @@ q30_t swell_exp_neg_q16(q16_t x)
 		return 0;
 	/* exp(-x) = 2^-(x log2 e) = 2^-shift * 2^-u, u in [0, 1); 2^-u = exp(-u ln 2) by Taylor to
 	 * degree 9 (z <= 0.694: remainder below 2e-9). */
-	y = (int64_t)x * LOG2E_Q16;               /* Q32 */
+	y = (int64_t)x * LOG2E_Q16; /* Q32 */
 	shift = (int)(y >> 32);
 	z = mul30((y & 0xffffffffLL) >> 2, LN2_Q30); /* u in Q30, times ln 2 */
 	p = ONE;
@@ -78,8 +78,8 @@ static int32_t add_sat_h(int32_t h, int64_t d)
 	return (int32_t)s;
 }
 
-void swell_shape_gauss(int32_t *h, uint16_t nx, uint16_t ny, q16_t x_cells, q16_t y_cells,
-		       q16_t sigma_cells, int32_t amp_lsb)
+void swell_shape_gauss(int32_t *h, uint16_t nx, uint16_t ny, q16_t x_cells, q16_t y_cells, q16_t sigma_cells,
+		       int32_t amp_lsb)
 {
 	int64_t two_s2;
 	int i, j;
@@ -91,7 +91,7 @@ void swell_shape_gauss(int32_t *h, uint16_t nx, uint16_t ny, q16_t x_cells, q16_
 		for (i = 0; i < nx; i++) {
 			int64_t dx = ((int64_t)i << 16) - x_cells, dy = ((int64_t)j << 16) - y_cells;
 			int64_t r2 = dx * dx + dy * dy; /* Q32 */
-			int64_t arg = r2 / two_s2;      /* Q16 */
+			int64_t arg = r2 / two_s2; /* Q16 */
 			q30_t g;
 
 			if (arg >= 32 * SWELL_Q16_ONE)

@@ -137,8 +137,8 @@ static void set_vel_frac(struct swell_wave *w)
 	if (!w->u || f == old)
 		return;
 	for (a = 0; a < n; a++)
-		w->u[a] = f > old ? swell_clamp((int32_t)swell_sat_i64((int64_t)w->u[a] * (1 << (f - old))), SWELL_H_MIN,
-						SWELL_H_MAX)
+		w->u[a] = f > old ? swell_clamp((int32_t)swell_sat_i64((int64_t)w->u[a] * (1 << (f - old))),
+						SWELL_H_MIN, SWELL_H_MAX)
 				  : w->u[a] / (1 << (old - f));
 }
 
@@ -158,14 +158,14 @@ static void apply_params(struct swell_wave *w, const struct swell_wave_params *p
 		wake_all(w);
 }
 
-enum swell_err swell_wave_init(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage,
-			       size_t words, const struct swell_wave_params *p)
+enum swell_err swell_wave_init(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage, size_t words,
+			       const struct swell_wave_params *p)
 {
 	return swell_wave_init_form(w, nx, ny, storage, words, p, SWELL_FORM_EDGE);
 }
 
-enum swell_err swell_wave_init_form(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage,
-				    size_t words, const struct swell_wave_params *p, enum swell_wave_form form)
+enum swell_err swell_wave_init_form(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage, size_t words,
+				    const struct swell_wave_params *p, enum swell_wave_form form)
 {
 	size_t n = (size_t)nx * ny;
 	enum swell_err err;
@@ -347,8 +347,8 @@ static int32_t segment_ref(struct swell_wave *w, int j, int i0, int i1, int damp
 	}
 	for (i = i0; i < i1 && j + 1 < w->ny; i++) {
 		fp = flows_at(w, i, j);
-		fp[FN] = f = flow_ref(fp[FN], hu[i] - h[i], (i == 0 || i == nx - 1) ? w->c_wall : w->c_1,
-				      w->q, damp, &sat);
+		fp[FN] = f =
+			flow_ref(fp[FN], hu[i] - h[i], (i == 0 || i == nx - 1) ? w->c_wall : w->c_1, w->q, damp, &sat);
 		any |= f;
 		v[i] += f;
 		vu[i] -= f;
@@ -399,8 +399,8 @@ static inline int32_t flow_dsp(int32_t f, int32_t dh, int32_t c, int32_t q, int 
  * in registers). Whatever crosses the segment's ends (the last E and NE flows, the first NW flow) is
  * scattered there, as the reference does. Heights are carried from cell to cell: two loads a cell.
  * mode 0: flow_ref; 1, 2: flow_dsp (c times 4, dh times 4). */
-static inline __attribute__((always_inline)) int32_t segment_fused(struct swell_wave *w, int j, int i0,
-								   int i1, int damp, int mode, int shape)
+static inline __attribute__((always_inline)) int32_t segment_fused(struct swell_wave *w, int j, int i0, int i1,
+								   int damp, int mode, int shape)
 {
 	/* shape (segment_shape): 0 any segment; else a whole tile row (8 cells) of a row other than
 	 * the first and the last, 1 away from the walls, 2 on the west wall, 3 on the east wall: the
@@ -419,7 +419,7 @@ static inline __attribute__((always_inline)) int32_t segment_fused(struct swell_
 	int k = 0;
 
 #if WAVE_DSP
-#define WAVE_FLOW(old, dh, c)                                                                      \
+#define WAVE_FLOW(old, dh, c) \
 	(mode == 0 ? flow_ref(old, dh, c, q, damp, &sat) : flow_dsp(old, dh, c, q, damp, mode == 1))
 	if (mode)
 		__set_saturation_occurred(0);
@@ -622,10 +622,8 @@ AVX2_FN int32_t segment_avx2_tile(struct swell_wave *w, int j, int i0, int damp)
 
 	fe = flow8(&K, _mm256_loadu_si256((const __m256i *)(fb + FE)), _mm256_sub_epi32(Hr, H), ce, damp, &sat);
 	fn = flow8(&K, _mm256_loadu_si256((const __m256i *)(fb + FN)), _mm256_sub_epi32(HU, H), cn, damp, &sat);
-	fne = flow8(&K, _mm256_loadu_si256((const __m256i *)(fb + FNE)), _mm256_sub_epi32(HUr, H), cne, damp,
-		    &sat);
-	fnw = flow8(&K, _mm256_loadu_si256((const __m256i *)(fb + FNW)), _mm256_sub_epi32(HUl, H), cnw, damp,
-		    &sat);
+	fne = flow8(&K, _mm256_loadu_si256((const __m256i *)(fb + FNE)), _mm256_sub_epi32(HUr, H), cne, damp, &sat);
+	fnw = flow8(&K, _mm256_loadu_si256((const __m256i *)(fb + FNW)), _mm256_sub_epi32(HUl, H), cnw, damp, &sat);
 	_mm256_storeu_si256((__m256i *)(fb + FE), fe);
 	_mm256_storeu_si256((__m256i *)(fb + FN), fn);
 	_mm256_storeu_si256((__m256i *)(fb + FNE), fne);
@@ -633,15 +631,13 @@ AVX2_FN int32_t segment_avx2_tile(struct swell_wave *w, int j, int i0, int damp)
 
 	/* own row: + all four, - the E flow of the west neighbour inside the tile */
 	own = _mm256_add_epi32(_mm256_add_epi32(fe, fn), _mm256_add_epi32(fne, fnw));
-	t = _mm256_blend_epi32(_mm256_permutevar8x32_epi32(fe, _mm256_setr_epi32(0, 0, 1, 2, 3, 4, 5, 6)),
-			       K.zero, 0x01);
+	t = _mm256_blend_epi32(_mm256_permutevar8x32_epi32(fe, _mm256_setr_epi32(0, 0, 1, 2, 3, 4, 5, 6)), K.zero,
+			       0x01);
 	own = _mm256_sub_epi32(own, t);
 	_mm256_storeu_si256((__m256i *)v, _mm256_add_epi32(_mm256_loadu_si256((const __m256i *)v), own));
 	/* the row above: - N, - NE from the left, - NW from the right, inside the tile */
-	upv = _mm256_add_epi32(
-		fn, _mm256_blend_epi32(_mm256_permutevar8x32_epi32(fne, dn1), K.zero, 0x01));
-	upv = _mm256_add_epi32(
-		upv, _mm256_blend_epi32(_mm256_permutevar8x32_epi32(fnw, up1), K.zero, 0x80));
+	upv = _mm256_add_epi32(fn, _mm256_blend_epi32(_mm256_permutevar8x32_epi32(fne, dn1), K.zero, 0x01));
+	upv = _mm256_add_epi32(upv, _mm256_blend_epi32(_mm256_permutevar8x32_epi32(fnw, up1), K.zero, 0x80));
 	_mm256_storeu_si256((__m256i *)vu, _mm256_sub_epi32(_mm256_loadu_si256((const __m256i *)vu), upv));
 	/* across the tile's ends */
 	last_fe = _mm256_extract_epi32(fe, 7);
@@ -752,7 +748,7 @@ const char *swell_wave_kernel_name(enum swell_wave_kernel k)
 static void step_row_vel(struct swell_wave *w, int j, uint8_t *trow, int damp)
 {
 	int32_t any[SWELL_WAVE_VEL_RUN];
-	int64_t sum[2] = {0, 0};
+	int64_t sum[2] = { 0, 0 };
 	int tx = 0, t1, k;
 
 	while (tx < w->tiles_x) {
@@ -838,8 +834,8 @@ int swell_wave_step_rows(struct swell_wave *w, int rows)
 /* One tile row of the finish: h += acc (add), and the old v cleared (clear); returns non-zero if any
  * cell changed. With len a constant 8 the compiler unrolls it. */
 static inline __attribute__((always_inline)) int32_t finish_seg(int32_t *restrict h, const int32_t *restrict acc,
-								 int32_t *restrict v, int len, int add, int clear,
-								 int vel, uint32_t *sat)
+								int32_t *restrict v, int len, int add, int clear,
+								int vel, uint32_t *sat)
 {
 	int32_t any = 0;
 	int a;
@@ -873,8 +869,7 @@ static inline __attribute__((always_inline)) int32_t finish_seg(int32_t *restric
 
 /* Row j of the finishing pass: h += acc where the step wrote acc (add, DIRTY), the old v cleared where
  * the last step wrote it (clear, DIRTY_PREV); sets TOUCHED where a cell changed. */
-static inline __attribute__((always_inline)) void finish_row(struct swell_wave *w, int j, int add, int clear,
-							     int vel)
+static inline __attribute__((always_inline)) void finish_row(struct swell_wave *w, int j, int add, int clear, int vel)
 {
 	const int nx = w->nx, all = !w->sleep;
 	uint8_t *restrict trow = w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x;
@@ -915,8 +910,8 @@ static inline __attribute__((always_inline)) void finish_row(struct swell_wave *
 }
 
 /* Rows [j0, j1) of the finishing pass; a band of tiles without the flags it needs is skipped whole. */
-static inline __attribute__((always_inline)) void finish_range_form(struct swell_wave *w, int j0, int j1,
-									int add, int clear, int vel)
+static inline __attribute__((always_inline)) void finish_range_form(struct swell_wave *w, int j0, int j1, int add,
+								    int clear, int vel)
 {
 	const uint8_t need = (uint8_t)((add ? T_DIRTY : 0u) | (clear ? T_DIRTY_PREV : 0u));
 	int j;
@@ -988,7 +983,7 @@ static void give_back(struct swell_wave *w, int64_t r, int mom)
 				i = w->nx - tx * SWELL_WAVE_TILE;
 				j = w->ny - ty * SWELL_WAVE_TILE;
 				cells += (uint64_t)(i < SWELL_WAVE_TILE ? i : SWELL_WAVE_TILE) *
-					 (uint64_t)(j < SWELL_WAVE_TILE ? j : SWELL_WAVE_TILE);
+					(uint64_t)(j < SWELL_WAVE_TILE ? j : SWELL_WAVE_TILE);
 			}
 	if (!cells) { /* a residual from a rescale of u, with nothing moving: tile 0 takes it */
 		w->tile[0] |= T_NONZERO;
@@ -1003,7 +998,8 @@ static void give_back(struct swell_wave *w, int64_t r, int mom)
 			for (i = 0; i < w->nx; i++) {
 				tn = (size_t)(j / SWELL_WAVE_TILE) * w->tiles_x + (size_t)(i / SWELL_WAVE_TILE);
 				if (w->tile[tn] & T_NONZERO)
-					fix_cell(w, (size_t)j * w->nx + (size_t)i, d * (int32_t)share, mom, &w->tile[tn]);
+					fix_cell(w, (size_t)j * w->nx + (size_t)i, d * (int32_t)share, mom,
+						 &w->tile[tn]);
 			}
 		left -= share * cells;
 	}
@@ -1145,7 +1141,7 @@ static int64_t edge_pot2(const struct swell_wave *w, int a, int b, int64_t two_w
 struct swell_energy swell_wave_energy(const struct swell_wave *w)
 {
 	const int nx = w->nx, ny = w->ny;
-	struct swell_energy en = {0, 0, w->e_eff};
+	struct swell_energy en = { 0, 0, w->e_eff };
 	int i, j, a;
 
 	for (j = 0; j < ny; j++) {
@@ -1172,7 +1168,7 @@ static uint32_t crc_words(uint32_t crc, const int32_t *x, size_t n)
 
 	for (k = 0; k < n; k++) {
 		uint32_t u = (uint32_t)x[k];
-		uint8_t le[4] = {(uint8_t)u, (uint8_t)(u >> 8), (uint8_t)(u >> 16), (uint8_t)(u >> 24)};
+		uint8_t le[4] = { (uint8_t)u, (uint8_t)(u >> 8), (uint8_t)(u >> 16), (uint8_t)(u >> 24) };
 
 		crc = swell_crc32(crc, le, sizeof(le));
 	}
@@ -1194,8 +1190,7 @@ uint32_t swell_wave_checksum(const struct swell_wave *w)
 	return crc;
 }
 
-enum swell_err swell_wave_e_from_physical(uint32_t g_mm_s2, uint32_t dt_us, uint32_t depth_um,
-					  uint32_t dx_um, q30_t *e)
+enum swell_err swell_wave_e_from_physical(uint32_t g_mm_s2, uint32_t dt_us, uint32_t depth_um, uint32_t dx_um, q30_t *e)
 {
 	uint64_t x, eq;
 
@@ -1205,8 +1200,7 @@ enum swell_err swell_wave_e_from_physical(uint32_t g_mm_s2, uint32_t dt_us, uint
 		return SWELL_ERANGE;
 	/* e = g dt^2 d / dx^2 * 1e-9 in these units; first g d dt^2 / dx^2 (in units of 1e-9), then
 	 * scaled to Q1.30. Both steps round to nearest: relative error below 1e-8 for e > 0.01. */
-	if (!swell_muldiv_u64((uint64_t)g_mm_s2 * depth_um, (uint64_t)dt_us * dt_us,
-			      (uint64_t)dx_um * dx_um, &x))
+	if (!swell_muldiv_u64((uint64_t)g_mm_s2 * depth_um, (uint64_t)dt_us * dt_us, (uint64_t)dx_um * dx_um, &x))
 		return SWELL_ERANGE;
 	if (!swell_muldiv_u64(x, (uint64_t)1 << 30, 1000000000u, &eq) || eq == 0 || eq > INT32_MAX)
 		return SWELL_ERANGE;

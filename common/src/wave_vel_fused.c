@@ -21,8 +21,8 @@
 
 /* The new momentum of one cell from its momentum u and x = 2 L9 (wave_priv.h); c = e_eff 2^(f+1),
  * as int32 for the DSP path (it fits there) and as int64 (c64) for the portable one. */
-static inline __attribute__((always_inline)) int32_t vel_cell(int32_t u, int32_t x, int32_t c, int64_t c64,
-							     int32_t f, int32_t q, int damp, int dsp, uint32_t *sat)
+static inline __attribute__((always_inline)) int32_t vel_cell(int32_t u, int32_t x, int32_t c, int64_t c64, int32_t f,
+							      int32_t q, int damp, int dsp, uint32_t *sat)
 {
 	int32_t s;
 
@@ -67,26 +67,26 @@ static inline __attribute__((always_inline)) int32_t vel_cell(int32_t u, int32_t
 
 /* One cell: the column sum of the cell's right neighbour column (sr, from its three heights; the
  * centre one is cn), the cell's value, its stores, and the register rotation. */
-#define VEL_CELL(K, SR)                                                                            \
-	do {                                                                                       \
-		sr = (SR);                                                                         \
-		s = vel_cell(u[K], sl + sr + 2 * sc - 16 * c, cf, c64, f, q, damp, dsp, &sat);         \
-		dh = damp ? s : (s + half + ((s >> 31) & fm)) >> f; /* damped: f = 0 */            \
-		u[K] = s;                                                                          \
-		acc[K] += dh;                                                                      \
-		tot += s;                                                                          \
-		tot_h += dh;                                                                       \
-		a_or |= s;                                                                         \
-		sl = sc;                                                                           \
-		sc = sr;                                                                           \
-		c = cn;                                                                            \
+#define VEL_CELL(K, SR)                                                                        \
+	do {                                                                                   \
+		sr = (SR);                                                                     \
+		s = vel_cell(u[K], sl + sr + 2 * sc - 16 * c, cf, c64, f, q, damp, dsp, &sat); \
+		dh = damp ? s : (s + half + ((s >> 31) & fm)) >> f; /* damped: f = 0 */        \
+		u[K] = s;                                                                      \
+		acc[K] += dh;                                                                  \
+		tot += s;                                                                      \
+		tot_h += dh;                                                                   \
+		a_or |= s;                                                                     \
+		sl = sc;                                                                       \
+		sc = sr;                                                                       \
+		c = cn;                                                                        \
 	} while (0)
 
 /* A run of awake tiles of row j: whole blocks of 8 cells unrolled, the rest one by one, the cell
  * at the east wall with its mirrored column. mid: a row with rows above and below (the row
  * pointers are then constant offsets of one pointer when the width is fixed). */
-static inline __attribute__((always_inline)) void vel_run(struct swell_wave *w, int j, int tx0, int tx1,
-							 int damp, int dsp, int mid, int64_t *sum, int32_t *any)
+static inline __attribute__((always_inline)) void vel_run(struct swell_wave *w, int j, int tx0, int tx1, int damp,
+							  int dsp, int mid, int64_t *sum, int32_t *any)
 {
 	const int nx = VEL_NX(w), i0 = tx0 * 8, i1 = tx1 * 8 < nx ? tx1 * 8 : nx;
 	const int east = i1 == nx, m = (i1 - i0) - east; /* cells whose right column exists */

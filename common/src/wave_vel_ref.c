@@ -10,7 +10,7 @@ static int64_t h_at(const struct swell_wave *w, int i, int j)
 
 void swell_wave_vel_ref(struct swell_wave *w, int j, int tx0, int tx1, int damp, int64_t sum[2], int32_t *any)
 {
-	static const int k[3][3] = {{1, 2, 1}, {2, 4, 2}, {1, 2, 1}};
+	static const int k[3][3] = { { 1, 2, 1 }, { 2, 4, 2 }, { 1, 2, 1 } };
 	const int i0 = tx0 * SWELL_WAVE_TILE, i1 = tx1 * SWELL_WAVE_TILE < w->nx ? tx1 * SWELL_WAVE_TILE : w->nx;
 	const int f = w->vel_frac;
 	const int64_t c = (int64_t)w->e_eff << (f + 1);

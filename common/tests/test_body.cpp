@@ -19,8 +19,7 @@ static const int32_t MM = SWELL_H_ONE_MM;
 TEST_CASE("the two springs net exactly k clamp(w - z - deadband, 0, H) over the whole range", "[body][springs]")
 {
 	std::mt19937 rng(3);
-	std::uniform_int_distribution<int32_t> kd(1, 1 << 28), hd(MM, 400 * MM), wd(-100 * MM, 100 * MM),
-		dbd(0, 20 * MM);
+	std::uniform_int_distribution<int32_t> kd(1, 1 << 28), hd(MM, 400 * MM), wd(-100 * MM, 100 * MM), dbd(0, 20 * MM);
 	long pulls = 0, pushes = 0, mismatches = 0;
 
 	for (int trial = 0; trial < 200; trial++) {
@@ -140,8 +139,7 @@ TEST_CASE("a released free object settles at delta = m g / k within 2%", "[body]
 	CHECK(s.w.saturations == 0);
 }
 
-TEST_CASE("the object rides a standing wave: on a 3 mm seiche its vertical motion follows the surface under it",
-	  "[body][float]")
+TEST_CASE("the object rides a standing wave: on a 3 mm seiche its vertical motion follows the surface under it", "[body][float]")
 {
 	body_scene s(64, 0.002);
 	swell_free_body fb;
@@ -260,8 +258,7 @@ TEST_CASE("the object rides a passing wave: a plane pulse lifts it as much as th
 	std::printf("passing pulse: surface under the box rises %.3f mm (crest at %.3f s), the box %.3f mm "
 		    "(%+.3f s later), correlation %.3f\n",
 		    rise_w / MM, kw / 2500.0, rise_z / MM, lag, corr);
-	INFO("surface +" << rise_w / MM << " mm, box +" << rise_z / MM << " mm, lag " << lag << " s, correlation "
-			 << corr);
+	INFO("surface +" << rise_w / MM << " mm, box +" << rise_z / MM << " mm, lag " << lag << " s, correlation " << corr);
 	CHECK(rise_w > 3.0 * MM);
 	CHECK(rise_z > 0.8 * rise_w);
 	CHECK(rise_z < 1.4 * rise_w);
@@ -308,8 +305,7 @@ TEST_CASE("force read between solver states has no steps at solver updates", "[b
 	CHECK(hold_step > 3 * at_step);
 }
 
-TEST_CASE("the volume invariant sum(h) - V_displaced holds exactly over 10^6 ticks of random motion",
-	  "[body][coupling]")
+TEST_CASE("the volume invariant sum(h) - V_displaced holds exactly over 10^6 ticks of random motion", "[body][coupling]")
 {
 	// 24 x 24 pool (150 mm): the object goes in and out, slams, moves sideways, sits across the walls
 	// and hangs partly (or wholly) outside
@@ -382,7 +378,7 @@ TEST_CASE("out-of-water ticks do no force or coupling work", "[body][skip]")
 	swell_body_out out, o2;
 	for (int t = 0; t < 1000; t++) {
 		s.tick(200000, 200000, 10000, 0, &out); // 10 mm above the 2 mm waves
-		ref.tick(-900000, 0, 0, 0, &o2);         // far outside the pool
+		ref.tick(-900000, 0, 0, 0, &o2); // far outside the pool
 		REQUIRE(out.skipped);
 		REQUIRE(out.f.total_uN == s.b.gravity_uN);
 	}
@@ -481,8 +477,7 @@ TEST_CASE("body parameters are validated and a rejected value changes nothing", 
 	CHECK(same());
 }
 
-TEST_CASE("the device transform maps offset, scale and axes, and the force goes back on the mapped axis",
-	  "[body][xform]")
+TEST_CASE("the device transform maps offset, scale and axes, and the force goes back on the mapped axis", "[body][xform]")
 {
 	body_scene s(32);
 	swell_body_xform x{};

@@ -100,7 +100,8 @@ TEST_CASE("the ceiling scan spread over the period finds the whole scan's ceilin
 }
 
 TEST_CASE("with rows finished ahead the force law reads the last finished step: same forces, coupling and "
-	  "invariant as the whole finish", "[body][ahead]")
+	  "invariant as the whole finish",
+	  "[body][ahead]")
 {
 	for (uint32_t seed = 1; seed <= 3; seed++) {
 		twin t(seed);
@@ -111,8 +112,8 @@ TEST_CASE("with rows finished ahead the force law reads the last finished step: 
 			const int32_t z = 20000 - k * 20 > -25000 ? 20000 - k * 20 : -25000;
 			const int32_t x = 200000 + (int32_t)(rng() % 4001) - 2000, y = 200000 + (k % 400) * 10;
 			const std::string diff = t.force(x, y, z, -50000);
-			INFO("seed " << seed << " tick " << k << " phase " << t.phase << " done_row " << t.ahead.w.done_row << ": "
-				      << diff);
+			INFO("seed " << seed << " tick " << k << " phase " << t.phase << " done_row " << t.ahead.w.done_row
+				     << ": " << diff);
 			REQUIRE(diff.empty());
 			wet += t.ahead.b.wet;
 			t.background();
@@ -124,8 +125,7 @@ TEST_CASE("with rows finished ahead the force law reads the last finished step: 
 	}
 }
 
-TEST_CASE("leaving the water mid-period: the ceiling is not claimed for the next period, then found again",
-	  "[body][scan][ahead]")
+TEST_CASE("leaving the water mid-period: the ceiling is not claimed for the next period, then found again", "[body][scan][ahead]")
 {
 	twin t(7);
 	t.field(2 * MM);

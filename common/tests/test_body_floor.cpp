@@ -36,14 +36,13 @@ TEST_CASE("the floor is at the rest depth the solver's e stands for, and follows
 	}
 }
 
-TEST_CASE("pressed to the floor the force is continuous in z, bounded, pushes and never pulls",
-	  "[body][floor]")
+TEST_CASE("pressed to the floor the force is continuous in z, bounded, pushes and never pulls", "[body][floor]")
 {
 	body_scene s(64); // 50 mm deep; a 60 x 60 x 40 mm box of 60 g
-	const double kc = SWELL_BODY_FLOOR_K / 65536.0;           // uN per LSB
-	const double bc = SWELL_BODY_FLOOR_DAMPER / 1000.0;       // uN per um/s
+	const double kc = SWELL_BODY_FLOOR_K / 65536.0; // uN per LSB
+	const double bc = SWELL_BODY_FLOOR_DAMPER / 1000.0; // uN per um/s
 	const double ramp = SWELL_BODY_FLOOR_RAMP_UM * MM / 1000.0; // LSB
-	const double k = s.b.k_q8 / 16777216.0;                   // uN per LSB
+	const double k = s.b.k_q8 / 16777216.0; // uN per LSB
 	for (int32_t vz : {0, -20000, 20000}) {
 		swell_body_out out, prev;
 		long n = 0, jumps = 0, pulls = 0, over = 0, flat = 0, deep = 0;
@@ -58,14 +57,15 @@ TEST_CASE("pressed to the floor the force is continuous in z, bounded, pushes an
 				// the slope bound: contact spring, its damper coming in over p_r, the buoyancy
 				// springs and the damper's submersion scale (b_max / H)
 				const double dz = std::fabs((double)swell_um_to_lsb(z) - swell_um_to_lsb(z + 2));
-				const double bound = dz * (kc + bc * std::abs(vz) / ramp + k +
-							   s.p.damper_uN_per_mm_s * std::abs(vz) / 1000.0 / s.b.h_lsb) +
-						     8; // rounding of the terms
+				const double bound = dz *
+						(kc + bc * std::abs(vz) / ramp + k +
+						 s.p.damper_uN_per_mm_s * std::abs(vz) / 1000.0 / s.b.h_lsb) +
+					8; // rounding of the terms
 				const double d = std::fabs((double)out.f.total_uN - prev.f.total_uN);
 				worst = std::fmax(worst, d / bound);
 				if (d > bound && jumps++ < 3)
-					FAIL_CHECK("v " << vz << " um/s, z " << z << " um: total changed by " << d
-							<< " uN over " << dz << " LSB (bound " << bound << ")");
+					FAIL_CHECK("v " << vz << " um/s, z " << z << " um: total changed by " << d << " uN over "
+							<< dz << " LSB (bound " << bound << ")");
 			}
 			// deep enough (spring past F_c_max): flat at the bound
 			if (out.penetration_lsb > 3 * MM) {
@@ -89,8 +89,7 @@ TEST_CASE("pressed to the floor the force is continuous in z, bounded, pushes an
 	}
 }
 
-TEST_CASE("at the floor the displaced depth is the water column: pushing further moves no more water",
-	  "[body][floor]")
+TEST_CASE("at the floor the displaced depth is the water column: pushing further moves no more water", "[body][floor]")
 {
 	body_scene s(64, 0.01);
 	s.p.h_um = 80000; // taller than the 50 mm of water
@@ -122,8 +121,7 @@ TEST_CASE("at the floor the displaced depth is the water column: pushing further
 	CHECK(s.w.saturations == 0);
 }
 
-TEST_CASE("a box heavier than its buoyancy sinks and rests on the floor: k_c p = m g - rho g V",
-	  "[body][floor]")
+TEST_CASE("a box heavier than its buoyancy sinks and rests on the floor: k_c p = m g - rho g V", "[body][floor]")
 {
 	body_scene s(64, 0.01);
 	s.p.mass_g = 400; // 3.92 N against k H = 1.41 N
@@ -154,8 +152,7 @@ TEST_CASE("a box heavier than its buoyancy sinks and rests on the floor: k_c p =
 	CHECK(fmax <= SWELL_BODY_FLOOR_F_MAX_UN);
 }
 
-TEST_CASE("off the floor again the force is the paper's law: no contact term, k clamp(w - z, 0, H), the damper",
-	  "[body][floor]")
+TEST_CASE("off the floor again the force is the paper's law: no contact term, k clamp(w - z, 0, H), the damper", "[body][floor]")
 {
 	body_scene s(64, 0.01);
 	swell_body_out out;
@@ -172,13 +169,12 @@ TEST_CASE("off the floor again the force is the paper's law: no contact term, k 
 			const int64_t sub = st < 0 ? 0 : (st > s.b.h_lsb ? s.b.h_lsb : st);
 			const int64_t up = ((int64_t)s.b.k_q8 * sub + ((int64_t)1 << 23)) >> 24;
 			const bool ok = out.f.floor_uN == 0 && out.penetration_lsb == 0 && out.delta_lsb == sub &&
-					out.f.up_uN == up &&
-					out.f.total_uN == out.f.gravity_uN + out.f.up_uN + out.f.viscous_uN;
+				out.f.up_uN == up && out.f.total_uN == out.f.gravity_uN + out.f.up_uN + out.f.viscous_uN;
 			checked++;
 			if (!ok && wrong++ < 3)
 				FAIL_CHECK("tick " << t << ", z " << z << " um: floor " << out.f.floor_uN << " uN, delta "
-						   << out.delta_lsb << " against " << sub << ", up " << out.f.up_uN
-						   << " against " << up);
+						   << out.delta_lsb << " against " << sub << ", up " << out.f.up_uN << " against "
+						   << up);
 		}
 	}
 	INFO(checked << " ticks above the floor checked, " << touched << " below it");

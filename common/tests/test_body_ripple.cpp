@@ -75,15 +75,14 @@ static double filtered_gain(double f_hz, double *raw_rms)
 	return std::sqrt(g / r);
 }
 
-TEST_CASE("the damper's u_w is low-passed: gain 1 / (1 + (f / f_c)^2), 1 at rest, back to exactly 0",
-	  "[body][ripple]")
+TEST_CASE("the damper's u_w is low-passed: gain 1 / (1 + (f / f_c)^2), 1 at rest, back to exactly 0", "[body][ripple]")
 {
 	const double fc = SWELL_BODY_UW_CORNER_HZ;
 	for (double f : {0.5, 2.0, 10.0, 30.0, 50.0}) {
 		double raw;
 		const double g = filtered_gain(f, &raw), expect = 1 / (1 + (f / fc) * (f / fc));
-		std::printf("u_w low-pass at %4.1f Hz: gain %.4f, designed %.4f (raw u_w rms %.2f mm/s)\n", f, g,
-			    expect, raw / 1000);
+		std::printf("u_w low-pass at %4.1f Hz: gain %.4f, designed %.4f (raw u_w rms %.2f mm/s)\n", f, g, expect,
+			    raw / 1000);
 		INFO(f << " Hz: gain " << g << ", designed 1 / (1 + (f / " << fc << ")^2) = " << expect);
 		CHECK(raw > 5000); // the drive reached the read: ~5.4 mm/s rms
 		// backward Euler bends the response a little near the rate; within 3 % of the design here
@@ -136,8 +135,7 @@ struct hm_loop {
 	{
 		for (long n = 0; n < (long)(seconds * 2500); n++) {
 			swell_body_out out;
-			s.tick(200000, 200000, (int32_t)std::lround(z * 1e5) * 10, (int32_t)std::lround(v * 1e4) * 100,
-			       &out);
+			s.tick(200000, 200000, (int32_t)std::lround(z * 1e5) * 10, (int32_t)std::lround(v * 1e4) * 100, &out);
 			const double f = std::lround(swell_fsafety_apply(&safety, out.f.total_uN, 1) * 1e-4) * 0.01;
 			f_cmd.push_back(f);
 			v += (f - 2.0 * v) / 2.0 / 2500;

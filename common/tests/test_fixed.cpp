@@ -55,8 +55,7 @@ TEST_CASE("q30 products round as documented and saturate at the extremes", "[fix
 		long double exact = (long double)x * c / SWELL_Q30_ONE;
 		if (std::fabs((double)exact) > 2.0e9)
 			continue;
-		long double rn = swell_mul_q30_rn(x, c), rz = swell_mul_q30_rz(x, c),
-			    ra = swell_mul_q30_ra(x, c);
+		long double rn = swell_mul_q30_rn(x, c), rz = swell_mul_q30_rz(x, c), ra = swell_mul_q30_ra(x, c);
 		REQUIRE(std::fabs((double)(rn - exact)) <= 0.5);
 		REQUIRE(std::fabs((double)rz) <= std::fabs((double)exact));
 		REQUIRE(std::fabs((double)(rz - exact)) < 1.0);

@@ -22,8 +22,7 @@ static swell_fsafety_params limits(uint32_t f_max, uint32_t rate)
 	return p;
 }
 
-TEST_CASE("under random force inputs the output never exceeds f_max nor changes faster than the rate",
-	  "[safety]")
+TEST_CASE("under random force inputs the output never exceeds f_max nor changes faster than the rate", "[safety]")
 {
 	std::mt19937 rng(7);
 	for (int trial = 0; trial < 20; trial++) {
@@ -44,8 +43,8 @@ TEST_CASE("under random force inputs the output never exceeds f_max nor changes 
 			fast += std::abs((int64_t)out - prev) > step;
 			prev = out;
 		}
-		INFO("f_max " << p.f_max_uN << " uN, rate " << p.rate_uN_per_s << " uN/s: " << over
-			      << " ticks over f_max, " << fast << " ticks too fast");
+		INFO("f_max " << p.f_max_uN << " uN, rate " << p.rate_uN_per_s << " uN/s: " << over << " ticks over f_max, "
+			      << fast << " ticks too fast");
 		CHECK(over == 0);
 		CHECK(fast == 0);
 		if (step < 2 * (int64_t)p.f_max_uN) // else no change can be too fast
@@ -54,8 +53,7 @@ TEST_CASE("under random force inputs the output never exceeds f_max nor changes 
 	}
 }
 
-TEST_CASE("behind the force law, random trajectories never give more than f_max or faster than the rate",
-	  "[safety][body]")
+TEST_CASE("behind the force law, random trajectories never give more than f_max or faster than the rate", "[safety][body]")
 {
 	body_scene sc(32, 0.01);
 	swell_fsafety_params p = limits(2000000, 200000000); // 2 N, 200 N/s (80 mN a tick)

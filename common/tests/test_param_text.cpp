@@ -48,13 +48,12 @@ TEST_CASE("values with units and SI prefixes become the parameter's raw integers
 	CHECK(parse_ok("force.max", "500mN") == 500000);
 	CHECK(parse_ok("force.rate", "0.5kN/s") == 500000000);
 	CHECK(parse_ok("body.damper", "2N*s/m") == 2000);
-	CHECK(parse_ok("wave.damping", "0.02") == 21474836);        /* round(0.02 * 2^30) */
-	CHECK(parse_ok("wave.e", "0.2009") == 215714732);           /* round(0.2009 * 2^30) */
+	CHECK(parse_ok("wave.damping", "0.02") == 21474836); /* round(0.02 * 2^30) */
+	CHECK(parse_ok("wave.e", "0.2009") == 215714732); /* round(0.2009 * 2^30) */
 	CHECK(parse_ok("force.gain", "0.5") == 32768);
 }
 
-TEST_CASE("a unit of another kind, a non-number or a value out of range is refused with the range in units",
-	  "[param][units]")
+TEST_CASE("a unit of another kind, a non-number or a value out of range is refused with the range in units", "[param][units]")
 {
 	CHECK(parse_err("body.mass", "80mm").find("unit 'mm' is not g") != std::string::npos);
 	CHECK(parse_err("wave.damping", "0.02g").find("has no unit") != std::string::npos);

@@ -37,8 +37,7 @@ swell_msg extreme_msg(const swell_msg_desc &d, int which)
 	std::memset(&m, 0, sizeof(m));
 	m.type = d.type;
 	for (unsigned i = 0; i < d.nfields; i++)
-		REQUIRE(swell_msg_field_set(&m, &d.fields[i], which ? d.fields[i].max : d.fields[i].min) ==
-			SWELL_OK);
+		REQUIRE(swell_msg_field_set(&m, &d.fields[i], which ? d.fields[i].max : d.fields[i].min) == SWELL_OK);
 	return m;
 }
 
@@ -63,8 +62,7 @@ std::string describe(const swell_msg &m)
 	std::string s = d ? d->name : "?";
 	s += " node " + std::to_string(m.node);
 	for (unsigned i = 0; d && i < d->nfields; i++)
-		s += std::string(" ") + d->fields[i].name + "=" +
-		     std::to_string(swell_msg_field_get(&m, &d->fields[i]));
+		s += std::string(" ") + d->fields[i].name + "=" + std::to_string(swell_msg_field_get(&m, &d->fields[i]));
 	return s;
 }
 
@@ -164,7 +162,7 @@ TEST_CASE("CTL_INFO: the layout of docs/protocol.md byte for byte, sizes outside
 	uint8_t zero_b[8];
 	std::memcpy(zero_b, want, 8);
 	zero_b[4] &= 0x1f; /* obj_b is bits 37..49: clear 37..39 ... */
-	zero_b[5] = 0;     /* ... 40..47 ... */
+	zero_b[5] = 0; /* ... 40..47 ... */
 	zero_b[6] &= 0xfc; /* ... and 48..49 */
 	swell_proto_stats st = {};
 	std::memset(&back, 0xAB, sizeof(back));
@@ -224,8 +222,7 @@ TEST_CASE("every message round-trips in USB/UDP packets of at most 64 bytes with
 	while (pos < in.size()) {
 		uint8_t pkt[SWELL_PKT_MAX];
 		size_t len = 0, used = 0;
-		REQUIRE(swell_pkt_encode(5, seq, &in[pos], in.size() - pos, pkt, sizeof(pkt), &len, &used) ==
-			SWELL_OK);
+		REQUIRE(swell_pkt_encode(5, seq, &in[pos], in.size() - pos, pkt, sizeof(pkt), &len, &used) == SWELL_OK);
 		CHECK(len <= SWELL_PKT_MAX);
 		swell_msg got[SWELL_PKT_MSGS_MAX];
 		size_t n = 0;
@@ -307,8 +304,7 @@ swell_msg zero_msg(uint8_t type)
 	m.type = type;
 	const swell_msg_desc *d = swell_msg_desc_find(type);
 	for (unsigned i = 0; i < d->nfields; i++)
-		REQUIRE(swell_msg_field_set(&m, &d->fields[i], d->fields[i].min > 0 ? d->fields[i].min : 0) ==
-			SWELL_OK);
+		REQUIRE(swell_msg_field_set(&m, &d->fields[i], d->fields[i].min > 0 ? d->fields[i].min : 0) == SWELL_OK);
 	return m;
 }
 
@@ -334,9 +330,18 @@ TEST_CASE("malformed CAN frames are rejected with the expected counted reason an
 {
 	const std::vector<uint8_t> fc = can_bytes(zero_msg(SWELL_MSG_FORCE_CMD));
 	const std::vector<uint8_t> hb = can_bytes(zero_msg(SWELL_MSG_HEARTBEAT));
-	auto with = [](std::vector<uint8_t> v, size_t i, uint8_t b) { v[i] = b; return v; };
-	auto cut = [](std::vector<uint8_t> v, size_t n) { v.resize(n); return v; };
-	auto grow = [](std::vector<uint8_t> v) { v.push_back(0); return v; };
+	auto with = [](std::vector<uint8_t> v, size_t i, uint8_t b) {
+		v[i] = b;
+		return v;
+	};
+	auto cut = [](std::vector<uint8_t> v, size_t n) {
+		v.resize(n);
+		return v;
+	};
+	auto grow = [](std::vector<uint8_t> v) {
+		v.push_back(0);
+		return v;
+	};
 	std::vector<uint8_t> pv = can_bytes(zero_msg(SWELL_MSG_DEVICE_VEL));
 	const std::vector<can_case> cases = {
 		{"force command one byte short", SWELL_CAN_ID(SWELL_MSG_FORCE_CMD, 0), cut(fc, 7), SWELL_ETRUNC},
@@ -349,14 +354,21 @@ TEST_CASE("malformed CAN frames are rejected with the expected counted reason an
 		{"heartbeat of protocol version 2", SWELL_CAN_ID(SWELL_MSG_HEARTBEAT, 0), with(hb, 2, 2), SWELL_EVERSION},
 		{"heartbeat of protocol version 0", SWELL_CAN_ID(SWELL_MSG_HEARTBEAT, 0), with(hb, 2, 0), SWELL_EVERSION},
 		/* fx = 25001 cN = 0x61A9 */
-		{"force command fx 250.01 N", SWELL_CAN_ID(SWELL_MSG_FORCE_CMD, 0), with(with(fc, 0, 0xA9), 1, 0x61), SWELL_ERANGE},
+		{"force command fx 250.01 N", SWELL_CAN_ID(SWELL_MSG_FORCE_CMD, 0), with(with(fc, 0, 0xA9), 1, 0x61),
+		 SWELL_ERANGE},
 		/* fz = -25001 cN = 0x9E57 */
-		{"force command fz -250.01 N", SWELL_CAN_ID(SWELL_MSG_FORCE_CMD, 0), with(with(fc, 4, 0x57), 5, 0x9E), SWELL_ERANGE},
+		{"force command fz -250.01 N", SWELL_CAN_ID(SWELL_MSG_FORCE_CMD, 0), with(with(fc, 4, 0x57), 5, 0x9E),
+		 SWELL_ERANGE},
 		{"force command reserved bit 57 set", SWELL_CAN_ID(SWELL_MSG_FORCE_CMD, 0), with(fc, 7, 0x02), SWELL_ERANGE},
 		{"heartbeat state 5", SWELL_CAN_ID(SWELL_MSG_HEARTBEAT, 0), with(hb, 0, 5), SWELL_ERANGE},
-		{"heartbeat error code past the last", SWELL_CAN_ID(SWELL_MSG_HEARTBEAT, 0), with(hb, 1, SWELL_ERR_COUNT), SWELL_ERANGE},
-		{"bootloader without its key", SWELL_CAN_ID(SWELL_MSG_ENTER_BOOTLOADER, 0), {0x53, 0x57, 0x42, 0x4D}, SWELL_ERANGE},
-		{"scene of 0 columns", SWELL_CAN_ID(SWELL_MSG_SCENE, 0), with(can_bytes(zero_msg(SWELL_MSG_SCENE)), 0, 0), SWELL_ERANGE},
+		{"heartbeat error code past the last", SWELL_CAN_ID(SWELL_MSG_HEARTBEAT, 0), with(hb, 1, SWELL_ERR_COUNT),
+		 SWELL_ERANGE},
+		{"bootloader without its key",
+		 SWELL_CAN_ID(SWELL_MSG_ENTER_BOOTLOADER, 0),
+		 {0x53, 0x57, 0x42, 0x4D},
+		 SWELL_ERANGE},
+		{"scene of 0 columns", SWELL_CAN_ID(SWELL_MSG_SCENE, 0), with(can_bytes(zero_msg(SWELL_MSG_SCENE)), 0, 0),
+		 SWELL_ERANGE},
 		{"parameter nack with error 0", SWELL_CAN_ID(SWELL_MSG_PARAM_NACK, 0), {1, 0, 0, 0}, SWELL_ERANGE},
 	};
 	swell_proto_stats st = {};
@@ -507,8 +519,8 @@ TEST_CASE("heights go to the wire rounded to nearest 1/64 mm and saturate at -32
 	CHECK(worst <= lsb / 2);
 	CHECK(swell_height_to_sample(INT32_MAX) == 2047);
 	CHECK(swell_height_to_sample(INT32_MIN) == -2048);
-	CHECK(swell_height_to_sample(lsb / 2) == 1);      /* tie goes up */
-	CHECK(swell_height_to_sample(-lsb / 2) == 0);     /* tie goes up */
+	CHECK(swell_height_to_sample(lsb / 2) == 1); /* tie goes up */
+	CHECK(swell_height_to_sample(-lsb / 2) == 0); /* tie goes up */
 	CHECK(swell_height_to_sample(-lsb / 2 - 1) == -1);
 }
 
@@ -528,7 +540,8 @@ TEST_CASE("a grid of any size 1..256 survives tiles of quads on the wire within 
 				for (unsigned row = 0; row < 8; row++)
 					for (unsigned half = 0; half < 2; half++) {
 						swell_msg q;
-						REQUIRE(swell_height_quad_pack(h.data(), nx, ny, tx, ty, row, half, quads & 3, &q) == SWELL_OK);
+						REQUIRE(swell_height_quad_pack(h.data(), nx, ny, tx, ty, row, half, quads & 3,
+									       &q) == SWELL_OK);
 						uint32_t id;
 						uint8_t data[8], len;
 						REQUIRE(swell_can_encode(&q, &id, data, &len) == SWELL_OK);

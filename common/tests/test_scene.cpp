@@ -57,8 +57,9 @@ TEST_CASE("the shipped scenes parse, with the pool and object each describes", "
 
 TEST_CASE("a bad scene file is refused whole and the reason names its line", "[scene]")
 {
-	CHECK(refused("# ok\nbody.mass = 80 g\nbody.mass = 90 g\n").find("refused.scene:3: body.mass given twice "
-									"(first on line 2)") != std::string::npos);
+	CHECK(refused("# ok\nbody.mass = 80 g\nbody.mass = 90 g\n")
+		      .find("refused.scene:3: body.mass given twice "
+			    "(first on line 2)") != std::string::npos);
 	CHECK(refused("body.mass = 80 g\nbody.weight = 1 kg\n").find(":2: no parameter 'body.weight'") != std::string::npos);
 	CHECK(refused("\n\npool.nx = 512 cells\n").find(":3: pool.nx: 512 cells is outside 2 cells .. 256 cells") !=
 	      std::string::npos);

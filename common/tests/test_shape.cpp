@@ -21,13 +21,12 @@ double cos_model(int64_t num, int64_t den)
 
 } // namespace
 
-TEST_CASE("integer cos(pi num / den) is within 1e-8 for any num and den > 0, int64 extremes included",
-	  "[shape]")
+TEST_CASE("integer cos(pi num / den) is within 1e-8 for any num and den > 0, int64 extremes included", "[shape]")
 {
 	const int64_t big[][2] = {
 		{(int64_t)1 << 38, (int64_t)1 << 40}, /* pi / 4 */
-		{INT64_MAX, INT64_MAX},              /* pi */
-		{INT64_MIN, INT64_MAX},              /* -pi - pi / (2^63 - 1) */
+		{INT64_MAX, INT64_MAX}, /* pi */
+		{INT64_MIN, INT64_MAX}, /* -pi - pi / (2^63 - 1) */
 		{((int64_t)1 << 62) + 1, (int64_t)1 << 62},
 		{INT64_MAX / 3, INT64_MAX},
 		{INT64_MIN, 3},

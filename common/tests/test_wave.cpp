@@ -23,19 +23,16 @@ q30_t q30(double x) { return (q30_t)std::llround(x * SWELL_Q30_ONE); }
 struct Field {
 	std::vector<int32_t> store;
 	swell_wave w{};
-	Field(int nx, int ny, double e, double t = 0, swell_stencil st = SWELL_STENCIL_PAPER)
-	    : store(SWELL_WAVE_WORDS(nx, ny))
+	Field(int nx, int ny, double e, double t = 0, swell_stencil st = SWELL_STENCIL_PAPER) : store(SWELL_WAVE_WORDS(nx, ny))
 	{
 		swell_wave_params p{q30(e), q30(t), st};
-		REQUIRE(swell_wave_init(&w, (uint16_t)nx, (uint16_t)ny, store.data(), store.size(), &p) ==
-			SWELL_OK);
+		REQUIRE(swell_wave_init(&w, (uint16_t)nx, (uint16_t)ny, store.data(), store.size(), &p) == SWELL_OK);
 	}
 	int n() const { return w.nx * w.ny; }
 	void random(uint32_t seed, double amp_mm)
 	{
 		std::mt19937 rng(seed);
-		std::uniform_int_distribution<int32_t> d(-(int32_t)(amp_mm * SWELL_H_ONE_MM),
-							 (int32_t)(amp_mm * SWELL_H_ONE_MM));
+		std::uniform_int_distribution<int32_t> d(-(int32_t)(amp_mm * SWELL_H_ONE_MM), (int32_t)(amp_mm * SWELL_H_ONE_MM));
 		for (int a = 0; a < n(); a++)
 			w.h[a] = d(rng);
 		swell_wave_rest(&w);
@@ -67,8 +64,7 @@ double discrete_omega(int nx, int ny, int m, int n, double e_eff)
 
 } // namespace
 
-TEST_CASE("a seiche eigenmode follows the exact discrete solution to rounding error, both stencils",
-	  "[wave][eigenmode]")
+TEST_CASE("a seiche eigenmode follows the exact discrete solution to rounding error, both stencils", "[wave][eigenmode]")
 {
 	const int nx = 64, ny = 64, m = 2, n = 1, steps = 2000;
 	const double amp_mm = 2.0;
@@ -101,7 +97,7 @@ TEST_CASE("a seiche eigenmode follows the exact discrete solution to rounding er
 			for (int j = 0; j < ny; j++)
 				for (int i = 0; i < nx; i++) {
 					double mode = amp_mm * std::cos(m * M_PI * (i + 0.5) / nx) *
-						      std::cos(n * M_PI * (j + 0.5) / ny);
+						std::cos(n * M_PI * (j + 0.5) / ny);
 					int a = j * nx + i;
 					double hf = f.w.h[a] * kLsbMm;
 					err_fixed = std::max(err_fixed, std::fabs(hf - c * mode));
@@ -112,11 +108,11 @@ TEST_CASE("a seiche eigenmode follows the exact discrete solution to rounding er
 			l2_fixed = std::max(l2_fixed, std::sqrt(l2 / (nx * ny)));
 		}
 		const char *name = st == SWELL_STENCIL_PAPER ? "paper" : "calibrated";
-		WARN("stencil " << name << ", mode (" << m << "," << n << "), " << steps << " steps, A = "
-				<< amp_mm << " mm: fixed vs exact discrete Linf " << err_fixed << " mm ("
-				<< err_fixed / kLsbMm << " LSB), L2 " << l2_fixed << " mm; float64 vs exact "
-				<< err_ref << " mm; fixed vs continuous seiche Linf " << err_cont
-				<< " mm; omega_discrete/omega_continuous " << om / om_c);
+		WARN("stencil " << name << ", mode (" << m << "," << n << "), " << steps << " steps, A = " << amp_mm
+				<< " mm: fixed vs exact discrete Linf " << err_fixed << " mm (" << err_fixed / kLsbMm
+				<< " LSB), L2 " << l2_fixed << " mm; float64 vs exact " << err_ref
+				<< " mm; fixed vs continuous seiche Linf " << err_cont << " mm; omega_discrete/omega_continuous "
+				<< om / om_c);
 		/* float64 starts from the same integer field: the initial rounding (<= 0.5 LSB a cell) excites
 		 * other modes by that much, nothing more */
 		CHECK(err_ref < 3 * kLsbMm);
@@ -133,8 +129,7 @@ TEST_CASE("a seiche eigenmode follows the exact discrete solution to rounding er
 	}
 }
 
-TEST_CASE("the edge-flux solver equals the float64 three-level eq. (1) to rounding, walls included",
-	  "[wave][reference]")
+TEST_CASE("the edge-flux solver equals the float64 three-level eq. (1) to rounding, walls included", "[wave][reference]")
 {
 	struct Case {
 		int nx, ny;
@@ -167,8 +162,7 @@ TEST_CASE("the edge-flux solver equals the float64 three-level eq. (1) to roundi
 	}
 }
 
-TEST_CASE("volume is conserved exactly over 1e6 cell-steps from random fields, with and without damping",
-	  "[wave][volume]")
+TEST_CASE("volume is conserved exactly over 1e6 cell-steps from random fields, with and without damping", "[wave][volume]")
 {
 	for (double t : {0.0, 0.001, 0.05, 0.5}) {
 		for (swell_stencil st : {SWELL_STENCIL_PAPER, SWELL_STENCIL_CALIBRATED}) {
@@ -227,17 +221,17 @@ TEST_CASE("energy never increases with damping and stays bounded without", "[wav
 				}
 				prev = now;
 			}
-			WARN("t " << t << ": " << rises << " of 3000 steps where energy rose (all at the rounding "
-				  "floor), worst rise " << worst_rise << " of E0; final E/E0 "
-				  << to_double(prev) / to_double(e0));
+			WARN("t " << t << ": " << rises
+				  << " of 3000 steps where energy rose (all at the rounding "
+				     "floor), worst rise "
+				  << worst_rise << " of E0; final E/E0 " << to_double(prev) / to_double(e0));
 			CHECK(big_rises == 0);
 			CHECK(to_double(prev) < 0.1 * to_double(e0));
 		}
 	}
 }
 
-TEST_CASE("just under the stability limit stays bounded for 1e5 steps, at or over it is refused",
-	  "[wave][stability]")
+TEST_CASE("just under the stability limit stays bounded for 1e5 steps, at or over it is refused", "[wave][stability]")
 {
 	for (double t : {0.0, 0.1}) {
 		const q30_t lim = swell_wave_e_limit(q30(t), SWELL_STENCIL_PAPER);
@@ -258,8 +252,7 @@ TEST_CASE("just under the stability limit stays bounded for 1e5 steps, at or ove
 				for (int a = 0; a < 144; a++)
 					worst = std::max(worst, std::abs(w.h[a]));
 		}
-		INFO("t " << t << ": e = limit - 2^-29, max |h| " << worst * kLsbMm << " mm from "
-			  << start * kLsbMm << " mm");
+		INFO("t " << t << ": e = limit - 2^-29, max |h| " << worst * kLsbMm << " mm from " << start * kLsbMm << " mm");
 		CHECK(w.saturations == 0u);
 		CHECK(worst < 20 * start);
 
@@ -278,8 +271,7 @@ TEST_CASE("just under the stability limit stays bounded for 1e5 steps, at or ove
 	}
 	/* the analytic limit (1+q)/(4q) */
 	CHECK((double)swell_wave_e_limit(0, SWELL_STENCIL_PAPER) / SWELL_Q30_ONE == Approx(0.5).epsilon(1e-9));
-	CHECK((double)swell_wave_e_limit(q30(0.1), SWELL_STENCIL_PAPER) / SWELL_Q30_ONE ==
-	      Approx(1.9 / 3.6).epsilon(1e-8));
+	CHECK((double)swell_wave_e_limit(q30(0.1), SWELL_STENCIL_PAPER) / SWELL_Q30_ONE == Approx(1.9 / 3.6).epsilon(1e-8));
 	CHECK((double)swell_wave_e_limit(0, SWELL_STENCIL_CALIBRATED) / SWELL_Q30_ONE == Approx(1.0).epsilon(1e-9));
 }
 
@@ -290,12 +282,12 @@ TEST_CASE("malformed parameters are refused with a reason and change nothing", "
 	swell_wave before = f.w;
 	std::vector<int32_t> snap(f.store);
 	swell_wave_params bad[] = {
-		{0, 0, SWELL_STENCIL_PAPER},                 /* e = 0 */
-		{-q30(0.1), 0, SWELL_STENCIL_PAPER},         /* e < 0 */
-		{q30(0.2), -1, SWELL_STENCIL_PAPER},         /* t < 0 */
+		{0, 0, SWELL_STENCIL_PAPER}, /* e = 0 */
+		{-q30(0.1), 0, SWELL_STENCIL_PAPER}, /* e < 0 */
+		{q30(0.2), -1, SWELL_STENCIL_PAPER}, /* t < 0 */
 		{q30(0.2), SWELL_Q30_ONE, SWELL_STENCIL_PAPER}, /* t = 1 */
-		{q30(0.2), 0, (swell_stencil)7},             /* unknown stencil */
-		{q30(1.5), q30(0.9), SWELL_STENCIL_PAPER},   /* e_eff above 1: coefficient range */
+		{q30(0.2), 0, (swell_stencil)7}, /* unknown stencil */
+		{q30(1.5), q30(0.9), SWELL_STENCIL_PAPER}, /* e_eff above 1: coefficient range */
 	};
 	enum swell_err want[] = {SWELL_ERANGE, SWELL_ERANGE, SWELL_ERANGE, SWELL_ERANGE, SWELL_EINVAL, SWELL_ERANGE};
 	for (size_t k = 0; k < sizeof(bad) / sizeof(bad[0]); k++) {
@@ -347,12 +339,13 @@ TEST_CASE("integer exp and cos match the exact functions", "[shape]")
 	double worst_exp = 0, worst_cos = 0;
 	for (int k = 0; k < 32 * 64; k++) {
 		q16_t x = (q16_t)(k * (SWELL_Q16_ONE / 64));
-		worst_exp = std::max(worst_exp, std::fabs((double)swell_exp_neg_q16(x) / SWELL_Q30_ONE -
-							  std::exp(-(double)x / SWELL_Q16_ONE)));
+		worst_exp =
+			std::max(worst_exp,
+				 std::fabs((double)swell_exp_neg_q16(x) / SWELL_Q30_ONE - std::exp(-(double)x / SWELL_Q16_ONE)));
 	}
 	for (int num = -500; num <= 500; num++)
-		worst_cos = std::max(worst_cos, std::fabs((double)swell_cos_pi_frac(num, 97) / SWELL_Q30_ONE -
-							  std::cos(M_PI * num / 97)));
+		worst_cos = std::max(worst_cos,
+				     std::fabs((double)swell_cos_pi_frac(num, 97) / SWELL_Q30_ONE - std::cos(M_PI * num / 97)));
 	WARN("integer exp error " << worst_exp << ", cos error " << worst_cos);
 	CHECK(worst_exp < 2e-6);
 	CHECK(worst_cos < 1e-8);
@@ -404,8 +397,7 @@ TEST_CASE("water added from outside arrives at the next finish and is conserved 
 	CHECK(f.w.h[0] == SWELL_H_MAX);
 }
 
-TEST_CASE("sleeping tiles are lossless: bit-identical to the full update, splash, touches and all",
-	  "[wave][sleep]")
+TEST_CASE("sleeping tiles are lossless: bit-identical to the full update, splash, touches and all", "[wave][sleep]")
 {
 	for (double t : {0.0, 0.02}) {
 		Field awake(45, 37, 0.3, t), sleepy(45, 37, 0.3, t);

@@ -34,8 +34,7 @@ int32_t exact_x(int n)
 
 } // namespace
 
-TEST_CASE("setting the same parameters in the middle of a step changes no bit of the water",
-	  "[wave][params][sleep]")
+TEST_CASE("setting the same parameters in the middle of a step changes no bit of the water", "[wave][params][sleep]")
 {
 	for (swell_wave_kernel k : {SWELL_KERNEL_REF, SWELL_KERNEL_FUSED}) {
 		Field plain = sloshing(k), reset = sloshing(k);
@@ -47,9 +46,8 @@ TEST_CASE("setting the same parameters in the middle of a step changes no bit of
 				REQUIRE(swell_wave_set_params(&reset.w, &same) == SWELL_OK);
 			swell_wave_step_finish(&plain.w);
 			swell_wave_step_finish(&reset.w);
-			INFO("kernel " << swell_wave_kernel_name(k) << ", step " << n << ": column 0 at "
-				       << reset.w.h[0] << " LSB, untouched run " << plain.w.h[0] << ", exact "
-				       << exact_x(n));
+			INFO("kernel " << swell_wave_kernel_name(k) << ", step " << n << ": column 0 at " << reset.w.h[0]
+				       << " LSB, untouched run " << plain.w.h[0] << ", exact " << exact_x(n));
 			REQUIRE(plain.w.h[0] == exact_x(n));
 			REQUIRE(differs(plain, reset, false) == "");
 		}
@@ -69,8 +67,8 @@ TEST_CASE("turning tile sleeping on in the middle of a step stays lossless", "[w
 			swell_wave_set_sleep(&switched.w, 1);
 		swell_wave_step_finish(&awake.w);
 		swell_wave_step_finish(&switched.w);
-		INFO("step " << n << ": column 0 at " << switched.w.h[0] << " LSB with sleeping turned on, "
-			     << awake.w.h[0] << " without, exact " << exact_x(n));
+		INFO("step " << n << ": column 0 at " << switched.w.h[0] << " LSB with sleeping turned on, " << awake.w.h[0]
+			     << " without, exact " << exact_x(n));
 		REQUIRE(awake.w.h[0] == exact_x(n));
 		REQUIRE(differs(awake, switched, false) == "");
 	}
@@ -99,10 +97,9 @@ TEST_CASE("accepted parameters are stable in the coefficients that run and e_lim
 	/* found by search: stable with q = 1 - t, not with the odd q that runs */
 	{
 		const swell_wave_params p{608207736, 225437260, SWELL_STENCIL_PAPER};
-		INFO("e " << p.e << " t " << p.damping << ": stable with the q that runs: "
-			  << stable(run_e_eff(p.e, p.stencil), run_q(p.damping)));
-		CHECK(swell_wave_check(&p) == (stable(run_e_eff(p.e, p.stencil), run_q(p.damping)) ? SWELL_OK
-												    : SWELL_EUNSTABLE));
+		INFO("e " << p.e << " t " << p.damping
+			  << ": stable with the q that runs: " << stable(run_e_eff(p.e, p.stencil), run_q(p.damping)));
+		CHECK(swell_wave_check(&p) == (stable(run_e_eff(p.e, p.stencil), run_q(p.damping)) ? SWELL_OK : SWELL_EUNSTABLE));
 	}
 	std::mt19937_64 rng(20261201);
 	int accepted = 0, refused = 0;
@@ -138,8 +135,7 @@ TEST_CASE("accepted parameters are stable in the coefficients that run and e_lim
 	CHECK(f.w.q == run_q(1073742));
 }
 
-TEST_CASE("coming to rest in the middle of a step with rows finished ahead keeps h(n) and the volume",
-	  "[wave][finish][rest]")
+TEST_CASE("coming to rest in the middle of a step with rows finished ahead keeps h(n) and the volume", "[wave][finish][rest]")
 {
 	Field f(24, 24, q30(0.2), 0, SWELL_STENCIL_PAPER, SWELL_KERNEL_REF);
 	std::mt19937 rng(3);

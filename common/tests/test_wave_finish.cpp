@@ -32,22 +32,21 @@ std::vector<swell_wave_kernel> kernels()
 
 } // namespace
 
-TEST_CASE("the finish spread over the slices is bit-identical to the whole finish, for every kernel",
-	  "[wave][split][finish]")
+TEST_CASE("the finish spread over the slices is bit-identical to the whole finish, for every kernel", "[wave][split][finish]")
 {
 	const Case cases[] = {
-		{64, 64, 0.2009, 0.001, SWELL_STENCIL_PAPER, 2.0, 1},  /* the controller's reference scene */
+		{64, 64, 0.2009, 0.001, SWELL_STENCIL_PAPER, 2.0, 1}, /* the controller's reference scene */
 		{64, 64, 0.2009, 0.0, SWELL_STENCIL_PAPER, 2.0, 0},
 		{23, 17, 0.3, 0.01, SWELL_STENCIL_CALIBRATED, 3.0, 1}, /* ragged tiles and bands */
 		{40, 29, 0.45, 0.0, SWELL_STENCIL_PAPER, 1.0, 1},
-		{9, 33, 0.2, 0.05, SWELL_STENCIL_PAPER, 2000.0, 1},   /* saturating heights */
+		{9, 33, 0.2, 0.05, SWELL_STENCIL_PAPER, 2000.0, 1}, /* saturating heights */
 	};
 	int checked_ahead = 0;
 	for (const Case &c : cases) {
 		for (swell_wave_kernel k : kernels()) {
 			for (uint32_t seed = 1; seed <= 4; seed++) {
 				Field ref(c.nx, c.ny, q30(c.e), q30(c.t), c.st, SWELL_KERNEL_REF),
-				    ahead(c.nx, c.ny, q30(c.e), q30(c.t), c.st, k);
+					ahead(c.nx, c.ny, q30(c.e), q30(c.t), c.st, k);
 				std::mt19937 rng(seed);
 				const int32_t amp = (int32_t)std::min<double>(c.amp_mm * SWELL_H_ONE_MM, SWELL_H_MAX);
 				std::uniform_int_distribution<int32_t> d(-amp, amp);
@@ -81,7 +80,8 @@ TEST_CASE("the finish spread over the slices is bit-identical to the whole finis
 							swell_wave_add(&ref.w, i, j, dh);
 							swell_wave_add(&ahead.w, i, j, dh);
 						}
-						if (rng() % 16 == 0 && ahead.w.done_row < c.ny) { /* a cell written from outside */
+						if (rng() % 16 == 0 &&
+						    ahead.w.done_row < c.ny) { /* a cell written from outside */
 							const int j = ahead.w.done_row + (int)(rng() % (c.ny - ahead.w.done_row));
 							const int a = j * c.nx + (int)(rng() % c.nx);
 							ref.w.h[a] = ahead.w.h[a] = d(rng);
@@ -91,23 +91,25 @@ TEST_CASE("the finish spread over the slices is bit-identical to the whole finis
 						/* what a reader sees between slices: h(n) and v, everywhere */
 						int bad = -1;
 						for (int a = 0; a < ref.n() && bad < 0; a++) {
-							const bool sat = ahead.w.h[a] <= SWELL_H_MIN || ahead.w.h[a] >= SWELL_H_MAX;
+							const bool sat =
+								ahead.w.h[a] <= SWELL_H_MIN || ahead.w.h[a] >= SWELL_H_MAX;
 							if ((!sat && ahead.h_last(a) != ref.w.h[a]) || ahead.w.v[a] != ref.w.v[a])
 								bad = a;
 						}
-						INFO(swell_wave_kernel_name(k) << " " << c.nx << "x" << c.ny << " seed " << seed << " step "
-									       << s << " done_row " << ahead.w.done_row << ": cell "
-									       << bad << " reads " << (bad < 0 ? 0 : ahead.h_last(bad))
-									       << " for " << (bad < 0 ? 0 : ref.w.h[bad]));
+						INFO(swell_wave_kernel_name(k)
+						     << " " << c.nx << "x" << c.ny << " seed " << seed << " step " << s
+						     << " done_row " << ahead.w.done_row << ": cell " << bad << " reads "
+						     << (bad < 0 ? 0 : ahead.h_last(bad)) << " for "
+						     << (bad < 0 ? 0 : ref.w.h[bad]));
 						REQUIRE(bad < 0);
 						checked_ahead += ahead.w.done_row > 0;
 					}
 					swell_wave_step_finish(&ref.w);
 					swell_wave_step_finish(&ahead.w);
 					const std::string diff = differs(ref, ahead);
-					INFO(swell_wave_kernel_name(k) << " " << c.nx << "x" << c.ny << " e " << c.e << " t " << c.t
-								       << " sleep " << c.sleep << " seed " << seed << ": after step "
-								       << s << ": " << diff);
+					INFO(swell_wave_kernel_name(k)
+					     << " " << c.nx << "x" << c.ny << " e " << c.e << " t " << c.t << " sleep " << c.sleep
+					     << " seed " << seed << ": after step " << s << ": " << diff);
 					REQUIRE(diff.empty());
 					REQUIRE(ahead.w.done_row == 0);
 				}
@@ -141,8 +143,7 @@ TEST_CASE("finishing ahead waits for the next band and never passes the rows don
 	CHECK(f.w.next_row == 0);
 }
 
-TEST_CASE("water added to a row finished ahead is in h at once and conserved like any other",
-	  "[wave][split][finish][add]")
+TEST_CASE("water added to a row finished ahead is in h at once and conserved like any other", "[wave][split][finish][add]")
 {
 	Field f(16, 24, q30(0.25), q30(0.02), SWELL_STENCIL_PAPER, SWELL_KERNEL_AUTO);
 	std::mt19937 rng(9);
@@ -153,8 +154,8 @@ TEST_CASE("water added to a row finished ahead is in h at once and conserved lik
 	swell_wave_step_rows(&f.w, 17);
 	REQUIRE(swell_wave_finish_rows(&f.w, 24) == 16);
 	const int32_t h_before = f.w.h[3 * 16 + 5], h_last = f.w.h[3 * 16 + 5] - f.w.acc[3 * 16 + 5];
-	swell_wave_add(&f.w, 5, 3, 1000);   /* finished ahead: in h now */
-	swell_wave_add(&f.w, 5, 20, -250);  /* not yet: at the finish */
+	swell_wave_add(&f.w, 5, 3, 1000); /* finished ahead: in h now */
+	swell_wave_add(&f.w, 5, 20, -250); /* not yet: at the finish */
 	CHECK(f.w.h[3 * 16 + 5] == h_before + 1000);
 	CHECK(f.w.h[3 * 16 + 5] - f.w.acc[3 * 16 + 5] == h_last); /* h(n) as a reader sees it: unchanged */
 	swell_wave_step_finish(&f.w);

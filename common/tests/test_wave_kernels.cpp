@@ -60,17 +60,17 @@ void run_pair(const Case &c, swell_wave_kernel k, uint32_t seed, int steps)
 				swell_wave_touched(&fast.w, a % c.nx, a / c.nx);
 			}
 			const std::string diff = differs(ref, fast, false);
-			INFO(swell_wave_kernel_name(k) << " " << c.nx << "x" << c.ny << " e " << c.e << " t " << c.t
-						       << " stencil " << c.st << " amp " << c.amp_mm << " mm sleep "
-						       << c.sleep << " seed " << seed << ": step " << s << ", " << left
-						       << " rows left: " << diff);
+			INFO(swell_wave_kernel_name(k)
+			     << " " << c.nx << "x" << c.ny << " e " << c.e << " t " << c.t << " stencil " << c.st << " amp "
+			     << c.amp_mm << " mm sleep " << c.sleep << " seed " << seed << ": step " << s << ", " << left
+			     << " rows left: " << diff);
 			REQUIRE(diff.empty());
 		}
 		swell_wave_step_finish(&ref.w);
 		swell_wave_step_finish(&fast.w);
 		const std::string diff = differs(ref, fast);
-		INFO(swell_wave_kernel_name(k) << " " << c.nx << "x" << c.ny << " e " << c.e << " t " << c.t << " seed "
-					       << seed << ": after step " << s << ": " << diff);
+		INFO(swell_wave_kernel_name(k) << " " << c.nx << "x" << c.ny << " e " << c.e << " t " << c.t << " seed " << seed
+					       << ": after step " << s << ": " << diff);
 		REQUIRE(diff.empty());
 	}
 }
@@ -82,15 +82,15 @@ TEST_CASE("every kernel is bit-identical to the scalar reference: random fields,
 	  "[wave][kernel]")
 {
 	const Case cases[] = {
-		{64, 64, 0.2, 0.0, SWELL_STENCIL_PAPER, 20, 1},        /* the reference scene, undamped */
-		{64, 64, 0.2, 0.01, SWELL_STENCIL_PAPER, 20, 1},       /* damped */
-		{48, 40, 0.4, 0.3, SWELL_STENCIL_CALIBRATED, 5, 1},    /* calibrated */
-		{45, 37, 0.3, 0.02, SWELL_STENCIL_PAPER, 2, 1},        /* ragged: the last tile column is 5 wide */
-		{16, 9, 0.49, 0.0, SWELL_STENCIL_PAPER, 100, 0},       /* near the limit, no sleeping */
-		{24, 24, 0.9, 0.7, SWELL_STENCIL_PAPER, 50, 1},        /* c_wall >= 2^29 (the M4's second mode) */
-		{8, 8, 0.25, 0.1, SWELL_STENCIL_PAPER, 10, 1},         /* one tile: both walls in it */
-		{2, 2, 0.3, 0.0, SWELL_STENCIL_PAPER, 10, 1},          /* the smallest grid */
-		{17, 3, 0.3, 0.05, SWELL_STENCIL_CALIBRATED, 10, 0},   /* narrow and ragged */
+		{64, 64, 0.2, 0.0, SWELL_STENCIL_PAPER, 20, 1}, /* the reference scene, undamped */
+		{64, 64, 0.2, 0.01, SWELL_STENCIL_PAPER, 20, 1}, /* damped */
+		{48, 40, 0.4, 0.3, SWELL_STENCIL_CALIBRATED, 5, 1}, /* calibrated */
+		{45, 37, 0.3, 0.02, SWELL_STENCIL_PAPER, 2, 1}, /* ragged: the last tile column is 5 wide */
+		{16, 9, 0.49, 0.0, SWELL_STENCIL_PAPER, 100, 0}, /* near the limit, no sleeping */
+		{24, 24, 0.9, 0.7, SWELL_STENCIL_PAPER, 50, 1}, /* c_wall >= 2^29 (the M4's second mode) */
+		{8, 8, 0.25, 0.1, SWELL_STENCIL_PAPER, 10, 1}, /* one tile: both walls in it */
+		{2, 2, 0.3, 0.0, SWELL_STENCIL_PAPER, 10, 1}, /* the smallest grid */
+		{17, 3, 0.3, 0.05, SWELL_STENCIL_CALIBRATED, 10, 0}, /* narrow and ragged */
 	};
 	for (swell_wave_kernel k : fast_kernels())
 		for (const Case &c : cases)
@@ -99,7 +99,8 @@ TEST_CASE("every kernel is bit-identical to the scalar reference: random fields,
 }
 
 TEST_CASE("every kernel saturates exactly like the reference: full-scale checkerboards at the "
-	  "stability limit", "[wave][kernel][saturation]")
+	  "stability limit",
+	  "[wave][kernel][saturation]")
 {
 	for (swell_wave_kernel k : fast_kernels()) {
 		for (double t : {0.0, 0.3}) {
@@ -108,8 +109,7 @@ TEST_CASE("every kernel saturates exactly like the reference: full-scale checker
 			Field fast(16, 16, e, q30(t), SWELL_STENCIL_PAPER, k);
 			for (int j = 0; j < 16; j++)
 				for (int i = 0; i < 16; i++)
-					ref.w.h[j * 16 + i] = fast.w.h[j * 16 + i] =
-						((i + j) & 1) ? SWELL_H_MAX : SWELL_H_MIN;
+					ref.w.h[j * 16 + i] = fast.w.h[j * 16 + i] = ((i + j) & 1) ? SWELL_H_MAX : SWELL_H_MIN;
 			swell_wave_rest(&ref.w);
 			swell_wave_rest(&fast.w);
 			for (int s = 0; s < 500; s++) {
@@ -126,7 +126,8 @@ TEST_CASE("every kernel saturates exactly like the reference: full-scale checker
 }
 
 TEST_CASE("kernel selection: unknown kernels are refused and change nothing, AUTO picks one that "
-	  "exists", "[wave][kernel]")
+	  "exists",
+	  "[wave][kernel]")
 {
 	Field f(16, 16, q30(0.2), 0, SWELL_STENCIL_PAPER, SWELL_KERNEL_AUTO);
 	const uint8_t chosen = f.w.kernel;

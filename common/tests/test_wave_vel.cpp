@@ -37,8 +37,7 @@ struct Vel {
 	void random(uint32_t seed, double amp_mm)
 	{
 		std::mt19937 rng(seed);
-		std::uniform_int_distribution<int32_t> d(-(int32_t)(amp_mm * SWELL_H_ONE_MM),
-							 (int32_t)(amp_mm * SWELL_H_ONE_MM));
+		std::uniform_int_distribution<int32_t> d(-(int32_t)(amp_mm * SWELL_H_ONE_MM), (int32_t)(amp_mm * SWELL_H_ONE_MM));
 		for (int a = 0; a < n(); a++)
 			w.h[a] = d(rng);
 		swell_wave_rest(&w);
@@ -61,7 +60,7 @@ std::string differs(const Vel &a, const Vel &b)
 			return "v[" + std::to_string(i) + "] " + std::to_string(a.w.v[i]) + " vs " + std::to_string(b.w.v[i]);
 		if (a.w.acc[i] != b.w.acc[i])
 			return "acc[" + std::to_string(i) + "] " + std::to_string(a.w.acc[i]) + " vs " +
-			       std::to_string(b.w.acc[i]);
+				std::to_string(b.w.acc[i]);
 		if (a.w.u[i] != b.w.u[i])
 			return "u[" + std::to_string(i) + "] " + std::to_string(a.w.u[i]) + " vs " + std::to_string(b.w.u[i]);
 	}
@@ -107,11 +106,11 @@ TEST_CASE("velocity form: the fused kernel is bit-identical to the reference aft
 		swell_stencil st;
 		int sleep;
 	};
-	const C cases[] = {{64, 64, 0.2, 0.0, SWELL_STENCIL_PAPER, 1},   {64, 64, 0.2, 0.02, SWELL_STENCIL_PAPER, 1},
-			   {21, 13, 0.45, 0.0, SWELL_STENCIL_PAPER, 1},  {21, 13, 0.3, 0.1, SWELL_STENCIL_CALIBRATED, 0},
-			   {8, 8, 0.49, 0.001, SWELL_STENCIL_PAPER, 1},  {2, 2, 0.2, 0.0, SWELL_STENCIL_PAPER, 0},
-			   {16, 24, 0.7, 0.5, SWELL_STENCIL_PAPER, 1},   {9, 17, 1.6, 0.6, SWELL_STENCIL_CALIBRATED, 1},
-			   {16, 16, 1.0, 0.7, SWELL_STENCIL_PAPER, 1},   {24, 8, 0.06, 0.0, SWELL_STENCIL_PAPER, 1}};
+	const C cases[] = {{64, 64, 0.2, 0.0, SWELL_STENCIL_PAPER, 1},  {64, 64, 0.2, 0.02, SWELL_STENCIL_PAPER, 1},
+			   {21, 13, 0.45, 0.0, SWELL_STENCIL_PAPER, 1}, {21, 13, 0.3, 0.1, SWELL_STENCIL_CALIBRATED, 0},
+			   {8, 8, 0.49, 0.001, SWELL_STENCIL_PAPER, 1}, {2, 2, 0.2, 0.0, SWELL_STENCIL_PAPER, 0},
+			   {16, 24, 0.7, 0.5, SWELL_STENCIL_PAPER, 1},  {9, 17, 1.6, 0.6, SWELL_STENCIL_CALIBRATED, 1},
+			   {16, 16, 1.0, 0.7, SWELL_STENCIL_PAPER, 1},  {24, 8, 0.06, 0.0, SWELL_STENCIL_PAPER, 1}};
 	for (const C &c : cases) {
 		for (uint32_t seed = 1; seed <= 3; seed++) {
 			Vel r(c.nx, c.ny, q30(c.e), q30(c.t), c.st, SWELL_KERNEL_REF);
@@ -128,8 +127,8 @@ TEST_CASE("velocity form: the fused kernel is bit-identical to the reference aft
 			std::memcpy(f.w.h, r.w.h, sizeof(int32_t) * r.n());
 			swell_wave_rest(&f.w);
 			std::mt19937 rng_r(seed), rng_f(seed);
-			INFO(c.nx << "x" << c.ny << " e " << c.e << " t " << c.t << " stencil " << c.st << " sleep "
-				  << c.sleep << " seed " << seed);
+			INFO(c.nx << "x" << c.ny << " e " << c.e << " t " << c.t << " stencil " << c.st << " sleep " << c.sleep
+				  << " seed " << seed);
 			for (int s = 0; s < 60; s++) {
 				swell_wave_step_rows(&r.w, c.ny / 3 + 1);
 				swell_wave_step_rows(&f.w, c.ny / 3 + 1);
@@ -155,8 +154,7 @@ TEST_CASE("velocity form: the fused kernel is bit-identical to the reference aft
 	}
 }
 
-TEST_CASE("velocity form: sleeping tiles are lossless (bit-identical to every tile every step)",
-	  "[wave][velocity][sleep]")
+TEST_CASE("velocity form: sleeping tiles are lossless (bit-identical to every tile every step)", "[wave][velocity][sleep]")
 {
 	Vel a(64, 64, q30(0.2), q30(0.01), SWELL_STENCIL_PAPER), b(64, 64, q30(0.2), q30(0.01), SWELL_STENCIL_PAPER);
 	swell_wave_set_sleep(&b.w, 0);
@@ -280,8 +278,8 @@ TEST_CASE("velocity form: a seiche eigenmode follows the exact discrete solution
 		}
 		WARN((st == SWELL_STENCIL_PAPER ? "paper" : "calibrated")
 		     << ": Linf vs exact discrete eigenmode " << err << " mm (edge-flux form " << err_edge
-		     << " mm), vs float64 of the scheme " << err_ref << " mm; " << (int)f.w.vel_frac
-		     << " fraction bits; fixer " << f.w.fixed_lsb << " LSB");
+		     << " mm), vs float64 of the scheme " << err_ref << " mm; " << (int)f.w.vel_frac << " fraction bits; fixer "
+		     << f.w.fixed_lsb << " LSB");
 		/* the bar the edge-flux form is held to; which form is closer depends on e (swell-bench's
 		 * matrix: neither is better at every e) */
 		CHECK(err <= 1e-2);

@@ -91,15 +91,15 @@ static int parse_udp(const char *spec, const char *arg, int device_side, long *p
 	if (strncmp(comma, key, strlen(key)) ||
 	    parse_addr(comma + strlen(key), strlen(comma + strlen(key)), !device_side, opt) != 0) {
 		snprintf(err, errlen, "%s: '%s' is not %s", spec, comma,
-			 device_side ? "peer=ADDR:PORT (the device's address)" : "listen=[ADDR:]PORT (the clients' port)");
+			 device_side ? "peer=ADDR:PORT (the device's address)"
+				     : "listen=[ADDR:]PORT (the clients' port)");
 		return -1;
 	}
 	*have_opt = 1;
 	return 0;
 }
 
-static int open_udp(struct ctl_link *l, const char *spec, const char *arg, int device_side, char *err,
-		    size_t errlen)
+static int open_udp(struct ctl_link *l, const char *spec, const char *arg, int device_side, char *err, size_t errlen)
 {
 	long port = device_side ? SWELL_UDP_PORT_DEVICE : SWELL_UDP_PORT_VIEWER;
 	const int rcvbuf = 2 << 20; /* bytes of queue, about 2700 small datagrams */
@@ -143,10 +143,14 @@ static int open_udp(struct ctl_link *l, const char *spec, const char *arg, int d
 const char *ctl_can_state_name(enum ctl_can_state s)
 {
 	switch (s) {
-	case CTL_CAN_ACTIVE: return "error-active";
-	case CTL_CAN_WARNING: return "error-warning";
-	case CTL_CAN_PASSIVE: return "error-passive";
-	case CTL_CAN_BUS_OFF: return "bus-off";
+	case CTL_CAN_ACTIVE:
+		return "error-active";
+	case CTL_CAN_WARNING:
+		return "error-warning";
+	case CTL_CAN_PASSIVE:
+		return "error-passive";
+	case CTL_CAN_BUS_OFF:
+		return "bus-off";
 	}
 	return "?";
 }
@@ -190,10 +194,18 @@ enum ctl_can_event ctl_can_error_frame(struct ctl_can_health *h, uint32_t can_id
 		return CTL_CAN_EV_NONE;
 	h->state = (uint8_t)now;
 	switch (now) {
-	case CTL_CAN_BUS_OFF: h->bus_offs++; return CTL_CAN_EV_BUS_OFF;
-	case CTL_CAN_PASSIVE: h->passives++; break;
-	case CTL_CAN_WARNING: h->warnings++; break;
-	case CTL_CAN_ACTIVE: h->actives++; break;
+	case CTL_CAN_BUS_OFF:
+		h->bus_offs++;
+		return CTL_CAN_EV_BUS_OFF;
+	case CTL_CAN_PASSIVE:
+		h->passives++;
+		break;
+	case CTL_CAN_WARNING:
+		h->warnings++;
+		break;
+	case CTL_CAN_ACTIVE:
+		h->actives++;
+		break;
 	}
 	if (before == CTL_CAN_BUS_OFF) {
 		h->restarts++;
@@ -208,7 +220,7 @@ static int open_can(struct ctl_link *l, const char *spec, const char *iface, cha
 	struct ifreq ifr;
 	/* every error class but CAN_ERR_BUSERROR, which may flood */
 	can_err_mask_t mask = CAN_ERR_TX_TIMEOUT | CAN_ERR_LOSTARB | CAN_ERR_CRTL | CAN_ERR_PROT | CAN_ERR_TRX |
-			      CAN_ERR_ACK | CAN_ERR_BUSOFF | CAN_ERR_RESTARTED | CAN_ERR_CNT;
+		CAN_ERR_ACK | CAN_ERR_BUSOFF | CAN_ERR_RESTARTED | CAN_ERR_CNT;
 
 	if (!iface || !*iface || strlen(iface) >= IFNAMSIZ) {
 		snprintf(err, errlen, "%s: give an interface, e.g. can:can0", spec);
@@ -232,8 +244,7 @@ static int open_can(struct ctl_link *l, const char *spec, const char *iface, cha
 	return 0;
 }
 
-static int open_usb(struct ctl_link *l, const char *spec, const char *dir, int device_side, char *err,
-		    size_t errlen)
+static int open_usb(struct ctl_link *l, const char *spec, const char *dir, int device_side, char *err, size_t errlen)
 {
 	/* each link its own FunctionFS function: interface 0 the device link, 1 the host link when both
 	 * are on USB (the gadget numbers them in the order they are linked into the configuration) */
@@ -264,8 +275,7 @@ static int open_usb(struct ctl_link *l, const char *spec, const char *dir, int d
 	return 0;
 }
 
-int ctl_link_open(struct ctl_link *l, const char *spec, int device_side, uint8_t node, char *err,
-		  size_t errlen)
+int ctl_link_open(struct ctl_link *l, const char *spec, int device_side, uint8_t node, char *err, size_t errlen)
 {
 	char kind[8] = "";
 	const char *arg = strchr(spec, ':');
@@ -419,7 +429,7 @@ static struct ctl_link_client *client_of(struct ctl_link *l, const struct sockad
 static size_t recv_udp(struct ctl_link *l, struct swell_msg *out, size_t cap)
 {
 	uint8_t buf[SWELL_PKT_MAX + 1];
-	struct sockaddr_in from = {0}; /* filled by recvfrom; zeroed for the analyzer */
+	struct sockaddr_in from = { 0 }; /* filled by recvfrom; zeroed for the analyzer */
 	socklen_t flen = sizeof(from);
 	struct ctl_link_client *c = NULL;
 	size_t n = 0;
@@ -636,7 +646,7 @@ static void send_msgs(struct ctl_link *l, const struct swell_msg *m, size_t n)
 		for (k = 0; k < n; k++)
 			if (m[k].type == SWELL_MSG_FORCE_CMD) {
 				const struct swell_msg_force_cmd *f = &m[k].u.force_cmd;
-				const int16_t cN[3] = {f->fx_cN, f->fy_cN, f->fz_cN};
+				const int16_t cN[3] = { f->fx_cN, f->fy_cN, f->fz_cN };
 
 				hm_client_force(&l->hm, cN, f->enable);
 				l->frames_tx++;
@@ -682,7 +692,7 @@ static void send_msgs(struct ctl_link *l, const struct swell_msg *m, size_t n)
 
 int ctl_link_send_wait(struct ctl_link *l, const struct swell_msg *m, size_t n, int wait_ms)
 {
-	const struct timespec ms = {0, 1000000};
+	const struct timespec ms = { 0, 1000000 };
 	int rc = 0;
 
 	if (l->kind == CTL_LINK_HM) { /* the device confirms the zero bias force, or the wait ends */

@@ -13,27 +13,37 @@
 #include "swell/proto.h"
 #include "usb_ffs.h"
 
-enum ctl_link_kind { CTL_LINK_UDP, CTL_LINK_CAN, CTL_LINK_USB, CTL_LINK_HM };
+enum ctl_link_kind {
+	CTL_LINK_UDP,
+	CTL_LINK_CAN,
+	CTL_LINK_USB,
+	CTL_LINK_HM
+};
 
 /* The CAN controller's fault confinement state, as the driver's error frames tell it. */
-enum ctl_can_state { CTL_CAN_ACTIVE = 0, CTL_CAN_WARNING, CTL_CAN_PASSIVE, CTL_CAN_BUS_OFF };
+enum ctl_can_state {
+	CTL_CAN_ACTIVE = 0,
+	CTL_CAN_WARNING,
+	CTL_CAN_PASSIVE,
+	CTL_CAN_BUS_OFF
+};
 
 /* What an error frame changed. */
 enum ctl_can_event {
-	CTL_CAN_EV_NONE = 0,  /* counted, nothing to act on */
-	CTL_CAN_EV_STATE,     /* warning / passive / back to active: counted and reported */
-	CTL_CAN_EV_BUS_OFF,   /* the controller left the bus: nothing goes out or comes in */
+	CTL_CAN_EV_NONE = 0, /* counted, nothing to act on */
+	CTL_CAN_EV_STATE, /* warning / passive / back to active: counted and reported */
+	CTL_CAN_EV_BUS_OFF, /* the controller left the bus: nothing goes out or comes in */
 	CTL_CAN_EV_RESTARTED, /* back on the bus after a bus-off (restart-ms or a manual restart) */
 };
 
 struct ctl_can_health {
-	uint8_t state;               /* enum ctl_can_state */
-	uint8_t tx_err, rx_err;      /* the error counters of the last frame that carried them */
-	uint32_t error_frames;       /* every error frame read */
+	uint8_t state; /* enum ctl_can_state */
+	uint8_t tx_err, rx_err; /* the error counters of the last frame that carried them */
+	uint32_t error_frames; /* every error frame read */
 	uint32_t warnings, passives, bus_offs, restarts, actives; /* state changes into each state */
 	uint32_t no_ack, prot, overflows, tx_timeouts, lost_arb, transceiver;
-	uint32_t dropped_off;        /* data frames that arrived while bus-off (dropped, never acted on) */
-	uint32_t downs;              /* the interface went down (a down/up restart leaves bus-off too) */
+	uint32_t dropped_off; /* data frames that arrived while bus-off (dropped, never acted on) */
+	uint32_t downs; /* the interface went down (a down/up restart leaves bus-off too) */
 };
 
 /* Take one error frame (can_id carries CAN_ERR_FLAG; data the 8 bytes of linux/can/error.h) into h.
@@ -62,9 +72,9 @@ struct ctl_link {
 	 * telemetry whether or not it speaks. */
 	struct sockaddr_in peer;
 	int have_peer, peer_fixed, peer_open;
-	uint32_t others;       /* device link: datagrams of any other sender, dropped (unread once held) */
-	uint32_t peers_taken;  /* device link: times a sender became the device */
-	uint32_t unsent_run;   /* sends in a row in which nothing reached the carrier though it had a destination */
+	uint32_t others; /* device link: datagrams of any other sender, dropped (unread once held) */
+	uint32_t peers_taken; /* device link: times a sender became the device */
+	uint32_t unsent_run; /* sends in a row in which nothing reached the carrier though it had a destination */
 	struct ctl_link_client clients[CTL_LINK_CLIENTS];
 	uint32_t clients_admitted, clients_silent; /* host link: admitted, dropped after their silence */
 	uint32_t clients_refused; /* host link: valid packets of senders refused for a full table */
@@ -76,7 +86,7 @@ struct ctl_link {
 	struct swell_proto_stats st;
 	uint32_t frames_rx, frames_tx, tx_errors;
 	uint32_t foreign; /* valid messages of another node: dropped, never acted on */
-	struct ctl_can_health can;  /* CAN: error frames and bus state (the port compares bus_offs) */
+	struct ctl_can_health can; /* CAN: error frames and bus state (the port compares bus_offs) */
 	/* USB: a packet with a parameter answer that found every IN slot busy (telemetry the host has
 	 * not read yet) is held and sent first next time, not dropped: an answer is asked for once */
 	uint8_t held[SWELL_PKT_MAX];
@@ -93,8 +103,7 @@ struct ctl_link {
  * link only: a HapticMaster's TCP interface, hm_client.h). Returns 0, -2 for a spec that is not one
  * of these (nothing opened), -1 when the system refused (socket, bind, interface, FunctionFS,
  * connection); either way a one-line reason is in err. */
-int ctl_link_open(struct ctl_link *l, const char *spec, int device_side, uint8_t node, char *err,
-		  size_t errlen);
+int ctl_link_open(struct ctl_link *l, const char *spec, int device_side, uint8_t node, char *err, size_t errlen);
 
 /* The file descriptor to poll for input (-1 if none). */
 int ctl_link_fd(const struct ctl_link *l);

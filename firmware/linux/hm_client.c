@@ -16,10 +16,14 @@
 
 #define BIAS "swell_bias"
 
-enum { KIND_TICK, KIND_START, KIND_ZERO };
+enum {
+	KIND_TICK,
+	KIND_START,
+	KIND_ZERO
+};
 
-static const char startup_text[] = "set state init;set state force;remove " BIAS ";create biasforce " BIAS
-				   ";set " BIAS " force [0,0,0];set " BIAS " enable";
+static const char startup_text[] = "set state init;set state force;remove " BIAS ";create biasforce " BIAS ";set " BIAS
+				   " force [0,0,0];set " BIAS " enable";
 
 static int64_t now_ns(void)
 {
@@ -31,7 +35,7 @@ static int64_t now_ns(void)
 
 const char *hm_client_phase_name(enum hmc_phase p)
 {
-	static const char *const n[] = {"down", "connecting", "starting", "running", "holding off"};
+	static const char *const n[] = { "down", "connecting", "starting", "running", "holding off" };
 
 	return (unsigned)p < sizeof(n) / sizeof(n[0]) ? n[p] : "?";
 }
@@ -278,8 +282,8 @@ void hm_client_force(struct hm_client *c, const int16_t f_cN[3], int enable)
 	}
 	for (k = 0; k < 3; k++)
 		fmt_cN(f[k], sizeof(f[k]), zero ? 0 : f_cN[k]);
-	n = snprintf(text, sizeof(text), "set " BIAS " force [%s,%s,%s];get measpos;get modelvel;get state%s%s", f[0], f[1],
-		     f[2], c->extra[0] ? ";" : "", c->extra);
+	n = snprintf(text, sizeof(text), "set " BIAS " force [%s,%s,%s];get measpos;get modelvel;get state%s%s", f[0],
+		     f[1], f[2], c->extra[0] ? ";" : "", c->extra);
 	c->extra[0] = '\0';
 	if (n < 0 || (size_t)n >= sizeof(text) || request(c, KIND_TICK, text, (size_t)n) < 0) {
 		c->st.skipped += c->fd >= 0;
@@ -363,7 +367,7 @@ static size_t answer(struct hm_client *c, char *text, struct swell_msg *out, siz
 			c->phase = HMC_HOLDOFF;
 			c->retry_at_ns = now_ns() + (int64_t)HMC_RETRY_MS * 1000000;
 		} else {
-			static const int16_t none[3] = {0, 0, 0};
+			static const int16_t none[3] = { 0, 0, 0 };
 
 			c->phase = HMC_RUNNING;
 			/* a first sample at once: a controller clocked by the device ticks on it */
@@ -433,7 +437,7 @@ size_t hm_client_poll(struct hm_client *c, struct swell_msg *out, size_t cap, ui
 		return 0;
 	}
 	if (c->phase == HMC_CONNECTING) {
-		struct pollfd pf = {c->fd, POLLOUT, 0};
+		struct pollfd pf = { c->fd, POLLOUT, 0 };
 		int e = 0;
 		socklen_t el = sizeof(e);
 
@@ -484,7 +488,7 @@ size_t hm_client_poll(struct hm_client *c, struct swell_msg *out, size_t cap, ui
 			n += answer(c, text, out + n, cap - n, node);
 		}
 		if (c->in_len < sizeof(c->in)) {
-			struct pollfd pf = {c->fd, POLLIN, 0};
+			struct pollfd pf = { c->fd, POLLIN, 0 };
 
 			if (poll(&pf, 1, 0) <= 0)
 				break;
@@ -506,7 +510,7 @@ int hm_client_zero_wait(struct hm_client *c, int wait_ms)
 	want = c->st.answers + c->ring_n; /* every request before it, then the zero's answer */
 	while (c->fd >= 0 && c->st.answers < want && now_ns() < end) {
 		struct swell_msg m[2 * HMC_RING];
-		struct pollfd pf = {c->fd, (short)(POLLIN | (c->out_len ? POLLOUT : 0)), 0};
+		struct pollfd pf = { c->fd, (short)(POLLIN | (c->out_len ? POLLOUT : 0)), 0 };
 
 		poll(&pf, 1, 1);
 		if (flush(c) < 0)
@@ -534,15 +538,17 @@ void hm_client_report(const struct hm_client *c, FILE *f)
 {
 	const struct hmc_stats *s = &c->st;
 
-	fprintf(f, "  hm link         %s: %s; %u requests, %u answers, %u samples; %u late (older than %u ticks, "
-		   "dropped), %u lost in resets, %u not sent (%u in flight), %u error answers, %u not understood\n",
+	fprintf(f,
+		"  hm link         %s: %s; %u requests, %u answers, %u samples; %u late (older than %u ticks, "
+		"dropped), %u lost in resets, %u not sent (%u in flight), %u error answers, %u not understood\n",
 		c->name, hm_client_phase_name(c->phase), s->requests, s->answers, s->samples, s->late, c->max_age_ticks,
 		s->lost, s->skipped, c->max_age_ticks + 1, s->error_answers, s->garbage);
 	fprintf(f, "  hm round trip   p50 %.0f us, p99 %.0f us, max %.0f us, mean %.0f us; most in flight %u\n",
 		hm_client_rtt_pct(c, 0.5), hm_client_rtt_pct(c, 0.99), (double)s->rtt_ns_max / 1e3,
 		s->answers ? (double)s->rtt_ns_sum / s->answers / 1e3 : 0.0, s->max_inflight);
-	fprintf(f, "  hm sessions     %u connections, %u resets, %u start-ups (%u failed), %u times found not in "
-		   "force\n",
+	fprintf(f,
+		"  hm sessions     %u connections, %u resets, %u start-ups (%u failed), %u times found not in "
+		"force\n",
 		s->connects, s->resets, s->startups, s->startup_failures, s->not_force);
 }
 

@@ -33,21 +33,27 @@
 #include "swell/proto.h"
 
 #define HMC_PORT 7654
-#define HMC_TEXT_MAX 1024     /* longest request or answer text */
-#define HMC_RING 32           /* requests in flight at most */
-#define HMC_RETRY_MS 200      /* reconnect and start-up retry period */
-#define HMC_RTT_US 20000      /* round-trip histogram range */
+#define HMC_TEXT_MAX 1024 /* longest request or answer text */
+#define HMC_RING 32 /* requests in flight at most */
+#define HMC_RETRY_MS 200 /* reconnect and start-up retry period */
+#define HMC_RTT_US 20000 /* round-trip histogram range */
 
-enum hmc_phase { HMC_DOWN, HMC_CONNECTING, HMC_STARTING, HMC_RUNNING, HMC_HOLDOFF };
+enum hmc_phase {
+	HMC_DOWN,
+	HMC_CONNECTING,
+	HMC_STARTING,
+	HMC_RUNNING,
+	HMC_HOLDOFF
+};
 
 struct hmc_stats {
-	uint32_t requests, answers, samples;   /* tick requests sent, answers read, samples produced */
-	uint32_t late, lost, skipped;          /* too old / never answered / not sent (too many in flight) */
-	uint32_t error_answers, garbage;       /* "--- ERROR:" in a tick answer / an answer not understood */
+	uint32_t requests, answers, samples; /* tick requests sent, answers read, samples produced */
+	uint32_t late, lost, skipped; /* too old / never answered / not sent (too many in flight) */
+	uint32_t error_answers, garbage; /* "--- ERROR:" in a tick answer / an answer not understood */
 	uint32_t connects, resets, startups, startup_failures, not_force;
 	uint32_t max_inflight;
-	uint64_t rtt_ns_sum, rtt_ns_max;       /* request written -> answer read */
-	uint32_t rtt_hist[HMC_RTT_US + 1];     /* 1 us bins, later ones in the last */
+	uint64_t rtt_ns_sum, rtt_ns_max; /* request written -> answer read */
+	uint32_t rtt_hist[HMC_RTT_US + 1]; /* 1 us bins, later ones in the last */
 };
 
 struct hm_client {
@@ -67,11 +73,11 @@ struct hm_client {
 	uint32_t ring_tick[HMC_RING];
 	int64_t ring_ns[HMC_RING];
 	unsigned ring_head, ring_n;
-	uint32_t tick;                         /* hm_client_force calls */
+	uint32_t tick; /* hm_client_force calls */
 	uint8_t seq;
-	uint8_t status;                        /* of the last sample */
-	int sent_zero;                         /* the last tick request sent carried zero force */
-	char extra[HMC_TEXT_MAX / 2];          /* commands for the next request (effect mode) */
+	uint8_t status; /* of the last sample */
+	int sent_zero; /* the last tick request sent carried zero force */
+	char extra[HMC_TEXT_MAX / 2]; /* commands for the next request (effect mode) */
 	struct hmc_stats st;
 };
 

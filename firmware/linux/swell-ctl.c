@@ -133,9 +133,9 @@ static int parse_version(const char *s, uint8_t v[3])
 /* 1 for an option that takes a value. */
 static int takes_value(const char *a)
 {
-	static const char *const with_value[] = {"--device", "--host", "--clock", "--tick-hz", "--solver-hz",
-						 "--silent-ticks", "--host-budget", "--node", "--fw-version",
-						 "--seconds", "--scene"};
+	static const char *const with_value[] = { "--device",     "--host",         "--clock",       "--tick-hz",
+						  "--solver-hz",  "--silent-ticks", "--host-budget", "--node",
+						  "--fw-version", "--seconds",      "--scene" };
 	size_t k;
 
 	for (k = 0; k < sizeof(with_value) / sizeof(with_value[0]); k++)
@@ -152,8 +152,10 @@ static void check_links(const struct opts *o)
 	const char *hp = !strcmp(o->host, "udp") ? "47801" : !strncmp(o->host, "udp:", 4) ? o->host + 4 : NULL;
 
 	if (dp && hp && strtol(dp, NULL, 10) == strtol(hp, NULL, 10) && strtol(dp, NULL, 10) > 0) {
-		fprintf(stderr, "swell-ctl: --device %s and --host %s: the telemetry would go to the device link's own "
-				"port\n", o->device, o->host);
+		fprintf(stderr,
+			"swell-ctl: --device %s and --host %s: the telemetry would go to the device link's own "
+			"port\n",
+			o->device, o->host);
 		exit(2);
 	}
 	if (!strncmp(o->device, "usb:", 4) && !strcmp(o->device, o->host)) {
@@ -199,12 +201,14 @@ static void scene_e(struct opts *o)
 	      swell_scene_get(sc, SWELL_SCENE_SOLVER_HZ)))
 		return;
 	if (o->cfg.solver_hz == 0 || 1000000u % o->cfg.solver_hz != 0) {
-		fprintf(stderr, "swell-ctl: --scene %s: solver rate %u Hz is not a whole number of us a step: give "
-				"wave.e\n", o->scene_path, o->cfg.solver_hz);
+		fprintf(stderr,
+			"swell-ctl: --scene %s: solver rate %u Hz is not a whole number of us a step: give "
+			"wave.e\n",
+			o->scene_path, o->cfg.solver_hz);
 		exit(2);
 	}
-	e = swell_wave_e_from_physical(o->cfg.body.g_mm_s2, 1000000u / o->cfg.solver_hz, o->cfg.depth_um,
-				       o->cfg.dx_um, &o->cfg.wave.e);
+	e = swell_wave_e_from_physical(o->cfg.body.g_mm_s2, 1000000u / o->cfg.solver_hz, o->cfg.depth_um, o->cfg.dx_um,
+				       &o->cfg.wave.e);
 	if (e != SWELL_OK) {
 		fprintf(stderr, "swell-ctl: --scene %s: e = g dt^2 d / dx^2 from the pool: %s\n", o->scene_path,
 			swell_err_str(e));
@@ -233,7 +237,8 @@ static int scene_params(struct swell_ctl *c, const struct opts *o)
 		m.u.param_set.seq = (uint8_t)k;
 		swell_ctl_rx(c, SWELL_LINK_HOST, &m);
 		if (swell_ctl_tx(c, SWELL_LINK_HOST, &a, 1) != 1 || a.type != SWELL_MSG_PARAM_ACK) {
-			fprintf(stderr, "swell-ctl: --scene %s:%d: %s refused: %s\n", o->scene_path, v->line, v->d->name,
+			fprintf(stderr, "swell-ctl: --scene %s:%d: %s refused: %s\n", o->scene_path, v->line,
+				v->d->name,
 				a.type == SWELL_MSG_PARAM_NACK ? swell_err_str((enum swell_err)a.u.param_nack.err)
 							       : "no answer");
 			return -1;
@@ -290,8 +295,7 @@ static void parse(int argc, char **argv, struct opts *o)
 			else if (!strcmp(a, "--silent-ticks")) {
 				o->cfg.silent_ticks = (uint16_t)num(a, v, 1, 10000);
 				o->silent_given = 1;
-			}
-			else if (!strcmp(a, "--host-budget"))
+			} else if (!strcmp(a, "--host-budget"))
 				o->cfg.host_budget = (uint16_t)num(a, v, 1, SWELL_CTL_QUEUE / 2);
 			else if (!strcmp(a, "--node"))
 				o->cfg.node = (uint8_t)num(a, v, 0, SWELL_NODE_MAX);
@@ -362,7 +366,7 @@ static int64_t ns_of(const struct timespec *t)
 
 static struct timespec ts_of(int64_t ns)
 {
-	struct timespec t = {(time_t)(ns / 1000000000), (long)(ns % 1000000000)};
+	struct timespec t = { (time_t)(ns / 1000000000), (long)(ns % 1000000000) };
 
 	return t;
 }
@@ -383,8 +387,8 @@ struct port {
 	int have_host;
 	uint32_t bad_seen;
 	uint32_t bus_offs_seen[2], restarts_seen[2]; /* CAN: device, host link */
-	uint32_t starved;  /* times nothing reached the device for silent_ticks ticks in a row */
-	int starving;      /* the present run of unsent ticks has been reported */
+	uint32_t starved; /* times nothing reached the device for silent_ticks ticks in a row */
+	int starving; /* the present run of unsent ticks has been reported */
 	uint32_t releases; /* times the device was declared lost and a learned UDP device let go */
 };
 
@@ -413,7 +417,7 @@ static int take_input(struct port *p)
 			pos |= m[k].type == SWELL_MSG_DEVICE_POS;
 		}
 		if (n == 0) {
-			struct pollfd pf = {ctl_link_fd(&p->dev), POLLIN, 0};
+			struct pollfd pf = { ctl_link_fd(&p->dev), POLLIN, 0 };
 			if (pf.fd < 0 || poll(&pf, 1, 0) <= 0)
 				break;
 		}
@@ -426,7 +430,7 @@ static int take_input(struct port *p)
 		for (k = 0; k < n; k++)
 			swell_ctl_rx(&p->c, SWELL_LINK_HOST, &m[k]);
 		if (n == 0) {
-			struct pollfd pf = {ctl_link_fd(&p->host), POLLIN, 0};
+			struct pollfd pf = { ctl_link_fd(&p->host), POLLIN, 0 };
 
 			if (pf.fd < 0 || poll(&pf, 1, 0) <= 0)
 				break;
@@ -467,8 +471,10 @@ static int device_starved(struct port *p)
 	if (!p->starving) {
 		p->starving = 1;
 		p->starved++;
-		fprintf(stderr, "swell-ctl: device link %s: no command reached the device for %u ticks: force "
-				"zeroed, loop faulted\n", p->dev.name, p->dev.unsent_run);
+		fprintf(stderr,
+			"swell-ctl: device link %s: no command reached the device for %u ticks: force "
+			"zeroed, loop faulted\n",
+			p->dev.name, p->dev.unsent_run);
 	}
 	return 1;
 }
@@ -487,7 +493,7 @@ static double mono_s(void)
  * and autorun recovers. Returns 1 when the loop must tick now (to enter the fault). */
 static int link_faults(struct port *p)
 {
-	struct ctl_link *l[2] = {&p->dev, &p->host};
+	struct ctl_link *l[2] = { &p->dev, &p->host };
 	int k, tick = 0;
 
 	for (k = 0; k < 2; k++) {
@@ -570,7 +576,7 @@ static const char *addr_str(const struct sockaddr_in *a, int have, int fixed, ch
  * becomes SLOW_SILENCE_MS of ticks, and the start line says so. Returns 1 with SCHED_FIFO. */
 static int setup_rt(struct opts *o)
 {
-	struct sched_param sp = {.sched_priority = 80};
+	struct sched_param sp = { .sched_priority = 80 };
 	const char *why = "--no-rt";
 	char buf[96];
 	uint32_t slow;
@@ -580,8 +586,9 @@ static int setup_rt(struct opts *o)
 			fprintf(stderr, "swell-ctl: warning: mlockall: %s; running without locked memory\n",
 				strerror(errno));
 		if (sched_setscheduler(0, SCHED_FIFO, &sp) == 0) {
-			fprintf(stderr, "swell-ctl: real-time: SCHED_FIFO priority 80; device silence limit %u ticks "
-					"(%.1f ms)\n",
+			fprintf(stderr,
+				"swell-ctl: real-time: SCHED_FIFO priority 80; device silence limit %u ticks "
+				"(%.1f ms)\n",
 				o->cfg.silent_ticks, o->cfg.silent_ticks * 1e3 / o->cfg.tick_hz);
 			return 1;
 		}
@@ -590,8 +597,9 @@ static int setup_rt(struct opts *o)
 	}
 	slow = o->cfg.tick_hz * SLOW_SILENCE_MS / 1000;
 	if (!o->silent_given && slow > o->cfg.silent_ticks) {
-		fprintf(stderr, "swell-ctl: no real-time scheduling (%s): device silence limit %u ticks (%.1f ms) "
-				"instead of %u; --silent-ticks N to choose\n",
+		fprintf(stderr,
+			"swell-ctl: no real-time scheduling (%s): device silence limit %u ticks (%.1f ms) "
+			"instead of %u; --silent-ticks N to choose\n",
 			why, slow, slow * 1e3 / o->cfg.tick_hz, o->cfg.silent_ticks);
 		o->cfg.silent_ticks = (uint16_t)slow;
 	} else {
@@ -655,8 +663,8 @@ int main(int argc, char **argv)
 	sa.sa_handler = on_signal;
 	sigaction(SIGINT, &sa, NULL);
 	sigaction(SIGTERM, &sa, NULL);
-	fprintf(stderr, "swell-ctl: %ux%u pool, tick %u Hz, solver %u Hz, device %s, host %s, clock %s\n",
-		o.cfg.nx, o.cfg.ny, o.cfg.tick_hz, o.cfg.solver_hz, p.dev.name, p.have_host ? p.host.name : "none",
+	fprintf(stderr, "swell-ctl: %ux%u pool, tick %u Hz, solver %u Hz, device %s, host %s, clock %s\n", o.cfg.nx,
+		o.cfg.ny, o.cfg.tick_hz, o.cfg.solver_hz, p.dev.name, p.have_host ? p.host.name : "none",
 		o.device_clock ? "device" : "internal");
 	if (p.have_host && p.host.kind == CTL_LINK_UDP)
 		fprintf(stderr, "swell-ctl: host link clients: send to %s (up to %u, kept while they speak)\n",
@@ -672,7 +680,7 @@ int main(int argc, char **argv)
 			 * machine's load. Nothing ticks before the first sample. Once the device has been
 			 * silent for silent_ticks periods of wall time, the loop ticks on its own every period,
 			 * so the core sees the silence (and faults silent_ticks ticks later). */
-			struct pollfd pf = {ctl_link_fd(&p.dev), POLLIN, 0};
+			struct pollfd pf = { ctl_link_fd(&p.dev), POLLIN, 0 };
 			const struct timespec one = ts_of(period); /* not poll's whole ms: 2.5 periods at 2500 Hz */
 			int r = ppoll(&pf, 1, &one, NULL);
 
@@ -743,28 +751,31 @@ int main(int argc, char **argv)
 	if (!o.quiet)
 		fputc('\n', stderr);
 	if (p.c.bootloader_request)
-		fprintf(stderr, "swell-ctl: enter-bootloader accepted in state %s: force zeroed, last heartbeat "
-				"sent; exiting with status 3 (no ROM bootloader on Linux: the supervisor flashes "
-				"and starts the new image)\n",
+		fprintf(stderr,
+			"swell-ctl: enter-bootloader accepted in state %s: force zeroed, last heartbeat "
+			"sent; exiting with status 3 (no ROM bootloader on Linux: the supervisor flashes "
+			"and starts the new image)\n",
 			swell_ctl_state_name(p.c.state));
 
 	printf("swell-ctl report\n");
 	printf("  firmware        %u.%u.%u\n", o.cfg.fw_version[0], o.cfg.fw_version[1], o.cfg.fw_version[2]);
-	printf("  ran             %.3f s, %llu ticks at %u Hz, %u solver steps at %u Hz\n",
-	       (now_ns() - start) / 1e9, (unsigned long long)ticks, o.cfg.tick_hz, p.c.n.solver_steps, o.cfg.solver_hz);
+	printf("  ran             %.3f s, %llu ticks at %u Hz, %u solver steps at %u Hz\n", (now_ns() - start) / 1e9,
+	       (unsigned long long)ticks, o.cfg.tick_hz, p.c.n.solver_steps, o.cfg.solver_hz);
 	printf("  state           %s (last error: %s), faults %u\n", swell_ctl_state_name(p.c.state),
 	       swell_err_str(p.c.last_err), p.c.n.faults);
 	if (p.c.n.faults)
 		printf("  FAULTED         %u times in this run (zero force while faulted; last error: %s; device "
 		       "silence limit %u ticks = %.1f ms)\n",
-		       p.c.n.faults, swell_err_str(p.c.last_err), o.cfg.silent_ticks, o.cfg.silent_ticks * 1e3 / o.cfg.tick_hz);
+		       p.c.n.faults, swell_err_str(p.c.last_err), o.cfg.silent_ticks,
+		       o.cfg.silent_ticks * 1e3 / o.cfg.tick_hz);
 	if (!o.device_clock)
 		printf("  tick jitter     p50 %.0f us, p99 %.0f us, max %.0f us (lateness of the wake-up)\n",
 		       jitter_pct(&jit, 0.5), jitter_pct(&jit, 0.99), jit.max_ns / 1e3);
 	printf("  overruns        %u\n", p.c.n.overruns);
 	printf("  work            worst tick %u cell-operations (a whole step: %u)\n", p.c.n.work_max,
 	       6u * o.cfg.nx * o.cfg.ny);
-	printf("  device link     %s: %u frames in, %u out, %u bad, %u send errors, %u samples lost, %u of other nodes\n",
+	printf("  device link     %s: %u frames in, %u out, %u bad, %u send errors, %u samples lost, %u of other "
+	       "nodes\n",
 	       p.dev.name, p.dev.frames_rx, p.dev.frames_tx, swell_proto_rejected_total(&p.dev.st), p.dev.tx_errors,
 	       p.c.n.dev_lost, p.dev.foreign);
 	if (p.dev.kind == CTL_LINK_UDP)
@@ -782,8 +793,9 @@ int main(int argc, char **argv)
 	if (p.have_host && p.host.kind == CTL_LINK_UDP)
 		printf("  host clients    on %s: %u admitted, %u dropped after %u ms of silence, %u now (at most %u); "
 		       "%u packets of senders refused (table full)\n",
-		       addr_str(&p.host.local, 1, 0, abuf, sizeof(abuf)), p.host.clients_admitted, p.host.clients_silent,
-		       CTL_LINK_CLIENT_SILENT_MS, ctl_link_clients(&p.host), CTL_LINK_CLIENTS, p.host.clients_refused);
+		       addr_str(&p.host.local, 1, 0, abuf, sizeof(abuf)), p.host.clients_admitted,
+		       p.host.clients_silent, CTL_LINK_CLIENT_SILENT_MS, ctl_link_clients(&p.host), CTL_LINK_CLIENTS,
+		       p.host.clients_refused);
 	if (p.dev.kind == CTL_LINK_HM)
 		hm_client_report(&p.dev.hm, stdout);
 	report_can("device", &p.dev);
@@ -794,7 +806,8 @@ int main(int argc, char **argv)
 	}
 	printf("  parameters      %u set, %u refused\n", p.c.n.params_set, p.c.n.params_refused);
 	printf("  waves           largest |h| %.3f mm (sampled once a second), %u solver saturations "
-	       "(row segments clamped)\n", peak_h / (double)SWELL_H_ONE_MM, p.c.wave.saturations);
+	       "(row segments clamped)\n",
+	       peak_h / (double)SWELL_H_ONE_MM, p.c.wave.saturations);
 	printf("  final force     %+.3f N (zero sent on exit)\n", p.c.force_dev_uN[2] / 1e6);
 	ctl_link_close(&p.dev);
 	if (p.have_host)

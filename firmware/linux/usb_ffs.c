@@ -18,7 +18,7 @@
 
 #define HS_BULK_PACKET 512u /* the only bulk wMaxPacketSize USB 2.0 allows at high speed */
 #define LANG_EN_US 0x0409u
-#define EP_DESC_LEN 7u      /* USB_DT_ENDPOINT_SIZE: no audio extension */
+#define EP_DESC_LEN 7u /* USB_DT_ENDPOINT_SIZE: no audio extension */
 #define SET_LEN (USB_DT_INTERFACE_SIZE + 2u * EP_DESC_LEN)
 
 static uint8_t *put_le16(uint8_t *p, uint16_t v)
@@ -67,13 +67,13 @@ static uint8_t *put_set(uint8_t *p, const struct swell_usb_ffs_iface *it, uint16
 {
 	*p++ = USB_DT_INTERFACE_SIZE;
 	*p++ = USB_DT_INTERFACE;
-	*p++ = 0;               /* bInterfaceNumber: FunctionFS renumbers */
-	*p++ = 0;               /* bAlternateSetting */
-	*p++ = 2;               /* bNumEndpoints */
+	*p++ = 0; /* bInterfaceNumber: FunctionFS renumbers */
+	*p++ = 0; /* bAlternateSetting */
+	*p++ = 2; /* bNumEndpoints */
 	*p++ = it->class_code;
 	*p++ = it->subclass;
 	*p++ = it->protocol;
-	*p++ = 1;               /* iInterface: our first string */
+	*p++ = 1; /* iInterface: our first string */
 	const uint8_t addr[2] = { it->ep_out, it->ep_in };
 	for (int i = 0; i < 2; i++) {
 		*p++ = EP_DESC_LEN;
@@ -81,13 +81,12 @@ static uint8_t *put_set(uint8_t *p, const struct swell_usb_ffs_iface *it, uint16
 		*p++ = addr[i];
 		*p++ = USB_ENDPOINT_XFER_BULK;
 		p = put_le16(p, packet);
-		*p++ = 0;       /* bInterval: unused for bulk */
+		*p++ = 0; /* bInterval: unused for bulk */
 	}
 	return p;
 }
 
-enum swell_err swell_usb_ffs_descriptors(const struct swell_usb_ffs_iface *iface, uint8_t *buf,
-					 size_t cap, size_t *len)
+enum swell_err swell_usb_ffs_descriptors(const struct swell_usb_ffs_iface *iface, uint8_t *buf, size_t cap, size_t *len)
 {
 	const size_t total = 5u * 4u + 2u * SET_LEN;
 	enum swell_err err = check_iface(iface);
@@ -110,8 +109,7 @@ enum swell_err swell_usb_ffs_descriptors(const struct swell_usb_ffs_iface *iface
 	return SWELL_OK;
 }
 
-enum swell_err swell_usb_ffs_strings(const struct swell_usb_ffs_iface *iface, uint8_t *buf,
-				     size_t cap, size_t *len)
+enum swell_err swell_usb_ffs_strings(const struct swell_usb_ffs_iface *iface, uint8_t *buf, size_t cap, size_t *len)
 {
 	enum swell_err err = check_iface(iface);
 
@@ -206,8 +204,7 @@ static enum swell_err write_all(struct swell_usb_ffs *f, int fd, const uint8_t *
 	return SWELL_OK;
 }
 
-static void prep(struct swell_usb_ffs *f, struct iocb *cb, unsigned tag, int fd, uint16_t op,
-		 uint8_t *buf, size_t len)
+static void prep(struct swell_usb_ffs *f, struct iocb *cb, unsigned tag, int fd, uint16_t op, uint8_t *buf, size_t len)
 {
 	memset(cb, 0, sizeof(*cb));
 	cb->aio_data = tag;
@@ -257,8 +254,7 @@ static void reap(struct swell_usb_ffs *f)
 	}
 }
 
-enum swell_err swell_usb_ffs_open(struct swell_usb_ffs *f, const char *dir,
-				  const struct swell_usb_ffs_iface *iface)
+enum swell_err swell_usb_ffs_open(struct swell_usb_ffs *f, const char *dir, const struct swell_usb_ffs_iface *iface)
 {
 	uint8_t desc[SWELL_USB_FFS_DESC_MAX];
 	uint8_t str[SWELL_USB_FFS_STR_MAX];
@@ -342,8 +338,7 @@ static void stall(struct swell_usb_ffs *f, const struct usb_ctrlrequest *req)
 	f->setup_stalled++;
 }
 
-enum swell_err swell_usb_ffs_poll(struct swell_usb_ffs *f, int timeout_ms,
-				  enum swell_usb_ffs_event *ev)
+enum swell_err swell_usb_ffs_poll(struct swell_usb_ffs *f, int timeout_ms, enum swell_usb_ffs_event *ev)
 {
 	struct usb_functionfs_event e;
 	struct pollfd pfd;

@@ -229,9 +229,19 @@ static struct swell_msg device_pos(uint8_t node, int16_t z_10um, uint8_t seq)
 	return m;
 }
 
-enum { K_SHORT, K_LONG, K_RANGE, K_UNKNOWN, K_EFF, K_RTR, K_FOREIGN, K_RANDOM, K_KINDS };
-static const char *const kind_name[K_KINDS] = {"short", "long", "out-of-range", "unknown-id", "29-bit",
-					       "remote", "foreign-node", "random"};
+enum {
+	K_SHORT,
+	K_LONG,
+	K_RANGE,
+	K_UNKNOWN,
+	K_EFF,
+	K_RTR,
+	K_FOREIGN,
+	K_RANDOM,
+	K_KINDS
+};
+static const char *const kind_name[K_KINDS] = { "short",  "long",   "out-of-range", "unknown-id",
+						"29-bit", "remote", "foreign-node", "random" };
 
 /* One bad frame of kind k on a classic CAN link. A spoofed sample of the controller's own node with
  * valid contents cannot be told from the device's on CAN, so "foreign" is another node's. */
@@ -246,7 +256,9 @@ static void bad_can(struct swell_frame *f, int k, uint8_t foreign, uint8_t seq)
 	f->id = id;
 	f->len = len;
 	switch (k) {
-	case K_SHORT: f->len = (uint16_t)(rnd() % len); break;
+	case K_SHORT:
+		f->len = (uint16_t)(rnd() % len);
+		break;
 	case K_LONG: /* DEVICE_VEL is 7 bytes: 8 is too long */
 		m.type = SWELL_MSG_DEVICE_VEL;
 		memset(&m.u, 0, sizeof(m.u));
@@ -256,10 +268,21 @@ static void bad_can(struct swell_frame *f, int k, uint8_t foreign, uint8_t seq)
 		f->len = 8;
 		f->data[7] = 0xA5;
 		break;
-	case K_RANGE: f->data[4] = 0x00; f->data[5] = 0x80; break; /* z = -32768: below -30000 */
-	case K_UNKNOWN: f->id = SWELL_CAN_ID(0x7E, 0); break;
-	case K_EFF: f->id = id | 0x1000u; f->flags = SWELL_FRAME_EFF; break;
-	case K_RTR: f->len = 0; f->id = id | CAN_RTR_FLAG; break; /* CAN_RTR_FLAG, DLC 0 (QEMU: see hil-vm.md) */
+	case K_RANGE:
+		f->data[4] = 0x00;
+		f->data[5] = 0x80;
+		break; /* z = -32768: below -30000 */
+	case K_UNKNOWN:
+		f->id = SWELL_CAN_ID(0x7E, 0);
+		break;
+	case K_EFF:
+		f->id = id | 0x1000u;
+		f->flags = SWELL_FRAME_EFF;
+		break;
+	case K_RTR:
+		f->len = 0;
+		f->id = id | CAN_RTR_FLAG;
+		break; /* CAN_RTR_FLAG, DLC 0 (QEMU: see hil-vm.md) */
 	case K_FOREIGN:
 		m = device_pos(foreign, -25000, seq);
 		swell_can_encode(&m, &id, f->data, &len);
@@ -289,13 +312,26 @@ static void bad_pkt(struct swell_frame *f, int k, uint8_t foreign, uint8_t seq)
 		m = device_pos(foreign, -25000, seq);
 	swell_link_encode(SWELL_CARRIER_PKT, m.node, seq, &m, 1, f, &used);
 	switch (k) {
-	case K_SHORT: f->len = (uint16_t)(rnd() % (f->len - 1) + 1); break;
-	case K_LONG: f->data[f->len - 1] ^= 0x01; break;  /* bad CRC */
-	case K_RANGE: f->data[0] = 0x58; break;          /* bad magic */
-	case K_UNKNOWN: f->data[1] = 2; break;           /* another protocol version */
-	case K_EFF: f->data[4] = 0; break;               /* record count 0 */
-	case K_RTR: f->data[5] = 0x7E; break;            /* unknown record type */
-	case K_FOREIGN: break;
+	case K_SHORT:
+		f->len = (uint16_t)(rnd() % (f->len - 1) + 1);
+		break;
+	case K_LONG:
+		f->data[f->len - 1] ^= 0x01;
+		break; /* bad CRC */
+	case K_RANGE:
+		f->data[0] = 0x58;
+		break; /* bad magic */
+	case K_UNKNOWN:
+		f->data[1] = 2;
+		break; /* another protocol version */
+	case K_EFF:
+		f->data[4] = 0;
+		break; /* record count 0 */
+	case K_RTR:
+		f->data[5] = 0x7E;
+		break; /* unknown record type */
+	case K_FOREIGN:
+		break;
 	default: {
 		int b;
 
@@ -308,7 +344,7 @@ static void bad_pkt(struct swell_frame *f, int k, uint8_t foreign, uint8_t seq)
 
 static int cmd_garbage(struct swell_link *l, long count, double rate, uint8_t foreign)
 {
-	long sent[K_KINDS] = {0}, errors = 0, n;
+	long sent[K_KINDS] = { 0 }, errors = 0, n;
 	int can = swell_link_carrier(l) != SWELL_CARRIER_PKT, k;
 	double t0 = now_s(), t;
 
@@ -328,8 +364,8 @@ static int cmd_garbage(struct swell_link *l, long count, double rate, uint8_t fo
 			sent[k]++;
 	}
 	t = now_s() - t0;
-	printf("swell-inject garbage %s: %ld frames in %.3f s (%.0f frames/s), %ld send errors:",
-	       swell_link_name(l), count - errors, t, (double)(count - errors) / (t > 0 ? t : 1e-9), errors);
+	printf("swell-inject garbage %s: %ld frames in %.3f s (%.0f frames/s), %ld send errors:", swell_link_name(l),
+	       count - errors, t, (double)(count - errors) / (t > 0 ? t : 1e-9), errors);
 	for (k = 0; k < K_KINDS; k++)
 		printf(" %s %ld%s", kind_name[k], sent[k], k + 1 < K_KINDS ? "," : "\n");
 	printf("  invalid frames  %ld (must be counted bad)\n", count - errors - sent[K_FOREIGN]);
@@ -376,22 +412,22 @@ struct pset {
 };
 
 static const struct pset bad_sets[] = {
-	{SWELL_PARAM_WAVE_E, 600000000, "wave e 0.56: above the stability limit 1/2"},
-	{SWELL_PARAM_WAVE_E, -1, "wave e negative"},
-	{SWELL_PARAM_WAVE_DAMPING, -5, "wave damping negative"},
-	{SWELL_PARAM_WAVE_STENCIL, 7, "stencil 7: neither paper nor calibrated"},
-	{SWELL_PARAM_BODY_MASS_G, 0, "mass 0 g"},
-	{SWELL_PARAM_BODY_MASS_G, -100, "mass -100 g"},
-	{SWELL_PARAM_BODY_A_UM, 0, "footprint a 0 um"},
-	{SWELL_PARAM_BODY_H_UM, -1, "height negative"},
-	{SWELL_PARAM_FORCE_MAX_UN, -1, "force limit negative"},
-	{SWELL_PARAM_FORCE_MAX_UN, 2000000000, "force limit 2000 N: above what FORCE_CMD carries"},
-	{SWELL_PARAM_FORCE_RATE, -1, "force rate negative"},
-	{SWELL_PARAM_SILENT_TICKS, 0, "silent ticks 0"},
-	{SWELL_PARAM_SILENT_TICKS, 20000, "silent ticks 20000"},
-	{SWELL_PARAM_AUTORUN, 2, "autorun 2"},
-	{SWELL_PARAM_COMMAND, 9, "command 9"},
-	{999, 1, "unknown parameter id"},
+	{ SWELL_PARAM_WAVE_E, 600000000, "wave e 0.56: above the stability limit 1/2" },
+	{ SWELL_PARAM_WAVE_E, -1, "wave e negative" },
+	{ SWELL_PARAM_WAVE_DAMPING, -5, "wave damping negative" },
+	{ SWELL_PARAM_WAVE_STENCIL, 7, "stencil 7: neither paper nor calibrated" },
+	{ SWELL_PARAM_BODY_MASS_G, 0, "mass 0 g" },
+	{ SWELL_PARAM_BODY_MASS_G, -100, "mass -100 g" },
+	{ SWELL_PARAM_BODY_A_UM, 0, "footprint a 0 um" },
+	{ SWELL_PARAM_BODY_H_UM, -1, "height negative" },
+	{ SWELL_PARAM_FORCE_MAX_UN, -1, "force limit negative" },
+	{ SWELL_PARAM_FORCE_MAX_UN, 2000000000, "force limit 2000 N: above what FORCE_CMD carries" },
+	{ SWELL_PARAM_FORCE_RATE, -1, "force rate negative" },
+	{ SWELL_PARAM_SILENT_TICKS, 0, "silent ticks 0" },
+	{ SWELL_PARAM_SILENT_TICKS, 20000, "silent ticks 20000" },
+	{ SWELL_PARAM_AUTORUN, 2, "autorun 2" },
+	{ SWELL_PARAM_COMMAND, 9, "command 9" },
+	{ 999, 1, "unknown parameter id" },
 };
 
 static int send_msg(struct swell_link *l, const struct swell_msg *m, uint8_t seq)
@@ -420,7 +456,8 @@ static int wait_answer(struct swell_link *l, uint16_t id, uint8_t seq, int timeo
 		if (swell_link_decode(swell_link_carrier(l), &f, m, SWELL_CANFD_MSGS_MAX, &n, NULL, st) != SWELL_OK)
 			continue;
 		for (k = 0; k < n; k++) {
-			if (m[k].type == SWELL_MSG_PARAM_ACK && m[k].u.param_ack.id == id && m[k].u.param_ack.seq == seq) {
+			if (m[k].type == SWELL_MSG_PARAM_ACK && m[k].u.param_ack.id == id &&
+			    m[k].u.param_ack.seq == seq) {
 				*value = m[k].u.param_ack.value;
 				return 1;
 			}
@@ -510,7 +547,10 @@ static int cmd_params(struct swell_link *l, uint8_t node, int timeout_ms)
 		if (r != 0 || (have_before && after != before)) {
 			failed++;
 			printf("  FAIL %-48s id %u value %d: %s, value %d -> %d\n", p->why, p->id, p->value,
-			       r < 0 ? "no answer" : r == 1 ? "ACCEPTED" : "NACK", before, after);
+			       r < 0            ? "no answer"
+				       : r == 1 ? "ACCEPTED"
+						: "NACK",
+			       before, after);
 		} else {
 			printf("  ok   %-48s id %u value %d: NACK %s, value %d unchanged\n", p->why, p->id, p->value,
 			       swell_err_str((enum swell_err)err), before);

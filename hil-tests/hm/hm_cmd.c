@@ -11,8 +11,8 @@
 
 #define LINE_MAX_CHARS 256 /* one command; longer ones are refused whole */
 
-static const char *const state_names[] = {"off", "init", "home", "force", "position", "stop"};
-static const char *const kind_names[] = {"spring", "damper", "biasforce"};
+static const char *const state_names[] = { "off", "init", "home", "force", "position", "stop" };
+static const char *const kind_names[] = { "spring", "damper", "biasforce" };
 
 const char *hm_dev_state_name(enum hm_dev_state s)
 {
@@ -134,16 +134,25 @@ static int parse_bool(const char *s, int *b)
 
 static int valid_name(const char *s)
 {
-	static const char *const reserved[] = {"state", "inertia", "coulombfriction", "all", "measpos", "measforce",
-					       "modelpos", "modelvel", "modelacc", "emergencybuttonpushed",
-					       "position_calibrated", "force_calibrated"};
+	static const char *const reserved[] = { "state",
+						"inertia",
+						"coulombfriction",
+						"all",
+						"measpos",
+						"measforce",
+						"modelpos",
+						"modelvel",
+						"modelacc",
+						"emergencybuttonpushed",
+						"position_calibrated",
+						"force_calibrated" };
 	size_t k;
 
 	for (k = 0; s[k]; k++) {
 		const char c = s[k];
 
-		if (k + 1 >= HM_NAME_MAX || !((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || c == '_' ||
-					      (k > 0 && c >= '0' && c <= '9')))
+		if (k + 1 >= HM_NAME_MAX ||
+		    !((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || c == '_' || (k > 0 && c >= '0' && c <= '9')))
 			return 0;
 	}
 	if (k == 0)
@@ -225,8 +234,7 @@ static double spring_damping(const struct hm_spring *s, double m_kg)
 	return s->dampfactor * 2.0 * sqrt(fabs(s->k_N_m) * m_kg);
 }
 
-static void set_effect(struct hm_dev *d, struct out *o, int client, struct hm_effect *e, const char *p,
-		       const char *v)
+static void set_effect(struct hm_dev *d, struct out *o, int client, struct hm_effect *e, const char *p, const char *v)
 {
 	const char *kind = kind_names[e->kind];
 	double x, vec[4];
@@ -249,7 +257,8 @@ static void set_effect(struct hm_dev *d, struct out *o, int client, struct hm_ef
 	} else if (!strcmp(p, "att")) {
 		double n2;
 
-		if (parse_vec(v, vec, 4) || !((n2 = vec[0] * vec[0] + vec[1] * vec[1] + vec[2] * vec[2] + vec[3] * vec[3]) > 1e-12)) {
+		if (parse_vec(v, vec, 4) ||
+		    !((n2 = vec[0] * vec[0] + vec[1] * vec[1] + vec[2] * vec[2] + vec[3] * vec[3]) > 1e-12)) {
 			fail(d, o, "malformed value '%s' for att (want a quaternion [x,y,z,w], not zero)", v);
 			return;
 		}
@@ -259,8 +268,8 @@ static void set_effect(struct hm_dev *d, struct out *o, int client, struct hm_ef
 	} else if (e->kind == HM_FX_SPRING && !strcmp(p, "stiffness")) {
 		if (parse_number(v, &x) || fabs(x) > 100000.0 ||
 		    !stable(d, x, e->spring.dampfactor * 2.0 * sqrt(fabs(x) * d->inertia_kg))) {
-			fail(d, o, "stiffness '%s' refused (|k| <= 100000 N/m, resolved at %g Hz on %g kg)", v, d->rate_hz,
-			     d->inertia_kg);
+			fail(d, o, "stiffness '%s' refused (|k| <= 100000 N/m, resolved at %g Hz on %g kg)", v,
+			     d->rate_hz, d->inertia_kg);
 			return;
 		}
 		e->spring.k_N_m = x;
@@ -268,7 +277,8 @@ static void set_effect(struct hm_dev *d, struct out *o, int client, struct hm_ef
 	} else if (e->kind == HM_FX_SPRING && !strcmp(p, "dampfactor")) {
 		if (parse_number(v, &x) || x < 0.0 || x > 10.0 ||
 		    !stable(d, e->spring.k_N_m, x * 2.0 * sqrt(fabs(e->spring.k_N_m) * d->inertia_kg))) {
-			fail(d, o, "dampfactor '%s' refused (0..10, resolved at %g Hz on %g kg)", v, d->rate_hz, d->inertia_kg);
+			fail(d, o, "dampfactor '%s' refused (0..10, resolved at %g Hz on %g kg)", v, d->rate_hz,
+			     d->inertia_kg);
 			return;
 		}
 		e->spring.dampfactor = x;
@@ -317,7 +327,8 @@ static void set_effect(struct hm_dev *d, struct out *o, int client, struct hm_ef
 	} else if (e->kind == HM_FX_BIAS && !strcmp(p, "force")) {
 		if (parse_vec(v, vec, 3) || fabs(vec[0]) > d->f_max_N || fabs(vec[1]) > d->f_max_N ||
 		    fabs(vec[2]) > d->f_max_N) {
-			fail(d, o, "malformed value '%s' for force (want [fx,fy,fz], each within +-%g N)", v, d->f_max_N);
+			fail(d, o, "malformed value '%s' for force (want [fx,fy,fz], each within +-%g N)", v,
+			     d->f_max_N);
 			return;
 		}
 		memcpy(e->force_N, vec, 3 * sizeof(double));
@@ -442,8 +453,8 @@ static void cmd_create(struct hm_dev *d, struct out *o, const char *kind, const 
 		return;
 	}
 	if (!valid_name(name) || *rest) {
-		fail(d, o, "bad effect name '%s%s%s' (a letter or _, then letters, digits, _; under %d characters)", name,
-		     *rest ? " " : "", rest, HM_NAME_MAX);
+		fail(d, o, "bad effect name '%s%s%s' (a letter or _, then letters, digits, _; under %d characters)",
+		     name, *rest ? " " : "", rest, HM_NAME_MAX);
 		return;
 	}
 	if (find(d, name)) {
@@ -543,7 +554,7 @@ static void command(struct hm_dev *d, struct out *o, int client, const char *s)
 
 size_t hm_dev_request(struct hm_dev *d, int client, const char *text, size_t len, char *reply, size_t cap)
 {
-	struct out o = {reply, cap, 0, 0, 0};
+	struct out o = { reply, cap, 0, 0, 0 };
 	char line[LINE_MAX_CHARS];
 	size_t a = 0;
 
@@ -658,7 +669,7 @@ void hm_dev_tick(struct hm_dev *d, const double x_m[3], const double v_m_s[3], d
 	memset(f_N, 0, 3 * sizeof(double));
 	for (k = 0; k < HM_EFFECTS_MAX; k++) {
 		struct hm_effect *e = &d->fx[k];
-		double f[3] = {0.0, 0.0, 0.0};
+		double f[3] = { 0.0, 0.0, 0.0 };
 
 		if (!e->used)
 			continue;

@@ -21,20 +21,31 @@
 #include <stdint.h>
 
 #define HM_EFFECTS_MAX 16 /* effects the device holds at once */
-#define HM_NAME_MAX 32    /* longest effect name, with its terminating NUL */
-#define HM_CLIENTS_MAX 8  /* clients the watchdog follows (hm_serve's table) */
+#define HM_NAME_MAX 32 /* longest effect name, with its terminating NUL */
+#define HM_CLIENTS_MAX 8 /* clients the watchdog follows (hm_serve's table) */
 
-enum hm_dev_state { HM_STATE_OFF, HM_STATE_INIT, HM_STATE_HOME, HM_STATE_FORCE, HM_STATE_POSITION, HM_STATE_STOP };
+enum hm_dev_state {
+	HM_STATE_OFF,
+	HM_STATE_INIT,
+	HM_STATE_HOME,
+	HM_STATE_FORCE,
+	HM_STATE_POSITION,
+	HM_STATE_STOP
+};
 
-enum hm_effect_kind { HM_FX_SPRING, HM_FX_DAMPER, HM_FX_BIAS };
+enum hm_effect_kind {
+	HM_FX_SPRING,
+	HM_FX_DAMPER,
+	HM_FX_BIAS
+};
 
 struct hm_spring {
-	double k_N_m;       /* stiffness; negative: a pushing spring (away from its origin) */
-	double dampfactor;  /* damping relative to critical, 2 sqrt(|k| m) with m the device inertia */
-	double deadband_m;  /* no spring force within this distance of the origin */
-	double dir[3];      /* unit vector the spring acts along; all zero: every direction */
-	double maxforce_N;  /* |F| of the spring (spring + damping) is limited to this */
-	int dampglobal;     /* 1: damping everywhere; 0: only where the spring acts (outside the deadband) */
+	double k_N_m; /* stiffness; negative: a pushing spring (away from its origin) */
+	double dampfactor; /* damping relative to critical, 2 sqrt(|k| m) with m the device inertia */
+	double deadband_m; /* no spring force within this distance of the origin */
+	double dir[3]; /* unit vector the spring acts along; all zero: every direction */
+	double maxforce_N; /* |F| of the spring (spring + damping) is limited to this */
+	int dampglobal; /* 1: damping everywhere; 0: only where the spring acts (outside the deadband) */
 };
 
 struct hm_effect {
@@ -50,11 +61,11 @@ struct hm_effect {
 
 struct hm_dev {
 	enum hm_dev_state state;
-	double rate_hz, f_max_N;        /* device tick rate, largest force per axis */
+	double rate_hz, f_max_N; /* device tick rate, largest force per axis */
 	double inertia_kg, coulomb_N;
-	int estop;                      /* the emergency button is pushed */
+	int estop; /* the emergency button is pushed */
 	int force_calibrated;
-	uint32_t watchdog_ticks;        /* bias force of a client silent this long -> zero; 0: off */
+	uint32_t watchdog_ticks; /* bias force of a client silent this long -> zero; 0: off */
 	/* the model, as the last tick left it (swell-hm writes these) */
 	double x_m[3], v_m_s[3], a_m_s2[3], fmeas_N[3];
 	struct hm_effect fx[HM_EFFECTS_MAX];

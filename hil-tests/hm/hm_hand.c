@@ -10,7 +10,7 @@
 
 #define PI 3.14159265358979323846
 
-static const char *const names[] = {"idle", "drop", "release", "press", "shake"};
+static const char *const names[] = { "idle", "drop", "release", "press", "shake" };
 
 const char *hm_hand_name(enum hm_hand_kind kind)
 {
@@ -30,16 +30,17 @@ struct key {
 #define K(kind) (1u << (kind))
 #define ALL (K(HM_HAND_IDLE) | K(HM_HAND_DROP) | K(HM_HAND_RELEASE) | K(HM_HAND_PRESS) | K(HM_HAND_SHAKE))
 static const struct key keys[] = {
-	{"k", offsetof(struct hm_hand, k_N_m), 1.0, 0.0, 1e6, ALL, "N/m"},
-	{"b", offsetof(struct hm_hand, b_Ns_m), 1.0, 0.0, 1e4, ALL, "N s/m"},
-	{"z", offsetof(struct hm_hand, z_m), 1e-3, -200.0, 200.0, K(HM_HAND_DROP), "mm"},
-	{"hold", offsetof(struct hm_hand, hold_s), 1.0, 0.0, 1e6, K(HM_HAND_DROP) | K(HM_HAND_PRESS), "s"},
-	{"at", offsetof(struct hm_hand, at_s), 1.0, 0.0, 1e6, K(HM_HAND_RELEASE) | K(HM_HAND_PRESS) | K(HM_HAND_SHAKE), "s"},
-	{"depth", offsetof(struct hm_hand, depth_m), 1e-3, -200.0, 200.0, K(HM_HAND_PRESS), "mm"},
-	{"ramp", offsetof(struct hm_hand, ramp_s), 1.0, 0.001, 1e3, K(HM_HAND_PRESS), "s"},
-	{"f", offsetof(struct hm_hand, f_hz), 1.0, 0.001, 100.0, K(HM_HAND_SHAKE), "Hz"},
-	{"amp", offsetof(struct hm_hand, amp_m), 1e-3, 0.0, 200.0, K(HM_HAND_SHAKE), "mm"},
-	{"for", offsetof(struct hm_hand, for_s), 1.0, 0.0, 1e6, K(HM_HAND_SHAKE), "s"},
+	{ "k", offsetof(struct hm_hand, k_N_m), 1.0, 0.0, 1e6, ALL, "N/m" },
+	{ "b", offsetof(struct hm_hand, b_Ns_m), 1.0, 0.0, 1e4, ALL, "N s/m" },
+	{ "z", offsetof(struct hm_hand, z_m), 1e-3, -200.0, 200.0, K(HM_HAND_DROP), "mm" },
+	{ "hold", offsetof(struct hm_hand, hold_s), 1.0, 0.0, 1e6, K(HM_HAND_DROP) | K(HM_HAND_PRESS), "s" },
+	{ "at", offsetof(struct hm_hand, at_s), 1.0, 0.0, 1e6, K(HM_HAND_RELEASE) | K(HM_HAND_PRESS) | K(HM_HAND_SHAKE),
+	  "s" },
+	{ "depth", offsetof(struct hm_hand, depth_m), 1e-3, -200.0, 200.0, K(HM_HAND_PRESS), "mm" },
+	{ "ramp", offsetof(struct hm_hand, ramp_s), 1.0, 0.001, 1e3, K(HM_HAND_PRESS), "s" },
+	{ "f", offsetof(struct hm_hand, f_hz), 1.0, 0.001, 100.0, K(HM_HAND_SHAKE), "Hz" },
+	{ "amp", offsetof(struct hm_hand, amp_m), 1e-3, 0.0, 200.0, K(HM_HAND_SHAKE), "mm" },
+	{ "for", offsetof(struct hm_hand, for_s), 1.0, 0.0, 1e6, K(HM_HAND_SHAKE), "s" },
 };
 
 static void defaults(struct hm_hand *h, enum hm_hand_kind kind)
@@ -164,7 +165,7 @@ static int let_go(struct hm_hand *h, double f_N[3])
 
 int hm_hand_force(struct hm_hand *h, double t, const double x[3], const double v[3], double f_N[3])
 {
-	double target[3], target_v[3] = {0.0, 0.0, 0.0}, u;
+	double target[3], target_v[3] = { 0.0, 0.0, 0.0 }, u;
 	int k;
 
 	switch (h->kind) {

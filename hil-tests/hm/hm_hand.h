@@ -23,23 +23,29 @@
 
 #include "swell/err.h"
 
-enum hm_hand_kind { HM_HAND_IDLE, HM_HAND_DROP, HM_HAND_RELEASE, HM_HAND_PRESS, HM_HAND_SHAKE };
+enum hm_hand_kind {
+	HM_HAND_IDLE,
+	HM_HAND_DROP,
+	HM_HAND_RELEASE,
+	HM_HAND_PRESS,
+	HM_HAND_SHAKE
+};
 
 struct hm_hand {
 	enum hm_hand_kind kind;
 	double k_N_m, b_Ns_m;
-	double z_m;             /* drop: height held */
-	double at_s;            /* release, press, shake: when the hand acts */
-	double hold_s;          /* drop, press: how long it holds */
-	double depth_m;         /* press: target depth below the rest level */
-	double ramp_s;          /* press: time to reach it */
-	double f_hz, amp_m;     /* shake */
-	int axis;               /* shake: 0 x, 1 y, 2 z */
-	double for_s;           /* shake: duration, 0 = until the end */
+	double z_m; /* drop: height held */
+	double at_s; /* release, press, shake: when the hand acts */
+	double hold_s; /* drop, press: how long it holds */
+	double depth_m; /* press: target depth below the rest level */
+	double ramp_s; /* press: time to reach it */
+	double f_hz, amp_m; /* shake */
+	int axis; /* shake: 0 x, 1 y, 2 z */
+	double for_s; /* shake: duration, 0 = until the end */
 
 	/* run state */
-	int grabbed;            /* the hand has taken the handle (its grab position is set) */
-	double grab_m[3];       /* where it took the handle */
+	int grabbed; /* the hand has taken the handle (its grab position is set) */
+	double grab_m[3]; /* where it took the handle */
 };
 
 /* Parses "NAME[:key=value,...]". SWELL_EUNKNOWN for an unknown hand or key, SWELL_ERANGE for a value

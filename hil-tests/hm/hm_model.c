@@ -23,7 +23,7 @@ void hm_params_default(struct hm_params *p)
 }
 
 __attribute__((format(printf, 4, 5))) static enum swell_err refuse(enum swell_err e, char *why, size_t n,
-								    const char *fmt, ...)
+								   const char *fmt, ...)
 {
 	va_list ap;
 
@@ -35,8 +35,8 @@ __attribute__((format(printf, 4, 5))) static enum swell_err refuse(enum swell_er
 	return e;
 }
 
-enum swell_err hm_params_check(const struct hm_params *p, double stiff_extra_N_m, double damp_extra_Ns_m,
-			       char *why, size_t n)
+enum swell_err hm_params_check(const struct hm_params *p, double stiff_extra_N_m, double damp_extra_Ns_m, char *why,
+			       size_t n)
 {
 	double dt, k_max, w_dt, b_dt;
 	int k;
@@ -55,8 +55,8 @@ enum swell_err hm_params_check(const struct hm_params *p, double stiff_extra_N_m
 			return refuse(SWELL_ERANGE, why, n, "workspace limit %g mm outside [1, 300] mm",
 				      p->limit_m[k] * 1e3);
 	if (!(p->wall_k_N_m > 0.0 && p->wall_b_Ns_m >= 0.0))
-		return refuse(SWELL_ERANGE, why, n, "wall stiffness %g N/m must be > 0, damping %g >= 0",
-			      p->wall_k_N_m, p->wall_b_Ns_m);
+		return refuse(SWELL_ERANGE, why, n, "wall stiffness %g N/m must be > 0, damping %g >= 0", p->wall_k_N_m,
+			      p->wall_b_Ns_m);
 	if (!(p->f_max_N > 0.0 && p->f_max_N <= 250.0)) /* FORCE_CMD carries +-250 N */
 		return refuse(SWELL_ERANGE, why, n, "force limit %g N outside (0, 250] N", p->f_max_N);
 	if (p->watchdog_ticks < 1 || p->watchdog_ticks > 100000)
@@ -75,7 +75,7 @@ enum swell_err hm_params_check(const struct hm_params *p, double stiff_extra_N_m
 			      "stiffest spring %g N/m on %g kg is not resolved at this rate (w dt > 0.5)", k_max,
 			      p->mass_kg);
 	b_dt = (p->damping_Ns_m + (p->wall_b_Ns_m > damp_extra_Ns_m ? p->wall_b_Ns_m : damp_extra_Ns_m)) * dt /
-	       p->mass_kg;
+		p->mass_kg;
 	if (b_dt > 0.5)
 		return refuse(SWELL_EUNSTABLE, why, n,
 			      "damping %g N s/m on %g kg is too strong for this rate (b dt / m > 0.5)",

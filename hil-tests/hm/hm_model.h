@@ -22,29 +22,29 @@
 #include "swell/err.h"
 
 struct hm_params {
-	double rate_hz;         /* device tick rate (HapticMaster servo: 2500) */
-	double mass_kg;         /* virtual mass m_v */
-	double damping_Ns_m;    /* virtual damping b_v */
-	double limit_m[3];      /* workspace half-range per axis */
-	double wall_k_N_m;      /* workspace wall stiffness */
-	double wall_b_Ns_m;     /* workspace wall damping */
-	double f_max_N;         /* largest commanded force applied, per axis */
+	double rate_hz; /* device tick rate (HapticMaster servo: 2500) */
+	double mass_kg; /* virtual mass m_v */
+	double damping_Ns_m; /* virtual damping b_v */
+	double limit_m[3]; /* workspace half-range per axis */
+	double wall_k_N_m; /* workspace wall stiffness */
+	double wall_b_Ns_m; /* workspace wall damping */
+	double f_max_N; /* largest commanded force applied, per axis */
 	uint32_t watchdog_ticks; /* controller silent this many ticks -> no commanded force */
 };
 
 struct hm_state {
-	double x[3], v[3];      /* m, m/s; device frame: x, y horizontal, z up */
-	double cmd_N[3];        /* last FORCE_CMD received */
-	int cmd_enable;         /* its enable bit */
-	int have_cmd;           /* a command has ever arrived */
-	uint32_t cmd_age;       /* ticks integrated since the last command (saturating) */
-	int estop;              /* e-stop pressed: no commanded force */
-	double f_cmd_N[3];      /* commanded force applied in the last tick */
-	double f_wall_N[3];     /* wall force in the last tick */
-	int applying;           /* the last tick applied the command */
+	double x[3], v[3]; /* m, m/s; device frame: x, y horizontal, z up */
+	double cmd_N[3]; /* last FORCE_CMD received */
+	int cmd_enable; /* its enable bit */
+	int have_cmd; /* a command has ever arrived */
+	uint32_t cmd_age; /* ticks integrated since the last command (saturating) */
+	int estop; /* e-stop pressed: no commanded force */
+	double f_cmd_N[3]; /* commanded force applied in the last tick */
+	double f_wall_N[3]; /* wall force in the last tick */
+	int applying; /* the last tick applied the command */
 	uint64_t ticks;
 	uint32_t watchdog_trips; /* times the watchdog dropped an enabled command */
-	uint32_t wall_ticks;    /* ticks spent in a workspace wall */
+	uint32_t wall_ticks; /* ticks spent in a workspace wall */
 };
 
 /* The defaults documented in docs/hm.md (2 kg, 2 N s/m, +-200 mm, 250 N, watchdog 2 ticks). */
@@ -53,8 +53,8 @@ void hm_params_default(struct hm_params *p);
 /* SWELL_ERANGE for a value outside its range, SWELL_EUNSTABLE when the integration would not be
  * stable at this rate (stiffest spring k with sqrt(k/m)/rate > 0.5, or b dt / m > 0.5). why (may be
  * NULL) gets a one-line reason. stiff_extra_N_m is any further spring the caller adds (the hand). */
-enum swell_err hm_params_check(const struct hm_params *p, double stiff_extra_N_m, double damp_extra_Ns_m,
-			       char *why, size_t why_len);
+enum swell_err hm_params_check(const struct hm_params *p, double stiff_extra_N_m, double damp_extra_Ns_m, char *why,
+			       size_t why_len);
 
 /* At rest at x0 (metres), no command, nothing applied. */
 void hm_init(struct hm_state *s, const double x0_m[3]);

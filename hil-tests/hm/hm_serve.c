@@ -208,7 +208,7 @@ static ssize_t recv_stamped(struct hm_conn *c)
 		char buf[CMSG_SPACE(sizeof(struct timespec))];
 		struct cmsghdr align;
 	} ctl;
-	struct iovec iov = {c->in + c->in_len, sizeof(c->in) - c->in_len};
+	struct iovec iov = { c->in + c->in_len, sizeof(c->in) - c->in_len };
 	struct msghdr mh;
 	struct cmsghdr *cm;
 	ssize_t n;
@@ -279,10 +279,11 @@ static int run_requests(struct hm_serve *s, struct hm_dev *d, int k, int64_t now
 		size_t n;
 
 		if (len == 0 || len > HM_SERVE_TEXT_MAX || be32(c->in + 4) != 0) {
-			n = (size_t)snprintf(s->reply, sizeof(s->reply),
-					     "--- ERROR: bad header (length %u, bytes 4-7 %08x; text of 1..%d bytes after a "
-					     "big-endian length and four zero bytes): closing",
-					     len, be32(c->in + 4), HM_SERVE_TEXT_MAX);
+			n = (size_t)snprintf(
+				s->reply, sizeof(s->reply),
+				"--- ERROR: bad header (length %u, bytes 4-7 %08x; text of 1..%d bytes after a "
+				"big-endian length and four zero bytes): closing",
+				len, be32(c->in + 4), HM_SERVE_TEXT_MAX);
 			s->st.drop_header++;
 			queue(s, k, s->reply, n);
 			c->closing = 1;
@@ -379,7 +380,7 @@ void hm_serve_poll(struct hm_serve *s, struct hm_dev *d, int64_t now_ns)
 
 void hm_serve_inject_reset(struct hm_serve *s, struct hm_dev *d)
 {
-	struct linger lg = {1, 0};
+	struct linger lg = { 1, 0 };
 	int k;
 
 	for (k = 0; k < HM_SERVE_CLIENTS; k++)

@@ -26,14 +26,14 @@
 #include "hm_cmd.h"
 
 #define HM_SERVE_CLIENTS HM_CLIENTS_MAX
-#define HM_SERVE_TEXT_MAX 2048      /* longest request text */
-#define HM_SERVE_REPLY_MAX 4096     /* longest reply text */
-#define HM_SERVE_OUT_MAX 16384      /* replies waiting for a slow reader */
-#define HM_SERVE_SNDBUF 65536       /* kernel send buffer of a connection */
+#define HM_SERVE_TEXT_MAX 2048 /* longest request text */
+#define HM_SERVE_REPLY_MAX 4096 /* longest reply text */
+#define HM_SERVE_OUT_MAX 16384 /* replies waiting for a slow reader */
+#define HM_SERVE_SNDBUF 65536 /* kernel send buffer of a connection */
 #define HM_SERVE_REQS_PER_TICK 4
 #define HM_SERVE_STALL_MS 500
 #define HM_SERVE_PORT 7654
-#define HM_SERVE_HELD 256           /* replies held back at once by an injected delay */
+#define HM_SERVE_HELD 256 /* replies held back at once by an injected delay */
 
 struct hm_conn {
 	int fd;
@@ -42,8 +42,8 @@ struct hm_conn {
 	uint8_t out[HM_SERVE_OUT_MAX];
 	size_t out_len;
 	int64_t partial_since_ns; /* a request began arriving then and is not whole yet (0: none) */
-	int closing;              /* answered a fatal error: close once the answer is out */
-	int64_t arrived_rt_ns;    /* kernel receive time (CLOCK_REALTIME) of the last bytes read */
+	int closing; /* answered a fatal error: close once the answer is out */
+	int64_t arrived_rt_ns; /* kernel receive time (CLOCK_REALTIME) of the last bytes read */
 	/* fault injection: replies held until their release time (ends in out[], oldest first) */
 	size_t held_end[HM_SERVE_HELD];
 	int64_t held_until_ns[HM_SERVE_HELD];
@@ -71,7 +71,7 @@ struct hm_serve {
 	struct hm_serve_stats st;
 	char reply[HM_SERVE_REPLY_MAX];
 	int64_t tick_first_rt_ns; /* kernel arrival of the oldest request run since the last step (0: none) */
-	int64_t reply_delay_ns;   /* fault injection: replies go out this much later (0: at once) */
+	int64_t reply_delay_ns; /* fault injection: replies go out this much later (0: at once) */
 };
 
 /* Checks spec ("[ADDR:]PORT" or "ADDR") into sa; -1 with a one-line reason in err. */

@@ -153,8 +153,8 @@ static void numbers(const char *opt, const char *v, double *out, int n, double l
 		errno = 0;
 		out[k] = strtod(p, &end);
 		if (errno || end == p || !(out[k] >= lo && out[k] <= hi) || *end != (k + 1 < n ? ',' : '\0')) {
-			fprintf(stderr, "swell-hm: %s '%s' must be %d comma-separated numbers in [%g, %g] %s\n", opt,
-				v, n, lo, hi, unit);
+			fprintf(stderr, "swell-hm: %s '%s' must be %d comma-separated numbers in [%g, %g] %s\n", opt, v,
+				n, lo, hi, unit);
 			exit(2);
 		}
 		p = end + 1;
@@ -194,11 +194,12 @@ static void scene_object(struct opts *o, const char *path)
 /* 1 for an option of this program that takes a value. */
 static int takes_value(const char *a)
 {
-	static const char *const with_value[] = {"--bias-watchdog", "--bind-port", "--damping", "--estop", "--fmax",
-						 "--hand", "--host", "--iface", "--inject", "--limit", "--link",
-						 "--log", "--mass", "--node", "--object", "--pool", "--port", "--rate",
-						 "--scene", "--seconds", "--serve", "--start", "--timeout-ms",
-						 "--watchdog"};
+	static const char *const with_value[] = { "--bias-watchdog", "--bind-port", "--damping",    "--estop",
+						  "--fmax",          "--hand",      "--host",       "--iface",
+						  "--inject",        "--limit",     "--link",       "--log",
+						  "--mass",          "--node",      "--object",     "--pool",
+						  "--port",          "--rate",      "--scene",      "--seconds",
+						  "--serve",         "--start",     "--timeout-ms", "--watchdog" };
 	size_t k;
 
 	for (k = 0; k < sizeof(with_value) / sizeof(with_value[0]); k++)
@@ -261,8 +262,7 @@ static void parse(int argc, char **argv, struct opts *o)
 			if (inet_pton(AF_INET, v, &ia) != 1)
 				die("--host '%s' is not a dotted IPv4 address%s", v, "");
 			o->host = v;
-		}
-		else if (!strcmp(a, "--port"))
+		} else if (!strcmp(a, "--port"))
 			o->port = whole(a, v, 1, 65535, "");
 		else if (!strcmp(a, "--serve")) {
 			struct sockaddr_in sa;
@@ -270,8 +270,7 @@ static void parse(int argc, char **argv, struct opts *o)
 			if (hm_serve_parse(v, &sa, why, sizeof(why)) < 0)
 				die("--serve: %s%s", why, "");
 			o->serve = v;
-		}
-		else if (!strcmp(a, "--inject")) {
+		} else if (!strcmp(a, "--inject")) {
 			struct inject *j = &o->inj[o->n_inj];
 			char kind[16];
 			int used = 0;
@@ -280,15 +279,17 @@ static void parse(int argc, char **argv, struct opts *o)
 				die("--inject: at most 8 injections%s%s", "", "");
 			memset(j, 0, sizeof(*j));
 			j->at_s = -1;
-			if (sscanf(v, "delay:at=%lf,for=%lf,ms=%lf%n", &j->at_s, &j->for_s, &j->ms, &used) == 3 && !v[used] &&
-			    j->for_s > 0 && j->ms > 0 && j->ms <= 10000)
+			if (sscanf(v, "delay:at=%lf,for=%lf,ms=%lf%n", &j->at_s, &j->for_s, &j->ms, &used) == 3 &&
+			    !v[used] && j->for_s > 0 && j->ms > 0 && j->ms <= 10000)
 				j->kind = 'd';
 			else if (sscanf(v, "%15[a-z]:at=%lf%n", kind, &j->at_s, &used) == 2 && !v[used] &&
 				 (!strcmp(kind, "garbage") || !strcmp(kind, "reset") || !strcmp(kind, "stop")))
 				j->kind = kind[0];
 			if (!j->kind || !(j->at_s >= 0))
-				die("--inject '%s' is not delay:at=S,for=S,ms=N (0 < N <= 10000), garbage:at=S, reset:at=S "
-				    "or stop:at=S%s", v, "");
+				die("--inject '%s' is not delay:at=S,for=S,ms=N (0 < N <= 10000), garbage:at=S, "
+				    "reset:at=S "
+				    "or stop:at=S%s",
+				    v, "");
 			o->n_inj++;
 		} else if (!strcmp(a, "--bias-watchdog"))
 			o->bias_watchdog_ms = whole(a, v, 0, 60000, "ms");
@@ -315,8 +316,7 @@ static void parse(int argc, char **argv, struct opts *o)
 		else if (!strcmp(a, "--watchdog")) {
 			o->p.watchdog_ticks = whole(a, v, 1, 100000, "ticks");
 			o->watchdog_given = 1;
-		}
-		else if (!strcmp(a, "--start")) {
+		} else if (!strcmp(a, "--start")) {
 			numbers(a, v, o->start_mm, 3, -300, 300, "mm");
 			o->have_start = 1;
 		} else if (!strcmp(a, "--estop")) {
@@ -338,8 +338,7 @@ static void parse(int argc, char **argv, struct opts *o)
 			numbers(a, v, o->pool_mm, 2, 1, 1e5, "mm");
 		} else if (!strcmp(a, "--scene")) {
 			scene_object(o, v);
-		}
-		else if (!strcmp(a, "--log"))
+		} else if (!strcmp(a, "--log"))
 			o->log = v;
 		else
 			die("unknown option %s%s", a, "");
@@ -417,9 +416,9 @@ struct dev {
 	struct swell_seq force_seq;
 	uint32_t commands, heartbeats, ignored, send_errors;
 	int ctl_state; /* last HEARTBEAT state, -1 before the first */
-	uint32_t ctl_faults;  /* heartbeats that showed the controller entering FAULT */
+	uint32_t ctl_faults; /* heartbeats that showed the controller entering FAULT */
 	uint32_t fault_beats; /* heartbeats in FAULT */
-	int ctl_err;          /* the last error of the last heartbeat in FAULT */
+	int ctl_err; /* the last error of the last heartbeat in FAULT */
 	uint8_t force_seq_last;
 };
 
@@ -487,7 +486,7 @@ static int dev_recv(struct dev *d, struct hm_state *s, int timeout_ms)
 			d->ignored++;
 		} else if (m[k].type == SWELL_MSG_FORCE_CMD) {
 			const struct swell_msg_force_cmd *c = &m[k].u.force_cmd;
-			double fN[3] = {c->fx_cN * 0.01, c->fy_cN * 0.01, c->fz_cN * 0.01};
+			double fN[3] = { c->fx_cN * 0.01, c->fy_cN * 0.01, c->fz_cN * 0.01 };
 
 			latency_answer();
 			swell_seq_track(&d->force_seq, c->seq);
@@ -520,7 +519,7 @@ static int dev_recv(struct dev *d, struct hm_state *s, int timeout_ms)
  * on stderr. Lockstep needs neither. */
 static void setup_rt(struct opts *o, int watchdog_given)
 {
-	struct sched_param sp = {.sched_priority = 70};
+	struct sched_param sp = { .sched_priority = 70 };
 	const char *why = "no --rt";
 	char buf[96];
 	uint32_t slow;
@@ -538,8 +537,9 @@ static void setup_rt(struct opts *o, int watchdog_given)
 		return;
 	slow = (uint32_t)llround(o->p.rate_hz * SLOW_WATCHDOG_MS / 1000.0);
 	if (!watchdog_given && slow > o->p.watchdog_ticks) {
-		fprintf(stderr, "swell-hm: real time without real-time scheduling (%s): watchdog %u ticks (%.1f ms) "
-				"instead of %u; --watchdog N to choose\n",
+		fprintf(stderr,
+			"swell-hm: real time without real-time scheduling (%s): watchdog %u ticks (%.1f ms) "
+			"instead of %u; --watchdog N to choose\n",
 			why, slow, slow * 1e3 / o->p.rate_hz, o->p.watchdog_ticks);
 		o->p.watchdog_ticks = slow;
 	}
@@ -747,7 +747,8 @@ static void summary_head(const struct opts *o, const struct hm_state *s, const s
 			printf("  expected z      none: the hand held the handle in that second\n");
 		} else if (o->obj_mass_g * 1e-3 > RHO_KG_M3 * o->obj_a_mm * o->obj_b_mm * o->obj_h_mm * 1e-9) {
 			/* heavier than the water it can displace: it sinks until the floor carries it */
-			printf("  expected z      %+.3f mm on the floor: m %.0f g > rho a b H %.0f g (sinks); error %+.3f mm\n",
+			printf("  expected z      %+.3f mm on the floor: m %.0f g > rho a b H %.0f g (sinks); error "
+			       "%+.3f mm\n",
 			       -o->depth_mm, o->obj_mass_g, RHO_KG_M3 * o->obj_a_mm * o->obj_b_mm * o->obj_h_mm * 1e-6,
 			       zm + o->depth_mm);
 		} else {
@@ -811,10 +812,10 @@ static void serve_wait(struct hm_serve *srv, struct hm_dev *dev, const struct op
 		left = deadline - now_ns();
 		if (left <= 0)
 			break;
-		pf[n++] = (struct pollfd){srv->lfd, POLLIN, 0};
+		pf[n++] = (struct pollfd){ srv->lfd, POLLIN, 0 };
 		for (k = 0; k < HM_SERVE_CLIENTS; k++)
 			if (srv->c[k].fd >= 0)
-				pf[n++] = (struct pollfd){srv->c[k].fd, POLLIN, 0};
+				pf[n++] = (struct pollfd){ srv->c[k].fd, POLLIN, 0 };
 		poll(pf, (nfds_t)n, (int)((left + 999999) / 1000000));
 	}
 	r->timeouts++;
@@ -832,8 +833,7 @@ static void serve_summary(const struct opts *o, const struct hm_serve *srv, cons
 	       srv->name, st->accepted, st->refused_full, st->requests, dev->commands, dev->errors, st->replies);
 	printf("  bad clients     %u bad headers (closed), %u binary garbage (answered), %u stalled mid-request "
 	       "(dropped), %u not reading (dropped), %u vanished, %u ticks with requests left for the next\n",
-		st->drop_header, st->garbage, st->drop_stalled, st->drop_not_reading, st->vanished,
-		st->deferred_ticks);
+	       st->drop_header, st->garbage, st->drop_stalled, st->drop_not_reading, st->vanished, st->deferred_ticks);
 	if (o->n_inj)
 		printf("  injected        %u connection resets, %u garbage bursts, %u replies delayed\n",
 		       st->injected_resets, st->injected_garbage, st->delayed_replies);
@@ -871,7 +871,11 @@ static void inject(struct opts *o, struct hm_serve *srv, struct hm_dev *dev, dou
 			continue;
 		j->done = 1;
 		fprintf(stderr, "swell-hm: inject %s at %.4f s\n",
-			j->kind == 'd' ? "delay" : j->kind == 'g' ? "garbage" : j->kind == 'r' ? "reset" : "stop", t);
+			j->kind == 'd'           ? "delay"
+				: j->kind == 'g' ? "garbage"
+				: j->kind == 'r' ? "reset"
+						 : "stop",
+			t);
 		if (j->kind == 'g')
 			hm_serve_inject_garbage(srv);
 		else if (j->kind == 'r')
@@ -909,8 +913,9 @@ static int serve_main(struct opts *o, FILE *log, const double x0[3])
 	hm_init(&s, x0);
 	r.z_min = INFINITY;
 	r.z_max = -INFINITY;
-	fprintf(stderr, "swell-hm: serving the HapticMaster interface on %s, %s at %g Hz, hand %s, inertia %g kg, "
-			"bias watchdog %u ms\n",
+	fprintf(stderr,
+		"swell-hm: serving the HapticMaster interface on %s, %s at %g Hz, hand %s, inertia %g kg, "
+		"bias watchdog %u ms\n",
 		srv.name, o->lockstep ? "lockstep" : "real time", o->p.rate_hz, hm_hand_name(o->hand.kind),
 		dev.inertia_kg, o->bias_watchdog_ms);
 	start = next = last_status = now_ns();
@@ -942,10 +947,12 @@ static int serve_main(struct opts *o, FILE *log, const double x0[3])
 			dev.a_m_s2[k] = (s.v[k] - v[k]) / dt;
 		account(&r, &s, t, last_window, holding);
 		if (log)
-			fprintf(log, "%.4f,%.3f,%.3f,%.3f,%.2f,%.2f,%.2f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%d,%d,%d,%d,%d\n", t,
+			fprintf(log,
+				"%.4f,%.3f,%.3f,%.3f,%.2f,%.2f,%.2f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%d,%d,%d,%d,%d\n", t,
 				x[0] * 1e3, x[1] * 1e3, x[2] * 1e3, v[0] * 1e3, v[1] * 1e3, v[2] * 1e3, s.f_cmd_N[0],
-				s.f_cmd_N[1], s.f_cmd_N[2], f_hand[0], f_hand[1], f_hand[2], dev.state == HM_STATE_FORCE,
-				hm_serve_clients(&srv), s.applying, (int)dev.state, holding);
+				s.f_cmd_N[1], s.f_cmd_N[2], f_hand[0], f_hand[1], f_hand[2],
+				dev.state == HM_STATE_FORCE, hm_serve_clients(&srv), s.applying, (int)dev.state,
+				holding);
 		if (!o->quiet && now_ns() - last_status > 1000000000) {
 			last_status = now_ns();
 			fprintf(stderr, "\rswell-hm: t %.1f s, z %+.2f mm, F %+.3f N, state %s, %d clients   ", t,
@@ -992,7 +999,8 @@ int main(int argc, char **argv)
 		      log);
 		/* --serve: the effects' force, the device state (0 off, 1 init, 2 home, 3 force, 4 position,
 		 * 5 stop) and the number of clients instead of the swell protocol's command columns */
-		fputs(o.serve ? "rendering,clients,applied,dev_state,holding\n" : "enable,cmd_age,applied,ctl_state,holding\n",
+		fputs(o.serve ? "rendering,clients,applied,dev_state,holding\n"
+			      : "enable,cmd_age,applied,ctl_state,holding\n",
 		      log);
 	}
 	memset(&sa, 0, sizeof(sa));
@@ -1039,7 +1047,8 @@ int main(int argc, char **argv)
 		hm_step(&o.p, &s, f_hand);
 		account(&r, &s, t, last_window, holding);
 		if (log)
-			fprintf(log, "%.4f,%.3f,%.3f,%.3f,%.2f,%.2f,%.2f,%.2f,%.2f,%.2f,%.3f,%.3f,%.3f,%d,%u,%d,%d,%d\n", t,
+			fprintf(log,
+				"%.4f,%.3f,%.3f,%.3f,%.2f,%.2f,%.2f,%.2f,%.2f,%.2f,%.3f,%.3f,%.3f,%d,%u,%d,%d,%d\n", t,
 				x[0] * 1e3, x[1] * 1e3, x[2] * 1e3, v[0] * 1e3, v[1] * 1e3, v[2] * 1e3, s.f_cmd_N[0],
 				s.f_cmd_N[1], s.f_cmd_N[2], f_hand[0], f_hand[1], f_hand[2], s.cmd_enable, age,
 				s.applying, d.ctl_state, holding);

@@ -9,8 +9,9 @@
 #define CMD_ERASE 0x41u
 
 static const char *const state_names[] = {
-	"appIDLE", "appDETACH", "dfuIDLE", "dfuDNLOAD-SYNC", "dfuDNBUSY", "dfuDNLOAD-IDLE",
-	"dfuMANIFEST-SYNC", "dfuMANIFEST", "dfuMANIFEST-WAIT-RESET", "dfuUPLOAD-IDLE", "dfuERROR",
+	"appIDLE",        "appDETACH",        "dfuIDLE",     "dfuDNLOAD-SYNC",         "dfuDNBUSY",
+	"dfuDNLOAD-IDLE", "dfuMANIFEST-SYNC", "dfuMANIFEST", "dfuMANIFEST-WAIT-RESET", "dfuUPLOAD-IDLE",
+	"dfuERROR",
 };
 
 const char *swell_dfu_state_name(unsigned state)
@@ -21,13 +22,20 @@ const char *swell_dfu_state_name(unsigned state)
 const char *swell_dfu_status_name(unsigned status)
 {
 	switch (status) {
-	case SWELL_DFU_OK: return "OK";
-	case SWELL_DFU_ERR_TARGET: return "errTARGET";
-	case SWELL_DFU_ERR_CHECK_ERASED: return "errCHECK_ERASED";
-	case SWELL_DFU_ERR_ADDRESS: return "errADDRESS";
-	case SWELL_DFU_ERR_UNKNOWN: return "errUNKNOWN";
-	case SWELL_DFU_ERR_STALLEDPKT: return "errSTALLEDPKT";
-	default: return "?";
+	case SWELL_DFU_OK:
+		return "OK";
+	case SWELL_DFU_ERR_TARGET:
+		return "errTARGET";
+	case SWELL_DFU_ERR_CHECK_ERASED:
+		return "errCHECK_ERASED";
+	case SWELL_DFU_ERR_ADDRESS:
+		return "errADDRESS";
+	case SWELL_DFU_ERR_UNKNOWN:
+		return "errUNKNOWN";
+	case SWELL_DFU_ERR_STALLEDPKT:
+		return "errSTALLEDPKT";
+	default:
+		return "?";
 	}
 }
 
@@ -188,8 +196,8 @@ static uint8_t run_write(struct swell_dfuse *t)
 	return SWELL_DFU_OK;
 }
 
-static enum swell_dfuse_reply dnload(struct swell_dfuse *t, const struct swell_dfuse_setup *s,
-				     const uint8_t *out, size_t out_len)
+static enum swell_dfuse_reply dnload(struct swell_dfuse *t, const struct swell_dfuse_setup *s, const uint8_t *out,
+				     size_t out_len)
 {
 	if (t->state != SWELL_DFU_IDLE && t->state != SWELL_DFU_DNLOAD_IDLE)
 		return stall(t, "DNLOAD");
@@ -207,13 +215,12 @@ static enum swell_dfuse_reply dnload(struct swell_dfuse *t, const struct swell_d
 	t->block = s->value;
 	t->block_len = s->length;
 	t->state = SWELL_DFU_DNLOAD_SYNC;
-	snprintf(t->note, sizeof(t->note), "block %u, %u bytes received", (unsigned)s->value,
-		 (unsigned)s->length);
+	snprintf(t->note, sizeof(t->note), "block %u, %u bytes received", (unsigned)s->value, (unsigned)s->length);
 	return SWELL_DFUSE_ACK;
 }
 
-static enum swell_dfuse_reply upload(struct swell_dfuse *t, const struct swell_dfuse_setup *s,
-				     uint8_t *in, size_t in_cap, size_t *in_len)
+static enum swell_dfuse_reply upload(struct swell_dfuse *t, const struct swell_dfuse_setup *s, uint8_t *in,
+				     size_t in_cap, size_t *in_len)
 {
 	size_t n;
 
@@ -229,7 +236,7 @@ static enum swell_dfuse_reply upload(struct swell_dfuse *t, const struct swell_d
 		return SWELL_DFUSE_STALL;
 	}
 	if (s->value == 0) { /* DfuSe "get commands" */
-		const uint8_t cmds[] = {CMD_GET, CMD_SET_ADDRESS, CMD_ERASE};
+		const uint8_t cmds[] = { CMD_GET, CMD_SET_ADDRESS, CMD_ERASE };
 		n = s->length < sizeof(cmds) ? s->length : sizeof(cmds);
 		memcpy(in, cmds, n);
 		snprintf(t->note, sizeof(t->note), "get commands");
@@ -250,16 +257,16 @@ static enum swell_dfuse_reply upload(struct swell_dfuse *t, const struct swell_d
 			n = SWELL_DFUSE_FLASH_SIZE - (size_t)off;
 		memcpy(in, t->flash + off, n);
 		t->bytes_read += (uint32_t)n;
-		snprintf(t->note, sizeof(t->note), "read %u bytes at 0x%08x (block %u)", (unsigned)n,
-			 (unsigned)addr, (unsigned)s->value);
+		snprintf(t->note, sizeof(t->note), "read %u bytes at 0x%08x (block %u)", (unsigned)n, (unsigned)addr,
+			 (unsigned)s->value);
 	}
 	t->state = n < s->length ? SWELL_DFU_IDLE : SWELL_DFU_UPLOAD_IDLE;
 	*in_len = n;
 	return SWELL_DFUSE_DATA;
 }
 
-static enum swell_dfuse_reply getstatus(struct swell_dfuse *t, const struct swell_dfuse_setup *s,
-					uint8_t *in, size_t in_cap, size_t *in_len)
+static enum swell_dfuse_reply getstatus(struct swell_dfuse *t, const struct swell_dfuse_setup *s, uint8_t *in,
+					size_t in_cap, size_t *in_len)
 {
 	uint32_t poll = 0;
 
@@ -314,9 +321,8 @@ static enum swell_dfuse_reply getstatus(struct swell_dfuse *t, const struct swel
 	return SWELL_DFUSE_DATA;
 }
 
-enum swell_dfuse_reply swell_dfuse_request(struct swell_dfuse *t, const struct swell_dfuse_setup *s,
-					   const uint8_t *out, size_t out_len, uint8_t *in, size_t in_cap,
-					   size_t *in_len)
+enum swell_dfuse_reply swell_dfuse_request(struct swell_dfuse *t, const struct swell_dfuse_setup *s, const uint8_t *out,
+					   size_t out_len, uint8_t *in, size_t in_cap, size_t *in_len)
 {
 	const int is_in = (s->request_type & 0x80u) != 0;
 
@@ -349,9 +355,10 @@ enum swell_dfuse_reply swell_dfuse_request(struct swell_dfuse *t, const struct s
 		*in_len = 1;
 		return SWELL_DFUSE_DATA;
 	case SWELL_DFU_ABORT:
-		if (is_in || (t->state != SWELL_DFU_IDLE && t->state != SWELL_DFU_DNLOAD_SYNC &&
-			      t->state != SWELL_DFU_DNLOAD_IDLE && t->state != SWELL_DFU_MANIFEST_SYNC &&
-			      t->state != SWELL_DFU_UPLOAD_IDLE))
+		if (is_in ||
+		    (t->state != SWELL_DFU_IDLE && t->state != SWELL_DFU_DNLOAD_SYNC &&
+		     t->state != SWELL_DFU_DNLOAD_IDLE && t->state != SWELL_DFU_MANIFEST_SYNC &&
+		     t->state != SWELL_DFU_UPLOAD_IDLE))
 			return stall(t, "ABORT");
 		t->state = SWELL_DFU_IDLE;
 		snprintf(t->note, sizeof(t->note), "aborted to dfuIDLE");

@@ -37,8 +37,8 @@ static void usage(FILE *to)
 
 static const char *event_name(enum swell_usb_ffs_event ev)
 {
-	static const char *const name[] = { "none", "bind", "unbind", "enable", "disable",
-					    "setup (stalled)", "suspend", "resume" };
+	static const char *const name[] = { "none",    "bind",  "unbind", "enable", "disable", "setup (stalled)",
+					    "suspend", "resume" };
 	return (unsigned)ev < sizeof(name) / sizeof(name[0]) ? name[ev] : "?";
 }
 
@@ -47,8 +47,13 @@ int main(int argc, char **argv)
 	static struct swell_usb_ffs ffs;
 	static uint8_t buf[PACKET];
 	const struct swell_usb_ffs_iface iface = {
-		.class_code = 0xFF, .subclass = 0, .protocol = 0,
-		.ep_out = 0x01, .ep_in = 0x81, .fs_packet = PACKET, .name = "swell vendor link",
+		.class_code = 0xFF,
+		.subclass = 0,
+		.protocol = 0,
+		.ep_out = 0x01,
+		.ep_in = 0x81,
+		.fs_packet = PACKET,
+		.name = "swell vendor link",
 	};
 	unsigned long long count = 0, echoed = 0, bytes = 0;
 	size_t pending = 0; /* bytes of a received packet not yet queued back */
@@ -64,7 +69,8 @@ int main(int argc, char **argv)
 			errno = 0;
 			count = strtoull(argv[++i], &end, 10);
 			if (errno || *end || argv[i][0] == '-') {
-				fprintf(stderr, "swell-ffs-echo: --count needs a number of packets, not '%s'\n", argv[i]);
+				fprintf(stderr, "swell-ffs-echo: --count needs a number of packets, not '%s'\n",
+					argv[i]);
 				return 2;
 			}
 		} else if (!strcmp(argv[i], "--verbose")) {
@@ -89,8 +95,7 @@ int main(int argc, char **argv)
 
 	enum swell_err err = swell_usb_ffs_open(&ffs, dir, &iface);
 	if (err != SWELL_OK) {
-		fprintf(stderr, "swell-ffs-echo: %s/ep0: %s (%s)\n", dir, swell_err_str(err),
-			strerror(ffs.last_errno));
+		fprintf(stderr, "swell-ffs-echo: %s/ep0: %s (%s)\n", dir, swell_err_str(err), strerror(ffs.last_errno));
 		return 1;
 	}
 	if (verbose)
@@ -111,8 +116,7 @@ int main(int argc, char **argv)
 		enum swell_usb_ffs_event ev;
 		err = swell_usb_ffs_poll(&ffs, 0, &ev);
 		if (err != SWELL_OK) {
-			fprintf(stderr, "swell-ffs-echo: ep0: %s (%s)\n", swell_err_str(err),
-				strerror(ffs.last_errno));
+			fprintf(stderr, "swell-ffs-echo: ep0: %s (%s)\n", swell_err_str(err), strerror(ffs.last_errno));
 			rc = 1;
 			break;
 		}
@@ -137,8 +141,8 @@ int main(int argc, char **argv)
 		}
 	}
 	printf("swell-ffs-echo: %llu packets echoed, %llu bytes, %u control requests stalled, "
-	       "%u writes waited for a free IN slot\n", echoed, bytes, (unsigned)ffs.setup_stalled,
-	       (unsigned)ffs.tx_busy_drops);
+	       "%u writes waited for a free IN slot\n",
+	       echoed, bytes, (unsigned)ffs.setup_stalled, (unsigned)ffs.tx_busy_drops);
 	swell_usb_ffs_close(&ffs);
 	return rc;
 }

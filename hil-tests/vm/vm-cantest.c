@@ -43,13 +43,20 @@ static int parse_num(const char *opt, const char *s, long min, long max, long *o
 static const char *state_name(int state)
 {
 	switch (state) {
-	case CAN_STATE_ERROR_ACTIVE: return "error-active";
-	case CAN_STATE_ERROR_WARNING: return "error-warning";
-	case CAN_STATE_ERROR_PASSIVE: return "error-passive";
-	case CAN_STATE_BUS_OFF: return "bus-off";
-	case CAN_STATE_STOPPED: return "stopped";
-	case CAN_STATE_SLEEPING: return "sleeping";
-	default: return "unknown";
+	case CAN_STATE_ERROR_ACTIVE:
+		return "error-active";
+	case CAN_STATE_ERROR_WARNING:
+		return "error-warning";
+	case CAN_STATE_ERROR_PASSIVE:
+		return "error-passive";
+	case CAN_STATE_BUS_OFF:
+		return "bus-off";
+	case CAN_STATE_STOPPED:
+		return "stopped";
+	case CAN_STATE_SLEEPING:
+		return "sleeping";
+	default:
+		return "unknown";
 	}
 }
 
@@ -86,8 +93,7 @@ static int cmd_up(int argc, char **argv)
 		return 1;
 	}
 	if (can_set_restart_ms(iface, (uint32_t)restart_ms) < 0) {
-		fprintf(stderr, "swell-vm-cantest: up: can_set_restart_ms(%s, %ld) failed\n", iface,
-			restart_ms);
+		fprintf(stderr, "swell-vm-cantest: up: can_set_restart_ms(%s, %ld) failed\n", iface, restart_ms);
 		return 1;
 	}
 	if (can_do_start(iface) < 0) {
@@ -102,8 +108,8 @@ static int cmd_up(int argc, char **argv)
 		return 1;
 	}
 	if (bt.bitrate != (uint32_t)bitrate) {
-		fprintf(stderr, "swell-vm-cantest: up: %s runs at %" PRIu32 " bit/s, asked for %ld\n",
-			iface, bt.bitrate, bitrate);
+		fprintf(stderr, "swell-vm-cantest: up: %s runs at %" PRIu32 " bit/s, asked for %ld\n", iface,
+			bt.bitrate, bitrate);
 		return 1;
 	}
 	char link[128], target[128];
@@ -284,11 +290,10 @@ static int cmd_pair(int argc, char **argv)
 	printf("%s -> %s: %" PRIu32 " frames sent, %" PRIu32 " received, %" PRIu32
 	       " corrupted or out of order, %" PRIu32 " error frames, %.1f ms, %.0f frames/s, "
 	       "longest gap %.2f ms, window %ld, %" PRIu32 " ENOBUFS retries\n",
-	       tx_if, rx_if, sent, received, bad, errframes, dt * 1e3, received / dt, worst_ms,
-	       window, nobufs);
+	       tx_if, rx_if, sent, received, bad, errframes, dt * 1e3, received / dt, worst_ms, window, nobufs);
 	if (bad || errframes) {
-		fprintf(stderr, "swell-vm-cantest: FAIL: %" PRIu32 " bad frames, %" PRIu32
-				" error frames in %ld\n", bad, errframes, count);
+		fprintf(stderr, "swell-vm-cantest: FAIL: %" PRIu32 " bad frames, %" PRIu32 " error frames in %ld\n",
+			bad, errframes, count);
 		rc = 1;
 	}
 out:

@@ -95,14 +95,20 @@ static size_t string_desc(unsigned index, const char *serial, uint8_t *out, size
 	const char *s;
 
 	if (index == 0) {
-		const uint8_t lang[4] = {4, USB_DT_STRING, 0x09, 0x04};
+		const uint8_t lang[4] = { 4, USB_DT_STRING, 0x09, 0x04 };
 		memcpy(out, lang, sizeof(lang));
 		return sizeof(lang);
 	}
 	switch (index) {
-	case 1: s = "STMicroelectronics"; break;
-	case 2: s = "STM32  BOOTLOADER"; break;
-	case 3: s = serial; break;
+	case 1:
+		s = "STMicroelectronics";
+		break;
+	case 2:
+		s = "STM32  BOOTLOADER";
+		break;
+	case 3:
+		s = serial;
+		break;
 	default:
 		if (index - 4u >= SWELL_DFUSE_ALTS)
 			return 0;
@@ -123,11 +129,18 @@ static size_t string_desc(unsigned index, const char *serial, uint8_t *out, size
 /* GadgetFS set-up blob: tag 0, the full-speed configuration, the device descriptor. */
 static size_t descriptors(uint8_t *b, unsigned xfer)
 {
-	static const uint8_t config[9] = {9, USB_DT_CONFIG, 0, 0, 1, 1, 0, 0xC0, 50};
-	const uint8_t dfu_func[9] = {9, 0x21, 0x0B, 0xFF, 0x00, /* will detach, upload, download */
-				     (uint8_t)(xfer & 0xFFu), (uint8_t)(xfer >> 8), 0x1A, 0x01};
-	static const uint8_t device[18] = {18, USB_DT_DEVICE, 0x00, 0x02, 0, 0, 0, EP0_MAX, 0x83, 0x04,
-					   0x11, 0xDF, 0x00, 0x22, 1, 2, 3, 1};
+	static const uint8_t config[9] = { 9, USB_DT_CONFIG, 0, 0, 1, 1, 0, 0xC0, 50 };
+	const uint8_t dfu_func[9] = { 9,
+				      0x21,
+				      0x0B,
+				      0xFF,
+				      0x00, /* will detach, upload, download */
+				      (uint8_t)(xfer & 0xFFu),
+				      (uint8_t)(xfer >> 8),
+				      0x1A,
+				      0x01 };
+	static const uint8_t device[18] = { 18,   USB_DT_DEVICE, 0x00, 0x02, 0,    0, 0, EP0_MAX, 0x83,
+					    0x04, 0x11,          0xDF, 0x00, 0x22, 1, 2, 3,       1 };
 	size_t n = 0;
 
 	memset(b, 0, 4); /* tag */
@@ -135,8 +148,8 @@ static size_t descriptors(uint8_t *b, unsigned xfer)
 	memcpy(b + n, config, sizeof(config));
 	n += sizeof(config);
 	for (unsigned alt = 0; alt < SWELL_DFUSE_ALTS; alt++) {
-		const uint8_t iface[9] = {9, USB_DT_INTERFACE, 0, (uint8_t)alt, 0, 0xFE, 0x01, 0x02,
-					  (uint8_t)(4u + alt)};
+		const uint8_t iface[9] = { 9,    USB_DT_INTERFACE,   0, (uint8_t)alt, 0, 0xFE, 0x01,
+					   0x02, (uint8_t)(4u + alt) };
 		memcpy(b + n, iface, sizeof(iface));
 		n += sizeof(iface);
 	}
@@ -189,8 +202,7 @@ static int open_flash(const char *path)
 	struct stat st;
 	if (fstat(fd, &st) != 0 || st.st_size != (off_t)sizeof(target.flash) ||
 	    pread(fd, target.flash, sizeof(target.flash), 0) != (ssize_t)sizeof(target.flash)) {
-		fprintf(stderr, PROG ": the flash file %s must hold exactly %u bytes\n", path,
-			SWELL_DFUSE_FLASH_SIZE);
+		fprintf(stderr, PROG ": the flash file %s must hold exactly %u bytes\n", path, SWELL_DFUSE_FLASH_SIZE);
 		close(fd);
 		return -1;
 	}
@@ -247,16 +259,17 @@ static int persist(struct dev *d)
 
 static const char *dfu_request_name(unsigned r)
 {
-	static const char *const names[] = {"DETACH", "DNLOAD", "UPLOAD", "GETSTATUS", "CLRSTATUS",
-					    "GETSTATE", "ABORT"};
+	static const char *const names[] = {
+		"DETACH", "DNLOAD", "UPLOAD", "GETSTATUS", "CLRSTATUS", "GETSTATE", "ABORT"
+	};
 	return r < sizeof(names) / sizeof(names[0]) ? names[r] : "UNKNOWN";
 }
 
 static int handle_dfu(struct dev *d, const struct usb_ctrlrequest *c)
 {
 	static uint8_t out[SWELL_DFUSE_XFER_MAX], in[SWELL_DFUSE_XFER_MAX];
-	const struct swell_dfuse_setup s = {c->bRequestType, c->bRequest, __le16_to_cpu(c->wValue),
-					    __le16_to_cpu(c->wIndex), __le16_to_cpu(c->wLength)};
+	const struct swell_dfuse_setup s = { c->bRequestType, c->bRequest, __le16_to_cpu(c->wValue),
+					     __le16_to_cpu(c->wIndex), __le16_to_cpu(c->wLength) };
 	const int is_in = (c->bRequestType & USB_DIR_IN) != 0;
 	size_t out_len = 0, in_len = 0;
 
@@ -353,8 +366,8 @@ static int handle_setup(struct dev *d, const struct usb_ctrlrequest *c)
 		(void)!read(d->ep0, buf, len < sizeof(buf) ? len : sizeof(buf));
 	else
 		reply_stall(d, is_in);
-	logline("usb", "request type 0x%02x req 0x%02x value 0x%04x len %u -> %s", c->bRequestType,
-		c->bRequest, value, len, drop ? "data dropped (not stallable)" : "stall");
+	logline("usb", "request type 0x%02x req 0x%02x value 0x%04x len %u -> %s", c->bRequestType, c->bRequest, value,
+		len, drop ? "data dropped (not stallable)" : "stall");
 	return 0;
 }
 
@@ -363,7 +376,7 @@ int main(int argc, char **argv)
 	const char *flash_path = NULL, *log_path = NULL, *gfs = "/dev/gadget";
 	long poll_ms = 1, leave_ms = 50, xfer = GADGETFS_EP0_MAX;
 	int rt = 1;
-	struct dev d = {.bad_cell = -1, .ep0 = -1, .flash_fd = -1, .serial = "5357454C4C31", .dfu_requests = 0};
+	struct dev d = { .bad_cell = -1, .ep0 = -1, .flash_fd = -1, .serial = "5357454C4C31", .dfu_requests = 0 };
 
 	for (int i = 1; i < argc; i++) {
 		const char *a = argv[i];
@@ -436,7 +449,7 @@ int main(int argc, char **argv)
 
 	/* GadgetFS queues an OUT data stage as soon as the SETUP arrives and the host's next request
 	 * would overwrite it: answer before the host (a normal process) runs again, like hardware. */
-	struct sched_param sp = {.sched_priority = 10};
+	struct sched_param sp = { .sched_priority = 10 };
 	if (rt && sched_setscheduler(0, SCHED_FIFO, &sp) != 0)
 		fprintf(stderr, PROG ": warning: no SCHED_FIFO (%s); requests may race the host\n", strerror(errno));
 
@@ -457,8 +470,8 @@ int main(int argc, char **argv)
 			ep0_path, strerror(errno));
 		return 1;
 	}
-	logline("usb", "descriptors written to %s: 0483:df11, DfuSe 1.1a, %u-byte transfers, flash %s",
-		ep0_path, (unsigned)xfer, flash_path);
+	logline("usb", "descriptors written to %s: 0483:df11, DfuSe 1.1a, %u-byte transfers, flash %s", ep0_path,
+		(unsigned)xfer, flash_path);
 
 	int rc = 0;
 	double leave_at = 0;
@@ -467,7 +480,7 @@ int main(int argc, char **argv)
 			leave_at = vm_now_s() + (double)leave_ms / 1000.0;
 		if (leave_at != 0 && vm_now_s() >= leave_at)
 			break;
-		struct pollfd pfd = {.fd = d.ep0, .events = POLLIN, .revents = 0};
+		struct pollfd pfd = { .fd = d.ep0, .events = POLLIN, .revents = 0 };
 		int pr = poll(&pfd, 1, leave_at != 0 ? 5 : 100);
 		if (pr < 0 && errno != EINTR) {
 			fprintf(stderr, PROG ": poll: %s\n", strerror(errno));

@@ -35,11 +35,16 @@ static int parse_num(const char *opt, const char *s, int base, long min, long ma
 static const char *speed_name(int s)
 {
 	switch (s) {
-	case LIBUSB_SPEED_LOW: return "low speed";
-	case LIBUSB_SPEED_FULL: return "full speed";
-	case LIBUSB_SPEED_HIGH: return "high speed";
-	case LIBUSB_SPEED_SUPER: return "super speed";
-	default: return "unknown speed";
+	case LIBUSB_SPEED_LOW:
+		return "low speed";
+	case LIBUSB_SPEED_FULL:
+		return "full speed";
+	case LIBUSB_SPEED_HIGH:
+		return "high speed";
+	case LIBUSB_SPEED_SUPER:
+		return "super speed";
+	default:
+		return "unknown speed";
 	}
 }
 
@@ -150,8 +155,8 @@ int main(int argc, char **argv)
 	}
 	libusb_device *dev = libusb_get_device(h);
 	if (find_vendor_iface(dev, &l) != 0) {
-		fprintf(stderr, "swell-vm-usbtest: %04lx:%04lx has no vendor interface with bulk OUT and IN\n",
-			vid, pid);
+		fprintf(stderr, "swell-vm-usbtest: %04lx:%04lx has no vendor interface with bulk OUT and IN\n", vid,
+			pid);
 		goto out_close;
 	}
 	libusb_set_auto_detach_kernel_driver(h, 1);
@@ -165,28 +170,30 @@ int main(int argc, char **argv)
 	       vid, pid, speed_name(libusb_get_device_speed(dev)), libusb_get_bus_number(dev),
 	       libusb_get_device_address(dev), l.iface, l.ep_out, l.mps_out, l.ep_in, l.mps_in);
 	if ((want_out >= 0 && l.ep_out != want_out) || (want_in >= 0 && l.ep_in != want_in)) {
-		fprintf(stderr, "swell-vm-usbtest: FAIL: endpoints 0x%02x/0x%02x, expected 0x%02lx/0x%02lx\n",
-			l.ep_out, l.ep_in, want_out, want_in);
+		fprintf(stderr, "swell-vm-usbtest: FAIL: endpoints 0x%02x/0x%02x, expected 0x%02lx/0x%02lx\n", l.ep_out,
+			l.ep_in, want_out, want_in);
 		goto out_release;
 	}
 	if (l.mps_out != PACKET_MAX || l.mps_in != PACKET_MAX) {
-		fprintf(stderr, "swell-vm-usbtest: FAIL: max packet %d/%d bytes, expected %d\n", l.mps_out,
-			l.mps_in, PACKET_MAX);
+		fprintf(stderr, "swell-vm-usbtest: FAIL: max packet %d/%d bytes, expected %d\n", l.mps_out, l.mps_in,
+			PACKET_MAX);
 		goto out_release;
 	}
 
 	/* The device answers control requests to its interface with a stall; the link must survive. */
 	uint8_t ctl[8];
-	int in_r = libusb_control_transfer(h, LIBUSB_ENDPOINT_IN | LIBUSB_REQUEST_TYPE_VENDOR |
-					      LIBUSB_RECIPIENT_INTERFACE, 0x01, 0, (uint16_t)l.iface,
-				   ctl, sizeof(ctl), (unsigned)timeout_ms);
-	int out_r = libusb_control_transfer(h, LIBUSB_ENDPOINT_OUT | LIBUSB_REQUEST_TYPE_VENDOR |
-					       LIBUSB_RECIPIENT_INTERFACE, 0x02, 0, (uint16_t)l.iface,
-				    NULL, 0, (unsigned)timeout_ms);
+	int in_r =
+		libusb_control_transfer(h, LIBUSB_ENDPOINT_IN | LIBUSB_REQUEST_TYPE_VENDOR | LIBUSB_RECIPIENT_INTERFACE,
+					0x01, 0, (uint16_t)l.iface, ctl, sizeof(ctl), (unsigned)timeout_ms);
+	int out_r = libusb_control_transfer(
+		h, LIBUSB_ENDPOINT_OUT | LIBUSB_REQUEST_TYPE_VENDOR | LIBUSB_RECIPIENT_INTERFACE, 0x02, 0,
+		(uint16_t)l.iface, NULL, 0, (unsigned)timeout_ms);
 	if (in_r != LIBUSB_ERROR_PIPE || out_r != LIBUSB_ERROR_PIPE) {
-		fprintf(stderr, "swell-vm-usbtest: FAIL: vendor control requests gave %s (IN) and %s (OUT), "
-			"expected a stall (%s)\n", in_r < 0 ? libusb_strerror(in_r) : "data",
-			out_r < 0 ? libusb_strerror(out_r) : "success", libusb_strerror(LIBUSB_ERROR_PIPE));
+		fprintf(stderr,
+			"swell-vm-usbtest: FAIL: vendor control requests gave %s (IN) and %s (OUT), "
+			"expected a stall (%s)\n",
+			in_r < 0 ? libusb_strerror(in_r) : "data", out_r < 0 ? libusb_strerror(out_r) : "success",
+			libusb_strerror(LIBUSB_ERROR_PIPE));
 		goto out_release;
 	}
 
@@ -199,14 +206,14 @@ int main(int argc, char **argv)
 		double t1 = vm_now_s();
 		r = libusb_bulk_transfer(h, l.ep_out, out, len, &got, (unsigned)timeout_ms);
 		if (r != 0 || got != len) {
-			fprintf(stderr, "swell-vm-usbtest: FAIL: packet %ld OUT: %s, %d of %d bytes sent\n",
-				done, libusb_strerror(r), got, len);
+			fprintf(stderr, "swell-vm-usbtest: FAIL: packet %ld OUT: %s, %d of %d bytes sent\n", done,
+				libusb_strerror(r), got, len);
 			goto out_release;
 		}
 		r = libusb_bulk_transfer(h, l.ep_in, in, PACKET_MAX, &got, (unsigned)timeout_ms);
 		if (r != 0) {
-			fprintf(stderr, "swell-vm-usbtest: FAIL: packet %ld IN: %s (%ld of %ld echoed)\n",
-				done, libusb_strerror(r), done, count);
+			fprintf(stderr, "swell-vm-usbtest: FAIL: packet %ld IN: %s (%ld of %ld echoed)\n", done,
+				libusb_strerror(r), done, count);
 			goto out_release;
 		}
 		double rtt = vm_now_s() - t1;
@@ -214,19 +221,19 @@ int main(int argc, char **argv)
 			rtt_max = rtt;
 		if (got != len || memcmp(in, out, (size_t)len) != 0) {
 			if (bad < 3)
-				fprintf(stderr, "swell-vm-usbtest: packet %ld: sent %d bytes, got %d bytes%s\n",
-					done, len, got, got == len ? " that differ" : "");
+				fprintf(stderr, "swell-vm-usbtest: packet %ld: sent %d bytes, got %d bytes%s\n", done,
+					len, got, got == len ? " that differ" : "");
 			bad++;
 		}
 	}
 	double dt = vm_now_s() - t0;
-	printf("usb echo: vendor control requests IN and OUT stalled; %ld packets (%s lengths), %u bad, %.1f ms, %.0f packets/s, round trip "
+	printf("usb echo: vendor control requests IN and OUT stalled; %ld packets (%s lengths), %u bad, %.1f ms, %.0f "
+	       "packets/s, round trip "
 	       "mean %.0f us, max %.0f us\n",
 	       done, vary ? "1..64 byte" : "64 byte", (unsigned)bad, dt * 1e3, (double)done / dt,
 	       dt / (double)done * 1e6, rtt_max * 1e6);
 	if (bad) {
-		fprintf(stderr, "swell-vm-usbtest: FAIL: %u of %ld packets came back wrong\n",
-			(unsigned)bad, count);
+		fprintf(stderr, "swell-vm-usbtest: FAIL: %u of %ld packets came back wrong\n", (unsigned)bad, count);
 		goto out_release;
 	}
 	rc = 0;

@@ -185,13 +185,11 @@ static int run_pair(struct swell_link *tx, struct swell_link *rx, const struct o
 	return 0;
 }
 
-static int report(const char *what, const struct pair_result *r, const struct swell_link *rx,
-		  unsigned long count)
+static int report(const char *what, const struct pair_result *r, const struct swell_link *rx, unsigned long count)
 {
 	const struct swell_link_counters *c = swell_link_get_counters(rx);
-	int ok = r->frames == count && r->bad_values == 0 && r->lost == 0 && r->repeated == 0 &&
-		 r->pkt_lost == 0 && r->rejected == 0 && r->timeouts == 0 &&
-		 r->types_seen == swell_msg_desc_count;
+	int ok = r->frames == count && r->bad_values == 0 && r->lost == 0 && r->repeated == 0 && r->pkt_lost == 0 &&
+		r->rejected == 0 && r->timeouts == 0 && r->types_seen == swell_msg_desc_count;
 
 	printf("%s: %s: %lu/%lu frames, %lu messages of %u/%u types, %lu wrong values, %lu lost, "
 	       "%lu repeated, %lu rejected, %lu timeouts, %llu bus errors, %.1f ms (%.0f frames/s)\n",
@@ -303,8 +301,8 @@ static int cmd_usb_echo(const struct opts *o)
 
 	rc = swell_link_open_usb(&l, &o->usb);
 	if (rc) {
-		fprintf(stderr, "swell-linktest: cannot open USB %04x:%04x interface %d: %s\n", o->usb.vid,
-			o->usb.pid, o->usb.iface, strerror(-rc));
+		fprintf(stderr, "swell-linktest: cannot open USB %04x:%04x interface %d: %s\n", o->usb.vid, o->usb.pid,
+			o->usb.iface, strerror(-rc));
 		return 2;
 	}
 	rtt = calloc(o->count, sizeof(*rtt));
@@ -369,8 +367,7 @@ static int cmd_usb_echo(const struct opts *o)
 	printf("usb-echo %s: %s: %lu/%lu packets echoed intact, %lu wrong, %lu timeouts, %lu while "
 	       "unplugged, %llu reconnects (%lu intact after), round trip min %.1f us, median %.1f us, "
 	       "max %.1f us\n",
-	       swell_link_name(l), pass ? "OK" : "FAILED", ok, o->count, wrong, timeouts, away,
-	       reconnects, ok_after,
+	       swell_link_name(l), pass ? "OK" : "FAILED", ok, o->count, wrong, timeouts, away, reconnects, ok_after,
 	       ok + wrong ? rtt[0] / 1e3 : 0.0, ok + wrong ? rtt[median] / 1e3 : 0.0,
 	       ok + wrong ? rtt[ok + wrong - 1] / 1e3 : 0.0);
 	free(rtt);

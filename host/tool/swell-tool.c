@@ -357,7 +357,8 @@ static int cmd_estop(struct tool_session *s, const struct opts *o)
 	m[1].u.param_set.id = SWELL_PARAM_COMMAND;
 	m[1].u.param_set.value = SWELL_CMD_STOP;
 	for (k = 0; k < 2; k++)
-		if (swell_link_encode(swell_link_carrier(s->l), m[k].node, s->pkt_seq++, &m[k], 1, &f, &used) == SWELL_OK)
+		if (swell_link_encode(swell_link_carrier(s->l), m[k].node, s->pkt_seq++, &m[k], 1, &f, &used) ==
+		    SWELL_OK)
 			(void)swell_link_send(s->l, &f);
 	/* then the same through the acknowledged path: a lost frame is sent again */
 	return command(s, o, SWELL_CMD_STOP, ~STATE_BIT(SWELL_CTL_RUNNING) & 0x1fu);
@@ -403,7 +404,8 @@ static int cmd_status(struct tool_session *s, const struct opts *o)
 			printf("  \"firmware_version\": null,\n");
 		printf("  \"bad_frames\": %u,\n  \"overruns\": %u,\n", t->hb.bad_frames, t->hb.overruns);
 		if (t->have_scene)
-			printf("  \"scene\": {\"id\": %u, \"nx\": %u, \"ny\": %u, \"dx_mm\": %.3f, \"depth_mm\": %.2f},\n",
+			printf("  \"scene\": {\"id\": %u, \"nx\": %u, \"ny\": %u, \"dx_mm\": %.3f, \"depth_mm\": "
+			       "%.2f},\n",
 			       t->scene.scene_id, t->scene.nx, t->scene.ny, t->scene.dx_um / 1000.0,
 			       t->scene.depth_10um / 100.0);
 		else
@@ -422,8 +424,8 @@ static int cmd_status(struct tool_session *s, const struct opts *o)
 		printf("}\n}\n");
 		return TOOL_OK;
 	}
-	printf("controller   node %d on %s, state %s, last error: %s\n", s->node, s->name, swell_state_name(t->hb.state),
-	       swell_err_str((enum swell_err)t->hb.err));
+	printf("controller   node %d on %s, state %s, last error: %s\n", s->node, s->name,
+	       swell_state_name(t->hb.state), swell_err_str((enum swell_err)t->hb.err));
 	printf("versions     protocol %u, firmware %s\n", t->hb.version, t->have_info ? fw : "not heard yet");
 	printf("counters     %u bad frames, %u tick overruns (saturating at 65535)\n", t->hb.bad_frames,
 	       t->hb.overruns);
@@ -435,12 +437,13 @@ static int cmd_status(struct tool_session *s, const struct opts *o)
 		printf("scene        not heard within %.1f s (sent once a second of the controller's time)\n",
 		       wait_ms / 1000.0);
 	if (t->have_info)
-		printf("object       %.1f x %.1f x %.1f mm, %ld g", t->info.obj_a_100um / 10.0, t->info.obj_b_100um / 10.0,
-		       t->info.obj_h_100um / 10.0, (long)mass);
+		printf("object       %.1f x %.1f x %.1f mm, %ld g", t->info.obj_a_100um / 10.0,
+		       t->info.obj_b_100um / 10.0, t->info.obj_h_100um / 10.0, (long)mass);
 	else
 		printf("object       %ld g (size not heard yet)", (long)mass);
 	if (t->have_pose)
-		printf("; bottom at %.2f mm, %.1f %% submerged", t->pose.z_10um / 100.0, t->pose.submersion_halfpct / 2.0);
+		printf("; bottom at %.2f mm, %.1f %% submerged", t->pose.z_10um / 100.0,
+		       t->pose.submersion_halfpct / 2.0);
 	printf("\n");
 	if (t->have_force)
 		printf("force        %.2f %.2f %.2f N%s%s\n", t->force.fx_cN / 100.0, t->force.fy_cN / 100.0,
@@ -475,7 +478,7 @@ static int cmd_watch(struct tool_session *s, const struct opts *o)
 {
 	const double seconds = o->seconds > 0 ? o->seconds : 1e9;
 	const int tty = isatty(fileno(stdout));
-	struct load l = {s->t.frames, s->t.bytes, s->t.can_bits, swell_link_now_ns()};
+	struct load l = { s->t.frames, s->t.bytes, s->t.can_bits, swell_link_now_ns() };
 	char lb[80];
 
 	while (!stop_flag && tool_elapsed_s(s) < seconds) {
@@ -543,7 +546,8 @@ static int cmd_log(struct tool_session *s, const struct opts *o)
 		if (tool_silent(s)) {
 			s->on_msg = NULL;
 			fclose(lg.f);
-			fprintf(stderr, "%sswell-tool: log: the controller went silent after %.1f s; %u rows kept in %s\n",
+			fprintf(stderr,
+				"%sswell-tool: log: the controller went silent after %.1f s; %u rows kept in %s\n",
 				tty ? "\n" : "", t, lg.rows, o->argv[1]);
 			return TOOL_TIMEOUT;
 		}
@@ -578,7 +582,8 @@ static int cmd_plot(const struct opts *o)
 	}
 	if (!fgets(line, sizeof(line), f) || strncmp(line, "t_s,state,x_mm", 14) != 0) {
 		fclose(f);
-		fprintf(stderr, "swell-tool: plot: %s is not a swell-tool log (header t_s,state,x_mm,...)\n", o->argv[1]);
+		fprintf(stderr, "swell-tool: plot: %s is not a swell-tool log (header t_s,state,x_mm,...)\n",
+			o->argv[1]);
 		return TOOL_FAIL;
 	}
 	while (fgets(line, sizeof(line), f))
@@ -593,8 +598,8 @@ static int cmd_plot(const struct opts *o)
 	else {
 		size_t n = strlen(o->argv[1]);
 
-		snprintf(png, sizeof(png), "%.*s.png",
-			 (int)(n > 4 && !strcmp(o->argv[1] + n - 4, ".csv") ? n - 4 : n), o->argv[1]);
+		snprintf(png, sizeof(png), "%.*s.png", (int)(n > 4 && !strcmp(o->argv[1] + n - 4, ".csv") ? n - 4 : n),
+			 o->argv[1]);
 	}
 	if (strpbrk(png, "\"\\") || strpbrk(o->argv[1], "\"\\"))
 		return bad("%s", "file names with quotes or backslashes cannot be handed to gnuplot");
@@ -603,15 +608,16 @@ static int cmd_plot(const struct opts *o)
 		fprintf(stderr, "swell-tool: plot: cannot run gnuplot (tools/setup installs gnuplot-nox)\n");
 		return TOOL_FAIL;
 	}
-	fprintf(g, "set terminal pngcairo size 1000,900 font 'sans,10'\nset output \"%s\"\n"
-		   "set datafile separator ','\nset key autotitle columnhead top right\nset grid\n"
-		   "set multiplot layout 3,1 title \"swell-tool log %s (%d rows)\"\n"
-		   "set ylabel 'force (N)'\nplot \"%s\" using 1:9 with lines lw 2 title 'Fz', '' using 1:7 with lines "
-		   "title 'Fx', '' using 1:8 with lines title 'Fy'\n"
-		   "set ylabel 'height (mm)'\nplot \"%s\" using 1:5 with lines lw 2 title 'object bottom z', '' using "
-		   "1:10 with lines lw 2 title 'water under the object', '' using 1:11 with lines title 'largest wave'\n"
-		   "set ylabel 'submersion (%%)'\nset xlabel 'time (s)'\nset yrange [0:105]\nplot \"%s\" using 1:6 with "
-		   "lines lw 2 title 'submerged'\nunset multiplot\n",
+	fprintf(g,
+		"set terminal pngcairo size 1000,900 font 'sans,10'\nset output \"%s\"\n"
+		"set datafile separator ','\nset key autotitle columnhead top right\nset grid\n"
+		"set multiplot layout 3,1 title \"swell-tool log %s (%d rows)\"\n"
+		"set ylabel 'force (N)'\nplot \"%s\" using 1:9 with lines lw 2 title 'Fz', '' using 1:7 with lines "
+		"title 'Fx', '' using 1:8 with lines title 'Fy'\n"
+		"set ylabel 'height (mm)'\nplot \"%s\" using 1:5 with lines lw 2 title 'object bottom z', '' using "
+		"1:10 with lines lw 2 title 'water under the object', '' using 1:11 with lines title 'largest wave'\n"
+		"set ylabel 'submersion (%%)'\nset xlabel 'time (s)'\nset yrange [0:105]\nplot \"%s\" using 1:6 with "
+		"lines lw 2 title 'submerged'\nunset multiplot\n",
 		png, o->argv[1], rows, o->argv[1], o->argv[1], o->argv[1]);
 	rc = pclose(g);
 	if (rc != 0) {
@@ -622,8 +628,8 @@ static int cmd_plot(const struct opts *o)
 	return TOOL_OK;
 }
 
-static const char *const session_cmds[] = {"status", "get", "set", "params", "arm", "run", "stop",
-					   "clear", "estop", "watch", "log", "scene"};
+static const char *const session_cmds[] = { "status", "get",   "set",   "params", "arm", "run",
+					    "stop",   "clear", "estop", "watch",  "log", "scene" };
 
 int main(int argc, char **argv)
 {
@@ -663,7 +669,8 @@ int main(int argc, char **argv)
 		rc = cmd_params(&s, &o);
 	else if (!strcmp(cmd, "arm"))
 		rc = command(&s, &o, s.t.hb.state == SWELL_CTL_FAULT ? SWELL_CMD_CLEAR : SWELL_CMD_STOP,
-			     STATE_BIT(SWELL_CTL_ARMED) | (s.t.hb.state == SWELL_CTL_FAULT ? STATE_BIT(SWELL_CTL_IDLE) : 0));
+			     STATE_BIT(SWELL_CTL_ARMED) |
+				     (s.t.hb.state == SWELL_CTL_FAULT ? STATE_BIT(SWELL_CTL_IDLE) : 0));
 	else if (!strcmp(cmd, "run"))
 		rc = command(&s, &o, SWELL_CMD_RUN, STATE_BIT(SWELL_CTL_RUNNING));
 	else if (!strcmp(cmd, "stop"))
@@ -676,7 +683,7 @@ int main(int argc, char **argv)
 		rc = cmd_watch(&s, &o);
 	else if (!strcmp(cmd, "scene"))
 		rc = !strcmp(o.argv[1], "load") ? tool_scene_load(&s, o.argv[2], o.timeout_ms)
-						 : tool_scene_save(&s, o.argv[2], o.timeout_ms);
+						: tool_scene_save(&s, o.argv[2], o.timeout_ms);
 	else
 		rc = cmd_log(&s, &o);
 	tool_close(&s);

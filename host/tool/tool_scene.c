@@ -19,7 +19,8 @@ static enum tool_rc get(struct tool_session *s, uint16_t id, int timeout_ms, int
 	enum tool_rc rc = tool_request(s, 0, id, 0, timeout_ms, v, &why, err, sizeof(err));
 
 	if (rc == TOOL_REFUSED)
-		fprintf(stderr, "swell-tool: %s: get %s refused: %s\n", what, swell_param_by_id(id)->name, swell_err_str(why));
+		fprintf(stderr, "swell-tool: %s: get %s refused: %s\n", what, swell_param_by_id(id)->name,
+			swell_err_str(why));
 	else if (rc != TOOL_OK)
 		fprintf(stderr, "swell-tool: %s: %s\n", what, err);
 	return rc;
@@ -52,12 +53,11 @@ static uint32_t solver_hz_of(const struct tool_telemetry *t, int32_t e)
 }
 
 /* A start-up parameter of the file that differs from the running controller: its line, 0 if none. */
-static int startup_differs(const struct tool_session *s, const struct swell_scene *sc, int32_t e, char *why,
-			   size_t len)
+static int startup_differs(const struct tool_session *s, const struct swell_scene *sc, int32_t e, char *why, size_t len)
 {
 	const struct tool_telemetry *t = &s->t;
-	const int32_t now[4] = {t->scene.nx, t->scene.ny, t->scene.dx_um, (int32_t)t->scene.depth_10um * 10};
-	const uint16_t ids[4] = {SWELL_SCENE_NX, SWELL_SCENE_NY, SWELL_SCENE_DX_UM, SWELL_SCENE_DEPTH_UM};
+	const int32_t now[4] = { t->scene.nx, t->scene.ny, t->scene.dx_um, (int32_t)t->scene.depth_10um * 10 };
+	const uint16_t ids[4] = { SWELL_SCENE_NX, SWELL_SCENE_NY, SWELL_SCENE_DX_UM, SWELL_SCENE_DEPTH_UM };
 	const struct swell_scene_value *v;
 	char a[48], b[48];
 	int k;
@@ -77,11 +77,12 @@ static int startup_differs(const struct tool_session *s, const struct swell_scen
 		q30_t x = 0;
 
 		if (1000000 % v->raw != 0 ||
-		    swell_wave_e_from_physical(G_MM_S2, 1000000u / (uint32_t)v->raw, (uint32_t)now[3], (uint32_t)now[2], &x) !=
-			    SWELL_OK ||
+		    swell_wave_e_from_physical(G_MM_S2, 1000000u / (uint32_t)v->raw, (uint32_t)now[3], (uint32_t)now[2],
+					       &x) != SWELL_OK ||
 		    !same_e(x, e)) {
-			snprintf(why, len, "solver.hz = %ld Hz is not the running controller's rate (its wave.e differs): "
-					   "a start-up parameter (swell-ctl --scene)",
+			snprintf(why, len,
+				 "solver.hz = %ld Hz is not the running controller's rate (its wave.e differs): "
+				 "a start-up parameter (swell-ctl --scene)",
 				 (long)v->raw);
 			return v->line;
 		}
@@ -92,7 +93,7 @@ static int startup_differs(const struct tool_session *s, const struct swell_scen
 enum tool_rc tool_scene_load(struct tool_session *s, const char *path, int timeout_ms)
 {
 	struct swell_scene sc;
-	int32_t old[SWELL_SCENE_PARAMS_MAX] = {0}, e = 0, now = 0;
+	int32_t old[SWELL_SCENE_PARAMS_MAX] = { 0 }, e = 0, now = 0;
 	char err[400], a[48], b[48];
 	size_t k, done = 0, changed = 0;
 	enum swell_err why = SWELL_OK;
@@ -156,15 +157,17 @@ enum tool_rc tool_scene_load(struct tool_session *s, const char *path, int timeo
 			continue;
 		back = tool_request(s, 1, sc.v[done].d->id, old[done], timeout_ms, &now, &why, err, sizeof(err));
 		if (back != TOOL_OK) {
-			fprintf(stderr, "swell-tool: scene load: could not put %s back (%s): the controller is part "
-					"changed\n",
+			fprintf(stderr,
+				"swell-tool: scene load: could not put %s back (%s): the controller is part "
+				"changed\n",
 				sc.v[done].d->name, back == TOOL_REFUSED ? swell_err_str(why) : err);
 			return back;
 		}
 	}
 	if (rc == TOOL_REFUSED)
-		fprintf(stderr, "swell-tool: scene load: every value set before line %d was put back; the controller "
-				"is as it was\n",
+		fprintf(stderr,
+			"swell-tool: scene load: every value set before line %d was put back; the controller "
+			"is as it was\n",
 			sc.v[k].line);
 	return rc;
 }

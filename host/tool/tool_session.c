@@ -33,7 +33,7 @@ static unsigned can_bits(unsigned n)
 static void take_quad(struct tool_telemetry *t, const struct swell_msg_height_quad *q)
 {
 	const unsigned y = q->tile_y * SWELL_PROTO_TILE + q->row, x0 = q->tile_x * SWELL_PROTO_TILE + q->half * 4u;
-	const int16_t h[4] = {q->h0, q->h1, q->h2, q->h3};
+	const int16_t h[4] = { q->h0, q->h1, q->h2, q->h3 };
 	unsigned k;
 
 	for (k = 0; k < 4; k++) {
@@ -94,13 +94,14 @@ static int take_frame(struct tool_session *s, const struct swell_frame *f)
 		return 0;
 	for (k = 0; k < n; k++) {
 		const int from_ctl = m[k].type != SWELL_MSG_PARAM_SET && m[k].type != SWELL_MSG_PARAM_GET &&
-				     m[k].type != SWELL_MSG_ENTER_BOOTLOADER && m[k].type != SWELL_MSG_FORCE_CMD &&
-				     m[k].type != SWELL_MSG_DEVICE_POS && m[k].type != SWELL_MSG_DEVICE_VEL &&
-				     m[k].type != SWELL_MSG_DEVICE_FORCE;
+			m[k].type != SWELL_MSG_ENTER_BOOTLOADER && m[k].type != SWELL_MSG_FORCE_CMD &&
+			m[k].type != SWELL_MSG_DEVICE_POS && m[k].type != SWELL_MSG_DEVICE_VEL &&
+			m[k].type != SWELL_MSG_DEVICE_FORCE;
 
 		if (!from_ctl)
 			continue; /* another host's requests, or device traffic on a shared bus */
-		if (s->node < 0 && m[k].type == SWELL_MSG_HEARTBEAT && (s->spec.node < 0 || s->spec.node == m[k].node)) {
+		if (s->node < 0 && m[k].type == SWELL_MSG_HEARTBEAT &&
+		    (s->spec.node < 0 || s->spec.node == m[k].node)) {
 			if (s->spec.node < 0 && s->other >= 0 && s->other != m[k].node)
 				continue; /* two controllers and none chosen: tool_open refuses */
 			s->node = m[k].node;
@@ -142,7 +143,7 @@ int tool_pump(struct tool_session *s, int ms)
 		}
 		if (left == 0 || rc != -ETIMEDOUT) {
 			if (rc != -ETIMEDOUT && left > 0) { /* a USB device gone: wait out the time, do not spin */
-				struct timespec d = {0, 10000000};
+				struct timespec d = { 0, 10000000 };
 
 				nanosleep(&d, NULL);
 				continue;
@@ -244,12 +245,14 @@ static int wait_answer(struct tool_session *s, uint16_t id, uint8_t seq, int ms,
 		if (swell_link_recv(s->l, &f, 10) != 0)
 			continue;
 		take_frame(s, &f);
-		if (swell_link_decode(swell_link_carrier(s->l), &f, m, SWELL_CANFD_MSGS_MAX, &n, NULL, NULL) != SWELL_OK)
+		if (swell_link_decode(swell_link_carrier(s->l), &f, m, SWELL_CANFD_MSGS_MAX, &n, NULL, NULL) !=
+		    SWELL_OK)
 			continue;
 		for (k = 0; k < n; k++) {
 			if ((int)m[k].node != s->node)
 				continue;
-			if (m[k].type == SWELL_MSG_PARAM_ACK && m[k].u.param_ack.id == id && m[k].u.param_ack.seq == seq) {
+			if (m[k].type == SWELL_MSG_PARAM_ACK && m[k].u.param_ack.id == id &&
+			    m[k].u.param_ack.seq == seq) {
 				*value = m[k].u.param_ack.value;
 				return 1;
 			}
@@ -263,8 +266,8 @@ static int wait_answer(struct tool_session *s, uint16_t id, uint8_t seq, int ms,
 	return -1;
 }
 
-enum tool_rc tool_request(struct tool_session *s, int set, uint16_t id, int32_t value, int timeout_ms,
-			  int32_t *answer, enum swell_err *why, char *err, size_t errlen)
+enum tool_rc tool_request(struct tool_session *s, int set, uint16_t id, int32_t value, int timeout_ms, int32_t *answer,
+			  enum swell_err *why, char *err, size_t errlen)
 {
 	const uint64_t until = swell_link_now_ns() + ms_ns(timeout_ms);
 	struct swell_msg m;
@@ -298,8 +301,9 @@ enum tool_rc tool_request(struct tool_session *s, int set, uint16_t id, int32_t 
 			return TOOL_REFUSED;
 	}
 	if (tool_silent(s))
-		snprintf(err, errlen, "the controller (node %d on %s) went silent: no heartbeat for %.1f s and no answer",
-			 s->node, s->name, (double)(swell_link_now_ns() - s->t.hb_ns) / 1e9);
+		snprintf(err, errlen,
+			 "the controller (node %d on %s) went silent: no heartbeat for %.1f s and no answer", s->node,
+			 s->name, (double)(swell_link_now_ns() - s->t.hb_ns) / 1e9);
 	else
 		snprintf(err, errlen, "no answer from node %d on %s within %d ms (its heartbeat goes on)", s->node,
 			 s->name, timeout_ms);

@@ -15,12 +15,12 @@
 
 enum tool_rc {
 	TOOL_OK = 0,
-	TOOL_FAIL = 1,       /* runtime failure: the link cannot be opened, a file cannot be written */
-	TOOL_USAGE = 2,      /* bad arguments */
-	TOOL_NO_CTL = 3,     /* no controller heard on the link */
+	TOOL_FAIL = 1, /* runtime failure: the link cannot be opened, a file cannot be written */
+	TOOL_USAGE = 2, /* bad arguments */
+	TOOL_NO_CTL = 3, /* no controller heard on the link */
 	TOOL_WRONG_NODE = 4, /* controllers heard, but not the node asked for (or several, none asked for) */
-	TOOL_TIMEOUT = 5,    /* the controller was there and went silent, or did not answer */
-	TOOL_REFUSED = 6,    /* the controller refused the request (PARAM_NACK), or the state did not follow */
+	TOOL_TIMEOUT = 5, /* the controller was there and went silent, or did not answer */
+	TOOL_REFUSED = 6, /* the controller refused the request (PARAM_NACK), or the state did not follow */
 };
 
 #define TOOL_GRID_MAX 256
@@ -34,8 +34,8 @@ struct tool_telemetry {
 	struct swell_msg_object_pose pose;
 	struct swell_msg_object_force force;
 	uint64_t hb_ns, pose_ns, force_ns; /* when each last came (CLOCK_MONOTONIC) */
-	uint64_t frames, bytes, msgs;      /* received from our node since the session opened */
-	uint64_t can_bits;                 /* CAN: bits on the wire (worst-case stuffing) of those frames */
+	uint64_t frames, bytes, msgs; /* received from our node since the session opened */
+	uint64_t can_bits; /* CAN: bits on the wire (worst-case stuffing) of those frames */
 	int16_t grid[TOOL_GRID_MAX * TOOL_GRID_MAX]; /* latest height samples, 2^-6 mm */
 	uint8_t seen[TOOL_GRID_MAX * TOOL_GRID_MAX];
 };
@@ -44,9 +44,9 @@ struct tool_session {
 	struct flash_link_spec spec;
 	char name[64];
 	struct swell_link *l;
-	int node;      /* the controller's node once found; -1 before */
+	int node; /* the controller's node once found; -1 before */
 	int silent_ms; /* no heartbeat this long: the controller is gone (the timeout, TOOL_SILENT_MS at least) */
-	int other;     /* another node heard (-1 none) */
+	int other; /* another node heard (-1 none) */
 	uint8_t seq, pkt_seq;
 	uint64_t t0_ns;
 	struct swell_proto_stats st;
@@ -79,8 +79,8 @@ int tool_silent(const struct tool_session *s);
  * the request again every 250 ms (a lost frame). TOOL_OK with *value the value in force; TOOL_REFUSED
  * with *why the controller's reason; TOOL_TIMEOUT when no answer came (err says whether the
  * controller went silent). */
-enum tool_rc tool_request(struct tool_session *s, int set, uint16_t id, int32_t value, int timeout_ms,
-			  int32_t *answer, enum swell_err *why, char *err, size_t errlen);
+enum tool_rc tool_request(struct tool_session *s, int set, uint16_t id, int32_t value, int timeout_ms, int32_t *answer,
+			  enum swell_err *why, char *err, size_t errlen);
 
 /* The mean water level over the object's footprint (as far as heights were received), in mm, and the
  * largest |height| outside it (the waves), in mm. 0 when nothing is known. */

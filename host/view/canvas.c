@@ -8,9 +8,9 @@
 
 #include "font.h"
 
-const float canvas_ramp_low[3] = {0.08f, 0.25f, 0.85f};
-const float canvas_ramp_mid[3] = {0.85f, 0.88f, 0.92f};
-const float canvas_ramp_high[3] = {0.85f, 0.12f, 0.08f};
+const float canvas_ramp_low[3] = { 0.08f, 0.25f, 0.85f };
+const float canvas_ramp_mid[3] = { 0.85f, 0.88f, 0.92f };
+const float canvas_ramp_high[3] = { 0.85f, 0.12f, 0.08f };
 
 void canvas_ramp(float t, uint8_t rgb[3])
 {
@@ -61,7 +61,7 @@ void canvas_fill(struct canvas *c, int x, int y, int w, int h, const uint8_t rgb
 
 static void dot(struct canvas *c, int x, int y, int thick, const uint8_t rgb[3])
 {
-	const uint8_t p[4] = {rgb[0], rgb[1], rgb[2], 255};
+	const uint8_t p[4] = { rgb[0], rgb[1], rgb[2], 255 };
 	canvas_fill(c, x - (thick - 1) / 2, y - (thick - 1) / 2, thick, thick, p);
 }
 
@@ -135,7 +135,7 @@ void canvas_legend_size(int scale, int *w, int *h)
 
 void canvas_legend(struct canvas *c, float range_mm)
 {
-	static const uint8_t panel[4] = {8, 8, 8, 165}, text[3] = {225, 232, 240}, tick[3] = {225, 232, 240};
+	static const uint8_t panel[4] = { 8, 8, 8, 165 }, text[3] = { 225, 232, 240 }, tick[3] = { 225, 232, 240 };
 	int cw = canvas_char_w(c), lh = canvas_line_h(c);
 	int bar_x = cw, bar_w = 3 * cw, bar_y = 2 * lh, bar_h = LEGEND_BAR_ROWS * lh;
 
@@ -145,7 +145,7 @@ void canvas_legend(struct canvas *c, float range_mm)
 	for (int py = 0; py < bar_h; py++) {
 		/* top row +range, bottom row -range; each row the colour of its centre */
 		float t = 1.0f - 2.0f * ((float)py + 0.5f) / (float)bar_h;
-		uint8_t p[4] = {0, 0, 0, 255};
+		uint8_t p[4] = { 0, 0, 0, 255 };
 		canvas_ramp(t, p);
 		canvas_fill(c, bar_x, bar_y + py, bar_w, 1, p);
 	}

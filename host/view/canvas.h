@@ -8,10 +8,10 @@
 #include <stdint.h>
 
 struct canvas {
-	int w, h;          /* pixels */
-	int scale;         /* text and line scale: 1, or 2 on screens 700 pixels high or more */
-	uint8_t *rgba;     /* w * h * 4, straight (not premultiplied) alpha */
-	uint8_t *ink;      /* w * h coverage scratch for the font */
+	int w, h; /* pixels */
+	int scale; /* text and line scale: 1, or 2 on screens 700 pixels high or more */
+	uint8_t *rgba; /* w * h * 4, straight (not premultiplied) alpha */
+	uint8_t *ink; /* w * h coverage scratch for the font */
 };
 
 /* The colour scale of the water, shared by the water shader and the legend: blue for -range, a

@@ -12,10 +12,10 @@
 #define CHART_LABEL_COLS 6
 #define CHART_PLOT_ROWS 4
 
-static const uint8_t col_fz[3] = {90, 200, 255}, col_fabs[3] = {255, 170, 60}, col_limit[3] = {255, 70, 70};
-static const uint8_t col_bottom[3] = {255, 150, 30}, col_water[3] = {80, 150, 255};
-static const uint8_t col_subm[3] = {110, 220, 130}, col_rate[3] = {220, 220, 230}, col_lat[3] = {240, 210, 80};
-static const uint8_t col_text[3] = {200, 210, 220}, col_grid[3] = {70, 78, 88}, col_axis[3] = {120, 128, 140};
+static const uint8_t col_fz[3] = { 90, 200, 255 }, col_fabs[3] = { 255, 170, 60 }, col_limit[3] = { 255, 70, 70 };
+static const uint8_t col_bottom[3] = { 255, 150, 30 }, col_water[3] = { 80, 150, 255 };
+static const uint8_t col_subm[3] = { 110, 220, 130 }, col_rate[3] = { 220, 220, 230 }, col_lat[3] = { 240, 210, 80 };
+static const uint8_t col_text[3] = { 200, 210, 220 }, col_grid[3] = { 70, 78, 88 }, col_axis[3] = { 120, 128, 140 };
 
 bool charts_init(struct charts *c, float force_limit_N)
 {
@@ -56,7 +56,7 @@ bool charts_csv_open(struct charts *c, const char *path, char *err, size_t errle
 static void push(struct charts *c, enum chart_series k, uint64_t t_us, float v, bool gap)
 {
 	struct chart_ring *r = &c->ring[k];
-	r->s[r->head] = (struct chart_sample){.t_us = t_us, .v = v, .gap = gap};
+	r->s[r->head] = (struct chart_sample){ .t_us = t_us, .v = v, .gap = gap };
 	r->head = (r->head + 1u) % CHART_CAP;
 	if (r->n < CHART_CAP)
 		r->n++;
@@ -68,8 +68,7 @@ void charts_restart(struct charts *c)
 	c->have_force = false;
 }
 
-void charts_pose(struct charts *c, uint64_t t_us, uint8_t seq, float bottom_mm, float water_mm,
-		 float submersion_pct)
+void charts_pose(struct charts *c, uint64_t t_us, uint8_t seq, float bottom_mm, float water_mm, float submersion_pct)
 {
 	uint8_t d = (uint8_t)(seq - c->pose_seq);
 	bool gap = !c->have_pose || d != 1;
@@ -87,8 +86,7 @@ void charts_pose(struct charts *c, uint64_t t_us, uint8_t seq, float bottom_mm, 
 	}
 }
 
-void charts_force(struct charts *c, uint64_t t_us, uint8_t seq, float fx_N, float fy_N, float fz_N,
-		  unsigned limited)
+void charts_force(struct charts *c, uint64_t t_us, uint8_t seq, float fx_N, float fy_N, float fz_N, unsigned limited)
 {
 	uint8_t d = (uint8_t)(seq - c->force_seq);
 	bool gap = !c->have_force || d != 1;
@@ -145,8 +143,10 @@ float charts_water_under(const struct view_model *m, int32_t x_um, int32_t y_um,
 	int nx = m->scene.nx, ny = m->scene.ny;
 	double dx = m->scene.dx_um;
 	/* cells whose centres lie under the footprint */
-	int i0 = (int)ceil(((double)x_um - a_um / 2.0) / dx - 0.5), i1 = (int)floor(((double)x_um + a_um / 2.0) / dx - 0.5);
-	int j0 = (int)ceil(((double)y_um - b_um / 2.0) / dx - 0.5), j1 = (int)floor(((double)y_um + b_um / 2.0) / dx - 0.5);
+	int i0 = (int)ceil(((double)x_um - a_um / 2.0) / dx - 0.5),
+	    i1 = (int)floor(((double)x_um + a_um / 2.0) / dx - 0.5);
+	int j0 = (int)ceil(((double)y_um - b_um / 2.0) / dx - 0.5),
+	    j1 = (int)floor(((double)y_um + b_um / 2.0) / dx - 0.5);
 	i0 = i0 < 0 ? 0 : i0;
 	j0 = j0 < 0 ? 0 : j0;
 	i1 = i1 >= nx ? nx - 1 : i1;
@@ -166,7 +166,7 @@ float charts_water_under(const struct view_model *m, int32_t x_um, int32_t y_um,
 
 float charts_nice(float x)
 {
-	static const float mant[] = {1.0f, 2.0f, 2.5f, 5.0f, 10.0f};
+	static const float mant[] = { 1.0f, 2.0f, 2.5f, 5.0f, 10.0f };
 	if (!(x > 0))
 		return 1;
 	float p = powf(10.0f, floorf(log10f(x)));
@@ -306,17 +306,20 @@ static void label(struct canvas *cv, const struct plot *p, float v)
 
 void charts_draw(const struct charts *c, struct canvas *cv, uint64_t now_us)
 {
-	static const uint8_t panel[4] = {8, 8, 8, 180}, plot_bg[4] = {16, 20, 26, 220};
-	static const char *const titles[CHART_COUNT] = {"FORCE N", "HEIGHT MM", "SUBMERGED %", "FRAMES /S",
-							"LATENCY MS"};
+	static const uint8_t panel[4] = { 8, 8, 8, 180 }, plot_bg[4] = { 16, 20, 26, 220 };
+	static const char *const titles[CHART_COUNT] = { "FORCE N", "HEIGHT MM", "SUBMERGED %", "FRAMES /S",
+							 "LATENCY MS" };
 	int cw = canvas_char_w(cv), lh = canvas_line_h(cv);
 
 	canvas_clear(cv);
 	canvas_fill(cv, 0, 0, cv->w, cv->h, panel);
 	for (int k = 0; k < CHART_COUNT; k++) {
 		int top = lh / 2 + k * (CHART_PLOT_ROWS * lh + lh + lh / 2 + lh / 2);
-		struct plot p = {.x0 = CHART_LABEL_COLS * cw, .y0 = top + lh + lh / 2, .w = cv->w - CHART_LABEL_COLS * cw - cw / 2,
-				 .h = CHART_PLOT_ROWS * lh, .now_us = now_us};
+		struct plot p = { .x0 = CHART_LABEL_COLS * cw,
+				  .y0 = top + lh + lh / 2,
+				  .w = cv->w - CHART_LABEL_COLS * cw - cw / 2,
+				  .h = CHART_PLOT_ROWS * lh,
+				  .now_us = now_us };
 		float step;
 		charts_range(c, k, now_us, &p.lo, &p.hi, &step);
 
@@ -366,9 +369,15 @@ void charts_draw(const struct charts *c, struct canvas *cv, uint64_t now_us)
 			draw_series(c, cv, &p, CHART_WATER, col_water);
 			draw_series(c, cv, &p, CHART_BOTTOM, col_bottom);
 			break;
-		case 2: draw_series(c, cv, &p, CHART_SUBMERSION, col_subm); break;
-		case 3: draw_series(c, cv, &p, CHART_RATE, col_rate); break;
-		default: draw_series(c, cv, &p, CHART_LATENCY, col_lat); break;
+		case 2:
+			draw_series(c, cv, &p, CHART_SUBMERSION, col_subm);
+			break;
+		case 3:
+			draw_series(c, cv, &p, CHART_RATE, col_rate);
+			break;
+		default:
+			draw_series(c, cv, &p, CHART_LATENCY, col_lat);
+			break;
 		}
 		if (k == CHART_COUNT - 1)
 			for (int s = 0; s <= 10; s += 2) {

@@ -19,35 +19,35 @@
 #include "vm.h"
 
 #define CHART_WINDOW_US 10000000u /* the time axis: the last 10 s */
-#define CHART_CAP 8192u           /* samples kept a series (10 s at 800 a second) */
-#define CHART_GAP_US 500000u      /* samples further apart than this are not joined */
+#define CHART_CAP 8192u /* samples kept a series (10 s at 800 a second) */
+#define CHART_GAP_US 500000u /* samples further apart than this are not joined */
 #define CHART_RATE_BIN_US 250000u /* the frame rate is counted over 250 ms */
 
 enum chart_series {
-	CHART_FZ,         /* N, commanded force z (up) */
-	CHART_FABS,       /* N, |F| */
-	CHART_BOTTOM,     /* mm, object bottom z, rest level 0 */
-	CHART_WATER,      /* mm, mean water surface under the object's footprint */
+	CHART_FZ, /* N, commanded force z (up) */
+	CHART_FABS, /* N, |F| */
+	CHART_BOTTOM, /* mm, object bottom z, rest level 0 */
+	CHART_WATER, /* mm, mean water surface under the object's footprint */
 	CHART_SUBMERSION, /* %, as the controller reports it */
-	CHART_RATE,       /* frames/s received (good frames) */
-	CHART_LATENCY,    /* ms over the best path (vm_clock) */
+	CHART_RATE, /* frames/s received (good frames) */
+	CHART_LATENCY, /* ms over the best path (vm_clock) */
 	CHART_SERIES
 };
 
 struct chart_sample {
-	uint64_t t_us;  /* receive time */
+	uint64_t t_us; /* receive time */
 	float v;
-	bool gap;       /* not joined to the sample before (lost frames) */
+	bool gap; /* not joined to the sample before (lost frames) */
 };
 
 struct chart_ring {
 	struct chart_sample *s; /* CHART_CAP samples */
-	uint32_t head, n;       /* next write slot, samples held */
+	uint32_t head, n; /* next write slot, samples held */
 };
 
 struct charts {
 	struct chart_ring ring[CHART_SERIES];
-	float force_limit_N;    /* the limit line (the controller's f_max; not on the wire) */
+	float force_limit_N; /* the limit line (the controller's f_max; not on the wire) */
 	bool have_pose, have_force;
 	uint8_t pose_seq, force_seq;
 	uint32_t lost_poses, lost_forces;
@@ -66,11 +66,9 @@ void charts_free(struct charts *c);
 bool charts_csv_open(struct charts *c, const char *path, char *err, size_t errlen);
 
 /* A received OBJECT_POSE (seq: its sequence number; the pose sequence is the loss detector). */
-void charts_pose(struct charts *c, uint64_t t_us, uint8_t seq, float bottom_mm, float water_mm,
-		 float submersion_pct);
+void charts_pose(struct charts *c, uint64_t t_us, uint8_t seq, float bottom_mm, float water_mm, float submersion_pct);
 /* A received OBJECT_FORCE belonging to pose `seq`; limited: the controller's limit bits. */
-void charts_force(struct charts *c, uint64_t t_us, uint8_t seq, float fx_N, float fy_N, float fz_N,
-		  unsigned limited);
+void charts_force(struct charts *c, uint64_t t_us, uint8_t seq, float fx_N, float fy_N, float fz_N, unsigned limited);
 /* A latency estimate, at a heartbeat. */
 void charts_latency(struct charts *c, uint64_t t_us, float ms);
 /* Advance time with the count of good frames received so far: adds a frame-rate sample every

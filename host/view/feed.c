@@ -26,7 +26,7 @@ uint32_t feed_rejected(const struct view_feed *f)
 
 const char *feed_state_name(uint8_t state)
 {
-	static const char *const names[] = {"BOOT", "IDLE", "ARMED", "RUNNING", "FAULT"};
+	static const char *const names[] = { "BOOT", "IDLE", "ARMED", "RUNNING", "FAULT" };
 	return state < sizeof(names) / sizeof(names[0]) ? names[state] : "?";
 }
 
@@ -71,7 +71,7 @@ static void on_quad(struct view_feed *f, const struct swell_msg_height_quad *q, 
 	if (q->row >= h || col >= w)
 		return; /* padding beyond the grid's edge: nothing to show */
 	uint16_t n = (uint16_t)(w - col < 4 ? w - col : 4);
-	int32_t v[4] = {q->h0, q->h1, q->h2, q->h3};
+	int32_t v[4] = { q->h0, q->h1, q->h2, q->h3 };
 	for (int k = 0; k < 4; k++)
 		v[k] *= 1 << (SWELL_H_FRAC - SWELL_PROTO_H_SHIFT);
 	vm_cells(m, q->tile_x, q->tile_y, col, q->row, n, pos, v);
@@ -110,7 +110,7 @@ static void on_heartbeat(struct view_feed *f, const struct swell_msg_heartbeat *
 
 static void on_info(struct view_feed *f, const struct swell_msg_ctl_info *c)
 {
-	const uint8_t v[3] = {c->fw_major, c->fw_minor, c->fw_patch};
+	const uint8_t v[3] = { c->fw_major, c->fw_minor, c->fw_patch };
 
 	f->obj_a_um = (uint32_t)c->obj_a_100um * 100u;
 	f->obj_b_um = (uint32_t)c->obj_b_100um * 100u;
@@ -161,7 +161,8 @@ static void on_msg(struct view_feed *f, const struct swell_msg *m, uint64_t now_
 		f->submersion_halfpct = p->submersion_halfpct;
 		if (vm_object(vm, &o) == SWELL_OK && f->charts)
 			charts_pose(f->charts, now_us, p->seq, (float)o.z_um * 1e-3f,
-				    charts_water_under(vm, o.x_um, o.y_um, o.a_um, o.b_um), (float)p->submersion_halfpct * 0.5f);
+				    charts_water_under(vm, o.x_um, o.y_um, o.a_um, o.b_um),
+				    (float)p->submersion_halfpct * 0.5f);
 		break;
 	}
 	case SWELL_MSG_OBJECT_FORCE: {
@@ -221,8 +222,7 @@ void feed_packet(struct view_feed *f, const uint8_t *pkt, size_t len, uint64_t n
 		on_msg(f, &msgs[k], now_us, false, pos);
 }
 
-void feed_can(struct view_feed *f, uint32_t id, const uint8_t *data, size_t len, bool fd,
-	      uint64_t now_us)
+void feed_can(struct view_feed *f, uint32_t id, const uint8_t *data, size_t len, bool fd, uint64_t now_us)
 {
 	struct swell_msg msgs[SWELL_CANFD_MSGS_MAX];
 	size_t n = 0;

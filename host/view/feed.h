@@ -22,10 +22,10 @@
 
 struct view_feed {
 	struct view_model *vm;
-	struct charts *charts;    /* strip-chart samples of poses, forces and latency, or NULL */
+	struct charts *charts; /* strip-chart samples of poses, forces and latency, or NULL */
 	struct swell_proto_stats st;
-	uint8_t node;             /* accept this node, or FEED_NODE_ANY */
-	uint32_t other_node;      /* frames from other nodes, ignored */
+	uint8_t node; /* accept this node, or FEED_NODE_ANY */
+	uint32_t other_node; /* frames from other nodes, ignored */
 	/* object size: from CTL_INFO once one has arrived (obj_from_wire), until then the fallback the
 	 * caller set (swell-view's --object) */
 	uint32_t obj_a_um, obj_b_um, obj_h_um;
@@ -53,8 +53,7 @@ void feed_init(struct view_feed *f, struct view_model *vm, uint8_t node);
 /* One USB packet or UDP datagram. */
 void feed_packet(struct view_feed *f, const uint8_t *pkt, size_t len, uint64_t now_us);
 /* One CAN frame (classic when len <= 8 and !fd). id: 11-bit identifier. */
-void feed_can(struct view_feed *f, uint32_t id, const uint8_t *data, size_t len, bool fd,
-	      uint64_t now_us);
+void feed_can(struct view_feed *f, uint32_t id, const uint8_t *data, size_t len, bool fd, uint64_t now_us);
 
 /* Frames rejected by the decoders, all reasons. */
 uint32_t feed_rejected(const struct view_feed *f);

@@ -142,10 +142,10 @@ static void put(struct packer *p, const struct swell_msg *m)
 	p->m[p->n++] = *m;
 }
 
-unsigned gen_frame(const struct gen_scene *s, uint64_t t_us, uint8_t frame, bool heartbeat, uint8_t hb_seq,
-		   bool scene, bool tiles, uint8_t *seq, gen_emit_fn emit, void *ctx, enum swell_err *err)
+unsigned gen_frame(const struct gen_scene *s, uint64_t t_us, uint8_t frame, bool heartbeat, uint8_t hb_seq, bool scene,
+		   bool tiles, uint8_t *seq, gen_emit_fn emit, void *ctx, enum swell_err *err)
 {
-	struct packer p = {.seq = seq, .emit = emit, .ctx = ctx, .err = SWELL_OK};
+	struct packer p = { .seq = seq, .emit = emit, .ctx = ctx, .err = SWELL_OK };
 	struct swell_msg m;
 
 	if (heartbeat) {
@@ -193,7 +193,7 @@ unsigned gen_frame(const struct gen_scene *s, uint64_t t_us, uint8_t frame, bool
 						q->row = (uint8_t)row;
 						q->half = (uint8_t)half;
 						q->frame = frame & 3u;
-						int16_t v[4] = {0, 0, 0, 0};
+						int16_t v[4] = { 0, 0, 0, 0 };
 						unsigned j = ty * SWELL_PROTO_TILE + row;
 						for (unsigned k = 0; k < 4; k++) {
 							unsigned i = tx * SWELL_PROTO_TILE + half * 4 + k;

@@ -63,7 +63,7 @@ int16_t gen_height(const struct gen_scene *s, uint16_t i, uint16_t j, uint64_t t
  * the scene has info) if `scene`, the
  * height quads of every tile if `tiles`, object pose and force. *seq is the packet sequence number,
  * advanced per packet. Returns the number of packets, or 0 with err set. */
-unsigned gen_frame(const struct gen_scene *s, uint64_t t_us, uint8_t frame, bool heartbeat, uint8_t hb_seq,
-		   bool scene, bool tiles, uint8_t *seq, gen_emit_fn emit, void *ctx, enum swell_err *err);
+unsigned gen_frame(const struct gen_scene *s, uint64_t t_us, uint8_t frame, bool heartbeat, uint8_t hb_seq, bool scene,
+		   bool tiles, uint8_t *seq, gen_emit_fn emit, void *ctx, enum swell_err *err);
 
 #endif

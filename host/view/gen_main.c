@@ -111,7 +111,7 @@ int main(int argc, char **argv)
 		return 2;
 	}
 
-	struct sink k = {0};
+	struct sink k = { 0 };
 	int rc;
 	if (out) {
 		struct swell_link *rx;

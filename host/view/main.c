@@ -121,11 +121,11 @@ static void parse(int argc, char **argv, struct opts *o)
 	for (int k = 1; k < argc; k++) {
 		const char *a = argv[k];
 		const char *v = k + 1 < argc ? argv[k + 1] : NULL;
-#define NEED()                                            \
-	do {                                              \
-		if (!v)                                   \
-			bad("%s needs a value", a);       \
-		k++;                                      \
+#define NEED()                                      \
+	do {                                        \
+		if (!v)                             \
+			bad("%s needs a value", a); \
+		k++;                                \
 	} while (0)
 		if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
 			fputs(usage, stdout);
@@ -248,9 +248,9 @@ struct app {
 	struct charts ch;
 	struct canvas chart_cv, legend_cv;
 	bool paused, want_shot, quit, dragging;
-	bool charts_on, frozen;   /* frozen: the HUD and charts of the first paused frame are kept */
-	float legend_range;       /* what legend_cv shows (0: nothing yet) */
-	float tile_hz;          /* tiles uploaded a second (the tiles whose heights changed) */
+	bool charts_on, frozen; /* frozen: the HUD and charts of the first paused frame are kept */
+	float legend_range; /* what legend_cv shows (0: nothing yet) */
+	float tile_hz; /* tiles uploaded a second (the tiles whose heights changed) */
 	struct view_object shown_obj; /* the object as drawn (held while paused) */
 	uint64_t tile_window_us, tile_window_start;
 	double mx, my;
@@ -265,20 +265,35 @@ static void on_key(GLFWwindow *w, int key, int sc, int action, int mods)
 	if (action != GLFW_PRESS)
 		return;
 	switch (key) {
-	case GLFW_KEY_R: render_cam_reset(&a->r, &a->vm); break;
-	case GLFW_KEY_S: a->want_shot = true; break;
+	case GLFW_KEY_R:
+		render_cam_reset(&a->r, &a->vm);
+		break;
+	case GLFW_KEY_S:
+		a->want_shot = true;
+		break;
 	case GLFW_KEY_P:
-	case GLFW_KEY_SPACE: a->paused = !a->paused; break;
-	case GLFW_KEY_C: a->r.o.colour_scale = !a->r.o.colour_scale; break;
+	case GLFW_KEY_SPACE:
+		a->paused = !a->paused;
+		break;
+	case GLFW_KEY_C:
+		a->r.o.colour_scale = !a->r.o.colour_scale;
+		break;
 	case GLFW_KEY_G:
 		a->charts_on = !a->charts_on;
 		a->frozen = false; /* draw them once even while paused */
 		break;
-	case GLFW_KEY_V: a->r.o.view = a->r.o.view == RENDER_MAP ? RENDER_ORBIT : RENDER_MAP; break;
-	case GLFW_KEY_H: a->r.o.hud = !a->r.o.hud; break;
+	case GLFW_KEY_V:
+		a->r.o.view = a->r.o.view == RENDER_MAP ? RENDER_ORBIT : RENDER_MAP;
+		break;
+	case GLFW_KEY_H:
+		a->r.o.hud = !a->r.o.hud;
+		break;
 	case GLFW_KEY_Q:
-	case GLFW_KEY_ESCAPE: a->quit = true; break;
-	default: break;
+	case GLFW_KEY_ESCAPE:
+		a->quit = true;
+		break;
+	default:
+		break;
 	}
 }
 
@@ -316,9 +331,11 @@ static void on_glfw_error(int code, const char *what)
 /* ---- HUD ---- */
 static void status_colour(enum view_status s, uint8_t *c)
 {
-	static const uint8_t cols[][3] = {
-		[VIEW_LINK_DOWN] = {255, 80, 70},  [VIEW_WAIT_SCENE] = {255, 200, 60},
-		[VIEW_RESTARTED] = {255, 150, 40}, [VIEW_STALE] = {255, 200, 60}, [VIEW_LIVE] = {90, 230, 120}};
+	static const uint8_t cols[][3] = { [VIEW_LINK_DOWN] = { 255, 80, 70 },
+					   [VIEW_WAIT_SCENE] = { 255, 200, 60 },
+					   [VIEW_RESTARTED] = { 255, 150, 40 },
+					   [VIEW_STALE] = { 255, 200, 60 },
+					   [VIEW_LIVE] = { 90, 230, 120 } };
 	memcpy(c, cols[s], 3);
 }
 
@@ -355,16 +372,17 @@ static void hud(struct app *a, const struct view_feed *f, const struct source *s
 			snprintf(obj, sizeof(obj),
 				 "OBJECT X %.1f Y %.1f Z %.1f MM  SUBMERGED %.1f %%\n"
 				 "FORCE  %+.2f %+.2f %+.2f N%s",
-				 m->obj.x_um * 1e-3, m->obj.y_um * 1e-3, m->obj.z_um * 1e-3, f->submersion_halfpct * 0.5,
-				 m->obj.fx_cN * 0.01, m->obj.fy_cN * 0.01, m->obj.fz_cN * 0.01,
-				 f->force_limits ? "  LIMITED" : "");
+				 m->obj.x_um * 1e-3, m->obj.y_um * 1e-3, m->obj.z_um * 1e-3,
+				 f->submersion_halfpct * 0.5, m->obj.fx_cN * 0.01, m->obj.fy_cN * 0.01,
+				 m->obj.fz_cN * 0.01, f->force_limits ? "  LIMITED" : "");
 		snprintf(buf, sizeof(buf),
 			 "POOL %u X %u CELLS  DX %.2f MM  DEPTH %.1f MM  SCENE %u\n"
 			 "HEIGHTS Z X%.0f  UPLOADED %u TILES\n"
 			 "BOX %.1f X %.1f X %.1f MM %s\n%s",
 			 m->scene.nx, m->scene.ny, m->scene.dx_um * 1e-3, m->scene.depth_um * 1e-3, m->scene.scene_id,
 			 (double)a->r.o.zscale, a->r.tiles_uploaded_last, f->obj_a_um * 1e-3, f->obj_b_um * 1e-3,
-			 f->obj_h_um * 1e-3, f->obj_from_wire ? "(FROM CONTROLLER)" : "(--OBJECT, NO CTL_INFO YET)", obj);
+			 f->obj_h_um * 1e-3, f->obj_from_wire ? "(FROM CONTROLLER)" : "(--OBJECT, NO CTL_INFO YET)",
+			 obj);
 		render_text_add(&a->r, 8, -8, 200, 210, 220, true, buf);
 	}
 
@@ -390,8 +408,9 @@ static void hud(struct app *a, const struct view_feed *f, const struct source *s
 
 	if (!m->have_scene && m->status != VIEW_LINK_DOWN) {
 		/* say it where the pool would be */
-		render_text_add(&a->r, a->r.o.w / 2 / (a->r.o.h >= 700 ? 2 : 1) - 87, a->r.o.h / 2 / (a->r.o.h >= 700 ? 2 : 1),
-				c[0], c[1], c[2], true, "WAITING FOR SCENE DESCRIPTION");
+		render_text_add(&a->r, a->r.o.w / 2 / (a->r.o.h >= 700 ? 2 : 1) - 87,
+				a->r.o.h / 2 / (a->r.o.h >= 700 ? 2 : 1), c[0], c[1], c[2], true,
+				"WAITING FOR SCENE DESCRIPTION");
 	}
 }
 
@@ -546,7 +565,8 @@ int main(int argc, char **argv)
 	glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
 	glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
 	glfwWindowHint(GLFW_VISIBLE, o.headless ? GLFW_FALSE : GLFW_TRUE);
-	GLFWwindow *win = glfwCreateWindow(o.headless ? 64 : o.ro.w, o.headless ? 64 : o.ro.h, "swell-view", NULL, NULL);
+	GLFWwindow *win =
+		glfwCreateWindow(o.headless ? 64 : o.ro.w, o.headless ? 64 : o.ro.h, "swell-view", NULL, NULL);
 	if (!win) {
 		fprintf(stderr, "swell-view: no OpenGL 3.3 core context\n");
 		glfwTerminate();
@@ -587,7 +607,8 @@ int main(int argc, char **argv)
 				break;
 		}
 		if (t - app.tile_window_us >= 1000000u) {
-			app.tile_hz = (float)(app.r.tiles_uploaded - app.tile_window_start) * 1e6f / (float)(t - app.tile_window_us);
+			app.tile_hz = (float)(app.r.tiles_uploaded - app.tile_window_start) * 1e6f /
+				(float)(t - app.tile_window_us);
 			app.tile_window_start = app.r.tiles_uploaded;
 			app.tile_window_us = t;
 		}
@@ -641,7 +662,8 @@ int main(int argc, char **argv)
 		next += period;
 		uint64_t after = now_us();
 		if (next > after) {
-			struct timespec d = {(time_t)((next - after) / 1000000u), (long)((next - after) % 1000000u) * 1000};
+			struct timespec d = { (time_t)((next - after) / 1000000u),
+					      (long)((next - after) % 1000000u) * 1000 };
 			nanosleep(&d, NULL);
 		} else {
 			next = after;
@@ -652,14 +674,16 @@ int main(int argc, char **argv)
 		printf("swell-view: stopped by %s\n", stop_signal == SIGINT ? "SIGINT" : "SIGTERM");
 	if (src.rec_damaged) {
 		/* what was shown is what came before the damage; the run did not do what was asked */
-		fprintf(stderr, "swell-view: the recording is damaged: the replay stopped at a damaged record after "
-				"%u frames\n", app.vm.st.frames);
+		fprintf(stderr,
+			"swell-view: the recording is damaged: the replay stopped at a damaged record after "
+			"%u frames\n",
+			app.vm.st.frames);
 		rc = 1;
 	}
 	printf("swell-view: %u frames, %u bad, %u dropped, %u late, %u quads, %u restarts, %u resyncs; uploaded %llu "
 	       "tiles (%llu texels)\n",
-	       app.vm.st.frames, app.vm.st.bad, app.vm.st.dropped, app.vm.st.late, app.vm.st.pieces,
-	       app.vm.st.restarts, app.vm.st.resyncs, (unsigned long long)app.r.tiles_uploaded, (unsigned long long)app.r.texels_uploaded);
+	       app.vm.st.frames, app.vm.st.bad, app.vm.st.dropped, app.vm.st.late, app.vm.st.pieces, app.vm.st.restarts,
+	       app.vm.st.resyncs, (unsigned long long)app.r.tiles_uploaded, (unsigned long long)app.r.texels_uploaded);
 	if (feed.obj_from_wire)
 		printf("swell-view: object %.1f x %.1f x %.1f mm from the controller (CTL_INFO), firmware %u.%u.%u\n",
 		       feed.obj_a_um * 1e-3, feed.obj_b_um * 1e-3, feed.obj_h_um * 1e-3, app.vm.fw_version[0],

@@ -65,10 +65,10 @@ static uint8_t *end_chunk(uint8_t *type, uint8_t *end)
 	return put32(end, swell_crc32(0, type, (size_t)(end - type)));
 }
 
-enum swell_err swell_png_encode(uint8_t *out, size_t cap, size_t *len, const uint8_t *pixels,
-				uint32_t w, uint32_t h, unsigned channels, size_t stride)
+enum swell_err swell_png_encode(uint8_t *out, size_t cap, size_t *len, const uint8_t *pixels, uint32_t w, uint32_t h,
+				unsigned channels, size_t stride)
 {
-	static const uint8_t sig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+	static const uint8_t sig[8] = { 0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n' };
 
 	if (!out || !len || !pixels || (channels != 3 && channels != 4))
 		return SWELL_EINVAL;
@@ -85,11 +85,11 @@ enum swell_err swell_png_encode(uint8_t *out, size_t cap, size_t *len, const uin
 	memcpy(p, "IHDR", 4);
 	p = put32(p + 4, w);
 	p = put32(p, h);
-	*p++ = 8;                           /* bit depth */
-	*p++ = channels == 4 ? 6 : 2;       /* colour type: RGBA or RGB */
-	*p++ = 0;                           /* deflate */
-	*p++ = 0;                           /* adaptive filtering (we use filter 0 only) */
-	*p++ = 0;                           /* no interlace */
+	*p++ = 8; /* bit depth */
+	*p++ = channels == 4 ? 6 : 2; /* colour type: RGBA or RGB */
+	*p++ = 0; /* deflate */
+	*p++ = 0; /* adaptive filtering (we use filter 0 only) */
+	*p++ = 0; /* no interlace */
 	p = end_chunk(type, p);
 
 	size_t raw = raw_size(w, h, channels);
@@ -146,8 +146,8 @@ enum swell_err swell_png_encode(uint8_t *out, size_t cap, size_t *len, const uin
 	return SWELL_OK;
 }
 
-enum swell_err swell_png_write(const char *path, const uint8_t *pixels, uint32_t w, uint32_t h,
-			       unsigned channels, size_t stride)
+enum swell_err swell_png_write(const char *path, const uint8_t *pixels, uint32_t w, uint32_t h, unsigned channels,
+			       size_t stride)
 {
 	if (!path)
 		return SWELL_EINVAL;

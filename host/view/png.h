@@ -18,11 +18,11 @@ size_t swell_png_size(uint32_t w, uint32_t h, unsigned channels);
 
 /* Encode rows of `stride` bytes (top row first) into out[cap]. *len gets the byte count.
  * SWELL_EINVAL (null pointer, channels not 3 or 4), SWELL_ESIZE (empty, too large, or cap too small). */
-enum swell_err swell_png_encode(uint8_t *out, size_t cap, size_t *len, const uint8_t *pixels,
-				uint32_t w, uint32_t h, unsigned channels, size_t stride);
+enum swell_err swell_png_encode(uint8_t *out, size_t cap, size_t *len, const uint8_t *pixels, uint32_t w, uint32_t h,
+				unsigned channels, size_t stride);
 
 /* Encode and write to a file; SWELL_ESTATE when the file cannot be written. */
-enum swell_err swell_png_write(const char *path, const uint8_t *pixels, uint32_t w, uint32_t h,
-			       unsigned channels, size_t stride);
+enum swell_err swell_png_write(const char *path, const uint8_t *pixels, uint32_t w, uint32_t h, unsigned channels,
+			       size_t stride);
 
 #endif

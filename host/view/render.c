@@ -16,7 +16,7 @@
 #define PI_F 3.14159265f
 
 /* Light from +x, a little +y, above: the test pictures rely on the +x flank of a bump being the lit one. */
-static const float light_dir[3] = {0.62f, 0.22f, 0.75f};
+static const float light_dir[3] = { 0.62f, 0.22f, 0.75f };
 
 /* ---- small 4x4 matrix helpers, column-major as GL wants ---- */
 static void mat_mul(float *o, const float *a, const float *b)
@@ -67,13 +67,13 @@ static void v3_norm(float *v)
 
 static void v3_cross(float *o, const float *a, const float *b)
 {
-	float t[3] = {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+	float t[3] = { a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0] };
 	memcpy(o, t, sizeof(t));
 }
 
 static void mat_lookat(float *m, const float *eye, const float *at, const float *up)
 {
-	float f[3] = {at[0] - eye[0], at[1] - eye[1], at[2] - eye[2]}, s[3], u[3];
+	float f[3] = { at[0] - eye[0], at[1] - eye[1], at[2] - eye[2] }, s[3], u[3];
 	v3_norm(f);
 	v3_cross(s, f, up);
 	v3_norm(s);
@@ -104,33 +104,31 @@ static const char *const lit_vs =
 	"out vec3 v_pos; out vec3 v_nrm; out vec3 v_col;\n"
 	"void main() { v_pos = a_pos; v_nrm = a_nrm; v_col = a_col; gl_Position = u_mvp * vec4(a_pos, 1.0); }\n";
 
-static const char *const lit_fs =
-	"#version 330 core\n"
-	"in vec3 v_pos; in vec3 v_nrm; in vec3 v_col;\n"
-	"uniform vec3 u_light; uniform vec3 u_eye;\n"
-	"out vec4 o_col;\n"
-	"void main() {\n"
-	"  vec3 n = normalize(v_nrm);\n"
-	"  vec3 v = normalize(u_eye - v_pos);\n"
-	"  float d = max(dot(n, u_light), 0.0);\n"
-	"  float s = pow(max(dot(n, normalize(u_light + v)), 0.0), 40.0);\n"
-	"  o_col = vec4(v_col * (0.32 + 0.68 * d) + vec3(0.18 * s), 1.0);\n"
-	"}\n";
+static const char *const lit_fs = "#version 330 core\n"
+				  "in vec3 v_pos; in vec3 v_nrm; in vec3 v_col;\n"
+				  "uniform vec3 u_light; uniform vec3 u_eye;\n"
+				  "out vec4 o_col;\n"
+				  "void main() {\n"
+				  "  vec3 n = normalize(v_nrm);\n"
+				  "  vec3 v = normalize(u_eye - v_pos);\n"
+				  "  float d = max(dot(n, u_light), 0.0);\n"
+				  "  float s = pow(max(dot(n, normalize(u_light + v)), 0.0), 40.0);\n"
+				  "  o_col = vec4(v_col * (0.32 + 0.68 * d) + vec3(0.18 * s), 1.0);\n"
+				  "}\n";
 
-static const char *const water_vs =
-	"#version 330 core\n"
-	"layout(location = 0) in vec2 a_uv;\n"
-	"uniform sampler2D u_h;\n"
-	"uniform vec2 u_size;\n"  /* pool size, m */
-	"uniform float u_zs;\n"   /* m of display per mm of height */
-	"uniform mat4 u_mvp;\n"
-	"out vec2 v_uv; out vec3 v_pos;\n"
-	"void main() {\n"
-	"  float h = textureLod(u_h, a_uv, 0.0).r;\n"
-	"  v_uv = a_uv;\n"
-	"  v_pos = vec3(a_uv * u_size, h * u_zs);\n"
-	"  gl_Position = u_mvp * vec4(v_pos, 1.0);\n"
-	"}\n";
+static const char *const water_vs = "#version 330 core\n"
+				    "layout(location = 0) in vec2 a_uv;\n"
+				    "uniform sampler2D u_h;\n"
+				    "uniform vec2 u_size;\n" /* pool size, m */
+				    "uniform float u_zs;\n" /* m of display per mm of height */
+				    "uniform mat4 u_mvp;\n"
+				    "out vec2 v_uv; out vec3 v_pos;\n"
+				    "void main() {\n"
+				    "  float h = textureLod(u_h, a_uv, 0.0).r;\n"
+				    "  v_uv = a_uv;\n"
+				    "  v_pos = vec3(a_uv * u_size, h * u_zs);\n"
+				    "  gl_Position = u_mvp * vec4(v_pos, 1.0);\n"
+				    "}\n";
 
 /* Water: Blinn-Phong sun from light_dir, a sky reflected by Schlick's Fresnel term (horizon pale,
  * zenith blue), a body colour tinted by height, more opaque at grazing angles (the floor shows when
@@ -140,8 +138,8 @@ static const char *const water_fs =
 	"#version 330 core\n"
 	"in vec2 v_uv; in vec3 v_pos;\n"
 	"uniform sampler2D u_h;\n"
-	"uniform vec2 u_texel;\n"  /* 1/nx, 1/ny */
-	"uniform vec2 u_cell;\n"   /* 2 dx in m: central differences span two cells */
+	"uniform vec2 u_texel;\n" /* 1/nx, 1/ny */
+	"uniform vec2 u_cell;\n" /* 2 dx in m: central differences span two cells */
 	"uniform float u_zs;\n"
 	"uniform vec3 u_light; uniform vec3 u_eye;\n"
 	"uniform int u_colour; uniform int u_map; uniform float u_range;\n"
@@ -166,21 +164,19 @@ static const char *const water_fs =
 	"  o_col = vec4(c, u_colour != 0 ? 0.90 : mix(0.80, 1.0, fr));\n"
 	"}\n";
 
-static const char *const hud_vs =
-	"#version 330 core\n"
-	"out vec2 v_uv;\n"
-	"void main() {\n"
-	"  vec2 p = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2));\n"
-	"  v_uv = vec2(p.x, 1.0 - p.y);\n" /* the HUD image's first row is the top one */
-	"  gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0);\n"
-	"}\n";
+static const char *const hud_vs = "#version 330 core\n"
+				  "out vec2 v_uv;\n"
+				  "void main() {\n"
+				  "  vec2 p = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2));\n"
+				  "  v_uv = vec2(p.x, 1.0 - p.y);\n" /* the HUD image's first row is the top one */
+				  "  gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0);\n"
+				  "}\n";
 
-static const char *const hud_fs =
-	"#version 330 core\n"
-	"in vec2 v_uv;\n"
-	"uniform sampler2D u_hud;\n"
-	"out vec4 o_col;\n"
-	"void main() { o_col = texture(u_hud, v_uv); }\n";
+static const char *const hud_fs = "#version 330 core\n"
+				  "in vec2 v_uv;\n"
+				  "uniform sampler2D u_hud;\n"
+				  "out vec4 o_col;\n"
+				  "void main() { o_col = texture(u_hud, v_uv); }\n";
 
 static unsigned compile(GLenum kind, const char *src, const char *name)
 {
@@ -456,7 +452,8 @@ static void lit_vertex(struct render *r, const float *p, const float *n, const f
 
 static void lit_tri(struct render *r, const float *a, const float *b, const float *c, const float *col)
 {
-	float e1[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, e2[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]}, n[3];
+	float e1[3] = { b[0] - a[0], b[1] - a[1], b[2] - a[2] }, e2[3] = { c[0] - a[0], c[1] - a[1], c[2] - a[2] },
+	      n[3];
 	v3_cross(n, e1, e2);
 	v3_norm(n);
 	lit_vertex(r, a, n, col);
@@ -464,8 +461,7 @@ static void lit_tri(struct render *r, const float *a, const float *b, const floa
 	lit_vertex(r, c, n, col);
 }
 
-static void lit_quad(struct render *r, const float *a, const float *b, const float *c, const float *d,
-		     const float *col)
+static void lit_quad(struct render *r, const float *a, const float *b, const float *c, const float *d, const float *col)
 {
 	lit_tri(r, a, b, c, col);
 	lit_tri(r, a, c, d, col);
@@ -483,19 +479,17 @@ static void lit_hex(struct render *r, float p[8][3], const float *col)
 	}
 }
 
-static void lit_box(struct render *r, float x0, float y0, float z0, float x1, float y1, float z1,
-		    const float *col)
+static void lit_box(struct render *r, float x0, float y0, float z0, float x1, float y1, float z1, const float *col)
 {
-	float p[8][3] = {{x0, y0, z0}, {x1, y0, z0}, {x1, y1, z0}, {x0, y1, z0},
-			 {x0, y0, z1}, {x1, y0, z1}, {x1, y1, z1}, {x0, y1, z1}};
+	float p[8][3] = { { x0, y0, z0 }, { x1, y0, z0 }, { x1, y1, z0 }, { x0, y1, z0 },
+			  { x0, y0, z1 }, { x1, y0, z1 }, { x1, y1, z1 }, { x0, y1, z1 } };
 	lit_hex(r, p, col);
 }
 
 /* An arrow from `o` along `d` (length len, m): square shaft and a four-sided head. */
-static void lit_arrow(struct render *r, const float *o, const float *dir, float len, float width,
-		      const float *col)
+static void lit_arrow(struct render *r, const float *o, const float *dir, float len, float width, const float *col)
 {
-	float d[3] = {dir[0], dir[1], dir[2]}, u[3], v[3], ref[3] = {0, 0, 1};
+	float d[3] = { dir[0], dir[1], dir[2] }, u[3], v[3], ref[3] = { 0, 0, 1 };
 	v3_norm(d);
 	if (fabsf(d[2]) > 0.9f) {
 		ref[0] = 1;
@@ -538,13 +532,14 @@ static float height_at(const struct view_model *m, float x, float y)
 	int i1 = i + 1 < nx ? i + 1 : i, j1 = j + 1 < ny ? j + 1 : j;
 	float a = fi - (float)i, b = fj - (float)j;
 	const float *h = m->h_mm;
-	return (1 - b) * ((1 - a) * h[j * nx + i] + a * h[j * nx + i1]) + b * ((1 - a) * h[j1 * nx + i] + a * h[j1 * nx + i1]);
+	return (1 - b) * ((1 - a) * h[j * nx + i] + a * h[j * nx + i1]) +
+		b * ((1 - a) * h[j1 * nx + i] + a * h[j1 * nx + i1]);
 }
 
 static void build_scene(struct render *r, const struct view_model *m, bool frozen)
 {
-	static const float wall_col[3] = {0.78f, 0.80f, 0.83f}, floor_col[3] = {0.78f, 0.76f, 0.66f};
-	static const float obj_col[3] = {1.00f, 0.58f, 0.10f}, arrow_col[3] = {0.92f, 0.10f, 0.30f};
+	static const float wall_col[3] = { 0.78f, 0.80f, 0.83f }, floor_col[3] = { 0.78f, 0.76f, 0.66f };
+	static const float obj_col[3] = { 1.00f, 0.58f, 0.10f }, arrow_col[3] = { 0.92f, 0.10f, 0.30f };
 	float dx = (float)m->scene.dx_um * 1e-6f, depth = (float)m->scene.depth_um * 1e-6f;
 	float lx = dx * (float)m->scene.nx, ly = dx * (float)m->scene.ny;
 	float t = 0.03f * fmaxf(lx, ly), rim = 0.35f * depth + 0.004f;
@@ -568,7 +563,7 @@ static void build_scene(struct render *r, const struct view_model *m, bool froze
 	float z0 = (float)m->obj.z_um * 1e-6f + (r->o.zscale - 1.0f) * w;
 	if (r->o.view == RENDER_MAP) {
 		/* the footprint outlined in black above everything, so the heights under it stay readable */
-		static const float outline_col[3] = {0.02f, 0.02f, 0.02f};
+		static const float outline_col[3] = { 0.02f, 0.02f, 0.02f };
 		float e = fmaxf(0.0015f, 0.004f * fmaxf(lx, ly)), zt = 0.2f * fmaxf(lx, ly);
 		lit_box(r, ox - a / 2 - e, oy - b / 2 - e, zt, ox + a / 2 + e, oy - b / 2, zt + e, outline_col);
 		lit_box(r, ox - a / 2 - e, oy + b / 2, zt, ox + a / 2 + e, oy + b / 2 + e, zt + e, outline_col);
@@ -579,13 +574,13 @@ static void build_scene(struct render *r, const struct view_model *m, bool froze
 		lit_box(r, ox - a / 2, oy - b / 2, z0, ox + a / 2, oy + b / 2, z0 + hgt, obj_col);
 	}
 
-	float f[3] = {(float)m->obj.fx_cN * 0.01f, (float)m->obj.fy_cN * 0.01f, (float)m->obj.fz_cN * 0.01f};
+	float f[3] = { (float)m->obj.fx_cN * 0.01f, (float)m->obj.fy_cN * 0.01f, (float)m->obj.fz_cN * 0.01f };
 	float fn = sqrtf(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]);
 	float len = fn * r->o.force_mm_per_N * 1e-3f, maxlen = 0.6f * fmaxf(lx, ly);
 	if (len > maxlen)
 		len = maxlen;
 	if (len > 0.004f) {
-		float o[3] = {ox, oy, z0 + hgt};
+		float o[3] = { ox, oy, z0 + hgt };
 		lit_arrow(r, o, f, len, fmaxf(0.004f, 0.012f * fmaxf(lx, ly)), arrow_col);
 	}
 }
@@ -631,7 +626,7 @@ static void camera(struct render *r, const struct view_model *m, float *mvp, flo
 		/* Pool centred and fitted with a 5 % margin: pixel = centre + (x - Lx/2) * s. */
 		float s = 0.9f * fminf((float)sw / lx, (float)r->o.h / ly);
 		float hw = (float)sw / (2 * s), hh = (float)r->o.h / (2 * s);
-		float e[3] = {lx / 2, ly / 2, 5}, at[3] = {lx / 2, ly / 2, 0}, up[3] = {0, 1, 0};
+		float e[3] = { lx / 2, ly / 2, 5 }, at[3] = { lx / 2, ly / 2, 0 }, up[3] = { 0, 1, 0 };
 		mat_lookat(view, e, at, up);
 		/* the eye for lighting: straight above */
 		eye[0] = lx / 2;
@@ -641,7 +636,7 @@ static void camera(struct render *r, const struct view_model *m, float *mvp, flo
 	} else {
 		if (!r->cam_set)
 			render_cam_reset(r, m);
-		float at[3] = {lx / 2 + r->cam.pan_x, ly / 2 + r->cam.pan_y, -depth / 3}, up[3] = {0, 0, 1};
+		float at[3] = { lx / 2 + r->cam.pan_x, ly / 2 + r->cam.pan_y, -depth / 3 }, up[3] = { 0, 0, 1 };
 		/* a view narrower than 4:3 (the charts take the right) steps back to keep the pool in it */
 		float dist = r->cam.dist * fmaxf(1.0f, (4.0f / 3.0f) / aspect);
 		eye[0] = at[0] + dist * cosf(r->cam.pitch) * cosf(r->cam.yaw);
@@ -659,8 +654,7 @@ void render_text_clear(struct render *r)
 	r->ntext = 0;
 }
 
-void render_text_add(struct render *r, int x, int y, uint8_t cr, uint8_t cg, uint8_t cb, bool panel,
-		     const char *s)
+void render_text_add(struct render *r, int x, int y, uint8_t cr, uint8_t cg, uint8_t cb, bool panel, const char *s)
 {
 	if (r->ntext >= RENDER_HUD_ITEMS)
 		return;
@@ -796,7 +790,7 @@ static void draw_overlays(struct render *r)
 /* ---- a frame ---- */
 void render_frame(struct render *r, struct view_model *m, bool frozen)
 {
-	float mvp[16], eye[3], light[3] = {light_dir[0], light_dir[1], light_dir[2]};
+	float mvp[16], eye[3], light[3] = { light_dir[0], light_dir[1], light_dir[2] };
 	v3_norm(light);
 
 	if (m->have_scene && (r->water_nx != m->scene.nx || r->water_ny != m->scene.ny)) {
@@ -826,12 +820,13 @@ void render_frame(struct render *r, struct view_model *m, bool frozen)
 		glUniform3fv(glGetUniformLocation(r->prog_lit, "u_eye"), 1, eye);
 		glBindVertexArray(r->vao_lit);
 		glBindBuffer(GL_ARRAY_BUFFER, r->vbo_lit);
-		glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)((size_t)r->lit_n * 9 * sizeof(float)), r->lit, GL_STREAM_DRAW);
+		glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)((size_t)r->lit_n * 9 * sizeof(float)), r->lit,
+			     GL_STREAM_DRAW);
 		glDrawArrays(GL_TRIANGLES, 0, r->lit_n);
 
 		/* water last, translucent, both sides (seen from below through the glass is fine) */
 		float dx = (float)m->scene.dx_um * 1e-6f;
-		float size[2] = {dx * (float)m->scene.nx, dx * (float)m->scene.ny};
+		float size[2] = { dx * (float)m->scene.nx, dx * (float)m->scene.ny };
 		glDisable(GL_CULL_FACE);
 		glEnable(GL_BLEND);
 		glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
@@ -860,7 +855,8 @@ void render_frame(struct render *r, struct view_model *m, bool frozen)
 
 	if (r->o.hud && r->ntext > 0) {
 		/* rasterise and upload the HUD only when its text changed (rates change once a second) */
-		if (r->ntext != r->hud_ntext || memcmp(r->text, r->hud_text, sizeof(r->text[0]) * (size_t)r->ntext) != 0) {
+		if (r->ntext != r->hud_ntext ||
+		    memcmp(r->text, r->hud_text, sizeof(r->text[0]) * (size_t)r->ntext) != 0) {
 			build_hud(r);
 			memcpy(r->hud_text, r->text, sizeof(r->text));
 			r->hud_ntext = r->ntext;

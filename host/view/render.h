@@ -19,46 +19,50 @@
 
 /* orbit: the mouse camera; top: straight down, shaded, pool fitted (tests); map: straight down, a
  * height map in the colour scale with the object's footprint outlined */
-enum render_view { RENDER_ORBIT, RENDER_TOP, RENDER_MAP };
+enum render_view {
+	RENDER_ORBIT,
+	RENDER_TOP,
+	RENDER_MAP
+};
 
 #define RENDER_OVERLAYS 2 /* CPU-drawn pictures over the scene: the charts, the colour legend */
 
 struct render_opts {
-	int w, h;              /* framebuffer size, pixels */
+	int w, h; /* framebuffer size, pixels */
 	enum render_view view;
-	bool colour_scale;     /* colour the water by height (blue - white - red over +-h_range_mm) */
+	bool colour_scale; /* colour the water by height (blue - white - red over +-h_range_mm) */
 	float h_range_mm;
 	bool hud;
-	float zscale;          /* vertical exaggeration of the water heights */
-	float force_mm_per_N;  /* force arrow length */
-	int msaa;              /* samples a pixel (0: none; -1: 4, or 0 on a software renderer), capped
+	float zscale; /* vertical exaggeration of the water heights */
+	float force_mm_per_N; /* force arrow length */
+	int msaa; /* samples a pixel (0: none; -1: 4, or 0 on a software renderer), capped
 				* to what GL offers */
 };
 
 struct render_text {
-	int x, y;              /* pixels from the top-left; negative x: from the right edge */
+	int x, y; /* pixels from the top-left; negative x: from the right edge */
 	uint8_t r, g, b;
-	bool panel;            /* dark panel behind */
+	bool panel; /* dark panel behind */
 	char s[512];
 };
 
 struct render_cam {
-	float yaw, pitch;      /* radians */
-	float dist;            /* metres */
-	float pan_x, pan_y;    /* metres, target offset */
+	float yaw, pitch; /* radians */
+	float dist; /* metres */
+	float pan_x, pan_y; /* metres, target offset */
 };
 
 struct render_overlay {
 	bool on;
-	int x, y, w, h;        /* placement, pixels from the top-left */
-	int tex_w, tex_h;      /* texture storage size */
+	int x, y, w, h; /* placement, pixels from the top-left */
+	int tex_w, tex_h; /* texture storage size */
 	unsigned tex;
 };
 
 struct render {
 	struct render_opts o;
-	int scene_right;       /* pixels at the right edge kept free of the scene (the charts' panel) */
-	float obj_water_mm;    /* the water under the object as drawn (held with the heights while frozen) */
+	int scene_right; /* pixels at the right edge kept free of the scene (the charts' panel) */
+	float obj_water_mm; /* the water under the object as drawn (held with the heights while frozen) */
 	struct render_overlay ov[RENDER_OVERLAYS];
 	struct render_cam cam;
 	bool cam_set;
@@ -69,7 +73,7 @@ struct render {
 	int water_nx, water_ny, water_indices;
 	int samples;
 	/* geometry scratch */
-	float *lit;            /* pos3 nrm3 col3 per vertex */
+	float *lit; /* pos3 nrm3 col3 per vertex */
 	int lit_n, lit_cap;
 	/* HUD */
 	uint8_t *hud_rgba, *hud_ink;
@@ -94,8 +98,7 @@ void render_frame(struct render *r, struct view_model *m, bool frozen);
 
 /* HUD text for the next frames: replaced as a whole. */
 void render_text_clear(struct render *r);
-void render_text_add(struct render *r, int x, int y, uint8_t cr, uint8_t cg, uint8_t cb, bool panel,
-		     const char *s);
+void render_text_add(struct render *r, int x, int y, uint8_t cr, uint8_t cg, uint8_t cb, bool panel, const char *s);
 
 /* Show an RGBA picture (w x h, top row first, straight alpha) with its top-left corner at pixel (x, y)
  * over the scene in every frame from now on; off: no longer. */

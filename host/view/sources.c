@@ -11,7 +11,7 @@
 #include "swell/transport.h"
 
 #define PATTERN_FRAME_US 20000u /* the pattern controller sends a frame every 20 ms */
-#define PATTERN_REFRESH 10u     /* scene and unchanged heights again every 10 frames (200 ms) */
+#define PATTERN_REFRESH 10u /* scene and unchanged heights again every 10 frames (200 ms) */
 #define PATTERN_RESTART_US 400000u
 
 /* Open (or re-open) the link of a link source; 0 or a negative errno with the reason in err. */
@@ -113,7 +113,7 @@ static void *reader(void *arg)
 	while (!atomic_load(&s->stop)) {
 		if (!s->link) { /* USB not there when we started: try again every 500 ms */
 			char err[128];
-			struct timespec d = {0, 500000000};
+			struct timespec d = { 0, 500000000 };
 			nanosleep(&d, NULL);
 			if (link_open(s, err, sizeof(err)) != 0)
 				continue;
@@ -125,7 +125,7 @@ static void *reader(void *arg)
 		if (rc == 0 || rc != last)
 			ring_put(s, rc, &f); /* report a lasting error once */
 		if (rc < 0 && rc != -ENODEV) {
-			struct timespec d = {0, 50000000}; /* a broken link: do not spin */
+			struct timespec d = { 0, 50000000 }; /* a broken link: do not spin */
 			nanosleep(&d, NULL);
 		}
 		last = rc;
@@ -189,7 +189,8 @@ bool source_open(struct source *s, const char *spec, const char *record, int usb
 		} else if (strcmp(name, "bob") == 0) {
 			gen_bob(&s->g);
 		} else {
-			snprintf(err, errlen, "unknown pattern '%s' (bump, bump2, ripple, bob; NAME:N for N x N cells)", name);
+			snprintf(err, errlen, "unknown pattern '%s' (bump, bump2, ripple, bob; NAME:N for N x N cells)",
+				 name);
 			return false;
 		}
 		snprintf(s->desc, sizeof(s->desc), "PATTERN %s (NOT A CONTROLLER)", spec + 8);
@@ -205,8 +206,10 @@ bool source_open(struct source *s, const char *spec, const char *record, int usb
 	else if ((strncmp(spec, "replay:", 7) == 0 && spec[7]) || (strncmp(spec, "replay-fast:", 12) == 0 && spec[12]))
 		s->lk = LINK_REPLAY;
 	else {
-		snprintf(err, errlen, "unknown source '%s' (udp[:PORT], can:IFACE, canfd:IFACE, usb[:VID:PID], "
-			 "replay:FILE, replay-fast:FILE, pattern:NAME)", spec);
+		snprintf(err, errlen,
+			 "unknown source '%s' (udp[:PORT], can:IFACE, canfd:IFACE, usb[:VID:PID], "
+			 "replay:FILE, replay-fast:FILE, pattern:NAME)",
+			 spec);
 		return false;
 	}
 	if (s->lk == LINK_USB && !parse_usb(s, spec[3] ? spec + 4 : NULL, err, errlen))
@@ -233,10 +236,12 @@ bool source_open(struct source *s, const char *spec, const char *record, int usb
 
 bool source_faults(struct source *s, const char *list, char *err, size_t errlen)
 {
-	static const struct { const char *name; unsigned bit; } names[] = {
-		{"garbage", FAULT_GARBAGE}, {"truncate", FAULT_TRUNCATE}, {"corrupt", FAULT_CORRUPT},
-		{"reorder", FAULT_REORDER}, {"drop", FAULT_DROP}, {"noscene", FAULT_NOSCENE},
-		{"restart", FAULT_RESTART}};
+	static const struct {
+		const char *name;
+		unsigned bit;
+	} names[] = { { "garbage", FAULT_GARBAGE }, { "truncate", FAULT_TRUNCATE }, { "corrupt", FAULT_CORRUPT },
+		      { "reorder", FAULT_REORDER }, { "drop", FAULT_DROP },         { "noscene", FAULT_NOSCENE },
+		      { "restart", FAULT_RESTART } };
 	char buf[256];
 	snprintf(buf, sizeof(buf), "%s", list);
 	for (char *save = NULL, *t = strtok_r(buf, ",", &save); t; t = strtok_r(NULL, ",", &save)) {
@@ -245,7 +250,8 @@ bool source_faults(struct source *s, const char *list, char *err, size_t errlen)
 			if (strcmp(t, names[k].name) == 0)
 				break;
 		if (k == sizeof(names) / sizeof(names[0])) {
-			snprintf(err, errlen, "unknown fault '%s' (garbage, truncate, corrupt, reorder, drop, noscene, restart)", t);
+			snprintf(err, errlen,
+				 "unknown fault '%s' (garbage, truncate, corrupt, reorder, drop, noscene, restart)", t);
 			return false;
 		}
 		s->faults |= names[k].bit;

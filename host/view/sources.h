@@ -23,26 +23,34 @@
 #include "gen.h"
 #include "swell/link.h"
 
-enum source_kind { SOURCE_LINK, SOURCE_PATTERN };
-enum link_kind { LINK_UDP, LINK_CAN, LINK_USB, LINK_REPLAY };
+enum source_kind {
+	SOURCE_LINK,
+	SOURCE_PATTERN
+};
+enum link_kind {
+	LINK_UDP,
+	LINK_CAN,
+	LINK_USB,
+	LINK_REPLAY
+};
 
 /* Live links are read by a thread of their own into this ring, so frames keep being taken off the
  * socket (or bus, or USB endpoint) while a frame renders; the display thread drains it. */
 #define RX_RING 32768u
 struct rx_item {
-	int rc;           /* 0: a frame; -ENODEV: device gone; other negative errno: link error */
-	uint64_t t_us;    /* receive time, CLOCK_MONOTONIC */
+	int rc; /* 0: a frame; -ENODEV: device gone; other negative errno: link error */
+	uint64_t t_us; /* receive time, CLOCK_MONOTONIC */
 	struct swell_frame f;
 };
 
 /* Faults injected into the pattern's packets (bit flags). */
-#define FAULT_GARBAGE  0x01u /* random datagrams between the real ones */
+#define FAULT_GARBAGE 0x01u /* random datagrams between the real ones */
 #define FAULT_TRUNCATE 0x02u /* every 3rd packet cut short */
-#define FAULT_CORRUPT  0x04u /* every 5th packet with one bit flipped */
-#define FAULT_REORDER  0x08u /* neighbouring packets swapped */
-#define FAULT_DROP     0x10u /* every 7th packet lost */
-#define FAULT_NOSCENE  0x20u /* never send the scene description (a viewer that joined too late) */
-#define FAULT_RESTART  0x40u /* the controller restarts after 0.4 s (heartbeat back to BOOT, new scene) */
+#define FAULT_CORRUPT 0x04u /* every 5th packet with one bit flipped */
+#define FAULT_REORDER 0x08u /* neighbouring packets swapped */
+#define FAULT_DROP 0x10u /* every 7th packet lost */
+#define FAULT_NOSCENE 0x20u /* never send the scene description (a viewer that joined too late) */
+#define FAULT_RESTART 0x40u /* the controller restarts after 0.4 s (heartbeat back to BOOT, new scene) */
 
 struct source {
 	enum source_kind kind;
@@ -52,17 +60,17 @@ struct source {
 	struct swell_link *link;
 	char spec[256];
 	struct swell_usb_opts usb;
-	uint64_t retry_us;     /* USB not there at start: next attempt to open it */
-	bool ended;            /* replay reached the end of the recording */
-	uint32_t rec_damaged;  /* replay stopped at a damaged record */
-	const char *record;    /* record what is received to this file (link sources) */
+	uint64_t retry_us; /* USB not there at start: next attempt to open it */
+	bool ended; /* replay reached the end of the recording */
+	uint32_t rec_damaged; /* replay stopped at a damaged record */
+	const char *record; /* record what is received to this file (link sources) */
 	/* reader thread (live links) */
 	bool threaded;
 	pthread_t thread;
 	atomic_bool stop;
-	atomic_bool have_link;    /* link set (by the thread when a USB device appears late) */
-	atomic_uint head, tail;   /* ring indices: the thread writes at head, the display reads at tail */
-	atomic_uint overflow;     /* frames lost because the display fell RX_RING frames behind */
+	atomic_bool have_link; /* link set (by the thread when a USB device appears late) */
+	atomic_uint head, tail; /* ring indices: the thread writes at head, the display reads at tail */
+	atomic_uint overflow; /* frames lost because the display fell RX_RING frames behind */
 	struct rx_item *ring;
 	/* pattern */
 	struct gen_scene g;

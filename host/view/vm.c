@@ -117,14 +117,13 @@ void vm_bad(struct view_model *m)
 static bool scene_equal(const struct view_scene *a, const struct view_scene *b)
 {
 	return a->nx == b->nx && a->ny == b->ny && a->dx_um == b->dx_um && a->depth_um == b->depth_um &&
-	       a->tile_w == b->tile_w && a->tile_h == b->tile_h && a->scene_id == b->scene_id;
+		a->tile_w == b->tile_w && a->tile_h == b->tile_h && a->scene_id == b->scene_id;
 }
 
 enum swell_err vm_scene(struct view_model *m, const struct view_scene *s, uint64_t now_us)
 {
-	if (!s || s->nx < 2 || s->ny < 2 || s->nx > VIEW_MAX_SIDE || s->ny > VIEW_MAX_SIDE ||
-	    s->dx_um == 0 || s->tile_w == 0 || s->tile_h == 0 || s->tile_w > VIEW_MAX_TILE ||
-	    s->tile_h > VIEW_MAX_TILE)
+	if (!s || s->nx < 2 || s->ny < 2 || s->nx > VIEW_MAX_SIDE || s->ny > VIEW_MAX_SIDE || s->dx_um == 0 ||
+	    s->tile_w == 0 || s->tile_h == 0 || s->tile_w > VIEW_MAX_TILE || s->tile_h > VIEW_MAX_TILE)
 		return SWELL_ERANGE;
 	if (m->have_scene && scene_equal(&m->scene, s))
 		return SWELL_OK;
@@ -156,8 +155,8 @@ enum swell_err vm_scene(struct view_model *m, const struct view_scene *s, uint64
 	return SWELL_OK;
 }
 
-void vm_tile_rect(const struct view_model *m, uint16_t tx, uint16_t ty, uint16_t *i0, uint16_t *j0,
-		  uint16_t *w, uint16_t *h)
+void vm_tile_rect(const struct view_model *m, uint16_t tx, uint16_t ty, uint16_t *i0, uint16_t *j0, uint16_t *w,
+		  uint16_t *h)
 {
 	uint32_t x = (uint32_t)tx * m->scene.tile_w, y = (uint32_t)ty * m->scene.tile_h;
 	uint32_t cw = m->scene.tile_w, ch = m->scene.tile_h;
@@ -172,8 +171,8 @@ void vm_tile_rect(const struct view_model *m, uint16_t tx, uint16_t ty, uint16_t
 	*h = (uint16_t)ch;
 }
 
-enum swell_err vm_cells(struct view_model *m, uint16_t tx, uint16_t ty, uint16_t col, uint16_t row,
-			uint16_t n, uint32_t pos, const int32_t *h_lsb)
+enum swell_err vm_cells(struct view_model *m, uint16_t tx, uint16_t ty, uint16_t col, uint16_t row, uint16_t n,
+			uint32_t pos, const int32_t *h_lsb)
 {
 	if (!m->have_scene) {
 		m->st.ignored++;
@@ -244,8 +243,7 @@ void vm_ctl_info(struct view_model *m, const uint8_t version[3], uint32_t a_um, 
 	m->obj.h_um = h_um;
 }
 
-void vm_heartbeat(struct view_model *m, const char *state, uint8_t error, uint16_t bad,
-		  uint16_t overruns)
+void vm_heartbeat(struct view_model *m, const char *state, uint8_t error, uint16_t bad, uint16_t overruns)
 {
 	m->have_heartbeat = true;
 	m->ctrl_error = error;
@@ -325,11 +323,16 @@ void vm_tile_clean(struct view_model *m, uint16_t tx, uint16_t ty)
 const char *vm_status_str(enum view_status s)
 {
 	switch (s) {
-	case VIEW_LINK_DOWN: return "LINK DOWN";
-	case VIEW_WAIT_SCENE: return "WAITING FOR SCENE DESCRIPTION";
-	case VIEW_RESTARTED: return "CONTROLLER RESTARTED - WAITING FOR SCENE";
-	case VIEW_STALE: return "NO DATA - STALE";
-	case VIEW_LIVE: return "LIVE";
+	case VIEW_LINK_DOWN:
+		return "LINK DOWN";
+	case VIEW_WAIT_SCENE:
+		return "WAITING FOR SCENE DESCRIPTION";
+	case VIEW_RESTARTED:
+		return "CONTROLLER RESTARTED - WAITING FOR SCENE";
+	case VIEW_STALE:
+		return "NO DATA - STALE";
+	case VIEW_LIVE:
+		return "LIVE";
 	}
 	return "?";
 }

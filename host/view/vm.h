@@ -25,45 +25,46 @@
 #define VIEW_MAX_TILE 64
 #define VIEW_RATE_WINDOW_US 1000000u /* rates are counted over one second */
 #define VIEW_RESTART_SHOW_US 3000000u
-#define VIEW_LATENCY_WINDOW_US 2000000u /* the best path is the best of the last 2 to 4 s */ /* how long "controller restarted" stays on screen */
+#define VIEW_LATENCY_WINDOW_US \
+	2000000u /* the best path is the best of the last 2 to 4 s */ /* how long "controller restarted" stays on screen */
 
 enum view_status {
-	VIEW_LINK_DOWN,   /* the link reports no connection (unplugged, socket error) */
-	VIEW_WAIT_SCENE,  /* connected, no scene description yet */
-	VIEW_RESTARTED,   /* the controller restarted; waiting for its new scene */
-	VIEW_STALE,       /* a scene is known but nothing arrived for stale_us */
+	VIEW_LINK_DOWN, /* the link reports no connection (unplugged, socket error) */
+	VIEW_WAIT_SCENE, /* connected, no scene description yet */
+	VIEW_RESTARTED, /* the controller restarted; waiting for its new scene */
+	VIEW_STALE, /* a scene is known but nothing arrived for stale_us */
 	VIEW_LIVE,
 };
 
 struct view_scene {
-	uint16_t nx, ny;         /* cells */
-	uint32_t dx_um;          /* cell side */
-	uint32_t depth_um;       /* rest depth */
-	uint8_t tile_w, tile_h;  /* cells a tile */
-	uint8_t scene_id;        /* the controller changes it whenever the scene changes */
+	uint16_t nx, ny; /* cells */
+	uint32_t dx_um; /* cell side */
+	uint32_t depth_um; /* rest depth */
+	uint8_t tile_w, tile_h; /* cells a tile */
+	uint8_t scene_id; /* the controller changes it whenever the scene changes */
 };
 
 struct view_object {
 	bool valid;
-	int32_t x_um, y_um, z_um;    /* centre of the box bottom, pool coordinates (origin: pool corner,
+	int32_t x_um, y_um, z_um; /* centre of the box bottom, pool coordinates (origin: pool corner,
 				      * z = 0 the rest surface, up positive) */
-	uint32_t a_um, b_um, h_um;   /* footprint x, y and height */
+	uint32_t a_um, b_um, h_um; /* footprint x, y and height */
 	int32_t fx_cN, fy_cN, fz_cN; /* force on the object, the one the device renders */
 };
 
 struct view_stats {
-	uint32_t frames;      /* good frames accepted */
-	uint32_t bad;         /* rejected by the decoder (CRC, truncated, unknown, out of range) */
-	uint32_t dropped;     /* missing sequence numbers, in gaps up to VM_LOSS_WINDOW */
-	uint32_t resyncs;     /* jumps beyond it (another sender, a restarted count): one each, not losses */
-	uint32_t late;        /* reordered frames older than what is shown */
-	uint32_t ignored;     /* frames that arrived before the scene description */
-	uint32_t pieces;      /* height pieces accepted (vm_cells calls: quads on the wire) */
-	uint32_t cells;       /* height samples accepted */
-	uint32_t restarts;    /* controller restarts seen */
-	uint32_t link_drops;  /* link up -> down transitions */
+	uint32_t frames; /* good frames accepted */
+	uint32_t bad; /* rejected by the decoder (CRC, truncated, unknown, out of range) */
+	uint32_t dropped; /* missing sequence numbers, in gaps up to VM_LOSS_WINDOW */
+	uint32_t resyncs; /* jumps beyond it (another sender, a restarted count): one each, not losses */
+	uint32_t late; /* reordered frames older than what is shown */
+	uint32_t ignored; /* frames that arrived before the scene description */
+	uint32_t pieces; /* height pieces accepted (vm_cells calls: quads on the wire) */
+	uint32_t cells; /* height samples accepted */
+	uint32_t restarts; /* controller restarts seen */
+	uint32_t link_drops; /* link up -> down transitions */
 	float frame_hz, piece_hz; /* over the last full rate window */
-	float latency_ms;     /* one-way delay above the best seen (see vm_clock) */
+	float latency_ms; /* one-way delay above the best seen (see vm_clock) */
 	bool latency_valid;
 };
 
@@ -73,13 +74,13 @@ struct view_model {
 	bool have_scene;
 	struct view_scene scene;
 	uint16_t tiles_x, tiles_y;
-	float *h_mm;            /* nx * ny heights above rest, row-major (j * nx + i) */
-	uint32_t *cell_pos;     /* stream position of the data held for each cell (0: none yet) */
-	uint8_t *dirty;         /* one flag a tile: heights changed since the renderer last took it */
+	float *h_mm; /* nx * ny heights above rest, row-major (j * nx + i) */
+	uint32_t *cell_pos; /* stream position of the data held for each cell (0: none yet) */
+	uint8_t *dirty; /* one flag a tile: heights changed since the renderer last took it */
 	uint32_t dirty_count;
 	struct view_object obj;
-	char ctrl_state[16];    /* controller state name from the heartbeat, "?" until one arrives */
-	uint8_t ctrl_error;     /* enum swell_err the controller reports */
+	char ctrl_state[16]; /* controller state name from the heartbeat, "?" until one arrives */
+	uint8_t ctrl_error; /* enum swell_err the controller reports */
 	uint16_t ctrl_bad, ctrl_overruns; /* the controller's own counters */
 	bool have_heartbeat;
 	/* CTL_INFO: the controller's firmware version and the object size it simulates (obj.a/b/h_um
@@ -90,7 +91,7 @@ struct view_model {
 	/* bookkeeping */
 	bool have_seq;
 	uint32_t seq_next;
-	uint32_t late_run;      /* late frames in a row */
+	uint32_t late_run; /* late frames in a row */
 	uint64_t last_rx_us, restart_us, window_us;
 	bool have_window;
 	uint32_t window_frames, window_pieces;
@@ -132,8 +133,8 @@ enum swell_err vm_scene(struct view_model *m, const struct view_scene *s, uint64
  * never 0). Cells already holding data from a later position keep it (a reordered frame): counted
  * late, SWELL_ESTATE if no cell was taken. SWELL_ESTATE before a scene, SWELL_ERANGE for cells
  * outside the tile or the grid. */
-enum swell_err vm_cells(struct view_model *m, uint16_t tx, uint16_t ty, uint16_t col, uint16_t row,
-			uint16_t n, uint32_t pos, const int32_t *h_lsb);
+enum swell_err vm_cells(struct view_model *m, uint16_t tx, uint16_t ty, uint16_t col, uint16_t row, uint16_t n,
+			uint32_t pos, const int32_t *h_lsb);
 
 /* Object pose and force. SWELL_ESTATE before a scene. */
 enum swell_err vm_object(struct view_model *m, const struct view_object *o);
@@ -142,8 +143,7 @@ enum swell_err vm_object(struct view_model *m, const struct view_object *o);
 void vm_rx(struct view_model *m, uint64_t now_us);
 
 /* Heartbeat: state name, last error, the controller's bad-frame and overrun counters. */
-void vm_heartbeat(struct view_model *m, const char *state, uint8_t error, uint16_t bad,
-		  uint16_t overruns);
+void vm_heartbeat(struct view_model *m, const char *state, uint8_t error, uint16_t bad, uint16_t overruns);
 
 /* Controller info: firmware version (major, minor, patch) and the object's size in um, which from
  * now on replaces the fallback size in obj (valid or not). */
@@ -167,8 +167,8 @@ bool vm_tile_dirty(const struct view_model *m, uint16_t tx, uint16_t ty);
 void vm_tile_clean(struct view_model *m, uint16_t tx, uint16_t ty);
 
 /* Cells of tile (tx, ty): origin and size, clipped at the grid's edge. */
-void vm_tile_rect(const struct view_model *m, uint16_t tx, uint16_t ty, uint16_t *i0, uint16_t *j0,
-		  uint16_t *w, uint16_t *h);
+void vm_tile_rect(const struct view_model *m, uint16_t tx, uint16_t ty, uint16_t *i0, uint16_t *j0, uint16_t *w,
+		  uint16_t *h);
 
 const char *vm_status_str(enum view_status s);
 

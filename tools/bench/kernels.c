@@ -7,17 +7,22 @@
 
 __extension__ typedef __int128 i128;
 
-enum rnd { RND_FLOOR, RND_NEAREST, RND_ZERO };
+enum rnd {
+	RND_FLOOR,
+	RND_NEAREST,
+	RND_ZERO
+};
 
 static const struct {
 	const char *name;
 	size_t bytes; /* per cell, between steps, scratch included */
 	int fixed;
 } impl_info[BENCH_IMPL_COUNT] = {
-	[BENCH_SHIPPED] = {"shipped", 7 * 4, 1},  [BENCH_VELOCITY] = {"velocity", 4 * 4, 1}, [BENCH_EF16] = {"ef16", 5 * 2 + 4, 1},
-	[BENCH_TL32_FLOOR] = {"tl32-floor", 3 * 4, 1}, [BENCH_TL32_RN] = {"tl32-rn", 3 * 4, 1},
-	[BENCH_TL32_RZ] = {"tl32-rz", 3 * 4, 1},  [BENCH_TL16_RN] = {"tl16-rn", 3 * 2, 1},
-	[BENCH_F32] = {"f32", 3 * 4, 0},          [BENCH_F64] = {"f64", 3 * 8, 0},
+	[BENCH_SHIPPED] = { "shipped", 7 * 4, 1 }, [BENCH_VELOCITY] = { "velocity", 4 * 4, 1 },
+	[BENCH_EF16] = { "ef16", 5 * 2 + 4, 1 },   [BENCH_TL32_FLOOR] = { "tl32-floor", 3 * 4, 1 },
+	[BENCH_TL32_RN] = { "tl32-rn", 3 * 4, 1 }, [BENCH_TL32_RZ] = { "tl32-rz", 3 * 4, 1 },
+	[BENCH_TL16_RN] = { "tl16-rn", 3 * 2, 1 }, [BENCH_F32] = { "f32", 3 * 4, 0 },
+	[BENCH_F64] = { "f64", 3 * 8, 0 },
 };
 
 #define H16_FRAC 10
@@ -78,8 +83,8 @@ static void set_coeffs(struct bench_field *f, q30_t e_eff, q30_t q)
 	f->c_wall = e_eff + e_eff / 2;
 }
 
-enum swell_err bench_field_init(struct bench_field *f, enum bench_impl impl, int nx, int ny, double e,
-				double t, enum swell_stencil stencil)
+enum swell_err bench_field_init(struct bench_field *f, enum bench_impl impl, int nx, int ny, double e, double t,
+				enum swell_stencil stencil)
 {
 	struct swell_wave_params p;
 	size_t n, np;
@@ -184,12 +189,11 @@ enum swell_err bench_field_init(struct bench_field *f, enum bench_impl impl, int
 		f->e_eff = f->e_eff_f; /* what the float32 kernel really multiplies by */
 		f->q = f->q_f;
 	}
-	f->lsb_mm = (impl == BENCH_EF16 || impl == BENCH_TL16_RN) ? 1.0 / (1 << H16_FRAC)
-								   : 1.0 / SWELL_H_ONE_MM;
+	f->lsb_mm = (impl == BENCH_EF16 || impl == BENCH_TL16_RN) ? 1.0 / (1 << H16_FRAC) : 1.0 / SWELL_H_ONE_MM;
 	f->h_max = impl == BENCH_EF16 || impl == BENCH_TL16_RN ? H16_MAX
-		   : impl == BENCH_VELOCITY			 ? SWELL_HV_MAX
-		   : bench_impl_is_fixed(impl)			 ? SWELL_H_MAX
-								 : 0;
+		: impl == BENCH_VELOCITY                       ? SWELL_HV_MAX
+		: bench_impl_is_fixed(impl)                    ? SWELL_H_MAX
+							       : 0;
 	return SWELL_OK;
 }
 
@@ -356,53 +360,51 @@ void bench_field_add_lsb(struct bench_field *f, int i, int j, int32_t k)
 }
 
 /* Mirror the edge cells into the ghost ring of a padded array. */
-#define FILL_GHOSTS(T, h, nx, ny, px)                                                              \
-	do {                                                                                       \
-		int j_;                                                                            \
-		for (j_ = 1; j_ <= (ny); j_++) {                                                   \
-			(h)[j_ * (px)] = (h)[j_ * (px) + 1];                                       \
-			(h)[j_ * (px) + (nx) + 1] = (h)[j_ * (px) + (nx)];                         \
-		}                                                                                  \
-		memcpy((h), (h) + (px), (size_t)(px) * sizeof(T));                                 \
-		memcpy((h) + (size_t)((ny) + 1) * (px), (h) + (size_t)(ny) * (px),                 \
-		       (size_t)(px) * sizeof(T));                                                  \
+#define FILL_GHOSTS(T, h, nx, ny, px)                                                                         \
+	do {                                                                                                  \
+		int j_;                                                                                       \
+		for (j_ = 1; j_ <= (ny); j_++) {                                                              \
+			(h)[j_ * (px)] = (h)[j_ * (px) + 1];                                                  \
+			(h)[j_ * (px) + (nx) + 1] = (h)[j_ * (px) + (nx)];                                    \
+		}                                                                                             \
+		memcpy((h), (h) + (px), (size_t)(px) * sizeof(T));                                            \
+		memcpy((h) + (size_t)((ny) + 1) * (px), (h) + (size_t)(ny) * (px), (size_t)(px) * sizeof(T)); \
 	} while (0)
 
 /* Three-level eq. (1) in fixed point: 2 L9 exact in int64, then e_eff (2 L9) / 2^31 and
  * (1-t) d / 2^30 rounded by `mode`, heights saturated to +-max. */
-#define DEFINE_TL(fname, T, mode)                                                                  \
-	static void fname(struct bench_field *f, T **hh, T **hhp, T **hhn, int32_t max)            \
-	{                                                                                          \
-		const int nx = f->nx, ny = f->ny, px = f->px;                                      \
-		const int64_t e = f->e_eff_q30, q = f->q_q30;                                      \
-		T *h = *hh, *hp = *hhp, *hn = *hhn;                                                \
-		int i, j;                                                                          \
-                                                                                                   \
-		FILL_GHOSTS(T, h, nx, ny, px);                                                     \
-		for (j = 1; j <= ny; j++) {                                                        \
-			for (i = 1; i <= nx; i++) {                                                \
-				const int k = j * px + i;                                          \
-				const int64_t c = h[k];                                            \
-				int64_t orth = (int64_t)h[k - 1] + h[k + 1] + h[k - px] + h[k + px]; \
-				int64_t diag = (int64_t)h[k - px - 1] + h[k - px + 1] +            \
-					       h[k + px - 1] + h[k + px + 1];                      \
-				int64_t l2 = 2 * orth + diag - 12 * c;                             \
-				int64_t d = c - hp[k] + rshift(e * l2, 31, mode);                  \
-				int64_t x;                                                         \
-                                                                                                   \
-				if (q != SWELL_Q30_ONE)                                            \
-					d = rshift(q * d, 30, mode);                               \
-				x = c + d;                                                         \
-				if (x > max || x < -max) {                                         \
-					x = x > 0 ? max : -max;                                    \
-					f->saturations++;                                          \
-				}                                                                  \
-				hn[k] = (T)x;                                                      \
-			}                                                                          \
-		}                                                                                  \
-		*hhp = h;                                                                          \
-		*hh = hn;                                                                          \
-		*hhn = hp;                                                                         \
+#define DEFINE_TL(fname, T, mode)                                                                                      \
+	static void fname(struct bench_field *f, T **hh, T **hhp, T **hhn, int32_t max)                                \
+	{                                                                                                              \
+		const int nx = f->nx, ny = f->ny, px = f->px;                                                          \
+		const int64_t e = f->e_eff_q30, q = f->q_q30;                                                          \
+		T *h = *hh, *hp = *hhp, *hn = *hhn;                                                                    \
+		int i, j;                                                                                              \
+                                                                                                                       \
+		FILL_GHOSTS(T, h, nx, ny, px);                                                                         \
+		for (j = 1; j <= ny; j++) {                                                                            \
+			for (i = 1; i <= nx; i++) {                                                                    \
+				const int k = j * px + i;                                                              \
+				const int64_t c = h[k];                                                                \
+				int64_t orth = (int64_t)h[k - 1] + h[k + 1] + h[k - px] + h[k + px];                   \
+				int64_t diag = (int64_t)h[k - px - 1] + h[k - px + 1] + h[k + px - 1] + h[k + px + 1]; \
+				int64_t l2 = 2 * orth + diag - 12 * c;                                                 \
+				int64_t d = c - hp[k] + rshift(e * l2, 31, mode);                                      \
+				int64_t x;                                                                             \
+                                                                                                                       \
+				if (q != SWELL_Q30_ONE)                                                                \
+					d = rshift(q * d, 30, mode);                                                   \
+				x = c + d;                                                                             \
+				if (x > max || x < -max) {                                                             \
+					x = x > 0 ? max : -max;                                                        \
+					f->saturations++;                                                              \
+				}                                                                                      \
+				hn[k] = (T)x;                                                                          \
+			}                                                                                              \
+		}                                                                                                      \
+		*hhp = h;                                                                                              \
+		*hh = hn;                                                                                              \
+		*hhn = hp;                                                                                             \
 	}
 
 DEFINE_TL(tl32_floor, int32_t, RND_FLOOR)
@@ -411,28 +413,27 @@ DEFINE_TL(tl32_rz, int32_t, RND_ZERO)
 DEFINE_TL(tl16_rn, int16_t, RND_NEAREST)
 
 /* The plain float loop: the baseline every cost is divided by. */
-#define DEFINE_FLOAT(fname, T)                                                                     \
-	static void fname(struct bench_field *f, T **hh, T **hhp, T **hhn, T e, T q)               \
-	{                                                                                          \
-		const int nx = f->nx, ny = f->ny, px = f->px;                                      \
-		T *h = *hh, *hp = *hhp, *hn = *hhn;                                                \
-		int i, j;                                                                          \
-                                                                                                   \
-		FILL_GHOSTS(T, h, nx, ny, px);                                                     \
-		for (j = 1; j <= ny; j++) {                                                        \
-			for (i = 1; i <= nx; i++) {                                                \
-				const int k = j * px + i;                                          \
-				const T c = h[k];                                                  \
-				const T l9 = h[k - 1] + h[k + 1] + h[k - px] + h[k + px] +         \
-					     (T)0.5 * (h[k - px - 1] + h[k - px + 1] +             \
-						       h[k + px - 1] + h[k + px + 1]) -            \
-					     (T)6 * c;                                             \
-				hn[k] = c + q * (c - hp[k] + e * l9);                              \
-			}                                                                          \
-		}                                                                                  \
-		*hhp = h;                                                                          \
-		*hh = hn;                                                                          \
-		*hhn = hp;                                                                         \
+#define DEFINE_FLOAT(fname, T)                                                                                     \
+	static void fname(struct bench_field *f, T **hh, T **hhp, T **hhn, T e, T q)                               \
+	{                                                                                                          \
+		const int nx = f->nx, ny = f->ny, px = f->px;                                                      \
+		T *h = *hh, *hp = *hhp, *hn = *hhn;                                                                \
+		int i, j;                                                                                          \
+                                                                                                                   \
+		FILL_GHOSTS(T, h, nx, ny, px);                                                                     \
+		for (j = 1; j <= ny; j++) {                                                                        \
+			for (i = 1; i <= nx; i++) {                                                                \
+				const int k = j * px + i;                                                          \
+				const T c = h[k];                                                                  \
+				const T l9 = h[k - 1] + h[k + 1] + h[k - px] + h[k + px] +                         \
+					(T)0.5 * (h[k - px - 1] + h[k - px + 1] + h[k + px - 1] + h[k + px + 1]) - \
+					(T)6 * c;                                                                  \
+				hn[k] = c + q * (c - hp[k] + e * l9);                                              \
+			}                                                                                          \
+		}                                                                                                  \
+		*hhp = h;                                                                                          \
+		*hh = hn;                                                                                          \
+		*hhn = hp;                                                                                         \
 	}
 
 DEFINE_FLOAT(step_f32, float)
@@ -549,14 +550,15 @@ static int two_w(const struct bench_field *f, int i, int j, int di, int dj)
 	return (i == 0 || i == f->nx - 1) ? 3 : 2;
 }
 
-static const int edge_d[4][2] = {{1, 0}, {0, 1}, {1, 1}, {-1, 1}};
+static const int edge_d[4][2] = { { 1, 0 }, { 0, 1 }, { 1, 1 }, { -1, 1 } };
 
 static double energy_fixed(const struct bench_field *f)
 {
 	i128 kin = 0, pot2 = 0;
 	int i, j, k;
 
-	if ((f->impl == BENCH_SHIPPED || f->impl == BENCH_VELOCITY) && bench_field_max_abs_lsb(f) < (1 << 23) && f->nx * f->ny <= 65536) {
+	if ((f->impl == BENCH_SHIPPED || f->impl == BENCH_VELOCITY) && bench_field_max_abs_lsb(f) < (1 << 23) &&
+	    f->nx * f->ny <= 65536) {
 		struct swell_energy en = swell_wave_energy(&f->w);
 
 		kin = en.kin;

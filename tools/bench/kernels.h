@@ -42,13 +42,13 @@ enum bench_impl {
 
 struct bench_field {
 	enum bench_impl impl;
-	int nx, ny, px;  /* px = nx + 2: padded row length of the three-level kernels */
+	int nx, ny, px; /* px = nx + 2: padded row length of the three-level kernels */
 	q30_t e_eff_q30; /* fixed-point coefficients (also set for float kernels, unused there) */
 	q30_t q_q30;
 	double e_eff, q; /* the coefficients actually used, as double (exact for fixed point) */
 	float e_eff_f, q_f;
 	double lsb_mm; /* 1 LSB in mm; float kernels report 2^-16 mm so pushes have one unit */
-	int h_max;     /* saturation bound in LSB (0: float, none) */
+	int h_max; /* saturation bound in LSB (0: float, none) */
 	uint32_t saturations;
 	struct swell_wave w; /* shipped and velocity */
 	void *mem;
@@ -57,7 +57,7 @@ struct bench_field {
 	int16_t *h16, *hp16, *hn16;
 	/* edge-flux int16 */
 	int16_t *fe16, *fn16, *fne16, *fnw16;
-	int32_t *v32;           /* ef16: last step's change per cell */
+	int32_t *v32; /* ef16: last step's change per cell */
 	q30_t c_1, c_half, c_wall; /* ef16 edge coefficients */
 	/* float: padded */
 	float *hf, *hpf, *hnf;
@@ -82,8 +82,8 @@ int bench_impl_is_fixed(enum bench_impl impl);
 
 /* Allocate a flat field at rest. e, t as doubles; fixed kernels quantise them to Q1.30 as
  * swell_wave_params would (round to nearest). Refuses what swell_wave_check refuses. */
-enum swell_err bench_field_init(struct bench_field *f, enum bench_impl impl, int nx, int ny, double e,
-				double t, enum swell_stencil stencil);
+enum swell_err bench_field_init(struct bench_field *f, enum bench_impl impl, int nx, int ny, double e, double t,
+				enum swell_stencil stencil);
 void bench_field_free(struct bench_field *f);
 
 /* Bench-only: set e_eff and 1-t directly, bypassing the stability check, to map where runs stay

@@ -30,9 +30,9 @@ struct opts {
 	int grids[MAX_LIST], ngrids;
 	double es[MAX_LIST];
 	int nes;
-	long steps;      /* error runs of the matrix */
+	long steps; /* error runs of the matrix */
 	long long_steps; /* error against steps */
-	int reps;        /* timing repetitions (best of) */
+	int reps; /* timing repetitions (best of) */
 	int map_ne, map_nt;
 	long map_steps;
 	int bnd_nt;
@@ -124,14 +124,13 @@ static FILE *open_out(const struct opts *o, const char *name)
 	return fp;
 }
 
-static void init_or_die(struct bench_field *f, enum bench_impl impl, int nx, double e, double t,
-			enum swell_stencil st)
+static void init_or_die(struct bench_field *f, enum bench_impl impl, int nx, double e, double t, enum swell_stencil st)
 {
 	enum swell_err err = bench_field_init(f, impl, nx, nx, e, t, st);
 
 	if (err != SWELL_OK) {
-		fprintf(stderr, "swell-bench: %s %dx%d e=%.3f t=%.3f refused: %s\n", bench_impl_name(impl), nx,
-			nx, e, t, swell_err_str(err));
+		fprintf(stderr, "swell-bench: %s %dx%d e=%.3f t=%.3f refused: %s\n", bench_impl_name(impl), nx, nx, e,
+			t, swell_err_str(err));
 		exit(1);
 	}
 }
@@ -147,8 +146,8 @@ struct sample {
  * of the same scheme (swell_wave_ref, the impl's own coefficients, its quantised start), the exact
  * discrete eigenmode (scalar recurrence, the impl's coefficients), and, when t = 0, the continuous
  * seiche for the physical e. */
-static void error_run(enum bench_impl impl, enum swell_stencil st, int nx, double e, double t,
-		      const long *at, int nat, struct sample *out, uint32_t *sat)
+static void error_run(enum bench_impl impl, enum swell_stencil st, int nx, double e, double t, const long *at, int nat,
+		      struct sample *out, uint32_t *sat)
 {
 	struct bench_field f;
 	struct bench_mode md;
@@ -275,7 +274,7 @@ static void mark_pareto(struct row *g, int n)
 
 static void run_matrix(const struct opts *o)
 {
-	const enum swell_stencil sts[2] = {SWELL_STENCIL_PAPER, SWELL_STENCIL_CALIBRATED};
+	const enum swell_stencil sts[2] = { SWELL_STENCIL_PAPER, SWELL_STENCIL_CALIBRATED };
 	int total = 2 * o->ngrids * o->nes, done = 0, si, gi, ei, k, s;
 	long at[20];
 	struct sample smp[20];
@@ -340,15 +339,18 @@ static void run_matrix(const struct opts *o)
 						struct bench_mode md;
 
 						bench_mode_init(&md, nx, nx, MODE_M, MODE_N);
-						r->omega_ratio = bench_omega_discrete(r->e_eff, md.S) / bench_omega_seiche(e, &md);
-						r->err_bound = sqrt((double)o->steps) / bench_omega_discrete(r->e_eff, md.S) /
-							       SWELL_H_ONE_MM;
+						r->omega_ratio = bench_omega_discrete(r->e_eff, md.S) /
+							bench_omega_seiche(e, &md);
+						r->err_bound = sqrt((double)o->steps) /
+							bench_omega_discrete(r->e_eff, md.S) / SWELL_H_ONE_MM;
 					}
 					r->sat = sat;
-					if (r->impl == BENCH_SHIPPED || r->impl == BENCH_VELOCITY || r->impl == BENCH_EF16)
+					if (r->impl == BENCH_SHIPPED || r->impl == BENCH_VELOCITY ||
+					    r->impl == BENCH_EF16)
 						check(r->vol_lsb == 0,
 						      "%s %s %dx%d e=%.3f: volume drift %.0f LSB, must be 0",
-						      bench_impl_name(r->impl), stencil_name(sts[si]), nx, nx, e, r->vol_lsb);
+						      bench_impl_name(r->impl), stencil_name(sts[si]), nx, nx, e,
+						      r->vol_lsb);
 					if (r->impl == BENCH_SHIPPED) {
 						check(sat == 0, "shipped %s %dx%d e=%.3f: %u saturations at 1 mm",
 						      stencil_name(sts[si]), nx, nx, e, sat);
@@ -362,12 +364,15 @@ static void run_matrix(const struct opts *o)
 						      stencil_name(sts[si]), nx, nx, e, r->linf_ref, r->err_bound);
 						/* the same model for energy: relative drift below 2 bound / amplitude */
 						check(fabs(r->e_drift) < 2 * r->err_bound / AMP_MM,
-						      "shipped %s %dx%d e=%.3f: energy drift %.3g > 2 bound / A = %.3g (t = 0)",
-						      stencil_name(sts[si]), nx, nx, e, r->e_drift, 2 * r->err_bound / AMP_MM);
+						      "shipped %s %dx%d e=%.3f: energy drift %.3g > 2 bound / A = %.3g "
+						      "(t = 0)",
+						      stencil_name(sts[si]), nx, nx, e, r->e_drift,
+						      2 * r->err_bound / AMP_MM);
 					}
 					if (r->impl == BENCH_F64)
 						check(r->linf_eig < 1e-9,
-						      "f64 %s %dx%d e=%.3f: %.3g mm from the exact eigenmode (> 1e-9 mm): "
+						      "f64 %s %dx%d e=%.3f: %.3g mm from the exact eigenmode (> 1e-9 "
+						      "mm): "
 						      "the eigenmode or the reference is wrong",
 						      stencil_name(sts[si]), nx, nx, e, r->linf_eig);
 				}
@@ -382,21 +387,21 @@ static void write_matrix(const struct opts *o)
 	FILE *fp = open_out(o, "matrix.csv");
 	int k;
 
-	fprintf(fp, "impl,stencil,nx,ny,e,e_eff,t,steps,ns_per_cell_step,ratio_f32,f405_instr_per_cell_step,"
-		    "bytes_per_cell,linf_ref64_mm,l2_ref64_mm,linf_eigen_mm,l2_eigen_mm,linf_seiche_mm,"
-		    "l2_seiche_mm,omega_ratio,volume_drift_lsb,volume_drift_mm,energy_drift_rel,saturations,"
-		    "pareto\n");
+	fprintf(fp,
+		"impl,stencil,nx,ny,e,e_eff,t,steps,ns_per_cell_step,ratio_f32,f405_instr_per_cell_step,"
+		"bytes_per_cell,linf_ref64_mm,l2_ref64_mm,linf_eigen_mm,l2_eigen_mm,linf_seiche_mm,"
+		"l2_seiche_mm,omega_ratio,volume_drift_lsb,volume_drift_mm,energy_drift_rel,saturations,"
+		"pareto\n");
 	for (k = 0; k < nrows; k++) {
 		const struct row *r = &rows[k];
 
-		fprintf(fp, "%s,%s,%d,%d,%.4f,%.9f,0,%ld,%.3f,%.3f,", bench_impl_name(r->impl),
-			stencil_name(r->st), r->nx, r->nx, r->e, r->e_eff, o->steps, r->ns, r->ratio);
+		fprintf(fp, "%s,%s,%d,%d,%.4f,%.9f,0,%ld,%.3f,%.3f,", bench_impl_name(r->impl), stencil_name(r->st),
+			r->nx, r->nx, r->e, r->e_eff, o->steps, r->ns, r->ratio);
 		if (r->instr > 0)
 			fprintf(fp, "%.2f", r->instr);
 		fprintf(fp, ",%zu,%.3e,%.3e,%.3e,%.3e,%.3e,%.3e,%.6f,%.0f,%.3e,%.3e,%u,%d\n",
-			bench_impl_bytes_per_cell(r->impl), r->linf_ref, r->l2_ref, r->linf_eig, r->l2_eig,
-			r->linf_sei, r->l2_sei, r->omega_ratio, r->vol_lsb, r->vol_mm, r->e_drift, r->sat,
-			r->pareto);
+			bench_impl_bytes_per_cell(r->impl), r->linf_ref, r->l2_ref, r->linf_eig, r->l2_eig, r->linf_sei,
+			r->l2_sei, r->omega_ratio, r->vol_lsb, r->vol_mm, r->e_drift, r->sat, r->pareto);
 	}
 	fclose(fp);
 }
@@ -411,9 +416,9 @@ static void print_matrix(const struct opts *o)
 	printf("cost: best of %d batches of ~2^18 cell-steps after a warm-up, CLOCK_MONOTONIC, impls "
 	       "interleaved; ratio to f32 of the same grid and e\n",
 	       o->reps);
-	printf("%-10s %-10s %4s %5s %9s %6s %5s %10s %10s %10s %8s %10s %10s %s\n", "impl", "stencil", "grid",
-	       "e", "ns/cell", "x f32", "B/cel", "Linf64 mm", "Linf_eig", "Linf_sei", "w_d/w_c", "vol drift",
-	       "E drift", "pareto");
+	printf("%-10s %-10s %4s %5s %9s %6s %5s %10s %10s %10s %8s %10s %10s %s\n", "impl", "stencil", "grid", "e",
+	       "ns/cell", "x f32", "B/cel", "Linf64 mm", "Linf_eig", "Linf_sei", "w_d/w_c", "vol drift", "E drift",
+	       "pareto");
 	for (k = 0; k < nrows; k++) {
 		const struct row *r = &rows[k];
 
@@ -438,7 +443,7 @@ static void print_matrix(const struct opts *o)
 
 static void run_error_steps(const struct opts *o)
 {
-	const enum swell_stencil sts[2] = {SWELL_STENCIL_PAPER, SWELL_STENCIL_CALIBRATED};
+	const enum swell_stencil sts[2] = { SWELL_STENCIL_PAPER, SWELL_STENCIL_CALIBRATED };
 	long at[64];
 	int nat = 0, si, k, s;
 	struct sample smp[64];
@@ -446,7 +451,7 @@ static void run_error_steps(const struct opts *o)
 	FILE *fp = open_out(o, "error_steps.csv");
 
 	for (dec = 1; dec <= o->long_steps && nat < 60; dec *= 10) {
-		const double mul[4] = {1, 2, 5, 0};
+		const double mul[4] = { 1, 2, 5, 0 };
 
 		for (k = 0; mul[k] > 0 && nat < 60; k++)
 			if (dec * mul[k] <= o->long_steps)
@@ -454,8 +459,9 @@ static void run_error_steps(const struct opts *o)
 	}
 	if (nat == 0 || at[nat - 1] != o->long_steps)
 		at[nat++] = o->long_steps;
-	fprintf(fp, "impl,stencil,nx,e,step,linf_ref64_mm,l2_ref64_mm,linf_eigen_mm,l2_eigen_mm,linf_seiche_mm,"
-		    "energy_drift_rel,volume_drift_lsb\n");
+	fprintf(fp,
+		"impl,stencil,nx,e,step,linf_ref64_mm,l2_ref64_mm,linf_eigen_mm,l2_eigen_mm,linf_seiche_mm,"
+		"energy_drift_rel,volume_drift_lsb\n");
 	for (si = 0; si < 2; si++) {
 		for (k = 0; k < BENCH_IMPL_COUNT; k++) {
 			uint32_t sat;
@@ -482,11 +488,11 @@ static void run_error_steps(const struct opts *o)
 /* ---- stability map ---------------------------------------------------------------------- */
 
 /* the map covers the first two; the boundary all three */
-static const enum bench_impl map_impls[3] = {BENCH_SHIPPED, BENCH_F64, BENCH_VELOCITY};
+static const enum bench_impl map_impls[3] = { BENCH_SHIPPED, BENCH_F64, BENCH_VELOCITY };
 
-#define MAP_N 16           /* 16 x 16 grid: the highest mode has |S| within 1e-3 of 8 */
-#define MAP_GROWTH 1.5     /* bounded: last-quarter max |h| within 1.5x the first quarter's */
-#define MAP_E_MAX 1.33     /* 3/2 e_eff must fit Q1.30 */
+#define MAP_N 16 /* 16 x 16 grid: the highest mode has |S| within 1e-3 of 8 */
+#define MAP_GROWTH 1.5 /* bounded: last-quarter max |h| within 1.5x the first quarter's */
+#define MAP_E_MAX 1.33 /* 3/2 e_eff must fit Q1.30 */
 
 static int bounded_at(enum bench_impl impl, double e_eff, double t, long steps, double *gain)
 {
@@ -590,8 +596,8 @@ static FILE *stress_fp;
 
 /* Long run at the edge of the stability region from noise (amp_frac of the kernel's bound; a mode
  * at amp_frac when mode_frac > 0): growth is the last quarter's max |h| over the first quarter's. */
-static void stress_edge(const struct opts *o, const char *scenario, enum bench_impl impl, double t,
-			double mode_frac, double noise_frac)
+static void stress_edge(const struct opts *o, const char *scenario, enum bench_impl impl, double t, double mode_frac,
+			double noise_frac)
 {
 	struct bench_field f;
 	struct bench_mode md;
@@ -641,15 +647,14 @@ static void stress_edge(const struct opts *o, const char *scenario, enum bench_i
 	e_end = bench_field_energy(&f) / e0;
 	printf("%-10s %-10s t=%.2f e_eff=%.9f (limit %.6f): %.2e cell-steps, max|h| %.4g mm (%.4f of bound), "
 	       "last/first quarter %.3f, %s %.2e, vol drift %+.0f LSB, saturations %u%s\n",
-	       scenario, bench_impl_name(impl), t, f.e_eff, bench_e_limit(1 - t), (double)steps * n,
-	       m_all * f.lsb_mm, m_all / f.h_max, ratio, t == 0 ? "|E drift| max" : "E end/E0",
-	       t == 0 ? ed_max : e_end, bench_field_volume_lsb(&f) - v0, f.saturations, sat_at);
-	fprintf(stress_fp, "%s,%s,%.3f,%.9f,%.3e,%.4f,%.3e,%.0f,%u,,\n", scenario, bench_impl_name(impl), t,
-		f.e_eff, (double)steps * n, ratio, t == 0 ? ed_max : e_end, bench_field_volume_lsb(&f) - v0,
-		f.saturations);
+	       scenario, bench_impl_name(impl), t, f.e_eff, bench_e_limit(1 - t), (double)steps * n, m_all * f.lsb_mm,
+	       m_all / f.h_max, ratio, t == 0 ? "|E drift| max" : "E end/E0", t == 0 ? ed_max : e_end,
+	       bench_field_volume_lsb(&f) - v0, f.saturations, sat_at);
+	fprintf(stress_fp, "%s,%s,%.3f,%.9f,%.3e,%.4f,%.3e,%.0f,%u,,\n", scenario, bench_impl_name(impl), t, f.e_eff,
+		(double)steps * n, ratio, t == 0 ? ed_max : e_end, bench_field_volume_lsb(&f) - v0, f.saturations);
 	/* the shipped kernel saturates to the int28 range: down to -(h_max + 1) */
-	check(m_all <= f.h_max + (impl == BENCH_SHIPPED || impl == BENCH_VELOCITY), "%s %s: |h| %.0f LSB beyond the saturation bound", scenario, bench_impl_name(impl),
-	      m_all);
+	check(m_all <= f.h_max + (impl == BENCH_SHIPPED || impl == BENCH_VELOCITY),
+	      "%s %s: |h| %.0f LSB beyond the saturation bound", scenario, bench_impl_name(impl), m_all);
 	if (impl == BENCH_SHIPPED && noise_frac < 0.01) {
 		check(f.saturations == 0 && ratio < 1.5, "shipped at the stability edge t=%.2f grew %.2fx", t, ratio);
 		check(bench_field_volume_lsb(&f) == v0, "shipped at the edge: volume drift %+.0f LSB",
@@ -701,21 +706,22 @@ static void stress_forcing(enum bench_impl impl, long push_steps, long decay_ste
 	if (impl == BENCH_SHIPPED || impl == BENCH_VELOCITY) {
 		check(bench_field_volume_lsb(&f) == v0, "%s under random pushes: volume drift %+.0f LSB",
 		      bench_impl_name(impl), bench_field_volume_lsb(&f) - v0);
-		check(resid_v == 0, "%s: motion of %.0f LSB/step left after damping (limit cycle)", bench_impl_name(impl),
-		      resid_v);
+		check(resid_v == 0, "%s: motion of %.0f LSB/step left after damping (limit cycle)",
+		      bench_impl_name(impl), resid_v);
 	}
 	bench_field_free(&f);
 }
 
 static void run_stress(const struct opts *o)
 {
-	const enum bench_impl forced[] = {BENCH_SHIPPED, BENCH_VELOCITY, BENCH_EF16, BENCH_TL32_FLOOR, BENCH_TL32_RN,
-					  BENCH_TL32_RZ, BENCH_TL16_RN, BENCH_F32};
+	const enum bench_impl forced[] = { BENCH_SHIPPED, BENCH_VELOCITY, BENCH_EF16,    BENCH_TL32_FLOOR,
+					   BENCH_TL32_RN, BENCH_TL32_RZ,  BENCH_TL16_RN, BENCH_F32 };
 	size_t k;
 
 	stress_fp = open_out(o, "stress.csv");
-	fprintf(stress_fp, "scenario,impl,t,e_eff,cell_steps,max_gain,energy_drift_max,volume_drift_lsb,"
-			   "saturations,residual_step_lsb,residual_height_lsb\n");
+	fprintf(stress_fp,
+		"scenario,impl,t,e_eff,cell_steps,max_gain,energy_drift_max,volume_drift_lsb,"
+		"saturations,residual_step_lsb,residual_height_lsb\n");
 	printf("\n== stress ==\n");
 	/* 1 mm of noise (64 LSB of the int16 kernels' 2^-10 mm: 1/32 of their bound) */
 	stress_edge(o, "edge", BENCH_SHIPPED, 0.0, 0, 1.0 / 2048);
@@ -763,52 +769,53 @@ static int write_plots(const struct opts *o)
 		"impls = '");
 	for (k = 0; k < BENCH_IMPL_COUNT; k++)
 		fprintf(fp, "%s%s", k ? " " : "", bench_impl_name((enum bench_impl)k));
-	fprintf(fp, "'\n"
-		    "plot for [i=1:words(impls)] 'matrix.csv' using (strcol(1) eq word(impls,i) ? $10 : 1/0):"
-		    "($15 > 1e-16 ? $15 : 1e-16) with points pt i ps 1.3 title word(impls,i), \\\n"
-		    "     'matrix.csv' using ($24 == 1 && $3 == 64 && $5 > 0.19 && $5 < 0.21 ? $10 : 1/0):"
-		    "($15 > 1e-16 ? $15 : 1e-16) with points pt 6 ps 3 lc 'black' title "
-		    "'fixed-point Pareto front, 64x64 e = 0.2'\n"
-		    "set autoscale x\n"
-		    "unset logscale\n"
-		    "set output 'error_steps.png'\n"
-		    "set title 'Error against steps (64x64, e = 0.2, t = 0; L-inf vs float64 of the same scheme)'\n"
-		    "set logscale xy\n"
-		    "set xlabel 'steps'\n"
-		    "set ylabel 'L-inf (mm)'\n"
-		    "set multiplot layout 1,2\n"
-		    "set key bottom right inside font ',8'\n"
-		    "set title 'paper stencil'\n"
-		    "plot for [i=1:words(impls)-1] 'error_steps.csv' index 0 using (strcol(1) eq word(impls,i) ? "
-		    "$5 : 1/0):($6 > 1e-16 ? $6 : 1e-16) with linespoints pt i title word(impls,i), "
-		    "'error_steps.csv' index 0 using (strcol(1) eq 'shipped' ? $5 : 1/0):($10 > 1e-16 ? $10 : "
-		    "1/0) with lines dt 2 lc 'black' title 'discretisation (vs seiche)'\n"
-		    "set title 'calibrated stencil'\n"
-		    "plot for [i=1:words(impls)-1] 'error_steps.csv' index 1 using (strcol(1) eq word(impls,i) ? "
-		    "$5 : 1/0):($6 > 1e-16 ? $6 : 1e-16) with linespoints pt i title word(impls,i), "
-		    "'error_steps.csv' index 1 using (strcol(1) eq 'shipped' ? $5 : 1/0):($10 > 1e-16 ? $10 : "
-		    "1/0) with lines dt 2 lc 'black' title 'discretisation (vs seiche)'\n"
-		    "unset multiplot\n"
-		    "unset logscale\n"
-		    "set key outside right\n"
-		    "set format y '%%g'\n"
-		    "set output 'stability.png'\n"
-		    "set title 'Stability map, paper stencil (16x16 noise; filled = bounded)'\n"
-		    "set xlabel 'damping t'\n"
-		    "set ylabel 'e_{eff}'\n"
-		    "set xrange [-0.02:0.77]\n"
-		    "set yrange [0.28:1.35]\n"
-		    "set samples 200\n"
-		    "lim(t) = (2 - t) / (4 * (1 - t))\n"
-		    "plot 'stability.csv' index 0 using ($5 == 1 ? $2 : 1/0):3 with points pt 7 ps 0.9 lc "
-		    "'dark-green' title 'shipped bounded', \\\n"
-		    "     'stability.csv' index 0 using ($5 == 0 ? $2 : 1/0):3 with points pt 6 ps 0.9 lc 'red' "
-		    "title 'shipped unbounded', \\\n"
-		    "     'stability.csv' index 1 using ($5 == 1 ? $2 : 1/0):($3 + 0.006) with points pt 1 ps 0.5 "
-		    "lc 'blue' title 'f64 bounded', \\\n"
-		    "     'boundary.csv' using 1:3 with linespoints pt 9 ps 1.5 lc 'black' title 'measured "
-		    "boundary (shipped)', \\\n"
-		    "     lim(x) with lines lw 2 lc 'orange' title 'analytic (1+q)/(4q)'\n");
+	fprintf(fp,
+		"'\n"
+		"plot for [i=1:words(impls)] 'matrix.csv' using (strcol(1) eq word(impls,i) ? $10 : 1/0):"
+		"($15 > 1e-16 ? $15 : 1e-16) with points pt i ps 1.3 title word(impls,i), \\\n"
+		"     'matrix.csv' using ($24 == 1 && $3 == 64 && $5 > 0.19 && $5 < 0.21 ? $10 : 1/0):"
+		"($15 > 1e-16 ? $15 : 1e-16) with points pt 6 ps 3 lc 'black' title "
+		"'fixed-point Pareto front, 64x64 e = 0.2'\n"
+		"set autoscale x\n"
+		"unset logscale\n"
+		"set output 'error_steps.png'\n"
+		"set title 'Error against steps (64x64, e = 0.2, t = 0; L-inf vs float64 of the same scheme)'\n"
+		"set logscale xy\n"
+		"set xlabel 'steps'\n"
+		"set ylabel 'L-inf (mm)'\n"
+		"set multiplot layout 1,2\n"
+		"set key bottom right inside font ',8'\n"
+		"set title 'paper stencil'\n"
+		"plot for [i=1:words(impls)-1] 'error_steps.csv' index 0 using (strcol(1) eq word(impls,i) ? "
+		"$5 : 1/0):($6 > 1e-16 ? $6 : 1e-16) with linespoints pt i title word(impls,i), "
+		"'error_steps.csv' index 0 using (strcol(1) eq 'shipped' ? $5 : 1/0):($10 > 1e-16 ? $10 : "
+		"1/0) with lines dt 2 lc 'black' title 'discretisation (vs seiche)'\n"
+		"set title 'calibrated stencil'\n"
+		"plot for [i=1:words(impls)-1] 'error_steps.csv' index 1 using (strcol(1) eq word(impls,i) ? "
+		"$5 : 1/0):($6 > 1e-16 ? $6 : 1e-16) with linespoints pt i title word(impls,i), "
+		"'error_steps.csv' index 1 using (strcol(1) eq 'shipped' ? $5 : 1/0):($10 > 1e-16 ? $10 : "
+		"1/0) with lines dt 2 lc 'black' title 'discretisation (vs seiche)'\n"
+		"unset multiplot\n"
+		"unset logscale\n"
+		"set key outside right\n"
+		"set format y '%%g'\n"
+		"set output 'stability.png'\n"
+		"set title 'Stability map, paper stencil (16x16 noise; filled = bounded)'\n"
+		"set xlabel 'damping t'\n"
+		"set ylabel 'e_{eff}'\n"
+		"set xrange [-0.02:0.77]\n"
+		"set yrange [0.28:1.35]\n"
+		"set samples 200\n"
+		"lim(t) = (2 - t) / (4 * (1 - t))\n"
+		"plot 'stability.csv' index 0 using ($5 == 1 ? $2 : 1/0):3 with points pt 7 ps 0.9 lc "
+		"'dark-green' title 'shipped bounded', \\\n"
+		"     'stability.csv' index 0 using ($5 == 0 ? $2 : 1/0):3 with points pt 6 ps 0.9 lc 'red' "
+		"title 'shipped unbounded', \\\n"
+		"     'stability.csv' index 1 using ($5 == 1 ? $2 : 1/0):($3 + 0.006) with points pt 1 ps 0.5 "
+		"lc 'blue' title 'f64 bounded', \\\n"
+		"     'boundary.csv' using 1:3 with linespoints pt 9 ps 1.5 lc 'black' title 'measured "
+		"boundary (shipped)', \\\n"
+		"     lim(x) with lines lw 2 lc 'orange' title 'analytic (1+q)/(4q)'\n");
 	fclose(fp);
 	if (strchr(o->out, '\'')) {
 		progress("output path contains a quote; run gnuplot plots.gp there by hand");
@@ -827,7 +834,7 @@ static int write_plots(const struct opts *o)
 /* --replot: the CSV files the plots read, each there and not empty; else the one missing. */
 static const char *missing_results(const struct opts *o)
 {
-	static const char *const need[] = {"matrix.csv", "error_steps.csv", "stability.csv", "boundary.csv"};
+	static const char *const need[] = { "matrix.csv", "error_steps.csv", "stability.csv", "boundary.csv" };
 	char path[4096];
 	struct stat st;
 	size_t k;
@@ -968,7 +975,6 @@ static void load_f405(const char *path)
 		       f405_instr[BENCH_SHIPPED], f405_naive);
 }
 
-
 /* ---- what a scene does not need is skipped ---------------------------------------
  * The image's three cost scenes (firmware/stm32f405/logic/scene.c: calm, one local splash, a fully
  * agitated pool; 64x64, damped t = 0.001, FW_COST_STEPS steps from their start) on every kernel this
@@ -978,8 +984,8 @@ static void load_f405(const char *path)
 static void run_scenes(const struct opts *o)
 {
 	static int32_t storage[FW_SCENE_WORDS];
-	const enum swell_wave_kernel kernels[] = {SWELL_KERNEL_REF, SWELL_KERNEL_FUSED, SWELL_KERNEL_AVX2,
-						  SWELL_KERNEL_REF, SWELL_KERNEL_FUSED};
+	const enum swell_wave_kernel kernels[] = { SWELL_KERNEL_REF, SWELL_KERNEL_FUSED, SWELL_KERNEL_AVX2,
+						   SWELL_KERNEL_REF, SWELL_KERNEL_FUSED };
 	const int nedge = 3; /* the first three in the edge-flux form, the last two in the velocity form */
 	const long cells = (long)FW_COST_STEPS * FW_SCENE_NX * FW_SCENE_NY;
 	struct swell_wave w;
@@ -1005,8 +1011,9 @@ static void run_scenes(const struct opts *o)
 	       "start (ns per cell-step over the whole grid; x f32 = against a float32 loop over every cell, "
 	       "same run) ==\n",
 	       FW_COST_STEPS);
-	fprintf(fp, "scene,kernel,ns_per_cell_step,ratio_f32,awake_pct,ns_per_awake_cell_step,"
-		    "f405_instr_per_cell_step,f405_instr_per_awake_cell_step\n");
+	fprintf(fp,
+		"scene,kernel,ns_per_cell_step,ratio_f32,awake_pct,ns_per_awake_cell_step,"
+		"f405_instr_per_cell_step,f405_instr_per_awake_cell_step\n");
 	for (s = 0; s < FW_COST_SCENES; s++) {
 		uint32_t ref_sum = 0;
 
@@ -1038,8 +1045,9 @@ static void run_scenes(const struct opts *o)
 					swell_wave_step(&w);
 				dt = now_s() - t0;
 				best = fmin(best, dt * 1e9 / (double)cells);
-				awake = 100.0 * (1.0 - (double)w.tiles_skipped /
-							       ((double)FW_COST_STEPS * FW_SCENE_NY * w.tiles_x));
+				awake = 100.0 *
+					(1.0 -
+					 (double)w.tiles_skipped / ((double)FW_COST_STEPS * FW_SCENE_NY * w.tiles_x));
 				sum = swell_wave_checksum(&w);
 			}
 			if (isinf(best)) {
@@ -1055,19 +1063,21 @@ static void run_scenes(const struct opts *o)
 			       fw_cost_scene_name[s], kname, best, best / ns_f32, ns_f32, awake,
 			       awake > 0 ? best * 100.0 / awake : 0.0);
 			if (kernels[k] == SWELL_KERNEL_FUSED && f405 > 0)
-				printf("; F405 (M4 kernel) %.2f instructions per cell-step, %.2f per awake cell-step", f405,
-				       f405_aw);
+				printf("; F405 (M4 kernel) %.2f instructions per cell-step, %.2f per awake cell-step",
+				       f405, f405_aw);
 			printf("\n");
 			fprintf(fp, "%s,%s,%.4f,%.4f,%.2f,%.4f,%.2f,%.2f\n", fw_cost_scene_name[s], kname, best,
 				best / ns_f32, awake, awake > 0 ? best * 100.0 / awake : 0.0,
-				kernels[k] == SWELL_KERNEL_FUSED ? f405 : 0.0, kernels[k] == SWELL_KERNEL_FUSED ? f405_aw : 0.0);
+				kernels[k] == SWELL_KERNEL_FUSED ? f405 : 0.0,
+				kernels[k] == SWELL_KERNEL_FUSED ? f405_aw : 0.0);
 		}
 	}
 	if (f405_cost[FW_COST_AGITATED] > 0)
 		printf("  F405 agitated pool: edge-flux %.2f, velocity form %.2f instructions per cell-step (%.2fx "
 		       "cheaper; target 20; naive int32 loop %.2f)\n",
 		       f405_cost[FW_COST_AGITATED], f405_vcost[FW_COST_AGITATED],
-		       f405_vcost[FW_COST_AGITATED] > 0 ? f405_cost[FW_COST_AGITATED] / f405_vcost[FW_COST_AGITATED] : 0.0,
+		       f405_vcost[FW_COST_AGITATED] > 0 ? f405_cost[FW_COST_AGITATED] / f405_vcost[FW_COST_AGITATED]
+							: 0.0,
 		       f405_naive);
 	bench_field_free(&f);
 	free(h);
@@ -1076,7 +1086,7 @@ static void run_scenes(const struct opts *o)
 
 static void preset(struct opts *o, int full)
 {
-	static const double e_quick[] = {0.05, 0.2, 0.45}, e_full[] = {0.05, 0.1, 0.2, 0.3, 0.45};
+	static const double e_quick[] = { 0.05, 0.2, 0.45 }, e_full[] = { 0.05, 0.1, 0.2, 0.3, 0.45 };
 	int k;
 
 	o->preset = full ? "full" : "quick";
@@ -1174,7 +1184,8 @@ int main(int argc, char **argv)
 		const char *miss = missing_results(&o);
 
 		if (miss) {
-			fprintf(stderr, "swell-bench: --replot: %s/%s is missing or empty (no results of a run to plot)\n",
+			fprintf(stderr,
+				"swell-bench: --replot: %s/%s is missing or empty (no results of a run to plot)\n",
 				o.out, miss);
 			return 1;
 		}

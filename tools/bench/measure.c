@@ -140,8 +140,7 @@ void bench_push(struct bench_field *f, int i0, int j0, int k, int32_t depth)
 			}
 }
 
-int bench_bounded(struct bench_field *f, double amp_mm, long steps, double growth, uint64_t seed,
-		  double *gain)
+int bench_bounded(struct bench_field *f, double amp_mm, long steps, double growth, uint64_t seed, double *gain)
 {
 	struct bench_rng rng;
 	double *h, m_first = 0, m_last = 0, m0;

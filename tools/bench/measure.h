@@ -59,8 +59,7 @@ void bench_push(struct bench_field *f, int i0, int j0, int k, int32_t depth);
  * quarter, nothing saturated and nothing became non-finite. Comparing two windows, not the start,
  * keeps the large but bounded transient of modes near omega = pi (amplitude 1/cos(omega/2) when
  * started at rest) from counting as growth. Returns 1 bounded, 0 not; *gain gets the ratio. */
-int bench_bounded(struct bench_field *f, double amp_mm, long steps, double growth, uint64_t seed,
-		  double *gain);
+int bench_bounded(struct bench_field *f, double amp_mm, long steps, double growth, uint64_t seed, double *gain);
 
 /* Analytic stability limit on e_eff: (1 + q) / (4 q). */
 double bench_e_limit(double q);

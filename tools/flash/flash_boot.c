@@ -12,7 +12,7 @@
 #include "swell/proto.h"
 #include "swell/link.h"
 
-static const char *const state_names[] = {"BOOT", "IDLE", "ARMED", "RUNNING", "FAULT"};
+static const char *const state_names[] = { "BOOT", "IDLE", "ARMED", "RUNNING", "FAULT" };
 
 static const char *state_name(unsigned s)
 {
@@ -38,10 +38,10 @@ static double secs(uint64_t ns)
 struct session {
 	struct swell_link *l;
 	enum swell_carrier carrier;
-	int node;          /* -1 any */
-	uint8_t seq;       /* packet sequence (packets only) */
-	uint64_t gone_ns;  /* first time the link said the device left (0: never) */
-	unsigned others;   /* valid messages of nodes other than the chosen one */
+	int node; /* -1 any */
+	uint8_t seq; /* packet sequence (packets only) */
+	uint64_t gone_ns; /* first time the link said the device left (0: never) */
+	unsigned others; /* valid messages of nodes other than the chosen one */
 };
 
 /* Wait until `end` (swell_link_now_ns) for the next frame that decodes to messages of the chosen
@@ -60,7 +60,7 @@ static int next_frame(struct session *s, uint64_t end, struct swell_msg *m, size
 		if (rc == -ENODEV && !s->gone_ns)
 			s->gone_ns = swell_link_now_ns();
 		if (rc != 0 && rc != -ETIMEDOUT) { /* a broken link must not spin */
-			struct timespec d = {0, 10000000};
+			struct timespec d = { 0, 10000000 };
 			nanosleep(&d, NULL);
 		}
 		if (rc != 0)
@@ -110,7 +110,8 @@ static int send_msgs(struct session *s, const struct swell_msg *m, size_t n)
 		size_t used = 0;
 		int rc;
 
-		if (swell_link_encode(s->carrier, m[k].node, s->seq++, m + k, n - k, &f, &used) != SWELL_OK || used == 0)
+		if (swell_link_encode(s->carrier, m[k].node, s->seq++, m + k, n - k, &f, &used) != SWELL_OK ||
+		    used == 0)
 			return 1;
 		rc = swell_link_send(s->l, &f);
 		if (rc)
@@ -130,8 +131,7 @@ static void param_msg(struct swell_msg *m, uint8_t node, uint16_t id, int32_t va
 	m->u.param_set.seq = seq;
 }
 
-static int open_session(struct session *s, const struct flash_link_spec *spec, int wait_ms, char *where,
-			size_t wlen)
+static int open_session(struct session *s, const struct flash_link_spec *spec, int wait_ms, char *where, size_t wlen)
 {
 	int rc;
 
@@ -167,8 +167,9 @@ static enum flash_boot_result find_target(struct session *s, const char *where, 
 
 	if (next_heartbeat(s, 1500, hb, &seen)) {
 		if (s->node >= 0)
-			return say(BOOT_NOT_FOUND, msg, msg_len, "no heartbeat of controller node %d on %s within 1.5 s%s",
-				   s->node, where, s->others ? " (other nodes heard)" : "");
+			return say(BOOT_NOT_FOUND, msg, msg_len,
+				   "no heartbeat of controller node %d on %s within 1.5 s%s", s->node, where,
+				   s->others ? " (other nodes heard)" : "");
 		return say(BOOT_NOT_FOUND, msg, msg_len, "no controller heartbeat on %s within 1.5 s", where);
 	}
 	end = swell_link_now_ns() + 1500000000u;
@@ -177,8 +178,9 @@ static enum flash_boot_result find_target(struct session *s, const char *where, 
 		uint64_t now = swell_link_now_ns();
 
 		if (now >= end || next_heartbeat(s, (int)((end - now) / 1000000u) + 1, &h, &seen))
-			return say(BOOT_NOT_FOUND, msg, msg_len, "controller node %u on %s heard once, then silent for 1.5 s",
-				   (unsigned)hb->node, where);
+			return say(BOOT_NOT_FOUND, msg, msg_len,
+				   "controller node %u on %s heard once, then silent for 1.5 s", (unsigned)hb->node,
+				   where);
 		if (h.node == hb->node) {
 			*hb = h;
 			break;
@@ -197,7 +199,7 @@ enum flash_boot_result flash_enter_bootloader(const struct flash_link_spec *spec
 					      struct flash_boot_times *times, char *msg, size_t msg_len)
 {
 	struct session s;
-	struct swell_msg hb = {0}, m, stop[2]; /* hb: zeroed for the analyzer, find_target fills it */
+	struct swell_msg hb = { 0 }, m, stop[2]; /* hb: zeroed for the analyzer, find_target fills it */
 	enum flash_boot_result r;
 	char where[96];
 	unsigned beats = 0;
@@ -230,8 +232,8 @@ enum flash_boot_result flash_enter_bootloader(const struct flash_link_spec *spec
 		param_msg(&stop[1], hb.node, SWELL_PARAM_COMMAND, SWELL_CMD_STOP, 2);
 		rc = send_msgs(&s, stop, 2);
 		if (rc) {
-			r = say(BOOT_ERROR, msg, msg_len, "cannot send PARAM_SET AUTORUN=0, COMMAND=STOP on %s: %s", where,
-				rc > 0 ? "not encodable" : strerror(-rc));
+			r = say(BOOT_ERROR, msg, msg_len, "cannot send PARAM_SET AUTORUN=0, COMMAND=STOP on %s: %s",
+				where, rc > 0 ? "not encodable" : strerror(-rc));
 			goto out;
 		}
 		for (;;) {
@@ -281,7 +283,8 @@ enum flash_boot_result flash_enter_bootloader(const struct flash_link_spec *spec
 			"entered (a controller that ignores the request, or firmware without it)",
 			beats, watch_ms, state_name(hb.u.heartbeat.state));
 	else
-		r = say(BOOT_ENTERED, msg, msg_len, "controller silent after ENTER_BOOTLOADER: it reboots into its bootloader");
+		r = say(BOOT_ENTERED, msg, msg_len,
+			"controller silent after ENTER_BOOTLOADER: it reboots into its bootloader");
 out:
 	swell_link_close(s.l);
 	return r;
@@ -302,7 +305,8 @@ int flash_find_controller(const struct flash_link_spec *spec, int timeout_ms, st
 	if (rc) {
 		say(BOOT_ERROR, msg, msg_len, "cannot open %s%s: %s", where,
 		    spec->kind == FLASH_LINK_UDP ? " (a viewer listening there?)" : "",
-		    rc == -ENODEV && spec->kind == FLASH_LINK_USB ? "no such device within the time limit" : strerror(-rc));
+		    rc == -ENODEV && spec->kind == FLASH_LINK_USB ? "no such device within the time limit"
+								  : strerror(-rc));
 		return rc == -ENODEV && spec->kind == FLASH_LINK_USB ? -1 : -2;
 	}
 	while (next_frame(&s, end, m, &n) == 0) {
@@ -339,6 +343,8 @@ int flash_find_controller(const struct flash_link_spec *spec, int timeout_ms, st
 	else
 		say(BOOT_NOT_FOUND, msg, msg_len, "controller%s not heard on %s within %.1f s%s",
 		    spec->node >= 0 ? " (the node asked for)" : "", where, timeout_ms / 1e3,
-		    s.others ? " (other nodes heard)" : others ? " (other traffic only)" : "");
+		    s.others         ? " (other nodes heard)"
+			    : others ? " (other traffic only)"
+				     : "");
 	return -1;
 }

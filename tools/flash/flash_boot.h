@@ -10,18 +10,18 @@
 #include "flash_link.h"
 
 enum flash_boot_result {
-	BOOT_ENTERED = 0,     /* request sent, the controller's heartbeat stopped (it reboots) */
-	BOOT_STILL_RUNNING,   /* request sent, heartbeats go on: no bootloader entered */
+	BOOT_ENTERED = 0, /* request sent, the controller's heartbeat stopped (it reboots) */
+	BOOT_STILL_RUNNING, /* request sent, heartbeats go on: no bootloader entered */
 	BOOT_REFUSED_RUNNING, /* controller RUNNING and not forced: nothing sent */
-	BOOT_REFUSED_NODES,   /* several controllers heard and no node chosen: nothing sent */
-	BOOT_NOT_FOUND,       /* no heartbeat heard */
-	BOOT_ERROR,           /* link or protocol failure (see msg) */
+	BOOT_REFUSED_NODES, /* several controllers heard and no node chosen: nothing sent */
+	BOOT_NOT_FOUND, /* no heartbeat heard */
+	BOOT_ERROR, /* link or protocol failure (see msg) */
 };
 
 /* What the watch after the request saw (seconds after the request was sent; -1: not seen). */
 struct flash_boot_times {
 	double last_beat_s; /* the controller's last heartbeat */
-	double dev_gone_s;  /* the link said the device left (USB unplugged: -ENODEV) */
+	double dev_gone_s; /* the link said the device left (USB unplugged: -ENODEV) */
 };
 
 /* Listen on the link for the controller's HEARTBEAT (spec->node, or the one controller heard: the
@@ -35,10 +35,10 @@ enum flash_boot_result flash_enter_bootloader(const struct flash_link_spec *spec
 /* What a controller reports in CTL_INFO. */
 struct flash_found {
 	uint8_t node;
-	uint8_t version[3];       /* major, minor, patch */
-	uint32_t obj_100um[3];    /* object a, b, H in 0.1 mm */
-	double after_s;           /* from the start of the listening */
-	double mono_s;            /* when it came, CLOCK_MONOTONIC */
+	uint8_t version[3]; /* major, minor, patch */
+	uint32_t obj_100um[3]; /* object a, b, H in 0.1 mm */
+	double after_s; /* from the start of the listening */
+	double mono_s; /* when it came, CLOCK_MONOTONIC */
 };
 
 /* Listen on the link (a USB device is waited for) for up to timeout_ms for a CTL_INFO of

@@ -34,14 +34,12 @@ static uint16_t le16(const uint8_t *p)
 
 void flash_version_str(uint32_t v, char *out, size_t out_len)
 {
-	snprintf(out, out_len, "%u.%u.%u", (unsigned)(v >> 16), (unsigned)((v >> 8) & 0xFFu),
-		 (unsigned)(v & 0xFFu));
+	snprintf(out, out_len, "%u.%u.%u", (unsigned)(v >> 16), (unsigned)((v >> 8) & 0xFFu), (unsigned)(v & 0xFFu));
 }
 
 /* The flash bytes of an ELF32 little-endian ARM executable: every PT_LOAD segment with file bytes,
  * placed at its physical (load) address; gaps are zero as objcopy -O binary leaves them. */
-static int elf_to_flash(const uint8_t *f, size_t n, uint8_t **out, size_t *out_len, char *why,
-			size_t why_len)
+static int elf_to_flash(const uint8_t *f, size_t n, uint8_t **out, size_t *out_len, char *why, size_t why_len)
 {
 	uint32_t phoff, i, end = 0;
 	uint16_t phentsize, phnum;
@@ -50,16 +48,15 @@ static int elf_to_flash(const uint8_t *f, size_t n, uint8_t **out, size_t *out_l
 	if (n < 52)
 		return fail(why, why_len, "ELF truncated: %zu bytes, header needs 52", n);
 	if (f[4] != 1 || f[5] != 1)
-		return fail(why, why_len, "foreign ELF: not 32-bit little-endian (class %u, data %u)",
-			    f[4], f[5]);
+		return fail(why, why_len, "foreign ELF: not 32-bit little-endian (class %u, data %u)", f[4], f[5]);
 	if (le16(f + 18) != EM_ARM)
 		return fail(why, why_len, "foreign ELF: machine %u, not ARM (40)", le16(f + 18));
 	phoff = le32(f + 28);
 	phentsize = le16(f + 42);
 	phnum = le16(f + 44);
 	if (phentsize < 32 || phnum == 0 || phoff > n || (size_t)phnum * phentsize > n - phoff)
-		return fail(why, why_len, "ELF truncated or malformed: %u program headers at 0x%x",
-			    phnum, (unsigned)phoff);
+		return fail(why, why_len, "ELF truncated or malformed: %u program headers at 0x%x", phnum,
+			    (unsigned)phoff);
 	for (i = 0; i < phnum; i++) {
 		const uint8_t *ph = f + phoff + (size_t)i * phentsize;
 		uint32_t off = le32(ph + 4), pa = le32(ph + 12), fsz = le32(ph + 16);
@@ -67,12 +64,13 @@ static int elf_to_flash(const uint8_t *f, size_t n, uint8_t **out, size_t *out_l
 		if (le32(ph) != PT_LOAD || fsz == 0)
 			continue;
 		if (off > n || fsz > n - off)
-			return fail(why, why_len, "ELF truncated: segment %u needs bytes to 0x%llx, file has 0x%zx",
-				    i, (unsigned long long)off + fsz, n);
+			return fail(why, why_len, "ELF truncated: segment %u needs bytes to 0x%llx, file has 0x%zx", i,
+				    (unsigned long long)off + fsz, n);
 		if (pa < FLASH_BASE_ADDR || pa - FLASH_BASE_ADDR > FLASH_MAX_BYTES ||
 		    fsz > FLASH_MAX_BYTES - (pa - FLASH_BASE_ADDR))
-			return fail(why, why_len, "foreign ELF: segment %u at 0x%08x (%u bytes) outside flash 0x%08x..0x%08x",
-				    i, (unsigned)pa, (unsigned)fsz, FLASH_BASE_ADDR, FLASH_BASE_ADDR + FLASH_MAX_BYTES);
+			return fail(why, why_len,
+				    "foreign ELF: segment %u at 0x%08x (%u bytes) outside flash 0x%08x..0x%08x", i,
+				    (unsigned)pa, (unsigned)fsz, FLASH_BASE_ADDR, FLASH_BASE_ADDR + FLASH_MAX_BYTES);
 		if (pa - FLASH_BASE_ADDR + fsz > end)
 			end = pa - FLASH_BASE_ADDR + fsz;
 	}
@@ -94,11 +92,11 @@ static int elf_to_flash(const uint8_t *f, size_t n, uint8_t **out, size_t *out_l
 	return 0;
 }
 
-int flash_image_check(const uint8_t *file, size_t file_len, uint32_t want_mcu,
-		      struct flash_image *img, char *why, size_t why_len)
+int flash_image_check(const uint8_t *file, size_t file_len, uint32_t want_mcu, struct flash_image *img, char *why,
+		      size_t why_len)
 {
-	struct flash_image r = {0};
-	struct swell_fwimage_hdr hdr = {0}; /* apart from r: a pointer into r hides r.bytes from the analyzer */
+	struct flash_image r = { 0 };
+	struct swell_fwimage_hdr hdr = { 0 }; /* apart from r: a pointer into r hides r.bytes from the analyzer */
 	enum swell_err err;
 
 	if (file_len >= 4 && !memcmp(file, "\177ELF", 4)) {
@@ -110,8 +108,8 @@ int flash_image_check(const uint8_t *file, size_t file_len, uint32_t want_mcu,
 	} else {
 		r.fmt = FLASH_FMT_BIN;
 		if (file_len > FLASH_MAX_BYTES)
-			return fail(why, why_len, "image of %zu bytes is larger than the %u-byte flash",
-				    file_len, FLASH_MAX_BYTES);
+			return fail(why, why_len, "image of %zu bytes is larger than the %u-byte flash", file_len,
+				    FLASH_MAX_BYTES);
 		r.bytes = malloc(file_len ? file_len : 1);
 		if (!r.bytes)
 			return fail(why, why_len, "out of memory");
@@ -121,7 +119,7 @@ int flash_image_check(const uint8_t *file, size_t file_len, uint32_t want_mcu,
 	}
 	/* the length first: the messages below read header fields from the bytes */
 	err = r.len < SWELL_FWIMAGE_OFFSET + SWELL_FWIMAGE_HDR_SIZE ? SWELL_ETRUNC
-								     : swell_fwimage_read(r.bytes, r.len, &hdr);
+								    : swell_fwimage_read(r.bytes, r.len, &hdr);
 	r.hdr = hdr;
 	if (err == SWELL_ETRUNC) {
 		fail(why, why_len, "truncated: %zu bytes, the header ends at byte %u", r.len,
@@ -130,8 +128,7 @@ int flash_image_check(const uint8_t *file, size_t file_len, uint32_t want_mcu,
 	}
 	if (err == SWELL_EUNKNOWN) {
 		fail(why, why_len, "no swell image header: magic at 0x%x is 0x%08x, want 0x%08x (\"SWIM\")",
-		     SWELL_FWIMAGE_OFFSET, (unsigned)le32(r.bytes + SWELL_FWIMAGE_OFFSET),
-		     SWELL_FWIMAGE_MAGIC);
+		     SWELL_FWIMAGE_OFFSET, (unsigned)le32(r.bytes + SWELL_FWIMAGE_OFFSET), SWELL_FWIMAGE_MAGIC);
 		goto out;
 	}
 	if (err != SWELL_OK) {
@@ -141,9 +138,8 @@ int flash_image_check(const uint8_t *file, size_t file_len, uint32_t want_mcu,
 		goto out;
 	}
 	if (r.hdr.mcu_id != want_mcu) {
-		fail(why, why_len, "foreign image: built for MCU 0x%03x, target is 0x%03x%s",
-		     (unsigned)r.hdr.mcu_id, (unsigned)want_mcu,
-		     want_mcu == SWELL_FWIMAGE_MCU_STM32F405 ? " (STM32F405/407)" : "");
+		fail(why, why_len, "foreign image: built for MCU 0x%03x, target is 0x%03x%s", (unsigned)r.hdr.mcu_id,
+		     (unsigned)want_mcu, want_mcu == SWELL_FWIMAGE_MCU_STM32F405 ? " (STM32F405/407)" : "");
 		goto out;
 	}
 	if (r.hdr.length == 0) {
@@ -180,8 +176,7 @@ out:
 	return -1;
 }
 
-int flash_read_file(const char *path, size_t max, uint8_t **buf, size_t *len, char *why,
-		    size_t why_len)
+int flash_read_file(const char *path, size_t max, uint8_t **buf, size_t *len, char *why, size_t why_len)
 {
 	FILE *f = fopen(path, "rb");
 	uint8_t *b;

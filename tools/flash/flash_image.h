@@ -12,7 +12,10 @@
 #define FLASH_BASE_ADDR 0x08000000u
 #define FLASH_MAX_BYTES (1024u * 1024u) /* STM32F405 flash */
 
-enum flash_fmt { FLASH_FMT_BIN, FLASH_FMT_ELF };
+enum flash_fmt {
+	FLASH_FMT_BIN,
+	FLASH_FMT_ELF
+};
 
 struct flash_image {
 	enum flash_fmt fmt;
@@ -25,12 +28,11 @@ struct flash_image {
  * and for a BIN that the file is exactly the header's length. On success fills *img (free with
  * flash_image_free) and returns 0; otherwise returns -1 and writes a one-line reason (no newline)
  * into why. */
-int flash_image_check(const uint8_t *file, size_t file_len, uint32_t want_mcu,
-		      struct flash_image *img, char *why, size_t why_len);
+int flash_image_check(const uint8_t *file, size_t file_len, uint32_t want_mcu, struct flash_image *img, char *why,
+		      size_t why_len);
 
 /* Read path into a malloc'd buffer (at most max bytes; more is an error). 0 or -1 with why. */
-int flash_read_file(const char *path, size_t max, uint8_t **buf, size_t *len, char *why,
-		    size_t why_len);
+int flash_read_file(const char *path, size_t max, uint8_t **buf, size_t *len, char *why, size_t why_len);
 
 void flash_image_free(struct flash_image *img);
 

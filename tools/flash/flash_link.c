@@ -30,8 +30,9 @@ static int hex16(const char *s, size_t n, uint16_t *v)
 	for (k = 0; k < n; k++) {
 		char c = s[k];
 		unsigned d = c >= '0' && c <= '9' ? (unsigned)(c - '0')
-			   : c >= 'a' && c <= 'f' ? (unsigned)(c - 'a' + 10)
-			   : c >= 'A' && c <= 'F' ? (unsigned)(c - 'A' + 10) : 16u;
+			: c >= 'a' && c <= 'f'    ? (unsigned)(c - 'a' + 10)
+			: c >= 'A' && c <= 'F'    ? (unsigned)(c - 'A' + 10)
+						  : 16u;
 		if (d > 15)
 			return -1;
 		x = x * 16 + d;
@@ -74,7 +75,8 @@ int flash_link_parse(const char *spec, struct flash_link_spec *out, char *err, s
 			return refuse(err, errlen, "'%s': interface name longer than 15 characters", spec);
 		/* what the kernel takes as an interface name (dev_valid_name): no '/', ':' or space */
 		if (strpbrk(ifn, "/: \t\n,") || !strcmp(ifn, ".") || !strcmp(ifn, ".."))
-			return refuse(err, errlen, "'%s': not an interface name (the node is chosen with --node)", spec);
+			return refuse(err, errlen, "'%s': not an interface name (the node is chosen with --node)",
+				      spec);
 		memcpy(s.can_if, ifn, n + 1);
 	} else if (!strncmp(spec, "canfd:", 6)) {
 		return refuse(err, errlen,
@@ -88,9 +90,10 @@ int flash_link_parse(const char *spec, struct flash_link_spec *out, char *err, s
 
 			if (!colon || hex16(a, (size_t)(colon - a), &s.usb_vid) ||
 			    hex16(colon + 1, strlen(colon + 1), &s.usb_pid))
-				return refuse(err, errlen,
-					      "'%s': not usb:VID:PID in hex (usb:FFS_DIR is swell-ctl's side of the link)",
-					      spec);
+				return refuse(
+					err, errlen,
+					"'%s': not usb:VID:PID in hex (usb:FFS_DIR is swell-ctl's side of the link)",
+					spec);
 		}
 	} else {
 		return refuse(err, errlen, "'%s': not a host link: " SPELLINGS, spec);
@@ -131,7 +134,7 @@ int flash_link_open(const struct flash_link_spec *s, int wait_ms, struct swell_l
 	case FLASH_LINK_USB:
 		for (;;) {
 			struct swell_usb_opts o;
-			struct timespec d = {0, 100000000};
+			struct timespec d = { 0, 100000000 };
 			int rc;
 
 			swell_usb_opts_default(&o);

@@ -10,17 +10,21 @@
 
 struct swell_link;
 
-enum flash_link_kind { FLASH_LINK_UDP, FLASH_LINK_CAN, FLASH_LINK_USB };
+enum flash_link_kind {
+	FLASH_LINK_UDP,
+	FLASH_LINK_CAN,
+	FLASH_LINK_USB
+};
 
 #define FLASH_LINK_IFNAME_MAX 16 /* IFNAMSIZ, terminator included */
 
 struct flash_link_spec {
 	enum flash_link_kind kind;
-	uint16_t udp_port;                  /* UDP: listen on 127.0.0.1:udp_port (the viewer port) */
+	uint16_t udp_port; /* UDP: listen on 127.0.0.1:udp_port (the viewer port) */
 	char can_if[FLASH_LINK_IFNAME_MAX]; /* CAN: the SocketCAN interface */
-	uint16_t usb_vid, usb_pid;          /* USB: the controller's device */
-	uint8_t usb_iface;                  /* USB: its host-link interface (0; 1 when both links are USB) */
-	int node;                           /* 0..15, or -1: the one controller heard */
+	uint16_t usb_vid, usb_pid; /* USB: the controller's device */
+	uint8_t usb_iface; /* USB: its host-link interface (0; 1 when both links are USB) */
+	int node; /* 0..15, or -1: the one controller heard */
 };
 
 /* Parse spec into *out. 0 on success; -1 with a one-line reason in err (out untouched). Defaults:

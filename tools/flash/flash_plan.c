@@ -7,7 +7,7 @@
 
 #define BASE "0x08000000"
 
-static const char *const names[FLASH_BACKEND_COUNT] = {"dfu", "swd", "uart", "gdb"};
+static const char *const names[FLASH_BACKEND_COUNT] = { "dfu", "swd", "uart", "gdb" };
 
 const char *flash_backend_name(enum flash_backend b)
 {
@@ -66,8 +66,7 @@ static int gdb_unsafe(const char *path)
 	return path && path[strcspn(path, " \t\n\"'\\")] != '\0';
 }
 
-static void gdb_begin(struct builder *b, const struct flash_opts *o, enum flash_step_kind kind,
-		      const char *what)
+static void gdb_begin(struct builder *b, const struct flash_opts *o, enum flash_step_kind kind, const char *what)
 {
 	step(b, kind, what);
 	arg(b, "gdb-multiarch");
@@ -100,8 +99,7 @@ static void build_gdb(struct builder *b, const struct flash_opts *o)
 	else
 		arg(b, "restore %s binary " BASE, o->bin);
 	arg(b, "-ex");
-	arg(b, "dump binary memory %s " BASE " 0x%08lx", o->readback,
-	    (unsigned long)(0x08000000ul + o->len));
+	arg(b, "dump binary memory %s " BASE " 0x%08lx", o->readback, (unsigned long)(0x08000000ul + o->len));
 	/* Leave the target halted: it runs only after the read-back has been compared. */
 	arg(b, "-ex");
 	arg(b, "disconnect");
@@ -130,7 +128,7 @@ static void build_gdb(struct builder *b, const struct flash_opts *o)
 
 int flash_plan_build(const struct flash_opts *o, struct flash_plan *p, char *why, size_t why_len)
 {
-	struct builder b = {p, NULL, 0};
+	struct builder b = { p, NULL, 0 };
 
 	memset(p, 0, sizeof(*p));
 	switch (o->backend) {
@@ -231,14 +229,16 @@ int flash_plan_build(const struct flash_opts *o, struct flash_plan *p, char *why
 		break;
 	case FLASH_GDB:
 		if (!o->elf && o->gdb_server != FLASH_GDB_QEMU) {
-			snprintf(why, why_len, "the GDB backend with openocd or a Black Magic Probe needs the ELF "
+			snprintf(why, why_len,
+				 "the GDB backend with openocd or a Black Magic Probe needs the ELF "
 				 "(flash writes go through 'load'); give swell-fw.elf");
 			return -1;
 		}
 		/* gdb's restore and dump take the file name up to the first blank and do not parse
 		 * quotes (gdb 13, Debian 12): a path with a blank or a quote would be cut short */
 		if ((!o->elf && gdb_unsafe(o->bin)) || gdb_unsafe(o->readback)) {
-			snprintf(why, why_len, "the GDB backend cannot hand '%s' to gdb: its restore and dump cut a "
+			snprintf(why, why_len,
+				 "the GDB backend cannot hand '%s' to gdb: its restore and dump cut a "
 				 "file name at a blank and keep quotes; use a path without them",
 				 !o->elf && gdb_unsafe(o->bin) ? o->bin : o->readback);
 			return -1;
@@ -261,8 +261,7 @@ static int plain(const char *s)
 	if (!*s)
 		return 0;
 	for (; *s; s++)
-		if (!strchr("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789-_./:=,+@%",
-			    *s))
+		if (!strchr("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789-_./:=,+@%", *s))
 			return 0;
 	return 1;
 }

@@ -5,13 +5,30 @@
 
 #include <stddef.h>
 
-enum flash_backend { FLASH_DFU, FLASH_SWD, FLASH_UART, FLASH_GDB, FLASH_BACKEND_COUNT };
-enum flash_swd_tool { FLASH_SWD_OPENOCD, FLASH_SWD_STFLASH };
-enum flash_gdb_server { FLASH_GDB_OPENOCD, FLASH_GDB_QEMU, FLASH_GDB_BMP };
+enum flash_backend {
+	FLASH_DFU,
+	FLASH_SWD,
+	FLASH_UART,
+	FLASH_GDB,
+	FLASH_BACKEND_COUNT
+};
+enum flash_swd_tool {
+	FLASH_SWD_OPENOCD,
+	FLASH_SWD_STFLASH
+};
+enum flash_gdb_server {
+	FLASH_GDB_OPENOCD,
+	FLASH_GDB_QEMU,
+	FLASH_GDB_BMP
+};
 
 /* What a step is for: the runner compares the read-back file after a READBACK step, and runs
  * RESET steps only after the comparison succeeded. */
-enum flash_step_kind { STEP_WRITE, STEP_READBACK, STEP_RESET };
+enum flash_step_kind {
+	STEP_WRITE,
+	STEP_READBACK,
+	STEP_RESET
+};
 
 #define FLASH_MAX_ARGS 40
 #define FLASH_ARG_LEN 512
@@ -26,16 +43,16 @@ struct flash_step {
 
 struct flash_opts {
 	enum flash_backend backend;
-	const char *elf;      /* the image as ELF, or NULL when the input is a BIN */
-	const char *bin;      /* the image as BIN (the input, or one written from the ELF) */
+	const char *elf; /* the image as ELF, or NULL when the input is a BIN */
+	const char *bin; /* the image as BIN (the input, or one written from the ELF) */
 	const char *readback; /* where the read-back lands */
-	size_t len;           /* image bytes */
-	const char *dfu_device;       /* "0483:df11" */
+	size_t len; /* image bytes */
+	const char *dfu_device; /* "0483:df11" */
 	enum flash_swd_tool swd_tool;
 	const char *openocd_interface; /* "interface/stlink.cfg" */
-	const char *serial;            /* "/dev/ttyUSB0" */
+	const char *serial; /* "/dev/ttyUSB0" */
 	unsigned baud;
-	const char *gdb_remote;        /* "localhost:3333", "localhost:1234" or "/dev/ttyACM0" */
+	const char *gdb_remote; /* "localhost:3333", "localhost:1234" or "/dev/ttyACM0" */
 	enum flash_gdb_server gdb_server;
 };
 

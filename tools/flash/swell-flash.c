@@ -295,7 +295,7 @@ static int wait_dfu_device(const char *vid_pid, double wait_s)
 
 static int autodetect(void)
 {
-	static const unsigned dfu[] = {0xdf11}, stlink[] = {0x3748, 0x374b, 0x374e, 0x374f, 0x3752, 0x3753};
+	static const unsigned dfu[] = { 0xdf11 }, stlink[] = { 0x3748, 0x374b, 0x374e, 0x374f, 0x3752, 0x3753 };
 	const char *root = sysfs_root();
 	int has_dfu, has_stlink;
 
@@ -308,7 +308,8 @@ static int autodetect(void)
 		return FLASH_DFU;
 	}
 	if (has_stlink) {
-		printf("swell-flash: auto-detected an ST-LINK on USB (0483:%s): backend swd\n", "3748/374b/374e/374f/3752/3753");
+		printf("swell-flash: auto-detected an ST-LINK on USB (0483:%s): backend swd\n",
+		       "3748/374b/374e/374f/3752/3753");
 		return FLASH_SWD;
 	}
 	die(2, "no --backend given and no DfuSe device (0483:df11) or ST-LINK found on USB: use --backend");
@@ -395,8 +396,8 @@ static int compare_readback(const char *path, const struct flash_image *img)
 		uint8_t got = rb[i];
 
 		free(rb);
-		die(1, "verify FAILED at 0x%08lx: wrote 0x%02x, read 0x%02x; target not started",
-		    0x08000000ul + i, img->bytes[i], got);
+		die(1, "verify FAILED at 0x%08lx: wrote 0x%02x, read 0x%02x; target not started", 0x08000000ul + i,
+		    img->bytes[i], got);
 	}
 	free(rb);
 	return 0;
@@ -436,7 +437,6 @@ static int console_watch(struct console *con, double timeout_s, uint32_t want, d
 {
 	double t0 = now_s();
 	char want_s[32], got_s[32];
-
 
 	flash_version_str(want, want_s, sizeof(want_s));
 	while (now_s() - t0 < timeout_s) {
@@ -483,8 +483,7 @@ static void find_step(const struct cfg *c, const struct flash_image *img, const 
 	char where[96];
 
 	flash_link_describe(&c->find_link, where, sizeof(where));
-	printf("swell-flash: listening on %s for the controller's CTL_INFO (up to %.1f s)\n", where,
-	       c->find_timeout_s);
+	printf("swell-flash: listening on %s for the controller's CTL_INFO (up to %.1f s)\n", where, c->find_timeout_s);
 	fflush(stdout);
 	r = flash_find_controller(&c->find_link, (int)(c->find_timeout_s * 1000 + 0.5), &f, why, sizeof(why));
 	if (r)
@@ -495,18 +494,19 @@ static void find_step(const struct cfg *c, const struct flash_image *img, const 
 	       got, (unsigned)f.node, f.after_s, f.mono_s, f.obj_100um[0] / 10.0, f.obj_100um[1] / 10.0,
 	       f.obj_100um[2] / 10.0);
 	if (f.version[0] != (v >> 16) || f.version[1] != ((v >> 8) & 0xFFu) || f.version[2] != (v & 0xFFu))
-		die(1, "the controller runs version %s, but the image's header says %s: it did not start the "
-		       "flashed image",
+		die(1,
+		    "the controller runs version %s, but the image's header says %s: it did not start the "
+		    "flashed image",
 		    got, ver);
 	printf("swell-flash: the controller runs the image's version %s\n", ver);
 }
 
 int main(int argc, char **argv)
 {
-	struct cfg c = {0};
+	struct cfg c = { 0 };
 	struct flash_image img;
 	struct flash_plan plan;
-	struct console con = {.fd = -1};
+	struct console con = { .fd = -1 };
 	char why[512], ver[32], dir[600], bin[700], rb[700], line[8192], where[96];
 	uint8_t *file;
 	size_t file_len;
@@ -557,8 +557,7 @@ int main(int argc, char **argv)
 	if (c.expect_version && strcmp(c.expect_version, ver))
 		die(2, "%s: refused: version %s, expected %s", c.image, ver, c.expect_version);
 	printf("swell-flash: %s: ok: %s, version %s, %zu bytes, mcu 0x%03x, crc32 0x%08x\n", c.image,
-	       img.fmt == FLASH_FMT_ELF ? "ELF" : "BIN", ver, img.len, (unsigned)img.hdr.mcu_id,
-	       (unsigned)img.hdr.crc);
+	       img.fmt == FLASH_FMT_ELF ? "ELF" : "BIN", ver, img.len, (unsigned)img.hdr.mcu_id, (unsigned)img.hdr.crc);
 	if (c.check_only) {
 		if (c.find)
 			find_step(&c, &img, ver);
@@ -608,14 +607,14 @@ int main(int argc, char **argv)
 		}
 	}
 	if (c.dry_run) {
-		printf("swell-flash: dry run, backend %s, %d steps:\n", flash_backend_name(c.o.backend),
-		       plan.nsteps);
+		printf("swell-flash: dry run, backend %s, %d steps:\n", flash_backend_name(c.o.backend), plan.nsteps);
 		for (i = 0; i < plan.nsteps; i++) {
 			flash_step_format(&plan.step[i], line, sizeof(line));
 			if (i == 0 && c.boot) {
 				flash_link_describe(&c.boot_link, where, sizeof(where));
-				printf("[0/%d] send ENTER_BOOTLOADER on %s once its heartbeat is heard%s\n", plan.nsteps,
-				       where, c.force ? " (AUTORUN=0, COMMAND=STOP first if RUNNING)" : "");
+				printf("[0/%d] send ENTER_BOOTLOADER on %s once its heartbeat is heard%s\n",
+				       plan.nsteps, where,
+				       c.force ? " (AUTORUN=0, COMMAND=STOP first if RUNNING)" : "");
 			}
 			printf("[%d/%d] %s\n%s\n", i + 1, plan.nsteps, plan.step[i].what, line);
 			if (plan.step[i].kind == STEP_READBACK)
@@ -634,8 +633,8 @@ int main(int argc, char **argv)
 	/* 3. Tools present before the first one runs. */
 	for (i = 0; i < plan.nsteps; i++)
 		if (!in_path(plan.step[i].arg[0]))
-			die(1, "%s not found in PATH (Debian package %s): nothing was done",
-			    plan.step[i].arg[0], package_of(plan.step[i].arg[0]));
+			die(1, "%s not found in PATH (Debian package %s): nothing was done", plan.step[i].arg[0],
+			    package_of(plan.step[i].arg[0]));
 
 	/* 4. A running controller is asked to enter its bootloader first. */
 	if (c.boot) {
@@ -681,8 +680,7 @@ int main(int argc, char **argv)
 		printf("swell-flash: [%d/%d] done in %.3f s\n", i + 1, plan.nsteps, now_s() - t0);
 		if (s->kind == STEP_READBACK) {
 			compare_readback(rb, &img);
-			printf("swell-flash: verify ok: %zu bytes read back at 0x08000000 equal the image\n",
-			       img.len);
+			printf("swell-flash: verify ok: %zu bytes read back at 0x08000000 equal the image\n", img.len);
 		}
 	}
 	if (plan.verify_by_tool)
@@ -697,8 +695,9 @@ int main(int argc, char **argv)
 			die(1, "no image report on %s within %.1f s", c.console, c.console_timeout_s);
 		if (r > 0)
 			die(1, "the target did not boot the flashed image");
-		printf("swell-flash: target runs version %s (crc32 0x%08x), reported %.3f s after the start step began\n", ver,
-		       (unsigned)img.hdr.crc, t_boot);
+		printf("swell-flash: target runs version %s (crc32 0x%08x), reported %.3f s after the start step "
+		       "began\n",
+		       ver, (unsigned)img.hdr.crc, t_boot);
 	}
 	if (!c.work_dir && !c.dry_run) {
 		snprintf(line, sizeof(line), "%s.leave", rb);

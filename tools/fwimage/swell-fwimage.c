@@ -128,9 +128,9 @@ static int save(const char *path, const uint8_t *buf, size_t len)
 
 static void print_hdr(const char *verb, const char *path, const struct swell_fwimage_hdr *h)
 {
-	printf("%s %s: %u bytes, version %u.%u.%u, mcu 0x%03x, crc32 0x%08x\n", verb, path,
-	       (unsigned)h->length, (unsigned)(h->version >> 16), (unsigned)((h->version >> 8) & 0xFF),
-	       (unsigned)(h->version & 0xFF), (unsigned)h->mcu_id, (unsigned)h->crc);
+	printf("%s %s: %u bytes, version %u.%u.%u, mcu 0x%03x, crc32 0x%08x\n", verb, path, (unsigned)h->length,
+	       (unsigned)(h->version >> 16), (unsigned)((h->version >> 8) & 0xFF), (unsigned)(h->version & 0xFF),
+	       (unsigned)h->mcu_id, (unsigned)h->crc);
 }
 
 int main(int argc, char **argv)

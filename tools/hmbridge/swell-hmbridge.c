@@ -166,7 +166,7 @@ struct bridge {
 	int enable;
 	uint32_t cmd_age; /* ticks since the last FORCE_CMD (saturating) */
 	uint64_t ticks, commands, samples_fwd, samples_dropped, silent_ticks, trips, send_errors, ignored;
-	int zeroed;       /* the watchdog has zeroed the force since the last command */
+	int zeroed; /* the watchdog has zeroed the force since the last command */
 };
 
 static int open_link(struct bridge *b, const struct opts *o)
@@ -244,7 +244,7 @@ static void tick(struct bridge *b, const struct opts *o)
 {
 	struct swell_msg in[2 * HMC_RING], *newest = NULL;
 	size_t n, k;
-	static const int16_t zero[3] = {0, 0, 0};
+	static const int16_t zero[3] = { 0, 0, 0 };
 
 	take_commands(b);
 	/* the newest answer only: the controller gets one sample a tick */
@@ -293,7 +293,7 @@ int main(int argc, char **argv)
 	sigaction(SIGTERM, &sa, NULL);
 	signal(SIGPIPE, SIG_IGN);
 	if (o.rt) {
-		struct sched_param sp = {.sched_priority = 70};
+		struct sched_param sp = { .sched_priority = 70 };
 
 		if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0)
 			fprintf(stderr, "swell-hmbridge: warning: mlockall: %s\n", strerror(errno));
@@ -324,7 +324,8 @@ int main(int argc, char **argv)
 		}
 	}
 	if (hm_client_zero_wait(&b.hm, 100) != 0)
-		fprintf(stderr, "swell-hmbridge: warning: the HapticMaster did not confirm the zero force within 100 ms\n");
+		fprintf(stderr,
+			"swell-hmbridge: warning: the HapticMaster did not confirm the zero force within 100 ms\n");
 	if (!o.quiet)
 		fputc('\n', stderr);
 	printf("swell-hmbridge summary\n");

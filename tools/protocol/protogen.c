@@ -106,7 +106,7 @@ struct load_row {
 #define INFO_HZ 1.0
 #define OBJ_HZ 100.0
 #define GRID_QUADS 1024 /* the reference scene: 64 x 64 cells in quads of 2 x 2 */
-#define USB_PACKETS_PER_MS 19.0    /* USB 2.0 full speed: at most 19 bulk packets of 64 bytes per frame */
+#define USB_PACKETS_PER_MS 19.0 /* USB 2.0 full speed: at most 19 bulk packets of 64 bytes per frame */
 
 static void bus_load(FILE *o)
 {
@@ -119,32 +119,37 @@ static void bus_load(FILE *o)
 	unsigned i;
 
 	fprintf(o, "## Bus-load budget\n\n");
-	fprintf(o, "Computed by swell-protogen from the message lengths. Per haptic tick the device link\n"
-		   "carries FORCE_CMD down and DEVICE_POS, DEVICE_VEL, DEVICE_FORCE up (\"full\"), or only\n"
-		   "FORCE_CMD and DEVICE_POS (\"minimal\": the controller differentiates position and has no\n"
-		   "measured force). Telemetry on the same bus: HEARTBEAT %.0f/s (both directions), SCENE\n"
-		   "%.0f/s, CTL_INFO %.0f/s, OBJECT_POSE and OBJECT_FORCE %.0f/s each. What is left carries\n"
-		   "HEIGHT_QUADs; a full refresh of the 64 x 64 reference grid is %d quads.\n\n",
+	fprintf(o,
+		"Computed by swell-protogen from the message lengths. Per haptic tick the device link\n"
+		"carries FORCE_CMD down and DEVICE_POS, DEVICE_VEL, DEVICE_FORCE up (\"full\"), or only\n"
+		"FORCE_CMD and DEVICE_POS (\"minimal\": the controller differentiates position and has no\n"
+		"measured force). Telemetry on the same bus: HEARTBEAT %.0f/s (both directions), SCENE\n"
+		"%.0f/s, CTL_INFO %.0f/s, OBJECT_POSE and OBJECT_FORCE %.0f/s each. What is left carries\n"
+		"HEIGHT_QUADs; a full refresh of the 64 x 64 reference grid is %d quads.\n\n",
 		HB_HZ, SCENE_HZ, INFO_HZ, OBJ_HZ, GRID_QUADS);
-	fprintf(o, "- Classic CAN: %u bits per 8-byte frame and %u per 7-byte frame, worst-case bit\n"
-		   "  stuffing (47 + 8n + floor((33 + 8n) / 4)).\n",
+	fprintf(o,
+		"- Classic CAN: %u bits per 8-byte frame and %u per 7-byte frame, worst-case bit\n"
+		"  stuffing (47 + 8n + floor((33 + 8n) / 4)).\n",
 		can_bits(8), can_bits(7));
-	fprintf(o, "- CAN FD: 1 Mbit/s arbitration, 2 Mbit/s data, worst-case stuffing: %.1f us per\n"
-		   "  8-byte frame, %.1f us per 64-byte frame (8 quads). Per-tick messages are of different\n"
-		   "  types, so they go one per frame; quads go 8 per frame.\n",
+	fprintf(o,
+		"- CAN FD: 1 Mbit/s arbitration, 2 Mbit/s data, worst-case stuffing: %.1f us per\n"
+		"  8-byte frame, %.1f us per 64-byte frame (8 quads). Per-tick messages are of different\n"
+		"  types, so they go one per frame; quads go 8 per frame.\n",
 		canfd_us(8, 1e6, 2e6), canfd_us(64, 1e6, 2e6));
-	fprintf(o, "- USB full speed bulk: budgeted at %.0f packets of 64 bytes per 1 ms frame (the USB 2.0\n"
-		   "  maximum; real host controllers may schedule fewer). Per tick one packet down (FORCE_CMD)\n"
-		   "  and one up (the three device messages: %u bytes); telemetry %u packets/s; quads go %u\n"
-		   "  per packet.\n",
+	fprintf(o,
+		"- USB full speed bulk: budgeted at %.0f packets of 64 bytes per 1 ms frame (the USB 2.0\n"
+		"  maximum; real host controllers may schedule fewer). Per tick one packet down (FORCE_CMD)\n"
+		"  and one up (the three device messages: %u bytes); telemetry %u packets/s; quads go %u\n"
+		"  per packet.\n",
 		USB_PACKETS_PER_MS,
 		SWELL_PKT_OVERHEAD + 3u + msg_len(SWELL_MSG_DEVICE_POS) + msg_len(SWELL_MSG_DEVICE_VEL) +
 			msg_len(SWELL_MSG_DEVICE_FORCE),
 		(unsigned)(HB_HZ + SCENE_HZ + INFO_HZ + OBJ_HZ),
 		(SWELL_PKT_MAX - SWELL_PKT_OVERHEAD) / (1u + msg_len(SWELL_MSG_HEIGHT_QUAD)));
 	fprintf(o, "- UDP on loopback: bounded by the host CPU, not budgeted.\n\n");
-	fprintf(o, "| carrier | haptic rate | device traffic | control load | left for heights | "
-		   "64x64 refreshes/s | verdict |\n");
+	fprintf(o,
+		"| carrier | haptic rate | device traffic | control load | left for heights | "
+		"64x64 refreshes/s | verdict |\n");
 	fprintf(o, "|---|---|---|---|---|---|---|\n");
 	for (i = 0; i < sizeof(rows) / sizeof(rows[0]); i++) {
 		const struct load_row *r = &rows[i];
@@ -152,8 +157,7 @@ static void bus_load(FILE *o)
 		const char *verdict;
 
 		if (r->carrier[0] == 'c') {
-			double tick = can_bits(msg_len(SWELL_MSG_FORCE_CMD)) +
-				      can_bits(msg_len(SWELL_MSG_DEVICE_POS));
+			double tick = can_bits(msg_len(SWELL_MSG_FORCE_CMD)) + can_bits(msg_len(SWELL_MSG_DEVICE_POS));
 			if (!r->minimal)
 				tick += can_bits(msg_len(SWELL_MSG_DEVICE_VEL)) +
 					can_bits(msg_len(SWELL_MSG_DEVICE_FORCE));
@@ -161,7 +165,8 @@ static void bus_load(FILE *o)
 			quad_s_each = can_bits(msg_len(SWELL_MSG_HEIGHT_QUAD)) / 1e6;
 		} else if (r->carrier[0] == 'C') {
 			double tick = 2 * canfd_us(8, 1e6, 2e6) + 2 * canfd_us(8, 1e6, 2e6); /* 7 bytes -> 8 */
-			busy_s = (tick * r->rate + canfd_us(8, 1e6, 2e6) * (HB_HZ + SCENE_HZ + INFO_HZ + 2 * OBJ_HZ)) / 1e6;
+			busy_s = (tick * r->rate + canfd_us(8, 1e6, 2e6) * (HB_HZ + SCENE_HZ + INFO_HZ + 2 * OBJ_HZ)) /
+				1e6;
 			quad_s_each = canfd_us(64, 1e6, 2e6) / 8.0 / 1e6;
 		} else {
 			double per_s = USB_PACKETS_PER_MS * 1000.0;
@@ -177,13 +182,14 @@ static void bus_load(FILE *o)
 		fprintf(o, "| %s | %u Hz | %s | %.1f %% | %.0f quads/s | %.1f | %s |\n", r->carrier, r->rate,
 			r->minimal ? "minimal" : "full", 100.0 * busy_s, quads_s, quads_s / GRID_QUADS, verdict);
 	}
-	fprintf(o, "\nConclusions. Classic CAN carries the full device link at 1000 Hz, and at 2500 Hz only\n"
-		   "the minimal one (70 %%, tight); what is left moves a few changed tiles per tick, never the\n"
-		   "whole grid at the solver rate (250 Hz x %d quads). CAN FD helps the heights (8 quads a\n"
-		   "frame) but not the per-tick messages: they are short, one per frame, and the 1 Mbit/s\n"
-		   "arbitration phase dominates, so the full device link at 2500 Hz is tight on CAN FD too.\n"
-		   "USB carries everything at both rates with room for about 80 full refreshes per second.\n"
-		   "Only changed tiles are sent, so a calm pool costs nothing.\n\n",
+	fprintf(o,
+		"\nConclusions. Classic CAN carries the full device link at 1000 Hz, and at 2500 Hz only\n"
+		"the minimal one (70 %%, tight); what is left moves a few changed tiles per tick, never the\n"
+		"whole grid at the solver rate (250 Hz x %d quads). CAN FD helps the heights (8 quads a\n"
+		"frame) but not the per-tick messages: they are short, one per frame, and the 1 Mbit/s\n"
+		"arbitration phase dominates, so the full device link at 2500 Hz is tight on CAN FD too.\n"
+		"USB carries everything at both rates with room for about 80 full refreshes per second.\n"
+		"Only changed tiles are sent, so a calm pool costs nothing.\n\n",
 		GRID_QUADS);
 }
 
@@ -207,26 +213,29 @@ static void write_md_params(FILE *o)
 #undef SWELL_X
 	fprintf(o, "\n\n");
 
-	fprintf(o, "## Parameters\n\nFrom `common/include/swell/param_table.h`. PARAM_SET and PARAM_GET carry the\n"
-		   "id and a raw int32 value; physical value = raw x factor, in the unit given. A set outside\n"
-		   "the raw range is refused with PARAM_NACK (range) before anything else; inside it the\n"
-		   "owning module checks the whole configuration (stability of the solver, the force law's\n"
-		   "limits) and refuses with its reason; a refused set changes nothing. Every parameter is\n"
-		   "written by the host link (VIEW: viewers, swell-tool); the controller answers with the\n"
-		   "value now in force. \"when\" says in which states a write is taken: the object's mass,\n"
-		   "size and damper are refused (state) while the object displaces water. Defaults are the\n"
-		   "reference scene's (64 x 64 cells of 6.25 mm, depth 50 mm, 250 Hz solver, a 50 mm cube of\n"
-		   "100 g).\n\n");
-	fprintf(o, "| id | name | C type | raw range | default (raw) | factor | unit | when | meaning |\n"
-		   "|---|---|---|---|---|---|---|---|---|\n");
+	fprintf(o,
+		"## Parameters\n\nFrom `common/include/swell/param_table.h`. PARAM_SET and PARAM_GET carry the\n"
+		"id and a raw int32 value; physical value = raw x factor, in the unit given. A set outside\n"
+		"the raw range is refused with PARAM_NACK (range) before anything else; inside it the\n"
+		"owning module checks the whole configuration (stability of the solver, the force law's\n"
+		"limits) and refuses with its reason; a refused set changes nothing. Every parameter is\n"
+		"written by the host link (VIEW: viewers, swell-tool); the controller answers with the\n"
+		"value now in force. \"when\" says in which states a write is taken: the object's mass,\n"
+		"size and damper are refused (state) while the object displaces water. Defaults are the\n"
+		"reference scene's (64 x 64 cells of 6.25 mm, depth 50 mm, 250 Hz solver, a 50 mm cube of\n"
+		"100 g).\n\n");
+	fprintf(o,
+		"| id | name | C type | raw range | default (raw) | factor | unit | when | meaning |\n"
+		"|---|---|---|---|---|---|---|---|---|\n");
 	t = swell_param_table(&n);
 	for (k = 0; k < n; k++)
 		fprintf(o, "| %u | `%s` | %s | %ld .. %ld | %ld | %s | %s | %s | %s |\n", t[k].id, t[k].name,
 			t[k].ctype, (long)t[k].min, (long)t[k].max, (long)t[k].def, t[k].factor,
 			t[k].unit[0] ? t[k].unit : "-", swell_param_when_text(t[k].when), t[k].desc);
-	fprintf(o, "\nParameter %d (`%s`) is write only: its value is a command, answered by PARAM_ACK\n"
-		   "with the value echoed, or PARAM_NACK (a GET is refused as invalid):\n\n"
-		   "| value | command | effect |\n|---|---|---|\n",
+	fprintf(o,
+		"\nParameter %d (`%s`) is write only: its value is a command, answered by PARAM_ACK\n"
+		"with the value echoed, or PARAM_NACK (a GET is refused as invalid):\n\n"
+		"| value | command | effect |\n|---|---|---|\n",
 		SWELL_PARAM_COMMAND_ID, SWELL_PARAM_COMMAND_NAME);
 #define SWELL_X(NAME, value, name, desc) fprintf(o, "| %d | %s | %s |\n", value, name, desc);
 	SWELL_COMMANDS(SWELL_X)
@@ -240,75 +249,84 @@ static void write_md(FILE *o)
 
 	fprintf(o, "<!-- Generated by swell-protogen from common/include/swell/proto_table.h: do not edit. -->\n");
 	fprintf(o, "# swell wire protocol, version %d\n\n", SWELL_PROTO_VERSION);
-	fprintf(o, "One table (`common/include/swell/proto_table.h`) is the single source of the C codecs\n"
-		   "(`swell/proto.h`), the CAN database (`docs/swell.dbc`) and this page. Every message has a\n"
-		   "fixed layout of at most 8 bytes, little-endian (Intel) bit order, integer units; the\n"
-		   "physical value is raw x factor. Raw values outside the stated range, and set bits that no\n"
-		   "field covers, make the whole frame invalid.\n\n");
+	fprintf(o,
+		"One table (`common/include/swell/proto_table.h`) is the single source of the C codecs\n"
+		"(`swell/proto.h`), the CAN database (`docs/swell.dbc`) and this page. Every message has a\n"
+		"fixed layout of at most 8 bytes, little-endian (Intel) bit order, integer units; the\n"
+		"physical value is raw x factor. Raw values outside the stated range, and set bits that no\n"
+		"field covers, make the whole frame invalid.\n\n");
 
 	fprintf(o, "## Carriers\n\n");
-	fprintf(o, "- **Classic CAN** (1 Mbit/s): one message per frame, DLC = message length, 11-bit id =\n"
-		   "  `type << 4 | node` (node 0-%u, so several controllers share a bus; the DBC lists node 0).\n"
-		   "  Lower id wins arbitration: force command and device state first, telemetry last.\n",
+	fprintf(o,
+		"- **Classic CAN** (1 Mbit/s): one message per frame, DLC = message length, 11-bit id =\n"
+		"  `type << 4 | node` (node 0-%u, so several controllers share a bus; the DBC lists node 0).\n"
+		"  Lower id wins arbitration: force command and device state first, telemetry last.\n",
 		SWELL_NODE_MAX);
-	fprintf(o, "- **CAN FD** (64 bytes): the same id; the frame holds k messages of that one type, each in\n"
-		   "  a slot of its length rounded up to 4 bytes (zero padding), k chosen so that the length is\n"
-		   "  a CAN FD length (8 slots of 8 bytes or 16 of 4 in a 64-byte frame).\n");
+	fprintf(o,
+		"- **CAN FD** (64 bytes): the same id; the frame holds k messages of that one type, each in\n"
+		"  a slot of its length rounded up to 4 bytes (zero padding), k chosen so that the length is\n"
+		"  a CAN FD length (8 slots of 8 bytes or 16 of 4 in a 64-byte frame).\n");
 	fprintf(o, "- **Packets** (USB bulk, UDP datagrams; the same bytes on both), at most %u bytes:\n\n",
 		SWELL_PKT_MAX);
-	fprintf(o, "  | offset | size | content |\n  |---|---|---|\n"
-		   "  | 0 | 1 | magic 0x%02X |\n  | 1 | 1 | protocol version (%d) |\n"
-		   "  | 2 | 1 | node 0-%u |\n  | 3 | 1 | packet sequence number (+1 per packet, wraps) |\n"
-		   "  | 4 | 1 | record count n >= 1 |\n  | 5 | ... | n records: message type (1 byte), payload |\n"
-		   "  | end-4 | 4 | CRC-32 (IEEE, as zlib) of every byte before it, little-endian |\n\n",
+	fprintf(o,
+		"  | offset | size | content |\n  |---|---|---|\n"
+		"  | 0 | 1 | magic 0x%02X |\n  | 1 | 1 | protocol version (%d) |\n"
+		"  | 2 | 1 | node 0-%u |\n  | 3 | 1 | packet sequence number (+1 per packet, wraps) |\n"
+		"  | 4 | 1 | record count n >= 1 |\n  | 5 | ... | n records: message type (1 byte), payload |\n"
+		"  | end-4 | 4 | CRC-32 (IEEE, as zlib) of every byte before it, little-endian |\n\n",
 		SWELL_PKT_MAGIC, SWELL_PROTO_VERSION, SWELL_NODE_MAX);
-	fprintf(o, "USB identity: VID 0x%04X, PID 0x%04X (pid.codes test PID), interface %u of class 0x%02X,\n"
-		   "bulk OUT 0x%02X (host to controller), bulk IN 0x%02X (controller to host), %u-byte packets,\n"
-		   "one swell packet per USB packet. Hosts take the endpoint addresses from the interface\n"
-		   "descriptor: a Linux FunctionFS gadget may be given others by its UDC (dummy_hcd: OUT 0x02).\n"
-		   "UDP (software in the loop): the controller listens on\n"
-		   "%s:%u for the device link and sends telemetry to the viewer at %s:%u.\n\n",
-		SWELL_USB_VID, SWELL_USB_PID, SWELL_USB_IFACE, SWELL_USB_CLASS, SWELL_USB_EP_OUT,
-		SWELL_USB_EP_IN, SWELL_USB_PACKET, SWELL_UDP_HOST, SWELL_UDP_PORT_DEVICE, SWELL_UDP_HOST,
-		SWELL_UDP_PORT_VIEWER);
-	fprintf(o, "Integrity: CAN frames carry the bus CRC; packets carry CRC-32. Streams carry 8-bit\n"
-		   "sequence numbers (field kind SEQ below); the heartbeat carries the protocol version.\n\n");
+	fprintf(o,
+		"USB identity: VID 0x%04X, PID 0x%04X (pid.codes test PID), interface %u of class 0x%02X,\n"
+		"bulk OUT 0x%02X (host to controller), bulk IN 0x%02X (controller to host), %u-byte packets,\n"
+		"one swell packet per USB packet. Hosts take the endpoint addresses from the interface\n"
+		"descriptor: a Linux FunctionFS gadget may be given others by its UDC (dummy_hcd: OUT 0x02).\n"
+		"UDP (software in the loop): the controller listens on\n"
+		"%s:%u for the device link and sends telemetry to the viewer at %s:%u.\n\n",
+		SWELL_USB_VID, SWELL_USB_PID, SWELL_USB_IFACE, SWELL_USB_CLASS, SWELL_USB_EP_OUT, SWELL_USB_EP_IN,
+		SWELL_USB_PACKET, SWELL_UDP_HOST, SWELL_UDP_PORT_DEVICE, SWELL_UDP_HOST, SWELL_UDP_PORT_VIEWER);
+	fprintf(o,
+		"Integrity: CAN frames carry the bus CRC; packets carry CRC-32. Streams carry 8-bit\n"
+		"sequence numbers (field kind SEQ below); the heartbeat carries the protocol version.\n\n");
 
 	fprintf(o, "## Heights\n\n");
-	fprintf(o, "The solver keeps heights as int32 with LSB 2^-16 mm relative to the rest depth. On the\n"
-		   "wire a sample is int12 with LSB 2^-%d mm (%.4g um), saturated to [%.4g, %.6g] mm:\n"
-		   "`sample = clamp((h + 2^%d) >> %d, -2048, 2047)` (round to nearest). The grid is cut into\n"
-		   "tiles of %d x %d cells (up to 32 x 32 tiles, so grids up to 256 x 256); a changed tile is\n"
-		   "sent as 16 HEIGHT_QUADs (4 cells of one tile row each). Cells outside the grid are sent as\n"
-		   "0. SCENE, sent at 1 Hz and on change, gives the grid size, cell size, depth and the height\n"
-		   "LSB, so a viewer can join at any time. CTL_INFO, sent at the controller's first tick, then\n"
-		   "at 1 Hz and whenever the object's size changes, gives the firmware version (a flasher finds\n"
-		   "the controller again after an update by it) and the object's box a x b x H, so a viewer\n"
-		   "draws what the controller simulates. A new message type: the layouts above it are\n"
-		   "unchanged and the protocol version stays; a decoder older than it rejects the packets that\n"
-		   "carry one (unknown type) and counts them.\n\n",
+	fprintf(o,
+		"The solver keeps heights as int32 with LSB 2^-16 mm relative to the rest depth. On the\n"
+		"wire a sample is int12 with LSB 2^-%d mm (%.4g um), saturated to [%.4g, %.6g] mm:\n"
+		"`sample = clamp((h + 2^%d) >> %d, -2048, 2047)` (round to nearest). The grid is cut into\n"
+		"tiles of %d x %d cells (up to 32 x 32 tiles, so grids up to 256 x 256); a changed tile is\n"
+		"sent as 16 HEIGHT_QUADs (4 cells of one tile row each). Cells outside the grid are sent as\n"
+		"0. SCENE, sent at 1 Hz and on change, gives the grid size, cell size, depth and the height\n"
+		"LSB, so a viewer can join at any time. CTL_INFO, sent at the controller's first tick, then\n"
+		"at 1 Hz and whenever the object's size changes, gives the firmware version (a flasher finds\n"
+		"the controller again after an update by it) and the object's box a x b x H, so a viewer\n"
+		"draws what the controller simulates. A new message type: the layouts above it are\n"
+		"unchanged and the protocol version stays; a decoder older than it rejects the packets that\n"
+		"carry one (unknown type) and counts them.\n\n",
 		SWELL_PROTO_H_SHIFT, 1000.0 / (1 << SWELL_PROTO_H_SHIFT), -2048.0 / (1 << SWELL_PROTO_H_SHIFT),
 		2047.0 / (1 << SWELL_PROTO_H_SHIFT), 15 - SWELL_PROTO_H_SHIFT, 16 - SWELL_PROTO_H_SHIFT,
 		SWELL_PROTO_TILE, SWELL_PROTO_TILE);
 
-	fprintf(o, "## Messages\n\n| message | type | CAN id (node 0) | bytes | from | to | purpose |\n"
-		   "|---|---|---|---|---|---|---|\n");
+	fprintf(o,
+		"## Messages\n\n| message | type | CAN id (node 0) | bytes | from | to | purpose |\n"
+		"|---|---|---|---|---|---|---|\n");
 	for (i = 0; i < swell_msg_desc_count; i++) {
 		const struct swell_msg_desc *d = &swell_msg_descs[i];
 
 		fprintf(o, "| %s | 0x%02X | 0x%03X | %u | %s | %s | %s |\n", d->name, d->type,
 			(unsigned)SWELL_CAN_ID(d->type, 0), d->len, d->from, d->to, d->desc);
 	}
-	fprintf(o, "\nNodes: CTL the controller, DEV the HapticMaster (or its model), VIEW the host viewer\n"
-		   "and tools. CAN id 0x000-0x00F (type 0) is reserved.\n\n");
+	fprintf(o,
+		"\nNodes: CTL the controller, DEV the HapticMaster (or its model), VIEW the host viewer\n"
+		"and tools. CAN id 0x000-0x00F (type 0) is reserved.\n\n");
 
 	for (i = 0; i < swell_msg_desc_count; i++) {
 		const struct swell_msg_desc *d = &swell_msg_descs[i];
 
-		fprintf(o, "### %s (type 0x%02X, %u bytes, %s to %s)\n\n%s\n\n", d->name, d->type, d->len,
-			d->from, d->to, d->desc);
-		fprintf(o, "| field | bits | type | raw range | factor | physical range | unit | kind | meaning |\n"
-			   "|---|---|---|---|---|---|---|---|---|\n");
+		fprintf(o, "### %s (type 0x%02X, %u bytes, %s to %s)\n\n%s\n\n", d->name, d->type, d->len, d->from,
+			d->to, d->desc);
+		fprintf(o,
+			"| field | bits | type | raw range | factor | physical range | unit | kind | meaning |\n"
+			"|---|---|---|---|---|---|---|---|---|\n");
 		for (j = 0; j < d->nfields; j++) {
 			const struct swell_field_desc *f = &d->fields[j];
 			char lo[32], hi[32];
@@ -316,17 +334,20 @@ static void write_md(FILE *o)
 			phys(lo, sizeof(lo), f->min, f);
 			phys(hi, sizeof(hi), f->max, f);
 			fprintf(o, "| %s | %u-%u | %s | %lld .. %lld | %s | %s .. %s | %s | %s | %s |\n", f->name,
-				f->start, f->start + f->bits - 1u, type_name(f), (long long)f->min,
-				(long long)f->max, f->factor, lo, hi, f->unit[0] ? f->unit : "-",
-				f->kind == SWELL_FK_SEQ ? "SEQ" : f->kind == SWELL_FK_VERSION ? "VERSION" : "",
+				f->start, f->start + f->bits - 1u, type_name(f), (long long)f->min, (long long)f->max,
+				f->factor, lo, hi, f->unit[0] ? f->unit : "-",
+				f->kind == SWELL_FK_SEQ               ? "SEQ"
+					: f->kind == SWELL_FK_VERSION ? "VERSION"
+								      : "",
 				f->desc);
 		}
 		fprintf(o, "\n");
 	}
 
-	fprintf(o, "## Error codes (enum swell_err)\n\nUsed in HEARTBEAT.err, PARAM_NACK.err and as the\n"
-		   "reason a decoder rejects a frame (counted per reason in `struct swell_proto_stats`):\n\n"
-		   "| value | meaning | decoder rejects a frame for |\n|---|---|---|\n");
+	fprintf(o,
+		"## Error codes (enum swell_err)\n\nUsed in HEARTBEAT.err, PARAM_NACK.err and as the\n"
+		"reason a decoder rejects a frame (counted per reason in `struct swell_proto_stats`):\n\n"
+		"| value | meaning | decoder rejects a frame for |\n|---|---|---|\n");
 	for (e = 0; e < SWELL_ERR_COUNT; e++) {
 		static const char *why[SWELL_ERR_COUNT] = {
 			[SWELL_EUNKNOWN] = "unknown type, 29-bit id, wrong packet magic, unknown record type",
@@ -354,9 +375,10 @@ static void write_dbc_values(FILE *o)
 		const char *sig;
 		int what; /* 0 states, 1 errors, 2 parameters */
 	} vals[] = {
-		{SWELL_MSG_HEARTBEAT, "state", 0},   {SWELL_MSG_HEARTBEAT, "err", 1}, {SWELL_MSG_PARAM_SET, "id", 2},
-		{SWELL_MSG_PARAM_GET, "id", 2},      {SWELL_MSG_PARAM_ACK, "id", 2},  {SWELL_MSG_PARAM_NACK, "id", 2},
-		{SWELL_MSG_PARAM_NACK, "err", 1},
+		{ SWELL_MSG_HEARTBEAT, "state", 0 }, { SWELL_MSG_HEARTBEAT, "err", 1 },
+		{ SWELL_MSG_PARAM_SET, "id", 2 },    { SWELL_MSG_PARAM_GET, "id", 2 },
+		{ SWELL_MSG_PARAM_ACK, "id", 2 },    { SWELL_MSG_PARAM_NACK, "id", 2 },
+		{ SWELL_MSG_PARAM_NACK, "err", 1 },
 	};
 	const struct swell_param_desc *t;
 	size_t i, k, n;
@@ -402,8 +424,9 @@ static void write_dbc(FILE *o)
 		}
 		fprintf(o, "\n");
 	}
-	fprintf(o, "\nCM_ \"swell wire protocol %d, generated by swell-protogen from proto_table.h; "
-		   "ids are for node 0, node n adds n.\";\n",
+	fprintf(o,
+		"\nCM_ \"swell wire protocol %d, generated by swell-protogen from proto_table.h; "
+		"ids are for node 0, node n adds n.\";\n",
 		SWELL_PROTO_VERSION);
 	for (i = 0; i < swell_msg_desc_count; i++) {
 		const struct swell_msg_desc *d = &swell_msg_descs[i];
@@ -598,8 +621,7 @@ int main(int argc, char **argv)
 	}
 	if (corpus) {
 		if (write_corpus(corpus)) {
-			fprintf(stderr, "swell-protogen: cannot write the corpus in %s: %s\n", corpus,
-				strerror(errno));
+			fprintf(stderr, "swell-protogen: cannot write the corpus in %s: %s\n", corpus, strerror(errno));
 			return 1;
 		}
 		printf("swell-protogen: wrote fuzz seeds in %s/{can,canfd,pkt}\n", corpus);

@@ -16,7 +16,12 @@
 #include "swell/body_free.h"
 #include "swell/force_safety.h"
 
-enum motion { M_DROP, M_HOLD, M_VOSC, M_HOSC };
+enum motion {
+	M_DROP,
+	M_HOLD,
+	M_VOSC,
+	M_HOSC
+};
 
 static struct {
 	int on;
@@ -24,14 +29,15 @@ static struct {
 	enum motion motion;
 	double arg[3];
 	int have_at;
-	double at[2];  /* m */
+	double at[2]; /* m */
 	double tick_hz;
 	double damper; /* N s/m */
 	double f_max, rate, gain;
 	const char *trace;
 	const char *first; /* the first object option other than --object */
-} so = {.motion = M_DROP, .arg = {0.02, 0, 0}, .tick_hz = 2500, .damper = 3.0, .f_max = 20, .rate = 2000,
-	.gain = 1};
+} so = {
+	.motion = M_DROP, .arg = { 0.02, 0, 0 }, .tick_hz = 2500, .damper = 3.0, .f_max = 20, .rate = 2000, .gain = 1
+};
 
 void sim_object_usage(FILE *f)
 {
@@ -197,8 +203,8 @@ static double now_ns(void)
 
 int sim_object_run(struct swell_wave *w, double dt_s, double dx_m, long steps, int float64)
 {
-	struct swell_body_params p = {0};
-	struct swell_body_xform xf = {{0, 0, 0}, SWELL_Q16_ONE, {0, 1, 2}, {1, 1, 1}};
+	struct swell_body_params p = { 0 };
+	struct swell_body_xform xf = { { 0, 0, 0 }, SWELL_Q16_ONE, { 0, 1, 2 }, { 1, 1, 1 } };
 	struct swell_body_scene sc;
 	struct swell_fsafety_params sp;
 	struct swell_fsafety safe;
@@ -248,8 +254,9 @@ int sim_object_run(struct swell_wave *w, double dt_s, double dx_m, long steps, i
 	sp.rate_uN_per_s = to_u32("--safety RATE_N_S", so.rate, 1e6);
 	sp.tick_hz = sc.tick_hz;
 	if (!(so.gain >= 0 && so.gain <= 4) || swell_fsafety_init(&safe, &sp) != SWELL_OK) {
-		fprintf(stderr, "swell-sim: --safety %g,%g,%g refused: F_max in (0, 1000] N, rate at least "
-				"1 uN a tick, gain in [0, 4]\n",
+		fprintf(stderr,
+			"swell-sim: --safety %g,%g,%g refused: F_max in (0, 1000] N, rate at least "
+			"1 uN a tick, gain in [0, 4]\n",
 			so.f_max, so.rate, so.gain);
 		return 2;
 	}
@@ -263,9 +270,10 @@ int sim_object_run(struct swell_wave *w, double dt_s, double dx_m, long steps, i
 			fprintf(stderr, "swell-sim: --trace %s: %s\n", so.trace, strerror(errno));
 			return 2;
 		}
-		fprintf(tr, "t_s,x_mm,y_mm,z_mm,vz_mm_s,surface_mm,delta_mm,f_gravity_N,f_pull_N,f_push_N,"
-			    "f_up_N,f_viscous_N,f_total_N,f_out_N,v_displaced_mm_cells,invariant_lsb_cells,f_floor_N,"
-			    "surface_raw_mm_s,surface_mm_s,penetration_mm\n");
+		fprintf(tr,
+			"t_s,x_mm,y_mm,z_mm,vz_mm_s,surface_mm,delta_mm,f_gravity_N,f_pull_N,f_push_N,"
+			"f_up_N,f_viscous_N,f_total_N,f_out_N,v_displaced_mm_cells,invariant_lsb_cells,f_floor_N,"
+			"surface_raw_mm_s,surface_mm_s,penetration_mm\n");
 	}
 
 	kk = sc.tick_hz / sc.solver_hz;
@@ -300,7 +308,8 @@ int sim_object_run(struct swell_wave *w, double dt_s, double dx_m, long steps, i
 		inv = tr || t == ticks - 1 || t % 256 == 0 ? swell_body_invariant(&b, w) : inv0;
 		drift = llabs(inv - inv0) > llabs(drift) ? inv - inv0 : drift;
 		if (tr)
-			fprintf(tr, "%.6f,%.4f,%.4f,%.4f,%.3f,%.5f,%.5f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.5f,%lld,"
+			fprintf(tr,
+				"%.6f,%.4f,%.4f,%.4f,%.3f,%.5f,%.5f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.5f,%lld,"
 				"%.6f,%.3f,%.3f,%.5f\n",
 				(double)t / sc.tick_hz, o.x_um * 1e-3, o.y_um * 1e-3, o.z_um * 1e-3, o.vz_um_s * 1e-3,
 				o.surface_lsb / mm, o.delta_lsb / mm, o.f.gravity_uN * 1e-6, o.f.pull_uN * 1e-6,
@@ -314,10 +323,10 @@ int sim_object_run(struct swell_wave *w, double dt_s, double dx_m, long steps, i
 	}
 
 	printf("swell-sim: object %.1f x %.1f x %.1f mm, %.1f g, at (%.1f, %.1f) mm; %dx%d cells of %.2f mm\n",
-	       p.a_um * 1e-3, p.b_um * 1e-3, p.h_um * 1e-3, (double)p.mass_g, x0 * 1e-3, y0 * 1e-3, w->nx,
-	       w->ny, sc.dx_um * 1e-3);
-	printf("rates           device %u Hz, solver %u Hz (%ld ticks a step), %ld ticks = %.3f s\n",
-	       sc.tick_hz, sc.solver_hz, kk, ticks, (double)ticks / sc.tick_hz);
+	       p.a_um * 1e-3, p.b_um * 1e-3, p.h_um * 1e-3, (double)p.mass_g, x0 * 1e-3, y0 * 1e-3, w->nx, w->ny,
+	       sc.dx_um * 1e-3);
+	printf("rates           device %u Hz, solver %u Hz (%ld ticks a step), %ld ticks = %.3f s\n", sc.tick_hz,
+	       sc.solver_hz, kk, ticks, (double)ticks / sc.tick_hz);
 	/* k_q8 / 256 is in uN/mm = 1e-3 N/m */
 	printf("stiffness       k = rho g a b = %.4f N/m, k H = %.4f N, m g = %.4f N\n", b.k_q8 / 256.0 * 1e-3,
 	       b.k_q8 / 256.0 * p.h_um * 1e-9, p.mass_g * p.g_mm_s2 * 1e-6);
@@ -332,8 +341,7 @@ int sim_object_run(struct swell_wave *w, double dt_s, double dx_m, long steps, i
 	}
 	printf("largest output  %.4f N (F_max %.3f N)\n", fmax, sp.f_max_uN * 1e-6);
 	printf("displaced       %.3f mm*cells at the end\n", b.v_displaced / mm);
-	printf("invariant drift %+lld LSB*cell (sum(h) + pending - V_displaced; 1 LSB = 2^-16 mm)\n",
-	       (long long)drift);
+	printf("invariant drift %+lld LSB*cell (sum(h) + pending - V_displaced; 1 LSB = 2^-16 mm)\n", (long long)drift);
 	printf("work            %u of %u ticks skipped clear of the water, %u couplings\n", b.skipped, b.ticks,
 	       b.coupled);
 	if (law_ticks)

@@ -38,13 +38,17 @@ static const char usage[] =
 	"Exit status: 0 done, 1 a runtime failure (a file cannot be written), 2 bad arguments, conflicting\n"
 	"options or parameters outside the stability limit (one line on stderr).\n";
 
-enum init_kind { INIT_ZERO, INIT_SEICHE, INIT_GAUSS };
+enum init_kind {
+	INIT_ZERO,
+	INIT_SEICHE,
+	INIT_GAUSS
+};
 
 struct opts {
 	int nx, ny;
 	double e;
 	double dt, depth, dx, g;
-	int have_e;  /* --e given; else e from dt, depth, dx (and g) when any of them is given */
+	int have_e; /* --e given; else e from dt, depth, dx (and g) when any of them is given */
 	int have_dt, have_depth, have_dx;
 	double damping;
 	enum swell_stencil stencil;
@@ -96,9 +100,10 @@ static void parse_list(const char *opt, const char *s, double *out, int n)
 /* 1 for an option of this program (or of --object's) that takes a value. */
 static int takes_value(const char *a)
 {
-	static const char *const with_value[] = {"--grid", "--e", "--dt", "--depth", "--dx", "--g", "--damping",
-						 "--stencil", "--steps", "--init", "--impl", "--dump-csv", "--object",
-						 "--motion", "--at", "--tick-hz", "--damper", "--safety", "--trace"};
+	static const char *const with_value[] = { "--grid",    "--e",        "--dt",      "--depth",  "--dx",
+						  "--g",       "--damping",  "--stencil", "--steps",  "--init",
+						  "--impl",    "--dump-csv", "--object",  "--motion", "--at",
+						  "--tick-hz", "--damper",   "--safety",  "--trace" };
 	size_t k;
 
 	for (k = 0; k < sizeof(with_value) / sizeof(with_value[0]); k++)
@@ -111,8 +116,9 @@ static void parse_args(int argc, char **argv, struct opts *o)
 {
 	int k;
 
-	*o = (struct opts){.nx = 64, .ny = 64, .g = 9.81, .steps = 1000, .init = INIT_GAUSS,
-			   .init_arg = {32, 32, 3, 2}};
+	*o = (struct opts){
+		.nx = 64, .ny = 64, .g = 9.81, .steps = 1000, .init = INIT_GAUSS, .init_arg = { 32, 32, 3, 2 }
+	};
 	for (k = 1; k < argc; k++) {
 		const char *a = argv[k], *v = k + 1 < argc ? argv[k + 1] : NULL;
 
@@ -202,7 +208,7 @@ static void die_num(const char *opt, double v, const char *why)
 /* Turn the options into validated solver parameters, or exit with the reason. */
 static struct swell_wave_params make_params(const struct opts *o)
 {
-	struct swell_wave_params p = {0, 0, o->stencil};
+	struct swell_wave_params p = { 0, 0, o->stencil };
 	enum swell_err err;
 
 	if (o->nx < SWELL_WAVE_MIN_SIDE || o->ny < SWELL_WAVE_MIN_SIDE || o->nx > SWELL_WAVE_MAX_SIDE ||
@@ -235,12 +241,16 @@ static struct swell_wave_params make_params(const struct opts *o)
 		double us = o->dt * 1e6, d_um = o->depth * 1e6, dx_um = o->dx * 1e6, g = o->g * 1e3;
 
 		if (!o->have_dt || !o->have_depth || !o->have_dx) {
-			fprintf(stderr, "swell-sim: e from the physical parameters needs all of --dt, --depth and --dx "
-					"(missing %s)\n", !o->have_dt ? "--dt" : !o->have_depth ? "--depth" : "--dx");
+			fprintf(stderr,
+				"swell-sim: e from the physical parameters needs all of --dt, --depth and --dx "
+				"(missing %s)\n",
+				!o->have_dt              ? "--dt"
+					: !o->have_depth ? "--depth"
+							 : "--dx");
 			exit(2);
 		}
-		err = swell_wave_e_from_physical((uint32_t)llround(g), (uint32_t)llround(us),
-						 (uint32_t)llround(d_um), (uint32_t)llround(dx_um), &p.e);
+		err = swell_wave_e_from_physical((uint32_t)llround(g), (uint32_t)llround(us), (uint32_t)llround(d_um),
+						 (uint32_t)llround(dx_um), &p.e);
 		if (err != SWELL_OK) {
 			fprintf(stderr, "swell-sim: e = g dt^2 d / dx^2 = %g is outside (0, 2)\n",
 				o->g * o->dt * o->dt * o->depth / (o->dx * o->dx));
@@ -255,8 +265,8 @@ static struct swell_wave_params make_params(const struct opts *o)
 		fprintf(stderr,
 			"swell-sim: --e %.6g is %s the stability limit %.6g for damping %g (stencil %s): "
 			"refused\n",
-			(double)p.e / SWELL_Q30_ONE, err == SWELL_EUNSTABLE ? "at or above" : "beyond",
-			lim, o->damping, o->stencil == SWELL_STENCIL_PAPER ? "paper" : "calibrated");
+			(double)p.e / SWELL_Q30_ONE, err == SWELL_EUNSTABLE ? "at or above" : "beyond", lim, o->damping,
+			o->stencil == SWELL_STENCIL_PAPER ? "paper" : "calibrated");
 		exit(2);
 	}
 	if (err != SWELL_OK) {
@@ -288,15 +298,13 @@ static void init_field(struct swell_wave *w, const struct opts *o)
 	const double *a = o->init_arg;
 
 	if (o->init == INIT_SEICHE) {
-		if (a[0] < 0 || a[1] < 0 || a[0] > 65535 || a[1] > 65535 || a[0] != floor(a[0]) ||
-		    a[1] != floor(a[1]))
+		if (a[0] < 0 || a[1] < 0 || a[0] > 65535 || a[1] > 65535 || a[0] != floor(a[0]) || a[1] != floor(a[1]))
 			die("--init seiche: mode numbers M, N must be whole numbers in [0, 65535]%s%s", "", "");
 		swell_shape_seiche(w->h, w->nx, w->ny, (uint16_t)a[0], (uint16_t)a[1],
 				   mm_to_lsb("--init seiche amplitude", a[2]));
 	} else if (o->init == INIT_GAUSS) {
 		if (!(a[2] >= 0.5 && a[2] < 4096) || !(fabs(a[0]) < 16384 && fabs(a[1]) < 16384))
-			die("--init gauss: sigma must be in [0.5, 4096) cells and X, Y within +-16384%s%s", "",
-			    "");
+			die("--init gauss: sigma must be in [0.5, 4096) cells and X, Y within +-16384%s%s", "", "");
 		swell_shape_gauss(w->h, w->nx, w->ny, (q16_t)llround(a[0] * SWELL_Q16_ONE),
 				  (q16_t)llround(a[1] * SWELL_Q16_ONE), (q16_t)llround(a[2] * SWELL_Q16_ONE),
 				  mm_to_lsb("--init gauss amplitude", a[3]));
@@ -389,8 +397,7 @@ int main(int argc, char **argv)
 	rstore = calloc(SWELL_WAVE_REF_DOUBLES(o.nx, o.ny), sizeof(*rstore));
 	mm = calloc((size_t)n, sizeof(*mm));
 	if (!store || !rstore || !mm ||
-	    swell_wave_init(&w, (uint16_t)o.nx, (uint16_t)o.ny, store, SWELL_WAVE_WORDS(o.nx, o.ny), &p) !=
-		    SWELL_OK) {
+	    swell_wave_init(&w, (uint16_t)o.nx, (uint16_t)o.ny, store, SWELL_WAVE_WORDS(o.nx, o.ny), &p) != SWELL_OK) {
 		fprintf(stderr, "swell-sim: %s for a %dx%d grid\n",
 			store && rstore && mm ? "solver refused the parameters" : "out of memory", o.nx, o.ny);
 		free(store);

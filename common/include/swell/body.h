@@ -59,14 +59,14 @@
 #include "swell/fixed.h"
 #include "swell/wave.h"
 
-#define SWELL_BODY_FP_ONE 2048          /* Q11 cell units */
-#define SWELL_BODY_MAX_CELLS 64         /* footprint side, in cells (bounds the work per tick) */
+#define SWELL_BODY_FP_ONE 2048 /* Q11 cell units */
+#define SWELL_BODY_MAX_CELLS 64 /* footprint side, in cells (bounds the work per tick) */
 #define SWELL_BODY_MIN_SIDE_UM 1000u
-#define SWELL_BODY_MAX_H_UM 500000u     /* 500 mm */
-#define SWELL_BODY_MAX_MASS_G 100000u   /* 100 kg */
+#define SWELL_BODY_MAX_H_UM 500000u /* 500 mm */
+#define SWELL_BODY_MAX_MASS_G 100000u /* 100 kg */
 #define SWELL_BODY_MAX_DAMPER 10000000u /* uN per mm/s = 10 kN s/m */
 #define SWELL_BODY_MAX_DEADBAND_UM 100000u
-#define SWELL_BODY_MAX_K 256u           /* ticks per solver step */
+#define SWELL_BODY_MAX_K 256u /* ticks per solver step */
 
 /* The surface velocity u_w in the damper is low-passed at the device rate so that the short waves
  * the grid rings with (20-55 Hz) do not reach the force (docs/force-law.md): two equal first-order
@@ -81,33 +81,33 @@
  * below it for the water (submersion and coupling use max(z, -d)); below it the box feels a contact
  * spring-damper that pushes and never pulls, F_c = clamp(k_c p + b_c min(p, p_r) / p_r (-v), 0,
  * F_c_max), p = -d - z the penetration. */
-#define SWELL_BODY_FLOOR_K 10000000u      /* k_c, uN/mm = 10 kN/m */
-#define SWELL_BODY_FLOOR_DAMPER 50000u    /* b_c, uN per mm/s = 50 N s/m */
-#define SWELL_BODY_FLOOR_RAMP_UM 1000u    /* p_r: the damper comes in over the first 1 mm */
+#define SWELL_BODY_FLOOR_K 10000000u /* k_c, uN/mm = 10 kN/m */
+#define SWELL_BODY_FLOOR_DAMPER 50000u /* b_c, uN per mm/s = 50 N s/m */
+#define SWELL_BODY_FLOOR_RAMP_UM 1000u /* p_r: the damper comes in over the first 1 mm */
 #define SWELL_BODY_FLOOR_F_MAX_UN 20000000 /* F_c_max, 20 N (2 mm in) */
 
 struct swell_body_params {
-	uint32_t a_um, b_um;        /* footprint along pool x and y */
-	uint32_t h_um;              /* box height H */
+	uint32_t a_um, b_um; /* footprint along pool x and y */
+	uint32_t h_um; /* box height H */
 	uint32_t mass_g;
-	uint32_t rho_kg_m3;         /* water density, 1000 */
-	uint32_t g_mm_s2;           /* 9810 */
+	uint32_t rho_kg_m3; /* water density, 1000 */
+	uint32_t g_mm_s2; /* 9810 */
 	uint32_t damper_uN_per_mm_s; /* b_max, at full submersion */
-	uint32_t deadband_um;       /* of both springs (0 in the paper's net form) */
+	uint32_t deadband_um; /* of both springs (0 in the paper's net form) */
 };
 
 /* Device position -> pool: pool[k] = offset[k] + sign[k] * scale * dev[axis[k]]. The force goes
  * back the same way without scale: dev[axis[k]] = sign[k] * F_pool[k]. */
 struct swell_body_xform {
 	int32_t offset_um[3];
-	q16_t scale;     /* pool um per device um, in (0, 16] */
+	q16_t scale; /* pool um per device um, in (0, 16] */
 	uint8_t axis[3]; /* a permutation of 0, 1, 2 */
-	int8_t sign[3];  /* +1 or -1 */
+	int8_t sign[3]; /* +1 or -1 */
 };
 
 struct swell_body_scene {
-	uint32_t dx_um;     /* cell side */
-	uint32_t tick_hz;   /* device (force law) rate */
+	uint32_t dx_um; /* cell side */
+	uint32_t tick_hz; /* device (force law) rate */
 	uint32_t solver_hz; /* divides tick_hz, at most SWELL_BODY_MAX_K ticks a step */
 };
 
@@ -123,22 +123,22 @@ struct swell_body {
 	struct swell_body_scene sc;
 	uint16_t nx, ny;
 	uint32_t ticks_per_step; /* K */
-	uint32_t phase;          /* ticks since the last solver step, saturates at K */
-	int32_t k_q8;            /* uN/mm, Q24.8 */
+	uint32_t phase; /* ticks since the last solver step, saturates at K */
+	int32_t k_q8; /* uN/mm, Q24.8 */
 	int32_t h_lsb, deadband_lsb;
 	int32_t gravity_uN;
-	int32_t ceiling_lsb;     /* >= every h and h - v: no interpolated surface is above it */
-	uint8_t ceiling_ok;      /* ceiling_lsb is valid for this solver period */
-	uint8_t wet;             /* the last computed tick touched the water or held volume */
-	int64_t water_sum;       /* sum(h), LSB * cell: from the last scan, kept by coupling */
-	int32_t u_prev, u_last;  /* footprint velocity, LSB per solver step: last period, this one */
+	int32_t ceiling_lsb; /* >= every h and h - v: no interpolated surface is above it */
+	uint8_t ceiling_ok; /* ceiling_lsb is valid for this solver period */
+	uint8_t wet; /* the last computed tick touched the water or held volume */
+	int64_t water_sum; /* sum(h), LSB * cell: from the last scan, kept by coupling */
+	int32_t u_prev, u_last; /* footprint velocity, LSB per solver step: last period, this one */
 	int64_t uw1_q16, uw2_q16; /* u_w after the first and second low-pass stage, LSB per step * 2^16 */
-	int32_t uw_alpha_q16;    /* the low-pass gain per tick, Q16 */
-	int32_t floor_lsb;       /* the pool floor -d (-2^30: none, when d is beyond the height range) */
-	q30_t floor_e;           /* the solver's e that floor_lsb was found from */
-	uint32_t floor_g;        /* and the gravity */
+	int32_t uw_alpha_q16; /* the low-pass gain per tick, Q16 */
+	int32_t floor_lsb; /* the pool floor -d (-2^30: none, when d is beyond the height range) */
+	q30_t floor_e; /* the solver's e that floor_lsb was found from */
+	uint32_t floor_g; /* and the gravity */
 	struct swell_body_fp applied; /* what is in the water now */
-	int64_t v_displaced;     /* LSB * cell, the sum of what coupling added */
+	int64_t v_displaced; /* LSB * cell, the sum of what coupling added */
 	/* the scan spread over a solver period (swell_body_scan_ahead): rows [0, scan_row) of step
 	 * scan_steps scanned so far, their ceiling and sum; scan_ok 0 once the object was in the water */
 	int64_t scan_sum;
@@ -146,7 +146,7 @@ struct swell_body {
 	uint32_t scan_steps;
 	uint16_t scan_row;
 	uint8_t scan_ok;
-	uint8_t scan_ahead;      /* the caller scans ahead: the step's end never scans the whole field */
+	uint8_t scan_ahead; /* the caller scans ahead: the step's end never scans the whole field */
 	/* counters */
 	uint32_t ticks, skipped, coupled, scans, floor_ticks;
 };
@@ -156,18 +156,18 @@ struct swell_body_forces {
 };
 
 struct swell_body_out {
-	int32_t x_um, y_um, z_um;   /* pose in the pool */
-	int32_t vz_um_s;            /* object velocity, up */
-	int32_t surface_lsb;        /* w under the footprint (0 when skipped) */
-	int32_t delta_lsb;          /* submersion clamp(w - max(z, -d), 0, H) */
-	int32_t surface_um_s;       /* u_w low-passed: the velocity in the damper and of both spring origins */
-	int32_t surface_raw_um_s;   /* u_w as read from the solver, before the low-pass */
-	int32_t floor_lsb;          /* the pool floor -d under the object */
-	int32_t penetration_lsb;    /* how far the bottom is below the floor (0: above it) */
+	int32_t x_um, y_um, z_um; /* pose in the pool */
+	int32_t vz_um_s; /* object velocity, up */
+	int32_t surface_lsb; /* w under the footprint (0 when skipped) */
+	int32_t delta_lsb; /* submersion clamp(w - max(z, -d), 0, H) */
+	int32_t surface_um_s; /* u_w low-passed: the velocity in the damper and of both spring origins */
+	int32_t surface_raw_um_s; /* u_w as read from the solver, before the low-pass */
+	int32_t floor_lsb; /* the pool floor -d under the object */
+	int32_t penetration_lsb; /* how far the bottom is below the floor (0: above it) */
 	int32_t origin_pull_lsb, origin_push_lsb;
 	struct swell_body_forces f;
-	int32_t f_dev_uN[3];        /* total force on the device axes */
-	uint8_t skipped;            /* clear of the water: nothing but gravity computed */
+	int32_t f_dev_uN[3]; /* total force on the device axes */
+	uint8_t skipped; /* clear of the water: nothing but gravity computed */
 };
 
 /* The two springs in the fine unit uN * 2^-24 (k_q8 * LSB). Pull: origin w, force +k (w - z - db)

@@ -19,16 +19,16 @@
 #define SWELL_FSAFETY_MAX_FORCE_UN 1000000000u /* 1000 N */
 
 struct swell_fsafety_params {
-	q16_t gain;             /* haptic gain, Q15.16, in [0, 4] */
-	uint32_t f_max_uN;      /* |F| <= f_max, in [1, 1e9] uN */
+	q16_t gain; /* haptic gain, Q15.16, in [0, 4] */
+	uint32_t f_max_uN; /* |F| <= f_max, in [1, 1e9] uN */
 	uint32_t rate_uN_per_s; /* |dF/dt| <= rate, at least tick_hz (1 uN per tick) */
-	uint32_t tick_hz;       /* device rate, [10, 100000] */
+	uint32_t tick_hz; /* device rate, [10, 100000] */
 };
 
 struct swell_fsafety {
 	struct swell_fsafety_params p;
 	int32_t step_uN; /* largest change per tick */
-	int32_t out_uN;  /* last output */
+	int32_t out_uN; /* last output */
 	uint32_t force_limited, rate_limited, zeroed;
 };
 

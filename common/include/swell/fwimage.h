@@ -49,7 +49,6 @@ enum swell_err swell_fwimage_stamp(uint8_t *img, size_t len);
  * header as swell_fwimage_read, then SWELL_EINVAL when mcu_id differs from want_mcu,
  * SWELL_ETRUNC when length is below the header end or beyond avail, SWELL_ECRC when either CRC
  * differs. On success *h (if not null) holds the header. */
-enum swell_err swell_fwimage_verify(const uint8_t *img, size_t avail, uint32_t want_mcu,
-				    struct swell_fwimage_hdr *h);
+enum swell_err swell_fwimage_verify(const uint8_t *img, size_t avail, uint32_t want_mcu, struct swell_fwimage_hdr *h);
 
 #endif

@@ -9,8 +9,17 @@
 #include "swell/param_table.h"
 #include "swell/proto_table.h"
 
-enum swell_param_group { SWELL_PGROUP_WAVE, SWELL_PGROUP_BODY, SWELL_PGROUP_SIZE, SWELL_PGROUP_SAFETY, SWELL_PGROUP_CORE };
-enum swell_param_when { SWELL_PWHEN_ANY, SWELL_PWHEN_DRY };
+enum swell_param_group {
+	SWELL_PGROUP_WAVE,
+	SWELL_PGROUP_BODY,
+	SWELL_PGROUP_SIZE,
+	SWELL_PGROUP_SAFETY,
+	SWELL_PGROUP_CORE
+};
+enum swell_param_when {
+	SWELL_PWHEN_ANY,
+	SWELL_PWHEN_DRY
+};
 
 struct swell_param_desc {
 	uint16_t id;
@@ -18,7 +27,7 @@ struct swell_param_desc {
 	const char *ctype;
 	enum swell_param_group group;
 	int32_t min, max, def; /* raw */
-	const char *factor;    /* physical = raw x factor, exact decimal */
+	const char *factor; /* physical = raw x factor, exact decimal */
 	const char *unit;
 	enum swell_param_when when;
 	const char *desc;

@@ -28,8 +28,8 @@ enum swell_msg_type {
 
 /* One struct per message; members are raw integers in the unit their name says. */
 #define SWELL_PROTO_MEMBER(m, member, ctype, start, bits, min, max, kind, factor, unit, desc) ctype member;
-#define SWELL_X(NAME, name, type, len, from, to, desc) \
-	struct swell_msg_##name {                      \
+#define SWELL_X(NAME, name, type, len, from, to, desc)              \
+	struct swell_msg_##name {                                   \
 		SWELL_PROTO_FIELDS_##name(SWELL_PROTO_MEMBER, name) \
 	};
 SWELL_PROTO_MESSAGES(SWELL_X)
@@ -49,31 +49,35 @@ struct swell_msg {
 #define SWELL_CAN_ID(type, node) (((uint32_t)(type) << 4) | (uint32_t)(node))
 #define SWELL_CAN_LEN 8u
 #define SWELL_CANFD_LEN 64u
-#define SWELL_PKT_MAX 64u         /* USB full-speed bulk packet; UDP datagrams use the same bound */
+#define SWELL_PKT_MAX 64u /* USB full-speed bulk packet; UDP datagrams use the same bound */
 #define SWELL_PKT_HEADER 5u
 #define SWELL_PKT_MAGIC 0x57u
 #define SWELL_PKT_OVERHEAD (SWELL_PKT_HEADER + 4u)
-#define SWELL_MSG_LEN_MIN 3u      /* shortest payload (checked in proto.c) */
+#define SWELL_MSG_LEN_MIN 3u /* shortest payload (checked in proto.c) */
 #define SWELL_CANFD_MSGS_MAX (SWELL_CANFD_LEN / 4u) /* slots are rounded up to 4 bytes */
 #define SWELL_PKT_MSGS_MAX ((SWELL_PKT_MAX - SWELL_PKT_OVERHEAD) / (1u + SWELL_MSG_LEN_MIN))
 
 /* ---- the table as data (for generic code, the generator, tests) ---- */
-enum swell_field_kind { SWELL_FK_PLAIN, SWELL_FK_SEQ, SWELL_FK_VERSION };
+enum swell_field_kind {
+	SWELL_FK_PLAIN,
+	SWELL_FK_SEQ,
+	SWELL_FK_VERSION
+};
 
 struct swell_field_desc {
 	const char *name;
 	const char *factor; /* decimal text, physical = raw * factor */
 	const char *unit;
 	const char *desc;
-	int64_t min, max;   /* valid raw range; signed iff min < 0 */
-	uint16_t offset;    /* offsetof in the message struct */
-	uint8_t size;       /* sizeof the member: 1, 2 or 4 */
+	int64_t min, max; /* valid raw range; signed iff min < 0 */
+	uint16_t offset; /* offsetof in the message struct */
+	uint8_t size; /* sizeof the member: 1, 2 or 4 */
 	uint8_t start, bits;
-	uint8_t kind;       /* enum swell_field_kind */
+	uint8_t kind; /* enum swell_field_kind */
 };
 
 struct swell_msg_desc {
-	const char *name;   /* e.g. "FORCE_CMD" */
+	const char *name; /* e.g. "FORCE_CMD" */
 	const char *from, *to, *desc;
 	const struct swell_field_desc *fields;
 	uint8_t type, len, nfields;
@@ -94,7 +98,7 @@ int swell_msg_equal(const struct swell_msg *a, const struct swell_msg *b);
 
 /* ---- counted rejections ---- */
 struct swell_proto_stats {
-	uint32_t ok;                    /* messages accepted */
+	uint32_t ok; /* messages accepted */
 	uint32_t rejected[SWELL_ERR_COUNT]; /* frames rejected, by reason (saturating) */
 };
 uint32_t swell_proto_rejected_total(const struct swell_proto_stats *st);
@@ -104,8 +108,7 @@ uint32_t swell_proto_rejected_total(const struct swell_proto_stats *st);
  * SWELL_EUNKNOWN for an unknown type, SWELL_ESIZE if cap is too small. */
 enum swell_err swell_payload_encode(const struct swell_msg *m, uint8_t *payload, size_t cap);
 /* Decodes one payload of the given type; len must be exactly the message length. */
-enum swell_err swell_payload_decode(unsigned type, const uint8_t *payload, size_t len,
-				    struct swell_msg *out);
+enum swell_err swell_payload_decode(unsigned type, const uint8_t *payload, size_t len, struct swell_msg *out);
 
 /* ---- classic CAN ---- */
 enum swell_err swell_can_encode(const struct swell_msg *m, uint32_t *id, uint8_t data[8], uint8_t *len);
@@ -116,21 +119,21 @@ enum swell_err swell_can_decode(uint32_t id, const uint8_t *data, size_t len, st
 /* ---- CAN FD ---- */
 /* Encodes the longest prefix of m[0..n) (same type and node as m[0]) whose slots make a valid
  * CAN FD length; *used says how many messages went in (>= 1 on success). */
-enum swell_err swell_canfd_encode(const struct swell_msg *m, size_t n, uint32_t *id,
-				  uint8_t data[64], uint8_t *len, size_t *used);
-enum swell_err swell_canfd_decode(uint32_t id, const uint8_t *data, size_t len, struct swell_msg *out,
-				  size_t cap, size_t *n, struct swell_proto_stats *st);
+enum swell_err swell_canfd_encode(const struct swell_msg *m, size_t n, uint32_t *id, uint8_t data[64], uint8_t *len,
+				  size_t *used);
+enum swell_err swell_canfd_decode(uint32_t id, const uint8_t *data, size_t len, struct swell_msg *out, size_t cap,
+				  size_t *n, struct swell_proto_stats *st);
 /* 1 if len is a length a CAN FD frame can have (0-8, 12, 16, 20, 24, 32, 48, 64). */
 int swell_canfd_len_valid(size_t len);
 
 /* ---- packets: USB bulk and UDP ---- */
 /* Packs as many of m[0..n) as fit in min(cap, SWELL_PKT_MAX) bytes, all under header node `node`
  * (the messages' own node fields are ignored). *used >= 1 on success. */
-enum swell_err swell_pkt_encode(uint8_t node, uint8_t seq, const struct swell_msg *m, size_t n,
-				uint8_t *pkt, size_t cap, size_t *len, size_t *used);
+enum swell_err swell_pkt_encode(uint8_t node, uint8_t seq, const struct swell_msg *m, size_t n, uint8_t *pkt,
+				size_t cap, size_t *len, size_t *used);
 /* On success *n messages (node from the header) and the packet sequence number in *seq. */
-enum swell_err swell_pkt_decode(const uint8_t *pkt, size_t len, struct swell_msg *out, size_t cap,
-				size_t *n, uint8_t *seq, struct swell_proto_stats *st);
+enum swell_err swell_pkt_decode(const uint8_t *pkt, size_t len, struct swell_msg *out, size_t cap, size_t *n,
+				uint8_t *seq, struct swell_proto_stats *st);
 
 /* ---- heights on the wire (see SWELL_PROTO_H_SHIFT) ---- */
 /* Solver height (int32, LSB 2^-16 mm) to a wire sample (int12, LSB 2^-6 mm): rounded to nearest
@@ -141,9 +144,8 @@ int32_t swell_sample_to_height(int16_t sample);
 /* Fills a HEIGHT_QUAD (node 0) from row-major heights h[j * nx + i] of an nx x ny grid: cells
  * 4*half .. 4*half+3 of row `row` of tile (tile_x, tile_y); cells outside the grid are sent as 0.
  * SWELL_ESIZE for a grid outside 1..256, SWELL_ERANGE for a tile, row, half or frame out of range. */
-enum swell_err swell_height_quad_pack(const int32_t *h, unsigned nx, unsigned ny, unsigned tile_x,
-				      unsigned tile_y, unsigned row, unsigned half, unsigned frame,
-				      struct swell_msg *out);
+enum swell_err swell_height_quad_pack(const int32_t *h, unsigned nx, unsigned ny, unsigned tile_x, unsigned tile_y,
+				      unsigned row, unsigned half, unsigned frame, struct swell_msg *out);
 /* Stores the cells of a decoded HEIGHT_QUAD that lie inside the grid into h (solver units). */
 enum swell_err swell_height_quad_unpack(const struct swell_msg *m, int32_t *h, unsigned nx, unsigned ny);
 

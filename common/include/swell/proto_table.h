@@ -36,7 +36,8 @@
 #define SWELL_PROTO_BOOT_KEY 0x4C425753u /* "SWBL" little-endian */
 
 /* Controller states, as HEARTBEAT.state carries them: S(NAME, code, "name"). */
-#define SWELL_STATES(S) S(BOOT, 0, "boot") S(IDLE, 1, "idle") S(ARMED, 2, "armed") S(RUNNING, 3, "running") S(FAULT, 4, "fault")
+#define SWELL_STATES(S) \
+	S(BOOT, 0, "boot") S(IDLE, 1, "idle") S(ARMED, 2, "armed") S(RUNNING, 3, "running") S(FAULT, 4, "fault")
 
 enum swell_ctl_state {
 #define SWELL_X(NAME, code, name) SWELL_CTL_##NAME = code,
@@ -44,106 +45,104 @@ enum swell_ctl_state {
 #undef SWELL_X
 };
 
-#define SWELL_PROTO_MESSAGES(M)                                                                    \
-	M(FORCE_CMD, force_cmd, 0x01, 8, CTL, DEV,                                                 \
-	  "Force command to the HapticMaster, every haptic tick. Zero force unless ENABLE is set.") \
-	M(DEVICE_POS, device_pos, 0x02, 8, DEV, CTL,                                               \
-	  "Measured end-effector position and device status, every haptic tick.")                  \
-	M(DEVICE_VEL, device_vel, 0x03, 7, DEV, CTL,                                               \
-	  "Measured end-effector velocity, every haptic tick where the carrier has room.")         \
-	M(DEVICE_FORCE, device_force, 0x04, 7, DEV, CTL,                                           \
-	  "Measured force at the force sensor, every haptic tick where the carrier has room.")     \
-	M(HEARTBEAT, heartbeat, 0x08, 8, CTL, VIEW,                                                \
-	  "Controller state, last error, protocol version and counters, 10 Hz (also to DEV).")     \
-	M(PARAM_SET, param_set, 0x10, 7, VIEW, CTL, "Set a parameter; answered by PARAM_ACK or PARAM_NACK.") \
-	M(PARAM_GET, param_get, 0x11, 3, VIEW, CTL, "Read a parameter; answered by PARAM_ACK or PARAM_NACK.") \
-	M(PARAM_ACK, param_ack, 0x12, 7, CTL, VIEW, "Parameter value now in force (answer to SET or GET).") \
-	M(PARAM_NACK, param_nack, 0x13, 4, CTL, VIEW,                                              \
-	  "Parameter request refused with a swell_err code; nothing was changed.")                 \
-	M(ENTER_BOOTLOADER, enter_bootloader, 0x18, 4, VIEW, CTL,                                  \
-	  "Reboot into the bootloader; accepted only with the key and outside RUNNING.")           \
-	M(SCENE, scene, 0x20, 8, CTL, VIEW,                                                        \
-	  "Scene description, 1 Hz and on change, so that a viewer can join late.")                \
-	M(OBJECT_POSE, object_pose, 0x21, 8, CTL, VIEW, "Floating object pose and submersion, viewer rate.") \
-	M(OBJECT_FORCE, object_force, 0x22, 8, CTL, VIEW, "Force the force law commands, viewer rate.") \
-	M(CTL_INFO, ctl_info, 0x23, 8, CTL, VIEW,                                                  \
-	  "Firmware version and object size, 1 Hz and on change, so that a viewer or flasher can join late.") \
-	M(HEIGHT_QUAD, height_quad, 0x30, 8, CTL, VIEW,                                            \
+#define SWELL_PROTO_MESSAGES(M)                                                                                       \
+	M(FORCE_CMD, force_cmd, 0x01, 8, CTL, DEV,                                                                    \
+	  "Force command to the HapticMaster, every haptic tick. Zero force unless ENABLE is set.")                   \
+	M(DEVICE_POS, device_pos, 0x02, 8, DEV, CTL,                                                                  \
+	  "Measured end-effector position and device status, every haptic tick.")                                     \
+	M(DEVICE_VEL, device_vel, 0x03, 7, DEV, CTL,                                                                  \
+	  "Measured end-effector velocity, every haptic tick where the carrier has room.")                            \
+	M(DEVICE_FORCE, device_force, 0x04, 7, DEV, CTL,                                                              \
+	  "Measured force at the force sensor, every haptic tick where the carrier has room.")                        \
+	M(HEARTBEAT, heartbeat, 0x08, 8, CTL, VIEW,                                                                   \
+	  "Controller state, last error, protocol version and counters, 10 Hz (also to DEV).")                        \
+	M(PARAM_SET, param_set, 0x10, 7, VIEW, CTL, "Set a parameter; answered by PARAM_ACK or PARAM_NACK.")          \
+	M(PARAM_GET, param_get, 0x11, 3, VIEW, CTL, "Read a parameter; answered by PARAM_ACK or PARAM_NACK.")         \
+	M(PARAM_ACK, param_ack, 0x12, 7, CTL, VIEW, "Parameter value now in force (answer to SET or GET).")           \
+	M(PARAM_NACK, param_nack, 0x13, 4, CTL, VIEW,                                                                 \
+	  "Parameter request refused with a swell_err code; nothing was changed.")                                    \
+	M(ENTER_BOOTLOADER, enter_bootloader, 0x18, 4, VIEW, CTL,                                                     \
+	  "Reboot into the bootloader; accepted only with the key and outside RUNNING.")                              \
+	M(SCENE, scene, 0x20, 8, CTL, VIEW, "Scene description, 1 Hz and on change, so that a viewer can join late.") \
+	M(OBJECT_POSE, object_pose, 0x21, 8, CTL, VIEW, "Floating object pose and submersion, viewer rate.")          \
+	M(OBJECT_FORCE, object_force, 0x22, 8, CTL, VIEW, "Force the force law commands, viewer rate.")               \
+	M(CTL_INFO, ctl_info, 0x23, 8, CTL, VIEW,                                                                     \
+	  "Firmware version and object size, 1 Hz and on change, so that a viewer or flasher can join late.")         \
+	M(HEIGHT_QUAD, height_quad, 0x30, 8, CTL, VIEW,                                                               \
 	  "Four heights of one tile row; a changed tile is sent as its 16 quads. Lowest priority.")
 
-#define SWELL_PROTO_FIELDS_force_cmd(F, m)                                                         \
-	F(m, fx_cN, int16_t, 0, 16, -25000, 25000, PLAIN, "0.01", "N", "force along x")            \
-	F(m, fy_cN, int16_t, 16, 16, -25000, 25000, PLAIN, "0.01", "N", "force along y")           \
-	F(m, fz_cN, int16_t, 32, 16, -25000, 25000, PLAIN, "0.01", "N", "force along z (up)")      \
-	F(m, seq, uint8_t, 48, 8, 0, 255, SEQ, "1", "", "sequence number, +1 per command")         \
+#define SWELL_PROTO_FIELDS_force_cmd(F, m)                                                    \
+	F(m, fx_cN, int16_t, 0, 16, -25000, 25000, PLAIN, "0.01", "N", "force along x")       \
+	F(m, fy_cN, int16_t, 16, 16, -25000, 25000, PLAIN, "0.01", "N", "force along y")      \
+	F(m, fz_cN, int16_t, 32, 16, -25000, 25000, PLAIN, "0.01", "N", "force along z (up)") \
+	F(m, seq, uint8_t, 48, 8, 0, 255, SEQ, "1", "", "sequence number, +1 per command")    \
 	F(m, enable, uint8_t, 56, 1, 0, 1, PLAIN, "1", "", "1: apply the force; 0: zero force")
 
-#define SWELL_PROTO_FIELDS_device_pos(F, m)                                                        \
-	F(m, x_10um, int16_t, 0, 16, -30000, 30000, PLAIN, "0.01", "mm", "position x")             \
-	F(m, y_10um, int16_t, 16, 16, -30000, 30000, PLAIN, "0.01", "mm", "position y")            \
-	F(m, z_10um, int16_t, 32, 16, -30000, 30000, PLAIN, "0.01", "mm", "position z (up)")       \
-	F(m, seq, uint8_t, 48, 8, 0, 255, SEQ, "1", "", "sequence number, +1 per sample")          \
-	F(m, status, uint8_t, 56, 4, 0, 15, PLAIN, "1", "",                                        \
+#define SWELL_PROTO_FIELDS_device_pos(F, m)                                                  \
+	F(m, x_10um, int16_t, 0, 16, -30000, 30000, PLAIN, "0.01", "mm", "position x")       \
+	F(m, y_10um, int16_t, 16, 16, -30000, 30000, PLAIN, "0.01", "mm", "position y")      \
+	F(m, z_10um, int16_t, 32, 16, -30000, 30000, PLAIN, "0.01", "mm", "position z (up)") \
+	F(m, seq, uint8_t, 48, 8, 0, 255, SEQ, "1", "", "sequence number, +1 per sample")    \
+	F(m, status, uint8_t, 56, 4, 0, 15, PLAIN, "1", "",                                  \
 	  "bit 0 powered, bit 1 force enabled, bit 2 e-stop pressed, bit 3 fault")
 
-#define SWELL_PROTO_FIELDS_device_vel(F, m)                                                        \
-	F(m, vx_100ums, int16_t, 0, 16, -30000, 30000, PLAIN, "0.1", "mm/s", "velocity x")         \
-	F(m, vy_100ums, int16_t, 16, 16, -30000, 30000, PLAIN, "0.1", "mm/s", "velocity y")        \
-	F(m, vz_100ums, int16_t, 32, 16, -30000, 30000, PLAIN, "0.1", "mm/s", "velocity z (up)")   \
+#define SWELL_PROTO_FIELDS_device_vel(F, m)                                                      \
+	F(m, vx_100ums, int16_t, 0, 16, -30000, 30000, PLAIN, "0.1", "mm/s", "velocity x")       \
+	F(m, vy_100ums, int16_t, 16, 16, -30000, 30000, PLAIN, "0.1", "mm/s", "velocity y")      \
+	F(m, vz_100ums, int16_t, 32, 16, -30000, 30000, PLAIN, "0.1", "mm/s", "velocity z (up)") \
 	F(m, seq, uint8_t, 48, 8, 0, 255, SEQ, "1", "", "sequence number, same as DEVICE_POS")
 
-#define SWELL_PROTO_FIELDS_device_force(F, m)                                                      \
-	F(m, fx_cN, int16_t, 0, 16, -25000, 25000, PLAIN, "0.01", "N", "measured force x")         \
-	F(m, fy_cN, int16_t, 16, 16, -25000, 25000, PLAIN, "0.01", "N", "measured force y")        \
-	F(m, fz_cN, int16_t, 32, 16, -25000, 25000, PLAIN, "0.01", "N", "measured force z (up)")   \
+#define SWELL_PROTO_FIELDS_device_force(F, m)                                                    \
+	F(m, fx_cN, int16_t, 0, 16, -25000, 25000, PLAIN, "0.01", "N", "measured force x")       \
+	F(m, fy_cN, int16_t, 16, 16, -25000, 25000, PLAIN, "0.01", "N", "measured force y")      \
+	F(m, fz_cN, int16_t, 32, 16, -25000, 25000, PLAIN, "0.01", "N", "measured force z (up)") \
 	F(m, seq, uint8_t, 48, 8, 0, 255, SEQ, "1", "", "sequence number, same as DEVICE_POS")
 
-#define SWELL_PROTO_FIELDS_heartbeat(F, m)                                                         \
-	F(m, state, uint8_t, 0, 8, 0, 4, PLAIN, "1", "", "0 boot, 1 idle, 2 armed, 3 running, 4 fault") \
-	F(m, err, uint8_t, 8, 8, 0, SWELL_ERR_COUNT - 1, PLAIN, "1", "", "last error, enum swell_err (0 none)") \
-	F(m, version, uint8_t, 16, 8, SWELL_PROTO_VERSION, SWELL_PROTO_VERSION, VERSION, "1", "",  \
-	  "protocol version")                                                                      \
-	F(m, seq, uint8_t, 24, 8, 0, 255, SEQ, "1", "", "sequence number, +1 per heartbeat")       \
-	F(m, bad_frames, uint16_t, 32, 16, 0, 65535, PLAIN, "1", "", "frames rejected, saturating") \
+#define SWELL_PROTO_FIELDS_heartbeat(F, m)                                                                            \
+	F(m, state, uint8_t, 0, 8, 0, 4, PLAIN, "1", "", "0 boot, 1 idle, 2 armed, 3 running, 4 fault")               \
+	F(m, err, uint8_t, 8, 8, 0, SWELL_ERR_COUNT - 1, PLAIN, "1", "", "last error, enum swell_err (0 none)")       \
+	F(m, version, uint8_t, 16, 8, SWELL_PROTO_VERSION, SWELL_PROTO_VERSION, VERSION, "1", "", "protocol version") \
+	F(m, seq, uint8_t, 24, 8, 0, 255, SEQ, "1", "", "sequence number, +1 per heartbeat")                          \
+	F(m, bad_frames, uint16_t, 32, 16, 0, 65535, PLAIN, "1", "", "frames rejected, saturating")                   \
 	F(m, overruns, uint16_t, 48, 16, 0, 65535, PLAIN, "1", "", "tick overruns, saturating")
 
-#define SWELL_PROTO_FIELDS_param_set(F, m)                                                         \
-	F(m, id, uint16_t, 0, 16, 0, 65535, PLAIN, "1", "", "parameter id (firmware parameter table)") \
+#define SWELL_PROTO_FIELDS_param_set(F, m)                                                                  \
+	F(m, id, uint16_t, 0, 16, 0, 65535, PLAIN, "1", "", "parameter id (firmware parameter table)")      \
 	F(m, value, int32_t, 16, 32, INT32_MIN, INT32_MAX, PLAIN, "1", "", "raw value, unit per parameter") \
 	F(m, seq, uint8_t, 48, 8, 0, 255, SEQ, "1", "", "request number, echoed in the answer")
 
-#define SWELL_PROTO_FIELDS_param_get(F, m)                                                         \
-	F(m, id, uint16_t, 0, 16, 0, 65535, PLAIN, "1", "", "parameter id")                        \
+#define SWELL_PROTO_FIELDS_param_get(F, m)                                  \
+	F(m, id, uint16_t, 0, 16, 0, 65535, PLAIN, "1", "", "parameter id") \
 	F(m, seq, uint8_t, 16, 8, 0, 255, SEQ, "1", "", "request number, echoed in the answer")
 
-#define SWELL_PROTO_FIELDS_param_ack(F, m)                                                         \
-	F(m, id, uint16_t, 0, 16, 0, 65535, PLAIN, "1", "", "parameter id")                        \
-	F(m, value, int32_t, 16, 32, INT32_MIN, INT32_MAX, PLAIN, "1", "", "value in force")       \
+#define SWELL_PROTO_FIELDS_param_ack(F, m)                                                   \
+	F(m, id, uint16_t, 0, 16, 0, 65535, PLAIN, "1", "", "parameter id")                  \
+	F(m, value, int32_t, 16, 32, INT32_MIN, INT32_MAX, PLAIN, "1", "", "value in force") \
 	F(m, seq, uint8_t, 48, 8, 0, 255, SEQ, "1", "", "request number answered")
 
-#define SWELL_PROTO_FIELDS_param_nack(F, m)                                                        \
-	F(m, id, uint16_t, 0, 16, 0, 65535, PLAIN, "1", "", "parameter id")                        \
+#define SWELL_PROTO_FIELDS_param_nack(F, m)                                                                   \
+	F(m, id, uint16_t, 0, 16, 0, 65535, PLAIN, "1", "", "parameter id")                                   \
 	F(m, err, uint8_t, 16, 8, 1, SWELL_ERR_COUNT - 1, PLAIN, "1", "", "reason, enum swell_err (never 0)") \
 	F(m, seq, uint8_t, 24, 8, 0, 255, SEQ, "1", "", "request number answered")
 
-#define SWELL_PROTO_FIELDS_enter_bootloader(F, m)                                                  \
-	F(m, key, uint32_t, 0, 32, SWELL_PROTO_BOOT_KEY, SWELL_PROTO_BOOT_KEY, PLAIN, "1", "",     \
+#define SWELL_PROTO_FIELDS_enter_bootloader(F, m)                                              \
+	F(m, key, uint32_t, 0, 32, SWELL_PROTO_BOOT_KEY, SWELL_PROTO_BOOT_KEY, PLAIN, "1", "", \
 	  "must be 0x4C425753 (\"SWBL\")")
 
-#define SWELL_PROTO_FIELDS_scene(F, m)                                                             \
-	F(m, nx, uint16_t, 0, 9, 1, 256, PLAIN, "1", "cells", "grid columns")                      \
-	F(m, ny, uint16_t, 9, 9, 1, 256, PLAIN, "1", "cells", "grid rows")                         \
-	F(m, h_shift, uint8_t, 18, 4, SWELL_PROTO_H_SHIFT, SWELL_PROTO_H_SHIFT, PLAIN, "1", "",    \
-	  "height sample LSB is 2^-h_shift mm")                                                    \
-	F(m, dx_um, uint16_t, 24, 16, 100, 65535, PLAIN, "0.001", "mm", "cell size")               \
-	F(m, depth_10um, uint16_t, 40, 16, 1, 65535, PLAIN, "0.01", "mm", "rest depth")            \
+#define SWELL_PROTO_FIELDS_scene(F, m)                                                          \
+	F(m, nx, uint16_t, 0, 9, 1, 256, PLAIN, "1", "cells", "grid columns")                   \
+	F(m, ny, uint16_t, 9, 9, 1, 256, PLAIN, "1", "cells", "grid rows")                      \
+	F(m, h_shift, uint8_t, 18, 4, SWELL_PROTO_H_SHIFT, SWELL_PROTO_H_SHIFT, PLAIN, "1", "", \
+	  "height sample LSB is 2^-h_shift mm")                                                 \
+	F(m, dx_um, uint16_t, 24, 16, 100, 65535, PLAIN, "0.001", "mm", "cell size")            \
+	F(m, depth_10um, uint16_t, 40, 16, 1, 65535, PLAIN, "0.01", "mm", "rest depth")         \
 	F(m, scene_id, uint8_t, 56, 8, 0, 255, PLAIN, "1", "", "changes whenever the scene changes")
 
-#define SWELL_PROTO_FIELDS_object_pose(F, m)                                                       \
-	F(m, x_10um, int16_t, 0, 16, -30000, 30000, PLAIN, "0.01", "mm", "object centre x, pool frame") \
-	F(m, y_10um, int16_t, 16, 16, -30000, 30000, PLAIN, "0.01", "mm", "object centre y, pool frame") \
+#define SWELL_PROTO_FIELDS_object_pose(F, m)                                                               \
+	F(m, x_10um, int16_t, 0, 16, -30000, 30000, PLAIN, "0.01", "mm", "object centre x, pool frame")    \
+	F(m, y_10um, int16_t, 16, 16, -30000, 30000, PLAIN, "0.01", "mm", "object centre y, pool frame")   \
 	F(m, z_10um, int16_t, 32, 16, -30000, 30000, PLAIN, "0.01", "mm", "object bottom z, rest level 0") \
-	F(m, submersion_halfpct, uint8_t, 48, 8, 0, 200, PLAIN, "0.5", "%", "submerged fraction")  \
+	F(m, submersion_halfpct, uint8_t, 48, 8, 0, 200, PLAIN, "0.5", "%", "submerged fraction")          \
 	F(m, seq, uint8_t, 56, 8, 0, 255, SEQ, "1", "", "sequence number")
 
 #define SWELL_PROTO_FIELDS_object_force(F, m)                                                      \
@@ -153,23 +152,23 @@ enum swell_ctl_state {
 	F(m, seq, uint8_t, 48, 8, 0, 255, SEQ, "1", "", "sequence number, same as OBJECT_POSE")    \
 	F(m, limits, uint8_t, 56, 2, 0, 3, PLAIN, "1", "", "bit 0 |F| clamped, bit 1 dF/dt limited")
 
-#define SWELL_PROTO_FIELDS_ctl_info(F, m)                                                          \
-	F(m, fw_major, uint8_t, 0, 8, 0, 255, PLAIN, "1", "", "firmware version, major")           \
-	F(m, fw_minor, uint8_t, 8, 8, 0, 255, PLAIN, "1", "", "firmware version, minor")           \
-	F(m, fw_patch, uint8_t, 16, 8, 0, 255, PLAIN, "1", "", "firmware version, patch")          \
+#define SWELL_PROTO_FIELDS_ctl_info(F, m)                                                                        \
+	F(m, fw_major, uint8_t, 0, 8, 0, 255, PLAIN, "1", "", "firmware version, major")                         \
+	F(m, fw_minor, uint8_t, 8, 8, 0, 255, PLAIN, "1", "", "firmware version, minor")                         \
+	F(m, fw_patch, uint8_t, 16, 8, 0, 255, PLAIN, "1", "", "firmware version, patch")                        \
 	F(m, obj_a_100um, uint16_t, 24, 13, 1, 8191, PLAIN, "0.1", "mm", "object footprint along x (saturated)") \
 	F(m, obj_b_100um, uint16_t, 37, 13, 1, 8191, PLAIN, "0.1", "mm", "object footprint along y (saturated)") \
 	F(m, obj_h_100um, uint16_t, 50, 13, 1, 8191, PLAIN, "0.1", "mm", "object height (saturated)")
 
-#define SWELL_PROTO_FIELDS_height_quad(F, m)                                                       \
-	F(m, tile_x, uint8_t, 0, 5, 0, 31, PLAIN, "1", "", "tile column")                          \
-	F(m, tile_y, uint8_t, 5, 5, 0, 31, PLAIN, "1", "", "tile row")                             \
-	F(m, row, uint8_t, 10, 3, 0, 7, PLAIN, "1", "", "row inside the tile")                     \
-	F(m, half, uint8_t, 13, 1, 0, 1, PLAIN, "1", "", "0: cells 0-3 of the row, 1: cells 4-7")  \
-	F(m, frame, uint8_t, 14, 2, 0, 3, PLAIN, "1", "", "solver frame number, low 2 bits")       \
-	F(m, h0, int16_t, 16, 12, -2048, 2047, PLAIN, "0.015625", "mm", "height of cell 0 or 4")   \
-	F(m, h1, int16_t, 28, 12, -2048, 2047, PLAIN, "0.015625", "mm", "height of cell 1 or 5")   \
-	F(m, h2, int16_t, 40, 12, -2048, 2047, PLAIN, "0.015625", "mm", "height of cell 2 or 6")   \
+#define SWELL_PROTO_FIELDS_height_quad(F, m)                                                      \
+	F(m, tile_x, uint8_t, 0, 5, 0, 31, PLAIN, "1", "", "tile column")                         \
+	F(m, tile_y, uint8_t, 5, 5, 0, 31, PLAIN, "1", "", "tile row")                            \
+	F(m, row, uint8_t, 10, 3, 0, 7, PLAIN, "1", "", "row inside the tile")                    \
+	F(m, half, uint8_t, 13, 1, 0, 1, PLAIN, "1", "", "0: cells 0-3 of the row, 1: cells 4-7") \
+	F(m, frame, uint8_t, 14, 2, 0, 3, PLAIN, "1", "", "solver frame number, low 2 bits")      \
+	F(m, h0, int16_t, 16, 12, -2048, 2047, PLAIN, "0.015625", "mm", "height of cell 0 or 4")  \
+	F(m, h1, int16_t, 28, 12, -2048, 2047, PLAIN, "0.015625", "mm", "height of cell 1 or 5")  \
+	F(m, h2, int16_t, 40, 12, -2048, 2047, PLAIN, "0.015625", "mm", "height of cell 2 or 6")  \
 	F(m, h3, int16_t, 52, 12, -2048, 2047, PLAIN, "0.015625", "mm", "height of cell 3 or 7")
 
 #endif

@@ -17,8 +17,8 @@ q30_t swell_cos_pi_frac(int64_t num, int64_t den);
 
 /* h[j*nx+i] += amp * exp(-((i - x)^2 + (j - y)^2) / (2 sigma^2)); x, y, sigma in cells (Q15.16),
  * sigma >= 0.5 cell, amp in height LSB. Nothing is written when sigma is out of range. */
-void swell_shape_gauss(int32_t *h, uint16_t nx, uint16_t ny, q16_t x_cells, q16_t y_cells,
-		       q16_t sigma_cells, int32_t amp_lsb);
+void swell_shape_gauss(int32_t *h, uint16_t nx, uint16_t ny, q16_t x_cells, q16_t y_cells, q16_t sigma_cells,
+		       int32_t amp_lsb);
 
 /* h[j*nx+i] += amp * cos(m pi (i + 1/2) / nx) * cos(n pi (j + 1/2) / ny): the (m, n) mode of a pool
  * with reflecting walls. */

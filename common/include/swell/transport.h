@@ -7,11 +7,11 @@
  * VID 0x1209 / PID 0x0001 is the pid.codes test PID: fine for development, not for shipping. */
 #define SWELL_USB_VID 0x1209u
 #define SWELL_USB_PID 0x0001u
-#define SWELL_USB_IFACE 0u         /* interface number, class 0xFF */
+#define SWELL_USB_IFACE 0u /* interface number, class 0xFF */
 #define SWELL_USB_CLASS 0xFFu
-#define SWELL_USB_EP_OUT 0x01u     /* bulk, host -> controller */
-#define SWELL_USB_EP_IN 0x81u      /* bulk, controller -> host */
-#define SWELL_USB_PACKET 64u       /* wMaxPacketSize; one swell packet per USB packet */
+#define SWELL_USB_EP_OUT 0x01u /* bulk, host -> controller */
+#define SWELL_USB_EP_IN 0x81u /* bulk, controller -> host */
+#define SWELL_USB_PACKET 64u /* wMaxPacketSize; one swell packet per USB packet */
 
 /* UDP software-in-the-loop: same bytes as the USB packets, one packet per datagram. */
 #define SWELL_UDP_HOST "127.0.0.1"

@@ -78,9 +78,9 @@
 #include "swell/err.h"
 #include "swell/fixed.h"
 
-#define SWELL_H_FRAC 16                         /* fractional bits of a height, in mm */
+#define SWELL_H_FRAC 16 /* fractional bits of a height, in mm */
 #define SWELL_H_ONE_MM ((int32_t)1 << SWELL_H_FRAC) /* 1 mm in height LSB */
-#define SWELL_H_MAX (((int32_t)1 << 27) - 1)    /* saturation bounds of heights and flows: int28 */
+#define SWELL_H_MAX (((int32_t)1 << 27) - 1) /* saturation bounds of heights and flows: int28 */
 #define SWELL_H_MIN (-((int32_t)1 << 27))
 
 #define SWELL_HV_MAX (((int32_t)1 << 26) - 1) /* height bounds of the velocity form: int27 */
@@ -88,12 +88,12 @@
 
 #define SWELL_WAVE_MIN_SIDE 2
 #define SWELL_WAVE_MAX_SIDE 1024
-#define SWELL_WAVE_TILE 8   /* side of a sleeping tile, in cells */
+#define SWELL_WAVE_TILE 8 /* side of a sleeping tile, in cells */
 #define SWELL_WAVE_TILES_X(nx) (((size_t)(nx) + SWELL_WAVE_TILE - 1) / SWELL_WAVE_TILE)
 #define SWELL_WAVE_TILES(nx, ny) (SWELL_WAVE_TILES_X(nx) * SWELL_WAVE_TILES_X(ny))
 /* h, v and the step accumulator (nx ny words each); the four flows of every tile row, E N NE NW,
  * 8 words each (rows padded to whole tiles); then one flag byte a tile */
-#define SWELL_WAVE_WORDS(nx, ny)                                                                   \
+#define SWELL_WAVE_WORDS(nx, ny)                                                                         \
 	(3 * (size_t)(nx) * (size_t)(ny) + 4 * SWELL_WAVE_TILE * SWELL_WAVE_TILES_X(nx) * (size_t)(ny) + \
 	 (SWELL_WAVE_TILES(nx, ny) + 3) / 4)
 
@@ -101,24 +101,24 @@
 #define SWELL_WAVE_VEL_WORDS(nx, ny) (4 * (size_t)(nx) * (size_t)(ny) + (SWELL_WAVE_TILES(nx, ny) + 3) / 4)
 
 enum swell_wave_form {
-	SWELL_FORM_EDGE = 0,     /* edge-flux: four flows a cell (default) */
+	SWELL_FORM_EDGE = 0, /* edge-flux: four flows a cell (default) */
 	SWELL_FORM_VELOCITY = 1, /* three-level: one momentum a cell and a global volume fixer */
 };
 
 enum swell_wave_kernel {
 	SWELL_KERNEL_AUTO = 0, /* the fastest this build and CPU have (default) */
-	SWELL_KERNEL_REF = 1,  /* the scalar reference: one edge at a time, the definition */
+	SWELL_KERNEL_REF = 1, /* the scalar reference: one edge at a time, the definition */
 	SWELL_KERNEL_FUSED = 2, /* one pass per row segment; M4 DSP instructions on ARMv7E-M */
-	SWELL_KERNEL_AVX2 = 3,  /* x86-64 with AVX2: 8 cells at a time (tile rows of 8, else fused) */
+	SWELL_KERNEL_AVX2 = 3, /* x86-64 with AVX2: 8 cells at a time (tile rows of 8, else fused) */
 };
 
 enum swell_stencil {
-	SWELL_STENCIL_PAPER = 0,      /* L9 as printed: waves run sqrt(2) faster than sqrt(g d) */
+	SWELL_STENCIL_PAPER = 0, /* L9 as printed: waves run sqrt(2) faster than sqrt(g d) */
 	SWELL_STENCIL_CALIBRATED = 1, /* L9 / 2: long waves at sqrt(g d) */
 };
 
 struct swell_wave_params {
-	q30_t e;       /* eq. (2), in (0, 2) */
+	q30_t e; /* eq. (2), in (0, 2) */
 	q30_t damping; /* t, in [0, 1) */
 	enum swell_stencil stencil;
 };
@@ -126,37 +126,37 @@ struct swell_wave_params {
 struct swell_wave {
 	uint16_t nx, ny;
 	/* Row-major, index j * nx + i (i the column, x; j the row, y). */
-	int32_t *h;    /* h(n): height above rest, LSB 2^-16 mm */
-	int32_t *v;    /* h(n) - h(n-1), the last step's change */
-	int32_t *acc;  /* the step in progress: sum of the new flows of every cell */
+	int32_t *h; /* h(n): height above rest, LSB 2^-16 mm */
+	int32_t *v; /* h(n) - h(n-1), the last step's change */
+	int32_t *acc; /* the step in progress: sum of the new flows of every cell */
 	/* Flows, by tile row: the 8 cells (i, j) with i / 8 = tx have their flows at
 	 * f + 32 (j tiles_x + tx) + 8 k + i % 8, k = 0 E (into (i,j) from (i+1,j)), 1 N (from (i,j+1)),
 	 * 2 NE (from (i+1,j+1)), 3 NW (from (i-1,j+1)). */
 	int32_t *f;
 	struct swell_wave_params p;
-	q30_t e_eff;  /* e (paper) or e/2 (calibrated), made even so that e_eff/2 is exact */
-	q30_t c_1;    /* e_eff * 1   inner orthogonal edges */
+	q30_t e_eff; /* e (paper) or e/2 (calibrated), made even so that e_eff/2 is exact */
+	q30_t c_1; /* e_eff * 1   inner orthogonal edges */
 	q30_t c_half; /* e_eff * 1/2 diagonal edges */
 	q30_t c_wall; /* e_eff * 3/2 orthogonal edges along a wall */
-	q30_t q;      /* 1 - t, made odd when t > 0 */
+	q30_t q; /* 1 - t, made odd when t > 0 */
 	uint32_t steps;
 	uint32_t saturations; /* row segments (up to a tile row) in which a height or flow was clamped */
-	uint16_t next_row;    /* first row not yet done in the step in progress */
-	uint16_t done_row;    /* rows [0, done_row) of the step in progress finished ahead (h = h(n+1)) */
+	uint16_t next_row; /* first row not yet done in the step in progress */
+	uint16_t done_row; /* rows [0, done_row) of the step in progress finished ahead (h = h(n+1)) */
 	uint16_t tiles_x, tiles_y;
-	uint8_t *tile;        /* flag byte a tile (wave.c) */
-	uint8_t sleep;        /* 1: skip sleeping tiles (default); 0: every edge every step */
-	uint8_t band_asleep;  /* every tile of the band of rows in progress sleeps */
+	uint8_t *tile; /* flag byte a tile (wave.c) */
+	uint8_t sleep; /* 1: skip sleeping tiles (default); 0: every edge every step */
+	uint8_t band_asleep; /* every tile of the band of rows in progress sleeps */
 	uint32_t tiles_skipped; /* tile-rows skipped, cumulative: 8 x 4 edges saved each */
-	uint8_t kernel;         /* enum swell_wave_kernel in use (never AUTO) */
-	uint8_t form;           /* enum swell_wave_form, fixed at init */
+	uint8_t kernel; /* enum swell_wave_kernel in use (never AUTO) */
+	uint8_t form; /* enum swell_wave_form, fixed at init */
 	/* velocity form only */
-	int32_t *u;             /* momentum u(n), LSB 2^-(16 + vel_frac) mm per step; u(n+1) in rows done */
-	int64_t vel_sum;        /* sum of u(n+1) over the rows done: the residual the finish gives back */
-	int64_t vel_sum_h;      /* sum of the rows' height changes (without water added from outside) */
-	uint8_t vel_frac;       /* fraction bits of u beyond a height LSB: 4, 3, 2, 1 or 0 by e_eff */
-	uint32_t fix_cursor;    /* next cell the fixer gives an LSB to */
-	uint64_t fixed_lsb;     /* LSB given back by the fixer, cumulative */
+	int32_t *u; /* momentum u(n), LSB 2^-(16 + vel_frac) mm per step; u(n+1) in rows done */
+	int64_t vel_sum; /* sum of u(n+1) over the rows done: the residual the finish gives back */
+	int64_t vel_sum_h; /* sum of the rows' height changes (without water added from outside) */
+	uint8_t vel_frac; /* fraction bits of u beyond a height LSB: 4, 3, 2, 1 or 0 by e_eff */
+	uint32_t fix_cursor; /* next cell the fixer gives an LSB to */
+	uint64_t fixed_lsb; /* LSB given back by the fixer, cumulative */
 };
 
 /* Exact integer energy (docs/design.md, section 2), for tests: with t = 0,
@@ -182,13 +182,13 @@ q30_t swell_wave_e_limit(q30_t damping, enum swell_stencil stencil);
 /* Bind caller storage (at least SWELL_WAVE_WORDS(nx, ny) words, SWELL_WAVE_VEL_WORDS for the
  * velocity form) and set the water flat and at rest.
  * On error *w is untouched. */
-enum swell_err swell_wave_init(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage,
-			       size_t words, const struct swell_wave_params *p);
+enum swell_err swell_wave_init(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage, size_t words,
+			       const struct swell_wave_params *p);
 
 /* The same, in the form asked for (swell_wave_init is the edge-flux form); SWELL_EINVAL for an
  * unknown form. */
-enum swell_err swell_wave_init_form(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage,
-				    size_t words, const struct swell_wave_params *p, enum swell_wave_form form);
+enum swell_err swell_wave_init_form(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage, size_t words,
+				    const struct swell_wave_params *p, enum swell_wave_form form);
 
 /* Change parameters on a running field; on error nothing changes. */
 enum swell_err swell_wave_set_params(struct swell_wave *w, const struct swell_wave_params *p);
@@ -251,7 +251,7 @@ uint32_t swell_wave_checksum(const struct swell_wave *w);
 
 /* e = g dt^2 d / dx^2 from integer physical units, rounded to nearest Q1.30.
  * g in mm/s^2, dt in us, depth and dx in um. SWELL_ERANGE when a value is 0 or e >= 2. */
-enum swell_err swell_wave_e_from_physical(uint32_t g_mm_s2, uint32_t dt_us, uint32_t depth_um,
-					  uint32_t dx_um, q30_t *e);
+enum swell_err swell_wave_e_from_physical(uint32_t g_mm_s2, uint32_t dt_us, uint32_t depth_um, uint32_t dx_um,
+					  q30_t *e);
 
 #endif

@@ -13,11 +13,11 @@
 
 struct swell_wave_ref {
 	int nx, ny;
-	double *h;    /* h(n), in mm */
-	double *hp;   /* h(n-1) */
+	double *h; /* h(n), in mm */
+	double *hp; /* h(n-1) */
 	double *next; /* scratch */
 	double e_eff; /* e, or e/2 for the calibrated stencil */
-	double q;     /* 1 - t */
+	double q; /* 1 - t */
 	uint32_t steps;
 };
 

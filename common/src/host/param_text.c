@@ -21,11 +21,16 @@ void swell_param_format(const struct swell_param_desc *d, int32_t raw, char *buf
 static double prefix_scale(char c)
 {
 	switch (c) {
-	case 'k': return 1e3;
-	case 'c': return 1e-2;
-	case 'm': return 1e-3;
-	case 'u': return 1e-6;
-	default: return 0;
+	case 'k':
+		return 1e3;
+	case 'c':
+		return 1e-2;
+	case 'm':
+		return 1e-3;
+	case 'u':
+		return 1e-6;
+	default:
+		return 0;
 	}
 }
 
@@ -82,8 +87,8 @@ int swell_param_parse(const struct swell_param_desc *d, const char *text, int32_
 		scale = d->unit[0] ? unit_scale(unit, d->unit) : 0;
 		if (scale == 0) {
 			if (d->unit[0])
-				snprintf(err, errlen, "%s: unit '%s' is not %s (or %s with another prefix)", d->name, unit,
-					 d->unit, d->unit);
+				snprintf(err, errlen, "%s: unit '%s' is not %s (or %s with another prefix)", d->name,
+					 unit, d->unit, d->unit);
 			else
 				snprintf(err, errlen, "%s: has no unit, '%s' given", d->name, unit);
 			return -1;

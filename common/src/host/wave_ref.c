@@ -40,10 +40,10 @@ void swell_wave_ref_step(struct swell_wave_ref *r)
 	for (j = 0; j < r->ny; j++) {
 		for (i = 0; i < r->nx; i++) {
 			double c = at(r, i, j);
-			double l9 = -6.0 * c + at(r, i - 1, j) + at(r, i + 1, j) + at(r, i, j - 1) +
-				    at(r, i, j + 1) +
-				    0.5 * (at(r, i - 1, j - 1) + at(r, i + 1, j - 1) + at(r, i - 1, j + 1) +
-					   at(r, i + 1, j + 1));
+			double l9 = -6.0 * c + at(r, i - 1, j) + at(r, i + 1, j) + at(r, i, j - 1) + at(r, i, j + 1) +
+				0.5 *
+					(at(r, i - 1, j - 1) + at(r, i + 1, j - 1) + at(r, i - 1, j + 1) +
+					 at(r, i + 1, j + 1));
 			int a = j * r->nx + i;
 
 			r->next[a] = c + r->q * (c - r->hp[a] + r->e_eff * l9);

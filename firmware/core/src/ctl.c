@@ -30,15 +30,26 @@ static const struct swell_ctl_config pool_config = {
 	.dx_um = 6250,
 	.depth_um = 50000,
 	/* e = 9.81 * 0.004^2 * 0.05 / 0.00625^2 = 0.200909 */
-	.wave = {.e = SWELL_PARAM_DEF_WAVE_E, .damping = SWELL_PARAM_DEF_WAVE_DAMPING,
-		 .stencil = (enum swell_stencil)SWELL_PARAM_DEF_WAVE_STENCIL},
-	.body = {.a_um = SWELL_PARAM_DEF_BODY_A_UM, .b_um = SWELL_PARAM_DEF_BODY_B_UM, .h_um = SWELL_PARAM_DEF_BODY_H_UM,
-		 .mass_g = SWELL_PARAM_DEF_BODY_MASS_G, .rho_kg_m3 = 1000, .g_mm_s2 = 9810,
-		 .damper_uN_per_mm_s = SWELL_PARAM_DEF_BODY_DAMPER, .deadband_um = 0},
+	.wave = { .e = SWELL_PARAM_DEF_WAVE_E,
+		  .damping = SWELL_PARAM_DEF_WAVE_DAMPING,
+		  .stencil = (enum swell_stencil)SWELL_PARAM_DEF_WAVE_STENCIL },
+	.body = { .a_um = SWELL_PARAM_DEF_BODY_A_UM,
+		  .b_um = SWELL_PARAM_DEF_BODY_B_UM,
+		  .h_um = SWELL_PARAM_DEF_BODY_H_UM,
+		  .mass_g = SWELL_PARAM_DEF_BODY_MASS_G,
+		  .rho_kg_m3 = 1000,
+		  .g_mm_s2 = 9810,
+		  .damper_uN_per_mm_s = SWELL_PARAM_DEF_BODY_DAMPER,
+		  .deadband_um = 0 },
 	/* device frame: x, y horizontal, z up, origin over the pool centre at rest level */
-	.xform = {.offset_um = {200000, 200000, 0}, .scale = SWELL_Q16_ONE, .axis = {0, 1, 2}, .sign = {1, 1, 1}},
-	.safety = {.gain = SWELL_PARAM_DEF_FORCE_GAIN, .f_max_uN = SWELL_PARAM_DEF_FORCE_MAX_UN,
-		   .rate_uN_per_s = SWELL_PARAM_DEF_FORCE_RATE, .tick_hz = 2500},
+	.xform = { .offset_um = { 200000, 200000, 0 },
+		   .scale = SWELL_Q16_ONE,
+		   .axis = { 0, 1, 2 },
+		   .sign = { 1, 1, 1 } },
+	.safety = { .gain = SWELL_PARAM_DEF_FORCE_GAIN,
+		    .f_max_uN = SWELL_PARAM_DEF_FORCE_MAX_UN,
+		    .rate_uN_per_s = SWELL_PARAM_DEF_FORCE_RATE,
+		    .tick_hz = 2500 },
 	.tick_hz = 2500,
 	.solver_hz = 250,
 	.silent_ticks = SWELL_PARAM_DEF_SILENT_TICKS,
@@ -70,7 +81,7 @@ size_t swell_ctl_arena_words(uint16_t nx, uint16_t ny)
 
 static struct swell_body_scene body_scene(const struct swell_ctl_config *cfg)
 {
-	struct swell_body_scene sc = {cfg->dx_um, cfg->tick_hz, cfg->solver_hz};
+	struct swell_body_scene sc = { cfg->dx_um, cfg->tick_hz, cfg->solver_hz };
 
 	return sc;
 }
@@ -95,13 +106,11 @@ enum swell_err swell_ctl_check(const struct swell_ctl_config *cfg)
 		return SWELL_ESIZE; /* the wire carries grids up to 256 x 256 */
 	if (cfg->dx_um < 100 || cfg->dx_um > 65535 || cfg->depth_um < 10 || cfg->depth_um > 655350)
 		return SWELL_ERANGE;
-	if (cfg->tick_hz < 10 || cfg->tick_hz > 100000 || cfg->solver_hz == 0 ||
-	    cfg->tick_hz % cfg->solver_hz != 0 || cfg->tick_hz / cfg->solver_hz < 2 ||
-	    cfg->tick_hz / cfg->solver_hz > SWELL_BODY_MAX_K)
+	if (cfg->tick_hz < 10 || cfg->tick_hz > 100000 || cfg->solver_hz == 0 || cfg->tick_hz % cfg->solver_hz != 0 ||
+	    cfg->tick_hz / cfg->solver_hz < 2 || cfg->tick_hz / cfg->solver_hz > SWELL_BODY_MAX_K)
 		return SWELL_ERANGE;
-	if (cfg->silent_ticks < 1 || cfg->silent_ticks > 10000 || cfg->recover_ticks < 1 ||
-	    cfg->host_budget < 1 || cfg->host_budget > SWELL_CTL_QUEUE / 2 || cfg->node > SWELL_NODE_MAX ||
-	    cfg->autorun > 1)
+	if (cfg->silent_ticks < 1 || cfg->silent_ticks > 10000 || cfg->recover_ticks < 1 || cfg->host_budget < 1 ||
+	    cfg->host_budget > SWELL_CTL_QUEUE / 2 || cfg->node > SWELL_NODE_MAX || cfg->autorun > 1)
 		return SWELL_ERANGE;
 	err = swell_wave_check(&cfg->wave);
 	if (err != SWELL_OK)
@@ -134,8 +143,7 @@ static void sent_set(struct swell_ctl *c, uint32_t a, int16_t v)
 	c->sent[a >> 1] = (c->sent[a >> 1] & ~(0xffffu << shift)) | ((uint32_t)(uint16_t)v << shift);
 }
 
-enum swell_err swell_ctl_init(struct swell_ctl *c, const struct swell_ctl_config *cfg, int32_t *arena,
-			      size_t words)
+enum swell_err swell_ctl_init(struct swell_ctl *c, const struct swell_ctl_config *cfg, int32_t *arena, size_t words)
 {
 	struct swell_body_scene sc;
 	struct swell_fsafety_params sp;
@@ -166,8 +174,8 @@ enum swell_err swell_ctl_init(struct swell_ctl *c, const struct swell_ctl_config
 	for (a = 0; a < n; a++)
 		sent_set(c, a, NEVER_SENT);
 	c->ticks_per_step = cfg->tick_hz / cfg->solver_hz;
-	c->units_per_tick = ((COST_EDGE_ROW + COST_FINISH_ROW) * cfg->ny + COST_CLEAR + c->ticks_per_step - 1) /
-			    c->ticks_per_step;
+	c->units_per_tick =
+		((COST_EDGE_ROW + COST_FINISH_ROW) * cfg->ny + COST_CLEAR + c->ticks_per_step - 1) / c->ticks_per_step;
 	c->tiles_x = (uint16_t)((cfg->nx + SWELL_PROTO_TILE - 1) / SWELL_PROTO_TILE);
 	c->tiles_y = (uint16_t)((cfg->ny + SWELL_PROTO_TILE - 1) / SWELL_PROTO_TILE);
 	c->quads = (uint32_t)c->tiles_x * c->tiles_y * SWELL_PROTO_TILE * 2;
@@ -176,7 +184,7 @@ enum swell_err swell_ctl_init(struct swell_ctl *c, const struct swell_ctl_config
 	c->state = SWELL_CTL_BOOT;
 	c->info_pending = 1;
 	{
-		uint32_t geo[4] = {cfg->nx, cfg->ny, cfg->dx_um, cfg->depth_um};
+		uint32_t geo[4] = { cfg->nx, cfg->ny, cfg->dx_um, cfg->depth_um };
 
 		c->scene_id = (uint8_t)swell_crc32(0, geo, sizeof(geo));
 	}
@@ -255,14 +263,20 @@ struct param {
 };
 
 #define SWELL_X(NAME, id, name, member, ctype, group, min, max, def, factor, unit, access, when, desc) \
-	static int32_t get_##NAME(const struct swell_ctl_config *g) { return (int32_t)g->member; }      \
-	static void set_##NAME(struct swell_ctl_config *g, int32_t v) { g->member = (ctype)v; }
+	static int32_t get_##NAME(const struct swell_ctl_config *g)                                    \
+	{                                                                                              \
+		return (int32_t)g->member;                                                             \
+	}                                                                                              \
+	static void set_##NAME(struct swell_ctl_config *g, int32_t v)                                  \
+	{                                                                                              \
+		g->member = (ctype)v;                                                                  \
+	}
 SWELL_PARAMS(SWELL_X)
 #undef SWELL_X
 
 static const struct param params[] = {
 #define SWELL_X(NAME, id, name, member, ctype, group, min, max, def, factor, unit, access, when, desc) \
-	{id, SWELL_PGROUP_##group, min, max, get_##NAME, set_##NAME},
+	{ id, SWELL_PGROUP_##group, min, max, get_##NAME, set_##NAME },
 	SWELL_PARAMS(SWELL_X)
 #undef SWELL_X
 };
@@ -535,8 +549,7 @@ static void send_pose(struct swell_ctl *c)
 	int32_t half_pct = 0;
 
 	if (c->cfg.body.h_um > 0)
-		half_pct = (int32_t)(((int64_t)c->out.delta_lsb * 200) /
-				     swell_um_to_lsb((int64_t)c->cfg.body.h_um));
+		half_pct = (int32_t)(((int64_t)c->out.delta_lsb * 200) / swell_um_to_lsb((int64_t)c->cfg.body.h_um));
 	p.u.object_pose.x_10um = to_10um(c->out.x_um);
 	p.u.object_pose.y_10um = to_10um(c->out.y_um);
 	p.u.object_pose.z_10um = to_10um(c->out.z_um);
@@ -724,8 +737,7 @@ static void supervise(struct swell_ctl *c)
 			enter(c, SWELL_CTL_ARMED, SWELL_OK);
 		break;
 	case SWELL_CTL_FAULT:
-		if (alive && !estop &&
-		    (c->clear_request || (c->cfg.autorun && c->dev_back >= c->cfg.recover_ticks)))
+		if (alive && !estop && (c->clear_request || (c->cfg.autorun && c->dev_back >= c->cfg.recover_ticks)))
 			enter(c, SWELL_CTL_IDLE, SWELL_OK);
 		break;
 	}

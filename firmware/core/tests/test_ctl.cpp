@@ -214,8 +214,7 @@ TEST_CASE("with autorun, STOP from the host stops the force law and holds until 
 	CHECK(k.c.state == SWELL_CTL_ARMED);
 }
 
-TEST_CASE("after an e-stop, autorun counts recover_ticks from the release, with zero force until then",
-	  "[ctl][link]")
+TEST_CASE("after an e-stop, autorun counts recover_ticks from the release, with zero force until then", "[ctl][link]")
 {
 	swell_ctl_config cfg = pool();
 	cfg.autorun = 1;
@@ -320,8 +319,8 @@ TEST_CASE("no tick carries a whole solver step and the solver keeps its own rate
 			k.drain(SWELL_LINK_HOST);
 		}
 		const uint32_t whole_step = 6u * 64 * 64; /* 4 edges a cell + finish + ceiling scan */
-		WARN(tick_hz << " Hz: " << k.c.n.solver_steps << " solver steps in 1 s, worst tick "
-			     << k.c.n.work_max << " cell-operations, a whole step " << whole_step);
+		WARN(tick_hz << " Hz: " << k.c.n.solver_steps << " solver steps in 1 s, worst tick " << k.c.n.work_max
+			     << " cell-operations, a whole step " << whole_step);
 		CHECK(k.c.n.solver_steps == 250u);
 		CHECK(k.c.n.work_max < whole_step / 2);
 		CHECK(k.c.state == SWELL_CTL_RUNNING);
@@ -365,8 +364,7 @@ TEST_CASE("telemetry: heartbeat, scene, pose and only the heights that changed, 
 			later += m.type == SWELL_MSG_HEIGHT_QUAD;
 		k.drain(SWELL_LINK_DEVICE);
 	}
-	WARN("calm pool: " << quads << " quads in the first second; after the object entered: " << later
-			   << " quads in 0.2 s");
+	WARN("calm pool: " << quads << " quads in the first second; after the object entered: " << later << " quads in 0.2 s");
 	CHECK(later > 0);
 	CHECK(k.c.q[SWELL_LINK_HOST].dropped == 0u);
 }
@@ -443,7 +441,8 @@ TEST_CASE("the tick split into a force part and a background part gives the same
 	CHECK(split.c.n.overruns == 1u);
 }
 
-TEST_CASE("controller info: CTL_INFO at start and once a second with the firmware version and the object size, and a new size goes out at once",
+TEST_CASE("controller info: CTL_INFO at start and once a second with the firmware version and the object size, and a new size "
+	  "goes out at once",
 	  "[ctl][telemetry]")
 {
 	swell_ctl_config cfg = pool();
@@ -466,10 +465,10 @@ TEST_CASE("controller info: CTL_INFO at start and once a second with the firmwar
 			}
 		k.drain(SWELL_LINK_DEVICE);
 	}
-	INFO("CTL_INFO sent at ticks " << (at.size() > 0 ? at[0] : -1) << ", " << (at.size() > 1 ? at[1] : -1)
-				       << ", " << (at.size() > 2 ? at[2] : -1) << " (" << at.size() << " in all)");
+	INFO("CTL_INFO sent at ticks " << (at.size() > 0 ? at[0] : -1) << ", " << (at.size() > 1 ? at[1] : -1) << ", "
+				       << (at.size() > 2 ? at[2] : -1) << " (" << at.size() << " in all)");
 	REQUIRE(at.size() == 3);
-	CHECK(at[0] == 0);       /* the first tick: a viewer that is already there learns it at once */
+	CHECK(at[0] == 0); /* the first tick: a viewer that is already there learns it at once */
 	CHECK(at[1] - at[0] == 2500); /* then 1 Hz at 2500 Hz ticks */
 	CHECK(at[2] - at[1] == 2500);
 	CHECK(last.fw_major == 3);
@@ -505,8 +504,7 @@ TEST_CASE("controller info: CTL_INFO at start and once a second with the firmwar
 	CHECK(k.c.cfg.body.h_um == 30000u);
 }
 
-TEST_CASE("enter bootloader: refused while RUNNING, accepted otherwise with the force zeroed and a last heartbeat",
-	  "[ctl][boot]")
+TEST_CASE("enter bootloader: refused while RUNNING, accepted otherwise with the force zeroed and a last heartbeat", "[ctl][boot]")
 {
 	swell_ctl_config cfg = pool();
 	cfg.autorun = 1;
@@ -558,7 +556,8 @@ TEST_CASE("enter bootloader: refused while RUNNING, accepted otherwise with the 
 }
 
 TEST_CASE("the solver step spread over the period (finish and scan ahead) gives the force law the same "
-	  "surface as a step finished whole at the period's end, at 2500 and 1000 Hz", "[ctl][split][ahead]")
+	  "surface as a step finished whole at the period's end, at 2500 and 1000 Hz",
+	  "[ctl][split][ahead]")
 {
 	for (uint32_t tick_hz : {2500u, 1000u}) {
 		swell_ctl_config cfg = pool();
@@ -670,14 +669,29 @@ TEST_CASE("random device traffic, parameters and commands: every force sent is z
 				swell_ctl_rx(&k.c, SWELL_LINK_DEVICE, &v);
 			}
 			switch (pick(40)) {
-			case 0: k.param(SWELL_PARAM_FORCE_MAX_UN, 1 + pick(3000000)); break;
-			case 1: k.param(SWELL_PARAM_FORCE_RATE, 2500 + pick(2000000000)); break;
-			case 2: k.param(SWELL_PARAM_FORCE_GAIN, pick(5 * SWELL_Q16_ONE)); break;
-			case 3: k.param(SWELL_PARAM_COMMAND, pick(3)); break;
-			case 4: k.param(SWELL_PARAM_WAVE_E, SWELL_Q30_ONE / 20 + pick(SWELL_Q30_ONE / 2)); break;
-			case 5: k.param(SWELL_PARAM_BODY_MASS_G, 1 + pick(2000)); break;
-			case 6: k.param(SWELL_PARAM_COMMAND, SWELL_CMD_RUN); break;
-			default: break;
+			case 0:
+				k.param(SWELL_PARAM_FORCE_MAX_UN, 1 + pick(3000000));
+				break;
+			case 1:
+				k.param(SWELL_PARAM_FORCE_RATE, 2500 + pick(2000000000));
+				break;
+			case 2:
+				k.param(SWELL_PARAM_FORCE_GAIN, pick(5 * SWELL_Q16_ONE));
+				break;
+			case 3:
+				k.param(SWELL_PARAM_COMMAND, pick(3));
+				break;
+			case 4:
+				k.param(SWELL_PARAM_WAVE_E, SWELL_Q30_ONE / 20 + pick(SWELL_Q30_ONE / 2));
+				break;
+			case 5:
+				k.param(SWELL_PARAM_BODY_MASS_G, 1 + pick(2000));
+				break;
+			case 6:
+				k.param(SWELL_PARAM_COMMAND, SWELL_CMD_RUN);
+				break;
+			default:
+				break;
 			}
 			swell_ctl_tick(&k.c);
 			k.drain(SWELL_LINK_HOST);
@@ -689,9 +703,9 @@ TEST_CASE("random device traffic, parameters and commands: every force sent is z
 					continue;
 				const swell_msg_force_cmd &f = m.u.force_cmd;
 				forces++;
-				INFO("run " << run << " tick " << t << " state " << swell_ctl_state_name(k.c.state)
-					    << " f_max " << fmax << " uN: sent " << f.fx_cN << " " << f.fy_cN << " "
-					    << f.fz_cN << " cN, enable " << (int)f.enable);
+				INFO("run " << run << " tick " << t << " state " << swell_ctl_state_name(k.c.state) << " f_max "
+					    << fmax << " uN: sent " << f.fx_cN << " " << f.fy_cN << " " << f.fz_cN
+					    << " cN, enable " << (int)f.enable);
 				REQUIRE(f.enable == running);
 				if (!running)
 					REQUIRE((f.fx_cN == 0 && f.fy_cN == 0 && f.fz_cN == 0));

@@ -55,8 +55,7 @@ struct Core {
 
 } // namespace
 
-TEST_CASE("every table default is what the reference configuration holds, read back through PARAM_GET",
-	  "[ctl][param]")
+TEST_CASE("every table default is what the reference configuration holds, read back through PARAM_GET", "[ctl][param]")
 {
 	Core k;
 	size_t n = 0;
@@ -72,8 +71,7 @@ TEST_CASE("every table default is what the reference configuration holds, read b
 	}
 }
 
-TEST_CASE("one past either end of a parameter's table range is refused as out of range and changes nothing",
-	  "[ctl][param]")
+TEST_CASE("one past either end of a parameter's table range is refused as out of range and changes nothing", "[ctl][param]")
 {
 	Core k;
 	size_t n = 0;
@@ -103,10 +101,9 @@ TEST_CASE("a parameter set to a new value inside its range reads back that value
 	struct {
 		const char *name;
 		int32_t v;
-	} sets[] = {{"wave.e", 200000000},   {"wave.damping", 2000000}, {"wave.stencil", 1},
-		    {"body.mass", 80},       {"body.a", 40000},         {"body.b", 30000},
-		    {"body.h", 20000},       {"body.damper", 3000},     {"force.max", 5000000},
-		    {"force.rate", 100000000}, {"force.gain", 32768},   {"link.silent_ticks", 5},
+	} sets[] = {{"wave.e", 200000000},  {"wave.damping", 2000000}, {"wave.stencil", 1},   {"body.mass", 80},
+		    {"body.a", 40000},      {"body.b", 30000},         {"body.h", 20000},     {"body.damper", 3000},
+		    {"force.max", 5000000}, {"force.rate", 100000000}, {"force.gain", 32768}, {"link.silent_ticks", 5},
 		    {"ctl.autorun", 1}};
 	size_t n = 0;
 	swell_param_table(&n);

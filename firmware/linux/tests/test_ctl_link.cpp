@@ -34,10 +34,7 @@ struct can_frame err_frame(uint32_t classes, uint8_t crtl = 0, uint8_t txerr = 0
 	return f;
 }
 
-enum ctl_can_event feed(struct ctl_can_health *h, const struct can_frame &f)
-{
-	return ctl_can_error_frame(h, f.can_id, f.data);
-}
+enum ctl_can_event feed(struct ctl_can_health *h, const struct can_frame &f) { return ctl_can_error_frame(h, f.can_id, f.data); }
 
 struct can_frame device_pos(uint8_t node, uint8_t seq)
 {
@@ -111,8 +108,8 @@ TEST_CASE("CAN error frames: warning and passive are counted, bus-off holds unti
 	CHECK(h.state == CTL_CAN_ACTIVE);
 	CHECK(h.tx_err == 0); /* the kernel's restart frame carries no counters: a restart clears them */
 	CHECK(feed(&h, err_frame(CAN_ERR_CRTL, CAN_ERR_CRTL_ACTIVE)) == CTL_CAN_EV_NONE); /* already active */
-	INFO("frames " << h.error_frames << ", warnings " << h.warnings << ", passives " << h.passives
-		       << ", bus-offs " << h.bus_offs << ", restarts " << h.restarts);
+	INFO("frames " << h.error_frames << ", warnings " << h.warnings << ", passives " << h.passives << ", bus-offs "
+		       << h.bus_offs << ", restarts " << h.restarts);
 	CHECK(h.error_frames == 7);
 	CHECK(h.warnings == 1);
 	CHECK(h.passives == 1);
@@ -139,8 +136,7 @@ TEST_CASE("CAN error frames: bus-off wins over a restart in the same frame, a da
 	CHECK(memcmp(&h, &before, sizeof(h)) == 0);
 }
 
-TEST_CASE("CAN link: data frames are taken, error frames are not messages, nothing is taken while bus-off",
-	  "[ctl_link]")
+TEST_CASE("CAN link: data frames are taken, error frames are not messages, nothing is taken while bus-off", "[ctl_link]")
 {
 	FakeCan c;
 
@@ -182,7 +178,7 @@ TEST_CASE("USB link: an answer that finds the IN queue busy is held and kept in 
 	l.kind = CTL_LINK_USB;
 	l.fd = -1;
 	l.usb.ep0 = l.usb.ep_out = l.usb.ep_in = l.usb.efd = -1; /* closed: every write is refused */
-	l.usb_up = 1;                                            /* as between a refusal and DISABLE */
+	l.usb_up = 1; /* as between a refusal and DISABLE */
 	memset(&ack, 0, sizeof(ack));
 	ack.type = SWELL_MSG_PARAM_NACK;
 	ack.u.param_nack.id = 999;
@@ -201,7 +197,7 @@ TEST_CASE("USB link: an answer that finds the IN queue busy is held and kept in 
 	uint8_t first[SWELL_PKT_MAX];
 	memcpy(first, l.held, held);
 	ctl_link_send(&l, &quad, 1); /* cannot overtake the held answer */
-	ctl_link_send(&l, &ack, 1);  /* a second answer while one is held: dropped, counted */
+	ctl_link_send(&l, &ack, 1); /* a second answer while one is held: dropped, counted */
 	INFO("tx errors " << l.tx_errors << ", answers held " << l.answers_held << ", dropped " << l.answers_dropped);
 	CHECK(l.tx_errors == 3);
 	CHECK(l.answers_dropped == 1);
@@ -214,8 +210,7 @@ TEST_CASE("USB link: an answer that finds the IN queue busy is held and kept in 
 	CHECK(l.frames_tx == 0);
 }
 
-TEST_CASE("CAN link: the zero force on exit waits for room in a full TX queue, a tick's force is dropped",
-	  "[ctl_link]")
+TEST_CASE("CAN link: the zero force on exit waits for room in a full TX queue, a tick's force is dropped", "[ctl_link]")
 {
 	FakeCan c;
 	struct can_frame fill = device_pos(0, 1);
@@ -447,8 +442,12 @@ TEST_CASE("UDP device link: a configured device is never let go, others are refu
 	struct ctl_link l;
 	char err[160] = "";
 	UdpEnd dev, other;
-	const char *bad[] = {"udp:47800,peer=", "udp:47800,peer=1.2.3:5", "udp:47800,peer=127.0.0.1:0",
-			     "udp:47800,listen=5", "udp:,peer=127.0.0.1:5", "udp:47800,peer=127.0.0.1:70000",
+	const char *bad[] = {"udp:47800,peer=",
+			     "udp:47800,peer=1.2.3:5",
+			     "udp:47800,peer=127.0.0.1:0",
+			     "udp:47800,listen=5",
+			     "udp:,peer=127.0.0.1:5",
+			     "udp:47800,peer=127.0.0.1:70000",
 			     "udp:abc"};
 
 	for (const char *b : bad) {
@@ -459,8 +458,8 @@ TEST_CASE("UDP device link: a configured device is never let go, others are refu
 	}
 	/* a free port, then the link on it with the device's address (loopback when only the port is given) */
 	UdpEnd probe;
-	const std::string good = "udp:" + std::to_string(ntohs(probe.a.sin_port)) + ",peer=" +
-				 std::to_string(ntohs(dev.a.sin_port));
+	const std::string good =
+		"udp:" + std::to_string(ntohs(probe.a.sin_port)) + ",peer=" + std::to_string(ntohs(dev.a.sin_port));
 	close(probe.fd);
 	probe.fd = -1;
 	REQUIRE(ctl_link_open(&l, good.c_str(), 1, 0, err, sizeof(err)) == 0);

@@ -249,10 +249,7 @@ struct Flood {
 	~Flood() { stop(); }
 };
 
-std::string tmp_path(const char *name)
-{
-	return "/tmp/swell-ctl-peer-" + std::to_string(getpid()) + "-" + name;
-}
+std::string tmp_path(const char *name) { return "/tmp/swell-ctl-peer-" + std::to_string(getpid()) + "-" + name; }
 
 } // namespace
 
@@ -265,10 +262,10 @@ TEST_CASE("swell-ctl UDP device link: a flood of valid packets of every type and
 	Udp dev, host;
 	const uint16_t ctl_port = free_port();
 	const std::string out = tmp_path("flood.out");
-	const pid_t pid = spawn_ctl({"--device", "udp:" + std::to_string(ctl_port), "--host",
-				     "udp:" + std::to_string(host.port), "--clock", "device", "--autorun",
-				     "--silent-ticks", "2500", "--no-rt", "--quiet", "--seconds", "120"},
-				    out);
+	const pid_t pid =
+		spawn_ctl({"--device", "udp:" + std::to_string(ctl_port), "--host", "udp:" + std::to_string(host.port), "--clock",
+			   "device", "--autorun", "--silent-ticks", "2500", "--no-rt", "--quiet", "--seconds", "120"},
+			  out);
 
 	/* one tick per sample: the first answer says the controller holds this socket as its device */
 	std::vector<swell_msg> got;
@@ -336,12 +333,12 @@ TEST_CASE("swell-ctl UDP device link: a flood of valid packets of every type and
 	const long long ctl_out = number(report, "device link", " out,");
 	const long long dropped = number(report, "device peer", "datagrams of other senders");
 	const long long taken = number(report, "device taken", " times, let go");
-	INFO("flood: " << flood.sent << " valid datagrams of " << flood.types.size() << " types sent, "
-		       << flood.received << " came back to the flooder; device: " << n_samples << " samples, "
-		       << unanswered << " unanswered, " << force_seq.size() << " FORCE_CMD, " << gaps
-		       << " sequence gaps, " << dev_datagrams << " datagrams (controller sent " << ctl_out
-		       << "); controller dropped " << dropped << " datagrams of other senders, took a device "
-		       << taken << " times; " << pose_z.size() << " distinct object z in the telemetry\n"
+	INFO("flood: " << flood.sent << " valid datagrams of " << flood.types.size() << " types sent, " << flood.received
+		       << " came back to the flooder; device: " << n_samples << " samples, " << unanswered << " unanswered, "
+		       << force_seq.size() << " FORCE_CMD, " << gaps << " sequence gaps, " << dev_datagrams
+		       << " datagrams (controller sent " << ctl_out << "); controller dropped " << dropped
+		       << " datagrams of other senders, took a device " << taken << " times; " << pose_z.size()
+		       << " distinct object z in the telemetry\n"
 		       << report);
 	CHECK(flood.types.size() == swell_msg_desc_count);
 	CHECK(flood.sent >= 20000);
@@ -363,11 +360,11 @@ TEST_CASE("swell-ctl UDP device link: a device that falls silent faults the loop
 	Udp dev, host;
 	const uint16_t ctl_port = free_port();
 	const std::string out = tmp_path("silent.out");
-	const pid_t pid = spawn_ctl({"--device", "udp:" + std::to_string(ctl_port) + ",peer=127.0.0.1:" +
-							   std::to_string(dev.port),
-				     "--host", "udp:" + std::to_string(host.port), "--autorun", "--silent-ticks",
-				     "250", "--no-rt", "--quiet", "--seconds", "120"},
-				    out);
+	const pid_t pid =
+		spawn_ctl({"--device", "udp:" + std::to_string(ctl_port) + ",peer=127.0.0.1:" + std::to_string(dev.port),
+			   "--host", "udp:" + std::to_string(host.port), "--autorun", "--silent-ticks", "250", "--no-rt",
+			   "--quiet", "--seconds", "120"},
+			  out);
 
 	/* the device: a sample every 400 us while talking; it reads every command all along */
 	std::atomic<bool> talking{true}, alive{true};
@@ -430,10 +427,10 @@ TEST_CASE("swell-ctl UDP device link: a device that falls silent faults the loop
 	const std::string report = slurp(out);
 	std::remove(out.c_str());
 
-	INFO("flood: " << flood.sent << " valid datagrams sent, " << flood.received
-		       << " came back to the flooder; FAULT seen " << fault_ms << " ms after the device fell silent; "
-		       << running_after << " RUNNING heartbeats after it; device got " << forces << " FORCE_CMD, "
-		       << enabled_after << " enabled and " << nonzero_after << " non-zero after the fault\n"
+	INFO("flood: " << flood.sent << " valid datagrams sent, " << flood.received << " came back to the flooder; FAULT seen "
+		       << fault_ms << " ms after the device fell silent; " << running_after
+		       << " RUNNING heartbeats after it; device got " << forces << " FORCE_CMD, " << enabled_after
+		       << " enabled and " << nonzero_after << " non-zero after the fault\n"
 		       << report);
 	REQUIRE(fault.type == SWELL_MSG_HEARTBEAT);
 	CHECK(fault.u.heartbeat.err == SWELL_ETIMEOUT);
@@ -456,8 +453,8 @@ TEST_CASE("swell-ctl UDP host link: four clients beside the viewer get telemetry
 	const uint16_t ctl_port = free_port(), listen_port = free_port();
 	const std::string out = tmp_path("clients.out");
 	const pid_t pid = spawn_ctl({"--device", "udp:" + std::to_string(ctl_port), "--host",
-				     "udp:" + std::to_string(viewer.port) + ",listen=" + std::to_string(listen_port),
-				     "--no-rt", "--quiet", "--seconds", "120"},
+				     "udp:" + std::to_string(viewer.port) + ",listen=" + std::to_string(listen_port), "--no-rt",
+				     "--quiet", "--seconds", "120"},
 				    out);
 	REQUIRE(viewer.wait_for(SWELL_MSG_HEARTBEAT, 5000).type == SWELL_MSG_HEARTBEAT);
 

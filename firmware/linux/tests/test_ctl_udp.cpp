@@ -97,8 +97,7 @@ TEST_CASE("swell-ctl over UDP: bad parameter sets are refused with a reason and 
 	REQUIRE(swell_link_open_udp(&v.l, "127.0.0.1", 0, nullptr, 0) == 0);
 	const std::string host = "udp:" + std::to_string(swell_link_udp_port(v.l));
 	const std::string dev = "udp:" + std::to_string(swell_link_udp_port(v.l) + 1);
-	std::vector<std::string> args = {SWELL_CTL_BIN, "--device", dev, "--host", host, "--no-rt", "--quiet",
-					 "--seconds", "30"};
+	std::vector<std::string> args = {SWELL_CTL_BIN, "--device", dev, "--host", host, "--no-rt", "--quiet", "--seconds", "30"};
 	const pid_t pid = spawn(args);
 
 	/* the controller is alive: its heartbeat reaches the viewer port */
@@ -142,8 +141,7 @@ TEST_CASE("swell-ctl over UDP: bad parameter sets are refused with a reason and 
 	CHECK(WEXITSTATUS(st) == 0);
 }
 
-TEST_CASE("swell-ctl --clock device: a silent device is ticked on every period, not every millisecond",
-	  "[ctl][udp]")
+TEST_CASE("swell-ctl --clock device: a silent device is ticked on every period, not every millisecond", "[ctl][udp]")
 {
 	const int tick_hz = 2500;
 	swell_link *dev = nullptr;
@@ -153,9 +151,10 @@ TEST_CASE("swell-ctl --clock device: a silent device is ticked on every period, 
 	dev = nullptr;
 	const uint16_t ctl_port = (uint16_t)(mine + 1);
 	REQUIRE(swell_link_open_udp(&dev, "127.0.0.1", mine, "127.0.0.1", ctl_port) == 0);
-	std::vector<std::string> args = {SWELL_CTL_BIN, "--device", "udp:" + std::to_string(ctl_port), "--host", "none",
-					 "--clock", "device", "--tick-hz", std::to_string(tick_hz), "--no-rt",
-					 "--quiet", "--seconds", "30"};
+	std::vector<std::string> args = {
+		SWELL_CTL_BIN, "--device",  "udp:" + std::to_string(ctl_port), "--host",  "none",    "--clock",
+		"device",      "--tick-hz", std::to_string(tick_hz),           "--no-rt", "--quiet", "--seconds",
+		"30"};
 	const pid_t pid = spawn(args);
 
 	/* samples until the controller answers with forces (one tick per sample) */
@@ -295,8 +294,9 @@ TEST_CASE("swell-ctl without real-time scheduling says so and uses a 20 ms silen
 	const uint16_t ctl_port = (uint16_t)(mine + 1);
 	REQUIRE(swell_link_open_udp(&dev, "127.0.0.1", mine, "127.0.0.1", ctl_port) == 0);
 	const std::string base = "/tmp/swell-ctl-rt-" + std::to_string(getpid());
-	std::vector<std::string> args = {SWELL_CTL_BIN, "--device", "udp:" + std::to_string(ctl_port), "--host", "none",
-					 "--autorun", "--no-rt", "--quiet", "--seconds", "30"};
+	std::vector<std::string> args = {
+		SWELL_CTL_BIN, "--device", "udp:" + std::to_string(ctl_port), "--host", "none", "--autorun", "--no-rt", "--quiet",
+		"--seconds",   "30"};
 	const pid_t pid = spawn_logged(args, base + ".out", base + ".err");
 
 	/* the device talks until the loop runs (an enabled FORCE_CMD), then falls silent */
@@ -375,8 +375,7 @@ TEST_CASE("swell-ctl: every bad argument and conflicting pair exits 2 with one l
 		{{"--device", "udp:47990", "--host", "udp:47990"}, 2, "the telemetry would go to the device link's own port"},
 		{{"--device", "udp:47801", "--host", "udp"}, 2, "the telemetry would go to the device link's own port"},
 		{{"--device", "usb:/x", "--host", "usb:/x"}, 2, "are one FunctionFS mount (usb:/x)"},
-		{{"--device", "usb:/nonexistent-ffs", "--host", "none"}, 1,
-		 "FunctionFS open failed: No such file or directory"},
+		{{"--device", "usb:/nonexistent-ffs", "--host", "none"}, 1, "FunctionFS open failed: No such file or directory"},
 		/* no such interface; on a machine without CAN the socket is refused first */
 		{{"--device", "can:nosuchcan0", "--host", "none"}, 1, "can:nosuchcan0: "},
 	};
@@ -397,8 +396,8 @@ TEST_CASE("swell-ctl: every bad argument and conflicting pair exits 2 with one l
 		std::string joined;
 		for (auto &a : c.args)
 			joined += a + " ";
-		INFO(joined << "-> exit " << (WIFEXITED(st) ? WEXITSTATUS(st) : -1) << ", stderr '" << err << "', stdout '"
-			    << out << "'");
+		INFO(joined << "-> exit " << (WIFEXITED(st) ? WEXITSTATUS(st) : -1) << ", stderr '" << err << "', stdout '" << out
+			    << "'");
 		CHECK(WIFEXITED(st));
 		CHECK(WEXITSTATUS(st) == c.code);
 		CHECK(err.find(c.says) != std::string::npos);

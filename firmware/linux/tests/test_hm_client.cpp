@@ -136,7 +136,8 @@ TEST_CASE("hm_client: decimal text to fixed point without floats, rounded half a
 			int32_t got = 0;
 			if (hm_client_parse_fixed(&p, 5, 30000, &got) != 0 || *p || got != round_100(x, 30000)) {
 				if (!wrong++)
-					first = t + " -> " + std::to_string(got) + ", want " + std::to_string(round_100(x, 30000));
+					first = t + " -> " + std::to_string(got) + ", want " +
+						std::to_string(round_100(x, 30000));
 			}
 		}
 	}
@@ -148,10 +149,19 @@ TEST_CASE("hm_client: decimal text to fixed point without floats, rounded half a
 		int32_t want;
 		size_t used;
 	} cases[] = {
-		{"1.5e-05", 5, 2, 7},   {"-2.5e-05", 5, -3, 8}, {"1.2e-07", 5, 0, 7},   {"2", 4, 20000, 1},
-		{"0.00038]", 4, 4, 7},  {"-0", 5, 0, 2},        {"1e-30", 5, 0, 5},     {"3E+2", 0, 300, 4},
-		{"1e", 5, 30000, 1},    {"+7.", 1, 70, 3},      {"123456789012345678901234", 0, 30000, 24},
-		{"0.000000000000000000000123456789e22", 0, 1, 35}, {"0.0000012345678e6", 3, 1235, 17},
+		{"1.5e-05", 5, 2, 7},
+		{"-2.5e-05", 5, -3, 8},
+		{"1.2e-07", 5, 0, 7},
+		{"2", 4, 20000, 1},
+		{"0.00038]", 4, 4, 7},
+		{"-0", 5, 0, 2},
+		{"1e-30", 5, 0, 5},
+		{"3E+2", 0, 300, 4},
+		{"1e", 5, 30000, 1},
+		{"+7.", 1, 70, 3},
+		{"123456789012345678901234", 0, 30000, 24},
+		{"0.000000000000000000000123456789e22", 0, 1, 35},
+		{"0.0000012345678e6", 3, 1235, 17},
 	};
 	for (const auto &c : cases) {
 		const char *p = c.text;
@@ -203,7 +213,8 @@ TEST_CASE("hm_client: start-up to force, then one request a tick, answers become
 	hm_client_close(&c);
 }
 
-TEST_CASE("hm_client: an answer older than 2 ticks is dropped, the pipeline is not deepened past it, a stopped device is reported and started again")
+TEST_CASE("hm_client: an answer older than 2 ticks is dropped, the pipeline is not deepened past it, a stopped device is "
+	  "reported and started again")
 {
 	Device dev;
 	hm_client c;
@@ -237,8 +248,8 @@ TEST_CASE("hm_client: an answer older than 2 ticks is dropped, the pipeline is n
 	for (int k = 0; k < 200 && c.st.answers < 6; k++)
 		got += collect(c, m + got, 8 - got, 5);
 	CHECK(c.st.answers == 6); // start-up, the first sample, four ticks
-	CHECK(c.st.late == 3);    // read 5, 4 and 3 ticks after they were asked for (6 ticks have passed)
-	CHECK(got == 2);          // the zero's answer, 1 tick old, is a sample
+	CHECK(c.st.late == 3); // read 5, 4 and 3 ticks after they were asked for (6 ticks have passed)
+	CHECK(got == 2); // the zero's answer, 1 tick old, is a sample
 	// another client stopped the device: not rendering (bit 2), and a new start-up after the pause
 	hm_client_force(&c, f, 1);
 	REQUIRE(dev.request(c).rfind("set swell_bias force", 0) == 0);

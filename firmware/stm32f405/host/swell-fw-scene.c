@@ -40,8 +40,7 @@ int main(int argc, char **argv)
 
 			steps = strtoul(argv[++i], &end, 10);
 			if (*end || !*argv[i] || steps > 100000000ul) {
-				fprintf(stderr, "swell-fw-scene: --steps '%s' is not a count in [0, 1e8]\n",
-					argv[i]);
+				fprintf(stderr, "swell-fw-scene: --steps '%s' is not a count in [0, 1e8]\n", argv[i]);
 				return 2;
 			}
 		} else if (!strcmp(argv[i], "--core") && i + 1 < argc) {
@@ -58,8 +57,10 @@ int main(int argc, char **argv)
 
 			core_hz = strtoul(argv[++i], &end, 10);
 			if (*end || !*argv[i] || core_hz < 500 || core_hz > 100000 || core_hz % 250 != 0) {
-				fprintf(stderr, "swell-fw-scene: --core-hz '%s' is not a multiple of the 250 Hz solver "
-						"rate in [500, 100000]\n", argv[i]);
+				fprintf(stderr,
+					"swell-fw-scene: --core-hz '%s' is not a multiple of the 250 Hz solver "
+					"rate in [500, 100000]\n",
+					argv[i]);
 				return 2;
 			}
 		} else if (!strcmp(argv[i], "--cost")) {
@@ -108,8 +109,8 @@ int main(int argc, char **argv)
 		}
 		for (n = 0; n < FW_COST_STEPS; n++)
 			swell_wave_step(&w);
-		printf("cost scene %s%s checksum 0x%08x\n", velocity ? "velocity-" : "", fw_cost_scene_name[i % FW_COST_SCENES],
-		       (unsigned)swell_wave_checksum(&w));
+		printf("cost scene %s%s checksum 0x%08x\n", velocity ? "velocity-" : "",
+		       fw_cost_scene_name[i % FW_COST_SCENES], (unsigned)swell_wave_checksum(&w));
 	}
 	if (core_ticks) {
 		struct fw_core_run r;

@@ -2,7 +2,7 @@
 
 void can_busoff_init(struct can_busoff *b)
 {
-	*b = (struct can_busoff){.holdoff_ms = CAN_BUSOFF_BASE_MS};
+	*b = (struct can_busoff){ .holdoff_ms = CAN_BUSOFF_BASE_MS };
 }
 
 void can_busoff_event(struct can_busoff *b, uint32_t now_ms)

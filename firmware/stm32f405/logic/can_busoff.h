@@ -13,12 +13,12 @@
 #define CAN_BUSOFF_QUIET_MS 1000u
 
 struct can_busoff {
-	uint8_t pending;       /* bus-off seen, recovery not yet done */
+	uint8_t pending; /* bus-off seen, recovery not yet done */
 	uint8_t recovered_once;
-	uint32_t since_ms;     /* bus-off (or last failed attempt) time */
+	uint32_t since_ms; /* bus-off (or last failed attempt) time */
 	uint32_t recovered_ms; /* time of the last recovery */
 	uint32_t holdoff_ms;
-	uint32_t count;        /* bus-off events */
+	uint32_t count; /* bus-off events */
 };
 
 void can_busoff_init(struct can_busoff *b);

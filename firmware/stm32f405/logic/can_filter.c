@@ -7,12 +7,12 @@
 static int spec_ok(const struct can_filter_spec *s)
 {
 	return s->id <= 0x7FF && s->mask <= 0x7FF && s->fifo <= 1 &&
-	       (s->kind == CAN_FILTER_EXACT || s->kind == CAN_FILTER_MASK);
+		(s->kind == CAN_FILTER_EXACT || s->kind == CAN_FILTER_MASK);
 }
 
 static unsigned banks_needed(const struct can_filter_spec *s, unsigned n)
 {
-	unsigned exact[2] = {0, 0}, mask[2] = {0, 0}, i, total = 0, f;
+	unsigned exact[2] = { 0, 0 }, mask[2] = { 0, 0 }, i, total = 0, f;
 
 	for (i = 0; i < n; i++) {
 		if (s[i].kind == CAN_FILTER_EXACT)
@@ -25,8 +25,8 @@ static unsigned banks_needed(const struct can_filter_spec *s, unsigned n)
 	return total;
 }
 
-enum swell_err can_filter_plan(const struct can_filter_spec *specs, unsigned n,
-			       struct can_filter_bank *banks, unsigned max_banks, unsigned *nbanks)
+enum swell_err can_filter_plan(const struct can_filter_spec *specs, unsigned n, struct can_filter_bank *banks,
+			       unsigned max_banks, unsigned *nbanks)
 {
 	unsigned i, f, kind, nb = 0;
 
@@ -82,8 +82,8 @@ enum swell_err can_filter_plan(const struct can_filter_spec *specs, unsigned n,
 	return SWELL_OK;
 }
 
-int can_filter_match(const struct can_filter_bank *banks, unsigned nbanks, uint16_t id, int rtr,
-		     int ide, unsigned *fifo)
+int can_filter_match(const struct can_filter_bank *banks, unsigned nbanks, uint16_t id, int rtr, int ide,
+		     unsigned *fifo)
 {
 	uint32_t x = F16(id & 0x7FFu) | (rtr ? 1u << 4 : 0) | (ide ? 1u << 3 : 0);
 	unsigned pass, b;
@@ -97,11 +97,11 @@ int can_filter_match(const struct can_filter_bank *banks, unsigned nbanks, uint1
 			if (k->list_mode != (pass == 0))
 				continue;
 			if (k->list_mode)
-				hit = x == (k->fr1 & 0xFFFFu) || x == k->fr1 >> 16 ||
-				      x == (k->fr2 & 0xFFFFu) || x == k->fr2 >> 16;
+				hit = x == (k->fr1 & 0xFFFFu) || x == k->fr1 >> 16 || x == (k->fr2 & 0xFFFFu) ||
+					x == k->fr2 >> 16;
 			else
 				hit = ((x ^ k->fr1) & (k->fr1 >> 16) & 0xFFFFu) == 0 ||
-				      ((x ^ k->fr2) & (k->fr2 >> 16) & 0xFFFFu) == 0;
+					((x ^ k->fr2) & (k->fr2 >> 16) & 0xFFFFu) == 0;
 			if (hit) {
 				if (fifo)
 					*fifo = k->fifo;

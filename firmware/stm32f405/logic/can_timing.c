@@ -5,10 +5,9 @@ static uint32_t absdiff(uint32_t a, uint32_t b)
 	return a > b ? a - b : b - a;
 }
 
-enum swell_err can_timing_compute(uint32_t clk_hz, uint32_t bitrate, uint16_t want_sp_permille,
-				  struct can_timing *t)
+enum swell_err can_timing_compute(uint32_t clk_hz, uint32_t bitrate, uint16_t want_sp_permille, struct can_timing *t)
 {
-	struct can_timing best = {0};
+	struct can_timing best = { 0 };
 	uint32_t best_err = UINT32_MAX, tq;
 
 	if (!t)
@@ -56,5 +55,5 @@ enum swell_err can_timing_compute(uint32_t clk_hz, uint32_t bitrate, uint16_t wa
 uint32_t can_timing_btr(const struct can_timing *t)
 {
 	return ((uint32_t)(t->brp - 1u) & 0x3FFu) | ((uint32_t)(t->ts1 - 1u) & 0xFu) << 16 |
-	       ((uint32_t)(t->ts2 - 1u) & 0x7u) << 20 | ((uint32_t)(t->sjw - 1u) & 0x3u) << 24;
+		((uint32_t)(t->ts2 - 1u) & 0x7u) << 20 | ((uint32_t)(t->sjw - 1u) & 0x3u) << 24;
 }

@@ -1,7 +1,6 @@
 #include "can_tx.h"
 
-enum swell_err can_tx_pick(uint32_t tme, const uint32_t pend_id[3], uint32_t new_id, unsigned *mb,
-			   int *abort)
+enum swell_err can_tx_pick(uint32_t tme, const uint32_t pend_id[3], uint32_t new_id, unsigned *mb, int *abort)
 {
 	unsigned m, lowest_ok = 0, worst = 3;
 

@@ -13,7 +13,6 @@
  * read when not empty). On SWELL_OK, *mb is the mailbox to fill and *abort is 1 when its pending
  * frame must be aborted first. SWELL_ESIZE: refuse (every pending frame is at least as urgent, or
  * order would break); outputs untouched. */
-enum swell_err can_tx_pick(uint32_t tme, const uint32_t pend_id[3], uint32_t new_id, unsigned *mb,
-			   int *abort);
+enum swell_err can_tx_pick(uint32_t tme, const uint32_t pend_id[3], uint32_t new_id, unsigned *mb, int *abort);
 
 #endif

@@ -2,8 +2,7 @@
 
 #include "swell/crc.h"
 
-enum swell_err fw_core_init(struct swell_ctl *c, struct fw_core_run *r, int32_t *arena, size_t words,
-			    uint32_t tick_hz)
+enum swell_err fw_core_init(struct swell_ctl *c, struct fw_core_run *r, int32_t *arena, size_t words, uint32_t tick_hz)
 {
 	struct swell_ctl_config cfg;
 
@@ -11,13 +10,13 @@ enum swell_err fw_core_init(struct swell_ctl *c, struct fw_core_run *r, int32_t 
 	cfg.tick_hz = tick_hz;
 	cfg.safety.tick_hz = tick_hz;
 	cfg.autorun = 1;
-	*r = (struct fw_core_run){0};
+	*r = (struct fw_core_run){ 0 };
 	return swell_ctl_init(c, &cfg, arena, words);
 }
 
 void fw_core_device(struct swell_ctl *c, struct fw_core_run *r)
 {
-	struct swell_msg m = {.type = SWELL_MSG_DEVICE_POS, .node = c->cfg.node};
+	struct swell_msg m = { .type = SWELL_MSG_DEVICE_POS, .node = c->cfg.node };
 	/* 20 mm down to -25 mm at 50 mm/s, in 10 um units */
 	int64_t z = 2000 - (int64_t)r->tick * 5000 / c->cfg.tick_hz;
 
@@ -56,7 +55,7 @@ void fw_core_drain(struct swell_ctl *c, struct fw_core_run *r)
 uint32_t fw_core_checksum(const struct swell_ctl *c, const struct fw_core_run *r)
 {
 	uint32_t w = swell_wave_checksum(&c->wave);
-	uint8_t b[4] = {(uint8_t)w, (uint8_t)(w >> 8), (uint8_t)(w >> 16), (uint8_t)(w >> 24)};
+	uint8_t b[4] = { (uint8_t)w, (uint8_t)(w >> 8), (uint8_t)(w >> 16), (uint8_t)(w >> 24) };
 
 	return swell_crc32(r->crc, b, 4);
 }

@@ -16,15 +16,14 @@
 #define FW_CORE_ARENA_WORDS (SWELL_WAVE_WORDS(64, 64) + (64 * 64 + 1) / 2)
 
 struct fw_core_run {
-	uint32_t tick;      /* ticks run so far */
-	uint32_t crc;       /* running CRC-32 of the FORCE_CMD payloads */
+	uint32_t tick; /* ticks run so far */
+	uint32_t crc; /* running CRC-32 of the FORCE_CMD payloads */
 	uint32_t force_cmds, host_msgs;
 	int32_t last_fz_uN; /* last commanded vertical force */
 	uint8_t seq;
 };
 
-enum swell_err fw_core_init(struct swell_ctl *c, struct fw_core_run *r, int32_t *arena, size_t words,
-			    uint32_t tick_hz);
+enum swell_err fw_core_init(struct swell_ctl *c, struct fw_core_run *r, int32_t *arena, size_t words, uint32_t tick_hz);
 /* Feed the scripted device sample for this tick (call before swell_ctl_tick). */
 void fw_core_device(struct swell_ctl *c, struct fw_core_run *r);
 /* Drain both output queues after the tick (FORCE_CMDs into the CRC). */

@@ -4,11 +4,10 @@
 
 enum swell_err fw_scene_init(struct swell_wave *w, int32_t *storage, size_t words)
 {
-	struct swell_wave_params p = {.damping = 0, .stencil = SWELL_STENCIL_PAPER};
+	struct swell_wave_params p = { .damping = 0, .stencil = SWELL_STENCIL_PAPER };
 	enum swell_err err;
 
-	err = swell_wave_e_from_physical(FW_SCENE_G_MM_S2, FW_SCENE_DT_US, FW_SCENE_DEPTH_UM,
-					 FW_SCENE_DX_UM, &p.e);
+	err = swell_wave_e_from_physical(FW_SCENE_G_MM_S2, FW_SCENE_DT_US, FW_SCENE_DEPTH_UM, FW_SCENE_DX_UM, &p.e);
 	if (err != SWELL_OK)
 		return err;
 	err = swell_wave_init(w, FW_SCENE_NX, FW_SCENE_NY, storage, words, &p);
@@ -20,20 +19,19 @@ enum swell_err fw_scene_init(struct swell_wave *w, int32_t *storage, size_t word
 	return SWELL_OK;
 }
 
-const char *const fw_cost_scene_name[FW_COST_SCENES] = {"calm", "local", "agitated"};
+const char *const fw_cost_scene_name[FW_COST_SCENES] = { "calm", "local", "agitated" };
 
 enum swell_err fw_cost_scene_init(struct swell_wave *w, int32_t *storage, size_t words, enum fw_cost_scene s,
 				  enum swell_wave_form form)
 {
-	struct swell_wave_params p = {.damping = FW_COST_DAMPING, .stencil = SWELL_STENCIL_PAPER};
+	struct swell_wave_params p = { .damping = FW_COST_DAMPING, .stencil = SWELL_STENCIL_PAPER };
 	enum swell_err err;
 	uint32_t x = 12345u;
 	int a;
 
 	if ((unsigned)s >= FW_COST_SCENES)
 		return SWELL_EINVAL;
-	err = swell_wave_e_from_physical(FW_SCENE_G_MM_S2, FW_SCENE_DT_US, FW_SCENE_DEPTH_UM,
-					 FW_SCENE_DX_UM, &p.e);
+	err = swell_wave_e_from_physical(FW_SCENE_G_MM_S2, FW_SCENE_DT_US, FW_SCENE_DEPTH_UM, FW_SCENE_DX_UM, &p.e);
 	if (err != SWELL_OK)
 		return err;
 	err = swell_wave_init_form(w, FW_SCENE_NX, FW_SCENE_NY, storage, words, &p, form);

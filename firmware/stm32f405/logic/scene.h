@@ -27,7 +27,12 @@ enum swell_err fw_scene_init(struct swell_wave *w, int32_t *storage, size_t word
  * the damped kernel runs: CALM, the water at rest; LOCAL, one 2 mm splash of sigma 2 cells at
  * (12, 12), FW_COST_STEPS steps from its start; AGITATED, every cell random in [-2, 2] mm (a fixed
  * integer generator). */
-enum fw_cost_scene { FW_COST_CALM, FW_COST_LOCAL, FW_COST_AGITATED, FW_COST_SCENES };
+enum fw_cost_scene {
+	FW_COST_CALM,
+	FW_COST_LOCAL,
+	FW_COST_AGITATED,
+	FW_COST_SCENES
+};
 #define FW_COST_STEPS 40u
 #define FW_COST_DAMPING 1073742 /* t = 0.001 in Q1.30 */
 

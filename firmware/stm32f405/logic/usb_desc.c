@@ -4,7 +4,7 @@
 
 #include "swell/transport.h"
 
-#define LO(x) ((uint8_t)((x) & 0xFFu))
+#define LO(x) ((uint8_t)((x)&0xFFu))
 #define HI(x) ((uint8_t)(((x) >> 8) & 0xFFu))
 
 /* Request codes and descriptor types, USB 2.0 tables 9-4 and 9-5. */
@@ -19,34 +19,74 @@ enum {
 	REQ_GET_INTERFACE = 10,
 	REQ_SET_INTERFACE = 11,
 };
-enum { DT_DEVICE = 1, DT_CONFIG = 2, DT_STRING = 3, DT_INTERFACE = 4, DT_ENDPOINT = 5 };
+enum {
+	DT_DEVICE = 1,
+	DT_CONFIG = 2,
+	DT_STRING = 3,
+	DT_INTERFACE = 4,
+	DT_ENDPOINT = 5
+};
 #define FEATURE_ENDPOINT_HALT 0
 #define BCD_DEVICE 0x0100u
 
 const uint8_t usb_device_desc[USB_DEVICE_DESC_LEN] = {
-	USB_DEVICE_DESC_LEN, DT_DEVICE, LO(0x0200), HI(0x0200), /* USB 2.0 (full speed) */
-	0x00, 0x00, 0x00,                                       /* class per interface */
+	USB_DEVICE_DESC_LEN,
+	DT_DEVICE,
+	LO(0x0200),
+	HI(0x0200), /* USB 2.0 (full speed) */
+	0x00,
+	0x00,
+	0x00, /* class per interface */
 	USB_EP0_SIZE,
-	LO(SWELL_USB_VID), HI(SWELL_USB_VID), LO(SWELL_USB_PID), HI(SWELL_USB_PID),
-	LO(BCD_DEVICE), HI(BCD_DEVICE),
-	1, 2, 3, /* manufacturer, product, serial strings */
-	1,       /* one configuration */
+	LO(SWELL_USB_VID),
+	HI(SWELL_USB_VID),
+	LO(SWELL_USB_PID),
+	HI(SWELL_USB_PID),
+	LO(BCD_DEVICE),
+	HI(BCD_DEVICE),
+	1,
+	2,
+	3, /* manufacturer, product, serial strings */
+	1, /* one configuration */
 };
 
 const uint8_t usb_config_desc[USB_CONFIG_DESC_LEN] = {
-	9, DT_CONFIG, LO(USB_CONFIG_DESC_LEN), HI(USB_CONFIG_DESC_LEN),
-	1,    /* interfaces */
-	1,    /* bConfigurationValue */
-	0,    /* no string */
+	9,
+	DT_CONFIG,
+	LO(USB_CONFIG_DESC_LEN),
+	HI(USB_CONFIG_DESC_LEN),
+	1, /* interfaces */
+	1, /* bConfigurationValue */
+	0, /* no string */
 	0x80, /* bus powered (the board is powered by its own supply but draws nothing from VBUS) */
-	50,   /* 100 mA */
-	9, DT_INTERFACE, SWELL_USB_IFACE, 0, 2, SWELL_USB_CLASS, 0x00, 0x00, 0,
-	7, DT_ENDPOINT, SWELL_USB_EP_OUT, 0x02, LO(SWELL_USB_PACKET), HI(SWELL_USB_PACKET), 0,
-	7, DT_ENDPOINT, SWELL_USB_EP_IN, 0x02, LO(SWELL_USB_PACKET), HI(SWELL_USB_PACKET), 0,
+	50, /* 100 mA */
+	9,
+	DT_INTERFACE,
+	SWELL_USB_IFACE,
+	0,
+	2,
+	SWELL_USB_CLASS,
+	0x00,
+	0x00,
+	0,
+	7,
+	DT_ENDPOINT,
+	SWELL_USB_EP_OUT,
+	0x02,
+	LO(SWELL_USB_PACKET),
+	HI(SWELL_USB_PACKET),
+	0,
+	7,
+	DT_ENDPOINT,
+	SWELL_USB_EP_IN,
+	0x02,
+	LO(SWELL_USB_PACKET),
+	HI(SWELL_USB_PACKET),
+	0,
 };
 
-static const char *const strings[] = {NULL, "swell", "swell controller (STM32F405)", "0001"};
-static const uint8_t langids[4] = {4, DT_STRING, 0x09, 0x04}; /* en-US */
+static const char *const strings[] = { NULL, "swell", "swell controller (STM32F405)", "0001" };
+static const uint8_t langids[4] = { 4, DT_STRING, 0x09, 0x04 }; /* en-US */
 
 void usb_setup_parse(const uint8_t raw[8], struct usb_setup *s)
 {
@@ -57,8 +97,7 @@ void usb_setup_parse(const uint8_t raw[8], struct usb_setup *s)
 	s->wLength = (uint16_t)(raw[6] | raw[7] << 8);
 }
 
-static void data_in(struct usb_ctrl_reply *r, const struct usb_setup *s, const uint8_t *d,
-		    uint16_t len)
+static void data_in(struct usb_ctrl_reply *r, const struct usb_setup *s, const uint8_t *d, uint16_t len)
 {
 	r->action = USB_CTRL_DATA_IN;
 	r->data = d;
@@ -95,7 +134,7 @@ void usb_ctrl_decide(const struct usb_setup *s, const struct usb_dev_state *st, 
 	uint8_t type = (s->bmRequestType >> 5) & 3u, recip = s->bmRequestType & 0x1Fu;
 	int in = (s->bmRequestType & 0x80u) != 0;
 
-	*r = (struct usb_ctrl_reply){.action = USB_CTRL_STALL};
+	*r = (struct usb_ctrl_reply){ .action = USB_CTRL_STALL };
 	if (type != 0) /* class and vendor requests: the protocol runs over bulk, not EP0 */
 		return;
 	switch (s->bRequest) {
@@ -161,8 +200,7 @@ void usb_ctrl_decide(const struct usb_setup *s, const struct usb_dev_state *st, 
 	case REQ_CLEAR_FEATURE:
 	case REQ_SET_FEATURE:
 		/* Only ENDPOINT_HALT on our bulk endpoints, when configured. */
-		if (in || recip != 2 || s->wValue != FEATURE_ENDPOINT_HALT || !halt_bit(s->wIndex) ||
-		    !st->config)
+		if (in || recip != 2 || s->wValue != FEATURE_ENDPOINT_HALT || !halt_bit(s->wIndex) || !st->config)
 			return;
 		r->action = s->bRequest == REQ_SET_FEATURE ? USB_CTRL_SET_HALT : USB_CTRL_CLEAR_HALT;
 		r->ep = (uint8_t)s->wIndex;

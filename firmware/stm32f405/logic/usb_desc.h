@@ -10,7 +10,7 @@
 #define USB_DEVICE_DESC_LEN 18
 #define USB_CONFIG_DESC_LEN 32 /* configuration 9 + interface 9 + 2 endpoints x 7 */
 #define USB_EP0_SIZE 64
-#define USB_STRING_MAX 64      /* bytes of the largest string descriptor we build */
+#define USB_STRING_MAX 64 /* bytes of the largest string descriptor we build */
 
 extern const uint8_t usb_device_desc[USB_DEVICE_DESC_LEN];
 extern const uint8_t usb_config_desc[USB_CONFIG_DESC_LEN];
@@ -21,13 +21,13 @@ struct usb_setup {
 };
 
 enum usb_ctrl_action {
-	USB_CTRL_STALL = 0,   /* not supported or invalid: stall EP0 */
-	USB_CTRL_DATA_IN,     /* send data[0..len) then expect a zero-length OUT status */
-	USB_CTRL_STATUS,      /* no data stage: send a zero-length IN status */
+	USB_CTRL_STALL = 0, /* not supported or invalid: stall EP0 */
+	USB_CTRL_DATA_IN, /* send data[0..len) then expect a zero-length OUT status */
+	USB_CTRL_STATUS, /* no data stage: send a zero-length IN status */
 	USB_CTRL_SET_ADDRESS, /* set the address to value, then status */
-	USB_CTRL_SET_CONFIG,  /* configure (value 1) or deconfigure (0) the bulk endpoints, then status */
-	USB_CTRL_SET_HALT,    /* stall endpoint `ep`, then status */
-	USB_CTRL_CLEAR_HALT,  /* un-stall endpoint `ep` and reset its data toggle, then status */
+	USB_CTRL_SET_CONFIG, /* configure (value 1) or deconfigure (0) the bulk endpoints, then status */
+	USB_CTRL_SET_HALT, /* stall endpoint `ep`, then status */
+	USB_CTRL_CLEAR_HALT, /* un-stall endpoint `ep` and reset its data toggle, then status */
 };
 
 struct usb_ctrl_reply {
@@ -35,14 +35,14 @@ struct usb_ctrl_reply {
 	const uint8_t *data;
 	uint16_t len;
 	uint8_t value; /* address or configuration */
-	uint8_t ep;    /* endpoint address for halt requests */
+	uint8_t ep; /* endpoint address for halt requests */
 };
 
 /* Device state the decisions depend on (USB 2.0 9.1: default, address, configured). */
 struct usb_dev_state {
 	uint8_t address; /* 0: default state */
-	uint8_t config;  /* 0: not configured */
-	uint8_t halted;  /* bit 0: EP 0x01 halted, bit 1: EP 0x81 halted */
+	uint8_t config; /* 0: not configured */
+	uint8_t halted; /* bit 0: EP 0x01 halted, bit 1: EP 0x81 halted */
 };
 
 void usb_setup_parse(const uint8_t raw[8], struct usb_setup *s);

@@ -32,7 +32,7 @@ REG_CHECK(struct scb_regs, CPACR, 0x88);
 #define SCB_SHCSR_USGFAULTENA (1u << 18)
 #define SCB_CPACR_CP10_CP11_FULL (0xFu << 20)
 /* Index into SHPR for a system exception number 4..15. */
-#define SCB_SHPR_IDX(exc) ((exc) - 4)
+#define SCB_SHPR_IDX(exc) ((exc)-4)
 #define EXC_MEMMANAGE 4
 #define EXC_BUSFAULT 5
 #define EXC_USAGEFAULT 6

@@ -36,8 +36,8 @@ REG_CHECK(struct rcc_regs, CSR, 0x74);
 #define RCC_CR_PLLON (1u << 24)
 #define RCC_CR_PLLRDY (1u << 25)
 
-#define RCC_PLLCFGR_M_SHIFT 0  /* 2..63 */
-#define RCC_PLLCFGR_N_SHIFT 6  /* 50..432 */
+#define RCC_PLLCFGR_M_SHIFT 0 /* 2..63 */
+#define RCC_PLLCFGR_N_SHIFT 6 /* 50..432 */
 #define RCC_PLLCFGR_P_SHIFT 16 /* 0: /2, 1: /4, 2: /6, 3: /8 */
 #define RCC_PLLCFGR_SRC_HSE (1u << 22)
 #define RCC_PLLCFGR_Q_SHIFT 24 /* 2..15 */

@@ -58,7 +58,7 @@ static void on_usb_out(const uint8_t *pkt, uint32_t len)
 
 static void send_can(const struct swell_msg *m)
 {
-	struct fw_frame f = {0};
+	struct fw_frame f = { 0 };
 
 	if (swell_can_encode(m, &f.id, f.data, &f.len) == SWELL_OK)
 		(void)can_send(&f); /* refused when every mailbox holds something more urgent */
@@ -70,8 +70,7 @@ static void send_usb(const struct swell_msg *m, size_t n)
 	size_t len, used;
 
 	while (n && usb_configured()) {
-		if (swell_pkt_encode(app_ctl.cfg.node, app.usb_seq, m, n, pkt, sizeof(pkt), &len, &used) !=
-			    SWELL_OK ||
+		if (swell_pkt_encode(app_ctl.cfg.node, app.usb_seq, m, n, pkt, sizeof(pkt), &len, &used) != SWELL_OK ||
 		    usb_send(pkt, (uint32_t)len) != SWELL_OK)
 			return; /* IN endpoint busy: telemetry is dropped, the next tick sends fresh data */
 		app.usb_seq++;
@@ -180,21 +179,20 @@ void app_fw_version(uint8_t v[3])
  * involved). */
 static void app_send_zero_force(void)
 {
-	struct swell_msg m = {.type = SWELL_MSG_FORCE_CMD, .node = app_ctl.cfg.node};
-	struct fw_frame f = {0};
+	struct swell_msg m = { .type = SWELL_MSG_FORCE_CMD, .node = app_ctl.cfg.node };
+	struct fw_frame f = { 0 };
 
 	m.u.force_cmd.enable = 0;
 	if (app.device_on_can && swell_can_encode(&m, &f.id, f.data, &f.len) == SWELL_OK)
 		(void)can_send(&f);
 }
 
-void app_run(const struct clock_info *ci, int can_ok, int usb_ok, const struct app_prio *prio,
-	     uint32_t watchdog_ms)
+void app_run(const struct clock_info *ci, int can_ok, int usb_ok, const struct app_prio *prio, uint32_t watchdog_ms)
 {
 	struct swell_ctl_config cfg;
 	struct tick_stats st;
 	/* Accept every message type for our node: id = type << 4 | node. */
-	struct can_filter_spec flt = {.id = 0, .mask = 0x00F, .kind = CAN_FILTER_MASK, .fifo = 0};
+	struct can_filter_spec flt = { .id = 0, .mask = 0x00F, .kind = CAN_FILTER_MASK, .fifo = 0 };
 	uint32_t tick_hz = can_ok ? 1000u : 2500u, last_count = 0, now_ms, boot_at = 0;
 	int boot_armed = 0;
 	enum swell_err err;
@@ -245,8 +243,7 @@ void app_run(const struct clock_info *ci, int can_ok, int usb_ok, const struct a
 			if (!boot_armed) {
 				boot_armed = 1;
 				boot_at = st.count + BOOT_DRAIN_TICKS;
-			}
-			else if ((int32_t)(st.count - boot_at) >= 0)
+			} else if ((int32_t)(st.count - boot_at) >= 0)
 				boot_request_reset();
 		}
 	}

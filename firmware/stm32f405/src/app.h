@@ -23,8 +23,8 @@ struct app_prio {
 };
 
 /* Never returns; the watchdog is refreshed only while the tick keeps running. */
-__attribute__((noreturn)) void app_run(const struct clock_info *ci, int can_ok, int usb_ok,
-				       const struct app_prio *prio, uint32_t watchdog_ms);
+__attribute__((noreturn)) void app_run(const struct clock_info *ci, int can_ok, int usb_ok, const struct app_prio *prio,
+				       uint32_t watchdog_ms);
 
 /* The firmware version CTL_INFO reports: the image header's, as stamped in flash (major saturated
  * to the 8 bits the message has). */

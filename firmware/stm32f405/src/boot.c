@@ -42,8 +42,8 @@ void boot_request_reset(void)
 
 static int looks_like_rom(uint32_t msp, uint32_t pc)
 {
-	return msp > SRAM_BASE && msp <= SRAM_END && (msp & 3u) == 0 && (pc & 1u) &&
-	       pc > BOOT_SYSMEM && pc < BOOT_SYSMEM + BOOT_SYSMEM_SIZE;
+	return msp > SRAM_BASE && msp <= SRAM_END && (msp & 3u) == 0 && (pc & 1u) && pc > BOOT_SYSMEM &&
+		pc < BOOT_SYSMEM + BOOT_SYSMEM_SIZE;
 }
 
 void boot_early(void)
@@ -82,7 +82,9 @@ void boot_early(void)
 		__asm__ volatile("dsb\n\tisb" ::: "memory");
 		__asm__ volatile("msr msp, %0\n\t"
 				 "cpsie i\n\t"
-				 "bx %1" ::"r"(msp), "r"(pc) : "memory");
+				 "bx %1" ::"r"(msp),
+				 "r"(pc)
+				 : "memory");
 		__builtin_unreachable();
 	}
 	/* No bootloader there: nothing was remapped; boot this image as after any reset. */

@@ -16,15 +16,15 @@
 
 #include <stdint.h>
 
-#define BOOT_SYSMEM 0x1FFF0000u      /* STM32F405/407 system memory (RM0090 2.4, AN2606) */
-#define BOOT_SYSMEM_SIZE 0x7800u     /* 30 KB */
+#define BOOT_SYSMEM 0x1FFF0000u /* STM32F405/407 system memory (RM0090 2.4, AN2606) */
+#define BOOT_SYSMEM_SIZE 0x7800u /* 30 KB */
 
 /* The four boot-mode words in the last 16 bytes of SRAM, outside every section (stm32f405.ld):
  * [0] test mode set by a harness (main.c), [1] bootloader request / outcome, [2] and [3] the MSP and
  * PC read from the ROM's table by the last attempt. */
 #define BOOT_WORD(i) (((volatile uint32_t *)0x2001FFF0u)[i])
 #define BOOT_MAGIC_REQUEST 0x55464442u /* "BDFU": jump to the ROM bootloader at the next reset */
-#define BOOT_PROBING 0x424F5250u       /* "PROB": reading the ROM's table right now */
+#define BOOT_PROBING 0x424F5250u /* "PROB": reading the ROM's table right now */
 #define BOOT_OUTCOME_NOROM 0x4D4F524Eu /* "NROM": read, not a bootloader's table, this image started */
 #define BOOT_OUTCOME_FAULTED 0x544C4146u /* "FALT": the read bus-faulted, this image started */
 

@@ -54,8 +54,8 @@ int can_probe(void)
 	return ok;
 }
 
-enum swell_err can_start(uint32_t pclk1_hz, uint32_t bitrate, const struct can_filter_spec *flt,
-			 unsigned nflt, int loopback, uint8_t prio_rx, uint8_t prio_sce)
+enum swell_err can_start(uint32_t pclk1_hz, uint32_t bitrate, const struct can_filter_spec *flt, unsigned nflt,
+			 int loopback, uint8_t prio_rx, uint8_t prio_sce)
 {
 	struct can_filter_bank banks[CAN_FILTER_BANKS_CAN1];
 	struct can_timing t;
@@ -148,9 +148,9 @@ enum swell_err can_send(const struct fw_frame *f)
 
 		m->TDTR = f->len;
 		m->TDLR = (uint32_t)f->data[0] | (uint32_t)f->data[1] << 8 | (uint32_t)f->data[2] << 16 |
-			  (uint32_t)f->data[3] << 24;
+			(uint32_t)f->data[3] << 24;
 		m->TDHR = (uint32_t)f->data[4] | (uint32_t)f->data[5] << 8 | (uint32_t)f->data[6] << 16 |
-			  (uint32_t)f->data[7] << 24;
+			(uint32_t)f->data[7] << 24;
 		can.pend_id[mb] = f->id;
 		m->TIR = (f->id << CAN_TIR_STID_SHIFT) | CAN_TIR_TXRQ;
 	}

@@ -15,12 +15,12 @@
 #include "swell/err.h"
 
 struct can_status {
-	uint8_t tec, rec;       /* transmit and receive error counters */
-	uint8_t lec;            /* last error code (0 none .. 6 CRC) */
+	uint8_t tec, rec; /* transmit and receive error counters */
+	uint8_t lec; /* last error code (0 none .. 6 CRC) */
 	uint8_t error_passive, bus_off;
 	uint32_t bus_off_count; /* bus-off events since start */
-	uint32_t rx_overruns;   /* frames lost because FIFO 0 was full */
-	uint32_t tx_aborted;    /* lower-priority frames aborted for a more urgent one */
+	uint32_t rx_overruns; /* frames lost because FIFO 0 was full */
+	uint32_t tx_aborted; /* lower-priority frames aborted for a more urgent one */
 };
 
 /* Does a bxCAN answer (enters initialisation mode within a bounded wait)? Leaves it in reset. */
@@ -29,8 +29,8 @@ int can_probe(void);
 /* Configure and start: bit timing for pclk1_hz / bitrate (SWELL_ERANGE if not exact), filters
  * (SWELL_ESIZE if they need more than 14 banks), interrupts at the given priorities.
  * loopback: internal loopback + silent (self-test on silicon without a bus). */
-enum swell_err can_start(uint32_t pclk1_hz, uint32_t bitrate, const struct can_filter_spec *flt,
-			 unsigned nflt, int loopback, uint8_t prio_rx, uint8_t prio_sce);
+enum swell_err can_start(uint32_t pclk1_hz, uint32_t bitrate, const struct can_filter_spec *flt, unsigned nflt,
+			 int loopback, uint8_t prio_rx, uint8_t prio_sce);
 
 /* Queue a frame. A free mailbox is used; when all three are busy and the new frame has a lower id
  * (higher priority) than a pending one, that pending frame is aborted and replaced. SWELL_ESIZE

@@ -31,7 +31,7 @@ void clock_init(struct clock_info *ci)
 	uint32_t m, src_bit;
 	enum clock_src want;
 
-	*ci = (struct clock_info){0};
+	*ci = (struct clock_info){ 0 };
 	RCC->CR |= RCC_CR_HSION;
 	(void)wait_bits(&RCC->CR, RCC_CR_HSIRDY, RCC_CR_HSIRDY, PLL_WAIT_LOOPS);
 	/* Voltage scale 1 and 5 wait states (168 MHz at 2.7-3.6 V) before any speed-up; both are safe
@@ -55,8 +55,8 @@ void clock_init(struct clock_info *ci)
 	}
 	/* VCO 2 MHz x 168 = 336 MHz; P /2 = 168 MHz; Q /7 = 48 MHz. */
 	RCC->CR &= ~RCC_CR_PLLON;
-	RCC->PLLCFGR = (m << RCC_PLLCFGR_M_SHIFT) | (168u << RCC_PLLCFGR_N_SHIFT) |
-		       (0u << RCC_PLLCFGR_P_SHIFT) | src_bit | (7u << RCC_PLLCFGR_Q_SHIFT);
+	RCC->PLLCFGR = (m << RCC_PLLCFGR_M_SHIFT) | (168u << RCC_PLLCFGR_N_SHIFT) | (0u << RCC_PLLCFGR_P_SHIFT) |
+		src_bit | (7u << RCC_PLLCFGR_Q_SHIFT);
 	RCC->CR |= RCC_CR_PLLON;
 	if (!wait_bits(&RCC->CR, RCC_CR_PLLRDY, RCC_CR_PLLRDY, PLL_WAIT_LOOPS)) {
 		ci->pll_timeout = 1;
@@ -64,9 +64,9 @@ void clock_init(struct clock_info *ci)
 		return;
 	}
 	RCC->CFGR = (0u << RCC_CFGR_HPRE_SHIFT) | (RCC_CFGR_PPRE_DIV4 << RCC_CFGR_PPRE1_SHIFT) |
-		    (RCC_CFGR_PPRE_DIV2 << RCC_CFGR_PPRE2_SHIFT) | RCC_CFGR_SW_PLL;
-	if (!wait_bits(&RCC->CFGR, RCC_CFGR_SW_MASK << RCC_CFGR_SWS_SHIFT,
-		       RCC_CFGR_SW_PLL << RCC_CFGR_SWS_SHIFT, SWITCH_WAIT_LOOPS)) {
+		(RCC_CFGR_PPRE_DIV2 << RCC_CFGR_PPRE2_SHIFT) | RCC_CFGR_SW_PLL;
+	if (!wait_bits(&RCC->CFGR, RCC_CFGR_SW_MASK << RCC_CFGR_SWS_SHIFT, RCC_CFGR_SW_PLL << RCC_CFGR_SWS_SHIFT,
+		       SWITCH_WAIT_LOOPS)) {
 		ci->switch_timeout = 1;
 		run_on_hsi(ci);
 		return;

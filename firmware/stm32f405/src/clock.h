@@ -11,7 +11,7 @@
 #endif
 
 enum clock_src {
-	CLOCK_HSI = 0,     /* 16 MHz internal RC, no PLL */
+	CLOCK_HSI = 0, /* 16 MHz internal RC, no PLL */
 	CLOCK_HSI_PLL = 1, /* 168 MHz from HSI: no USB (HSI is 1 % accurate) */
 	CLOCK_HSE_PLL = 2, /* 168 MHz from the crystal: everything works */
 };

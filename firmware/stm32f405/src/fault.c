@@ -68,15 +68,15 @@ __attribute__((used, noreturn)) void fault_report(const struct fault_frame *f, u
 }
 
 /* The only assembly: pick MSP or PSP by EXC_RETURN bit 2 and pass the frame to C. */
-#define FAULT_ENTRY(name)                                                                          \
-	__attribute__((naked)) void name(void)                                                     \
-	{                                                                                          \
-		__asm__ volatile("tst lr, #4\n\t"                                                  \
-				 "ite eq\n\t"                                                      \
-				 "mrseq r0, msp\n\t"                                               \
-				 "mrsne r0, psp\n\t"                                               \
-				 "mov r1, lr\n\t"                                                  \
-				 "b fault_report\n\t");                                            \
+#define FAULT_ENTRY(name)                               \
+	__attribute__((naked)) void name(void)          \
+	{                                               \
+		__asm__ volatile("tst lr, #4\n\t"       \
+				 "ite eq\n\t"           \
+				 "mrseq r0, msp\n\t"    \
+				 "mrsne r0, psp\n\t"    \
+				 "mov r1, lr\n\t"       \
+				 "b fault_report\n\t"); \
 	}
 
 FAULT_ENTRY(isr_hardfault)

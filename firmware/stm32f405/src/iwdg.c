@@ -14,7 +14,7 @@ int iwdg_start(uint32_t timeout_ms)
 		timeout_ms = 4095;
 	IWDG->KR = IWDG_KEY_START; /* also starts the LSI */
 	IWDG->KR = IWDG_KEY_UNLOCK;
-	IWDG->PR = 3;               /* /32: 1 kHz at the nominal 32 kHz LSI, so 1 count = 1 ms */
+	IWDG->PR = 3; /* /32: 1 kHz at the nominal 32 kHz LSI, so 1 count = 1 ms */
 	IWDG->RLR = timeout_ms - 1; /* LSI is 17..47 kHz: the real timeout is 0.68..1.9 x this */
 	for (n = 0; n < IWDG_WAIT_LOOPS; n++) {
 		if (!(IWDG->SR & (IWDG_SR_PVU | IWDG_SR_RVU))) {

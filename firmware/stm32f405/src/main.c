@@ -18,11 +18,11 @@
 #include "usb.h"
 
 /* Interrupt priorities (0 = most urgent, preemption only): the force path first. */
-#define PRIO_TICK 0    /* TIM2: the haptic tick, force out */
+#define PRIO_TICK 0 /* TIM2: the haptic tick, force out */
 #define PRIO_SYSTICK 1 /* wrap counter, a few instructions every 0.1 s: never lose a wrap */
 #define PRIO_CAN_SCE 2 /* bus-off: zero force promptly */
-#define PRIO_CAN_RX 3  /* device frames (position in) */
-#define PRIO_USB 4     /* host link */
+#define PRIO_CAN_RX 3 /* device frames (position in) */
+#define PRIO_USB 4 /* host link */
 
 #define WATCHDOG_MS 100u
 
@@ -148,7 +148,7 @@ int main(void)
 	}
 
 	{
-		const struct app_prio prio = {PRIO_TICK, PRIO_CAN_RX, PRIO_CAN_SCE, PRIO_USB};
+		const struct app_prio prio = { PRIO_TICK, PRIO_CAN_RX, PRIO_CAN_SCE, PRIO_USB };
 
 		app_run(&ci, can_ok, usb_ok, &prio, WATCHDOG_MS);
 	}

@@ -34,8 +34,7 @@ static void put_insn(uint64_t ticks, uint64_t per)
 
 /* Naive three-level 9-point step on the interior cells, int32 with a Q1.31 e/2 (the cost
  * anchor of docs/stm32f405.md: a plain loop, no flux form, no walls): h' = 2h - h_prev + e L9. */
-__attribute__((noinline)) static void naive_step(int32_t *restrict prev, const int32_t *restrict h,
-						 int32_t e_half_q31)
+__attribute__((noinline)) static void naive_step(int32_t *restrict prev, const int32_t *restrict h, int32_t e_half_q31)
 {
 	int i, j;
 
@@ -43,8 +42,7 @@ __attribute__((noinline)) static void naive_step(int32_t *restrict prev, const i
 		for (i = 1; i < FW_SCENE_NX - 1; i++) {
 			const int32_t *c = &h[j * FW_SCENE_NX + i];
 			int32_t l2 = -12 * c[0] + 2 * (c[-1] + c[1] + c[-FW_SCENE_NX] + c[FW_SCENE_NX]) +
-				     c[-FW_SCENE_NX - 1] + c[-FW_SCENE_NX + 1] + c[FW_SCENE_NX - 1] +
-				     c[FW_SCENE_NX + 1];
+				c[-FW_SCENE_NX - 1] + c[-FW_SCENE_NX + 1] + c[FW_SCENE_NX - 1] + c[FW_SCENE_NX + 1];
 			int32_t *p = &prev[j * FW_SCENE_NX + i];
 			*p = 2 * c[0] - *p + (int32_t)(((int64_t)l2 * e_half_q31 + (1 << 30)) >> 31);
 		}
@@ -166,37 +164,37 @@ static int run_cost(void)
 	uint32_t k, n, f;
 
 	for (f = SWELL_FORM_EDGE; f <= SWELL_FORM_VELOCITY; f++)
-	for (k = 0; k < FW_COST_SCENES; k++) {
-		uint64_t t0, sum = 0, rows, awake;
+		for (k = 0; k < FW_COST_SCENES; k++) {
+			uint64_t t0, sum = 0, rows, awake;
 
-		if (fw_cost_scene_init(&wave, wave_storage, FW_SCENE_WORDS, (enum fw_cost_scene)k,
-				       (enum swell_wave_form)f) != SWELL_OK)
-			return 0;
-		for (n = 0; n < FW_COST_STEPS; n++) {
-			t0 = timebase_systick();
-			swell_wave_step(&wave);
-			sum += timebase_systick() - t0;
+			if (fw_cost_scene_init(&wave, wave_storage, FW_SCENE_WORDS, (enum fw_cost_scene)k,
+					       (enum swell_wave_form)f) != SWELL_OK)
+				return 0;
+			for (n = 0; n < FW_COST_STEPS; n++) {
+				t0 = timebase_systick();
+				swell_wave_step(&wave);
+				sum += timebase_systick() - t0;
+			}
+			rows = (uint64_t)FW_COST_STEPS * FW_SCENE_NY * wave.tiles_x; /* tile rows, 8 cells each */
+			awake = rows - wave.tiles_skipped;
+			con_puts("cost scene ");
+			con_puts(f == SWELL_FORM_VELOCITY ? "velocity-" : "");
+			con_puts(fw_cost_scene_name[k]);
+			con_puts(": ");
+			put_insn(sum, (uint64_t)FW_COST_STEPS * FW_SCENE_NX * FW_SCENE_NY);
+			con_puts(" instructions per cell-step, ");
+			if (awake)
+				put_insn(sum, awake * SWELL_WAVE_TILE);
+			else
+				con_puts("-");
+			con_puts(" per awake cell-step, awake ");
+			con_put_ratio(awake * 100u, rows, 1);
+			con_puts(" % (damped t = 0.001, 64x64, ");
+			con_put_u32(FW_COST_STEPS);
+			con_puts(" steps) checksum 0x");
+			con_put_hex32(swell_wave_checksum(&wave));
+			con_putc('\n');
 		}
-		rows = (uint64_t)FW_COST_STEPS * FW_SCENE_NY * wave.tiles_x; /* tile rows, 8 cells each */
-		awake = rows - wave.tiles_skipped;
-		con_puts("cost scene ");
-		con_puts(f == SWELL_FORM_VELOCITY ? "velocity-" : "");
-		con_puts(fw_cost_scene_name[k]);
-		con_puts(": ");
-		put_insn(sum, (uint64_t)FW_COST_STEPS * FW_SCENE_NX * FW_SCENE_NY);
-		con_puts(" instructions per cell-step, ");
-		if (awake)
-			put_insn(sum, awake * SWELL_WAVE_TILE);
-		else
-			con_puts("-");
-		con_puts(" per awake cell-step, awake ");
-		con_put_ratio(awake * 100u, rows, 1);
-		con_puts(" % (damped t = 0.001, 64x64, ");
-		con_put_u32(FW_COST_STEPS);
-		con_puts(" steps) checksum 0x");
-		con_put_hex32(swell_wave_checksum(&wave));
-		con_putc('\n');
-	}
 	return 1;
 }
 
@@ -207,8 +205,7 @@ static int run_cost_split(void)
 	uint64_t t0, rows = 0, fin = 0;
 	uint32_t n;
 
-	if (fw_cost_scene_init(&wave, wave_storage, FW_SCENE_WORDS, FW_COST_AGITATED, SWELL_FORM_VELOCITY) !=
-	    SWELL_OK)
+	if (fw_cost_scene_init(&wave, wave_storage, FW_SCENE_WORDS, FW_COST_AGITATED, SWELL_FORM_VELOCITY) != SWELL_OK)
 		return 0;
 	for (n = 0; n < FW_COST_STEPS; n++) {
 		t0 = timebase_systick();
@@ -328,7 +325,7 @@ static int run_core(uint32_t tick_hz, uint32_t ticks)
 {
 	struct fw_core_run r;
 	uint64_t t0, t1, t2, empty, f, b, sum = 0, fmax = 0, bmax = 0, wmax = 0;
-	uint64_t bphase[CORE_MAX_K] = {0};
+	uint64_t bphase[CORE_MAX_K] = { 0 };
 	const uint64_t period_num = (uint64_t)INSN_DEN * 168000000u; /* period in SysTick ticks * INSN_NUM * tick_hz */
 	uint32_t n, k, phase, overruns = 0, bworst_phase = 0;
 	enum swell_err err = fw_core_init(&ctl, &r, wave_storage, ARENA_WORDS, tick_hz);
@@ -448,7 +445,7 @@ int selftest_run(uint32_t tim_clk_hz)
 void selftest_boot_request(void)
 {
 	struct fw_core_run r;
-	struct swell_msg req = {.type = SWELL_MSG_ENTER_BOOTLOADER}, stop = {.type = SWELL_MSG_PARAM_SET};
+	struct swell_msg req = { .type = SWELL_MSG_ENTER_BOOTLOADER }, stop = { .type = SWELL_MSG_PARAM_SET };
 	int32_t f_running;
 	uint32_t n;
 

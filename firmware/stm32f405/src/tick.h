@@ -9,9 +9,9 @@
 #include "swell/err.h"
 
 struct tick_stats {
-	uint32_t count;      /* ticks run */
-	uint32_t overruns;   /* update flag set again before the tick's work finished */
-	uint32_t last_cost;  /* cycles (or SysTick ticks) of the last tick's work */
+	uint32_t count; /* ticks run */
+	uint32_t overruns; /* update flag set again before the tick's work finished */
+	uint32_t last_cost; /* cycles (or SysTick ticks) of the last tick's work */
 	uint32_t max_cost;
 };
 

@@ -83,8 +83,7 @@ static void fifo_read(uint8_t *d, uint32_t len, uint32_t cap)
 
 static void ep0_out_arm(void)
 {
-	OTG_OUT(0)->DOEPTSIZ = (3u << OTG_DOEPTSIZ0_STUPCNT_SHIFT) | (1u << OTG_TSIZ_PKTCNT_SHIFT) |
-			       USB_EP0_SIZE;
+	OTG_OUT(0)->DOEPTSIZ = (3u << OTG_DOEPTSIZ0_STUPCNT_SHIFT) | (1u << OTG_TSIZ_PKTCNT_SHIFT) | USB_EP0_SIZE;
 	OTG_OUT(0)->DOEPCTL |= OTG_EPCTL_CNAK | OTG_EPCTL_EPENA;
 }
 
@@ -109,8 +108,8 @@ static void configure(uint8_t config)
 	usb.st.halted = 0;
 	usb.in_busy = 0;
 	if (config) {
-		OTG_IN(1)->DIEPCTL = bulk | (1u << OTG_EPCTL_TXFNUM_SHIFT) | OTG_EPCTL_SD0PID |
-				     OTG_EPCTL_USBAEP | OTG_EPCTL_SNAK;
+		OTG_IN(1)->DIEPCTL =
+			bulk | (1u << OTG_EPCTL_TXFNUM_SHIFT) | OTG_EPCTL_SD0PID | OTG_EPCTL_USBAEP | OTG_EPCTL_SNAK;
 		OTG_OUT(1)->DOEPCTL = bulk | OTG_EPCTL_SD0PID | OTG_EPCTL_USBAEP;
 		OTG_DEV->DAINTMSK |= (1u << 1) | (1u << 17);
 		ep1_out_arm();
@@ -177,7 +176,7 @@ static void handle_setup(void)
 static void bus_reset(void)
 {
 	OTG_DEV->DCFG &= ~OTG_DCFG_DAD_MASK;
-	usb.st = (struct usb_dev_state){0};
+	usb.st = (struct usb_dev_state){ 0 };
 	configure(0);
 	OTG->GRSTCTL = OTG_GRSTCTL_TXFFLSH | OTG_GRSTCTL_TXFNUM_ALL;
 	(void)wait_clear(&OTG->GRSTCTL, OTG_GRSTCTL_TXFFLSH, AHBIDL_WAIT_LOOPS);
@@ -287,10 +286,10 @@ enum swell_err usb_start(uint8_t prio, void (*on_out)(const uint8_t *data, uint3
 	(void)wait_clear(&OTG->GRSTCTL, OTG_GRSTCTL_RXFFLSH, AHBIDL_WAIT_LOOPS);
 
 	usb.on_out = on_out;
-	usb.st = (struct usb_dev_state){0};
+	usb.st = (struct usb_dev_state){ 0 };
 	OTG->GINTSTS = 0xFFFFFFFFu;
-	OTG->GINTMSK = OTG_GINT_USBRST | OTG_GINT_ENUMDNE | OTG_GINT_RXFLVL | OTG_GINT_IEPINT |
-		       OTG_GINT_OEPINT | OTG_GINT_USBSUSP | OTG_GINT_WKUPINT;
+	OTG->GINTMSK = OTG_GINT_USBRST | OTG_GINT_ENUMDNE | OTG_GINT_RXFLVL | OTG_GINT_IEPINT | OTG_GINT_OEPINT |
+		OTG_GINT_USBSUSP | OTG_GINT_WKUPINT;
 	OTG->GAHBCFG = OTG_GAHBCFG_GINTMSK;
 	NVIC->IPR[IRQ_OTG_FS] = (uint8_t)(prio << (8 - NVIC_PRIO_BITS));
 	NVIC->ICPR[IRQ_OTG_FS / 32] = 1u << (IRQ_OTG_FS % 32);

@@ -14,8 +14,8 @@ static void check_timing(uint32_t clk, uint32_t rate)
 {
 	can_timing t{};
 	REQUIRE(can_timing_compute(clk, rate, 875, &t) == SWELL_OK);
-	INFO("clk " << clk << " Hz, rate " << rate << " bit/s: brp " << t.brp << " ts1 " << int(t.ts1)
-		    << " ts2 " << int(t.ts2) << " sjw " << int(t.sjw) << " sp " << t.sample_permille);
+	INFO("clk " << clk << " Hz, rate " << rate << " bit/s: brp " << t.brp << " ts1 " << int(t.ts1) << " ts2 " << int(t.ts2)
+		    << " sjw " << int(t.sjw) << " sp " << t.sample_permille);
 	// The bit rate is exact: f = rate * brp * (1 + ts1 + ts2).
 	CHECK(uint64_t(rate) * t.brp * (1u + t.ts1 + t.ts2) == clk);
 	CHECK(t.tq_per_bit == 1 + t.ts1 + t.ts2);
@@ -38,8 +38,7 @@ static void check_timing(uint32_t clk, uint32_t rate)
 	CHECK((btr & 0xC0000000u) == 0); // no loopback or silent bits
 }
 
-TEST_CASE("bit timing is exact with a CiA sample point at 1 Mbit/s and 500 kbit/s from APB1 42 MHz",
-	  "[can]")
+TEST_CASE("bit timing is exact with a CiA sample point at 1 Mbit/s and 500 kbit/s from APB1 42 MHz", "[can]")
 {
 	check_timing(42000000, 1000000);
 	check_timing(42000000, 500000);
@@ -58,8 +57,7 @@ TEST_CASE("bit timing at 1 Mbit/s from 42 MHz is brp 3, 14 quanta, sample point 
 	CHECK(t.sample_permille == 857);
 }
 
-TEST_CASE("bit timing refuses rates that do not divide the clock and leaves the output alone",
-	  "[can]")
+TEST_CASE("bit timing refuses rates that do not divide the clock and leaves the output alone", "[can]")
 {
 	can_timing t{};
 	t.brp = 77;
@@ -77,15 +75,13 @@ static void check_filters(const std::vector<can_filter_spec> &specs)
 {
 	can_filter_bank banks[CAN_FILTER_BANKS_CAN1];
 	unsigned nb = 0;
-	REQUIRE(can_filter_plan(specs.data(), unsigned(specs.size()), banks, CAN_FILTER_BANKS_CAN1,
-				&nb) == SWELL_OK);
+	REQUIRE(can_filter_plan(specs.data(), unsigned(specs.size()), banks, CAN_FILTER_BANKS_CAN1, &nb) == SWELL_OK);
 	unsigned wrong = 0, first_wrong = 0xFFFF;
 	for (unsigned id = 0; id < 2048; id++) {
 		int want = 0;
 		unsigned want_fifo = 0;
 		for (const auto &s : specs) {
-			bool hit = s.kind == CAN_FILTER_EXACT ? id == s.id
-							      : ((id ^ s.id) & s.mask) == 0;
+			bool hit = s.kind == CAN_FILTER_EXACT ? id == s.id : ((id ^ s.id) & s.mask) == 0;
 			if (hit && (!want || s.kind == CAN_FILTER_EXACT)) {
 				want = 1;
 				want_fifo = s.fifo;
@@ -104,8 +100,7 @@ static void check_filters(const std::vector<can_filter_spec> &specs)
 			first_wrong = std::min(first_wrong, id);
 		}
 	}
-	INFO(specs.size() << " specs in " << nb << " banks: " << wrong << " wrong ids, first 0x"
-			  << std::hex << first_wrong);
+	INFO(specs.size() << " specs in " << nb << " banks: " << wrong << " wrong ids, first 0x" << std::hex << first_wrong);
 	CHECK(wrong == 0);
 }
 
@@ -128,8 +123,7 @@ TEST_CASE("filters accept exactly the planned identifiers into the planned FIFO"
 	check_filters(nodes);
 }
 
-TEST_CASE("filter planning packs 4 exact ids or 2 masks per bank and refuses what does not fit",
-	  "[can]")
+TEST_CASE("filter planning packs 4 exact ids or 2 masks per bank and refuses what does not fit", "[can]")
 {
 	can_filter_bank banks[CAN_FILTER_BANKS_CAN1] = {};
 	unsigned nb = 123;
@@ -166,61 +160,63 @@ TEST_CASE("mailbox choice keeps same-id frames in order and aborts only less urg
 	// Exhaustive over small ids: every occupancy pattern and pending ids 1..4, new id 1..4.
 	unsigned checked = 0, bad = 0;
 	for (uint32_t tme = 0; tme < 8; tme++) {
-		for (uint32_t a = 1; a <= 4; a++) for (uint32_t b = 1; b <= 4; b++) for (uint32_t c = 1; c <= 4; c++) {
-			for (uint32_t nid = 1; nid <= 4; nid++) {
-				uint32_t id[3] = {a, b, c};
-				unsigned mb = 9;
-				int ab = 9;
-				enum swell_err e = can_tx_pick(tme, id, nid, &mb, &ab);
-				checked++;
-				if (e != SWELL_OK) {
-					// Refused: outputs untouched, and no valid choice existed: no mailbox above
-					// every pending frame of the same id that is free or holds a less urgent one.
-					unsigned lowest = 0;
-					for (unsigned m = 0; m < 3; m++)
-						if (!(tme & (1u << m)) && id[m] == nid)
-							lowest = m + 1;
-					bool possible = false;
-					for (unsigned m = lowest; m < 3; m++)
-						if ((tme & (1u << m)) || id[m] > nid)
-							possible = true;
-					if (mb != 9 || ab != 9 || possible)
-						bad++;
-					continue;
+		for (uint32_t a = 1; a <= 4; a++)
+			for (uint32_t b = 1; b <= 4; b++)
+				for (uint32_t c = 1; c <= 4; c++) {
+					for (uint32_t nid = 1; nid <= 4; nid++) {
+						uint32_t id[3] = {a, b, c};
+						unsigned mb = 9;
+						int ab = 9;
+						enum swell_err e = can_tx_pick(tme, id, nid, &mb, &ab);
+						checked++;
+						if (e != SWELL_OK) {
+							// Refused: outputs untouched, and no valid choice existed: no mailbox above
+							// every pending frame of the same id that is free or holds a less urgent one.
+							unsigned lowest = 0;
+							for (unsigned m = 0; m < 3; m++)
+								if (!(tme & (1u << m)) && id[m] == nid)
+									lowest = m + 1;
+							bool possible = false;
+							for (unsigned m = lowest; m < 3; m++)
+								if ((tme & (1u << m)) || id[m] > nid)
+									possible = true;
+							if (mb != 9 || ab != 9 || possible)
+								bad++;
+							continue;
+						}
+						if (mb > 2) {
+							bad++;
+							continue;
+						}
+						if (ab) {
+							// Only a busy, strictly less urgent frame is aborted, and only when full
+							// (among the usable mailboxes).
+							if ((tme & (1u << mb)) || id[mb] <= nid)
+								bad++;
+						} else if (!(tme & (1u << mb))) {
+							bad++;
+						}
+						// Place it and drain in hardware order: the new frame leaves after every
+						// pending frame of the same id.
+						uint32_t t2 = tme & ~(1u << mb), id2[3] = {a, b, c};
+						id2[mb] = nid;
+						int same_before = 0;
+						for (int m = 0; m < 3; m++)
+							if (m != int(mb) && !(tme & (1u << m)) && id[m] == nid)
+								same_before++;
+						int out;
+						int seen_same = 0;
+						while ((out = next_out(t2, id2)) >= 0) {
+							if (out == int(mb))
+								break;
+							if (id2[out] == nid)
+								seen_same++;
+							t2 |= 1u << out;
+						}
+						if (seen_same != same_before)
+							bad++;
+					}
 				}
-				if (mb > 2) {
-					bad++;
-					continue;
-				}
-				if (ab) {
-					// Only a busy, strictly less urgent frame is aborted, and only when full
-					// (among the usable mailboxes).
-					if ((tme & (1u << mb)) || id[mb] <= nid)
-						bad++;
-				} else if (!(tme & (1u << mb))) {
-					bad++;
-				}
-				// Place it and drain in hardware order: the new frame leaves after every
-				// pending frame of the same id.
-				uint32_t t2 = tme & ~(1u << mb), id2[3] = {a, b, c};
-				id2[mb] = nid;
-				int same_before = 0;
-				for (int m = 0; m < 3; m++)
-					if (m != int(mb) && !(tme & (1u << m)) && id[m] == nid)
-						same_before++;
-				int out;
-				int seen_same = 0;
-				while ((out = next_out(t2, id2)) >= 0) {
-					if (out == int(mb))
-						break;
-					if (id2[out] == nid)
-						seen_same++;
-					t2 |= 1u << out;
-				}
-				if (seen_same != same_before)
-					bad++;
-			}
-		}
 	}
 	INFO(checked << " cases, " << bad << " wrong");
 	CHECK(bad == 0);

@@ -25,16 +25,14 @@ TEST_CASE("a stamped image verifies and any flipped bit is refused", "[fwimage]"
 	auto img = make_image(3000);
 	REQUIRE(swell_fwimage_stamp(img.data(), img.size()) == SWELL_OK);
 	swell_fwimage_hdr h{};
-	REQUIRE(swell_fwimage_verify(img.data(), img.size(), SWELL_FWIMAGE_MCU_STM32F405, &h) ==
-		SWELL_OK);
+	REQUIRE(swell_fwimage_verify(img.data(), img.size(), SWELL_FWIMAGE_MCU_STM32F405, &h) == SWELL_OK);
 	CHECK(h.length == 3000);
 	CHECK(h.version == 0x00010203u);
 	CHECK(h.mcu_id == 0x413u);
 	unsigned accepted = 0;
 	for (size_t byte = 0; byte < img.size(); byte += 7) {
 		img[byte] ^= 0x10;
-		if (swell_fwimage_verify(img.data(), img.size(), SWELL_FWIMAGE_MCU_STM32F405, nullptr) ==
-		    SWELL_OK)
+		if (swell_fwimage_verify(img.data(), img.size(), SWELL_FWIMAGE_MCU_STM32F405, nullptr) == SWELL_OK)
 			accepted++;
 		img[byte] ^= 0x10;
 	}

@@ -8,12 +8,13 @@ extern "C" {
 #include "swell/transport.h"
 }
 
-static usb_ctrl_reply ask(uint8_t type, uint8_t req, uint16_t value, uint16_t index, uint16_t len,
-			  usb_dev_state st = {5, 1, 0})
+static usb_ctrl_reply ask(uint8_t type, uint8_t req, uint16_t value, uint16_t index, uint16_t len, usb_dev_state st = {5, 1, 0})
 {
 	static uint8_t scratch[USB_STRING_MAX];
-	const uint8_t raw[8] = {type, req, uint8_t(value), uint8_t(value >> 8), uint8_t(index),
-				uint8_t(index >> 8), uint8_t(len), uint8_t(len >> 8)};
+	const uint8_t raw[8] = {type,           req,
+				uint8_t(value), uint8_t(value >> 8),
+				uint8_t(index), uint8_t(index >> 8),
+				uint8_t(len),   uint8_t(len >> 8)};
 	usb_setup s;
 	usb_setup_parse(raw, &s);
 	usb_ctrl_reply r;
@@ -43,8 +44,8 @@ TEST_CASE("configuration: one vendor interface with bulk OUT 0x01 and bulk IN 0x
 	while (off < USB_CONFIG_DESC_LEN && c[off] >= 2) {
 		if (c[off + 1] == 4) {
 			ifaces++;
-			CHECK(c[off + 2] == 0);    // bInterfaceNumber
-			CHECK(c[off + 4] == 2);    // endpoints
+			CHECK(c[off + 2] == 0); // bInterfaceNumber
+			CHECK(c[off + 4] == 2); // endpoints
 			CHECK(c[off + 5] == 0xFF); // vendor class
 		}
 		if (c[off + 1] == 5) {

@@ -92,7 +92,8 @@ TEST_CASE("spring law: without a direction it pulls along e/|e| by k (|e| - D), 
 	CHECK(f[1] == 0.0);
 }
 
-TEST_CASE("spring law: damping c = dampfactor 2 sqrt(|k| m) on v - vel, inside the deadband only with dampglobal: maxforce limits |F|")
+TEST_CASE("spring law: damping c = dampfactor 2 sqrt(|k| m) on v - vel, inside the deadband only with dampglobal: maxforce "
+	  "limits |F|")
 {
 	hm_spring s = spring(200.0, 0.020, 0.5);
 	s.dir[2] = 1.0;
@@ -113,7 +114,8 @@ TEST_CASE("spring law: damping c = dampfactor 2 sqrt(|k| m) on v - vel, inside t
 	CHECK(f[2] == Approx(-1.5).epsilon(1e-12));
 }
 
-TEST_CASE("the paper's buoyancy: two springs of k and -k, deadband beyond the workspace, origins H apart, give k clamp(w - z, 0, H)")
+TEST_CASE("the paper's buoyancy: two springs of k and -k, deadband beyond the workspace, origins H apart, give k clamp(w - z, 0, "
+	  "H)")
 {
 	// the pulling spring's origin D above the surface w, the pushing one H below it (paper section 3.3)
 	hm_dev d = in_force();
@@ -146,8 +148,9 @@ TEST_CASE("the paper's buoyancy: two springs of k and -k, deadband beyond the wo
 TEST_CASE("effects: origins move with vel every tick, damper opposes v - vel, bias adds, nothing rendered outside force")
 {
 	hm_dev d = in_force();
-	REQUIRE(run(d, "create damper dm;set dm dampcoef [1,2,3];set dm enable;create biasforce b;set b force [0.5,0,-1];"
-		       "set b enable;create spring s;set s vel [0,0,0.025];set s stiffness 10") ==
+	REQUIRE(run(d,
+		    "create damper dm;set dm dampcoef [1,2,3];set dm enable;create biasforce b;set b force [0.5,0,-1];"
+		    "set b enable;create spring s;set s vel [0,0,0.025];set s stiffness 10") ==
 		"Effect damper with name dm created;Damper's damp coefficient set;Effect dm enabled;"
 		"Effect biasforce with name b created;Bias force's force set;Effect b enabled;"
 		"Effect spring with name s created;Effect's velocity set;Spring's stiffness set");
@@ -208,14 +211,16 @@ TEST_CASE("replies: semicolon-joined answers in order, a trailing semicolon adds
 	CHECK(run(d, "create spring s") == "Effect spring with name s created");
 	CHECK(run(d, " set s pos [0.1, 0.0 ,0.25] ; set s vel [0,0,0.5];set s att [0,0,0,2];get s att") ==
 	      "Effect's position set;Effect's velocity set;Effect's attitude set;[0,0,0,1]");
-	CHECK(run(d, "set s stiffness 500;set s dampfactor 0.7;set s deadband 0.002;set s direction [0,3,4];"
-		     "set s maxforce 12;set s dampglobal true") ==
+	CHECK(run(d,
+		  "set s stiffness 500;set s dampfactor 0.7;set s deadband 0.002;set s direction [0,3,4];"
+		  "set s maxforce 12;set s dampglobal true") ==
 	      "Spring's stiffness set;Spring's damp factor set;Spring's deadband set;Spring's direction set;"
 	      "Spring's maximum force set;Spring's damping global set");
-	CHECK(run(d, "get s pos;get s stiffness;get s dampfactor;get s deadband;get s direction;get s maxforce;"
-		     "get s dampglobal;get s enabled") ==
-	      "[0.1,0,0.25];500;0.7;0.002;[0,0.6,0.8];12;true;false");
-	CHECK(run(d, "set s enable;get s enabled;set s disable;get s enabled") == "Effect s enabled;true;Effect s disabled;false");
+	CHECK(run(d,
+		  "get s pos;get s stiffness;get s dampfactor;get s deadband;get s direction;get s maxforce;"
+		  "get s dampglobal;get s enabled") == "[0.1,0,0.25];500;0.7;0.002;[0,0.6,0.8];12;true;false");
+	CHECK(run(d, "set s enable;get s enabled;set s disable;get s enabled") ==
+	      "Effect s enabled;true;Effect s disabled;false");
 	CHECK(run(d, "calibrateforcesensor;get force_calibrated") == "Force sensor calibrated;true");
 	CHECK(run(d, "remove s;get s enabled") == "Removed effect s;--- ERROR: unknown effect 's'");
 	CHECK(run(d, "create damper a;create biasforce b;remove all;get a enabled") ==
@@ -231,15 +236,49 @@ TEST_CASE("refused commands: answered '--- ERROR:', counted, and the device is b
 	REQUIRE(run(d, "create spring s;create damper dm;create biasforce b;set b force [0,0,1]").find("ERROR") ==
 		std::string::npos);
 	const std::vector<std::string> bad = {
-		"fly away", "get", "get nothing", "set nothing 1", "set state flying", "set state", "set inertia 0.5",
-		"set inertia abc", "set inertia 2 3", "set coulombfriction -1", "create spring s", "create wave w",
-		"create spring 9lives", "create spring state", "create spring a b", "set s stiffness 1e9",
-		"set s stiffness 10x", "set s stiffness nan", "set s dampfactor -1", "set s deadband -0.1",
-		"set s direction [0,0]", "set s direction 0,0,1", "set s maxforce 0", "set s maxforce 300",
-		"set s dampglobal maybe", "set s dampcoef [1,1,1]", "set s force [0,0,1]", "set s pos [0,0,inf]",
-		"set s pos [0,0,0", "set s pos [0,0,0]x", "set s att [0,0,0,0]", "set s enable now", "set dm dampcoef [-1,0,0]",
-		"set dm dampcoef [1e6,0,0]", "set b force [0,0,251]", "set b force [0,0]", "get s nothing", "get s",
-		"get s pos extra", "remove nothing", "remove", "remove s s", "calibrateforcesensor now",
+		"fly away",
+		"get",
+		"get nothing",
+		"set nothing 1",
+		"set state flying",
+		"set state",
+		"set inertia 0.5",
+		"set inertia abc",
+		"set inertia 2 3",
+		"set coulombfriction -1",
+		"create spring s",
+		"create wave w",
+		"create spring 9lives",
+		"create spring state",
+		"create spring a b",
+		"set s stiffness 1e9",
+		"set s stiffness 10x",
+		"set s stiffness nan",
+		"set s dampfactor -1",
+		"set s deadband -0.1",
+		"set s direction [0,0]",
+		"set s direction 0,0,1",
+		"set s maxforce 0",
+		"set s maxforce 300",
+		"set s dampglobal maybe",
+		"set s dampcoef [1,1,1]",
+		"set s force [0,0,1]",
+		"set s pos [0,0,inf]",
+		"set s pos [0,0,0",
+		"set s pos [0,0,0]x",
+		"set s att [0,0,0,0]",
+		"set s enable now",
+		"set dm dampcoef [-1,0,0]",
+		"set dm dampcoef [1e6,0,0]",
+		"set b force [0,0,251]",
+		"set b force [0,0]",
+		"get s nothing",
+		"get s",
+		"get s pos extra",
+		"remove nothing",
+		"remove",
+		"remove s s",
+		"calibrateforcesensor now",
 		std::string(300, 'x'),
 	};
 	int not_error = 0, changed = 0;
@@ -281,7 +320,8 @@ TEST_CASE("effect table: 16 effects, the 17th refused: a reply that does not fit
 	CHECK(std::string(small).find("--- ERROR: reply too long") != std::string::npos);
 }
 
-TEST_CASE("watchdog: a client silent for N ticks loses its bias force on the Nth tick, not before: one that leaves loses it at once")
+TEST_CASE("watchdog: a client silent for N ticks loses its bias force on the Nth tick, not before: one that leaves loses it at "
+	  "once")
 {
 	hm_dev d = in_force();
 	d.watchdog_ticks = 25;

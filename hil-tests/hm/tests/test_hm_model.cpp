@@ -42,8 +42,8 @@ TEST_CASE("a free mass under a constant force follows x = F t^2 / 2m (semi-impli
 		// discrete: v_n = n a dt, x_n = a dt^2 n (n + 1) / 2 = a t^2 / 2 + a t dt / 2
 		const double x_discrete = a * dt * dt * n * (n + 1) / 2.0;
 		const double x_cont = a * t * t / 2.0;
-		INFO("axis " << k << ": x " << s.x[k] << " m, discrete " << x_discrete << " m, continuous " << x_cont
-			     << " m, v " << s.v[k] << " m/s vs " << a * t);
+		INFO("axis " << k << ": x " << s.x[k] << " m, discrete " << x_discrete << " m, continuous " << x_cont << " m, v "
+			     << s.v[k] << " m/s vs " << a * t);
 		CHECK(std::fabs(s.x[k] - x_discrete) <= 1e-12 * std::fabs(x_discrete));
 		CHECK(std::fabs(s.v[k] - a * t) <= 1e-12 * std::fabs(a * t));
 		CHECK(std::fabs(s.x[k] - x_cont) <= std::fabs(a) * t * dt / 2.0 * (1.0 + 1e-9));
@@ -158,8 +158,7 @@ TEST_CASE("a workspace wall stops a device pushed into it at limit + F / k_wall 
 	for (int i = 0; i < 5 * 2500; i++)
 		hm_step(&p, &s, push);
 	const double pen = 50.0 / p.wall_k_N_m;
-	INFO("x " << s.x[0] * 1e3 << " mm, z " << s.x[2] * 1e3 << " mm, expected +-" << (p.limit_m[0] + pen) * 1e3
-		  << " mm");
+	INFO("x " << s.x[0] * 1e3 << " mm, z " << s.x[2] * 1e3 << " mm, expected +-" << (p.limit_m[0] + pen) * 1e3 << " mm");
 	CHECK(std::fabs(s.x[0] - (p.limit_m[0] + pen)) < 1e-3 * pen);
 	CHECK(std::fabs(s.x[2] + (p.limit_m[2] + pen)) < 1e-3 * pen);
 	CHECK(s.wall_ticks > 0);
@@ -225,9 +224,9 @@ TEST_CASE("hand scripts parse with units and refuse unknown names, keys and valu
 		const char *spec;
 		swell_err want;
 	} cases[] = {
-		{"wave", SWELL_EUNKNOWN},         {"drop:depth=3", SWELL_EUNKNOWN}, {"drop:z=abc", SWELL_ERANGE},
-		{"drop:z=500", SWELL_ERANGE},     {"shake:axis=w", SWELL_ERANGE},  {"shake:f=0", SWELL_ERANGE},
-		{"press:ramp=0", SWELL_ERANGE},   {"idle:k=-1", SWELL_ERANGE},     {"drop:z", SWELL_ERANGE},
+		{"wave", SWELL_EUNKNOWN},       {"drop:depth=3", SWELL_EUNKNOWN}, {"drop:z=abc", SWELL_ERANGE},
+		{"drop:z=500", SWELL_ERANGE},   {"shake:axis=w", SWELL_ERANGE},   {"shake:f=0", SWELL_ERANGE},
+		{"press:ramp=0", SWELL_ERANGE}, {"idle:k=-1", SWELL_ERANGE},      {"drop:z", SWELL_ERANGE},
 		{"release:at=1,", SWELL_OK},
 	};
 	for (const auto &c : cases) {

@@ -121,8 +121,8 @@ struct closed_loop {
 		// a silent device is a fault after 200 periods and then 200 of the controller's own ticks (one
 		// a period with the device clock): a loaded CI machine must not fault the loop; link loss is
 		// the kill test's
-		ctl = spawn({ctl_bin, "--clock", clock, "--autorun", "--device", "udp:" + std::to_string(port), "--host",
-			     "none", "--no-rt", "--quiet", "--silent-ticks", std::to_string(silent_ticks)},
+		ctl = spawn({ctl_bin, "--clock", clock, "--autorun", "--device", "udp:" + std::to_string(port), "--host", "none",
+			     "--no-rt", "--quiet", "--silent-ticks", std::to_string(silent_ticks)},
 			    ctl_out);
 		std::this_thread::sleep_for(std::chrono::milliseconds(100));
 	}
@@ -135,8 +135,9 @@ struct closed_loop {
 	}
 	std::vector<std::string> hm_args(const std::string &hand, double seconds) const
 	{
-		return {hm_bin, "--lockstep", "--port", std::to_string(port), "--hand", hand, "--seconds",
-			std::to_string(seconds), "--quiet", "--log", csv};
+		return {hm_bin,    "--lockstep", "--port",    std::to_string(port),
+			"--hand",  hand,         "--seconds", std::to_string(seconds),
+			"--quiet", "--log",      csv};
 	}
 	// Runs swell-hm to its end, then stops the controller; returns swell-hm's summary.
 	std::string run(const std::vector<std::string> &args)
@@ -166,10 +167,10 @@ std::vector<row> read_csv(const std::string &path)
 	std::getline(f, line); // header
 	while (std::getline(f, line)) {
 		row r{};
-		const int n = std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%d,%d,%d,%d,%d",
-					  &r.t, &r.x[0], &r.x[1], &r.x[2], &r.v[0], &r.v[1], &r.v[2], &r.fcmd[0],
-					  &r.fcmd[1], &r.fcmd[2], &r.fhand[0], &r.fhand[1], &r.fhand[2], &r.enable, &r.age,
-					  &r.applied, &r.state, &r.holding);
+		const int n =
+			std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%d,%d,%d,%d,%d", &r.t,
+				    &r.x[0], &r.x[1], &r.x[2], &r.v[0], &r.v[1], &r.v[2], &r.fcmd[0], &r.fcmd[1], &r.fcmd[2],
+				    &r.fhand[0], &r.fhand[1], &r.fhand[2], &r.enable, &r.age, &r.applied, &r.state, &r.holding);
 		if (n == 18)
 			rows.push_back(r);
 	}
@@ -182,8 +183,7 @@ TEST_CASE("drop: the object falls, floats and settles at -m g/k within 2% (level
 {
 	closed_loop cl("drop");
 	const std::string s = cl.run(cl.hm_args("drop:z=20,hold=0.5", 10.0));
-	const double z = figure(s, "equilibrium z"), z_expected = figure(s, "expected z"),
-		     z_level = figure(s, "with level rise");
+	const double z = figure(s, "equilibrium z"), z_expected = figure(s, "expected z"), z_level = figure(s, "with level rise");
 	INFO(s);
 	CHECK(z_expected == Approx(-40.0).margin(1e-9));
 	CHECK(std::fabs(z - z_expected) <= 0.02 * std::fabs(z_expected));
@@ -239,9 +239,8 @@ TEST_CASE("shake: held and shaken vertically and sideways, the closed loop stays
 				f_abs = std::max(f_abs, std::fabs(r.fcmd[k]));
 		}
 		const double v_hand = 2.0 * M_PI * sh.f_hz * sh.amp_mm, z = figure(s, "equilibrium z");
-		INFO(sh.hand << ": max |x|, |y| " << x_abs << " mm, z in [" << z_lo << ", " << z_hi << "] mm, max |v| "
-			     << v_abs << " mm/s (hand " << v_hand << "), max |F_cmd| " << f_abs
-			     << " N, equilibrium z " << z << " mm\n"
+		INFO(sh.hand << ": max |x|, |y| " << x_abs << " mm, z in [" << z_lo << ", " << z_hi << "] mm, max |v| " << v_abs
+			     << " mm/s (hand " << v_hand << "), max |F_cmd| " << f_abs << " N, equilibrium z " << z << " mm\n"
 			     << s);
 		CHECK(std::isfinite(z));
 		// inside the pool: the 50 mm footprint stays within the 400 mm pool, the box never flies off
@@ -424,15 +423,15 @@ TEST_CASE("bad parameter sets are refused with a one-line reason, exit 2, nothin
 		{"--host", "999.1.1.1"},
 		{"--seconds", "-1"},
 		{"--bogus", "1"},
-		{"--pool", "10,10"},                 // smaller than the 50 mm object
+		{"--pool", "10,10"}, // smaller than the 50 mm object
 		{"--object", "100,60,60", "--pool", "400,50"},
-		{"--hand", "drop:z=20,z=30"},        // a key given twice
+		{"--hand", "drop:z=20,z=30"}, // a key given twice
 		{"--hand", "shake:axis=x,axis=y"},
 	};
 	for (const auto &b : bad) {
 		std::remove(csv.c_str());
-		std::vector<std::string> args = {hm_bin, "--lockstep", "--port", std::to_string(port), "--log", csv,
-						 "--seconds", "1"};
+		std::vector<std::string> args = {hm_bin,  "--lockstep", "--port",    std::to_string(port),
+						 "--log", csv,          "--seconds", "1"};
 		args.insert(args.end(), b.begin(), b.end());
 		proc p = spawn(args, out);
 		const int rc = wait_for(p, 20.0);
@@ -483,8 +482,8 @@ TEST_CASE("runtime failures exit 1 with the reason: no controller ever answered,
 		{{"--log", "/nonexistent/x.csv"}, "swell-hm: cannot write /nonexistent/x.csv: No such file or directory"},
 	};
 	for (const auto &c : cases) {
-		std::vector<std::string> args = {hm_bin, "--lockstep", "--timeout-ms", "1", "--port", std::to_string(port),
-						 "--seconds", "0.1", "--quiet"};
+		std::vector<std::string> args = {hm_bin,      "--lockstep", "--timeout-ms", "1", "--port", std::to_string(port),
+						 "--seconds", "0.1",        "--quiet"};
 		args.insert(args.end(), c.extra.begin(), c.extra.end());
 		proc p = spawn(args, out);
 		const int rc = wait_for(p, 20.0);

@@ -35,9 +35,9 @@ std::vector<row> read_csv(const std::string &path)
 		row r{};
 		double v[3], fh[3];
 		int applied, holding;
-		if (std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%d,%d,%d,%d,%d", &r.t,
-				&r.x[0], &r.x[1], &r.x[2], &v[0], &v[1], &v[2], &r.fcmd[0], &r.fcmd[1], &r.fcmd[2], &fh[0],
-				&fh[1], &fh[2], &r.rendering, &r.clients, &applied, &r.state, &holding) == 18)
+		if (std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%d,%d,%d,%d,%d", &r.t, &r.x[0],
+				&r.x[1], &r.x[2], &v[0], &v[1], &v[2], &r.fcmd[0], &r.fcmd[1], &r.fcmd[2], &fh[0], &fh[1], &fh[2],
+				&r.rendering, &r.clients, &applied, &r.state, &holding) == 18)
 			rows.push_back(r);
 	}
 	return rows;
@@ -56,9 +56,9 @@ struct Ctl {
 	std::string out;
 	Ctl(int port, const std::string &name) : out(work_dir + "/" + name + ".ctl.txt")
 	{
-		std::vector<std::string> args = {ctl_bin,	 "--clock", "device", "--autorun", "--device",
-						 "hm:127.0.0.1:" + std::to_string(port), "--host", "none",
-						 "--no-rt",	 "--quiet", "--silent-ticks", "200"};
+		std::vector<std::string> args = {
+			ctl_bin,  "--clock", "device",  "--autorun", "--device",       "hm:127.0.0.1:" + std::to_string(port),
+			"--host", "none",    "--no-rt", "--quiet",   "--silent-ticks", "200"};
 		std::vector<char *> argv;
 		for (auto &s : args)
 			argv.push_back(&s[0]);
@@ -102,7 +102,8 @@ double logged_until(const std::string &csv)
 
 } // namespace
 
-TEST_CASE("hm loop: a drop settles within 2% of the level-corrected depth: the e-stop zeroes the force at once, faults the controller, and it floats again")
+TEST_CASE("hm loop: a drop settles within 2% of the level-corrected depth: the e-stop zeroes the force at once, faults the "
+	  "controller, and it floats again")
 {
 	const std::string csv = work_dir + "/hm-drop.csv";
 	std::remove(csv.c_str());
@@ -140,11 +141,12 @@ TEST_CASE("hm loop: a drop settles within 2% of the level-corrected depth: the e
 	CHECK(back_at < 8.0);
 	CHECK(hmtcp::count_before(rep, " times found not in") >= 1);
 	CHECK(rep.find("faults 0") == std::string::npos);
-	WARN("hm drop: equilibrium " << z << " mm against " << z_level << " mm level-corrected; force back "
-				   << back_at - 5.5 << " s after the e-stop's release");
+	WARN("hm drop: equilibrium " << z << " mm against " << z_level << " mm level-corrected; force back " << back_at - 5.5
+				     << " s after the e-stop's release");
 }
 
-TEST_CASE("hm loop: a second client's set state stop zeroes the force at once and the controller brings the device back: the emulator killed faults the controller")
+TEST_CASE("hm loop: a second client's set state stop zeroes the force at once and the controller brings the device back: the "
+	  "emulator killed faults the controller")
 {
 	const std::string csv = work_dir + "/hm-stop.csv";
 	std::remove(csv.c_str());
@@ -198,28 +200,29 @@ TEST_CASE("hm loop: a second client's set state stop zeroes the force at once an
 	WARN("hm stop: force back " << back_at - rows[stop_at].t << " s after the stop");
 }
 
-TEST_CASE("hm loop: TCP faults (replies 5 ms and 50 ms late, garbage, a reset) each give zero force within 2 device ticks, a fault, nothing over the limit, and recovery")
+TEST_CASE("hm loop: TCP faults (replies 5 ms and 50 ms late, garbage, a reset) each give zero force within 2 device ticks, a "
+	  "fault, nothing over the limit, and recovery")
 {
 	const std::string csv = work_dir + "/hm-faults.csv";
 	std::remove(csv.c_str());
 	struct fault {
 		double at, window;
 		const char *what;
-	} faults[] = {{3.0, 0.3, "replies 5 ms late"}, {5.0, 0.5, "replies 50 ms late"}, {7.0, 0.0, "garbage"},
-		      {9.0, 0.0, "reset"}};
+	} faults[] = {
+		{3.0, 0.3, "replies 5 ms late"}, {5.0, 0.5, "replies 50 ms late"}, {7.0, 0.0, "garbage"}, {9.0, 0.0, "reset"}};
 	Server srv(hm_bin, work_dir + "/hm-faults.hm.txt",
 		   {"--lockstep", "--hand", "drop:z=20,hold=0.5", "--seconds", "12", "--log", csv, "--inject",
-		    "delay:at=3,for=0.3,ms=5", "--inject", "delay:at=5,for=0.5,ms=50", "--inject", "garbage:at=7",
-		    "--inject", "reset:at=9"});
+		    "delay:at=3,for=0.3,ms=5", "--inject", "delay:at=5,for=0.5,ms=50", "--inject", "garbage:at=7", "--inject",
+		    "reset:at=9"});
 	REQUIRE(srv.port > 0);
 	// the controller's real-time silence limit (2 ticks) here, spelled out: without real-time
 	// scheduling (--no-rt) its default is 20 ms, and the faults are the point
 	const std::string ctl_out = work_dir + "/hm-faults.ctl.txt";
 	pid_t ctl = -1;
 	{
-		std::vector<std::string> args = {ctl_bin, "--clock", "device", "--autorun", "--device",
-						 "hm:127.0.0.1:" + std::to_string(srv.port), "--host", "none", "--no-rt", "--quiet",
-						 "--silent-ticks", "2"};
+		std::vector<std::string> args = {
+			ctl_bin,  "--clock", "device",  "--autorun", "--device",       "hm:127.0.0.1:" + std::to_string(srv.port),
+			"--host", "none",    "--no-rt", "--quiet",   "--silent-ticks", "2"};
 		std::vector<char *> argv;
 		for (auto &s : args)
 			argv.push_back(&s[0]);
@@ -266,12 +269,12 @@ TEST_CASE("hm loop: TCP faults (replies 5 ms and 50 ms late, garbage, a reset) e
 		while (b < rows.size() && rows[b].fcmd[2] == 0.0)
 			b++;
 		INFO(f.what << " at " << f.at << " s: zero after " << z - i << " ticks, force back "
-			     << (b < rows.size() ? rows[b].t - f.at : -1) << " s after the fault began");
+			    << (b < rows.size() ? rows[b].t - f.at : -1) << " s after the fault began");
 		CHECK(z - i <= 2);
 		REQUIRE(b < rows.size());
 		CHECK(rows[b].t - f.at < f.window + 1.5);
 		figures += std::string(f.what) + ": zero after " + std::to_string(z - i) + " ticks, back after " +
-			   std::to_string(rows[b].t - f.at) + " s; ";
+			std::to_string(rows[b].t - f.at) + " s; ";
 	}
 	// each fault faulted the controller, and it ends floating where it should
 	const size_t fat = rep.find("faults ");
@@ -282,7 +285,8 @@ TEST_CASE("hm loop: TCP faults (replies 5 ms and 50 ms late, garbage, a reset) e
 	WARN("hm TCP faults: " << figures);
 }
 
-TEST_CASE("hm loop: the controller killed mid-run: the device zeroes its bias force when the connection ends, a new controller takes the device back")
+TEST_CASE("hm loop: the controller killed mid-run: the device zeroes its bias force when the connection ends, a new controller "
+	  "takes the device back")
 {
 	const std::string csv = work_dir + "/hm-restart.csv";
 	std::remove(csv.c_str());
@@ -333,6 +337,6 @@ TEST_CASE("hm loop: the controller killed mid-run: the device zeroes its bias fo
 			zn++;
 		}
 	CHECK(std::fabs(zs / zn - -39.375) <= 0.02 * 39.375);
-	WARN("hm restart: " << rendered_late << " of the last " << late << " ticks rendered by the new controller, z "
-			    << zs / zn << " mm");
+	WARN("hm restart: " << rendered_late << " of the last " << late << " ticks rendered by the new controller, z " << zs / zn
+			    << " mm");
 }

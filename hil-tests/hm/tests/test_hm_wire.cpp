@@ -50,12 +50,11 @@ TEST_CASE("wire: a tick sends VEL, FORCE, POS with seq n mod 256, FORCE_CMD move
 	socklen_t al = sizeof a;
 	REQUIRE(bind(fd, reinterpret_cast<sockaddr *>(&a), sizeof a) == 0);
 	REQUIRE(getsockname(fd, reinterpret_cast<sockaddr *>(&a), &al) == 0);
-	const std::string port = std::to_string(ntohs(a.sin_port)), out = work_dir + "/wire.txt",
-			  csv = work_dir + "/wire.csv";
+	const std::string port = std::to_string(ntohs(a.sin_port)), out = work_dir + "/wire.txt", csv = work_dir + "/wire.csv";
 
 	// 600 ticks; damping 0 so that a constant force gives x_n = a dt^2 n (n + 1) / 2 exactly
-	std::vector<std::string> args = {hm_bin, "--lockstep", "--port", port, "--seconds", "0.24", "--damping", "0",
-					 "--hand", "idle", "--quiet", "--log", csv};
+	std::vector<std::string> args = {hm_bin, "--lockstep", "--port", port,      "--seconds", "0.24", "--damping",
+					 "0",    "--hand",     "idle",   "--quiet", "--log",     csv};
 	std::vector<char *> argv;
 	for (auto &s : args)
 		argv.push_back(&s[0]);
@@ -88,8 +87,7 @@ TEST_CASE("wire: a tick sends VEL, FORCE, POS with seq n mod 256, FORCE_CMD move
 		    m[2].type != SWELL_MSG_DEVICE_POS)
 			wrong_layout++;
 		const uint8_t seq = (uint8_t)n;
-		if (pseq != seq || m[0].u.device_vel.seq != seq || m[1].u.device_force.seq != seq ||
-		    m[2].u.device_pos.seq != seq)
+		if (pseq != seq || m[0].u.device_vel.seq != seq || m[1].u.device_force.seq != seq || m[2].u.device_pos.seq != seq)
 			wrong_seq++;
 		if (m[2].u.device_pos.status != 3) // powered, force output enabled
 			wrong_status++;
@@ -131,9 +129,9 @@ TEST_CASE("wire: a tick sends VEL, FORCE, POS with seq n mod 256, FORCE_CMD move
 	waitpid(pid, &st, 0);
 	close(fd);
 	const std::string text = slurp(out);
-	INFO("samples " << samples << ", wrong layout " << wrong_layout << ", wrong seq " << wrong_seq
-			<< ", wrong status " << wrong_status << ", wrong positions " << wrong_pos << " (first at tick "
-			<< first_wrong << ": " << why << ")\n"
+	INFO("samples " << samples << ", wrong layout " << wrong_layout << ", wrong seq " << wrong_seq << ", wrong status "
+			<< wrong_status << ", wrong positions " << wrong_pos << " (first at tick " << first_wrong << ": " << why
+			<< ")\n"
 			<< text);
 	REQUIRE(WIFEXITED(st));
 	CHECK(WEXITSTATUS(st) == 0);
@@ -228,8 +226,7 @@ TEST_CASE("wire: a controller that faulted is named in the summary (NOT A CLEAN 
 	const std::string text = slurp(out);
 	INFO("samples answered " << samples << "\n" << text);
 	REQUIRE(samples > 1500);
-	CHECK(text.find("without real-time scheduling (no --rt): watchdog 50 ticks (20.0 ms) instead of 2") !=
-	      std::string::npos);
+	CHECK(text.find("without real-time scheduling (no --rt): watchdog 50 ticks (20.0 ms) instead of 2") != std::string::npos);
 	CHECK(text.find("FAULTED         the controller faulted 1 times (500 heartbeats in FAULT, last error: link "
 			"silent)") != std::string::npos);
 	CHECK(text.find("NOT A CLEAN RUN the controller faulted 1 times") != std::string::npos);

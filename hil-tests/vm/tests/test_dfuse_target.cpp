@@ -130,25 +130,30 @@ TEST_CASE("DfuSe: a write outside the flash or to bytes not erased is refused wi
 	CHECK(lo == 0);
 	CHECK(hi == 64);
 
-	SECTION("the same bytes again, not erased: errCHECK_ERASED") {
+	SECTION("the same bytes again, not erased: errCHECK_ERASED")
+	{
 		CHECK(d.dnload(2, pattern(64, 4)) == SWELL_DFU_ERROR);
 		CHECK(d.status == SWELL_DFU_ERR_CHECK_ERASED);
 	}
-	SECTION("one byte overlapping written flash: errCHECK_ERASED") {
+	SECTION("one byte overlapping written flash: errCHECK_ERASED")
+	{
 		REQUIRE(d.dnload(0, Target::cmd(0x21, BASE + 63)) == SWELL_DFU_DNLOAD_IDLE);
 		CHECK(d.dnload(2, pattern(32, 4)) == SWELL_DFU_ERROR);
 		CHECK(d.status == SWELL_DFU_ERR_CHECK_ERASED);
 	}
-	SECTION("a block crossing the end of the 1 MiB flash: errADDRESS") {
+	SECTION("a block crossing the end of the 1 MiB flash: errADDRESS")
+	{
 		REQUIRE(d.dnload(0, Target::cmd(0x21, BASE + SWELL_DFUSE_FLASH_SIZE - 16)) == SWELL_DFU_DNLOAD_IDLE);
 		CHECK(d.dnload(2, pattern(32, 5)) == SWELL_DFU_ERROR);
 		CHECK(d.status == SWELL_DFU_ERR_ADDRESS);
 	}
-	SECTION("a block number that puts the address past the end: errADDRESS") {
+	SECTION("a block number that puts the address past the end: errADDRESS")
+	{
 		CHECK(d.dnload(2 + SWELL_DFUSE_FLASH_SIZE / d.xfer, pattern(8, 5)) == SWELL_DFU_ERROR);
 		CHECK(d.status == SWELL_DFU_ERR_ADDRESS);
 	}
-	SECTION("set address and erase outside flash: errADDRESS") {
+	SECTION("set address and erase outside flash: errADDRESS")
+	{
 		CHECK(d.dnload(0, Target::cmd(0x21, BASE - 4)) == SWELL_DFU_ERROR);
 		CHECK(d.status == SWELL_DFU_ERR_ADDRESS);
 		CHECK(d.t->pointer == BASE);
@@ -156,14 +161,16 @@ TEST_CASE("DfuSe: a write outside the flash or to bytes not erased is refused wi
 		CHECK(d.dnload(0, Target::cmd(0x41, 0x1FFF0000)) == SWELL_DFU_ERROR);
 		CHECK(d.status == SWELL_DFU_ERR_ADDRESS);
 	}
-	SECTION("unknown DfuSe command and block 1: errUNKNOWN") {
+	SECTION("unknown DfuSe command and block 1: errUNKNOWN")
+	{
 		CHECK(d.dnload(0, {0x92}) == SWELL_DFU_ERROR);
 		CHECK(d.status == SWELL_DFU_ERR_UNKNOWN);
 		REQUIRE(d.out(SWELL_DFU_CLRSTATUS, 0, {}) == SWELL_DFUSE_ACK);
 		CHECK(d.dnload(1, pattern(8, 6)) == SWELL_DFU_ERROR);
 		CHECK(d.status == SWELL_DFU_ERR_UNKNOWN);
 	}
-	SECTION("a write with alternate setting 1 (option bytes, not emulated): errTARGET") {
+	SECTION("a write with alternate setting 1 (option bytes, not emulated): errTARGET")
+	{
 		REQUIRE(swell_dfuse_set_alt(d.t.get(), 1) == 0);
 		CHECK(d.dnload(2, pattern(8, 7)) == SWELL_DFU_ERROR);
 		CHECK(d.status == SWELL_DFU_ERR_TARGET);
@@ -183,8 +190,8 @@ TEST_CASE("DfuSe: a write outside the flash or to bytes not erased is refused wi
 
 TEST_CASE("DfuSe: sectors are 4 x 16 KiB, 1 x 64 KiB, 7 x 128 KiB and an erase clears exactly its sector")
 {
-	const uint32_t want_start[] = {0, 0x4000, 0x8000, 0xC000, 0x10000, 0x20000, 0x40000, 0x60000,
-				       0x80000, 0xA0000, 0xC0000, 0xE0000};
+	const uint32_t want_start[] = {0,       0x4000,  0x8000,  0xC000,  0x10000, 0x20000,
+				       0x40000, 0x60000, 0x80000, 0xA0000, 0xC0000, 0xE0000};
 	unsigned seen = 0;
 	uint32_t start, size, prev_start = 0xFFFFFFFF;
 	for (uint32_t off = 0; off < SWELL_DFUSE_FLASH_SIZE; off += 0x400) {
@@ -237,11 +244,13 @@ TEST_CASE("DfuSe: requests not valid in the state are stalled with dfuERROR errS
 		{"DETACH in DFU mode", [](Target &d) { return d.out(SWELL_DFU_DETACH, 1000, {}); }},
 		{"unknown request 7", [](Target &d) { return d.out(7, 0, {}); }},
 		{"GETSTATUS with 5 bytes", [](Target &d) { return d.get(SWELL_DFU_GETSTATUS, 0, 5); }},
-		{"UPLOAD while a download is pending", [](Target &d) {
+		{"UPLOAD while a download is pending",
+		 [](Target &d) {
 			 d.out(SWELL_DFU_DNLOAD, 0, Target::cmd(0x21, BASE));
 			 return d.get(SWELL_DFU_UPLOAD, 2, 64);
 		 }},
-		{"ABORT in dfuDNBUSY", [](Target &d) {
+		{"ABORT in dfuDNBUSY",
+		 [](Target &d) {
 			 d.out(SWELL_DFU_DNLOAD, 0, Target::cmd(0x21, BASE));
 			 d.getstatus();
 			 return d.out(SWELL_DFU_ABORT, 0, {});

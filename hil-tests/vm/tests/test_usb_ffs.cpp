@@ -29,11 +29,11 @@ swell_usb_ffs_iface vendor_iface()
 void check_set(const uint8_t *p, uint16_t packet)
 {
 	INFO("descriptor set for " << packet << "-byte packets");
-	CHECK(p[0] == 9);    // bLength
-	CHECK(p[1] == 4);    // INTERFACE
-	CHECK(p[4] == 2);    // bNumEndpoints
+	CHECK(p[0] == 9); // bLength
+	CHECK(p[1] == 4); // INTERFACE
+	CHECK(p[4] == 2); // bNumEndpoints
 	CHECK(p[5] == 0xFF); // vendor class
-	CHECK(p[8] == 1);    // iInterface
+	CHECK(p[8] == 1); // iInterface
 	const uint8_t want_addr[2] = {0x01, 0x81};
 	for (int e = 0; e < 2; e++) {
 		const uint8_t *d = p + 9 + 7 * e;
@@ -55,13 +55,13 @@ TEST_CASE("usb_ffs descriptor block: v2 header, full- and high-speed sets, OUT 0
 	size_t len = 0;
 	REQUIRE(swell_usb_ffs_descriptors(&it, buf, sizeof(buf), &len) == SWELL_OK);
 	REQUIRE(len == 20 + 2 * 23);
-	CHECK(le32(buf) == 3);        // FUNCTIONFS_DESCRIPTORS_MAGIC_V2
-	CHECK(le32(buf + 4) == len);  // length field is the whole block
-	CHECK(le32(buf + 8) == 3);    // HAS_FS_DESC | HAS_HS_DESC
-	CHECK(le32(buf + 12) == 3);   // fs_count
-	CHECK(le32(buf + 16) == 3);   // hs_count
+	CHECK(le32(buf) == 3); // FUNCTIONFS_DESCRIPTORS_MAGIC_V2
+	CHECK(le32(buf + 4) == len); // length field is the whole block
+	CHECK(le32(buf + 8) == 3); // HAS_FS_DESC | HAS_HS_DESC
+	CHECK(le32(buf + 12) == 3); // fs_count
+	CHECK(le32(buf + 16) == 3); // hs_count
 	check_set(buf + 20, 64);
-	check_set(buf + 43, 512);     // bulk at high speed must be 512
+	check_set(buf + 43, 512); // bulk at high speed must be 512
 }
 
 TEST_CASE("usb_ffs string block: one language 0x0409, the name NUL-terminated, length field exact")
@@ -120,7 +120,7 @@ TEST_CASE("usb_ffs rejects bad interfaces and small buffers and leaves the outpu
 	size_t len = 7;
 	CHECK(swell_usb_ffs_descriptors(&it, buf, sizeof(buf), &len) == SWELL_ESIZE); // needs 66
 	CHECK(len == 7);
-	CHECK(swell_usb_ffs_strings(&it, buf, 18 + 17, &len) == SWELL_ESIZE);         // needs 36
+	CHECK(swell_usb_ffs_strings(&it, buf, 18 + 17, &len) == SWELL_ESIZE); // needs 36
 	CHECK(len == 7);
 }
 

@@ -86,8 +86,8 @@ const char *swell_link_name(const struct swell_link *l)
 	return l->name;
 }
 
-enum swell_err swell_link_encode(enum swell_carrier c, uint8_t node, uint8_t pkt_seq,
-				 const struct swell_msg *m, size_t n, struct swell_frame *f, size_t *used)
+enum swell_err swell_link_encode(enum swell_carrier c, uint8_t node, uint8_t pkt_seq, const struct swell_msg *m,
+				 size_t n, struct swell_frame *f, size_t *used)
 {
 	struct swell_frame tmp;
 	enum swell_err err;
@@ -127,8 +127,8 @@ enum swell_err swell_link_encode(enum swell_carrier c, uint8_t node, uint8_t pkt
 	return err;
 }
 
-enum swell_err swell_link_decode(enum swell_carrier c, const struct swell_frame *f, struct swell_msg *out,
-				 size_t cap, size_t *n, uint8_t *pkt_seq, struct swell_proto_stats *st)
+enum swell_err swell_link_decode(enum swell_carrier c, const struct swell_frame *f, struct swell_msg *out, size_t cap,
+				 size_t *n, uint8_t *pkt_seq, struct swell_proto_stats *st)
 {
 	uint32_t id;
 	uint8_t seq;

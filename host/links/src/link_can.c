@@ -193,8 +193,8 @@ int swell_link_open_can(struct swell_link **out, const char *ifname, const struc
 			flt[i].can_id = opts->filters[i].id & CAN_SFF_MASK;
 			flt[i].can_mask = (opts->filters[i].mask & CAN_SFF_MASK) | CAN_EFF_FLAG | CAN_RTR_FLAG;
 		}
-		if (setsockopt(c->fd, SOL_CAN_RAW, CAN_RAW_FILTER, flt,
-			       (socklen_t)(opts->nfilters * sizeof(flt[0]))) < 0)
+		if (setsockopt(c->fd, SOL_CAN_RAW, CAN_RAW_FILTER, flt, (socklen_t)(opts->nfilters * sizeof(flt[0]))) <
+		    0)
 			goto fail_errno;
 	}
 	if (opts->error_frames) {

@@ -90,8 +90,8 @@ static int parse_addr(const char *host, uint16_t port, struct sockaddr_in *a)
 	return inet_pton(AF_INET, host, &a->sin_addr) == 1 ? 0 : -EINVAL;
 }
 
-int swell_link_open_udp(struct swell_link **out, const char *bind_host, uint16_t bind_port,
-			const char *peer_host, uint16_t peer_port)
+int swell_link_open_udp(struct swell_link **out, const char *bind_host, uint16_t bind_port, const char *peer_host,
+			uint16_t peer_port)
 {
 	struct udp_link *u;
 	struct sockaddr_in a;
@@ -118,16 +118,15 @@ int swell_link_open_udp(struct swell_link **out, const char *bind_host, uint16_t
 		rc = -errno;
 		goto fail;
 	}
-	if (bind(u->fd, (struct sockaddr *)&a, sizeof(a)) < 0 ||
-	    getsockname(u->fd, (struct sockaddr *)&a, &al) < 0) {
+	if (bind(u->fd, (struct sockaddr *)&a, sizeof(a)) < 0 || getsockname(u->fd, (struct sockaddr *)&a, &al) < 0) {
 		rc = -errno;
 		close(u->fd);
 		goto fail;
 	}
 	u->port = ntohs(a.sin_port);
 	if (peer_host)
-		snprintf(u->base.name, sizeof(u->base.name), "udp %s:%u -> %s:%u", bind_host, u->port,
-			 peer_host, peer_port);
+		snprintf(u->base.name, sizeof(u->base.name), "udp %s:%u -> %s:%u", bind_host, u->port, peer_host,
+			 peer_port);
 	else
 		snprintf(u->base.name, sizeof(u->base.name), "udp %s:%u -> last sender", bind_host, u->port);
 	*out = &u->base;

@@ -34,16 +34,26 @@ void swell_usb_opts_default(struct swell_usb_opts *o)
 static int errno_of(int e)
 {
 	switch (e) {
-	case LIBUSB_ERROR_TIMEOUT: return -ETIMEDOUT;
-	case LIBUSB_ERROR_NO_DEVICE: return -ENODEV;
-	case LIBUSB_ERROR_NOT_FOUND: return -ENODEV;
-	case LIBUSB_ERROR_ACCESS: return -EACCES;
-	case LIBUSB_ERROR_BUSY: return -EBUSY;
-	case LIBUSB_ERROR_OVERFLOW: return -EMSGSIZE;
-	case LIBUSB_ERROR_PIPE: return -EPIPE;
-	case LIBUSB_ERROR_NO_MEM: return -ENOMEM;
-	case LIBUSB_ERROR_INTERRUPTED: return -EINTR;
-	default: return -EIO;
+	case LIBUSB_ERROR_TIMEOUT:
+		return -ETIMEDOUT;
+	case LIBUSB_ERROR_NO_DEVICE:
+		return -ENODEV;
+	case LIBUSB_ERROR_NOT_FOUND:
+		return -ENODEV;
+	case LIBUSB_ERROR_ACCESS:
+		return -EACCES;
+	case LIBUSB_ERROR_BUSY:
+		return -EBUSY;
+	case LIBUSB_ERROR_OVERFLOW:
+		return -EMSGSIZE;
+	case LIBUSB_ERROR_PIPE:
+		return -EPIPE;
+	case LIBUSB_ERROR_NO_MEM:
+		return -ENOMEM;
+	case LIBUSB_ERROR_INTERRUPTED:
+		return -EINTR;
+	default:
+		return -EIO;
 	}
 }
 
@@ -116,8 +126,8 @@ static int attach(struct usb_link *u)
 		return rc;
 	}
 	u->h = h;
-	snprintf(u->base.name, sizeof(u->base.name), "usb %04x:%04x if %d ep 0x%02x/0x%02x", u->o.vid,
-		 u->o.pid, u->o.iface, u->ep_out, u->ep_in);
+	snprintf(u->base.name, sizeof(u->base.name), "usb %04x:%04x if %d ep 0x%02x/0x%02x", u->o.vid, u->o.pid,
+		 u->o.iface, u->ep_out, u->ep_in);
 	return 0;
 }
 
@@ -185,7 +195,9 @@ static int usb_recv(struct swell_link *l, struct swell_frame *f, int timeout_ms)
 			return rc;
 		/* libusb: 0 means no timeout */
 		rc = libusb_bulk_transfer(u->h, u->ep_in, buf, sizeof(buf), &got,
-					  left < 0 ? 0u : left == 0 ? 1u : (unsigned)left);
+					  left < 0            ? 0u
+						  : left == 0 ? 1u
+							      : (unsigned)left);
 		if (rc == LIBUSB_ERROR_TIMEOUT)
 			return -ETIMEDOUT;
 		if (rc == LIBUSB_ERROR_NO_DEVICE || rc == LIBUSB_ERROR_IO) {

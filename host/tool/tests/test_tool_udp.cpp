@@ -74,10 +74,7 @@ std::string slurp(const std::string &path)
 	return ss.str();
 }
 
-bool has(const std::string &s, const std::string &what)
-{
-	return s.find(what) != std::string::npos;
-}
+bool has(const std::string &s, const std::string &what) { return s.find(what) != std::string::npos; }
 
 struct Result {
 	int status;
@@ -97,11 +94,10 @@ struct Rig {
 		/* silent_ticks 2500 (1 s): a loaded test machine must not fault the device link; the link
 		 * supervision has its own tests, these are about the console */
 		ctl = spawn({SWELL_CTL_BIN, "--device", "udp:" + std::to_string(dev_port), "--host",
-			     "udp:" + std::to_string(host_port), "--no-rt", "--quiet", "--silent-ticks", "2500",
-			     "--seconds", "60"},
+			     "udp:" + std::to_string(host_port), "--no-rt", "--quiet", "--silent-ticks", "2500", "--seconds",
+			     "60"},
 			    dir + "/ctl.log");
-		hm = spawn({SWELL_HM_BIN, "--port", std::to_string(dev_port), "--quiet", "--seconds", "60", "--hand",
-			    hand},
+		hm = spawn({SWELL_HM_BIN, "--port", std::to_string(dev_port), "--quiet", "--seconds", "60", "--hand", hand},
 			   dir + "/hm.log");
 	}
 	/* after RUN: the dropped object splashes (it may leave the water for a moment) and floats
@@ -149,8 +145,7 @@ struct Rig {
 
 } // namespace
 
-TEST_CASE("swell-tool over UDP: status in text and JSON, get and set with units, refused sets change nothing",
-	  "[tool][udp]")
+TEST_CASE("swell-tool over UDP: status in text and JSON, get and set with units, refused sets change nothing", "[tool][udp]")
 {
 	Rig r("params");
 	Result st = r.tool("status");

@@ -92,15 +92,15 @@ TEST_CASE("a lost pose leaves a gap in the height line and is counted, consecuti
 	std::vector<bool> bottom = columns_with(f.cv, p, 255, 150, 30);
 	auto col = [&](uint64_t t) { return int(std::lround((1.0 - double(now - t) / 10e6) * (p.w - 1))); };
 	int lost0 = col(t0 + 19 * 100000) + 2, lost1 = col(t0 + 30 * 100000) - 2; // inside the lost second
-	int seen0 = col(t0) + 2, seen1 = col(t0 + 19 * 100000) - 2;             // inside the first 2 s
+	int seen0 = col(t0) + 2, seen1 = col(t0 + 19 * 100000) - 2; // inside the first 2 s
 	int empty = 0, drawn = 0;
 	for (int x = lost0; x <= lost1; x++)
 		empty += !bottom[size_t(x)];
 	for (int x = seen0; x <= seen1; x++)
 		drawn += bottom[size_t(x)];
 	INFO("columns of the lost second without a line: " << empty << " of " << lost1 - lost0 + 1
-							  << "; columns of the received 2 s with one: " << drawn << " of "
-							  << seen1 - seen0 + 1);
+							   << "; columns of the received 2 s with one: " << drawn << " of "
+							   << seen1 - seen0 + 1);
 	CHECK(empty == lost1 - lost0 + 1);
 	CHECK(drawn == seen1 - seen0 + 1);
 }
@@ -237,8 +237,8 @@ TEST_CASE("the legend's bar runs from the colour of -range at the bottom to +ran
 	canvas_ramp(0.0f, zero);
 	auto near = [&](int yy, const uint8_t *want) {
 		const uint8_t *p = c.rgba + (size_t(yy) * size_t(c.w) + size_t(x)) * 4;
-		INFO("row " << yy << ": " << int(p[0]) << "," << int(p[1]) << "," << int(p[2]) << " want " << int(want[0])
-			    << "," << int(want[1]) << "," << int(want[2]));
+		INFO("row " << yy << ": " << int(p[0]) << "," << int(p[1]) << "," << int(p[2]) << " want " << int(want[0]) << ","
+			    << int(want[1]) << "," << int(want[2]));
 		return std::abs(p[0] - want[0]) <= 4 && std::abs(p[1] - want[1]) <= 4 && std::abs(p[2] - want[2]) <= 4;
 	};
 	CHECK(near(top, hi));

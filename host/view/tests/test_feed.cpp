@@ -73,7 +73,8 @@ struct rig {
 		while (at < m.size()) {
 			uint8_t p[SWELL_PKT_MAX];
 			size_t len = 0, used = 0;
-			REQUIRE(swell_pkt_encode(node, seq++, m.data() + at, m.size() - at, p, sizeof(p), &len, &used) == SWELL_OK);
+			REQUIRE(swell_pkt_encode(node, seq++, m.data() + at, m.size() - at, p, sizeof(p), &len, &used) ==
+				SWELL_OK);
 			feed_packet(&f, p, len, t);
 			at += used;
 		}
@@ -172,7 +173,7 @@ TEST_CASE("CTL_INFO: the object size and firmware version come from the controll
 	info.u.ctl_info.fw_minor = 0;
 	info.u.ctl_info.fw_patch = 12;
 	info.u.ctl_info.obj_a_100um = 1234; // 123.4 mm
-	info.u.ctl_info.obj_b_100um = 55;   // 5.5 mm
+	info.u.ctl_info.obj_b_100um = 55; // 5.5 mm
 	info.u.ctl_info.obj_h_100um = 8191; // 819.1 mm, the largest the wire carries
 	r.pkt({scene_msg(), p});
 	REQUIRE(r.vm.obj.valid);
@@ -333,7 +334,7 @@ TEST_CASE("classic CAN: a pose count that starts again is taken after 8 stale po
 	INFO("dropped after a count that went back: " << r.vm.st.dropped);
 	CHECK(r.vm.st.dropped == 0);
 	CHECK(r.vm.obj.x_um == 10070); // the 8th older pose is taken: the new count
-	p.u.object_pose.seq = 10;      // 8 and 9 lost in the new count
+	p.u.object_pose.seq = 10; // 8 and 9 lost in the new count
 	r.can(p);
 	CHECK(r.vm.st.dropped == 2);
 }

@@ -119,8 +119,8 @@ run_result view(const std::string &args)
 {
 	run_result r;
 	REQUIRE_FALSE(x().display.empty());
-	std::string cmd = "DISPLAY=" + x().display + " ASAN_OPTIONS=detect_leaks=0 timeout 60 " SWELL_VIEW_BIN " " + args +
-			  " 2>&1";
+	std::string cmd =
+		"DISPLAY=" + x().display + " ASAN_OPTIONS=detect_leaks=0 timeout 60 " SWELL_VIEW_BIN " " + args + " 2>&1";
 	FILE *p = popen(cmd.c_str(), "r");
 	REQUIRE(p != nullptr);
 	char buf[4096];
@@ -137,7 +137,8 @@ std::string recording(const std::string &scene)
 {
 	std::string path = tmpdir() + "/" + scene + ".rec";
 	if (access(path.c_str(), F_OK) != 0) {
-		std::string cmd = "ASAN_OPTIONS=detect_leaks=0 " SWELL_VIEW_GEN_BIN " --scene " + scene + " --frames 25 --out " + path + " > /dev/null";
+		std::string cmd = "ASAN_OPTIONS=detect_leaks=0 " SWELL_VIEW_GEN_BIN " --scene " + scene + " --frames 25 --out " +
+			path + " > /dev/null";
 		REQUIRE(std::system(cmd.c_str()) == 0);
 	}
 	return "replay-fast:" + path;
@@ -156,8 +157,8 @@ image shot(const std::string &source, const std::string &extra = "", int after =
 	std::remove(path.c_str());
 	// no antialiasing (cheaper on llvmpipe) unless the caller asks for it with --msaa
 	std::string aa = extra.find("--msaa") == std::string::npos ? " --msaa 0" : "";
-	run_result r = view("--headless --steady --view top --no-hud --size 640x480" + aa + " --source " + source +
-			    " --after " + std::to_string(after) + " --screenshot " + path + " " + extra);
+	run_result r = view("--headless --steady --view top --no-hud --size 640x480" + aa + " --source " + source + " --after " +
+			    std::to_string(after) + " --screenshot " + path + " " + extra);
 	INFO(r.out);
 	REQUIRE(r.status == want_status);
 	if (out)
@@ -224,9 +225,9 @@ long counter(const std::string &out, const std::string &name)
 
 struct scene_case {
 	const char *source;
-	double bump_x, bump_y;        // pool fractions
-	double obj_x, obj_y;          // m
-	double fx, fy;                // N
+	double bump_x, bump_y; // pool fractions
+	double obj_x, obj_y; // m
+	double fx, fy; // N
 };
 const scene_case cases[] = {
 	{"bump", 0.70, 0.50, 0.30 * L, 0.35 * L, 1.5, -1.0},
@@ -311,7 +312,8 @@ TEST_CASE("the object's size comes from the controller's CTL_INFO, --object only
 	const size_case sizes[] = {
 		{"bump-info", "30x30x30", 0.100, 0.060,
 		 "swell-view: object 100.0 x 60.0 x 40.0 mm from the controller (CTL_INFO), firmware 2.7.1"},
-		{"bump", "80x80x50", 0.080, 0.080, "swell-view: object 80.0 x 80.0 x 50.0 mm from --object (no CTL_INFO received)"},
+		{"bump", "80x80x50", 0.080, 0.080,
+		 "swell-view: object 80.0 x 80.0 x 50.0 mm from --object (no CTL_INFO received)"},
 	};
 	for (const auto &k : sizes) {
 		run_result r;
@@ -359,7 +361,8 @@ TEST_CASE("late join: without a scene description nothing is drawn and the scree
 {
 	std::string path = tmpdir() + "/late.png";
 	run_result r = view("--headless --steady --view top --size 640x480 --source pattern:bump --faults noscene "
-			    "--after 12 --screenshot " + path);
+			    "--after 12 --screenshot " +
+			    path);
 	INFO(r.out);
 	REQUIRE(r.status == 0);
 	pngr::decoded d = pngr::read_file(path);
@@ -434,7 +437,7 @@ TEST_CASE("controller restart: the old scene goes, the new one is shown")
 TEST_CASE("only tiles whose heights changed are uploaded")
 {
 	run_result still, moving;
-	shot("pattern:bump", "", 32, &still);    // three refreshes of the same heights
+	shot("pattern:bump", "", 32, &still); // three refreshes of the same heights
 	shot("pattern:ripple", "", 32, &moving); // every tile changes every frame
 	INFO(still.out << moving.out);
 	// "uploaded N tiles (T texels)": 64 tiles at the scene, then nothing for identical refreshes
@@ -517,9 +520,10 @@ TEST_CASE("live over UDP: the scene stays on screen when the sender stops, marke
 	while (held(port))
 		port++;
 	std::string path = tmpdir() + "/udp.png";
-	std::string cmd = "DISPLAY=" + x().display + " ASAN_OPTIONS=detect_leaks=0 " SWELL_VIEW_BIN
-			  " --headless --view top --size 640x480 --msaa 0 --fps 60 --source udp:" + std::to_string(port) +
-			  " --after 240 --screenshot " + path + " > " + tmpdir() + "/udp.out 2>&1 &";
+	std::string cmd = "DISPLAY=" + x().display +
+		" ASAN_OPTIONS=detect_leaks=0 " SWELL_VIEW_BIN
+		" --headless --view top --size 640x480 --msaa 0 --fps 60 --source udp:" +
+		std::to_string(port) + " --after 240 --screenshot " + path + " > " + tmpdir() + "/udp.out 2>&1 &";
 	REQUIRE(std::system(cmd.c_str()) == 0);
 	// wait until the viewer has bound its port
 	bool bound = false;
@@ -527,7 +531,8 @@ TEST_CASE("live over UDP: the scene stays on screen when the sender stops, marke
 		usleep(50000);
 	REQUIRE(bound);
 	// one second of the known scene, live at 50 frames a second; then silence
-	std::string gen = "ASAN_OPTIONS=detect_leaks=0 " SWELL_VIEW_GEN_BIN " --frames 50 --udp " + std::to_string(port) + " > /dev/null";
+	std::string gen =
+		"ASAN_OPTIONS=detect_leaks=0 " SWELL_VIEW_GEN_BIN " --frames 50 --udp " + std::to_string(port) + " > /dev/null";
 	REQUIRE(std::system(gen.c_str()) == 0);
 	// the viewer writes its picture at frame 240 (4 s at 60 frames a second) and exits; a sanitizer
 	// build on a loaded machine can take a minute or more to get there (waited up to 4 minutes)
@@ -556,11 +561,25 @@ TEST_CASE("live over UDP: the scene stays on screen when the sender stops, marke
 
 TEST_CASE("bad arguments: a one-line reason and exit status 2, before any window")
 {
-	const char *bad[] = {"--size 10x10", "--source nowhere", "--view side", "--after 0", "--object 60x60",
-			     "--faults garbage", "--source pattern:bump --faults fire", "--source pattern:plaid",
-			     "--record x.rec --source pattern:bump", "--bogus", "--zscale", "--iface 256",
-			     "--iface 1", "--iface 1 --source pattern:bump", "--iface -1 --source usb",
-			     "--force-limit 0", "--csv", "--source pattern:bump:4", "--source pattern:ripple:x"};
+	const char *bad[] = {"--size 10x10",
+			     "--source nowhere",
+			     "--view side",
+			     "--after 0",
+			     "--object 60x60",
+			     "--faults garbage",
+			     "--source pattern:bump --faults fire",
+			     "--source pattern:plaid",
+			     "--record x.rec --source pattern:bump",
+			     "--bogus",
+			     "--zscale",
+			     "--iface 256",
+			     "--iface 1",
+			     "--iface 1 --source pattern:bump",
+			     "--iface -1 --source usb",
+			     "--force-limit 0",
+			     "--csv",
+			     "--source pattern:bump:4",
+			     "--source pattern:ripple:x"};
 	for (const char *a : bad) {
 		std::string cmd = "ASAN_OPTIONS=detect_leaks=0 DISPLAY= " SWELL_VIEW_BIN " " + std::string(a) + " 2>&1";
 		FILE *p = popen(cmd.c_str(), "r");
@@ -608,8 +627,8 @@ struct session {
 		dir = tmpdir() + "/session" + std::to_string(n++);
 		REQUIRE(std::system(("mkdir -p '" + dir + "'").c_str()) == 0);
 		out = dir + "/out.txt";
-		std::string cmd = "cd '" + dir + "' && DISPLAY=" + x().display + " ASAN_OPTIONS=detect_leaks=0 exec " SWELL_VIEW_BIN " " +
-				  args + " > out.txt 2>&1";
+		std::string cmd = "cd '" + dir + "' && DISPLAY=" + x().display +
+			" ASAN_OPTIONS=detect_leaks=0 exec " SWELL_VIEW_BIN " " + args + " > out.txt 2>&1";
 		pid = fork();
 		if (pid == 0) {
 			execl("/bin/sh", "sh", "-c", cmd.c_str(), (char *)nullptr);
@@ -618,8 +637,10 @@ struct session {
 		REQUIRE(pid > 0);
 		// wait for the window (xdotool --sync), then give it the pointer and the keyboard
 		std::string f = dir + "/wid";
-		REQUIRE(std::system(("DISPLAY=" + x().display + " timeout 60 xdotool search --sync --onlyvisible --name '^swell-view$' > '" +
-				     f + "' 2> /dev/null").c_str()) == 0);
+		REQUIRE(std::system(("DISPLAY=" + x().display +
+				     " timeout 60 xdotool search --sync --onlyvisible --name '^swell-view$' > '" + f +
+				     "' 2> /dev/null")
+					    .c_str()) == 0);
 		wid = slurp(f);
 		wid = wid.substr(0, wid.find('\n'));
 		REQUIRE_FALSE(wid.empty());
@@ -678,8 +699,9 @@ long bytes_differ(const image &a, const image &b)
 	long n = 0;
 	for (size_t k = 0; k < a.d.pixels.size() && k < b.d.pixels.size(); k++)
 		n += a.d.pixels[k] != b.d.pixels[k];
-	return n + long(a.d.pixels.size() > b.d.pixels.size() ? a.d.pixels.size() - b.d.pixels.size()
-							     : b.d.pixels.size() - a.d.pixels.size());
+	return n +
+		long(a.d.pixels.size() > b.d.pixels.size() ? a.d.pixels.size() - b.d.pixels.size()
+							   : b.d.pixels.size() - a.d.pixels.size());
 }
 
 // HUD text pixels: its light grey ink (render: 225, 232, 240 top-left; 200, 210, 220 bottom-left).
@@ -741,9 +763,10 @@ TEST_CASE("a person's session: pause, orbit drag, reset, wheel zoom, HUD, colour
 		    " 300 240 sleep 0.1 mousemove --window " + s.wid + " 350 240 sleep 0.1 mouseup 1") == 0);
 	image b = s.settled();
 	box obj_b = find(b, is_orange);
-	double moved = std::hypot(obj_b.sc / std::max(obj_b.n, 1) - obj_a.sc / obj_a.n, obj_b.sr / std::max(obj_b.n, 1) - obj_a.sr / obj_a.n);
+	double moved = std::hypot(obj_b.sc / std::max(obj_b.n, 1) - obj_a.sc / obj_a.n,
+				  obj_b.sr / std::max(obj_b.n, 1) - obj_a.sr / obj_a.n);
 	INFO("after the drag: " << bytes_differ(a, b) << " bytes differ, the object (" << obj_b.n << " pixels) moved " << moved
-				 << " px");
+				<< " px");
 	CHECK(obj_b.n > 200);
 	CHECK(moved > 20);
 
@@ -781,10 +804,10 @@ TEST_CASE("a person's session: pause, orbit drag, reset, wheel zoom, HUD, colour
 	image col_off = s.settled();
 	// the legend at scale 1 (main.c, canvas.c): canvas at (8, 84); bar 6 px in, 18 wide, rows 18..161
 	const uint8_t *bar_top = col.at(8 + 6 + 9, 84 + 18 + 2), *bar_bottom = col.at(8 + 6 + 9, 84 + 18 + 141);
-	INFO("red water pixels: colour " << find(col, is_red_water).n << ", shaded " << find(a, is_red_water).n
-					 << "; legend top " << int(bar_top[0]) << "," << int(bar_top[1]) << "," << int(bar_top[2])
-					 << " bottom " << int(bar_bottom[0]) << "," << int(bar_bottom[1]) << ","
-					 << int(bar_bottom[2]) << "; C again: " << bytes_differ(a, col_off) << " bytes differ");
+	INFO("red water pixels: colour " << find(col, is_red_water).n << ", shaded " << find(a, is_red_water).n << "; legend top "
+					 << int(bar_top[0]) << "," << int(bar_top[1]) << "," << int(bar_top[2]) << " bottom "
+					 << int(bar_bottom[0]) << "," << int(bar_bottom[1]) << "," << int(bar_bottom[2])
+					 << "; C again: " << bytes_differ(a, col_off) << " bytes differ");
 	CHECK(find(col, is_red_water).n > 2000);
 	CHECK(find(a, is_red_water).n == 0);
 	CHECK(bar_top[0] > bar_top[2] + 120);
@@ -799,8 +822,8 @@ TEST_CASE("a person's session: pause, orbit drag, reset, wheel zoom, HUD, colour
 	image map_off = s.settled();
 	box outline = find_in(map, int(col_of(0)) + 4, 80, int(col_of(L)) - 4, 410, is_outline);
 	INFO("map: object-coloured pixels " << outline.n << " in a box " << outline.c1 - outline.c0 + 1 << " x "
-					     << outline.r1 - outline.r0 + 1 << "; red water " << find(map, is_red_water).n
-					     << "; V again: " << bytes_differ(a, map_off) << " bytes differ");
+					    << outline.r1 - outline.r0 + 1 << "; red water " << find(map, is_red_water).n
+					    << "; V again: " << bytes_differ(a, map_off) << " bytes differ");
 	REQUIRE(outline.n > 50);
 	CHECK(std::abs((outline.c1 - outline.c0) - (outline.r1 - outline.r0)) <= 2); // square from above
 	CHECK(std::abs((outline.c0 + outline.c1) / 2.0 - col_of(0.30 * L)) < 3); // the pose of the ripple pattern
@@ -858,7 +881,8 @@ TEST_CASE("the charts plot the force and pose the pattern sends, at the values a
 	const int w = 1024, after = 300;
 	std::string path = tmpdir() + "/charts.png";
 	run_result r = view("--headless --steady --no-hud --msaa 0 --size 1024x768 --source pattern:bob --charts "
-			    "--force-limit 2.5 --after " + std::to_string(after) + " --screenshot " + path);
+			    "--force-limit 2.5 --after " +
+			    std::to_string(after) + " --screenshot " + path);
 	INFO(r.out);
 	REQUIRE(r.status == 0);
 	pngr::decoded d = pngr::read_file(path);
@@ -875,7 +899,8 @@ TEST_CASE("the charts plot the force and pose the pattern sends, at the values a
 		double lo, hi;
 	};
 	auto plot = [&](int k, double lo, double hi) {
-		return plot_px{cx + 72, cy + lh / 2 + k * (4 * lh + lh + lh / 2 + lh / 2) + lh + lh / 2, 360 - 72 - 6, 4 * lh, lo, hi};
+		return plot_px{cx + 72, cy + lh / 2 + k * (4 * lh + lh + lh / 2 + lh / 2) + lh + lh / 2, 360 - 72 - 6, 4 * lh, lo,
+			       hi};
 	};
 	// the curve's value in each column (mean row of its colour) against the pattern at that column's time
 	auto compare = [&](const plot_px &p, const uint8_t rgb[3], double (*truth)(double), double tol, const char *what) {
@@ -919,8 +944,7 @@ TEST_CASE("the charts plot the force and pose the pattern sends, at the values a
 	// heights: bottom -16..-4 mm, water 0: 5 % margin, steps of nice(17.6 / 4) = 5: -20..5 mm
 	compare(plot(1, -20, 5), bottom_rgb, bob_bottom_mm, 0.6, "object bottom (mm)");
 	compare(
-		plot(2, 0, 100), sub_rgb, [](double t) { return -bob_bottom_mm(t) / 50.0 * 100.0; }, 2.5,
-		"submersion (%)");
+		plot(2, 0, 100), sub_rgb, [](double t) { return -bob_bottom_mm(t) / 50.0 * 100.0; }, 2.5, "submersion (%)");
 	// the limit line: dashed red at +2.5 N and -2.5 N
 	plot_px f = plot(0, -5, 5);
 	for (double lim : {2.5, -2.5}) {
@@ -939,14 +963,16 @@ TEST_CASE("the CSV file of --csv holds the pattern's pose and force as received,
 {
 	for (const char *faults : {"", "--faults drop"}) {
 		std::string csv = tmpdir() + "/bob.csv";
-		run_result r = view("--headless --steady --no-hud --msaa 0 --size 320x240 --source pattern:bob --frames 100 --csv " +
-				    csv + " " + faults);
+		run_result r =
+			view("--headless --steady --no-hud --msaa 0 --size 320x240 --source pattern:bob --frames 100 --csv " +
+			     csv + " " + faults);
 		INFO(faults << ": " << r.out);
 		REQUIRE(r.status == 0);
 		std::ifstream in(csv);
 		std::string line;
 		REQUIRE(std::getline(in, line));
-		CHECK(line == "t_s,pose_seq,bottom_mm,water_mm,submersion_pct,fz_N,f_abs_N,limited,frame_hz,latency_ms,lost_poses");
+		CHECK(line ==
+		      "t_s,pose_seq,bottom_mm,water_mm,submersion_pct,fz_N,f_abs_N,limited,frame_hz,latency_ms,lost_poses");
 		int poses = 0, forces = 0, seq_gaps = 0, last_seq = -1;
 		long lost = 0;
 		double worst_z = 0, worst_f = 0;
@@ -972,8 +998,8 @@ TEST_CASE("the CSV file of --csv holds the pattern's pose and force as received,
 				worst_f = std::max(worst_f, std::abs(std::atof(f[5].c_str()) - bob_fz(t)));
 			}
 		}
-		INFO(faults << ": " << poses << " poses, " << forces << " forces; worst z error " << worst_z << " mm, fz " << worst_f
-				<< " N; sequence gaps " << seq_gaps << ", lost_poses " << lost);
+		INFO(faults << ": " << poses << " poses, " << forces << " forces; worst z error " << worst_z << " mm, fz "
+			    << worst_f << " N; sequence gaps " << seq_gaps << ", lost_poses " << lost);
 		CHECK(worst_z < 0.011); // 10 um on the wire
 		CHECK(worst_f < 0.006); // 0.01 N on the wire
 		CHECK(lost == seq_gaps);
@@ -994,8 +1020,8 @@ TEST_CASE("the map view shows heights in the colour scale and the object's footp
 	box b = find_in(im, int(col_of(0)) + 4, int(row_of(L)) + 4, int(col_of(L)) - 4, int(row_of(0)) - 4, is_outline);
 	double cc = (b.c0 + b.c1) / 2.0, cr = (b.r0 + b.r1) / 2.0;
 	INFO("outline pixels " << b.n << ", box centre (" << cc << ", " << cr << ") px, expected (" << col_of(0.30 * L) << ", "
-			       << row_of(0.35 * L) << "); size " << b.c1 - b.c0 + 1 << " x " << b.r1 - b.r0 + 1 << " px, the footprint "
-			       << OBJ * S << " px and the pen");
+			       << row_of(0.35 * L) << "); size " << b.c1 - b.c0 + 1 << " x " << b.r1 - b.r0 + 1
+			       << " px, the footprint " << OBJ * S << " px and the pen");
 	REQUIRE(b.n > 100);
 	CHECK(b.n < 1000); // an outline, not a filled box
 	CHECK(std::abs(cc - col_of(0.30 * L)) < 2.5);
@@ -1033,8 +1059,8 @@ TEST_CASE("SIGINT and SIGTERM end a run with its summary and exit 0, without a d
 	for (int sig : {SIGINT, SIGTERM}) {
 		const std::string out = tmpdir() + "/signal.txt";
 		// swell-view itself (no shell in between: its own SigCgt is read below)
-		std::vector<std::string> args = {SWELL_VIEW_BIN, "--source", "pattern:bump", "--headless", "--size",
-						 "160x120", "--msaa", "0", "--fps", "20"};
+		std::vector<std::string> args = {SWELL_VIEW_BIN, "--source", "pattern:bump", "--headless", "--size", "160x120",
+						 "--msaa",       "0",        "--fps",        "20"};
 		std::vector<char *> argv;
 		for (auto &a : args)
 			argv.push_back(&a[0]);
@@ -1090,8 +1116,9 @@ TEST_CASE("SIGINT and SIGTERM end a run with its summary and exit 0, without a d
 	REQUIRE(bind(fd, reinterpret_cast<sockaddr *>(&a), sizeof a) == 0);
 	REQUIRE(getsockname(fd, reinterpret_cast<sockaddr *>(&a), &al) == 0);
 	close(fd);
-	std::string cmd = "ASAN_OPTIONS=detect_leaks=1 DISPLAY= " SWELL_VIEW_BIN " --source udp:" +
-			  std::to_string(ntohs(a.sin_port)) + " 2>&1";
+	std::string cmd =
+		"ASAN_OPTIONS=detect_leaks=1 DISPLAY= " SWELL_VIEW_BIN " --source udp:" + std::to_string(ntohs(a.sin_port)) +
+		" 2>&1";
 	FILE *p = popen(cmd.c_str(), "r");
 	REQUIRE(p != nullptr);
 	std::string text;

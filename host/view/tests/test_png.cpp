@@ -45,8 +45,11 @@ TEST_CASE("Adler-32 matches its definition, including runs longer than the 5552-
 TEST_CASE("PNG round-trips through an independent reader, stored blocks split inside rows")
 {
 	// 200 x 120 RGB is 72 120 raw bytes: two stored blocks, the split falls inside a row.
-	struct { uint32_t w, h; unsigned ch; size_t pad; } cases[] = {
-		{1, 1, 3, 0}, {200, 120, 3, 0}, {97, 300, 4, 5}, {16384, 2, 4, 0}, {3, 7, 3, 1}};
+	struct {
+		uint32_t w, h;
+		unsigned ch;
+		size_t pad;
+	} cases[] = {{1, 1, 3, 0}, {200, 120, 3, 0}, {97, 300, 4, 5}, {16384, 2, 4, 0}, {3, 7, 3, 1}};
 	for (auto c : cases) {
 		size_t stride = size_t(c.w) * c.ch + c.pad;
 		auto px = pattern(c.h, stride);

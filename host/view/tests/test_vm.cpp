@@ -28,8 +28,8 @@ view_scene pool64()
 std::vector<int32_t> tile_of(int32_t v, size_t n) { return std::vector<int32_t>(n, v); }
 
 // A whole tile, row by row, as the decoder would deliver it from stream position pos.
-swell_err put_tile(view_model &m, uint16_t tx, uint16_t ty, uint32_t pos, const std::vector<int32_t> &t,
-		   uint16_t w = 16, uint16_t h = 16)
+swell_err put_tile(view_model &m, uint16_t tx, uint16_t ty, uint32_t pos, const std::vector<int32_t> &t, uint16_t w = 16,
+		   uint16_t h = 16)
 {
 	for (uint16_t r = 0; r < h; r++) {
 		swell_err e = vm_cells(&m, tx, ty, 0, r, w, pos, &t[size_t(r) * w]);
@@ -147,7 +147,7 @@ TEST_CASE("reordering: heights from an older stream position never overwrite new
 	int32_t one[4] = {SWELL_H_ONE_MM, SWELL_H_ONE_MM, SWELL_H_ONE_MM, SWELL_H_ONE_MM};
 	int32_t five[4] = {5 * SWELL_H_ONE_MM, 5 * SWELL_H_ONE_MM, 5 * SWELL_H_ONE_MM, 5 * SWELL_H_ONE_MM};
 	REQUIRE(vm_cells(&m, 1, 0, 2, 0, 2, 200, five) == SWELL_OK); // cells 18, 19 at position 200
-	REQUIRE(vm_cells(&m, 1, 0, 0, 0, 4, 199, one) == SWELL_OK);  // 16..19 from the older 199
+	REQUIRE(vm_cells(&m, 1, 0, 0, 0, 4, 199, one) == SWELL_OK); // 16..19 from the older 199
 	CHECK(m.h_mm[16] == Approx(1.0));
 	CHECK(m.h_mm[17] == Approx(1.0));
 	CHECK(m.h_mm[18] == Approx(5.0));
@@ -184,7 +184,7 @@ TEST_CASE("sequence gaps count dropped frames, modulo the sequence width, a late
 	CHECK(vm_frame(&k, 150, 8, 2)); // 24 lost
 	CHECK(vm_frame(&k, 215, 8, 2)); // 64 ahead
 	CHECK(vm_frame(&k, 216, 8, 3));
-	CHECK(vm_frame(&k, 1, 8, 4));   // 40 ahead, wrapping
+	CHECK(vm_frame(&k, 1, 8, 4)); // 40 ahead, wrapping
 	CHECK(vm_frame(&k, 211, 8, 5)); // 209 ahead, not 46 behind
 	CHECK(vm_frame(&k, 212, 8, 6));
 	CHECK(k.st.late == 0);
@@ -343,8 +343,7 @@ TEST_CASE("two interleaved 8-bit counts (two senders) are resynchronisations, ne
 		vm_frame(&m, a++, 8, (uint64_t)k);
 		vm_frame(&m, b++, 8, (uint64_t)k);
 	}
-	INFO("frames " << m.st.frames << ", dropped " << m.st.dropped << ", late " << m.st.late << ", resyncs "
-		       << m.st.resyncs);
+	INFO("frames " << m.st.frames << ", dropped " << m.st.dropped << ", late " << m.st.late << ", resyncs " << m.st.resyncs);
 	CHECK(m.st.dropped <= m.st.frames);
 	CHECK(m.st.dropped == 0);
 	CHECK(m.st.resyncs >= 1000);

@@ -11,7 +11,7 @@ extern "C" {
 #include "swell/wave_ref.h"
 }
 
-static const enum bench_impl fixed_impls[] = {BENCH_SHIPPED, BENCH_EF16, BENCH_TL32_FLOOR,
+static const enum bench_impl fixed_impls[] = {BENCH_SHIPPED, BENCH_EF16,    BENCH_TL32_FLOOR,
 					      BENCH_TL32_RN, BENCH_TL32_RZ, BENCH_TL16_RN};
 
 static std::vector<double> noise(int n, double amp, uint64_t seed)
@@ -58,8 +58,7 @@ TEST_CASE("the (m,n) cosine mode is an exact eigenvector of L9 with mirrored wal
 	}
 }
 
-TEST_CASE("for t = 0 the amplitude recurrence equals cos(w (k+1/2)) / cos(w/2), cos w = 1 + e S / 2",
-	  "[bench][eigen]")
+TEST_CASE("for t = 0 the amplitude recurrence equals cos(w (k+1/2)) / cos(w/2), cos w = 1 + e S / 2", "[bench][eigen]")
 {
 	bench_mode md;
 	bench_amp am;
@@ -160,8 +159,7 @@ TEST_CASE("fixed kernels track float64 of the same scheme within 400 LSB over 30
 	}
 }
 
-TEST_CASE("a push moves no volume and the edge-flux kernels conserve volume exactly under pushes",
-	  "[bench][volume]")
+TEST_CASE("a push moves no volume and the edge-flux kernels conserve volume exactly under pushes", "[bench][volume]")
 {
 	for (auto impl : fixed_impls) {
 		bench_field f;
@@ -242,8 +240,7 @@ TEST_CASE("bench energy: equal for all fixed kernels at rest, conserved by f64 a
 		e_prev = en;
 		prev = cur;
 	}
-	INFO("f64 t = 0.05: identity off by " << worst_id << " of E0; E after 500 steps " << e_prev / e_start
-					       << " of E0");
+	INFO("f64 t = 0.05: identity off by " << worst_id << " of E0; E after 500 steps " << e_prev / e_start << " of E0");
 	CHECK(worst_id < 1e-12);
 	CHECK(e_prev < 0.01 * e_start);
 	bench_field_free(&f);
@@ -299,16 +296,15 @@ TEST_CASE("near the saturation bound every fixed kernel clamps instead of wrappi
 		bench_field_set_mm(&f, h.data());
 		for (int k = 0; k < 200; k++)
 			bench_field_step(&f);
-		INFO(bench_impl_name(impl) << ": max|h| " << bench_field_max_abs_lsb(&f) << " of " << f.h_max
-					   << " LSB, " << f.saturations << " saturations");
+		INFO(bench_impl_name(impl) << ": max|h| " << bench_field_max_abs_lsb(&f) << " of " << f.h_max << " LSB, "
+					   << f.saturations << " saturations");
 		CHECK(bench_field_max_abs_lsb(&f) <= f.h_max);
 		CHECK(f.saturations > 0);
 		bench_field_free(&f);
 	}
 }
 
-TEST_CASE("the high-word multiply proposed for wave.c equals swell_mul_q30_rn for every flow input",
-	  "[bench][fixed]")
+TEST_CASE("the high-word multiply proposed for wave.c equals swell_mul_q30_rn for every flow input", "[bench][fixed]")
 {
 	// |dh| <= 2 SWELL_H_MAX (a difference of two saturated heights), c in (0, 2) Q1.30
 	bench_rng r;

@@ -30,8 +30,7 @@ void put32(uint8_t *p, uint32_t v)
 }
 
 // A stamped image of len bytes: a pseudo-random body and the header at 0x200.
-bytes make_image(size_t len, uint32_t version = SWELL_FWIMAGE_VERSION(1, 2, 3),
-		 uint32_t mcu = SWELL_FWIMAGE_MCU_STM32F405)
+bytes make_image(size_t len, uint32_t version = SWELL_FWIMAGE_VERSION(1, 2, 3), uint32_t mcu = SWELL_FWIMAGE_MCU_STM32F405)
 {
 	bytes b(len);
 	uint32_t x = 12345;
@@ -234,8 +233,9 @@ TEST_CASE("dry-run command lines: SWD through openocd (ELF and BIN) and st-flash
 	flash_opts o = base_opts(FLASH_SWD);
 	auto l = plan_lines(o);
 	REQUIRE(l.size() == 1);
-	CHECK(l[0] == "openocd -f interface/stlink.cfg -f target/stm32f4x.cfg -c "
-		      "'program /w/fw.bin 0x08000000 verify reset exit'");
+	CHECK(l[0] ==
+	      "openocd -f interface/stlink.cfg -f target/stm32f4x.cfg -c "
+	      "'program /w/fw.bin 0x08000000 verify reset exit'");
 	o.elf = "/w/fw.elf";
 	l = plan_lines(o);
 	CHECK(l[0] == "openocd -f interface/stlink.cfg -f target/stm32f4x.cfg -c 'program /w/fw.elf verify reset exit'");
@@ -267,10 +267,12 @@ TEST_CASE("dry-run command lines: gdb-multiarch on QEMU, openocd and a Black Mag
 	o.gdb_remote = "127.0.0.1:1234";
 	auto l = plan_lines(o);
 	REQUIRE(l.size() == 2);
-	CHECK(l[0] == "gdb-multiarch -nx -batch -ex 'set confirm off' -ex 'target remote 127.0.0.1:1234' -ex load "
-		      "-ex 'dump binary memory /w/rb.bin 0x08000000 0x0800a1d0' -ex disconnect /w/fw.elf");
-	CHECK(l[1] == "gdb-multiarch -nx -batch -ex 'set confirm off' -ex 'target remote 127.0.0.1:1234' "
-		      "-ex 'monitor system_reset' -ex detach");
+	CHECK(l[0] ==
+	      "gdb-multiarch -nx -batch -ex 'set confirm off' -ex 'target remote 127.0.0.1:1234' -ex load "
+	      "-ex 'dump binary memory /w/rb.bin 0x08000000 0x0800a1d0' -ex disconnect /w/fw.elf");
+	CHECK(l[1] ==
+	      "gdb-multiarch -nx -batch -ex 'set confirm off' -ex 'target remote 127.0.0.1:1234' "
+	      "-ex 'monitor system_reset' -ex detach");
 	o.gdb_server = FLASH_GDB_OPENOCD;
 	l = plan_lines(o);
 	CHECK(l[0].find("-ex 'monitor reset halt' -ex load") != std::string::npos);
@@ -327,9 +329,10 @@ struct scratch {
 		for (const char *tool : {"dfu-util", "openocd", "stm32flash", "gdb-multiarch"})
 			stub(tool, "");
 		// Its reset starts $ON_RESET in the background when set: "the new image" (a swell-ctl).
-		stub("st-flash", "case $1 in write) cp \"$2\" \"$FLASH\";; read) cp \"$FLASH\" \"$2\";"
-				 " [ -n \"$CORRUPT\" ] && printf X | dd of=\"$2\" bs=1 seek=1000 conv=notrunc 2>/dev/null;;"
-				 " reset) [ -z \"$ON_RESET\" ] || sh -c \"$ON_RESET\" </dev/null >/dev/null 2>&1 & ;; esac\n");
+		stub("st-flash",
+		     "case $1 in write) cp \"$2\" \"$FLASH\";; read) cp \"$FLASH\" \"$2\";"
+		     " [ -n \"$CORRUPT\" ] && printf X | dd of=\"$2\" bs=1 seek=1000 conv=notrunc 2>/dev/null;;"
+		     " reset) [ -z \"$ON_RESET\" ] || sh -c \"$ON_RESET\" </dev/null >/dev/null 2>&1 & ;; esac\n");
 	}
 	~scratch() { std::system(("rm -rf '" + dir + "'").c_str()); }
 	void stub(const std::string &tool, const std::string &body)
@@ -351,8 +354,8 @@ struct scratch {
 	// Run swell-flash with the stubs first on PATH; returns the exit status, output in *out.
 	int run(const std::string &args, std::string *out, const std::string &env = "")
 	{
-		std::string cmd = "cd '" + dir + "' && PATH='" + dir + "/stub':\"$PATH\" LOG='" + dir + "/log' FLASH='" +
-				  dir + "/flash' " + env + " '" SWELL_FLASH_BIN "' " + args + " >out.txt 2>&1";
+		std::string cmd = "cd '" + dir + "' && PATH='" + dir + "/stub':\"$PATH\" LOG='" + dir + "/log' FLASH='" + dir +
+			"/flash' " + env + " '" SWELL_FLASH_BIN "' " + args + " >out.txt 2>&1";
 		int st = std::system(cmd.c_str());
 		std::ifstream f(dir + "/out.txt");
 		std::stringstream s;
@@ -376,14 +379,15 @@ TEST_CASE("corrupted, truncated and foreign images are refused with exit 2 befor
 		const char *name;
 		bytes b;
 		const char *reason;
-	} bad[] = {{"corrupt.bin", corrupt, "CRC-32 mismatch"},
-		   {"corrupt.elf", make_elf(corrupt), "CRC-32 mismatch"},
-		   {"truncated.bin", truncated, "truncated"},
-		   {"truncated.elf", make_elf(truncated), "truncated"},
-		   {"foreign.bin", foreign, "foreign image"},
-		   {"x86.elf", make_elf(good, FLASH_BASE_ADDR, 62), "foreign ELF"}};
-	const char *backends[] = {"--backend dfu", "--backend swd", "--backend swd --swd-tool st-flash",
-				  "--backend uart", "--backend gdb --gdb-server qemu", ""};
+	} bad[] = {{"corrupt.bin", corrupt, "CRC-32 mismatch"}, {"corrupt.elf", make_elf(corrupt), "CRC-32 mismatch"},
+		   {"truncated.bin", truncated, "truncated"},   {"truncated.elf", make_elf(truncated), "truncated"},
+		   {"foreign.bin", foreign, "foreign image"},   {"x86.elf", make_elf(good, FLASH_BASE_ADDR, 62), "foreign ELF"}};
+	const char *backends[] = {"--backend dfu",
+				  "--backend swd",
+				  "--backend swd --swd-tool st-flash",
+				  "--backend uart",
+				  "--backend gdb --gdb-server qemu",
+				  ""};
 	for (auto &b : bad) {
 		std::string path = s.write(b.name, b.b);
 		for (const char *be : backends) {
@@ -456,9 +460,17 @@ TEST_CASE("bad arguments give one line and exit 2")
 {
 	scratch s;
 	std::string img = s.write("good.bin", make_image(2048));
-	const char *bad[] = {"", "--backend jtag", "--swd-tool jlink", "--baud 12", "--mcu x",
-			     "--dfu-device 0483", "--frobnicate", "--gdb-server foo", "--console-timeout 0",
-			     "second.bin", "--backend"};
+	const char *bad[] = {"",
+			     "--backend jtag",
+			     "--swd-tool jlink",
+			     "--baud 12",
+			     "--mcu x",
+			     "--dfu-device 0483",
+			     "--frobnicate",
+			     "--gdb-server foo",
+			     "--console-timeout 0",
+			     "second.bin",
+			     "--backend"};
 	for (const char *a : bad) {
 		std::string out;
 		int rc = s.run((*a == '\0' ? std::string() : img + " ") + a, &out);
@@ -637,9 +649,7 @@ TEST_CASE("enter-bootloader with force sends COMMAND=STOP first, then the key, a
 	fake_ctl c;
 	c.start(3, true);
 	std::string out;
-	int rc = s.run(img + " --backend swd --swd-tool st-flash --force --enter-bootloader udp:" +
-			       std::to_string(c.port),
-		       &out);
+	int rc = s.run(img + " --backend swd --swd-tool st-flash --force --enter-bootloader udp:" + std::to_string(c.port), &out);
 	INFO(out);
 	CHECK(rc == 0);
 	CHECK(c.got_autorun_off == 1);
@@ -681,8 +691,8 @@ std::string ctl_cmd(const scratch &s, const std::string &name, const std::string
 {
 	std::string dev = std::to_string(fake_ctl::free_port());
 	return "'" SWELL_CTL_BIN "' --no-rt --quiet --seconds " + std::to_string(seconds) + " --fw-version " + version +
-	       " --host udp:" + host + " --device udp:" + dev + " > '" + s.dir + "/" + name + ".out' 2>&1; echo $? > '" +
-	       s.dir + "/" + name + ".rc'";
+		" --host udp:" + host + " --device udp:" + dev + " > '" + s.dir + "/" + name + ".out' 2>&1; echo $? > '" + s.dir +
+		"/" + name + ".rc'";
 }
 
 } // namespace
@@ -759,8 +769,7 @@ TEST_CASE("enter-bootloader then dfu: flashing waits for the DfuSe device and st
 	{
 		fake_ctl c;
 		c.start(1, true);
-		int rc = s.run(img + " --backend dfu --dfu-wait 0.3 --enter-bootloader udp:" + std::to_string(c.port), &out,
-			       env);
+		int rc = s.run(img + " --backend dfu --dfu-wait 0.3 --enter-bootloader udp:" + std::to_string(c.port), &out, env);
 		INFO(out);
 		CHECK(rc == 1);
 		CHECK(c.got_boot == 1);
@@ -900,7 +909,8 @@ TEST_CASE("enter-bootloader: several controllers heard and no --node is refused,
 	int rc = s.run(img + " --backend swd --swd-tool st-flash --enter-bootloader udp:" + std::to_string(a.port), &out);
 	INFO(out);
 	CHECK(rc == 2);
-	CHECK(out.find("several controllers on udp 127.0.0.1:" + std::to_string(a.port) + " (nodes 2, 5): choose one "
+	CHECK(out.find("several controllers on udp 127.0.0.1:" + std::to_string(a.port) +
+		       " (nodes 2, 5): choose one "
 		       "with --node; nothing sent") != std::string::npos);
 	CHECK(a.got_boot + b.got_boot == 0);
 	CHECK(a.other + b.other == 0);
@@ -923,16 +933,15 @@ TEST_CASE("enter-bootloader --node: the request carries the chosen node, and ano
 	c.node = 5;
 	c.start(1, true);
 	std::string out;
-	int rc = s.run(img + " --backend swd --swd-tool st-flash --node 4 --no-find --enter-bootloader udp:" +
-			       std::to_string(c.port),
-		       &out);
+	int rc = s.run(
+		img + " --backend swd --swd-tool st-flash --node 4 --no-find --enter-bootloader udp:" + std::to_string(c.port),
+		&out);
 	INFO(out);
 	CHECK(rc == 1);
 	CHECK(out.find("no heartbeat of controller node 4 on udp 127.0.0.1:" + std::to_string(c.port) +
 		       " within 1.5 s (other nodes heard)") != std::string::npos);
 	CHECK(c.got_boot == 0);
-	rc = s.run(img + " --backend swd --swd-tool st-flash --node 5 --no-find --enter-bootloader udp:" +
-			   std::to_string(c.port),
+	rc = s.run(img + " --backend swd --swd-tool st-flash --node 5 --no-find --enter-bootloader udp:" + std::to_string(c.port),
 		   &out);
 	INFO(out);
 	CHECK(rc == 0);

@@ -80,8 +80,7 @@ std::vector<uint8_t> image(size_t n)
 
 } // namespace
 
-TEST_CASE("swell-fwimage: bad arguments exit 2, refused images and unreadable files exit 1, with the figures",
-	  "[fwimage][args]")
+TEST_CASE("swell-fwimage: bad arguments exit 2, refused images and unreadable files exit 1, with the figures", "[fwimage][args]")
 {
 	char t[] = "/tmp/swell-fwimage-test-XXXXXX";
 	REQUIRE(mkdtemp(t) != nullptr);

@@ -137,7 +137,8 @@ std::vector<row> read_log(const std::string &path)
 
 } // namespace
 
-TEST_CASE("bridge: samples go up, a FORCE_CMD becomes the bias force, silence is zero force, a dead HapticMaster stops the samples")
+TEST_CASE(
+	"bridge: samples go up, a FORCE_CMD becomes the bias force, silence is zero force, a dead HapticMaster stops the samples")
 {
 	const std::string csv = work_dir + "/bridge.csv";
 	std::remove(csv.c_str());
@@ -160,7 +161,7 @@ TEST_CASE("bridge: samples go up, a FORCE_CMD becomes the bias force, silence is
 		std::this_thread::sleep_for(std::chrono::microseconds(400));
 	}
 	ctl.samples(300, &pos); // silent now: the bridge's watchdog zeroes the force
-	kill(hm.pid, SIGKILL);  // the HapticMaster dies: the log holds what it rendered
+	kill(hm.pid, SIGKILL); // the HapticMaster dies: the log holds what it rendered
 	waitpid(hm.pid, nullptr, 0);
 	hm.pid = -1;
 	ctl.samples(200, nullptr);

@@ -71,8 +71,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 	err = swell_pkt_decode(data, size, out, SWELL_PKT_MSGS_MAX, &n, &seq, &st);
 	if (err == SWELL_OK) {
 		check(n >= 1 && n <= SWELL_PKT_MSGS_MAX);
-		check(swell_pkt_encode(out[0].node, seq, out, n, again, sizeof(again), &len2, &used) ==
-		      SWELL_OK);
+		check(swell_pkt_encode(out[0].node, seq, out, n, again, sizeof(again), &len2, &used) == SWELL_OK);
 		check(used == n && len2 == size && memcmp(again, data, size) == 0);
 		return 0;
 	}

@@ -95,7 +95,7 @@ TEST_CASE("swell-sim: every bad argument and conflicting pair exits 2 with one l
 		{{"stray"}, "unexpected argument 'stray'"},
 		{{"--steps"}, "--steps needs a value"},
 		{{"--bogus"}, "unknown option '--bogus'"}, // no value after it: still unknown, not "needs a value"
-		{{"--damper"}, "--damper needs a value"},  // an option of --object's
+		{{"--damper"}, "--damper needs a value"}, // an option of --object's
 		{{"--motion", "drop:0.02"}, "--motion is an option of the floating object: give --object too"},
 		{{"--at", "0.1,0.1"}, "--at is an option of the floating object"},
 		{{"--trace", "x.csv"}, "--trace is an option of the floating object"},

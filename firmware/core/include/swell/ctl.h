@@ -50,7 +50,11 @@
 
 /* enum swell_ctl_state (the heartbeat's state codes) is in swell/proto_table.h. */
 
-enum swell_ctl_link { SWELL_LINK_DEVICE = 0, SWELL_LINK_HOST = 1, SWELL_LINKS = 2 };
+enum swell_ctl_link {
+	SWELL_LINK_DEVICE = 0,
+	SWELL_LINK_HOST = 1,
+	SWELL_LINKS = 2
+};
 
 /* Parameter ids, commands and their ranges: swell/param_table.h. */
 
@@ -70,25 +74,25 @@ struct swell_ctl_config {
 	struct swell_body_xform xform;
 	struct swell_fsafety_params safety; /* one stage per device axis; tick_hz is set from tick_hz */
 	uint32_t tick_hz, solver_hz; /* solver_hz divides tick_hz, 2 .. SWELL_BODY_MAX_K ticks a step */
-	uint16_t silent_ticks;       /* device silent this many ticks -> fault; 1 .. 10000 */
-	uint16_t recover_ticks;      /* autorun: device back (heard, no e-stop) this long before leaving FAULT */
-	uint16_t host_budget;        /* host messages a tick, 1 .. SWELL_CTL_QUEUE / 2 */
-	uint8_t node;                /* 0 .. SWELL_NODE_MAX */
+	uint16_t silent_ticks; /* device silent this many ticks -> fault; 1 .. 10000 */
+	uint16_t recover_ticks; /* autorun: device back (heard, no e-stop) this long before leaving FAULT */
+	uint16_t host_budget; /* host messages a tick, 1 .. SWELL_CTL_QUEUE / 2 */
+	uint8_t node; /* 0 .. SWELL_NODE_MAX */
 	uint8_t autorun;
-	uint8_t fw_version[3];       /* major, minor, patch of the running firmware, sent in CTL_INFO */
+	uint8_t fw_version[3]; /* major, minor, patch of the running firmware, sent in CTL_INFO */
 };
 
 struct swell_ctl_counters {
 	uint32_t ticks, solver_steps;
-	uint32_t overruns;           /* reported by the port */
-	uint32_t bad_frames;         /* reported by the port (decoder rejections) */
-	uint32_t work, work_max;     /* cell-operations in the last tick, and the most in any tick */
-	uint32_t dev_lost;           /* device sequence numbers skipped */
+	uint32_t overruns; /* reported by the port */
+	uint32_t bad_frames; /* reported by the port (decoder rejections) */
+	uint32_t work, work_max; /* cell-operations in the last tick, and the most in any tick */
+	uint32_t dev_lost; /* device sequence numbers skipped */
 	uint32_t faults;
 	uint32_t quads_sent;
-	uint32_t quads_refreshed;    /* of which resent unchanged, to repair losses */
+	uint32_t quads_refreshed; /* of which resent unchanged, to repair losses */
 	uint32_t params_set, params_refused;
-	uint32_t ignored;            /* messages that make no sense here (wrong direction, bootloader while running) */
+	uint32_t ignored; /* messages that make no sense here (wrong direction, bootloader while running) */
 };
 
 struct swell_ctl {
@@ -103,9 +107,9 @@ struct swell_ctl {
 	/* device link */
 	int32_t pos_um[3], vel_um_s[3];
 	uint8_t dev_status;
-	uint8_t dev_heard;   /* a device message arrived since the last tick */
-	uint32_t since_dev;  /* ticks since the device was last heard (saturating) */
-	uint32_t dev_back;   /* ticks the device has been heard without a gap */
+	uint8_t dev_heard; /* a device message arrived since the last tick */
+	uint32_t since_dev; /* ticks since the device was last heard (saturating) */
+	uint32_t dev_back; /* ticks the device has been heard without a gap */
 	struct swell_seq dev_seq;
 	uint8_t run_request, clear_request;
 	uint8_t host_stop; /* STOP received and no RUN since: autorun does not start the force law */
@@ -114,26 +118,26 @@ struct swell_ctl {
 	 * bootloader (or, without one, exits). The core never clears it. */
 	uint8_t bootloader_request;
 	uint8_t info_pending; /* CTL_INFO to send at the next tick with budget (start, object changed) */
-	uint32_t info_wait;   /* ticks until the periodic CTL_INFO */
+	uint32_t info_wait; /* ticks until the periodic CTL_INFO */
 
 	/* scheduling */
 	uint32_t ticks_per_step, phase;
 	uint32_t units_per_tick; /* the share of a solver step's work a tick carries (ctl.c) */
-	uint32_t work_force;   /* work of the force part of the tick in progress */
+	uint32_t work_force; /* work of the force part of the tick in progress */
 	volatile uint8_t bg_pending; /* force part done, background part not yet */
 
 	/* outputs */
 	struct swell_body_out out;
 	int32_t force_dev_uN[3]; /* after the safety stage, device axes */
-	uint8_t limits;          /* bit 0 |F| clamped, bit 1 rate limited, last tick */
+	uint8_t limits; /* bit 0 |F| clamped, bit 1 rate limited, last tick */
 	uint8_t seq_force, seq_hb, seq_pose;
 	uint8_t scene_id; /* from the scene geometry: a viewer sees a new scene when it changes */
 
 	/* telemetry */
 	uint16_t tiles_x, tiles_y;
 	uint32_t quads, quad_cursor; /* quads in the grid (16 a tile), next one to scan */
-	uint32_t refresh_cursor;     /* next quad to resend whatever its state */
-	uint32_t fp_cells;           /* footprint cells of the object, for the work count */
+	uint32_t refresh_cursor; /* next quad to resend whatever its state */
+	uint32_t fp_cells; /* footprint cells of the object, for the work count */
 
 	struct swell_ctl_queue q[SWELL_LINKS];
 	struct swell_ctl_counters n;
@@ -151,8 +155,7 @@ enum swell_err swell_ctl_check(const struct swell_ctl_config *cfg);
 
 /* Bind the arena (at least swell_ctl_arena_words words) and start in BOOT with the water at rest.
  * On error *c is untouched. */
-enum swell_err swell_ctl_init(struct swell_ctl *c, const struct swell_ctl_config *cfg, int32_t *arena,
-			      size_t words);
+enum swell_err swell_ctl_init(struct swell_ctl *c, const struct swell_ctl_config *cfg, int32_t *arena, size_t words);
 
 /* A decoded message from one link. Messages from the wrong side are counted and ignored. */
 void swell_ctl_rx(struct swell_ctl *c, enum swell_ctl_link from, const struct swell_msg *m);

@@ -18,17 +18,17 @@
 #define SWELL_LINK_MTU 64u
 
 enum swell_carrier {
-	SWELL_CARRIER_CAN,   /* classic CAN: one message per frame */
+	SWELL_CARRIER_CAN, /* classic CAN: one message per frame */
 	SWELL_CARRIER_CANFD, /* CAN FD: messages of one type per frame */
-	SWELL_CARRIER_PKT,   /* USB bulk or UDP: swell packets with CRC */
+	SWELL_CARRIER_PKT, /* USB bulk or UDP: swell packets with CRC */
 };
 
-#define SWELL_FRAME_FD 0x01u  /* CAN FD frame (send with bit-rate switch) */
+#define SWELL_FRAME_FD 0x01u /* CAN FD frame (send with bit-rate switch) */
 #define SWELL_FRAME_EFF 0x02u /* received with a 29-bit identifier (never a swell frame) */
 
 struct swell_frame {
 	uint64_t t_ns; /* receive time, CLOCK_MONOTONIC; on replay the recorded time since its start */
-	uint32_t id;   /* CAN identifier; 0 for packets */
+	uint32_t id; /* CAN identifier; 0 for packets */
 	uint16_t len;
 	uint8_t flags; /* SWELL_FRAME_* */
 	uint8_t data[SWELL_LINK_MTU];
@@ -38,9 +38,9 @@ struct swell_link_counters {
 	uint64_t tx_frames, tx_bytes, tx_errors;
 	uint64_t rx_frames, rx_bytes, rx_errors; /* rx_errors: failed reads */
 	uint64_t rx_timeouts;
-	uint64_t rx_dropped;  /* oversized datagrams, remote frames: never handed up */
-	uint64_t bus_errors;  /* CAN error frames received */
-	uint64_t reconnects;  /* USB device opened again after an unplug */
+	uint64_t rx_dropped; /* oversized datagrams, remote frames: never handed up */
+	uint64_t bus_errors; /* CAN error frames received */
+	uint64_t reconnects; /* USB device opened again after an unplug */
 };
 
 struct swell_link;
@@ -57,8 +57,8 @@ uint64_t swell_link_now_ns(void);
 
 /* UDP: bind to bind_host:bind_port (port 0: any free port) and send to peer_host:peer_port; with
  * peer_host NULL, send to whoever sent the last datagram. Hosts are dotted IPv4 ("127.0.0.1"). */
-int swell_link_open_udp(struct swell_link **out, const char *bind_host, uint16_t bind_port,
-			const char *peer_host, uint16_t peer_port);
+int swell_link_open_udp(struct swell_link **out, const char *bind_host, uint16_t bind_port, const char *peer_host,
+			uint16_t peer_port);
 /* The local port actually bound (useful after binding port 0); 0 if l is not a UDP link. */
 uint16_t swell_link_udp_port(const struct swell_link *l);
 
@@ -66,9 +66,9 @@ struct swell_can_filter {
 	uint32_t id, mask; /* accept when (frame_id & mask) == (id & mask) */
 };
 struct swell_can_opts {
-	uint32_t bitrate;          /* set through libsocketcan (needs CAP_NET_ADMIN); 0: leave as is */
-	int fd;                    /* 1: CAN FD frames (the interface must be in FD mode) */
-	int error_frames;          /* 1: receive error frames and count them in bus_errors */
+	uint32_t bitrate; /* set through libsocketcan (needs CAP_NET_ADMIN); 0: leave as is */
+	int fd; /* 1: CAN FD frames (the interface must be in FD mode) */
+	int error_frames; /* 1: receive error frames and count them in bus_errors */
 	const struct swell_can_filter *filters; /* NULL: everything */
 	size_t nfilters;
 };
@@ -77,7 +77,7 @@ int swell_link_open_can(struct swell_link **out, const char *ifname, const struc
 
 struct swell_usb_opts {
 	uint16_t vid, pid; /* SWELL_USB_VID / SWELL_USB_PID by default */
-	int iface;         /* interface number */
+	int iface; /* interface number */
 	uint8_t ep_out, ep_in; /* preferred; if the interface lacks them, its first bulk OUT / IN */
 };
 /* libusb bulk link. If the device is unplugged, send and receive return -ENODEV and the link
@@ -95,11 +95,11 @@ int swell_link_open_replay(struct swell_link **out, const char *path, int realti
 /* ---- messages over a link's carrier ---- */
 /* Packs as many of m[0..n) as one frame of the carrier takes (CAN: 1; CAN FD: same type; packet:
  * up to 64 bytes under node and pkt_seq). *used says how many went in. */
-enum swell_err swell_link_encode(enum swell_carrier c, uint8_t node, uint8_t pkt_seq,
-				 const struct swell_msg *m, size_t n, struct swell_frame *f, size_t *used);
+enum swell_err swell_link_encode(enum swell_carrier c, uint8_t node, uint8_t pkt_seq, const struct swell_msg *m,
+				 size_t n, struct swell_frame *f, size_t *used);
 /* Decodes a received frame; on packets *pkt_seq gets the packet sequence number (may be NULL).
  * cap >= SWELL_CANFD_MSGS_MAX takes any frame. Rejections are counted in st (may be NULL). */
-enum swell_err swell_link_decode(enum swell_carrier c, const struct swell_frame *f, struct swell_msg *out,
-				 size_t cap, size_t *n, uint8_t *pkt_seq, struct swell_proto_stats *st);
+enum swell_err swell_link_decode(enum swell_carrier c, const struct swell_frame *f, struct swell_msg *out, size_t cap,
+				 size_t *n, uint8_t *pkt_seq, struct swell_proto_stats *st);
 
 #endif
