@@ -9,11 +9,18 @@
 #define Z_LIMIT_LSB ((int32_t)1 << 30)
 #define FORCE_LIMIT_UN ((int64_t)1 << 30)
 
-/* Floor division for den > 0. */
+/* Floor division for den > 0. When both fit in int32 the same quotient comes from a 32-bit division
+ * (one SDIV on the Cortex-M4, where a 64-bit one is a library call of some hundred instructions). */
 static int64_t div_floor(int64_t num, int64_t den)
 {
-	int64_t q = num / den;
+	int64_t q;
 
+	if (num >= INT32_MIN && num <= INT32_MAX && den <= INT32_MAX) {
+		const int32_t n = (int32_t)num, d = (int32_t)den, q32 = n / d;
+
+		return (n % d != 0 && n < 0) ? (int64_t)q32 - 1 : q32;
+	}
+	q = num / den;
 	return (num % den != 0 && num < 0) ? q - 1 : q;
 }
 
@@ -409,14 +416,22 @@ static void fp_sums(const struct swell_wave *w, const struct swell_body_fp *f, i
 	}
 }
 
-/* Add sign * D_c to every cell under f, D_c = round(delta * area_c), through swell_wave_add (the
- * solver puts it into h at its next finish, flows untouched). Returns the volume added. */
-static int64_t deposit(struct swell_body *b, struct swell_wave *w, const struct swell_body_fp *f, int sign)
+/* D_c = round(delta * area_c) of the cell whose area weight (Q22) is a: delta <= H < 2^26 and
+ * a <= 2^22, so D_c < 2^26. */
+static int32_t deposit_of(int32_t delta_lsb, int64_t a)
+{
+	return (int32_t)(((int64_t)delta_lsb * a + ((int64_t)1 << (AREA_SHIFT - 1))) >> AREA_SHIFT);
+}
+
+/* Add D_c(new_delta) - D_c(old_delta) to every cell under f through swell_wave_add (the solver puts
+ * it into h at its next finish, flows untouched): old_delta 0 puts the water in, new_delta 0 takes
+ * it out. Returns the volume added. */
+static int64_t deposit(struct swell_body *b, struct swell_wave *w, const struct swell_body_fp *f, int32_t new_delta,
+		       int32_t old_delta)
 {
 	const int32_t scanned = b->scan_ok && b->scan_steps == w->steps ? b->scan_row : 0;
 	const int32_t i0 = f->x0 >> FP_SHIFT, i1 = (f->x1 - 1) >> FP_SHIFT;
 	const int32_t j0 = f->y0 >> FP_SHIFT, j1 = (f->y1 - 1) >> FP_SHIFT;
-	const int64_t half = (int64_t)1 << (AREA_SHIFT - 1);
 	int64_t added = 0;
 	int32_t i, j;
 
@@ -425,28 +440,34 @@ static int64_t deposit(struct swell_body *b, struct swell_wave *w, const struct 
 		int64_t row = 0;
 
 		for (i = i0; i <= i1; i++) {
-			/* delta <= H < 2^26 and the area weight <= 2^22: d < 2^26 */
-			int32_t d = (int32_t)(((int64_t)f->delta_lsb * (oy * overlap(i, f->x0, f->x1)) + half) >>
-					      AREA_SHIFT);
+			const int64_t a = oy * overlap(i, f->x0, f->x1);
+			const int32_t d = deposit_of(new_delta, a) - deposit_of(old_delta, a);
 
 			if (d == 0)
 				continue;
-			swell_wave_add(w, i, j, sign * d);
-			row += sign * d;
+			swell_wave_add(w, i, j, d);
+			row += d;
 		}
 		added += row;
 		if (j < scanned) { /* a row scanned ahead (so finished ahead): the water arrived in h at once */
 			const int32_t *h = w->h + (size_t)j * w->nx;
 
 			b->scan_sum += row; /* exact unless a height saturated (+-2048 mm) */
-			for (i = i0; sign > 0 && i <= i1; i++)
+			for (i = i0; new_delta > 0 && i <= i1; i++)
 				b->scan_top = h[i] > b->scan_top ? h[i] : b->scan_top;
 		}
 	}
 	return added;
 }
 
-/* Replace what the object holds in the water by f (f->delta_lsb 0: nothing). */
+static int same_rect(const struct swell_body_fp *a, const struct swell_body_fp *b)
+{
+	return a->x0 == b->x0 && a->x1 == b->x1 && a->y0 == b->y0 && a->y1 == b->y1;
+}
+
+/* Replace what the object holds in the water by f (f->delta_lsb 0: nothing). Over the same footprint
+ * one pass adds the difference of the two deposits to each cell (half the adds of taking the old
+ * out and putting the new in; the same water, unless an accumulator saturates at +-2^29). */
 static void couple(struct swell_body *b, struct swell_wave *w, const struct swell_body_fp *f)
 {
 	const struct swell_body_fp *o = &b->applied;
@@ -454,12 +475,16 @@ static void couple(struct swell_body *b, struct swell_wave *w, const struct swel
 
 	if (o->delta_lsb == 0 && f->delta_lsb == 0)
 		return;
-	if (o->delta_lsb == f->delta_lsb && o->x0 == f->x0 && o->x1 == f->x1 && o->y0 == f->y0 && o->y1 == f->y1)
+	if (o->delta_lsb == f->delta_lsb && same_rect(o, f))
 		return;
-	if (o->delta_lsb != 0)
-		gained += deposit(b, w, o, -1);
-	if (f->delta_lsb != 0)
-		gained += deposit(b, w, f, +1);
+	if (o->delta_lsb != 0 && f->delta_lsb != 0 && same_rect(o, f)) {
+		gained += deposit(b, w, f, f->delta_lsb, o->delta_lsb);
+	} else {
+		if (o->delta_lsb != 0)
+			gained += deposit(b, w, o, 0, o->delta_lsb);
+		if (f->delta_lsb != 0)
+			gained += deposit(b, w, f, f->delta_lsb, 0);
+	}
 	b->v_displaced += gained;
 	b->water_sum += gained;
 	b->applied = *f;
@@ -515,6 +540,22 @@ static int32_t total_force(const struct swell_body_forces *f)
 void swell_body_tick(struct swell_body *b, struct swell_wave *w, const int32_t pos_dev_um[3],
 		     const int32_t vel_dev_um_s[3], struct swell_body_out *out)
 {
+	swell_body_tick_force(b, w, pos_dev_um, vel_dev_um_s, out);
+	swell_body_couple(b, w);
+}
+
+void swell_body_couple(struct swell_body *b, struct swell_wave *w)
+{
+	if (!b->pending_set)
+		return;
+	b->pending_set = 0;
+	couple(b, w, &b->pending);
+	b->wet = b->pending_wet || b->applied.delta_lsb != 0;
+}
+
+void swell_body_tick_force(struct swell_body *b, const struct swell_wave *w, const int32_t pos_dev_um[3],
+			   const int32_t vel_dev_um_s[3], struct swell_body_out *out)
+{
 	const uint32_t kk = b->ticks_per_step, k = b->phase;
 	struct swell_body_fp f;
 	struct swell_springs s;
@@ -549,8 +590,9 @@ void swell_body_tick(struct swell_body *b, struct swell_wave *w, const int32_t p
 		/* wholly outside the pool: let go of what it held (no floor out there) */
 		b->u_last = 0;
 		b->uw1_q16 = b->uw2_q16 = 0;
-		couple(b, w, &f);
-		b->wet = 0;
+		b->pending = f; /* empty: delta 0 */
+		b->pending_wet = 0;
+		b->pending_set = 1;
 		device_force(b, out);
 		return;
 	}
@@ -596,8 +638,9 @@ void swell_body_tick(struct swell_body *b, struct swell_wave *w, const int32_t p
 	/* coupling: the depth below the mean level of the pool (see body.h), the water column at most */
 	mean = sat32(div_rn(b->water_sum, (int64_t)b->nx * b->ny));
 	f.delta_lsb = swell_clamp(sat32((int64_t)mean - zw), 0, b->h_lsb);
-	couple(b, w, &f);
-	b->wet = delta > 0 || b->applied.delta_lsb != 0;
+	b->pending = f;
+	b->pending_wet = delta > 0;
+	b->pending_set = 1;
 }
 
 int64_t swell_body_invariant(const struct swell_body *b, const struct swell_wave *w)

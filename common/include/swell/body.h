@@ -147,6 +147,9 @@ struct swell_body {
 	uint16_t scan_row;
 	uint8_t scan_ok;
 	uint8_t scan_ahead; /* the caller scans ahead: the step's end never scans the whole field */
+	/* the coupling the last swell_body_tick_force found, until swell_body_couple applies it */
+	struct swell_body_fp pending;
+	uint8_t pending_set, pending_wet;
 	/* counters */
 	uint32_t ticks, skipped, coupled, scans, floor_ticks;
 };
@@ -216,9 +219,21 @@ void swell_body_scan_ahead(struct swell_body *b, const struct swell_wave *w);
 /* Scan the field now: call after anything other than the solver and this object wrote h. */
 void swell_body_rescan(struct swell_body *b, const struct swell_wave *w);
 
-/* One device tick: pose from the device position (um) and velocity (um/s), forces, coupling. */
+/* One device tick: pose from the device position (um) and velocity (um/s), forces, coupling. The
+ * same as swell_body_tick_force then swell_body_couple. */
 void swell_body_tick(struct swell_body *b, struct swell_wave *w, const int32_t pos_dev_um[3],
 		     const int32_t vel_dev_um_s[3], struct swell_body_out *out);
+
+/* The tick's force alone (it only reads the field): what the object will hold in the water is kept
+ * for swell_body_couple, which must run before anything else reads or writes the field or this
+ * object (the next tick, a solver slice, a scan). A real-time port runs this in the interrupt that
+ * sends the force and the coupling in the background part after it: the same bits as
+ * swell_body_tick. */
+void swell_body_tick_force(struct swell_body *b, const struct swell_wave *w, const int32_t pos_dev_um[3],
+			   const int32_t vel_dev_um_s[3], struct swell_body_out *out);
+
+/* The coupling of the last swell_body_tick_force (none pending: nothing). */
+void swell_body_couple(struct swell_body *b, struct swell_wave *w);
 
 /* sum(h) + adds pending in the solver - V_displaced, in LSB * cell: constant while nothing else
  * writes h and the solver saturates nothing (w->saturations). One pass over the field. */

@@ -750,7 +750,7 @@ static uint32_t force_law(struct swell_ctl *c)
 	int k;
 
 	if (c->state == SWELL_CTL_ARMED || running) {
-		swell_body_tick(&c->body, &c->wave, c->pos_um, c->vel_um_s, &c->out);
+		swell_body_tick_force(&c->body, &c->wave, c->pos_um, c->vel_um_s, &c->out);
 		work = c->out.skipped ? 1 : c->fp_cells;
 	}
 	for (k = 0; k < 3; k++) {
@@ -816,6 +816,7 @@ void swell_ctl_tick_background(struct swell_ctl *c)
 
 	if (!c->bg_pending)
 		return;
+	swell_body_couple(&c->body, &c->wave); /* the force part's coupling, before the field moves on */
 	work += solver_slice(c);
 	if (t % period(c, HEARTBEAT_HZ) == 0) {
 		send_heartbeat(c);

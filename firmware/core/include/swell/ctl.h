@@ -5,8 +5,10 @@
  * Tick (device rate, 2500 Hz default, 1000 Hz for classic CAN), in this order:
  *   1. link supervision: the device silent for silent_ticks ticks -> zero force and FAULT;
  *   2. state machine: BOOT -> IDLE -> ARMED -> RUNNING, any -> FAULT; force is zero outside RUNNING;
- *   3. force law (swell_body_tick) on the surface interpolated between the two latest solver states,
- *      then the safety stage (gain, |F| <= F_max, |dF/dt| <= R), then FORCE_CMD to the device, every tick;
+ *   3. force law (swell_body_tick_force) on the surface interpolated between the two latest solver
+ *      states, then the safety stage (gain, |F| <= F_max, |dF/dt| <= R), then FORCE_CMD to the device,
+ *      every tick; the water the object displaces moves at the start of the background part
+ *      (swell_body_couple), before the solver slice: the same bits as coupling in the force part;
  *   4. solver slice: the solver runs at the scene's own rate; its step is split over the K = tick_hz /
  *      solver_hz ticks of a period: ticks 0 .. K-2 each do about ny / (K-1) rows of edges and, within
  *      an equal share of the period's work, the finishing pass (h += acc) and the body's ceiling scan

@@ -1,0 +1,82 @@
+// The object's coupling apart from its force (swell_body_tick_force, then swell_body_couple), as a
+// real-time port runs them: the interrupt sends the force, the background part moves the water.
+#include <catch2/catch.hpp>
+
+#include <cstring>
+
+#include "body_scene.hpp"
+
+extern "C" {
+#include "swell/shape.h"
+}
+
+namespace {
+
+const int32_t MM = SWELL_H_ONE_MM;
+
+// z of the object's bottom at tick k: down from 20 mm to -25 mm and back, 40 um a tick
+int32_t z_at(int k)
+{
+	const int span = 45000 / 40;
+	const int p = k % (2 * span);
+	return 20000 - 40 * (p < span ? p : 2 * span - p);
+}
+
+} // namespace
+
+TEST_CASE("the force part and the coupling run apart give swell_body_tick's bits", "[body][couple]")
+{
+	body_scene one(64, 0.001), two(64, 0.001);
+	for (body_scene *s : {&one, &two}) {
+		swell_shape_gauss(s->w.h, 64, 64, 20 << 16, 40 << 16, 4 << 16, 3 * MM);
+		swell_wave_rest(&s->w);
+		swell_body_rescan(&s->b, &s->w);
+	}
+	for (int k = 0; k < 10 * 120; k++) {
+		// the object sinks, rises and drifts sideways, so footprints change as well as depths
+		const int32_t x = 200000 + 30 * (k % 700), y = 200000 - 20 * (k % 500), z = z_at(k * 2);
+		int32_t pos[3] = {x, y, z}, vel[3] = {0, 0, 0};
+		swell_body_out a, b;
+
+		if (k % 10 == 0 && k > 0) {
+			for (body_scene *s : {&one, &two}) {
+				swell_wave_step(&s->w);
+				swell_body_solver_stepped(&s->b, &s->w);
+			}
+		}
+		swell_body_tick(&one.b, &one.w, pos, vel, &a);
+		swell_body_tick_force(&two.b, &two.w, pos, vel, &b);
+		swell_body_couple(&two.b, &two.w);
+		INFO("tick " << k);
+		REQUIRE(std::memcmp(&a, &b, sizeof(a)) == 0);
+		REQUIRE(one.b.v_displaced == two.b.v_displaced);
+		REQUIRE(one.b.wet == two.b.wet);
+		if (k % 10 == 9)
+			REQUIRE(swell_wave_checksum(&one.w) == swell_wave_checksum(&two.w));
+	}
+	CHECK(one.b.coupled > 500); // the coupling really ran, tick after tick
+}
+
+TEST_CASE("re-couplings over one footprint leave exactly the water of one deposit", "[body][couple]")
+{
+	// within one solver period the field does not move, so every re-coupling's difference telescopes
+	// to one deposit of the last depth: taking the object out then leaves every accumulator at 0
+	body_scene s(64);
+	swell_body_out out;
+	int64_t held = 0;
+	for (int k = 0; k < 8; k++) { // 9 ticks in all: no solver step in between
+		s.tick(200000, 200000, -1000 - 2300 * k, 0, &out);
+		REQUIRE(out.delta_lsb > 0);
+		held = s.b.v_displaced;
+	}
+	const uint32_t coupled = s.b.coupled;
+	s.tick(-900000, 200000, 0, 0, &out); // wholly outside the pool: lets go of what it held
+	size_t differ = 0;
+	for (size_t a = 0; a < (size_t)64 * 64; a++)
+		differ += s.w.acc[a] != 0;
+	INFO("held " << held << " LSB cells before letting go");
+	CHECK(held > 0);
+	CHECK(coupled == 8);
+	CHECK(s.b.v_displaced == 0);
+	CHECK(differ == 0);
+}
