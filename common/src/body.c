@@ -381,11 +381,13 @@ static int32_t overlap(int32_t c, int32_t e0, int32_t e1)
 }
 
 /* Area-weighted sums of h and v under a non-empty footprint. |h| <= 2^27 and |v| <= 2^28 over at
- * most 65 x 65 cells with weights <= 2^22: every sum stays below 2^62. */
+ * most 65 x 65 cells with weights <= 2^22: every sum stays below 2^62. A row's inner cells are wholly
+ * covered (weight 2^11): their plain sums are scaled once, the two end cells weighted apart. */
 static void fp_sums(const struct swell_wave *w, const struct swell_body_fp *f, int64_t *sh, int64_t *sv)
 {
 	const int32_t i0 = f->x0 >> FP_SHIFT, i1 = (f->x1 - 1) >> FP_SHIFT;
 	const int32_t j0 = f->y0 >> FP_SHIFT, j1 = (f->y1 - 1) >> FP_SHIFT;
+	const int32_t ox0 = overlap(i0, f->x0, f->x1), ox1 = overlap(i1, f->x0, f->x1); /* one cell: the same */
 	int32_t i, j;
 
 	*sh = 0;
@@ -394,22 +396,28 @@ static void fp_sums(const struct swell_wave *w, const struct swell_body_fp *f, i
 		const int32_t oy = overlap(j, f->y0, f->y1);
 		const int32_t *h = w->h + (size_t)j * w->nx, *v = w->v + (size_t)j * w->nx;
 		const int32_t *acc = w->acc + (size_t)j * w->nx;
-		int64_t rh = 0, rv = 0;
+		const int ahead = j < w->done_row; /* finished ahead: h holds h(n+1), h(n) = h - acc */
+		int64_t mh = 0, mv = 0, rh, rv;
+		int32_t he0 = h[i0], he1 = h[i1];
 
-		if (j < w->done_row) { /* finished ahead: h holds h(n+1), h(n) = h - acc */
-			for (i = i0; i <= i1; i++) {
-				const int32_t ox = overlap(i, f->x0, f->x1);
-
-				rh += (int64_t)ox * (h[i] - acc[i]); /* int28 - int30: no overflow */
-				rv += (int64_t)ox * v[i];
+		if (ahead) { /* int28 - int30: no overflow */
+			he0 -= acc[i0];
+			he1 -= acc[i1];
+			for (i = i0 + 1; i < i1; i++) {
+				mh += h[i] - acc[i];
+				mv += v[i];
 			}
 		} else {
-			for (i = i0; i <= i1; i++) {
-				const int32_t ox = overlap(i, f->x0, f->x1);
-
-				rh += (int64_t)ox * h[i];
-				rv += (int64_t)ox * v[i];
+			for (i = i0 + 1; i < i1; i++) {
+				mh += h[i];
+				mv += v[i];
 			}
+		}
+		rh = (int64_t)ox0 * he0 + mh * (1 << FP_SHIFT);
+		rv = (int64_t)ox0 * v[i0] + mv * (1 << FP_SHIFT);
+		if (i1 > i0) {
+			rh += (int64_t)ox1 * he1;
+			rv += (int64_t)ox1 * v[i1];
 		}
 		*sh += oy * rh;
 		*sv += oy * rv;
