@@ -47,8 +47,23 @@ if [ -n "$ticks" ]; then
 	echo "qemu-selftest: core at 1000 Hz, $ticks ticks: target checksum $tcore, host checksum $hcore"
 	[ -n "$tcore" ] && [ "$tcore" = "$hcore" ] || { echo "qemu-selftest: FAIL: 1000 Hz core checksums differ"; exit 1; }
 fi
-# figures a tick may not exceed are printed, not asserted (QEMU counts instructions, not cycles):
 grep '^core.* Hz: worst background [0-9]' "$out" | sed 's/^/qemu-selftest: /'
+# the tick's budgets at 2500 Hz on the reference scene, in instructions under -icount (exact) and by
+# the cycle model of docs/stm32f405.md (tools/bench/m4-cycles.py on a trace of the force path:
+# 1.81 cycles an instruction; its solver kernels 1.27): the force path (device sample to FORCE_CMD)
+# at most 3000 instructions, measured 2839; the worst whole tick at most 88 % of the period at one
+# instruction a cycle, measured 84.2 % (the aim is 35 %: not reached, see docs/stm32f405.md)
+force_budget=3000 tick_budget_pct=88
+line=$(grep '^core at 2500 Hz: worst background [0-9]' "$out")
+force=$(echo "$line" | sed -n 's/.*worst force path \([0-9.]*\) .*/\1/p')
+whole=$(echo "$line" | sed -n 's/.*worst whole tick [0-9.]* (\([0-9.]*\) %).*/\1/p')
+if [ -n "$line" ]; then
+	awk -v f="$force" -v w="$whole" 'BEGIN { printf "qemu-selftest: force path %s instructions, about %.0f cycles by the model (%.1f %% of 67200); worst whole tick %s %% of the period in instructions\n", f, f * 1.81, f * 1.81 * 100 / 67200, w }'
+	awk -v f="$force" -v b="$force_budget" 'BEGIN { exit !(f != "" && f + 0 <= b) }' ||
+		{ echo "qemu-selftest: FAIL: the force path's $force instructions are over its budget of $force_budget"; exit 1; }
+	awk -v w="$whole" -v b="$tick_budget_pct" 'BEGIN { exit !(w != "" && w + 0 <= b) }' ||
+		{ echo "qemu-selftest: FAIL: the worst whole tick's $whole % is over its budget of $tick_budget_pct %"; exit 1; }
+fi
 if [ "$sim" != "-" ] && [ -x "$sim" ]; then
 	ref=$("$sim" --grid 64x64 --dt 0.004 --depth 0.05 --dx 0.00625 --init gauss:32,32,3,2 \
 		--steps "$steps" | sed -n 's/^checksum *\(0x[0-9a-f]*\).*/\1/p')
