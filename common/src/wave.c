@@ -941,68 +941,71 @@ static void finish_range(struct swell_wave *w, int j0, int j1, int add, int clea
 	}
 }
 
-/* d (one LSB, or a whole share) of a fixer into cell a: into u (mom), or into the step's height
- * change, and h at once in a row finished ahead (as swell_wave_add does). */
-static void fix_cell(struct swell_wave *w, size_t a, int32_t d, int mom, uint8_t *t)
+/* d (one LSB, or a whole share) of a fixer into the n cells from a, all in one tile of one row: into
+ * u (mom), or into the step's height change, and h at once in a row finished ahead (as swell_wave_add
+ * does). A tight loop a run: the give-back can reach thousands of cells a step. */
+static void fix_run(struct swell_wave *w, size_t a, int n, int32_t d, int mom, uint8_t *t)
 {
+	uint32_t sat = 0;
+	int k;
+
 	*t |= T_DIRTY | T_NONZERO;
 	if (mom) {
-		const int32_t u = w->u[a] + d;
+		int32_t *restrict u = w->u + a;
 
-		w->u[a] = swell_clamp(u, SWELL_H_MIN, SWELL_H_MAX);
-		w->saturations += w->u[a] != u;
+		for (k = 0; k < n; k++) {
+			const int32_t x = u[k] + d, c = swell_clamp(x, SWELL_H_MIN, SWELL_H_MAX);
+
+			sat += c != x;
+			u[k] = c;
+		}
+		w->saturations += sat;
 		return;
 	}
-	w->acc[a] += d;
+	for (k = 0; k < n; k++)
+		w->acc[a + (size_t)k] += d;
 	if (a < (size_t)w->done_row * w->nx) {
-		const int32_t x = w->h[a] + d;
+		int32_t *restrict h = w->h + a;
 
-		w->h[a] = swell_clamp(x, SWELL_HV_MIN, SWELL_HV_MAX);
-		w->saturations += w->h[a] != x;
+		for (k = 0; k < n; k++) {
+			const int32_t x = h[k] + d, c = swell_clamp(x, SWELL_HV_MIN, SWELL_HV_MAX);
+
+			sat += c != x;
+			h[k] = c;
+		}
+		w->saturations += sat;
 		*t |= T_TOUCHED;
 	}
 }
 
+/* Cells a fixer touches a step at most: a residual larger than this goes back in equal chunks, so the
+ * step's end costs the same however far the rounding drifted (damped water rounds toward zero: with
+ * an object resting in the pool the residual reaches thousands of LSB a step). */
+#define FIX_CELLS_MAX 256u
+
 /* Give back a residual r in whole LSBs, into u (mom) or the heights, to the cells of tiles whose
- * momentum moved in this step (the same tiles whether tiles sleep or not), one LSB a cell from the
- * rotating cursor, after a whole share each when |r| exceeds their count. */
+ * momentum moved in this step (the same tiles whether tiles sleep or not), from the rotating cursor:
+ * q = ceil(|r| / FIX_CELLS_MAX) LSB a cell (one LSB while |r| <= FIX_CELLS_MAX), the last cell what
+ * is left; the walk wraps around when fewer cells moved. */
 static void give_back(struct swell_wave *w, int64_t r, int mom)
 {
-	const int32_t d = r > 0 ? -1 : 1;
 	const size_t n = (size_t)w->nx * w->ny;
-	uint64_t left = (uint64_t)(r > 0 ? r : -r), cells = 0, share;
+	uint64_t left = (uint64_t)(r > 0 ? r : -r), q;
 	size_t a, tn;
-	int tx, ty, i, j;
+	int tx, ty, i, j, run, any = 0;
+	int32_t d;
 
 	if (!r || !w->nx || !w->ny) /* sides are at least 2: the second test is for the analyser */
 		return;
 	w->fixed_lsb += left;
-	for (ty = 0; ty < w->tiles_y; ty++)
-		for (tx = 0; tx < w->tiles_x; tx++)
-			if (w->tile[ty * w->tiles_x + tx] & T_NONZERO) {
-				i = w->nx - tx * SWELL_WAVE_TILE;
-				j = w->ny - ty * SWELL_WAVE_TILE;
-				cells += (uint64_t)(i < SWELL_WAVE_TILE ? i : SWELL_WAVE_TILE) *
-					(uint64_t)(j < SWELL_WAVE_TILE ? j : SWELL_WAVE_TILE);
-			}
-	if (!cells) { /* a residual from a rescale of u, with nothing moving: tile 0 takes it */
+	for (ty = 0; ty < w->tiles_y && !any; ty++)
+		for (tx = 0; tx < w->tiles_x && !any; tx++)
+			any = (w->tile[ty * w->tiles_x + tx] & T_NONZERO) != 0;
+	if (!any) /* a residual from a rescale of u, with nothing moving: tile 0 takes it */
 		w->tile[0] |= T_NONZERO;
-		cells = (uint64_t)(w->nx < SWELL_WAVE_TILE ? w->nx : SWELL_WAVE_TILE) *
-			(uint64_t)(w->ny < SWELL_WAVE_TILE ? w->ny : SWELL_WAVE_TILE);
-	}
-	if (!cells) /* cannot happen (sides >= 2); keeps the walk below from running forever */
-		return;
-	share = left / cells;
-	if (share) {
-		for (j = 0; j < w->ny; j++)
-			for (i = 0; i < w->nx; i++) {
-				tn = (size_t)(j / SWELL_WAVE_TILE) * w->tiles_x + (size_t)(i / SWELL_WAVE_TILE);
-				if (w->tile[tn] & T_NONZERO)
-					fix_cell(w, (size_t)j * w->nx + (size_t)i, d * (int32_t)share, mom,
-						 &w->tile[tn]);
-			}
-		left -= share * cells;
-	}
+	q = (left + FIX_CELLS_MAX - 1) / FIX_CELLS_MAX;
+	/* |r| is under 2^4 LSB a cell (rounding, or a rescale of u) and cells are under 2^24: q < 2^20 */
+	d = (int32_t)(r > 0 ? -(int64_t)q : (int64_t)q);
 	/* the cursor walk: cells carried by column and row, a tile that did not move skipped whole */
 	a = w->fix_cursor < n ? w->fix_cursor : 0;
 	i = (int)(a % w->nx);
@@ -1010,9 +1013,20 @@ static void give_back(struct swell_wave *w, int64_t r, int mom)
 	while (left) {
 		tn = (size_t)(j / SWELL_WAVE_TILE) * w->tiles_x + (size_t)(i / SWELL_WAVE_TILE);
 		if (w->tile[tn] & T_NONZERO) {
-			fix_cell(w, (size_t)j * w->nx + (size_t)i, d, mom, &w->tile[tn]);
-			left--;
-			i++;
+			const int end = (i / SWELL_WAVE_TILE + 1) * SWELL_WAVE_TILE;
+
+			run = (end < w->nx ? end : w->nx) - i;
+			if ((uint64_t)run * q > left) { /* the last cells: whole chunks, then the rest in one */
+				run = (int)(left / q);
+				if (!run) {
+					d = r > 0 ? -(int32_t)left : (int32_t)left;
+					run = 1;
+					q = left;
+				}
+			}
+			fix_run(w, (size_t)j * w->nx + (size_t)i, run, d, mom, &w->tile[tn]);
+			left -= (uint64_t)run * q;
+			i += run;
 		} else {
 			i = (i / SWELL_WAVE_TILE + 1) * SWELL_WAVE_TILE;
 		}
