@@ -15,13 +15,13 @@
 #define INFO_HZ 1u
 #define POSE_HZ 100u
 #define QUAD_SCAN_PER_TICK 64u /* 256 cells compared a tick at most */
-/* Relative costs for spreading a solver step over its ticks, measured on the Cortex-M4 image (64 cells
- * a row, damped, every tile awake): a row of edges about 4.9 k instructions, a row of the finishing
- * pass with the body's ceiling scan 1.5 k, the clearing of the last step's accumulator and the tile
- * flags at the step's end about 7 k. */
-#define COST_EDGE_ROW 3u
+/* Relative costs for spreading a solver step (the velocity form) over its ticks, measured on the
+ * Cortex-M4 image (64 cells a row, damped, every tile awake): a row of the kernel about 1.9 k
+ * instructions, a row of the finishing pass with the body's ceiling scan about 1.3 k, the fixers, the
+ * clearing of the last step's accumulator and the tile flags at the step's end about 5 k. */
+#define COST_EDGE_ROW 1u
 #define COST_FINISH_ROW 1u
-#define COST_CLEAR 5u
+#define COST_CLEAR 3u
 #define NEVER_SENT INT16_MIN
 
 static const struct swell_ctl_config pool_config = {
@@ -76,7 +76,7 @@ static size_t sent_words(uint16_t nx, uint16_t ny)
 
 size_t swell_ctl_arena_words(uint16_t nx, uint16_t ny)
 {
-	return SWELL_WAVE_WORDS(nx, ny) + sent_words(nx, ny);
+	return SWELL_WAVE_VEL_WORDS(nx, ny) + sent_words(nx, ny);
 }
 
 static struct swell_body_scene body_scene(const struct swell_ctl_config *cfg)
@@ -164,12 +164,13 @@ enum swell_err swell_ctl_init(struct swell_ctl *c, const struct swell_ctl_config
 	sc = body_scene(cfg);
 	sp = safety_params(cfg);
 	/* checked above: none of these can fail */
-	swell_wave_init(&c->wave, cfg->nx, cfg->ny, arena, SWELL_WAVE_WORDS(cfg->nx, cfg->ny), &cfg->wave);
+	swell_wave_init_form(&c->wave, cfg->nx, cfg->ny, arena, SWELL_WAVE_VEL_WORDS(cfg->nx, cfg->ny), &cfg->wave,
+			     SWELL_FORM_VELOCITY);
 	swell_body_init(&c->body, &cfg->body, &cfg->xform, &sc, &c->wave);
 	for (k = 0; k < 3; k++)
 		swell_fsafety_init(&c->safety[k], &sp);
 
-	c->sent = (uint32_t *)(arena + SWELL_WAVE_WORDS(cfg->nx, cfg->ny));
+	c->sent = (uint32_t *)(arena + SWELL_WAVE_VEL_WORDS(cfg->nx, cfg->ny));
 	n = (uint32_t)cfg->nx * cfg->ny;
 	for (a = 0; a < n; a++)
 		sent_set(c, a, NEVER_SENT);

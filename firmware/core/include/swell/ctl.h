@@ -9,8 +9,9 @@
  *      states, then the safety stage (gain, |F| <= F_max, |dF/dt| <= R), then FORCE_CMD to the device,
  *      every tick; the water the object displaces moves at the start of the background part
  *      (swell_body_couple), before the solver slice: the same bits as coupling in the force part;
- *   4. solver slice: the solver runs at the scene's own rate; its step is split over the K = tick_hz /
- *      solver_hz ticks of a period: ticks 0 .. K-2 each do about ny / (K-1) rows of edges and, within
+ *   4. solver slice: the solver (wave.h, the velocity form: 4 words a cell) runs at the scene's own
+ *      rate; its step is split over the K = tick_hz / solver_hz ticks of a period: ticks 0 .. K-2 each
+ *      do about ny / (K-1) rows of the kernel ("edges" below) and, within
  *      an equal share of the period's work, the finishing pass (h += acc) and the body's ceiling scan
  *      of rows whose edges are all done; tick K-1 finishes the rest. No tick carries a whole grid step,
  *      and the force law always reads the last finished step (wave.h, finishing ahead).
