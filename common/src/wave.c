@@ -981,7 +981,7 @@ static void fix_run(struct swell_wave *w, size_t a, int n, int32_t d, int mom, u
 /* Cells a fixer touches a step at most: a residual larger than this goes back in equal chunks, so the
  * step's end costs the same however far the rounding drifted (damped water rounds toward zero: with
  * an object resting in the pool the residual reaches thousands of LSB a step). */
-#define FIX_CELLS_MAX 256u
+#define FIX_CELLS_MAX 64u
 
 /* Give back a residual r in whole LSBs, into u (mom) or the heights, to the cells of tiles whose
  * momentum moved in this step (the same tiles whether tiles sleep or not), from the rotating cursor:
