@@ -47,7 +47,7 @@
 	  "footprint along pool y, at most 64 cells")                                                                 \
 	P(BODY_H_UM, 13, "body.h", body.h_um, uint32_t, SIZE, 1000, 500000, 50000, "0.001", "mm", RW, DRY,            \
 	  "height H of the box (the two springs' origins are H apart)")                                               \
-	P(BODY_DAMPER, 14, "body.damper", body.damper_uN_per_mm_s, uint32_t, BODY, 0, 10000000, 2000, "0.001",        \
+	P(BODY_DAMPER, 14, "body.damper", body.damper_uN_per_mm_s, uint32_t, BODY, 0, 10000000, 15000, "0.001",       \
 	  "N*s/m", RW, DRY, "viscous damper b_max at full submersion (raw uN per mm/s)")                              \
 	P(FORCE_MAX_UN, 20, "force.max", safety.f_max_uN, uint32_t, SAFETY, 1, 1000000000, 10000000, "0.000001", "N", \
 	  RW, ANY, "limit of the force on each device axis; a lowered limit cuts at once")                            \

@@ -177,9 +177,42 @@ std::vector<row> read_csv(const std::string &path)
 	return rows;
 }
 
+// A drop from 20 mm floats on the 2 kg device: after the release (0.5 s) the box's bottom stays above
+// the pool floor (z = -50 mm), the commanded force stays within 2 N, and from 2 s after the release z
+// stays within 0.8 mm (2 % of m g / k) of where it rests (the mean of the last second).
+void check_drop_floats(const std::vector<row> &rows)
+{
+	REQUIRE(rows.size() > 5000);
+	const size_t release = 1250, settled = release + 5000, n = rows.size();
+	double z_rest = 0;
+	for (size_t k = n - 2500; k < n; k++)
+		z_rest += rows[k].x[2] / 2500;
+	double z_lo = 1e9, f_peak = 0, off_late = 0;
+	size_t last_off = release;
+	for (size_t k = release; k < n; k++) {
+		z_lo = std::min(z_lo, rows[k].x[2]);
+		f_peak = std::max(f_peak, std::fabs(rows[k].fcmd[2]));
+		if (std::fabs(rows[k].x[2] - z_rest) > 0.8) {
+			last_off = k;
+			if (k >= settled)
+				off_late = std::max(off_late, std::fabs(rows[k].x[2] - z_rest));
+		}
+	}
+	const double t_settle = rows[last_off].t - rows[release].t;
+	std::printf("drop: lowest z %.2f mm, peak |F_cmd| %.2f N after the release, within 0.8 mm of %.2f mm "
+		    "%.2f s after it\n",
+		    z_lo, f_peak, z_rest, t_settle);
+	INFO("lowest z " << z_lo << " mm, peak |F_cmd| " << f_peak << " N, rests at " << z_rest << " mm, settled (within 0.8 mm) "
+			 << t_settle << " s after the release, off by " << off_late << " mm later than 2 s");
+	CHECK(z_lo > -50.0);
+	CHECK(f_peak <= 2.0);
+	CHECK(t_settle <= 2.0);
+}
+
 } // namespace
 
-TEST_CASE("drop: the object falls, floats and settles at -m g/k within 2% (level-corrected within 0.5%)")
+TEST_CASE("drop: the object falls from 20 mm, floats (never on the floor, at most 2 N), settles within 2 s at -m g/k "
+	  "within 2% (level-corrected within 0.5%)")
 {
 	closed_loop cl("drop");
 	const std::string s = cl.run(cl.hm_args("drop:z=20,hold=0.5", 10.0));
@@ -202,6 +235,7 @@ TEST_CASE("drop: the object falls, floats and settles at -m g/k within 2% (level
 	CHECK(rows[1000].fcmd[2] == Approx(-0.98).margin(0.011));
 	CHECK(rows[1000].state == 3);
 	CHECK(figure(s, "commands") >= 24900);
+	check_drop_floats(rows);
 }
 
 TEST_CASE("shake: held and shaken vertically and sideways, the closed loop stays bounded and settles again")
@@ -277,19 +311,25 @@ TEST_CASE("press: held at depth the hand carries buoyancy minus weight (k delta 
 	z /= n;
 	f_cmd /= n;
 	f_hand /= n;
+	// what the 2 kg, 2 N s/m device did with the difference: m_v dv / T + b_v dz / T (the box rides
+	// the slosh the press raised, so it is not quite at rest)
+	const row &r0 = rows[7500], &r1 = rows[11250];
+	const double f_move = (2.0 * (r1.v[2] - r0.v[2]) + 2.0 * (r1.x[2] - r0.x[2])) * 1e-3 / 1.5;
 	// the water the box displaces raises the mean level S = delta a b / A: delta = -z / (1 - a b / A)
 	const double k = 1000.0 * 9.81 * 0.05 * 0.05, mg = 0.1 * 9.81;
 	const double delta = -z * 1e-3 / (1.0 - 0.05 * 0.05 / (0.4 * 0.4));
 	const double f_expected = k * delta - mg;
 	INFO("held at z " << z << " mm (delta " << delta * 1e3 << " mm): mean F_cmd " << f_cmd << " N, k delta - m g "
-			  << f_expected << " N, mean hand force " << f_hand << " N\n"
+			  << f_expected << " N, mean hand force " << f_hand << " N, m_v dv / T + b_v dz / T " << f_move << " N\n"
 			  << s);
 	CHECK(std::fabs(z + 45.0) < 0.5);
 	CHECK(std::fabs(f_cmd - f_expected) < 0.05); // 0.05 N is 2 mm of water under the box
-	CHECK(std::fabs(f_cmd + f_hand) < 0.01);
+	CHECK(std::fabs(f_cmd + f_hand - f_move) < 0.01);
 	CHECK(f_cmd > 0.1); // pushed under, the water pushes back up
-	const double z_end = figure(s, "equilibrium z");
-	CHECK(std::fabs(z_end + 40.0) <= 0.02 * 40.0);
+	// 4.5 s after the release: within 2 % of the floating depth, level rise included (the box rides
+	// the pool's slosh with the damper of a 2 kg device, docs/force-law.md)
+	const double z_end = figure(s, "equilibrium z"), z_level = figure(s, "with level rise");
+	CHECK(std::fabs(z_end - z_level) <= 0.02 * 40.0);
 }
 
 TEST_CASE("e-stop: while pressed the device applies no force, the controller faults and comes back by itself")
