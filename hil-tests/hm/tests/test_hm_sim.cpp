@@ -112,7 +112,8 @@ struct closed_loop {
 	uint16_t port;
 	proc ctl;
 
-	explicit closed_loop(const std::string &n, const char *clock = "device", int silent_ticks = 200)
+	explicit closed_loop(const std::string &n, const char *clock = "device", int silent_ticks = 200,
+			     const std::vector<std::string> &ctl_extra = {})
 	    : name(n), hm_out(work_dir + "/" + n + ".hm.txt"), ctl_out(work_dir + "/" + n + ".ctl.txt"),
 	      csv(work_dir + "/" + n + ".csv"), port(free_udp_port())
 	{
@@ -121,9 +122,11 @@ struct closed_loop {
 		// a silent device is a fault after 200 periods and then 200 of the controller's own ticks (one
 		// a period with the device clock): a loaded CI machine must not fault the loop; link loss is
 		// the kill test's
-		ctl = spawn({ctl_bin, "--clock", clock, "--autorun", "--device", "udp:" + std::to_string(port), "--host", "none",
-			     "--no-rt", "--quiet", "--silent-ticks", std::to_string(silent_ticks)},
-			    ctl_out);
+		std::vector<std::string> args = {
+			ctl_bin,  "--clock", clock,     "--autorun", "--device",       "udp:" + std::to_string(port),
+			"--host", "none",    "--no-rt", "--quiet",   "--silent-ticks", std::to_string(silent_ticks)};
+		args.insert(args.end(), ctl_extra.begin(), ctl_extra.end());
+		ctl = spawn(args, ctl_out);
 		std::this_thread::sleep_for(std::chrono::milliseconds(100));
 	}
 	~closed_loop()
@@ -175,6 +178,15 @@ std::vector<row> read_csv(const std::string &path)
 			rows.push_back(r);
 	}
 	return rows;
+}
+
+// swell-ctl arguments for effect mode: a scene file that sets only force.mode (the reference scene
+// otherwise).
+std::vector<std::string> effect_mode()
+{
+	const std::string path = work_dir + "/effect-mode.scene";
+	std::ofstream(path) << "force.mode = 1   # effect: springs, damper and gravity rendered by the device\n";
+	return {"--scene", path};
 }
 
 // A drop from 20 mm floats on the 2 kg device: after the release (0.5 s) the box's bottom stays above
@@ -236,6 +248,25 @@ TEST_CASE("drop: the object falls from 20 mm, floats (never on the floor, at mos
 	CHECK(rows[1000].state == 3);
 	CHECK(figure(s, "commands") >= 24900);
 	check_drop_floats(rows);
+}
+
+TEST_CASE("effect mode: the device renders springs, damper and gravity from the controller's updates, and a drop from "
+	  "20 mm floats (never on the floor, at most 2 N) and settles within 2 s")
+{
+	closed_loop cl("effect-drop", "device", 200, effect_mode());
+	const std::string s = cl.run(cl.hm_args("drop:z=20,hold=0.5", 6.0));
+	INFO(s);
+	const std::vector<row> rows = read_csv(cl.csv);
+	REQUIRE(rows.size() == 15000);
+	// a set every solver step (10 ticks) while running, none went stale, the device rendered them
+	CHECK(figure(s, "effects") >= 1400);
+	CHECK(s.find(" 0 went stale") != std::string::npos);
+	// FORCE_CMD carries no force in effect mode: what is applied is the effects' (gravity while held)
+	CHECK(rows[1000].fcmd[2] == Approx(-0.981).margin(0.002));
+	CHECK(rows[1000].applied == 1);
+	check_drop_floats(rows);
+	const double z = figure(s, "equilibrium z"), z_level = figure(s, "with level rise");
+	CHECK(std::fabs(z - z_level) <= 0.005 * 40.0);
 }
 
 TEST_CASE("shake: held and shaken vertically and sideways, the closed loop stays bounded and settles again")
@@ -361,9 +392,12 @@ TEST_CASE("e-stop: while pressed the device applies no force, the controller fau
 	CHECK(rows.back().state == 3);
 }
 
-TEST_CASE("controller killed mid-run: swell-hm applies zero force within its watchdog (2 ticks)")
+TEST_CASE("controller killed mid-run: swell-hm applies zero force within its watchdog (2 ticks), in stream and in "
+	  "effect mode")
 {
-	closed_loop cl("kill");
+	const int effect = GENERATE(0, 1);
+	INFO((effect ? "effect mode" : "stream mode"));
+	closed_loop cl(effect ? "kill-effect" : "kill", "device", 200, effect ? effect_mode() : std::vector<std::string>{});
 	// held above the water: the controller commands the weight, -0.98 N, all along
 	proc hm = spawn(cl.hm_args("drop:z=20,hold=100000", 100000.0), cl.hm_out);
 	// mid-run: once the log holds about 2000 ticks (it is written in blocks), however slow the machine
@@ -390,7 +424,7 @@ TEST_CASE("controller killed mid-run: swell-hm applies zero force within its wat
 	INFO("last command at t = " << before.t << " s with F_cmd z " << before.fcmd[2] << " N; " << rows.size() - last - 1
 				    << " ticks after it");
 	CHECK(before.applied == 1);
-	CHECK(before.fcmd[2] == Approx(-0.98).margin(0.011));
+	CHECK(before.fcmd[2] == Approx(-0.98).margin(0.011)); // the weight (effect mode: the bias, -0.981 N)
 	REQUIRE(rows.size() - last > 10);
 	int applied_after = 0;
 	for (size_t k = last + 1; k < rows.size(); k++) {
