@@ -86,5 +86,7 @@ const char *swell_param_group_name(enum swell_param_group g)
 
 const char *swell_param_when_text(enum swell_param_when w)
 {
-	return w == SWELL_PWHEN_DRY ? "not while the object displaces water" : "any state";
+	return w == SWELL_PWHEN_DRY     ? "not while the object displaces water"
+		: w == SWELL_PWHEN_IDLE ? "not while the force law runs"
+					: "any state";
 }

@@ -11,6 +11,7 @@
 
 extern "C" {
 #include "swell/force_safety.h"
+#include "swell/param_table.h"
 }
 
 static const int32_t MM = SWELL_H_ONE_MM;
@@ -113,7 +114,7 @@ TEST_CASE("the damper's u_w is low-passed: gain 1 / (1 + (f / f_c)^2), 1 at rest
 
 namespace {
 
-// The controller's reference scene (firmware/core pool config) with the box held by a 2 kg, 2 N s/m
+// The controller's reference scene (firmware/core pool config, its default b_max) with the box held by a 2 kg, 2 N s/m
 // admittance device as swell-hm models it: semi-implicit Euler at 2500 Hz, the force through the
 // safety stage (10 N, 500 N/s) and the wire's 0.01 N, positions 0.01 mm, velocities 0.1 mm/s.
 struct hm_loop {
@@ -126,7 +127,7 @@ struct hm_loop {
 	{
 		s.p.a_um = s.p.b_um = s.p.h_um = 50000;
 		s.p.mass_g = 100;
-		s.p.damper_uN_per_mm_s = 2000;
+		s.p.damper_uN_per_mm_s = SWELL_PARAM_DEF_BODY_DAMPER;
 		REQUIRE(swell_body_set_params(&s.b, &s.p, &s.xf) == SWELL_OK);
 		swell_fsafety_params sp{SWELL_Q16_ONE, 10000000, 500000000, 2500};
 		REQUIRE(swell_fsafety_init(&safety, &sp) == SWELL_OK);

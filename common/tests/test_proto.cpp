@@ -348,7 +348,7 @@ TEST_CASE("malformed CAN frames are rejected with the expected counted reason an
 		{"force command empty", SWELL_CAN_ID(SWELL_MSG_FORCE_CMD, 0), {}, SWELL_ETRUNC},
 		{"7-byte message sent as 8 bytes", SWELL_CAN_ID(SWELL_MSG_DEVICE_VEL, 0), grow(pv), SWELL_ESIZE},
 		{"more than 8 bytes on classic CAN", SWELL_CAN_ID(SWELL_MSG_FORCE_CMD, 0), grow(fc), SWELL_ESIZE},
-		{"unknown type 0x05", SWELL_CAN_ID(0x05, 0), fc, SWELL_EUNKNOWN},
+		{"unknown type 0x09", SWELL_CAN_ID(0x09, 0), fc, SWELL_EUNKNOWN},
 		{"reserved type 0", SWELL_CAN_ID(0, 0), fc, SWELL_EUNKNOWN},
 		{"29-bit identifier", 0x1234567u, fc, SWELL_EUNKNOWN},
 		{"heartbeat of protocol version 2", SWELL_CAN_ID(SWELL_MSG_HEARTBEAT, 0), with(hb, 2, 2), SWELL_EVERSION},

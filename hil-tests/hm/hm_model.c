@@ -141,7 +141,7 @@ void hm_step(const struct hm_params *p, struct hm_state *s, const double f_user_
 	for (k = 0; k < 3; k++) {
 		double f;
 
-		s->f_cmd_N[k] = active ? clamp(s->cmd_N[k], -p->f_max_N, p->f_max_N) : 0.0;
+		s->f_cmd_N[k] = active ? clamp(s->cmd_N[k] + s->effect_N[k], -p->f_max_N, p->f_max_N) : 0.0;
 		s->f_wall_N[k] = wall_force(p, k, s->x[k], s->v[k]);
 		in_wall |= s->f_wall_N[k] != 0.0;
 		f = f_user_N[k] + s->f_cmd_N[k] + s->f_wall_N[k] - p->damping_Ns_m * s->v[k];

@@ -11,7 +11,8 @@
  *   - the command's enable bit is set, the e-stop is released, and
  *   - the controller has not been silent for watchdog_ticks ticks: a command is held for at most
  *     watchdog_ticks - 1 ticks without a fresh one, then the commanded force is zero until the next.
- * |F_cmd| is limited per axis to f_max. The workspace is a box of +-limit per axis, its faces stiff
+ * The force of the device's own effects (effect_N, effect mode) is added to the command and follows
+ * the same rules. |F_cmd| is limited per axis to f_max. The workspace is a box of +-limit per axis, its faces stiff
  * spring-dampers (k_wall, b_wall) that push back and never pull. */
 #ifndef SWELL_HM_MODEL_H
 #define SWELL_HM_MODEL_H
@@ -35,6 +36,8 @@ struct hm_params {
 struct hm_state {
 	double x[3], v[3]; /* m, m/s; device frame: x, y horizontal, z up */
 	double cmd_N[3]; /* last FORCE_CMD received */
+	double effect_N[3]; /* effect mode: what the device's own effects produce this tick (set by the
+			     * caller before hm_step, applied with the command and under its rules) */
 	int cmd_enable; /* its enable bit */
 	int have_cmd; /* a command has ever arrived */
 	uint32_t cmd_age; /* ticks integrated since the last command (saturating) */

@@ -24,6 +24,8 @@
 #include "hm_hand.h"
 #include "hm_model.h"
 #include "hm_serve.h"
+#include "swell/effect.h"
+#include "swell/force_safety.h"
 #include "swell/link.h"
 #include "swell/proto.h"
 #include "swell/scene.h"
@@ -62,6 +64,8 @@ static const char usage[] =
 	"  --damping NS_M      virtual damping b_v in N s/m (default 2)\n"
 	"  --limit MM          workspace half-range per axis (default 200; a stiff wall beyond)\n"
 	"  --fmax N            largest commanded force applied per axis (default 250)\n"
+	"  --effect-fresh MS   effect mode (EFFECT_* messages): a set is rendered for at most this long\n"
+	"                      after it came (default 10; the controller sends one every solver step)\n"
 	"  --watchdog TICKS    controller silent this many ticks -> no commanded force (default 2 in\n"
 	"                      lockstep or with --rt granted; else 20 ms of ticks, said at start: a\n"
 	"                      process that is not real time is late by milliseconds)\n"
@@ -92,6 +96,7 @@ static const char usage[] =
 struct opts {
 	const char *link, *host, *log, *serve;
 	unsigned bias_watchdog_ms;
+	double effect_fresh_ms; /* effect mode: a set older than this is not rendered */
 	struct inject {
 		char kind; /* 'd' delay, 'g' garbage, 'r' reset, 's' stop */
 		double at_s, for_s, ms;
@@ -194,12 +199,12 @@ static void scene_object(struct opts *o, const char *path)
 /* 1 for an option of this program that takes a value. */
 static int takes_value(const char *a)
 {
-	static const char *const with_value[] = { "--bias-watchdog", "--bind-port", "--damping",    "--estop",
-						  "--fmax",          "--hand",      "--host",       "--iface",
-						  "--inject",        "--limit",     "--link",       "--log",
-						  "--mass",          "--node",      "--object",     "--pool",
-						  "--port",          "--rate",      "--scene",      "--seconds",
-						  "--serve",         "--start",     "--timeout-ms", "--watchdog" };
+	static const char *const with_value[] = {
+		"--bias-watchdog", "--bind-port", "--damping",    "--effect-fresh", "--estop", "--fmax",  "--hand",
+		"--host",          "--iface",     "--inject",     "--limit",        "--link",  "--log",   "--mass",
+		"--node",          "--object",    "--pool",       "--port",         "--rate",  "--scene", "--seconds",
+		"--serve",         "--start",     "--timeout-ms", "--watchdog"
+	};
 	size_t k;
 
 	for (k = 0; k < sizeof(with_value) / sizeof(with_value[0]); k++)
@@ -220,6 +225,7 @@ static void parse(int argc, char **argv, struct opts *o)
 	o->port = SWELL_UDP_PORT_DEVICE;
 	o->timeout_ms = 50;
 	o->bias_watchdog_ms = 100;
+	o->effect_fresh_ms = 10.0;
 	o->seconds = 10.0;
 	o->obj_mass_g = 100.0;
 	o->obj_a_mm = o->obj_b_mm = o->obj_h_mm = 50.0;
@@ -291,7 +297,9 @@ static void parse(int argc, char **argv, struct opts *o)
 				    "or stop:at=S%s",
 				    v, "");
 			o->n_inj++;
-		} else if (!strcmp(a, "--bias-watchdog"))
+		} else if (!strcmp(a, "--effect-fresh"))
+			o->effect_fresh_ms = number(a, v, 0.1, 1000, "ms");
+		else if (!strcmp(a, "--bias-watchdog"))
 			o->bias_watchdog_ms = whole(a, v, 0, 60000, "ms");
 		else if (!strcmp(a, "--bind-port"))
 			o->bind_port = whole(a, v, 0, 65535, "");
@@ -420,6 +428,13 @@ struct dev {
 	uint32_t fault_beats; /* heartbeats in FAULT */
 	int ctl_err; /* the last error of the last heartbeat in FAULT */
 	uint8_t force_seq_last;
+	/* effect mode: the last complete set, its age in ticks, the limit stage on its force */
+	struct swell_effect_rx erx;
+	struct swell_effect eff;
+	int have_eff;
+	uint32_t eff_age, eff_fresh_ticks;
+	uint32_t eff_sets, eff_ticks, eff_stale; /* sets taken, ticks rendered, times one went stale */
+	struct swell_fsafety eff_safety;
 };
 
 static int dev_open(struct dev *d, const struct opts *o)
@@ -475,7 +490,7 @@ static int dev_recv(struct dev *d, struct hm_state *s, int timeout_ms)
 	struct swell_frame f;
 	struct swell_msg m[SWELL_CANFD_MSGS_MAX];
 	size_t n = 0, k;
-	int cmds = 0;
+	int cmds = 0, er;
 
 	if (swell_link_recv(d->l, &f, timeout_ms) < 0)
 		return -1;
@@ -492,8 +507,16 @@ static int dev_recv(struct dev *d, struct hm_state *s, int timeout_ms)
 			swell_seq_track(&d->force_seq, c->seq);
 			d->force_seq_last = c->seq;
 			hm_command(s, fN, c->enable);
+			if (!c->enable)
+				d->have_eff = 0; /* not running (fault, stop, mode change): the effects go at once */
 			d->commands++;
 			cmds++;
+		} else if ((er = swell_effect_recv(&d->erx, &m[k], &d->eff)) >= 0) {
+			if (er == 1) { /* the three parts of one update are in */
+				d->have_eff = 1;
+				d->eff_age = 0;
+				d->eff_sets++;
+			}
 		} else if (m[k].type == SWELL_MSG_HEARTBEAT) {
 			if (m[k].u.heartbeat.state == 4) {
 				d->ctl_faults += d->ctl_state != 4;
@@ -577,6 +600,34 @@ static int16_t force_cN(double f_N)
 	if (r != r)
 		return 0;
 	return (int16_t)(r > 25000.0 ? 25000 : r < -25000.0 ? -25000 : r);
+}
+
+/* Effect mode, every tick before the model steps: the force the last effect set produces at the
+ * position and velocity the device reports (0.01 mm, 0.1 mm/s, as on the wire), through the device's
+ * own limit stage (the set's F_max and rate). Rendered only while the set is fresh (eff_age below
+ * the freshness limit) and the controller's FORCE_CMD enables it; the model then applies it under the
+ * command's watchdog and e-stop (hm_model.h). Otherwise the stage drops to zero at once. */
+static void effect_tick(struct dev *d, struct hm_state *s, const struct hm_params *p)
+{
+	int32_t f_uN = 0;
+	int on = d->have_eff && d->eff_age < d->eff_fresh_ticks && s->cmd_enable;
+
+	if (d->have_eff && d->eff_age == d->eff_fresh_ticks)
+		d->eff_stale++;
+	if (on) {
+		const struct swell_fsafety_params sp = { SWELL_Q16_ONE, d->eff.fmax_cN * 10000u,
+							 d->eff.rate_100mN_s * 100000u, (uint32_t)p->rate_hz };
+
+		if (swell_fsafety_set(&d->eff_safety, &sp) != SWELL_OK)
+			on = 0;
+		else
+			f_uN = swell_effect_force_uN(&d->eff, sat16(s->x[2] * 1e5), sat16(s->v[2] * 1e4));
+	}
+	s->effect_N[0] = s->effect_N[1] = 0.0;
+	s->effect_N[2] = swell_fsafety_apply(&d->eff_safety, f_uN, on) * 1e-6;
+	d->eff_ticks += on != 0;
+	if (d->have_eff && d->eff_age < UINT32_MAX)
+		d->eff_age++;
 }
 
 #define HIST_US 10000
@@ -785,6 +836,8 @@ static void summary(const struct opts *o, const struct dev *d, const struct hm_s
 	       latency_pct(0.5), latency_pct(0.99), lat.max_ns / 1e3, (unsigned long long)lat.n);
 	printf("  watchdog        %u trips (%u ticks), %llu ticks with an enabled command not applied\n",
 	       s->watchdog_trips, o->p.watchdog_ticks, (unsigned long long)r->zeroed_ticks);
+	printf("  effects         %u sets, %u ticks rendered, %u went stale (freshness %u ticks)\n", d->eff_sets,
+	       d->eff_ticks, d->eff_stale, d->eff_fresh_ticks);
 	printf("  walls           %u ticks in a workspace wall\n", s->wall_ticks);
 	printf("  controller      last state %d (0 boot, 1 idle, 2 armed, 3 running, 4 fault), %u heartbeats\n",
 	       d->ctl_state, d->heartbeats);
@@ -1013,6 +1066,9 @@ int main(int argc, char **argv)
 		return serve_main(&o, log, x0);
 	if (dev_open(&d, &o) < 0)
 		return 1;
+	d.eff_fresh_ticks = (uint32_t)lround(o.effect_fresh_ms * 1e-3 * o.p.rate_hz);
+	if (d.eff_fresh_ticks < 1)
+		d.eff_fresh_ticks = 1;
 
 	hm_init(&s, x0);
 	dt = 1.0 / o.p.rate_hz;
@@ -1044,6 +1100,7 @@ int main(int argc, char **argv)
 		age = s.cmd_age;
 		memcpy(x, s.x, sizeof(x));
 		memcpy(v, s.v, sizeof(v));
+		effect_tick(&d, &s, &o.p);
 		hm_step(&o.p, &s, f_hand);
 		account(&r, &s, t, last_window, holding);
 		if (log)

@@ -373,6 +373,8 @@ static int cmd_status(struct tool_session *s, const struct opts *o)
 {
 	const struct tool_telemetry *t = &s->t;
 	const struct swell_param_desc *md = swell_param_by_id(SWELL_PARAM_BODY_MASS_G);
+	const struct swell_param_desc *fm = swell_param_by_id(SWELL_PARAM_FORCE_MODE);
+	int32_t mode = 0;
 	const int wait_ms = 11 * o->timeout_ms / 10 + 1200; /* scene and info come at 1 Hz */
 	int32_t mass = 0;
 	char fw[16] = "?";
@@ -386,6 +388,8 @@ static int cmd_status(struct tool_session *s, const struct opts *o)
 		return TOOL_TIMEOUT;
 	}
 	rc = get_value(s, o, md, &mass);
+	if (rc == TOOL_OK)
+		rc = get_value(s, o, fm, &mode);
 	if (rc != TOOL_OK)
 		return rc;
 	tool_pump(s, 30); /* a pose and a force (100 Hz) */
@@ -403,6 +407,7 @@ static int cmd_status(struct tool_session *s, const struct opts *o)
 		else
 			printf("  \"firmware_version\": null,\n");
 		printf("  \"bad_frames\": %u,\n  \"overruns\": %u,\n", t->hb.bad_frames, t->hb.overruns);
+		json_str("force_mode", mode ? "effect" : "stream", 0);
 		if (t->have_scene)
 			printf("  \"scene\": {\"id\": %u, \"nx\": %u, \"ny\": %u, \"dx_mm\": %.3f, \"depth_mm\": "
 			       "%.2f},\n",
@@ -445,6 +450,10 @@ static int cmd_status(struct tool_session *s, const struct opts *o)
 		printf("; bottom at %.2f mm, %.1f %% submerged", t->pose.z_10um / 100.0,
 		       t->pose.submersion_halfpct / 2.0);
 	printf("\n");
+	printf("force mode   %s\n",
+	       mode ? "effect (springs, damper and gravity rendered by the device, updated every "
+		      "solver step)"
+		    : "stream (a force every device tick)");
 	if (t->have_force)
 		printf("force        %.2f %.2f %.2f N%s%s\n", t->force.fx_cN / 100.0, t->force.fy_cN / 100.0,
 		       t->force.fz_cN / 100.0, t->force.limits & 1u ? ", clamped to the limit" : "",

@@ -74,7 +74,7 @@
  * w = 2 pi f_c: a critically damped second order, gain 1 / (1 + (f / f_c)^2), exactly 1 at rest.
  * A port may set another corner at build time. */
 #ifndef SWELL_BODY_UW_CORNER_HZ
-#define SWELL_BODY_UW_CORNER_HZ 10u
+#define SWELL_BODY_UW_CORNER_HZ 4u
 #endif
 
 /* The pool floor: z = -d, d the rest depth the solver's e stands for. The box's bottom does not go

@@ -18,7 +18,8 @@ enum swell_param_group {
 };
 enum swell_param_when {
 	SWELL_PWHEN_ANY,
-	SWELL_PWHEN_DRY
+	SWELL_PWHEN_DRY,
+	SWELL_PWHEN_IDLE
 };
 
 struct swell_param_desc {

@@ -17,7 +17,8 @@
  *              (the module's own checks, such as stability, come after it)
  *     def      raw value in the reference scene (swell_ctl_default_config)
  *     access   RW: read and written by the host link (the controller writes none itself)
- *     when     ANY: in every state; DRY: refused (SWELL_ESTATE) while the object displaces water
+ *     when     ANY: in every state; DRY: refused (SWELL_ESTATE) while the object displaces water;
+ *              IDLE: refused (SWELL_ESTATE) while the force law runs (RUNNING)
  *
  * SWELL_PARAM_COMMAND is write only: its value is one of SWELL_COMMANDS(C):
  *   C(NAME, value, "name", "description")
@@ -47,7 +48,7 @@
 	  "footprint along pool y, at most 64 cells")                                                                 \
 	P(BODY_H_UM, 13, "body.h", body.h_um, uint32_t, SIZE, 1000, 500000, 50000, "0.001", "mm", RW, DRY,            \
 	  "height H of the box (the two springs' origins are H apart)")                                               \
-	P(BODY_DAMPER, 14, "body.damper", body.damper_uN_per_mm_s, uint32_t, BODY, 0, 10000000, 2000, "0.001",        \
+	P(BODY_DAMPER, 14, "body.damper", body.damper_uN_per_mm_s, uint32_t, BODY, 0, 10000000, 15000, "0.001",       \
 	  "N*s/m", RW, DRY, "viscous damper b_max at full submersion (raw uN per mm/s)")                              \
 	P(FORCE_MAX_UN, 20, "force.max", safety.f_max_uN, uint32_t, SAFETY, 1, 1000000000, 10000000, "0.000001", "N", \
 	  RW, ANY, "limit of the force on each device axis; a lowered limit cuts at once")                            \
@@ -55,6 +56,8 @@
 	  "N/s", RW, ANY, "limit of the force's rate of change on each axis, at least 1 uN per tick")                 \
 	P(FORCE_GAIN, 22, "force.gain", safety.gain, int32_t, SAFETY, 0, 262144, 65536, SWELL_PARAM_Q16, "", RW, ANY, \
 	  "haptic gain on the force law's output, Q15.16, 0 to 4")                                                    \
+	P(FORCE_MODE, 23, "force.mode", force_mode, uint8_t, CORE, 0, 1, 0, "1", "", RW, IDLE,                        \
+	  "0 stream (FORCE_CMD every tick), 1 effect (springs, damper and gravity as device effects, every update)")  \
 	P(SILENT_TICKS, 30, "link.silent_ticks", silent_ticks, uint16_t, CORE, 1, 10000, 2, "1", "ticks", RW, ANY,    \
 	  "device silent this many ticks: zero force and FAULT")                                                      \
 	P(AUTORUN, 31, "ctl.autorun", autorun, uint8_t, CORE, 0, 1, 0, "1", "", RW, ANY,                              \

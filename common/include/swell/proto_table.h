@@ -54,6 +54,13 @@ enum swell_ctl_state {
 	  "Measured end-effector velocity, every haptic tick where the carrier has room.")                            \
 	M(DEVICE_FORCE, device_force, 0x04, 7, DEV, CTL,                                                              \
 	  "Measured force at the force sensor, every haptic tick where the carrier has room.")                        \
+	M(EFFECT_SPRING, effect_spring, 0x05, 7, CTL, DEV,                                                            \
+	  "Effect mode: the two buoyancy springs, every update (docs/force-law.md). Same seq as EFFECT_DAMPER and "   \
+	  "EFFECT_LIMIT: the device renders a set only once all three of one seq have come.")                         \
+	M(EFFECT_DAMPER, effect_damper, 0x06, 8, CTL, DEV,                                                            \
+	  "Effect mode: the damper, the gravity force and the springs' spacing H, every update.")                     \
+	M(EFFECT_LIMIT, effect_limit, 0x07, 5, CTL, DEV,                                                              \
+	  "Effect mode: the force and rate limits the device applies to what the effects produce, every update.")     \
 	M(HEARTBEAT, heartbeat, 0x08, 8, CTL, VIEW,                                                                   \
 	  "Controller state, last error, protocol version and counters, 10 Hz (also to DEV).")                        \
 	M(PARAM_SET, param_set, 0x10, 7, VIEW, CTL, "Set a parameter; answered by PARAM_ACK or PARAM_NACK.")          \
@@ -97,6 +104,26 @@ enum swell_ctl_state {
 	F(m, fy_cN, int16_t, 16, 16, -25000, 25000, PLAIN, "0.01", "N", "measured force y")      \
 	F(m, fz_cN, int16_t, 32, 16, -25000, 25000, PLAIN, "0.01", "N", "measured force z (up)") \
 	F(m, seq, uint8_t, 48, 8, 0, 255, SEQ, "1", "", "sequence number, same as DEVICE_POS")
+
+#define SWELL_PROTO_FIELDS_effect_spring(F, m)                                                                  \
+	F(m, surface_10um, int16_t, 0, 16, -30000, 30000, PLAIN, "0.01", "mm",                                  \
+	  "device z of the pulling spring's origin (the water surface w under the object)")                     \
+	F(m, uw_100ums, int16_t, 16, 16, -30000, 30000, PLAIN, "0.1", "mm/s",                                   \
+	  "the water's vertical velocity: the springs' and the damper's vel")                                   \
+	F(m, k_10mN_m, uint16_t, 32, 16, 0, 65535, PLAIN, "0.01", "N/m", "stiffness of each spring, rho g a b") \
+	F(m, seq, uint8_t, 48, 8, 0, 255, SEQ, "1", "", "update number, +1 per update")
+
+#define SWELL_PROTO_FIELDS_effect_damper(F, m)                                                                     \
+	F(m, b_10mNs_m, uint16_t, 0, 16, 0, 65535, PLAIN, "0.01", "N*s/m", "damper coefficient b_max s")           \
+	F(m, bias_mN, int32_t, 16, 24, -8388607, 8388607, PLAIN, "0.001", "N", "constant force along z (gravity)") \
+	F(m, h_10um, uint16_t, 40, 16, 1, 65535, PLAIN, "0.01", "mm",                                              \
+	  "the pushing spring's origin is this much lower")                                                        \
+	F(m, seq, uint8_t, 56, 8, 0, 255, SEQ, "1", "", "update number, same as EFFECT_SPRING")
+
+#define SWELL_PROTO_FIELDS_effect_limit(F, m)                                                                       \
+	F(m, fmax_cN, uint16_t, 0, 16, 1, 25000, PLAIN, "0.01", "N", "largest |force| the effects may produce")     \
+	F(m, rate_100mN_s, uint16_t, 16, 16, 1, 65535, PLAIN, "0.1", "N/s", "largest rate of change of that force") \
+	F(m, seq, uint8_t, 32, 8, 0, 255, SEQ, "1", "", "update number, same as EFFECT_SPRING")
 
 #define SWELL_PROTO_FIELDS_heartbeat(F, m)                                                                            \
 	F(m, state, uint8_t, 0, 8, 0, 4, PLAIN, "1", "", "0 boot, 1 idle, 2 armed, 3 running, 4 fault")               \

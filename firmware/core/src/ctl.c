@@ -57,6 +57,7 @@ static const struct swell_ctl_config pool_config = {
 	.host_budget = 16,
 	.node = 0,
 	.autorun = SWELL_PARAM_DEF_AUTORUN,
+	.force_mode = SWELL_PARAM_DEF_FORCE_MODE,
 };
 
 void swell_ctl_default_config(struct swell_ctl_config *cfg)
@@ -110,8 +111,13 @@ enum swell_err swell_ctl_check(const struct swell_ctl_config *cfg)
 	    cfg->tick_hz / cfg->solver_hz < 2 || cfg->tick_hz / cfg->solver_hz > SWELL_BODY_MAX_K)
 		return SWELL_ERANGE;
 	if (cfg->silent_ticks < 1 || cfg->silent_ticks > 10000 || cfg->recover_ticks < 1 || cfg->host_budget < 1 ||
-	    cfg->host_budget > SWELL_CTL_QUEUE / 2 || cfg->node > SWELL_NODE_MAX || cfg->autorun > 1)
+	    cfg->host_budget > SWELL_CTL_QUEUE / 2 || cfg->node > SWELL_NODE_MAX || cfg->autorun > 1 ||
+	    cfg->force_mode > SWELL_FORCE_EFFECT)
 		return SWELL_ERANGE;
+	/* the effects act along the device's z: the pool's z must be it, unscaled (swell/effect.h) */
+	if (cfg->force_mode == SWELL_FORCE_EFFECT &&
+	    (cfg->xform.axis[2] != 2 || cfg->xform.sign[2] != 1 || cfg->xform.scale != SWELL_Q16_ONE))
+		return SWELL_EINVAL;
 	err = swell_wave_check(&cfg->wave);
 	if (err != SWELL_OK)
 		return err;
@@ -257,7 +263,7 @@ static void answer(struct swell_ctl *c, uint16_t id, uint8_t seq, enum swell_err
  * its field of the configuration (one pair of functions a row, expanded from swell/param_table.h). */
 struct param {
 	uint16_t id;
-	uint8_t group;
+	uint8_t group, when;
 	int32_t min, max;
 	int32_t (*get)(const struct swell_ctl_config *g);
 	void (*set)(struct swell_ctl_config *g, int32_t v);
@@ -277,7 +283,7 @@ SWELL_PARAMS(SWELL_X)
 
 static const struct param params[] = {
 #define SWELL_X(NAME, id, name, member, ctype, group, min, max, def, factor, unit, access, when, desc) \
-	{ id, SWELL_PGROUP_##group, min, max, get_##NAME, set_##NAME },
+	{ id, SWELL_PGROUP_##group, SWELL_PWHEN_##when, min, max, get_##NAME, set_##NAME },
 	SWELL_PARAMS(SWELL_X)
 #undef SWELL_X
 };
@@ -343,6 +349,8 @@ static enum swell_err param_set(struct swell_ctl *c, uint16_t id, int32_t v)
 		return SWELL_EUNKNOWN;
 	if (v < p->min || v > p->max)
 		return SWELL_ERANGE;
+	if (p->when == SWELL_PWHEN_IDLE && c->state == SWELL_CTL_RUNNING)
+		return SWELL_ESTATE;
 	p->set(&g, v);
 	err = swell_ctl_check(&g);
 	if (err != SWELL_OK)
@@ -472,9 +480,11 @@ static void send_force(struct swell_ctl *c)
 {
 	struct swell_msg m = msg(c, SWELL_MSG_FORCE_CMD);
 
-	m.u.force_cmd.fx_cN = force_cN(c, c->force_dev_uN[0]);
-	m.u.force_cmd.fy_cN = force_cN(c, c->force_dev_uN[1]);
-	m.u.force_cmd.fz_cN = force_cN(c, c->force_dev_uN[2]);
+	if (c->cfg.force_mode == SWELL_FORCE_STREAM) {
+		m.u.force_cmd.fx_cN = force_cN(c, c->force_dev_uN[0]);
+		m.u.force_cmd.fy_cN = force_cN(c, c->force_dev_uN[1]);
+		m.u.force_cmd.fz_cN = force_cN(c, c->force_dev_uN[2]);
+	} /* effect mode: zero force, the enable bit keeps the device's effects alive */
 	m.u.force_cmd.seq = c->seq_force++;
 	m.u.force_cmd.enable = c->state == SWELL_CTL_RUNNING;
 	push(c, SWELL_LINK_DEVICE, &m);
@@ -744,20 +754,48 @@ static void supervise(struct swell_ctl *c)
 	}
 }
 
+/* Effect mode, RUNNING: at each solver step (and on the first tick of RUNNING) the set for this
+ * tick's state goes out; every tick the force it produces at the device's state is what the safety
+ * stage watches (*f_dev_uN, device axes), so telemetry and the limit flags show what is asked for. */
+static void effect_update(struct swell_ctl *c, int32_t f_dev_uN[3])
+{
+	struct swell_msg m[3];
+	int k;
+
+	if (c->phase == 0 || !c->effect_sent) {
+		c->effect.seq++;
+		swell_effect_from_body(&c->effect, &c->body, &c->out, c->cfg.xform.offset_um[2], c->cfg.safety.f_max_uN,
+				       c->cfg.safety.rate_uN_per_s);
+		swell_effect_encode(&c->effect, c->cfg.node, m);
+		for (k = 0; k < 3; k++)
+			push(c, SWELL_LINK_DEVICE, &m[k]);
+		c->effect_sent = 1;
+	}
+	f_dev_uN[0] = f_dev_uN[1] = 0;
+	f_dev_uN[2] = swell_effect_force_uN(&c->effect, to_10um(c->pos_um[2]), c->vel_um_s[2] / 100);
+}
+
 static uint32_t force_law(struct swell_ctl *c)
 {
 	const int running = c->state == SWELL_CTL_RUNNING;
 	uint32_t before = 0, after = 0, rate_before = 0, rate_after = 0, work = 1;
+	int32_t f_dev_uN[3] = { 0, 0, 0 };
 	int k;
 
 	if (c->state == SWELL_CTL_ARMED || running) {
 		swell_body_tick_force(&c->body, &c->wave, c->pos_um, c->vel_um_s, &c->out);
 		work = c->out.skipped ? 1 : c->fp_cells;
+		for (k = 0; k < 3; k++)
+			f_dev_uN[k] = c->out.f_dev_uN[k];
 	}
+	if (running && c->cfg.force_mode == SWELL_FORCE_EFFECT)
+		effect_update(c, f_dev_uN);
+	if (!running)
+		c->effect_sent = 0;
 	for (k = 0; k < 3; k++) {
 		before += c->safety[k].force_limited;
 		rate_before += c->safety[k].rate_limited;
-		c->force_dev_uN[k] = swell_fsafety_apply(&c->safety[k], running ? c->out.f_dev_uN[k] : 0, running);
+		c->force_dev_uN[k] = swell_fsafety_apply(&c->safety[k], running ? f_dev_uN[k] : 0, running);
 		after += c->safety[k].force_limited;
 		rate_after += c->safety[k].rate_limited;
 	}

@@ -739,3 +739,65 @@ TEST_CASE("random device traffic, parameters and commands: every force sent is z
 		CHECK(running_ticks > 200);
 	}
 }
+
+TEST_CASE("effect mode: force.mode changes only outside RUNNING, and running, FORCE_CMD carries zero force and a full "
+	  "effect set goes out at every solver step, and a stop disables at once",
+	  "[ctl][effect]")
+{
+	Ctl k(pool());
+	swell_ctl_tick(&k.c);
+	k.device(0, 0, 100000);
+	swell_ctl_tick(&k.c);
+	k.drain(SWELL_LINK_DEVICE);
+	k.param(SWELL_PARAM_FORCE_MODE, SWELL_FORCE_EFFECT);
+	CHECK(k.c.cfg.force_mode == SWELL_FORCE_EFFECT); // armed: taken
+	k.param(SWELL_PARAM_COMMAND, SWELL_CMD_RUN);
+	int sets = 0, forces = 0, zero_enabled = 0;
+	swell_effect got{}, last{};
+	swell_effect_rx rx{};
+	for (int t = 0; t < 100; t++) { // 10 solver periods
+		k.device(0, 0, 100000);
+		swell_ctl_tick(&k.c);
+		for (const swell_msg &m : k.drain(SWELL_LINK_DEVICE)) {
+			if (m.type == SWELL_MSG_FORCE_CMD) {
+				forces++;
+				zero_enabled += m.u.force_cmd.enable && m.u.force_cmd.fx_cN == 0 && m.u.force_cmd.fy_cN == 0 &&
+					m.u.force_cmd.fz_cN == 0;
+			}
+			if (swell_effect_recv(&rx, &m, &got) == 1) {
+				sets++;
+				last = got;
+			}
+		}
+	}
+	CHECK(k.c.state == SWELL_CTL_RUNNING);
+	CHECK(forces == 100);
+	CHECK(zero_enabled >= 99); // the tick that entered RUNNING may still be disabled
+	CHECK(sets >= 10);
+	CHECK(sets <= 11); // the first tick of RUNNING sends one at once
+	// held 100 mm above the water: the set is gravity, the springs' origin at the surface (rest level)
+	CHECK(last.bias_mN == -981);
+	CHECK(last.k_10mN_m == 2453); // 1000 kg/m^3 9.81 m/s^2 50 mm 50 mm = 24.525 N/m
+	CHECK(last.h_10um == 5000);
+	CHECK(last.b_10mNs_m == 0); // not submerged
+	CHECK(last.fmax_cN == 1000);
+	CHECK(last.rate_100mN_s == 5000);
+	CHECK(swell_effect_force_uN(&last, 10000, 0) == -981000);
+	// telemetry shows what the effects produce here: the weight
+	CHECK(k.c.force_dev_uN[2] == -981000);
+	// refused while running, nothing changes
+	k.param(SWELL_PARAM_FORCE_MODE, SWELL_FORCE_STREAM);
+	CHECK(k.c.cfg.force_mode == SWELL_FORCE_EFFECT);
+	bool refused = false;
+	for (const swell_msg &m : k.drain(SWELL_LINK_HOST))
+		refused |= m.type == SWELL_MSG_PARAM_NACK && m.u.param_nack.err == SWELL_ESTATE;
+	CHECK(refused);
+	// stop: the next FORCE_CMD is disabled (the device drops its effects on it)
+	k.param(SWELL_PARAM_COMMAND, SWELL_CMD_STOP);
+	k.device(0, 0, 100000);
+	swell_ctl_tick(&k.c);
+	CHECK(k.c.state == SWELL_CTL_ARMED);
+	CHECK(k.force().enable == 0);
+	k.param(SWELL_PARAM_FORCE_MODE, SWELL_FORCE_STREAM);
+	CHECK(k.c.cfg.force_mode == SWELL_FORCE_STREAM);
+}

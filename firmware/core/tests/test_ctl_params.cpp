@@ -101,10 +101,10 @@ TEST_CASE("a parameter set to a new value inside its range reads back that value
 	struct {
 		const char *name;
 		int32_t v;
-	} sets[] = {{"wave.e", 200000000},  {"wave.damping", 2000000}, {"wave.stencil", 1},   {"body.mass", 80},
-		    {"body.a", 40000},      {"body.b", 30000},         {"body.h", 20000},     {"body.damper", 3000},
-		    {"force.max", 5000000}, {"force.rate", 100000000}, {"force.gain", 32768}, {"link.silent_ticks", 5},
-		    {"ctl.autorun", 1}};
+	} sets[] = {{"wave.e", 200000000},    {"wave.damping", 2000000}, {"wave.stencil", 1},   {"body.mass", 80},
+		    {"body.a", 40000},        {"body.b", 30000},         {"body.h", 20000},     {"body.damper", 3000},
+		    {"force.max", 5000000},   {"force.rate", 100000000}, {"force.gain", 32768}, {"force.mode", 1},
+		    {"link.silent_ticks", 5}, {"ctl.autorun", 1}};
 	size_t n = 0;
 	swell_param_table(&n);
 	CHECK(sizeof(sets) / sizeof(sets[0]) == n); /* every row is exercised */

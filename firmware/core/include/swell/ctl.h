@@ -9,6 +9,9 @@
  *      states, then the safety stage (gain, |F| <= F_max, |dF/dt| <= R), then FORCE_CMD to the device,
  *      every tick; the water the object displaces moves at the start of the background part
  *      (swell_body_couple), before the solver slice: the same bits as coupling in the force part;
+ *      in effect mode (force.mode 1) FORCE_CMD carries zero force and, at each solver step, the effect
+ *      set goes to the device instead (swell/effect.h); the safety stage then watches the force the
+ *      set produces at the device's state (telemetry and limit flags);
  *   4. solver slice: the solver (wave.h, the velocity form: 4 words a cell) runs at the scene's own
  *      rate; its step is split over the K = tick_hz / solver_hz ticks of a period: ticks 0 .. K-2 each
  *      do about ny / (K-1) rows of the kernel ("edges" below) and, within
@@ -45,6 +48,7 @@
 #include <stdint.h>
 
 #include "swell/body.h"
+#include "swell/effect.h"
 #include "swell/err.h"
 #include "swell/proto.h"
 #include "swell/force_safety.h"
@@ -62,6 +66,15 @@ enum swell_ctl_link {
 /* Parameter ids, commands and their ranges: swell/param_table.h. */
 
 #define SWELL_CTL_QUEUE 64
+
+/* force.mode: how the force law reaches the device. STREAM: FORCE_CMD carries the force every tick.
+ * EFFECT: FORCE_CMD carries zero force with its enable bit (the device's watchdog still runs on it
+ * every tick), and at every solver step the effect set (swell/effect.h) goes out as EFFECT_SPRING,
+ * EFFECT_DAMPER and EFFECT_LIMIT; the device renders it every tick while it is fresh. */
+enum swell_force_mode {
+	SWELL_FORCE_STREAM = 0,
+	SWELL_FORCE_EFFECT = 1
+};
 
 struct swell_ctl_queue {
 	struct swell_msg m[SWELL_CTL_QUEUE];
@@ -82,6 +95,7 @@ struct swell_ctl_config {
 	uint16_t host_budget; /* host messages a tick, 1 .. SWELL_CTL_QUEUE / 2 */
 	uint8_t node; /* 0 .. SWELL_NODE_MAX */
 	uint8_t autorun;
+	uint8_t force_mode; /* SWELL_FORCE_STREAM or SWELL_FORCE_EFFECT; changed only outside RUNNING */
 	uint8_t fw_version[3]; /* major, minor, patch of the running firmware, sent in CTL_INFO */
 };
 
@@ -134,6 +148,8 @@ struct swell_ctl {
 	int32_t force_dev_uN[3]; /* after the safety stage, device axes */
 	uint8_t limits; /* bit 0 |F| clamped, bit 1 rate limited, last tick */
 	uint8_t seq_force, seq_hb, seq_pose;
+	struct swell_effect effect; /* effect mode: the set last sent (seq: the next one's number) */
+	uint8_t effect_sent; /* a set went out since RUNNING was entered */
 	uint8_t scene_id; /* from the scene geometry: a viewer sees a new scene when it changes */
 
 	/* telemetry */
