@@ -953,6 +953,7 @@ static int serve_main(struct opts *o, FILE *log, const double x0[3])
 	double dt = 1.0 / o->p.rate_hz, last_window = o->seconds > 1.0 ? o->seconds - 1.0 : 0.0;
 	int64_t start, next, period_ns = (int64_t)llround(1e9 / o->p.rate_hz), last_status;
 	uint64_t n, total = (uint64_t)llround(o->seconds * o->p.rate_hz);
+	uint32_t requests_seen = 0, req_age = 0;
 
 	if (hm_serve_open(&srv, o->serve, err, sizeof(err)) < 0) {
 		fprintf(stderr, "swell-hm: --serve: %s\n", err);
@@ -996,6 +997,10 @@ static int serve_main(struct opts *o, FILE *log, const double x0[3])
 		o->p.mass_kg = dev.inertia_kg;
 		hm_step(&o->p, &s, f_hand);
 		hm_serve_applied(&srv);
+		/* ticks since a request was last run: a silent client shows in the log as a silent
+		 * controller does in the swell protocol's command age */
+		req_age = srv.st.requests != requests_seen ? 0 : req_age + 1;
+		requests_seen = srv.st.requests;
 		for (k = 0; k < 3; k++)
 			dev.a_m_s2[k] = (s.v[k] - v[k]) / dt;
 		account(&r, &s, t, last_window, holding);
@@ -1003,9 +1008,8 @@ static int serve_main(struct opts *o, FILE *log, const double x0[3])
 			fprintf(log,
 				"%.4f,%.3f,%.3f,%.3f,%.2f,%.2f,%.2f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%d,%d,%d,%d,%d\n", t,
 				x[0] * 1e3, x[1] * 1e3, x[2] * 1e3, v[0] * 1e3, v[1] * 1e3, v[2] * 1e3, s.f_cmd_N[0],
-				s.f_cmd_N[1], s.f_cmd_N[2], f_hand[0], f_hand[1], f_hand[2],
-				dev.state == HM_STATE_FORCE, hm_serve_clients(&srv), s.applying, (int)dev.state,
-				holding);
+				s.f_cmd_N[1], s.f_cmd_N[2], f_hand[0], f_hand[1], f_hand[2], (int)req_age,
+				hm_serve_clients(&srv), s.applying, (int)dev.state, holding);
 		if (!o->quiet && now_ns() - last_status > 1000000000) {
 			last_status = now_ns();
 			fprintf(stderr, "\rswell-hm: t %.1f s, z %+.2f mm, F %+.3f N, state %s, %d clients   ", t,
@@ -1050,9 +1054,10 @@ int main(int argc, char **argv)
 		fputs("t_s,x_mm,y_mm,z_mm,vx_mm_s,vy_mm_s,vz_mm_s,fcmd_x_N,fcmd_y_N,fcmd_z_N,"
 		      "fhand_x_N,fhand_y_N,fhand_z_N,",
 		      log);
-		/* --serve: the effects' force, the device state (0 off, 1 init, 2 home, 3 force, 4 position,
-		 * 5 stop) and the number of clients instead of the swell protocol's command columns */
-		fputs(o.serve ? "rendering,clients,applied,dev_state,holding\n"
+		/* --serve: the effects' force; the ticks since a request was last run, the number of
+		 * clients and the device state (0 off, 1 init, 2 home, 3 force, 4 position, 5 stop) instead
+		 * of the swell protocol's command columns */
+		fputs(o.serve ? "req_age,clients,applied,dev_state,holding\n"
 			      : "enable,cmd_age,applied,ctl_state,holding\n",
 		      log);
 	}

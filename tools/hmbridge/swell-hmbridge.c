@@ -5,9 +5,11 @@
  * It ticks at the device rate on its own absolute-deadline clock. Each tick: the latest FORCE_CMD
  * that arrived is taken; the newest HapticMaster answer, if one came since the last tick, goes to the
  * controller as DEVICE_VEL + DEVICE_POS (none came: nothing goes, and the controller sees a silent
- * device); one request goes to the HapticMaster with the force, or zero when the command is disabled
- * or the controller has been silent for --watchdog ticks (the bridge's own watchdog, default 2). On
- * exit the zero force is confirmed by the device first. */
+ * device); one request goes to the HapticMaster with the force, or zero when the command is disabled,
+ * the controller has been silent for --watchdog ticks (the bridge's own watchdog, default 2), or the
+ * HapticMaster has not answered for as long (a force from a position that old is not sent: late,
+ * garbled or reset answers end with zero force on the device as on the direct hm: link). On exit the
+ * zero force is confirmed by the device first. */
 #define _GNU_SOURCE
 #include <arpa/inet.h>
 #include <errno.h>
@@ -29,7 +31,8 @@ static const char usage[] =
 	"usage: swell-hmbridge --hm HOST[:PORT] [options]\n"
 	"A HapticMaster (TCP command interface, port 7654) as the device node of swell's protocol for a\n"
 	"controller on CAN, USB or UDP. Each device tick: the newest sample to the controller, one request\n"
-	"with its latest force to the HapticMaster (zero once the controller is silent for --watchdog ticks).\n"
+	"with its latest force to the HapticMaster (zero once the controller or the HapticMaster is silent\n"
+	"for --watchdog ticks).\n"
 	"\n"
 	"  --hm HOST[:PORT]    the HapticMaster (required; an address or a host name)\n"
 	"  --link udp|can:IFACE|usb   carrier to the controller (default udp: packets to --host:--port)\n"
@@ -39,7 +42,8 @@ static const char usage[] =
 	"  --iface N           usb: the controller's interface number (default 0)\n"
 	"  --node N            node id, 0..15 (default 0)\n"
 	"  --rate HZ           device tick rate (default 2500; 1000 for classic CAN)\n"
-	"  --watchdog TICKS    controller silent this many ticks -> zero force on the HapticMaster (default 2)\n"
+	"  --watchdog TICKS    controller or HapticMaster silent this many ticks -> zero force on the\n"
+	"                      HapticMaster (default 2)\n"
 	"  --seconds S         stop after S seconds (default: until SIGINT/SIGTERM)\n"
 	"  --rt                SCHED_FIFO (priority 70) and mlockall where permitted\n"
 	"  --quiet             no status line\n"
@@ -165,8 +169,11 @@ struct bridge {
 	int16_t f_cN[3];
 	int enable;
 	uint32_t cmd_age; /* ticks since the last FORCE_CMD (saturating) */
+	uint32_t ans_age; /* ticks since the last sample forwarded (saturating) */
 	uint64_t ticks, commands, samples_fwd, samples_dropped, silent_ticks, trips, send_errors, ignored;
+	uint64_t hm_trips; /* forces zeroed because the HapticMaster fell silent */
 	int zeroed; /* the watchdog has zeroed the force since the last command */
+	int hm_zeroed; /* ... since the last answer */
 };
 
 static int open_link(struct bridge *b, const struct opts *o)
@@ -255,6 +262,8 @@ static void tick(struct bridge *b, const struct opts *o)
 		b->samples_dropped += n / 2 - 1;
 		b->samples_fwd++;
 		send_msgs(b, newest, 2, newest[1].u.device_pos.seq);
+		b->ans_age = 0;
+		b->hm_zeroed = 0;
 	} else {
 		b->silent_ticks++;
 	}
@@ -262,9 +271,18 @@ static void tick(struct bridge *b, const struct opts *o)
 		b->zeroed = 1;
 		b->trips += b->enable != 0;
 	}
-	hm_client_force(&b->hm, b->zeroed ? zero : b->f_cN, b->enable && !b->zeroed);
+	if (b->ans_age >= o->watchdog && !b->hm_zeroed) {
+		b->hm_zeroed = 1;
+		b->hm_trips += b->enable && !b->zeroed;
+	}
+	if (b->zeroed || b->hm_zeroed)
+		hm_client_force(&b->hm, zero, 0);
+	else
+		hm_client_force(&b->hm, b->f_cN, b->enable);
 	if (b->cmd_age < UINT32_MAX)
 		b->cmd_age++;
+	if (b->ans_age < UINT32_MAX)
+		b->ans_age++;
 	b->ticks++;
 }
 
@@ -280,7 +298,9 @@ int main(int argc, char **argv)
 	parse(argc, argv, &o);
 	b.node = (uint8_t)o.node;
 	b.cmd_age = UINT32_MAX;
+	b.ans_age = UINT32_MAX;
 	b.zeroed = 1;
+	b.hm_zeroed = 1;
 	if (hm_client_open(&b.hm, o.hm, 2, err, sizeof(err)) < 0) {
 		fprintf(stderr, "swell-hmbridge: %s\n", err);
 		return 2;
@@ -337,8 +357,9 @@ int main(int argc, char **argv)
 	printf("  samples         %llu forwarded, %llu older ones skipped, %llu ticks without an answer\n",
 	       (unsigned long long)b.samples_fwd, (unsigned long long)b.samples_dropped,
 	       (unsigned long long)b.silent_ticks);
-	printf("  watchdog        %llu trips (%u ticks without a command -> zero force)\n", (unsigned long long)b.trips,
-	       o.watchdog);
+	printf("  watchdog        %llu trips (%u ticks without a command -> zero force), %llu with the HapticMaster "
+	       "silent as long\n",
+	       (unsigned long long)b.trips, o.watchdog, (unsigned long long)b.hm_trips);
 	hm_client_report(&b.hm, stdout);
 	hm_client_close(&b.hm);
 	swell_link_close(b.l);

@@ -22,7 +22,7 @@ constexpr double f_limit_N = 10.0; // the controller's default F_max
 
 struct row {
 	double t, x[3], fcmd[3];
-	int rendering, clients, state;
+	int req_age, clients, state;
 };
 
 std::vector<row> read_csv(const std::string &path)
@@ -37,7 +37,7 @@ std::vector<row> read_csv(const std::string &path)
 		int applied, holding;
 		if (std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%d,%d,%d,%d,%d", &r.t, &r.x[0],
 				&r.x[1], &r.x[2], &v[0], &v[1], &v[2], &r.fcmd[0], &r.fcmd[1], &r.fcmd[2], &fh[0], &fh[1], &fh[2],
-				&r.rendering, &r.clients, &applied, &r.state, &holding) == 18)
+				&r.req_age, &r.clients, &applied, &r.state, &holding) == 18)
 			rows.push_back(r);
 	}
 	return rows;
