@@ -5,7 +5,7 @@
 
 uint32_t replay_drain(const char *spec, struct view_feed *f, uint64_t now_us, char *err, size_t errlen)
 {
-	struct source s = { 0 };
+	struct source s = {0};
 	uint32_t n = 0;
 
 	if (!source_open(&s, spec, NULL, 0, err, errlen))
