@@ -75,14 +75,34 @@ inline Run run(std::vector<std::string> argv, std::string log = "", bool keep = 
 	return r;
 }
 
-// One row of a bad-argument table: the arguments, and what the one line on stderr must say.
+// Starts argv[0] (a path) with argv, stdout and stderr together into the file out; does not wait.
+inline pid_t spawn(std::vector<std::string> argv, const std::string &out)
+{
+	std::vector<char *> v;
+	for (auto &a : argv)
+		v.push_back(&a[0]);
+	v.push_back(nullptr);
+	posix_spawn_file_actions_t fa;
+	posix_spawn_file_actions_init(&fa);
+	posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+	posix_spawn_file_actions_adddup2(&fa, 1, 2);
+	pid_t pid = -1;
+	const int rc = posix_spawn(&pid, v[0], &fa, nullptr, v.data(), environ);
+	posix_spawn_file_actions_destroy(&fa);
+	REQUIRE(rc == 0);
+	return pid;
+}
+
+// One row of a bad-argument table: the arguments, what the one line on stderr must say, and the
+// exit status (2, bad arguments, unless the row is about a runtime failure).
 struct BadArgs {
 	std::vector<std::string> args;
 	const char *says;
+	int code = 2;
 };
 
-// Every row: exit 2, one line on stderr that contains `says`, nothing on stdout. extra: arguments
-// put after each row's own (e.g. a short run, should a row be taken).
+// Every row: its exit status, one line on stderr that contains `says`, nothing on stdout. extra:
+// arguments put after each row's own (e.g. a short run, should a row be taken).
 inline void check_bad_args(const std::string &bin, const std::vector<BadArgs> &table,
 			   const std::vector<std::string> &extra = {})
 {
@@ -95,7 +115,7 @@ inline void check_bad_args(const std::string &bin, const std::vector<BadArgs> &t
 		for (const auto &a : c.args)
 			joined += a + " ";
 		INFO(joined << "-> exit " << r.code << ", stderr '" << r.err << "', stdout '" << r.out << "'");
-		CHECK(r.code == 2);
+		CHECK(r.code == c.code);
 		CHECK(r.err.find(c.says) != std::string::npos);
 		CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
 		CHECK(r.out.empty());

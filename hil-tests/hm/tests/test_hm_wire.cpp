@@ -1,17 +1,9 @@
 // swell-hm's side of the wire against a scripted controller in this test (no swell-ctl): what one
 // tick sends, how a FORCE_CMD is applied, and what is refused. Deterministic: the script answers at
 // once, so the device's motion is known to the last 0.01 mm.
-#include <catch2/catch.hpp>
+#include "swell_test.hpp"
 
-#include <arpa/inet.h>
-#include <fcntl.h>
-#include <netinet/in.h>
 #include <poll.h>
-#include <signal.h>
-#include <spawn.h>
-#include <sys/socket.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <fstream>
@@ -23,61 +15,19 @@ extern "C" {
 #include "swell/proto.h"
 }
 
-extern char **environ;
-
 namespace {
 
 const std::string hm_bin = SWELL_HM_BIN;
 const std::string work_dir = SWELL_HM_TEST_DIR;
-
-std::string slurp(const std::string &path)
-{
-	std::ifstream f(path);
-	std::stringstream ss;
-	ss << f.rdbuf();
-	return ss.str();
-}
-
-/* A UDP socket on loopback with a port of the kernel's choosing; the port in *port. */
-int loopback_socket(std::string *port)
-{
-	const int fd = socket(AF_INET, SOCK_DGRAM, 0);
-	REQUIRE(fd >= 0);
-	sockaddr_in a{};
-	a.sin_family = AF_INET;
-	a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-	socklen_t al = sizeof a;
-	REQUIRE(bind(fd, reinterpret_cast<sockaddr *>(&a), sizeof a) == 0);
-	REQUIRE(getsockname(fd, reinterpret_cast<sockaddr *>(&a), &al) == 0);
-	*port = std::to_string(ntohs(a.sin_port));
-	return fd;
-}
-
-/* swell-hm with these arguments, stdout and stderr into the file out. */
-pid_t spawn_hm(std::vector<std::string> args, const std::string &out)
-{
-	std::vector<char *> argv;
-	for (auto &s : args)
-		argv.push_back(&s[0]);
-	argv.push_back(nullptr);
-	posix_spawn_file_actions_t fa;
-	posix_spawn_file_actions_init(&fa);
-	posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-	posix_spawn_file_actions_adddup2(&fa, 1, 2);
-	pid_t pid;
-	REQUIRE(posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ) == 0);
-	posix_spawn_file_actions_destroy(&fa);
-	return pid;
-}
 
 } // namespace
 
 TEST_CASE("wire: a FORCE_CMD sequence jump beyond the window is one resync in the summary, a short gap is lost")
 {
 	std::string port;
-	const int fd = loopback_socket(&port);
+	const int fd = swell_test::udp_loopback(&port);
 	const std::string out = work_dir + "/resync.txt";
-	const pid_t pid = spawn_hm({hm_bin, "--lockstep", "--port", port, "--seconds", "0.08", "--hand", "idle"}, out);
+	const pid_t pid = swell_test::spawn({hm_bin, "--lockstep", "--port", port, "--seconds", "0.08", "--hand", "idle"}, out);
 	// 200 ticks answered: seq n up to 99, then n + 100 (a controller that counts from elsewhere), and
 	// 3 numbers skipped at 150
 	int answered = 0;
@@ -103,7 +53,7 @@ TEST_CASE("wire: a FORCE_CMD sequence jump beyond the window is one resync in th
 	int st = 0;
 	waitpid(pid, &st, 0);
 	close(fd);
-	const std::string text = slurp(out);
+	const std::string text = swell_test::slurp(out);
 	INFO("answered " << answered << "\n" << text);
 	REQUIRE(WIFEXITED(st));
 	CHECK(answered == 200);
@@ -114,13 +64,13 @@ TEST_CASE("wire: a FORCE_CMD sequence jump beyond the window is one resync in th
 TEST_CASE("wire: a tick sends VEL, FORCE, POS with seq n mod 256, FORCE_CMD moves it exactly, bad frames and enable 0 do nothing")
 {
 	std::string port;
-	const int fd = loopback_socket(&port);
+	const int fd = swell_test::udp_loopback(&port);
 	const std::string out = work_dir + "/wire.txt", csv = work_dir + "/wire.csv";
 
 	// 600 ticks; damping 0 so that a constant force gives x_n = a dt^2 n (n + 1) / 2 exactly
 	std::vector<std::string> args = {hm_bin, "--lockstep", "--port", port,      "--seconds", "0.24", "--damping",
 					 "0",    "--hand",     "idle",   "--quiet", "--log",     csv};
-	const pid_t pid = spawn_hm(args, out);
+	const pid_t pid = swell_test::spawn(args, out);
 
 	const double dt = 1.0 / 2500.0, acc = 1.0 / 2.0; // FORCE_CMD +1.00 N on the 2 kg default
 	int samples = 0, wrong_layout = 0, wrong_seq = 0, wrong_status = 0, wrong_pos = 0, first_wrong = -1;
@@ -183,7 +133,7 @@ TEST_CASE("wire: a tick sends VEL, FORCE, POS with seq n mod 256, FORCE_CMD move
 	int st = 0;
 	waitpid(pid, &st, 0);
 	close(fd);
-	const std::string text = slurp(out);
+	const std::string text = swell_test::slurp(out);
 	INFO("samples " << samples << ", wrong layout " << wrong_layout << ", wrong seq " << wrong_seq << ", wrong status "
 			<< wrong_status << ", wrong positions " << wrong_pos << " (first at tick " << first_wrong << ": " << why
 			<< ")\n"
@@ -227,13 +177,13 @@ TEST_CASE("wire: a controller that faulted is named in the summary (NOT A CLEAN 
 	  "without SCHED_FIFO says which watchdog it uses")
 {
 	std::string port;
-	const int fd = loopback_socket(&port);
+	const int fd = swell_test::udp_loopback(&port);
 	const std::string out = work_dir + "/faulted.txt";
 
 	// real time (no --rt): 1.5 s, every sample answered; the heartbeats say RUNNING, then FAULT for a
 	// while (samples 1000..1499), then RUNNING again
 	std::vector<std::string> args = {hm_bin, "--port", port, "--seconds", "1.5", "--hand", "idle", "--quiet"};
-	const pid_t pid = spawn_hm(args, out);
+	const pid_t pid = swell_test::spawn(args, out);
 
 	int samples = 0;
 	for (;;) {
@@ -262,7 +212,7 @@ TEST_CASE("wire: a controller that faulted is named in the summary (NOT A CLEAN 
 	int st = 0;
 	waitpid(pid, &st, 0);
 	close(fd);
-	const std::string text = slurp(out);
+	const std::string text = swell_test::slurp(out);
 	INFO("samples answered " << samples << "\n" << text);
 	REQUIRE(samples > 1500);
 	CHECK(text.find("without real-time scheduling (no --rt): watchdog 50 ticks (20.0 ms) instead of 2") != std::string::npos);
