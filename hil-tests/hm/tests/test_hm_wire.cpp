@@ -20,6 +20,14 @@ namespace {
 const std::string hm_bin = SWELL_HM_BIN;
 const std::string work_dir = SWELL_HM_TEST_DIR;
 
+/* Waits for swell-hm to end and closes the script's socket: its wait status in *st, what it wrote. */
+std::string reap(pid_t pid, int fd, const std::string &out, int *st)
+{
+	waitpid(pid, st, 0);
+	close(fd);
+	return swell_test::slurp(out);
+}
+
 } // namespace
 
 TEST_CASE("wire: a FORCE_CMD sequence jump beyond the window is one resync in the summary, a short gap is lost")
@@ -51,9 +59,7 @@ TEST_CASE("wire: a FORCE_CMD sequence jump beyond the window is one resync in th
 		answered++;
 	}
 	int st = 0;
-	waitpid(pid, &st, 0);
-	close(fd);
-	const std::string text = swell_test::slurp(out);
+	const std::string text = reap(pid, fd, out, &st);
 	INFO("answered " << answered << "\n" << text);
 	REQUIRE(WIFEXITED(st));
 	CHECK(answered == 200);
@@ -131,9 +137,7 @@ TEST_CASE("wire: a tick sends VEL, FORCE, POS with seq n mod 256, FORCE_CMD move
 		sendto(fd, pkt, plen, 0, reinterpret_cast<sockaddr *>(&from), fl);
 	}
 	int st = 0;
-	waitpid(pid, &st, 0);
-	close(fd);
-	const std::string text = swell_test::slurp(out);
+	const std::string text = reap(pid, fd, out, &st);
 	INFO("samples " << samples << ", wrong layout " << wrong_layout << ", wrong seq " << wrong_seq << ", wrong status "
 			<< wrong_status << ", wrong positions " << wrong_pos << " (first at tick " << first_wrong << ": " << why
 			<< ")\n"
@@ -210,9 +214,7 @@ TEST_CASE("wire: a controller that faulted is named in the summary (NOT A CLEAN 
 		samples++;
 	}
 	int st = 0;
-	waitpid(pid, &st, 0);
-	close(fd);
-	const std::string text = swell_test::slurp(out);
+	const std::string text = reap(pid, fd, out, &st);
 	INFO("samples answered " << samples << "\n" << text);
 	REQUIRE(samples > 1500);
 	CHECK(text.find("without real-time scheduling (no --rt): watchdog 50 ticks (20.0 ms) instead of 2") != std::string::npos);
