@@ -6,6 +6,8 @@ function(swell_catch_test name)
   cmake_parse_arguments(T "" "" "LABEL;SOURCES;LIBS" ${ARGN})
   add_executable(${name} ${T_SOURCES})
   target_link_libraries(${name} PRIVATE ${T_LIBS} Catch2::Catch2WithMain)
+  # tests/support: the helpers the tests share (running a program, bad-argument tables, UDP ports)
+  target_include_directories(${name} PRIVATE ${PROJECT_SOURCE_DIR}/tests/support)
   set_target_properties(${name} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)
   # --warn NoTests: a ctest test whose name no longer selects its TEST_CASE fails instead of passing
   # empty (discovery splits names at ';', so such a name would run nothing)

@@ -538,21 +538,31 @@ enum swell_err swell_height_quad_unpack(const struct swell_msg *m, int32_t *h, u
 }
 
 /* ---- sequence numbers ---- */
+uint32_t swell_seq_loss(uint32_t gap, uint32_t *resyncs)
+{
+	if (gap <= SWELL_SEQ_WINDOW)
+		return gap;
+	(*resyncs)++;
+	return 0;
+}
+
 uint32_t swell_seq_track(struct swell_seq *t, uint8_t seq)
 {
-	uint8_t step = (uint8_t)(seq - t->last);
-	uint32_t skipped = 0;
+	uint8_t step = (uint8_t)(seq - t->last), back = (uint8_t)(t->last - seq);
+	uint32_t lost = 0;
 
 	t->received++;
-	if (t->started && (step == 0 || step >= 128)) {
+	if (t->started && back <= SWELL_SEQ_WINDOW && ++t->back_run < SWELL_SEQ_BACK_RUN) {
 		t->repeated++;
-		return 0; /* duplicate or older: keep the newest as reference */
+		return 0; /* duplicate or a little older: keep the newest as reference */
 	}
-	if (t->started && step > 1) {
-		skipped = step - 1u;
-		t->lost += skipped;
-	}
+	if (t->started && (step >= 128 || back <= SWELL_SEQ_WINDOW))
+		t->resyncs++; /* far back, or a run of older ones: the sender counts again from elsewhere */
+	else if (t->started)
+		lost = swell_seq_loss(step - 1u, &t->resyncs);
+	t->lost += lost;
+	t->back_run = 0;
 	t->started = 1;
 	t->last = seq;
-	return skipped;
+	return lost;
 }

@@ -498,6 +498,39 @@ TEST_CASE("sequence tracking counts lost and repeated numbers across the 8-bit w
 	CHECK(t.repeated == 2u);
 }
 
+TEST_CASE("a sequence jump beyond the window is one resynchronisation, never hundreds lost", "[proto]")
+{
+	swell_seq t = {};
+	for (unsigned k = 0; k < 10; k++)
+		CHECK(swell_seq_track(&t, uint8_t(k)) == 0u);
+	CHECK(swell_seq_track(&t, 10 + SWELL_SEQ_WINDOW) == SWELL_SEQ_WINDOW); /* the widest gap still lost */
+	CHECK(swell_seq_track(&t, 200) == 0u); /* 157 ahead: another sender, or a count started over */
+	CHECK(swell_seq_track(&t, 201) == 0u);
+	CHECK(swell_seq_track(&t, 120) == 0u); /* 81 behind: a restart, taken as the new reference */
+	CHECK(swell_seq_track(&t, 121) == 0u);
+	CHECK(swell_seq_track(&t, 119) == 0u); /* 2 behind: late */
+	INFO("lost " << t.lost << ", repeated " << t.repeated << ", resyncs " << t.resyncs);
+	CHECK(t.lost == SWELL_SEQ_WINDOW);
+	CHECK(t.resyncs == 2u);
+	CHECK(t.repeated == 1u);
+	CHECK(swell_seq_loss(SWELL_SEQ_WINDOW + 1u, &t.resyncs) == 0u);
+	CHECK(t.resyncs == 3u);
+}
+
+TEST_CASE("a count started again a little behind is one resynchronisation after a run of late ones", "[proto]")
+{
+	swell_seq t = {};
+	for (unsigned k = 0; k < 20; k++)
+		swell_seq_track(&t, uint8_t(k));
+	/* the sender restarts at 0: 0..6 look late (repeated), the 8th older one in a row is a restart */
+	for (unsigned k = 0; k < SWELL_SEQ_BACK_RUN; k++)
+		CHECK(swell_seq_track(&t, uint8_t(k)) == 0u);
+	CHECK(t.repeated == SWELL_SEQ_BACK_RUN - 1u);
+	CHECK(t.resyncs == 1u);
+	CHECK(swell_seq_track(&t, SWELL_SEQ_BACK_RUN) == 0u); /* and it goes on from there without loss */
+	CHECK(t.lost == 0u);
+}
+
 TEST_CASE("heights go to the wire rounded to nearest 1/64 mm and saturate at -32 / +31.98 mm", "[proto]")
 {
 	/* every solver value in a band around zero and at the edges: error <= half a wire LSB */

@@ -774,10 +774,10 @@ int main(int argc, char **argv)
 	printf("  overruns        %u\n", p.c.n.overruns);
 	printf("  work            worst tick %u cell-operations (a whole step: %u)\n", p.c.n.work_max,
 	       6u * o.cfg.nx * o.cfg.ny);
-	printf("  device link     %s: %u frames in, %u out, %u bad, %u send errors, %u samples lost, %u of other "
-	       "nodes\n",
+	printf("  device link     %s: %u frames in, %u out, %u bad, %u send errors, %u samples lost, %u resyncs, %u "
+	       "of other nodes\n",
 	       p.dev.name, p.dev.frames_rx, p.dev.frames_tx, swell_proto_rejected_total(&p.dev.st), p.dev.tx_errors,
-	       p.c.n.dev_lost, p.dev.foreign);
+	       p.c.n.dev_lost, p.c.dev_seq.resyncs, p.dev.foreign);
 	if (p.dev.kind == CTL_LINK_UDP)
 		printf("  device peer     %s; %u datagrams of other senders dropped; device taken %u times, "
 		       "let go %u times (declared lost)\n",

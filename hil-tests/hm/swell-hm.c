@@ -821,9 +821,9 @@ static void summary(const struct opts *o, const struct dev *d, const struct hm_s
 	summary_head(o, s, r, d, wall_s);
 	printf("  peak force      %.3f N (|F_cmd| applied)\n", r->peak_f_N);
 	printf("  commands        %u received, %u lost, %u repeated, %u bad frames, %u send errors, %u other "
-	       "messages ignored\n",
+	       "messages ignored, %u resyncs\n",
 	       d->commands, d->force_seq.lost, d->force_seq.repeated, swell_proto_rejected_total(&d->st),
-	       d->send_errors, d->ignored);
+	       d->send_errors, d->ignored, d->force_seq.resyncs);
 	if (o->lockstep)
 		printf("  timeouts        %llu (lockstep waits of %u ms without an answer); %llu controller ticks "
 		       "between samples, %u before the first (mod 256)\n",

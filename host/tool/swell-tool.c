@@ -230,25 +230,33 @@ static int cmd_set(struct tool_session *s, const struct opts *o, const struct sw
 	return TOOL_OK;
 }
 
-static int cmd_set_args(struct tool_session *s, const struct opts *o)
+/* set's words: the parameter and the value in its units (TOOL_OK), or the reason on one line. */
+static int set_words(const struct opts *o, const struct swell_param_desc **d, int32_t *raw)
 {
-	const struct swell_param_desc *d;
 	char text[64] = "", err[200];
-	int32_t raw = 0;
 	int k;
 
 	if (o->argc < 3)
 		return bad("%s", "set takes a parameter name and a value, e.g. set body.mass 80g");
-	d = param_named(o->argv[1]);
-	if (!d)
+	*d = param_named(o->argv[1]);
+	if (!*d)
 		return TOOL_USAGE;
 	for (k = 2; k < o->argc; k++) /* "80 g" as two words, too */
 		if (strlen(text) + strlen(o->argv[k]) + 1 < sizeof(text)) {
 			strcat(text, o->argv[k]);
 		}
-	if (swell_param_parse(d, text, &raw, err, sizeof(err)) < 0)
+	if (swell_param_parse(*d, text, raw, err, sizeof(err)) < 0)
 		return bad("%s", err);
-	return cmd_set(s, o, d, raw);
+	return TOOL_OK;
+}
+
+static int cmd_set_args(struct tool_session *s, const struct opts *o)
+{
+	const struct swell_param_desc *d = NULL;
+	int32_t raw = 0;
+	int rc = set_words(o, &d, &raw);
+
+	return rc != TOOL_OK ? rc : cmd_set(s, o, d, raw);
 }
 
 /* Whether the object is in the water now (its DRY parameters are refused then). */
@@ -637,6 +645,35 @@ static int cmd_plot(const struct opts *o)
 	return TOOL_OK;
 }
 
+/* A command's words and options, checked before the link is opened: bad arguments are told at once,
+ * not after waiting for a controller. */
+static int check_words(const struct opts *o)
+{
+	const char *cmd = o->argv[0];
+	const struct swell_param_desc *d = NULL;
+	int32_t raw = 0;
+	int one = !strcmp(cmd, "get") || !strcmp(cmd, "log") || !strcmp(cmd, "plot");
+
+	if (o->json && strcmp(cmd, "status"))
+		return bad("--json is an option of status, not of %s", cmd);
+	if (o->seconds > 0 && strcmp(cmd, "watch") && strcmp(cmd, "log"))
+		return bad("--seconds is an option of watch and log, not of %s", cmd);
+	if (o->out && strcmp(cmd, "plot"))
+		return bad("--out is an option of plot, not of %s", cmd);
+	if (!strcmp(cmd, "set"))
+		return set_words(o, &d, &raw);
+	if (!strcmp(cmd, "get") && o->argc == 2 && !param_named(o->argv[1]))
+		return TOOL_USAGE;
+	if (one && o->argc != 2)
+		return bad("%s",
+			   !strcmp(cmd, "get")           ? "get takes one parameter name"
+				   : !strcmp(cmd, "log") ? "log takes one file name, e.g. log run.csv --seconds 10"
+							 : "plot takes one CSV file written by log");
+	if (!one && strcmp(cmd, "scene") && o->argc != 1)
+		return bad("%s takes no words after it", cmd);
+	return TOOL_OK;
+}
+
 static const char *const session_cmds[] = { "status", "get",   "set",   "params", "arm", "run",
 					    "stop",   "clear", "estop", "watch",  "log", "scene" };
 
@@ -653,12 +690,15 @@ int main(int argc, char **argv)
 	if (rc != TOOL_OK)
 		return rc;
 	cmd = o.argv[0];
-	if (!strcmp(cmd, "plot"))
-		return cmd_plot(&o);
 	for (k = 0; k < sizeof(session_cmds) / sizeof(session_cmds[0]); k++)
 		known |= !strcmp(cmd, session_cmds[k]);
-	if (!known)
+	if (!known && strcmp(cmd, "plot"))
 		return bad("unknown command '%s'", cmd);
+	rc = check_words(&o);
+	if (rc != TOOL_OK)
+		return rc;
+	if (!strcmp(cmd, "plot"))
+		return cmd_plot(&o);
 	if (!strcmp(cmd, "scene") && (o.argc != 3 || (strcmp(o.argv[1], "load") && strcmp(o.argv[1], "save"))))
 		return bad("%s", "scene takes load FILE or save FILE");
 	signal(SIGINT, on_signal);

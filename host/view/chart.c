@@ -73,7 +73,7 @@ void charts_pose(struct charts *c, uint64_t t_us, uint8_t seq, float bottom_mm, 
 	uint8_t d = (uint8_t)(seq - c->pose_seq);
 	bool gap = !c->have_pose || d != 1;
 	if (c->have_pose && d > 1 && d < 128)
-		c->lost_poses += d - 1u;
+		c->lost_poses += swell_seq_loss(d - 1u, &c->resyncs);
 	c->have_pose = true;
 	c->pose_seq = seq;
 	push(c, CHART_BOTTOM, t_us, bottom_mm, gap);
@@ -91,7 +91,7 @@ void charts_force(struct charts *c, uint64_t t_us, uint8_t seq, float fx_N, floa
 	uint8_t d = (uint8_t)(seq - c->force_seq);
 	bool gap = !c->have_force || d != 1;
 	if (c->have_force && d > 1 && d < 128)
-		c->lost_forces += d - 1u;
+		c->lost_forces += swell_seq_loss(d - 1u, &c->resyncs);
 	c->have_force = true;
 	c->force_seq = seq;
 	float fabs_N = sqrtf(fx_N * fx_N + fy_N * fy_N + fz_N * fz_N);

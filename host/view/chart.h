@@ -51,6 +51,7 @@ struct charts {
 	bool have_pose, have_force;
 	uint8_t pose_seq, force_seq;
 	uint32_t lost_poses, lost_forces;
+	uint32_t resyncs; /* pose or force sequence jumps past SWELL_SEQ_WINDOW (not counted lost) */
 	bool have_rate;
 	uint64_t rate_t_us;
 	uint32_t rate_frames;

@@ -103,7 +103,7 @@ static void on_heartbeat(struct view_feed *f, const struct swell_msg_heartbeat *
 		f->vm->have_prev_best = false;
 	}
 	f->hb_seq = hb->seq;
-	vm_clock(f->vm, f->hb_count * FEED_HEARTBEAT_US, now_us);
+	vm_clock(f->vm, f->hb_count * FEED_HEARTBEAT_US, f->rec_clock ? f->rec_us : now_us);
 	if (f->charts && f->vm->st.latency_valid)
 		charts_latency(f->charts, now_us, f->vm->st.latency_ms);
 }

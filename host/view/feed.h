@@ -35,6 +35,11 @@ struct view_feed {
 	/* controller state and restart detection */
 	bool have_state;
 	uint8_t state;
+	/* A replay sets rec_clock and, before each frame, rec_us: the receive time the recording gives
+	 * it. The latency is then taken from the recording's own times, never from when the display
+	 * happened to read the frame. */
+	bool rec_clock;
+	uint64_t rec_us;
 	/* heartbeat counter unwrapped: the controller's clock for the latency estimate */
 	bool have_hb;
 	uint8_t hb_seq;

@@ -350,7 +350,8 @@ static void hud(struct app *a, const struct view_feed *f, const struct source *s
 	if (m->have_info)
 		snprintf(fw, sizeof(fw), "%u.%u.%u", m->fw_version[0], m->fw_version[1], m->fw_version[2]);
 	if (st->latency_valid)
-		snprintf(lat, sizeof(lat), "+%.1f MS OVER BEST (HEARTBEATS)", (double)st->latency_ms);
+		snprintf(lat, sizeof(lat), "+%.1f MS OVER BEST (HEARTBEATS%s)", (double)st->latency_ms,
+			 f->rec_clock ? ", AS RECORDED" : "");
 	else
 		snprintf(lat, sizeof(lat), "-");
 	snprintf(buf, sizeof(buf),

@@ -358,6 +358,10 @@ static void pattern_poll(struct source *s, uint64_t now_us)
 static void deliver_link_frame(struct source *s, const struct swell_frame *f, uint64_t t_us)
 {
 	s->delivered++;
+	if (s->lk == LINK_REPLAY) { /* the recording's times, for what is about time on the link */
+		s->feed->rec_clock = true;
+		s->feed->rec_us = f->t_ns / 1000u;
+	}
 	if (swell_link_carrier(s->link) == SWELL_CARRIER_PKT)
 		feed_packet(s->feed, f->data, f->len, t_us);
 	else if (f->flags & SWELL_FRAME_EFF)

@@ -64,10 +64,7 @@ void vm_link(struct view_model *m, bool up, uint64_t now_us)
 
 void vm_gap(struct view_model *m, uint32_t gap)
 {
-	if (gap <= VM_LOSS_WINDOW)
-		m->st.dropped += gap;
-	else
-		m->st.resyncs++;
+	m->st.dropped += swell_seq_loss(gap, &m->st.resyncs);
 }
 
 bool vm_frame(struct view_model *m, uint32_t seq, unsigned seq_bits, uint64_t now_us)
@@ -96,10 +93,9 @@ bool vm_frame(struct view_model *m, uint32_t seq, unsigned seq_bits, uint64_t no
 		}
 		/* a jump beyond the window (another sender, a run of late ones: the sender restarted its
 		 * count) is one resynchronisation, not hundreds lost */
-		if (ahead <= (window < VM_LOSS_WINDOW ? window : VM_LOSS_WINDOW))
-			m->st.dropped += ahead;
-		else
-			m->st.resyncs++;
+		if (ahead > window)
+			ahead = UINT32_MAX; /* past a short sequence's own window: a jump all the same */
+		m->st.dropped += swell_seq_loss(ahead, &m->st.resyncs);
 	}
 	m->late_run = 0;
 	m->have_seq = true;

@@ -20,6 +20,7 @@
 #include <stdint.h>
 
 #include "swell/err.h"
+#include "swell/proto.h"
 
 #define VIEW_MAX_SIDE 1024
 #define VIEW_MAX_TILE 64
@@ -110,8 +111,8 @@ void vm_free(struct view_model *m);
 void vm_link(struct view_model *m, bool up, uint64_t now_us);
 
 /* A gap in a sequence of at most this many numbers is counted as lost; a longer jump is one
- * resynchronisation (8-bit sequences: a quarter of the half range). */
-#define VM_LOSS_WINDOW 32u
+ * resynchronisation (the rule of every loss counter: swell_seq_loss). */
+#define VM_LOSS_WINDOW SWELL_SEQ_WINDOW
 
 /* gap numbers missing before the one just received: dropped, or one resync beyond the window. */
 void vm_gap(struct view_model *m, uint32_t gap);

@@ -111,9 +111,11 @@ static void parse(int argc, char **argv, struct opts *o)
 			bad("missing value or unknown option %s", a);
 		}
 		k++;
-		if (!strcmp(a, "--hm"))
+		if (!strcmp(a, "--hm")) {
+			if (!*v)
+				bad("--hm needs HOST[:PORT], not an empty word%s", "");
 			o->hm = v;
-		else if (!strcmp(a, "--link")) {
+		} else if (!strcmp(a, "--link")) {
 			if (strcmp(v, "udp") && strcmp(v, "usb") && (strncmp(v, "can:", 4) || !v[4]))
 				bad("--link must be udp, can:IFACE or usb, not '%s'", v);
 			o->link = v;

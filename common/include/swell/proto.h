@@ -150,12 +150,27 @@ enum swell_err swell_height_quad_pack(const int32_t *h, unsigned nx, unsigned ny
 enum swell_err swell_height_quad_unpack(const struct swell_msg *m, int32_t *h, unsigned nx, unsigned ny);
 
 /* ---- sequence numbers on streams ---- */
+/* A gap of at most this many missing sequence numbers is counted as lost; a longer jump (another
+ * sender, a count that started again) is one resynchronisation, not hundreds lost. For 8-bit
+ * sequences it is a quarter of the half range, so a jump back further than it is one too. */
+#define SWELL_SEQ_WINDOW 32u
+/* This many numbers in a row a little behind the newest are no longer late ones: the sender
+ * started its count again (a resynchronisation). */
+#define SWELL_SEQ_BACK_RUN 8u
+/* The loss a forward gap of `gap` missing numbers stands for: gap itself within the window;
+ * beyond it 0, and *resyncs counts one more resynchronisation. Every loss counter uses it. */
+uint32_t swell_seq_loss(uint32_t gap, uint32_t *resyncs);
+
 struct swell_seq {
 	uint8_t last;
 	uint8_t started;
+	uint8_t back_run; /* numbers in a row behind the newest */
 	uint32_t received, lost, repeated; /* repeated: duplicates and reordered (seq went back) */
+	uint32_t resyncs; /* jumps beyond SWELL_SEQ_WINDOW either way, runs of older ones: one
+			   * each, the number taken as the new reference */
 };
-/* Accounts for one received sequence number; returns how many were skipped before it. */
+/* Accounts for one received sequence number; returns how many were lost before it (0 for a
+ * repeat, a late one and a resynchronisation). */
 uint32_t swell_seq_track(struct swell_seq *t, uint8_t seq);
 
 #endif

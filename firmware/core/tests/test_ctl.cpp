@@ -160,6 +160,22 @@ TEST_CASE("a silent device gives zero force and a fault within 2 ticks, and clea
 	CHECK(k.c.n.faults == 1u);
 }
 
+TEST_CASE("device samples: a short gap is counted lost, a far sequence jump is one resynchronisation", "[ctl][link]")
+{
+	Ctl k(pool());
+	k.held(10); /* seq 0..9 */
+	k.seq = 13; /* 10..12 lost */
+	k.held(5);
+	CHECK(k.c.n.dev_lost == 3u);
+	k.seq = 200; /* another device, or one that started its count again: not 182 lost */
+	k.held(5);
+	k.seq = 100; /* back by 105 */
+	k.held(5);
+	INFO("dev_lost " << k.c.n.dev_lost << ", resyncs " << k.c.dev_seq.resyncs);
+	CHECK(k.c.n.dev_lost == 3u);
+	CHECK(k.c.dev_seq.resyncs == 2u);
+}
+
 TEST_CASE("autorun leaves a fault by itself after the device has been back for recover_ticks", "[ctl][link]")
 {
 	swell_ctl_config cfg = pool();

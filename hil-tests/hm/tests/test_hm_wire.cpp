@@ -1,17 +1,9 @@
 // swell-hm's side of the wire against a scripted controller in this test (no swell-ctl): what one
 // tick sends, how a FORCE_CMD is applied, and what is refused. Deterministic: the script answers at
 // once, so the device's motion is known to the last 0.01 mm.
-#include <catch2/catch.hpp>
+#include "swell_test.hpp"
 
-#include <arpa/inet.h>
-#include <fcntl.h>
-#include <netinet/in.h>
 #include <poll.h>
-#include <signal.h>
-#include <spawn.h>
-#include <sys/socket.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <fstream>
@@ -23,49 +15,68 @@ extern "C" {
 #include "swell/proto.h"
 }
 
-extern char **environ;
-
 namespace {
 
 const std::string hm_bin = SWELL_HM_BIN;
 const std::string work_dir = SWELL_HM_TEST_DIR;
 
-std::string slurp(const std::string &path)
+/* Waits for swell-hm to end and closes the script's socket: its wait status in *st, what it wrote. */
+std::string reap(pid_t pid, int fd, const std::string &out, int *st)
 {
-	std::ifstream f(path);
-	std::stringstream ss;
-	ss << f.rdbuf();
-	return ss.str();
+	waitpid(pid, st, 0);
+	close(fd);
+	return swell_test::slurp(out);
 }
 
 } // namespace
 
+TEST_CASE("wire: a FORCE_CMD sequence jump beyond the window is one resync in the summary, a short gap is lost")
+{
+	std::string port;
+	const int fd = swell_test::udp_loopback(&port);
+	const std::string out = work_dir + "/resync.txt";
+	const pid_t pid = swell_test::spawn({hm_bin, "--lockstep", "--port", port, "--seconds", "0.08", "--hand", "idle"}, out);
+	// 200 ticks answered: seq n up to 99, then n + 100 (a controller that counts from elsewhere), and
+	// 3 numbers skipped at 150
+	int answered = 0;
+	for (int n = 0; n < 200; n++) {
+		pollfd p = {fd, POLLIN, 0};
+		if (poll(&p, 1, 5000) <= 0)
+			break;
+		uint8_t buf[128];
+		sockaddr_in from{};
+		socklen_t fl = sizeof from;
+		if (recvfrom(fd, buf, sizeof buf, 0, reinterpret_cast<sockaddr *>(&from), &fl) <= 0)
+			break;
+		swell_msg c{};
+		c.type = SWELL_MSG_FORCE_CMD;
+		c.u.force_cmd.enable = 1;
+		c.u.force_cmd.seq = (uint8_t)(n < 100 ? n : n < 150 ? n + 100 : n + 103);
+		uint8_t pkt[SWELL_PKT_MAX];
+		size_t plen = 0, used = 0;
+		REQUIRE(swell_pkt_encode(0, (uint8_t)n, &c, 1, pkt, sizeof pkt, &plen, &used) == SWELL_OK);
+		sendto(fd, pkt, plen, 0, reinterpret_cast<sockaddr *>(&from), fl);
+		answered++;
+	}
+	int st = 0;
+	const std::string text = reap(pid, fd, out, &st);
+	INFO("answered " << answered << "\n" << text);
+	REQUIRE(WIFEXITED(st));
+	CHECK(answered == 200);
+	CHECK(text.find("\n  commands        200 received, 3 lost, 0 repeated, 0 bad frames") != std::string::npos);
+	CHECK(text.find(" other messages ignored, 1 resyncs\n") != std::string::npos);
+}
+
 TEST_CASE("wire: a tick sends VEL, FORCE, POS with seq n mod 256, FORCE_CMD moves it exactly, bad frames and enable 0 do nothing")
 {
-	const int fd = socket(AF_INET, SOCK_DGRAM, 0);
-	REQUIRE(fd >= 0);
-	sockaddr_in a{};
-	a.sin_family = AF_INET;
-	a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-	socklen_t al = sizeof a;
-	REQUIRE(bind(fd, reinterpret_cast<sockaddr *>(&a), sizeof a) == 0);
-	REQUIRE(getsockname(fd, reinterpret_cast<sockaddr *>(&a), &al) == 0);
-	const std::string port = std::to_string(ntohs(a.sin_port)), out = work_dir + "/wire.txt", csv = work_dir + "/wire.csv";
+	std::string port;
+	const int fd = swell_test::udp_loopback(&port);
+	const std::string out = work_dir + "/wire.txt", csv = work_dir + "/wire.csv";
 
 	// 600 ticks; damping 0 so that a constant force gives x_n = a dt^2 n (n + 1) / 2 exactly
 	std::vector<std::string> args = {hm_bin, "--lockstep", "--port", port,      "--seconds", "0.24", "--damping",
 					 "0",    "--hand",     "idle",   "--quiet", "--log",     csv};
-	std::vector<char *> argv;
-	for (auto &s : args)
-		argv.push_back(&s[0]);
-	argv.push_back(nullptr);
-	posix_spawn_file_actions_t fa;
-	posix_spawn_file_actions_init(&fa);
-	posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-	posix_spawn_file_actions_adddup2(&fa, 1, 2);
-	pid_t pid;
-	REQUIRE(posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ) == 0);
-	posix_spawn_file_actions_destroy(&fa);
+	const pid_t pid = swell_test::spawn(args, out);
 
 	const double dt = 1.0 / 2500.0, acc = 1.0 / 2.0; // FORCE_CMD +1.00 N on the 2 kg default
 	int samples = 0, wrong_layout = 0, wrong_seq = 0, wrong_status = 0, wrong_pos = 0, first_wrong = -1;
@@ -126,9 +137,7 @@ TEST_CASE("wire: a tick sends VEL, FORCE, POS with seq n mod 256, FORCE_CMD move
 		sendto(fd, pkt, plen, 0, reinterpret_cast<sockaddr *>(&from), fl);
 	}
 	int st = 0;
-	waitpid(pid, &st, 0);
-	close(fd);
-	const std::string text = slurp(out);
+	const std::string text = reap(pid, fd, out, &st);
 	INFO("samples " << samples << ", wrong layout " << wrong_layout << ", wrong seq " << wrong_seq << ", wrong status "
 			<< wrong_status << ", wrong positions " << wrong_pos << " (first at tick " << first_wrong << ": " << why
 			<< ")\n"
@@ -171,30 +180,14 @@ TEST_CASE("wire: a tick sends VEL, FORCE, POS with seq n mod 256, FORCE_CMD move
 TEST_CASE("wire: a controller that faulted is named in the summary (NOT A CLEAN RUN, FAULTED), and real time "
 	  "without SCHED_FIFO says which watchdog it uses")
 {
-	const int fd = socket(AF_INET, SOCK_DGRAM, 0);
-	REQUIRE(fd >= 0);
-	sockaddr_in a{};
-	a.sin_family = AF_INET;
-	a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-	socklen_t al = sizeof a;
-	REQUIRE(bind(fd, reinterpret_cast<sockaddr *>(&a), sizeof a) == 0);
-	REQUIRE(getsockname(fd, reinterpret_cast<sockaddr *>(&a), &al) == 0);
-	const std::string port = std::to_string(ntohs(a.sin_port)), out = work_dir + "/faulted.txt";
+	std::string port;
+	const int fd = swell_test::udp_loopback(&port);
+	const std::string out = work_dir + "/faulted.txt";
 
 	// real time (no --rt): 1.5 s, every sample answered; the heartbeats say RUNNING, then FAULT for a
 	// while (samples 1000..1499), then RUNNING again
 	std::vector<std::string> args = {hm_bin, "--port", port, "--seconds", "1.5", "--hand", "idle", "--quiet"};
-	std::vector<char *> argv;
-	for (auto &s : args)
-		argv.push_back(&s[0]);
-	argv.push_back(nullptr);
-	posix_spawn_file_actions_t fa;
-	posix_spawn_file_actions_init(&fa);
-	posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-	posix_spawn_file_actions_adddup2(&fa, 1, 2);
-	pid_t pid;
-	REQUIRE(posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ) == 0);
-	posix_spawn_file_actions_destroy(&fa);
+	const pid_t pid = swell_test::spawn(args, out);
 
 	int samples = 0;
 	for (;;) {
@@ -221,9 +214,7 @@ TEST_CASE("wire: a controller that faulted is named in the summary (NOT A CLEAN 
 		samples++;
 	}
 	int st = 0;
-	waitpid(pid, &st, 0);
-	close(fd);
-	const std::string text = slurp(out);
+	const std::string text = reap(pid, fd, out, &st);
 	INFO("samples answered " << samples << "\n" << text);
 	REQUIRE(samples > 1500);
 	CHECK(text.find("without real-time scheduling (no --rt): watchdog 50 ticks (20.0 ms) instead of 2") != std::string::npos);

@@ -105,6 +105,28 @@ TEST_CASE("a lost pose leaves a gap in the height line and is counted, consecuti
 	CHECK(drawn == seen1 - seen0 + 1);
 }
 
+TEST_CASE("a pose or force sequence jump beyond the window is one resynchronisation, not counted lost")
+{
+	fixture f;
+	const uint64_t t0 = 100000000;
+	for (int k = 0; k < 10; k++) {
+		charts_pose(&f.ch, t0 + uint64_t(k) * 100000, uint8_t(k), -5.0f, 0.0f, 10.0f);
+		charts_force(&f.ch, t0 + uint64_t(k) * 100000, uint8_t(k), 0.0f, 0.0f, 1.0f, 0);
+	}
+	/* a restarted controller (or another one) goes on at 110: 100 numbers away */
+	for (int k = 10; k < 20; k++) {
+		charts_pose(&f.ch, t0 + uint64_t(k) * 100000, uint8_t(k + 100), -5.0f, 0.0f, 10.0f);
+		charts_force(&f.ch, t0 + uint64_t(k) * 100000, uint8_t(k + 100), 0.0f, 0.0f, 1.0f, 0);
+	}
+	/* and then loses 5 of each */
+	charts_pose(&f.ch, t0 + 2000000, uint8_t(125), -5.0f, 0.0f, 10.0f);
+	charts_force(&f.ch, t0 + 2000000, uint8_t(125), 0.0f, 0.0f, 1.0f, 0);
+	INFO("lost poses " << f.ch.lost_poses << ", lost forces " << f.ch.lost_forces << ", resyncs " << f.ch.resyncs);
+	CHECK(f.ch.lost_poses == 5u);
+	CHECK(f.ch.lost_forces == 5u);
+	CHECK(f.ch.resyncs == 2u);
+}
+
 TEST_CASE("silence longer than CHART_GAP_US breaks the line even without a sequence jump")
 {
 	fixture f;

@@ -2,12 +2,16 @@
 // carrier; rejected frames are counted and change nothing.
 #include <catch2/catch.hpp>
 
+#include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <string>
 #include <vector>
 
 extern "C" {
 #include "feed.h"
+#include "replay_drain.h"
+#include "swell/link.h"
 #include "swell/proto.h"
 #include "swell/wave.h"
 }
@@ -337,4 +341,49 @@ TEST_CASE("classic CAN: a pose count that starts again is taken after 8 stale po
 	p.u.object_pose.seq = 10; // 8 and 9 lost in the new count
 	r.can(p);
 	CHECK(r.vm.st.dropped == 2);
+}
+
+TEST_CASE("a replay's latency comes from the recording's own receive times, not from when the display read it")
+{
+	// A recording (the link's file format: "SWELLREC", version 1, the packet carrier; then per frame
+	// u64 ns, u32 id, u16 length, u8 flags, u8 0, the bytes) of 55 heartbeats 100 ms apart, the
+	// last 25 received 50 ms late: the link slowed down while it was recorded.
+	const std::string path = std::string(SWELL_VIEW_TEST_DIR) + "/latency.rec";
+	FILE *out = fopen(path.c_str(), "wb");
+	REQUIRE(out);
+	auto le = [&](uint64_t v, int n) {
+		for (int i = 0; i < n; i++)
+			fputc(int((v >> (8 * i)) & 0xff), out);
+	};
+	fwrite("SWELLREC", 1, 8, out);
+	le(1, 4);
+	le(SWELL_CARRIER_PKT, 4);
+	for (int k = 0; k < 55; k++) {
+		swell_msg hb = heartbeat(3, uint8_t(k));
+		uint8_t p[SWELL_PKT_MAX];
+		size_t len = 0, used = 0;
+		REQUIRE(swell_pkt_encode(0, uint8_t(k), &hb, 1, p, sizeof(p), &len, &used) == SWELL_OK);
+		le(uint64_t(k) * 100000000u + (k >= 30 ? 50000000u : 0u), 8);
+		le(0, 4);
+		le(len, 2);
+		le(0, 2);
+		fwrite(p, 1, len, out);
+	}
+	REQUIRE(fclose(out) == 0);
+
+	view_model vm;
+	vm_init(&vm, 1000000);
+	view_feed f;
+	feed_init(&f, &vm, FEED_NODE_ANY);
+	char err[160] = "";
+	// the display reads it all in one go, 1 s after it started: its own clock says nothing
+	const uint32_t n = replay_drain(("replay-fast:" + path).c_str(), &f, 1000000u, err, sizeof(err));
+	INFO(err << "frames " << n << ", latency valid " << vm.st.latency_valid << ", " << vm.st.latency_ms << " ms");
+	CHECK(n == 55);
+	REQUIRE(vm.st.latency_valid);
+	CHECK(f.rec_clock);
+	// 25 samples 50 ms over the best, smoothed by 1/20 a sample: 50 (1 - 0.95^25) = 36.1 ms
+	CHECK(vm.st.latency_ms == Approx(50.0 * (1.0 - std::pow(0.95, 25))).margin(0.5));
+	vm_free(&vm);
+	remove(path.c_str());
 }

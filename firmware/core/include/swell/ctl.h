@@ -104,7 +104,7 @@ struct swell_ctl_counters {
 	uint32_t overruns; /* reported by the port */
 	uint32_t bad_frames; /* reported by the port (decoder rejections) */
 	uint32_t work, work_max; /* cell-operations in the last tick, and the most in any tick */
-	uint32_t dev_lost; /* device sequence numbers skipped */
+	uint32_t dev_lost; /* device sequence numbers skipped (a jump past SWELL_SEQ_WINDOW: dev_seq.resyncs) */
 	uint32_t faults;
 	uint32_t quads_sent;
 	uint32_t quads_refreshed; /* of which resent unchanged, to repair losses */

@@ -1,0 +1,154 @@
+// Helpers every Catch2 test of a program shares: run it and capture what it says, check a table of
+// bad arguments, a loopback UDP socket on a free port, a whole file as text. CMake puts this folder
+// on every test's include path (swell_catch_test).
+#ifndef SWELL_TEST_SUPPORT_HPP
+#define SWELL_TEST_SUPPORT_HPP
+
+#include <catch2/catch.hpp>
+
+#include <arpa/inet.h>
+#include <fcntl.h>
+#include <netinet/in.h>
+#include <spawn.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+extern char **environ;
+
+namespace swell_test {
+
+// The whole file as text ("" when it cannot be read).
+inline std::string slurp(const std::string &path)
+{
+	std::string s;
+	FILE *f = fopen(path.c_str(), "r");
+	if (!f)
+		return s;
+	char buf[4096];
+	size_t n;
+	while ((n = fread(buf, 1, sizeof buf, f)) > 0)
+		s.append(buf, n);
+	fclose(f);
+	return s;
+}
+
+struct Run {
+	int code = -1; // the exit code; -1 when it was killed by a signal
+	std::string out, err;
+};
+
+// Runs argv[0] (a path) with argv and waits for it: its exit code, stdout and stderr. log: where the
+// two go meanwhile (log.out, log.err; removed after unless keep); by default a name of this process.
+inline Run run(std::vector<std::string> argv, std::string log = "", bool keep = false)
+{
+	if (log.empty())
+		log = "/tmp/swell-test-" + std::to_string(getpid());
+	std::vector<char *> v;
+	for (auto &a : argv)
+		v.push_back(&a[0]);
+	v.push_back(nullptr);
+	posix_spawn_file_actions_t fa;
+	posix_spawn_file_actions_init(&fa);
+	posix_spawn_file_actions_addopen(&fa, 1, (log + ".out").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+	posix_spawn_file_actions_addopen(&fa, 2, (log + ".err").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+	pid_t pid = -1;
+	const int rc = posix_spawn(&pid, v[0], &fa, nullptr, v.data(), environ);
+	posix_spawn_file_actions_destroy(&fa);
+	REQUIRE(rc == 0);
+	int st = 0;
+	waitpid(pid, &st, 0);
+	Run r;
+	r.code = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+	r.out = slurp(log + ".out");
+	r.err = slurp(log + ".err");
+	if (!keep) {
+		std::remove((log + ".out").c_str());
+		std::remove((log + ".err").c_str());
+	}
+	return r;
+}
+
+// Starts argv[0] (a path) with argv, stdout and stderr together into the file out; does not wait.
+inline pid_t spawn(std::vector<std::string> argv, const std::string &out)
+{
+	std::vector<char *> v;
+	for (auto &a : argv)
+		v.push_back(&a[0]);
+	v.push_back(nullptr);
+	posix_spawn_file_actions_t fa;
+	posix_spawn_file_actions_init(&fa);
+	posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+	posix_spawn_file_actions_adddup2(&fa, 1, 2);
+	pid_t pid = -1;
+	const int rc = posix_spawn(&pid, v[0], &fa, nullptr, v.data(), environ);
+	posix_spawn_file_actions_destroy(&fa);
+	REQUIRE(rc == 0);
+	return pid;
+}
+
+// One row of a bad-argument table: the arguments, what the one line on stderr must say, and the
+// exit status (2, bad arguments, unless the row is about a runtime failure).
+struct BadArgs {
+	std::vector<std::string> args;
+	const char *says;
+	int code = 2;
+};
+
+// Every row: its exit status, one line on stderr that contains `says`, nothing on stdout. extra:
+// arguments put after each row's own (e.g. a short run, should a row be taken).
+inline void check_bad_args(const std::string &bin, const std::vector<BadArgs> &table,
+			   const std::vector<std::string> &extra = {})
+{
+	for (const auto &c : table) {
+		std::vector<std::string> argv = { bin };
+		argv.insert(argv.end(), c.args.begin(), c.args.end());
+		argv.insert(argv.end(), extra.begin(), extra.end());
+		const Run r = run(argv);
+		std::string joined;
+		for (const auto &a : c.args)
+			joined += a + " ";
+		INFO(joined << "-> exit " << r.code << ", stderr '" << r.err << "', stdout '" << r.out << "'");
+		CHECK(r.code == c.code);
+		CHECK(r.err.find(c.says) != std::string::npos);
+		CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
+		CHECK(r.out.empty());
+	}
+}
+
+// --help: exit 0, on stdout, and the text documents the exit statuses ("Exit status: 0 ..., 1 ...,
+// 2 bad arguments").
+inline void check_help(const std::string &bin)
+{
+	const Run r = run({ bin, "--help" });
+	INFO(bin << " --help -> exit " << r.code << "\n" << r.out << r.err);
+	CHECK(r.code == 0);
+	CHECK(r.out.find("Exit status: 0 ") != std::string::npos);
+	CHECK(r.out.find("1 ") != std::string::npos);
+	CHECK(r.out.find("2 bad arguments") != std::string::npos);
+}
+
+// A UDP socket bound to loopback on a port of the kernel's choosing; the port in *port.
+inline int udp_loopback(std::string *port)
+{
+	const int fd = socket(AF_INET, SOCK_DGRAM, 0);
+	REQUIRE(fd >= 0);
+	sockaddr_in a{};
+	a.sin_family = AF_INET;
+	a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+	socklen_t al = sizeof a;
+	REQUIRE(bind(fd, reinterpret_cast<sockaddr *>(&a), sizeof a) == 0);
+	REQUIRE(getsockname(fd, reinterpret_cast<sockaddr *>(&a), &al) == 0);
+	*port = std::to_string(ntohs(a.sin_port));
+	return fd;
+}
+
+} // namespace swell_test
+
+#endif
