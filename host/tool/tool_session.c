@@ -197,7 +197,7 @@ enum tool_rc tool_open(struct tool_session *s, const struct flash_link_spec *spe
 	}
 	if (s->node >= 0)
 		return TOOL_OK;
-	if (s->other >= 0) {
+	if (s->other >= 0 && s->spec.node >= 0) {
 		snprintf(err, errlen, "no controller node %d on %s within %d ms (node %d is there)", s->spec.node,
 			 s->name, timeout_ms, s->other);
 		return TOOL_WRONG_NODE;

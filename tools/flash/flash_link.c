@@ -178,6 +178,7 @@ int flash_link_keepalive(struct swell_link *l, int node, uint64_t *due_ns)
 		if (swell_link_encode(SWELL_CARRIER_PKT, (uint8_t)k, 0, &hb, 1, &f, &used) == SWELL_OK)
 			(void)swell_link_send(l, &f); /* a lost one: the next comes in a second */
 	}
-	*due_ns = now + period;
-	return (int)SWELL_UDP_KEEPALIVE_MS;
+	/* until the controller is heard, every 100 ms: one that starts after the tool admits it at once */
+	*due_ns = now + (node < 0 ? period / 10u : period);
+	return node < 0 ? (int)SWELL_UDP_KEEPALIVE_MS / 10 : (int)SWELL_UDP_KEEPALIVE_MS;
 }

@@ -41,8 +41,8 @@ int flash_link_open(const struct flash_link_spec *s, int wait_ms, struct swell_l
 
 /* UDP: the controller keeps a client while it hears from it (SWELL_UDP_CLIENT_SILENT_MS) and
  * admits it by its first packet of its node: when *due_ns (CLOCK_MONOTONIC; 0 at first) has come,
- * send a HEARTBEAT of node (-1: one for each node 0..15, the controller is not known yet) and set
- * the next time. Returns the ms until the next one is due, for a receive to wait at most; -1 on
+ * send a HEARTBEAT of node (-1: one for each node 0..15, the controller is not known yet, and the
+ * next ones come every 100 ms instead of every second) and set the next time. Returns the ms until the next one is due, for a receive to wait at most; -1 on
  * other carriers (nothing sent: a heartbeat on a CAN bus would pass for the controller's). */
 int flash_link_keepalive(struct swell_link *l, int node, uint64_t *due_ns);
 

@@ -315,7 +315,7 @@ TEST_CASE("UDP link: an open that fails (port taken) leaves no socket open and n
 	close(taken);
 }
 
-TEST_CASE("UDP host link: clients on 127.0.0.1:47802 unless given; a second controller takes any free port, a "
+TEST_CASE("UDP host link: clients on 127.0.0.1:47802 unless given, a second controller takes any free port, a "
 	  "port spelled out is never swapped",
 	  "[ctl_link]")
 {
@@ -411,7 +411,7 @@ void force_cmd(struct ctl_link &l)
 
 } // namespace
 
-TEST_CASE("UDP host link: a client's HEARTBEAT admits it and keeps it, and is not handed on; its requests are", "[ctl_link]")
+TEST_CASE("UDP host link: a client's HEARTBEAT admits it and keeps it and is not handed on, its requests are", "[ctl_link]")
 {
 	struct ctl_link l;
 	char err[160] = "";
