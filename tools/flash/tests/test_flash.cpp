@@ -1073,7 +1073,8 @@ TEST_CASE("one swell-ctl on UDP serves swell-view, swell-tool and swell-flash at
 		ctl = -1;
 
 	// The viewer: a pose sample at least every 0.5 s from the controller's first to its last (it
-	// draws at 10 Hz and takes what came in between), at 100 Hz on the whole.
+	// draws at 10 Hz and takes what came in between), at 100 Hz on the whole. Poses come while the
+	// object moves: from run to stop (the 5 s of watch, the get and the refused flash within them).
 	const int viewed = wait_exit(view, 40000);
 	INFO("swell-view:\n" << slurp(d + "/view.out"));
 	CHECK(viewed == 0);
@@ -1094,7 +1095,7 @@ TEST_CASE("one swell-ctl on UDP serves swell-view, swell-tool and swell-flash at
 		gap = std::max(gap, t[k] - t[k - 1]);
 	const double span = t.back() - t.front();
 	INFO(t.size() << " pose samples over " << span << " s, longest gap " << gap << " s");
-	CHECK(span > 5.0);
+	CHECK(span > 4.0);
 	CHECK(gap < 0.5);
 	CHECK(t.size() > 50 * span);
 	end(watch);
