@@ -120,11 +120,19 @@ static int open_udp(struct ctl_link *l, const char *spec, const char *arg, int d
 	memset(&a, 0, sizeof(a));
 	a.sin_family = AF_INET;
 	a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-	a.sin_port = htons((uint16_t)(device_side ? port : 0));
+	a.sin_port = htons((uint16_t)(device_side ? port : SWELL_UDP_PORT_CLIENTS));
 	if (!device_side && have_opt)
 		a = opt; /* the clients' port (and address, when spelled out) */
-	if (bind(l->fd, (struct sockaddr *)&a, sizeof(a)) < 0)
-		return fail(l, err, errlen, "bind", spec);
+	if (bind(l->fd, (struct sockaddr *)&a, sizeof(a)) < 0) {
+		/* the default clients' port is another controller's: this one takes any free port (said at
+		 * start); a port spelled out is never swapped for another */
+		if (device_side || have_opt || errno != EADDRINUSE)
+			return fail(l, err, errlen, "bind", spec);
+		a.sin_port = 0;
+		l->clients_port_taken = 1;
+		if (bind(l->fd, (struct sockaddr *)&a, sizeof(a)) < 0)
+			return fail(l, err, errlen, "bind", spec);
+	}
 	if (getsockname(l->fd, (struct sockaddr *)&l->local, &alen) < 0)
 		return fail(l, err, errlen, "address of", spec);
 	if (!device_side) {
@@ -388,6 +396,17 @@ static int has_type(const struct swell_msg *m, size_t n, uint8_t type)
 	return 0;
 }
 
+/* Host link: a client's HEARTBEAT is its keep-alive, taken here: the core has nothing to do with it. */
+static size_t keep_alives_out(struct swell_msg *m, size_t n)
+{
+	size_t k, kept = 0;
+
+	for (k = 0; k < n; k++)
+		if (m[k].type != SWELL_MSG_HEARTBEAT)
+			m[kept++] = m[k];
+	return kept;
+}
+
 /* Host link: clients silent for longer than CTL_LINK_CLIENT_SILENT_MS lose their slot. */
 static void expire_clients(struct ctl_link *l, int64_t now)
 {
@@ -478,7 +497,7 @@ static size_t recv_udp(struct ctl_link *l, struct swell_msg *out, size_t cap)
 		return 0;
 	}
 	c->heard_ns = now;
-	return n;
+	return keep_alives_out(out, n);
 }
 
 int ctl_link_release_peer(struct ctl_link *l)

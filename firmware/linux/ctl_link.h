@@ -11,6 +11,7 @@
 
 #include "hm_client.h"
 #include "swell/proto.h"
+#include "swell/transport.h"
 #include "usb_ffs.h"
 
 enum ctl_link_kind {
@@ -56,7 +57,7 @@ const char *ctl_can_state_name(enum ctl_can_state s);
 /* UDP host link: clients beside the configured viewer address, each admitted by its first valid
  * packet, dropped after CTL_LINK_CLIENT_SILENT_MS without a valid packet. */
 #define CTL_LINK_CLIENTS 4u
-#define CTL_LINK_CLIENT_SILENT_MS 3000u
+#define CTL_LINK_CLIENT_SILENT_MS SWELL_UDP_CLIENT_SILENT_MS
 
 struct ctl_link_client {
 	struct sockaddr_in addr;
@@ -79,6 +80,7 @@ struct ctl_link {
 	uint32_t clients_admitted, clients_silent; /* host link: admitted, dropped after their silence */
 	uint32_t clients_refused; /* host link: valid packets of senders refused for a full table */
 	struct sockaddr_in local; /* UDP: the address the socket is bound to */
+	int clients_port_taken; /* host link: the default clients' port was taken, another one is bound */
 	int device_side;
 	uint8_t node, seq;
 	struct swell_usb_ffs usb;
@@ -98,8 +100,8 @@ struct ctl_link {
 
 /* spec: "udp[:PORT][,OPTION]" (device link: listen on 127.0.0.1:PORT, default 47800, option
  * "peer=ADDR:PORT" fixes the device's address; host link: send telemetry to 127.0.0.1:PORT, default
- * 47801, and take clients on the port of option "listen=[ADDR:]PORT", default any free port on
- * 127.0.0.1), "can:IFACE", "usb:FFS_DIR" (a mounted FunctionFS instance), "hm:HOST[:PORT]" (device
+ * 47801, and take clients on the port of option "listen=[ADDR:]PORT", default 127.0.0.1:47802, or
+ * any free port on 127.0.0.1 when that one is taken: l->clients_port_taken says so), "can:IFACE", "usb:FFS_DIR" (a mounted FunctionFS instance), "hm:HOST[:PORT]" (device
  * link only: a HapticMaster's TCP interface, hm_client.h). Returns 0, -2 for a spec that is not one
  * of these (nothing opened), -1 when the system refused (socket, bind, interface, FunctionFS,
  * connection); either way a one-line reason is in err. */

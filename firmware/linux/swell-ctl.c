@@ -41,8 +41,9 @@ static const char usage[] =
 	"                      docs/hapticmaster.md)\n"
 	"  --host LINK         viewer link: udp[:PORT][,listen=[ADDR:]PORT] (default udp:47801: telemetry\n"
 	"                      to 127.0.0.1:47801; up to 4 more clients, each admitted by its first valid\n"
-	"                      packet to the listen port (default any free port on 127.0.0.1, printed)\n"
-	"                      and dropped after 3 s of silence), can:IFACE, usb:FFS_DIR, or none\n"
+	"                      packet to the listen port (default 127.0.0.1:47802, where swell-tool and\n"
+	"                      swell-flash look; any free port if that is taken, printed; listen=0: any\n"
+	"                      free port) and dropped after 3 s of silence), can:IFACE, usb:FFS_DIR, none\n"
 	"                      Both on USB: two FunctionFS mounts, interfaces 0 (device) and 1 (host) of\n"
 	"                      one gadget. CAN: the driver's error frames are read; a device-link bus-off\n"
 	"                      zeroes the force and faults the loop until the bus is restarted.\n"
@@ -667,8 +668,11 @@ int main(int argc, char **argv)
 		o.cfg.ny, o.cfg.tick_hz, o.cfg.solver_hz, p.dev.name, p.have_host ? p.host.name : "none",
 		o.device_clock ? "device" : "internal");
 	if (p.have_host && p.host.kind == CTL_LINK_UDP)
-		fprintf(stderr, "swell-ctl: host link clients: send to %s (up to %u, kept while they speak)\n",
-			addr_str(&p.host.local, 1, 0, abuf, sizeof(abuf)), CTL_LINK_CLIENTS);
+		fprintf(stderr, "swell-ctl: host link clients: send to %s (up to %u, kept while they speak)%s\n",
+			addr_str(&p.host.local, 1, 0, abuf, sizeof(abuf)), CTL_LINK_CLIENTS,
+			p.host.clients_port_taken ? "; the default port 47802 is taken (another controller?): tools "
+						    "need --link udp:PORT with this port"
+						  : "");
 
 	period = 1000000000 / o.cfg.tick_hz;
 	max_ticks = o.seconds > 0 ? (uint64_t)(o.seconds * o.cfg.tick_hz + 0.5) : UINT64_MAX;

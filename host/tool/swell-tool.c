@@ -19,9 +19,10 @@ static void usage(FILE *f)
 {
 	fputs("usage: swell-tool [--link SPEC] [--node N] [--timeout-ms MS] COMMAND [ARGS]\n"
 	      "The operator's console for a running controller (swell-ctl or the STM32F405 image), over its\n"
-	      "host link, the way swell-view listens to it.\n"
-	      "  --link SPEC      udp[:PORT] (default udp:47801, where swell-ctl's host link sends; a\n"
-	      "                   viewer on the same port must be stopped first), can:IFACE, usb[:VID:PID]\n"
+	      "host link, as one of its clients (a viewer may run beside it).\n"
+	      "  --link SPEC      udp[:PORT] (default udp:47802, the clients' port of swell-ctl's host\n"
+	      "                   link, its listen=; kept alive with a heartbeat every second),\n"
+	      "                   can:IFACE, usb[:VID:PID]\n"
 	      "  --node N         the controller's node, 0..15 (default: the one controller heard)\n"
 	      "  --timeout-ms MS  how long to wait for the controller and for each answer, and the silence\n"
 	      "                   that means it is gone (default 1000; 600 at least)\n"

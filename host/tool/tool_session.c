@@ -126,6 +126,14 @@ static int take_frame(struct tool_session *s, const struct swell_frame *f)
 	return ours;
 }
 
+/* UDP: a HEARTBEAT to the controller when one is due, so that it keeps this client: the node found,
+ * else every node (a controller of another node than the one asked for is heard, and named). The ms
+ * until the next; -1 on other carriers. */
+static int keep_alive(struct tool_session *s)
+{
+	return flash_link_keepalive(s->l, s->node, &s->keep_ns);
+}
+
 int tool_pump(struct tool_session *s, int ms)
 {
 	const uint64_t until = swell_link_now_ns() + ms_ns(ms);
@@ -135,7 +143,8 @@ int tool_pump(struct tool_session *s, int ms)
 		struct swell_frame f;
 		uint64_t now = swell_link_now_ns();
 		int left = now >= until ? 0 : (int)((until - now + 999999u) / 1000000u);
-		int rc = swell_link_recv(s->l, &f, left);
+		const int due = keep_alive(s);
+		int rc = swell_link_recv(s->l, &f, due >= 0 && due < left ? due : left);
 
 		if (rc == 0) {
 			taken += take_frame(s, &f);
@@ -188,13 +197,14 @@ enum tool_rc tool_open(struct tool_session *s, const struct flash_link_spec *spe
 	}
 	if (s->node >= 0)
 		return TOOL_OK;
-	if (s->other >= 0) {
+	if (s->other >= 0 && s->spec.node >= 0) {
 		snprintf(err, errlen, "no controller node %d on %s within %d ms (node %d is there)", s->spec.node,
 			 s->name, timeout_ms, s->other);
 		return TOOL_WRONG_NODE;
 	}
-	snprintf(err, errlen, "no controller heard on %s within %d ms (is swell-ctl running with its host link there?)",
-		 s->name, timeout_ms);
+	snprintf(err, errlen,
+		 "no controller heard on %s within %d ms (is swell-ctl running with its host link there%s?)", s->name,
+		 timeout_ms, swell_link_udp_port(s->l) ? ", and one of its 4 client slots free" : "");
 	return TOOL_NO_CTL;
 }
 
@@ -242,6 +252,7 @@ static int wait_answer(struct tool_session *s, uint16_t id, uint8_t seq, int ms,
 		struct swell_msg m[SWELL_CANFD_MSGS_MAX];
 		size_t n = 0, k;
 
+		keep_alive(s);
 		if (swell_link_recv(s->l, &f, 10) != 0)
 			continue;
 		take_frame(s, &f);

@@ -49,6 +49,7 @@ struct tool_session {
 	int other; /* another node heard (-1 none) */
 	uint8_t seq, pkt_seq;
 	uint64_t t0_ns;
+	uint64_t keep_ns; /* UDP: when the next keep-alive is due */
 	struct swell_proto_stats st;
 	struct tool_telemetry t;
 	/* Called for every message of our node after it is taken in (NULL: none), e.g. to log each

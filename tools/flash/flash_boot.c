@@ -42,6 +42,8 @@ struct session {
 	uint8_t seq; /* packet sequence (packets only) */
 	uint64_t gone_ns; /* first time the link said the device left (0: never) */
 	unsigned others; /* valid messages of nodes other than the chosen one */
+	uint64_t keep_ns; /* UDP: when the next keep-alive to the controller is due */
+	int heard; /* the node of the last messages taken (-1: none yet): whom the keep-alives are for */
 };
 
 /* Wait until `end` (swell_link_now_ns) for the next frame that decodes to messages of the chosen
@@ -52,11 +54,13 @@ static int next_frame(struct session *s, uint64_t end, struct swell_msg *m, size
 		struct swell_frame f;
 		uint64_t now = swell_link_now_ns();
 		size_t i, kept = 0;
-		int rc;
+		int rc, wait_ms, due;
 
 		if (now >= end)
 			return -1;
-		rc = swell_link_recv(s->l, &f, (int)((end - now) / 1000000u) + 1);
+		wait_ms = (int)((end - now) / 1000000u) + 1;
+		due = flash_link_keepalive(s->l, s->heard, &s->keep_ns); /* UDP: stay a client */
+		rc = swell_link_recv(s->l, &f, due >= 0 && due < wait_ms ? due : wait_ms);
 		if (rc == -ENODEV && !s->gone_ns)
 			s->gone_ns = swell_link_now_ns();
 		if (rc != 0 && rc != -ETIMEDOUT) { /* a broken link must not spin */
@@ -74,8 +78,10 @@ static int next_frame(struct session *s, uint64_t end, struct swell_msg *m, size
 				m[kept++] = m[i];
 		}
 		*n = kept;
-		if (kept)
+		if (kept) {
+			s->heard = m[0].node;
 			return 0;
+		}
 	}
 }
 
@@ -137,6 +143,7 @@ static int open_session(struct session *s, const struct flash_link_spec *spec, i
 
 	memset(s, 0, sizeof(*s));
 	s->node = spec->node;
+	s->heard = -1;
 	flash_link_describe(spec, where, wlen);
 	rc = flash_link_open(spec, wait_ms, &s->l);
 	if (rc == 0)
@@ -210,8 +217,7 @@ enum flash_boot_result flash_enter_bootloader(const struct flash_link_spec *spec
 		times->last_beat_s = times->dev_gone_s = -1;
 	rc = open_session(&s, spec, 1500, where, sizeof(where));
 	if (rc)
-		return say(BOOT_ERROR, msg, msg_len, "cannot open %s%s: %s", where,
-			   spec->kind == FLASH_LINK_UDP ? " (a viewer listening there?)" : "", strerror(-rc));
+		return say(BOOT_ERROR, msg, msg_len, "cannot open %s: %s", where, strerror(-rc));
 	r = find_target(&s, where, &hb, msg, msg_len);
 	if (r != BOOT_ENTERED)
 		goto out;
@@ -303,8 +309,7 @@ int flash_find_controller(const struct flash_link_spec *spec, int timeout_ms, st
 
 	rc = open_session(&s, spec, timeout_ms, where, sizeof(where));
 	if (rc) {
-		say(BOOT_ERROR, msg, msg_len, "cannot open %s%s: %s", where,
-		    spec->kind == FLASH_LINK_UDP ? " (a viewer listening there?)" : "",
+		say(BOOT_ERROR, msg, msg_len, "cannot open %s: %s", where,
 		    rc == -ENODEV && spec->kind == FLASH_LINK_USB ? "no such device within the time limit"
 								  : strerror(-rc));
 		return rc == -ENODEV && spec->kind == FLASH_LINK_USB ? -1 : -2;

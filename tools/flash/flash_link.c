@@ -49,7 +49,7 @@ int flash_link_parse(const char *spec, struct flash_link_spec *out, char *err, s
 		return refuse(err, errlen, "no link given (%s)", SPELLINGS);
 	memset(&s, 0, sizeof(s));
 	s.node = -1;
-	s.udp_port = SWELL_UDP_PORT_VIEWER;
+	s.udp_port = SWELL_UDP_PORT_CLIENTS;
 	s.usb_vid = SWELL_USB_VID;
 	s.usb_pid = SWELL_USB_PID;
 	if (!strcmp(spec, "udp") || !strncmp(spec, "udp:", 4)) {
@@ -124,7 +124,14 @@ int flash_link_open(const struct flash_link_spec *s, int wait_ms, struct swell_l
 
 	switch (s->kind) {
 	case FLASH_LINK_UDP:
-		return swell_link_open_udp(out, SWELL_UDP_HOST, s->udp_port, NULL, 0);
+		for (unsigned k = 0; k < SWELL_UDP_PORT_TOOLS_COUNT; k++) {
+			int rc = swell_link_open_udp(out, SWELL_UDP_HOST, (uint16_t)(SWELL_UDP_PORT_TOOLS_FIRST + k),
+						     SWELL_UDP_HOST, s->udp_port);
+
+			if (rc != -EADDRINUSE)
+				return rc;
+		}
+		return swell_link_open_udp(out, SWELL_UDP_HOST, 0, SWELL_UDP_HOST, s->udp_port);
 	case FLASH_LINK_CAN: {
 		struct swell_can_opts o;
 
@@ -148,4 +155,30 @@ int flash_link_open(const struct flash_link_spec *s, int wait_ms, struct swell_l
 		}
 	}
 	return -EINVAL;
+}
+
+int flash_link_keepalive(struct swell_link *l, int node, uint64_t *due_ns)
+{
+	const uint64_t now = swell_link_now_ns(), period = (uint64_t)SWELL_UDP_KEEPALIVE_MS * 1000000u;
+	struct swell_msg hb;
+	int k;
+
+	if (!swell_link_udp_port(l))
+		return -1;
+	if (now < *due_ns)
+		return (int)((*due_ns - now + 999999u) / 1000000u);
+	memset(&hb, 0, sizeof(hb));
+	hb.type = SWELL_MSG_HEARTBEAT;
+	hb.u.heartbeat.version = SWELL_PROTO_VERSION;
+	for (k = node < 0 ? 0 : node; k <= (node < 0 ? 15 : node); k++) {
+		struct swell_frame f;
+		size_t used;
+
+		hb.node = (uint8_t)k;
+		if (swell_link_encode(SWELL_CARRIER_PKT, (uint8_t)k, 0, &hb, 1, &f, &used) == SWELL_OK)
+			(void)swell_link_send(l, &f); /* a lost one: the next comes in a second */
+	}
+	/* until the controller is heard, every 100 ms: one that starts after the tool admits it at once */
+	*due_ns = now + (node < 0 ? period / 10u : period);
+	return node < 0 ? (int)SWELL_UDP_KEEPALIVE_MS / 10 : (int)SWELL_UDP_KEEPALIVE_MS;
 }

@@ -17,6 +17,16 @@
 #define SWELL_UDP_HOST "127.0.0.1"
 #define SWELL_UDP_PORT_DEVICE 47800u /* the controller listens here for the device (HapticMaster) */
 #define SWELL_UDP_PORT_VIEWER 47801u /* the controller sends telemetry here to the viewer */
+#define SWELL_UDP_PORT_CLIENTS 47802u /* the controller's host link takes clients (tools) here */
+/* A client of the host link is dropped after 3 s without a valid packet; tools send a HEARTBEAT of
+ * the controller's node this often while they run. */
+#define SWELL_UDP_CLIENT_SILENT_MS 3000u
+#define SWELL_UDP_KEEPALIVE_MS 1000u
+/* Tools bind the first free port of these, so that a tool run again on the same machine takes over
+ * the client slot the one before it left (the controller knows clients by address); any free port
+ * when all are taken. */
+#define SWELL_UDP_PORT_TOOLS_FIRST 47803u
+#define SWELL_UDP_PORT_TOOLS_COUNT 8u
 
 /* CAN: 1 Mbit/s nominal; CAN FD data phase 2 Mbit/s unless the port says otherwise. */
 #define SWELL_CAN_BITRATE 1000000u

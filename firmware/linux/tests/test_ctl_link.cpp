@@ -315,6 +315,34 @@ TEST_CASE("UDP link: an open that fails (port taken) leaves no socket open and n
 	close(taken);
 }
 
+TEST_CASE("UDP host link: clients on 127.0.0.1:47802 unless given, a second controller takes any free port, a "
+	  "port spelled out is never swapped",
+	  "[ctl_link]")
+{
+	struct ctl_link a, b, c;
+	char err[160] = "";
+
+	REQUIRE(ctl_link_open(&a, "udp:47990", 0, 0, err, sizeof(err)) == 0);
+	INFO("first: clients on port " << ntohs(a.local.sin_port) << ", default taken " << a.clients_port_taken);
+	CHECK(a.local.sin_addr.s_addr == htonl(INADDR_LOOPBACK));
+	/* another process may hold 47802 while this runs: then the first falls back too */
+	CHECK((ntohs(a.local.sin_port) == SWELL_UDP_PORT_CLIENTS) == !a.clients_port_taken);
+	REQUIRE(ctl_link_open(&b, "udp:47991", 0, 0, err, sizeof(err)) == 0);
+	CHECK(b.clients_port_taken == 1);
+	CHECK(ntohs(b.local.sin_port) != SWELL_UDP_PORT_CLIENTS);
+	CHECK(ntohs(b.local.sin_port) != 0);
+	const std::string spelled = "udp:47992,listen=" + std::to_string(ntohs(b.local.sin_port));
+	CHECK(ctl_link_open(&c, spelled.c_str(), 0, 0, err, sizeof(err)) == -1);
+	CHECK(std::string(err).find("Address already in use") != std::string::npos);
+	CHECK(c.fd == -1);
+	REQUIRE(ctl_link_open(&c, "udp:47992,listen=0", 0, 0, err, sizeof(err)) == 0);
+	CHECK(c.clients_port_taken == 0);
+	CHECK(ntohs(c.local.sin_port) != 0);
+	ctl_link_close(&c);
+	ctl_link_close(&b);
+	ctl_link_close(&a);
+}
+
 /* ---- UDP: who the device is, who the clients are ---- */
 
 namespace {
@@ -382,6 +410,25 @@ void force_cmd(struct ctl_link &l)
 }
 
 } // namespace
+
+TEST_CASE("UDP host link: a client's HEARTBEAT admits it and keeps it and is not handed on, its requests are", "[ctl_link]")
+{
+	struct ctl_link l;
+	char err[160] = "";
+	UdpEnd tool;
+
+	REQUIRE(ctl_link_open(&l, "udp:47994,listen=0", 0, 0, err, sizeof(err)) == 0);
+	tool.send(l, SWELL_MSG_HEARTBEAT);
+	CHECK(take(l) == 0u); /* the keep-alive: nothing for the core */
+	CHECK(ctl_link_clients(&l) == 1u);
+	CHECK(l.clients_admitted == 1u);
+	force_cmd(l); /* telemetry of any kind goes to the client now */
+	CHECK(tool.got() == 1);
+	tool.send(l, SWELL_MSG_PARAM_GET);
+	CHECK(take(l) == 1u);
+	CHECK(l.clients_admitted == 1u); /* the same client */
+	ctl_link_close(&l);
+}
 
 TEST_CASE("UDP device link: the first sender of DEVICE_POS is the device, held against every other sender "
 	  "until it is let go, and it keeps the commands",

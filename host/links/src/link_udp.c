@@ -63,6 +63,9 @@ static int udp_recv(struct swell_link *l, struct swell_frame *f, int timeout_ms)
 		if (u->follow) {
 			u->peer = from;
 			u->have_peer = 1;
+		} else if (from.sin_port != u->peer.sin_port || from.sin_addr.s_addr != u->peer.sin_addr.s_addr) {
+			l->cnt.rx_dropped++; /* a fixed peer: nobody else is heard (a stale sender to this port) */
+			continue;
 		}
 		memset(f, 0, sizeof(*f));
 		f->t_ns = swell_link_now_ns();

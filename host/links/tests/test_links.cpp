@@ -125,6 +125,25 @@ TEST_CASE("a UDP receive with nothing to read times out and counts it, and overs
 	CHECK(st.rejected[SWELL_ECRC] == 1u);
 }
 
+TEST_CASE("a UDP link with a fixed peer hears only that peer: a third sender's datagram is dropped and counted", "[links]")
+{
+	link_ptr a, b, c;
+	open_pair(a, b); /* a's peer is b */
+	REQUIRE(swell_link_open_udp(&c.l, SWELL_UDP_HOST, 0, SWELL_UDP_HOST, swell_link_udp_port(a.l)) == 0);
+	swell_msg m = msg_of(0, 1);
+	swell_frame f, in;
+	size_t used = 0;
+	REQUIRE(swell_link_encode(SWELL_CARRIER_PKT, 1, 0, &m, 1, &f, &used) == SWELL_OK);
+	REQUIRE(swell_link_send(c.l, &f) == 0); /* the stranger first */
+	REQUIRE(swell_link_send(b.l, &f) == -ENOTCONN); /* b answers the last sender: none yet */
+	REQUIRE(swell_link_send(a.l, &f) == 0);
+	REQUIRE(swell_link_recv(b.l, &in, 1000) == 0);
+	REQUIRE(swell_link_send(b.l, &f) == 0);
+	REQUIRE(swell_link_recv(a.l, &in, 1000) == 0);
+	CHECK(swell_link_get_counters(a.l)->rx_dropped == 1u);
+	CHECK(swell_link_recv(a.l, &in, 50) == -ETIMEDOUT);
+}
+
 TEST_CASE("a recording replays the same frames and times, as fast as possible or at recorded speed", "[links]")
 {
 	const std::string path = tmp_path("rec");

@@ -84,7 +84,7 @@ struct Result {
 /* A controller (swell-ctl, real time without SCHED_FIFO) and its device (swell-hm, dropping the
  * object into the water), on free loopback ports, and swell-tool talking to it. */
 struct Rig {
-	int host_port = free_port(), dev_port = free_port();
+	int host_port = free_port(), client_port = free_port(), dev_port = free_port();
 	pid_t ctl = -1, hm = -1;
 	std::string dir;
 	explicit Rig(const std::string &name, const std::string &hand = "drop")
@@ -94,8 +94,8 @@ struct Rig {
 		/* silent_ticks 2500 (1 s): a loaded test machine must not fault the device link; the link
 		 * supervision has its own tests, these are about the console */
 		ctl = spawn({SWELL_CTL_BIN, "--device", "udp:" + std::to_string(dev_port), "--host",
-			     "udp:" + std::to_string(host_port), "--no-rt", "--quiet", "--silent-ticks", "2500", "--seconds",
-			     "60"},
+			     "udp:" + std::to_string(host_port) + ",listen=" + std::to_string(client_port), "--no-rt", "--quiet",
+			     "--silent-ticks", "2500", "--seconds", "60"},
 			    dir + "/ctl.log");
 		hm = spawn({SWELL_HM_BIN, "--port", std::to_string(dev_port), "--quiet", "--seconds", "60", "--hand", hand},
 			   dir + "/hm.log");
@@ -131,7 +131,8 @@ struct Rig {
 				}
 			}
 	}
-	std::string link() const { return "udp:" + std::to_string(host_port); }
+	/* the tool is a client of the host link: its clients' port */
+	std::string link() const { return "udp:" + std::to_string(client_port); }
 	Result tool(const std::string &args)
 	{
 		const std::string out = dir + "/tool.out";

@@ -2,12 +2,15 @@
 // tools on PATH (the stubs record every invocation: a refused image must leave no record).
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <signal.h>
+#include <spawn.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -18,6 +21,8 @@ extern "C" {
 #include "flash_link.h"
 #include "flash_plan.h"
 }
+
+extern char **environ;
 
 namespace {
 
@@ -521,9 +526,12 @@ extern "C" {
 
 namespace {
 
-// A controller as seen on its host link: heartbeats every 50 ms in `state` to the viewer port, and
-// CTL_INFO with `version` with every 4th; PARAM_SET COMMAND=STOP leaves RUNNING; ENTER_BOOTLOADER
-// stops the heartbeat when `reboots`, for `back_ms` (then it beats again: "the new image").
+// A controller as seen on its host link: it listens on `port` (its clients' port) and sends to the
+// last sender, heartbeats every 50 ms in `state`, and CTL_INFO with `version` with every 4th; a
+// client's HEARTBEAT is its keep-alive and nothing else; PARAM_SET COMMAND=STOP leaves RUNNING;
+// ENTER_BOOTLOADER stops the heartbeat when `reboots`, for `back_ms` (then it beats again: "the new
+// image"). A `twin` is a second controller (another node) on the same port, served by this one's
+// thread.
 struct fake_ctl {
 	uint16_t port = 0;
 	std::atomic<int> state{1}, got_stop{0}, got_autorun_off{0}, got_boot{0}, boot_key_ok{0}, other{0};
@@ -531,8 +539,13 @@ struct fake_ctl {
 	bool reboots = true;
 	uint64_t back_ms = 1400;
 	uint8_t version[3] = {1, 2, 3};
+	fake_ctl *twin = nullptr;
 	std::atomic<bool> quit{false};
 	std::thread th;
+	swell_link *l = nullptr;
+	uint8_t seq = 0;
+	bool silent = false;
+	uint64_t next = 0, silent_since = 0;
 
 	static uint16_t free_port()
 	{
@@ -546,44 +559,66 @@ struct fake_ctl {
 	{
 		state = st;
 		reboots = reb;
-		port = free_port();
+		REQUIRE(swell_link_open_udp(&l, "127.0.0.1", 0, nullptr, 0) == 0); // bound before swell-flash runs
+		port = swell_link_udp_port(l);
 		th = std::thread([this] { loop(); });
+	}
+	void beat(swell_link *to, uint64_t now)
+	{
+		if (silent && now - silent_since > back_ms * 1000000u) {
+			silent = false; // rebooted into "the new image"
+			state = 1;
+		}
+		if (silent || now < next)
+			return;
+		swell_msg hb[2]{};
+		hb[0].type = SWELL_MSG_HEARTBEAT;
+		hb[0].node = hb[1].node = node;
+		hb[0].u.heartbeat.state = (uint8_t)state.load();
+		hb[0].u.heartbeat.version = SWELL_PROTO_VERSION;
+		hb[0].u.heartbeat.seq = seq;
+		hb[1].type = SWELL_MSG_CTL_INFO;
+		hb[1].u.ctl_info.fw_major = version[0];
+		hb[1].u.ctl_info.fw_minor = version[1];
+		hb[1].u.ctl_info.fw_patch = version[2];
+		hb[1].u.ctl_info.obj_a_100um = hb[1].u.ctl_info.obj_b_100um = 500;
+		hb[1].u.ctl_info.obj_h_100um = 500;
+		swell_frame f;
+		size_t used;
+		if (swell_link_encode(SWELL_CARRIER_PKT, node, seq, hb, seq % 4 == 0 ? 2 : 1, &f, &used) == SWELL_OK)
+			swell_link_send(to, &f); // no client yet: nowhere to go
+		seq++;
+		next = now + 50000000u;
+	}
+	void take(const swell_msg &m)
+	{
+		if (m.type == SWELL_MSG_HEARTBEAT) {
+			return; // a client's keep-alive
+		} else if (m.node != node) {
+			other++; // addressed to another controller
+		} else if (m.type == SWELL_MSG_PARAM_SET && m.u.param_set.id == 31 && m.u.param_set.value == 0) {
+			got_autorun_off++; // AUTORUN=0: older controllers let autorun override STOP
+		} else if (m.type == SWELL_MSG_PARAM_SET && m.u.param_set.id == 40 && m.u.param_set.value == 0) {
+			got_stop++;
+			state = 1;
+		} else if (m.type == SWELL_MSG_ENTER_BOOTLOADER) {
+			got_boot++;
+			boot_key_ok = m.u.enter_bootloader.key == SWELL_PROTO_BOOT_KEY;
+			if (state.load() == 3)
+				other++; // the controller refuses it while RUNNING: must not happen
+			silent = reboots;
+			silent_since = swell_link_now_ns();
+		} else {
+			other++;
+		}
 	}
 	void loop()
 	{
-		swell_link *l;
-		if (swell_link_open_udp(&l, "127.0.0.1", 0, "127.0.0.1", port) != 0)
-			return;
-		uint8_t seq = 0;
-		bool silent = false;
-		uint64_t next = 0, silent_since = 0;
 		while (!quit) {
 			uint64_t now = swell_link_now_ns();
-			if (silent && now - silent_since > back_ms * 1000000u) {
-				silent = false; // rebooted into "the new image"
-				state = 1;
-			}
-			if (!silent && now >= next) {
-				swell_msg hb[2]{};
-				hb[0].type = SWELL_MSG_HEARTBEAT;
-				hb[0].node = hb[1].node = node;
-				hb[0].u.heartbeat.state = (uint8_t)state.load();
-				hb[0].u.heartbeat.version = SWELL_PROTO_VERSION;
-				hb[0].u.heartbeat.seq = seq;
-				hb[1].type = SWELL_MSG_CTL_INFO;
-				hb[1].u.ctl_info.fw_major = version[0];
-				hb[1].u.ctl_info.fw_minor = version[1];
-				hb[1].u.ctl_info.fw_patch = version[2];
-				hb[1].u.ctl_info.obj_a_100um = hb[1].u.ctl_info.obj_b_100um = 500;
-				hb[1].u.ctl_info.obj_h_100um = 500;
-				swell_frame f;
-				size_t used;
-				if (swell_link_encode(SWELL_CARRIER_PKT, node, seq, hb, seq % 4 == 0 ? 2 : 1, &f, &used) ==
-				    SWELL_OK)
-					swell_link_send(l, &f);
-				seq++;
-				next = now + 50000000u;
-			}
+			beat(l, now);
+			if (twin)
+				twin->beat(l, now);
 			swell_frame f;
 			if (swell_link_recv(l, &f, 10) != 0)
 				continue;
@@ -591,35 +626,17 @@ struct fake_ctl {
 			size_t n;
 			if (swell_link_decode(SWELL_CARRIER_PKT, &f, m, SWELL_PKT_MSGS_MAX, &n, NULL, NULL) != SWELL_OK)
 				continue;
-			for (size_t i = 0; i < n; i++) {
-				if (m[i].node != node) {
-					other++; // addressed to another controller
-				} else if (m[i].type == SWELL_MSG_PARAM_SET && m[i].u.param_set.id == 31 &&
-					   m[i].u.param_set.value == 0) {
-					got_autorun_off++; // AUTORUN=0: older controllers let autorun override STOP
-				} else if (m[i].type == SWELL_MSG_PARAM_SET && m[i].u.param_set.id == 40 &&
-					   m[i].u.param_set.value == 0) {
-					got_stop++;
-					state = 1;
-				} else if (m[i].type == SWELL_MSG_ENTER_BOOTLOADER) {
-					got_boot++;
-					boot_key_ok = m[i].u.enter_bootloader.key == SWELL_PROTO_BOOT_KEY;
-					if (state.load() == 3)
-						other++; // the controller refuses it while RUNNING: must not happen
-					silent = reboots;
-					silent_since = swell_link_now_ns();
-				} else {
-					other++;
-				}
-			}
+			for (size_t i = 0; i < n; i++)
+				(twin && m[i].node == twin->node ? *twin : *this).take(m[i]);
 		}
-		swell_link_close(l);
 	}
 	~fake_ctl()
 	{
 		quit = true;
 		if (th.joinable())
 			th.join();
+		if (l)
+			swell_link_close(l);
 	}
 };
 
@@ -685,14 +702,15 @@ TEST_CASE("enter-bootloader: a controller that keeps beating (ignores the reques
 
 namespace {
 
-// swell-ctl on UDP as the controller: its exit status goes to DIR/NAME.rc. Host and device ports free.
+// swell-ctl on UDP as the controller: its exit status goes to DIR/NAME.rc. Its host link takes clients
+// on port `host`; the viewer and device ports are free ones.
 std::string ctl_cmd(const scratch &s, const std::string &name, const std::string &host, const std::string &version,
 		    double seconds)
 {
 	std::string dev = std::to_string(fake_ctl::free_port());
 	return "'" SWELL_CTL_BIN "' --no-rt --quiet --seconds " + std::to_string(seconds) + " --fw-version " + version +
-		" --host udp:" + host + " --device udp:" + dev + " > '" + s.dir + "/" + name + ".out' 2>&1; echo $? > '" + s.dir +
-		"/" + name + ".rc'";
+		" --host udp:" + std::to_string(fake_ctl::free_port()) + ",listen=" + host + " --device udp:" + dev + " > '" +
+		s.dir + "/" + name + ".out' 2>&1; echo $? > '" + s.dir + "/" + name + ".rc'";
 }
 
 } // namespace
@@ -799,7 +817,7 @@ TEST_CASE("link specs: udp, can and usb in swell-view's spellings, with their de
 	char err[200] = "", d[96];
 	REQUIRE(flash_link_parse("udp", &l, err, sizeof(err)) == 0);
 	CHECK(l.kind == FLASH_LINK_UDP);
-	CHECK(l.udp_port == 47801);
+	CHECK(l.udp_port == 47802); // the controller's clients' port
 	CHECK(l.node == -1);
 	REQUIRE(flash_link_parse("udp:1", &l, err, sizeof(err)) == 0);
 	CHECK(l.udp_port == 1);
@@ -898,13 +916,12 @@ TEST_CASE("enter-bootloader: several controllers heard and no --node is refused,
 {
 	scratch s;
 	std::string img = s.write("good.bin", make_image(2048));
-	fake_ctl a, b;
+	fake_ctl b, a; // a serves b: a goes first
 	a.node = 2;
 	a.version[0] = 9;
-	a.start(1, true);
 	b.node = 5;
-	b.port = a.port; // both send to the one port swell-flash listens on
-	b.th = std::thread([&b] { b.loop(); });
+	a.twin = &b; // both on the one port swell-flash sends to
+	a.start(1, true);
 	std::string out;
 	int rc = s.run(img + " --backend swd --swd-tool st-flash --enter-bootloader udp:" + std::to_string(a.port), &out);
 	INFO(out);
@@ -950,4 +967,139 @@ TEST_CASE("enter-bootloader --node: the request carries the chosen node, and ano
 	CHECK(c.other == 0); // everything it got was addressed to node 5
 	CHECK(out.find("controller node 5 on udp") != std::string::npos);
 	CHECK(out.find("(no heartbeat after the request)") != std::string::npos); // the fake sends no last one
+}
+
+// ---- one controller, every host program at once (UDP): the viewer on the telemetry port, the
+// console and the flasher as clients of the host link ----
+
+namespace {
+
+pid_t spawn_sh(const std::string &cmd)
+{
+	std::string c = "exec " + cmd;
+	const char *argv[] = {"sh", "-c", c.c_str(), nullptr};
+	pid_t pid = -1;
+	REQUIRE(posix_spawn(&pid, "/bin/sh", nullptr, nullptr, const_cast<char **>(argv), environ) == 0);
+	return pid;
+}
+
+// Exit status of pid, waiting at most ms (-1: still running).
+int wait_exit(pid_t pid, int ms)
+{
+	int st = 0;
+	for (int k = 0; k < ms / 10; k++) {
+		if (waitpid(pid, &st, WNOHANG) == pid)
+			return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+		usleep(10000);
+	}
+	return -1;
+}
+
+void end(pid_t &pid)
+{
+	if (pid <= 0)
+		return;
+	kill(pid, SIGTERM);
+	if (wait_exit(pid, 3000) < 0) {
+		kill(pid, SIGKILL);
+		wait_exit(pid, 3000);
+	}
+	pid = -1;
+}
+
+} // namespace
+
+TEST_CASE("one swell-ctl on UDP serves swell-view, swell-tool and swell-flash at once: the viewer's telemetry goes on "
+	  "while the tool watches and sets, enter-bootloader is refused while RUNNING and accepted outside it")
+{
+	scratch s;
+	const std::string img = s.write("good.bin", make_image(2048)), d = s.dir;
+	const std::string view_port = std::to_string(fake_ctl::free_port()), port = std::to_string(fake_ctl::free_port()),
+			  dev = std::to_string(fake_ctl::free_port());
+	const std::string link = " --link udp:" + port + " ";
+	pid_t ctl = spawn_sh("'" SWELL_CTL_BIN "' --no-rt --quiet --silent-ticks 2500 --seconds 60 --host udp:" + view_port +
+			     ",listen=" + port + " --device udp:" + dev + " >'" + d + "/ctl.out' 2>&1");
+	pid_t hm = spawn_sh("'" SWELL_HM_BIN "' --port " + dev + " --quiet --seconds 60 --hand drop >'" + d + "/hm.out' 2>&1");
+	// the viewer on the telemetry port, headless in its own X server, 10 frames a second for 20 s (no
+	// leak check: the GL driver's own allocations stay until exit, as in the viewer's tests)
+	pid_t view = spawn_sh("env ASAN_OPTIONS=detect_leaks=0 xvfb-run -a '" SWELL_VIEW_BIN
+			      "' --headless --fps 10 --frames 200 --size 320x240 --msaa 0 "
+			      "--source udp:" +
+			      view_port + " --csv '" + d + "/view.csv' >'" + d + "/view.out' 2>&1");
+	auto tool = [&](const std::string &args) {
+		const int st = std::system(("'" SWELL_TOOL_BIN "'" + link + args + " >'" + d + "/tool.out' 2>&1").c_str());
+		const std::string out = slurp(d + "/tool.out");
+		UNSCOPED_INFO("swell-tool " << args << " -> " << WEXITSTATUS(st) << ":\n" << out);
+		return std::make_pair(WIFEXITED(st) ? WEXITSTATUS(st) : -1, out);
+	};
+
+	int armed = -1;
+	for (int k = 0; k < 20 && armed != 0; k++) // until the controller has heard the device
+		armed = tool("arm").first;
+	REQUIRE(armed == 0);
+	pid_t watch = spawn_sh("'" SWELL_TOOL_BIN "'" + link + "watch --seconds 5 >'" + d + "/watch.out' 2>&1");
+	auto st = tool("status");
+	CHECK(st.first == 0);
+	CHECK(st.second.find("on udp 127.0.0.1:" + port + ", state armed") != std::string::npos);
+	auto set = tool("set wave.damping 0.02");
+	CHECK(set.first == 0);
+	CHECK(set.second.find("wave.damping = 0.02 (was 0.001)") != std::string::npos);
+	REQUIRE(tool("run").first == 0);
+
+	std::string out;
+	int rc = s.run(img + " --backend swd --swd-tool st-flash --no-find --enter-bootloader udp:" + port, &out);
+	INFO("swell-flash while RUNNING:\n" << out);
+	CHECK(rc == 2);
+	CHECK(out.find("controller is RUNNING") != std::string::npos);
+	CHECK(s.log().empty());
+	CHECK(tool("get wave.damping").second.find("wave.damping = 0.02 ") != std::string::npos);
+
+	const int watched = wait_exit(watch, 15000);
+	INFO("swell-tool watch:\n" << slurp(d + "/watch.out"));
+	CHECK(watched == 0);
+	CHECK(slurp(d + "/watch.out").find("running  z") != std::string::npos);
+
+	REQUIRE(tool("stop").first == 0);
+	rc = s.run(img + " --backend swd --swd-tool st-flash --no-find --enter-bootloader udp:" + port, &out);
+	INFO("swell-flash while ARMED:\n" << out);
+	CHECK(rc == 0);
+	CHECK(out.find("state ARMED") != std::string::npos);
+	CHECK(s.log().find("st-flash write") != std::string::npos);
+	const int ctl_rc = wait_exit(ctl, 5000);
+	INFO(slurp(d + "/ctl.out"));
+	CHECK(ctl_rc == 3); // swell-ctl's "bootloader requested"
+	CHECK(slurp(d + "/ctl.out").find("enter-bootloader accepted in state armed") != std::string::npos);
+	if (ctl_rc >= 0)
+		ctl = -1;
+
+	// The viewer: a pose sample at least every 0.5 s from the controller's first to its last (it
+	// draws at 10 Hz and takes what came in between), at 100 Hz on the whole. Poses come while the
+	// object moves: from run to stop (the 5 s of watch, the get and the refused flash within them).
+	const int viewed = wait_exit(view, 40000);
+	INFO("swell-view:\n" << slurp(d + "/view.out"));
+	CHECK(viewed == 0);
+	if (viewed >= 0)
+		view = -1;
+	std::ifstream csv(d + "/view.csv");
+	std::string line;
+	std::vector<double> t;
+	std::getline(csv, line); // the header
+	while (std::getline(csv, line)) {
+		const size_t c1 = line.find(','), c2 = line.find(',', c1 + 1);
+		if (c1 != std::string::npos && c2 != c1 + 1) // a pose row: its sequence number is there
+			t.push_back(std::atof(line.c_str()));
+	}
+	REQUIRE(t.size() > 10);
+	double gap = 0;
+	for (size_t k = 1; k < t.size(); k++)
+		gap = std::max(gap, t[k] - t[k - 1]);
+	const double span = t.back() - t.front();
+	INFO(t.size() << " pose samples over " << span << " s, longest gap " << gap << " s");
+	CHECK(span > 4.0);
+	CHECK(gap < 0.5);
+	CHECK(t.size() > 50 * span);
+	end(watch);
+	end(hm);
+	end(ctl);
+	end(view);
 }

@@ -55,8 +55,9 @@ const char *swell_link_name(const struct swell_link *l);
 /* CLOCK_MONOTONIC in ns: the clock of swell_frame.t_ns. */
 uint64_t swell_link_now_ns(void);
 
-/* UDP: bind to bind_host:bind_port (port 0: any free port) and send to peer_host:peer_port; with
- * peer_host NULL, send to whoever sent the last datagram. Hosts are dotted IPv4 ("127.0.0.1"). */
+/* UDP: bind to bind_host:bind_port (port 0: any free port) and send to peer_host:peer_port, hearing
+ * only datagrams from there (others count in rx_dropped); with peer_host NULL, send to whoever sent
+ * the last datagram. Hosts are dotted IPv4 ("127.0.0.1"). */
 int swell_link_open_udp(struct swell_link **out, const char *bind_host, uint16_t bind_port, const char *peer_host,
 			uint16_t peer_port);
 /* The local port actually bound (useful after binding port 0); 0 if l is not a UDP link. */
