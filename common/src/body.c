@@ -385,24 +385,14 @@ static void fp_sums(const struct swell_wave *w, const struct swell_body_fp *f, i
 	*sv = 0;
 	for (j = j0; j <= j1; j++) {
 		const int32_t oy = overlap(j, f->y0, f->y1);
-		const int32_t *h = w->h + (size_t)j * w->nx, *v = w->v + (size_t)j * w->nx;
-		const int32_t *acc = w->acc + (size_t)j * w->nx;
+		const size_t row = (size_t)j * w->nx;
 		int64_t rh = 0, rv = 0;
 
-		if (j < w->done_row) { /* finished ahead: h holds h(n+1), h(n) = h - acc */
-			for (i = i0; i <= i1; i++) {
-				const int32_t ox = overlap(i, f->x0, f->x1);
+		for (i = i0; i <= i1; i++) {
+			const int32_t ox = overlap(i, f->x0, f->x1);
 
-				rh += (int64_t)ox * (h[i] - acc[i]); /* int28 - int30: no overflow */
-				rv += (int64_t)ox * v[i];
-			}
-		} else {
-			for (i = i0; i <= i1; i++) {
-				const int32_t ox = overlap(i, f->x0, f->x1);
-
-				rh += (int64_t)ox * h[i];
-				rv += (int64_t)ox * v[i];
-			}
+			rh += (int64_t)ox * swell_wave_h(w, row + (size_t)i); /* h - acc: int28 - int30 */
+			rv += (int64_t)ox * w->v[row + (size_t)i];
 		}
 		*sh += oy * rh;
 		*sv += oy * rv;
