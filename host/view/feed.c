@@ -3,7 +3,8 @@
 
 #include <string.h>
 
-#include "swell/wave.h"
+#include "swell/param.h"
+#include "swell/pool.h"
 
 void feed_init(struct view_feed *f, struct view_model *vm, uint8_t node)
 {
@@ -11,9 +12,9 @@ void feed_init(struct view_feed *f, struct view_model *vm, uint8_t node)
 	f->vm = vm;
 	f->node = node;
 	/* the controller's default body, 50 x 50 x 50 mm, until a CTL_INFO says otherwise */
-	f->obj_a_um = 50000;
-	f->obj_b_um = 50000;
-	f->obj_h_um = 50000;
+	f->obj_a_um = SWELL_POOL_BOX_UM;
+	f->obj_b_um = SWELL_POOL_BOX_UM;
+	f->obj_h_um = SWELL_POOL_BOX_UM;
 }
 
 uint32_t feed_rejected(const struct view_feed *f)
@@ -22,12 +23,6 @@ uint32_t feed_rejected(const struct view_feed *f)
 	for (unsigned k = 0; k < SWELL_ERR_COUNT; k++)
 		n += f->st.rejected[k];
 	return n;
-}
-
-const char *feed_state_name(uint8_t state)
-{
-	static const char *const names[] = { "BOOT", "IDLE", "ARMED", "RUNNING", "FAULT" };
-	return state < sizeof(names) / sizeof(names[0]) ? names[state] : "?";
 }
 
 static void on_scene(struct view_feed *f, const struct swell_msg_scene *s, uint64_t now_us)
@@ -71,16 +66,15 @@ static void on_quad(struct view_feed *f, const struct swell_msg_height_quad *q, 
 	if (q->row >= h || col >= w)
 		return; /* padding beyond the grid's edge: nothing to show */
 	uint16_t n = (uint16_t)(w - col < 4 ? w - col : 4);
-	int32_t v[4] = { q->h0, q->h1, q->h2, q->h3 };
-	for (int k = 0; k < 4; k++)
-		v[k] *= 1 << (SWELL_H_FRAC - SWELL_PROTO_H_SHIFT);
+	int32_t v[4];
+	swell_height_quad_heights(q, v);
 	vm_cells(m, q->tile_x, q->tile_y, col, q->row, n, pos, v);
 }
 
 static void on_heartbeat(struct view_feed *f, const struct swell_msg_heartbeat *hb, uint64_t now_us)
 {
 	/* Back in BOOT after any other state: the controller restarted. */
-	if (f->have_state && hb->state == 0 && f->state != 0) {
+	if (f->have_state && hb->state == SWELL_CTL_BOOT && f->state != SWELL_CTL_BOOT) {
 		vm_restart(f->vm, now_us);
 		f->have_pose_seq = false;
 		if (f->charts)
@@ -88,7 +82,7 @@ static void on_heartbeat(struct view_feed *f, const struct swell_msg_heartbeat *
 	}
 	f->have_state = true;
 	f->state = hb->state;
-	vm_heartbeat(f->vm, feed_state_name(hb->state), hb->err, hb->bad_frames, hb->overruns);
+	vm_heartbeat(f->vm, swell_state_name(hb->state), hb->err, hb->bad_frames, hb->overruns);
 	if (f->have_hb) {
 		uint8_t d = (uint8_t)(hb->seq - f->hb_seq);
 		if (d < 128)
