@@ -431,6 +431,31 @@ void swell_ctl_rx(struct swell_ctl *c, enum swell_ctl_link from, const struct sw
 	}
 }
 
+void swell_ctl_link_down(struct swell_ctl *c, enum swell_ctl_link link)
+{
+	if (link != SWELL_LINK_DEVICE)
+		return;
+	c->dev_heard = 0;
+	c->dev_back = 0;
+	if (c->since_dev < c->cfg.silent_ticks)
+		c->since_dev = c->cfg.silent_ticks;
+}
+
+int swell_ctl_device_lost(const struct swell_ctl *c)
+{
+	return c->since_dev >= c->cfg.silent_ticks;
+}
+
+int swell_ctl_background_due(const struct swell_ctl *c)
+{
+	return c->bg_pending;
+}
+
+int swell_ctl_bootloader_requested(const struct swell_ctl *c)
+{
+	return c->bootloader_request;
+}
+
 void swell_ctl_overrun(struct swell_ctl *c)
 {
 	c->n.overruns++;
