@@ -690,7 +690,7 @@ static void enter(struct swell_ctl *c, enum swell_ctl_state s, enum swell_err wh
 
 static void supervise(struct swell_ctl *c)
 {
-	const int estop = (c->dev_status & 4u) != 0, powered = (c->dev_status & 1u) != 0;
+	const int estop = (c->dev_status & SWELL_DEV_ESTOP) != 0, powered = (c->dev_status & SWELL_DEV_POWERED) != 0;
 	int alive;
 
 	if (c->dev_heard) {
