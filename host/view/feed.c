@@ -1,6 +1,7 @@
 /* Decoder side of swell-view, see feed.h. */
 #include "feed.h"
 
+#include <ctype.h>
 #include <string.h>
 
 #include "swell/param.h"
@@ -82,7 +83,13 @@ static void on_heartbeat(struct view_feed *f, const struct swell_msg_heartbeat *
 	}
 	f->have_state = true;
 	f->state = hb->state;
-	vm_heartbeat(f->vm, swell_state_name(hb->state), hb->err, hb->bad_frames, hb->overruns);
+	char name[16];
+	const char *n = swell_state_name(hb->state);
+	size_t k = 0;
+	for (; n[k] && k < sizeof(name) - 1; k++)
+		name[k] = (char)toupper((unsigned char)n[k]); /* the HUD shows state names in capitals */
+	name[k] = 0;
+	vm_heartbeat(f->vm, name, hb->err, hb->bad_frames, hb->overruns);
 	if (f->have_hb) {
 		uint8_t d = (uint8_t)(hb->seq - f->hb_seq);
 		if (d < 128)

@@ -1,7 +1,6 @@
 /* The view model, see vm.h. */
 #include "vm.h"
 
-#include <ctype.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -253,7 +252,7 @@ void vm_heartbeat(struct view_model *m, const char *state, uint8_t error, uint16
 	size_t n = 0;
 	if (state)
 		for (; n < sizeof(m->ctrl_state) - 1 && state[n]; n++)
-			m->ctrl_state[n] = (char)toupper((unsigned char)state[n]); /* the HUD shows names in capitals */
+			m->ctrl_state[n] = state[n];
 	m->ctrl_state[n] = 0;
 	if (n == 0)
 		strcpy(m->ctrl_state, "?");
