@@ -469,71 +469,74 @@ enum swell_err swell_pkt_decode(const uint8_t *pkt, size_t len, struct swell_msg
 }
 
 /* ---- heights ---- */
-int16_t swell_height_to_sample(int32_t h)
+struct swell_msg swell_height_quad(const struct swell_quad_at *at, unsigned frame, const int16_t s[4])
 {
-	const int shift = 16 - SWELL_PROTO_H_SHIFT;
-	int64_t s = ((int64_t)h + ((int64_t)1 << (shift - 1))) >> shift;
+	struct swell_msg m;
 
-	return (int16_t)(s < -2048 ? -2048 : s > 2047 ? 2047 : s);
+	memset(&m, 0, sizeof(m));
+	m.type = SWELL_MSG_HEIGHT_QUAD;
+	m.u.height_quad.tile_x = (uint8_t)at->tile_x;
+	m.u.height_quad.tile_y = (uint8_t)at->tile_y;
+	m.u.height_quad.row = (uint8_t)at->row;
+	m.u.height_quad.half = (uint8_t)at->half;
+	m.u.height_quad.frame = (uint8_t)(frame & 3u);
+	m.u.height_quad.h0 = s[0];
+	m.u.height_quad.h1 = s[1];
+	m.u.height_quad.h2 = s[2];
+	m.u.height_quad.h3 = s[3];
+	return m;
 }
 
-int32_t swell_sample_to_height(int16_t sample)
+void swell_height_quad_heights(const struct swell_msg_height_quad *q, int32_t h[4])
 {
-	return (int32_t)sample * ((int32_t)1 << (16 - SWELL_PROTO_H_SHIFT));
+	h[0] = swell_sample_to_height(q->h0);
+	h[1] = swell_sample_to_height(q->h1);
+	h[2] = swell_sample_to_height(q->h2);
+	h[3] = swell_sample_to_height(q->h3);
+}
+
+static int grid_ok(unsigned nx, unsigned ny)
+{
+	return nx >= 1 && ny >= 1 && nx <= 32u * SWELL_PROTO_TILE && ny <= 32u * SWELL_PROTO_TILE;
 }
 
 enum swell_err swell_height_quad_pack(const int32_t *h, unsigned nx, unsigned ny, unsigned tile_x, unsigned tile_y,
 				      unsigned row, unsigned half, unsigned frame, struct swell_msg *out)
 {
-	struct swell_msg m;
+	struct swell_quad_at at;
 	int16_t s[4];
-	unsigned k, j, i0;
+	unsigned k;
 
 	if (!h || !out)
 		return SWELL_EINVAL;
-	if (nx < 1 || ny < 1 || nx > 32u * SWELL_PROTO_TILE || ny > 32u * SWELL_PROTO_TILE)
+	if (!grid_ok(nx, ny))
 		return SWELL_ESIZE;
 	if (tile_x > 31 || tile_y > 31 || row >= SWELL_PROTO_TILE || half > 1 || frame > 3)
 		return SWELL_ERANGE;
-	j = tile_y * SWELL_PROTO_TILE + row;
-	i0 = tile_x * SWELL_PROTO_TILE + 4 * half;
+	at = swell_quad_locate((tile_y * 32u + tile_x) * SWELL_QUADS_PER_TILE + row * 2u + half, 32u);
 	for (k = 0; k < 4; k++)
-		s[k] = (j < ny && i0 + k < nx) ? swell_height_to_sample(h[(size_t)j * nx + i0 + k]) : 0;
-	memset(&m, 0, sizeof(m));
-	m.type = SWELL_MSG_HEIGHT_QUAD;
-	m.u.height_quad.tile_x = (uint8_t)tile_x;
-	m.u.height_quad.tile_y = (uint8_t)tile_y;
-	m.u.height_quad.row = (uint8_t)row;
-	m.u.height_quad.half = (uint8_t)half;
-	m.u.height_quad.frame = (uint8_t)frame;
-	m.u.height_quad.h0 = s[0];
-	m.u.height_quad.h1 = s[1];
-	m.u.height_quad.h2 = s[2];
-	m.u.height_quad.h3 = s[3];
-	*out = m;
+		s[k] = (at.y < ny && at.x0 + k < nx) ? swell_height_to_sample(h[(size_t)at.y * nx + at.x0 + k]) : 0;
+	*out = swell_height_quad(&at, frame, s);
 	return SWELL_OK;
 }
 
 enum swell_err swell_height_quad_unpack(const struct swell_msg *m, int32_t *h, unsigned nx, unsigned ny)
 {
 	const struct swell_msg_height_quad *q;
-	int16_t s[4];
+	int32_t v[4];
 	unsigned k, j, i0;
 
 	if (!m || !h || m->type != SWELL_MSG_HEIGHT_QUAD)
 		return SWELL_EINVAL;
-	if (nx < 1 || ny < 1 || nx > 32u * SWELL_PROTO_TILE || ny > 32u * SWELL_PROTO_TILE)
+	if (!grid_ok(nx, ny))
 		return SWELL_ESIZE;
 	q = &m->u.height_quad;
-	s[0] = q->h0;
-	s[1] = q->h1;
-	s[2] = q->h2;
-	s[3] = q->h3;
+	swell_height_quad_heights(q, v);
 	j = (unsigned)q->tile_y * SWELL_PROTO_TILE + q->row;
 	i0 = (unsigned)q->tile_x * SWELL_PROTO_TILE + 4u * q->half;
 	for (k = 0; k < 4; k++)
 		if (j < ny && i0 + k < nx)
-			h[(size_t)j * nx + i0 + k] = swell_sample_to_height(s[k]);
+			h[(size_t)j * nx + i0 + k] = v[k];
 	return SWELL_OK;
 }
 

@@ -328,10 +328,10 @@ static uint8_t status_of_state(const char *st)
 		n = n ? n - 1 : 0;
 	}
 	if (n == 5 && !strncmp(st, "force", 5))
-		return 1u | 2u;
+		return SWELL_DEV_POWERED | SWELL_DEV_FORCE_ON;
 	if (n == 3 && !strncmp(st, "off", 3))
 		return 0u;
-	return 1u | 4u; /* stop (e-stop), init, home, position: not rendering our force */
+	return SWELL_DEV_POWERED | SWELL_DEV_ESTOP; /* stop (e-stop), init, home, position: not rendering our force */
 }
 
 /* One answer of len bytes; may write a sample into out. Returns messages written. */
@@ -388,10 +388,10 @@ static size_t answer(struct hm_client *c, char *text, struct swell_msg *out, siz
 	status = status_of_state(p3);
 	if (!strncmp(text, "---", 3) || strstr(p3, "---")) {
 		c->st.error_answers++;
-		status = (uint8_t)((status & ~2u) | 4u | 8u);
+		status = (uint8_t)((status & ~SWELL_DEV_FORCE_ON) | SWELL_DEV_ESTOP | SWELL_DEV_FAULT);
 	}
 	c->status = status;
-	if (!(status & 2u) && c->phase == HMC_RUNNING) {
+	if (!(status & SWELL_DEV_FORCE_ON) && c->phase == HMC_RUNNING) {
 		/* stopped by someone else, e-stop, or our effect is gone: start again after a pause */
 		c->st.not_force++;
 		c->phase = HMC_HOLDOFF;

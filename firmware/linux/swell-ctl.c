@@ -447,16 +447,6 @@ static int take_input(struct port *p)
 
 static void flush_output(struct port *p);
 
-/* The core's supervision sees the device as gone: the next tick faults (zero force, autorun recovers
- * once the device has been heard again for recover_ticks). */
-static void device_lost(struct swell_ctl *c)
-{
-	c->dev_heard = 0;
-	c->dev_back = 0;
-	if (c->since_dev < c->cfg.silent_ticks)
-		c->since_dev = c->cfg.silent_ticks;
-}
-
 /* Nothing reached the device (send refused, no destination) for silent_ticks ticks in a row while it
  * was there: it is starved even if it still talks, and the loop faults as for a silent device (zero
  * force, the zero goes out as soon as the carrier takes it). Returns 1 while starved. */
@@ -468,7 +458,7 @@ static int device_starved(struct port *p)
 	}
 	if (p->c.state != SWELL_CTL_ARMED && p->c.state != SWELL_CTL_RUNNING)
 		return 0;
-	device_lost(&p->c); /* this tick faults: zero force from the safety stage */
+	swell_ctl_link_down(&p->c, SWELL_LINK_DEVICE); /* this tick faults: zero force from the safety stage */
 	if (!p->starving) {
 		p->starving = 1;
 		p->starved++;
@@ -506,7 +496,7 @@ static int link_faults(struct port *p)
 			p->bus_offs_seen[k] = h->bus_offs;
 			if (k == 0) {
 				swell_ctl_zero_force(&p->c);
-				device_lost(&p->c);
+				swell_ctl_link_down(&p->c, SWELL_LINK_DEVICE);
 				flush_output(p);
 				tick = 1;
 			}
@@ -720,9 +710,9 @@ int main(int argc, char **argv)
 		/* the device declared lost (its zero force has just gone to it): a learned UDP device is let
 		 * go, the next sender of this node's DEVICE_POS becomes the device (the old one still gets the
 		 * zero force until then) */
-		if (p.c.since_dev >= p.c.cfg.silent_ticks)
+		if (swell_ctl_device_lost(&p.c))
 			p.releases += (uint32_t)ctl_link_release_peer(&p.dev);
-		if (p.c.bootloader_request) /* zero force and the last heartbeat have just gone out */
+		if (swell_ctl_bootloader_requested(&p.c)) /* zero force and the last heartbeat have just gone out */
 			break;
 		if (now_ns() - last_status > 1000000000) {
 			int a;
@@ -754,7 +744,7 @@ int main(int argc, char **argv)
 	flush_output(&p);
 	if (!o.quiet)
 		fputc('\n', stderr);
-	if (p.c.bootloader_request)
+	if (swell_ctl_bootloader_requested(&p.c))
 		fprintf(stderr,
 			"swell-ctl: enter-bootloader accepted in state %s: force zeroed, last heartbeat "
 			"sent; exiting with status 3 (no ROM bootloader on Linux: the supervisor flashes "
@@ -817,5 +807,5 @@ int main(int argc, char **argv)
 	if (p.have_host)
 		ctl_link_close(&p.host);
 	free(arena);
-	return p.c.bootloader_request ? 3 : 0;
+	return swell_ctl_bootloader_requested(&p.c) ? 3 : 0;
 }

@@ -225,7 +225,7 @@ static struct swell_msg device_pos(uint8_t node, int16_t z_10um, uint8_t seq)
 	m.node = node;
 	m.u.device_pos.z_10um = z_10um;
 	m.u.device_pos.seq = seq;
-	m.u.device_pos.status = 3;
+	m.u.device_pos.status = SWELL_DEV_POWERED | SWELL_DEV_FORCE_ON;
 	return m;
 }
 

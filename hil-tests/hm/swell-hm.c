@@ -663,13 +663,13 @@ static double pct(const struct run *r, double p)
 static void sample(struct dev *d, const struct hm_state *s, const double f_hand_N[3], uint8_t seq)
 {
 	struct swell_msg m[3];
-	uint8_t status = 1u; /* powered */
+	uint8_t status = SWELL_DEV_POWERED;
 	int with_force = d->carrier == SWELL_CARRIER_PKT;
 
 	if (!s->estop)
-		status |= 2u; /* force output enabled */
+		status |= SWELL_DEV_FORCE_ON;
 	else
-		status |= 4u;
+		status |= SWELL_DEV_ESTOP;
 	memset(m, 0, sizeof(m));
 	m[0].type = SWELL_MSG_DEVICE_VEL;
 	m[0].node = d->node;

@@ -1,9 +1,11 @@
 /* Decoder side of swell-view, see feed.h. */
 #include "feed.h"
 
+#include <ctype.h>
 #include <string.h>
 
-#include "swell/wave.h"
+#include "swell/param.h"
+#include "swell/pool.h"
 
 void feed_init(struct view_feed *f, struct view_model *vm, uint8_t node)
 {
@@ -11,9 +13,9 @@ void feed_init(struct view_feed *f, struct view_model *vm, uint8_t node)
 	f->vm = vm;
 	f->node = node;
 	/* the controller's default body, 50 x 50 x 50 mm, until a CTL_INFO says otherwise */
-	f->obj_a_um = 50000;
-	f->obj_b_um = 50000;
-	f->obj_h_um = 50000;
+	f->obj_a_um = SWELL_POOL_BOX_UM;
+	f->obj_b_um = SWELL_POOL_BOX_UM;
+	f->obj_h_um = SWELL_POOL_BOX_UM;
 }
 
 uint32_t feed_rejected(const struct view_feed *f)
@@ -22,12 +24,6 @@ uint32_t feed_rejected(const struct view_feed *f)
 	for (unsigned k = 0; k < SWELL_ERR_COUNT; k++)
 		n += f->st.rejected[k];
 	return n;
-}
-
-const char *feed_state_name(uint8_t state)
-{
-	static const char *const names[] = { "BOOT", "IDLE", "ARMED", "RUNNING", "FAULT" };
-	return state < sizeof(names) / sizeof(names[0]) ? names[state] : "?";
 }
 
 static void on_scene(struct view_feed *f, const struct swell_msg_scene *s, uint64_t now_us)
@@ -71,16 +67,15 @@ static void on_quad(struct view_feed *f, const struct swell_msg_height_quad *q, 
 	if (q->row >= h || col >= w)
 		return; /* padding beyond the grid's edge: nothing to show */
 	uint16_t n = (uint16_t)(w - col < 4 ? w - col : 4);
-	int32_t v[4] = { q->h0, q->h1, q->h2, q->h3 };
-	for (int k = 0; k < 4; k++)
-		v[k] *= 1 << (SWELL_H_FRAC - SWELL_PROTO_H_SHIFT);
+	int32_t v[4];
+	swell_height_quad_heights(q, v);
 	vm_cells(m, q->tile_x, q->tile_y, col, q->row, n, pos, v);
 }
 
 static void on_heartbeat(struct view_feed *f, const struct swell_msg_heartbeat *hb, uint64_t now_us)
 {
 	/* Back in BOOT after any other state: the controller restarted. */
-	if (f->have_state && hb->state == 0 && f->state != 0) {
+	if (f->have_state && hb->state == SWELL_CTL_BOOT && f->state != SWELL_CTL_BOOT) {
 		vm_restart(f->vm, now_us);
 		f->have_pose_seq = false;
 		if (f->charts)
@@ -88,7 +83,13 @@ static void on_heartbeat(struct view_feed *f, const struct swell_msg_heartbeat *
 	}
 	f->have_state = true;
 	f->state = hb->state;
-	vm_heartbeat(f->vm, feed_state_name(hb->state), hb->err, hb->bad_frames, hb->overruns);
+	char name[16];
+	const char *n = swell_state_name(hb->state);
+	size_t k = 0;
+	for (; n[k] && k < sizeof(name) - 1; k++)
+		name[k] = (char)toupper((unsigned char)n[k]); /* the HUD shows state names in capitals */
+	name[k] = 0;
+	vm_heartbeat(f->vm, name, hb->err, hb->bad_frames, hb->overruns);
 	if (f->have_hb) {
 		uint8_t d = (uint8_t)(hb->seq - f->hb_seq);
 		if (d < 128)

@@ -63,6 +63,4 @@ void feed_can(struct view_feed *f, uint32_t id, const uint8_t *data, size_t len,
 /* Frames rejected by the decoders, all reasons. */
 uint32_t feed_rejected(const struct view_feed *f);
 
-const char *feed_state_name(uint8_t state);
-
 #endif

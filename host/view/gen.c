@@ -4,36 +4,37 @@
 #include <math.h>
 #include <string.h>
 
+#include "swell/pool.h"
 #include "swell/proto.h"
 
 void gen_default(struct gen_scene *s)
 {
 	memset(s, 0, sizeof(*s));
-	s->nx = 64;
-	s->ny = 64;
-	s->dx_um = 6250;
-	s->depth_10um = 5000;
+	s->nx = SWELL_POOL_N;
+	s->ny = SWELL_POOL_N;
+	s->dx_um = SWELL_POOL_DX_UM;
+	s->depth_10um = SWELL_POOL_DEPTH_UM / 10;
 	s->scene_id = 1;
-	s->bump_x_um = (int32_t)(0.70 * 64 * 6250);
-	s->bump_y_um = (int32_t)(0.50 * 64 * 6250);
+	s->bump_x_um = (int32_t)(0.70 * SWELL_POOL_SIDE_UM);
+	s->bump_y_um = (int32_t)(0.50 * SWELL_POOL_SIDE_UM);
 	s->bump_sigma_um = 25000;
 	s->bump_amp_um = 3000;
-	s->obj_x_10um = (int16_t)(0.30 * 64 * 625);
-	s->obj_y_10um = (int16_t)(0.35 * 64 * 625);
+	s->obj_x_10um = (int16_t)(0.30 * SWELL_POOL_SIDE_UM / 10);
+	s->obj_y_10um = (int16_t)(0.35 * SWELL_POOL_SIDE_UM / 10);
 	s->obj_z_10um = -1000;
 	s->submersion_halfpct = 50;
 	s->fx_cN = 150;
 	s->fy_cN = -100;
 	s->fz_cN = 80;
-	s->state = 3;
+	s->state = SWELL_CTL_RUNNING;
 }
 
 void gen_mirror(struct gen_scene *s)
 {
-	s->bump_x_um = (int32_t)(0.30 * 64 * 6250);
-	s->bump_y_um = (int32_t)(0.40 * 64 * 6250);
-	s->obj_x_10um = (int16_t)(0.72 * 64 * 625);
-	s->obj_y_10um = (int16_t)(0.70 * 64 * 625);
+	s->bump_x_um = (int32_t)(0.30 * SWELL_POOL_SIDE_UM);
+	s->bump_y_um = (int32_t)(0.40 * SWELL_POOL_SIDE_UM);
+	s->obj_x_10um = (int16_t)(0.72 * SWELL_POOL_SIDE_UM / 10);
+	s->obj_y_10um = (int16_t)(0.70 * SWELL_POOL_SIDE_UM / 10);
 	s->fx_cN = -120;
 	s->fy_cN = 160;
 	s->scene_id = 2;
@@ -58,7 +59,7 @@ void gen_cells(struct gen_scene *s, uint16_t n)
 {
 	s->nx = n;
 	s->ny = n;
-	s->dx_um = (uint16_t)(400000u / n);
+	s->dx_um = (uint16_t)(SWELL_POOL_SIDE_UM / n);
 }
 
 void gen_object_at(const struct gen_scene *s, uint64_t t_us, int16_t *z_10um, uint8_t *submersion_halfpct,
@@ -72,7 +73,7 @@ void gen_object_at(const struct gen_scene *s, uint64_t t_us, int16_t *z_10um, ui
 	double ph = sin(2 * 3.14159265358979 * (double)(t_us % s->bob_period_us) / s->bob_period_us);
 	*z_10um = (int16_t)lround(s->obj_z_10um + s->bob_z_10um * ph);
 	/* submerged: -z of the 50 mm box, in half percent */
-	double sub = -(double)*z_10um / 5000.0 * 200.0;
+	double sub = -(double)*z_10um / (SWELL_POOL_BOX_UM / 10) * 200.0;
 	*submersion_halfpct = (uint8_t)lround(sub < 0 ? 0 : sub > 200 ? 200 : sub);
 	*fz_cN = (int16_t)lround(s->fz_cN + s->bob_fz_cN * ph);
 }
@@ -179,33 +180,17 @@ unsigned gen_frame(const struct gen_scene *s, uint64_t t_us, uint8_t frame, bool
 		}
 	}
 	if (tiles) {
-		unsigned tx_n = (s->nx + SWELL_PROTO_TILE - 1u) / SWELL_PROTO_TILE;
-		unsigned ty_n = (s->ny + SWELL_PROTO_TILE - 1u) / SWELL_PROTO_TILE;
-		for (unsigned ty = 0; ty < ty_n; ty++)
-			for (unsigned tx = 0; tx < tx_n; tx++)
-				for (unsigned row = 0; row < SWELL_PROTO_TILE; row++)
-					for (unsigned half = 0; half < 2; half++) {
-						memset(&m, 0, sizeof(m));
-						m.type = SWELL_MSG_HEIGHT_QUAD;
-						struct swell_msg_height_quad *q = &m.u.height_quad;
-						q->tile_x = (uint8_t)tx;
-						q->tile_y = (uint8_t)ty;
-						q->row = (uint8_t)row;
-						q->half = (uint8_t)half;
-						q->frame = frame & 3u;
-						int16_t v[4] = { 0, 0, 0, 0 };
-						unsigned j = ty * SWELL_PROTO_TILE + row;
-						for (unsigned k = 0; k < 4; k++) {
-							unsigned i = tx * SWELL_PROTO_TILE + half * 4 + k;
-							if (i < s->nx && j < s->ny)
-								v[k] = gen_height(s, (uint16_t)i, (uint16_t)j, t_us);
-						}
-						q->h0 = v[0];
-						q->h1 = v[1];
-						q->h2 = v[2];
-						q->h3 = v[3];
-						put(&p, &m);
-					}
+		const unsigned tiles_x = SWELL_TILES(s->nx),
+			       quads = tiles_x * SWELL_TILES(s->ny) * SWELL_QUADS_PER_TILE;
+		for (unsigned q = 0; q < quads; q++) {
+			const struct swell_quad_at at = swell_quad_locate(q, tiles_x);
+			int16_t v[4] = { 0, 0, 0, 0 };
+			for (unsigned k = 0; k < 4; k++)
+				if (at.x0 + k < s->nx && at.y < s->ny)
+					v[k] = gen_height(s, (uint16_t)(at.x0 + k), (uint16_t)at.y, t_us);
+			m = swell_height_quad(&at, frame, v);
+			put(&p, &m);
+		}
 	}
 	int16_t z_10um, fz_cN;
 	uint8_t sub;

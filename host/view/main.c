@@ -17,6 +17,7 @@
 #include "feed.h"
 #include "png.h"
 #include "render.h"
+#include "swell/pool.h"
 #include "sources.h"
 #include "vm.h"
 
@@ -108,7 +109,7 @@ static void parse(int argc, char **argv, struct opts *o)
 	o->frames = -1;
 	o->fps = 60;
 	o->stale_ms = 500;
-	o->obj_um[0] = o->obj_um[1] = o->obj_um[2] = 50000; /* the controller's default body */
+	o->obj_um[0] = o->obj_um[1] = o->obj_um[2] = SWELL_POOL_BOX_UM; /* the controller's default body */
 	o->ro.w = 1024;
 	o->ro.h = 768;
 	o->ro.view = RENDER_ORBIT;

@@ -8,6 +8,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "swell/pool.h"
 #include "swell/transport.h"
 
 #define PATTERN_FRAME_US 20000u /* the pattern controller sends a frame every 20 ms */
@@ -338,7 +339,7 @@ static void pattern_poll(struct source *s, uint64_t now_us)
 			s->restarted = true;
 			s->g.state = 0;
 			s->g.scene_id++;
-			s->g.bump_x_um = (int32_t)(0.30 * 64 * 6250); /* the new run starts elsewhere */
+			s->g.bump_x_um = (int32_t)(0.30 * SWELL_POOL_SIDE_UM); /* the new run starts elsewhere */
 			s->g.obj_x_10um = (int16_t)(0.70 * 64 * 625);
 		} else if (s->restarted && s->g.state == 0 && s->frame % PATTERN_REFRESH == 0) {
 			s->g.state = 3;

@@ -20,6 +20,10 @@
 #include "swell/err.h"
 #include "swell/proto_table.h"
 
+#if defined(__ARM_FEATURE_SAT)
+#include <arm_acle.h>
+#endif
+
 enum swell_msg_type {
 #define SWELL_X(NAME, name, type, len, from, to, desc) SWELL_MSG_##NAME = type,
 	SWELL_PROTO_MESSAGES(SWELL_X)
@@ -137,10 +141,55 @@ enum swell_err swell_pkt_decode(const uint8_t *pkt, size_t len, struct swell_msg
 
 /* ---- heights on the wire (see SWELL_PROTO_H_SHIFT) ---- */
 /* Solver height (int32, LSB 2^-16 mm) to a wire sample (int12, LSB 2^-6 mm): rounded to nearest
- * (ties toward +infinity), saturated to [-2048, 2047]. */
-int16_t swell_height_to_sample(int32_t h);
+ * (ties toward +infinity), saturated to [-2048, 2047]. Inline: the controller converts every cell
+ * it scans. */
+static inline int16_t swell_height_to_sample(int32_t h)
+{
+	const int shift = 16 - SWELL_PROTO_H_SHIFT;
+	const int32_t s = ((h >> (shift - 1)) + 1) >> 1; /* floor((h + 2^(shift-1)) / 2^shift), no overflow */
+
+#if defined(__ARM_FEATURE_SAT)
+	return (int16_t)__ssat(s, 12); /* [-2048, 2047] in one instruction */
+#else
+	return (int16_t)(s < -2048 ? -2048 : s > 2047 ? 2047 : s);
+#endif
+}
+
 /* Wire sample to solver units: exact (sample * 2^10). */
-int32_t swell_sample_to_height(int16_t sample);
+static inline int32_t swell_sample_to_height(int16_t sample)
+{
+	return (int32_t)sample * ((int32_t)1 << (16 - SWELL_PROTO_H_SHIFT));
+}
+
+/* A grid is sent in tiles of SWELL_PROTO_TILE x SWELL_PROTO_TILE cells, row-major, each in 16 quads
+ * (4 cells of one tile row): quad q of a grid tiles_x tiles wide is tile q / 16, row (q / 2) % 8,
+ * half q % 2. Cells of a partial tile outside the grid are sent as 0. */
+#define SWELL_QUADS_PER_TILE (2u * SWELL_PROTO_TILE)
+#define SWELL_TILES(cells) (((unsigned)(cells) + SWELL_PROTO_TILE - 1u) / SWELL_PROTO_TILE)
+
+struct swell_quad_at {
+	unsigned tile_x, tile_y, row, half;
+	unsigned x0, y; /* grid cell of the first sample */
+};
+
+static inline struct swell_quad_at swell_quad_locate(uint32_t q, unsigned tiles_x)
+{
+	const unsigned tile = q / SWELL_QUADS_PER_TILE;
+	struct swell_quad_at at;
+
+	at.tile_x = tile % tiles_x;
+	at.tile_y = tile / tiles_x;
+	at.row = (q >> 1) % SWELL_PROTO_TILE;
+	at.half = q & 1u;
+	at.x0 = at.tile_x * SWELL_PROTO_TILE + 4u * at.half;
+	at.y = at.tile_y * SWELL_PROTO_TILE + at.row;
+	return at;
+}
+
+/* The HEIGHT_QUAD (node 0) of the quad at `at` carrying samples s[0..3]; frame 0..3. */
+struct swell_msg swell_height_quad(const struct swell_quad_at *at, unsigned frame, const int16_t s[4]);
+/* The four samples of a HEIGHT_QUAD in solver units. */
+void swell_height_quad_heights(const struct swell_msg_height_quad *q, int32_t h[4]);
 /* Fills a HEIGHT_QUAD (node 0) from row-major heights h[j * nx + i] of an nx x ny grid: cells
  * 4*half .. 4*half+3 of row `row` of tile (tile_x, tile_y); cells outside the grid are sent as 0.
  * SWELL_ESIZE for a grid outside 1..256, SWELL_ERANGE for a tile, row, half or frame out of range. */

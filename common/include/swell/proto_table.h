@@ -35,6 +35,14 @@
 #define SWELL_PROTO_TILE 8
 #define SWELL_PROTO_BOOT_KEY 0x4C425753u /* "SWBL" little-endian */
 
+/* DEVICE_POS.status bits. */
+enum swell_dev_status {
+	SWELL_DEV_POWERED = 1u << 0,
+	SWELL_DEV_FORCE_ON = 1u << 1,
+	SWELL_DEV_ESTOP = 1u << 2,
+	SWELL_DEV_FAULT = 1u << 3
+};
+
 /* Controller states, as HEARTBEAT.state carries them: S(NAME, code, "name"). */
 #define SWELL_STATES(S) \
 	S(BOOT, 0, "boot") S(IDLE, 1, "idle") S(ARMED, 2, "armed") S(RUNNING, 3, "running") S(FAULT, 4, "fault")

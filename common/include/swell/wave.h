@@ -159,6 +159,13 @@ struct swell_wave {
 	uint64_t fixed_lsb; /* LSB given back by the fixer, cumulative */
 };
 
+/* h(n), the height of the last finished step, of cell a at any point of a step in progress: rows
+ * finished ahead (below done_row) hold h(n+1) in h and its change in acc. */
+static inline int32_t swell_wave_h(const struct swell_wave *w, size_t a)
+{
+	return a < (size_t)w->done_row * w->nx ? w->h[a] - w->acc[a] : w->h[a];
+}
+
 /* Exact integer energy (docs/design.md, section 2), for tests: with t = 0,
  *     E * 2^31 = kin * 2^31 + e_eff * pot2
  * is conserved exactly in exact arithmetic; kin = sum (h(n) - h(n-1))^2 and

@@ -5,10 +5,7 @@
 
 #include "swell/crc.h"
 #include "swell/param.h"
-
-#if defined(__ARM_FEATURE_SAT)
-#include <arm_acle.h>
-#endif
+#include "swell/pool.h"
 
 #define HEARTBEAT_HZ 10u
 #define SCENE_HZ 1u
@@ -25,10 +22,10 @@
 #define NEVER_SENT INT16_MIN
 
 static const struct swell_ctl_config pool_config = {
-	.nx = 64,
-	.ny = 64,
-	.dx_um = 6250,
-	.depth_um = 50000,
+	.nx = SWELL_POOL_N,
+	.ny = SWELL_POOL_N,
+	.dx_um = SWELL_POOL_DX_UM,
+	.depth_um = SWELL_POOL_DEPTH_UM,
 	/* e = 9.81 * 0.004^2 * 0.05 / 0.00625^2 = 0.200909 */
 	.wave = { .e = SWELL_PARAM_DEF_WAVE_E,
 		  .damping = SWELL_PARAM_DEF_WAVE_DAMPING,
@@ -49,9 +46,9 @@ static const struct swell_ctl_config pool_config = {
 	.safety = { .gain = SWELL_PARAM_DEF_FORCE_GAIN,
 		    .f_max_uN = SWELL_PARAM_DEF_FORCE_MAX_UN,
 		    .rate_uN_per_s = SWELL_PARAM_DEF_FORCE_RATE,
-		    .tick_hz = 2500 },
-	.tick_hz = 2500,
-	.solver_hz = 250,
+		    .tick_hz = SWELL_POOL_TICK_HZ },
+	.tick_hz = SWELL_POOL_TICK_HZ,
+	.solver_hz = SWELL_POOL_SOLVER_HZ,
 	.silent_ticks = SWELL_PARAM_DEF_SILENT_TICKS,
 	.recover_ticks = 250,
 	.host_budget = 16,
@@ -103,12 +100,14 @@ enum swell_err swell_ctl_check(const struct swell_ctl_config *cfg)
 
 	if (!cfg)
 		return SWELL_EINVAL;
-	if (cfg->nx < SWELL_WAVE_MIN_SIDE || cfg->ny < SWELL_WAVE_MIN_SIDE || cfg->nx > 256 || cfg->ny > 256)
+	if (cfg->nx < SWELL_WAVE_MIN_SIDE || cfg->ny < SWELL_WAVE_MIN_SIDE || cfg->nx > SWELL_GRID_MAX ||
+	    cfg->ny > SWELL_GRID_MAX)
 		return SWELL_ESIZE; /* the wire carries grids up to 256 x 256 */
 	if (cfg->dx_um < 100 || cfg->dx_um > 65535 || cfg->depth_um < 10 || cfg->depth_um > 655350)
 		return SWELL_ERANGE;
-	if (cfg->tick_hz < 10 || cfg->tick_hz > 100000 || cfg->solver_hz == 0 || cfg->tick_hz % cfg->solver_hz != 0 ||
-	    cfg->tick_hz / cfg->solver_hz < 2 || cfg->tick_hz / cfg->solver_hz > SWELL_BODY_MAX_K)
+	if (cfg->tick_hz < SWELL_TICK_HZ_MIN || cfg->tick_hz > SWELL_TICK_HZ_MAX || cfg->solver_hz == 0 ||
+	    cfg->tick_hz % cfg->solver_hz != 0 || cfg->tick_hz / cfg->solver_hz < 2 ||
+	    cfg->tick_hz / cfg->solver_hz > SWELL_BODY_MAX_K)
 		return SWELL_ERANGE;
 	if (cfg->silent_ticks < 1 || cfg->silent_ticks > 10000 || cfg->recover_ticks < 1 || cfg->host_budget < 1 ||
 	    cfg->host_budget > SWELL_CTL_QUEUE / 2 || cfg->node > SWELL_NODE_MAX || cfg->autorun > 1 ||
@@ -183,9 +182,9 @@ enum swell_err swell_ctl_init(struct swell_ctl *c, const struct swell_ctl_config
 	c->ticks_per_step = cfg->tick_hz / cfg->solver_hz;
 	c->units_per_tick =
 		((COST_EDGE_ROW + COST_FINISH_ROW) * cfg->ny + COST_CLEAR + c->ticks_per_step - 1) / c->ticks_per_step;
-	c->tiles_x = (uint16_t)((cfg->nx + SWELL_PROTO_TILE - 1) / SWELL_PROTO_TILE);
-	c->tiles_y = (uint16_t)((cfg->ny + SWELL_PROTO_TILE - 1) / SWELL_PROTO_TILE);
-	c->quads = (uint32_t)c->tiles_x * c->tiles_y * SWELL_PROTO_TILE * 2;
+	c->tiles_x = (uint16_t)SWELL_TILES(cfg->nx);
+	c->tiles_y = (uint16_t)SWELL_TILES(cfg->ny);
+	c->quads = (uint32_t)c->tiles_x * c->tiles_y * SWELL_QUADS_PER_TILE;
 	c->fp_cells = (cfg->body.a_um / cfg->dx_um + 2) * (cfg->body.b_um / cfg->dx_um + 2);
 	c->since_dev = UINT32_MAX;
 	c->state = SWELL_CTL_BOOT;
@@ -441,6 +440,31 @@ void swell_ctl_rx(struct swell_ctl *c, enum swell_ctl_link from, const struct sw
 	}
 }
 
+void swell_ctl_link_down(struct swell_ctl *c, enum swell_ctl_link link)
+{
+	if (link != SWELL_LINK_DEVICE)
+		return;
+	c->dev_heard = 0;
+	c->dev_back = 0;
+	if (c->since_dev < c->cfg.silent_ticks)
+		c->since_dev = c->cfg.silent_ticks;
+}
+
+int swell_ctl_device_lost(const struct swell_ctl *c)
+{
+	return c->since_dev >= c->cfg.silent_ticks;
+}
+
+int swell_ctl_background_due(const struct swell_ctl *c)
+{
+	return c->bg_pending;
+}
+
+int swell_ctl_bootloader_requested(const struct swell_ctl *c)
+{
+	return c->bootloader_request;
+}
+
 void swell_ctl_overrun(struct swell_ctl *c)
 {
 	c->n.overruns++;
@@ -575,48 +599,27 @@ static void send_pose(struct swell_ctl *c)
 	push(c, SWELL_LINK_HOST, &f);
 }
 
-/* Height on the wire: round to nearest 2^-SWELL_PROTO_H_SHIFT mm, saturated to int12. */
-static inline int16_t wire_sample(int32_t h_lsb)
-{
-	const int shift = SWELL_H_FRAC - SWELL_PROTO_H_SHIFT;
-	int32_t s = (h_lsb + (1 << (shift - 1))) >> shift;
-
-#if defined(__ARM_FEATURE_SAT)
-	return (int16_t)__ssat(s, 12); /* [-2048, 2047] in one instruction */
-#else
-	return (int16_t)swell_clamp(s, -2048, 2047);
-#endif
-}
-
 /* Two wire samples as sent[] holds them: the first in the low half. */
 static inline uint32_t sample_pair(int32_t h0, int32_t h1)
 {
-	return (uint32_t)(uint16_t)wire_sample(h0) | (uint32_t)(uint16_t)wire_sample(h1) << 16;
+	return (uint32_t)(uint16_t)swell_height_to_sample(h0) | (uint32_t)(uint16_t)swell_height_to_sample(h1) << 16;
 }
 
-/* Read quad q (16 a tile: row 0..7, half 0..1) into s[4]; cells outside the grid read 0.
- * Returns how many of its cells are in the grid (0: a quad of a partial tile wholly outside), and
- * sets *changed when any sample differs from the one last sent. The heights are those of the last
- * finished solver step (h - acc in rows the solver finished ahead, wave.h). */
-static uint32_t quad_read(const struct swell_ctl *c, uint32_t q, int16_t s[4], int *changed)
+/* Read quad q into s[4] (cells outside the grid read 0): the heights of the last finished solver
+ * step (swell_wave_h). Returns how many of its cells are in the grid (0: a quad of a partial tile
+ * wholly outside), and sets *changed when any sample differs from the one last sent. */
+static uint32_t quad_read(const struct swell_ctl *c, const struct swell_quad_at *at, int16_t s[4], int *changed)
 {
-	const uint32_t nx = c->cfg.nx, tile = q >> 4, row = (q >> 1) & 7u, half = q & 1u;
-	const uint32_t y = (tile / c->tiles_x) * SWELL_PROTO_TILE + row;
-	const uint32_t x0 = (tile % c->tiles_x) * SWELL_PROTO_TILE + half * 4;
-	const uint32_t a = y * nx + x0;
-	const int ahead = y < c->wave.done_row;
-	const int32_t *h, *acc;
+	const uint32_t nx = c->cfg.nx, a = at->y * nx + at->x0;
 	uint32_t k, cells = 0;
 
 	*changed = 0;
 	s[0] = s[1] = s[2] = s[3] = 0;
-	if (y >= c->cfg.ny)
+	if (at->y >= c->cfg.ny)
 		return 0;
-	h = c->wave.h + a;
-	acc = c->wave.acc + a;
-	if (x0 + 4 <= nx && !(a & 1u)) { /* a whole quad: its samples are two words of sent[] */
-		const uint32_t w0 = ahead ? sample_pair(h[0] - acc[0], h[1] - acc[1]) : sample_pair(h[0], h[1]);
-		const uint32_t w1 = ahead ? sample_pair(h[2] - acc[2], h[3] - acc[3]) : sample_pair(h[2], h[3]);
+	if (at->x0 + 4 <= nx && !(a & 1u)) { /* a whole quad: its samples are two words of sent[] */
+		const uint32_t w0 = sample_pair(swell_wave_h(&c->wave, a), swell_wave_h(&c->wave, a + 1));
+		const uint32_t w1 = sample_pair(swell_wave_h(&c->wave, a + 2), swell_wave_h(&c->wave, a + 3));
 
 		s[0] = (int16_t)(uint16_t)w0;
 		s[1] = (int16_t)(uint16_t)(w0 >> 16);
@@ -625,31 +628,21 @@ static uint32_t quad_read(const struct swell_ctl *c, uint32_t q, int16_t s[4], i
 		*changed = w0 != c->sent[a >> 1] || w1 != c->sent[(a >> 1) + 1];
 		return 4;
 	}
-	for (k = 0; k < 4 && x0 + k < nx; k++) {
-		s[k] = wire_sample(ahead ? h[k] - acc[k] : h[k]);
+	for (k = 0; k < 4 && at->x0 + k < nx; k++) {
+		s[k] = swell_height_to_sample(swell_wave_h(&c->wave, a + k));
 		*changed |= s[k] != sent_get(c, a + k);
 		cells++;
 	}
 	return cells;
 }
 
-static void quad_send(struct swell_ctl *c, uint32_t q, const int16_t s[4], uint32_t cells)
+static void quad_send(struct swell_ctl *c, const struct swell_quad_at *at, const int16_t s[4], uint32_t cells)
 {
-	const uint32_t tile = q >> 4, row = (q >> 1) & 7u, half = q & 1u;
-	const uint32_t tx = tile % c->tiles_x, ty = tile / c->tiles_x;
-	const uint32_t a = (ty * SWELL_PROTO_TILE + row) * c->cfg.nx + tx * SWELL_PROTO_TILE + half * 4;
-	struct swell_msg m = msg(c, SWELL_MSG_HEIGHT_QUAD);
+	const uint32_t a = at->y * c->cfg.nx + at->x0;
+	struct swell_msg m = swell_height_quad(at, c->n.solver_steps, s);
 	uint32_t k;
 
-	m.u.height_quad.tile_x = (uint8_t)tx;
-	m.u.height_quad.tile_y = (uint8_t)ty;
-	m.u.height_quad.row = (uint8_t)row;
-	m.u.height_quad.half = (uint8_t)half;
-	m.u.height_quad.frame = (uint8_t)(c->n.solver_steps & 3u);
-	m.u.height_quad.h0 = s[0];
-	m.u.height_quad.h1 = s[1];
-	m.u.height_quad.h2 = s[2];
-	m.u.height_quad.h3 = s[3];
+	m.node = c->cfg.node;
 	push(c, SWELL_LINK_HOST, &m);
 	for (k = 0; k < cells; k++)
 		sent_set(c, a + k, s[k]);
@@ -666,24 +659,26 @@ static uint32_t send_heights(struct swell_ctl *c, uint32_t budget)
 	int changed;
 
 	while (budget && scanned < QUAD_SCAN_PER_TICK) {
-		uint32_t q = c->quad_cursor;
+		const uint32_t q = c->quad_cursor;
+		const struct swell_quad_at at = swell_quad_locate(q, c->tiles_x);
 
 		c->quad_cursor = q + 1 == c->quads ? 0 : q + 1;
 		scanned++;
-		n = quad_read(c, q, s, &changed);
+		n = quad_read(c, &at, s, &changed);
 		cells += n;
 		if (n && changed) {
-			quad_send(c, q, s, n);
+			quad_send(c, &at, s, n);
 			budget--;
 		}
 	}
 	for (scanned = 0; budget && scanned < 4; scanned++) { /* skip quads outside a partial tile */
-		uint32_t q = c->refresh_cursor;
+		const uint32_t q = c->refresh_cursor;
+		const struct swell_quad_at at = swell_quad_locate(q, c->tiles_x);
 
 		c->refresh_cursor = q + 1 == c->quads ? 0 : q + 1;
-		n = quad_read(c, q, s, &changed);
+		n = quad_read(c, &at, s, &changed);
 		if (n) {
-			quad_send(c, q, s, n);
+			quad_send(c, &at, s, n);
 			c->n.quads_refreshed++;
 			break;
 		}
@@ -706,7 +701,7 @@ static void enter(struct swell_ctl *c, enum swell_ctl_state s, enum swell_err wh
 
 static void supervise(struct swell_ctl *c)
 {
-	const int estop = (c->dev_status & 4u) != 0, powered = (c->dev_status & 1u) != 0;
+	const int estop = (c->dev_status & SWELL_DEV_ESTOP) != 0, powered = (c->dev_status & SWELL_DEV_POWERED) != 0;
 	int alive;
 
 	if (c->dev_heard) {

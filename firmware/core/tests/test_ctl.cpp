@@ -176,6 +176,55 @@ TEST_CASE("device samples: a short gap is counted lost, a far sequence jump is o
 	CHECK(k.c.dev_seq.resyncs == 2u);
 }
 
+TEST_CASE("a link down (bus-off, unplug, reset) faults the next tick as a silent device does, on every port alike", "[ctl][link]")
+{
+	swell_ctl_config cfg = pool();
+	cfg.autorun = 1;
+	cfg.recover_ticks = 20;
+	Ctl silent(cfg), down(cfg);
+	silent.held(10);
+	down.held(10);
+	REQUIRE(silent.c.state == SWELL_CTL_RUNNING);
+	REQUIRE(down.c.state == SWELL_CTL_RUNNING);
+	swell_ctl_link_down(&down.c, SWELL_LINK_HOST); /* the force loop does not depend on the host */
+	down.held(1);
+	REQUIRE(down.c.state == SWELL_CTL_RUNNING);
+	silent.held(1);
+
+	int silent_ticks = 0;
+	while (silent.c.state == SWELL_CTL_RUNNING && silent_ticks < 100) {
+		swell_ctl_tick(&silent.c);
+		silent_ticks++;
+	}
+	/* the device still talks in the tick its link goes down (starved, or bus-off after the read) */
+	down.device(0, 0, 100000);
+	swell_ctl_link_down(&down.c, SWELL_LINK_DEVICE);
+	CHECK(swell_ctl_device_lost(&down.c));
+	swell_ctl_tick(&down.c);
+	INFO("silence faulted after " << silent_ticks << " ticks");
+	CHECK(down.c.state == SWELL_CTL_FAULT);
+	CHECK(down.c.state == silent.c.state);
+	CHECK(down.c.last_err == SWELL_ETIMEOUT);
+	CHECK(down.c.last_err == silent.c.last_err);
+	CHECK(down.c.n.faults == silent.c.n.faults);
+	swell_msg_force_cmd fd = down.force(), fs = silent.force();
+	CHECK(fd.enable == 0);
+	CHECK(fs.enable == 0);
+
+	/* back the same way: recover_ticks after the device is heard again */
+	int back[2] = {-1, -1};
+	Ctl *k[2] = {&silent, &down};
+	for (int i = 0; i < 2; i++)
+		for (int t = 1; t <= 40 && back[i] < 0; t++) {
+			k[i]->held(1);
+			if (k[i]->c.state == SWELL_CTL_RUNNING)
+				back[i] = t;
+		}
+	INFO("running again after " << back[0] << " (silence) and " << back[1] << " (link down) ticks");
+	CHECK(back[1] == back[0]);
+	CHECK(back[1] >= 20);
+}
+
 TEST_CASE("autorun leaves a fault by itself after the device has been back for recover_ticks", "[ctl][link]")
 {
 	swell_ctl_config cfg = pool();

@@ -24,7 +24,7 @@ void fw_core_device(struct swell_ctl *c, struct fw_core_run *r)
 	m.u.device_pos.y_10um = 0;
 	m.u.device_pos.z_10um = (int16_t)(z < -2500 ? -2500 : z);
 	m.u.device_pos.seq = r->seq++;
-	m.u.device_pos.status = 3; /* powered, force enabled */
+	m.u.device_pos.status = SWELL_DEV_POWERED | SWELL_DEV_FORCE_ON;
 	swell_ctl_rx(c, SWELL_LINK_DEVICE, &m);
 	r->tick++;
 }

@@ -25,7 +25,7 @@ static struct {
 	int can_on, usb_on, device_on_can;
 	struct swell_msg usb_rx[USB_RING];
 	volatile uint32_t usb_head, usb_tail;
-	uint32_t usb_dropped, bad_frames_reported, overruns_seen;
+	uint32_t usb_dropped, bad_frames_reported, overruns_seen, bus_offs_seen;
 	struct swell_proto_stats stats;
 	uint8_t usb_seq;
 } app;
@@ -150,6 +150,11 @@ static void app_tick(void)
 		swell_ctl_overrun(&app_ctl);
 	}
 
+	if (app.device_on_can && can_bus_offs() != app.bus_offs_seen) {
+		/* the status interrupt has zeroed the force; the core faults as on the Linux port */
+		app.bus_offs_seen = can_bus_offs();
+		swell_ctl_link_down(&app_ctl, SWELL_LINK_DEVICE);
+	}
 	swell_ctl_tick_force(&app_ctl);
 	drain(SWELL_LINK_DEVICE);
 	if (host_shares_device_carrier())
@@ -159,7 +164,7 @@ static void app_tick(void)
 /* Thread mode, lowest priority: the background part of the tick the interrupt just ran. */
 static void app_background(void)
 {
-	if (!app_ctl.bg_pending)
+	if (!swell_ctl_background_due(&app_ctl))
 		return;
 	swell_ctl_tick_background(&app_ctl);
 	if (!host_shares_device_carrier())
@@ -239,7 +244,8 @@ void app_run(const struct clock_info *ci, int can_ok, int usb_ok, const struct a
 		if (app.can_on)
 			can_poll(now_ms);
 		app_background();
-		if (app_ctl.bootloader_request) { /* accepted by the core: force zeroed, heartbeat queued */
+		if (swell_ctl_bootloader_requested(
+			    &app_ctl)) { /* accepted by the core: force zeroed, heartbeat queued */
 			if (!boot_armed) {
 				boot_armed = 1;
 				boot_at = st.count + BOOT_DRAIN_TICKS;

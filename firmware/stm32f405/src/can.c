@@ -254,3 +254,8 @@ void can_status(struct can_status *out)
 	out->rx_overruns = can.rx_overruns;
 	out->tx_aborted = can.tx_aborted;
 }
+
+uint32_t can_bus_offs(void)
+{
+	return can.busoff.count;
+}

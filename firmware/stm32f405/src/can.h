@@ -49,4 +49,7 @@ void can_poll(uint32_t now_ms);
 
 void can_status(struct can_status *out);
 
+/* Bus-off events since start (the port compares it each tick: a new one takes the device link down). */
+uint32_t can_bus_offs(void);
+
 #endif

@@ -487,8 +487,8 @@ void selftest_boot_request(void)
 	con_puts(" (force z ");
 	con_put_i64(f_running);
 	con_puts(" uN): ");
-	con_puts(ctl.bootloader_request ? "ACCEPTED\n" : "refused\n");
-	if (ctl.bootloader_request)
+	con_puts(swell_ctl_bootloader_requested(&ctl) ? "ACCEPTED\n" : "refused\n");
+	if (swell_ctl_bootloader_requested(&ctl))
 		return;
 	stop.u.param_set.id = SWELL_PARAM_AUTORUN;
 	stop.u.param_set.value = 0;
@@ -501,7 +501,7 @@ void selftest_boot_request(void)
 	con_puts("boot test: ENTER_BOOTLOADER in ");
 	con_puts(swell_ctl_state_name(ctl.state));
 	con_puts(": ");
-	con_puts(ctl.bootloader_request ? "accepted" : "REFUSED");
+	con_puts(swell_ctl_bootloader_requested(&ctl) ? "accepted" : "REFUSED");
 	con_puts(", force now ");
 	con_put_i64(ctl.force_dev_uN[0]);
 	con_putc(' ');
@@ -509,6 +509,6 @@ void selftest_boot_request(void)
 	con_putc(' ');
 	con_put_i64(ctl.force_dev_uN[2]);
 	con_puts(" uN\n");
-	if (ctl.bootloader_request)
+	if (swell_ctl_bootloader_requested(&ctl))
 		boot_request_reset();
 }

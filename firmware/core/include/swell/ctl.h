@@ -48,6 +48,7 @@
 #include <stdint.h>
 
 #include "swell/body.h"
+#include "swell/ctl_port.h"
 #include "swell/effect.h"
 #include "swell/err.h"
 #include "swell/proto.h"
@@ -56,12 +57,6 @@
 #include "swell/wave.h"
 
 /* enum swell_ctl_state (the heartbeat's state codes) is in swell/proto_table.h. */
-
-enum swell_ctl_link {
-	SWELL_LINK_DEVICE = 0,
-	SWELL_LINK_HOST = 1,
-	SWELL_LINKS = 2
-};
 
 /* Parameter ids, commands and their ranges: swell/param_table.h. */
 
@@ -176,30 +171,7 @@ enum swell_err swell_ctl_check(const struct swell_ctl_config *cfg);
  * On error *c is untouched. */
 enum swell_err swell_ctl_init(struct swell_ctl *c, const struct swell_ctl_config *cfg, int32_t *arena, size_t words);
 
-/* A decoded message from one link. Messages from the wrong side are counted and ignored. */
-void swell_ctl_rx(struct swell_ctl *c, enum swell_ctl_link from, const struct swell_msg *m);
-
-/* One device tick (see above): swell_ctl_tick_force then swell_ctl_tick_background. */
-void swell_ctl_tick(struct swell_ctl *c);
-
-/* The same tick in two parts for ports with interrupt priorities: the force part (steps 1-3:
- * supervision, state, force law, safety, FORCE_CMD) from the highest-priority tick interrupt, the
- * background part (steps 4-5: solver slice, telemetry) from a lower priority right after it. The
- * background of tick k must be done before the force part of tick k+1 starts: that keeps the order of
- * every read and write the same as swell_ctl_tick's, so results stay bit-identical. If it is not done,
- * the force part counts an overrun and runs anyway (safety before waves). */
-void swell_ctl_tick_force(struct swell_ctl *c);
-void swell_ctl_tick_background(struct swell_ctl *c);
-
-/* Up to cap queued messages for a link, oldest first, removed from the queue. */
-size_t swell_ctl_tx(struct swell_ctl *c, enum swell_ctl_link link, struct swell_msg *out, size_t cap);
-
-/* Port reports. */
-void swell_ctl_overrun(struct swell_ctl *c);
-void swell_ctl_bad_frames(struct swell_ctl *c, uint32_t n);
-
-/* Force the outputs to zero right now and queue a zero FORCE_CMD (shutdown, signals, faults). */
-void swell_ctl_zero_force(struct swell_ctl *c);
+/* The port side (rx, tick, tx, link events, reports): swell/ctl_port.h. */
 
 const char *swell_ctl_state_name(enum swell_ctl_state s);
 

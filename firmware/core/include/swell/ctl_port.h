@@ -1,0 +1,61 @@
+/* The contract between the controller core and a port (Linux process, STM32F405): everything a port
+ * does with the core goes through these calls, never through the core's fields. In: decoded messages
+ * (swell_ctl_rx), the clock (one swell_ctl_tick per device tick, or its two parts), link events and
+ * reports. Out: the two message queues (swell_ctl_tx; FORCE_CMD on the device queue is the force
+ * output) and the few states a port acts on. */
+#ifndef SWELL_CTL_PORT_H
+#define SWELL_CTL_PORT_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+struct swell_ctl;
+struct swell_msg;
+
+enum swell_ctl_link {
+	SWELL_LINK_DEVICE = 0,
+	SWELL_LINK_HOST = 1,
+	SWELL_LINKS = 2
+};
+
+/* A decoded message from one link. Messages from the wrong side are counted and ignored. */
+void swell_ctl_rx(struct swell_ctl *c, enum swell_ctl_link from, const struct swell_msg *m);
+
+/* One device tick (swell/ctl.h): swell_ctl_tick_force then swell_ctl_tick_background. */
+void swell_ctl_tick(struct swell_ctl *c);
+
+/* The same tick in two parts for ports with interrupt priorities: the force part (steps 1-3:
+ * supervision, state, force law, safety, FORCE_CMD) from the highest-priority tick interrupt, the
+ * background part (steps 4-5: solver slice, telemetry) from a lower priority right after it. The
+ * background of tick k must be done before the force part of tick k+1 starts: that keeps the order of
+ * every read and write the same as swell_ctl_tick's, so results stay bit-identical. If it is not done,
+ * the force part counts an overrun and runs anyway (safety before waves). */
+void swell_ctl_tick_force(struct swell_ctl *c);
+void swell_ctl_tick_background(struct swell_ctl *c);
+/* 1 while the background part of the last force part has not run. */
+int swell_ctl_background_due(const struct swell_ctl *c);
+
+/* Up to cap queued messages for a link, oldest first, removed from the queue. */
+size_t swell_ctl_tx(struct swell_ctl *c, enum swell_ctl_link link, struct swell_msg *out, size_t cap);
+
+/* The carrier of a link is gone (CAN bus-off, USB unplug, TCP reset, nothing reaches the device):
+ * for the device link the device counts as silent from now, so the next tick faults exactly as
+ * after silent_ticks of silence (RUNNING -> FAULT with SWELL_ETIMEOUT, ARMED -> IDLE, zero force),
+ * and autorun's recovery counts from when it is heard again. The host link going down changes
+ * nothing: the force loop does not depend on the host. */
+void swell_ctl_link_down(struct swell_ctl *c, enum swell_ctl_link link);
+/* 1 while the device counts as lost (silent for silent_ticks, or its link down). */
+int swell_ctl_device_lost(const struct swell_ctl *c);
+
+/* Port reports. */
+void swell_ctl_overrun(struct swell_ctl *c);
+void swell_ctl_bad_frames(struct swell_ctl *c, uint32_t n);
+
+/* Force the outputs to zero right now and queue a zero FORCE_CMD (shutdown, signals, faults). */
+void swell_ctl_zero_force(struct swell_ctl *c);
+
+/* 1 once an ENTER_BOOTLOADER was accepted: the force is zero and the last heartbeat queued; the port
+ * drains its queues and reboots into its bootloader (or, without one, exits). */
+int swell_ctl_bootloader_requested(const struct swell_ctl *c);
+
+#endif
