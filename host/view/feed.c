@@ -86,7 +86,7 @@ static void on_heartbeat(struct view_feed *f, const struct swell_msg_heartbeat *
 	char name[16];
 	const char *n = swell_state_name(hb->state);
 	size_t k = 0;
-	for (; n[k] && k < sizeof(name) - 1; k++)
+	for (; k < sizeof(name) - 1 && n[k]; k++)
 		name[k] = (char)toupper((unsigned char)n[k]); /* the HUD shows state names in capitals */
 	name[k] = 0;
 	vm_heartbeat(f->vm, name, hb->err, hb->bad_frames, hb->overruns);

@@ -73,7 +73,7 @@ void gen_object_at(const struct gen_scene *s, uint64_t t_us, int16_t *z_10um, ui
 	double ph = sin(2 * 3.14159265358979 * (double)(t_us % s->bob_period_us) / s->bob_period_us);
 	*z_10um = (int16_t)lround(s->obj_z_10um + s->bob_z_10um * ph);
 	/* submerged: -z of the 50 mm box, in half percent */
-	double sub = -(double)*z_10um / (SWELL_POOL_BOX_UM / 10) * 200.0;
+	double sub = -(double)*z_10um / (SWELL_POOL_BOX_UM / 10.0) * 200.0;
 	*submersion_halfpct = (uint8_t)lround(sub < 0 ? 0 : sub > 200 ? 200 : sub);
 	*fz_cN = (int16_t)lround(s->fz_cN + s->bob_fz_cN * ph);
 }

@@ -41,7 +41,7 @@ static int udp_recv(struct swell_link *l, struct swell_frame *f, int timeout_ms)
 
 	for (;;) {
 		struct pollfd p = { .fd = u->fd, .events = POLLIN };
-		struct sockaddr_in from;
+		struct sockaddr_in from = { 0 };
 		socklen_t fl = sizeof(from);
 		uint8_t buf[SWELL_LINK_MTU + 1];
 		ssize_t n;
