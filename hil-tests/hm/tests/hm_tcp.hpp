@@ -94,8 +94,8 @@ struct Client {
 		std::string h, t;
 		if (!read_n(h, 8, ms))
 			return "<none>";
-		const uint32_t n = (uint32_t)(uint8_t)h[0] << 24 | (uint32_t)(uint8_t)h[1] << 16 |
-				   (uint32_t)(uint8_t)h[2] << 8 | (uint8_t)h[3];
+		const uint32_t n = (uint32_t)(uint8_t)h[0] << 24 | (uint32_t)(uint8_t)h[1] << 16 | (uint32_t)(uint8_t)h[2] << 8 |
+			(uint8_t)h[3];
 		if (!read_n(t, n, ms))
 			return "<closed>";
 		return t;
@@ -122,6 +122,21 @@ struct Client {
 };
 
 // swell-hm --serve 127.0.0.1:0 with the given extra arguments; its port read from its first line.
+// waits up to ms for pid to end: its exit status (128 + signal when killed), and pid set to -1; -1 when
+// it is still running
+inline int reap(pid_t &pid, int ms)
+{
+	for (int k = 0; k < ms / 10; k++) {
+		int st = 0;
+		if (waitpid(pid, &st, WNOHANG) == pid) {
+			pid = -1;
+			return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+		}
+		std::this_thread::sleep_for(std::chrono::milliseconds(10));
+	}
+	return -1;
+}
+
 struct Server {
 	pid_t pid = -1;
 	int port = 0;
@@ -152,18 +167,7 @@ struct Server {
 		}
 	}
 	// waits for the exit; the exit status, -1 when it did not end within ms
-	int wait(int ms)
-	{
-		for (int k = 0; k < ms / 10; k++) {
-			int st = 0;
-			if (waitpid(pid, &st, WNOHANG) == pid) {
-				pid = -1;
-				return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
-			}
-			std::this_thread::sleep_for(std::chrono::milliseconds(10));
-		}
-		return -1;
-	}
+	int wait(int ms) { return reap(pid, ms); }
 	~Server()
 	{
 		if (pid > 0) {

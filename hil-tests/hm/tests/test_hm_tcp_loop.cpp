@@ -74,15 +74,7 @@ struct Ctl {
 	int stop()
 	{
 		kill(pid, SIGTERM);
-		for (int k = 0; k < 1000; k++) {
-			int st = 0;
-			if (waitpid(pid, &st, WNOHANG) == pid) {
-				pid = -1;
-				return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
-			}
-			std::this_thread::sleep_for(std::chrono::milliseconds(10));
-		}
-		return -1;
+		return hmtcp::reap(pid, 10000);
 	}
 	~Ctl()
 	{
