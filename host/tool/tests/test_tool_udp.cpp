@@ -149,7 +149,9 @@ struct Rig {
 TEST_CASE("swell-tool over UDP: status in text and JSON, get and set with units, refused sets change nothing", "[tool][udp]")
 {
 	Rig r("params");
-	Result st = r.tool("status");
+	/* the first status waits longer: on a loaded machine the controller may still be starting, and
+	 * the scene and info it waits for come once a second of the controller's time */
+	Result st = r.tool("--timeout-ms 4000 status");
 	REQUIRE(st.status == 0);
 	CHECK(has(st.out, "protocol 1"));
 	CHECK(has(st.out, "64 x 64 cells of 6.250 mm"));
