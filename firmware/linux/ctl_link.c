@@ -307,7 +307,10 @@ int ctl_link_open(struct ctl_link *l, const char *spec, int device_side, uint8_t
 	if (!strcmp(kind, "hm") && device_side) {
 		l->kind = CTL_LINK_HM;
 		snprintf(l->name, sizeof(l->name), "%s", spec);
-		return hm_client_open(&l->hm, arg ? arg : "", CTL_HM_MAX_AGE_TICKS, err, errlen);
+		if (hm_client_open(&l->hm, arg ? arg : "", CTL_HM_MAX_AGE_TICKS, err, errlen) < 0)
+			return -1;
+		hm_fx_init(&l->hmfx, &l->hm, HM_FX_FRESH_TICKS);
+		return 0;
 	}
 	if (!strcmp(kind, "can")) {
 		l->kind = CTL_LINK_CAN;
@@ -662,11 +665,14 @@ static void send_msgs(struct ctl_link *l, const struct swell_msg *m, size_t n)
 	size_t k = 0;
 
 	if (l->kind == CTL_LINK_HM) {
+		for (k = 0; k < n; k++) /* effect sets first: the tick's request carries the newest */
+			hm_fx_msg(&l->hmfx, &l->hm, &m[k]);
 		for (k = 0; k < n; k++)
 			if (m[k].type == SWELL_MSG_FORCE_CMD) {
 				const struct swell_msg_force_cmd *f = &m[k].u.force_cmd;
 				const int16_t cN[3] = { f->fx_cN, f->fy_cN, f->fz_cN };
 
+				hm_fx_tick(&l->hmfx, &l->hm, f->enable, 1);
 				hm_client_force(&l->hm, cN, f->enable);
 				l->frames_tx++;
 			}

@@ -10,6 +10,7 @@
 #include <stdint.h>
 
 #include "hm_client.h"
+#include "hm_fx.h"
 #include "swell/proto.h"
 #include "swell/transport.h"
 #include "usb_ffs.h"
@@ -95,6 +96,7 @@ struct ctl_link {
 	uint16_t held_len;
 	uint32_t answers_held, answers_dropped;
 	struct hm_client hm; /* hm: a HapticMaster on its TCP command interface (device side only) */
+	struct hm_fx hmfx; /* hm: the effect sets as the HapticMaster's own effects (effect mode) */
 	char name[48];
 };
 
