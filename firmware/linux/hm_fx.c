@@ -5,10 +5,11 @@
 
 static const char remove_text[] = "remove swell_pull;remove swell_push;remove swell_damp;remove swell_weight";
 
-static const char create_text[] = "create spring swell_pull;create spring swell_push;create damper swell_damp;"
-				  "create biasforce swell_weight;"
-				  "set swell_pull direction [0,0,1];set swell_pull deadband 1;set swell_pull dampfactor 0;"
-				  "set swell_push direction [0,0,1];set swell_push deadband 1;set swell_push dampfactor 0;";
+static const char create_text[] =
+	"create spring swell_pull;create spring swell_push;create damper swell_damp;"
+	"create biasforce swell_weight;"
+	"set swell_pull direction [0,0,1];set swell_pull deadband 1;set swell_pull dampfactor 0;"
+	"set swell_push direction [0,0,1];set swell_push deadband 1;set swell_push dampfactor 0;";
 
 static const char enable_text[] =
 	";set swell_pull enable;set swell_push enable;set swell_damp enable;set swell_weight enable";

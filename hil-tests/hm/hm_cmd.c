@@ -259,8 +259,6 @@ static void set_effect(struct hm_dev *d, struct out *o, int client, struct hm_ef
 	double x, vec[4];
 	int b;
 
-	if (e->kind != HM_FX_BIAS)
-		e->owner = client; /* a spring or damper answers to the client that last set anything on it */
 	if (!strcmp(p, "enable") || !strcmp(p, "disable")) {
 		if (*v) {
 			fail(d, o, "'%s' takes no value", p);
@@ -454,8 +452,13 @@ static void cmd_set(struct hm_dev *d, struct out *o, int client, const char *w1,
 	} else if ((e = find(d, w1)) != NULL) {
 		if (!*w2)
 			fail(d, o, "'set %s' needs a parameter", w1);
-		else
+		else {
+			const uint32_t errors = d->errors;
+
 			set_effect(d, o, client, e, w2, rest);
+			if (d->errors == errors && e->kind != HM_FX_BIAS)
+				e->owner = client; /* a spring or damper answers to the client that last set it */
+		}
 	} else {
 		fail(d, o, "unknown effect or quantity '%s'", w1);
 	}
