@@ -722,6 +722,9 @@ int ctl_link_send_wait(struct ctl_link *l, const struct swell_msg *m, size_t n, 
 
 	if (l->kind == CTL_LINK_HM) { /* the device confirms the zero bias force, or the wait ends */
 		ctl_link_send(l, m, n);
+		/* effect mode: the exit's command may still be enabled (the core is RUNNING): the device's
+		 * effects are removed whatever it says, confirmed with the zero */
+		hm_fx_tick(&l->hmfx, &l->hm, 0, 0);
 		rc = hm_client_zero_wait(&l->hm, wait_ms);
 		l->tx_errors += rc != 0;
 		return rc;

@@ -401,34 +401,55 @@ TEST_CASE("hm loop, effect mode: the device's springs, damper and bias force flo
 		std::this_thread::sleep_for(std::chrono::milliseconds(10));
 	}
 	CHECK(after == "false;false;false;[0,0,0]");
+	// a new controller removes what the dead one left (its start-up), creates its own, and on SIGTERM
+	// removes them before it closes the connection
+	{
+		Ctl next(srv.port, "hm-effect-2", {"--scene", scene});
+		std::string on;
+		for (int k = 0; k < 1000 && on != "true;true"; k++) {
+			on = other.ask("get swell_pull enabled;get swell_damp enabled");
+			std::this_thread::sleep_for(std::chrono::milliseconds(10));
+		}
+		CHECK(on == "true;true");
+		CHECK(next.stop() == 0);
+		const std::string rep = hmtcp::slurp(next.out);
+		INFO(rep);
+		CHECK(rep.find("(1 created the effects)") != std::string::npos);
+		CHECK(hmtcp::count_before(rep, " removals") == 1);
+		CHECK(hmtcp::count_before(rep, " error answers") == 0);
+	}
+	CHECK(other.ask("get swell_pull enabled").find("--- ERROR: unknown effect") == 0);
 	kill(srv.pid, SIGTERM);
 	CHECK(srv.wait(10000) == 0);
 	const std::string sum = hmtcp::slurp(srv.out);
 	INFO(sum);
-	CHECK(hmtcp::count_before(sum, " by a vanished client") == 4); // pull, push, damper, weight
+	CHECK(hmtcp::count_before(sum, " by a vanished client") == 4); // pull, push, damper, weight; none at the exit
 	const std::vector<row> rows = read_csv(csv);
 	REQUIRE(rows.size() > 10000);
 	int over = 0, forced_alone = 0, n = 0;
 	double zs = 0;
-	size_t both = 0; // the last tick with the controller and the second client connected
-	for (size_t k = 0; k < rows.size(); k++) {
-		const row &r = rows[k];
+	for (const row &r : rows) {
 		over += std::fabs(r.fcmd[0]) > f_limit_N * 1.0001 || std::fabs(r.fcmd[1]) > f_limit_N * 1.0001 ||
 			std::fabs(r.fcmd[2]) > f_limit_N * 1.0001;
-		if (r.clients == 2)
-			both = k;
 		if (r.t >= 3.0 && r.t < 4.0) {
 			zs += r.x[2];
 			n++;
 		}
 	}
-	for (size_t k = both + 1; k < rows.size(); k++)
+	// from the first tick with the second client, the kill is the first tick with one client again
+	size_t kill_at = 0;
+	while (kill_at < rows.size() && rows[kill_at].clients != 2)
+		kill_at++;
+	while (kill_at < rows.size() && rows[kill_at].clients == 2)
+		kill_at++;
+	size_t alone = 0;
+	for (size_t k = kill_at; k < rows.size() && rows[k].clients == 1; k++, alone++)
 		forced_alone += rows[k].fcmd[0] != 0.0 || rows[k].fcmd[1] != 0.0 || rows[k].fcmd[2] != 0.0;
 	CHECK(over == 0);
 	REQUIRE(n > 2000);
 	CHECK(std::fabs(zs / n - -39.375) <= 0.02 * 39.375);
-	CHECK(both + 1 < rows.size());
+	CHECK(alone > 0);
 	CHECK(forced_alone == 0); // from the first tick without the controller
 	WARN("hm effect mode: z " << zs / n << " mm over 3-4 s against -39.375 mm; b " << v[14][2] << " N s/m at delta "
-				  << (w - z) * 1e3 << " mm; " << rows.size() - both - 1 << " ticks after the kill, none forced");
+				  << (w - z) * 1e3 << " mm; " << alone << " ticks after the kill, none forced");
 }
