@@ -73,7 +73,8 @@ size_t hm_fx_values(const struct swell_effect *e, char *buf, size_t cap)
 	return n < 0 || (size_t)n >= cap ? 0 : (size_t)n;
 }
 
-/* The creation request or the update; 0 when sent or nothing could be. */
+/* The set goes out: as the creation request (the first of a session) or as the next tick's update;
+ * when there is no room it stays unsent, tried again next tick. */
 static void send_set(struct hm_fx *x, struct hm_client *c)
 {
 	char text[HMC_TEXT_MAX];
