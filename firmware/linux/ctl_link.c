@@ -307,7 +307,10 @@ int ctl_link_open(struct ctl_link *l, const char *spec, int device_side, uint8_t
 	if (!strcmp(kind, "hm") && device_side) {
 		l->kind = CTL_LINK_HM;
 		snprintf(l->name, sizeof(l->name), "%s", spec);
-		return hm_client_open(&l->hm, arg ? arg : "", CTL_HM_MAX_AGE_TICKS, err, errlen);
+		if (hm_client_open(&l->hm, arg ? arg : "", CTL_HM_MAX_AGE_TICKS, err, errlen) < 0)
+			return -1;
+		hm_fx_init(&l->hmfx, &l->hm, HM_FX_FRESH_TICKS);
+		return 0;
 	}
 	if (!strcmp(kind, "can")) {
 		l->kind = CTL_LINK_CAN;
@@ -662,11 +665,14 @@ static void send_msgs(struct ctl_link *l, const struct swell_msg *m, size_t n)
 	size_t k = 0;
 
 	if (l->kind == CTL_LINK_HM) {
+		for (k = 0; k < n; k++) /* effect sets first: the tick's request carries the newest */
+			hm_fx_msg(&l->hmfx, &l->hm, &m[k]);
 		for (k = 0; k < n; k++)
 			if (m[k].type == SWELL_MSG_FORCE_CMD) {
 				const struct swell_msg_force_cmd *f = &m[k].u.force_cmd;
 				const int16_t cN[3] = { f->fx_cN, f->fy_cN, f->fz_cN };
 
+				hm_fx_tick(&l->hmfx, &l->hm, f->enable, 1);
 				hm_client_force(&l->hm, cN, f->enable);
 				l->frames_tx++;
 			}
@@ -716,6 +722,9 @@ int ctl_link_send_wait(struct ctl_link *l, const struct swell_msg *m, size_t n, 
 
 	if (l->kind == CTL_LINK_HM) { /* the device confirms the zero bias force, or the wait ends */
 		ctl_link_send(l, m, n);
+		/* effect mode: the exit's command may still be enabled (the core is RUNNING): the device's
+		 * effects are removed whatever it says, confirmed with the zero */
+		hm_fx_tick(&l->hmfx, &l->hm, 0, 0);
 		rc = hm_client_zero_wait(&l->hm, wait_ms);
 		l->tx_errors += rc != 0;
 		return rc;

@@ -10,6 +10,7 @@
 #include <stdint.h>
 
 #include "hm_client.h"
+#include "hm_fx.h"
 #include "swell/proto.h"
 #include "swell/transport.h"
 #include "usb_ffs.h"
@@ -95,6 +96,7 @@ struct ctl_link {
 	uint16_t held_len;
 	uint32_t answers_held, answers_dropped;
 	struct hm_client hm; /* hm: a HapticMaster on its TCP command interface (device side only) */
+	struct hm_fx hmfx; /* hm: the effect sets as the HapticMaster's own effects (effect mode) */
 	char name[48];
 };
 
@@ -123,7 +125,8 @@ void ctl_link_send(struct ctl_link *l, const struct swell_msg *m, size_t n);
 /* The same, one message at a time, each tried again every millisecond for up to wait_ms while the
  * carrier refuses it (a full CAN TX queue, every USB IN slot in flight, a full socket buffer): for the
  * zero force on exit, which has no next tick to send a fresher value. 0 when every message went out;
- * only a message that never did counts in tx_errors. Blocks: never on the tick path. */
+ * only a message that never did counts in tx_errors. Blocks: never on the tick path. On hm: the
+ * effect mode's effects are removed too, and the device confirms both (hm_client_zero_wait). */
 int ctl_link_send_wait(struct ctl_link *l, const struct swell_msg *m, size_t n, int wait_ms);
 
 /* Device link: the device is declared lost. A learned UDP peer is let go: it still gets what is sent

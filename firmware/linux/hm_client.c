@@ -19,7 +19,8 @@
 enum {
 	KIND_TICK,
 	KIND_START,
-	KIND_ZERO
+	KIND_ZERO, /* answers not looked at */
+	KIND_CHECKED /* every answer must be a success */
 };
 
 static const char startup_text[] = "set state init;set state force;remove " BIAS ";create biasforce " BIAS ";set " BIAS
@@ -252,6 +253,8 @@ static int request(struct hm_client *c, int kind, const char *text, size_t n)
 
 static void startup(struct hm_client *c)
 {
+	if (c->cleanup && request(c, KIND_ZERO, c->cleanup, strlen(c->cleanup)) < 0)
+		return; /* no room: the next retry */
 	if (request(c, KIND_START, startup_text, sizeof(startup_text) - 1) == 0) {
 		c->phase = HMC_STARTING;
 		c->st.startups++;
@@ -303,6 +306,13 @@ int hm_client_set_extra(struct hm_client *c, const char *cmds)
 	return 0;
 }
 
+int hm_client_request(struct hm_client *c, const char *text, int checked)
+{
+	if (c->fd < 0 || c->phase == HMC_DOWN || c->phase == HMC_CONNECTING)
+		return -1;
+	return request(c, checked ? KIND_CHECKED : KIND_ZERO, text, strlen(text));
+}
+
 /* The i-th ';'-separated part of text (length n) */
 static const char *part(const char *text, int i)
 {
@@ -344,6 +354,7 @@ static size_t answer(struct hm_client *c, char *text, struct swell_msg *out, siz
 	const char *p1, *p2, *p3;
 	int32_t pos[3], vel[3];
 	uint8_t status;
+	int err;
 
 	c->ring_head = (c->ring_head + 1) % HMC_RING;
 	c->ring_n--;
@@ -376,6 +387,10 @@ static size_t answer(struct hm_client *c, char *text, struct swell_msg *out, siz
 		}
 		return 0;
 	}
+	if (kind == KIND_CHECKED && strstr(text, "---")) {
+		c->st.error_answers++;
+		c->fault_next = 1;
+	}
 	if (kind != KIND_TICK)
 		return 0;
 	p1 = part(text, 1);
@@ -386,8 +401,10 @@ static size_t answer(struct hm_client *c, char *text, struct swell_msg *out, siz
 		return 0;
 	}
 	status = status_of_state(p3);
-	if (!strncmp(text, "---", 3) || strstr(p3, "---")) {
-		c->st.error_answers++;
+	err = !strncmp(text, "---", 3) || strstr(p3, "---");
+	if (err || c->fault_next) { /* a checked request's error answer was counted with it */
+		c->st.error_answers += (uint32_t)err;
+		c->fault_next = 0;
 		status = (uint8_t)((status & ~SWELL_DEV_FORCE_ON) | SWELL_DEV_ESTOP | SWELL_DEV_FAULT);
 	}
 	c->status = status;

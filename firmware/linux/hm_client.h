@@ -19,9 +19,11 @@
  * the start-up is tried again every HMC_RETRY_MS. A reset or EOF closes the socket, counts the
  * requests in flight as lost, and a new connection is tried every HMC_RETRY_MS.
  *
- * For an effect mode (the controller updating the device's spring, damper and bias effects at the
- * solver rate instead of streaming a force), hm_client_set_extra appends commands to the next tick's
- * request: the same pipeline carries them and their answers are checked for errors. */
+ * For the effect mode (the controller updating the device's spring, damper and bias effects at the
+ * solver rate instead of streaming a force; hm_fx.h), hm_client_set_extra appends commands to the next
+ * tick's request: the same pipeline carries them and their answers are checked for errors; and
+ * hm_client_request sends a request of its own at once, its answers checked or not. cleanup, when set,
+ * is sent before every start-up, its answers not checked. */
 #ifndef SWELL_HM_CLIENT_H
 #define SWELL_HM_CLIENT_H
 
@@ -78,6 +80,8 @@ struct hm_client {
 	uint8_t status; /* of the last sample */
 	int sent_zero; /* the last tick request sent carried zero force */
 	char extra[HMC_TEXT_MAX / 2]; /* commands for the next request (effect mode) */
+	const char *cleanup; /* a request before every start-up (NULL: none) */
+	int fault_next; /* a checked request had an error answer: the next sample says fault */
 	struct hmc_stats st;
 };
 
@@ -92,8 +96,14 @@ void hm_client_force(struct hm_client *c, const int16_t f_cN[3], int enable);
  * DEVICE_POS (node as given) in out; returns the number of messages (cap >= 2 for one sample). */
 size_t hm_client_poll(struct hm_client *c, struct swell_msg *out, size_t cap, uint8_t node);
 
-/* Commands appended to the next tick's request (effect mode); -1 if they do not fit. */
+/* Commands appended to the next tick's request (effect mode), replacing any not sent yet ("": none);
+ * -1 if they do not fit. */
 int hm_client_set_extra(struct hm_client *c, const char *cmds);
+
+/* A request of its own, written at once (never waits). checked: an error answer to any of its
+ * commands is counted and the next sample reports a fault (status bits 2 and 3, not rendering);
+ * otherwise its answers are not looked at. -1 when not connected or there is no room (nothing sent). */
+int hm_client_request(struct hm_client *c, const char *text, int checked);
 
 /* The exit and fault path: zero bias force on the device now, waiting up to wait_ms for the request to
  * go out and its answer to come. 0 when the device confirmed it. Blocks: never on the tick path. */

@@ -790,8 +790,10 @@ int main(int argc, char **argv)
 		       addr_str(&p.host.local, 1, 0, abuf, sizeof(abuf)), p.host.clients_admitted,
 		       p.host.clients_silent, CTL_LINK_CLIENT_SILENT_MS, ctl_link_clients(&p.host), CTL_LINK_CLIENTS,
 		       p.host.clients_refused);
-	if (p.dev.kind == CTL_LINK_HM)
+	if (p.dev.kind == CTL_LINK_HM) {
 		hm_client_report(&p.dev.hm, stdout);
+		hm_fx_report(&p.dev.hmfx, stdout);
+	}
 	report_can("device", &p.dev);
 	report_usb("device", &p.dev);
 	if (p.have_host) {

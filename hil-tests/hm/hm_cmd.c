@@ -191,6 +191,25 @@ static uint32_t zero_bias(struct hm_dev *d, int client)
 	return n;
 }
 
+/* A client is gone or silent: the bias forces it set drop to zero, the springs and dampers it last set
+ * are disabled (the emulator's choice: docs/hapticmaster.md). Returns how many were acting. */
+static uint32_t silence_client(struct hm_dev *d, int client)
+{
+	uint32_t n = zero_bias(d, client);
+	int k;
+
+	for (k = 0; k < HM_EFFECTS_MAX; k++) {
+		struct hm_effect *e = &d->fx[k];
+
+		if (!e->used || e->kind == HM_FX_BIAS || e->owner != client)
+			continue;
+		n += (uint32_t)e->enabled;
+		e->enabled = 0;
+		e->owner = -1;
+	}
+	return n;
+}
+
 /* ---- commands ---- */
 
 static void cmd_state(struct hm_dev *d, struct out *o, const char *v)
@@ -433,8 +452,13 @@ static void cmd_set(struct hm_dev *d, struct out *o, int client, const char *w1,
 	} else if ((e = find(d, w1)) != NULL) {
 		if (!*w2)
 			fail(d, o, "'set %s' needs a parameter", w1);
-		else
+		else {
+			const uint32_t errors = d->errors;
+
 			set_effect(d, o, client, e, w2, rest);
+			if (d->errors == errors && e->kind != HM_FX_BIAS)
+				e->owner = client; /* a spring or damper answers to the client that last set it */
+		}
 	} else {
 		fail(d, o, "unknown effect or quantity '%s'", w1);
 	}
@@ -602,7 +626,7 @@ void hm_dev_client_gone(struct hm_dev *d, int client)
 {
 	if (client < 0)
 		return;
-	d->vanished_zeroed += zero_bias(d, client);
+	d->vanished_zeroed += silence_client(d, client);
 }
 
 void hm_dev_set_estop(struct hm_dev *d, int pressed)
@@ -665,7 +689,7 @@ void hm_dev_tick(struct hm_dev *d, const double x_m[3], const double v_m_s[3], d
 	if (d->watchdog_ticks > 0)
 		for (k = 0; k < HM_CLIENTS_MAX; k++)
 			if (d->tick - d->client_heard[k] >= d->watchdog_ticks)
-				d->watchdog_trips += zero_bias(d, k);
+				d->watchdog_trips += silence_client(d, k);
 	memset(f_N, 0, 3 * sizeof(double));
 	for (k = 0; k < HM_EFFECTS_MAX; k++) {
 		struct hm_effect *e = &d->fx[k];

@@ -12,7 +12,8 @@
  *             hm_spring_force for the law;
  *   damper    F_i = -dampcoef_i (v_i - vel_i);
  *   biasforce F = force (zeroed by the device-side watchdog when the client that set it falls silent,
- *             and when it disconnects).
+ *             and when it disconnects; a spring or damper is disabled alike, for the client that last
+ *             set anything on it).
  * Every effect's origin moves with its `vel`: pos += vel dt each device tick. */
 #ifndef SWELL_HM_CMD_H
 #define SWELL_HM_CMD_H
@@ -56,7 +57,8 @@ struct hm_effect {
 	struct hm_spring spring;
 	double dampcoef_Ns_m[3];
 	double force_N[3];
-	int owner; /* biasforce: the client that last set its force (-1 none) */
+	int owner; /* biasforce: the client that last set its force; spring, damper: that last set anything on
+		    * it (-1 none) */
 };
 
 struct hm_dev {
@@ -65,7 +67,8 @@ struct hm_dev {
 	double inertia_kg, coulomb_N;
 	int estop; /* the emergency button is pushed */
 	int force_calibrated;
-	uint32_t watchdog_ticks; /* bias force of a client silent this long -> zero; 0: off */
+	uint32_t watchdog_ticks; /* a client silent this long: its bias forces zero, its springs and dampers
+				  * disabled; 0: off */
 	/* the model, as the last tick left it (swell-hm writes these) */
 	double x_m[3], v_m_s[3], a_m_s2[3], fmeas_N[3];
 	struct hm_effect fx[HM_EFFECTS_MAX];
@@ -83,7 +86,7 @@ void hm_dev_init(struct hm_dev *d, double rate_hz, double f_max_N);
  * and the reply ends in "--- ERROR: reply too long"). Returns the reply's length. */
 size_t hm_dev_request(struct hm_dev *d, int client, const char *text, size_t len, char *reply, size_t cap);
 
-/* A client went away: the bias forces it set drop to zero at once. */
+/* A client went away: the bias forces it set drop to zero, its springs and dampers are disabled, at once. */
 void hm_dev_client_gone(struct hm_dev *d, int client);
 
 /* The e-stop: pressed, the device goes to `stop` (every effect force drops at once) and refuses

@@ -54,8 +54,8 @@ static const char usage[] =
 	"  --serve [ADDR:]PORT serve the HapticMaster's own TCP command interface instead of the swell\n"
 	"                      protocol (default 127.0.0.1:7654; any other address must be spelled out);\n"
 	"                      forces come from the effects clients create (docs/hapticmaster.md)\n"
-	"  --bias-watchdog MS  --serve: a client silent this long loses its bias forces (default 100;\n"
-	"                      0: off)\n"
+	"  --bias-watchdog MS  --serve: a client silent this long loses its bias forces, and the springs and\n"
+	"                      dampers it set are disabled (default 100; 0: off)\n"
 	"  --inject SPEC       --serve fault injection (repeatable, up to 8): delay:at=S,for=S,ms=N (replies\n"
 	"                      held N ms), garbage:at=S (16 unframed bytes to every client), reset:at=S\n"
 	"                      (every connection reset), stop:at=S (the device put in stop, as by a client)\n"
@@ -902,8 +902,8 @@ static void serve_summary(const struct opts *o, const struct hm_serve *srv, cons
 	else
 		printf("  tick lateness   p50 %.0f us, p99 %.0f us, max %.0f us; %llu periods lost\n", pct(r, 0.5),
 		       pct(r, 0.99), r->late_max_ns / 1e3, (unsigned long long)r->late_ticks);
-	printf("  device          state %s, %u bias forces zeroed by the watchdog (%u ticks), %u by a vanished "
-	       "client, %u e-stops\n",
+	printf("  device          state %s, %u effects stopped by the watchdog (bias forces zeroed, springs and "
+	       "dampers disabled; %u ticks), %u by a vanished client, %u e-stops\n",
 	       hm_dev_state_name(dev->state), dev->watchdog_trips, dev->watchdog_ticks, dev->vanished_zeroed,
 	       dev->estop_stops);
 	printf("  walls           %u ticks in a workspace wall\n", s->wall_ticks);

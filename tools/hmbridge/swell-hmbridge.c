@@ -9,7 +9,12 @@
  * the controller has been silent for --watchdog ticks (the bridge's own watchdog, default 2), or the
  * HapticMaster has not answered for as long (a force from a position that old is not sent: late,
  * garbled or reset answers end with zero force on the device as on the direct hm: link). On exit the
- * zero force is confirmed by the device first. */
+ * zero force is confirmed by the device first.
+ *
+ * Effect mode (the controller sends EFFECT_SPRING, EFFECT_DAMPER, EFFECT_LIMIT): each complete set
+ * becomes the HapticMaster's own springs, damper and bias force (hm_fx.h, shared with swell-ctl's hm:
+ * link), rendered by the device every servo tick. They are removed on the tick the set is older than
+ * --effect-fresh, the command is disabled, or the watchdog zeroes the force, and on exit. */
 #define _GNU_SOURCE
 #include <arpa/inet.h>
 #include <errno.h>
@@ -23,6 +28,7 @@
 #include <time.h>
 
 #include "hm_client.h"
+#include "hm_fx.h"
 #include "swell/link.h"
 #include "swell/proto.h"
 #include "swell/transport.h"
@@ -44,6 +50,8 @@ static const char usage[] =
 	"  --rate HZ           device tick rate (default 2500; 1000 for classic CAN)\n"
 	"  --watchdog TICKS    controller or HapticMaster silent this many ticks -> zero force on the\n"
 	"                      HapticMaster (default 2)\n"
+	"  --effect-fresh MS   effect mode: an effect set older than this is removed from the HapticMaster\n"
+	"                      (default 10)\n"
 	"  --seconds S         stop after S seconds (default: until SIGINT/SIGTERM)\n"
 	"  --rt                SCHED_FIFO (priority 70) and mlockall where permitted\n"
 	"  --quiet             no status line\n"
@@ -56,7 +64,7 @@ static const char usage[] =
 struct opts {
 	const char *hm, *link, *host;
 	unsigned port, bind_port, iface, node, watchdog;
-	double rate_hz, seconds;
+	double rate_hz, seconds, fresh_ms;
 	int rt, quiet;
 };
 
@@ -93,6 +101,7 @@ static void parse(int argc, char **argv, struct opts *o)
 	o->port = SWELL_UDP_PORT_DEVICE;
 	o->rate_hz = 2500.0;
 	o->watchdog = 2;
+	o->fresh_ms = 10.0;
 	for (k = 1; k < argc; k++) {
 		const char *a = argv[k], *v = k + 1 < argc ? argv[k + 1] : NULL;
 
@@ -137,6 +146,8 @@ static void parse(int argc, char **argv, struct opts *o)
 			o->rate_hz = number(a, v, 100, 10000, 0);
 		else if (!strcmp(a, "--watchdog"))
 			o->watchdog = (unsigned)number(a, v, 1, 1000, 1);
+		else if (!strcmp(a, "--effect-fresh"))
+			o->fresh_ms = number(a, v, 0.1, 1000, 0);
 		else if (!strcmp(a, "--seconds"))
 			o->seconds = number(a, v, 1e-3, 1e7, 0);
 		else
@@ -168,6 +179,7 @@ struct bridge {
 	uint8_t node;
 	struct swell_proto_stats st;
 	struct hm_client hm;
+	struct hm_fx fx;
 	int16_t f_cN[3];
 	int enable;
 	uint32_t cmd_age; /* ticks since the last FORCE_CMD (saturating) */
@@ -217,6 +229,8 @@ static void take_commands(struct bridge *b)
 		if (swell_link_decode(b->carrier, &f, m, SWELL_CANFD_MSGS_MAX, &n, NULL, &b->st) != SWELL_OK)
 			continue; /* counted in st, never acted on */
 		for (k = 0; k < n; k++) {
+			if (m[k].node == b->node && hm_fx_msg(&b->fx, &b->hm, &m[k]))
+				continue;
 			if (m[k].node != b->node || m[k].type != SWELL_MSG_FORCE_CMD) {
 				b->ignored += m[k].type != SWELL_MSG_HEARTBEAT;
 				continue;
@@ -277,6 +291,7 @@ static void tick(struct bridge *b, const struct opts *o)
 		b->hm_zeroed = 1;
 		b->hm_trips += b->enable && !b->zeroed;
 	}
+	hm_fx_tick(&b->fx, &b->hm, b->enable, !b->zeroed && !b->hm_zeroed);
 	if (b->zeroed || b->hm_zeroed)
 		hm_client_force(&b->hm, zero, 0);
 	else
@@ -307,6 +322,7 @@ int main(int argc, char **argv)
 		fprintf(stderr, "swell-hmbridge: %s\n", err);
 		return 2;
 	}
+	hm_fx_init(&b.fx, &b.hm, (uint32_t)fmax(1.0, round(o.fresh_ms * o.rate_hz / 1000.0)));
 	if (open_link(&b, &o) < 0)
 		return 1;
 	memset(&sa, 0, sizeof(sa));
@@ -345,6 +361,7 @@ int main(int argc, char **argv)
 				(unsigned long long)b.samples_fwd, b.hm.ring_n);
 		}
 	}
+	hm_fx_tick(&b.fx, &b.hm, 0, 0); /* the effects go first, confirmed with the zero force */
 	if (hm_client_zero_wait(&b.hm, 100) != 0)
 		fprintf(stderr,
 			"swell-hmbridge: warning: the HapticMaster did not confirm the zero force within 100 ms\n");
@@ -363,6 +380,7 @@ int main(int argc, char **argv)
 	       "silent as long\n",
 	       (unsigned long long)b.trips, o.watchdog, (unsigned long long)b.hm_trips);
 	hm_client_report(&b.hm, stdout);
+	hm_fx_report(&b.fx, stdout);
 	hm_client_close(&b.hm);
 	swell_link_close(b.l);
 	return 0;

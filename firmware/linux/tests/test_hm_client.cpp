@@ -17,7 +17,10 @@
 
 extern "C" {
 #include "hm_client.h"
+#include "hm_fx.h"
 }
+
+#include <random>
 
 namespace {
 
@@ -339,4 +342,68 @@ TEST_CASE("hm_client: the exit path waits for the device to confirm the zero for
 	CHECK(hm_client_zero_wait(&c, 50) == -1);
 	CHECK(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() < 1.0);
 	hm_client_close(&c);
+}
+
+TEST_CASE("hm_fx: an effect set as the device's commands: each value exact in SI units, signs and the deadband's offsets, "
+	  "parsed back without floats to the set")
+{
+	swell_effect e{};
+	e.surface_10um = -1234;
+	e.h_10um = 5000;
+	e.uw_100ums = -5;
+	e.k_10mN_m = 2452;
+	e.b_10mNs_m = 1201;
+	e.bias_mN = -981;
+	e.fmax_cN = 1000;
+	char text[HMC_TEXT_MAX];
+	REQUIRE(hm_fx_values(&e, text, sizeof text) > 0);
+	CHECK(std::string(text) ==
+	      "set swell_pull pos [0,0,0.98766];set swell_pull vel [0,0,-0.0005];set swell_pull stiffness 24.52;"
+	      "set swell_pull maxforce 10.00;set swell_push pos [0,0,0.93766];set swell_push vel [0,0,-0.0005];"
+	      "set swell_push stiffness -24.52;set swell_push maxforce 10.00;set swell_damp dampcoef [0,0,12.01];"
+	      "set swell_damp vel [0,0,-0.0005];set swell_weight force [0,0,-0.981]");
+	CHECK(hm_fx_values(&e, text, 100) == 0); // does not fit: nothing
+	// random sets over the wire ranges: every number parses back to the set's integer
+	std::mt19937 rng(17);
+	auto in = [&](int lo, int hi) { return std::uniform_int_distribution<int>(lo, hi)(rng); };
+	auto value = [](const char *t, const char *key, int nth) {
+		const char *p = std::strstr(t, key);
+		REQUIRE(p != nullptr);
+		p += std::strlen(key);
+		for (int k = 0; k < nth; k++)
+			p = std::strchr(p, ',') + 1;
+		return p;
+	};
+	for (int n = 0; n < 2000; n++) {
+		e.surface_10um = in(-30000, 30000);
+		e.h_10um = in(1, 65535);
+		e.uw_100ums = in(-30000, 30000);
+		e.k_10mN_m = (uint32_t)in(0, 65535);
+		e.b_10mNs_m = (uint32_t)in(0, 65535);
+		e.bias_mN = in(-8388607, 8388607);
+		e.fmax_cN = (uint32_t)in(1, 25000);
+		REQUIRE(hm_fx_values(&e, text, sizeof text) > 0);
+		int32_t v = 0;
+		const char *p = value(text, "swell_pull pos [", 2);
+		REQUIRE(hm_client_parse_fixed(&p, 5, 1 << 30, &v) == 0);
+		CHECK(v == e.surface_10um + HM_FX_DEADBAND_10UM);
+		p = value(text, "swell_push pos [", 2);
+		REQUIRE(hm_client_parse_fixed(&p, 5, 1 << 30, &v) == 0);
+		CHECK(v == e.surface_10um - e.h_10um + HM_FX_DEADBAND_10UM);
+		p = value(text, "swell_damp vel [", 2);
+		REQUIRE(hm_client_parse_fixed(&p, 4, 1 << 30, &v) == 0);
+		CHECK(v == e.uw_100ums);
+		p = value(text, "swell_push stiffness ", 0);
+		REQUIRE(hm_client_parse_fixed(&p, 2, 1 << 30, &v) == 0);
+		CHECK(v == -(int32_t)e.k_10mN_m);
+		p = value(text, "swell_damp dampcoef [", 2);
+		REQUIRE(hm_client_parse_fixed(&p, 2, 1 << 30, &v) == 0);
+		CHECK(v == (int32_t)e.b_10mNs_m);
+		p = value(text, "swell_weight force [", 2);
+		REQUIRE(hm_client_parse_fixed(&p, 3, 1 << 30, &v) == 0);
+		CHECK(v == e.bias_mN);
+		p = value(text, "swell_pull maxforce ", 0);
+		REQUIRE(hm_client_parse_fixed(&p, 2, 1 << 30, &v) == 0);
+		CHECK(v == (int32_t)e.fmax_cN);
+	}
 }

@@ -14,6 +14,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -176,6 +177,35 @@ struct Server {
 		}
 	}
 };
+
+// A reply's answers, split at ';'.
+inline std::vector<std::string> answers(const std::string &reply)
+{
+	std::vector<std::string> out;
+	size_t at = 0;
+	for (size_t semi; (semi = reply.find(';', at)) != std::string::npos; at = semi + 1)
+		out.push_back(reply.substr(at, semi - at));
+	out.push_back(reply.substr(at));
+	return out;
+}
+
+// The numbers of an answer: "24.5" or "[0,0,1.0125]" (empty when there are none).
+inline std::vector<double> numbers(const std::string &answer)
+{
+	std::vector<double> v;
+	const char *p = answer.c_str();
+	while (*p) {
+		char *end;
+		const double x = std::strtod(p, &end);
+		if (end == p) {
+			p++;
+			continue;
+		}
+		v.push_back(x);
+		p = end;
+	}
+	return v;
+}
 
 // The whole number just before `label` in text (the summary's counters), -1 when absent.
 inline long count_before(const std::string &text, const std::string &label)

@@ -320,26 +320,36 @@ TEST_CASE("effect table: 16 effects, the 17th refused: a reply that does not fit
 	CHECK(std::string(small).find("--- ERROR: reply too long") != std::string::npos);
 }
 
-TEST_CASE("watchdog: a client silent for N ticks loses its bias force on the Nth tick, not before: one that leaves loses it at "
-	  "once")
+TEST_CASE("watchdog: a client silent for N ticks loses its bias force and its springs and dampers on the Nth tick, not "
+	  "before: one that leaves loses them at once")
 {
 	hm_dev d = in_force();
 	d.watchdog_ticks = 25;
 	REQUIRE(run(d, "create biasforce a;set a force [0,0,1];set a enable", 0).find("ERROR") == std::string::npos);
 	REQUIRE(run(d, "create biasforce b;set b force [0,0,2];set b enable", 1).find("ERROR") == std::string::npos);
+	// client 0's spring pulls +1 N at the origin (k 10 N/m, 0.1 m above), client 1's damper +1 N (vel 0.1 m/s)
+	REQUIRE(run(d, "create spring s;set s stiffness 10;set s pos [0,0,0.1];set s direction [0,0,1];set s enable", 0)
+			.find("ERROR") == std::string::npos);
+	REQUIRE(run(d, "create damper p;set p dampcoef [0,0,10];set p vel [0,0,0.1];set p enable", 1).find("ERROR") ==
+		std::string::npos);
 	const double x[3] = {0, 0, 0}, v[3] = {0, 0, 0};
 	double f[3];
-	int first_zero = -1;
+	int first_drop = -1;
 	for (int n = 0; n < 40; n++) {
 		run(d, "get state", 1); // client 1 keeps talking
 		hm_dev_tick(&d, x, v, f);
-		if (first_zero < 0 && f[2] == Approx(2.0))
-			first_zero = n;
+		if (n < 25)
+			CHECK(f[2] == Approx(5.0));
+		if (first_drop < 0 && f[2] == Approx(3.0))
+			first_drop = n;
 	}
-	CHECK(first_zero == 25); // ticks 0..24 carry client 0's 1 N, tick 25 drops it
-	CHECK(d.watchdog_trips == 1);
+	CHECK(first_drop == 25); // ticks 0..24 carry client 0's 1 N bias and 1 N spring, tick 25 drops both
+	CHECK(d.watchdog_trips == 2);
+	CHECK(run(d, "get s enabled", 1) == "false");
+	CHECK(run(d, "get p enabled", 1) == "true");
 	hm_dev_client_gone(&d, 1);
 	hm_dev_tick(&d, x, v, f);
 	CHECK(f[2] == 0.0);
-	CHECK(d.vanished_zeroed == 1);
+	CHECK(d.vanished_zeroed == 2);
+	CHECK(run(d, "get p enabled", 0) == "false");
 }

@@ -143,7 +143,7 @@ TEST_CASE("serve: hostile clients are answered or dropped with a counted reason,
 	CHECK(hmtcp::count_before(sum, " not reading (dropped)") == 1);
 	CHECK(hmtcp::count_before(sum, " refused (table full)") == 1);
 	CHECK(hmtcp::count_before(sum, " by a vanished client") == 1);
-	CHECK(hmtcp::count_before(sum, " bias forces zeroed by the watchdog") == 1);
+	CHECK(hmtcp::count_before(sum, " effects stopped by the watchdog") == 1);
 	// the loop's lateness during the abuse: printed for the record, judged in the benchmark
 	const size_t at = sum.find("tick lateness");
 	REQUIRE(at != std::string::npos);

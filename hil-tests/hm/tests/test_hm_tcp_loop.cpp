@@ -54,11 +54,13 @@ double figure(const std::string &s, const std::string &key)
 struct Ctl {
 	pid_t pid = -1;
 	std::string out;
-	Ctl(int port, const std::string &name) : out(work_dir + "/" + name + ".ctl.txt")
+	Ctl(int port, const std::string &name, const std::vector<std::string> &extra = {})
+	    : out(work_dir + "/" + name + ".ctl.txt")
 	{
 		std::vector<std::string> args = {
 			ctl_bin,  "--clock", "device",  "--autorun", "--device",       "hm:127.0.0.1:" + std::to_string(port),
 			"--host", "none",    "--no-rt", "--quiet",   "--silent-ticks", "200"};
+		args.insert(args.end(), extra.begin(), extra.end());
 		std::vector<char *> argv;
 		for (auto &s : args)
 			argv.push_back(&s[0]);
@@ -337,4 +339,117 @@ TEST_CASE("hm loop: the controller killed mid-run: the device zeroes its bias fo
 	CHECK(std::fabs(zs / zn - -39.375) <= 0.05 * 39.375);
 	WARN("hm restart: " << rendered_late << " of the last " << late << " ticks rendered by the new controller, z " << zs / zn
 			    << " mm");
+}
+
+TEST_CASE("hm loop, effect mode: the device's springs, damper and bias force float a drop within 2 % of the level-corrected "
+	  "depth, read back they are the controller's set, with the controller killed they stop at once")
+{
+	const std::string csv = work_dir + "/hm-effect.csv", scene = work_dir + "/hm-effect.scene";
+	std::remove(csv.c_str());
+	std::ofstream(scene) << "force.mode = 1\n";
+	Server srv(hm_bin, work_dir + "/hm-effect.hm.txt",
+		   {"--lockstep", "--hand", "drop:z=20,hold=0.5", "--seconds", "60", "--log", csv});
+	REQUIRE(srv.port > 0);
+	Ctl ctl(srv.port, "hm-effect", {"--scene", scene});
+	for (int k = 0; k < 6000 && logged_until(csv) < 4.2; k++)
+		std::this_thread::sleep_for(std::chrono::milliseconds(10));
+	// a second client reads the effects back in one request (one device tick)
+	Client other(srv.port);
+	const std::vector<std::string> a = hmtcp::answers(
+		other.ask("get swell_pull stiffness;get swell_push stiffness;get swell_pull deadband;get swell_push deadband;"
+			  "get swell_pull direction;get swell_push direction;get swell_pull dampfactor;get swell_pull maxforce;"
+			  "get swell_push maxforce;get swell_pull pos;get swell_push pos;get swell_pull vel;get swell_push vel;"
+			  "get swell_damp vel;get swell_damp dampcoef;get swell_weight force;get measpos;get swell_pull enabled;"
+			  "get swell_push enabled;get swell_damp enabled;get swell_weight enabled"));
+	REQUIRE(a.size() == 21);
+	INFO(other.ask("get state") << "; answers: " << a[0] << ";" << a[9] << ";" << a[10] << ";" << a[14] << ";" << a[15]);
+	std::vector<std::vector<double>> v;
+	for (const std::string &x : a)
+		v.push_back(hmtcp::numbers(x));
+	REQUIRE(v[0].size() == 1);
+	CHECK(std::fabs(v[0][0] - 1000 * 9.81 * 0.05 * 0.05) <= 0.0051); // k = rho g a b, to 0.01 N/m
+	CHECK(v[1] == std::vector<double>{-v[0][0]}); // the pushing spring
+	CHECK(v[2] == std::vector<double>{1.0}); // deadbands beyond the workspace
+	CHECK(v[3] == std::vector<double>{1.0});
+	CHECK(v[4] == std::vector<double>{0, 0, 1});
+	CHECK(v[5] == std::vector<double>{0, 0, 1});
+	CHECK(v[6] == std::vector<double>{0});
+	CHECK(v[7] == std::vector<double>{f_limit_N});
+	CHECK(v[8] == std::vector<double>{f_limit_N});
+	REQUIRE(v[9].size() == 3);
+	REQUIRE(v[10].size() == 3);
+	REQUIRE(v[16].size() == 3);
+	const double w = v[9][2] - 1.0, z = v[16][2];
+	CHECK(std::fabs(v[9][2] - v[10][2] - 0.05) < 1e-9); // origins H apart
+	CHECK(std::fabs(w - 0.000625) < 0.001); // the surface at rest: the pool's mean level rise, a little wave
+	CHECK(v[11] == v[12]); // the water's vertical velocity, on all three
+	CHECK(v[11] == v[13]);
+	REQUIRE(v[11].size() == 3);
+	CHECK(std::fabs(v[11][2]) < 0.01);
+	REQUIRE(v[14].size() == 3);
+	CHECK(std::fabs(v[14][2] - 15.0 * (w - z) / 0.05) < 0.05); // b_max s, s = delta / H, at this tick's delta
+	CHECK(v[15] == std::vector<double>{0, 0, -0.981}); // the weight
+	for (int k = 17; k < 21; k++)
+		CHECK(a[k] == "true");
+	// the controller dies: the device stops what it set when its connection ends
+	kill(ctl.pid, SIGKILL);
+	waitpid(ctl.pid, nullptr, 0);
+	ctl.pid = -1;
+	std::string after;
+	for (int k = 0; k < 50 && after != "false;false;false;[0,0,0]"; k++) {
+		after = other.ask("get swell_pull enabled;get swell_push enabled;get swell_damp enabled;get swell_weight force");
+		std::this_thread::sleep_for(std::chrono::milliseconds(10));
+	}
+	CHECK(after == "false;false;false;[0,0,0]");
+	// a new controller removes what the dead one left (its start-up), creates its own, and on SIGTERM
+	// removes them before it closes the connection
+	{
+		Ctl next(srv.port, "hm-effect-2", {"--scene", scene});
+		std::string on;
+		for (int k = 0; k < 1000 && on != "true;true"; k++) {
+			on = other.ask("get swell_pull enabled;get swell_damp enabled");
+			std::this_thread::sleep_for(std::chrono::milliseconds(10));
+		}
+		CHECK(on == "true;true");
+		CHECK(next.stop() == 0);
+		const std::string rep = hmtcp::slurp(next.out);
+		INFO(rep);
+		CHECK(rep.find("(1 created the effects)") != std::string::npos);
+		CHECK(hmtcp::count_before(rep, " removals") == 1);
+		CHECK(hmtcp::count_before(rep, " error answers") == 0);
+	}
+	CHECK(other.ask("get swell_pull enabled").find("--- ERROR: unknown effect") == 0);
+	kill(srv.pid, SIGTERM);
+	CHECK(srv.wait(10000) == 0);
+	const std::string sum = hmtcp::slurp(srv.out);
+	INFO(sum);
+	CHECK(hmtcp::count_before(sum, " by a vanished client") == 4); // pull, push, damper, weight; none at the exit
+	const std::vector<row> rows = read_csv(csv);
+	REQUIRE(rows.size() > 10000);
+	int over = 0, forced_alone = 0, n = 0;
+	double zs = 0;
+	for (const row &r : rows) {
+		over += std::fabs(r.fcmd[0]) > f_limit_N * 1.0001 || std::fabs(r.fcmd[1]) > f_limit_N * 1.0001 ||
+			std::fabs(r.fcmd[2]) > f_limit_N * 1.0001;
+		if (r.t >= 3.0 && r.t < 4.0) {
+			zs += r.x[2];
+			n++;
+		}
+	}
+	// from the first tick with the second client, the kill is the first tick with one client again
+	size_t kill_at = 0;
+	while (kill_at < rows.size() && rows[kill_at].clients != 2)
+		kill_at++;
+	while (kill_at < rows.size() && rows[kill_at].clients == 2)
+		kill_at++;
+	size_t alone = 0;
+	for (size_t k = kill_at; k < rows.size() && rows[k].clients == 1; k++, alone++)
+		forced_alone += rows[k].fcmd[0] != 0.0 || rows[k].fcmd[1] != 0.0 || rows[k].fcmd[2] != 0.0;
+	CHECK(over == 0);
+	REQUIRE(n > 2000);
+	CHECK(std::fabs(zs / n - -39.375) <= 0.02 * 39.375);
+	CHECK(alone > 0);
+	CHECK(forced_alone == 0); // from the first tick without the controller
+	WARN("hm effect mode: z " << zs / n << " mm over 3-4 s against -39.375 mm; b " << v[14][2] << " N s/m at delta "
+				  << (w - z) * 1e3 << " mm; " << alone << " ticks after the kill, none forced");
 }

@@ -9,6 +9,7 @@
 #include "hm_tcp.hpp"
 
 extern "C" {
+#include "swell/effect.h"
 #include "swell/proto.h"
 #include "swell/transport.h"
 }
@@ -99,16 +100,23 @@ struct Ctl {
 		}
 		return n;
 	}
-	void force(int16_t fz_cN, int enable)
+	// a FORCE_CMD, after the effect set when one is given (effect mode), in one packet
+	void force(int16_t fz_cN, int enable, const swell_effect *set = nullptr)
 	{
-		swell_msg m{};
-		m.type = SWELL_MSG_FORCE_CMD;
-		m.u.force_cmd.fz_cN = fz_cN;
-		m.u.force_cmd.enable = (uint8_t)enable;
-		m.u.force_cmd.seq = seq;
+		swell_msg m[4]{};
+		size_t n = 0;
+		if (set) {
+			swell_effect_encode(set, 0, m);
+			n = 3;
+		}
+		m[n].type = SWELL_MSG_FORCE_CMD;
+		m[n].u.force_cmd.fz_cN = fz_cN;
+		m[n].u.force_cmd.enable = (uint8_t)enable;
+		m[n].u.force_cmd.seq = seq;
 		uint8_t buf[SWELL_PKT_MAX];
 		size_t len = 0, used = 0;
-		REQUIRE(swell_pkt_encode(0, seq++, &m, 1, buf, sizeof buf, &len, &used) == SWELL_OK);
+		REQUIRE(swell_pkt_encode(0, seq++, m, n + 1, buf, sizeof buf, &len, &used) == SWELL_OK);
+		REQUIRE(used == n + 1);
 		sendto(fd, buf, len, 0, reinterpret_cast<sockaddr *>(&peer), sizeof peer);
 	}
 };
@@ -190,4 +198,104 @@ TEST_CASE(
 	CHECK(other == 0);
 	CHECK(last_force + 1 < rows.size());
 	CHECK(rows.back().fz == 0.0);
+}
+
+TEST_CASE("bridge, effect mode: the effect sets become the HapticMaster's springs, damper and bias force with the same values, "
+	  "removed when the sets go stale and when the controller falls silent")
+{
+	Server hm(hm_bin, work_dir + "/bridge-effect.hm.txt", {"--seconds", "60"});
+	REQUIRE(hm.port > 0);
+	Ctl ctl;
+	// the bridge's watchdog at 25 ticks (10 ms): this test's scripted controller is not real time
+	Proc br({bridge_bin, "--hm", "127.0.0.1:" + std::to_string(hm.port), "--port", std::to_string(ctl.port), "--quiet",
+		 "--watchdog", "25"},
+		work_dir + "/bridge-effect.txt");
+	swell_msg_device_pos pos{};
+	for (int k = 0; k < 50 && !(pos.status & 2u); k++)
+		ctl.samples(100, &pos);
+	REQUIRE(pos.status == 3);
+	swell_effect set{};
+	set.surface_10um = 1234; // 12.34 mm
+	set.h_10um = 5000;
+	set.uw_100ums = -56; // -5.6 mm/s
+	set.k_10mN_m = 2452;
+	set.b_10mNs_m = 1200;
+	set.bias_mN = -981;
+	set.fmax_cN = 1000;
+	set.rate_100mN_s = 1000;
+	hmtcp::Client other(hm.port);
+	const std::string ask = "get swell_pull stiffness;get swell_push stiffness;get swell_pull deadband;get swell_push "
+				"deadband;get swell_pull direction;get swell_pull dampfactor;get swell_pull maxforce;get "
+				"swell_push maxforce;get swell_damp dampcoef;get swell_weight force;get swell_pull vel;get "
+				"swell_push vel;get swell_damp vel;get swell_pull pos;get swell_push pos;get swell_pull enabled;"
+				"get swell_push enabled;get swell_damp enabled;get swell_weight enabled";
+	const std::string removed = "get swell_pull enabled;get swell_push enabled;get swell_damp enabled;get swell_weight "
+				    "enabled";
+	auto run = [&](int ticks, bool sets, int ask_every, const std::string &what) {
+		int asked = 0;
+		for (int k = 0; k < ticks; k++) {
+			if (sets && k % 5 == 0)
+				set.seq++;
+			ctl.force(0, 1, sets && k % 5 == 0 ? &set : nullptr);
+			ctl.samples(0, nullptr);
+			if (ask_every && k % ask_every == ask_every - 1 && other.raw(hmtcp::frame(what)))
+				asked++;
+			std::this_thread::sleep_for(std::chrono::microseconds(400));
+		}
+		std::vector<std::string> replies;
+		for (int k = 0; k < asked; k++)
+			replies.push_back(other.reply(2000));
+		return replies;
+	};
+	// a controller in effect mode: a set every 5 ticks, the read-back asked 4 times while it runs
+	const std::vector<std::string> live = run(1250, true, 300, ask);
+	int whole = 0;
+	for (const std::string &r : live) {
+		INFO(r);
+		if (r.find("ERROR") != std::string::npos)
+			continue; // the bridge's watchdog tripped just then: the effects were gone
+		whole++;
+		const std::vector<std::string> a = hmtcp::answers(r);
+		REQUIRE(a.size() == 19);
+		CHECK(a[0] == "24.52");
+		CHECK(a[1] == "-24.52");
+		CHECK(a[2] == "1");
+		CHECK(a[3] == "1");
+		CHECK(a[4] == "[0,0,1]");
+		CHECK(a[5] == "0");
+		CHECK(a[6] == "10");
+		CHECK(a[7] == "10");
+		CHECK(a[8] == "[0,0,12]");
+		CHECK(a[9] == "[0,0,-0.981]");
+		for (int k = 10; k < 13; k++)
+			CHECK(a[k] == "[0,0,-0.0056]");
+		const std::vector<double> pull = hmtcp::numbers(a[13]), push = hmtcp::numbers(a[14]);
+		REQUIRE(pull.size() == 3);
+		REQUIRE(push.size() == 3);
+		// set at w + 1 m and w - H + 1 m, then riding u_w for the ticks since the update (< 50 ms)
+		CHECK(pull[2] <= 1.01234 + 1e-9);
+		CHECK(pull[2] >= 1.01234 - 0.0056 * 0.05);
+		CHECK(std::fabs(pull[2] - push[2] - 0.05) < 1e-9);
+		for (int k = 15; k < 19; k++)
+			CHECK(a[k] == "true");
+	}
+	CHECK(whole >= 1);
+	// FORCE_CMD goes on, the sets stop: stale after 10 ms, the effects removed
+	const std::vector<std::string> stale = run(500, false, 250, removed);
+	REQUIRE(stale.size() == 2);
+	CHECK(stale[1].find("--- ERROR") == 0);
+	// sets again, then the controller falls silent: the bridge's watchdog removes them
+	const std::vector<std::string> again = run(500, true, 499, removed);
+	REQUIRE(again.size() == 1);
+	CHECK(again[0].find("ERROR") == std::string::npos);
+	std::this_thread::sleep_for(std::chrono::milliseconds(100));
+	const std::string silent = other.ask(removed);
+	CHECK(silent.find("--- ERROR") == 0);
+	CHECK(br.stop() == 0);
+	const std::string sum = hmtcp::slurp(br.out);
+	INFO(sum);
+	CHECK(hmtcp::count_before(sum, " sets taken") >= 150);
+	CHECK(hmtcp::count_before(sum, " went stale") >= 1);
+	CHECK(hmtcp::count_before(sum, " created the effects)") >= 2);
+	CHECK(hmtcp::count_before(sum, " removals") >= 2);
 }
