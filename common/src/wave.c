@@ -933,7 +933,19 @@ static inline __attribute__((always_inline)) void finish_row(struct swell_wave *
 #if WAVE_DSP
 	__set_saturation_occurred(0);
 #endif
-	for (tx = 0; tx < w->tiles_x; tx++) {
+	if (!clear && nx % SWELL_WAVE_TILE == 0) { /* a row finished ahead: h += acc alone, whole tiles */
+		for (tx = 0; tx < w->tiles_x; tx++) {
+			const int i0 = tx * SWELL_WAVE_TILE;
+
+			if ((all || (trow[tx] & T_DIRTY)) &&
+			    finish_seg(h + i0, acc + i0, v + i0, SWELL_WAVE_TILE, 1, 0, vel, &sat))
+				trow[tx] |= T_TOUCHED;
+		}
+		tx = w->tiles_x; /* nothing left for the general loop */
+	} else {
+		tx = 0;
+	}
+	for (; tx < w->tiles_x; tx++) {
 		const int i0 = tx * SWELL_WAVE_TILE, f = (all ? T_DIRTY | T_DIRTY_PREV : trow[tx]) & need;
 		int32_t any;
 
@@ -1194,6 +1206,49 @@ void swell_wave_add(struct swell_wave *w, int i, int j, int32_t dh)
 	x = w->h[a] + (now - old);
 	w->h[a] = (int32_t)swell_clamp(x, h_min(w), h_max(w));
 	w->saturations += w->h[a] != x;
+}
+
+void swell_wave_add_span(struct swell_wave *w, int i0, int i1, int j, int32_t dh)
+{
+	const int ahead = j < w->done_row;
+	uint8_t *trow;
+	int32_t *acc, *h;
+	uint32_t sat = 0;
+	int i;
+
+	if (j < 0 || j >= w->ny || dh == 0)
+		return;
+	i0 = i0 > 0 ? i0 : 0;
+	i1 = i1 < w->nx ? i1 : w->nx;
+	if (i0 >= i1)
+		return;
+	trow = &w->tile[(j / SWELL_WAVE_TILE) * w->tiles_x];
+	acc = w->acc + (size_t)j * w->nx;
+	h = w->h + (size_t)j * w->nx;
+	if (!ahead && dh > -(1 << 29) && dh < (1 << 29)) {
+		/* the common case: acc only, every tile of the span DIRTY (as swell_wave_add marks it);
+		 * |acc| < 2^29 + 2^30 (wave.c: water added and a step's changes), so acc + dh fits int32 */
+		for (i = i0 / SWELL_WAVE_TILE; i <= (i1 - 1) / SWELL_WAVE_TILE; i++)
+			trow[i] |= T_DIRTY;
+		for (i = i0; i < i1; i++)
+			acc[i] = swell_clamp(acc[i] + dh, -(1 << 29), 1 << 29);
+		return;
+	}
+	for (i = i0; i < i1; i++) { /* swell_wave_add of each cell, with the row's tests made once */
+		const int32_t old = acc[i], now = (int32_t)swell_clamp(swell_sat_add(old, dh), -(1 << 29), 1 << 29);
+
+		acc[i] = now;
+		if (!ahead || now == old) {
+			trow[i / SWELL_WAVE_TILE] |= T_DIRTY;
+		} else {
+			const int32_t x = h[i] + (now - old);
+
+			trow[i / SWELL_WAVE_TILE] |= T_DIRTY | T_TOUCHED;
+			h[i] = (int32_t)swell_clamp(x, h_min(w), h_max(w));
+			sat += h[i] != x;
+		}
+	}
+	w->saturations += sat;
 }
 
 int64_t swell_wave_volume(const struct swell_wave *w)
