@@ -30,11 +30,20 @@ if [ -z "$tick" ]; then
 	tick=$(sed -n "s/^core at $hz Hz: worst background [0-9].* at tick \([0-9]*\),.*/\1/p" "$out/selftest.log")
 	[ -n "$tick" ] || { echo "m4-tick-trace: no worst tick at $hz Hz in $out/selftest.log" >&2; exit 1; }
 fi
-port=$((20000 + $$ % 20000))
-rm -f "$out/trace.log"
-"$qemu" -M netduinoplus2 -nographic -icount shift=0 -monitor none -serial file:"$out/serial.log" \
-	-d in_asm,nochain -D "$out/trace.log" -S -gdb tcp:127.0.0.1:$port -kernel "$elf" </dev/null &
-qpid=$!
+# QEMU waits for the debugger (-S) on a port of its own; a port taken makes it exit: the next one
+qpid="" n=0
+while [ -z "$qpid" ] && [ $n -lt 6 ]; do
+	n=$((n + 1))
+	port=$((21000 + ($$ + n * 1009) % 28000))
+	rm -f "$out/trace.log"
+	"$qemu" -M netduinoplus2 -nographic -icount shift=0 -monitor none -serial file:"$out/serial.log" \
+		-d in_asm,nochain -D "$out/trace.log" -S -gdb tcp:127.0.0.1:$port -kernel "$elf" </dev/null \
+		>"$out/qemu.log" 2>&1 &
+	qpid=$!
+	sleep 0.3
+	kill -0 "$qpid" 2>/dev/null || { wait "$qpid" 2>/dev/null; qpid=""; }
+done
+[ -n "$qpid" ] || { echo "m4-tick-trace: QEMU did not start: $(cat "$out/qemu.log")" >&2; exit 1; }
 cat >"$out/gdb.cmd" <<EOF
 set pagination off
 set confirm off
