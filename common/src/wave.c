@@ -1225,13 +1225,38 @@ void swell_wave_add_span(struct swell_wave *w, int i0, int i1, int j, int32_t dh
 	trow = &w->tile[(j / SWELL_WAVE_TILE) * w->tiles_x];
 	acc = w->acc + (size_t)j * w->nx;
 	h = w->h + (size_t)j * w->nx;
-	if (!ahead && dh > -(1 << 29) && dh < (1 << 29)) {
-		/* the common case: acc only, every tile of the span DIRTY (as swell_wave_add marks it);
-		 * |acc| < 2^29 + 2^30 (wave.c: water added and a step's changes), so acc + dh fits int32 */
+	if (dh > -(1 << 29) && dh < (1 << 29)) {
+		/* every tile of the span DIRTY (as swell_wave_add marks it); |acc| < 2^29 + 2^30 (water
+		 * added and a step's changes), so acc + dh fits int32 */
+		const int32_t lo = h_min(w), hi = h_max(w);
+
 		for (i = i0 / SWELL_WAVE_TILE; i <= (i1 - 1) / SWELL_WAVE_TILE; i++)
 			trow[i] |= T_DIRTY;
-		for (i = i0; i < i1; i++)
-			acc[i] = swell_clamp(acc[i] + dh, -(1 << 29), 1 << 29);
+		if (!ahead) { /* acc only */
+			for (i = i0; i < i1; i++)
+				acc[i] = swell_clamp(acc[i] + dh, -(1 << 29), 1 << 29);
+			return;
+		}
+		while (i0 < i1) { /* finished ahead: h at once, TOUCHED for a tile where a cell changed */
+			const int end = (i0 / SWELL_WAVE_TILE + 1) * SWELL_WAVE_TILE < i1
+				? (i0 / SWELL_WAVE_TILE + 1) * SWELL_WAVE_TILE
+				: i1;
+			int32_t moved = 0;
+
+			for (i = i0; i < end; i++) {
+				const int32_t old = acc[i], now = swell_clamp(old + dh, -(1 << 29), 1 << 29);
+				const int32_t x = h[i] + (now - old), c = swell_clamp(x, lo, hi);
+
+				acc[i] = now;
+				h[i] = c;
+				sat += c != x;
+				moved |= now - old;
+			}
+			if (moved)
+				trow[i0 / SWELL_WAVE_TILE] |= T_TOUCHED;
+			i0 = end;
+		}
+		w->saturations += sat;
 		return;
 	}
 	for (i = i0; i < i1; i++) { /* swell_wave_add of each cell, with the row's tests made once */
