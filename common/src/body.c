@@ -451,6 +451,12 @@ static int64_t deposit(struct swell_body *b, struct swell_wave *w, const struct 
 			const int64_t a = oy * overlap(i, f->x0, f->x1);
 			const int32_t d = deposit_of(new_delta, a) - deposit_of(old_delta, a);
 
+			if (i > i0 && i < i1) { /* the inner cells are wholly covered: one d for all of them */
+				swell_wave_add_span(w, i, i1, j, d);
+				row += (int64_t)d * (i1 - i);
+				i = i1 - 1;
+				continue;
+			}
 			if (d == 0)
 				continue;
 			swell_wave_add(w, i, j, d);

@@ -123,13 +123,23 @@ static inline __attribute__((always_inline)) void vel_run(struct swell_wave *w, 
 		acc += 8;
 	}
 	a_or = 0;
-	for (k = 0; k < m % 8; k++) {
-		cn = hc[k + 1];
-		VEL_CELL(k, hd[k + 1] + hu[k + 1] + 2 * cn);
-	}
-	if (east) { /* the mirrored column beyond the east wall is the last one */
-		cn = c;
-		VEL_CELL(k, sc);
+	if (east && m % 8 == 7) { /* a whole last tile at the east wall (widths of whole tiles): unrolled too */
+#pragma GCC unroll 8
+		for (k = 0; k < 7; k++) {
+			cn = hc[k + 1];
+			VEL_CELL(k, hd[k + 1] + hu[k + 1] + 2 * cn);
+		}
+		cn = c; /* the mirrored column beyond the east wall is the last one */
+		VEL_CELL(7, sc);
+	} else {
+		for (k = 0; k < m % 8; k++) {
+			cn = hc[k + 1];
+			VEL_CELL(k, hd[k + 1] + hu[k + 1] + 2 * cn);
+		}
+		if (east) {
+			cn = c;
+			VEL_CELL(k, sc);
+		}
 	}
 	if (m % 8 || east)
 		any[m / 8] = a_or;

@@ -167,3 +167,54 @@ TEST_CASE("water added to a row finished ahead is in h at once and conserved lik
 	}
 	CHECK(swell_wave_volume(&f.w) == v0 + 750);
 }
+
+namespace {
+
+/* A 16 x 24 field of either form, rows 0..15 finished ahead and 16..23 not, from the same seed. */
+struct SpanField {
+	std::vector<int32_t> store;
+	swell_wave w{};
+	explicit SpanField(swell_wave_form form)
+	    : store(form == SWELL_FORM_VELOCITY ? SWELL_WAVE_VEL_WORDS(16, 24) : SWELL_WAVE_WORDS(16, 24))
+	{
+		const swell_wave_params p{q30(0.25), q30(0.02), SWELL_STENCIL_PAPER};
+		std::mt19937 rng(3);
+
+		REQUIRE(swell_wave_init_form(&w, 16, 24, store.data(), store.size(), &p, form) == SWELL_OK);
+		for (int a = 0; a < 16 * 24; a++)
+			w.h[a] = (int32_t)(rng() % 20000) - 10000;
+		w.h[2 * 16 + 7] = (1 << 26) - 9; /* near the velocity form's bound */
+		swell_wave_rest(&w);
+		swell_wave_step_rows(&w, 17);
+		REQUIRE(swell_wave_finish_rows(&w, 24) == 16);
+	}
+};
+
+} // namespace
+
+TEST_CASE("adding one change to a span of a row is swell_wave_add cell by cell, ahead or not, near the bounds too",
+	  "[wave][split][finish][add]")
+{
+	/* spans clipped at both walls and rows outside the grid; changes that saturate acc (+-2^29) and
+	 * h; the whole storage compared (h, v, acc, flows or u, tile flags) and the saturation count */
+	const int32_t changes[] = {1, -700, 123456, (1 << 29) - 5, -(1 << 30), INT32_MAX, 0};
+	for (swell_wave_form form : {SWELL_FORM_EDGE, SWELL_FORM_VELOCITY}) {
+		for (int32_t d : changes) {
+			SpanField a(form), b(form);
+			for (int j : {-1, 2, 9, 15, 16, 20, 24}) {
+				swell_wave_add_span(&a.w, -3, 19, j, d);
+				swell_wave_add_span(&a.w, 5, 5, j, d); /* empty */
+				for (int i = -3; i < 19; i++)
+					if (d)
+						swell_wave_add(&b.w, i, j, d);
+			}
+			INFO("form " << form << " change " << d);
+			CHECK(a.w.saturations == b.w.saturations);
+			CHECK(a.store == b.store);
+			swell_wave_step_finish(&a.w);
+			swell_wave_step_finish(&b.w);
+			CHECK(a.store == b.store);
+			CHECK(swell_wave_volume(&a.w) == swell_wave_volume(&b.w));
+		}
+	}
+}

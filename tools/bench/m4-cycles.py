@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """m4-cycles: a Cortex-M4 cycle estimate from the instructions the image really executes.
 
-Usage: m4-cycles.py TRACE [--ws N] [--no-art]
+Usage: m4-cycles.py TRACE [--ws N] [--no-art] [--nm NM.txt]
 
 TRACE is a QEMU log of `-d in_asm,exec,nochain` (every translated block's instructions once, then one
 line per execution of a block), usually limited to the code of interest with -dfilter, e.g.
@@ -10,7 +10,8 @@ line per execution of a block), usually limited to the code of interest with -df
         -d in_asm,exec,nochain -dfilter 0x0800dd78+0x327c -D trace.log -kernel swell-fw.elf
 
 (-dfilter takes the address and size of the function, from `arm-none-eabi-nm -S`).
-Prints the executed instructions, the estimated cycles and cycles per instruction, by class.
+Prints the executed instructions, the estimated cycles and cycles per instruction, by class; with
+--nm (the output of `arm-none-eabi-nm -S` of the image) also by function.
 
 The model (written down in docs/stm32f405.md, "A cycle model"):
   core, Cortex-M4 TRM (r0p1), "Processor instruction timings":
@@ -72,7 +73,7 @@ def main(argv):
         usage()
     if argv[1].startswith("-"):
         usage("unknown argument '%s' (see --help)" % argv[1])
-    path, ws, art = argv[1], 5, True
+    path, ws, art, nm = argv[1], 5, True, None
     args = argv[2:]
     while args:
         a = args.pop(0)
@@ -83,6 +84,8 @@ def main(argv):
                 usage("--ws wants a whole number of wait states")
         elif a == "--no-art":
             art = False
+        elif a == "--nm" and args:
+            nm = args.pop(0)
         else:
             usage("unknown argument '%s' (see --help)" % a)
     try:
@@ -116,6 +119,34 @@ def main(argv):
         print("m4-cycles: no executed block in %s (run QEMU with -d in_asm,exec,nochain)" % path,
               file=sys.stderr)
         return 1
+    syms = []  # (start, end, name) of the functions, for the split by function
+    if nm:
+        try:
+            with open(nm) as g:
+                for line in g:
+                    p = line.split()
+                    if len(p) == 4 and p[2] in "tTwW":
+                        a = int(p[0], 16) & ~1
+                        syms.append((a, a + int(p[1], 16), p[3]))
+        except (OSError, ValueError) as e:
+            print("m4-cycles: %s: %s" % (nm, e), file=sys.stderr)
+            return 1
+        syms.sort()
+    fn_of = {}
+
+    def function(pc):
+        if pc not in fn_of:
+            lo, hi = 0, len(syms)
+            while lo < hi:
+                mid = (lo + hi) // 2
+                if syms[mid][0] <= pc:
+                    lo = mid + 1
+                else:
+                    hi = mid
+            fn_of[pc] = syms[lo - 1][2] if lo and pc < syms[lo - 1][1] else "?"
+        return fn_of[pc]
+
+    by_fn = {}
     cache = OrderedDict()
     by = {}
     total_i = total_c = fetch_c = branch_c = 0
@@ -154,6 +185,10 @@ def main(argv):
             e[1] += c
             total_i += 1
             total_c += c
+            if syms:
+                e = by_fn.setdefault(function(start), [0, 0])
+                e[0] += 1
+                e[1] += c
         last_pc, last_size = blk[-1][0], blk[-1][1]
         prev_end = last_pc + last_size
         # the block's last instruction is a branch: taken when the next block does not follow on
@@ -161,6 +196,8 @@ def main(argv):
             total_c += 3
             branch_c += 3
             by.setdefault("branch", [0, 0])[1] += 3
+            if syms:
+                by_fn[function(start)][1] += 3
     print("executed: %d instructions in %d blocks (%d distinct)" % (total_i, len(execs), len(blocks)))
     print("model: Cortex-M4 timings, flash %d wait states, ART cache %s" % (ws, "on (64 x 128 bit, LRU)" if art else "off"))
     for cl in sorted(by, key=lambda x: -by[x][1]):
@@ -168,6 +205,9 @@ def main(argv):
         print("  %-11s %10d instructions %10d cycles" % (cl, n, c))
     print("  (of which flash stalls %d cycles, taken-branch refills %d cycles)" % (fetch_c, branch_c))
     print("cycles: %d, %.3f cycles per instruction" % (total_c, total_c / total_i))
+    for fn in sorted(by_fn, key=lambda x: -by_fn[x][1]):
+        n, c = by_fn[fn]
+        print("  function %-34s %9d instructions %9d cycles %6.3f per instruction" % (fn, n, c, c / n))
     return 0
 
 

@@ -231,6 +231,10 @@ void swell_wave_step_finish(struct swell_wave *w);
  * once (the same h(n+1) and v(n+1) as at the finish, h(n) = h - acc unchanged). */
 void swell_wave_add(struct swell_wave *w, int i, int j, int32_t dh);
 
+/* swell_wave_add(w, i, j, dh) for i0 <= i < i1 in order (cells outside the grid ignored, nothing
+ * for dh 0), with the row's tests made once: the coupling's wholly covered cells. */
+void swell_wave_add_span(struct swell_wave *w, int i0, int i1, int j, int32_t dh);
+
 /* Cell (i, j) was written from outside: wake its tile and the neighbours (outside the grid: ignored). */
 void swell_wave_touched(struct swell_wave *w, int i, int j);
 

@@ -618,8 +618,21 @@ static uint32_t quad_read(const struct swell_ctl *c, const struct swell_quad_at 
 	if (at->y >= c->cfg.ny)
 		return 0;
 	if (at->x0 + 4 <= nx && !(a & 1u)) { /* a whole quad: its samples are two words of sent[] */
-		const uint32_t w0 = sample_pair(swell_wave_h(&c->wave, a), swell_wave_h(&c->wave, a + 1));
-		const uint32_t w1 = sample_pair(swell_wave_h(&c->wave, a + 2), swell_wave_h(&c->wave, a + 3));
+		/* swell_wave_h of the four cells, one row: one test whether the row is finished ahead */
+		const int32_t *h = c->wave.h + a;
+		int32_t x0 = h[0], x1 = h[1], x2 = h[2], x3 = h[3];
+		uint32_t w0, w1;
+
+		if (at->y < c->wave.done_row) {
+			const int32_t *acc = c->wave.acc + a;
+
+			x0 -= acc[0];
+			x1 -= acc[1];
+			x2 -= acc[2];
+			x3 -= acc[3];
+		}
+		w0 = sample_pair(x0, x1);
+		w1 = sample_pair(x2, x3);
 
 		s[0] = (int16_t)(uint16_t)w0;
 		s[1] = (int16_t)(uint16_t)(w0 >> 16);

@@ -316,6 +316,21 @@ static void put_core_label(uint32_t tick_hz)
 		con_put_u32(tick_hz);
 }
 
+/* A window for a trace of one tick (tools/bench/m4-tick-trace.sh): a debugger writes the tick's rate
+ * and index here once the image has started, and breaks on the two marks, which run around that
+ * tick's force and background parts only. */
+volatile uint32_t selftest_trace_hz, selftest_trace_tick = UINT32_MAX;
+
+__attribute__((noinline)) void selftest_trace_begin(void)
+{
+	__asm__ volatile("" ::: "memory");
+}
+
+__attribute__((noinline)) void selftest_trace_end(void)
+{
+	__asm__ volatile("" ::: "memory");
+}
+
 /* The controller core on the reference scene with the scripted device, its two parts measured apart
  * as the port runs them: the force part (the TIM2 interrupt) and the background part (thread mode,
  * solver slice and telemetry). Under QEMU the tick timer cannot run periodically (see run_tick), so
@@ -327,7 +342,7 @@ static int run_core(uint32_t tick_hz, uint32_t ticks)
 	uint64_t t0, t1, t2, empty, f, b, sum = 0, fmax = 0, bmax = 0, wmax = 0;
 	uint64_t bphase[CORE_MAX_K] = { 0 };
 	const uint64_t period_num = (uint64_t)INSN_DEN * 168000000u; /* period in SysTick ticks * INSN_NUM * tick_hz */
-	uint32_t n, k, phase, overruns = 0, bworst_phase = 0;
+	uint32_t n, k, phase, overruns = 0, bworst_phase = 0, wworst_tick = 0;
 	enum swell_err err = fw_core_init(&ctl, &r, wave_storage, ARENA_WORDS, tick_hz);
 
 	if (err != SWELL_OK) {
@@ -341,17 +356,24 @@ static int run_core(uint32_t tick_hz, uint32_t ticks)
 	for (n = 0; n < ticks; n++) {
 		fw_core_device(&ctl, &r);
 		phase = ctl.phase; /* the solver phase this tick's background part runs */
+		if (n == selftest_trace_tick && tick_hz == selftest_trace_hz)
+			selftest_trace_begin();
 		t0 = timebase_systick();
 		swell_ctl_tick_force(&ctl);
 		t1 = timebase_systick();
 		swell_ctl_tick_background(&ctl);
 		t2 = timebase_systick();
+		if (n == selftest_trace_tick && tick_hz == selftest_trace_hz)
+			selftest_trace_end();
 		fw_core_drain(&ctl, &r);
 		f = t1 - t0 - empty;
 		b = t2 - t1 - empty;
 		sum += f + b;
 		fmax = f > fmax ? f : fmax;
-		wmax = f + b > wmax ? f + b : wmax;
+		if (f + b > wmax) {
+			wmax = f + b;
+			wworst_tick = n;
+		}
 		if (b > bmax) {
 			bmax = b;
 			bworst_phase = phase;
@@ -397,7 +419,9 @@ static int run_core(uint32_t tick_hz, uint32_t ticks)
 	put_insn(wmax, 1);
 	con_puts(" (");
 	put_pct(wmax, tick_hz);
-	con_puts(" %), mean ");
+	con_puts(" %) at tick ");
+	con_put_u32(wworst_tick);
+	con_puts(", mean ");
 	put_insn(sum, ticks);
 	con_puts("; overruns ");
 	con_put_u32(overruns);

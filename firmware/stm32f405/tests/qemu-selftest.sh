@@ -25,8 +25,8 @@ hcost=$("$scene" --steps 0 --cost --kernel ref | sed -n 's/^cost scene \([a-z-]*
 echo "qemu-selftest: cost scenes, target: $(echo $costs); host (reference kernel): $(echo $hcost)"
 [ "$costs" = "$hcost" ] || { echo "qemu-selftest: FAIL: cost scene checksums differ"; exit 1; }
 # the velocity form's budget on the agitated pool (instructions per cell-step under -icount, exact):
-# measured 43.5, against 88.0 for the edge-flux form in the same run
-vel_budget=46
+# measured 41.4, against 88.0 for the edge-flux form in the same run
+vel_budget=44
 edge_ag=$(sed -n 's/^cost scene agitated: \([0-9.]*\) instructions.*/\1/p' "$out")
 vel_ag=$(sed -n 's/^cost scene velocity-agitated: \([0-9.]*\) instructions.*/\1/p' "$out")
 echo "qemu-selftest: agitated pool, instructions per cell-step: edge-flux $edge_ag, velocity form $vel_ag (budget $vel_budget)"
@@ -51,9 +51,10 @@ grep '^core.* Hz: worst background [0-9]' "$out" | sed 's/^/qemu-selftest: /'
 # the tick's budgets at 2500 Hz on the reference scene, in instructions under -icount (exact) and by
 # the cycle model of docs/stm32f405.md (tools/bench/m4-cycles.py on a trace of the force path:
 # 1.81 cycles an instruction; its solver kernels 1.27): the force path (device sample to FORCE_CMD)
-# at most 3000 instructions, measured 2839; the worst whole tick at most 65 % of the period at one
-# instruction a cycle, measured 61.1 % (the aim is 35 %: not reached, see docs/stm32f405.md)
-force_budget=3000 tick_budget_pct=65
+# at most 3000 instructions, measured 2857; the worst whole tick at most 54 % of the period at one
+# instruction a cycle, measured 50.4 % (the aim is 35 %: not reached, see docs/stm32f405.md; its
+# cycles by the model: qemu-arm.worst-tick-cycles-within-budget)
+force_budget=3000 tick_budget_pct=54
 line=$(grep '^core at 2500 Hz: worst background [0-9]' "$out")
 force=$(echo "$line" | sed -n 's/.*worst force path \([0-9.]*\) .*/\1/p')
 whole=$(echo "$line" | sed -n 's/.*worst whole tick [0-9.]* (\([0-9.]*\) %).*/\1/p')
