@@ -25,6 +25,7 @@
 
 #include "ctl_link.h"
 #include "swell/ctl.h"
+#include "swell/pool.h"
 #include "swell/scene.h"
 
 static const char usage[] =
@@ -290,9 +291,9 @@ static void parse(int argc, char **argv, struct opts *o)
 					die("--clock must be internal or device, not ", v);
 				o->device_clock = !strcmp(v, "device");
 			} else if (!strcmp(a, "--tick-hz"))
-				o->cfg.tick_hz = (uint32_t)num(a, v, 10, 100000);
+				o->cfg.tick_hz = (uint32_t)num(a, v, SWELL_TICK_HZ_MIN, SWELL_TICK_HZ_MAX);
 			else if (!strcmp(a, "--solver-hz"))
-				o->cfg.solver_hz = (uint32_t)num(a, v, 1, 100000);
+				o->cfg.solver_hz = (uint32_t)num(a, v, 1, SWELL_TICK_HZ_MAX);
 			else if (!strcmp(a, "--silent-ticks")) {
 				o->cfg.silent_ticks = (uint16_t)num(a, v, 1, 10000);
 				o->silent_given = 1;

@@ -27,6 +27,7 @@
 #include "swell/effect.h"
 #include "swell/force_safety.h"
 #include "swell/link.h"
+#include "swell/pool.h"
 #include "swell/proto.h"
 #include "swell/scene.h"
 #include "swell/transport.h"
@@ -171,7 +172,7 @@ static void scene_object(struct opts *o, const char *path)
 {
 	struct swell_scene sc;
 	const struct swell_scene_value *v;
-	double dx = 6.25, nx = 64, ny = 64;
+	double dx = SWELL_POOL_DX_UM / 1000.0, nx = SWELL_POOL_N, ny = SWELL_POOL_N;
 	char err[300];
 
 	if (swell_scene_load(path, &sc, err, sizeof(err)) < 0)
@@ -228,9 +229,9 @@ static void parse(int argc, char **argv, struct opts *o)
 	o->effect_fresh_ms = 10.0;
 	o->seconds = 10.0;
 	o->obj_mass_g = 100.0;
-	o->obj_a_mm = o->obj_b_mm = o->obj_h_mm = 50.0;
-	o->depth_mm = 50.0;
-	o->pool_mm[0] = o->pool_mm[1] = 400.0;
+	o->obj_a_mm = o->obj_b_mm = o->obj_h_mm = SWELL_POOL_BOX_UM / 1000.0;
+	o->depth_mm = SWELL_POOL_DEPTH_UM / 1000.0;
+	o->pool_mm[0] = o->pool_mm[1] = SWELL_POOL_SIDE_UM / 1000.0;
 	o->estop_s[0] = o->estop_s[1] = -1.0;
 	hm_params_default(&o->p);
 	hm_hand_parse("idle", &o->hand, NULL, 0);

@@ -24,6 +24,7 @@
 
 #include "hm_client.h"
 #include "swell/link.h"
+#include "swell/pool.h"
 #include "swell/proto.h"
 #include "swell/transport.h"
 
@@ -91,7 +92,7 @@ static void parse(int argc, char **argv, struct opts *o)
 	o->link = "udp";
 	o->host = SWELL_UDP_HOST;
 	o->port = SWELL_UDP_PORT_DEVICE;
-	o->rate_hz = 2500.0;
+	o->rate_hz = SWELL_POOL_TICK_HZ;
 	o->watchdog = 2;
 	for (k = 1; k < argc; k++) {
 		const char *a = argv[k], *v = k + 1 < argc ? argv[k + 1] : NULL;

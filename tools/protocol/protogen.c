@@ -7,6 +7,7 @@
 #include <sys/stat.h>
 
 #include "swell/param.h"
+#include "swell/pool.h"
 #include "swell/proto.h"
 #include "swell/transport.h"
 
@@ -105,16 +106,20 @@ struct load_row {
 #define SCENE_HZ 1.0
 #define INFO_HZ 1.0
 #define OBJ_HZ 100.0
-#define GRID_QUADS 1024 /* the reference scene: 64 x 64 cells in quads of 2 x 2 */
+#define GRID_QUADS (SWELL_POOL_N / 2 * (SWELL_POOL_N / 2)) /* the reference scene in quads of 2 x 2 cells */
 #define USB_PACKETS_PER_MS 19.0 /* USB 2.0 full speed: at most 19 bulk packets of 64 bytes per frame */
 
 static void bus_load(FILE *o)
 {
 	static const struct load_row rows[] = {
-		{ "classic CAN 1 Mbit/s", 1000, 0 }, { "classic CAN 1 Mbit/s", 1000, 1 },
-		{ "classic CAN 1 Mbit/s", 2500, 0 }, { "classic CAN 1 Mbit/s", 2500, 1 },
-		{ "CAN FD 1/2 Mbit/s", 1000, 0 },    { "CAN FD 1/2 Mbit/s", 2500, 0 },
-		{ "USB full speed", 1000, 0 },       { "USB full speed", 2500, 0 },
+		{ "classic CAN 1 Mbit/s", 1000, 0 },
+		{ "classic CAN 1 Mbit/s", 1000, 1 },
+		{ "classic CAN 1 Mbit/s", SWELL_POOL_TICK_HZ, 0 },
+		{ "classic CAN 1 Mbit/s", SWELL_POOL_TICK_HZ, 1 },
+		{ "CAN FD 1/2 Mbit/s", 1000, 0 },
+		{ "CAN FD 1/2 Mbit/s", SWELL_POOL_TICK_HZ, 0 },
+		{ "USB full speed", 1000, 0 },
+		{ "USB full speed", SWELL_POOL_TICK_HZ, 0 },
 	};
 	unsigned i;
 
