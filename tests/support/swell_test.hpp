@@ -19,6 +19,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <string>
+#include <utility>
 #include <vector>
 
 extern char **environ;
@@ -38,42 +39,6 @@ inline std::string slurp(const std::string &path)
 		s.append(buf, n);
 	fclose(f);
 	return s;
-}
-
-struct Run {
-	int code = -1; // the exit code; -1 when it was killed by a signal
-	std::string out, err;
-};
-
-// Runs argv[0] (a path) with argv and waits for it: its exit code, stdout and stderr. log: where the
-// two go meanwhile (log.out, log.err; removed after unless keep); by default a name of this process.
-inline Run run(std::vector<std::string> argv, std::string log = "", bool keep = false)
-{
-	if (log.empty())
-		log = "/tmp/swell-test-" + std::to_string(getpid());
-	std::vector<char *> v;
-	for (auto &a : argv)
-		v.push_back(&a[0]);
-	v.push_back(nullptr);
-	posix_spawn_file_actions_t fa;
-	posix_spawn_file_actions_init(&fa);
-	posix_spawn_file_actions_addopen(&fa, 1, (log + ".out").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-	posix_spawn_file_actions_addopen(&fa, 2, (log + ".err").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-	pid_t pid = -1;
-	const int rc = posix_spawn(&pid, v[0], &fa, nullptr, v.data(), environ);
-	posix_spawn_file_actions_destroy(&fa);
-	REQUIRE(rc == 0);
-	int st = 0;
-	waitpid(pid, &st, 0);
-	Run r;
-	r.code = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-	r.out = slurp(log + ".out");
-	r.err = slurp(log + ".err");
-	if (!keep) {
-		std::remove((log + ".out").c_str());
-		std::remove((log + ".err").c_str());
-	}
-	return r;
 }
 
 // Starts argv[0] (a path) with argv; does not wait. out: the file stdout goes to; err: the file
@@ -98,6 +63,31 @@ inline pid_t spawn(std::vector<std::string> argv, const std::string &out = "", c
 	INFO("spawning " << argv[0]);
 	REQUIRE(rc == 0);
 	return pid;
+}
+
+struct Run {
+	int code = -1; // the exit code; -1 when it was killed by a signal
+	std::string out, err;
+};
+
+// Runs argv[0] (a path) with argv and waits for it: its exit code, stdout and stderr. log: where the
+// two go meanwhile (log.out, log.err; removed after unless keep); by default a name of this process.
+inline Run run(std::vector<std::string> argv, std::string log = "", bool keep = false)
+{
+	if (log.empty())
+		log = "/tmp/swell-test-" + std::to_string(getpid());
+	const pid_t pid = spawn(std::move(argv), log + ".out", log + ".err");
+	int st = 0;
+	waitpid(pid, &st, 0);
+	Run r;
+	r.code = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+	r.out = slurp(log + ".out");
+	r.err = slurp(log + ".err");
+	if (!keep) {
+		std::remove((log + ".out").c_str());
+		std::remove((log + ".err").c_str());
+	}
+	return r;
 }
 
 // Waits up to ms for pid to end: its exit status (128 + signal when killed), and pid set to -1; -1
@@ -200,10 +190,11 @@ inline void check_help(const std::string &bin)
 	CHECK(r.out.find("2 bad arguments") != std::string::npos);
 }
 
-// A UDP socket bound to loopback on a port of the kernel's choosing; the port in *port.
-inline int udp_loopback(std::string *port)
+// A socket of type (SOCK_DGRAM, SOCK_STREAM) bound to loopback on a port of the kernel's choosing;
+// the port in *port. A TCP socket listens.
+inline int loopback_socket(int type, int *port)
 {
-	const int fd = socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+	const int fd = socket(AF_INET, type | SOCK_CLOEXEC, 0);
 	REQUIRE(fd >= 0);
 	sockaddr_in a{};
 	a.sin_family = AF_INET;
@@ -211,32 +202,26 @@ inline int udp_loopback(std::string *port)
 	socklen_t al = sizeof a;
 	REQUIRE(bind(fd, reinterpret_cast<sockaddr *>(&a), sizeof a) == 0);
 	REQUIRE(getsockname(fd, reinterpret_cast<sockaddr *>(&a), &al) == 0);
-	*port = std::to_string(ntohs(a.sin_port));
+	REQUIRE((type != SOCK_STREAM || listen(fd, 4) == 0));
+	*port = ntohs(a.sin_port);
+	return fd;
+}
+
+// A UDP socket on loopback, its port as text in *port.
+inline int udp_loopback(std::string *port)
+{
+	int p = 0;
+	const int fd = loopback_socket(SOCK_DGRAM, &p);
+	*port = std::to_string(p);
 	return fd;
 }
 
 // A loopback UDP port that was free a moment ago (nobody listens there).
 inline uint16_t free_udp_port()
 {
-	std::string port;
-	close(udp_loopback(&port));
-	return (uint16_t)std::stoi(port);
-}
-
-// A TCP socket listening on loopback on a port of the kernel's choosing; the port in *port.
-inline int tcp_listen_loopback(int *port)
-{
-	const int fd = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
-	REQUIRE(fd >= 0);
-	sockaddr_in a{};
-	a.sin_family = AF_INET;
-	a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-	socklen_t al = sizeof a;
-	REQUIRE(bind(fd, reinterpret_cast<sockaddr *>(&a), sizeof a) == 0);
-	REQUIRE(getsockname(fd, reinterpret_cast<sockaddr *>(&a), &al) == 0);
-	REQUIRE(listen(fd, 4) == 0);
-	*port = ntohs(a.sin_port);
-	return fd;
+	int port = 0;
+	close(loopback_socket(SOCK_DGRAM, &port));
+	return (uint16_t)port;
 }
 
 // The whole number just before `label` in text (a summary's counters), -1 when absent.

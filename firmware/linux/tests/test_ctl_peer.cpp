@@ -39,9 +39,9 @@ struct Udp {
 	uint8_t seq = 0;
 	Udp()
 	{
-		std::string p;
-		fd = swell_test::udp_loopback(&p);
-		port = (uint16_t)std::stoi(p);
+		int p = 0;
+		fd = swell_test::loopback_socket(SOCK_DGRAM, &p);
+		port = (uint16_t)p;
 		const int rcvbuf = 4 << 20;
 		setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf);
 	}

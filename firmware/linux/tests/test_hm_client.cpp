@@ -35,7 +35,7 @@ std::string decimal7(long v)
 
 struct Device {
 	int lfd = -1, fd = -1, port = 0;
-	Device() { lfd = swell_test::tcp_listen_loopback(&port); }
+	Device() { lfd = swell_test::loopback_socket(SOCK_STREAM, &port); }
 	~Device()
 	{
 		if (fd >= 0)

@@ -28,12 +28,7 @@ struct Ctl {
 	sockaddr_in peer{};
 	bool have_peer = false;
 	uint8_t seq = 0;
-	Ctl()
-	{
-		std::string p;
-		fd = swell_test::udp_loopback(&p);
-		port = std::stoi(p);
-	}
+	Ctl() { fd = swell_test::loopback_socket(SOCK_DGRAM, &port); }
 	~Ctl() { close(fd); }
 	// samples that arrive within ms: count, and the last DEVICE_POS
 	int samples(int ms, swell_msg_device_pos *last)
