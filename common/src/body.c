@@ -3,6 +3,8 @@
 
 #include <string.h>
 
+#include "swell/pool.h"
+
 #define FP_SHIFT 11 /* Q11 cell units */
 #define AREA_SHIFT (2 * FP_SHIFT)
 #define FINE_SHIFT 24 /* spring forces: uN * 2^-24 = k_q8 (2^-8) * LSB (2^-16 mm) */
@@ -84,7 +86,8 @@ static enum swell_err check_scene(const struct swell_body_scene *sc)
 		return SWELL_EINVAL;
 	if (sc->dx_um < 100 || sc->dx_um > 1000000)
 		return SWELL_ERANGE;
-	if (sc->tick_hz < 10 || sc->tick_hz > 100000 || sc->solver_hz < 1 || sc->solver_hz > sc->tick_hz)
+	if (sc->tick_hz < SWELL_TICK_HZ_MIN || sc->tick_hz > SWELL_TICK_HZ_MAX || sc->solver_hz < 1 ||
+	    sc->solver_hz > sc->tick_hz)
 		return SWELL_ERANGE;
 	if (sc->tick_hz % sc->solver_hz != 0 || sc->tick_hz / sc->solver_hz > SWELL_BODY_MAX_K)
 		return SWELL_ERANGE;

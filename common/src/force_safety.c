@@ -3,6 +3,8 @@
 
 #include <string.h>
 
+#include "swell/pool.h"
+
 enum swell_err swell_fsafety_check(const struct swell_fsafety_params *p)
 {
 	if (!p)
@@ -11,7 +13,7 @@ enum swell_err swell_fsafety_check(const struct swell_fsafety_params *p)
 		return SWELL_ERANGE;
 	if (p->f_max_uN < 1 || p->f_max_uN > SWELL_FSAFETY_MAX_FORCE_UN)
 		return SWELL_ERANGE;
-	if (p->tick_hz < 10 || p->tick_hz > 100000)
+	if (p->tick_hz < SWELL_TICK_HZ_MIN || p->tick_hz > SWELL_TICK_HZ_MAX)
 		return SWELL_ERANGE;
 	if (p->rate_uN_per_s < p->tick_hz)
 		return SWELL_ERANGE;

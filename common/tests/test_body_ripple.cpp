@@ -12,6 +12,7 @@
 extern "C" {
 #include "swell/force_safety.h"
 #include "swell/param_table.h"
+#include "swell/pool.h"
 }
 
 static const int32_t MM = SWELL_H_ONE_MM;
@@ -125,11 +126,11 @@ struct hm_loop {
 
 	explicit hm_loop(double z0_m) : z(z0_m)
 	{
-		s.p.a_um = s.p.b_um = s.p.h_um = 50000;
+		s.p.a_um = s.p.b_um = s.p.h_um = SWELL_POOL_BOX_UM;
 		s.p.mass_g = 100;
 		s.p.damper_uN_per_mm_s = SWELL_PARAM_DEF_BODY_DAMPER;
 		REQUIRE(swell_body_set_params(&s.b, &s.p, &s.xf) == SWELL_OK);
-		swell_fsafety_params sp{SWELL_Q16_ONE, 10000000, 500000000, 2500};
+		swell_fsafety_params sp{SWELL_Q16_ONE, 10000000, 500000000, SWELL_POOL_TICK_HZ};
 		REQUIRE(swell_fsafety_init(&safety, &sp) == SWELL_OK);
 	}
 	void run(double seconds)

@@ -10,6 +10,7 @@
 
 extern "C" {
 #include "swell/force_safety.h"
+#include "swell/pool.h"
 }
 
 static swell_fsafety_params limits(uint32_t f_max, uint32_t rate)
@@ -18,7 +19,7 @@ static swell_fsafety_params limits(uint32_t f_max, uint32_t rate)
 	p.gain = SWELL_Q16_ONE;
 	p.f_max_uN = f_max;
 	p.rate_uN_per_s = rate;
-	p.tick_hz = 2500;
+	p.tick_hz = SWELL_POOL_TICK_HZ;
 	return p;
 }
 

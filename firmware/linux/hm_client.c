@@ -2,6 +2,8 @@
 #define _GNU_SOURCE
 #include "hm_client.h"
 
+#include "swell/hm_frame.h"
+
 #include <arpa/inet.h>
 #include <errno.h>
 #include <netdb.h>
@@ -212,15 +214,9 @@ int hm_client_open(struct hm_client *c, const char *spec, uint32_t max_age_ticks
 /* Writes what is queued; -1 when the connection failed. */
 static int flush(struct hm_client *c)
 {
-	while (c->out_len > 0) {
-		ssize_t n = send(c->fd, c->out, c->out_len, MSG_DONTWAIT | MSG_NOSIGNAL);
+	size_t sent;
 
-		if (n < 0)
-			return errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR ? 0 : -1;
-		memmove(c->out, c->out + n, c->out_len - (size_t)n);
-		c->out_len -= (size_t)n;
-	}
-	return 0;
+	return swell_hm_frame_flush(c->fd, c->out, &c->out_len, c->out_len, &sent);
 }
 
 /* Queues a framed request and notes it in flight; -1 when there is no room (nothing queued). */
@@ -228,15 +224,8 @@ static int request(struct hm_client *c, int kind, const char *text, size_t n)
 {
 	unsigned slot;
 
-	if (c->ring_n >= HMC_RING || c->out_len + 8 + n > sizeof(c->out))
+	if (c->ring_n >= HMC_RING || swell_hm_frame_put(c->out, sizeof(c->out), &c->out_len, text, n) < 0)
 		return -1;
-	c->out[c->out_len + 0] = (uint8_t)(n >> 24);
-	c->out[c->out_len + 1] = (uint8_t)(n >> 16);
-	c->out[c->out_len + 2] = (uint8_t)(n >> 8);
-	c->out[c->out_len + 3] = (uint8_t)n;
-	memset(c->out + c->out_len + 4, 0, 4);
-	memcpy(c->out + c->out_len + 8, text, n);
-	c->out_len += 8 + n;
 	slot = (c->ring_head + c->ring_n) % HMC_RING;
 	c->ring_kind[slot] = (uint8_t)kind;
 	c->ring_tick[slot] = c->tick;
@@ -438,11 +427,6 @@ static size_t answer(struct hm_client *c, char *text, struct swell_msg *out, siz
 	return 2;
 }
 
-static uint32_t be32(const uint8_t *p)
-{
-	return (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | p[3];
-}
-
 size_t hm_client_poll(struct hm_client *c, struct swell_msg *out, size_t cap, uint8_t node)
 {
 	size_t n = 0;
@@ -486,22 +470,22 @@ size_t hm_client_poll(struct hm_client *c, struct swell_msg *out, size_t cap, ui
 			if (r > 0)
 				c->in_len += (size_t)r;
 		}
-		while (c->in_len >= 8) {
-			uint32_t len = be32(c->in);
+		while (c->in_len >= SWELL_HM_FRAME_HDR) {
+			uint32_t len;
+			const int whole = swell_hm_frame_next(c->in, c->in_len, HMC_TEXT_MAX, &len, NULL);
 			char text[HMC_TEXT_MAX + 1];
 
-			if (len == 0 || len > HMC_TEXT_MAX || be32(c->in + 4) != 0 || c->ring_n == 0) {
+			if (whole < 0 || c->ring_n == 0) {
 				/* not an answer to anything we asked: the stream cannot be trusted any more */
 				c->st.garbage++;
 				disconnect(c, 1);
 				return n;
 			}
-			if (c->in_len < 8 + (size_t)len)
+			if (!whole)
 				break;
-			memcpy(text, c->in + 8, len);
+			memcpy(text, c->in + SWELL_HM_FRAME_HDR, len);
 			text[len] = '\0';
-			memmove(c->in, c->in + 8 + len, c->in_len - 8 - len);
-			c->in_len -= 8 + len;
+			swell_hm_frame_pop(c->in, &c->in_len, len);
 			n += answer(c, text, out + n, cap - n, node);
 		}
 		if (c->in_len < sizeof(c->in)) {

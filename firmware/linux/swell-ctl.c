@@ -8,11 +8,10 @@
  * SIGINT/SIGTERM: zero force is sent first, then the report, then a clean exit.
  * ENTER_BOOTLOADER accepted by the core (outside RUNNING, with the key): the core has zeroed the force
  * and queued a last heartbeat; both go out, then the report, then exit status 3, so that a
- * supervisor can run the flasher and start the new image (the Linux port has no ROM bootloader). */
+ * supervisor can run the flasher and start the new image (the Linux port has no ROM bootloader).
+ * Its parts: ctl_main.h. */
 #define _GNU_SOURCE
-#include <arpa/inet.h>
 #include <errno.h>
-#include <math.h>
 #include <poll.h>
 #include <sched.h>
 #include <signal.h>
@@ -23,59 +22,7 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "ctl_link.h"
-#include "swell/ctl.h"
-#include "swell/scene.h"
-
-static const char usage[] =
-	"usage: swell-ctl [options]\n"
-	"The swell controller as a Linux real-time process: wave solver, force law and safety on the\n"
-	"device tick, telemetry to a viewer.\n"
-	"\n"
-	"  --device LINK       device (HapticMaster) link: udp[:PORT][,peer=[ADDR:]PORT] (default udp:47800,\n"
-	"                      listen on 127.0.0.1; the device is the peer given, else the first sender of\n"
-	"                      this node's DEVICE_POS, held until it is declared lost; every other sender\n"
-	"                      is counted and ignored), can:IFACE, usb:FFS_DIR (FunctionFS mount: the\n"
-	"                      controller is the USB device), hm:HOST[:PORT] (a HapticMaster's TCP command\n"
-	"                      interface, port 7654 unless given: one pipelined request a tick,\n"
-	"                      docs/hapticmaster.md)\n"
-	"  --host LINK         viewer link: udp[:PORT][,listen=[ADDR:]PORT] (default udp:47801: telemetry\n"
-	"                      to 127.0.0.1:47801; up to 4 more clients, each admitted by its first valid\n"
-	"                      packet to the listen port (default 127.0.0.1:47802, where swell-tool and\n"
-	"                      swell-flash look; any free port if that is taken, printed; listen=0: any\n"
-	"                      free port) and dropped after 3 s of silence), can:IFACE, usb:FFS_DIR, none\n"
-	"                      Both on USB: two FunctionFS mounts, interfaces 0 (device) and 1 (host) of\n"
-	"                      one gadget. CAN: the driver's error frames are read; a device-link bus-off\n"
-	"                      zeroes the force and faults the loop until the bus is restarted.\n"
-	"  --clock internal|device   own absolute-deadline clock (default) or one tick per device sample\n"
-	"                      (a silent device is still noticed: after silent-ticks periods of wall time\n"
-	"                      the loop ticks on its own every period)\n"
-	"  --tick-hz N         device rate (default 2500; 1000 for classic CAN)\n"
-	"  --solver-hz N       solver rate (default 250; must divide the tick rate)\n"
-	"  --silent-ticks N    device silent this many ticks -> zero force and fault (default 2 with\n"
-	"                      real-time scheduling; without it, as with --no-rt or when SCHED_FIFO is\n"
-	"                      refused, 20 ms of ticks, said at start: a process that is not real time\n"
-	"                      is late by milliseconds)\n"
-	"  --autorun           run whenever the device is there; leave a link-loss fault by itself\n"
-	"  --host-budget N     host messages a tick (default 16)\n"
-	"  --node N            node id on the bus, 0..15 (default 0)\n"
-	"  --scene FILE        start with a scene file (*.scene: pool size, cell size, depth, solver rate,\n"
-	"                      object, damping, force limits; docs/tool.md); options after it override\n"
-	"                      its pool and rates, its parameters override the options; a bad line or a\n"
-	"                      refused value: exit 2 naming the line\n"
-	"  --seconds S         stop after S seconds of ticks (default: until SIGINT/SIGTERM)\n"
-	"  --no-rt             do not ask for SCHED_FIFO and mlockall\n"
-	"  --fw-version X.Y.Z  firmware version reported in CTL_INFO (default " SWELL_CTL_FW_VERSION ", the\n"
-	"                      build's; a test can play \"the new image\" with it), each part 0..255\n"
-	"  --quiet             no status line while running\n"
-	"  -h, --help          this text\n"
-	"\n"
-	"On exit prints a report: ticks, solver steps, state, tick jitter (p50, p99, max), overruns, frames,\n"
-	"the largest wave and the solver's saturations.\n"
-	"Exit status: 0 clean stop, 1 a runtime failure (a link cannot be opened), 2 bad arguments (one\n"
-	"line on stderr; a malformed link spec or two links on one port or mount included),\n"
-	"3 a viewer or swell-flash asked for the bootloader (ENTER_BOOTLOADER accepted: force zeroed,\n"
-	"last heartbeat sent; a supervisor starts the flasher, then the new image).\n";
+#include "ctl_main.h"
 
 static volatile sig_atomic_t stop_flag;
 
@@ -88,254 +35,7 @@ static void on_signal(int sig)
 /* The device silence limit without real-time scheduling: 20 ms of ticks, at least the default. */
 #define SLOW_SILENCE_MS 20
 
-struct opts {
-	const char *device, *host, *scene_path;
-	int device_clock, rt, quiet, silent_given;
-	double seconds;
-	struct swell_ctl_config cfg;
-	struct swell_scene scene;
-};
-
-static void die(const char *msg, const char *arg)
-{
-	fprintf(stderr, "swell-ctl: %s%s\n", msg, arg ? arg : "");
-	exit(2);
-}
-
-static long num(const char *opt, const char *v, long lo, long hi)
-{
-	char *end;
-	long x;
-
-	errno = 0;
-	x = strtol(v, &end, 10);
-	if (errno || *v == '\0' || *end || x < lo || x > hi) {
-		fprintf(stderr, "swell-ctl: %s '%s' is not a whole number in [%ld, %ld]\n", opt, v, lo, hi);
-		exit(2);
-	}
-	return x;
-}
-
-/* "X.Y.Z", each part 0..255, into v[3]; 0 on success. */
-static int parse_version(const char *s, uint8_t v[3])
-{
-	unsigned a, b, c;
-	int n = 0;
-
-	if (sscanf(s, "%3u.%3u.%3u%n", &a, &b, &c, &n) != 3 || s[n] || a > 255 || b > 255 || c > 255 ||
-	    !strchr("0123456789", s[0]))
-		return -1;
-	v[0] = (uint8_t)a;
-	v[1] = (uint8_t)b;
-	v[2] = (uint8_t)c;
-	return 0;
-}
-
-/* 1 for an option that takes a value. */
-static int takes_value(const char *a)
-{
-	static const char *const with_value[] = { "--device",     "--host",         "--clock",       "--tick-hz",
-						  "--solver-hz",  "--silent-ticks", "--host-budget", "--node",
-						  "--fw-version", "--seconds",      "--scene" };
-	size_t k;
-
-	for (k = 0; k < sizeof(with_value) / sizeof(with_value[0]); k++)
-		if (!strcmp(a, with_value[k]))
-			return 1;
-	return 0;
-}
-
-/* The two links must not be one: the host link's telemetry sent into the device port, or one
- * FunctionFS mount for both. Compared as spelled (udp: the port, the default 47800 / 47801). */
-static void check_links(const struct opts *o)
-{
-	const char *dp = !strcmp(o->device, "udp") ? "47800" : !strncmp(o->device, "udp:", 4) ? o->device + 4 : NULL;
-	const char *hp = !strcmp(o->host, "udp") ? "47801" : !strncmp(o->host, "udp:", 4) ? o->host + 4 : NULL;
-
-	if (dp && hp && strtol(dp, NULL, 10) == strtol(hp, NULL, 10) && strtol(dp, NULL, 10) > 0) {
-		fprintf(stderr,
-			"swell-ctl: --device %s and --host %s: the telemetry would go to the device link's own "
-			"port\n",
-			o->device, o->host);
-		exit(2);
-	}
-	if (!strncmp(o->device, "usb:", 4) && !strcmp(o->device, o->host)) {
-		fprintf(stderr, "swell-ctl: --device and --host are one FunctionFS mount (%s): give each its own\n",
-			o->device);
-		exit(2);
-	}
-}
-
-/* ---- scene files (start-up only, before the loop: parsing uses double, the loop never does) ---- */
-
-/* The scene's start-up parameters (pool and solver rate) into the configuration. */
-static void scene_start(struct opts *o, const char *path)
-{
-	const struct swell_scene_value *v;
-	char err[300];
-
-	if (swell_scene_load(path, &o->scene, err, sizeof(err)) < 0) {
-		fprintf(stderr, "swell-ctl: --scene %s\n", err);
-		exit(2);
-	}
-	o->scene_path = path;
-	if ((v = swell_scene_get(&o->scene, SWELL_SCENE_NX)))
-		o->cfg.nx = (uint16_t)v->raw;
-	if ((v = swell_scene_get(&o->scene, SWELL_SCENE_NY)))
-		o->cfg.ny = (uint16_t)v->raw;
-	if ((v = swell_scene_get(&o->scene, SWELL_SCENE_DX_UM)))
-		o->cfg.dx_um = (uint32_t)v->raw;
-	if ((v = swell_scene_get(&o->scene, SWELL_SCENE_DEPTH_UM)))
-		o->cfg.depth_um = (uint32_t)v->raw;
-	if ((v = swell_scene_get(&o->scene, SWELL_SCENE_SOLVER_HZ)))
-		o->cfg.solver_hz = (uint32_t)v->raw;
-}
-
-/* e from eq. 2 when the scene sets the pool or the rate and not e itself (then by its PARAM_SET). */
-static void scene_e(struct opts *o)
-{
-	const struct swell_scene *sc = &o->scene;
-	enum swell_err e;
-
-	if (swell_scene_get(sc, SWELL_PARAM_WAVE_E) ||
-	    !(swell_scene_get(sc, SWELL_SCENE_DX_UM) || swell_scene_get(sc, SWELL_SCENE_DEPTH_UM) ||
-	      swell_scene_get(sc, SWELL_SCENE_SOLVER_HZ)))
-		return;
-	if (o->cfg.solver_hz == 0 || 1000000u % o->cfg.solver_hz != 0) {
-		fprintf(stderr,
-			"swell-ctl: --scene %s: solver rate %u Hz is not a whole number of us a step: give "
-			"wave.e\n",
-			o->scene_path, o->cfg.solver_hz);
-		exit(2);
-	}
-	e = swell_wave_e_from_physical(o->cfg.body.g_mm_s2, 1000000u / o->cfg.solver_hz, o->cfg.depth_um, o->cfg.dx_um,
-				       &o->cfg.wave.e);
-	if (e != SWELL_OK) {
-		fprintf(stderr, "swell-ctl: --scene %s: e = g dt^2 d / dx^2 from the pool: %s\n", o->scene_path,
-			swell_err_str(e));
-		exit(2);
-	}
-}
-
-/* The scene's parameters through the core's own validated path (PARAM_SET on the host link, before
- * the link exists): the first refusal stops the start with its line. */
-static int scene_params(struct swell_ctl *c, const struct opts *o)
-{
-	size_t k;
-
-	for (k = 0; k < o->scene.n; k++) {
-		const struct swell_scene_value *v = &o->scene.v[k];
-		struct swell_msg m, a;
-
-		if (swell_scene_key(v->d->id))
-			continue; /* start-up: already in the configuration */
-		memset(&m, 0, sizeof(m));
-		memset(&a, 0, sizeof(a));
-		m.type = SWELL_MSG_PARAM_SET;
-		m.node = o->cfg.node;
-		m.u.param_set.id = v->d->id;
-		m.u.param_set.value = v->raw;
-		m.u.param_set.seq = (uint8_t)k;
-		swell_ctl_rx(c, SWELL_LINK_HOST, &m);
-		if (swell_ctl_tx(c, SWELL_LINK_HOST, &a, 1) != 1 || a.type != SWELL_MSG_PARAM_ACK) {
-			fprintf(stderr, "swell-ctl: --scene %s:%d: %s refused: %s\n", o->scene_path, v->line,
-				v->d->name,
-				a.type == SWELL_MSG_PARAM_NACK ? swell_err_str((enum swell_err)a.u.param_nack.err)
-							       : "no answer");
-			return -1;
-		}
-	}
-	return 0;
-}
-
-static void parse(int argc, char **argv, struct opts *o)
-{
-	int k;
-
-	memset(o, 0, sizeof(*o));
-	o->device = "udp";
-	o->host = "udp";
-	o->rt = 1;
-	swell_ctl_default_config(&o->cfg);
-	if (parse_version(SWELL_CTL_FW_VERSION, o->cfg.fw_version))
-		die("build version is not X.Y.Z: ", SWELL_CTL_FW_VERSION);
-	for (k = 1; k < argc; k++) {
-		const char *a = argv[k], *v = k + 1 < argc ? argv[k + 1] : NULL;
-
-		if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
-			fputs(usage, stdout);
-			exit(0);
-		} else if (!strcmp(a, "--autorun")) {
-			o->cfg.autorun = 1;
-		} else if (!strcmp(a, "--no-rt")) {
-			o->rt = 0;
-		} else if (!strcmp(a, "--quiet")) {
-			o->quiet = 1;
-		} else if (strncmp(a, "--", 2)) {
-			die("unexpected argument (see --help): ", a);
-		} else if (!takes_value(a)) {
-			die("unknown option (see --help): ", a);
-		} else if (!v) {
-			die("this option needs a value: ", a);
-		} else {
-			k++;
-			if (!strcmp(a, "--device"))
-				o->device = v;
-			else if (!strcmp(a, "--host"))
-				o->host = v;
-			else if (!strcmp(a, "--scene"))
-				scene_start(o, v);
-			else if (!strcmp(a, "--clock")) {
-				if (strcmp(v, "internal") && strcmp(v, "device"))
-					die("--clock must be internal or device, not ", v);
-				o->device_clock = !strcmp(v, "device");
-			} else if (!strcmp(a, "--tick-hz"))
-				o->cfg.tick_hz = (uint32_t)num(a, v, 10, 100000);
-			else if (!strcmp(a, "--solver-hz"))
-				o->cfg.solver_hz = (uint32_t)num(a, v, 1, 100000);
-			else if (!strcmp(a, "--silent-ticks")) {
-				o->cfg.silent_ticks = (uint16_t)num(a, v, 1, 10000);
-				o->silent_given = 1;
-			} else if (!strcmp(a, "--host-budget"))
-				o->cfg.host_budget = (uint16_t)num(a, v, 1, SWELL_CTL_QUEUE / 2);
-			else if (!strcmp(a, "--node"))
-				o->cfg.node = (uint8_t)num(a, v, 0, SWELL_NODE_MAX);
-			else if (!strcmp(a, "--fw-version")) {
-				if (parse_version(v, o->cfg.fw_version))
-					die("--fw-version must be X.Y.Z with each part 0..255, not ", v);
-			} else if (!strcmp(a, "--seconds")) {
-				char *end;
-				o->seconds = strtod(v, &end);
-				if (*end || !(o->seconds > 0 && o->seconds < 1e7))
-					die("--seconds must be a positive number, not ", v);
-			} else
-				die("unknown option ", a);
-		}
-	}
-	check_links(o);
-	o->cfg.recover_ticks = (uint16_t)(o->cfg.tick_hz / 10 > 0 ? o->cfg.tick_hz / 10 : 1);
-	if (o->scene_path)
-		scene_e(o);
-	{
-		enum swell_err e = swell_ctl_check(&o->cfg);
-
-		if (e != SWELL_OK) {
-			fprintf(stderr, "swell-ctl: configuration refused: %s (tick %u Hz, solver %u Hz)\n",
-				swell_err_str(e), o->cfg.tick_hz, o->cfg.solver_hz);
-			exit(2);
-		}
-	}
-}
-
-/* ---- timing statistics: lateness of each wake-up against its deadline ---- */
-
-#define HIST_US 20000 /* 1 us bins up to 20 ms; later goes in the last bin */
-
-struct jitter {
-	uint32_t hist[HIST_US + 1];
-	uint64_t n;
-	int64_t max_ns;
-};
+/* ---- timing ---- */
 
 static void jitter_add(struct jitter *j, int64_t late_ns)
 {
@@ -345,19 +45,6 @@ static void jitter_add(struct jitter *j, int64_t late_ns)
 	j->n++;
 	if (late_ns > j->max_ns)
 		j->max_ns = late_ns;
-}
-
-static double jitter_pct(const struct jitter *j, double p)
-{
-	uint64_t want = (uint64_t)ceil(p * (double)j->n), seen = 0;
-	int k;
-
-	for (k = 0; k <= HIST_US; k++) {
-		seen += j->hist[k];
-		if (seen >= want && want > 0)
-			return k;
-	}
-	return 0;
 }
 
 static int64_t ns_of(const struct timespec *t)
@@ -381,17 +68,6 @@ static int64_t now_ns(void)
 }
 
 /* ---- the loop ---- */
-
-struct port {
-	struct swell_ctl c;
-	struct ctl_link dev, host;
-	int have_host;
-	uint32_t bad_seen;
-	uint32_t bus_offs_seen[2], restarts_seen[2]; /* CAN: device, host link */
-	uint32_t starved; /* times nothing reached the device for silent_ticks ticks in a row */
-	int starving; /* the present run of unsent ticks has been reported */
-	uint32_t releases; /* times the device was declared lost and a learned UDP device let go */
-};
 
 static uint32_t rejected(const struct port *p)
 {
@@ -513,29 +189,6 @@ static int link_faults(struct port *p)
 	return tick;
 }
 
-static void report_can(const char *what, const struct ctl_link *l)
-{
-	const struct ctl_can_health *h = &l->can;
-
-	if (l->kind != CTL_LINK_CAN)
-		return;
-	printf("  %s CAN  %s: %s, %u error frames: %u bus-off, %u restarts, %u error-passive, %u warnings, "
-	       "%u back to active; %u no-ACK, %u protocol, %u overflows, %u TX timeouts; counters tx %u rx %u; "
-	       "%u frames dropped while bus-off, interface down %u times\n",
-	       what, l->name, ctl_can_state_name(h->state), h->error_frames, h->bus_offs, h->restarts, h->passives,
-	       h->warnings, h->actives, h->no_ack, h->prot, h->overflows, h->tx_timeouts, h->tx_err, h->rx_err,
-	       h->dropped_off, h->downs);
-}
-
-static void report_usb(const char *what, const struct ctl_link *l)
-{
-	if (l->kind != CTL_LINK_USB)
-		return;
-	printf("  %s USB  %s: %u parameter answers held for a busy IN queue, %u dropped; %u IN writes "
-	       "refused (all %d slots in flight)\n",
-	       what, l->name, l->answers_held, l->answers_dropped, l->usb.tx_busy_drops, SWELL_USB_FFS_TX_SLOTS);
-}
-
 static void flush_output(struct port *p)
 {
 	struct swell_msg m[SWELL_CTL_QUEUE];
@@ -548,18 +201,6 @@ static void flush_output(struct port *p)
 	n = swell_ctl_tx(&p->c, SWELL_LINK_HOST, m, SWELL_CTL_QUEUE);
 	if (n && p->have_host)
 		ctl_link_send(&p->host, m, n);
-}
-
-/* "ADDR:PORT" of a, "(fixed)" after a configured one, or "none yet". */
-static const char *addr_str(const struct sockaddr_in *a, int have, int fixed, char *buf, size_t len)
-{
-	char ip[INET_ADDRSTRLEN] = "?";
-
-	if (!have)
-		return "none yet";
-	inet_ntop(AF_INET, &a->sin_addr, ip, sizeof(ip));
-	snprintf(buf, len, "%s:%u%s", ip, ntohs(a->sin_port), fixed ? " (fixed)" : "");
-	return buf;
 }
 
 /* SCHED_FIFO and mlockall where permitted. Without real-time scheduling the tick is late by
@@ -751,60 +392,7 @@ int main(int argc, char **argv)
 			"and starts the new image)\n",
 			swell_ctl_state_name(p.c.state));
 
-	printf("swell-ctl report\n");
-	printf("  firmware        %u.%u.%u\n", o.cfg.fw_version[0], o.cfg.fw_version[1], o.cfg.fw_version[2]);
-	printf("  ran             %.3f s, %llu ticks at %u Hz, %u solver steps at %u Hz\n", (now_ns() - start) / 1e9,
-	       (unsigned long long)ticks, o.cfg.tick_hz, p.c.n.solver_steps, o.cfg.solver_hz);
-	printf("  state           %s (last error: %s), faults %u\n", swell_ctl_state_name(p.c.state),
-	       swell_err_str(p.c.last_err), p.c.n.faults);
-	if (p.c.n.faults)
-		printf("  FAULTED         %u times in this run (zero force while faulted; last error: %s; device "
-		       "silence limit %u ticks = %.1f ms)\n",
-		       p.c.n.faults, swell_err_str(p.c.last_err), o.cfg.silent_ticks,
-		       o.cfg.silent_ticks * 1e3 / o.cfg.tick_hz);
-	if (!o.device_clock)
-		printf("  tick jitter     p50 %.0f us, p99 %.0f us, max %.0f us (lateness of the wake-up)\n",
-		       jitter_pct(&jit, 0.5), jitter_pct(&jit, 0.99), jit.max_ns / 1e3);
-	printf("  overruns        %u\n", p.c.n.overruns);
-	printf("  work            worst tick %u cell-operations (a whole step: %u)\n", p.c.n.work_max,
-	       6u * o.cfg.nx * o.cfg.ny);
-	printf("  device link     %s: %u frames in, %u out, %u bad, %u send errors, %u samples lost, %u resyncs, %u "
-	       "of other nodes\n",
-	       p.dev.name, p.dev.frames_rx, p.dev.frames_tx, swell_proto_rejected_total(&p.dev.st), p.dev.tx_errors,
-	       p.c.n.dev_lost, p.c.dev_seq.resyncs, p.dev.foreign);
-	if (p.dev.kind == CTL_LINK_UDP)
-		printf("  device peer     %s; %u datagrams of other senders dropped; device taken %u times, "
-		       "let go %u times (declared lost)\n",
-		       addr_str(&p.dev.peer, p.dev.have_peer, p.dev.peer_fixed, abuf, sizeof(abuf)), p.dev.others,
-		       p.dev.peers_taken, p.releases);
-	printf("  device starved  %u times (nothing reached the device for %u ticks in a row)\n", p.starved,
-	       o.cfg.silent_ticks);
-	if (p.have_host)
-		printf("  host link       %s: %u frames in, %u out, %u bad, %u not sent (no reader or busy); "
-		       "%u height quads (%u refreshes), %u dropped from the queue\n",
-		       p.host.name, p.host.frames_rx, p.host.frames_tx, swell_proto_rejected_total(&p.host.st),
-		       p.host.tx_errors, p.c.n.quads_sent, p.c.n.quads_refreshed, p.c.q[SWELL_LINK_HOST].dropped);
-	if (p.have_host && p.host.kind == CTL_LINK_UDP)
-		printf("  host clients    on %s: %u admitted, %u dropped after %u ms of silence, %u now (at most %u); "
-		       "%u packets of senders refused (table full)\n",
-		       addr_str(&p.host.local, 1, 0, abuf, sizeof(abuf)), p.host.clients_admitted,
-		       p.host.clients_silent, CTL_LINK_CLIENT_SILENT_MS, ctl_link_clients(&p.host), CTL_LINK_CLIENTS,
-		       p.host.clients_refused);
-	if (p.dev.kind == CTL_LINK_HM) {
-		hm_client_report(&p.dev.hm, stdout);
-		hm_fx_report(&p.dev.hmfx, stdout);
-	}
-	report_can("device", &p.dev);
-	report_usb("device", &p.dev);
-	if (p.have_host) {
-		report_can("host  ", &p.host);
-		report_usb("host  ", &p.host);
-	}
-	printf("  parameters      %u set, %u refused\n", p.c.n.params_set, p.c.n.params_refused);
-	printf("  waves           largest |h| %.3f mm (sampled once a second), %u solver saturations "
-	       "(row segments clamped)\n",
-	       peak_h / (double)SWELL_H_ONE_MM, p.c.wave.saturations);
-	printf("  final force     %+.3f N (zero sent on exit)\n", p.c.force_dev_uN[2] / 1e6);
+	report(&o, &p, &jit, ticks, (now_ns() - start) / 1e9, peak_h);
 	ctl_link_close(&p.dev);
 	if (p.have_host)
 		ctl_link_close(&p.host);

@@ -6,12 +6,14 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "swell/pool.h"
+
 void hm_params_default(struct hm_params *p)
 {
 	int k;
 
 	memset(p, 0, sizeof(*p));
-	p->rate_hz = 2500.0;
+	p->rate_hz = SWELL_POOL_TICK_HZ;
 	p->mass_kg = 2.0;
 	p->damping_Ns_m = 2.0;
 	for (k = 0; k < 3; k++)

@@ -128,28 +128,22 @@ static int flush(struct hm_serve *s, int k)
 	int64_t now;
 	size_t want;
 	unsigned j, keep;
-	ssize_t n;
+	size_t n;
+	int rc;
 
 	clock_gettime(CLOCK_MONOTONIC, &t);
 	now = (int64_t)t.tv_sec * 1000000000 + t.tv_nsec;
 	want = releasable(c, now);
-	while (want > 0) {
-		n = send(c->fd, c->out, want, MSG_DONTWAIT | MSG_NOSIGNAL);
-		if (n < 0)
-			return errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR ? 0 : -1;
-		s->st.bytes_out += (uint64_t)n;
-		memmove(c->out, c->out + n, c->out_len - (size_t)n);
-		c->out_len -= (size_t)n;
-		want -= (size_t)n;
-		for (j = keep = 0; j < c->held_n; j++) {
-			if (c->held_end[j] <= (size_t)n)
-				continue; /* sent */
-			c->held_end[keep] = c->held_end[j] - (size_t)n;
-			c->held_until_ns[keep++] = c->held_until_ns[j];
-		}
-		c->held_n = keep;
+	rc = swell_hm_frame_flush(c->fd, c->out, &c->out_len, want, &n);
+	s->st.bytes_out += (uint64_t)n;
+	for (j = keep = 0; j < c->held_n; j++) {
+		if (c->held_end[j] <= n)
+			continue; /* sent */
+		c->held_end[keep] = c->held_end[j] - n;
+		c->held_until_ns[keep++] = c->held_until_ns[j];
 	}
-	return 0;
+	c->held_n = keep;
+	return rc;
 }
 
 /* Queues one framed reply; -1 when the client has not read enough of the earlier ones. */
@@ -157,15 +151,8 @@ static int queue(struct hm_serve *s, int k, const char *text, size_t n)
 {
 	struct hm_conn *c = &s->c[k];
 
-	if (c->out_len + 8 + n > sizeof(c->out))
+	if (swell_hm_frame_put(c->out, sizeof(c->out), &c->out_len, text, n) < 0)
 		return -1;
-	c->out[c->out_len + 0] = (uint8_t)(n >> 24);
-	c->out[c->out_len + 1] = (uint8_t)(n >> 16);
-	c->out[c->out_len + 2] = (uint8_t)(n >> 8);
-	c->out[c->out_len + 3] = (uint8_t)n;
-	memset(c->out + c->out_len + 4, 0, 4);
-	memcpy(c->out + c->out_len + 8, text, n);
-	c->out_len += 8 + n;
 	s->st.replies++;
 	if (s->reply_delay_ns > 0 && c->held_n < HM_SERVE_HELD) {
 		struct timespec t;
@@ -262,11 +249,6 @@ double hm_serve_age_pct(const struct hm_serve *s, double p)
 	return 0;
 }
 
-static uint32_t be32(const uint8_t *p)
-{
-	return (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | p[3];
-}
-
 /* Runs the whole requests in the input buffer, up to the tick's budget. -1: drop the client. */
 static int run_requests(struct hm_serve *s, struct hm_dev *d, int k, int64_t now_ns)
 {
@@ -274,23 +256,24 @@ static int run_requests(struct hm_serve *s, struct hm_dev *d, int k, int64_t now
 	int done = 0;
 	size_t k2;
 
-	while (c->in_len >= 8 && done < HM_SERVE_REQS_PER_TICK) {
-		uint32_t len = be32(c->in);
+	while (c->in_len >= SWELL_HM_FRAME_HDR && done < HM_SERVE_REQS_PER_TICK) {
+		uint32_t len, pad;
+		const int whole = swell_hm_frame_next(c->in, c->in_len, HM_SERVE_TEXT_MAX, &len, &pad);
 		size_t n;
 
-		if (len == 0 || len > HM_SERVE_TEXT_MAX || be32(c->in + 4) != 0) {
+		if (whole < 0) {
 			n = (size_t)snprintf(
 				s->reply, sizeof(s->reply),
 				"--- ERROR: bad header (length %u, bytes 4-7 %08x; text of 1..%d bytes after a "
 				"big-endian length and four zero bytes): closing",
-				len, be32(c->in + 4), HM_SERVE_TEXT_MAX);
+				len, pad, HM_SERVE_TEXT_MAX);
 			s->st.drop_header++;
 			queue(s, k, s->reply, n);
 			c->closing = 1;
 			c->in_len = 0;
 			return 0;
 		}
-		if (c->in_len < 8 + (size_t)len) {
+		if (!whole) {
 			if (!c->partial_since_ns)
 				c->partial_since_ns = now_ns;
 			return 0;
@@ -299,7 +282,7 @@ static int run_requests(struct hm_serve *s, struct hm_dev *d, int k, int64_t now
 		if (c->arrived_rt_ns && (!s->tick_first_rt_ns || c->arrived_rt_ns < s->tick_first_rt_ns))
 			s->tick_first_rt_ns = c->arrived_rt_ns;
 		for (k2 = 0; k2 < len; k2++) {
-			uint8_t b = c->in[8 + k2];
+			uint8_t b = c->in[SWELL_HM_FRAME_HDR + k2];
 
 			if (!((b >= 0x20 && b < 0x7f) || b == '\t' || b == '\n' || b == '\r'))
 				break;
@@ -310,21 +293,21 @@ static int run_requests(struct hm_serve *s, struct hm_dev *d, int k, int64_t now
 			d->errors++;
 			n = (size_t)snprintf(s->reply, sizeof(s->reply),
 					     "--- ERROR: byte 0x%02x at offset %zu is not text: request ignored",
-					     c->in[8 + k2], k2);
+					     c->in[SWELL_HM_FRAME_HDR + k2], k2);
 		} else {
-			n = hm_dev_request(d, k, (const char *)c->in + 8, len, s->reply, sizeof(s->reply));
+			n = hm_dev_request(d, k, (const char *)c->in + SWELL_HM_FRAME_HDR, len, s->reply,
+					   sizeof(s->reply));
 		}
 		if (queue(s, k, s->reply, n) < 0) {
 			s->st.drop_not_reading++;
 			return -1;
 		}
-		memmove(c->in, c->in + 8 + len, c->in_len - 8 - len);
-		c->in_len -= 8 + len;
+		swell_hm_frame_pop(c->in, &c->in_len, len);
 		done++;
 	}
-	if (c->in_len >= 8 && done == HM_SERVE_REQS_PER_TICK)
+	if (c->in_len >= SWELL_HM_FRAME_HDR && done == HM_SERVE_REQS_PER_TICK)
 		s->st.deferred_ticks++;
-	if (c->in_len > 0 && c->in_len < 8 && !c->partial_since_ns)
+	if (c->in_len > 0 && c->in_len < SWELL_HM_FRAME_HDR && !c->partial_since_ns)
 		c->partial_since_ns = now_ns;
 	return 0;
 }

@@ -24,6 +24,7 @@
 #include <stdint.h>
 
 #include "hm_cmd.h"
+#include "swell/hm_frame.h"
 
 #define HM_SERVE_CLIENTS HM_CLIENTS_MAX
 #define HM_SERVE_TEXT_MAX 2048 /* longest request text */
@@ -37,7 +38,7 @@
 
 struct hm_conn {
 	int fd;
-	uint8_t in[8 + HM_SERVE_TEXT_MAX];
+	uint8_t in[SWELL_HM_FRAME_HDR + HM_SERVE_TEXT_MAX];
 	size_t in_len;
 	uint8_t out[HM_SERVE_OUT_MAX];
 	size_t out_len;

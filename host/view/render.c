@@ -12,6 +12,7 @@
 
 #include "canvas.h"
 #include "font.h"
+#include "swell/pool.h"
 
 #define PI_F 3.14159265f
 
@@ -588,7 +589,7 @@ static void build_scene(struct render *r, const struct view_model *m, bool froze
 /* ---- camera ---- */
 static void scene_size(const struct view_model *m, float *lx, float *ly, float *depth)
 {
-	float dx = m->have_scene ? (float)m->scene.dx_um * 1e-6f : 0.00625f;
+	float dx = m->have_scene ? (float)m->scene.dx_um * 1e-6f : (float)SWELL_POOL_DX_UM / 1e6f;
 	*lx = dx * (float)(m->have_scene ? m->scene.nx : 64);
 	*ly = dx * (float)(m->have_scene ? m->scene.ny : 64);
 	*depth = m->have_scene ? (float)m->scene.depth_um * 1e-6f : 0.05f;

@@ -1,6 +1,6 @@
-// Helpers every Catch2 test of a program shares: run it and capture what it says, check a table of
-// bad arguments, a loopback UDP socket on a free port, a whole file as text. CMake puts this folder
-// on every test's include path (swell_catch_test).
+// Helpers every Catch2 test of a program shares: run it and capture what it says, start, stop and
+// reap it, check a table of bad arguments, loopback sockets on free ports, a whole file as text.
+// CMake puts this folder on every test's include path (swell_catch_test).
 #ifndef SWELL_TEST_SUPPORT_HPP
 #define SWELL_TEST_SUPPORT_HPP
 
@@ -9,6 +9,7 @@
 #include <arpa/inet.h>
 #include <fcntl.h>
 #include <netinet/in.h>
+#include <signal.h>
 #include <spawn.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
@@ -18,6 +19,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <string>
+#include <utility>
 #include <vector>
 
 extern char **environ;
@@ -39,6 +41,30 @@ inline std::string slurp(const std::string &path)
 	return s;
 }
 
+// Starts argv[0] (a path) with argv; does not wait. out: the file stdout goes to; err: the file
+// stderr goes to, "&1" together with stdout; "" for either: this process's.
+inline pid_t spawn(std::vector<std::string> argv, const std::string &out = "", const std::string &err = "&1")
+{
+	std::vector<char *> v;
+	for (auto &a : argv)
+		v.push_back(&a[0]);
+	v.push_back(nullptr);
+	posix_spawn_file_actions_t fa;
+	posix_spawn_file_actions_init(&fa);
+	if (!out.empty())
+		posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+	if (err == "&1" && !out.empty())
+		posix_spawn_file_actions_adddup2(&fa, 1, 2);
+	else if (!err.empty() && err != "&1")
+		posix_spawn_file_actions_addopen(&fa, 2, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+	pid_t pid = -1;
+	const int rc = posix_spawn(&pid, v[0], &fa, nullptr, v.data(), environ);
+	posix_spawn_file_actions_destroy(&fa);
+	INFO("spawning " << argv[0]);
+	REQUIRE(rc == 0);
+	return pid;
+}
+
 struct Run {
 	int code = -1; // the exit code; -1 when it was killed by a signal
 	std::string out, err;
@@ -50,18 +76,7 @@ inline Run run(std::vector<std::string> argv, std::string log = "", bool keep = 
 {
 	if (log.empty())
 		log = "/tmp/swell-test-" + std::to_string(getpid());
-	std::vector<char *> v;
-	for (auto &a : argv)
-		v.push_back(&a[0]);
-	v.push_back(nullptr);
-	posix_spawn_file_actions_t fa;
-	posix_spawn_file_actions_init(&fa);
-	posix_spawn_file_actions_addopen(&fa, 1, (log + ".out").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-	posix_spawn_file_actions_addopen(&fa, 2, (log + ".err").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-	pid_t pid = -1;
-	const int rc = posix_spawn(&pid, v[0], &fa, nullptr, v.data(), environ);
-	posix_spawn_file_actions_destroy(&fa);
-	REQUIRE(rc == 0);
+	const pid_t pid = spawn(std::move(argv), log + ".out", log + ".err");
 	int st = 0;
 	waitpid(pid, &st, 0);
 	Run r;
@@ -75,23 +90,64 @@ inline Run run(std::vector<std::string> argv, std::string log = "", bool keep = 
 	return r;
 }
 
-// Starts argv[0] (a path) with argv, stdout and stderr together into the file out; does not wait.
-inline pid_t spawn(std::vector<std::string> argv, const std::string &out)
+// Waits up to ms for pid to end: its exit status (128 + signal when killed), and pid set to -1; -1
+// when it is still running.
+inline int reap(pid_t &pid, int ms)
 {
-	std::vector<char *> v;
-	for (auto &a : argv)
-		v.push_back(&a[0]);
-	v.push_back(nullptr);
-	posix_spawn_file_actions_t fa;
-	posix_spawn_file_actions_init(&fa);
-	posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-	posix_spawn_file_actions_adddup2(&fa, 1, 2);
-	pid_t pid = -1;
-	const int rc = posix_spawn(&pid, v[0], &fa, nullptr, v.data(), environ);
-	posix_spawn_file_actions_destroy(&fa);
-	REQUIRE(rc == 0);
-	return pid;
+	if (pid <= 0)
+		return -1;
+	for (int k = 0; k <= ms / 10; k++) {
+		int st = 0;
+		if (waitpid(pid, &st, WNOHANG) == pid) {
+			pid = -1;
+			return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+		}
+		usleep(10000);
+	}
+	return -1;
 }
+
+// Sends sig and waits up to ms for the end: the exit status (128 + signal when killed); -1 when it
+// did not end (it is then killed).
+inline int stop(pid_t &pid, int sig = SIGTERM, int ms = 60000)
+{
+	if (pid <= 0)
+		return -1;
+	kill(pid, sig);
+	const int rc = reap(pid, ms);
+	if (rc < 0 && pid > 0) {
+		kill(pid, SIGKILL);
+		waitpid(pid, nullptr, 0);
+		pid = -1;
+	}
+	return rc;
+}
+
+// A program started with stdout and stderr together into the file out, killed should the test end
+// before it does.
+struct Proc {
+	pid_t pid = -1;
+	std::string out;
+	Proc() = default;
+	Proc(const std::vector<std::string> &argv, const std::string &out_path) { start(argv, out_path); }
+	Proc(const Proc &) = delete;
+	Proc &operator=(const Proc &) = delete;
+	void start(const std::vector<std::string> &argv, const std::string &out_path)
+	{
+		out = out_path;
+		pid = spawn(argv, out);
+	}
+	// waits up to ms for the end: the exit status; -1 when it did not end (it is then killed)
+	int wait(int ms) { return stop(0, ms); }
+	int stop(int sig = SIGTERM, int ms = 60000) { return swell_test::stop(pid, sig, ms); }
+	~Proc()
+	{
+		if (pid > 0) {
+			kill(pid, SIGKILL);
+			waitpid(pid, nullptr, 0);
+		}
+	}
+};
 
 // One row of a bad-argument table: the arguments, what the one line on stderr must say, and the
 // exit status (2, bad arguments, unless the row is about a runtime failure).
@@ -134,10 +190,11 @@ inline void check_help(const std::string &bin)
 	CHECK(r.out.find("2 bad arguments") != std::string::npos);
 }
 
-// A UDP socket bound to loopback on a port of the kernel's choosing; the port in *port.
-inline int udp_loopback(std::string *port)
+// A socket of type (SOCK_DGRAM, SOCK_STREAM) bound to loopback on a port of the kernel's choosing;
+// the port in *port. A TCP socket listens.
+inline int loopback_socket(int type, int *port)
 {
-	const int fd = socket(AF_INET, SOCK_DGRAM, 0);
+	const int fd = socket(AF_INET, type | SOCK_CLOEXEC, 0);
 	REQUIRE(fd >= 0);
 	sockaddr_in a{};
 	a.sin_family = AF_INET;
@@ -145,8 +202,41 @@ inline int udp_loopback(std::string *port)
 	socklen_t al = sizeof a;
 	REQUIRE(bind(fd, reinterpret_cast<sockaddr *>(&a), sizeof a) == 0);
 	REQUIRE(getsockname(fd, reinterpret_cast<sockaddr *>(&a), &al) == 0);
-	*port = std::to_string(ntohs(a.sin_port));
+	REQUIRE((type != SOCK_STREAM || listen(fd, 4) == 0));
+	*port = ntohs(a.sin_port);
 	return fd;
+}
+
+// A UDP socket on loopback, its port as text in *port.
+inline int udp_loopback(std::string *port)
+{
+	int p = 0;
+	const int fd = loopback_socket(SOCK_DGRAM, &p);
+	*port = std::to_string(p);
+	return fd;
+}
+
+// A loopback UDP port that was free a moment ago (nobody listens there).
+inline uint16_t free_udp_port()
+{
+	int port = 0;
+	close(loopback_socket(SOCK_DGRAM, &port));
+	return (uint16_t)port;
+}
+
+// The whole number just before `label` in text (a summary's counters), -1 when absent.
+inline long count_before(const std::string &text, const std::string &label)
+{
+	const size_t at = text.find(label);
+	if (at == std::string::npos || at == 0)
+		return -1;
+	size_t k = at;
+	while (k > 0 && text[k - 1] == ' ')
+		k--;
+	const size_t e = k;
+	while (k > 0 && text[k - 1] >= '0' && text[k - 1] <= '9')
+		k--;
+	return k == e ? -1 : std::stol(text.substr(k, e - k));
 }
 
 } // namespace swell_test

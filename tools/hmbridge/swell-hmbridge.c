@@ -30,6 +30,7 @@
 #include "hm_client.h"
 #include "hm_fx.h"
 #include "swell/link.h"
+#include "swell/pool.h"
 #include "swell/proto.h"
 #include "swell/transport.h"
 
@@ -99,7 +100,7 @@ static void parse(int argc, char **argv, struct opts *o)
 	o->link = "udp";
 	o->host = SWELL_UDP_HOST;
 	o->port = SWELL_UDP_PORT_DEVICE;
-	o->rate_hz = 2500.0;
+	o->rate_hz = SWELL_POOL_TICK_HZ;
 	o->watchdog = 2;
 	o->fresh_ms = 10.0;
 	for (k = 1; k < argc; k++) {

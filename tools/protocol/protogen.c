@@ -7,6 +7,7 @@
 #include <sys/stat.h>
 
 #include "swell/param.h"
+#include "swell/pool.h"
 #include "swell/proto.h"
 #include "swell/transport.h"
 
@@ -105,16 +106,21 @@ struct load_row {
 #define SCENE_HZ 1.0
 #define INFO_HZ 1.0
 #define OBJ_HZ 100.0
-#define GRID_QUADS 1024 /* the reference scene: 64 x 64 cells in quads of 2 x 2 */
+/* the reference scene in quads of 2 x 2 cells */
+static const unsigned grid_quads = SWELL_POOL_N / 2 * (SWELL_POOL_N / 2);
 #define USB_PACKETS_PER_MS 19.0 /* USB 2.0 full speed: at most 19 bulk packets of 64 bytes per frame */
 
 static void bus_load(FILE *o)
 {
 	static const struct load_row rows[] = {
-		{ "classic CAN 1 Mbit/s", 1000, 0 }, { "classic CAN 1 Mbit/s", 1000, 1 },
-		{ "classic CAN 1 Mbit/s", 2500, 0 }, { "classic CAN 1 Mbit/s", 2500, 1 },
-		{ "CAN FD 1/2 Mbit/s", 1000, 0 },    { "CAN FD 1/2 Mbit/s", 2500, 0 },
-		{ "USB full speed", 1000, 0 },       { "USB full speed", 2500, 0 },
+		{ "classic CAN 1 Mbit/s", 1000, 0 },
+		{ "classic CAN 1 Mbit/s", 1000, 1 },
+		{ "classic CAN 1 Mbit/s", SWELL_POOL_TICK_HZ, 0 },
+		{ "classic CAN 1 Mbit/s", SWELL_POOL_TICK_HZ, 1 },
+		{ "CAN FD 1/2 Mbit/s", 1000, 0 },
+		{ "CAN FD 1/2 Mbit/s", SWELL_POOL_TICK_HZ, 0 },
+		{ "USB full speed", 1000, 0 },
+		{ "USB full speed", SWELL_POOL_TICK_HZ, 0 },
 	};
 	unsigned i;
 
@@ -126,7 +132,7 @@ static void bus_load(FILE *o)
 		"measured force). Telemetry on the same bus: HEARTBEAT %.0f/s (both directions), SCENE\n"
 		"%.0f/s, CTL_INFO %.0f/s, OBJECT_POSE and OBJECT_FORCE %.0f/s each. What is left carries\n"
 		"HEIGHT_QUADs; a full refresh of the 64 x 64 reference grid is %d quads.\n\n",
-		HB_HZ, SCENE_HZ, INFO_HZ, OBJ_HZ, GRID_QUADS);
+		HB_HZ, SCENE_HZ, INFO_HZ, OBJ_HZ, grid_quads);
 	fprintf(o,
 		"- Classic CAN: %u bits per 8-byte frame and %u per 7-byte frame, worst-case bit\n"
 		"  stuffing (47 + 8n + floor((33 + 8n) / 4)).\n",
@@ -180,7 +186,7 @@ static void bus_load(FILE *o)
 		quads_s = busy_s < 1.0 ? (1.0 - busy_s) / quad_s_each : 0.0;
 		verdict = busy_s > 1.0 ? "does not fit" : busy_s > 0.7 ? "fits, tight (> 70 %)" : "fits";
 		fprintf(o, "| %s | %u Hz | %s | %.1f %% | %.0f quads/s | %.1f | %s |\n", r->carrier, r->rate,
-			r->minimal ? "minimal" : "full", 100.0 * busy_s, quads_s, quads_s / GRID_QUADS, verdict);
+			r->minimal ? "minimal" : "full", 100.0 * busy_s, quads_s, quads_s / grid_quads, verdict);
 	}
 	fprintf(o,
 		"\nConclusions. Classic CAN carries the full device link at 1000 Hz, and at 2500 Hz only\n"
@@ -190,7 +196,7 @@ static void bus_load(FILE *o)
 		"arbitration phase dominates, so the full device link at 2500 Hz is tight on CAN FD too.\n"
 		"USB carries everything at both rates with room for about 80 full refreshes per second.\n"
 		"Only changed tiles are sent, so a calm pool costs nothing.\n\n",
-		GRID_QUADS);
+		grid_quads);
 }
 
 /* ---- Markdown ---- */

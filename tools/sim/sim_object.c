@@ -15,6 +15,7 @@
 #include "swell/body.h"
 #include "swell/body_free.h"
 #include "swell/force_safety.h"
+#include "swell/pool.h"
 
 enum motion {
 	M_DROP,
@@ -35,9 +36,13 @@ static struct {
 	double f_max, rate, gain;
 	const char *trace;
 	const char *first; /* the first object option other than --object */
-} so = {
-	.motion = M_DROP, .arg = { 0.02, 0, 0 }, .tick_hz = 2500, .damper = 3.0, .f_max = 20, .rate = 2000, .gain = 1
-};
+} so = { .motion = M_DROP,
+	 .arg = { 0.02, 0, 0 },
+	 .tick_hz = SWELL_POOL_TICK_HZ,
+	 .damper = 3.0,
+	 .f_max = 20,
+	 .rate = 2000,
+	 .gain = 1 };
 
 void sim_object_usage(FILE *f)
 {
@@ -224,7 +229,7 @@ int sim_object_run(struct swell_wave *w, double dt_s, double dx_m, long steps, i
 		return 2;
 	}
 	dt_s = dt_s > 0 ? dt_s : 0.004;
-	dx_m = dx_m > 0 ? dx_m : 0.00625;
+	dx_m = dx_m > 0 ? dx_m : SWELL_POOL_DX_UM / 1e6;
 	sc.dx_um = to_u32("--dx", dx_m, 1e6);
 	sc.solver_hz = to_u32("solver rate 1/dt", 1 / dt_s, 1);
 	sc.tick_hz = to_u32("--tick-hz", so.tick_hz, 1);

@@ -10,6 +10,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "swell/pool.h"
 #include "swell/shape.h"
 #include "swell/wave.h"
 #include "swell/wave_ref.h"
@@ -116,9 +117,12 @@ static void parse_args(int argc, char **argv, struct opts *o)
 {
 	int k;
 
-	*o = (struct opts){
-		.nx = 64, .ny = 64, .g = 9.81, .steps = 1000, .init = INIT_GAUSS, .init_arg = { 32, 32, 3, 2 }
-	};
+	*o = (struct opts){ .nx = SWELL_POOL_N,
+			    .ny = SWELL_POOL_N,
+			    .g = 9.81,
+			    .steps = 1000,
+			    .init = INIT_GAUSS,
+			    .init_arg = { 32, 32, 3, 2 } };
 	for (k = 1; k < argc; k++) {
 		const char *a = argv[k], *v = k + 1 < argc ? argv[k + 1] : NULL;
 

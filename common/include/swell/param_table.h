@@ -28,39 +28,41 @@
 
 #include <stdint.h>
 
+#include "swell/pool.h"
+
 /* 2^-30 and 2^-16 written out in decimal (exact), the factors of Q1.30 and Q15.16 values. */
 #define SWELL_PARAM_Q30 "0.000000000931322574615478515625"
 #define SWELL_PARAM_Q16 "0.0000152587890625"
 
-#define SWELL_PARAMS(P)                                                                                               \
-	P(WAVE_E, 1, "wave.e", wave.e, int32_t, WAVE, 1, INT32_MAX, 215723192, SWELL_PARAM_Q30, "", RW, ANY,          \
-	  "solver coupling e = g dt^2 d / dx^2 (eq. 2), Q1.30; refused (unstable) at or above "                       \
-	  "the stability limit, 1/2 without damping")                                                                 \
-	P(WAVE_DAMPING, 2, "wave.damping", wave.damping, int32_t, WAVE, 0, 1073741823, 1073742, SWELL_PARAM_Q30, "",  \
-	  RW, ANY, "damping t per solver step, Q1.30; the stability limit grows with it")                             \
-	P(WAVE_STENCIL, 3, "wave.stencil", wave.stencil, enum swell_stencil, WAVE, 0, 1, 0, "1", "", RW, ANY,         \
-	  "0 paper (the printed 9-point L9), 1 calibrated (L9 / 2: waves at sqrt(g d))")                              \
-	P(BODY_MASS_G, 10, "body.mass", body.mass_g, uint32_t, BODY, 1, 100000, 100, "1", "g", RW, DRY,               \
-	  "mass of the object (its weight m g within the force law's limit)")                                         \
-	P(BODY_A_UM, 11, "body.a", body.a_um, uint32_t, SIZE, 1000, 4194240, 50000, "0.001", "mm", RW, DRY,           \
-	  "footprint along pool x, at most 64 cells")                                                                 \
-	P(BODY_B_UM, 12, "body.b", body.b_um, uint32_t, SIZE, 1000, 4194240, 50000, "0.001", "mm", RW, DRY,           \
-	  "footprint along pool y, at most 64 cells")                                                                 \
-	P(BODY_H_UM, 13, "body.h", body.h_um, uint32_t, SIZE, 1000, 500000, 50000, "0.001", "mm", RW, DRY,            \
-	  "height H of the box (the two springs' origins are H apart)")                                               \
-	P(BODY_DAMPER, 14, "body.damper", body.damper_uN_per_mm_s, uint32_t, BODY, 0, 10000000, 15000, "0.001",       \
-	  "N*s/m", RW, DRY, "viscous damper b_max at full submersion (raw uN per mm/s)")                              \
-	P(FORCE_MAX_UN, 20, "force.max", safety.f_max_uN, uint32_t, SAFETY, 1, 1000000000, 10000000, "0.000001", "N", \
-	  RW, ANY, "limit of the force on each device axis; a lowered limit cuts at once")                            \
-	P(FORCE_RATE, 21, "force.rate", safety.rate_uN_per_s, uint32_t, SAFETY, 10, INT32_MAX, 500000000, "0.000001", \
-	  "N/s", RW, ANY, "limit of the force's rate of change on each axis, at least 1 uN per tick")                 \
-	P(FORCE_GAIN, 22, "force.gain", safety.gain, int32_t, SAFETY, 0, 262144, 65536, SWELL_PARAM_Q16, "", RW, ANY, \
-	  "haptic gain on the force law's output, Q15.16, 0 to 4")                                                    \
-	P(FORCE_MODE, 23, "force.mode", force_mode, uint8_t, CORE, 0, 1, 0, "1", "", RW, IDLE,                        \
-	  "0 stream (FORCE_CMD every tick), 1 effect (springs, damper and gravity as device effects, every update)")  \
-	P(SILENT_TICKS, 30, "link.silent_ticks", silent_ticks, uint16_t, CORE, 1, 10000, 2, "1", "ticks", RW, ANY,    \
-	  "device silent this many ticks: zero force and FAULT")                                                      \
-	P(AUTORUN, 31, "ctl.autorun", autorun, uint8_t, CORE, 0, 1, 0, "1", "", RW, ANY,                              \
+#define SWELL_PARAMS(P)                                                                                                \
+	P(WAVE_E, 1, "wave.e", wave.e, int32_t, WAVE, 1, INT32_MAX, 215723192, SWELL_PARAM_Q30, "", RW, ANY,           \
+	  "solver coupling e = g dt^2 d / dx^2 (eq. 2), Q1.30; refused (unstable) at or above "                        \
+	  "the stability limit, 1/2 without damping")                                                                  \
+	P(WAVE_DAMPING, 2, "wave.damping", wave.damping, int32_t, WAVE, 0, 1073741823, 1073742, SWELL_PARAM_Q30, "",   \
+	  RW, ANY, "damping t per solver step, Q1.30; the stability limit grows with it")                              \
+	P(WAVE_STENCIL, 3, "wave.stencil", wave.stencil, enum swell_stencil, WAVE, 0, 1, 0, "1", "", RW, ANY,          \
+	  "0 paper (the printed 9-point L9), 1 calibrated (L9 / 2: waves at sqrt(g d))")                               \
+	P(BODY_MASS_G, 10, "body.mass", body.mass_g, uint32_t, BODY, 1, 100000, 100, "1", "g", RW, DRY,                \
+	  "mass of the object (its weight m g within the force law's limit)")                                          \
+	P(BODY_A_UM, 11, "body.a", body.a_um, uint32_t, SIZE, 1000, 4194240, SWELL_POOL_BOX_UM, "0.001", "mm", RW,     \
+	  DRY, "footprint along pool x, at most 64 cells")                                                             \
+	P(BODY_B_UM, 12, "body.b", body.b_um, uint32_t, SIZE, 1000, 4194240, SWELL_POOL_BOX_UM, "0.001", "mm", RW,     \
+	  DRY, "footprint along pool y, at most 64 cells")                                                             \
+	P(BODY_H_UM, 13, "body.h", body.h_um, uint32_t, SIZE, 1000, 500000, SWELL_POOL_BOX_UM, "0.001", "mm", RW, DRY, \
+	  "height H of the box (the two springs' origins are H apart)")                                                \
+	P(BODY_DAMPER, 14, "body.damper", body.damper_uN_per_mm_s, uint32_t, BODY, 0, 10000000, 15000, "0.001",        \
+	  "N*s/m", RW, DRY, "viscous damper b_max at full submersion (raw uN per mm/s)")                               \
+	P(FORCE_MAX_UN, 20, "force.max", safety.f_max_uN, uint32_t, SAFETY, 1, 1000000000, 10000000, "0.000001", "N",  \
+	  RW, ANY, "limit of the force on each device axis; a lowered limit cuts at once")                             \
+	P(FORCE_RATE, 21, "force.rate", safety.rate_uN_per_s, uint32_t, SAFETY, 10, INT32_MAX, 500000000, "0.000001",  \
+	  "N/s", RW, ANY, "limit of the force's rate of change on each axis, at least 1 uN per tick")                  \
+	P(FORCE_GAIN, 22, "force.gain", safety.gain, int32_t, SAFETY, 0, 262144, 65536, SWELL_PARAM_Q16, "", RW, ANY,  \
+	  "haptic gain on the force law's output, Q15.16, 0 to 4")                                                     \
+	P(FORCE_MODE, 23, "force.mode", force_mode, uint8_t, CORE, 0, 1, 0, "1", "", RW, IDLE,                         \
+	  "0 stream (FORCE_CMD every tick), 1 effect (springs, damper and gravity as device effects, every update)")   \
+	P(SILENT_TICKS, 30, "link.silent_ticks", silent_ticks, uint16_t, CORE, 1, 10000, 2, "1", "ticks", RW, ANY,     \
+	  "device silent this many ticks: zero force and FAULT")                                                       \
+	P(AUTORUN, 31, "ctl.autorun", autorun, uint8_t, CORE, 0, 1, 0, "1", "", RW, ANY,                               \
 	  "1: ARMED goes to RUNNING by itself (unless the host sent STOP) and FAULT recovers by itself")
 
 #define SWELL_PARAM_COMMAND_ID 40

@@ -2,23 +2,14 @@
  * (the first sender of this node's DEVICE_POS, or the one configured) and drops every other sender's
  * datagrams, whatever they hold; a silent device faults the loop even while others send valid
  * packets; the host link serves a bounded table of clients beside the configured viewer address. */
-#include <catch2/catch.hpp>
+#include "swell_test.hpp"
 
-#include <arpa/inet.h>
-#include <fcntl.h>
-#include <netinet/in.h>
 #include <poll.h>
-#include <signal.h>
-#include <spawn.h>
-#include <sys/socket.h>
-#include <sys/wait.h>
 #include <time.h>
-#include <unistd.h>
 
 #include <atomic>
 #include <cctype>
 #include <cstring>
-#include <fstream>
 #include <random>
 #include <set>
 #include <sstream>
@@ -31,8 +22,6 @@ extern "C" {
 #include "swell/ctl.h"
 #include "swell/proto.h"
 }
-
-extern char **environ;
 
 namespace {
 
@@ -50,17 +39,11 @@ struct Udp {
 	uint8_t seq = 0;
 	Udp()
 	{
-		fd = socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
-		REQUIRE(fd >= 0);
+		int p = 0;
+		fd = swell_test::loopback_socket(SOCK_DGRAM, &p);
+		port = (uint16_t)p;
 		const int rcvbuf = 4 << 20;
 		setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf);
-		sockaddr_in a{};
-		a.sin_family = AF_INET;
-		a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-		REQUIRE(bind(fd, reinterpret_cast<sockaddr *>(&a), sizeof a) == 0);
-		socklen_t al = sizeof a;
-		REQUIRE(getsockname(fd, reinterpret_cast<sockaddr *>(&a), &al) == 0);
-		port = ntohs(a.sin_port);
 	}
 	~Udp() { close(fd); }
 	Udp(const Udp &) = delete;
@@ -120,12 +103,6 @@ struct Udp {
 	}
 };
 
-uint16_t free_port()
-{
-	Udp u;
-	return u.port;
-}
-
 swell_msg device_pos(uint8_t seq, int16_t z_10um)
 {
 	swell_msg m{};
@@ -155,35 +132,7 @@ swell_msg param(uint8_t type, uint16_t id, int32_t value, uint8_t seq)
 pid_t spawn_ctl(std::vector<std::string> args, const std::string &out_path)
 {
 	args.insert(args.begin(), SWELL_CTL_BIN);
-	std::vector<char *> argv;
-	for (auto &a : args)
-		argv.push_back(&a[0]);
-	argv.push_back(nullptr);
-	posix_spawn_file_actions_t fa;
-	posix_spawn_file_actions_init(&fa);
-	posix_spawn_file_actions_addopen(&fa, 1, out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-	pid_t pid = -1;
-	const int rc = posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ);
-	posix_spawn_file_actions_destroy(&fa);
-	REQUIRE(rc == 0);
-	return pid;
-}
-
-/* SIGTERM, wait, the exit status (-1 unless it exited). */
-int stop_ctl(pid_t pid)
-{
-	int st = 0;
-	kill(pid, SIGTERM);
-	waitpid(pid, &st, 0);
-	return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-}
-
-std::string slurp(const std::string &path)
-{
-	std::ifstream f(path);
-	std::stringstream s;
-	s << f.rdbuf();
-	return s.str();
+	return swell_test::spawn(args, out_path, "");
 }
 
 /* The whole number just before marker on the first line of text that holds both key and marker, or -1. */
@@ -260,9 +209,9 @@ TEST_CASE("swell-ctl UDP device link: a flood of valid packets of every type and
 	const int samples = 1500;
 	const int16_t dev_z = 10000; /* 100 mm: the object held above the water */
 	Udp dev, host;
-	const uint16_t ctl_port = free_port();
+	const uint16_t ctl_port = swell_test::free_udp_port();
 	const std::string out = tmp_path("flood.out");
-	const pid_t pid =
+	pid_t pid =
 		spawn_ctl({"--device", "udp:" + std::to_string(ctl_port), "--host", "udp:" + std::to_string(host.port), "--clock",
 			   "device", "--autorun", "--silent-ticks", "2500", "--no-rt", "--quiet", "--seconds", "120"},
 			  out);
@@ -321,10 +270,10 @@ TEST_CASE("swell-ctl UDP device link: a flood of valid packets of every type and
 	flood.stop();
 	watching = false;
 	viewer.join();
-	const int status = stop_ctl(pid);
+	const int status = swell_test::stop(pid);
 	while (dev.recv(got, 100))
 		take(got);
-	const std::string report = slurp(out);
+	const std::string report = swell_test::slurp(out);
 	std::remove(out.c_str());
 
 	int gaps = 0;
@@ -358,13 +307,12 @@ TEST_CASE("swell-ctl UDP device link: a device that falls silent faults the loop
 	  "[ctl][udp][peer]")
 {
 	Udp dev, host;
-	const uint16_t ctl_port = free_port();
+	const uint16_t ctl_port = swell_test::free_udp_port();
 	const std::string out = tmp_path("silent.out");
-	const pid_t pid =
-		spawn_ctl({"--device", "udp:" + std::to_string(ctl_port) + ",peer=127.0.0.1:" + std::to_string(dev.port),
-			   "--host", "udp:" + std::to_string(host.port), "--autorun", "--silent-ticks", "250", "--no-rt",
-			   "--quiet", "--seconds", "120"},
-			  out);
+	pid_t pid = spawn_ctl({"--device", "udp:" + std::to_string(ctl_port) + ",peer=127.0.0.1:" + std::to_string(dev.port),
+			       "--host", "udp:" + std::to_string(host.port), "--autorun", "--silent-ticks", "250", "--no-rt",
+			       "--quiet", "--seconds", "120"},
+			      out);
 
 	/* the device: a sample every 400 us while talking; it reads every command all along */
 	std::atomic<bool> talking{true}, alive{true};
@@ -421,10 +369,10 @@ TEST_CASE("swell-ctl UDP device link: a device that falls silent faults the loop
 			for (const swell_msg &m : v)
 				running_after += m.type == SWELL_MSG_HEARTBEAT && m.u.heartbeat.state == SWELL_CTL_RUNNING;
 	flood.stop();
-	const int status = stop_ctl(pid);
+	const int status = swell_test::stop(pid);
 	alive = false;
 	device.join();
-	const std::string report = slurp(out);
+	const std::string report = swell_test::slurp(out);
 	std::remove(out.c_str());
 
 	INFO("flood: " << flood.sent << " valid datagrams sent, " << flood.received << " came back to the flooder; FAULT seen "
@@ -450,12 +398,12 @@ TEST_CASE("swell-ctl UDP host link: four clients beside the viewer get telemetry
 	  "[ctl][udp][host]")
 {
 	Udp viewer, client[5];
-	const uint16_t ctl_port = free_port(), listen_port = free_port();
+	const uint16_t ctl_port = swell_test::free_udp_port(), listen_port = swell_test::free_udp_port();
 	const std::string out = tmp_path("clients.out");
-	const pid_t pid = spawn_ctl({"--device", "udp:" + std::to_string(ctl_port), "--host",
-				     "udp:" + std::to_string(viewer.port) + ",listen=" + std::to_string(listen_port), "--no-rt",
-				     "--quiet", "--seconds", "120"},
-				    out);
+	pid_t pid = spawn_ctl({"--device", "udp:" + std::to_string(ctl_port), "--host",
+			       "udp:" + std::to_string(viewer.port) + ",listen=" + std::to_string(listen_port), "--no-rt",
+			       "--quiet", "--seconds", "120"},
+			      out);
 	REQUIRE(viewer.wait_for(SWELL_MSG_HEARTBEAT, 5000).type == SWELL_MSG_HEARTBEAT);
 
 	auto ask = [&](Udp &c, const swell_msg &m, int ms) {
@@ -515,8 +463,8 @@ TEST_CASE("swell-ctl UDP host link: four clients beside the viewer get telemetry
 	const int late = client[3].wait_for(SWELL_MSG_HEARTBEAT, 300).type;
 	CHECK(late == 0);
 
-	const int status = stop_ctl(pid);
-	const std::string report = slurp(out);
+	const int status = swell_test::stop(pid);
+	const std::string report = swell_test::slurp(out);
 	std::remove(out.c_str());
 	INFO(report);
 	CHECK(status == 0);

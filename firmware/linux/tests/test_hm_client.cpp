@@ -2,13 +2,9 @@
 // loopback TCP: the decimal parser without floating point, the start-up request, the text of a tick,
 // answers into DEVICE_POS / DEVICE_VEL, stale answers dropped, a stopped device reported and started
 // again, garbage and resets answered by a reconnection, and the zero force confirmed on exit.
-#include <catch2/catch.hpp>
+#include "swell_test.hpp"
 
-#include <arpa/inet.h>
-#include <netinet/in.h>
 #include <poll.h>
-#include <sys/socket.h>
-#include <unistd.h>
 
 #include <chrono>
 #include <cstring>
@@ -42,18 +38,7 @@ std::string decimal7(long v)
 
 struct Device {
 	int lfd = -1, fd = -1, port = 0;
-	Device()
-	{
-		lfd = socket(AF_INET, SOCK_STREAM, 0);
-		sockaddr_in a{};
-		a.sin_family = AF_INET;
-		a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-		bind(lfd, reinterpret_cast<sockaddr *>(&a), sizeof a);
-		socklen_t l = sizeof a;
-		getsockname(lfd, reinterpret_cast<sockaddr *>(&a), &l);
-		port = ntohs(a.sin_port);
-		listen(lfd, 4);
-	}
+	Device() { lfd = swell_test::loopback_socket(SOCK_STREAM, &port); }
 	~Device()
 	{
 		if (fd >= 0)

@@ -26,7 +26,7 @@ int main(int argc, char **argv)
 	static int32_t arena[FW_CORE_ARENA_WORDS];
 	static struct swell_ctl ctl;
 	struct swell_wave w;
-	unsigned long steps = 200, n, core_ticks = 0, core_hz = 2500;
+	unsigned long steps = 200, n, core_ticks = 0, core_hz = SWELL_POOL_TICK_HZ;
 	enum swell_err err;
 	enum swell_wave_kernel kernel = SWELL_KERNEL_AUTO;
 	int i, cost = 0;
@@ -56,7 +56,8 @@ int main(int argc, char **argv)
 			char *end;
 
 			core_hz = strtoul(argv[++i], &end, 10);
-			if (*end || !*argv[i] || core_hz < 500 || core_hz > 100000 || core_hz % 250 != 0) {
+			if (*end || !*argv[i] || core_hz < 500 || core_hz > SWELL_TICK_HZ_MAX ||
+			    core_hz % SWELL_POOL_SOLVER_HZ != 0) {
 				fprintf(stderr,
 					"swell-fw-scene: --core-hz '%s' is not a multiple of the 250 Hz solver "
 					"rate in [500, 100000]\n",

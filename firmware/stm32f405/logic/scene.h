@@ -10,15 +10,16 @@
 #include <stdint.h>
 
 #include "swell/err.h"
+#include "swell/pool.h"
 #include "swell/wave.h"
 
-#define FW_SCENE_NX 64
-#define FW_SCENE_NY 64
+#define FW_SCENE_NX SWELL_POOL_N
+#define FW_SCENE_NY SWELL_POOL_N
 #define FW_SCENE_WORDS SWELL_WAVE_WORDS(FW_SCENE_NX, FW_SCENE_NY)
 #define FW_SCENE_G_MM_S2 9810u
 #define FW_SCENE_DT_US 4000u
-#define FW_SCENE_DEPTH_UM 50000u
-#define FW_SCENE_DX_UM 6250u
+#define FW_SCENE_DEPTH_UM ((uint32_t)SWELL_POOL_DEPTH_UM)
+#define FW_SCENE_DX_UM ((uint32_t)SWELL_POOL_DX_UM)
 
 /* Bind storage (FW_SCENE_WORDS words) and set the initial field. */
 enum swell_err fw_scene_init(struct swell_wave *w, int32_t *storage, size_t words);

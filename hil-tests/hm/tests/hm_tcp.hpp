@@ -2,36 +2,19 @@
 // and the text, both ways; swell-hm --serve started on a free loopback port.
 #pragma once
 
-#include <arpa/inet.h>
-#include <fcntl.h>
-#include <netinet/in.h>
+#include "swell_test.hpp"
+
 #include <netinet/tcp.h>
 #include <poll.h>
-#include <signal.h>
-#include <spawn.h>
-#include <sys/socket.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
-#include <fstream>
-#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
 
-extern char **environ;
-
 namespace hmtcp {
-
-inline std::string slurp(const std::string &path)
-{
-	std::ifstream f(path);
-	std::stringstream ss;
-	ss << f.rdbuf();
-	return ss.str();
-}
 
 inline std::string frame(const std::string &text)
 {
@@ -123,57 +106,21 @@ struct Client {
 };
 
 // swell-hm --serve 127.0.0.1:0 with the given extra arguments; its port read from its first line.
-// waits up to ms for pid to end: its exit status (128 + signal when killed), and pid set to -1; -1 when
-// it is still running
-inline int reap(pid_t &pid, int ms)
-{
-	for (int k = 0; k < ms / 10; k++) {
-		int st = 0;
-		if (waitpid(pid, &st, WNOHANG) == pid) {
-			pid = -1;
-			return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
-		}
-		std::this_thread::sleep_for(std::chrono::milliseconds(10));
-	}
-	return -1;
-}
-
-struct Server {
-	pid_t pid = -1;
+struct Server : swell_test::Proc {
 	int port = 0;
-	std::string out;
 
-	Server(const std::string &bin, const std::string &out_path, const std::vector<std::string> &extra) : out(out_path)
+	Server(const std::string &bin, const std::string &out_path, const std::vector<std::string> &extra)
 	{
 		std::vector<std::string> args = {bin, "--serve", "127.0.0.1:0", "--quiet"};
 		args.insert(args.end(), extra.begin(), extra.end());
-		std::vector<char *> argv;
-		for (auto &s : args)
-			argv.push_back(&s[0]);
-		argv.push_back(nullptr);
-		posix_spawn_file_actions_t fa;
-		posix_spawn_file_actions_init(&fa);
-		posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-		posix_spawn_file_actions_adddup2(&fa, 1, 2);
-		if (posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ) != 0)
-			pid = -1;
-		posix_spawn_file_actions_destroy(&fa);
-		for (int k = 0; k < 500 && pid > 0 && port == 0; k++) {
-			const std::string s = slurp(out);
+		start(args, out_path);
+		for (int k = 0; k < 500 && port == 0; k++) {
+			const std::string s = swell_test::slurp(out);
 			const size_t at = s.find("127.0.0.1:");
 			if (at != std::string::npos && s.find(',', at) != std::string::npos)
 				port = std::stoi(s.substr(at + 10));
 			else
 				std::this_thread::sleep_for(std::chrono::milliseconds(10));
-		}
-	}
-	// waits for the exit; the exit status, -1 when it did not end within ms
-	int wait(int ms) { return reap(pid, ms); }
-	~Server()
-	{
-		if (pid > 0) {
-			kill(pid, SIGKILL);
-			waitpid(pid, nullptr, 0);
 		}
 	}
 };
@@ -205,21 +152,6 @@ inline std::vector<double> numbers(const std::string &answer)
 		p = end;
 	}
 	return v;
-}
-
-// The whole number just before `label` in text (the summary's counters), -1 when absent.
-inline long count_before(const std::string &text, const std::string &label)
-{
-	const size_t at = text.find(label);
-	if (at == std::string::npos || at == 0)
-		return -1;
-	size_t k = at;
-	while (k > 0 && text[k - 1] == ' ')
-		k--;
-	size_t e = k;
-	while (k > 0 && text[k - 1] >= '0' && text[k - 1] <= '9')
-		k--;
-	return k == e ? -1 : std::stol(text.substr(k, e - k));
 }
 
 } // namespace hmtcp

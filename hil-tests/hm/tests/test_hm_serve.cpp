@@ -135,15 +135,15 @@ TEST_CASE("serve: hostile clients are answered or dropped with a counted reason,
 	CHECK(good_answered == good_asked);
 
 	REQUIRE(srv.wait(15000) == 0);
-	const std::string sum = hmtcp::slurp(srv.out);
+	const std::string sum = swell_test::slurp(srv.out);
 	INFO(sum);
-	CHECK(hmtcp::count_before(sum, " bad headers (closed)") == 3);
-	CHECK(hmtcp::count_before(sum, " binary garbage (answered)") == 1);
-	CHECK(hmtcp::count_before(sum, " stalled mid-request (dropped)") == 1);
-	CHECK(hmtcp::count_before(sum, " not reading (dropped)") == 1);
-	CHECK(hmtcp::count_before(sum, " refused (table full)") == 1);
-	CHECK(hmtcp::count_before(sum, " by a vanished client") == 1);
-	CHECK(hmtcp::count_before(sum, " effects stopped by the watchdog") == 1);
+	CHECK(swell_test::count_before(sum, " bad headers (closed)") == 3);
+	CHECK(swell_test::count_before(sum, " binary garbage (answered)") == 1);
+	CHECK(swell_test::count_before(sum, " stalled mid-request (dropped)") == 1);
+	CHECK(swell_test::count_before(sum, " not reading (dropped)") == 1);
+	CHECK(swell_test::count_before(sum, " refused (table full)") == 1);
+	CHECK(swell_test::count_before(sum, " by a vanished client") == 1);
+	CHECK(swell_test::count_before(sum, " effects stopped by the watchdog") == 1);
 	// the loop's lateness during the abuse: printed for the record, judged in the benchmark
 	const size_t at = sum.find("tick lateness");
 	REQUIRE(at != std::string::npos);

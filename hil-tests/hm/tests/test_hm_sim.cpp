@@ -2,15 +2,9 @@
 // several seconds of simulated time. Each test binds its own free port, so tests run side by side.
 #include <catch2/catch.hpp>
 
-#include <arpa/inet.h>
-#include <fcntl.h>
-#include <netinet/in.h>
-#include <signal.h>
-#include <spawn.h>
-#include <sys/socket.h>
+#include "swell_test.hpp"
+
 #include <sys/stat.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
@@ -18,71 +12,15 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
-#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
-
-extern char **environ;
 
 namespace {
 
 const std::string hm_bin = SWELL_HM_BIN;
 const std::string ctl_bin = SWELL_CTL_BIN;
 const std::string work_dir = SWELL_HM_TEST_DIR;
-
-struct proc {
-	pid_t pid = -1;
-	std::string out; // stdout and stderr go here
-};
-
-proc spawn(const std::vector<std::string> &args, const std::string &out)
-{
-	std::vector<char *> argv;
-	for (const auto &a : args)
-		argv.push_back(const_cast<char *>(a.c_str()));
-	argv.push_back(nullptr);
-	posix_spawn_file_actions_t fa;
-	posix_spawn_file_actions_init(&fa);
-	posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-	posix_spawn_file_actions_adddup2(&fa, 1, 2);
-	proc p;
-	p.out = out;
-	const int rc = posix_spawn(&p.pid, argv[0], &fa, nullptr, argv.data(), environ);
-	posix_spawn_file_actions_destroy(&fa);
-	INFO("spawning " << args[0]);
-	REQUIRE(rc == 0);
-	return p;
-}
-
-// Exit status, or -1 if it had to be killed after timeout_s.
-int wait_for(proc &p, double timeout_s)
-{
-	const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-	int st = 0;
-	for (;;) {
-		const pid_t r = waitpid(p.pid, &st, WNOHANG);
-		if (r == p.pid)
-			break;
-		if (std::chrono::steady_clock::now() > until) {
-			kill(p.pid, SIGKILL);
-			waitpid(p.pid, &st, 0);
-			p.pid = -1;
-			return -1;
-		}
-		std::this_thread::sleep_for(std::chrono::milliseconds(10));
-	}
-	p.pid = -1;
-	return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
-}
-
-std::string slurp(const std::string &path)
-{
-	std::ifstream f(path);
-	std::stringstream ss;
-	ss << f.rdbuf();
-	return ss.str();
-}
 
 // The first number after "label" on the line that starts with two spaces and label.
 double figure(const std::string &text, const std::string &label)
@@ -93,29 +31,15 @@ double figure(const std::string &text, const std::string &label)
 	return std::strtod(text.c_str() + at + 3 + label.size(), nullptr);
 }
 
-uint16_t free_udp_port()
-{
-	const int fd = socket(AF_INET, SOCK_DGRAM, 0);
-	REQUIRE(fd >= 0);
-	sockaddr_in a{};
-	a.sin_family = AF_INET;
-	a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-	socklen_t al = sizeof a;
-	REQUIRE(bind(fd, reinterpret_cast<sockaddr *>(&a), sizeof a) == 0);
-	REQUIRE(getsockname(fd, reinterpret_cast<sockaddr *>(&a), &al) == 0);
-	close(fd);
-	return ntohs(a.sin_port);
-}
-
 struct closed_loop {
 	std::string name, hm_out, ctl_out, csv;
 	uint16_t port;
-	proc ctl;
+	swell_test::Proc ctl;
 
 	explicit closed_loop(const std::string &n, const char *clock = "device", int silent_ticks = 200,
 			     const std::vector<std::string> &ctl_extra = {})
 	    : name(n), hm_out(work_dir + "/" + n + ".hm.txt"), ctl_out(work_dir + "/" + n + ".ctl.txt"),
-	      csv(work_dir + "/" + n + ".csv"), port(free_udp_port())
+	      csv(work_dir + "/" + n + ".csv"), port(swell_test::free_udp_port())
 	{
 		std::remove(csv.c_str()); // a log of an earlier run must not pass for this one
 		std::remove(hm_out.c_str());
@@ -126,15 +50,8 @@ struct closed_loop {
 			ctl_bin,  "--clock", clock,     "--autorun", "--device",       "udp:" + std::to_string(port),
 			"--host", "none",    "--no-rt", "--quiet",   "--silent-ticks", std::to_string(silent_ticks)};
 		args.insert(args.end(), ctl_extra.begin(), ctl_extra.end());
-		ctl = spawn(args, ctl_out);
+		ctl.start(args, ctl_out);
 		std::this_thread::sleep_for(std::chrono::milliseconds(100));
-	}
-	~closed_loop()
-	{
-		if (ctl.pid > 0) {
-			kill(ctl.pid, SIGKILL);
-			waitpid(ctl.pid, nullptr, 0);
-		}
 	}
 	std::vector<std::string> hm_args(const std::string &hand, double seconds) const
 	{
@@ -145,12 +62,13 @@ struct closed_loop {
 	// Runs swell-hm to its end, then stops the controller; returns swell-hm's summary.
 	std::string run(const std::vector<std::string> &args)
 	{
-		proc hm = spawn(args, hm_out);
-		const int rc = wait_for(hm, 300.0);
-		kill(ctl.pid, SIGTERM);
-		const int crc = wait_for(ctl, 10.0);
-		const std::string text = slurp(hm_out);
-		INFO("swell-hm exit " << rc << ":\n" << text << "\nswell-ctl exit " << crc << ":\n" << slurp(ctl_out));
+		swell_test::Proc hm(args, hm_out);
+		const int rc = hm.wait(300000);
+		const int crc = ctl.stop(SIGTERM, 10000);
+		const std::string text = swell_test::slurp(hm_out);
+		INFO("swell-hm exit " << rc << ":\n"
+				      << text << "\nswell-ctl exit " << crc << ":\n"
+				      << swell_test::slurp(ctl_out));
 		REQUIRE(rc == 0);
 		REQUIRE(crc == 0);
 		return text;
@@ -399,19 +317,17 @@ TEST_CASE("controller killed mid-run: swell-hm applies zero force within its wat
 	INFO((effect ? "effect mode" : "stream mode"));
 	closed_loop cl(effect ? "kill-effect" : "kill", "device", 200, effect ? effect_mode() : std::vector<std::string>{});
 	// held above the water: the controller commands the weight, -0.98 N, all along
-	proc hm = spawn(cl.hm_args("drop:z=20,hold=100000", 100000.0), cl.hm_out);
+	swell_test::Proc hm(cl.hm_args("drop:z=20,hold=100000", 100000.0), cl.hm_out);
 	// mid-run: once the log holds about 2000 ticks (it is written in blocks), however slow the machine
 	struct stat st {};
 	for (int k = 0; k < 6000 && (stat(cl.csv.c_str(), &st) != 0 || st.st_size < 200000); k++)
 		std::this_thread::sleep_for(std::chrono::milliseconds(10));
 	INFO("log size when the controller is killed: " << st.st_size << " bytes");
 	REQUIRE(st.st_size >= 200000);
-	kill(cl.ctl.pid, SIGKILL);
-	REQUIRE(wait_for(cl.ctl, 10.0) == 128 + SIGKILL);
+	REQUIRE(cl.ctl.stop(SIGKILL, 10000) == 128 + SIGKILL);
 	std::this_thread::sleep_for(std::chrono::milliseconds(500));
-	kill(hm.pid, SIGTERM);
-	REQUIRE(wait_for(hm, 20.0) == 0);
-	const std::string s = slurp(cl.hm_out);
+	REQUIRE(hm.stop(SIGTERM, 20000) == 0);
+	const std::string s = swell_test::slurp(cl.hm_out);
 	const std::vector<row> rows = read_csv(cl.csv);
 	INFO(s);
 	REQUIRE(rows.size() > 100);
@@ -470,13 +386,8 @@ TEST_CASE("real time: paced by its own absolute-deadline clock, never faster tha
 
 TEST_CASE("bad parameter sets are refused with a one-line reason, exit 2, nothing sent, no log")
 {
-	const uint16_t port = free_udp_port();
-	const int fd = socket(AF_INET, SOCK_DGRAM, 0);
-	sockaddr_in a{};
-	a.sin_family = AF_INET;
-	a.sin_port = htons(port);
-	a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-	REQUIRE(bind(fd, reinterpret_cast<sockaddr *>(&a), sizeof a) == 0);
+	std::string port;
+	const int fd = swell_test::udp_loopback(&port);
 	const std::string csv = work_dir + "/refused.csv", out = work_dir + "/refused.txt";
 	const std::vector<std::vector<std::string>> bad = {
 		{"--mass", "0"},
@@ -504,12 +415,11 @@ TEST_CASE("bad parameter sets are refused with a one-line reason, exit 2, nothin
 	};
 	for (const auto &b : bad) {
 		std::remove(csv.c_str());
-		std::vector<std::string> args = {hm_bin,  "--lockstep", "--port",    std::to_string(port),
-						 "--log", csv,          "--seconds", "1"};
+		std::vector<std::string> args = {hm_bin, "--lockstep", "--port", port, "--log", csv, "--seconds", "1"};
 		args.insert(args.end(), b.begin(), b.end());
-		proc p = spawn(args, out);
-		const int rc = wait_for(p, 20.0);
-		const std::string text = slurp(out);
+		swell_test::Proc p(args, out);
+		const int rc = p.wait(20000);
+		const std::string text = swell_test::slurp(out);
 		char buf[128];
 		const ssize_t got = recv(fd, buf, sizeof buf, MSG_DONTWAIT);
 		struct stat st;
@@ -535,7 +445,7 @@ TEST_CASE("determinism: the same scripted hand in lockstep gives a bit-identical
 		const std::string s = cl.run(args);
 		INFO("run " << k << ":\n" << s);
 		CHECK(figure(s, "timeouts") == 0);
-		logs[k] = slurp(cl.csv);
+		logs[k] = swell_test::slurp(cl.csv);
 	}
 	const size_t lines = (size_t)std::count(logs[0].begin(), logs[0].end(), '\n');
 	INFO("trace of " << lines << " lines");
@@ -545,7 +455,7 @@ TEST_CASE("determinism: the same scripted hand in lockstep gives a bit-identical
 
 TEST_CASE("runtime failures exit 1 with the reason: no controller ever answered, a log that cannot be written")
 {
-	const uint16_t port = free_udp_port(); // nobody listens there
+	const uint16_t port = swell_test::free_udp_port(); // nobody listens there
 	const std::string out = work_dir + "/nobody.txt";
 	struct {
 		std::vector<std::string> extra;
@@ -559,9 +469,9 @@ TEST_CASE("runtime failures exit 1 with the reason: no controller ever answered,
 		std::vector<std::string> args = {hm_bin,      "--lockstep", "--timeout-ms", "1", "--port", std::to_string(port),
 						 "--seconds", "0.1",        "--quiet"};
 		args.insert(args.end(), c.extra.begin(), c.extra.end());
-		proc p = spawn(args, out);
-		const int rc = wait_for(p, 20.0);
-		const std::string text = slurp(out);
+		swell_test::Proc p(args, out);
+		const int rc = p.wait(20000);
+		const std::string text = swell_test::slurp(out);
 		INFO(c.why << ": exit " << rc << ", output '" << text << "'");
 		CHECK(rc == 1);
 		CHECK(text.find(c.why) != std::string::npos);

@@ -6,6 +6,7 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <fstream>
 #include <cstdio>
 
 #include "hm_tcp.hpp"
@@ -49,41 +50,20 @@ double figure(const std::string &s, const std::string &key)
 	return at == std::string::npos ? NAN : std::strtod(s.c_str() + at + key.size(), nullptr);
 }
 
-// swell-ctl on the hm: link, clocked by the device's answers; 200 silent periods before a fault so
+// swell-ctl on the hm: link, clocked by the device's answers; 200 silent periods (unless told) before a fault so
 // that a loaded machine does not fault the loop (the faults here are the device's)
-struct Ctl {
-	pid_t pid = -1;
-	std::string out;
-	Ctl(int port, const std::string &name, const std::vector<std::string> &extra = {})
-	    : out(work_dir + "/" + name + ".ctl.txt")
+struct Ctl : swell_test::Proc {
+	Ctl(int port, const std::string &name, const char *silent_ticks = "200")
+	    : Ctl(port, name, std::vector<std::string>{}, silent_ticks)
 	{
-		std::vector<std::string> args = {
-			ctl_bin,  "--clock", "device",  "--autorun", "--device",       "hm:127.0.0.1:" + std::to_string(port),
-			"--host", "none",    "--no-rt", "--quiet",   "--silent-ticks", "200"};
+	}
+	Ctl(int port, const std::string &name, const std::vector<std::string> &extra, const char *silent_ticks = "200")
+	{
+		std::vector<std::string> args = {ctl_bin,  "--clock", "device",  "--autorun", "--device",
+						 "hm:127.0.0.1:" + std::to_string(port), "--host", "none", "--no-rt",
+						 "--quiet", "--silent-ticks", silent_ticks};
 		args.insert(args.end(), extra.begin(), extra.end());
-		std::vector<char *> argv;
-		for (auto &s : args)
-			argv.push_back(&s[0]);
-		argv.push_back(nullptr);
-		posix_spawn_file_actions_t fa;
-		posix_spawn_file_actions_init(&fa);
-		posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-		posix_spawn_file_actions_adddup2(&fa, 1, 2);
-		if (posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ) != 0)
-			pid = -1;
-		posix_spawn_file_actions_destroy(&fa);
-	}
-	int stop()
-	{
-		kill(pid, SIGTERM);
-		return hmtcp::reap(pid, 10000);
-	}
-	~Ctl()
-	{
-		if (pid > 0) {
-			kill(pid, SIGKILL);
-			waitpid(pid, nullptr, 0);
-		}
+		start(args, work_dir + "/" + name + ".ctl.txt");
 	}
 };
 
@@ -107,7 +87,7 @@ TEST_CASE("hm loop: a drop settles within 2% of the level-corrected depth: the e
 	Ctl ctl(srv.port, "hm-drop");
 	const int hm_rc = srv.wait(300000);
 	const int ctl_rc = ctl.stop();
-	const std::string sum = hmtcp::slurp(srv.out), rep = hmtcp::slurp(ctl.out);
+	const std::string sum = swell_test::slurp(srv.out), rep = swell_test::slurp(ctl.out);
 	INFO(sum << "\n" << rep);
 	REQUIRE(hm_rc == 0);
 	CHECK(ctl_rc == 0);
@@ -133,7 +113,7 @@ TEST_CASE("hm loop: a drop settles within 2% of the level-corrected depth: the e
 	CHECK(forced_in_estop == 0); // from the e-stop's first tick: no force
 	CHECK(back_at > 5.5);
 	CHECK(back_at < 8.0);
-	CHECK(hmtcp::count_before(rep, " times found not in") >= 1);
+	CHECK(swell_test::count_before(rep, " times found not in") >= 1);
 	CHECK(rep.find("faults 0") == std::string::npos);
 	WARN("hm drop: equilibrium " << z << " mm against " << z_level << " mm level-corrected; force back " << back_at - 5.5
 				     << " s after the e-stop's release");
@@ -180,17 +160,15 @@ TEST_CASE("hm loop: a second client's set state stop zeroes the force at once an
 	CHECK(back_at > rows[stop_at].t);
 	CHECK(back_at < rows[stop_at].t + 3.0);
 	// the emulator dies: the controller faults (link silent) and keeps trying to reconnect
-	kill(srv.pid, SIGKILL);
-	waitpid(srv.pid, nullptr, 0);
-	srv.pid = -1;
+	srv.stop(SIGKILL);
 	std::this_thread::sleep_for(std::chrono::milliseconds(500));
 	const int ctl_rc = ctl.stop();
-	const std::string rep = hmtcp::slurp(ctl.out);
+	const std::string rep = swell_test::slurp(ctl.out);
 	INFO(rep);
 	CHECK(ctl_rc == 0);
 	CHECK(rep.find("state           fault (last error: link silent)") != std::string::npos);
 	CHECK(rep.find("1 connections, 1 resets") != std::string::npos);
-	CHECK(hmtcp::count_before(rep, " times found not in") >= 1);
+	CHECK(swell_test::count_before(rep, " times found not in") >= 1);
 	WARN("hm stop: force back " << back_at - rows[stop_at].t << " s after the stop");
 }
 
@@ -213,31 +191,13 @@ TEST_CASE("hm loop: TCP faults (replies 5 ms and 50 ms late, garbage, a reset) e
 	REQUIRE(srv.port > 0);
 	// the controller's real-time silence limit (2 ticks) here, spelled out: without real-time
 	// scheduling (--no-rt) its default is 20 ms, and the faults are the point
-	const std::string ctl_out = work_dir + "/hm-faults.ctl.txt";
-	pid_t ctl = -1;
-	{
-		std::vector<std::string> args = {
-			ctl_bin,  "--clock", "device",  "--autorun", "--device",       "hm:127.0.0.1:" + std::to_string(srv.port),
-			"--host", "none",    "--no-rt", "--quiet",   "--silent-ticks", "2"};
-		std::vector<char *> argv;
-		for (auto &s : args)
-			argv.push_back(&s[0]);
-		argv.push_back(nullptr);
-		posix_spawn_file_actions_t fa;
-		posix_spawn_file_actions_init(&fa);
-		posix_spawn_file_actions_addopen(&fa, 1, ctl_out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-		posix_spawn_file_actions_adddup2(&fa, 1, 2);
-		REQUIRE(posix_spawn(&ctl, argv[0], &fa, nullptr, argv.data(), environ) == 0);
-		posix_spawn_file_actions_destroy(&fa);
-	}
+	Ctl ctl(srv.port, "hm-faults", "2");
 	const int hm_rc = srv.wait(300000);
-	kill(ctl, SIGTERM);
-	int st = 0;
-	waitpid(ctl, &st, 0);
-	const std::string sum = hmtcp::slurp(srv.out), rep = hmtcp::slurp(ctl_out);
+	const int ctl_rc = ctl.stop();
+	const std::string sum = swell_test::slurp(srv.out), rep = swell_test::slurp(ctl.out);
 	INFO(sum << "\n" << rep);
 	REQUIRE(hm_rc == 0);
-	CHECK((WIFEXITED(st) && WEXITSTATUS(st) == 0));
+	CHECK(ctl_rc == 0);
 	CHECK(sum.find("injected        1 connection resets, 1 garbage bursts") != std::string::npos);
 	const std::vector<row> rows = read_csv(csv);
 	REQUIRE(rows.size() == 30000);
@@ -296,21 +256,18 @@ TEST_CASE("hm loop: the controller killed mid-run: the device zeroes its bias fo
 		for (int k = 0; k < 6000 && logged_until(csv) < 4.0; k++)
 			std::this_thread::sleep_for(std::chrono::milliseconds(10));
 		killed_at = logged_until(csv);
-		kill(first.pid, SIGKILL);
-		waitpid(first.pid, nullptr, 0);
-		first.pid = -1;
+		first.stop(SIGKILL);
 	}
 	Ctl second(srv.port, "hm-restart-2");
 	for (int k = 0; k < 6000 && logged_until(csv) < killed_at + 5.0; k++)
 		std::this_thread::sleep_for(std::chrono::milliseconds(10));
 	CHECK(second.stop() == 0);
-	kill(srv.pid, SIGTERM);
-	CHECK(srv.wait(10000) == 0);
-	const std::string sum = hmtcp::slurp(srv.out);
+	CHECK(srv.stop(SIGTERM, 10000) == 0);
+	const std::string sum = swell_test::slurp(srv.out);
 	INFO(sum);
 	// the server zeroed the first controller's bias force when its connection ended, before the next
 	// step (a connection that ends is seen in the same poll that runs requests)
-	CHECK(hmtcp::count_before(sum, " by a vanished client") == 1);
+	CHECK(swell_test::count_before(sum, " by a vanished client") == 1);
 	const std::vector<row> rows = read_csv(csv);
 	REQUIRE(rows.size() > 2500);
 	int forced_alone = 0, over = 0, rendered_late = 0, late = 0;
@@ -412,18 +369,18 @@ TEST_CASE("hm loop, effect mode: the device's springs, damper and bias force flo
 		}
 		CHECK(on == "true;true");
 		CHECK(next.stop() == 0);
-		const std::string rep = hmtcp::slurp(next.out);
+		const std::string rep = swell_test::slurp(next.out);
 		INFO(rep);
 		CHECK(rep.find("(1 created the effects)") != std::string::npos);
-		CHECK(hmtcp::count_before(rep, " removals") == 1);
-		CHECK(hmtcp::count_before(rep, " error answers") == 0);
+		CHECK(swell_test::count_before(rep, " removals") == 1);
+		CHECK(swell_test::count_before(rep, " error answers") == 0);
 	}
 	CHECK(other.ask("get swell_pull enabled").find("--- ERROR: unknown effect") == 0);
 	kill(srv.pid, SIGTERM);
 	CHECK(srv.wait(10000) == 0);
-	const std::string sum = hmtcp::slurp(srv.out);
+	const std::string sum = swell_test::slurp(srv.out);
 	INFO(sum);
-	CHECK(hmtcp::count_before(sum, " by a vanished client") == 4); // pull, push, damper, weight; none at the exit
+	CHECK(swell_test::count_before(sum, " by a vanished client") == 4); // pull, push, damper, weight; none at the exit
 	const std::vector<row> rows = read_csv(csv);
 	REQUIRE(rows.size() > 10000);
 	int over = 0, forced_alone = 0, n = 0;

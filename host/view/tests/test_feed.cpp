@@ -12,6 +12,7 @@ extern "C" {
 #include "feed.h"
 #include "replay_drain.h"
 #include "swell/link.h"
+#include "swell/pool.h"
 #include "swell/proto.h"
 #include "swell/wave.h"
 }
@@ -26,7 +27,7 @@ swell_msg scene_msg(uint8_t id = 1)
 	m.u.scene.nx = 20; // not a multiple of the 8-cell tile: edge tiles are partial
 	m.u.scene.ny = 12;
 	m.u.scene.h_shift = SWELL_PROTO_H_SHIFT;
-	m.u.scene.dx_um = 6250;
+	m.u.scene.dx_um = SWELL_POOL_DX_UM;
 	m.u.scene.depth_10um = 5000;
 	m.u.scene.scene_id = id;
 	return m;

@@ -6,6 +6,7 @@
 
 extern "C" {
 #include "vm.h"
+#include "swell/pool.h"
 #include "swell/wave.h"
 }
 
@@ -16,10 +17,10 @@ const uint64_t S = 1000000; // one second in us
 view_scene pool64()
 {
 	view_scene s{};
-	s.nx = 64;
+	s.nx = SWELL_POOL_N;
 	s.ny = 48;
-	s.dx_um = 6250;
-	s.depth_um = 50000;
+	s.dx_um = SWELL_POOL_DX_UM;
+	s.depth_um = SWELL_POOL_DEPTH_UM;
 	s.tile_w = 16;
 	s.tile_h = 16;
 	return s;

@@ -5,6 +5,7 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <fstream>
 
 #include "hm_tcp.hpp"
 
@@ -22,57 +23,13 @@ const std::string hm_bin = SWELL_HM_BIN;
 const std::string bridge_bin = SWELL_HMBRIDGE_BIN;
 const std::string work_dir = SWELL_BRIDGE_TEST_DIR;
 
-struct Proc {
-	pid_t pid = -1;
-	std::string out;
-	Proc(std::vector<std::string> args, const std::string &o) : out(o)
-	{
-		std::vector<char *> argv;
-		for (auto &s : args)
-			argv.push_back(&s[0]);
-		argv.push_back(nullptr);
-		posix_spawn_file_actions_t fa;
-		posix_spawn_file_actions_init(&fa);
-		posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-		posix_spawn_file_actions_adddup2(&fa, 1, 2);
-		if (posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ) != 0)
-			pid = -1;
-		posix_spawn_file_actions_destroy(&fa);
-	}
-	int stop()
-	{
-		kill(pid, SIGTERM);
-		int st = 0;
-		waitpid(pid, &st, 0);
-		pid = -1;
-		return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
-	}
-	~Proc()
-	{
-		if (pid > 0) {
-			kill(pid, SIGKILL);
-			waitpid(pid, nullptr, 0);
-		}
-	}
-};
-
 struct Ctl {
 	int fd = -1;
 	int port = 0;
 	sockaddr_in peer{};
 	bool have_peer = false;
 	uint8_t seq = 0;
-	Ctl()
-	{
-		fd = socket(AF_INET, SOCK_DGRAM, 0);
-		sockaddr_in a{};
-		a.sin_family = AF_INET;
-		a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-		bind(fd, reinterpret_cast<sockaddr *>(&a), sizeof a);
-		socklen_t l = sizeof a;
-		getsockname(fd, reinterpret_cast<sockaddr *>(&a), &l);
-		port = ntohs(a.sin_port);
-	}
+	Ctl() { fd = swell_test::loopback_socket(SOCK_DGRAM, &port); }
 	~Ctl() { close(fd); }
 	// samples that arrive within ms: count, and the last DEVICE_POS
 	int samples(int ms, swell_msg_device_pos *last)
@@ -153,7 +110,8 @@ TEST_CASE(
 	Server hm(hm_bin, work_dir + "/bridge.hm.txt", {"--seconds", "60", "--log", csv});
 	REQUIRE(hm.port > 0);
 	Ctl ctl;
-	Proc br({bridge_bin, "--hm", "127.0.0.1:" + std::to_string(hm.port), "--port", std::to_string(ctl.port), "--quiet"},
+	swell_test::Proc br(
+		{bridge_bin, "--hm", "127.0.0.1:" + std::to_string(hm.port), "--port", std::to_string(ctl.port), "--quiet"},
 		work_dir + "/bridge.txt");
 	swell_msg_device_pos pos{};
 	// the bridge starts the device and streams its samples, one a tick, whether or not commands come
@@ -169,17 +127,15 @@ TEST_CASE(
 		std::this_thread::sleep_for(std::chrono::microseconds(400));
 	}
 	ctl.samples(300, &pos); // silent now: the bridge's watchdog zeroes the force
-	kill(hm.pid, SIGKILL); // the HapticMaster dies: the log holds what it rendered
-	waitpid(hm.pid, nullptr, 0);
-	hm.pid = -1;
+	hm.stop(SIGKILL); // the HapticMaster dies: the log holds what it rendered
 	ctl.samples(200, nullptr);
 	const int after_death = ctl.samples(300, nullptr);
 	CHECK(after_death == 0);
 	const int rc = br.stop();
-	const std::string sum = hmtcp::slurp(br.out);
+	const std::string sum = swell_test::slurp(br.out);
 	INFO(sum);
 	CHECK(rc == 0);
-	CHECK(hmtcp::count_before(sum, " trips (2 ticks") >= 1);
+	CHECK(swell_test::count_before(sum, " trips (2 ticks") >= 1);
 	CHECK(sum.find("1 resets") != std::string::npos);
 	const std::vector<row> rows = read_log(csv);
 	REQUIRE(rows.size() > 100);
@@ -292,10 +248,10 @@ TEST_CASE("bridge, effect mode: the effect sets become the HapticMaster's spring
 	const std::string silent = other.ask(removed);
 	CHECK(silent.find("--- ERROR") == 0);
 	CHECK(br.stop() == 0);
-	const std::string sum = hmtcp::slurp(br.out);
+	const std::string sum = swell_test::slurp(br.out);
 	INFO(sum);
-	CHECK(hmtcp::count_before(sum, " sets taken") >= 150);
-	CHECK(hmtcp::count_before(sum, " went stale") >= 1);
-	CHECK(hmtcp::count_before(sum, " created the effects)") >= 2);
-	CHECK(hmtcp::count_before(sum, " removals") >= 2);
+	CHECK(swell_test::count_before(sum, " sets taken") >= 150);
+	CHECK(swell_test::count_before(sum, " went stale") >= 1);
+	CHECK(swell_test::count_before(sum, " created the effects)") >= 2);
+	CHECK(swell_test::count_before(sum, " removals") >= 2);
 }

@@ -1,0 +1,290 @@
+/* swell-ctl's command line and scene file; see ctl_main.h. */
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "ctl_main.h"
+#include "swell/pool.h"
+
+static const char usage[] =
+	"usage: swell-ctl [options]\n"
+	"The swell controller as a Linux real-time process: wave solver, force law and safety on the\n"
+	"device tick, telemetry to a viewer.\n"
+	"\n"
+	"  --device LINK       device (HapticMaster) link: udp[:PORT][,peer=[ADDR:]PORT] (default udp:47800,\n"
+	"                      listen on 127.0.0.1; the device is the peer given, else the first sender of\n"
+	"                      this node's DEVICE_POS, held until it is declared lost; every other sender\n"
+	"                      is counted and ignored), can:IFACE, usb:FFS_DIR (FunctionFS mount: the\n"
+	"                      controller is the USB device), hm:HOST[:PORT] (a HapticMaster's TCP command\n"
+	"                      interface, port 7654 unless given: one pipelined request a tick,\n"
+	"                      docs/hapticmaster.md)\n"
+	"  --host LINK         viewer link: udp[:PORT][,listen=[ADDR:]PORT] (default udp:47801: telemetry\n"
+	"                      to 127.0.0.1:47801; up to 4 more clients, each admitted by its first valid\n"
+	"                      packet to the listen port (default 127.0.0.1:47802, where swell-tool and\n"
+	"                      swell-flash look; any free port if that is taken, printed; listen=0: any\n"
+	"                      free port) and dropped after 3 s of silence), can:IFACE, usb:FFS_DIR, none\n"
+	"                      Both on USB: two FunctionFS mounts, interfaces 0 (device) and 1 (host) of\n"
+	"                      one gadget. CAN: the driver's error frames are read; a device-link bus-off\n"
+	"                      zeroes the force and faults the loop until the bus is restarted.\n"
+	"  --clock internal|device   own absolute-deadline clock (default) or one tick per device sample\n"
+	"                      (a silent device is still noticed: after silent-ticks periods of wall time\n"
+	"                      the loop ticks on its own every period)\n"
+	"  --tick-hz N         device rate (default 2500; 1000 for classic CAN)\n"
+	"  --solver-hz N       solver rate (default 250; must divide the tick rate)\n"
+	"  --silent-ticks N    device silent this many ticks -> zero force and fault (default 2 with\n"
+	"                      real-time scheduling; without it, as with --no-rt or when SCHED_FIFO is\n"
+	"                      refused, 20 ms of ticks, said at start: a process that is not real time\n"
+	"                      is late by milliseconds)\n"
+	"  --autorun           run whenever the device is there; leave a link-loss fault by itself\n"
+	"  --host-budget N     host messages a tick (default 16)\n"
+	"  --node N            node id on the bus, 0..15 (default 0)\n"
+	"  --scene FILE        start with a scene file (*.scene: pool size, cell size, depth, solver rate,\n"
+	"                      object, damping, force limits; docs/tool.md); options after it override\n"
+	"                      its pool and rates, its parameters override the options; a bad line or a\n"
+	"                      refused value: exit 2 naming the line\n"
+	"  --seconds S         stop after S seconds of ticks (default: until SIGINT/SIGTERM)\n"
+	"  --no-rt             do not ask for SCHED_FIFO and mlockall\n"
+	"  --fw-version X.Y.Z  firmware version reported in CTL_INFO (default " SWELL_CTL_FW_VERSION ", the\n"
+	"                      build's; a test can play \"the new image\" with it), each part 0..255\n"
+	"  --quiet             no status line while running\n"
+	"  -h, --help          this text\n"
+	"\n"
+	"On exit prints a report: ticks, solver steps, state, tick jitter (p50, p99, max), overruns, frames,\n"
+	"the largest wave and the solver's saturations.\n"
+	"Exit status: 0 clean stop, 1 a runtime failure (a link cannot be opened), 2 bad arguments (one\n"
+	"line on stderr; a malformed link spec or two links on one port or mount included),\n"
+	"3 a viewer or swell-flash asked for the bootloader (ENTER_BOOTLOADER accepted: force zeroed,\n"
+	"last heartbeat sent; a supervisor starts the flasher, then the new image).\n";
+
+static void die(const char *msg, const char *arg)
+{
+	fprintf(stderr, "swell-ctl: %s%s\n", msg, arg ? arg : "");
+	exit(2);
+}
+
+static long num(const char *opt, const char *v, long lo, long hi)
+{
+	char *end;
+	long x;
+
+	errno = 0;
+	x = strtol(v, &end, 10);
+	if (errno || *v == '\0' || *end || x < lo || x > hi) {
+		fprintf(stderr, "swell-ctl: %s '%s' is not a whole number in [%ld, %ld]\n", opt, v, lo, hi);
+		exit(2);
+	}
+	return x;
+}
+
+/* "X.Y.Z", each part 0..255, into v[3]; 0 on success. */
+static int parse_version(const char *s, uint8_t v[3])
+{
+	unsigned a, b, c;
+	int n = 0;
+
+	if (sscanf(s, "%3u.%3u.%3u%n", &a, &b, &c, &n) != 3 || s[n] || a > 255 || b > 255 || c > 255 ||
+	    !strchr("0123456789", s[0]))
+		return -1;
+	v[0] = (uint8_t)a;
+	v[1] = (uint8_t)b;
+	v[2] = (uint8_t)c;
+	return 0;
+}
+
+/* 1 for an option that takes a value. */
+static int takes_value(const char *a)
+{
+	static const char *const with_value[] = { "--device",     "--host",         "--clock",       "--tick-hz",
+						  "--solver-hz",  "--silent-ticks", "--host-budget", "--node",
+						  "--fw-version", "--seconds",      "--scene" };
+	size_t k;
+
+	for (k = 0; k < sizeof(with_value) / sizeof(with_value[0]); k++)
+		if (!strcmp(a, with_value[k]))
+			return 1;
+	return 0;
+}
+
+/* The two links must not be one: the host link's telemetry sent into the device port, or one
+ * FunctionFS mount for both. Compared as spelled (udp: the port, the default 47800 / 47801). */
+static void check_links(const struct opts *o)
+{
+	const char *dp = !strcmp(o->device, "udp") ? "47800" : !strncmp(o->device, "udp:", 4) ? o->device + 4 : NULL;
+	const char *hp = !strcmp(o->host, "udp") ? "47801" : !strncmp(o->host, "udp:", 4) ? o->host + 4 : NULL;
+
+	if (dp && hp && strtol(dp, NULL, 10) == strtol(hp, NULL, 10) && strtol(dp, NULL, 10) > 0) {
+		fprintf(stderr,
+			"swell-ctl: --device %s and --host %s: the telemetry would go to the device link's own "
+			"port\n",
+			o->device, o->host);
+		exit(2);
+	}
+	if (!strncmp(o->device, "usb:", 4) && !strcmp(o->device, o->host)) {
+		fprintf(stderr, "swell-ctl: --device and --host are one FunctionFS mount (%s): give each its own\n",
+			o->device);
+		exit(2);
+	}
+}
+
+/* ---- scene files (start-up only, before the loop: parsing uses double, the loop never does) ---- */
+
+/* The scene's start-up parameters (pool and solver rate) into the configuration. */
+static void scene_start(struct opts *o, const char *path)
+{
+	const struct swell_scene_value *v;
+	char err[300];
+
+	if (swell_scene_load(path, &o->scene, err, sizeof(err)) < 0) {
+		fprintf(stderr, "swell-ctl: --scene %s\n", err);
+		exit(2);
+	}
+	o->scene_path = path;
+	if ((v = swell_scene_get(&o->scene, SWELL_SCENE_NX)))
+		o->cfg.nx = (uint16_t)v->raw;
+	if ((v = swell_scene_get(&o->scene, SWELL_SCENE_NY)))
+		o->cfg.ny = (uint16_t)v->raw;
+	if ((v = swell_scene_get(&o->scene, SWELL_SCENE_DX_UM)))
+		o->cfg.dx_um = (uint32_t)v->raw;
+	if ((v = swell_scene_get(&o->scene, SWELL_SCENE_DEPTH_UM)))
+		o->cfg.depth_um = (uint32_t)v->raw;
+	if ((v = swell_scene_get(&o->scene, SWELL_SCENE_SOLVER_HZ)))
+		o->cfg.solver_hz = (uint32_t)v->raw;
+}
+
+/* e from eq. 2 when the scene sets the pool or the rate and not e itself (then by its PARAM_SET). */
+static void scene_e(struct opts *o)
+{
+	const struct swell_scene *sc = &o->scene;
+	enum swell_err e;
+
+	if (swell_scene_get(sc, SWELL_PARAM_WAVE_E) ||
+	    !(swell_scene_get(sc, SWELL_SCENE_DX_UM) || swell_scene_get(sc, SWELL_SCENE_DEPTH_UM) ||
+	      swell_scene_get(sc, SWELL_SCENE_SOLVER_HZ)))
+		return;
+	if (o->cfg.solver_hz == 0 || 1000000u % o->cfg.solver_hz != 0) {
+		fprintf(stderr,
+			"swell-ctl: --scene %s: solver rate %u Hz is not a whole number of us a step: give "
+			"wave.e\n",
+			o->scene_path, o->cfg.solver_hz);
+		exit(2);
+	}
+	e = swell_wave_e_from_physical(o->cfg.body.g_mm_s2, 1000000u / o->cfg.solver_hz, o->cfg.depth_um, o->cfg.dx_um,
+				       &o->cfg.wave.e);
+	if (e != SWELL_OK) {
+		fprintf(stderr, "swell-ctl: --scene %s: e = g dt^2 d / dx^2 from the pool: %s\n", o->scene_path,
+			swell_err_str(e));
+		exit(2);
+	}
+}
+
+/* The scene's parameters through the core's own validated path (PARAM_SET on the host link, before
+ * the link exists): the first refusal stops the start with its line. */
+int scene_params(struct swell_ctl *c, const struct opts *o)
+{
+	size_t k;
+
+	for (k = 0; k < o->scene.n; k++) {
+		const struct swell_scene_value *v = &o->scene.v[k];
+		struct swell_msg m, a;
+
+		if (swell_scene_key(v->d->id))
+			continue; /* start-up: already in the configuration */
+		memset(&m, 0, sizeof(m));
+		memset(&a, 0, sizeof(a));
+		m.type = SWELL_MSG_PARAM_SET;
+		m.node = o->cfg.node;
+		m.u.param_set.id = v->d->id;
+		m.u.param_set.value = v->raw;
+		m.u.param_set.seq = (uint8_t)k;
+		swell_ctl_rx(c, SWELL_LINK_HOST, &m);
+		if (swell_ctl_tx(c, SWELL_LINK_HOST, &a, 1) != 1 || a.type != SWELL_MSG_PARAM_ACK) {
+			fprintf(stderr, "swell-ctl: --scene %s:%d: %s refused: %s\n", o->scene_path, v->line,
+				v->d->name,
+				a.type == SWELL_MSG_PARAM_NACK ? swell_err_str((enum swell_err)a.u.param_nack.err)
+							       : "no answer");
+			return -1;
+		}
+	}
+	return 0;
+}
+
+void parse(int argc, char **argv, struct opts *o)
+{
+	int k;
+
+	memset(o, 0, sizeof(*o));
+	o->device = "udp";
+	o->host = "udp";
+	o->rt = 1;
+	swell_ctl_default_config(&o->cfg);
+	if (parse_version(SWELL_CTL_FW_VERSION, o->cfg.fw_version))
+		die("build version is not X.Y.Z: ", SWELL_CTL_FW_VERSION);
+	for (k = 1; k < argc; k++) {
+		const char *a = argv[k], *v = k + 1 < argc ? argv[k + 1] : NULL;
+
+		if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
+			fputs(usage, stdout);
+			exit(0);
+		} else if (!strcmp(a, "--autorun")) {
+			o->cfg.autorun = 1;
+		} else if (!strcmp(a, "--no-rt")) {
+			o->rt = 0;
+		} else if (!strcmp(a, "--quiet")) {
+			o->quiet = 1;
+		} else if (strncmp(a, "--", 2)) {
+			die("unexpected argument (see --help): ", a);
+		} else if (!takes_value(a)) {
+			die("unknown option (see --help): ", a);
+		} else if (!v) {
+			die("this option needs a value: ", a);
+		} else {
+			k++;
+			if (!strcmp(a, "--device"))
+				o->device = v;
+			else if (!strcmp(a, "--host"))
+				o->host = v;
+			else if (!strcmp(a, "--scene"))
+				scene_start(o, v);
+			else if (!strcmp(a, "--clock")) {
+				if (strcmp(v, "internal") && strcmp(v, "device"))
+					die("--clock must be internal or device, not ", v);
+				o->device_clock = !strcmp(v, "device");
+			} else if (!strcmp(a, "--tick-hz"))
+				o->cfg.tick_hz = (uint32_t)num(a, v, SWELL_TICK_HZ_MIN, SWELL_TICK_HZ_MAX);
+			else if (!strcmp(a, "--solver-hz"))
+				o->cfg.solver_hz = (uint32_t)num(a, v, 1, SWELL_TICK_HZ_MAX);
+			else if (!strcmp(a, "--silent-ticks")) {
+				o->cfg.silent_ticks = (uint16_t)num(a, v, 1, 10000);
+				o->silent_given = 1;
+			} else if (!strcmp(a, "--host-budget"))
+				o->cfg.host_budget = (uint16_t)num(a, v, 1, SWELL_CTL_QUEUE / 2);
+			else if (!strcmp(a, "--node"))
+				o->cfg.node = (uint8_t)num(a, v, 0, SWELL_NODE_MAX);
+			else if (!strcmp(a, "--fw-version")) {
+				if (parse_version(v, o->cfg.fw_version))
+					die("--fw-version must be X.Y.Z with each part 0..255, not ", v);
+			} else if (!strcmp(a, "--seconds")) {
+				char *end;
+				o->seconds = strtod(v, &end);
+				if (*end || !(o->seconds > 0 && o->seconds < 1e7))
+					die("--seconds must be a positive number, not ", v);
+			} else
+				die("unknown option ", a);
+		}
+	}
+	check_links(o);
+	o->cfg.recover_ticks = (uint16_t)(o->cfg.tick_hz / 10 > 0 ? o->cfg.tick_hz / 10 : 1);
+	if (o->scene_path)
+		scene_e(o);
+	{
+		enum swell_err e = swell_ctl_check(&o->cfg);
+
+		if (e != SWELL_OK) {
+			fprintf(stderr, "swell-ctl: configuration refused: %s (tick %u Hz, solver %u Hz)\n",
+				swell_err_str(e), o->cfg.tick_hz, o->cfg.solver_hz);
+			exit(2);
+		}
+	}
+}

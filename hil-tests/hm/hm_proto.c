@@ -1,0 +1,402 @@
+/* swell-hm's device side of the swell protocol over the host links (UDP, SocketCAN, USB): a sample
+ * out and the controller's commands in every tick; see hm_main.h. */
+#include <errno.h>
+#include <math.h>
+#include <string.h>
+#include <time.h>
+
+#include "hm_main.h"
+#include "swell/effect.h"
+#include "swell/force_safety.h"
+#include "swell/link.h"
+#include "swell/proto.h"
+#include "swell/transport.h"
+
+/* ---- link ---- */
+
+/* State -> force command latency at the device: wall time from sending a sample (DEVICE_POS) to the
+ * first FORCE_CMD that arrives after it: both carriers, the controller's wake-up and its tick. 1 us bins
+ * up to 50 ms, later in the last. */
+#define LAT_US 50000
+static struct latency {
+	uint32_t hist[LAT_US + 1];
+	uint64_t n;
+	int64_t max_ns, sent_ns;
+	int pending;
+} lat;
+
+static void latency_answer(void)
+{
+	int64_t d;
+
+	if (!lat.pending)
+		return;
+	lat.pending = 0;
+	d = now_ns() - lat.sent_ns;
+	lat.hist[d / 1000 > LAT_US ? LAT_US : d / 1000]++;
+	lat.n++;
+	if (d > lat.max_ns)
+		lat.max_ns = d;
+}
+
+static double latency_pct(double p)
+{
+	uint64_t want = (uint64_t)ceil(p * (double)lat.n), seen = 0;
+	int k;
+
+	for (k = 0; k <= LAT_US; k++) {
+		seen += lat.hist[k];
+		if (want > 0 && seen >= want)
+			return k;
+	}
+	return 0;
+}
+
+struct dev {
+	struct swell_link *l;
+	enum swell_carrier carrier;
+	uint8_t node;
+	struct swell_proto_stats st;
+	struct swell_seq force_seq;
+	uint32_t commands, heartbeats, ignored, send_errors;
+	int ctl_state; /* last HEARTBEAT state, -1 before the first */
+	uint32_t ctl_faults; /* heartbeats that showed the controller entering FAULT */
+	uint32_t fault_beats; /* heartbeats in FAULT */
+	int ctl_err; /* the last error of the last heartbeat in FAULT */
+	uint8_t force_seq_last;
+	/* effect mode: the last complete set, its age in ticks, the limit stage on its force */
+	struct swell_effect_rx erx;
+	struct swell_effect eff;
+	int have_eff;
+	uint32_t eff_age, eff_fresh_ticks;
+	uint32_t eff_sets, eff_ticks, eff_stale; /* sets taken, ticks rendered, times one went stale */
+	struct swell_fsafety eff_safety;
+};
+
+static int dev_open(struct dev *d, const struct opts *o)
+{
+	int rc;
+
+	memset(d, 0, sizeof(*d));
+	d->node = (uint8_t)o->node;
+	d->ctl_state = -1;
+	if (!strcmp(o->link, "udp")) {
+		rc = swell_link_open_udp(&d->l, o->host, (uint16_t)o->bind_port, o->host, (uint16_t)o->port);
+	} else if (!strncmp(o->link, "can:", 4)) {
+		struct swell_can_opts co;
+
+		memset(&co, 0, sizeof(co));
+		rc = swell_link_open_can(&d->l, o->link + 4, &co);
+	} else {
+		struct swell_usb_opts uo;
+
+		swell_usb_opts_default(&uo);
+		uo.iface = (int)o->iface;
+		rc = swell_link_open_usb(&d->l, &uo);
+	}
+	if (rc < 0) {
+		fprintf(stderr, "swell-hm: cannot open link %s: %s\n", o->link, strerror(-rc));
+		return -1;
+	}
+	d->carrier = swell_link_carrier(d->l);
+	return 0;
+}
+
+static void dev_send(struct dev *d, const struct swell_msg *m, size_t n, uint8_t seq)
+{
+	struct swell_frame f;
+	size_t used;
+
+	while (n > 0) {
+		if (swell_link_encode(d->carrier, d->node, seq, m, n, &f, &used) != SWELL_OK || used == 0) {
+			d->send_errors++;
+			return;
+		}
+		if (swell_link_send(d->l, &f) < 0)
+			d->send_errors++;
+		m += used;
+		n -= used;
+	}
+}
+
+/* Takes one frame if one comes within timeout_ms; returns the number of FORCE_CMD messages in it,
+ * -1 when nothing came. */
+static int dev_recv(struct dev *d, struct hm_state *s, int timeout_ms)
+{
+	struct swell_frame f;
+	struct swell_msg m[SWELL_CANFD_MSGS_MAX];
+	size_t n = 0, k;
+	int cmds = 0, er;
+
+	if (swell_link_recv(d->l, &f, timeout_ms) < 0)
+		return -1;
+	if (swell_link_decode(d->carrier, &f, m, SWELL_CANFD_MSGS_MAX, &n, NULL, &d->st) != SWELL_OK)
+		return 0; /* counted in st, never acted on */
+	for (k = 0; k < n; k++) {
+		if (m[k].node != d->node) {
+			d->ignored++;
+		} else if (m[k].type == SWELL_MSG_FORCE_CMD) {
+			const struct swell_msg_force_cmd *c = &m[k].u.force_cmd;
+			double fN[3] = { c->fx_cN * 0.01, c->fy_cN * 0.01, c->fz_cN * 0.01 };
+
+			latency_answer();
+			swell_seq_track(&d->force_seq, c->seq);
+			d->force_seq_last = c->seq;
+			hm_command(s, fN, c->enable);
+			if (!c->enable)
+				d->have_eff = 0; /* not running (fault, stop, mode change): the effects go at once */
+			d->commands++;
+			cmds++;
+		} else if ((er = swell_effect_recv(&d->erx, &m[k], &d->eff)) >= 0) {
+			if (er == 1) { /* the three parts of one update are in */
+				d->have_eff = 1;
+				d->eff_age = 0;
+				d->eff_sets++;
+			}
+		} else if (m[k].type == SWELL_MSG_HEARTBEAT) {
+			if (m[k].u.heartbeat.state == 4) {
+				d->ctl_faults += d->ctl_state != 4;
+				d->fault_beats++;
+				d->ctl_err = m[k].u.heartbeat.err;
+			}
+			d->ctl_state = m[k].u.heartbeat.state;
+			d->heartbeats++;
+		} else {
+			d->ignored++;
+		}
+	}
+	return cmds;
+}
+
+static int16_t sat16(double v)
+{
+	double r = floor(v + 0.5);
+
+	if (r != r)
+		return 0; /* never a NaN on the wire (the checked parameters keep the model finite) */
+	return (int16_t)(r > 30000.0 ? 30000 : r < -30000.0 ? -30000 : r);
+}
+
+static int16_t force_cN(double f_N)
+{
+	double r = floor(f_N * 100.0 + 0.5);
+
+	if (r != r)
+		return 0;
+	return (int16_t)(r > 25000.0 ? 25000 : r < -25000.0 ? -25000 : r);
+}
+
+/* Effect mode, every tick before the model steps: the force the last effect set produces at the
+ * position and velocity the device reports (0.01 mm, 0.1 mm/s, as on the wire), through the device's
+ * own limit stage (the set's F_max and rate). Rendered only while the set is fresh (eff_age below
+ * the freshness limit) and the controller's FORCE_CMD enables it; the model then applies it under the
+ * command's watchdog and e-stop (hm_model.h). Otherwise the stage drops to zero at once. */
+static void effect_tick(struct dev *d, struct hm_state *s, const struct hm_params *p)
+{
+	int32_t f_uN = 0;
+	int on = d->have_eff && d->eff_age < d->eff_fresh_ticks && s->cmd_enable;
+
+	if (d->have_eff && d->eff_age == d->eff_fresh_ticks)
+		d->eff_stale++;
+	if (on) {
+		const struct swell_fsafety_params sp = { SWELL_Q16_ONE, d->eff.fmax_cN * 10000u,
+							 d->eff.rate_100mN_s * 100000u, (uint32_t)p->rate_hz };
+
+		if (swell_fsafety_set(&d->eff_safety, &sp) != SWELL_OK)
+			on = 0;
+		else
+			f_uN = swell_effect_force_uN(&d->eff, sat16(s->x[2] * 1e5), sat16(s->v[2] * 1e4));
+	}
+	s->effect_N[0] = s->effect_N[1] = 0.0;
+	s->effect_N[2] = swell_fsafety_apply(&d->eff_safety, f_uN, on) * 1e-6;
+	d->eff_ticks += on != 0;
+	if (d->have_eff && d->eff_age < UINT32_MAX)
+		d->eff_age++;
+}
+
+/* DEVICE_VEL, DEVICE_FORCE (the force sensor under the handle: what the hand pushes) and DEVICE_POS
+ * every tick, POS last: swell-ctl --clock device ticks on POS, so the rest of the sample is in by
+ * then. DEVICE_FORCE only where the carrier has room, i.e. not on classic CAN at 2500 Hz. */
+static void sample(struct dev *d, const struct hm_state *s, const double f_hand_N[3], uint8_t seq)
+{
+	struct swell_msg m[3];
+	uint8_t status = SWELL_DEV_POWERED;
+	int with_force = d->carrier == SWELL_CARRIER_PKT;
+
+	if (!s->estop)
+		status |= SWELL_DEV_FORCE_ON;
+	else
+		status |= SWELL_DEV_ESTOP;
+	memset(m, 0, sizeof(m));
+	m[0].type = SWELL_MSG_DEVICE_VEL;
+	m[0].node = d->node;
+	m[0].u.device_vel.vx_100ums = sat16(s->v[0] * 1e4);
+	m[0].u.device_vel.vy_100ums = sat16(s->v[1] * 1e4);
+	m[0].u.device_vel.vz_100ums = sat16(s->v[2] * 1e4);
+	m[0].u.device_vel.seq = seq;
+	m[1].type = SWELL_MSG_DEVICE_FORCE;
+	m[1].node = d->node;
+	m[1].u.device_force.fx_cN = force_cN(f_hand_N[0]);
+	m[1].u.device_force.fy_cN = force_cN(f_hand_N[1]);
+	m[1].u.device_force.fz_cN = force_cN(f_hand_N[2]);
+	m[1].u.device_force.seq = seq;
+	m[2].type = SWELL_MSG_DEVICE_POS;
+	m[2].node = d->node;
+	m[2].u.device_pos.x_10um = sat16(s->x[0] * 1e5);
+	m[2].u.device_pos.y_10um = sat16(s->x[1] * 1e5);
+	m[2].u.device_pos.z_10um = sat16(s->x[2] * 1e5);
+	m[2].u.device_pos.seq = seq;
+	m[2].u.device_pos.status = status;
+	if (!with_force)
+		m[1] = m[2];
+	lat.sent_ns = now_ns();
+	lat.pending = 1;
+	dev_send(d, m, with_force ? 3 : 2, seq);
+}
+
+/* Lockstep: the answer to sample n is the first FORCE_CMD after it. Once the controller is lost (the
+ * watchdog has dropped its force) wait only 1 ms a tick, so that simulated time goes on. */
+static void wait_answer(struct dev *d, struct hm_state *s, const struct opts *o, struct run *r, uint64_t n)
+{
+	int lost = s->cmd_age > o->p.watchdog_ticks, got = 0;
+	int64_t deadline = now_ns() + (int64_t)(lost ? 1 : o->timeout_ms) * 1000000;
+	uint8_t off;
+
+	while (!got && !stop_flag) {
+		int64_t left = deadline - now_ns();
+
+		if (left <= 0)
+			break;
+		got = dev_recv(d, s, (int)((left + 999999) / 1000000)) > 0;
+	}
+	if (!got) {
+		r->timeouts++;
+		return;
+	}
+	/* the controller's FORCE_CMD seq against ours moves only when it ticked without a sample */
+	off = (uint8_t)(d->force_seq_last - (uint8_t)n);
+	if (!r->have_offset)
+		r->offset0 = off;
+	else if (off != r->offset)
+		r->own_ticks += (uint8_t)(off - r->offset);
+	r->offset = off;
+	r->have_offset = 1;
+}
+
+/* Real time: sleep to the next absolute deadline, then take what arrived. */
+static void wait_deadline(struct dev *d, struct hm_state *s, struct run *r, int64_t *next, int64_t period_ns)
+{
+	sleep_deadline(r, next, period_ns);
+	while (dev_recv(d, s, 0) >= 0)
+		;
+}
+
+static void summary(const struct opts *o, const struct dev *d, const struct hm_state *s, const struct run *r,
+		    double wall_s)
+{
+	summary_head(o, s, r, d->ctl_faults, wall_s);
+	printf("  peak force      %.3f N (|F_cmd| applied)\n", r->peak_f_N);
+	printf("  commands        %u received, %u lost, %u repeated, %u bad frames, %u send errors, %u other "
+	       "messages ignored, %u resyncs\n",
+	       d->commands, d->force_seq.lost, d->force_seq.repeated, swell_proto_rejected_total(&d->st),
+	       d->send_errors, d->ignored, d->force_seq.resyncs);
+	if (o->lockstep)
+		printf("  timeouts        %llu (lockstep waits of %u ms without an answer); %llu controller ticks "
+		       "between samples, %u before the first (mod 256)\n",
+		       (unsigned long long)r->timeouts, o->timeout_ms, (unsigned long long)r->own_ticks, r->offset0);
+	else
+		printf("  tick lateness   p50 %.0f us, p99 %.0f us, max %.0f us; %llu periods lost\n", pct(r, 0.5),
+		       pct(r, 0.99), r->late_max_ns / 1e3, (unsigned long long)r->late_ticks);
+	printf("  latency         sample -> command p50 %.0f us, p99 %.0f us, max %.0f us (%llu answers: the first "
+	       "FORCE_CMD after each DEVICE_POS, wall clock)\n",
+	       latency_pct(0.5), latency_pct(0.99), lat.max_ns / 1e3, (unsigned long long)lat.n);
+	printf("  watchdog        %u trips (%u ticks), %llu ticks with an enabled command not applied\n",
+	       s->watchdog_trips, o->p.watchdog_ticks, (unsigned long long)r->zeroed_ticks);
+	printf("  effects         %u sets, %u ticks rendered, %u went stale (freshness %u ticks)\n", d->eff_sets,
+	       d->eff_ticks, d->eff_stale, d->eff_fresh_ticks);
+	printf("  walls           %u ticks in a workspace wall\n", s->wall_ticks);
+	printf("  controller      last state %d (0 boot, 1 idle, 2 armed, 3 running, 4 fault), %u heartbeats\n",
+	       d->ctl_state, d->heartbeats);
+	if (d->ctl_faults)
+		printf("  FAULTED         the controller faulted %u times (%u heartbeats in FAULT, last error: %s)\n",
+		       d->ctl_faults, d->fault_beats, swell_err_str((enum swell_err)d->ctl_err));
+}
+
+/* The device loop of the swell protocol: a sample a tick, paced by the controller's answers
+ * (--lockstep) or by the clock; the summary at the end. */
+int proto_main(struct opts *o, FILE *log, const double x0[3])
+{
+	static struct run r;
+	struct dev d;
+	struct hm_state s;
+	int rc = 0;
+	double dt, last_window;
+	int64_t start, next, period_ns, last_status;
+	uint64_t n, total;
+
+	if (dev_open(&d, o) < 0)
+		return 1;
+	d.eff_fresh_ticks = (uint32_t)lround(o->effect_fresh_ms * 1e-3 * o->p.rate_hz);
+	if (d.eff_fresh_ticks < 1)
+		d.eff_fresh_ticks = 1;
+
+	hm_init(&s, x0);
+	dt = 1.0 / o->p.rate_hz;
+	period_ns = (int64_t)llround(1e9 / o->p.rate_hz);
+	total = (uint64_t)llround(o->seconds * o->p.rate_hz);
+	last_window = o->seconds > 1.0 ? o->seconds - 1.0 : 0.0;
+	r.z_min = INFINITY;
+	r.z_max = -INFINITY;
+	fprintf(stderr, "swell-hm: %s, %s at %g Hz, hand %s, m_v %g kg, b_v %g N s/m, watchdog %u ticks\n",
+		swell_link_name(d.l), o->lockstep ? "lockstep" : "real time", o->p.rate_hz, hm_hand_name(o->hand.kind),
+		o->p.mass_kg, o->p.damping_Ns_m, o->p.watchdog_ticks);
+	start = next = last_status = now_ns();
+	for (n = 0; n < total && !stop_flag; n++) {
+		double t = (double)n * dt, f_hand[3], x[3], v[3];
+		uint32_t age;
+		int holding;
+
+		s.estop = t >= o->estop_s[0] && t < o->estop_s[1];
+		/* commands that came in since the last tick (stale ones included: the latest wins) */
+		while (dev_recv(&d, &s, 0) >= 0)
+			;
+		/* the hand acts on the state of this tick, which the wait below does not change */
+		holding = hm_hand_force(&o->hand, t, s.x, s.v, f_hand);
+		sample(&d, &s, f_hand, (uint8_t)n);
+		if (o->lockstep)
+			wait_answer(&d, &s, o, &r, n);
+		else
+			wait_deadline(&d, &s, &r, &next, period_ns);
+		age = s.cmd_age;
+		memcpy(x, s.x, sizeof(x));
+		memcpy(v, s.v, sizeof(v));
+		effect_tick(&d, &s, &o->p);
+		hm_step(&o->p, &s, f_hand);
+		account(&r, &s, t, last_window, holding);
+		if (log)
+			fprintf(log,
+				"%.4f,%.3f,%.3f,%.3f,%.2f,%.2f,%.2f,%.2f,%.2f,%.2f,%.3f,%.3f,%.3f,%d,%u,%d,%d,%d\n", t,
+				x[0] * 1e3, x[1] * 1e3, x[2] * 1e3, v[0] * 1e3, v[1] * 1e3, v[2] * 1e3, s.f_cmd_N[0],
+				s.f_cmd_N[1], s.f_cmd_N[2], f_hand[0], f_hand[1], f_hand[2], s.cmd_enable, age,
+				s.applying, d.ctl_state, holding);
+		if (!o->quiet && now_ns() - last_status > 1000000000) {
+			last_status = now_ns();
+			fprintf(stderr, "\rswell-hm: t %.1f s, z %+.2f mm, F_cmd %+.3f N, ctl %d   ", t, s.x[2] * 1e3,
+				s.f_cmd_N[2], d.ctl_state);
+		}
+	}
+	if (!o->quiet && now_ns() - start > 1000000000)
+		fputc('\n', stderr);
+	if (log && (ferror(log) | fclose(log)) != 0) {
+		fprintf(stderr, "swell-hm: writing %s failed: %s\n", o->log, strerror(errno));
+		rc = 1;
+	}
+	summary(o, &d, &s, &r, (now_ns() - start) / 1e9);
+	if (d.commands == 0 && d.heartbeats == 0) {
+		fprintf(stderr, "swell-hm: no controller answered on %s in %.1f s (no FORCE_CMD, no HEARTBEAT)\n",
+			swell_link_name(d.l), (now_ns() - start) / 1e9);
+		rc = 1;
+	}
+	swell_link_close(d.l);
+	return rc;
+}

@@ -1,0 +1,165 @@
+/* swell-hm's pacing, figures and summary head, shared by both modes; see hm_main.h. */
+#define _GNU_SOURCE
+#include <errno.h>
+#include <math.h>
+#include <sched.h>
+#include <string.h>
+#include <sys/mman.h>
+#include <time.h>
+
+#include "hm_main.h"
+
+/* The watchdog without real-time scheduling: 20 ms of ticks (the default 2 trips on every late tick). */
+#define SLOW_WATCHDOG_MS 20
+
+/* SCHED_FIFO and mlockall when asked for. In real time without SCHED_FIFO the ticks are late by
+ * milliseconds: unless --watchdog says otherwise the watchdog becomes SLOW_WATCHDOG_MS of ticks, said
+ * on stderr. Lockstep needs neither. */
+void setup_rt(struct opts *o, int watchdog_given)
+{
+	struct sched_param sp = { .sched_priority = 70 };
+	const char *why = "no --rt";
+	char buf[96];
+	uint32_t slow;
+
+	if (o->rt) {
+		if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0)
+			fprintf(stderr, "swell-hm: warning: mlockall: %s; running without locked memory\n",
+				strerror(errno));
+		if (sched_setscheduler(0, SCHED_FIFO, &sp) == 0)
+			return;
+		snprintf(buf, sizeof(buf), "SCHED_FIFO refused: %s", strerror(errno));
+		why = buf;
+	}
+	if (o->lockstep)
+		return;
+	slow = (uint32_t)llround(o->p.rate_hz * SLOW_WATCHDOG_MS / 1000.0);
+	if (!watchdog_given && slow > o->p.watchdog_ticks) {
+		fprintf(stderr,
+			"swell-hm: real time without real-time scheduling (%s): watchdog %u ticks (%.1f ms) "
+			"instead of %u; --watchdog N to choose\n",
+			why, slow, slow * 1e3 / o->p.rate_hz, o->p.watchdog_ticks);
+		o->p.watchdog_ticks = slow;
+	}
+}
+
+volatile sig_atomic_t stop_flag;
+
+static void on_signal(int sig)
+{
+	(void)sig;
+	stop_flag = 1;
+}
+
+int64_t now_ns(void)
+{
+	struct timespec t;
+
+	clock_gettime(CLOCK_MONOTONIC, &t);
+	return (int64_t)t.tv_sec * 1000000000 + t.tv_nsec;
+}
+
+void setup_signals(void)
+{
+	struct sigaction sa;
+
+	memset(&sa, 0, sizeof(sa));
+	sa.sa_handler = on_signal;
+	sigaction(SIGINT, &sa, NULL);
+	sigaction(SIGTERM, &sa, NULL);
+	signal(SIGPIPE, SIG_IGN);
+}
+
+double pct(const struct run *r, double p)
+{
+	uint64_t want = (uint64_t)ceil(p * (double)r->ticks), seen = 0;
+	int k;
+
+	for (k = 0; k <= HIST_US; k++) {
+		seen += r->hist[k];
+		if (want > 0 && seen >= want)
+			return k;
+	}
+	return 0;
+}
+
+/* Real time: sleep to the next absolute deadline; the lateness of the wake-up goes into r. */
+void sleep_deadline(struct run *r, int64_t *next, int64_t period_ns)
+{
+	struct timespec dl;
+	int64_t late;
+
+	*next += period_ns;
+	dl.tv_sec = (time_t)(*next / 1000000000);
+	dl.tv_nsec = (long)(*next % 1000000000);
+	while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &dl, NULL) == EINTR && !stop_flag)
+		;
+	late = now_ns() - *next;
+	r->hist[late < 0 ? 0 : late / 1000 > HIST_US ? HIST_US : late / 1000]++;
+	if (late > r->late_max_ns)
+		r->late_max_ns = late;
+	if (late > period_ns) { /* a whole period lost: count it, start again from now */
+		r->late_ticks++;
+		*next = now_ns();
+	}
+}
+
+/* After a tick: the figures of the summary. */
+void account(struct run *r, const struct hm_state *s, double t, double last_window, int holding)
+{
+	double fc = sqrt(s->f_cmd_N[0] * s->f_cmd_N[0] + s->f_cmd_N[1] * s->f_cmd_N[1] + s->f_cmd_N[2] * s->f_cmd_N[2]);
+	double z = s->x[2] * 1e3;
+
+	r->ticks++;
+	r->zeroed_ticks += !s->applying && s->cmd_enable;
+	r->peak_f_N = fc > r->peak_f_N ? fc : r->peak_f_N;
+	if (t < last_window)
+		return;
+	r->z_sum += z;
+	r->z_n++;
+	r->z_min = z < r->z_min ? z : r->z_min;
+	r->z_max = z > r->z_max ? z : r->z_max;
+	r->held_late |= holding;
+}
+
+/* The summary's head: time run, final position, equilibrium against -m g/k and the level rise. */
+/* ctl_faults: the controller's faults the swell-protocol device saw (0 with --serve). */
+void summary_head(const struct opts *o, const struct hm_state *s, const struct run *r, uint32_t ctl_faults,
+		  double wall_s)
+{
+	double dt = 1.0 / o->p.rate_hz;
+	/* at rest the object floats with k delta = m g, k = rho g a b: delta = m / (rho a b); the water
+	 * it displaces raises the pool's mean level by m / (rho A_pool), and delta is measured from it */
+	double z_rest = -(o->obj_mass_g * 1e-3) / (RHO_KG_M3 * o->obj_a_mm * o->obj_b_mm * 1e-6) * 1e3;
+	double z_level = (o->obj_mass_g * 1e-3 / RHO_KG_M3) / (o->pool_mm[0] * o->pool_mm[1] * 1e-6) * 1e3;
+
+	printf("swell-hm summary\n");
+	printf("  ran             %.4f s simulated, %llu ticks at %g Hz, %s, %.3f s wall\n", (double)r->ticks * dt,
+	       (unsigned long long)r->ticks, o->p.rate_hz, o->lockstep ? "lockstep" : "real time", wall_s);
+	printf("  final position  %+.3f %+.3f %+.3f mm (x y z), velocity %+.2f %+.2f %+.2f mm/s\n", s->x[0] * 1e3,
+	       s->x[1] * 1e3, s->x[2] * 1e3, s->v[0] * 1e3, s->v[1] * 1e3, s->v[2] * 1e3);
+	if (r->z_n > 0) {
+		double zm = r->z_sum / (double)r->z_n;
+
+		printf("  equilibrium z   %+.3f mm mean over the last %.3f s (min %+.3f, max %+.3f mm)\n", zm,
+		       (double)r->z_n * dt, r->z_min, r->z_max);
+		if (r->held_late) {
+			printf("  expected z      none: the hand held the handle in that second\n");
+		} else if (o->obj_mass_g * 1e-3 > RHO_KG_M3 * o->obj_a_mm * o->obj_b_mm * o->obj_h_mm * 1e-9) {
+			/* heavier than the water it can displace: it sinks until the floor carries it */
+			printf("  expected z      %+.3f mm on the floor: m %.0f g > rho a b H %.0f g (sinks); error "
+			       "%+.3f mm\n",
+			       -o->depth_mm, o->obj_mass_g, RHO_KG_M3 * o->obj_a_mm * o->obj_b_mm * o->obj_h_mm * 1e-6,
+			       zm + o->depth_mm);
+		} else {
+			if (ctl_faults || s->watchdog_trips)
+				printf("  NOT A CLEAN RUN the controller faulted %u times and the watchdog tripped %u "
+				       "times: the figures below include those times without force\n",
+				       ctl_faults, s->watchdog_trips);
+			printf("  expected z      %+.3f mm = -m g/k; error %+.3f %%\n", z_rest,
+			       (zm - z_rest) / -z_rest * 100.0);
+			printf("  with level rise %+.3f mm (-m g/k + %.3f mm mean level rise); error %+.3f %%\n",
+			       z_rest + z_level, z_level, (zm - z_rest - z_level) / -(z_rest + z_level) * 100.0);
+		}
+	}
+}
