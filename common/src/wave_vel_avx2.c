@@ -19,7 +19,7 @@
 _Static_assert(SWELL_WAVE_VEL_RUN <= 15, "the int32 lane sums hold 15 cells of int28");
 
 struct va_k {
-	__m256i c, q, round, half, fm, hmin, hmax;
+	__m256i c, q, round, half, hmin, hmax;
 	__m128i f;
 };
 
@@ -54,8 +54,7 @@ VA_FN __m256i va_cell(const struct va_k *K, __m256i x, __m256i u, int damp, __m2
 }
 
 /* Column sums of 8 columns (or the first r, masked) and the centre row in *c. */
-VA_FN __m256i va_colsum(const int32_t *hd, const int32_t *hc, const int32_t *hu, __m256i mask, int masked,
-			__m256i *c)
+VA_FN __m256i va_colsum(const int32_t *hd, const int32_t *hc, const int32_t *hu, __m256i mask, int masked, __m256i *c)
 {
 	__m256i d, m;
 
@@ -76,8 +75,8 @@ struct va_acc {
 };
 
 /* One vector of cells: x from the column sums left, centre and right, the cell, the stores. */
-VA_FN int32_t va_vec(const struct va_k *K, struct va_acc *A, __m256i sm, __m256i s0, __m256i sp, __m256i c,
-		     int32_t *u, int32_t *acc, __m256i mask, int masked, int damp, int f0)
+VA_FN int32_t va_vec(const struct va_k *K, struct va_acc *A, __m256i sm, __m256i s0, __m256i sp, __m256i c, int32_t *u,
+		     int32_t *acc, __m256i mask, int masked, int damp, int f0)
 {
 	const __m256i x = _mm256_sub_epi32(_mm256_add_epi32(_mm256_add_epi32(sm, sp), _mm256_add_epi32(s0, s0)),
 					   _mm256_slli_epi32(c, 4));
@@ -87,10 +86,7 @@ VA_FN int32_t va_vec(const struct va_k *K, struct va_acc *A, __m256i sm, __m256i
 	ao = masked ? _mm256_maskload_epi32(acc, mask) : _mm256_loadu_si256((const __m256i *)acc);
 	s = va_cell(K, x, uo, damp, &clamped);
 	/* nearest, ties away from zero: (s + 2^(F-1) - (s < 0)) >> F; at F = 0, s */
-	dh = f0 ? s
-		: _mm256_sra_epi32(_mm256_add_epi32(_mm256_add_epi32(s, K->half),
-						    _mm256_and_si256(_mm256_srai_epi32(s, 31), K->fm)),
-				   K->f);
+	dh = f0 ? s : _mm256_sra_epi32(_mm256_add_epi32(_mm256_add_epi32(s, K->half), _mm256_srai_epi32(s, 31)), K->f);
 	if (masked) {
 		_mm256_maskstore_epi32(u, mask, s);
 		_mm256_maskstore_epi32(acc, mask, _mm256_add_epi32(ao, dh));
@@ -138,7 +134,6 @@ VA_FN void va_run(struct swell_wave *w, int j, int tx0, int tx1, int damp, int f
 	K.q = _mm256_set1_epi32(w->q);
 	K.round = _mm256_set1_epi64x((int64_t)1 << 31);
 	K.half = _mm256_set1_epi32(f ? 1 << (f - 1) : 0);
-	K.fm = _mm256_set1_epi32(f ? -1 : 0);
 	K.hmin = _mm256_set1_epi32(SWELL_H_MIN);
 	K.hmax = _mm256_set1_epi32(SWELL_H_MAX);
 	K.f = _mm_cvtsi32_si128(f);
@@ -164,8 +159,8 @@ VA_FN void va_run(struct swell_wave *w, int j, int tx0, int tx1, int damp, int f
 		c0 = cn;
 	}
 	/* the last vector: the column right of the run, or the last column mirrored at the east wall */
-	sp = _mm256_permutevar8x32_epi32(s0, _mm256_min_epi32(_mm256_add_epi32(lane, _mm256_set1_epi32(1)),
-							      _mm256_set1_epi32(r - 1)));
+	sp = _mm256_permutevar8x32_epi32(
+		s0, _mm256_min_epi32(_mm256_add_epi32(lane, _mm256_set1_epi32(1)), _mm256_set1_epi32(r - 1)));
 	if (i1 < nx) /* then r = 8 */
 		sp = _mm256_blend_epi32(sp, _mm256_set1_epi32(hd[i1 - i0] + hu[i1 - i0] + 2 * hc[i1 - i0]), 0x80);
 	if (r < 8)
