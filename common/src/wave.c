@@ -776,7 +776,10 @@ static inline void step_row(struct swell_wave *w, int j, int damp)
 			} else {
 				trow[tx] &= (uint8_t)~T_SLEEPING;
 				/* the velocity form writes acc in the tile's own cells only */
-				mark_dirty(w, tx, ty, w->form == SWELL_FORM_VELOCITY ? 0 : 1);
+				if (w->form == SWELL_FORM_VELOCITY)
+					trow[tx] |= T_DIRTY;
+				else
+					mark_dirty(w, tx, ty, 1);
 				w->band_asleep = 0;
 			}
 		}

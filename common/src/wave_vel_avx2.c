@@ -19,7 +19,7 @@
 _Static_assert(SWELL_WAVE_VEL_RUN <= 15, "the int32 lane sums hold 15 cells of int28");
 
 struct va_k {
-	__m256i c, q, round, half, hmin, hmax;
+	__m256i c, q, round, half, hmin, hmax, zero;
 	__m128i f;
 };
 
@@ -42,14 +42,15 @@ VA_FN __m256i va_cell(const struct va_k *K, __m256i x, __m256i u, int damp, __m2
 
 	if (damp) { /* toward zero, then the damping toward zero */
 		s = _mm256_add_epi32(u, va_mulhi(x, K->c, K->round, 0));
-		s = _mm256_sub_epi32(s, _mm256_srai_epi32(s, 31));
+		s = _mm256_sub_epi32(s, _mm256_cmpgt_epi32(K->zero, s));
 	} else {
 		s = _mm256_add_epi32(u, va_mulhi(x, K->c, K->round, 1));
 	}
 	t = _mm256_min_epi32(_mm256_max_epi32(s, K->hmin), K->hmax);
 	*clamped = _mm256_xor_si256(s, t);
 	if (damp) /* |t| <= 2^27: 4 t fits, and floor(4 t q / 2^32) = floor(t q / 2^30) */
-		t = _mm256_sub_epi32(va_mulhi(_mm256_slli_epi32(t, 2), K->q, K->round, 0), _mm256_srai_epi32(t, 31));
+		t = _mm256_sub_epi32(va_mulhi(_mm256_slli_epi32(t, 2), K->q, K->round, 0),
+				     _mm256_cmpgt_epi32(K->zero, t));
 	return t;
 }
 
@@ -86,7 +87,9 @@ VA_FN int32_t va_vec(const struct va_k *K, struct va_acc *A, __m256i sm, __m256i
 	ao = masked ? _mm256_maskload_epi32(acc, mask) : _mm256_loadu_si256((const __m256i *)acc);
 	s = va_cell(K, x, uo, damp, &clamped);
 	/* nearest, ties away from zero: (s + 2^(F-1) - (s < 0)) >> F; at F = 0, s */
-	dh = f0 ? s : _mm256_sra_epi32(_mm256_add_epi32(_mm256_add_epi32(s, K->half), _mm256_srai_epi32(s, 31)), K->f);
+	dh = f0 ? s
+		: _mm256_sra_epi32(_mm256_add_epi32(_mm256_add_epi32(s, K->half), _mm256_cmpgt_epi32(K->zero, s)),
+				   K->f);
 	if (masked) {
 		_mm256_maskstore_epi32(u, mask, s);
 		_mm256_maskstore_epi32(acc, mask, _mm256_add_epi32(ao, dh));
@@ -134,6 +137,7 @@ VA_FN void va_run(struct swell_wave *w, int j, int tx0, int tx1, int damp, int f
 	K.q = _mm256_set1_epi32(w->q);
 	K.round = _mm256_set1_epi64x((int64_t)1 << 31);
 	K.half = _mm256_set1_epi32(f ? 1 << (f - 1) : 0);
+	K.zero = _mm256_setzero_si256();
 	K.hmin = _mm256_set1_epi32(SWELL_H_MIN);
 	K.hmax = _mm256_set1_epi32(SWELL_H_MAX);
 	K.f = _mm_cvtsi32_si128(f);

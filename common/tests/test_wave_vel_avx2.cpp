@@ -52,7 +52,7 @@ TEST_CASE("velocity form: the AVX2 kernel is bit-identical to the reference afte
 	if (!have_avx2())
 		return; /* this CPU has no AVX2: the kernel is never chosen */
 	/* widths: a tile, one cell short of and past whole tiles, more than a run of 8 tiles */
-	const int grids[][2] = {{2, 2}, {3, 7}, {7, 9},  {8, 8},   {9, 17}, {13, 21}, {16, 16},
+	const int grids[][2] = {{2, 2},  {3, 7},   {7, 9},  {8, 8},   {9, 17},  {13, 21}, {16, 16},
 				{17, 8}, {31, 12}, {40, 3}, {64, 64}, {67, 11}, {130, 6}};
 	std::mt19937 rng(20261202);
 	long cells = 0;
@@ -62,8 +62,7 @@ TEST_CASE("velocity form: the AVX2 kernel is bit-identical to the reference afte
 		const int nx = g[0], ny = g[1];
 		for (int k = 0; k < 8; k++) {
 			const swell_stencil st = k % 2 ? SWELL_STENCIL_CALIBRATED : SWELL_STENCIL_PAPER;
-			const q30_t t =
-				k % 4 < 2 || k == 7 ? 0 : q30(std::uniform_real_distribution<double>(1e-4, 0.7)(rng));
+			const q30_t t = k % 4 < 2 || k == 7 ? 0 : q30(std::uniform_real_distribution<double>(1e-4, 0.7)(rng));
 			/* 2 mm, 500 mm, or every cell at a bound with e near the limit (saturates) */
 			const int32_t amp = k < 4 ? 2 * SWELL_H_ONE_MM : k < 6 ? 500 * SWELL_H_ONE_MM : -1;
 			const q30_t e = stable_e(rng, t, st, 1.999, amp < 0 ? 0.9 : 0.02);
