@@ -20,7 +20,6 @@ _Static_assert(SWELL_WAVE_VEL_RUN <= 15, "the int32 lane sums hold 15 cells of i
 
 struct va_k {
 	__m256i c, q, round, half, hmin, hmax, zero;
-	__m128i f;
 };
 
 /* floor((a b + round) / 2^32) a lane; b has the same value in every lane. */
@@ -77,7 +76,7 @@ struct va_acc {
 
 /* One vector of cells: x from the column sums left, centre and right, the cell, the stores. */
 VA_FN int32_t va_vec(const struct va_k *K, struct va_acc *A, __m256i sm, __m256i s0, __m256i sp, __m256i c, int32_t *u,
-		     int32_t *acc, __m256i mask, int masked, int damp, int f0)
+		     int32_t *acc, __m256i mask, int masked, int damp, int f)
 {
 	const __m256i x = _mm256_sub_epi32(_mm256_add_epi32(_mm256_add_epi32(sm, sp), _mm256_add_epi32(s0, s0)),
 					   _mm256_slli_epi32(c, 4));
@@ -87,9 +86,8 @@ VA_FN int32_t va_vec(const struct va_k *K, struct va_acc *A, __m256i sm, __m256i
 	ao = masked ? _mm256_maskload_epi32(acc, mask) : _mm256_loadu_si256((const __m256i *)acc);
 	s = va_cell(K, x, uo, damp, &clamped);
 	/* nearest, ties away from zero: (s + 2^(F-1) - (s < 0)) >> F; at F = 0, s */
-	dh = f0 ? s
-		: _mm256_sra_epi32(_mm256_add_epi32(_mm256_add_epi32(s, K->half), _mm256_cmpgt_epi32(K->zero, s)),
-				   K->f);
+	dh = f ? _mm256_srai_epi32(_mm256_add_epi32(_mm256_add_epi32(s, K->half), _mm256_cmpgt_epi32(K->zero, s)), f)
+	       : s;
 	if (masked) {
 		_mm256_maskstore_epi32(u, mask, s);
 		_mm256_maskstore_epi32(acc, mask, _mm256_add_epi32(ao, dh));
@@ -102,30 +100,33 @@ VA_FN int32_t va_vec(const struct va_k *K, struct va_acc *A, __m256i sm, __m256i
 	}
 	A->sat = _mm256_or_si256(A->sat, clamped);
 	A->tot = _mm256_add_epi32(A->tot, s);
-	if (!f0)
+	if (f)
 		A->tot_h = _mm256_add_epi32(A->tot_h, dh);
 	return !_mm256_testz_si256(s, s);
 }
 
-VA_FN int64_t va_hsum(__m256i v)
+/* sum[0] += the lanes of a, sum[1] += those of b, in int64 */
+VA_FN void va_hsum2(int64_t sum[2], __m256i a, __m256i b)
 {
-	__m256i w = _mm256_add_epi64(_mm256_cvtepi32_epi64(_mm256_castsi256_si128(v)),
-				     _mm256_cvtepi32_epi64(_mm256_extracti128_si256(v, 1)));
-	__m128i t = _mm_add_epi64(_mm256_castsi256_si128(w), _mm256_extracti128_si256(w, 1));
+	const __m256i wa = _mm256_add_epi64(_mm256_cvtepi32_epi64(_mm256_castsi256_si128(a)),
+					    _mm256_cvtepi32_epi64(_mm256_extracti128_si256(a, 1)));
+	const __m256i wb = _mm256_add_epi64(_mm256_cvtepi32_epi64(_mm256_castsi256_si128(b)),
+					    _mm256_cvtepi32_epi64(_mm256_extracti128_si256(b, 1)));
+	const __m256i t = _mm256_add_epi64(_mm256_unpacklo_epi64(wa, wb), _mm256_unpackhi_epi64(wa, wb));
+	const __m128i r = _mm_add_epi64(_mm256_castsi256_si128(t), _mm256_extracti128_si256(t, 1));
 
-	return _mm_cvtsi128_si64(t) + _mm_extract_epi64(t, 1);
+	_mm_storeu_si128((__m128i *)sum, _mm_add_epi64(_mm_loadu_si128((const __m128i *)sum), r));
 }
 
 /* A run of awake tiles of row j: vectors of 8 cells, the last one masked when the row's last tile is
  * narrower (it is then at the east wall). */
-VA_FN void va_run(struct swell_wave *w, int j, int tx0, int tx1, int damp, int f0, int64_t sum[2], int32_t *any)
+VA_FN void va_run(struct swell_wave *w, int j, int tx0, int tx1, int damp, int f, int64_t sum[2], int32_t *any)
 {
 	const int nx = w->nx, i0 = tx0 * SWELL_WAVE_TILE, i1 = tx1 * SWELL_WAVE_TILE < nx ? tx1 * SWELL_WAVE_TILE : nx;
 	const int nv = (i1 - i0 + 7) / 8, r = i1 - i0 - 8 * (nv - 1); /* the last vector's width, 1..8 */
 	const int32_t *hc = w->h + (size_t)j * nx + i0;
 	const int32_t *hd = j > 0 ? hc - nx : hc, *hu = j + 1 < w->ny ? hc + nx : hc;
 	int32_t *u = w->u + (size_t)j * nx + i0, *acc = w->acc + (size_t)j * nx + i0;
-	const int f = w->vel_frac;
 	const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
 	const __m256i mask = _mm256_cmpgt_epi32(_mm256_set1_epi32(r), lane);
 	struct va_k K;
@@ -133,14 +134,13 @@ VA_FN void va_run(struct swell_wave *w, int j, int tx0, int tx1, int damp, int f
 	__m256i s0, c0, sn, cn, sm, sp, t;
 	int b;
 
-	K.c = _mm256_set1_epi32((int32_t)((int64_t)w->e_eff << (f + 1)));
+	K.c = _mm256_set1_epi32((int32_t)((int64_t)w->e_eff << (w->vel_frac + 1)));
 	K.q = _mm256_set1_epi32(w->q);
 	K.round = _mm256_set1_epi64x((int64_t)1 << 31);
 	K.half = _mm256_set1_epi32(f ? 1 << (f - 1) : 0);
 	K.zero = _mm256_setzero_si256();
 	K.hmin = _mm256_set1_epi32(SWELL_H_MIN);
 	K.hmax = _mm256_set1_epi32(SWELL_H_MAX);
-	K.f = _mm_cvtsi32_si128(f);
 	A.sat = A.tot = A.tot_h = _mm256_setzero_si256();
 
 	s0 = va_colsum(hd, hc, hu, mask, nv == 1 && r < 8, &c0);
@@ -157,7 +157,7 @@ VA_FN void va_run(struct swell_wave *w, int j, int tx0, int tx1, int damp, int f
 			sn = va_colsum(hd + k, hc + k, hu + k, mask, 0, &cn);
 		t = _mm256_permute2x128_si256(s0, sn, 0x21); /* s0's high half, sn's low half */
 		sp = _mm256_alignr_epi8(t, s0, 4);
-		any[b] = va_vec(&K, &A, sm, s0, sp, c0, u + 8 * b, acc + 8 * b, mask, 0, damp, f0);
+		any[b] = va_vec(&K, &A, sm, s0, sp, c0, u + 8 * b, acc + 8 * b, mask, 0, damp, f);
 		sm = _mm256_alignr_epi8(sn, t, 12);
 		s0 = sn;
 		c0 = cn;
@@ -168,12 +168,11 @@ VA_FN void va_run(struct swell_wave *w, int j, int tx0, int tx1, int damp, int f
 	if (i1 < nx) /* then r = 8 */
 		sp = _mm256_blend_epi32(sp, _mm256_set1_epi32(hd[i1 - i0] + hu[i1 - i0] + 2 * hc[i1 - i0]), 0x80);
 	if (r < 8)
-		any[b] = va_vec(&K, &A, sm, s0, sp, c0, u + 8 * b, acc + 8 * b, mask, 1, damp, f0);
+		any[b] = va_vec(&K, &A, sm, s0, sp, c0, u + 8 * b, acc + 8 * b, mask, 1, damp, f);
 	else
-		any[b] = va_vec(&K, &A, sm, s0, sp, c0, u + 8 * b, acc + 8 * b, mask, 0, damp, f0);
+		any[b] = va_vec(&K, &A, sm, s0, sp, c0, u + 8 * b, acc + 8 * b, mask, 0, damp, f);
 	w->saturations += !_mm256_testz_si256(A.sat, A.sat);
-	sum[0] += va_hsum(A.tot);
-	sum[1] += va_hsum(f0 ? A.tot : A.tot_h);
+	va_hsum2(sum, A.tot, f ? A.tot_h : A.tot);
 }
 
 __attribute__((target("avx2"))) void swell_wave_vel_avx2(struct swell_wave *w, int j, int tx0, int tx1, int damp,
@@ -181,14 +180,31 @@ __attribute__((target("avx2"))) void swell_wave_vel_avx2(struct swell_wave *w, i
 {
 	const int64_t c = (int64_t)w->e_eff << (w->vel_frac + 1);
 
-	if (c > INT32_MAX) /* e_eff = 1 at F = 0: C does not fit VPMULDQ's signed operand */
+	/* e_eff = 1 at F = 0: C does not fit VPMULDQ's signed operand; damped water has F = 0 (wave.c) */
+	if (c > INT32_MAX || (damp && w->vel_frac)) {
 		swell_wave_vel_fused(w, j, tx0, tx1, damp, sum, any);
-	else if (damp) /* damped: F = 0 */
-		va_run(w, j, tx0, tx1, 1, 1, sum, any);
-	else if (w->vel_frac == 0)
+		return;
+	}
+	if (damp) {
+		va_run(w, j, tx0, tx1, 1, 0, sum, any);
+		return;
+	}
+	switch (w->vel_frac) { /* F as an immediate shift */
+	case 1:
 		va_run(w, j, tx0, tx1, 0, 1, sum, any);
-	else
+		break;
+	case 2:
+		va_run(w, j, tx0, tx1, 0, 2, sum, any);
+		break;
+	case 3:
+		va_run(w, j, tx0, tx1, 0, 3, sum, any);
+		break;
+	case 4:
+		va_run(w, j, tx0, tx1, 0, 4, sum, any);
+		break;
+	default:
 		va_run(w, j, tx0, tx1, 0, 0, sum, any);
+	}
 }
 
 __attribute__((target("avx2"))) void swell_wave_vel_finish_avx2(struct swell_wave *w, int j, uint8_t need)
