@@ -207,50 +207,54 @@ __attribute__((target("avx2"))) void swell_wave_vel_avx2(struct swell_wave *w, i
 	}
 }
 
+/* h += acc of one vector (m: its lanes, or all), clamped, the lanes that clamped in *sat; returns
+ * T_TOUCHED when some acc is non-zero */
+VA_FN uint8_t va_finish(int32_t *h, const int32_t *acc, __m256i m, int masked, __m256i hmin, __m256i hmax, __m256i *sat)
+{
+	const __m256i a = masked ? _mm256_maskload_epi32(acc, m) : _mm256_loadu_si256((const __m256i *)acc);
+	const __m256i x = _mm256_add_epi32(masked ? _mm256_maskload_epi32(h, m) : _mm256_loadu_si256((__m256i *)h), a);
+	const __m256i t = _mm256_min_epi32(_mm256_max_epi32(x, hmin), hmax);
+
+	*sat = _mm256_or_si256(*sat, _mm256_xor_si256(x, t));
+	if (masked)
+		_mm256_maskstore_epi32(h, m, t);
+	else
+		_mm256_storeu_si256((__m256i *)h, t);
+	return _mm256_testz_si256(a, a) ? 0 : T_TOUCHED;
+}
+
 __attribute__((target("avx2"))) void swell_wave_vel_finish_avx2(struct swell_wave *w, int j, uint8_t need)
 {
-	const int nx = w->nx;
+	const int nx = w->nx, full = nx / SWELL_WAVE_TILE;
 	const uint8_t every = w->sleep ? 0 : (uint8_t)(T_DIRTY | T_DIRTY_PREV);
 	uint8_t *trow = w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x;
 	int32_t *h = w->h + (size_t)j * nx, *v = w->v + (size_t)j * nx;
 	const int32_t *acc = w->acc + (size_t)j * nx;
-	const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), zero = _mm256_setzero_si256();
 	const __m256i hmin = _mm256_set1_epi32(SWELL_HV_MIN), hmax = _mm256_set1_epi32(SWELL_HV_MAX);
-	__m256i sat = zero, a, x, t;
-	int tx, i;
+	const __m256i zero = _mm256_setzero_si256();
+	__m256i sat = zero;
+	int tx;
 
-	for (tx = 0, i = 0; tx < w->tiles_x; tx++, i += SWELL_WAVE_TILE) {
+	/* |h| <= 2^26, |acc| <= 2^29 + 8 2^27: h + acc does not overflow */
+	for (tx = 0; tx < full; tx++) {
+		const int i = tx * SWELL_WAVE_TILE;
 		const unsigned f = (unsigned)((trow[tx] | every) & need);
 
-		if (!f)
-			continue;
-		if (i + SWELL_WAVE_TILE <= nx) {
-			if (f & T_DIRTY) { /* |h| <= 2^26, |acc| <= 2^29 + 8 2^27: h + acc does not overflow */
-				a = _mm256_loadu_si256((const __m256i *)(acc + i));
-				x = _mm256_add_epi32(_mm256_loadu_si256((const __m256i *)(h + i)), a);
-				t = _mm256_min_epi32(_mm256_max_epi32(x, hmin), hmax);
-				sat = _mm256_or_si256(sat, _mm256_xor_si256(x, t));
-				_mm256_storeu_si256((__m256i *)(h + i), t);
-				if (!_mm256_testz_si256(a, a))
-					trow[tx] |= T_TOUCHED;
-			}
-			if (f & T_DIRTY_PREV)
-				_mm256_storeu_si256((__m256i *)(v + i), zero);
-		} else { /* the row's last tile, narrower than 8 */
-			const __m256i m = _mm256_cmpgt_epi32(_mm256_set1_epi32(nx - i), lane);
+		if (f & T_DIRTY)
+			trow[tx] |= va_finish(h + i, acc + i, zero, 0, hmin, hmax, &sat);
+		if (f & T_DIRTY_PREV)
+			_mm256_storeu_si256((__m256i *)(v + i), zero);
+	}
+	if (full * SWELL_WAVE_TILE < nx) { /* the row's last tile, narrower than 8 */
+		const int i = full * SWELL_WAVE_TILE;
+		const unsigned f = (unsigned)((trow[full] | every) & need);
+		const __m256i m =
+			_mm256_cmpgt_epi32(_mm256_set1_epi32(nx - i), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
 
-			if (f & T_DIRTY) {
-				a = _mm256_maskload_epi32(acc + i, m);
-				x = _mm256_add_epi32(_mm256_maskload_epi32(h + i, m), a);
-				t = _mm256_min_epi32(_mm256_max_epi32(x, hmin), hmax);
-				sat = _mm256_or_si256(sat, _mm256_xor_si256(x, t));
-				_mm256_maskstore_epi32(h + i, m, t);
-				if (!_mm256_testz_si256(a, a))
-					trow[tx] |= T_TOUCHED;
-			}
-			if (f & T_DIRTY_PREV)
-				_mm256_maskstore_epi32(v + i, m, zero);
-		}
+		if (f & T_DIRTY)
+			trow[full] |= va_finish(h + i, acc + i, m, 1, hmin, hmax, &sat);
+		if (f & T_DIRTY_PREV)
+			_mm256_maskstore_epi32(v + i, m, zero);
 	}
 	w->saturations += !_mm256_testz_si256(sat, sat);
 }
