@@ -745,7 +745,7 @@ static int write_plots(const struct opts *o)
 		"set xrange [0.2:60]\n"
 		"set xlabel 'host cost per cell-step, relative to float32 measured in the same run'\n"
 		"set ylabel 'L-inf error against the exact discrete eigenmode (mm)'\n"
-		"set key top right inside font ',9'\n"
+		"set key bottom right inside font ',9'\n"
 		"impls = '");
 	for (k = 0; k < BENCH_IMPL_COUNT; k++)
 		fprintf(fp, "%s%s", k ? " " : "", bench_impl_name((enum bench_impl)k));
