@@ -14,23 +14,7 @@
 #define WAVE_NX(w) ((w)->nx)
 #endif
 
-/* Tile flags. Z1: every flow of the tile's edges was zero after the last finished step. ZERO: after
- * the last two (then the increments e w dh are zero after damping too, not just cancelling an old
- * flow). NONZERO: some edge gave a non-zero flow in the step in progress. CHANGED: a cell of the tile
- * changed in the last finished step. TOUCHED: a cell changed (from outside, or at the finish) in the
- * step in progress. */
-#define T_ZERO 1u
-#define T_NONZERO 2u
-#define T_CHANGED 4u
-#define T_TOUCHED 8u
-#define T_Z1 16u
-/* DIRTY: the step in progress may have written acc in this tile (an edge of it or of a neighbour tile
- * was computed, or water was added). PREV: the same for the last finished step, whose acc is now v. */
-#define T_DIRTY 32u
-#define T_DIRTY_PREV 64u
-/* SLEEPING: decided at the first row of the tile's row in this step (asleep() is a 3 x 3 scan; one
- * decision serves the tile's eight rows); swell_wave_touched() clears it around the touched cell. */
-#define T_SLEEPING 128u
+/* The tile flags (T_*) are in wave_priv.h. */
 
 /* The edges of an awake tile write acc in it and in the tiles right of it and above it: mark the
  * block of radius r around (tx, ty) so that the finish visits them (r = 1 for a tile found awake,
@@ -707,7 +691,7 @@ enum swell_err swell_wave_set_kernel(struct swell_wave *w, enum swell_wave_kerne
 	switch (k) {
 	case SWELL_KERNEL_AUTO:
 #if WAVE_AVX2
-		w->kernel = have_avx2() && w->form == SWELL_FORM_EDGE ? SWELL_KERNEL_AVX2 : SWELL_KERNEL_FUSED;
+		w->kernel = have_avx2() ? SWELL_KERNEL_AVX2 : SWELL_KERNEL_FUSED;
 #else
 		w->kernel = SWELL_KERNEL_FUSED;
 #endif
@@ -718,7 +702,7 @@ enum swell_err swell_wave_set_kernel(struct swell_wave *w, enum swell_wave_kerne
 		return SWELL_OK;
 	case SWELL_KERNEL_AVX2:
 #if WAVE_AVX2
-		if (have_avx2() && w->form == SWELL_FORM_EDGE) {
+		if (have_avx2()) {
 			w->kernel = SWELL_KERNEL_AVX2;
 			return SWELL_OK;
 		}
@@ -773,6 +757,10 @@ static void step_row_vel(struct swell_wave *w, int j, uint8_t *trow, int damp)
 				break;
 		if (w->kernel == SWELL_KERNEL_REF)
 			swell_wave_vel_ref(w, j, tx, t1, damp, sum, any);
+#if SWELL_WAVE_VEL_AVX2
+		else if (w->kernel == SWELL_KERNEL_AVX2)
+			swell_wave_vel_avx2(w, j, tx, t1, damp, sum, any);
+#endif
 		else
 			swell_wave_vel_fused(w, j, tx, t1, damp, sum, any);
 		for (k = 0; k < t1 - tx; k++)
@@ -799,7 +787,10 @@ static inline void step_row(struct swell_wave *w, int j, int damp)
 			} else {
 				trow[tx] &= (uint8_t)~T_SLEEPING;
 				/* the velocity form writes acc in the tile's own cells only */
-				mark_dirty(w, tx, ty, w->form == SWELL_FORM_VELOCITY ? 0 : 1);
+				if (w->form == SWELL_FORM_VELOCITY)
+					trow[tx] |= T_DIRTY;
+				else
+					mark_dirty(w, tx, ty, 1);
 				w->band_asleep = 0;
 			}
 		}
@@ -914,6 +905,12 @@ static inline __attribute__((always_inline)) void finish_row(struct swell_wave *
 	uint32_t sat = 0;
 	int tx;
 
+#if SWELL_WAVE_VEL_AVX2
+	if (vel && w->kernel == SWELL_KERNEL_AVX2) {
+		swell_wave_vel_finish_avx2(w, j, need);
+		return;
+	}
+#endif
 	if (!add) { /* the clear alone: each run of whole tiles to clear in one go */
 		for (tx = 0; clear && tx < w->tiles_x; tx++) {
 			int t1 = tx;

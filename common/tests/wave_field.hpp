@@ -21,11 +21,13 @@ inline q30_t q30(double x) { return (q30_t)std::llround(x * SWELL_Q30_ONE); }
 struct Field {
 	std::vector<int32_t> store;
 	swell_wave w{};
-	Field(int nx, int ny, q30_t e, q30_t t, swell_stencil st, swell_wave_kernel k)
-	    : store(SWELL_WAVE_WORDS(nx, ny))
+	Field(int nx, int ny, q30_t e, q30_t t, swell_stencil st, swell_wave_kernel k,
+	      swell_wave_form form = SWELL_FORM_EDGE)
+	    : store(form == SWELL_FORM_VELOCITY ? SWELL_WAVE_VEL_WORDS(nx, ny) : SWELL_WAVE_WORDS(nx, ny))
 	{
 		swell_wave_params p{e, t, st};
-		REQUIRE(swell_wave_init(&w, (uint16_t)nx, (uint16_t)ny, store.data(), store.size(), &p) == SWELL_OK);
+		REQUIRE(swell_wave_init_form(&w, (uint16_t)nx, (uint16_t)ny, store.data(), store.size(), &p, form) ==
+			SWELL_OK);
 		REQUIRE(swell_wave_set_kernel(&w, k) == SWELL_OK);
 	}
 	int n() const { return w.nx * w.ny; }
@@ -48,8 +50,9 @@ inline std::string cell_diff(const char *what, int i, int32_t a, int32_t b)
 	return std::string(what) + "[" + std::to_string(i) + "] " + std::to_string(a) + " vs " + std::to_string(b);
 }
 
-/* Everything that must agree, with where it first differs; all = false: the cells only (between
- * slices, where flows and flags are still being written). "" when the two are the same bits. */
+/* Everything that must agree (the velocity form's momentum, residuals and fixer in place of the
+ * flows), with where it first differs; all = false: the cells only (between slices, where flows and
+ * flags are still being written). "" when the two are the same bits. */
 inline std::string differs(const Field &a, const Field &b, bool all = true)
 {
 	for (int i = 0; i < a.n(); i++) {
@@ -60,10 +63,20 @@ inline std::string differs(const Field &a, const Field &b, bool all = true)
 		if (a.w.acc[i] != b.w.acc[i])
 			return cell_diff("acc", i, a.w.acc[i], b.w.acc[i]);
 	}
+	for (int i = 0; a.w.u && i < a.n(); i++)
+		if (a.w.u[i] != b.w.u[i])
+			return cell_diff("u", i, a.w.u[i], b.w.u[i]);
 	if (!all)
 		return "";
-	if (std::memcmp(a.w.f, b.w.f, sizeof(int32_t) * 4 * SWELL_WAVE_TILE * a.w.tiles_x * a.w.ny) != 0)
+	if (a.w.form == SWELL_FORM_VELOCITY) { /* the residuals in progress and the fixers' state */
+		if (a.w.vel_sum != b.w.vel_sum || a.w.vel_sum_h != b.w.vel_sum_h)
+			return "residuals " + std::to_string(a.w.vel_sum) + ", " + std::to_string(a.w.vel_sum_h) + " vs " +
+			       std::to_string(b.w.vel_sum) + ", " + std::to_string(b.w.vel_sum_h);
+		if (a.w.fixed_lsb != b.w.fixed_lsb || a.w.fix_cursor != b.w.fix_cursor)
+			return "fixer " + std::to_string(a.w.fixed_lsb) + " vs " + std::to_string(b.w.fixed_lsb);
+	} else if (std::memcmp(a.w.f, b.w.f, sizeof(int32_t) * 4 * SWELL_WAVE_TILE * a.w.tiles_x * a.w.ny) != 0) {
 		return "flows";
+	}
 	if (std::memcmp(a.w.tile, b.w.tile, (size_t)a.w.tiles_x * a.w.tiles_y) != 0)
 		return "tile flags";
 	if (a.w.saturations != b.w.saturations)

@@ -19,6 +19,7 @@ static const struct {
 	int fixed;
 } impl_info[BENCH_IMPL_COUNT] = {
 	[BENCH_SHIPPED] = { "shipped", 7 * 4, 1 }, [BENCH_VELOCITY] = { "velocity", 4 * 4, 1 },
+	[BENCH_VEL_REF] = { "vel-ref", 4 * 4, 1 }, [BENCH_VEL_FUSED] = { "vel-fused", 4 * 4, 1 },
 	[BENCH_EF16] = { "ef16", 5 * 2 + 4, 1 },   [BENCH_TL32_FLOOR] = { "tl32-floor", 3 * 4, 1 },
 	[BENCH_TL32_RN] = { "tl32-rn", 3 * 4, 1 }, [BENCH_TL32_RZ] = { "tl32-rz", 3 * 4, 1 },
 	[BENCH_TL16_RN] = { "tl16-rn", 3 * 2, 1 }, [BENCH_F32] = { "f32", 3 * 4, 0 },
@@ -51,6 +52,16 @@ size_t bench_impl_bytes_per_cell(enum bench_impl impl)
 int bench_impl_is_fixed(enum bench_impl impl)
 {
 	return (unsigned)impl < BENCH_IMPL_COUNT && impl_info[impl].fixed;
+}
+
+int bench_impl_velocity(enum bench_impl impl)
+{
+	return impl == BENCH_VELOCITY || impl == BENCH_VEL_REF || impl == BENCH_VEL_FUSED;
+}
+
+int bench_impl_wave(enum bench_impl impl)
+{
+	return impl == BENCH_SHIPPED || bench_impl_velocity(impl);
 }
 
 /* x / 2^s with the given rounding; s >= 1. */
@@ -114,11 +125,16 @@ enum swell_err bench_field_init(struct bench_field *f, enum bench_impl impl, int
 	switch (impl) {
 	case BENCH_SHIPPED:
 	case BENCH_VELOCITY:
+	case BENCH_VEL_REF:
+	case BENCH_VEL_FUSED:
 		f->mem = calloc(SWELL_WAVE_WORDS(nx, ny), sizeof(int32_t));
 		if (!f->mem)
 			return SWELL_ESIZE;
 		err = swell_wave_init_form(&f->w, (uint16_t)nx, (uint16_t)ny, f->mem, SWELL_WAVE_WORDS(nx, ny), &p,
-					   impl == BENCH_VELOCITY ? SWELL_FORM_VELOCITY : SWELL_FORM_EDGE);
+					   bench_impl_velocity(impl) ? SWELL_FORM_VELOCITY : SWELL_FORM_EDGE);
+		if (err == SWELL_OK && impl != BENCH_SHIPPED && impl != BENCH_VELOCITY)
+			err = swell_wave_set_kernel(&f->w,
+						    impl == BENCH_VEL_REF ? SWELL_KERNEL_REF : SWELL_KERNEL_FUSED);
 		if (err != SWELL_OK) {
 			free(f->mem);
 			return err;
@@ -172,7 +188,7 @@ enum swell_err bench_field_init(struct bench_field *f, enum bench_impl impl, int
 		f->hnd = f->hpd + np;
 		break;
 	}
-	if (impl != BENCH_SHIPPED && impl != BENCH_VELOCITY) {
+	if (!bench_impl_wave(impl)) {
 		/* the same quantised coefficients as wave.c */
 		q30_t ee = stencil == SWELL_STENCIL_CALIBRATED ? p.e / 2 : p.e;
 
@@ -191,7 +207,7 @@ enum swell_err bench_field_init(struct bench_field *f, enum bench_impl impl, int
 	}
 	f->lsb_mm = (impl == BENCH_EF16 || impl == BENCH_TL16_RN) ? 1.0 / (1 << H16_FRAC) : 1.0 / SWELL_H_ONE_MM;
 	f->h_max = impl == BENCH_EF16 || impl == BENCH_TL16_RN ? H16_MAX
-		: impl == BENCH_VELOCITY                       ? SWELL_HV_MAX
+		: bench_impl_velocity(impl)                    ? SWELL_HV_MAX
 		: bench_impl_is_fixed(impl)                    ? SWELL_H_MAX
 							       : 0;
 	return SWELL_OK;
@@ -213,7 +229,7 @@ enum swell_err bench_field_force(struct bench_field *f, q30_t e_eff, q30_t q)
 		return SWELL_ERANGE;
 	e_eff &= ~(q30_t)1;
 	set_coeffs(f, e_eff, q);
-	if (f->impl == BENCH_SHIPPED || f->impl == BENCH_VELOCITY) {
+	if (bench_impl_wave(f->impl)) {
 		/* Bench-only: writes the solver's private coefficients to run it outside the validated
 		 * region. No controller code may do this; swell_wave_set_params refuses such values. */
 		f->w.e_eff = e_eff;
@@ -221,7 +237,7 @@ enum swell_err bench_field_force(struct bench_field *f, q30_t e_eff, q30_t q)
 		f->w.c_half = e_eff / 2;
 		f->w.c_wall = e_eff + e_eff / 2;
 		f->w.q = q;
-		if (f->impl == BENCH_VELOCITY) { /* its fraction bits, as wave.c chooses them (u is 0 here) */
+		if (bench_impl_velocity(f->impl)) { /* its fraction bits, as wave.c chooses them (u is 0 here) */
 			int fr = 4;
 
 			while (fr > 0 && ((int64_t)e_eff << (fr + 1)) > INT32_MAX)
@@ -263,6 +279,8 @@ void bench_field_set_mm(struct bench_field *f, const double *h_mm)
 			switch (f->impl) {
 			case BENCH_SHIPPED:
 			case BENCH_VELOCITY:
+			case BENCH_VEL_REF:
+			case BENCH_VEL_FUSED:
 				f->w.h[a] = s;
 				break;
 			case BENCH_EF16:
@@ -285,7 +303,7 @@ void bench_field_set_mm(struct bench_field *f, const double *h_mm)
 			}
 		}
 	}
-	if (f->impl == BENCH_SHIPPED || f->impl == BENCH_VELOCITY)
+	if (bench_impl_wave(f->impl))
 		swell_wave_rest(&f->w);
 	if (f->impl == BENCH_EF16) {
 		size_t n = (size_t)f->nx * f->ny;
@@ -304,6 +322,8 @@ static double cell_lsb(const struct bench_field *f, int i, int j, int prev)
 	switch (f->impl) {
 	case BENCH_SHIPPED:
 	case BENCH_VELOCITY:
+	case BENCH_VEL_REF:
+	case BENCH_VEL_FUSED:
 		return prev ? (double)f->w.h[a] - f->w.v[a] : f->w.h[a];
 	case BENCH_EF16:
 		return prev ? (double)f->h16[a] - f->v32[a] : f->h16[a];
@@ -335,7 +355,9 @@ void bench_field_add_lsb(struct bench_field *f, int i, int j, int32_t k)
 
 	switch (f->impl) {
 	case BENCH_SHIPPED:
-	case BENCH_VELOCITY: /* h(n) moves, the momentum does not: an impulse of volume, not of motion */
+	case BENCH_VELOCITY:
+	case BENCH_VEL_REF:
+	case BENCH_VEL_FUSED: /* h(n) moves, the momentum does not: an impulse of volume, not of motion */
 		f->w.h[a] = sat_count(f, (int64_t)f->w.h[a] + k, f->h_max);
 		swell_wave_touched(&f->w, i, j); /* written from outside: its tile must wake */
 		break;
@@ -487,6 +509,8 @@ void bench_field_step(struct bench_field *f)
 	switch (f->impl) {
 	case BENCH_SHIPPED:
 	case BENCH_VELOCITY:
+	case BENCH_VEL_REF:
+	case BENCH_VEL_FUSED:
 		swell_wave_step(&f->w);
 		f->saturations = f->w.saturations;
 		break;
@@ -528,7 +552,7 @@ double bench_field_volume_lsb(const struct bench_field *f)
 	double sd = 0;
 	int i, j;
 
-	if (f->impl == BENCH_SHIPPED || f->impl == BENCH_VELOCITY)
+	if (bench_impl_wave(f->impl))
 		return (double)swell_wave_volume(&f->w);
 	for (j = 0; j < f->ny; j++)
 		for (i = 0; i < f->nx; i++) {
@@ -557,8 +581,7 @@ static double energy_fixed(const struct bench_field *f)
 	i128 kin = 0, pot2 = 0;
 	int i, j, k;
 
-	if ((f->impl == BENCH_SHIPPED || f->impl == BENCH_VELOCITY) && bench_field_max_abs_lsb(f) < (1 << 23) &&
-	    f->nx * f->ny <= 65536) {
+	if ((bench_impl_wave(f->impl)) && bench_field_max_abs_lsb(f) < (1 << 23) && f->nx * f->ny <= 65536) {
 		struct swell_energy en = swell_wave_energy(&f->w);
 
 		kin = en.kin;

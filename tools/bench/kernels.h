@@ -7,7 +7,10 @@
  *   shipped      wave.c: edge-flux, int32 heights and flows (LSB 2^-16 mm), e w dh to nearest,
  *                damping toward zero
  *   velocity     wave.c's velocity form: one momentum a cell, separable L9, per-cell rounding and
- *                the exact global volume fixer (int27 heights, LSB 2^-16 mm)
+ *                the exact global volume fixer (int27 heights, LSB 2^-16 mm); the kernel wave.c
+ *                chooses (AVX2 where the CPU has it)
+ *   vel-ref      the same with its scalar reference kernel, vel-fused with the fused kernel (the
+ *                same bits as velocity: only the cost differs)
  *   ef16         edge-flux, int16 heights and flows (LSB 2^-10 mm, +-32 mm), same rounding
  *   tl32-floor   three-level eq. (1), int32 heights (LSB 2^-16 mm), both products floored (>>)
  *   tl32-rn      ... both products rounded to nearest (ties up)
@@ -30,6 +33,8 @@
 enum bench_impl {
 	BENCH_SHIPPED = 0,
 	BENCH_VELOCITY,
+	BENCH_VEL_REF,
+	BENCH_VEL_FUSED,
 	BENCH_EF16,
 	BENCH_TL32_FLOOR,
 	BENCH_TL32_RN,
@@ -79,6 +84,10 @@ enum bench_impl bench_impl_parse(const char *name);
 /* Storage bytes per cell the kernel keeps between steps (scratch included). */
 size_t bench_impl_bytes_per_cell(enum bench_impl impl);
 int bench_impl_is_fixed(enum bench_impl impl);
+/* 1 for wave.c's velocity form (velocity, vel-ref, vel-fused); 1 for either form of wave.c (shipped
+ * too) in bench_impl_wave. */
+int bench_impl_velocity(enum bench_impl impl);
+int bench_impl_wave(enum bench_impl impl);
 
 /* Allocate a flat field at rest. e, t as doubles; fixed kernels quantise them to Q1.30 as
  * swell_wave_params would (round to nearest). Refuses what swell_wave_check refuses. */

@@ -13,32 +13,10 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "kernels.h"
+#include "bench.h"
 #include "scene.h"
 #include "measure.h"
 #include "swell/wave_ref.h"
-
-#define MAX_LIST 16
-#define AMP_MM 1.0 /* amplitude of the measured mode */
-#define MODE_M 1
-#define MODE_N 1
-
-struct opts {
-	const char *preset;
-	const char *out;
-	const char *f405;
-	int grids[MAX_LIST], ngrids;
-	double es[MAX_LIST];
-	int nes;
-	long steps; /* error runs of the matrix */
-	long long_steps; /* error against steps */
-	int reps; /* timing repetitions (best of) */
-	int map_ne, map_nt;
-	long map_steps;
-	int bnd_nt;
-	double stress_cells; /* cell-steps of the edge-of-stability runs */
-	int plots;
-};
 
 struct row {
 	enum bench_impl impl;
@@ -57,11 +35,8 @@ static struct row *rows;
 static int nrows, rows_cap;
 static int failures;
 static double f405_instr[BENCH_IMPL_COUNT];
-static double f405_cost[FW_COST_SCENES]; /* the image's cost scenes, instructions per cell-step */
-static double f405_vcost[FW_COST_SCENES], f405_vcost_awake[FW_COST_SCENES]; /* the same, velocity form */
-static double f405_cost_awake[FW_COST_SCENES];
 
-static void check(int ok, const char *fmt, ...)
+void check(int ok, const char *fmt, ...)
 {
 	va_list ap;
 
@@ -75,7 +50,7 @@ static void check(int ok, const char *fmt, ...)
 	fputc('\n', stderr);
 }
 
-static void progress(const char *fmt, ...)
+void progress(const char *fmt, ...)
 {
 	va_list ap;
 
@@ -86,7 +61,7 @@ static void progress(const char *fmt, ...)
 	fputc('\n', stderr);
 }
 
-static void *xmalloc(size_t n)
+void *xmalloc(size_t n)
 {
 	void *p = malloc(n ? n : 1);
 
@@ -97,7 +72,7 @@ static void *xmalloc(size_t n)
 	return p;
 }
 
-static double now_s(void)
+double now_s(void)
 {
 	struct timespec ts;
 
@@ -110,7 +85,7 @@ static const char *stencil_name(enum swell_stencil st)
 	return st == SWELL_STENCIL_CALIBRATED ? "calibrated" : "paper";
 }
 
-static FILE *open_out(const struct opts *o, const char *name)
+FILE *open_out(const struct opts *o, const char *name)
 {
 	char path[4096];
 	FILE *fp;
@@ -124,7 +99,7 @@ static FILE *open_out(const struct opts *o, const char *name)
 	return fp;
 }
 
-static void init_or_die(struct bench_field *f, enum bench_impl impl, int nx, double e, double t, enum swell_stencil st)
+void init_or_die(struct bench_field *f, enum bench_impl impl, int nx, double e, double t, enum swell_stencil st)
 {
 	enum swell_err err = bench_field_init(f, impl, nx, nx, e, t, st);
 
@@ -291,19 +266,17 @@ static void run_matrix(const struct opts *o)
 			for (ei = 0; ei < o->nes; ei++) {
 				int nx = o->grids[gi];
 				double e = o->es[ei], ns[BENCH_IMPL_COUNT];
-				struct row *first;
+				int first; /* the group's first row (rows may move when they grow) */
 
 				progress("matrix %d/%d: %s stencil, %dx%d, e = %.3f (%.1f s so far)", ++done, total,
 					 stencil_name(sts[si]), nx, nx, e, now_s() - t_start);
 				time_group(o, sts[si], nx, e, ns);
-				first = NULL;
+				first = nrows;
 				for (k = 0; k < BENCH_IMPL_COUNT; k++) {
 					struct row *r = new_row();
 					struct bench_field tmp;
 					uint32_t sat;
 
-					if (!first)
-						first = r;
 					r->impl = (enum bench_impl)k;
 					r->st = sts[si];
 					r->nx = nx;
@@ -345,12 +318,17 @@ static void run_matrix(const struct opts *o)
 							bench_omega_discrete(r->e_eff, md.S) / SWELL_H_ONE_MM;
 					}
 					r->sat = sat;
-					if (r->impl == BENCH_SHIPPED || r->impl == BENCH_VELOCITY ||
-					    r->impl == BENCH_EF16)
+					if (bench_impl_wave(r->impl) || r->impl == BENCH_EF16)
 						check(r->vol_lsb == 0,
 						      "%s %s %dx%d e=%.3f: volume drift %.0f LSB, must be 0",
 						      bench_impl_name(r->impl), stencil_name(sts[si]), nx, nx, e,
 						      r->vol_lsb);
+					if (r->impl == BENCH_VEL_REF || r->impl == BENCH_VEL_FUSED) /* after velocity */
+						check(r->linf_eig == rows[first + BENCH_VELOCITY].linf_eig &&
+							      r->linf_ref == rows[first + BENCH_VELOCITY].linf_ref,
+						      "%s %s %dx%d e=%.3f: error differs from velocity (another kernel "
+						      "of the same bits)",
+						      bench_impl_name(r->impl), stencil_name(sts[si]), nx, nx, e);
 					if (r->impl == BENCH_SHIPPED) {
 						check(sat == 0, "shipped %s %dx%d e=%.3f: %u saturations at 1 mm",
 						      stencil_name(sts[si]), nx, nx, e, sat);
@@ -376,7 +354,7 @@ static void run_matrix(const struct opts *o)
 						      "the eigenmode or the reference is wrong",
 						      stencil_name(sts[si]), nx, nx, e, r->linf_eig);
 				}
-				mark_pareto(first, BENCH_IMPL_COUNT);
+				mark_pareto(&rows[first], BENCH_IMPL_COUNT);
 			}
 		}
 	}
@@ -466,6 +444,8 @@ static void run_error_steps(const struct opts *o)
 		for (k = 0; k < BENCH_IMPL_COUNT; k++) {
 			uint32_t sat;
 
+			if (k == BENCH_VEL_REF || k == BENCH_VEL_FUSED)
+				continue; /* the bits of velocity (the matrix checks it) */
 			progress("error against steps: %s, %s stencil, 64x64, e = 0.2, %ld steps",
 				 bench_impl_name((enum bench_impl)k), stencil_name(sts[si]), o->long_steps);
 			error_run((enum bench_impl)k, sts[si], 64, 0.2, 0.0, at, nat, smp, &sat);
@@ -762,10 +742,10 @@ static int write_plots(const struct opts *o)
 		"set output 'pareto.png'\n"
 		"set title 'Run time against error: (1,1) mode of 1 mm, t = 0; every grid, e and stencil'\n"
 		"set logscale xy\n"
-		"set xrange [0.8:12]\n"
+		"set xrange [0.2:60]\n"
 		"set xlabel 'host cost per cell-step, relative to float32 measured in the same run'\n"
 		"set ylabel 'L-inf error against the exact discrete eigenmode (mm)'\n"
-		"set key top right inside font ',9'\n"
+		"set key bottom right inside font ',9'\n"
 		"impls = '");
 	for (k = 0; k < BENCH_IMPL_COUNT; k++)
 		fprintf(fp, "%s%s", k ? " " : "", bench_impl_name((enum bench_impl)k));
@@ -925,7 +905,6 @@ static int parse_list(const char *s, const char *what, double *out, double lo, d
 /* Instructions per cell-step on the STM32F405 image: lines 'impl value', or the image's self-test
  * output under QEMU (-icount shift=0), whose 'solver cell-step: X instructions ...' line is the
  * shipped solver and 'naive int32 9-point cell-step: X' a plain loop, printed for reference. */
-static double f405_naive;
 
 static void load_f405(const char *path)
 {
@@ -973,115 +952,6 @@ static void load_f405(const char *path)
 		printf("STM32F405 (QEMU -icount shift=0): shipped %.2f, naive int32 9-point loop %.2f "
 		       "instructions per cell-step\n",
 		       f405_instr[BENCH_SHIPPED], f405_naive);
-}
-
-/* ---- what a scene does not need is skipped ---------------------------------------
- * The image's three cost scenes (firmware/stm32f405/logic/scene.c: calm, one local splash, a fully
- * agitated pool; 64x64, damped t = 0.001, FW_COST_STEPS steps from their start) on every kernel this
- * host has, against a float32 loop of the same stencil over the whole grid, timed in the same run; and
- * the image's instruction counts under QEMU when --f405 gives its self-test output. Every kernel
- * must end on the reference kernel's checksum. */
-static void run_scenes(const struct opts *o)
-{
-	static int32_t storage[FW_SCENE_WORDS];
-	const enum swell_wave_kernel kernels[] = { SWELL_KERNEL_REF, SWELL_KERNEL_FUSED, SWELL_KERNEL_AVX2,
-						   SWELL_KERNEL_REF, SWELL_KERNEL_FUSED };
-	const int nedge = 3; /* the first three in the edge-flux form, the last two in the velocity form */
-	const long cells = (long)FW_COST_STEPS * FW_SCENE_NX * FW_SCENE_NY;
-	struct swell_wave w;
-	struct bench_field f;
-	struct bench_mode md;
-	double ns_f32 = INFINITY, e, *h;
-	FILE *fp = open_out(o, "scenes.csv");
-	int s, k, rep;
-
-	if (fw_cost_scene_init(&w, storage, FW_SCENE_WORDS, FW_COST_CALM, SWELL_FORM_EDGE) != SWELL_OK) {
-		check(0, "scenes: the cost scene is refused");
-		return;
-	}
-	e = (double)w.p.e / SWELL_Q30_ONE;
-	h = xmalloc((size_t)FW_SCENE_NX * FW_SCENE_NY * sizeof(double));
-	bench_mode_init(&md, FW_SCENE_NX, FW_SCENE_NY, MODE_M, MODE_N);
-	bench_mode_field(&md, AMP_MM, h);
-	init_or_die(&f, BENCH_F32, FW_SCENE_NX, e, 0.001, SWELL_STENCIL_PAPER);
-	bench_field_set_mm(&f, h);
-	bench_field_steps(&f, FW_COST_STEPS); /* warm-up */
-
-	printf("\n== skipping what a scene does not need: 64x64, damped t = 0.001, %u steps from the scene's "
-	       "start (ns per cell-step over the whole grid; x f32 = against a float32 loop over every cell, "
-	       "same run) ==\n",
-	       FW_COST_STEPS);
-	fprintf(fp,
-		"scene,kernel,ns_per_cell_step,ratio_f32,awake_pct,ns_per_awake_cell_step,"
-		"f405_instr_per_cell_step,f405_instr_per_awake_cell_step\n");
-	for (s = 0; s < FW_COST_SCENES; s++) {
-		uint32_t ref_sum = 0;
-
-		for (k = 0; k < (int)(sizeof(kernels) / sizeof(kernels[0])); k++) {
-			const int vel = k >= nedge;
-			const double f405 = vel ? f405_vcost[s] : f405_cost[s];
-			const double f405_aw = vel ? f405_vcost_awake[s] : f405_cost_awake[s];
-			double best = INFINITY, awake = 0;
-			uint32_t sum = 0;
-			char kname[32];
-
-			snprintf(kname, sizeof(kname), "%s%s", vel ? "vel-" : "", swell_wave_kernel_name(kernels[k]));
-			progress("scenes: %s, %s kernel", fw_cost_scene_name[s], kname);
-			for (rep = 0; rep < o->reps; rep++) {
-				double t0, dt;
-				long n;
-
-				/* float32 in turn with the kernels, so that both see the same machine load */
-				t0 = now_s();
-				bench_field_steps(&f, FW_COST_STEPS);
-				ns_f32 = fmin(ns_f32, (now_s() - t0) * 1e9 / (double)cells);
-
-				fw_cost_scene_init(&w, storage, FW_SCENE_WORDS, (enum fw_cost_scene)s,
-						   vel ? SWELL_FORM_VELOCITY : SWELL_FORM_EDGE);
-				if (swell_wave_set_kernel(&w, kernels[k]) != SWELL_OK)
-					break; /* AVX2 on a CPU without it */
-				t0 = now_s();
-				for (n = 0; n < (long)FW_COST_STEPS; n++)
-					swell_wave_step(&w);
-				dt = now_s() - t0;
-				best = fmin(best, dt * 1e9 / (double)cells);
-				awake = 100.0 *
-					(1.0 -
-					 (double)w.tiles_skipped / ((double)FW_COST_STEPS * FW_SCENE_NY * w.tiles_x));
-				sum = swell_wave_checksum(&w);
-			}
-			if (isinf(best)) {
-				printf("  %-9s %-9s not available on this CPU\n", fw_cost_scene_name[s], kname);
-				continue;
-			}
-			if (kernels[k] == SWELL_KERNEL_REF)
-				ref_sum = sum; /* each form's kernels against that form's reference */
-			check(sum == ref_sum, "scene %s: kernel %s ends on checksum 0x%08x, the reference on 0x%08x",
-			      fw_cost_scene_name[s], kname, sum, ref_sum);
-			printf("  %-9s %-9s %6.2f ns/cell-step = %5.2f x f32 (%.2f ns), awake %5.1f %%, %6.2f ns per "
-			       "awake cell-step",
-			       fw_cost_scene_name[s], kname, best, best / ns_f32, ns_f32, awake,
-			       awake > 0 ? best * 100.0 / awake : 0.0);
-			if (kernels[k] == SWELL_KERNEL_FUSED && f405 > 0)
-				printf("; F405 (M4 kernel) %.2f instructions per cell-step, %.2f per awake cell-step",
-				       f405, f405_aw);
-			printf("\n");
-			fprintf(fp, "%s,%s,%.4f,%.4f,%.2f,%.4f,%.2f,%.2f\n", fw_cost_scene_name[s], kname, best,
-				best / ns_f32, awake, awake > 0 ? best * 100.0 / awake : 0.0,
-				kernels[k] == SWELL_KERNEL_FUSED ? f405 : 0.0,
-				kernels[k] == SWELL_KERNEL_FUSED ? f405_aw : 0.0);
-		}
-	}
-	if (f405_cost[FW_COST_AGITATED] > 0)
-		printf("  F405 agitated pool: edge-flux %.2f, velocity form %.2f instructions per cell-step (%.2fx "
-		       "cheaper; target 20; naive int32 loop %.2f)\n",
-		       f405_cost[FW_COST_AGITATED], f405_vcost[FW_COST_AGITATED],
-		       f405_vcost[FW_COST_AGITATED] > 0 ? f405_cost[FW_COST_AGITATED] / f405_vcost[FW_COST_AGITATED]
-							: 0.0,
-		       f405_naive);
-	bench_field_free(&f);
-	free(h);
-	fclose(fp);
 }
 
 static void preset(struct opts *o, int full)

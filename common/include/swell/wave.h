@@ -61,8 +61,9 @@
  * edge-flux form, it is mass, not momentum). Heights saturate to int27 (SWELL_HV_MIN..MAX,
  * +-1024 mm) so that 2 L9 fits int32; u to int28. Storage SWELL_WAVE_VEL_WORDS: h, v, acc, u and
  * the tile flags, 16 bytes a cell instead of 28. Kernels: SWELL_KERNEL_REF (the definition, one cell
- * at a time in int64) and SWELL_KERNEL_FUSED (column sums carried in registers; SMMLAR/SMMUL/SSAT
- * on ARMv7E-M), bit-identical. The two forms are not bit-identical to each other.
+ * at a time in int64), SWELL_KERNEL_FUSED (column sums carried in registers; SMMLAR/SMMUL/SSAT
+ * on ARMv7E-M) and SWELL_KERNEL_AVX2 (x86-64 with AVX2: a tile row a vector, and the finishing pass
+ * too), bit-identical. The two forms are not bit-identical to each other.
  *
  * Sleeping tiles (lossless): the grid is cut into 8 x 8 tiles. A tile whose edges all gave zero flow
  * in the last step, and none of whose cells nor its neighbour tiles' cells changed since, would give
@@ -109,7 +110,7 @@ enum swell_wave_kernel {
 	SWELL_KERNEL_AUTO = 0, /* the fastest this build and CPU have (default) */
 	SWELL_KERNEL_REF = 1, /* the scalar reference: one edge at a time, the definition */
 	SWELL_KERNEL_FUSED = 2, /* one pass per row segment; M4 DSP instructions on ARMv7E-M */
-	SWELL_KERNEL_AVX2 = 3, /* x86-64 with AVX2: 8 cells at a time (tile rows of 8, else fused) */
+	SWELL_KERNEL_AVX2 = 3, /* x86-64 with AVX2: 8 cells at a time (edge-flux: tile rows of 8, else fused) */
 };
 
 enum swell_stencil {

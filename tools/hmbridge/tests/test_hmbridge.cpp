@@ -163,9 +163,9 @@ TEST_CASE("bridge, effect mode: the effect sets become the HapticMaster's spring
 	REQUIRE(hm.port > 0);
 	Ctl ctl;
 	// the bridge's watchdog at 25 ticks (10 ms): this test's scripted controller is not real time
-	Proc br({bridge_bin, "--hm", "127.0.0.1:" + std::to_string(hm.port), "--port", std::to_string(ctl.port), "--quiet",
-		 "--watchdog", "25"},
-		work_dir + "/bridge-effect.txt");
+	swell_test::Proc br({bridge_bin, "--hm", "127.0.0.1:" + std::to_string(hm.port), "--port", std::to_string(ctl.port),
+			     "--quiet", "--watchdog", "25"},
+			    work_dir + "/bridge-effect.txt");
 	swell_msg_device_pos pos{};
 	for (int k = 0; k < 50 && !(pos.status & 2u); k++)
 		ctl.samples(100, &pos);
