@@ -134,7 +134,7 @@ int main(int argc, char **argv)
 		err = fw_core_init(&ctl, &r, arena, FW_CORE_ARENA_WORDS, (uint32_t)core_hz);
 		for (k = 0; pool && err == SWELL_OK && k < 2; k++) {
 			struct swell_msg set = { .type = SWELL_MSG_PARAM_SET }, ans;
-			struct fw_pool_place place;
+			struct fw_pool_at place;
 
 			set.u.param_set.id = k ? SWELL_SCENE_NY : SWELL_SCENE_NX;
 			set.u.param_set.value = (int32_t)pool;

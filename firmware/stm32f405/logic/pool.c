@@ -2,9 +2,9 @@
 
 #include "swell/scene.h"
 
-enum swell_err fw_pool_place(uint16_t nx, uint16_t ny, const struct fw_mem *m, struct fw_pool_place *p)
+enum swell_err fw_pool_place(uint16_t nx, uint16_t ny, const struct fw_mem *m, struct fw_pool_at *p)
 {
-	struct fw_pool_place r = { 0 };
+	struct fw_pool_at r = { 0 };
 
 	if (!m || !p)
 		return SWELL_EINVAL;
@@ -23,9 +23,9 @@ enum swell_err fw_pool_place(uint16_t nx, uint16_t ny, const struct fw_mem *m, s
 }
 
 enum swell_err fw_pool_start(struct swell_ctl *c, const struct swell_ctl_config *cfg, const struct fw_mem *m,
-			     struct fw_pool_place *p)
+			     struct fw_pool_at *p)
 {
-	struct fw_pool_place r;
+	struct fw_pool_at r;
 	enum swell_err err;
 
 	if (!c || !cfg)
@@ -91,7 +91,7 @@ int fw_pool_is_startup(const struct swell_msg *m)
 }
 
 int fw_pool_param(struct swell_ctl *c, const struct fw_mem *m, const struct swell_msg *in, struct swell_msg *answer,
-		  struct fw_pool_place *p)
+		  struct fw_pool_at *p)
 {
 	struct swell_ctl_config g = c->cfg;
 	const int set = in->type == SWELL_MSG_PARAM_SET;

@@ -29,18 +29,18 @@ struct fw_mem {
 	const char *fast_name; /* where the fast block is, for the boot report */
 };
 
-struct fw_pool_place {
+struct fw_pool_at {
 	int apart; /* u and the sent samples in the fast block */
 	size_t sram_words, fast_words; /* used in each block */
 };
 
 /* Where an nx x ny pool's buffers go in m; SWELL_ESIZE when it does not fit. */
-enum swell_err fw_pool_place(uint16_t nx, uint16_t ny, const struct fw_mem *m, struct fw_pool_place *p);
+enum swell_err fw_pool_place(uint16_t nx, uint16_t ny, const struct fw_mem *m, struct fw_pool_at *p);
 
 /* Start the core with cfg in m (swell_ctl_init or swell_ctl_init_apart by fw_pool_place). On error
  * *c and *p are untouched. */
 enum swell_err fw_pool_start(struct swell_ctl *c, const struct swell_ctl_config *cfg, const struct fw_mem *m,
-			     struct fw_pool_place *p);
+			     struct fw_pool_at *p);
 
 /* 1 for a PARAM_SET or PARAM_GET of a start-up parameter (fw_pool_param's, not the core's). */
 int fw_pool_is_startup(const struct swell_msg *m);
@@ -49,6 +49,6 @@ int fw_pool_is_startup(const struct swell_msg *m);
  * its answer (PARAM_ACK or PARAM_NACK) in *answer, the core restarted on an accepted change and *p
  * updated; 0 for any other message (the core's own). */
 int fw_pool_param(struct swell_ctl *c, const struct fw_mem *m, const struct swell_msg *in, struct swell_msg *answer,
-		  struct fw_pool_place *p);
+		  struct fw_pool_at *p);
 
 #endif

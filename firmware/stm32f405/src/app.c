@@ -30,7 +30,7 @@ static struct {
 	uint32_t usb_dropped, bad_frames_reported, overruns_seen, bus_offs_seen;
 	struct swell_proto_stats stats;
 	uint8_t usb_seq;
-	struct fw_pool_place place;
+	struct fw_pool_at place;
 	/* a start-up parameter's request (logic/pool.h), taken at a tick without a background part
 	 * running, and its answer, sent by the host link's drain */
 	struct swell_msg pool_req, pool_ans;

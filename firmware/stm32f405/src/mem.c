@@ -57,7 +57,7 @@ static void put_buf(const char *name, uint32_t bytes, const char *where)
 	con_puts(where);
 }
 
-void mem_report(const struct swell_ctl *c, const struct fw_mem *m, const struct fw_pool_place *p)
+void mem_report(const struct swell_ctl *c, const struct fw_mem *m, const struct fw_pool_at *p)
 {
 	const uint32_t n = (uint32_t)c->cfg.nx * c->cfg.ny;
 	const char *fast = p->apart ? m->fast_name : "SRAM";

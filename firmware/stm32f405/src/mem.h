@@ -18,6 +18,6 @@
 void mem_probe(struct fw_mem *m);
 
 /* One boot line: the pool's grid and each buffer's bytes and memory. */
-void mem_report(const struct swell_ctl *c, const struct fw_mem *m, const struct fw_pool_place *p);
+void mem_report(const struct swell_ctl *c, const struct fw_mem *m, const struct fw_pool_at *p);
 
 #endif

@@ -336,7 +336,7 @@ static void put_core_label(uint32_t tick_hz, uint16_t pool_n, int at)
 static int pool_set(uint16_t id, const char *name, int32_t value, enum swell_err want_err)
 {
 	struct swell_msg set = { .type = SWELL_MSG_PARAM_SET }, ans;
-	struct fw_pool_place place;
+	struct fw_pool_at place;
 	uint16_t nx = ctl.cfg.nx, ny = ctl.cfg.ny;
 	int ok;
 
