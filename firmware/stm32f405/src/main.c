@@ -118,7 +118,8 @@ int main(void)
 	con_put_hex32(img.crc);
 	con_puts(" ok\n");
 
-	mem_probe(&app_mem); /* the bus fault is enabled: a missing block is a recoverable fault */
+	mem_probe(&app_mem, app_arena,
+		  APP_ARENA_WORDS); /* the bus fault is enabled: a missing block is a recoverable fault */
 
 	timebase_init(PRIO_SYSTICK);
 	con_puts("cycles: ");

@@ -1,6 +1,5 @@
 #include "mem.h"
 
-#include "app.h"
 #include "console.h"
 #include "fault.h"
 
@@ -21,10 +20,10 @@ static int block_is_ram(uint32_t base)
 	return 1;
 }
 
-void mem_probe(struct fw_mem *m)
+void mem_probe(struct fw_mem *m, int32_t *sram, size_t sram_words)
 {
-	m->sram = app_arena;
-	m->sram_words = APP_ARENA_WORDS;
+	m->sram = sram;
+	m->sram_words = sram_words;
 	m->fast = 0;
 	m->fast_words = 0;
 	m->fast_name = "none";

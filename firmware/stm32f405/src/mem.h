@@ -14,8 +14,9 @@
 #define MEM_SRAM_ABOVE_BASE 0x20020000u /* QEMU only: the F405's SRAM ends here */
 #define MEM_FAST_BYTES 0x10000u
 
-/* Probe once at boot (after the bus fault is enabled) and fill m; prints one line. */
-void mem_probe(struct fw_mem *m);
+/* Probe once at boot (after the bus fault is enabled) and fill m with the SRAM arena given and the
+ * fast block found; prints one line. */
+void mem_probe(struct fw_mem *m, int32_t *sram, size_t sram_words);
 
 /* One boot line: the pool's grid and each buffer's bytes and memory. */
 void mem_report(const struct swell_ctl *c, const struct fw_mem *m, const struct fw_pool_at *p);

@@ -404,6 +404,13 @@ static int run_core(uint32_t tick_hz, uint32_t ticks, uint16_t pool_n)
 		con_putc('\n');
 		return 0;
 	}
+	if (!pool_n && tick_hz == 2500u) { /* the reference pool, where the controller's start puts it */
+		struct fw_pool_at at;
+
+		if (fw_pool_place(ctl.cfg.nx, ctl.cfg.ny, &app_mem, &at) != SWELL_OK || at.apart)
+			return 0;
+		mem_report(&ctl, &app_mem, &at);
+	}
 	if (pool_n && !choose_pool(pool_n))
 		return 0;
 	t0 = timebase_systick();
