@@ -42,24 +42,18 @@ enum swell_err fw_pool_start(struct swell_ctl *c, const struct swell_ctl_config 
 	return err;
 }
 
-/* The start-up parameter id in cfg: its field, read (get) or written. */
-static int32_t *startup_field(struct swell_ctl_config *g, uint16_t id, int32_t *tmp)
+/* The value of a start-up parameter (fw_pool_is_startup) in g. */
+static int32_t startup_get(const struct swell_ctl_config *g, uint16_t id)
 {
 	switch (id) {
 	case SWELL_SCENE_NX:
-		*tmp = g->nx;
-		return tmp;
+		return g->nx;
 	case SWELL_SCENE_NY:
-		*tmp = g->ny;
-		return tmp;
+		return g->ny;
 	case SWELL_SCENE_DX_UM:
-		*tmp = (int32_t)g->dx_um;
-		return tmp;
-	case SWELL_SCENE_DEPTH_UM:
-		*tmp = (int32_t)g->depth_um;
-		return tmp;
+		return (int32_t)g->dx_um;
 	default:
-		return NULL;
+		return (int32_t)g->depth_um;
 	}
 }
 
@@ -98,11 +92,11 @@ int fw_pool_param(struct swell_ctl *c, const struct fw_mem *m, const struct swel
 	const uint16_t id = set ? in->u.param_set.id : in->u.param_get.id;
 	const uint8_t seq = set ? in->u.param_set.seq : in->u.param_get.seq;
 	enum swell_err err = SWELL_OK;
-	int32_t v = 0;
+	int32_t v;
 
 	if (!fw_pool_is_startup(in))
 		return 0;
-	(void)startup_field(&g, id, &v);
+	v = startup_get(&g, id);
 	if (set) {
 		if (c->state == SWELL_CTL_RUNNING)
 			err = SWELL_ESTATE; /* the force law runs on this memory */
@@ -111,7 +105,7 @@ int fw_pool_param(struct swell_ctl *c, const struct fw_mem *m, const struct swel
 		if (err == SWELL_OK)
 			err = fw_pool_start(c, &g, m, p); /* c untouched on error */
 		if (err == SWELL_OK)
-			(void)startup_field(&g, id, &v);
+			v = startup_get(&g, id);
 	}
 	*answer = (struct swell_msg){ .type = err == SWELL_OK ? SWELL_MSG_PARAM_ACK : SWELL_MSG_PARAM_NACK,
 				      .node = c->cfg.node };
