@@ -1,5 +1,6 @@
 #include "mem.h"
 
+#include "../regs/stm32f405_rcc.h"
 #include "console.h"
 #include "fault.h"
 
@@ -27,6 +28,7 @@ void mem_probe(struct fw_mem *m, int32_t *sram, size_t sram_words)
 	m->fast = 0;
 	m->fast_words = 0;
 	m->fast_name = "none";
+	RCC->AHB1ENR |= RCC_AHB1ENR_CCMDATARAM; /* on at reset (RM0090), made sure of */
 	if (block_is_ram(MEM_CCM_BASE)) {
 		m->fast = (int32_t *)MEM_CCM_BASE;
 		m->fast_name = "CCM 0x10000000";
