@@ -159,8 +159,9 @@ enum swell_err swell_wave_init(struct swell_wave *w, uint16_t nx, uint16_t ny, i
 	return swell_wave_init_form(w, nx, ny, storage, words, p, SWELL_FORM_EDGE);
 }
 
-enum swell_err swell_wave_init_form(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage, size_t words,
-				    const struct swell_wave_params *p, enum swell_wave_form form)
+/* The layout of both forms: h, v, acc, then the flows or u (unless given apart), then the flags. */
+static enum swell_err init_at(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage, size_t words,
+			      int32_t *u, const struct swell_wave_params *p, enum swell_wave_form form)
 {
 	size_t n = (size_t)nx * ny;
 	enum swell_err err;
@@ -171,13 +172,15 @@ enum swell_err swell_wave_init_form(struct swell_wave *w, uint16_t nx, uint16_t 
 	    ny > SWELL_WAVE_MAX_SIDE)
 		return SWELL_ESIZE;
 #ifdef SWELL_WAVE_FIXED_NX
-	if (nx != SWELL_WAVE_FIXED_NX)
+	if (form == SWELL_FORM_EDGE && nx != SWELL_WAVE_FIXED_NX) /* the velocity form takes any width */
 		return SWELL_ESIZE;
 #endif
 	err = swell_wave_check(p);
 	if (err != SWELL_OK)
 		return err;
-	if (words < (form == SWELL_FORM_VELOCITY ? SWELL_WAVE_VEL_WORDS(nx, ny) : SWELL_WAVE_WORDS(nx, ny)))
+	if (words < (form == SWELL_FORM_EDGE ? SWELL_WAVE_WORDS(nx, ny)
+			     : u             ? SWELL_WAVE_VEL_WORDS(nx, ny) - n
+					     : SWELL_WAVE_VEL_WORDS(nx, ny)))
 		return SWELL_ESIZE;
 
 	memset(w, 0, sizeof(*w));
@@ -190,8 +193,10 @@ enum swell_err swell_wave_init_form(struct swell_wave *w, uint16_t nx, uint16_t 
 	w->acc = storage + 2 * n;
 	w->form = (uint8_t)form; /* the kernel choice below depends on it */
 	if (form == SWELL_FORM_VELOCITY) {
-		w->u = storage + 3 * n;
-		w->tile = (uint8_t *)(w->u + n);
+		w->u = u ? u : storage + 3 * n;
+		w->tile = (uint8_t *)(u ? storage + 3 * n : w->u + n);
+		if (u)
+			memset(u, 0, n * sizeof(*u));
 	} else {
 		w->f = storage + 3 * n;
 		w->tile = (uint8_t *)(w->f + 4 * SWELL_WAVE_TILE * (size_t)w->tiles_x * ny);
@@ -201,6 +206,22 @@ enum swell_err swell_wave_init_form(struct swell_wave *w, uint16_t nx, uint16_t 
 	memset(storage, 0, (size_t)((w->tile - (uint8_t *)storage) + w->tiles_x * w->tiles_y));
 	apply_params(w, p);
 	return SWELL_OK;
+}
+
+enum swell_err swell_wave_init_form(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage, size_t words,
+				    const struct swell_wave_params *p, enum swell_wave_form form)
+{
+	return init_at(w, nx, ny, storage, words, NULL, p, form);
+}
+
+enum swell_err swell_wave_init_vel_apart(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage, size_t words,
+					 int32_t *u, size_t u_words, const struct swell_wave_params *p)
+{
+	if (!u)
+		return SWELL_EINVAL;
+	if (u_words < (size_t)nx * ny)
+		return SWELL_ESIZE;
+	return init_at(w, nx, ny, storage, words, u, p, SWELL_FORM_VELOCITY);
 }
 
 enum swell_err swell_wave_set_params(struct swell_wave *w, const struct swell_wave_params *p)
@@ -235,8 +256,10 @@ void swell_wave_rest(struct swell_wave *w)
 	 * in acc, are dropped with the step); a saturated height stays within the bounds */
 	for (a = 0; a < (size_t)w->done_row * w->nx; a++)
 		w->h[a] = swell_clamp(w->h[a] - w->acc[a], h_min(w), h_max(w));
-	/* v, acc and the flows (or u) are contiguous, up to the tile flags */
+	/* v, acc and the flows (or u) are contiguous, up to the tile flags; u may be kept apart */
 	memset(w->h + n, 0, (size_t)((uint8_t *)w->tile - (uint8_t *)(w->h + n)));
+	if (w->u && w->u != w->h + 3 * n)
+		memset(w->u, 0, n * sizeof(*w->u));
 	w->next_row = 0;
 	w->done_row = 0;
 	w->vel_sum = 0;

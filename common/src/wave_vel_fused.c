@@ -6,10 +6,14 @@
  * damping toward zero, as in the edge-flux kernel. Same bits as swell_wave_vel_ref. */
 #include "wave_priv.h"
 
+/* An image that fixes its usual width (SWELL_WAVE_FIXED_NX) gets the kernel twice: with the width as
+ * a constant for grids of that width, and with w->nx for any other (a pool chosen at start-up). */
 #ifdef SWELL_WAVE_FIXED_NX
-#define VEL_NX(w) SWELL_WAVE_FIXED_NX
+#define VEL_NX(w, fixed) ((fixed) ? SWELL_WAVE_FIXED_NX : (w)->nx)
+#define VEL_FIXED(w) ((w)->nx == SWELL_WAVE_FIXED_NX)
 #else
-#define VEL_NX(w) ((w)->nx)
+#define VEL_NX(w, fixed) ((void)(fixed), (w)->nx)
+#define VEL_FIXED(w) 0
 #endif
 
 #if defined(__ARM_FEATURE_DSP) && defined(__thumb2__)
@@ -86,9 +90,9 @@ static inline __attribute__((always_inline)) int32_t vel_cell(int32_t u, int32_t
  * at the east wall with its mirrored column. mid: a row with rows above and below (the row
  * pointers are then constant offsets of one pointer when the width is fixed). */
 static inline __attribute__((always_inline)) void vel_run(struct swell_wave *w, int j, int tx0, int tx1, int damp,
-							  int dsp, int mid, int64_t *sum, int32_t *any)
+							  int dsp, int mid, int fixed, int64_t *sum, int32_t *any)
 {
-	const int nx = VEL_NX(w), i0 = tx0 * 8, i1 = tx1 * 8 < nx ? tx1 * 8 : nx;
+	const int nx = VEL_NX(w, fixed), i0 = tx0 * 8, i1 = tx1 * 8 < nx ? tx1 * 8 : nx;
 	const int east = i1 == nx, m = (i1 - i0) - east; /* cells whose right column exists */
 	const int32_t *restrict hc = w->h + (size_t)j * nx + i0;
 	const int32_t *restrict hd = mid ? hc - nx : j > 0 ? hc - nx : hc;
@@ -152,7 +156,8 @@ static inline __attribute__((always_inline)) void vel_run(struct swell_wave *w, 
 	sum[1] += tot_h;
 }
 
-void swell_wave_vel_fused(struct swell_wave *w, int j, int tx0, int tx1, int damp, int64_t sum[2], int32_t *any)
+static inline __attribute__((always_inline)) void vel_rows(struct swell_wave *w, int j, int tx0, int tx1, int damp,
+							   int64_t sum[2], int32_t *any, int fixed)
 {
 	const int mid = j > 0 && j + 1 < w->ny;
 #if VEL_DSP
@@ -163,13 +168,25 @@ void swell_wave_vel_fused(struct swell_wave *w, int j, int tx0, int tx1, int dam
 
 	if (dsp) {
 		if (mid)
-			damp ? vel_run(w, j, tx0, tx1, 1, 1, 1, sum, any) : vel_run(w, j, tx0, tx1, 0, 1, 1, sum, any);
+			damp ? vel_run(w, j, tx0, tx1, 1, 1, 1, fixed, sum, any)
+			     : vel_run(w, j, tx0, tx1, 0, 1, 1, fixed, sum, any);
 		else
-			damp ? vel_run(w, j, tx0, tx1, 1, 1, 0, sum, any) : vel_run(w, j, tx0, tx1, 0, 1, 0, sum, any);
+			damp ? vel_run(w, j, tx0, tx1, 1, 1, 0, fixed, sum, any)
+			     : vel_run(w, j, tx0, tx1, 0, 1, 0, fixed, sum, any);
 		return;
 	}
 	if (mid)
-		damp ? vel_run(w, j, tx0, tx1, 1, 0, 1, sum, any) : vel_run(w, j, tx0, tx1, 0, 0, 1, sum, any);
+		damp ? vel_run(w, j, tx0, tx1, 1, 0, 1, fixed, sum, any)
+		     : vel_run(w, j, tx0, tx1, 0, 0, 1, fixed, sum, any);
 	else
-		damp ? vel_run(w, j, tx0, tx1, 1, 0, 0, sum, any) : vel_run(w, j, tx0, tx1, 0, 0, 0, sum, any);
+		damp ? vel_run(w, j, tx0, tx1, 1, 0, 0, fixed, sum, any)
+		     : vel_run(w, j, tx0, tx1, 0, 0, 0, fixed, sum, any);
+}
+
+void swell_wave_vel_fused(struct swell_wave *w, int j, int tx0, int tx1, int damp, int64_t sum[2], int32_t *any)
+{
+	if (VEL_FIXED(w))
+		vel_rows(w, j, tx0, tx1, damp, sum, any, 1);
+	else
+		vel_rows(w, j, tx0, tx1, damp, sum, any, 0);
 }

@@ -4,7 +4,9 @@
  *
  * One "name = value [unit]" a line; '#' starts a comment; blank lines are ignored. Names are the
  * parameter table's (swell/param_table.h: body.mass = 80 g, wave.damping = 0.002) and the start-up
- * parameters below, which only swell-ctl --scene can set (the pool's memory is laid out at start):
+ * parameters below, which swell-ctl --scene sets (the pool's memory is laid out at start; the
+ * STM32F405 image takes the pool's four as PARAM_SET outside RUNNING and restarts its core with
+ * them, firmware/stm32f405/logic/pool.h):
  *   pool.nx, pool.ny   grid size in cells, 2 .. 256
  *   pool.dx            cell size, 0.1 .. 65.535 mm
  *   pool.depth         rest depth, 0.01 .. 655.35 mm
@@ -23,7 +25,7 @@
 
 #define SWELL_SCENE_PARAMS_MAX 32
 
-/* Start-up parameters: ids above the wire's (never sent in PARAM_SET). */
+/* Start-up parameters: ids above the parameter table's (the core does not know them). */
 enum swell_scene_key {
 	SWELL_SCENE_NX = 0x8001,
 	SWELL_SCENE_NY,

@@ -198,6 +198,12 @@ enum swell_err swell_wave_init(struct swell_wave *w, uint16_t nx, uint16_t ny, i
 enum swell_err swell_wave_init_form(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage, size_t words,
 				    const struct swell_wave_params *p, enum swell_wave_form form);
 
+/* The velocity form with the momentum u apart from the rest (a port may put it in another memory):
+ * storage holds h, v, acc and the tile flags (SWELL_WAVE_VEL_WORDS(nx, ny) - nx ny words), u nx ny
+ * words. The same bits as swell_wave_init_form; on error *w is untouched. */
+enum swell_err swell_wave_init_vel_apart(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage, size_t words,
+					 int32_t *u, size_t u_words, const struct swell_wave_params *p);
+
 /* Change parameters on a running field; on error nothing changes. */
 enum swell_err swell_wave_set_params(struct swell_wave *w, const struct swell_wave_params *p);
 

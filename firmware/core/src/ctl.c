@@ -148,7 +148,19 @@ static void sent_set(struct swell_ctl *c, uint32_t a, int16_t v)
 	c->sent[a >> 1] = (c->sent[a >> 1] & ~(0xffffu << shift)) | ((uint32_t)(uint16_t)v << shift);
 }
 
-enum swell_err swell_ctl_init(struct swell_ctl *c, const struct swell_ctl_config *cfg, int32_t *arena, size_t words)
+size_t swell_ctl_arena_words_apart(uint16_t nx, uint16_t ny)
+{
+	return SWELL_WAVE_VEL_WORDS(nx, ny) - (size_t)nx * ny;
+}
+
+size_t swell_ctl_apart_words(uint16_t nx, uint16_t ny)
+{
+	return (size_t)nx * ny + sent_words(nx, ny);
+}
+
+/* apart: NULL, or the block for the solver's momentum u and the sent samples (in that order). */
+static enum swell_err init_at(struct swell_ctl *c, const struct swell_ctl_config *cfg, int32_t *arena, size_t words,
+			      int32_t *apart, size_t apart_words)
 {
 	struct swell_body_scene sc;
 	struct swell_fsafety_params sp;
@@ -161,22 +173,29 @@ enum swell_err swell_ctl_init(struct swell_ctl *c, const struct swell_ctl_config
 	err = swell_ctl_check(cfg);
 	if (err != SWELL_OK)
 		return err;
-	if (words < swell_ctl_arena_words(cfg->nx, cfg->ny))
+	if (apart ? words < swell_ctl_arena_words_apart(cfg->nx, cfg->ny) ||
+			    apart_words < swell_ctl_apart_words(cfg->nx, cfg->ny)
+		  : words < swell_ctl_arena_words(cfg->nx, cfg->ny))
 		return SWELL_ESIZE;
 
 	memset(c, 0, sizeof(*c));
 	c->cfg = *cfg;
 	sc = body_scene(cfg);
 	sp = safety_params(cfg);
+	n = (uint32_t)cfg->nx * cfg->ny;
 	/* checked above: none of these can fail */
-	swell_wave_init_form(&c->wave, cfg->nx, cfg->ny, arena, SWELL_WAVE_VEL_WORDS(cfg->nx, cfg->ny), &cfg->wave,
-			     SWELL_FORM_VELOCITY);
+	if (apart) {
+		swell_wave_init_vel_apart(&c->wave, cfg->nx, cfg->ny, arena, words, apart, n, &cfg->wave);
+		c->sent = (uint32_t *)(apart + n);
+	} else {
+		swell_wave_init_form(&c->wave, cfg->nx, cfg->ny, arena, SWELL_WAVE_VEL_WORDS(cfg->nx, cfg->ny),
+				     &cfg->wave, SWELL_FORM_VELOCITY);
+		c->sent = (uint32_t *)(arena + SWELL_WAVE_VEL_WORDS(cfg->nx, cfg->ny));
+	}
 	swell_body_init(&c->body, &cfg->body, &cfg->xform, &sc, &c->wave);
 	for (k = 0; k < 3; k++)
 		swell_fsafety_init(&c->safety[k], &sp);
 
-	c->sent = (uint32_t *)(arena + SWELL_WAVE_VEL_WORDS(cfg->nx, cfg->ny));
-	n = (uint32_t)cfg->nx * cfg->ny;
 	for (a = 0; a < n; a++)
 		sent_set(c, a, NEVER_SENT);
 	c->ticks_per_step = cfg->tick_hz / cfg->solver_hz;
@@ -195,6 +214,17 @@ enum swell_err swell_ctl_init(struct swell_ctl *c, const struct swell_ctl_config
 		c->scene_id = (uint8_t)swell_crc32(0, geo, sizeof(geo));
 	}
 	return SWELL_OK;
+}
+
+enum swell_err swell_ctl_init(struct swell_ctl *c, const struct swell_ctl_config *cfg, int32_t *arena, size_t words)
+{
+	return init_at(c, cfg, arena, words, NULL, 0);
+}
+
+enum swell_err swell_ctl_init_apart(struct swell_ctl *c, const struct swell_ctl_config *cfg, int32_t *arena,
+				    size_t words, int32_t *apart, size_t apart_words)
+{
+	return apart ? init_at(c, cfg, arena, words, apart, apart_words) : SWELL_EINVAL;
 }
 
 /* ---- queues ---- */

@@ -5,6 +5,8 @@
 #include <string.h>
 
 #include "../logic/core_run.h"
+#include "../logic/pool.h"
+#include "swell/scene.h"
 #include "../logic/scene.h"
 
 static const char usage[] =
@@ -15,6 +17,8 @@ static const char usage[] =
 	"--core TICKS: also run the controller core on that scene at 2500 Hz for TICKS ticks with the\n"
 	"self-test's scripted device, and print its checksum (FORCE_CMD payloads, then the water).\n"
 	"--core-hz HZ: the core's tick rate for --core (default 2500; the image also runs 1000).\n"
+	"--pool N: the core on an N x N pool instead, set as the image's self-test sets it (PARAM_SET of\n"
+	"  pool.nx and pool.ny through logic/pool.c; the same bits wherever the buffers are).\n"
 	"--cost: also run the three cost scenes (calm, local, agitated; damped, 40 steps), in the edge-flux\n"
 	"  and then the velocity form (velocity-calm, ...), and print\n"
 	"each one's checksum, as the image's self-test does.\n"
@@ -24,12 +28,15 @@ int main(int argc, char **argv)
 {
 	static int32_t storage[FW_SCENE_WORDS];
 	static int32_t arena[FW_CORE_ARENA_WORDS];
+	static int32_t pool_arena[SWELL_WAVE_VEL_WORDS(SWELL_GRID_MAX, SWELL_GRID_MAX)];
+	static int32_t pool_apart[SWELL_GRID_MAX * SWELL_GRID_MAX * 3 / 2];
+	const struct fw_mem mem = { pool_arena, sizeof(pool_arena) / 4, pool_apart, sizeof(pool_apart) / 4, "host" };
 	static struct swell_ctl ctl;
 	struct swell_wave w;
-	unsigned long steps = 200, n, core_ticks = 0, core_hz = SWELL_POOL_TICK_HZ;
+	unsigned long steps = 200, n, core_ticks = 0, core_hz = SWELL_POOL_TICK_HZ, pool = 0;
 	enum swell_err err;
 	enum swell_wave_kernel kernel = SWELL_KERNEL_AUTO;
-	int i, cost = 0;
+	int i, k, cost = 0;
 
 	for (i = 1; i < argc; i++) {
 		if (!strcmp(argv[i], "-h") || !strcmp(argv[i], "--help")) {
@@ -61,6 +68,15 @@ int main(int argc, char **argv)
 				fprintf(stderr,
 					"swell-fw-scene: --core-hz '%s' is not a multiple of the 250 Hz solver "
 					"rate in [500, 100000]\n",
+					argv[i]);
+				return 2;
+			}
+		} else if (!strcmp(argv[i], "--pool") && i + 1 < argc) {
+			char *end;
+
+			pool = strtoul(argv[++i], &end, 10);
+			if (*end || !*argv[i] || pool < SWELL_WAVE_MIN_SIDE || pool > SWELL_GRID_MAX) {
+				fprintf(stderr, "swell-fw-scene: --pool '%s' is not a side in [2, 256] cells\n",
 					argv[i]);
 				return 2;
 			}
@@ -117,6 +133,16 @@ int main(int argc, char **argv)
 		struct fw_core_run r;
 
 		err = fw_core_init(&ctl, &r, arena, FW_CORE_ARENA_WORDS, (uint32_t)core_hz);
+		for (k = 0; pool && err == SWELL_OK && k < 2; k++) {
+			struct swell_msg set = { .type = SWELL_MSG_PARAM_SET }, ans;
+			struct fw_pool_at place;
+
+			set.u.param_set.id = k ? SWELL_SCENE_NY : SWELL_SCENE_NX;
+			set.u.param_set.value = (int32_t)pool;
+			(void)fw_pool_param(&ctl, &mem, &set, &ans, &place);
+			if (ans.type != SWELL_MSG_PARAM_ACK)
+				err = (enum swell_err)ans.u.param_nack.err;
+		}
 		if (err != SWELL_OK) {
 			fprintf(stderr, "swell-fw-scene: core refused: %s\n", swell_err_str(err));
 			return 1;

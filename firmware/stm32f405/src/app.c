@@ -7,6 +7,7 @@
 #include "fault.h"
 #include "image.h"
 #include "iwdg.h"
+#include "mem.h"
 #include "safe.h"
 #include "swell/proto.h"
 #include "swell/transport.h"
@@ -15,6 +16,7 @@
 
 int32_t app_arena[APP_ARENA_WORDS];
 struct swell_ctl app_ctl;
+struct fw_mem app_mem;
 
 #define USB_RING 8u /* decoded messages from USB waiting for the tick (SPSC: USB ISR -> tick) */
 /* Ticks between an accepted ENTER_BOOTLOADER and the reset: the zero force and the last heartbeat
@@ -28,6 +30,11 @@ static struct {
 	uint32_t usb_dropped, bad_frames_reported, overruns_seen, bus_offs_seen;
 	struct swell_proto_stats stats;
 	uint8_t usb_seq;
+	struct fw_pool_at place;
+	/* a start-up parameter's request (logic/pool.h), taken at a tick without a background part
+	 * running, and its answer, sent by the host link's drain */
+	struct swell_msg pool_req, pool_ans;
+	volatile uint8_t pool_req_on, pool_ans_on;
 } app;
 
 static enum swell_ctl_link link_of(const struct swell_msg *m)
@@ -88,6 +95,15 @@ static void drain(enum swell_ctl_link l)
 	uint32_t n;
 	size_t k;
 
+	if (l == SWELL_LINK_HOST && app.pool_ans_on) {
+		out[0] = app.pool_ans;
+		if (on_can)
+			send_can(&out[0]);
+		else
+			send_usb(out, 1);
+		__asm__ volatile("dmb" ::: "memory");
+		app.pool_ans_on = 0;
+	}
 	for (n = 0; n < SWELL_CTL_QUEUE / 8; n++) {
 		k = swell_ctl_tx(&app_ctl, l, out, 8);
 		if (!k)
@@ -123,6 +139,18 @@ static int host_shares_device_carrier(void)
  * slice and telemetry (the background part) run in thread mode right after, from app_run's loop; if
  * one is still running when the next tick comes, the core counts an overrun and the force path goes
  * first. Bounded: at most a CAN RX ring and a USB ring of messages, one force part, one drain. */
+/* A message for the core, or a start-up parameter's request for the port (one at a time: a second
+ * one before the first is answered is dropped, and the host's request times out). */
+static void rx(const struct swell_msg *m)
+{
+	if (link_of(m) != SWELL_LINK_HOST || !fw_pool_is_startup(m))
+		swell_ctl_rx(&app_ctl, link_of(m), m);
+	else if (!app.pool_req_on) {
+		app.pool_req = *m;
+		app.pool_req_on = 1;
+	}
+}
+
 static void app_tick(void)
 {
 	struct swell_msg m;
@@ -132,12 +160,19 @@ static void app_tick(void)
 
 	while (app.can_on && can_recv(&f) == SWELL_OK)
 		if (swell_can_decode(f.id, f.data, f.len, &m, &app.stats) == SWELL_OK)
-			swell_ctl_rx(&app_ctl, link_of(&m), &m);
+			rx(&m);
 	for (n = 0; n < USB_RING && app.usb_tail != app.usb_head; n++) {
 		m = app.usb_rx[app.usb_tail % USB_RING];
 		__asm__ volatile("dmb" ::: "memory");
 		app.usb_tail++;
-		swell_ctl_rx(&app_ctl, link_of(&m), &m);
+		rx(&m);
+	}
+	/* a new pool restarts the core: never under a background part still running */
+	if (app.pool_req_on && !app.pool_ans_on && !swell_ctl_background_due(&app_ctl)) {
+		(void)fw_pool_param(&app_ctl, &app_mem, &app.pool_req, &app.pool_ans, &app.place);
+		app.pool_req_on = 0;
+		__asm__ volatile("dmb" ::: "memory");
+		app.pool_ans_on = 1;
 	}
 	bad = swell_proto_rejected_total(&app.stats);
 	if (bad != app.bad_frames_reported) {
@@ -207,7 +242,9 @@ void app_run(const struct clock_info *ci, int can_ok, int usb_ok, const struct a
 	cfg.tick_hz = tick_hz;
 	cfg.safety.tick_hz = tick_hz;
 	flt.id = cfg.node;
-	err = swell_ctl_init(&app_ctl, &cfg, app_arena, APP_ARENA_WORDS);
+	err = fw_pool_start(&app_ctl, &cfg, &app_mem, &app.place);
+	if (err == SWELL_OK)
+		mem_report(&app_ctl, &app_mem, &app.place);
 	if (err == SWELL_OK && can_ok) {
 		err = can_start(ci->pclk1_hz, SWELL_CAN_BITRATE, &flt, 1, 0, prio->can_rx, prio->can_sce);
 		app.can_on = app.device_on_can = err == SWELL_OK;

@@ -8,15 +8,21 @@
 #include <stdint.h>
 
 #include "../logic/core_run.h"
+#include "../logic/pool.h"
 #include "../logic/scene.h"
 #include "clock.h"
 #include "swell/ctl.h"
 
-/* The core and its arena, shared with the self-test (never both at once): SRAM only, see
- * stm32f405.ld. The arena also holds the self-test scene's field. */
-#define APP_ARENA_WORDS (FW_CORE_ARENA_WORDS > FW_SCENE_WORDS ? FW_CORE_ARENA_WORDS : FW_SCENE_WORDS)
+/* The core and its arena, shared with the self-test (never both at once). The arena is the SRAM
+ * left beside the stack and the rest of .bss (120 KB): it holds the self-test scene's field, and the
+ * pool's buffers with the fast block found at boot (src/mem.h, logic/pool.h): the largest pool is
+ * about 100 x 100 cells (h, v, acc in SRAM; u and the sent samples in the fast block). */
+#define APP_ARENA_WORDS 30720u
+_Static_assert(APP_ARENA_WORDS >= FW_CORE_ARENA_WORDS && APP_ARENA_WORDS >= FW_SCENE_WORDS,
+	       "the arena holds the reference pool's core and the self-test scene's field");
 extern int32_t app_arena[APP_ARENA_WORDS];
 extern struct swell_ctl app_ctl;
+extern struct fw_mem app_mem; /* found at boot (mem_probe) */
 
 struct app_prio {
 	uint8_t tick, can_rx, can_sce, usb;

@@ -67,16 +67,55 @@ __attribute__((used, noreturn)) void fault_report(const struct fault_frame *f, u
 	halt();
 }
 
-/* The only assembly: pick MSP or PSP by EXC_RETURN bit 2 and pass the frame to C. */
-#define FAULT_ENTRY(name)                               \
-	__attribute__((naked)) void name(void)          \
-	{                                               \
-		__asm__ volatile("tst lr, #4\n\t"       \
-				 "ite eq\n\t"           \
-				 "mrseq r0, msp\n\t"    \
-				 "mrsne r0, psp\n\t"    \
-				 "mov r1, lr\n\t"       \
-				 "b fault_report\n\t"); \
+/* fault_probe_read: r1 = 1, the one load that may fault (a 16-bit LDR at fault_probe_insn), r0 = r1. A
+ * bus fault there is answered by fault_probe_fixup: r1 = 0 in the stacked frame, the load skipped. */
+__asm__(".syntax unified\n\t"
+	".thumb\n\t"
+	".section .text.fault_probe_read,\"ax\",%progbits\n\t"
+	".global fault_probe_read\n\t"
+	".type fault_probe_read, %function\n\t"
+	".thumb_func\n"
+	"fault_probe_read:\n\t"
+	"movs r1, #1\n"
+	"fault_probe_insn:\n\t"
+	"ldr r2, [r0]\n\t"
+	"mov r0, r1\n\t"
+	"bx lr\n\t"
+	".size fault_probe_read, .-fault_probe_read\n\t"
+	".text");
+
+/* 1 when the fault is the probe's load: the frame then resumes after it with r1 = 0. */
+__attribute__((used)) int fault_probe_fixup(struct fault_frame *f);
+__attribute__((used)) int fault_probe_fixup(struct fault_frame *f)
+{
+	extern const char fault_probe_insn[];
+
+	if ((f->pc & ~1u) != ((uint32_t)(uintptr_t)fault_probe_insn & ~1u))
+		return 0;
+	f->r1 = 0;
+	f->pc += 2; /* LDR r2, [r0]: a 16-bit encoding */
+	SCB->CFSR = SCB->CFSR & 0xFF00u; /* the bus fault's status bits, written back to clear them */
+	SCB->HFSR = SCB->HFSR; /* FORCED, had it escalated */
+	return 1;
+}
+
+/* The only assembly of the handlers: pick MSP or PSP by EXC_RETURN bit 2; a probe's fault returns to
+ * the probe, any other goes to fault_report with the frame. */
+#define FAULT_ENTRY(name)                                   \
+	__attribute__((naked)) void name(void)              \
+	{                                                   \
+		__asm__ volatile("tst lr, #4\n\t"           \
+				 "ite eq\n\t"               \
+				 "mrseq r0, msp\n\t"        \
+				 "mrsne r0, psp\n\t"        \
+				 "push {r0, lr}\n\t"        \
+				 "bl fault_probe_fixup\n\t" \
+				 "mov r2, r0\n\t"           \
+				 "pop {r0, r1}\n\t"         \
+				 "cmp r2, #0\n\t"           \
+				 "it ne\n\t"                \
+				 "bxne r1\n\t"              \
+				 "b fault_report\n\t");     \
 	}
 
 FAULT_ENTRY(isr_hardfault)

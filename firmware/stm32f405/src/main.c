@@ -12,6 +12,7 @@
 #include "console.h"
 #include "fault.h"
 #include "image.h"
+#include "mem.h"
 #include "safe.h"
 #include "selftest.h"
 #include "timebase.h"
@@ -116,6 +117,9 @@ int main(void)
 	con_puts(" bytes, crc32 0x");
 	con_put_hex32(img.crc);
 	con_puts(" ok\n");
+
+	mem_probe(&app_mem, app_arena,
+		  APP_ARENA_WORDS); /* the bus fault is enabled: a missing block is a recoverable fault */
 
 	timebase_init(PRIO_SYSTICK);
 	con_puts("cycles: ");

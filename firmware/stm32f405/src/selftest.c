@@ -8,7 +8,9 @@
 #include "../regs/stm32f405_periph.h"
 #include "console.h"
 #include "loopback.h"
+#include "mem.h"
 #include "safe.h"
+#include "swell/scene.h"
 #include "tick.h"
 #include "timebase.h"
 
@@ -301,7 +303,8 @@ static int run_tick(uint32_t tim_clk_hz)
 #ifndef SWELL_FW_CORE_TICKS
 #define SWELL_FW_CORE_TICKS 2500u
 #endif
-#define CORE_MAX_K 10u /* phases reported one by one (ticks per solver step at 2500 Hz) */
+#define CORE_MAX_K 10u
+#define SELFTEST_POOL_N 88u /* the larger pool's side: u and the sent samples in the fast block */
 
 /* instructions as % of a tick at tick_hz at one instruction a cycle (168 MHz), one decimal */
 static void put_pct(uint64_t systicks, uint32_t tick_hz)
@@ -309,11 +312,76 @@ static void put_pct(uint64_t systicks, uint32_t tick_hz)
 	con_put_ratio(systicks * INSN_NUM * tick_hz * 100u, (uint64_t)INSN_DEN * 168000000u, 1);
 }
 
-static void put_core_label(uint32_t tick_hz)
+/* "core" at 2500 Hz and "core1000" at 1000 Hz on the reference pool (the qemu-arm test compares them
+ * with swell-fw-scene --core), "pool96x96" on another pool; then " at 2500 Hz" for the figures. */
+static void put_core_label(uint32_t tick_hz, uint16_t pool_n, int at)
 {
-	con_puts("core");
-	if (tick_hz != 2500u)
+	con_puts(pool_n ? "pool" : "core");
+	if (pool_n) {
+		con_put_u32(pool_n);
+		con_putc('x');
+		con_put_u32(pool_n);
+	} else if (tick_hz != 2500u && !at) {
 		con_put_u32(tick_hz);
+	}
+	if (at) {
+		con_puts(" at ");
+		con_put_u32(tick_hz);
+		con_puts(" Hz");
+	}
+}
+
+/* A PARAM_SET of a start-up parameter through the port's path (logic/pool.h), as the host sends it:
+ * 1 when the answer is the one expected (ACK with the value, or NACK with want_err), printed. */
+static int pool_set(uint16_t id, const char *name, int32_t value, enum swell_err want_err)
+{
+	struct swell_msg set = { .type = SWELL_MSG_PARAM_SET }, ans;
+	struct fw_pool_at place;
+	uint16_t nx = ctl.cfg.nx, ny = ctl.cfg.ny;
+	int ok;
+
+	set.u.param_set.id = id;
+	set.u.param_set.value = value;
+	set.u.param_set.seq = 7;
+	if (!fw_pool_param(&ctl, &app_mem, &set, &ans, &place))
+		return 0;
+	con_puts("pool: set ");
+	con_puts(name);
+	con_putc(' ');
+	con_put_i64(value);
+	con_puts(" in ");
+	con_puts(swell_ctl_state_name(ctl.state));
+	if (ans.type == SWELL_MSG_PARAM_ACK) {
+		con_puts(": ACK, pool now ");
+		con_put_u32(ctl.cfg.nx);
+		con_putc('x');
+		con_put_u32(ctl.cfg.ny);
+		con_putc('\n');
+		mem_report(&ctl, &app_mem, &place);
+		return want_err == SWELL_OK && ans.u.param_ack.value == value && ans.u.param_ack.seq == 7;
+	}
+	ok = want_err == (enum swell_err)ans.u.param_nack.err && ctl.cfg.nx == nx && ctl.cfg.ny == ny;
+	con_puts(": NACK ");
+	con_puts(swell_err_str((enum swell_err)ans.u.param_nack.err));
+	con_puts(", pool still ");
+	con_put_u32(ctl.cfg.nx);
+	con_putc('x');
+	con_put_u32(ctl.cfg.ny);
+	con_puts(ok ? "\n" : " (UNEXPECTED)\n");
+	return ok;
+}
+
+/* The pool chosen at start-up: 128 x 64 fits (u and the sent samples go to the fast block), 128 x
+ * 128 does not (refused, nothing changed), then pool_n x pool_n. */
+static int choose_pool(uint16_t pool_n)
+{
+	int ok = 1;
+
+	ok &= pool_set(SWELL_SCENE_NX, "pool.nx", 128, SWELL_OK);
+	ok &= pool_set(SWELL_SCENE_NY, "pool.ny", 128, SWELL_ESIZE);
+	ok &= pool_set(SWELL_SCENE_NX, "pool.nx", pool_n, SWELL_OK);
+	ok &= pool_set(SWELL_SCENE_NY, "pool.ny", pool_n, SWELL_OK);
+	return ok;
 }
 
 /* A window for a trace of one tick (tools/bench/m4-tick-trace.sh): a debugger writes the tick's rate
@@ -336,7 +404,7 @@ __attribute__((noinline)) void selftest_trace_end(void)
  * solver slice and telemetry). Under QEMU the tick timer cannot run periodically (see run_tick), so
  * an overrun is counted where force + background exceed the period at one instruction a cycle: on
  * the board that background would still run when the next interrupt comes. */
-static int run_core(uint32_t tick_hz, uint32_t ticks)
+static int run_core(uint32_t tick_hz, uint32_t ticks, uint16_t pool_n)
 {
 	struct fw_core_run r;
 	uint64_t t0, t1, t2, empty, f, b, sum = 0, fmax = 0, bmax = 0, wmax = 0;
@@ -351,6 +419,15 @@ static int run_core(uint32_t tick_hz, uint32_t ticks)
 		con_putc('\n');
 		return 0;
 	}
+	if (!pool_n && tick_hz == 2500u) { /* the reference pool, where the controller's start puts it */
+		struct fw_pool_at at;
+
+		if (fw_pool_place(ctl.cfg.nx, ctl.cfg.ny, &app_mem, &at) != SWELL_OK || at.apart)
+			return 0;
+		mem_report(&ctl, &app_mem, &at);
+	}
+	if (pool_n && !choose_pool(pool_n))
+		return 0;
 	t0 = timebase_systick();
 	empty = timebase_systick() - t0; /* cost of the measurement itself */
 	for (n = 0; n < ticks; n++) {
@@ -384,11 +461,11 @@ static int run_core(uint32_t tick_hz, uint32_t ticks)
 			overruns++;
 	}
 	/* "core" at 2500 Hz (the qemu-arm test compares it with swell-fw-scene --core), "core<hz>" else */
-	put_core_label(tick_hz);
+	put_core_label(tick_hz, pool_n, 0);
 	con_puts(" ticks ");
 	con_put_u32(ticks);
 	con_putc('\n');
-	put_core_label(tick_hz);
+	put_core_label(tick_hz, pool_n, 0);
 	con_puts(" checksum 0x");
 	con_put_hex32(fw_core_checksum(&ctl, &r));
 	con_putc('\n');
@@ -403,9 +480,8 @@ static int run_core(uint32_t tick_hz, uint32_t ticks)
 	con_puts(" uN, solver steps ");
 	con_put_u32(ctl.n.solver_steps);
 	con_putc('\n');
-	con_puts("core at ");
-	con_put_u32(tick_hz);
-	con_puts(" Hz: worst background ");
+	put_core_label(tick_hz, pool_n, 1);
+	con_puts(": worst background ");
 	put_insn(bmax, 1);
 	con_puts(" instructions (");
 	put_pct(bmax, tick_hz);
@@ -426,9 +502,8 @@ static int run_core(uint32_t tick_hz, uint32_t ticks)
 	con_puts("; overruns ");
 	con_put_u32(overruns);
 	con_putc('\n');
-	con_puts("core at ");
-	con_put_u32(tick_hz);
-	con_puts(" Hz: worst background by solver phase (instructions):");
+	put_core_label(tick_hz, pool_n, 1);
+	con_puts(": worst background by solver phase (instructions):");
 	for (k = 0; k < CORE_MAX_K && k < ctl.ticks_per_step; k++) {
 		con_putc(' ');
 		put_insn(bphase[k], 1);
@@ -451,8 +526,9 @@ int selftest_run(uint32_t tim_clk_hz)
 	run_naive();
 	ok &= run_tick(tim_clk_hz);
 	ok &= loopback_selftest();
-	ok &= run_core(2500, SWELL_FW_CORE_TICKS); /* HapticMaster servo rate, device on USB */
-	ok &= run_core(1000, SWELL_FW_CORE_TICKS * 2 / 5); /* classic CAN, the same 1 s */
+	ok &= run_core(2500, SWELL_FW_CORE_TICKS, 0); /* HapticMaster servo rate, device on USB */
+	ok &= run_core(1000, SWELL_FW_CORE_TICKS * 2 / 5, 0); /* classic CAN, the same 1 s */
+	ok &= run_core(2500, SWELL_FW_CORE_TICKS, SELFTEST_POOL_N); /* a larger pool chosen at start-up */
 	con_puts("stack: ");
 	con_put_u32(stack_used_bytes());
 	con_puts(" of ");

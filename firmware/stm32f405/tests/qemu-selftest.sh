@@ -47,7 +47,18 @@ if [ -n "$ticks" ]; then
 	echo "qemu-selftest: core at 1000 Hz, $ticks ticks: target checksum $tcore, host checksum $hcore"
 	[ -n "$tcore" ] && [ "$tcore" = "$hcore" ] || { echo "qemu-selftest: FAIL: 1000 Hz core checksums differ"; exit 1; }
 fi
-grep '^core.* Hz: worst background [0-9]' "$out" | sed 's/^/qemu-selftest: /'
+# the larger pool chosen at start-up (PARAM_SET of pool.nx and pool.ny; 128 x 128 refused: it does
+# not fit), its buffers split between SRAM and the fast block: the same bits as the host's
+pool=$(sed -n 's/^pool\([0-9]*\)x[0-9]* ticks \([0-9]*\).*/\1 \2/p' "$out")
+[ -n "$pool" ] || { echo "qemu-selftest: FAIL: no run on a pool chosen at start-up"; exit 1; }
+grep -q '^pool: set pool.ny 128 in boot: NACK size out of range, pool still 128x64$' "$out" ||
+	{ echo "qemu-selftest: FAIL: 128 x 128 was not refused as too big with nothing changed"; exit 1; }
+{ grep '^memory: ' "$out"; grep '^pool: [0-9]' "$out" | tail -1; } | sed 's/^/qemu-selftest: /'
+tpool=$(sed -n 's/^pool[0-9x]* checksum \(0x[0-9a-f]*\).*/\1/p' "$out")
+hpool=$("$scene" --steps 0 --core "${pool#* }" --pool "${pool% *}" | sed -n 's/^core checksum \(0x[0-9a-f]*\).*/\1/p')
+echo "qemu-selftest: pool ${pool% *} x ${pool% *}, ${pool#* } ticks: target checksum $tpool, host checksum $hpool"
+[ -n "$tpool" ] && [ "$tpool" = "$hpool" ] || { echo "qemu-selftest: FAIL: the chosen pool's checksums differ"; exit 1; }
+grep '^\(core\|pool\).* Hz: worst background [0-9]' "$out" | sed 's/^/qemu-selftest: /'
 # the tick's budgets at 2500 Hz on the reference scene, in instructions under -icount (exact) and by
 # the cycle model of docs/stm32f405.md (tools/bench/m4-cycles.py on a trace of the force path:
 # 1.81 cycles an instruction; its solver kernels 1.27): the force path (device sample to FORCE_CMD)

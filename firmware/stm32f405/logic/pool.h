@@ -1,0 +1,54 @@
+/* The pool (grid, cell size, depth) as a start-up choice of the image, within the memory the port
+ * has: two blocks, the SRAM arena and a fast block only the CPU reaches (the STM32F405's
+ * core-coupled RAM on silicon; under QEMU, which maps no CCM, the SRAM it maps above 128 KB). The
+ * core's buffers all go into the SRAM arena when they fit there; else the solver's momentum u and
+ * the telemetry's sent samples (read and written by the CPU only, never by DMA, CAN or USB) go into
+ * the fast block. A pool that fits neither way is refused with SWELL_ESIZE and nothing changes.
+ *
+ * On the wire: PARAM_SET of a start-up parameter (pool.nx, pool.ny, pool.dx, pool.depth; the ids
+ * of enum swell_scene_key, swell/scene.h) outside RUNNING restarts the core from BOOT with the new
+ * pool, the water at rest and every other parameter kept; pool.dx and pool.depth set wave.e by
+ * eq. 2 at the solver rate (as a scene file does when it gives no wave.e). Answered by PARAM_ACK
+ * with the value now in force, or PARAM_NACK with the reason: SWELL_ESTATE in RUNNING, SWELL_ERANGE
+ * or SWELL_ESIZE for a value outside its range (swell_ctl_check), SWELL_ESIZE for a pool that does
+ * not fit, SWELL_EUNSTABLE when eq. 2 gives an e the solver refuses. PARAM_GET reads them. Pure
+ * logic, tested on the host. */
+#ifndef SWELL_FW_POOL_H
+#define SWELL_FW_POOL_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "swell/ctl.h"
+
+struct fw_mem {
+	int32_t *sram;
+	size_t sram_words;
+	int32_t *fast; /* NULL when the port has none */
+	size_t fast_words;
+	const char *fast_name; /* where the fast block is, for the boot report */
+};
+
+struct fw_pool_at {
+	int apart; /* u and the sent samples in the fast block */
+	size_t sram_words, fast_words; /* used in each block */
+};
+
+/* Where an nx x ny pool's buffers go in m; SWELL_ESIZE when it does not fit. */
+enum swell_err fw_pool_place(uint16_t nx, uint16_t ny, const struct fw_mem *m, struct fw_pool_at *p);
+
+/* Start the core with cfg in m (swell_ctl_init or swell_ctl_init_apart by fw_pool_place). On error
+ * *c and *p are untouched. */
+enum swell_err fw_pool_start(struct swell_ctl *c, const struct swell_ctl_config *cfg, const struct fw_mem *m,
+			     struct fw_pool_at *p);
+
+/* 1 for a PARAM_SET or PARAM_GET of a start-up parameter (fw_pool_param's, not the core's). */
+int fw_pool_is_startup(const struct swell_msg *m);
+
+/* A host message for the port: 1 when it is a PARAM_SET or PARAM_GET of a start-up parameter, with
+ * its answer (PARAM_ACK or PARAM_NACK) in *answer, the core restarted on an accepted change and *p
+ * updated; 0 for any other message (the core's own). */
+int fw_pool_param(struct swell_ctl *c, const struct fw_mem *m, const struct swell_msg *in, struct swell_msg *answer,
+		  struct fw_pool_at *p);
+
+#endif

@@ -1,0 +1,176 @@
+// The pool as a start-up choice of the image (logic/pool.c): placement in SRAM and the fast block,
+// PARAM_SET / PARAM_GET of the start-up parameters, refusals that change nothing.
+#include <catch2/catch.hpp>
+
+#include <cstring>
+#include <vector>
+
+extern "C" {
+#include "logic/core_run.h"
+#include "logic/pool.h"
+#include "swell/scene.h"
+}
+
+namespace {
+// The image's blocks: a 120 KB SRAM arena and the 64 KB fast block (CCM, or QEMU's SRAM above 128 KB).
+struct mem_f405 {
+	std::vector<int32_t> sram = std::vector<int32_t>(30720), fast = std::vector<int32_t>(16384);
+	fw_mem m{sram.data(), sram.size(), fast.data(), fast.size(), "fast"};
+};
+
+swell_msg set_msg(uint16_t id, int32_t v)
+{
+	swell_msg m{};
+	m.type = SWELL_MSG_PARAM_SET;
+	m.u.param_set.id = id;
+	m.u.param_set.value = v;
+	m.u.param_set.seq = 42;
+	return m;
+}
+
+// ticks of the scripted device (logic/core_run.h) on c; returns the run's checksum
+uint32_t run(swell_ctl *c, fw_core_run *r, uint32_t ticks)
+{
+	for (uint32_t n = 0; n < ticks; n++) {
+		fw_core_device(c, r);
+		swell_ctl_tick(c);
+		fw_core_drain(c, r);
+	}
+	return fw_core_checksum(c, r);
+}
+} // namespace
+
+TEST_CASE("a pool goes whole into SRAM when it fits, else u and the sent samples into the fast block, else it is refused",
+	  "[pool]")
+{
+	mem_f405 f;
+	fw_pool_at p{};
+
+	REQUIRE(fw_pool_place(64, 64, &f.m, &p) == SWELL_OK);
+	CHECK(p.apart == 0);
+	CHECK(p.sram_words == swell_ctl_arena_words(64, 64));
+	CHECK(p.fast_words == 0);
+	REQUIRE(fw_pool_place(88, 88, &f.m, &p) == SWELL_OK);
+	CHECK(p.apart == 1);
+	CHECK(p.sram_words == 3 * 88 * 88 + (11 * 11 + 3) / 4); // h, v, acc and the tile flags
+	CHECK(p.fast_words == 88 * 88 + 88 * 88 / 2); // u and the sent samples
+	REQUIRE(fw_pool_place(100, 100, &f.m, &p) == SWELL_OK);
+	const fw_pool_at before = p;
+	CHECK(fw_pool_place(128, 128, &f.m, &p) == SWELL_ESIZE);
+	CHECK(fw_pool_place(104, 104, &f.m, &p) == SWELL_ESIZE); // SRAM: 3 x 10816 words > 30720
+	CHECK(std::memcmp(&p, &before, sizeof(p)) == 0);
+	fw_mem no_fast = f.m;
+	no_fast.fast = nullptr;
+	no_fast.fast_words = 0;
+	CHECK(fw_pool_place(88, 88, &no_fast, &p) == SWELL_ESIZE);
+	CHECK(fw_pool_place(80, 80, &no_fast, &p) == SWELL_OK);
+}
+
+TEST_CASE("a start-up parameter set on the wire restarts the core with the new pool, and one that does not fit is "
+	  "refused with its reason and changes nothing",
+	  "[pool]")
+{
+	mem_f405 f;
+	static swell_ctl c;
+	fw_core_run r;
+	fw_pool_at p{};
+	swell_msg ans{};
+
+	REQUIRE(fw_core_init(&c, &r, f.sram.data(), f.sram.size(), 2500) == SWELL_OK);
+	c.cfg.wave.damping = 5000; // a parameter set before: kept by the restart
+
+	swell_msg m = set_msg(SWELL_PARAM_WAVE_DAMPING, 1);
+	CHECK(fw_pool_param(&c, &f.m, &m, &ans, &p) == 0); // the core's own parameter
+	CHECK_FALSE(fw_pool_is_startup(&m));
+
+	m = set_msg(SWELL_SCENE_NX, 128);
+	REQUIRE(fw_pool_param(&c, &f.m, &m, &ans, &p) == 1);
+	REQUIRE(ans.type == SWELL_MSG_PARAM_ACK);
+	CHECK(ans.u.param_ack.id == SWELL_SCENE_NX);
+	CHECK(ans.u.param_ack.value == 128);
+	CHECK(ans.u.param_ack.seq == 42);
+	CHECK(c.cfg.nx == 128);
+	CHECK(c.cfg.ny == 64);
+	CHECK(c.cfg.wave.damping == 5000);
+	CHECK(c.state == SWELL_CTL_BOOT);
+	CHECK(p.apart == 1);
+
+	const swell_ctl_config cfg = c.cfg;
+	const fw_pool_at place = p;
+	m = set_msg(SWELL_SCENE_NY, 128);
+	REQUIRE(fw_pool_param(&c, &f.m, &m, &ans, &p) == 1);
+	REQUIRE(ans.type == SWELL_MSG_PARAM_NACK);
+	CHECK(ans.u.param_nack.err == SWELL_ESIZE);
+	CHECK(ans.u.param_nack.seq == 42);
+	m = set_msg(SWELL_SCENE_NY, 300); // beyond the wire's 256 cells
+	REQUIRE(fw_pool_param(&c, &f.m, &m, &ans, &p) == 1);
+	CHECK(ans.u.param_nack.err == SWELL_ESIZE);
+	m = set_msg(SWELL_SCENE_DEPTH_UM, 0);
+	REQUIRE(fw_pool_param(&c, &f.m, &m, &ans, &p) == 1);
+	CHECK(ans.u.param_nack.err == SWELL_ERANGE);
+	m = set_msg(SWELL_SCENE_DX_UM, 1000); // eq. 2: e = 7.67 at 1 mm cells, beyond the stability limit
+	REQUIRE(fw_pool_param(&c, &f.m, &m, &ans, &p) == 1);
+	REQUIRE(ans.type == SWELL_MSG_PARAM_NACK);
+	CHECK(ans.u.param_nack.err != SWELL_OK);
+	CHECK(std::memcmp(&c.cfg, &cfg, sizeof(cfg)) == 0);
+	CHECK(std::memcmp(&p, &place, sizeof(p)) == 0);
+
+	m = set_msg(SWELL_SCENE_DX_UM, 12500); // e follows eq. 2: a quarter of the reference pool's
+	REQUIRE(fw_pool_param(&c, &f.m, &m, &ans, &p) == 1);
+	REQUIRE(ans.type == SWELL_MSG_PARAM_ACK);
+	q30_t e = 0;
+	REQUIRE(swell_wave_e_from_physical(9810, 4000, 50000, 12500, &e) == SWELL_OK);
+	CHECK(c.cfg.wave.e == e);
+	CHECK(c.cfg.dx_um == 12500);
+
+	swell_msg get{};
+	get.type = SWELL_MSG_PARAM_GET;
+	get.u.param_get.id = SWELL_SCENE_NX;
+	get.u.param_get.seq = 9;
+	REQUIRE(fw_pool_param(&c, &f.m, &get, &ans, &p) == 1);
+	REQUIRE(ans.type == SWELL_MSG_PARAM_ACK);
+	CHECK(ans.u.param_ack.value == 128);
+	CHECK(ans.u.param_ack.seq == 9);
+
+	run(&c, &r, 600); // autorun: the object reaches the water, the force law runs
+	REQUIRE(c.state == SWELL_CTL_RUNNING);
+	const uint32_t wave = swell_wave_checksum(&c.wave);
+	m = set_msg(SWELL_SCENE_NX, 64);
+	REQUIRE(fw_pool_param(&c, &f.m, &m, &ans, &p) == 1);
+	CHECK(ans.u.param_nack.err == SWELL_ESTATE);
+	CHECK(c.cfg.nx == 128);
+	CHECK(c.state == SWELL_CTL_RUNNING);
+	CHECK(swell_wave_checksum(&c.wave) == wave);
+}
+
+TEST_CASE("the core with u and the sent samples in a block apart gives the same bits as in one arena", "[pool]")
+{
+	static swell_ctl one, apart;
+	std::vector<int32_t> arena(swell_ctl_arena_words(88, 88)), sram(swell_ctl_arena_words_apart(88, 88)),
+		fast(swell_ctl_apart_words(88, 88));
+	fw_core_run r1, r2;
+
+	REQUIRE(fw_core_init(&one, &r1, arena.data(), arena.size(), 2500) == SWELL_OK);
+	swell_ctl_config cfg = one.cfg;
+	cfg.nx = cfg.ny = 88;
+	REQUIRE(swell_ctl_init(&one, &cfg, arena.data(), arena.size()) == SWELL_OK);
+	CHECK(swell_ctl_init_apart(&apart, &cfg, sram.data(), sram.size() - 1, fast.data(), fast.size()) == SWELL_ESIZE);
+	CHECK(swell_ctl_init_apart(&apart, &cfg, sram.data(), sram.size(), fast.data(), fast.size() - 1) == SWELL_ESIZE);
+	REQUIRE(swell_ctl_init_apart(&apart, &cfg, sram.data(), sram.size(), fast.data(), fast.size()) == SWELL_OK);
+	CHECK(apart.wave.u == fast.data());
+	r2 = r1;
+	const uint32_t a = run(&one, &r1, 1500), b = run(&apart, &r2, 1500);
+	CHECK(a == b);
+	CHECK(r1.force_cmds == r2.force_cmds);
+	CHECK(r1.last_fz_uN == r2.last_fz_uN);
+	CHECK(r1.last_fz_uN != 0); // the object is in the water
+	auto moving = [&] {
+		size_t k = 0;
+		for (size_t i = 0; i < 88u * 88u; i++)
+			k += fast[i] != 0;
+		return k;
+	};
+	CHECK(moving() > 0);
+	swell_wave_rest(&apart.wave); // the water at rest: u apart is cleared too
+	CHECK(moving() == 0);
+}
