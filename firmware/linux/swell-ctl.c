@@ -3,8 +3,9 @@
  *
  * Clock: absolute-deadline clock_nanosleep on CLOCK_MONOTONIC at the device rate, under SCHED_FIFO
  * and mlockall where permitted (a warning otherwise); or, with --clock device, one tick per
- * DEVICE_POS received (the device's servo clock drives the loop, as on a HapticMaster bus), with the
- * silence of the device still detected by a timeout of silent_ticks periods.
+ * DEVICE_POS received (the device's servo clock drives the loop, as on a HapticMaster bus; in effect
+ * mode, where the device reports once an update, as many ticks as the sample's seq step), with the
+ * silence of the device still detected by a timeout of the silence limit (swell_ctl_silent_limit).
  * SIGINT/SIGTERM: zero force is sent first, then the report, then a clean exit.
  * ENTER_BOOTLOADER accepted by the core (outside RUNNING, with the key): the core has zeroed the force
  * and queued a last heartbeat; both go out, then the report, then exit status 3, so that a
@@ -48,14 +49,14 @@ static const char usage[] =
 	"                      one gadget. CAN: the driver's error frames are read; a device-link bus-off\n"
 	"                      zeroes the force and faults the loop until the bus is restarted.\n"
 	"  --clock internal|device   own absolute-deadline clock (default) or one tick per device sample\n"
-	"                      (a silent device is still noticed: after silent-ticks periods of wall time\n"
-	"                      the loop ticks on its own every period)\n"
+	"                      (effect mode: the device ticks its seq step says; a silent device is still\n"
+	"                      noticed: after the silence limit in wall time the loop ticks on its own)\n"
 	"  --tick-hz N         device rate (default 2500; 1000 for classic CAN)\n"
 	"  --solver-hz N       solver rate (default 250; must divide the tick rate)\n"
 	"  --silent-ticks N    device silent this many ticks -> zero force and fault (default 2 with\n"
 	"                      real-time scheduling; without it, as with --no-rt or when SCHED_FIFO is\n"
 	"                      refused, 20 ms of ticks, said at start: a process that is not real time\n"
-	"                      is late by milliseconds)\n"
+	"                      is late by milliseconds); effect mode counts update periods instead of ticks\n"
 	"  --autorun           run whenever the device is there; leave a link-loss fault by itself\n"
 	"  --host-budget N     host messages a tick (default 16)\n"
 	"  --node N            node id on the bus, 0..15 (default 0)\n"
@@ -398,8 +399,10 @@ static uint32_t rejected(const struct port *p)
 	return swell_proto_rejected_total(&p->dev.st) + (p->have_host ? swell_proto_rejected_total(&p->host.st) : 0);
 }
 
-/* Take everything waiting on both links into the core; returns 1 if a DEVICE_POS came in. */
-static int take_input(struct port *p)
+/* Take everything waiting on both links into the core; returns 0 if no DEVICE_POS came in, else the
+ * device ticks the last one stands for: 1, or in effect mode its seq step (the device reports once an
+ * update there), at most the silence limit. */
+static uint32_t take_input(struct port *p)
 {
 	struct swell_msg m[SWELL_PKT_MSGS_MAX + 1];
 	size_t n, k;
@@ -442,7 +445,12 @@ static int take_input(struct port *p)
 		swell_ctl_bad_frames(&p->c, bad - p->bad_seen);
 		p->bad_seen = bad;
 	}
-	return pos;
+	if (!pos)
+		return 0;
+	if (p->c.cfg.force_mode != SWELL_FORCE_EFFECT || p->c.dev_step == 0 ||
+	    p->c.dev_step > swell_ctl_silent_limit(&p->c))
+		return 1;
+	return p->c.dev_step;
 }
 
 static void flush_output(struct port *p);
@@ -452,7 +460,7 @@ static void flush_output(struct port *p);
  * force, the zero goes out as soon as the carrier takes it). Returns 1 while starved. */
 static int device_starved(struct port *p)
 {
-	if (p->dev.unsent_run < p->c.cfg.silent_ticks) {
+	if (p->dev.unsent_run < p->c.cfg.silent_ticks) { /* sends: in effect mode one an update */
 		p->starving = 0;
 		return 0;
 	}
@@ -669,6 +677,8 @@ int main(int argc, char **argv)
 	start = next = now_ns();
 	last_status = start;
 	while (!stop_flag && ticks < max_ticks) {
+		uint32_t burst = 1, b;
+
 		if (o.device_clock) {
 			/* One tick per device sample, so that a trace replays bit-identically whatever the
 			 * machine's load. Nothing ticks before the first sample. Once the device has been
@@ -680,12 +690,16 @@ int main(int argc, char **argv)
 
 			if (r < 0 && errno == EINTR)
 				continue;
-			if (take_input(&p))
+			burst = take_input(&p);
+			if (burst)
 				last_sample = now_ns();
 			else if (link_faults(&p))
-				;
-			else if (last_sample == 0 || now_ns() - last_sample < (int64_t)o.cfg.silent_ticks * period)
+				burst = 1;
+			else if (last_sample == 0 ||
+				 now_ns() - last_sample < (int64_t)swell_ctl_silent_limit(&p.c) * period)
 				continue;
+			else
+				burst = 1;
 		} else {
 			struct timespec dl;
 			int64_t late;
@@ -702,17 +716,23 @@ int main(int argc, char **argv)
 			}
 			take_input(&p);
 		}
-		link_faults(&p);
-		device_starved(&p);
-		swell_ctl_tick(&p.c);
-		ticks++;
-		flush_output(&p);
-		/* the device declared lost (its zero force has just gone to it): a learned UDP device is let
-		 * go, the next sender of this node's DEVICE_POS becomes the device (the old one still gets the
-		 * zero force until then) */
-		if (swell_ctl_device_lost(&p.c))
-			p.releases += (uint32_t)ctl_link_release_peer(&p.dev);
-		if (swell_ctl_bootloader_requested(&p.c)) /* zero force and the last heartbeat have just gone out */
+		/* --clock device in effect mode: a sample every update stands for the device ticks since the
+		 * last one (its seq step), and the core ticks that many times on it */
+		for (b = 0; b < burst && ticks < max_ticks; b++) {
+			link_faults(&p);
+			device_starved(&p);
+			swell_ctl_tick(&p.c);
+			ticks++;
+			flush_output(&p);
+			/* the device declared lost (its zero force has just gone to it): a learned UDP device is
+			 * let go, the next sender of this node's DEVICE_POS becomes the device (the old one still
+			 * gets the zero force until then) */
+			if (swell_ctl_device_lost(&p.c))
+				p.releases += (uint32_t)ctl_link_release_peer(&p.dev);
+			if (swell_ctl_bootloader_requested(&p.c)) /* zero force and the last heartbeat are out */
+				break;
+		}
+		if (swell_ctl_bootloader_requested(&p.c))
 			break;
 		if (now_ns() - last_status > 1000000000) {
 			int a;
@@ -760,8 +780,8 @@ int main(int argc, char **argv)
 	if (p.c.n.faults)
 		printf("  FAULTED         %u times in this run (zero force while faulted; last error: %s; device "
 		       "silence limit %u ticks = %.1f ms)\n",
-		       p.c.n.faults, swell_err_str(p.c.last_err), o.cfg.silent_ticks,
-		       o.cfg.silent_ticks * 1e3 / o.cfg.tick_hz);
+		       p.c.n.faults, swell_err_str(p.c.last_err), swell_ctl_silent_limit(&p.c),
+		       swell_ctl_silent_limit(&p.c) * 1e3 / o.cfg.tick_hz);
 	if (!o.device_clock)
 		printf("  tick jitter     p50 %.0f us, p99 %.0f us, max %.0f us (lateness of the wake-up)\n",
 		       jitter_pct(&jit, 0.5), jitter_pct(&jit, 0.99), jit.max_ns / 1e3);
@@ -777,7 +797,7 @@ int main(int argc, char **argv)
 		       "let go %u times (declared lost)\n",
 		       addr_str(&p.dev.peer, p.dev.have_peer, p.dev.peer_fixed, abuf, sizeof(abuf)), p.dev.others,
 		       p.dev.peers_taken, p.releases);
-	printf("  device starved  %u times (nothing reached the device for %u ticks in a row)\n", p.starved,
+	printf("  device starved  %u times (nothing reached the device in %u sends in a row)\n", p.starved,
 	       o.cfg.silent_ticks);
 	if (p.have_host)
 		printf("  host link       %s: %u frames in, %u out, %u bad, %u not sent (no reader or busy); "
