@@ -69,9 +69,10 @@ static const char usage[] =
 	"  --fmax N            largest commanded force applied per axis (default 250)\n"
 	"  --effect-fresh MS   effect mode (EFFECT_* messages): a set is rendered for at most this long\n"
 	"                      after it came (default 10; the controller sends one every solver step)\n"
-	"  --sample-every N    while effect sets come, DEVICE_POS and DEVICE_VEL every N ticks (default 1;\n"
-	"                      the controller's ticks per update, 10 at 2500/250 Hz, keeps classic CAN\n"
-	"                      light); their seq counts device ticks either way\n"
+	"  --sample-every N    while effect sets come, DEVICE_POS and DEVICE_VEL every N ticks (the\n"
+	"                      controller's ticks per update, 10 at 2500/250 Hz, keeps classic CAN light;\n"
+	"                      default: every tick in real time; in lockstep the sets' spacing once two\n"
+	"                      in a row agree); their seq counts device ticks either way\n"
 	"  --link-delay MS     act on what comes from the controller MS later (rounded to whole device\n"
 	"                      ticks, 0 to 1000; default 0): extra latency on the device link\n"
 	"  --watchdog TICKS    controller silent this many ticks -> no commanded force (default 2 in\n"
@@ -106,7 +107,7 @@ struct opts {
 	unsigned bias_watchdog_ms;
 	double effect_fresh_ms; /* effect mode: a set older than this is not rendered */
 	double link_delay_ms; /* what arrives is acted on this much later (whole ticks) */
-	unsigned sample_every; /* while effect sets come: a sample every this many ticks */
+	unsigned sample_every; /* while effect sets come: a sample every this many ticks; 0: auto */
 	struct inject {
 		char kind; /* 'd' delay, 'g' garbage, 'r' reset, 's' stop */
 		double at_s, for_s, ms;
@@ -237,7 +238,6 @@ static void parse(int argc, char **argv, struct opts *o)
 	o->timeout_ms = 50;
 	o->bias_watchdog_ms = 100;
 	o->effect_fresh_ms = 10.0;
-	o->sample_every = 1;
 	o->seconds = 10.0;
 	o->obj_mass_g = 100.0;
 	o->obj_a_mm = o->obj_b_mm = o->obj_h_mm = 50.0;
@@ -460,6 +460,9 @@ struct dev {
 	 * since), the receiver that tells, and the last sample's tick */
 	struct swell_effect_rx arrive_rx;
 	int sets_coming, answer_set;
+	uint8_t set_seq; /* the last set's seq, its arrival tick, the spacing before it */
+	uint64_t set_tick;
+	uint32_t set_spacing, learned; /* learned: two spacings in a row agreed (lockstep's default) */
 	uint64_t tick, last_sample, samples;
 	/* --link-delay: what arrived, acted on at tick due */
 	struct held {
@@ -607,6 +610,15 @@ static int dev_recv(struct dev *d, struct hm_state *s, int timeout_ms)
 			if (!m[k].u.force_cmd.enable)
 				d->sets_coming = 0;
 		} else if (swell_effect_recv(&d->arrive_rx, &m[k], &set) == 1) {
+			if (d->sets_coming && set.seq == (uint8_t)(d->set_seq + 1u)) {
+				const uint32_t sp = (uint32_t)(d->tick - d->set_tick);
+
+				if (sp > 0 && sp == d->set_spacing)
+					d->learned = sp;
+				d->set_spacing = sp;
+			}
+			d->set_seq = set.seq;
+			d->set_tick = d->tick;
 			answers++;
 			d->answer_set = 1;
 			d->sets_coming = 1;
@@ -916,6 +928,15 @@ static void summary_head(const struct opts *o, const struct hm_state *s, const s
 	}
 }
 
+/* Ticks between samples while effect sets come: --sample-every, or by default every tick in real
+ * time and in lockstep the sets' spacing once learned. */
+static uint32_t sample_every(const struct opts *o, const struct dev *d)
+{
+	if (o->sample_every)
+		return o->sample_every;
+	return o->lockstep && d->learned ? d->learned : 1u;
+}
+
 static void summary(const struct opts *o, const struct dev *d, const struct hm_state *s, const struct run *r,
 		    double wall_s)
 {
@@ -945,7 +966,7 @@ static void summary(const struct opts *o, const struct dev *d, const struct hm_s
 	       d->eff_sets, d->eff_ticks, d->eff_stale, d->eff_fresh_ticks, d->eff_step_max_uN * 1e-6);
 	printf("  device link     %llu samples (every %u ticks while sets come), delay %u ticks (%u held messages "
 	       "dropped)\n",
-	       (unsigned long long)d->samples, o->sample_every, d->delay_ticks, d->held_dropped);
+	       (unsigned long long)d->samples, sample_every(o, d), d->delay_ticks, d->held_dropped);
 	printf("  frames          by type, one classic CAN frame each:");
 	for (k = 0; k < 256; k++)
 		if (d->rx_type[k] || d->tx_type[k])
@@ -1214,7 +1235,7 @@ int main(int argc, char **argv)
 		deliver(&d, &s);
 		/* the hand acts on the state of this tick, which the wait below does not change */
 		holding = hm_hand_force(&o.hand, t, s.x, s.v, f_hand);
-		if (!d.sets_coming || n == 0 || n - d.last_sample >= o.sample_every) {
+		if (!d.sets_coming || n == 0 || n - d.last_sample >= sample_every(&o, &d)) {
 			sample(&d, &s, f_hand, (uint8_t)n);
 			if (o.lockstep)
 				wait_answer(&d, &s, &o, &r, n);

@@ -457,8 +457,9 @@ void swell_ctl_link_down(struct swell_ctl *c, enum swell_ctl_link link)
 
 uint32_t swell_ctl_silent_limit(const struct swell_ctl *c)
 {
-	return c->cfg.force_mode == SWELL_FORCE_EFFECT ? (uint32_t)c->cfg.silent_ticks * c->ticks_per_step
-						       : c->cfg.silent_ticks;
+	return c->cfg.force_mode == SWELL_FORCE_EFFECT && !c->cfg.cmd_every_tick
+		? (uint32_t)c->cfg.silent_ticks * c->ticks_per_step
+		: c->cfg.silent_ticks;
 }
 
 int swell_ctl_device_lost(const struct swell_ctl *c)
@@ -512,8 +513,9 @@ static int16_t force_cN(const struct swell_ctl *c, int32_t uN)
 }
 
 /* The tick's FORCE_CMD. Effect mode: none while RUNNING (the effect sets are the device's keepalive,
- * at the update rate); otherwise a disabled one with zero force every tick, on which the device drops
- * its effects; and from swell_ctl_zero_force (stop: 1) always a disabled one. */
+ * at the update rate), or with cmd_every_tick an enabled one with zero force; otherwise a disabled one
+ * with zero force every tick, on which the device drops its effects; and from swell_ctl_zero_force
+ * (stop: 1) always a disabled one. */
 static void send_force(struct swell_ctl *c, int stop)
 {
 	struct swell_msg m = msg(c, SWELL_MSG_FORCE_CMD);
@@ -524,8 +526,10 @@ static void send_force(struct swell_ctl *c, int stop)
 		m.u.force_cmd.fy_cN = force_cN(c, c->force_dev_uN[1]);
 		m.u.force_cmd.fz_cN = force_cN(c, c->force_dev_uN[2]);
 		m.u.force_cmd.enable = running;
-	} else if (running && !stop) {
+	} else if (running && !stop && !c->cfg.cmd_every_tick) {
 		return;
+	} else {
+		m.u.force_cmd.enable = running && !stop;
 	}
 	m.u.force_cmd.seq = c->seq_force++;
 	push(c, SWELL_LINK_DEVICE, &m);

@@ -906,4 +906,20 @@ TEST_CASE("effect mode: force.mode changes only outside RUNNING; running, no FOR
 	CHECK(cmds() == std::make_pair(1, 0));
 	k.param(SWELL_PARAM_FORCE_MODE, SWELL_FORCE_STREAM);
 	CHECK(k.c.cfg.force_mode == SWELL_FORCE_STREAM);
+	// a port that needs a FORCE_CMD every tick (the HapticMaster's TCP link): enabled, zero force,
+	// beside the sets, and the silence limit stays in ticks
+	k.c.cfg.cmd_every_tick = 1;
+	k.param(SWELL_PARAM_FORCE_MODE, SWELL_FORCE_EFFECT);
+	CHECK(swell_ctl_silent_limit(&k.c) == 2);
+	k.param(SWELL_PARAM_COMMAND, SWELL_CMD_RUN);
+	k.device(0, 0, 100000);
+	swell_ctl_tick(&k.c);
+	CHECK(k.c.state == SWELL_CTL_RUNNING);
+	k.drain(SWELL_LINK_DEVICE);
+	for (int t = 0; t < 10; t++) {
+		k.device(0, 0, 100000);
+		swell_ctl_tick(&k.c);
+		INFO("tick " << t);
+		CHECK(cmds() == std::make_pair(1, 1));
+	}
 }

@@ -68,7 +68,8 @@
  * tick while it is fresh (the set is its own keepalive) and reports its position once an update.
  * Outside RUNNING (and on the tick that leaves it, and from swell_ctl_zero_force) FORCE_CMD goes as
  * in STREAM, disabled: the device drops its effects on it. The device's silence limit counts update
- * periods instead of ticks (swell_ctl_silent_limit). */
+ * periods instead of ticks (swell_ctl_silent_limit). A port may ask for a FORCE_CMD every tick
+ * (cmd_every_tick). */
 enum swell_force_mode {
 	SWELL_FORCE_STREAM = 0,
 	SWELL_FORCE_EFFECT = 1
@@ -94,6 +95,10 @@ struct swell_ctl_config {
 	uint8_t node; /* 0 .. SWELL_NODE_MAX */
 	uint8_t autorun;
 	uint8_t force_mode; /* SWELL_FORCE_STREAM or SWELL_FORCE_EFFECT; changed only outside RUNNING */
+	/* set by a port whose device link needs a FORCE_CMD every tick in effect mode too (the
+	 * HapticMaster's TCP interface: each tick's request carries it): enabled with zero force while
+	 * RUNNING, beside the sets, and the silence limit stays in ticks */
+	uint8_t cmd_every_tick;
 	uint8_t fw_version[3]; /* major, minor, patch of the running firmware, sent in CTL_INFO */
 };
 
