@@ -463,6 +463,7 @@ struct dev {
 	uint8_t set_seq; /* the last set's seq, its arrival tick, the spacing before it */
 	uint64_t set_tick;
 	uint32_t set_spacing, learned; /* learned: two spacings in a row agreed (lockstep's default) */
+	int waiting, set_on_time; /* in a lockstep wait now; the last set came as the answer to a sample */
 	uint64_t tick, last_sample, samples;
 	/* --link-delay: what arrived, acted on at tick due */
 	struct held {
@@ -610,7 +611,9 @@ static int dev_recv(struct dev *d, struct hm_state *s, int timeout_ms)
 			if (!m[k].u.force_cmd.enable)
 				d->sets_coming = 0;
 		} else if (swell_effect_recv(&d->arrive_rx, &m[k], &set) == 1) {
-			if (d->sets_coming && set.seq == (uint8_t)(d->set_seq + 1u)) {
+			/* the spacing of two sets that both came on time (as the answer to a sample; a late
+			 * one, after a timeout, would make it longer) and with consecutive seqs */
+			if (d->waiting && d->set_on_time && d->sets_coming && set.seq == (uint8_t)(d->set_seq + 1u)) {
 				const uint32_t sp = (uint32_t)(d->tick - d->set_tick);
 
 				if (sp > 0 && sp == d->set_spacing)
@@ -619,6 +622,7 @@ static int dev_recv(struct dev *d, struct hm_state *s, int timeout_ms)
 			}
 			d->set_seq = set.seq;
 			d->set_tick = d->tick;
+			d->set_on_time = d->waiting;
 			answers++;
 			d->answer_set = 1;
 			d->sets_coming = 1;
@@ -819,7 +823,9 @@ static void wait_answer(struct dev *d, struct hm_state *s, const struct opts *o,
 
 		if (left <= 0)
 			break;
+		d->waiting = 1;
 		got = dev_recv(d, s, (int)((left + 999999) / 1000000)) > 0;
+		d->waiting = 0;
 	}
 	if (!got) {
 		r->timeouts++;
