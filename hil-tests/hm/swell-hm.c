@@ -71,8 +71,9 @@ static const char usage[] =
 	"                      after it came (default 10; the controller sends one every solver step)\n"
 	"  --sample-every N    while effect sets come, DEVICE_POS and DEVICE_VEL every N ticks (the\n"
 	"                      controller's ticks per update, 10 at 2500/250 Hz, keeps classic CAN light;\n"
-	"                      default: every tick in real time; in lockstep the sets' spacing once two\n"
-	"                      in a row agree); their seq counts device ticks either way\n"
+	"                      default: every tick in real time; in lockstep the sets' spacing once three\n"
+	"                      in a row agree, a fallback for a loop without timeouts); their seq counts\n"
+	"                      device ticks either way\n"
 	"  --link-delay MS     act on what comes from the controller MS later (rounded to whole device\n"
 	"                      ticks, 0 to 1000; default 0): extra latency on the device link\n"
 	"  --watchdog TICKS    controller silent this many ticks -> no commanded force (default 2 in\n"
@@ -462,7 +463,7 @@ struct dev {
 	int sets_coming, answer_set;
 	uint8_t set_seq; /* the last set's seq, its arrival tick, the spacing before it */
 	uint64_t set_tick;
-	uint32_t set_spacing, learned; /* learned: two spacings in a row agreed (lockstep's default) */
+	uint32_t set_spacing, set_agree, learned; /* learned: three spacings in a row agreed (lockstep) */
 	int waiting, set_on_time; /* in a lockstep wait now; the last set came as the answer to a sample */
 	uint64_t tick, last_sample, samples;
 	/* --link-delay: what arrived, acted on at tick due */
@@ -613,10 +614,12 @@ static int dev_recv(struct dev *d, struct hm_state *s, int timeout_ms)
 		} else if (swell_effect_recv(&d->arrive_rx, &m[k], &set) == 1) {
 			/* the spacing of two sets that both came on time (as the answer to a sample; a late
 			 * one, after a timeout, would make it longer) and with consecutive seqs */
-			if (d->waiting && d->set_on_time && d->sets_coming && set.seq == (uint8_t)(d->set_seq + 1u)) {
+			if (d->waiting && d->set_on_time && d->sets_coming && set.seq == (uint8_t)(d->set_seq + 1u) &&
+			    !d->learned) {
 				const uint32_t sp = (uint32_t)(d->tick - d->set_tick);
 
-				if (sp > 0 && sp == d->set_spacing)
+				d->set_agree = sp > 0 && sp == d->set_spacing ? d->set_agree + 1u : 0u;
+				if (d->set_agree >= 2) /* three in a row; kept from then on */
 					d->learned = sp;
 				d->set_spacing = sp;
 			}
@@ -935,7 +938,8 @@ static void summary_head(const struct opts *o, const struct hm_state *s, const s
 }
 
 /* Ticks between samples while effect sets come: --sample-every, or by default every tick in real
- * time and in lockstep the sets' spacing once learned. */
+ * time and in lockstep the sets' spacing once learned (from sets that came on time; a loop whose
+ * answers time out, as on an emulated bus, should be given --sample-every). */
 static uint32_t sample_every(const struct opts *o, const struct dev *d)
 {
 	if (o->sample_every)
