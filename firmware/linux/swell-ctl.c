@@ -402,14 +402,15 @@ static uint32_t rejected(const struct port *p)
 }
 
 /* Take everything waiting on both links into the core; returns 0 if no DEVICE_POS came in, else the
- * device ticks the last one stands for: 1, or in effect mode its seq step (the device reports once an
- * update there), at most the silence limit. */
+ * device ticks they stand for: 1, or in effect mode the sum of their seq steps (the device reports once
+ * an update there; two samples in one take, the first late, stand for both periods), at most the
+ * silence limit. */
 static uint32_t take_input(struct port *p)
 {
 	struct swell_msg m[SWELL_PKT_MSGS_MAX + 1];
 	size_t n, k;
 	int pos = 0, rounds;
-	uint32_t bad;
+	uint32_t bad, steps = 0;
 
 	/* Bounded, a flood cannot hold the tick; deep enough that a flood of datagrams from other senders,
 	 * each dropped unread (no CRC), does not hide the device's samples behind it: 256 reads a tick
@@ -420,7 +421,10 @@ static uint32_t take_input(struct port *p)
 			break;
 		for (k = 0; k < n; k++) {
 			swell_ctl_rx(&p->c, SWELL_LINK_DEVICE, &m[k]);
-			pos |= m[k].type == SWELL_MSG_DEVICE_POS;
+			if (m[k].type == SWELL_MSG_DEVICE_POS) {
+				pos = 1;
+				steps += p->c.dev_step;
+			}
 		}
 		if (n == 0) {
 			struct pollfd pf = { ctl_link_fd(&p->dev), POLLIN, 0 };
@@ -449,10 +453,9 @@ static uint32_t take_input(struct port *p)
 	}
 	if (!pos)
 		return 0;
-	if (p->c.cfg.force_mode != SWELL_FORCE_EFFECT || p->c.dev_step == 0 ||
-	    p->c.dev_step > swell_ctl_silent_limit(&p->c))
+	if (p->c.cfg.force_mode != SWELL_FORCE_EFFECT || steps == 0 || steps > swell_ctl_silent_limit(&p->c))
 		return 1;
-	return p->c.dev_step;
+	return steps;
 }
 
 static void flush_output(struct port *p);
