@@ -29,14 +29,14 @@ static const char usage[] =
 	"                      one gadget. CAN: the driver's error frames are read; a device-link bus-off\n"
 	"                      zeroes the force and faults the loop until the bus is restarted.\n"
 	"  --clock internal|device   own absolute-deadline clock (default) or one tick per device sample\n"
-	"                      (a silent device is still noticed: after silent-ticks periods of wall time\n"
-	"                      the loop ticks on its own every period)\n"
+	"                      (effect mode: the device ticks its seq step says; a silent device is still\n"
+	"                      noticed: after the silence limit in wall time the loop ticks on its own)\n"
 	"  --tick-hz N         device rate (default 2500; 1000 for classic CAN)\n"
 	"  --solver-hz N       solver rate (default 250; must divide the tick rate)\n"
 	"  --silent-ticks N    device silent this many ticks -> zero force and fault (default 2 with\n"
 	"                      real-time scheduling; without it, as with --no-rt or when SCHED_FIFO is\n"
 	"                      refused, 20 ms of ticks, said at start: a process that is not real time\n"
-	"                      is late by milliseconds)\n"
+	"                      is late by milliseconds); effect mode counts update periods instead of ticks\n"
 	"  --autorun           run whenever the device is there; leave a link-loss fault by itself\n"
 	"  --host-budget N     host messages a tick (default 16)\n"
 	"  --node N            node id on the bus, 0..15 (default 0)\n"
@@ -275,6 +275,8 @@ void parse(int argc, char **argv, struct opts *o)
 		}
 	}
 	check_links(o);
+	/* the HapticMaster's TCP link sends its request when the tick's FORCE_CMD comes: one every tick */
+	o->cfg.cmd_every_tick = !strncmp(o->device, "hm:", 3);
 	o->cfg.recover_ticks = (uint16_t)(o->cfg.tick_hz / 10 > 0 ? o->cfg.tick_hz / 10 : 1);
 	if (o->scene_path)
 		scene_e(o);

@@ -67,8 +67,8 @@ void report(const struct opts *o, const struct port *p, const struct jitter *jit
 	if (p->c.n.faults)
 		printf("  FAULTED         %u times in this run (zero force while faulted; last error: %s; device "
 		       "silence limit %u ticks = %.1f ms)\n",
-		       p->c.n.faults, swell_err_str(p->c.last_err), o->cfg.silent_ticks,
-		       o->cfg.silent_ticks * 1e3 / o->cfg.tick_hz);
+		       p->c.n.faults, swell_err_str(p->c.last_err), swell_ctl_silent_limit(&p->c),
+		       swell_ctl_silent_limit(&p->c) * 1e3 / o->cfg.tick_hz);
 	if (!o->device_clock)
 		printf("  tick jitter     p50 %.0f us, p99 %.0f us, max %.0f us (lateness of the wake-up)\n",
 		       jitter_pct(jit, 0.5), jitter_pct(jit, 0.99), jit->max_ns / 1e3);
@@ -84,7 +84,7 @@ void report(const struct opts *o, const struct port *p, const struct jitter *jit
 		       "let go %u times (declared lost)\n",
 		       addr_str(&p->dev.peer, p->dev.have_peer, p->dev.peer_fixed, abuf, sizeof(abuf)), p->dev.others,
 		       p->dev.peers_taken, p->releases);
-	printf("  device starved  %u times (nothing reached the device for %u ticks in a row)\n", p->starved,
+	printf("  device starved  %u times (nothing reached the device in %u sends in a row)\n", p->starved,
 	       o->cfg.silent_ticks);
 	if (p->have_host)
 		printf("  host link       %s: %u frames in, %u out, %u bad, %u not sent (no reader or busy); "

@@ -3,8 +3,9 @@
  *
  * Clock: absolute-deadline clock_nanosleep on CLOCK_MONOTONIC at the device rate, under SCHED_FIFO
  * and mlockall where permitted (a warning otherwise); or, with --clock device, one tick per
- * DEVICE_POS received (the device's servo clock drives the loop, as on a HapticMaster bus), with the
- * silence of the device still detected by a timeout of silent_ticks periods.
+ * DEVICE_POS received (the device's servo clock drives the loop, as on a HapticMaster bus; in effect
+ * mode, where the device reports once an update, as many ticks as the sample's seq step), with the
+ * silence of the device still detected by a timeout of the silence limit (swell_ctl_silent_limit).
  * SIGINT/SIGTERM: zero force is sent first, then the report, then a clean exit.
  * ENTER_BOOTLOADER accepted by the core (outside RUNNING, with the key): the core has zeroed the force
  * and queued a last heartbeat; both go out, then the report, then exit status 3, so that a
@@ -74,13 +75,16 @@ static uint32_t rejected(const struct port *p)
 	return swell_proto_rejected_total(&p->dev.st) + (p->have_host ? swell_proto_rejected_total(&p->host.st) : 0);
 }
 
-/* Take everything waiting on both links into the core; returns 1 if a DEVICE_POS came in. */
-static int take_input(struct port *p)
+/* Take everything waiting on both links into the core; returns 0 if no DEVICE_POS came in, else the
+ * device ticks they stand for: 1, or in effect mode the sum of their seq steps (the device reports once
+ * an update there; two samples in one take, the first late, stand for both periods), at most the
+ * silence limit. */
+static uint32_t take_input(struct port *p)
 {
 	struct swell_msg m[SWELL_PKT_MSGS_MAX + 1];
 	size_t n, k;
 	int pos = 0, rounds;
-	uint32_t bad;
+	uint32_t bad, steps = 0;
 
 	/* Bounded, a flood cannot hold the tick; deep enough that a flood of datagrams from other senders,
 	 * each dropped unread (no CRC), does not hide the device's samples behind it: 256 reads a tick
@@ -91,7 +95,10 @@ static int take_input(struct port *p)
 			break;
 		for (k = 0; k < n; k++) {
 			swell_ctl_rx(&p->c, SWELL_LINK_DEVICE, &m[k]);
-			pos |= m[k].type == SWELL_MSG_DEVICE_POS;
+			if (m[k].type == SWELL_MSG_DEVICE_POS) {
+				pos = 1;
+				steps += p->c.dev_step;
+			}
 		}
 		if (n == 0) {
 			struct pollfd pf = { ctl_link_fd(&p->dev), POLLIN, 0 };
@@ -118,7 +125,11 @@ static int take_input(struct port *p)
 		swell_ctl_bad_frames(&p->c, bad - p->bad_seen);
 		p->bad_seen = bad;
 	}
-	return pos;
+	if (!pos)
+		return 0;
+	if (p->c.cfg.force_mode != SWELL_FORCE_EFFECT || steps == 0 || steps > swell_ctl_silent_limit(&p->c))
+		return 1;
+	return steps;
 }
 
 static void flush_output(struct port *p);
@@ -128,7 +139,7 @@ static void flush_output(struct port *p);
  * force, the zero goes out as soon as the carrier takes it). Returns 1 while starved. */
 static int device_starved(struct port *p)
 {
-	if (p->dev.unsent_run < p->c.cfg.silent_ticks) {
+	if (p->dev.unsent_run < p->c.cfg.silent_ticks) { /* sends: in effect mode one an update */
 		p->starving = 0;
 		return 0;
 	}
@@ -310,6 +321,8 @@ int main(int argc, char **argv)
 	start = next = now_ns();
 	last_status = start;
 	while (!stop_flag && ticks < max_ticks) {
+		uint32_t burst = 1, b;
+
 		if (o.device_clock) {
 			/* One tick per device sample, so that a trace replays bit-identically whatever the
 			 * machine's load. Nothing ticks before the first sample. Once the device has been
@@ -321,12 +334,16 @@ int main(int argc, char **argv)
 
 			if (r < 0 && errno == EINTR)
 				continue;
-			if (take_input(&p))
+			burst = take_input(&p);
+			if (burst)
 				last_sample = now_ns();
 			else if (link_faults(&p))
-				;
-			else if (last_sample == 0 || now_ns() - last_sample < (int64_t)o.cfg.silent_ticks * period)
+				burst = 1;
+			else if (last_sample == 0 ||
+				 now_ns() - last_sample < (int64_t)swell_ctl_silent_limit(&p.c) * period)
 				continue;
+			else
+				burst = 1;
 		} else {
 			struct timespec dl;
 			int64_t late;
@@ -343,17 +360,23 @@ int main(int argc, char **argv)
 			}
 			take_input(&p);
 		}
-		link_faults(&p);
-		device_starved(&p);
-		swell_ctl_tick(&p.c);
-		ticks++;
-		flush_output(&p);
-		/* the device declared lost (its zero force has just gone to it): a learned UDP device is let
-		 * go, the next sender of this node's DEVICE_POS becomes the device (the old one still gets the
-		 * zero force until then) */
-		if (swell_ctl_device_lost(&p.c))
-			p.releases += (uint32_t)ctl_link_release_peer(&p.dev);
-		if (swell_ctl_bootloader_requested(&p.c)) /* zero force and the last heartbeat have just gone out */
+		/* --clock device in effect mode: a sample every update stands for the device ticks since the
+		 * last one (its seq step), and the core ticks that many times on it */
+		for (b = 0; b < burst && ticks < max_ticks; b++) {
+			link_faults(&p);
+			device_starved(&p);
+			swell_ctl_tick(&p.c);
+			ticks++;
+			flush_output(&p);
+			/* the device declared lost (its zero force has just gone to it): a learned UDP device is
+			 * let go, the next sender of this node's DEVICE_POS becomes the device (the old one still
+			 * gets the zero force until then) */
+			if (swell_ctl_device_lost(&p.c))
+				p.releases += (uint32_t)ctl_link_release_peer(&p.dev);
+			if (swell_ctl_bootloader_requested(&p.c)) /* zero force and the last heartbeat are out */
+				break;
+		}
+		if (swell_ctl_bootloader_requested(&p.c))
 			break;
 		if (now_ns() - last_status > 1000000000) {
 			int a;

@@ -48,6 +48,13 @@ static const char usage[] =
 	"  --fmax N            largest commanded force applied per axis (default 250)\n"
 	"  --effect-fresh MS   effect mode (EFFECT_* messages): a set is rendered for at most this long\n"
 	"                      after it came (default 10; the controller sends one every solver step)\n"
+	"  --sample-every N    while effect sets come, DEVICE_POS and DEVICE_VEL every N ticks (the\n"
+	"                      controller's ticks per update, 10 at 2500/250 Hz, keeps classic CAN light;\n"
+	"                      default: every tick in real time; in lockstep the sets' spacing once three\n"
+	"                      in a row agree, a fallback for a loop without timeouts); their seq counts\n"
+	"                      device ticks either way\n"
+	"  --link-delay MS     act on what comes from the controller MS later (rounded to whole device\n"
+	"                      ticks, 0 to 1000; default 0): extra latency on the device link\n"
 	"  --watchdog TICKS    controller silent this many ticks -> no commanded force (default 2 in\n"
 	"                      lockstep or with --rt granted; else 20 ms of ticks, said at start: a\n"
 	"                      process that is not real time is late by milliseconds)\n"
@@ -159,12 +166,13 @@ static void scene_object(struct opts *o, const char *path)
 /* 1 for an option of this program that takes a value. */
 static int takes_value(const char *a)
 {
-	static const char *const with_value[] = {
-		"--bias-watchdog", "--bind-port", "--damping",    "--effect-fresh", "--estop", "--fmax",  "--hand",
-		"--host",          "--iface",     "--inject",     "--limit",        "--link",  "--log",   "--mass",
-		"--node",          "--object",    "--pool",       "--port",         "--rate",  "--scene", "--seconds",
-		"--serve",         "--start",     "--timeout-ms", "--watchdog"
-	};
+	static const char *const with_value[] = { "--bias-watchdog", "--bind-port",  "--damping",     "--effect-fresh",
+						  "--estop",         "--fmax",       "--hand",        "--host",
+						  "--iface",         "--inject",     "--limit",       "--link",
+						  "--log",           "--mass",       "--node",        "--object",
+						  "--pool",          "--port",       "--rate",        "--scene",
+						  "--seconds",       "--serve",      "--start",       "--timeout-ms",
+						  "--watchdog",      "--link-delay", "--sample-every" };
 	size_t k;
 
 	for (k = 0; k < sizeof(with_value) / sizeof(with_value[0]); k++)
@@ -259,6 +267,10 @@ void parse(int argc, char **argv, struct opts *o)
 			o->n_inj++;
 		} else if (!strcmp(a, "--effect-fresh"))
 			o->effect_fresh_ms = number(a, v, 0.1, 1000, "ms");
+		else if (!strcmp(a, "--link-delay"))
+			o->link_delay_ms = number(a, v, 0, 1000, "ms");
+		else if (!strcmp(a, "--sample-every"))
+			o->sample_every = whole(a, v, 1, 255, "ticks");
 		else if (!strcmp(a, "--bias-watchdog"))
 			o->bias_watchdog_ms = whole(a, v, 0, 60000, "ms");
 		else if (!strcmp(a, "--bind-port"))

@@ -17,6 +17,8 @@ struct opts {
 	const char *link, *host, *log, *serve;
 	unsigned bias_watchdog_ms;
 	double effect_fresh_ms; /* effect mode: a set older than this is not rendered */
+	double link_delay_ms; /* what arrives is acted on this much later (whole ticks) */
+	unsigned sample_every; /* while effect sets come: a sample every this many ticks; 0: auto */
 	struct inject {
 		char kind; /* 'd' delay, 'g' garbage, 'r' reset, 's' stop */
 		double at_s, for_s, ms;

@@ -105,11 +105,23 @@ void hm_command(struct hm_state *s, const double f_N[3], int enable)
 	s->cmd_enable = enable != 0;
 	s->have_cmd = 1;
 	s->cmd_age = 0;
+	s->cmd_watchdog = 0;
+}
+
+void hm_command_for(struct hm_state *s, const double f_N[3], int enable, uint32_t watchdog_ticks)
+{
+	hm_command(s, f_N, enable);
+	s->cmd_watchdog = watchdog_ticks;
+}
+
+uint32_t hm_cmd_watchdog(const struct hm_params *p, const struct hm_state *s)
+{
+	return s->cmd_watchdog ? s->cmd_watchdog : p->watchdog_ticks;
 }
 
 int hm_cmd_active(const struct hm_params *p, const struct hm_state *s)
 {
-	return s->have_cmd && s->cmd_enable && !s->estop && s->cmd_age < p->watchdog_ticks;
+	return s->have_cmd && s->cmd_enable && !s->estop && s->cmd_age < hm_cmd_watchdog(p, s);
 }
 
 static double clamp(double v, double lo, double hi)

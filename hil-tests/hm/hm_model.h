@@ -41,6 +41,7 @@ struct hm_state {
 	int cmd_enable; /* its enable bit */
 	int have_cmd; /* a command has ever arrived */
 	uint32_t cmd_age; /* ticks integrated since the last command (saturating) */
+	uint32_t cmd_watchdog; /* this command's watchdog in ticks; 0: the params' (hm_command_for) */
 	int estop; /* e-stop pressed: no commanded force */
 	double f_cmd_N[3]; /* commanded force applied in the last tick */
 	double f_wall_N[3]; /* wall force in the last tick */
@@ -64,6 +65,12 @@ void hm_init(struct hm_state *s, const double x0_m[3]);
 
 /* A FORCE_CMD arrived (forces in N). It is applied from the next hm_step on. */
 void hm_command(struct hm_state *s, const double f_N[3], int enable);
+
+/* The same with its own watchdog (ticks >= 1): an effect set, whose freshness limit is its watchdog. */
+void hm_command_for(struct hm_state *s, const double f_N[3], int enable, uint32_t watchdog_ticks);
+
+/* The watchdog of the command in force, in ticks. */
+uint32_t hm_cmd_watchdog(const struct hm_params *p, const struct hm_state *s);
 
 /* Would the next hm_step apply the command? */
 int hm_cmd_active(const struct hm_params *p, const struct hm_state *s);

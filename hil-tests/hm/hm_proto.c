@@ -52,6 +52,9 @@ static double latency_pct(double p)
 	return 0;
 }
 
+/* --link-delay: up to 1 s of a controller's traffic at 2500 Hz (a FORCE_CMD a tick, heartbeats) */
+#define DELAY_HELD 4096
+
 struct dev {
 	struct swell_link *l;
 	enum swell_carrier carrier;
@@ -70,7 +73,25 @@ struct dev {
 	int have_eff;
 	uint32_t eff_age, eff_fresh_ticks;
 	uint32_t eff_sets, eff_ticks, eff_stale; /* sets taken, ticks rendered, times one went stale */
+	uint32_t eff_step_max_uN; /* largest change an update made to the effects' force, before the limits */
+	uint32_t eff_settle_ticks; /* steps counted once this many ticks have been rendered (1 s) */
 	struct swell_fsafety eff_safety;
+	/* arrival side (before the delay): sets are coming (a complete one came, no disabled FORCE_CMD
+	 * since), the receiver that tells, and the last sample's tick */
+	struct swell_effect_rx arrive_rx;
+	int sets_coming, answer_set;
+	uint8_t set_seq; /* the last set's seq, its arrival tick, the spacing before it */
+	uint64_t set_tick;
+	uint32_t set_spacing, set_agree, learned; /* learned: three spacings in a row agreed (lockstep) */
+	int waiting, set_on_time; /* in a lockstep wait now; the last set came as the answer to a sample */
+	uint64_t tick, last_sample, samples;
+	/* --link-delay: what arrived, acted on at tick due */
+	struct held {
+		struct swell_msg m;
+		uint64_t due;
+	} held[DELAY_HELD];
+	uint32_t held_head, held_n, held_dropped, delay_ticks;
+	uint32_t rx_type[256], tx_type[256]; /* messages by type over the run (one classic CAN frame each) */
 };
 
 static int dev_open(struct dev *d, const struct opts *o)
@@ -105,8 +126,10 @@ static int dev_open(struct dev *d, const struct opts *o)
 static void dev_send(struct dev *d, const struct swell_msg *m, size_t n, uint8_t seq)
 {
 	struct swell_frame f;
-	size_t used;
+	size_t used, k;
 
+	for (k = 0; k < n; k++)
+		d->tx_type[m[k].type]++;
 	while (n > 0) {
 		if (swell_link_encode(d->carrier, d->node, seq, m, n, &f, &used) != SWELL_OK || used == 0) {
 			d->send_errors++;
@@ -119,14 +142,77 @@ static void dev_send(struct dev *d, const struct swell_msg *m, size_t n, uint8_t
 	}
 }
 
-/* Takes one frame if one comes within timeout_ms; returns the number of FORCE_CMD messages in it,
- * -1 when nothing came. */
+static int16_t sat16(double v);
+
+/* Acts on one message from the controller (after the link delay). */
+static void act(struct dev *d, struct hm_state *s, const struct swell_msg *m)
+{
+	static const double none[3] = { 0.0, 0.0, 0.0 };
+	struct swell_effect next;
+	int er;
+
+	if (m->type == SWELL_MSG_FORCE_CMD) {
+		const struct swell_msg_force_cmd *c = &m->u.force_cmd;
+		double fN[3] = { c->fx_cN * 0.01, c->fy_cN * 0.01, c->fz_cN * 0.01 };
+
+		swell_seq_track(&d->force_seq, c->seq);
+		d->force_seq_last = c->seq;
+		hm_command(s, fN, c->enable);
+		if (!c->enable)
+			d->have_eff = 0; /* not running (fault, stop, mode change): the effects go at once */
+		d->commands++;
+	} else if ((er = swell_effect_recv(&d->erx, m, &next)) >= 0) {
+		if (er == 1) { /* the three parts of one update are in: the set is the command, its freshness
+				* limit the watchdog (the controller sends no FORCE_CMD while sets come) */
+			/* the step the update makes at the device's state, once sets have been rendered for a
+			 * second (the first sets of a run start from a water at rest under a placed object) */
+			if (d->have_eff && d->eff_age < d->eff_fresh_ticks && d->eff_ticks >= d->eff_settle_ticks) {
+				const int16_t z = sat16(s->x[2] * 1e5), v = sat16(s->v[2] * 1e4);
+				const int64_t step = (int64_t)swell_effect_force_uN(&next, z, v) -
+					swell_effect_force_uN(&d->eff, z, v);
+				const uint32_t mag = (uint32_t)(step < 0 ? -step : step);
+
+				d->eff_step_max_uN = mag > d->eff_step_max_uN ? mag : d->eff_step_max_uN;
+			}
+			d->eff = next;
+			d->have_eff = 1;
+			d->eff_age = 0;
+			d->eff_sets++;
+			hm_command_for(s, none, 1, d->eff_fresh_ticks);
+		}
+	} else if (m->type == SWELL_MSG_HEARTBEAT) {
+		if (m->u.heartbeat.state == 4) {
+			d->ctl_faults += d->ctl_state != 4;
+			d->fault_beats++;
+			d->ctl_err = m->u.heartbeat.err;
+		}
+		d->ctl_state = m->u.heartbeat.state;
+		d->heartbeats++;
+	} else {
+		d->ignored++;
+	}
+}
+
+/* Acts on what the link delay has held until this tick. */
+static void deliver(struct dev *d, struct hm_state *s)
+{
+	while (d->held_n && d->held[d->held_head].due <= d->tick) {
+		act(d, s, &d->held[d->held_head].m);
+		d->held_head = (d->held_head + 1) % DELAY_HELD;
+		d->held_n--;
+	}
+}
+
+/* Takes one frame if one comes within timeout_ms; returns the number of answers in it (FORCE_CMDs and
+ * completed effect sets), -1 when nothing came. What came is acted on at once, or with --link-delay
+ * held until its tick (deliver). */
 static int dev_recv(struct dev *d, struct hm_state *s, int timeout_ms)
 {
 	struct swell_frame f;
 	struct swell_msg m[SWELL_CANFD_MSGS_MAX];
+	struct swell_effect set;
 	size_t n = 0, k;
-	int cmds = 0, er;
+	int answers = 0;
 
 	if (swell_link_recv(d->l, &f, timeout_ms) < 0)
 		return -1;
@@ -135,37 +221,47 @@ static int dev_recv(struct dev *d, struct hm_state *s, int timeout_ms)
 	for (k = 0; k < n; k++) {
 		if (m[k].node != d->node) {
 			d->ignored++;
-		} else if (m[k].type == SWELL_MSG_FORCE_CMD) {
-			const struct swell_msg_force_cmd *c = &m[k].u.force_cmd;
-			double fN[3] = { c->fx_cN * 0.01, c->fy_cN * 0.01, c->fz_cN * 0.01 };
-
+			continue;
+		}
+		d->rx_type[m[k].type]++;
+		if (m[k].type == SWELL_MSG_FORCE_CMD) {
 			latency_answer();
-			swell_seq_track(&d->force_seq, c->seq);
-			d->force_seq_last = c->seq;
-			hm_command(s, fN, c->enable);
-			if (!c->enable)
-				d->have_eff = 0; /* not running (fault, stop, mode change): the effects go at once */
-			d->commands++;
-			cmds++;
-		} else if ((er = swell_effect_recv(&d->erx, &m[k], &d->eff)) >= 0) {
-			if (er == 1) { /* the three parts of one update are in */
-				d->have_eff = 1;
-				d->eff_age = 0;
-				d->eff_sets++;
+			answers++;
+			d->answer_set = 0;
+			if (!m[k].u.force_cmd.enable)
+				d->sets_coming = 0;
+		} else if (swell_effect_recv(&d->arrive_rx, &m[k], &set) == 1) {
+			/* the spacing of two sets that both came on time (as the answer to a sample; a late
+			 * one, after a timeout, would make it longer) and with consecutive seqs */
+			if (d->waiting && d->set_on_time && d->sets_coming && set.seq == (uint8_t)(d->set_seq + 1u) &&
+			    !d->learned) {
+				const uint32_t sp = (uint32_t)(d->tick - d->set_tick);
+
+				d->set_agree = sp > 0 && sp == d->set_spacing ? d->set_agree + 1u : 0u;
+				if (d->set_agree >= 2) /* three in a row; kept from then on */
+					d->learned = sp;
+				d->set_spacing = sp;
 			}
-		} else if (m[k].type == SWELL_MSG_HEARTBEAT) {
-			if (m[k].u.heartbeat.state == 4) {
-				d->ctl_faults += d->ctl_state != 4;
-				d->fault_beats++;
-				d->ctl_err = m[k].u.heartbeat.err;
-			}
-			d->ctl_state = m[k].u.heartbeat.state;
-			d->heartbeats++;
+			d->set_seq = set.seq;
+			d->set_tick = d->tick;
+			d->set_on_time = d->waiting;
+			answers++;
+			d->answer_set = 1;
+			d->sets_coming = 1;
+		}
+		if (d->delay_ticks == 0) {
+			act(d, s, &m[k]);
+		} else if (d->held_n == DELAY_HELD) {
+			d->held_dropped++;
 		} else {
-			d->ignored++;
+			struct held *h = &d->held[(d->held_head + d->held_n) % DELAY_HELD];
+
+			h->m = m[k];
+			h->due = d->tick + d->delay_ticks;
+			d->held_n++;
 		}
 	}
-	return cmds;
+	return answers;
 }
 
 static int16_t sat16(double v)
@@ -251,14 +347,17 @@ static void sample(struct dev *d, const struct hm_state *s, const double f_hand_
 		m[1] = m[2];
 	lat.sent_ns = now_ns();
 	lat.pending = 1;
+	d->samples++;
+	d->last_sample = d->tick;
 	dev_send(d, m, with_force ? 3 : 2, seq);
 }
 
-/* Lockstep: the answer to sample n is the first FORCE_CMD after it. Once the controller is lost (the
- * watchdog has dropped its force) wait only 1 ms a tick, so that simulated time goes on. */
+/* Lockstep: the answer to sample n is the first FORCE_CMD or complete effect set after it. Once the
+ * controller is lost (the watchdog, or the set's freshness, has dropped its force) wait only 1 ms a
+ * tick, so that simulated time goes on. */
 static void wait_answer(struct dev *d, struct hm_state *s, const struct opts *o, struct run *r, uint64_t n)
 {
-	int lost = s->cmd_age > o->p.watchdog_ticks, got = 0;
+	int lost = s->cmd_age > hm_cmd_watchdog(&o->p, s), got = 0;
 	int64_t deadline = now_ns() + (int64_t)(lost ? 1 : o->timeout_ms) * 1000000;
 	uint8_t off;
 
@@ -267,10 +366,16 @@ static void wait_answer(struct dev *d, struct hm_state *s, const struct opts *o,
 
 		if (left <= 0)
 			break;
+		d->waiting = 1;
 		got = dev_recv(d, s, (int)((left + 999999) / 1000000)) > 0;
+		d->waiting = 0;
 	}
 	if (!got) {
 		r->timeouts++;
+		return;
+	}
+	if (d->answer_set || d->sets_coming) { /* no FORCE_CMD while sets come: count again after them */
+		r->have_offset = 0;
 		return;
 	}
 	/* the controller's FORCE_CMD seq against ours moves only when it ticked without a sample */
@@ -291,9 +396,21 @@ static void wait_deadline(struct dev *d, struct hm_state *s, struct run *r, int6
 		;
 }
 
+/* Ticks between samples while effect sets come: --sample-every, or by default every tick in real
+ * time and in lockstep the sets' spacing once learned (from sets that came on time; a loop whose
+ * answers time out, as on an emulated bus, should be given --sample-every). */
+static uint32_t sample_every(const struct opts *o, const struct dev *d)
+{
+	if (o->sample_every)
+		return o->sample_every;
+	return o->lockstep && d->learned ? d->learned : 1u;
+}
+
 static void summary(const struct opts *o, const struct dev *d, const struct hm_state *s, const struct run *r,
 		    double wall_s)
 {
+	int k;
+
 	summary_head(o, s, r, d->ctl_faults, wall_s);
 	printf("  peak force      %.3f N (|F_cmd| applied)\n", r->peak_f_N);
 	printf("  commands        %u received, %u lost, %u repeated, %u bad frames, %u send errors, %u other "
@@ -312,8 +429,18 @@ static void summary(const struct opts *o, const struct dev *d, const struct hm_s
 	       latency_pct(0.5), latency_pct(0.99), lat.max_ns / 1e3, (unsigned long long)lat.n);
 	printf("  watchdog        %u trips (%u ticks), %llu ticks with an enabled command not applied\n",
 	       s->watchdog_trips, o->p.watchdog_ticks, (unsigned long long)r->zeroed_ticks);
-	printf("  effects         %u sets, %u ticks rendered, %u went stale (freshness %u ticks)\n", d->eff_sets,
-	       d->eff_ticks, d->eff_stale, d->eff_fresh_ticks);
+	printf("  effects         %u sets, %u ticks rendered, %u went stale (freshness %u ticks); largest step at "
+	       "an update %.3f N (the new set against the old at the device's state, before the limits, after the "
+	       "first second of sets)\n",
+	       d->eff_sets, d->eff_ticks, d->eff_stale, d->eff_fresh_ticks, d->eff_step_max_uN * 1e-6);
+	printf("  device link     %llu samples (every %u ticks while sets come), delay %u ticks (%u held messages "
+	       "dropped)\n",
+	       (unsigned long long)d->samples, sample_every(o, d), d->delay_ticks, d->held_dropped);
+	printf("  frames          by type, one classic CAN frame each:");
+	for (k = 0; k < 256; k++)
+		if (d->rx_type[k] || d->tx_type[k])
+			printf(" 0x%02x in %u out %u;", k, d->rx_type[k], d->tx_type[k]);
+	printf("\n");
 	printf("  walls           %u ticks in a workspace wall\n", s->wall_ticks);
 	printf("  controller      last state %d (0 boot, 1 idle, 2 armed, 3 running, 4 fault), %u heartbeats\n",
 	       d->ctl_state, d->heartbeats);
@@ -339,6 +466,8 @@ int proto_main(struct opts *o, FILE *log, const double x0[3])
 	d.eff_fresh_ticks = (uint32_t)lround(o->effect_fresh_ms * 1e-3 * o->p.rate_hz);
 	if (d.eff_fresh_ticks < 1)
 		d.eff_fresh_ticks = 1;
+	d.delay_ticks = (uint32_t)lround(o->link_delay_ms * 1e-3 * o->p.rate_hz);
+	d.eff_settle_ticks = (uint32_t)lround(o->p.rate_hz);
 
 	hm_init(&s, x0);
 	dt = 1.0 / o->p.rate_hz;
@@ -357,16 +486,21 @@ int proto_main(struct opts *o, FILE *log, const double x0[3])
 		int holding;
 
 		s.estop = t >= o->estop_s[0] && t < o->estop_s[1];
+		d.tick = n;
 		/* commands that came in since the last tick (stale ones included: the latest wins) */
 		while (dev_recv(&d, &s, 0) >= 0)
 			;
+		deliver(&d, &s);
 		/* the hand acts on the state of this tick, which the wait below does not change */
 		holding = hm_hand_force(&o->hand, t, s.x, s.v, f_hand);
-		sample(&d, &s, f_hand, (uint8_t)n);
-		if (o->lockstep)
-			wait_answer(&d, &s, o, &r, n);
-		else
+		if (!d.sets_coming || n == 0 || n - d.last_sample >= sample_every(o, &d)) {
+			sample(&d, &s, f_hand, (uint8_t)n);
+			if (o->lockstep)
+				wait_answer(&d, &s, o, &r, n);
+		}
+		if (!o->lockstep)
 			wait_deadline(&d, &s, &r, &next, period_ns);
+		deliver(&d, &s);
 		age = s.cmd_age;
 		memcpy(x, s.x, sizeof(x));
 		memcpy(v, s.v, sizeof(v));

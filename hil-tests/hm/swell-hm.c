@@ -1,12 +1,15 @@
 /* swell-hm: the HapticMaster model for the bench and the demo. It speaks the device side of the
- * swell protocol (DEVICE_POS + DEVICE_VEL every tick, FORCE_CMD and HEARTBEAT back) over UDP,
- * SocketCAN or USB (host links), integrates the admittance model of hm_model.h with a scripted
- * hand (hm_hand.h), logs every tick to CSV and prints a summary.
+ * swell protocol (DEVICE_POS + DEVICE_VEL every tick, or every --sample-every ticks while effect sets
+ * come; FORCE_CMD, the effect sets and HEARTBEAT back) over UDP, SocketCAN or USB (host links),
+ * integrates the admittance model of hm_model.h with a scripted hand (hm_hand.h), logs every tick to
+ * CSV and prints a summary.
  *
  * Pacing: real time (absolute-deadline clock_nanosleep on CLOCK_MONOTONIC at --rate), or lockstep:
- * after sending sample n wait for the controller's answer (the first FORCE_CMD that arrives after
- * it; swell-ctl --clock device ticks once per DEVICE_POS), with a timeout, then integrate. Lockstep
- * runs as fast as the two processes go and is deterministic.
+ * after sending sample n wait for the controller's answer (the first FORCE_CMD or complete effect set
+ * that arrives after it; swell-ctl --clock device ticks once per DEVICE_POS, in effect mode as many
+ * ticks as its seq step), with a timeout, then integrate. Lockstep runs as fast as the two processes
+ * go and is deterministic. --link-delay holds what arrives for a number of device ticks before the
+ * device acts on it (lockstep too: the delay is in device ticks).
  *
  * Its parts: hm_main.h. */
 #include <errno.h>

@@ -13,8 +13,10 @@
  *
  * Effect mode (the controller sends EFFECT_SPRING, EFFECT_DAMPER, EFFECT_LIMIT): each complete set
  * becomes the HapticMaster's own springs, damper and bias force (hm_fx.h, shared with swell-ctl's hm:
- * link), rendered by the device every servo tick. They are removed on the tick the set is older than
- * --effect-fresh, the command is disabled, or the watchdog zeroes the force, and on exit. */
+ * link), rendered by the device every servo tick. The controller sends no FORCE_CMD while the sets
+ * come: a complete set is the command (enabled, zero bias force) and --effect-fresh its watchdog. They
+ * are removed on the tick the set is older than --effect-fresh, the command is disabled, or the
+ * watchdog zeroes the force, and on exit. */
 #define _GNU_SOURCE
 #include <arpa/inet.h>
 #include <errno.h>
@@ -50,7 +52,8 @@ static const char usage[] =
 	"  --node N            node id, 0..15 (default 0)\n"
 	"  --rate HZ           device tick rate (default 2500; 1000 for classic CAN)\n"
 	"  --watchdog TICKS    controller or HapticMaster silent this many ticks -> zero force on the\n"
-	"                      HapticMaster (default 2)\n"
+	"                      HapticMaster (default 2; while effect sets come, the controller's silence\n"
+	"                      is --effect-fresh instead)\n"
 	"  --effect-fresh MS   effect mode: an effect set older than this is removed from the HapticMaster\n"
 	"                      (default 10)\n"
 	"  --seconds S         stop after S seconds (default: until SIGINT/SIGTERM)\n"
@@ -183,7 +186,8 @@ struct bridge {
 	struct hm_fx fx;
 	int16_t f_cN[3];
 	int enable;
-	uint32_t cmd_age; /* ticks since the last FORCE_CMD (saturating) */
+	uint32_t cmd_age; /* ticks since the last FORCE_CMD or complete effect set (saturating) */
+	int by_sets; /* the last command was an effect set: its freshness is the watchdog */
 	uint32_t ans_age; /* ticks since the last sample forwarded (saturating) */
 	uint64_t ticks, commands, samples_fwd, samples_dropped, silent_ticks, trips, send_errors, ignored;
 	uint64_t hm_trips; /* forces zeroed because the HapticMaster fell silent */
@@ -217,7 +221,9 @@ static int open_link(struct bridge *b, const struct opts *o)
 	return 0;
 }
 
-/* Every FORCE_CMD waiting: the latest wins. */
+/* Every FORCE_CMD and effect set waiting: the latest wins. In effect mode the controller sends no
+ * FORCE_CMD while RUNNING: a complete set is then an enabled command with zero bias force, and its
+ * freshness (--effect-fresh) the watchdog, as on swell-hm. */
 static void take_commands(struct bridge *b)
 {
 	struct swell_frame f;
@@ -230,8 +236,18 @@ static void take_commands(struct bridge *b)
 		if (swell_link_decode(b->carrier, &f, m, SWELL_CANFD_MSGS_MAX, &n, NULL, &b->st) != SWELL_OK)
 			continue; /* counted in st, never acted on */
 		for (k = 0; k < n; k++) {
-			if (m[k].node == b->node && hm_fx_msg(&b->fx, &b->hm, &m[k]))
+			const uint32_t sets = b->fx.st.sets;
+
+			if (m[k].node == b->node && hm_fx_msg(&b->fx, &b->hm, &m[k])) {
+				if (b->fx.st.sets != sets) {
+					b->f_cN[0] = b->f_cN[1] = b->f_cN[2] = 0;
+					b->enable = 1;
+					b->cmd_age = 0;
+					b->zeroed = 0;
+					b->by_sets = 1;
+				}
 				continue;
+			}
 			if (m[k].node != b->node || m[k].type != SWELL_MSG_FORCE_CMD) {
 				b->ignored += m[k].type != SWELL_MSG_HEARTBEAT;
 				continue;
@@ -241,6 +257,7 @@ static void take_commands(struct bridge *b)
 			b->f_cN[2] = m[k].u.force_cmd.fz_cN;
 			b->enable = m[k].u.force_cmd.enable;
 			b->cmd_age = 0;
+			b->by_sets = 0;
 			b->zeroed = 0;
 			b->commands++;
 		}
@@ -284,7 +301,7 @@ static void tick(struct bridge *b, const struct opts *o)
 	} else {
 		b->silent_ticks++;
 	}
-	if (b->cmd_age >= o->watchdog && !b->zeroed) {
+	if (b->cmd_age >= (b->by_sets ? b->fx.fresh_ticks : o->watchdog) && !b->zeroed) {
 		b->zeroed = 1;
 		b->trips += b->enable != 0;
 	}

@@ -97,7 +97,7 @@ static unsigned msg_len(unsigned type)
 struct load_row {
 	const char *carrier;
 	unsigned rate;
-	int minimal; /* 1: FORCE_CMD + DEVICE_POS only */
+	int minimal; /* 1: FORCE_CMD + DEVICE_POS only; 2: effect mode (an effect set and a sample an update) */
 };
 
 /* Telemetry that is not per tick: heartbeat 10 Hz both ways, scene and controller info 1 Hz each,
@@ -108,6 +108,7 @@ struct load_row {
 #define OBJ_HZ 100.0
 /* the reference scene in quads of 2 x 2 cells */
 static const unsigned grid_quads = SWELL_POOL_N / 2 * (SWELL_POOL_N / 2);
+#define UPDATE_HZ ((double)SWELL_POOL_SOLVER_HZ) /* effect mode: the update rate, the reference solver's */
 #define USB_PACKETS_PER_MS 19.0 /* USB 2.0 full speed: at most 19 bulk packets of 64 bytes per frame */
 
 static void bus_load(FILE *o)
@@ -117,6 +118,8 @@ static void bus_load(FILE *o)
 		{ "classic CAN 1 Mbit/s", 1000, 1 },
 		{ "classic CAN 1 Mbit/s", SWELL_POOL_TICK_HZ, 0 },
 		{ "classic CAN 1 Mbit/s", SWELL_POOL_TICK_HZ, 1 },
+		{ "classic CAN 1 Mbit/s", 1000, 2 },
+		{ "classic CAN 1 Mbit/s", SWELL_POOL_TICK_HZ, 2 },
 		{ "CAN FD 1/2 Mbit/s", 1000, 0 },
 		{ "CAN FD 1/2 Mbit/s", SWELL_POOL_TICK_HZ, 0 },
 		{ "USB full speed", 1000, 0 },
@@ -129,10 +132,13 @@ static void bus_load(FILE *o)
 		"Computed by swell-protogen from the message lengths. Per haptic tick the device link\n"
 		"carries FORCE_CMD down and DEVICE_POS, DEVICE_VEL, DEVICE_FORCE up (\"full\"), or only\n"
 		"FORCE_CMD and DEVICE_POS (\"minimal\": the controller differentiates position and has no\n"
-		"measured force). Telemetry on the same bus: HEARTBEAT %.0f/s (both directions), SCENE\n"
-		"%.0f/s, CTL_INFO %.0f/s, OBJECT_POSE and OBJECT_FORCE %.0f/s each. What is left carries\n"
-		"HEIGHT_QUADs; a full refresh of the 64 x 64 reference grid is %d quads.\n\n",
-		HB_HZ, SCENE_HZ, INFO_HZ, OBJ_HZ, grid_quads);
+		"measured force). In effect mode (`force.mode` = 1, \"effect\") the device link carries, per\n"
+		"update (%.0f Hz, the solver's rate, whatever the haptic rate), EFFECT_SPRING, EFFECT_DAMPER\n"
+		"and EFFECT_LIMIT down and DEVICE_POS and DEVICE_VEL up (the device reports once an update;\n"
+		"no FORCE_CMD while RUNNING). Telemetry on the same bus: HEARTBEAT %.0f/s (both directions),\n"
+		"SCENE %.0f/s, CTL_INFO %.0f/s, OBJECT_POSE and OBJECT_FORCE %.0f/s each. What is left\n"
+		"carries HEIGHT_QUADs; a full refresh of the 64 x 64 reference grid is %d quads.\n\n",
+		UPDATE_HZ, HB_HZ, SCENE_HZ, INFO_HZ, OBJ_HZ, grid_quads);
 	fprintf(o,
 		"- Classic CAN: %u bits per 8-byte frame and %u per 7-byte frame, worst-case bit\n"
 		"  stuffing (47 + 8n + floor((33 + 8n) / 4)).\n",
@@ -162,7 +168,14 @@ static void bus_load(FILE *o)
 		double busy_s, quads_s, quad_s_each;
 		const char *verdict;
 
-		if (r->carrier[0] == 'c') {
+		if (r->carrier[0] == 'c' && r->minimal == 2) {
+			const double update = can_bits(msg_len(SWELL_MSG_EFFECT_SPRING)) +
+				can_bits(msg_len(SWELL_MSG_EFFECT_DAMPER)) + can_bits(msg_len(SWELL_MSG_EFFECT_LIMIT)) +
+				can_bits(msg_len(SWELL_MSG_DEVICE_POS)) + can_bits(msg_len(SWELL_MSG_DEVICE_VEL));
+
+			busy_s = (update * UPDATE_HZ + can_bits(8) * (HB_HZ + SCENE_HZ + INFO_HZ + 2 * OBJ_HZ)) / 1e6;
+			quad_s_each = can_bits(msg_len(SWELL_MSG_HEIGHT_QUAD)) / 1e6;
+		} else if (r->carrier[0] == 'c') {
 			double tick = can_bits(msg_len(SWELL_MSG_FORCE_CMD)) + can_bits(msg_len(SWELL_MSG_DEVICE_POS));
 			if (!r->minimal)
 				tick += can_bits(msg_len(SWELL_MSG_DEVICE_VEL)) +
@@ -186,12 +199,17 @@ static void bus_load(FILE *o)
 		quads_s = busy_s < 1.0 ? (1.0 - busy_s) / quad_s_each : 0.0;
 		verdict = busy_s > 1.0 ? "does not fit" : busy_s > 0.7 ? "fits, tight (> 70 %)" : "fits";
 		fprintf(o, "| %s | %u Hz | %s | %.1f %% | %.0f quads/s | %.1f | %s |\n", r->carrier, r->rate,
-			r->minimal ? "minimal" : "full", 100.0 * busy_s, quads_s, quads_s / grid_quads, verdict);
+			r->minimal == 2      ? "effect"
+				: r->minimal ? "minimal"
+					     : "full",
+			100.0 * busy_s, quads_s, quads_s / grid_quads, verdict);
 	}
 	fprintf(o,
 		"\nConclusions. Classic CAN carries the full device link at 1000 Hz, and at 2500 Hz only\n"
-		"the minimal one (70 %%, tight); what is left moves a few changed tiles per tick, never the\n"
-		"whole grid at the solver rate (250 Hz x %d quads). CAN FD helps the heights (8 quads a\n"
+		"the minimal one (70 %%, tight), or full haptic control in effect mode, where the load\n"
+		"follows the update rate and not the haptic rate; what is left moves a few changed tiles\n"
+		"per tick, never the whole grid at the solver rate (250 Hz x %d quads). CAN FD helps the heights (8 "
+		"quads a\n"
 		"frame) but not the per-tick messages: they are short, one per frame, and the 1 Mbit/s\n"
 		"arbitration phase dominates, so the full device link at 2500 Hz is tight on CAN FD too.\n"
 		"USB carries everything at both rates with room for about 80 full refreshes per second.\n"

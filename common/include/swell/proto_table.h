@@ -55,16 +55,19 @@ enum swell_ctl_state {
 
 #define SWELL_PROTO_MESSAGES(M)                                                                                       \
 	M(FORCE_CMD, force_cmd, 0x01, 8, CTL, DEV,                                                                    \
-	  "Force command to the HapticMaster, every haptic tick. Zero force unless ENABLE is set.")                   \
+	  "Force command to the HapticMaster, every haptic tick (effect mode: only outside RUNNING, disabled). Zero " \
+	  "force unless ENABLE is set.")                                                                              \
 	M(DEVICE_POS, device_pos, 0x02, 8, DEV, CTL,                                                                  \
-	  "Measured end-effector position and device status, every haptic tick.")                                     \
+	  "Measured end-effector position and device status, every haptic tick (effect mode: once an update while "   \
+	  "effect sets come).")                                                                                       \
 	M(DEVICE_VEL, device_vel, 0x03, 7, DEV, CTL,                                                                  \
 	  "Measured end-effector velocity, every haptic tick where the carrier has room.")                            \
 	M(DEVICE_FORCE, device_force, 0x04, 7, DEV, CTL,                                                              \
 	  "Measured force at the force sensor, every haptic tick where the carrier has room.")                        \
 	M(EFFECT_SPRING, effect_spring, 0x05, 7, CTL, DEV,                                                            \
 	  "Effect mode: the two buoyancy springs, every update (docs/force-law.md). Same seq as EFFECT_DAMPER and "   \
-	  "EFFECT_LIMIT: the device renders a set only once all three of one seq have come.")                         \
+	  "EFFECT_LIMIT: the device renders a set only once all three of one seq have come, and only while it is "    \
+	  "fresh (the sets are its keepalive).")                                                                      \
 	M(EFFECT_DAMPER, effect_damper, 0x06, 8, CTL, DEV,                                                            \
 	  "Effect mode: the damper, the gravity force and the springs' spacing H, every update.")                     \
 	M(EFFECT_LIMIT, effect_limit, 0x07, 5, CTL, DEV,                                                              \
@@ -93,12 +96,12 @@ enum swell_ctl_state {
 	F(m, seq, uint8_t, 48, 8, 0, 255, SEQ, "1", "", "sequence number, +1 per command")    \
 	F(m, enable, uint8_t, 56, 1, 0, 1, PLAIN, "1", "", "1: apply the force; 0: zero force")
 
-#define SWELL_PROTO_FIELDS_device_pos(F, m)                                                  \
-	F(m, x_10um, int16_t, 0, 16, -30000, 30000, PLAIN, "0.01", "mm", "position x")       \
-	F(m, y_10um, int16_t, 16, 16, -30000, 30000, PLAIN, "0.01", "mm", "position y")      \
-	F(m, z_10um, int16_t, 32, 16, -30000, 30000, PLAIN, "0.01", "mm", "position z (up)") \
-	F(m, seq, uint8_t, 48, 8, 0, 255, SEQ, "1", "", "sequence number, +1 per sample")    \
-	F(m, status, uint8_t, 56, 4, 0, 15, PLAIN, "1", "",                                  \
+#define SWELL_PROTO_FIELDS_device_pos(F, m)                                                    \
+	F(m, x_10um, int16_t, 0, 16, -30000, 30000, PLAIN, "0.01", "mm", "position x")         \
+	F(m, y_10um, int16_t, 16, 16, -30000, 30000, PLAIN, "0.01", "mm", "position y")        \
+	F(m, z_10um, int16_t, 32, 16, -30000, 30000, PLAIN, "0.01", "mm", "position z (up)")   \
+	F(m, seq, uint8_t, 48, 8, 0, 255, SEQ, "1", "", "sequence number, +1 per device tick") \
+	F(m, status, uint8_t, 56, 4, 0, 15, PLAIN, "1", "",                                    \
 	  "bit 0 powered, bit 1 force enabled, bit 2 e-stop pressed, bit 3 fault")
 
 #define SWELL_PROTO_FIELDS_device_vel(F, m)                                                      \

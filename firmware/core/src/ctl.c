@@ -418,6 +418,7 @@ void swell_ctl_rx(struct swell_ctl *c, enum swell_ctl_link from, const struct sw
 {
 	enum swell_err err;
 	int32_t v = 0;
+	uint32_t lost;
 
 	if (from == SWELL_LINK_DEVICE) {
 		switch (m->type) {
@@ -426,7 +427,11 @@ void swell_ctl_rx(struct swell_ctl *c, enum swell_ctl_link from, const struct sw
 			c->pos_um[1] = (int32_t)m->u.device_pos.y_10um * 10;
 			c->pos_um[2] = (int32_t)m->u.device_pos.z_10um * 10;
 			c->dev_status = m->u.device_pos.status;
-			c->n.dev_lost += swell_seq_track(&c->dev_seq, m->u.device_pos.seq);
+			/* seq counts device ticks; in effect mode the device reports once an update, so a
+			 * sample is lost only when a whole update period more is skipped */
+			c->dev_step = c->dev_seq.started ? (uint8_t)(m->u.device_pos.seq - c->dev_seq.last) : 1u;
+			lost = swell_seq_track(&c->dev_seq, m->u.device_pos.seq);
+			c->n.dev_lost += c->cfg.force_mode == SWELL_FORCE_EFFECT ? lost / c->ticks_per_step : lost;
 			c->dev_heard = 1;
 			return;
 		case SWELL_MSG_DEVICE_VEL:
@@ -476,13 +481,20 @@ void swell_ctl_link_down(struct swell_ctl *c, enum swell_ctl_link link)
 		return;
 	c->dev_heard = 0;
 	c->dev_back = 0;
-	if (c->since_dev < c->cfg.silent_ticks)
-		c->since_dev = c->cfg.silent_ticks;
+	if (c->since_dev < swell_ctl_silent_limit(c))
+		c->since_dev = swell_ctl_silent_limit(c);
+}
+
+uint32_t swell_ctl_silent_limit(const struct swell_ctl *c)
+{
+	return c->cfg.force_mode == SWELL_FORCE_EFFECT && !c->cfg.cmd_every_tick
+		? (uint32_t)c->cfg.silent_ticks * c->ticks_per_step
+		: c->cfg.silent_ticks;
 }
 
 int swell_ctl_device_lost(const struct swell_ctl *c)
 {
-	return c->since_dev >= c->cfg.silent_ticks;
+	return c->since_dev >= swell_ctl_silent_limit(c);
 }
 
 int swell_ctl_background_due(const struct swell_ctl *c)
@@ -530,17 +542,26 @@ static int16_t force_cN(const struct swell_ctl *c, int32_t uN)
 	return (int16_t)swell_clamp(to_cN(uN), -lim, lim);
 }
 
-static void send_force(struct swell_ctl *c)
+/* The tick's FORCE_CMD. Effect mode: none while RUNNING (the effect sets are the device's keepalive,
+ * at the update rate), or with cmd_every_tick an enabled one with zero force; otherwise a disabled one
+ * with zero force every tick, on which the device drops its effects; and from swell_ctl_zero_force
+ * (stop: 1) always a disabled one. */
+static void send_force(struct swell_ctl *c, int stop)
 {
 	struct swell_msg m = msg(c, SWELL_MSG_FORCE_CMD);
+	const int running = c->state == SWELL_CTL_RUNNING;
 
 	if (c->cfg.force_mode == SWELL_FORCE_STREAM) {
 		m.u.force_cmd.fx_cN = force_cN(c, c->force_dev_uN[0]);
 		m.u.force_cmd.fy_cN = force_cN(c, c->force_dev_uN[1]);
 		m.u.force_cmd.fz_cN = force_cN(c, c->force_dev_uN[2]);
-	} /* effect mode: zero force, the enable bit keeps the device's effects alive */
+		m.u.force_cmd.enable = running;
+	} else if (running && !stop && !c->cfg.cmd_every_tick) {
+		return;
+	} else {
+		m.u.force_cmd.enable = running && !stop;
+	}
 	m.u.force_cmd.seq = c->seq_force++;
-	m.u.force_cmd.enable = c->state == SWELL_CTL_RUNNING;
 	push(c, SWELL_LINK_DEVICE, &m);
 }
 
@@ -550,7 +571,7 @@ void swell_ctl_zero_force(struct swell_ctl *c)
 
 	for (k = 0; k < 3; k++)
 		c->force_dev_uN[k] = swell_fsafety_apply(&c->safety[k], 0, 0);
-	send_force(c);
+	send_force(c, 1);
 }
 
 static uint16_t sat16(uint32_t x)
@@ -760,7 +781,7 @@ static void supervise(struct swell_ctl *c)
 		c->dev_back = 0;
 	}
 	c->dev_heard = 0;
-	alive = c->since_dev < c->cfg.silent_ticks;
+	alive = c->since_dev < swell_ctl_silent_limit(c);
 
 	switch (c->state) {
 	case SWELL_CTL_BOOT:
@@ -838,7 +859,7 @@ static uint32_t force_law(struct swell_ctl *c)
 		rate_after += c->safety[k].rate_limited;
 	}
 	c->limits = (uint8_t)((after != before ? 1u : 0u) | (rate_after != rate_before ? 2u : 0u));
-	send_force(c);
+	send_force(c, 0);
 	return work;
 }
 

@@ -4,6 +4,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <random>
+#include <utility>
 #include <vector>
 
 extern "C" {
@@ -805,30 +806,45 @@ TEST_CASE("random device traffic, parameters and commands: every force sent is z
 	}
 }
 
-TEST_CASE("effect mode: force.mode changes only outside RUNNING, and running, FORCE_CMD carries zero force and a full "
-	  "effect set goes out at every solver step, and a stop disables at once",
+TEST_CASE("effect mode: force.mode changes only outside RUNNING, running no FORCE_CMD goes out and a full effect set "
+	  "goes out at every solver step, a stop disables at once, the device is silent after silent_ticks updates, "
+	  "and a sample once an update is counted as no loss",
 	  "[ctl][effect]")
 {
 	Ctl k(pool());
+	// FORCE_CMDs in the device queue: how many, and how many of them enabled
+	auto cmds = [&k]() {
+		std::pair<int, int> n{0, 0};
+		for (const swell_msg &m : k.drain(SWELL_LINK_DEVICE))
+			if (m.type == SWELL_MSG_FORCE_CMD) {
+				n.first++;
+				n.second += m.u.force_cmd.enable;
+			}
+		return n;
+	};
 	swell_ctl_tick(&k.c);
 	k.device(0, 0, 100000);
 	swell_ctl_tick(&k.c);
 	k.drain(SWELL_LINK_DEVICE);
+	CHECK(swell_ctl_silent_limit(&k.c) == 2); // stream: ticks
 	k.param(SWELL_PARAM_FORCE_MODE, SWELL_FORCE_EFFECT);
 	CHECK(k.c.cfg.force_mode == SWELL_FORCE_EFFECT); // armed: taken
+	CHECK(swell_ctl_silent_limit(&k.c) == 20); // effect: 2 updates of 10 ticks (2500 / 250 Hz)
 	k.param(SWELL_PARAM_COMMAND, SWELL_CMD_RUN);
-	int sets = 0, forces = 0, zero_enabled = 0;
+	int sets = 0, forces = 0;
 	swell_effect got{}, last{};
 	swell_effect_rx rx{};
-	for (int t = 0; t < 100; t++) { // 10 solver periods
-		k.device(0, 0, 100000);
+	uint32_t lost0 = 0;
+	for (int t = 0; t < 100; t++) { // 10 solver periods, the device reporting once an update
+		if (t % 10 == 0) {
+			k.seq = (uint8_t)(k.seq + 9); // its seq counts device ticks
+			k.device(0, 0, 100000);
+			if (t == 0)
+				lost0 = k.c.n.dev_lost; // the parameters above took seq numbers too
+		}
 		swell_ctl_tick(&k.c);
 		for (const swell_msg &m : k.drain(SWELL_LINK_DEVICE)) {
-			if (m.type == SWELL_MSG_FORCE_CMD) {
-				forces++;
-				zero_enabled += m.u.force_cmd.enable && m.u.force_cmd.fx_cN == 0 && m.u.force_cmd.fy_cN == 0 &&
-					m.u.force_cmd.fz_cN == 0;
-			}
+			forces += m.type == SWELL_MSG_FORCE_CMD;
 			if (swell_effect_recv(&rx, &m, &got) == 1) {
 				sets++;
 				last = got;
@@ -836,8 +852,9 @@ TEST_CASE("effect mode: force.mode changes only outside RUNNING, and running, FO
 		}
 	}
 	CHECK(k.c.state == SWELL_CTL_RUNNING);
-	CHECK(forces == 100);
-	CHECK(zero_enabled >= 99); // the tick that entered RUNNING may still be disabled
+	CHECK(k.c.n.dev_lost == lost0); // 9 device ticks skipped an update: not a loss
+	CHECK(k.c.dev_step == 10);
+	CHECK(forces == 0); // the sets are the device's keepalive
 	CHECK(sets >= 10);
 	CHECK(sets <= 11); // the first tick of RUNNING sends one at once
 	// held 100 mm above the water: the set is gravity, the springs' origin at the surface (rest level)
@@ -857,12 +874,52 @@ TEST_CASE("effect mode: force.mode changes only outside RUNNING, and running, FO
 	for (const swell_msg &m : k.drain(SWELL_LINK_HOST))
 		refused |= m.type == SWELL_MSG_PARAM_NACK && m.u.param_nack.err == SWELL_ESTATE;
 	CHECK(refused);
-	// stop: the next FORCE_CMD is disabled (the device drops its effects on it)
+	// the port's zero force (exit) is a disabled FORCE_CMD in effect mode: the device drops its effects
+	swell_ctl_zero_force(&k.c);
+	CHECK(cmds() == std::make_pair(1, 0));
+	// a silent device: still RUNNING 19 ticks after the tick of its last sample, FAULT on the 20th
+	k.seq = (uint8_t)(k.seq + 9);
+	k.device(0, 0, 100000);
+	swell_ctl_tick(&k.c);
+	k.drain(SWELL_LINK_DEVICE);
+	for (int t = 0; t < 19; t++)
+		swell_ctl_tick(&k.c);
+	CHECK(k.c.state == SWELL_CTL_RUNNING);
+	swell_ctl_tick(&k.c);
+	CHECK(k.c.state == SWELL_CTL_FAULT);
+	CHECK(cmds() == std::make_pair(1, 0)); // the tick that left RUNNING sends a disabled FORCE_CMD
+	// stop (back from the fault by a clear first): the next FORCE_CMD is disabled
+	k.device(0, 0, 100000);
+	k.param(SWELL_PARAM_COMMAND, SWELL_CMD_CLEAR);
+	swell_ctl_tick(&k.c);
+	k.device(0, 0, 100000);
+	swell_ctl_tick(&k.c);
+	k.param(SWELL_PARAM_COMMAND, SWELL_CMD_RUN);
+	k.device(0, 0, 100000);
+	swell_ctl_tick(&k.c);
+	CHECK(k.c.state == SWELL_CTL_RUNNING);
+	k.drain(SWELL_LINK_DEVICE);
 	k.param(SWELL_PARAM_COMMAND, SWELL_CMD_STOP);
 	k.device(0, 0, 100000);
 	swell_ctl_tick(&k.c);
 	CHECK(k.c.state == SWELL_CTL_ARMED);
-	CHECK(k.force().enable == 0);
+	CHECK(cmds() == std::make_pair(1, 0));
 	k.param(SWELL_PARAM_FORCE_MODE, SWELL_FORCE_STREAM);
 	CHECK(k.c.cfg.force_mode == SWELL_FORCE_STREAM);
+	// a port that needs a FORCE_CMD every tick (the HapticMaster's TCP link): enabled, zero force,
+	// beside the sets, and the silence limit stays in ticks
+	k.c.cfg.cmd_every_tick = 1;
+	k.param(SWELL_PARAM_FORCE_MODE, SWELL_FORCE_EFFECT);
+	CHECK(swell_ctl_silent_limit(&k.c) == 2);
+	k.param(SWELL_PARAM_COMMAND, SWELL_CMD_RUN);
+	k.device(0, 0, 100000);
+	swell_ctl_tick(&k.c);
+	CHECK(k.c.state == SWELL_CTL_RUNNING);
+	k.drain(SWELL_LINK_DEVICE);
+	for (int t = 0; t < 10; t++) {
+		k.device(0, 0, 100000);
+		swell_ctl_tick(&k.c);
+		INFO("tick " << t);
+		CHECK(cmds() == std::make_pair(1, 1));
+	}
 }

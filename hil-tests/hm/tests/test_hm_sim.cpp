@@ -168,17 +168,46 @@ TEST_CASE("drop: the object falls from 20 mm, floats (never on the floor, at mos
 	check_drop_floats(rows);
 }
 
-TEST_CASE("effect mode: the device renders springs, damper and gravity from the controller's updates, and a drop from "
-	  "20 mm floats (never on the floor, at most 2 N) and settles within 2 s")
+// Messages of one type that swell-hm received (in) or sent (out), from its "frames" line.
+unsigned frames(const std::string &summary, unsigned type, const char *dir)
+{
+	char key[32];
+	std::snprintf(key, sizeof key, " 0x%02x in ", type);
+	const size_t at = summary.find(key);
+	if (at == std::string::npos)
+		return 0;
+	unsigned in = 0, out = 0;
+	REQUIRE(std::sscanf(summary.c_str() + at, " 0x%*x in %u out %u", &in, &out) == 2);
+	return std::string(dir) == "in" ? in : out;
+}
+
+TEST_CASE("effect mode: the device renders springs, damper and gravity from the controller's updates, reports once an "
+	  "update (classic CAN at 2500 Hz within 30 % with the viewer's telemetry), and a drop from 20 mm floats (never "
+	  "on the floor, at most 2 N) and settles within 2 s")
 {
 	closed_loop cl("effect-drop", "device", 200, effect_mode());
-	const std::string s = cl.run(cl.hm_args("drop:z=20,hold=0.5", 6.0));
+	std::vector<std::string> args = cl.hm_args("drop:z=20,hold=0.5", 6.0);
+	args.insert(args.end(), {"--sample-every", "10"});
+	const std::string s = cl.run(args);
 	INFO(s);
 	const std::vector<row> rows = read_csv(cl.csv);
 	REQUIRE(rows.size() == 15000);
 	// a set every solver step (10 ticks) while running, none went stale, the device rendered them
 	CHECK(figure(s, "effects") >= 1400);
 	CHECK(s.find(" 0 went stale") != std::string::npos);
+	// the device link's traffic as classic CAN frames (worst-case stuffing, docs/protocol.md): no
+	// FORCE_CMD while running, a sample (DEVICE_POS + DEVICE_VEL) and a set an update; plus the
+	// viewer's telemetry (HEARTBEAT 20/s, SCENE and CTL_INFO 1/s, OBJECT_POSE and OBJECT_FORCE 100/s)
+	auto bits = [](unsigned n) { return 47.0 + 8 * n + (33 + 8 * n) / 4; };
+	CHECK(frames(s, 0x01, "in") < 10);
+	CHECK(frames(s, 0x02, "out") <= 1510);
+	CHECK(frames(s, 0x05, "in") == frames(s, 0x07, "in"));
+	const double dev_bits = frames(s, 0x01, "in") * bits(8) + frames(s, 0x02, "out") * bits(8) +
+		frames(s, 0x03, "out") * bits(7) + frames(s, 0x05, "in") * bits(7) + frames(s, 0x06, "in") * bits(8) +
+		frames(s, 0x07, "in") * bits(5);
+	const double load = (dev_bits / 6.0 + bits(8) * 222) / 1e6;
+	std::printf("effect mode, classic CAN 1 Mbit/s at 2500 Hz with the viewer's telemetry: %.1f %%\n", load * 100);
+	CHECK(load <= 0.30);
 	// FORCE_CMD carries no force in effect mode: what is applied is the effects' (gravity while held)
 	CHECK(rows[1000].fcmd[2] == Approx(-0.981).margin(0.002));
 	CHECK(rows[1000].applied == 1);
@@ -310,14 +339,17 @@ TEST_CASE("e-stop: while pressed the device applies no force, the controller fau
 	CHECK(rows.back().state == 3);
 }
 
-TEST_CASE("controller killed mid-run: swell-hm applies zero force within its watchdog (2 ticks), in stream and in "
-	  "effect mode")
+TEST_CASE("controller killed mid-run: swell-hm applies zero force within its watchdog (2 ticks), in stream mode, and "
+	  "in effect mode at the sets' freshness limit")
 {
 	const int effect = GENERATE(0, 1);
 	INFO((effect ? "effect mode" : "stream mode"));
 	closed_loop cl(effect ? "kill-effect" : "kill", "device", 200, effect ? effect_mode() : std::vector<std::string>{});
 	// held above the water: the controller commands the weight, -0.98 N, all along
-	swell_test::Proc hm(cl.hm_args("drop:z=20,hold=100000", 100000.0), cl.hm_out);
+	std::vector<std::string> args = cl.hm_args("drop:z=20,hold=100000", 100000.0);
+	if (effect)
+		args.insert(args.end(), {"--sample-every", "10"}); // a sample an update, as on classic CAN
+	swell_test::Proc hm(args, cl.hm_out);
 	// mid-run: once the log holds about 2000 ticks (it is written in blocks), however slow the machine
 	struct stat st {};
 	for (int k = 0; k < 6000 && (stat(cl.csv.c_str(), &st) != 0 || st.st_size < 200000); k++)
@@ -348,10 +380,12 @@ TEST_CASE("controller killed mid-run: swell-hm applies zero force within its wat
 		if (!rows[k].applied)
 			CHECK(rows[k].fcmd[2] == 0.0);
 	}
-	// held for watchdog - 1 = 1 silent tick, zero from the second
-	CHECK(applied_after == 1);
-	CHECK(rows[last + 1].applied == 1);
-	CHECK(rows[last + 2].applied == 0);
+	// stream: held for watchdog - 1 = 1 silent tick, zero from the second; effect: the set is the
+	// command and its freshness limit (10 ms = 25 ticks) the watchdog: held 24 ticks, zero from the 25th
+	const int held = effect ? 24 : 1;
+	CHECK(applied_after == held);
+	CHECK(rows[last + held].applied == 1);
+	CHECK(rows[last + held + 1].applied == 0);
 	CHECK(figure(s, "watchdog") == 1);
 	CHECK(figure(s, "timeouts") >= 1);
 }

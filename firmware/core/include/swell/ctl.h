@@ -63,9 +63,13 @@
 #define SWELL_CTL_QUEUE 64
 
 /* force.mode: how the force law reaches the device. STREAM: FORCE_CMD carries the force every tick.
- * EFFECT: FORCE_CMD carries zero force with its enable bit (the device's watchdog still runs on it
- * every tick), and at every solver step the effect set (swell/effect.h) goes out as EFFECT_SPRING,
- * EFFECT_DAMPER and EFFECT_LIMIT; the device renders it every tick while it is fresh. */
+ * EFFECT: while RUNNING, only the effect set (swell/effect.h) goes to the device, at every solver step
+ * (the update rate), as EFFECT_SPRING, EFFECT_DAMPER and EFFECT_LIMIT; the device renders it every
+ * tick while it is fresh (the set is its own keepalive) and reports its position once an update.
+ * Outside RUNNING (and on the tick that leaves it, and from swell_ctl_zero_force) FORCE_CMD goes as
+ * in STREAM, disabled: the device drops its effects on it. The device's silence limit counts update
+ * periods instead of ticks (swell_ctl_silent_limit). A port may ask for a FORCE_CMD every tick
+ * (cmd_every_tick). */
 enum swell_force_mode {
 	SWELL_FORCE_STREAM = 0,
 	SWELL_FORCE_EFFECT = 1
@@ -85,12 +89,16 @@ struct swell_ctl_config {
 	struct swell_body_xform xform;
 	struct swell_fsafety_params safety; /* one stage per device axis; tick_hz is set from tick_hz */
 	uint32_t tick_hz, solver_hz; /* solver_hz divides tick_hz, 2 .. SWELL_BODY_MAX_K ticks a step */
-	uint16_t silent_ticks; /* device silent this many ticks -> fault; 1 .. 10000 */
+	uint16_t silent_ticks; /* device silent this many ticks (effect mode: update periods) -> fault; 1 .. 10000 */
 	uint16_t recover_ticks; /* autorun: device back (heard, no e-stop) this long before leaving FAULT */
 	uint16_t host_budget; /* host messages a tick, 1 .. SWELL_CTL_QUEUE / 2 */
 	uint8_t node; /* 0 .. SWELL_NODE_MAX */
 	uint8_t autorun;
 	uint8_t force_mode; /* SWELL_FORCE_STREAM or SWELL_FORCE_EFFECT; changed only outside RUNNING */
+	/* set by a port whose device link needs a FORCE_CMD every tick in effect mode too (the
+	 * HapticMaster's TCP interface: each tick's request carries it): enabled with zero force while
+	 * RUNNING, beside the sets, and the silence limit stays in ticks */
+	uint8_t cmd_every_tick;
 	uint8_t fw_version[3]; /* major, minor, patch of the running firmware, sent in CTL_INFO */
 };
 
@@ -123,6 +131,7 @@ struct swell_ctl {
 	uint32_t since_dev; /* ticks since the device was last heard (saturating) */
 	uint32_t dev_back; /* ticks the device has been heard without a gap */
 	struct swell_seq dev_seq;
+	uint8_t dev_step; /* the last DEVICE_POS's seq step: device ticks it stands for (1 for the first) */
 	uint8_t run_request, clear_request;
 	uint8_t host_stop; /* STOP received and no RUN since: autorun does not start the force law */
 	/* Set when an ENTER_BOOTLOADER was accepted (outside RUNNING, with the key): the core has zeroed
