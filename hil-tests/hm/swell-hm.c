@@ -38,7 +38,7 @@ static const char usage[] =
 	"protocol to a controller (swell-ctl).\n"
 	"\n"
 	"Link and pacing:\n"
-	"  --link udp|can:IFACE|usb   carrier (default udp: packets to --host:--port)\n"
+	"  --link udp[:PORT]|can:IFACE|usb[:VID:PID]   carrier (default udp: packets to --host:--port)\n"
 	"  --iface N           usb: the controller's interface number (default 0, the device link;\n"
 	"                      bulk endpoints are read from its descriptor)\n"
 	"  --host ADDR         controller's IPv4 address for udp (default 127.0.0.1)\n"
@@ -95,6 +95,7 @@ static const char usage[] =
 
 struct opts {
 	const char *link, *host, *log, *serve;
+	struct swell_link_spec ls; /* --link parsed */
 	unsigned bias_watchdog_ms;
 	double effect_fresh_ms; /* effect mode: a set older than this is not rendered */
 	struct inject {
@@ -259,9 +260,11 @@ static void parse(int argc, char **argv, struct opts *o)
 		}
 		k++;
 		if (!strcmp(a, "--link")) {
-			if (strcmp(v, "udp") && strcmp(v, "usb") && (strncmp(v, "can:", 4) || !v[4]))
-				die("--link must be udp, can:IFACE or usb, not '%s'%s", v, "");
+			if (swell_link_spec_parse(v, SWELL_LINK_ACCEPT_HOST_SIDE, (uint16_t)o->port, &o->ls, why,
+						  sizeof(why)))
+				die("--link %s%s", why, "");
 			o->link = v;
+			o->port = o->ls.port;
 		} else if (!strcmp(a, "--host")) {
 			struct in_addr ia;
 
@@ -439,25 +442,17 @@ struct dev {
 
 static int dev_open(struct dev *d, const struct opts *o)
 {
+	const struct swell_link_open_opts uo = { .udp_host = o->host, .udp_bind_port = (uint16_t)o->bind_port };
+	struct swell_link_spec ls;
 	int rc;
 
 	memset(d, 0, sizeof(*d));
 	d->node = (uint8_t)o->node;
 	d->ctl_state = -1;
-	if (!strcmp(o->link, "udp")) {
-		rc = swell_link_open_udp(&d->l, o->host, (uint16_t)o->bind_port, o->host, (uint16_t)o->port);
-	} else if (!strncmp(o->link, "can:", 4)) {
-		struct swell_can_opts co;
-
-		memset(&co, 0, sizeof(co));
-		rc = swell_link_open_can(&d->l, o->link + 4, &co);
-	} else {
-		struct swell_usb_opts uo;
-
-		swell_usb_opts_default(&uo);
-		uo.iface = (int)o->iface;
-		rc = swell_link_open_usb(&d->l, &uo);
-	}
+	ls = o->ls;
+	ls.port = (uint16_t)o->port;
+	ls.iface = (uint8_t)o->iface;
+	rc = swell_link_open_spec(&d->l, &ls, &uo);
 	if (rc < 0) {
 		fprintf(stderr, "swell-hm: cannot open link %s: %s\n", o->link, strerror(-rc));
 		return -1;

@@ -13,6 +13,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "swell/link_spec.h"
 #include "swell/proto.h"
 
 #define SWELL_LINK_MTU 64u
@@ -92,6 +93,19 @@ int swell_link_open_record(struct swell_link **out, struct swell_link *inner, co
 /* Replay of a recording: receive gives the recorded frames, paced as recorded (realtime = 1) or
  * as fast as possible (realtime = 0); send is refused (-EROFS). */
 int swell_link_open_replay(struct swell_link **out, const char *path, int realtime);
+
+/* ---- opening a parsed spec (swell/link_spec.h) on the host's side ---- */
+struct swell_link_open_opts {
+	const char *udp_host; /* the address bound and sent to; NULL: 127.0.0.1 */
+	uint16_t udp_bind_port; /* 0: any free port */
+	uint16_t udp_bind_tries; /* > 0: the first free of this many ports from udp_bind_port, else any free one */
+	int udp_answer; /* 1: bind the spec's port and answer whoever sent last; 0: send to the spec's port */
+	int can_errors; /* CAN: receive error frames (counted in bus_errors) */
+};
+/* UDP, CAN (classic frames; FD for canfd:), USB (libusb, the spec's VID, PID and interface) or a
+ * replay. 0 or a negative errno; -EINVAL for the controller's kinds (FunctionFS, hm:). */
+int swell_link_open_spec(struct swell_link **out, const struct swell_link_spec *s,
+			 const struct swell_link_open_opts *o);
 
 /* ---- messages over a link's carrier ---- */
 /* Packs as many of m[0..n) as one frame of the carrier takes (CAN: 1; CAN FD: same type; packet:
