@@ -16,7 +16,7 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "swell/link_spec.h"
+#include "swell/link.h"
 #include "swell/transport.h"
 
 /* hm: an answer to a request sent more than this many ticks ago is stale: a silent device tick */
@@ -37,36 +37,22 @@ static int open_udp(struct ctl_link *l, const char *spec, const struct swell_lin
 {
 	const long port = ls->port;
 	const int have_opt = device_side ? ls->have_peer : ls->have_listen;
-	const int rcvbuf = 2 << 20; /* bytes of queue, about 2700 small datagrams */
 	struct sockaddr_in a;
-	socklen_t alen = sizeof(l->local);
 
-	l->fd = socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
-	if (l->fd < 0)
-		return fail(l, err, errlen, "socket for", spec);
-	/* A burst from a third sender (2000 garbage datagrams in the bench) must not make the kernel drop
-	 * the device's samples while this process waits for the CPU: a deep receive queue (FORCE when
-	 * permitted, else capped by net.core.rmem_max; the default queue holds about 280 datagrams). */
-	if (setsockopt(l->fd, SOL_SOCKET, SO_RCVBUFFORCE, &rcvbuf, sizeof(rcvbuf)) < 0)
-		(void)setsockopt(l->fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof(rcvbuf));
 	memset(&a, 0, sizeof(a));
 	a.sin_family = AF_INET;
 	a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
 	a.sin_port = htons((uint16_t)(device_side ? port : SWELL_UDP_PORT_CLIENTS));
 	if (!device_side && have_opt)
 		a = ls->listen_at; /* the clients' port (and address, when spelled out) */
-	if (bind(l->fd, (struct sockaddr *)&a, sizeof(a)) < 0) {
-		/* the default clients' port is another controller's: this one takes any free port (said at
-		 * start); a port spelled out is never swapped for another */
-		if (device_side || have_opt || errno != EADDRINUSE)
-			return fail(l, err, errlen, "bind", spec);
-		a.sin_port = 0;
-		l->clients_port_taken = 1;
-		if (bind(l->fd, (struct sockaddr *)&a, sizeof(a)) < 0)
-			return fail(l, err, errlen, "bind", spec);
+	/* the default clients' port is another controller's: this one takes any free port (said at
+	 * start); a port spelled out is never swapped for another */
+	l->fd = swell_udp_socket(&a, 1, !device_side && !have_opt, &l->clients_port_taken, &l->local);
+	if (l->fd < 0) {
+		errno = -l->fd;
+		l->fd = -1;
+		return fail(l, err, errlen, "bind", spec);
 	}
-	if (getsockname(l->fd, (struct sockaddr *)&l->local, &alen) < 0)
-		return fail(l, err, errlen, "address of", spec);
 	if (!device_side) {
 		a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
 		a.sin_port = htons((uint16_t)port);
@@ -293,11 +279,6 @@ static size_t recv_usb(struct ctl_link *l, struct swell_msg *out, size_t cap)
 	return own_node(l, out, n);
 }
 
-static int same_addr(const struct sockaddr_in *a, const struct sockaddr_in *b)
-{
-	return a->sin_port == b->sin_port && a->sin_addr.s_addr == b->sin_addr.s_addr;
-}
-
 static int64_t mono_ns(void)
 {
 	struct timespec t;
@@ -349,7 +330,7 @@ static struct ctl_link_client *client_of(struct ctl_link *l, const struct sockad
 	for (k = 0; k < CTL_LINK_CLIENTS; k++) {
 		struct ctl_link_client *c = &l->clients[k];
 
-		if (c->heard_ns && same_addr(&c->addr, from))
+		if (c->heard_ns && swell_udp_same(&c->addr, from))
 			return c;
 		if (!c->heard_ns && !free_slot)
 			free_slot = c;
@@ -368,18 +349,19 @@ static struct ctl_link_client *client_of(struct ctl_link *l, const struct sockad
 static size_t recv_udp(struct ctl_link *l, struct swell_msg *out, size_t cap)
 {
 	uint8_t buf[SWELL_PKT_MAX + 1];
-	struct sockaddr_in from = { 0 }; /* filled by recvfrom; zeroed for the analyzer */
-	socklen_t flen = sizeof(from);
+	struct sockaddr_in from;
 	struct ctl_link_client *c = NULL;
 	size_t n = 0;
 	uint8_t seq;
-	ssize_t r = recvfrom(l->fd, buf, sizeof(buf), 0, (struct sockaddr *)&from, &flen);
+	long r = swell_udp_recv(l->fd, buf, sizeof(buf), &from, 0);
 	int64_t now;
 
 	if (r < 0)
 		return 0;
+	if (r > (long)sizeof(buf))
+		r = (long)sizeof(buf); /* too long for a packet: the decoder refuses it and counts it */
 	l->frames_rx++;
-	if (l->device_side && l->have_peer && !l->peer_open && !same_addr(&from, &l->peer)) {
+	if (l->device_side && l->have_peer && !l->peer_open && !swell_udp_same(&from, &l->peer)) {
 		l->others++;
 		return 0;
 	}
@@ -393,7 +375,7 @@ static size_t recv_udp(struct ctl_link *l, struct swell_msg *out, size_t cap)
 
 		if (l->have_peer && !l->peer_open)
 			return n; /* the device */
-		if (l->have_peer && same_addr(&from, &l->peer)) {
+		if (l->have_peer && swell_udp_same(&from, &l->peer)) {
 			l->peer_open = !pos; /* the device let go is back: held again by its next sample */
 			return n;
 		}
@@ -407,7 +389,7 @@ static size_t recv_udp(struct ctl_link *l, struct swell_msg *out, size_t cap)
 		l->peers_taken++;
 		return n;
 	}
-	if (l->have_peer && same_addr(&from, &l->peer))
+	if (l->have_peer && swell_udp_same(&from, &l->peer))
 		return n;
 	now = mono_ns();
 	expire_clients(l, now);
@@ -491,7 +473,7 @@ size_t ctl_link_recv(struct ctl_link *l, struct swell_msg *out, size_t cap)
 
 static void send_to(struct ctl_link *l, const struct sockaddr_in *to, const uint8_t *p, size_t len)
 {
-	if (sendto(l->fd, p, len, 0, (const struct sockaddr *)to, sizeof(*to)) != (ssize_t)len)
+	if (swell_udp_send(l->fd, to, p, len) != 0)
 		l->tx_errors++;
 	else
 		l->frames_tx++;

@@ -9,9 +9,12 @@
 #include "swell/transport.h"
 
 static const char *const spellings[SWELL_LINK_KINDS] = {
-	[SWELL_LINK_UDP] = "udp[:PORT]",	 [SWELL_LINK_CAN] = "can:IFACE",
-	[SWELL_LINK_CANFD] = "canfd:IFACE",	 [SWELL_LINK_USB] = "usb[:VID:PID]",
-	[SWELL_LINK_FFS] = "usb:FFS_DIR",	 [SWELL_LINK_HM] = "hm:HOST[:PORT]",
+	[SWELL_LINK_UDP] = "udp[:PORT]",
+	[SWELL_LINK_CAN] = "can:IFACE",
+	[SWELL_LINK_CANFD] = "canfd:IFACE",
+	[SWELL_LINK_USB] = "usb[:VID:PID]",
+	[SWELL_LINK_FFS] = "usb:FFS_DIR",
+	[SWELL_LINK_HM] = "hm:HOST[:PORT]",
 	[SWELL_LINK_REPLAY] = "replay:FILE or replay-fast:FILE",
 };
 
@@ -181,8 +184,8 @@ static int unknown(const char *text, unsigned accept, char *err, size_t len)
 	return -1;
 }
 
-int swell_link_spec_parse(const char *text, unsigned accept, uint16_t udp_port, struct swell_link_spec *out,
-			  char *err, size_t errlen)
+int swell_link_spec_parse(const char *text, unsigned accept, uint16_t udp_port, struct swell_link_spec *out, char *err,
+			  size_t errlen)
 {
 	struct swell_link_spec s;
 	const char *rest;
@@ -208,8 +211,11 @@ int swell_link_spec_parse(const char *text, unsigned accept, uint16_t udp_port, 
 		s.kind = SWELL_LINK_CANFD;
 		rc = parse_can(text, rest, &s, err, errlen);
 	} else if (prefixed(text, "canfd:", &rest) && (accept & SWELL_LINK_ACCEPT(SWELL_LINK_CAN))) {
-		rc = refuse(err, errlen, text, "swell's controller links are classic CAN (swell-ctl's can:IFACE, the F405's bxCAN): use can:IFACE");
-	} else if (prefixed(text, "usb", &rest) && (accept & (SWELL_LINK_ACCEPT(SWELL_LINK_USB) | SWELL_LINK_ACCEPT(SWELL_LINK_FFS)))) {
+		rc = refuse(err, errlen, text,
+			    "swell's controller links are classic CAN (swell-ctl's can:IFACE, the F405's bxCAN): use "
+			    "can:IFACE");
+	} else if (prefixed(text, "usb", &rest) &&
+		   (accept & (SWELL_LINK_ACCEPT(SWELL_LINK_USB) | SWELL_LINK_ACCEPT(SWELL_LINK_FFS)))) {
 		rc = parse_usb(text, rest, accept, &s, err, errlen);
 	} else if (prefixed(text, "hm:", &rest) && (accept & SWELL_LINK_ACCEPT(SWELL_LINK_HM))) {
 		s.kind = SWELL_LINK_HM;

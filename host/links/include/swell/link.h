@@ -64,6 +64,22 @@ int swell_link_open_udp(struct swell_link **out, const char *bind_host, uint16_t
 /* The local port actually bound (useful after binding port 0); 0 if l is not a UDP link. */
 uint16_t swell_link_udp_port(const struct swell_link *l);
 
+/* The UDP socket calls of both sides, the host links above and the Linux controller's links (which
+ * add the device's peer and the host link's clients on top; firmware/linux/ctl_link.h). */
+/* A datagram socket bound to *at (port 0: any free port; when the port is taken and any_if_taken, any
+ * free port of the same address, with *taken set to 1), close-on-exec, non-blocking when nonblock, with
+ * a receive queue deep enough for a burst of a few thousand small datagrams. *bound gets the address
+ * bound. The descriptor, or a negative errno with nothing left open. */
+int swell_udp_socket(const struct sockaddr_in *at, int nonblock, int any_if_taken, int *taken,
+		     struct sockaddr_in *bound);
+/* One datagram from anyone into buf, waiting up to timeout_ms (< 0: for ever; 0: only what is there).
+ * Its whole length (more than cap when it did not fit: never a swell packet), -ETIMEDOUT, or a
+ * negative errno. */
+long swell_udp_recv(int fd, void *buf, size_t cap, struct sockaddr_in *from, int timeout_ms);
+/* 0 when all len bytes went to *to, else a negative errno (-EIO for a short send). */
+int swell_udp_send(int fd, const struct sockaddr_in *to, const void *p, size_t len);
+int swell_udp_same(const struct sockaddr_in *a, const struct sockaddr_in *b);
+
 struct swell_can_filter {
 	uint32_t id, mask; /* accept when (frame_id & mask) == (id & mask) */
 };

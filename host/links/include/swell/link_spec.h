@@ -58,8 +58,8 @@ struct swell_link_spec {
 
 /* Parse text into *out: 0, or -1 with the reason in err (one line, the spec quoted first) and *out
  * untouched. accept: SWELL_LINK_ACCEPT bits; udp_port: the UDP port when none is spelled. */
-int swell_link_spec_parse(const char *text, unsigned accept, uint16_t udp_port, struct swell_link_spec *out,
-			  char *err, size_t errlen);
+int swell_link_spec_parse(const char *text, unsigned accept, uint16_t udp_port, struct swell_link_spec *out, char *err,
+			  size_t errlen);
 
 /* "udp 127.0.0.1:47802", "can can1", "usb 1209:0001 interface 0", ... */
 void swell_link_spec_describe(const struct swell_link_spec *s, char *buf, size_t len);
