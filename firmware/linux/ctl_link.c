@@ -7,11 +7,9 @@
 #include <linux/can.h>
 #include <linux/can/error.h>
 #include <linux/can/raw.h>
-#include <net/if.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/ioctl.h>
 #include <sys/socket.h>
 #include <time.h>
 #include <unistd.h>
@@ -142,26 +140,18 @@ enum ctl_can_event ctl_can_error_frame(struct ctl_can_health *h, uint32_t can_id
 
 static int open_can(struct ctl_link *l, const char *spec, const char *iface, char *err, size_t errlen)
 {
-	struct sockaddr_can a;
-	struct ifreq ifr;
 	/* every error class but CAN_ERR_BUSERROR, which may flood */
-	can_err_mask_t mask = CAN_ERR_TX_TIMEOUT | CAN_ERR_LOSTARB | CAN_ERR_CRTL | CAN_ERR_PROT | CAN_ERR_TRX |
-		CAN_ERR_ACK | CAN_ERR_BUSOFF | CAN_ERR_RESTARTED | CAN_ERR_CNT;
+	const struct swell_can_opts o = { .error_frames = 1,
+					  .error_mask = CAN_ERR_TX_TIMEOUT | CAN_ERR_LOSTARB | CAN_ERR_CRTL |
+						  CAN_ERR_PROT | CAN_ERR_TRX | CAN_ERR_ACK | CAN_ERR_BUSOFF |
+						  CAN_ERR_RESTARTED | CAN_ERR_CNT };
 
-	l->fd = socket(PF_CAN, SOCK_RAW | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_RAW);
-	if (l->fd < 0)
-		return fail(l, err, errlen, "CAN socket for", spec);
-	memset(&ifr, 0, sizeof(ifr));
-	strcpy(ifr.ifr_name, iface);
-	if (ioctl(l->fd, SIOCGIFINDEX, &ifr) < 0)
-		return fail(l, err, errlen, "no CAN interface", spec);
-	if (setsockopt(l->fd, SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &mask, sizeof(mask)) < 0)
-		return fail(l, err, errlen, "error frames on", spec);
-	memset(&a, 0, sizeof(a));
-	a.can_family = AF_CAN;
-	a.can_ifindex = ifr.ifr_ifindex;
-	if (bind(l->fd, (struct sockaddr *)&a, sizeof(a)) < 0)
-		return fail(l, err, errlen, "bind", spec);
+	l->fd = swell_can_socket(iface, &o, 1);
+	if (l->fd < 0) {
+		errno = -l->fd;
+		l->fd = -1;
+		return fail(l, err, errlen, "CAN", spec);
+	}
 	snprintf(l->name, sizeof(l->name), "%s", spec); /* can:IFACE */
 	return 0;
 }

@@ -27,16 +27,8 @@ static int refuse(char *err, size_t len, const char *text, const char *why)
 /* A decimal number in lo..65535 of exactly n characters, no sign, nothing else. */
 static int port_of(const char *s, size_t n, long lo, uint16_t *port)
 {
-	long v = 0;
-	size_t k;
+	long v = n >= 1 && n <= 5 && strspn(s, "0123456789") >= n ? strtol(s, NULL, 10) : -1;
 
-	if (n < 1 || n > 5)
-		return -1;
-	for (k = 0; k < n; k++) {
-		if (s[k] < '0' || s[k] > '9')
-			return -1;
-		v = v * 10 + (s[k] - '0');
-	}
 	if (v < lo || v > 65535)
 		return -1;
 	*port = (uint16_t)v;
@@ -71,22 +63,9 @@ static int addr_of(const char *s, long lo, struct sockaddr_in *a)
 /* 1 to 4 hex digits, nothing else. */
 static int hex16(const char *s, size_t n, uint16_t *v)
 {
-	unsigned x = 0;
-	size_t k;
-
-	if (n < 1 || n > 4)
+	if (n < 1 || n > 4 || strspn(s, "0123456789abcdefABCDEF") < n)
 		return -1;
-	for (k = 0; k < n; k++) {
-		char c = s[k];
-		unsigned d = c >= '0' && c <= '9' ? (unsigned)(c - '0')
-			: c >= 'a' && c <= 'f'    ? (unsigned)(c - 'a' + 10)
-			: c >= 'A' && c <= 'F'    ? (unsigned)(c - 'A' + 10)
-						  : 16u;
-		if (d > 15)
-			return -1;
-		x = x * 16 + d;
-	}
-	*v = (uint16_t)x;
+	*v = (uint16_t)strtoul(s, NULL, 16);
 	return 0;
 }
 
@@ -237,26 +216,12 @@ int swell_link_spec_parse(const char *text, unsigned accept, uint16_t udp_port, 
 
 void swell_link_spec_describe(const struct swell_link_spec *s, char *buf, size_t len)
 {
-	switch (s->kind) {
-	case SWELL_LINK_UDP:
+	static const char *const words[SWELL_LINK_KINDS] = { "udp", "can", "canfd", "usb", "usb", "hm", "replay" };
+
+	if (s->kind == SWELL_LINK_UDP)
 		snprintf(buf, len, "udp %s:%u", SWELL_UDP_HOST, (unsigned)s->port);
-		return;
-	case SWELL_LINK_CAN:
-	case SWELL_LINK_CANFD:
-		snprintf(buf, len, "%s %s", s->kind == SWELL_LINK_CAN ? "can" : "canfd", s->name);
-		return;
-	case SWELL_LINK_USB:
+	else if (s->kind == SWELL_LINK_USB)
 		snprintf(buf, len, "usb %04x:%04x interface %u", s->vid, s->pid, (unsigned)s->iface);
-		return;
-	case SWELL_LINK_FFS:
-		snprintf(buf, len, "usb %s", s->name);
-		return;
-	case SWELL_LINK_HM:
-		snprintf(buf, len, "hm %s", s->name);
-		return;
-	case SWELL_LINK_REPLAY:
-	case SWELL_LINK_KINDS:
-		break;
-	}
-	snprintf(buf, len, "replay %s", s->name);
+	else
+		snprintf(buf, len, "%s %s", words[s->kind < SWELL_LINK_KINDS ? s->kind : SWELL_LINK_REPLAY], s->name);
 }

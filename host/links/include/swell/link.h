@@ -87,11 +87,16 @@ struct swell_can_opts {
 	uint32_t bitrate; /* set through libsocketcan (needs CAP_NET_ADMIN); 0: leave as is */
 	int fd; /* 1: CAN FD frames (the interface must be in FD mode) */
 	int error_frames; /* 1: receive error frames and count them in bus_errors */
+	uint32_t error_mask; /* with error_frames: the classes (CAN_ERR_* of linux/can/error.h); 0: all */
 	const struct swell_can_filter *filters; /* NULL: everything */
 	size_t nfilters;
 };
 /* SocketCAN raw socket on ifname ("can0", "vcan0"). */
 int swell_link_open_can(struct swell_link **out, const char *ifname, const struct swell_can_opts *opts);
+/* The raw socket of both sides (the link above and swell-ctl's CAN links): bound to ifname with opts'
+ * frames, filters and error classes (bitrate is the link's), non-blocking when nonblock. The
+ * descriptor, or a negative errno with nothing left open. */
+int swell_can_socket(const char *ifname, const struct swell_can_opts *opts, int nonblock);
 
 struct swell_usb_opts {
 	uint16_t vid, pid; /* SWELL_USB_VID / SWELL_USB_PID by default */
