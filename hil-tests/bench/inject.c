@@ -9,8 +9,6 @@
 
 #include <linux/can.h>
 #include <linux/can/error.h>
-#include <net/if.h>
-#include <sys/ioctl.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -97,21 +95,11 @@ static int raw_can = -1;
 
 static void open_raw_can(const char *iface)
 {
-	struct sockaddr_can a;
-	struct ifreq ifr;
+	static const struct swell_can_opts plain; /* classic frames, every id, no error frames */
 
-	raw_can = socket(PF_CAN, SOCK_RAW | SOCK_CLOEXEC, CAN_RAW);
-	memset(&ifr, 0, sizeof(ifr));
-	if (raw_can < 0 || strlen(iface) >= IFNAMSIZ) {
-		fprintf(stderr, "swell-inject: CAN socket for %s: %s\n", iface, strerror(errno));
-		exit(2);
-	}
-	strcpy(ifr.ifr_name, iface);
-	memset(&a, 0, sizeof(a));
-	a.can_family = AF_CAN;
-	if (ioctl(raw_can, SIOCGIFINDEX, &ifr) < 0 ||
-	    (a.can_ifindex = ifr.ifr_ifindex, bind(raw_can, (struct sockaddr *)&a, sizeof(a)) < 0)) {
-		fprintf(stderr, "swell-inject: CAN interface %s: %s\n", iface, strerror(errno));
+	raw_can = swell_can_socket(iface, &plain, 0);
+	if (raw_can < 0) {
+		fprintf(stderr, "swell-inject: CAN interface %s: %s\n", iface, strerror(-raw_can));
 		exit(2);
 	}
 }
