@@ -339,7 +339,7 @@ static struct ctl_link_client *client_of(struct ctl_link *l, const struct sockad
 static size_t recv_udp(struct ctl_link *l, struct swell_msg *out, size_t cap)
 {
 	uint8_t buf[SWELL_PKT_MAX + 1];
-	struct sockaddr_in from;
+	struct sockaddr_in from = { 0 }; /* filled by recvfrom; zeroed for the analyzer */
 	struct ctl_link_client *c = NULL;
 	size_t n = 0;
 	uint8_t seq;

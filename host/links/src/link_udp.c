@@ -101,7 +101,7 @@ static int udp_recv(struct swell_link *l, struct swell_frame *f, int timeout_ms)
 	uint64_t deadline = swell_link_deadline(timeout_ms);
 
 	for (;;) {
-		struct sockaddr_in from;
+		struct sockaddr_in from = { 0 }; /* filled by recvfrom; zeroed for the analyzer */
 		uint8_t buf[SWELL_LINK_MTU + 1];
 		long n = swell_udp_recv(u->fd, buf, sizeof(buf), &from, swell_link_ms_left(deadline, timeout_ms));
 
