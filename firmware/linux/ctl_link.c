@@ -7,15 +7,14 @@
 #include <linux/can.h>
 #include <linux/can/error.h>
 #include <linux/can/raw.h>
-#include <net/if.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/ioctl.h>
 #include <sys/socket.h>
 #include <time.h>
 #include <unistd.h>
 
+#include "swell/link.h"
 #include "swell/transport.h"
 
 /* hm: an answer to a request sent more than this many ticks ago is stale: a silent device tick */
@@ -31,117 +30,34 @@ static int fail(struct ctl_link *l, char *err, size_t len, const char *what, con
 	return -1;
 }
 
-/* "[ADDR:]PORT" into a (ADDR default 127.0.0.1; PORT 0 allowed only when zero_ok); 0 on success. */
-static int parse_addr(const char *s, size_t len, int zero_ok, struct sockaddr_in *a)
+static int open_udp(struct ctl_link *l, const char *spec, const struct swell_link_spec *ls, int device_side, char *err,
+		    size_t errlen)
 {
-	char buf[32], *end;
-	const char *colon;
-	long port;
+	const long port = ls->port;
+	const int have_opt = device_side ? ls->have_peer : ls->have_listen;
+	struct sockaddr_in a;
 
-	if (len == 0 || len >= sizeof(buf))
-		return -1;
-	memcpy(buf, s, len);
-	buf[len] = '\0';
-	memset(a, 0, sizeof(*a));
-	a->sin_family = AF_INET;
-	a->sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-	colon = strrchr(buf, ':');
-	if (colon) {
-		buf[colon - buf] = '\0';
-		if (inet_pton(AF_INET, buf, &a->sin_addr) != 1)
-			return -1;
-		colon++;
-	} else {
-		colon = buf;
-	}
-	port = strtol(colon, &end, 10);
-	if (*colon == '\0' || *end || port < (zero_ok ? 0 : 1) || port > 65535)
-		return -1;
-	a->sin_port = htons((uint16_t)port);
-	return 0;
-}
-
-/* arg: "PORT[,peer=ADDR:PORT]" (device side) or "PORT[,listen=[ADDR:]PORT]" (host side), either part
- * may be left out ("udp", "udp:,listen=47802" is not a spelling: the port goes first or not at all). */
-static int parse_udp(const char *spec, const char *arg, int device_side, long *port, struct sockaddr_in *opt,
-		     int *have_opt, char *err, size_t errlen)
-{
-	const char *comma = arg ? strchr(arg, ',') : NULL;
-	const char *key = device_side ? "peer=" : "listen=";
-	size_t plen = arg ? (comma ? (size_t)(comma - arg) : strlen(arg)) : 0;
-	char pbuf[8], *end;
-
-	*have_opt = 0;
-	if (arg) {
-		if (plen == 0 || plen >= sizeof(pbuf)) {
-			snprintf(err, errlen, "%s: port '%.*s' is not in 1..65535", spec, (int)plen, arg);
-			return -1;
-		}
-		memcpy(pbuf, arg, plen);
-		pbuf[plen] = '\0';
-		*port = strtol(pbuf, &end, 10);
-		if (*end || *port < 1 || *port > 65535) {
-			snprintf(err, errlen, "%s: port '%s' is not in 1..65535", spec, pbuf);
-			return -1;
-		}
-	}
-	if (!comma)
-		return 0;
-	comma++;
-	if (strncmp(comma, key, strlen(key)) ||
-	    parse_addr(comma + strlen(key), strlen(comma + strlen(key)), !device_side, opt) != 0) {
-		snprintf(err, errlen, "%s: '%s' is not %s", spec, comma,
-			 device_side ? "peer=ADDR:PORT (the device's address)"
-				     : "listen=[ADDR:]PORT (the clients' port)");
-		return -1;
-	}
-	*have_opt = 1;
-	return 0;
-}
-
-static int open_udp(struct ctl_link *l, const char *spec, const char *arg, int device_side, char *err, size_t errlen)
-{
-	long port = device_side ? SWELL_UDP_PORT_DEVICE : SWELL_UDP_PORT_VIEWER;
-	const int rcvbuf = 2 << 20; /* bytes of queue, about 2700 small datagrams */
-	struct sockaddr_in a, opt;
-	socklen_t alen = sizeof(l->local);
-	int have_opt;
-
-	if (parse_udp(spec, arg, device_side, &port, &opt, &have_opt, err, errlen) != 0)
-		return -2;
-	l->fd = socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
-	if (l->fd < 0)
-		return fail(l, err, errlen, "socket for", spec);
-	/* A burst from a third sender (2000 garbage datagrams in the bench) must not make the kernel drop
-	 * the device's samples while this process waits for the CPU: a deep receive queue (FORCE when
-	 * permitted, else capped by net.core.rmem_max; the default queue holds about 280 datagrams). */
-	if (setsockopt(l->fd, SOL_SOCKET, SO_RCVBUFFORCE, &rcvbuf, sizeof(rcvbuf)) < 0)
-		(void)setsockopt(l->fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof(rcvbuf));
 	memset(&a, 0, sizeof(a));
 	a.sin_family = AF_INET;
 	a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
 	a.sin_port = htons((uint16_t)(device_side ? port : SWELL_UDP_PORT_CLIENTS));
 	if (!device_side && have_opt)
-		a = opt; /* the clients' port (and address, when spelled out) */
-	if (bind(l->fd, (struct sockaddr *)&a, sizeof(a)) < 0) {
-		/* the default clients' port is another controller's: this one takes any free port (said at
-		 * start); a port spelled out is never swapped for another */
-		if (device_side || have_opt || errno != EADDRINUSE)
-			return fail(l, err, errlen, "bind", spec);
-		a.sin_port = 0;
-		l->clients_port_taken = 1;
-		if (bind(l->fd, (struct sockaddr *)&a, sizeof(a)) < 0)
-			return fail(l, err, errlen, "bind", spec);
+		a = ls->listen_at; /* the clients' port (and address, when spelled out) */
+	/* the default clients' port is another controller's: this one takes any free port (said at
+	 * start); a port spelled out is never swapped for another */
+	l->fd = swell_udp_socket(&a, 1, !device_side && !have_opt, &l->clients_port_taken, &l->local);
+	if (l->fd < 0) {
+		errno = -l->fd;
+		l->fd = -1;
+		return fail(l, err, errlen, "bind", spec);
 	}
-	if (getsockname(l->fd, (struct sockaddr *)&l->local, &alen) < 0)
-		return fail(l, err, errlen, "address of", spec);
 	if (!device_side) {
 		a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
 		a.sin_port = htons((uint16_t)port);
 		l->peer = a;
 		l->have_peer = l->peer_fixed = 1;
 	} else if (have_opt) {
-		l->peer = opt;
+		l->peer = ls->peer;
 		l->have_peer = l->peer_fixed = 1;
 	}
 	snprintf(l->name, sizeof(l->name), "udp:%ld", port);
@@ -224,31 +140,19 @@ enum ctl_can_event ctl_can_error_frame(struct ctl_can_health *h, uint32_t can_id
 
 static int open_can(struct ctl_link *l, const char *spec, const char *iface, char *err, size_t errlen)
 {
-	struct sockaddr_can a;
-	struct ifreq ifr;
 	/* every error class but CAN_ERR_BUSERROR, which may flood */
-	can_err_mask_t mask = CAN_ERR_TX_TIMEOUT | CAN_ERR_LOSTARB | CAN_ERR_CRTL | CAN_ERR_PROT | CAN_ERR_TRX |
-		CAN_ERR_ACK | CAN_ERR_BUSOFF | CAN_ERR_RESTARTED | CAN_ERR_CNT;
+	const struct swell_can_opts o = { .error_frames = 1,
+					  .error_mask = CAN_ERR_TX_TIMEOUT | CAN_ERR_LOSTARB | CAN_ERR_CRTL |
+						  CAN_ERR_PROT | CAN_ERR_TRX | CAN_ERR_ACK | CAN_ERR_BUSOFF |
+						  CAN_ERR_RESTARTED | CAN_ERR_CNT };
 
-	if (!iface || !*iface || strlen(iface) >= IFNAMSIZ) {
-		snprintf(err, errlen, "%s: give an interface, e.g. can:can0", spec);
-		return -2;
+	l->fd = swell_can_socket(iface, &o, 1);
+	if (l->fd < 0) {
+		errno = -l->fd;
+		l->fd = -1;
+		return fail(l, err, errlen, "CAN", spec);
 	}
-	l->fd = socket(PF_CAN, SOCK_RAW | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_RAW);
-	if (l->fd < 0)
-		return fail(l, err, errlen, "CAN socket for", spec);
-	memset(&ifr, 0, sizeof(ifr));
-	strcpy(ifr.ifr_name, iface);
-	if (ioctl(l->fd, SIOCGIFINDEX, &ifr) < 0)
-		return fail(l, err, errlen, "no CAN interface", spec);
-	if (setsockopt(l->fd, SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &mask, sizeof(mask)) < 0)
-		return fail(l, err, errlen, "error frames on", spec);
-	memset(&a, 0, sizeof(a));
-	a.can_family = AF_CAN;
-	a.can_ifindex = ifr.ifr_ifindex;
-	if (bind(l->fd, (struct sockaddr *)&a, sizeof(a)) < 0)
-		return fail(l, err, errlen, "bind", spec);
-	snprintf(l->name, sizeof(l->name), "can:%s", iface);
+	snprintf(l->name, sizeof(l->name), "%s", spec); /* can:IFACE */
 	return 0;
 }
 
@@ -265,10 +169,6 @@ static int open_usb(struct ctl_link *l, const char *spec, const char *dir, int d
 	};
 	enum swell_err e;
 
-	if (!dir || !*dir) {
-		snprintf(err, errlen, "%s: give the FunctionFS mount, e.g. usb:/dev/ffs-swell", spec);
-		return -2;
-	}
 	e = swell_usb_ffs_open(&l->usb, dir, &iface);
 	if (e != SWELL_OK) {
 		/* the OS's reason when there is one, not swell's code for it */
@@ -279,48 +179,44 @@ static int open_usb(struct ctl_link *l, const char *spec, const char *dir, int d
 		return -1;
 	}
 	l->fd = l->usb.ep0;
-	snprintf(l->name, sizeof(l->name), "usb:%s", dir);
+	snprintf(l->name, sizeof(l->name), "%s", spec); /* usb:FFS_DIR */
 	return 0;
 }
 
 int ctl_link_open(struct ctl_link *l, const char *spec, int device_side, uint8_t node, char *err, size_t errlen)
 {
-	char kind[8] = "";
-	const char *arg = strchr(spec, ':');
-	size_t klen = arg ? (size_t)(arg - spec) : strlen(spec);
+	const unsigned accept = SWELL_LINK_ACCEPT(SWELL_LINK_UDP) | SWELL_LINK_ACCEPT(SWELL_LINK_CAN) |
+		SWELL_LINK_ACCEPT(SWELL_LINK_FFS) |
+		(device_side ? SWELL_LINK_ACCEPT(SWELL_LINK_HM) | SWELL_LINK_ACCEPT_PEER : SWELL_LINK_ACCEPT_LISTEN);
+	struct swell_link_spec ls;
 
 	memset(l, 0, sizeof(*l));
 	l->fd = -1;
 	l->node = node;
 	l->device_side = device_side;
-	if (klen >= sizeof(kind)) {
-		snprintf(err, errlen, "link '%s' is not udp[:PORT], can:IFACE or usb:FFS_DIR", spec);
+	if (swell_link_spec_parse(spec, accept, device_side ? SWELL_UDP_PORT_DEVICE : SWELL_UDP_PORT_VIEWER, &ls, err,
+				  errlen))
 		return -2;
-	}
-	memcpy(kind, spec, klen);
-	if (arg)
-		arg++;
-	if (!strcmp(kind, "udp")) {
+	switch (ls.kind) {
+	case SWELL_LINK_UDP:
 		l->kind = CTL_LINK_UDP;
-		return open_udp(l, spec, arg, device_side, err, errlen);
-	}
-	if (!strcmp(kind, "hm") && device_side) {
+		return open_udp(l, spec, &ls, device_side, err, errlen);
+	case SWELL_LINK_HM:
 		l->kind = CTL_LINK_HM;
 		snprintf(l->name, sizeof(l->name), "%s", spec);
-		if (hm_client_open(&l->hm, arg ? arg : "", CTL_HM_MAX_AGE_TICKS, err, errlen) < 0)
+		if (hm_client_open(&l->hm, ls.name, CTL_HM_MAX_AGE_TICKS, err, errlen) < 0)
 			return -1;
 		hm_fx_init(&l->hmfx, &l->hm, HM_FX_FRESH_TICKS);
 		return 0;
-	}
-	if (!strcmp(kind, "can")) {
+	case SWELL_LINK_CAN:
 		l->kind = CTL_LINK_CAN;
-		return open_can(l, spec, arg, err, errlen);
-	}
-	if (!strcmp(kind, "usb")) {
+		return open_can(l, spec, ls.name, err, errlen);
+	case SWELL_LINK_FFS:
 		l->kind = CTL_LINK_USB;
-		return open_usb(l, spec, arg, device_side, err, errlen);
+		return open_usb(l, spec, ls.name, device_side, err, errlen);
+	default:
+		break;
 	}
-	snprintf(err, errlen, "link '%s' is not udp[:PORT], can:IFACE or usb:FFS_DIR", spec);
 	return -2;
 }
 
@@ -376,11 +272,6 @@ static size_t recv_usb(struct ctl_link *l, struct swell_msg *out, size_t cap)
 	return own_node(l, out, n);
 }
 
-static int same_addr(const struct sockaddr_in *a, const struct sockaddr_in *b)
-{
-	return a->sin_port == b->sin_port && a->sin_addr.s_addr == b->sin_addr.s_addr;
-}
-
 static int64_t mono_ns(void)
 {
 	struct timespec t;
@@ -432,7 +323,7 @@ static struct ctl_link_client *client_of(struct ctl_link *l, const struct sockad
 	for (k = 0; k < CTL_LINK_CLIENTS; k++) {
 		struct ctl_link_client *c = &l->clients[k];
 
-		if (c->heard_ns && same_addr(&c->addr, from))
+		if (c->heard_ns && swell_udp_same(&c->addr, from))
 			return c;
 		if (!c->heard_ns && !free_slot)
 			free_slot = c;
@@ -452,17 +343,18 @@ static size_t recv_udp(struct ctl_link *l, struct swell_msg *out, size_t cap)
 {
 	uint8_t buf[SWELL_PKT_MAX + 1];
 	struct sockaddr_in from = { 0 }; /* filled by recvfrom; zeroed for the analyzer */
-	socklen_t flen = sizeof(from);
 	struct ctl_link_client *c = NULL;
 	size_t n = 0;
 	uint8_t seq;
-	ssize_t r = recvfrom(l->fd, buf, sizeof(buf), 0, (struct sockaddr *)&from, &flen);
+	long r = swell_udp_recv(l->fd, buf, sizeof(buf), &from, 0);
 	int64_t now;
 
 	if (r < 0)
 		return 0;
+	if (r > (long)sizeof(buf))
+		r = (long)sizeof(buf); /* too long for a packet: the decoder refuses it and counts it */
 	l->frames_rx++;
-	if (l->device_side && l->have_peer && !l->peer_open && !same_addr(&from, &l->peer)) {
+	if (l->device_side && l->have_peer && !l->peer_open && !swell_udp_same(&from, &l->peer)) {
 		l->others++;
 		return 0;
 	}
@@ -476,7 +368,7 @@ static size_t recv_udp(struct ctl_link *l, struct swell_msg *out, size_t cap)
 
 		if (l->have_peer && !l->peer_open)
 			return n; /* the device */
-		if (l->have_peer && same_addr(&from, &l->peer)) {
+		if (l->have_peer && swell_udp_same(&from, &l->peer)) {
 			l->peer_open = !pos; /* the device let go is back: held again by its next sample */
 			return n;
 		}
@@ -490,7 +382,7 @@ static size_t recv_udp(struct ctl_link *l, struct swell_msg *out, size_t cap)
 		l->peers_taken++;
 		return n;
 	}
-	if (l->have_peer && same_addr(&from, &l->peer))
+	if (l->have_peer && swell_udp_same(&from, &l->peer))
 		return n;
 	now = mono_ns();
 	expire_clients(l, now);
@@ -574,7 +466,7 @@ size_t ctl_link_recv(struct ctl_link *l, struct swell_msg *out, size_t cap)
 
 static void send_to(struct ctl_link *l, const struct sockaddr_in *to, const uint8_t *p, size_t len)
 {
-	if (sendto(l->fd, p, len, 0, (const struct sockaddr *)to, sizeof(*to)) != (ssize_t)len)
+	if (swell_udp_send(l->fd, to, p, len) != 0)
 		l->tx_errors++;
 	else
 		l->frames_tx++;

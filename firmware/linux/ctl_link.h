@@ -100,13 +100,12 @@ struct ctl_link {
 	char name[48];
 };
 
-/* spec: "udp[:PORT][,OPTION]" (device link: listen on 127.0.0.1:PORT, default 47800, option
- * "peer=ADDR:PORT" fixes the device's address; host link: send telemetry to 127.0.0.1:PORT, default
- * 47801, and take clients on the port of option "listen=[ADDR:]PORT", default 127.0.0.1:47802, or
- * any free port on 127.0.0.1 when that one is taken: l->clients_port_taken says so), "can:IFACE", "usb:FFS_DIR" (a mounted FunctionFS instance), "hm:HOST[:PORT]" (device
- * link only: a HapticMaster's TCP interface, hm_client.h). Returns 0, -2 for a spec that is not one
- * of these (nothing opened), -1 when the system refused (socket, bind, interface, FunctionFS,
- * connection); either way a one-line reason is in err. */
+/* spec, in swell/link_spec.h's spellings: "udp[:PORT]" (device link: listen on 127.0.0.1:PORT, default
+ * 47800, ",peer=[ADDR:]PORT" fixes the device's address; host link: telemetry to 127.0.0.1:PORT, default
+ * 47801, clients on ",listen=[ADDR:]PORT", default 127.0.0.1:47802 or any free port when that one is
+ * taken: l->clients_port_taken says so), "can:IFACE", "usb:FFS_DIR", "hm:HOST[:PORT]" (device link
+ * only, hm_client.h). Returns 0, -2 for a spec that is not one of these (nothing opened), -1 when
+ * the system refused; either way a one-line reason is in err. */
 int ctl_link_open(struct ctl_link *l, const char *spec, int device_side, uint8_t node, char *err, size_t errlen);
 
 /* The file descriptor to poll for input (-1 if none). */

@@ -9,8 +9,6 @@
 
 #include <linux/can.h>
 #include <linux/can/error.h>
-#include <net/if.h>
-#include <sys/ioctl.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -42,8 +40,8 @@ static const char usage[] =
 	"           --restart none: no restart frame (the bench restarts the interface itself, e.g. down/up)\n"
 	"LINK: can:IFACE (SocketCAN), udp[:PORT] (garbage/flood: to the controller's device port,\n"
 	"      default 47800; params: listen on the viewer port, default 47801, answer the controller),\n"
-	"      usb[:N] (params: libusb, VID 1209 PID 0001, interface N, default 0; bulk endpoints\n"
-	"      from its descriptor)\n"
+	"      usb[:VID:PID] (params: libusb, default 1209:0001, interface --iface N, default 0; bulk\n"
+	"      endpoints from its descriptor)\n"
 	"Prints one summary line with counts and rates; exit 0 when every check held, 1 when one failed,\n"
 	"2 for bad arguments or a link that cannot be opened.\n";
 
@@ -80,48 +78,15 @@ static uint32_t rnd(void)
 	return rng_state;
 }
 
-static int open_link(struct swell_link **l, const char *spec, int viewer_side)
+static void open_link(struct swell_link **l, const struct swell_link_spec *ls, const char *spec, int viewer_side)
 {
-	int rc;
+	const struct swell_link_open_opts o = { .udp_answer = viewer_side };
+	int rc = swell_link_open_spec(l, ls, &o);
 
-	if (!strncmp(spec, "can:", 4) && spec[4]) {
-		struct swell_can_opts co;
-
-		memset(&co, 0, sizeof(co));
-		rc = swell_link_open_can(l, spec + 4, &co);
-	} else if (!strncmp(spec, "usb", 3) && (spec[3] == '\0' || spec[3] == ':')) {
-		struct swell_usb_opts uo;
-		char *end;
-
-		swell_usb_opts_default(&uo);
-		if (spec[3] == ':') { /* the interface: 1 is the host link of a two-interface controller */
-			long n = strtol(spec + 4, &end, 10);
-
-			if (!spec[4] || *end || n < 0 || n > 255)
-				die("USB interface must be 0..255 in ", spec);
-			uo.iface = (int)n;
-		}
-		rc = swell_link_open_usb(l, &uo);
-	} else if (!strncmp(spec, "udp", 3) && (spec[3] == '\0' || spec[3] == ':')) {
-		long port = viewer_side ? SWELL_UDP_PORT_VIEWER : SWELL_UDP_PORT_DEVICE;
-		char *end;
-
-		if (spec[3] == ':') {
-			port = strtol(spec + 4, &end, 10);
-			if (*end || port < 1 || port > 65535)
-				die("bad UDP port in ", spec);
-		}
-		rc = viewer_side ? swell_link_open_udp(l, "127.0.0.1", (uint16_t)port, NULL, 0)
-				 : swell_link_open_udp(l, "127.0.0.1", 0, "127.0.0.1", (uint16_t)port);
-	} else {
-		die("LINK must be can:IFACE, udp[:PORT] or usb[:N], not ", spec);
-		return -1;
-	}
 	if (rc < 0) {
 		fprintf(stderr, "swell-inject: cannot open %s: %s\n", spec, strerror(-rc));
 		exit(2);
 	}
-	return 0;
 }
 
 /* Garbage and floods need frames the host link refuses to send (29-bit ids, remote frames, wrong
@@ -130,21 +95,11 @@ static int raw_can = -1;
 
 static void open_raw_can(const char *iface)
 {
-	struct sockaddr_can a;
-	struct ifreq ifr;
+	static const struct swell_can_opts plain; /* classic frames, every id, no error frames */
 
-	raw_can = socket(PF_CAN, SOCK_RAW | SOCK_CLOEXEC, CAN_RAW);
-	memset(&ifr, 0, sizeof(ifr));
-	if (raw_can < 0 || strlen(iface) >= IFNAMSIZ) {
-		fprintf(stderr, "swell-inject: CAN socket for %s: %s\n", iface, strerror(errno));
-		exit(2);
-	}
-	strcpy(ifr.ifr_name, iface);
-	memset(&a, 0, sizeof(a));
-	a.can_family = AF_CAN;
-	if (ioctl(raw_can, SIOCGIFINDEX, &ifr) < 0 ||
-	    (a.can_ifindex = ifr.ifr_ifindex, bind(raw_can, (struct sockaddr *)&a, sizeof(a)) < 0)) {
-		fprintf(stderr, "swell-inject: CAN interface %s: %s\n", iface, strerror(errno));
+	raw_can = swell_can_socket(iface, &plain, 0);
+	if (raw_can < 0) {
+		fprintf(stderr, "swell-inject: CAN interface %s: %s\n", iface, strerror(-raw_can));
 		exit(2);
 	}
 }
@@ -572,7 +527,10 @@ int main(int argc, char **argv)
 	unsigned node = 0, foreign = 5;
 	int restart_frame = 1;
 	int timeout_ms = 500, k, rc;
+	long iface = 0;
+	struct swell_link_spec ls;
 	struct swell_link *l;
+	char why[200];
 
 	if (argc >= 2 && (!strcmp(argv[1], "-h") || !strcmp(argv[1], "--help"))) {
 		fputs(usage, stdout);
@@ -609,6 +567,10 @@ int main(int argc, char **argv)
 			id = (uint32_t)strtoul(v, &end, 16);
 			if (id > 0x7FF)
 				die("--id must be an 11-bit hex id, not ", v);
+		} else if (!strcmp(a, "--iface")) {
+			iface = strtol(v, &end, 10);
+			if (iface < 0 || iface > 255)
+				die("--iface must be 0..255, not ", v);
 		} else if (!strcmp(a, "--node")) {
 			node = (unsigned)strtoul(v, &end, 10);
 			if (node > SWELL_NODE_MAX)
@@ -632,19 +594,24 @@ int main(int argc, char **argv)
 		if (errno || !end || *end || !*v)
 			die("not a number: ", v);
 	}
+	if (swell_link_spec_parse(spec, SWELL_LINK_ACCEPT_HOST_SIDE,
+				  !strcmp(cmd, "params") ? SWELL_UDP_PORT_VIEWER : SWELL_UDP_PORT_DEVICE, &ls, why,
+				  sizeof(why)))
+		die(why, NULL);
+	ls.iface = (uint8_t)iface;
 	if (!strcmp(cmd, "can-errors")) {
-		if (strncmp(spec, "can:", 4) || !spec[4])
+		if (ls.kind != SWELL_LINK_CAN)
 			die("can-errors needs a CAN link, can:IFACE, not ", spec);
 		if (seconds < 0)
 			seconds = 0.5;
 		if (seconds > 60)
 			die("can-errors: --seconds must be at most 60", NULL);
-		open_raw_can(spec + 4);
+		open_raw_can(ls.name);
 		return cmd_can_errors(seconds, restart_frame);
 	}
-	open_link(&l, spec, !strcmp(cmd, "params"));
-	if (strcmp(cmd, "params") && !strncmp(spec, "can:", 4))
-		open_raw_can(spec + 4);
+	open_link(&l, &ls, spec, !strcmp(cmd, "params"));
+	if (strcmp(cmd, "params") && ls.kind == SWELL_LINK_CAN)
+		open_raw_can(ls.name);
 	if (seconds < 0)
 		seconds = 2;
 	if (!strcmp(cmd, "garbage"))

@@ -20,7 +20,7 @@ static const char usage[] =
 	"protocol to a controller (swell-ctl).\n"
 	"\n"
 	"Link and pacing:\n"
-	"  --link udp|can:IFACE|usb   carrier (default udp: packets to --host:--port)\n"
+	"  --link udp[:PORT]|can:IFACE|usb[:VID:PID]   carrier (default udp: packets to --host:--port)\n"
 	"  --iface N           usb: the controller's interface number (default 0, the device link;\n"
 	"                      bulk endpoints are read from its descriptor)\n"
 	"  --host ADDR         controller's IPv4 address for udp (default 127.0.0.1)\n"
@@ -227,9 +227,11 @@ void parse(int argc, char **argv, struct opts *o)
 		}
 		k++;
 		if (!strcmp(a, "--link")) {
-			if (strcmp(v, "udp") && strcmp(v, "usb") && (strncmp(v, "can:", 4) || !v[4]))
-				die("--link must be udp, can:IFACE or usb, not '%s'%s", v, "");
+			if (swell_link_spec_parse(v, SWELL_LINK_ACCEPT_HOST_SIDE, (uint16_t)o->port, &o->ls, why,
+						  sizeof(why)))
+				die("--link %s%s", why, "");
 			o->link = v;
+			o->port = o->ls.port;
 		} else if (!strcmp(a, "--host")) {
 			struct in_addr ia;
 

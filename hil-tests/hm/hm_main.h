@@ -10,11 +10,13 @@
 
 #include "hm_hand.h"
 #include "hm_model.h"
+#include "swell/link_spec.h"
 
 #define RHO_KG_M3 1000.0
 
 struct opts {
 	const char *link, *host, *log, *serve;
+	struct swell_link_spec ls; /* --link parsed */
 	unsigned bias_watchdog_ms;
 	double effect_fresh_ms; /* effect mode: a set older than this is not rendered */
 	double link_delay_ms; /* what arrives is acted on this much later (whole ticks) */

@@ -96,25 +96,17 @@ struct dev {
 
 static int dev_open(struct dev *d, const struct opts *o)
 {
+	const struct swell_link_open_opts uo = { .udp_host = o->host, .udp_bind_port = (uint16_t)o->bind_port };
+	struct swell_link_spec ls;
 	int rc;
 
 	memset(d, 0, sizeof(*d));
 	d->node = (uint8_t)o->node;
 	d->ctl_state = -1;
-	if (!strcmp(o->link, "udp")) {
-		rc = swell_link_open_udp(&d->l, o->host, (uint16_t)o->bind_port, o->host, (uint16_t)o->port);
-	} else if (!strncmp(o->link, "can:", 4)) {
-		struct swell_can_opts co;
-
-		memset(&co, 0, sizeof(co));
-		rc = swell_link_open_can(&d->l, o->link + 4, &co);
-	} else {
-		struct swell_usb_opts uo;
-
-		swell_usb_opts_default(&uo);
-		uo.iface = (int)o->iface;
-		rc = swell_link_open_usb(&d->l, &uo);
-	}
+	ls = o->ls;
+	ls.port = (uint16_t)o->port;
+	ls.iface = (uint8_t)o->iface;
+	rc = swell_link_open_spec(&d->l, &ls, &uo);
 	if (rc < 0) {
 		fprintf(stderr, "swell-hm: cannot open link %s: %s\n", o->link, strerror(-rc));
 		return -1;

@@ -11,6 +11,7 @@
 
 #include "swell/link.h"
 #include "swell/param.h"
+#include "swell/transport.h"
 #include "tool_scene.h"
 #include "tool_session.h"
 #include "swell/param_text.h"
@@ -99,7 +100,9 @@ static int parse_args(int argc, char **argv, struct opts *o)
 	memset(o, 0, sizeof(o[0]));
 	o->timeout_ms = 1000;
 	o->seconds = -1;
-	if (flash_link_parse("udp", &o->spec, err, sizeof(err)) < 0)
+	o->spec.node = -1;
+	if (swell_link_spec_parse("udp", SWELL_LINK_ACCEPT_HOST_SIDE, SWELL_UDP_PORT_CLIENTS, &o->spec.link, err,
+				  sizeof(err)) < 0)
 		return bad("%s", err);
 	for (k = 1; k < argc; k++) {
 		const char *a = argv[k], *val = k + 1 < argc ? argv[k + 1] : NULL;
@@ -112,11 +115,9 @@ static int parse_args(int argc, char **argv, struct opts *o)
 		} else if (a[0] == '-' && a[1] == '-' && !val) {
 			return bad("%s needs a value", a);
 		} else if (!strcmp(a, "--link")) {
-			int node = o->spec.node;
-
-			if (flash_link_parse(val, &o->spec, err, sizeof(err)) < 0)
+			if (swell_link_spec_parse(val, SWELL_LINK_ACCEPT_HOST_SIDE, SWELL_UDP_PORT_CLIENTS,
+						  &o->spec.link, err, sizeof(err)) < 0)
 				return bad("%s", err);
-			o->spec.node = node;
 			k++;
 		} else if (!strcmp(a, "--node")) {
 			if (parse_long(val, 0, SWELL_NODE_MAX, &v) < 0)

@@ -174,7 +174,7 @@ enum tool_rc tool_open(struct tool_session *s, const struct flash_link_spec *spe
 	s->other = -1;
 	s->silent_ms = timeout_ms > TOOL_SILENT_MS ? timeout_ms : TOOL_SILENT_MS;
 	s->t0_ns = swell_link_now_ns();
-	flash_link_describe(spec, s->name, sizeof(s->name));
+	swell_link_spec_describe(&spec->link, s->name, sizeof(s->name));
 	rc = flash_link_open(spec, timeout_ms, &s->l);
 	if (rc < 0) {
 		snprintf(err, errlen, "cannot open %s: %s", s->name, strerror(-rc));

@@ -22,46 +22,19 @@ static int link_open(struct source *s, char *err, size_t errlen)
 	 * display thread shows s->desc */
 	char d[sizeof(s->desc)] = "";
 	struct swell_link *l = NULL;
-	int rc = 0;
-	const char *arg = strchr(s->spec, ':');
+	const struct swell_link_open_opts o = { .udp_answer = 1, .can_errors = 1 };
+	int rc = swell_link_open_spec(&l, &s->ls, &o);
 
-	arg = arg ? arg + 1 : NULL;
-	switch (s->lk) {
-	case LINK_UDP: {
-		long port = SWELL_UDP_PORT_VIEWER;
-		if (arg) {
-			char *end;
-			port = strtol(arg, &end, 10);
-			if (*arg == '\0' || *end || port < 1 || port > 65535) {
-				snprintf(err, errlen, "udp port '%s' is not in 1..65535", arg);
-				return -EINVAL;
-			}
-		}
-		rc = swell_link_open_udp(&l, SWELL_UDP_HOST, (uint16_t)port, NULL, 0);
-		snprintf(d, sizeof(d), "UDP %s:%ld", SWELL_UDP_HOST, port);
-		break;
-	}
-	case LINK_CAN: {
-		struct swell_can_opts o;
-		memset(&o, 0, sizeof(o));
-		o.fd = strncmp(s->spec, "canfd:", 6) == 0;
-		o.error_frames = 1;
-		rc = swell_link_open_can(&l, arg, &o);
-		snprintf(d, sizeof(d), "%s %.40s", o.fd ? "CAN FD" : "CAN", arg);
-		break;
-	}
-	case LINK_USB:
-		rc = swell_link_open_usb(&l, &s->usb);
-		if (s->usb.iface)
-			snprintf(d, sizeof(d), "USB %04x:%04x IF %d", s->usb.vid, s->usb.pid, s->usb.iface);
-		else
-			snprintf(d, sizeof(d), "USB %04x:%04x", s->usb.vid, s->usb.pid);
-		break;
-	case LINK_REPLAY:
-		rc = swell_link_open_replay(&l, arg, strncmp(s->spec, "replay-fast:", 12) != 0);
-		snprintf(d, sizeof(d), "REPLAY %.80s", arg);
-		break;
-	}
+	if (s->ls.kind == SWELL_LINK_UDP)
+		snprintf(d, sizeof(d), "UDP %s:%u", SWELL_UDP_HOST, (unsigned)s->ls.port);
+	else if (s->ls.kind == SWELL_LINK_CAN || s->ls.kind == SWELL_LINK_CANFD)
+		snprintf(d, sizeof(d), "%s %.40s", s->ls.kind == SWELL_LINK_CANFD ? "CAN FD" : "CAN", s->ls.name);
+	else if (s->ls.kind == SWELL_LINK_USB && s->ls.iface)
+		snprintf(d, sizeof(d), "USB %04x:%04x IF %d", s->ls.vid, s->ls.pid, s->ls.iface);
+	else if (s->ls.kind == SWELL_LINK_USB)
+		snprintf(d, sizeof(d), "USB %04x:%04x", s->ls.vid, s->ls.pid);
+	else
+		snprintf(d, sizeof(d), "REPLAY %.80s", s->ls.name);
 	if (strcmp(d, s->desc) != 0)
 		memcpy(s->desc, d, sizeof(d));
 	if (rc < 0) {
@@ -134,25 +107,17 @@ static void *reader(void *arg)
 	return NULL;
 }
 
-static bool parse_usb(struct source *s, const char *arg, char *err, size_t errlen)
-{
-	swell_usb_opts_default(&s->usb);
-	if (!arg)
-		return true;
-	unsigned vid, pid;
-	char c;
-	if (sscanf(arg, "%x:%x%c", &vid, &pid, &c) != 2 || vid > 0xffff || pid > 0xffff) {
-		snprintf(err, errlen, "usb '%s' is not VID:PID in hex", arg);
-		return false;
-	}
-	s->usb.vid = (uint16_t)vid;
-	s->usb.pid = (uint16_t)pid;
-	return true;
-}
-
 bool source_open(struct source *s, const char *spec, const char *record, int usb_iface, char *err, size_t errlen)
 {
-	if (usb_iface != 0 && strcmp(spec, "usb") != 0 && strncmp(spec, "usb:", 4) != 0) {
+	const unsigned accept = SWELL_LINK_ACCEPT(SWELL_LINK_UDP) | SWELL_LINK_ACCEPT(SWELL_LINK_CAN) |
+		SWELL_LINK_ACCEPT(SWELL_LINK_CANFD) | SWELL_LINK_ACCEPT(SWELL_LINK_USB) |
+		SWELL_LINK_ACCEPT(SWELL_LINK_REPLAY);
+	const bool pattern = strncmp(spec, "pattern:", 8) == 0;
+	struct swell_link_spec ls;
+
+	if (!pattern && swell_link_spec_parse(spec, accept, SWELL_UDP_PORT_VIEWER, &ls, err, errlen) != 0)
+		return false;
+	if (usb_iface != 0 && (pattern || ls.kind != SWELL_LINK_USB)) {
 		snprintf(err, errlen, "--iface %d is for a usb source, not '%s'", usb_iface, spec);
 		return false;
 	}
@@ -160,7 +125,7 @@ bool source_open(struct source *s, const char *spec, const char *record, int usb
 	s->rng = 0x12345678u;
 	snprintf(s->spec, sizeof(s->spec), "%s", spec);
 	s->record = record;
-	if (strncmp(spec, "pattern:", 8) == 0) {
+	if (pattern) {
 		if (record) {
 			snprintf(err, errlen, "--record needs a link source (record a pattern with swell-view-gen)");
 			return false;
@@ -198,28 +163,12 @@ bool source_open(struct source *s, const char *spec, const char *record, int usb
 		return true;
 	}
 	s->kind = SOURCE_LINK;
-	if (strcmp(spec, "udp") == 0 || strncmp(spec, "udp:", 4) == 0)
-		s->lk = LINK_UDP;
-	else if ((strncmp(spec, "can:", 4) == 0 && spec[4]) || (strncmp(spec, "canfd:", 6) == 0 && spec[6]))
-		s->lk = LINK_CAN;
-	else if (strcmp(spec, "usb") == 0 || strncmp(spec, "usb:", 4) == 0)
-		s->lk = LINK_USB;
-	else if ((strncmp(spec, "replay:", 7) == 0 && spec[7]) || (strncmp(spec, "replay-fast:", 12) == 0 && spec[12]))
-		s->lk = LINK_REPLAY;
-	else {
-		snprintf(err, errlen,
-			 "unknown source '%s' (udp[:PORT], can:IFACE, canfd:IFACE, usb[:VID:PID], "
-			 "replay:FILE, replay-fast:FILE, pattern:NAME)",
-			 spec);
-		return false;
-	}
-	if (s->lk == LINK_USB && !parse_usb(s, spec[3] ? spec + 4 : NULL, err, errlen))
-		return false;
-	s->usb.iface = usb_iface;
+	s->ls = ls;
+	s->ls.iface = (uint8_t)usb_iface;
 	int rc = link_open(s, err, errlen);
-	if (rc != 0 && !(rc == -ENODEV && s->lk == LINK_USB))
+	if (rc != 0 && !(rc == -ENODEV && s->ls.kind == SWELL_LINK_USB))
 		return false; /* (USB not plugged in yet: LINK DOWN on screen, tried again every 500 ms) */
-	if (s->lk == LINK_REPLAY)
+	if (s->ls.kind == SWELL_LINK_REPLAY)
 		return true; /* replays are read in step with the display: same pictures every run */
 	s->ring = calloc(RX_RING, sizeof(*s->ring));
 	if (!s->ring || pthread_create(&s->thread, NULL, reader, s) != 0) {
@@ -359,7 +308,7 @@ static void pattern_poll(struct source *s, uint64_t now_us)
 static void deliver_link_frame(struct source *s, const struct swell_frame *f, uint64_t t_us)
 {
 	s->delivered++;
-	if (s->lk == LINK_REPLAY) { /* the recording's times, for what is about time on the link */
+	if (s->ls.kind == SWELL_LINK_REPLAY) { /* the recording's times, for what is about time on the link */
 		s->feed->rec_clock = true;
 		s->feed->rec_us = f->t_ns / 1000u;
 	}
@@ -405,7 +354,7 @@ static void link_poll(struct source *s, uint64_t now_us)
 	}
 
 	if (!s->link) {
-		if (s->lk != LINK_USB || now_us < s->retry_us)
+		if (s->ls.kind != SWELL_LINK_USB || now_us < s->retry_us)
 			return;
 		char err[128];
 		s->retry_us = now_us + 500000u;

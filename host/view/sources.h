@@ -1,5 +1,5 @@
 /* Where swell-view's frames come from. Each source hands whole carrier frames to the feed.
- * Link sources use the host links (host/links, swell/link.h):
+ * Link sources use the host links (host/links, swell/link.h; spellings: swell/link_spec.h):
  *   udp[:PORT]         datagrams on 127.0.0.1:PORT (default SWELL_UDP_PORT_VIEWER, where swell-ctl sends)
  *   can:IFACE          SocketCAN, classic frames; canfd:IFACE for CAN FD
  *   usb[:VID:PID]      libusb bulk (default the swell VID/PID); waits for the device and follows
@@ -22,16 +22,11 @@
 #include "feed.h"
 #include "gen.h"
 #include "swell/link.h"
+#include "swell/link_spec.h"
 
 enum source_kind {
 	SOURCE_LINK,
 	SOURCE_PATTERN
-};
-enum link_kind {
-	LINK_UDP,
-	LINK_CAN,
-	LINK_USB,
-	LINK_REPLAY
 };
 
 /* Live links are read by a thread of their own into this ring, so frames keep being taken off the
@@ -56,10 +51,9 @@ struct source {
 	enum source_kind kind;
 	char desc[96];
 	/* link */
-	enum link_kind lk;
+	struct swell_link_spec ls;
 	struct swell_link *link;
 	char spec[256];
-	struct swell_usb_opts usb;
 	uint64_t retry_us; /* USB not there at start: next attempt to open it */
 	bool ended; /* replay reached the end of the recording */
 	uint32_t rec_damaged; /* replay stopped at a damaged record */

@@ -69,9 +69,9 @@ void hud(struct app *a, const struct view_feed *f, const struct source *src, uin
 		snprintf(buf, sizeof(buf), "NO DATA FOR %.1f S", (double)(now - m->last_rx_us) * 1e-6);
 	else if (m->status == VIEW_LINK_DOWN && src->ended)
 		snprintf(buf, sizeof(buf), src->rec_damaged ? "END OF RECORDING (DAMAGED)" : "END OF RECORDING");
-	else if (m->status == VIEW_LIVE && src->kind == SOURCE_LINK && src->lk == LINK_REPLAY)
+	else if (m->status == VIEW_LIVE && src->kind == SOURCE_LINK && src->ls.kind == SWELL_LINK_REPLAY)
 		snprintf(buf, sizeof(buf), "REPLAY"); /* recorded, not live */
-	else if (m->status == VIEW_LINK_DOWN && src->kind == SOURCE_LINK && src->lk == LINK_USB)
+	else if (m->status == VIEW_LINK_DOWN && src->kind == SOURCE_LINK && src->ls.kind == SWELL_LINK_USB)
 		snprintf(buf, sizeof(buf), "USB DEVICE NOT THERE - WAITING FOR IT");
 	else
 		snprintf(buf, sizeof(buf), "%s", s);

@@ -144,7 +144,7 @@ static int open_session(struct session *s, const struct flash_link_spec *spec, i
 	memset(s, 0, sizeof(*s));
 	s->node = spec->node;
 	s->heard = -1;
-	flash_link_describe(spec, where, wlen);
+	swell_link_spec_describe(&spec->link, where, wlen);
 	rc = flash_link_open(spec, wait_ms, &s->l);
 	if (rc == 0)
 		s->carrier = swell_link_carrier(s->l);
@@ -310,9 +310,9 @@ int flash_find_controller(const struct flash_link_spec *spec, int timeout_ms, st
 	rc = open_session(&s, spec, timeout_ms, where, sizeof(where));
 	if (rc) {
 		say(BOOT_ERROR, msg, msg_len, "cannot open %s: %s", where,
-		    rc == -ENODEV && spec->kind == FLASH_LINK_USB ? "no such device within the time limit"
-								  : strerror(-rc));
-		return rc == -ENODEV && spec->kind == FLASH_LINK_USB ? -1 : -2;
+		    rc == -ENODEV && spec->link.kind == SWELL_LINK_USB ? "no such device within the time limit"
+								       : strerror(-rc));
+		return rc == -ENODEV && spec->link.kind == SWELL_LINK_USB ? -1 : -2;
 	}
 	while (next_frame(&s, end, m, &n) == 0) {
 		for (i = 0; i < n; i++) {

@@ -18,6 +18,7 @@
 #include "flash_boot.h"
 #include "flash_image.h"
 #include "flash_plan.h"
+#include "swell/transport.h"
 
 #define MAX_FILE (16u * 1024u * 1024u)
 
@@ -105,7 +106,7 @@ static void link_arg(const char *opt, const char *l, struct flash_link_spec *out
 {
 	char why[200];
 
-	if (flash_link_parse(l, out, why, sizeof(why)))
+	if (swell_link_spec_parse(l, SWELL_LINK_ACCEPT_HOST_SIDE, SWELL_UDP_PORT_CLIENTS, &out->link, why, sizeof(why)))
 		die(2, "%s %s", opt, why);
 }
 
@@ -483,7 +484,7 @@ static void find_step(const struct cfg *c, const struct flash_image *img, const 
 
 	char where[96];
 
-	flash_link_describe(&c->find_link, where, sizeof(where));
+	swell_link_spec_describe(&c->find_link.link, where, sizeof(where));
 	printf("swell-flash: listening on %s for the controller's CTL_INFO (up to %.1f s)\n", where, c->find_timeout_s);
 	fflush(stdout);
 	r = flash_find_controller(&c->find_link, (int)(c->find_timeout_s * 1000 + 0.5), &f, why, sizeof(why));
@@ -538,13 +539,13 @@ int main(int argc, char **argv)
 	}
 	if (c.no_find)
 		c.find = 0;
-	if (c.iface >= 0 && !(c.boot && c.boot_link.kind == FLASH_LINK_USB) &&
-	    !(c.find && c.find_link.kind == FLASH_LINK_USB))
+	if (c.iface >= 0 && !(c.boot && c.boot_link.link.kind == SWELL_LINK_USB) &&
+	    !(c.find && c.find_link.link.kind == SWELL_LINK_USB))
 		die(2, "--iface is for a usb link (--enter-bootloader usb or --find usb)");
 	if (c.node >= 0 && !c.boot && !c.find)
 		die(2, "--node is for --enter-bootloader or --find");
 	c.boot_link.node = c.find_link.node = c.node;
-	c.boot_link.usb_iface = c.find_link.usb_iface = (uint8_t)(c.iface >= 0 ? c.iface : 0);
+	c.boot_link.link.iface = c.find_link.link.iface = (uint8_t)(c.iface >= 0 ? c.iface : 0);
 
 	/* 1. The image, before anything else. */
 	if (flash_read_file(c.image, MAX_FILE, &file, &file_len, why, sizeof(why)))
@@ -612,7 +613,7 @@ int main(int argc, char **argv)
 		for (i = 0; i < plan.nsteps; i++) {
 			flash_step_format(&plan.step[i], line, sizeof(line));
 			if (i == 0 && c.boot) {
-				flash_link_describe(&c.boot_link, where, sizeof(where));
+				swell_link_spec_describe(&c.boot_link.link, where, sizeof(where));
 				printf("[0/%d] send ENTER_BOOTLOADER on %s once its heartbeat is heard%s\n",
 				       plan.nsteps, where,
 				       c.force ? " (AUTORUN=0, COMMAND=STOP first if RUNNING)" : "");
@@ -624,7 +625,7 @@ int main(int argc, char **argv)
 		if (c.console)
 			printf("  then read %s until the image reports version %s\n", c.console, ver);
 		if (c.find) {
-			flash_link_describe(&c.find_link, where, sizeof(where));
+			swell_link_spec_describe(&c.find_link.link, where, sizeof(where));
 			printf("  then listen on %s up to %.1f s for the controller's CTL_INFO, version %s\n", where,
 			       c.find_timeout_s, ver);
 		}

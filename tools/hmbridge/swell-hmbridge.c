@@ -44,7 +44,8 @@ static const char usage[] =
 	"for --watchdog ticks).\n"
 	"\n"
 	"  --hm HOST[:PORT]    the HapticMaster (required; an address or a host name)\n"
-	"  --link udp|can:IFACE|usb   carrier to the controller (default udp: packets to --host:--port)\n"
+	"  --link udp[:PORT]|can:IFACE|usb[:VID:PID]   carrier to the controller (default udp: packets to "
+	"--host:--port)\n"
 	"  --host ADDR         controller's IPv4 address for udp (default 127.0.0.1)\n"
 	"  --port N            controller's UDP port (default 47800)\n"
 	"  --bind-port N       own UDP port (default 0: any free port)\n"
@@ -67,6 +68,7 @@ static const char usage[] =
 
 struct opts {
 	const char *hm, *link, *host;
+	struct swell_link_spec ls; /* --link parsed */
 	unsigned port, bind_port, iface, node, watchdog;
 	double rate_hz, seconds, fresh_ms;
 	int rt, quiet;
@@ -129,9 +131,13 @@ static void parse(int argc, char **argv, struct opts *o)
 				bad("--hm needs HOST[:PORT], not an empty word%s", "");
 			o->hm = v;
 		} else if (!strcmp(a, "--link")) {
-			if (strcmp(v, "udp") && strcmp(v, "usb") && (strncmp(v, "can:", 4) || !v[4]))
-				bad("--link must be udp, can:IFACE or usb, not '%s'", v);
+			char why[200];
+
+			if (swell_link_spec_parse(v, SWELL_LINK_ACCEPT_HOST_SIDE, (uint16_t)o->port, &o->ls, why,
+						  sizeof(why)))
+				bad("--link %s", why);
 			o->link = v;
+			o->port = o->ls.port;
 		} else if (!strcmp(a, "--host")) {
 			struct in_addr ia;
 
@@ -197,22 +203,14 @@ struct bridge {
 
 static int open_link(struct bridge *b, const struct opts *o)
 {
+	const struct swell_link_open_opts uo = { .udp_host = o->host, .udp_bind_port = (uint16_t)o->bind_port };
+	struct swell_link_spec ls;
 	int rc;
 
-	if (!strcmp(o->link, "udp")) {
-		rc = swell_link_open_udp(&b->l, o->host, (uint16_t)o->bind_port, o->host, (uint16_t)o->port);
-	} else if (!strncmp(o->link, "can:", 4)) {
-		struct swell_can_opts co;
-
-		memset(&co, 0, sizeof(co));
-		rc = swell_link_open_can(&b->l, o->link + 4, &co);
-	} else {
-		struct swell_usb_opts uo;
-
-		swell_usb_opts_default(&uo);
-		uo.iface = (int)o->iface;
-		rc = swell_link_open_usb(&b->l, &uo);
-	}
+	ls = o->ls;
+	ls.port = (uint16_t)o->port;
+	ls.iface = (uint8_t)o->iface;
+	rc = swell_link_open_spec(&b->l, &ls, &uo);
 	if (rc < 0) {
 		fprintf(stderr, "swell-hmbridge: cannot open link %s: %s\n", o->link, strerror(-rc));
 		return -1;

@@ -6,6 +6,8 @@
 #include <string.h>
 #include <time.h>
 
+#include "swell/transport.h"
+
 uint64_t swell_link_now_ns(void)
 {
 	struct timespec ts;
@@ -153,4 +155,44 @@ enum swell_err swell_link_decode(enum swell_carrier c, const struct swell_frame 
 		return err;
 	}
 	return SWELL_EINVAL;
+}
+
+int swell_link_open_spec(struct swell_link **out, const struct swell_link_spec *s, const struct swell_link_open_opts *o)
+{
+	const char *host = o->udp_host ? o->udp_host : SWELL_UDP_HOST;
+
+	switch (s->kind) {
+	case SWELL_LINK_UDP:
+		if (o->udp_answer)
+			return swell_link_open_udp(out, host, s->port, NULL, 0);
+		for (unsigned k = 0; k < o->udp_bind_tries; k++) {
+			int rc = swell_link_open_udp(out, host, (uint16_t)(o->udp_bind_port + k), host, s->port);
+
+			if (rc != -EADDRINUSE)
+				return rc;
+		}
+		return swell_link_open_udp(out, host, o->udp_bind_tries ? 0 : o->udp_bind_port, host, s->port);
+	case SWELL_LINK_CAN:
+	case SWELL_LINK_CANFD: {
+		struct swell_can_opts co;
+
+		memset(&co, 0, sizeof(co)); /* every id: other nodes are told apart by decoding */
+		co.fd = s->kind == SWELL_LINK_CANFD;
+		co.error_frames = o->can_errors;
+		return swell_link_open_can(out, s->name, &co);
+	}
+	case SWELL_LINK_USB: {
+		struct swell_usb_opts uo;
+
+		swell_usb_opts_default(&uo);
+		uo.vid = s->vid;
+		uo.pid = s->pid;
+		uo.iface = s->iface;
+		return swell_link_open_usb(out, &uo);
+	}
+	case SWELL_LINK_REPLAY:
+		return swell_link_open_replay(out, s->name, s->realtime);
+	default:
+		return -EINVAL;
+	}
 }

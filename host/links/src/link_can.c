@@ -135,13 +135,72 @@ static int set_bitrate(const char *ifname, uint32_t bitrate)
 	return 0;
 }
 
+int swell_can_socket(const char *ifname, const struct swell_can_opts *opts, int nonblock)
+{
+	struct sockaddr_can addr;
+	struct ifreq ifr;
+	int fd, rc, on = 1;
+
+	if (!ifname || strlen(ifname) >= IFNAMSIZ)
+		return -EINVAL;
+	fd = socket(PF_CAN, SOCK_RAW | SOCK_CLOEXEC | (nonblock ? SOCK_NONBLOCK : 0), CAN_RAW);
+	if (fd < 0)
+		return -errno;
+	memset(&ifr, 0, sizeof(ifr));
+	memcpy(ifr.ifr_name, ifname, strlen(ifname));
+	if (ioctl(fd, SIOCGIFINDEX, &ifr) < 0)
+		goto fail_errno;
+	if (opts->fd) {
+		/* refuse up front rather than on the first long frame: an FD interface has MTU 72 */
+		struct ifreq mtu = ifr;
+
+		if (ioctl(fd, SIOCGIFMTU, &mtu) < 0)
+			goto fail_errno;
+		if (mtu.ifr_mtu != (int)CANFD_MTU) {
+			errno = EOPNOTSUPP;
+			goto fail_errno;
+		}
+	}
+	if (opts->fd && setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FD_FRAMES, &on, sizeof(on)) < 0)
+		goto fail_errno;
+	if (opts->filters) {
+		struct can_filter flt[64];
+		size_t i;
+
+		if (opts->nfilters > 64) {
+			errno = EINVAL;
+			goto fail_errno;
+		}
+		for (i = 0; i < opts->nfilters; i++) {
+			flt[i].can_id = opts->filters[i].id & CAN_SFF_MASK;
+			flt[i].can_mask = (opts->filters[i].mask & CAN_SFF_MASK) | CAN_EFF_FLAG | CAN_RTR_FLAG;
+		}
+		if (setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FILTER, flt, (socklen_t)(opts->nfilters * sizeof(flt[0]))) < 0)
+			goto fail_errno;
+	}
+	if (opts->error_frames) {
+		can_err_mask_t em = opts->error_mask ? opts->error_mask : CAN_ERR_MASK;
+
+		if (setsockopt(fd, SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &em, sizeof(em)) < 0)
+			goto fail_errno;
+	}
+	memset(&addr, 0, sizeof(addr));
+	addr.can_family = AF_CAN;
+	addr.can_ifindex = ifr.ifr_ifindex;
+	if (bind(fd, (struct sockaddr *)&addr, sizeof(addr)) < 0)
+		goto fail_errno;
+	return fd;
+fail_errno:
+	rc = -errno; /* before close, which may change it */
+	close(fd);
+	return rc;
+}
+
 int swell_link_open_can(struct swell_link **out, const char *ifname, const struct swell_can_opts *opts)
 {
 	static const struct swell_can_opts defaults;
 	struct can_link *c;
-	struct sockaddr_can addr;
-	struct ifreq ifr;
-	int rc, on = 1;
+	int rc;
 
 	if (!out || !ifname || strlen(ifname) >= IFNAMSIZ)
 		return -EINVAL;
@@ -158,62 +217,13 @@ int swell_link_open_can(struct swell_link **out, const char *ifname, const struc
 	c->base.ops = &can_ops;
 	c->base.carrier = opts->fd ? SWELL_CARRIER_CANFD : SWELL_CARRIER_CAN;
 	c->fd_mode = opts->fd;
-	c->fd = socket(PF_CAN, SOCK_RAW | SOCK_CLOEXEC, CAN_RAW);
+	c->fd = swell_can_socket(ifname, opts, 0);
 	if (c->fd < 0) {
-		rc = -errno;
+		rc = c->fd;
 		free(c);
 		return rc;
 	}
-	memset(&ifr, 0, sizeof(ifr));
-	memcpy(ifr.ifr_name, ifname, strlen(ifname));
-	if (ioctl(c->fd, SIOCGIFINDEX, &ifr) < 0)
-		goto fail_errno;
-	if (opts->fd) {
-		/* refuse up front rather than on the first long frame: an FD interface has MTU 72 */
-		struct ifreq mtu = ifr;
-
-		if (ioctl(c->fd, SIOCGIFMTU, &mtu) < 0)
-			goto fail_errno;
-		if (mtu.ifr_mtu != (int)CANFD_MTU) {
-			errno = EOPNOTSUPP;
-			goto fail_errno;
-		}
-	}
-	if (opts->fd && setsockopt(c->fd, SOL_CAN_RAW, CAN_RAW_FD_FRAMES, &on, sizeof(on)) < 0)
-		goto fail_errno;
-	if (opts->filters) {
-		struct can_filter flt[64];
-		size_t i;
-
-		if (opts->nfilters > 64) {
-			errno = EINVAL;
-			goto fail_errno;
-		}
-		for (i = 0; i < opts->nfilters; i++) {
-			flt[i].can_id = opts->filters[i].id & CAN_SFF_MASK;
-			flt[i].can_mask = (opts->filters[i].mask & CAN_SFF_MASK) | CAN_EFF_FLAG | CAN_RTR_FLAG;
-		}
-		if (setsockopt(c->fd, SOL_CAN_RAW, CAN_RAW_FILTER, flt, (socklen_t)(opts->nfilters * sizeof(flt[0]))) <
-		    0)
-			goto fail_errno;
-	}
-	if (opts->error_frames) {
-		can_err_mask_t em = CAN_ERR_MASK;
-
-		if (setsockopt(c->fd, SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &em, sizeof(em)) < 0)
-			goto fail_errno;
-	}
-	memset(&addr, 0, sizeof(addr));
-	addr.can_family = AF_CAN;
-	addr.can_ifindex = ifr.ifr_ifindex;
-	if (bind(c->fd, (struct sockaddr *)&addr, sizeof(addr)) < 0)
-		goto fail_errno;
 	snprintf(c->base.name, sizeof(c->base.name), "%s %s", opts->fd ? "canfd" : "can", ifname);
 	*out = &c->base;
 	return 0;
-fail_errno:
-	rc = -errno;
-	close(c->fd);
-	free(c);
-	return rc;
 }

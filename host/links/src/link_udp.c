@@ -21,17 +21,78 @@ struct udp_link {
 	uint16_t port;
 };
 
+int swell_udp_socket(const struct sockaddr_in *at, int nonblock, int any_if_taken, int *taken,
+		     struct sockaddr_in *bound)
+{
+	const int rcvbuf = 2 << 20; /* bytes of queue, about 2700 small datagrams */
+	struct sockaddr_in a = *at;
+	socklen_t alen = sizeof(*bound);
+	int fd = socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC | (nonblock ? SOCK_NONBLOCK : 0), 0), rc;
+
+	if (fd < 0)
+		return -errno;
+	/* A burst from a third sender (2000 garbage datagrams in the bench) must not make the kernel drop
+	 * the device's samples while this process waits for the CPU: a deep receive queue (FORCE when
+	 * permitted, else capped by net.core.rmem_max; the default queue holds about 280 datagrams). */
+	if (setsockopt(fd, SOL_SOCKET, SO_RCVBUFFORCE, &rcvbuf, sizeof(rcvbuf)) < 0)
+		(void)setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof(rcvbuf));
+	rc = bind(fd, (const struct sockaddr *)&a, sizeof(a));
+	if (rc < 0 && errno == EADDRINUSE && any_if_taken) {
+		a.sin_port = 0;
+		*taken = 1;
+		rc = bind(fd, (const struct sockaddr *)&a, sizeof(a));
+	}
+	if (rc < 0 || getsockname(fd, (struct sockaddr *)bound, &alen) < 0) {
+		rc = -errno; /* before close, which may change it */
+		close(fd);
+		return rc;
+	}
+	return fd;
+}
+
+long swell_udp_recv(int fd, void *buf, size_t cap, struct sockaddr_in *from, int timeout_ms)
+{
+	socklen_t fl = sizeof(*from);
+	ssize_t n;
+
+	for (;;) {
+		struct pollfd p = { .fd = fd, .events = POLLIN };
+		int rc = timeout_ms == 0 ? 1 : poll(&p, 1, timeout_ms);
+
+		if (rc < 0 && errno == EINTR)
+			continue;
+		if (rc < 0)
+			return -errno;
+		if (rc == 0)
+			return -ETIMEDOUT;
+		break;
+	}
+	memset(from, 0, sizeof(*from));
+	n = recvfrom(fd, buf, cap, MSG_TRUNC | MSG_DONTWAIT, (struct sockaddr *)from, &fl);
+	if (n < 0)
+		return errno == EAGAIN || errno == EWOULDBLOCK ? -ETIMEDOUT : -errno;
+	return (long)n;
+}
+
+int swell_udp_send(int fd, const struct sockaddr_in *to, const void *p, size_t len)
+{
+	ssize_t n = sendto(fd, p, len, 0, (const struct sockaddr *)to, sizeof(*to));
+
+	if (n < 0)
+		return -errno;
+	return n == (ssize_t)len ? 0 : -EIO;
+}
+
+int swell_udp_same(const struct sockaddr_in *a, const struct sockaddr_in *b)
+{
+	return a->sin_port == b->sin_port && a->sin_addr.s_addr == b->sin_addr.s_addr;
+}
+
 static int udp_send(struct swell_link *l, const struct swell_frame *f)
 {
 	struct udp_link *u = (struct udp_link *)l;
-	ssize_t n;
 
-	if (!u->have_peer)
-		return -ENOTCONN;
-	n = sendto(u->fd, f->data, f->len, 0, (const struct sockaddr *)&u->peer, sizeof(u->peer));
-	if (n < 0)
-		return -errno;
-	return n == f->len ? 0 : -EIO;
+	return u->have_peer ? swell_udp_send(u->fd, &u->peer, f->data, f->len) : -ENOTCONN;
 }
 
 static int udp_recv(struct swell_link *l, struct swell_frame *f, int timeout_ms)
@@ -40,30 +101,20 @@ static int udp_recv(struct swell_link *l, struct swell_frame *f, int timeout_ms)
 	uint64_t deadline = swell_link_deadline(timeout_ms);
 
 	for (;;) {
-		struct pollfd p = { .fd = u->fd, .events = POLLIN };
-		struct sockaddr_in from = { 0 };
-		socklen_t fl = sizeof(from);
+		struct sockaddr_in from = { 0 }; /* filled by recvfrom; zeroed for the analyzer */
 		uint8_t buf[SWELL_LINK_MTU + 1];
-		ssize_t n;
-		int rc = poll(&p, 1, swell_link_ms_left(deadline, timeout_ms));
+		long n = swell_udp_recv(u->fd, buf, sizeof(buf), &from, swell_link_ms_left(deadline, timeout_ms));
 
-		if (rc < 0 && errno == EINTR)
-			continue;
-		if (rc < 0)
-			return -errno;
-		if (rc == 0)
-			return -ETIMEDOUT;
-		n = recvfrom(u->fd, buf, sizeof(buf), MSG_TRUNC, (struct sockaddr *)&from, &fl);
 		if (n < 0)
-			return -errno;
-		if (n > (ssize_t)SWELL_LINK_MTU) {
+			return (int)n;
+		if (n > (long)SWELL_LINK_MTU) {
 			l->cnt.rx_dropped++; /* larger than any swell packet: not ours */
 			continue;
 		}
 		if (u->follow) {
 			u->peer = from;
 			u->have_peer = 1;
-		} else if (from.sin_port != u->peer.sin_port || from.sin_addr.s_addr != u->peer.sin_addr.s_addr) {
+		} else if (!swell_udp_same(&from, &u->peer)) {
 			l->cnt.rx_dropped++; /* a fixed peer: nobody else is heard (a stale sender to this port) */
 			continue;
 		}
@@ -98,7 +149,6 @@ int swell_link_open_udp(struct swell_link **out, const char *bind_host, uint16_t
 {
 	struct udp_link *u;
 	struct sockaddr_in a;
-	socklen_t al = sizeof(a);
 	int rc;
 
 	if (!out || !bind_host)
@@ -116,14 +166,9 @@ int swell_link_open_udp(struct swell_link **out, const char *bind_host, uint16_t
 	u->follow = !peer_host;
 	if (rc)
 		goto fail;
-	u->fd = socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+	u->fd = swell_udp_socket(&a, 0, 0, NULL, &a);
 	if (u->fd < 0) {
-		rc = -errno;
-		goto fail;
-	}
-	if (bind(u->fd, (struct sockaddr *)&a, sizeof(a)) < 0 || getsockname(u->fd, (struct sockaddr *)&a, &al) < 0) {
-		rc = -errno;
-		close(u->fd);
+		rc = u->fd;
 		goto fail;
 	}
 	u->port = ntohs(a.sin_port);

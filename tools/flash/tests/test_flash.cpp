@@ -776,7 +776,7 @@ TEST_CASE("find: nobody there is exit 1 within the time limit, and --check-only 
 	CHECK(s.log().empty());
 	rc = s.run(img + " --find tcp:1", &out);
 	CHECK(rc == 2);
-	CHECK(out.find("--find 'tcp:1': not a host link: udp[:PORT], can:IFACE or usb[:VID:PID]") != std::string::npos);
+	CHECK(out.find("--find 'tcp:1': not a link: udp[:PORT], can:IFACE, usb[:VID:PID]") != std::string::npos);
 }
 
 TEST_CASE("enter-bootloader then dfu: flashing waits for the DfuSe device and starts only when it is there")
@@ -809,83 +809,7 @@ TEST_CASE("enter-bootloader then dfu: flashing waits for the DfuSe device and st
 	CHECK(out.find("verify FAILED") != std::string::npos);
 }
 
-// ---- host link specs: swell-view's spellings, one line for a bad one, nothing changed ----
-
-TEST_CASE("link specs: udp, can and usb in swell-view's spellings, with their defaults")
-{
-	flash_link_spec l;
-	char err[200] = "", d[96];
-	REQUIRE(flash_link_parse("udp", &l, err, sizeof(err)) == 0);
-	CHECK(l.kind == FLASH_LINK_UDP);
-	CHECK(l.udp_port == 47802); // the controller's clients' port
-	CHECK(l.node == -1);
-	REQUIRE(flash_link_parse("udp:1", &l, err, sizeof(err)) == 0);
-	CHECK(l.udp_port == 1);
-	REQUIRE(flash_link_parse("udp:65535", &l, err, sizeof(err)) == 0);
-	CHECK(l.udp_port == 65535);
-	flash_link_describe(&l, d, sizeof(d));
-	CHECK(std::string(d) == "udp 127.0.0.1:65535");
-	REQUIRE(flash_link_parse("can:can1", &l, err, sizeof(err)) == 0);
-	CHECK(l.kind == FLASH_LINK_CAN);
-	CHECK(std::string(l.can_if) == "can1");
-	REQUIRE(flash_link_parse("can:abcdefghijklmno", &l, err, sizeof(err)) == 0); // 15: the longest
-	CHECK(std::string(l.can_if) == "abcdefghijklmno");
-	flash_link_describe(&l, d, sizeof(d));
-	CHECK(std::string(d) == "can abcdefghijklmno");
-	REQUIRE(flash_link_parse("usb", &l, err, sizeof(err)) == 0);
-	CHECK(l.kind == FLASH_LINK_USB);
-	CHECK(l.usb_vid == 0x1209);
-	CHECK(l.usb_pid == 0x0001);
-	CHECK(l.usb_iface == 0);
-	REQUIRE(flash_link_parse("usb:0483:DF11", &l, err, sizeof(err)) == 0);
-	CHECK(l.usb_vid == 0x0483);
-	CHECK(l.usb_pid == 0xdf11);
-	flash_link_describe(&l, d, sizeof(d));
-	CHECK(std::string(d) == "usb 0483:df11 interface 0");
-	CHECK(std::string(err).empty());
-}
-
-TEST_CASE("link specs: a bad one is refused with one line naming it, and the spec is left untouched")
-{
-	struct {
-		const char *spec, *reason;
-	} bad[] = {{"", "not a host link"},
-		   {"tcp:1", "'tcp:1': not a host link: udp[:PORT], can:IFACE or usb[:VID:PID]"},
-		   {"udpx", "not a host link"},
-		   {"udp:", "UDP port not in 1..65535"},
-		   {"udp:0", "UDP port not in 1..65535"},
-		   {"udp:65536", "UDP port not in 1..65535"},
-		   {"udp:-1", "UDP port not in 1..65535"},
-		   {"udp:+80", "UDP port not in 1..65535"},
-		   {"udp:80x", "UDP port not in 1..65535"},
-		   {"udp:99999999999999999999", "UDP port not in 1..65535"},
-		   {"can:", "give the CAN interface, e.g. can:can0"},
-		   {"can", "not a host link"},
-		   {"can:abcdefghijklmnop", "interface name longer than 15 characters"},
-		   {"can:can0,3", "not an interface name (the node is chosen with --node)"},
-		   {"can:a/b", "not an interface name"},
-		   {"can:..", "not an interface name"},
-		   {"canfd:can0", "host link is classic CAN"},
-		   {"usb:", "not usb:VID:PID in hex"},
-		   {"usb:1209", "not usb:VID:PID in hex"},
-		   {"usb:1209:", "not usb:VID:PID in hex"},
-		   {"usb:12345:1", "not usb:VID:PID in hex"},
-		   {"usb:1209:0001:0", "not usb:VID:PID in hex"},
-		   {"usb:xyz:0001", "not usb:VID:PID in hex"},
-		   {"usb:/dev/ffs-swell", "usb:FFS_DIR is swell-ctl's side of the link"}};
-	for (auto &b : bad) {
-		flash_link_spec l, before;
-		std::memset(&l, 0x5a, sizeof(l));
-		before = l;
-		char err[200] = "";
-		INFO("'" << b.spec << "'");
-		CHECK(flash_link_parse(b.spec, &l, err, sizeof(err)) == -1);
-		INFO(err);
-		CHECK(std::string(err).find(b.reason) != std::string::npos);
-		CHECK(std::strchr(err, '\n') == nullptr);
-		CHECK(std::memcmp(&l, &before, sizeof(l)) == 0);
-	}
-}
+// ---- host link options: one line for a bad one, nothing runs ----
 
 TEST_CASE("link options: bad specs, --node and --iface give one line and exit 2, nothing runs")
 {
@@ -895,7 +819,7 @@ TEST_CASE("link options: bad specs, --node and --iface give one line and exit 2,
 		const char *args, *reason;
 	} bad[] = {{"--enter-bootloader can:", "--enter-bootloader 'can:': give the CAN interface, e.g. can:can0"},
 		   {"--enter-bootloader usb:1:2:3", "not usb:VID:PID in hex"},
-		   {"--find canfd:can0", "--find 'canfd:can0': the controller's host link is classic CAN"},
+		   {"--find canfd:can0", "--find 'canfd:can0': swell's controller links are classic CAN"},
 		   {"--find udp --node 16", "--node '16' is not a node id in 0..15"},
 		   {"--find udp --node x", "--node 'x' is not a node id"},
 		   {"--node 3", "--node is for --enter-bootloader or --find"},

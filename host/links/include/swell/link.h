@@ -13,6 +13,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "swell/link_spec.h"
 #include "swell/proto.h"
 
 #define SWELL_LINK_MTU 64u
@@ -63,6 +64,22 @@ int swell_link_open_udp(struct swell_link **out, const char *bind_host, uint16_t
 /* The local port actually bound (useful after binding port 0); 0 if l is not a UDP link. */
 uint16_t swell_link_udp_port(const struct swell_link *l);
 
+/* The UDP socket calls of both sides, the host links above and the Linux controller's links (which
+ * add the device's peer and the host link's clients on top; firmware/linux/ctl_link.h). */
+/* A datagram socket bound to *at (port 0: any free port; when the port is taken and any_if_taken, any
+ * free port of the same address, with *taken set to 1), close-on-exec, non-blocking when nonblock, with
+ * a receive queue deep enough for a burst of a few thousand small datagrams. *bound gets the address
+ * bound. The descriptor, or a negative errno with nothing left open. */
+int swell_udp_socket(const struct sockaddr_in *at, int nonblock, int any_if_taken, int *taken,
+		     struct sockaddr_in *bound);
+/* One datagram from anyone into buf, waiting up to timeout_ms (< 0: for ever; 0: only what is there).
+ * Its whole length (more than cap when it did not fit: never a swell packet), -ETIMEDOUT, or a
+ * negative errno. */
+long swell_udp_recv(int fd, void *buf, size_t cap, struct sockaddr_in *from, int timeout_ms);
+/* 0 when all len bytes went to *to, else a negative errno (-EIO for a short send). */
+int swell_udp_send(int fd, const struct sockaddr_in *to, const void *p, size_t len);
+int swell_udp_same(const struct sockaddr_in *a, const struct sockaddr_in *b);
+
 struct swell_can_filter {
 	uint32_t id, mask; /* accept when (frame_id & mask) == (id & mask) */
 };
@@ -70,11 +87,16 @@ struct swell_can_opts {
 	uint32_t bitrate; /* set through libsocketcan (needs CAP_NET_ADMIN); 0: leave as is */
 	int fd; /* 1: CAN FD frames (the interface must be in FD mode) */
 	int error_frames; /* 1: receive error frames and count them in bus_errors */
+	uint32_t error_mask; /* with error_frames: the classes (CAN_ERR_* of linux/can/error.h); 0: all */
 	const struct swell_can_filter *filters; /* NULL: everything */
 	size_t nfilters;
 };
 /* SocketCAN raw socket on ifname ("can0", "vcan0"). */
 int swell_link_open_can(struct swell_link **out, const char *ifname, const struct swell_can_opts *opts);
+/* The raw socket of both sides (the link above and swell-ctl's CAN links): bound to ifname with opts'
+ * frames, filters and error classes (bitrate is the link's), non-blocking when nonblock. The
+ * descriptor, or a negative errno with nothing left open. */
+int swell_can_socket(const char *ifname, const struct swell_can_opts *opts, int nonblock);
 
 struct swell_usb_opts {
 	uint16_t vid, pid; /* SWELL_USB_VID / SWELL_USB_PID by default */
@@ -92,6 +114,19 @@ int swell_link_open_record(struct swell_link **out, struct swell_link *inner, co
 /* Replay of a recording: receive gives the recorded frames, paced as recorded (realtime = 1) or
  * as fast as possible (realtime = 0); send is refused (-EROFS). */
 int swell_link_open_replay(struct swell_link **out, const char *path, int realtime);
+
+/* ---- opening a parsed spec (swell/link_spec.h) on the host's side ---- */
+struct swell_link_open_opts {
+	const char *udp_host; /* the address bound and sent to; NULL: 127.0.0.1 */
+	uint16_t udp_bind_port; /* 0: any free port */
+	uint16_t udp_bind_tries; /* > 0: the first free of this many ports from udp_bind_port, else any free one */
+	int udp_answer; /* 1: bind the spec's port and answer whoever sent last; 0: send to the spec's port */
+	int can_errors; /* CAN: receive error frames (counted in bus_errors) */
+};
+/* UDP, CAN (classic frames; FD for canfd:), USB (libusb, the spec's VID, PID and interface) or a
+ * replay. 0 or a negative errno; -EINVAL for the controller's kinds (FunctionFS, hm:). */
+int swell_link_open_spec(struct swell_link **out, const struct swell_link_spec *s,
+			 const struct swell_link_open_opts *o);
 
 /* ---- messages over a link's carrier ---- */
 /* Packs as many of m[0..n) as one frame of the carrier takes (CAN: 1; CAN FD: same type; packet:
