@@ -137,7 +137,7 @@ static void bus_load(FILE *o)
 		"and EFFECT_LIMIT down and DEVICE_POS and DEVICE_VEL up (the device reports once an update;\n"
 		"no FORCE_CMD while RUNNING). Telemetry on the same bus: HEARTBEAT %.0f/s (both directions),\n"
 		"SCENE %.0f/s, CTL_INFO %.0f/s, OBJECT_POSE and OBJECT_FORCE %.0f/s each. What is left\n"
-		"carries HEIGHT_QUADs; a full refresh of the 64 x 64 reference grid is %d quads.\n\n",
+		"carries HEIGHT_QUADs; a full refresh of the 64 x 64 reference grid is %u quads.\n\n",
 		UPDATE_HZ, HB_HZ, SCENE_HZ, INFO_HZ, OBJ_HZ, grid_quads);
 	fprintf(o,
 		"- Classic CAN: %u bits per 8-byte frame and %u per 7-byte frame, worst-case bit\n"
@@ -208,12 +208,11 @@ static void bus_load(FILE *o)
 		"\nConclusions. Classic CAN carries the full device link at 1000 Hz, and at 2500 Hz only\n"
 		"the minimal one (70 %%, tight), or full haptic control in effect mode, where the load\n"
 		"follows the update rate and not the haptic rate; what is left moves a few changed tiles\n"
-		"per tick, never the whole grid at the solver rate (250 Hz x %d quads). CAN FD helps the heights (8 "
-		"quads a\n"
-		"frame) but not the per-tick messages: they are short, one per frame, and the 1 Mbit/s\n"
-		"arbitration phase dominates, so the full device link at 2500 Hz is tight on CAN FD too.\n"
-		"USB carries everything at both rates with room for about 80 full refreshes per second.\n"
-		"Only changed tiles are sent, so a calm pool costs nothing.\n\n",
+		"per tick, never the whole grid at the solver rate (250 Hz x %u quads). CAN FD helps the\n"
+		"heights (8 quads a frame) but not the per-tick messages: they are short, one per frame, and\n"
+		"the 1 Mbit/s arbitration phase dominates, so the full device link at 2500 Hz is tight on\n"
+		"CAN FD too. USB carries everything at both rates with room for about 80 full refreshes per\n"
+		"second. Only changed tiles are sent, so a calm pool costs nothing.\n\n",
 		grid_quads);
 }
 
