@@ -36,7 +36,7 @@ static const char usage[] =
 	"  --silent-ticks N    device silent this many ticks -> zero force and fault (default 2 with\n"
 	"                      real-time scheduling; without it, as with --no-rt or when SCHED_FIFO is\n"
 	"                      refused, 20 ms of ticks, said at start: a process that is not real time\n"
-	"                      is late by milliseconds); effect mode counts update periods instead of ticks\n"
+	"                      is late by milliseconds); in effect mode at least two update periods\n"
 	"  --autorun           run whenever the device is there; leave a link-loss fault by itself\n"
 	"  --host-budget N     host messages a tick (default 16)\n"
 	"  --node N            node id on the bus, 0..15 (default 0)\n"

@@ -61,7 +61,7 @@
 	P(FORCE_MODE, 23, "force.mode", force_mode, uint8_t, CORE, 0, 1, 0, "1", "", RW, IDLE,                         \
 	  "0 stream (FORCE_CMD every tick), 1 effect (springs, damper and gravity as device effects, every update)")   \
 	P(SILENT_TICKS, 30, "link.silent_ticks", silent_ticks, uint16_t, CORE, 1, 10000, 2, "1", "ticks", RW, ANY,     \
-	  "device silent this many ticks (effect mode: update periods): zero force and FAULT")                         \
+	  "device silent this many ticks (effect mode: at least two update periods): zero force and FAULT")            \
 	P(AUTORUN, 31, "ctl.autorun", autorun, uint8_t, CORE, 0, 1, 0, "1", "", RW, ANY,                               \
 	  "1: ARMED goes to RUNNING by itself (unless the host sent STOP) and FAULT recovers by itself")
 

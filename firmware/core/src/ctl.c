@@ -487,9 +487,12 @@ void swell_ctl_link_down(struct swell_ctl *c, enum swell_ctl_link link)
 
 uint32_t swell_ctl_silent_limit(const struct swell_ctl *c)
 {
-	return c->cfg.force_mode == SWELL_FORCE_EFFECT && !c->cfg.cmd_every_tick
-		? (uint32_t)c->cfg.silent_ticks * c->ticks_per_step
-		: c->cfg.silent_ticks;
+	const uint32_t two_updates = 2u * c->ticks_per_step;
+
+	/* effect mode: the device reports once an update, so never less than two update periods */
+	if (c->cfg.force_mode == SWELL_FORCE_EFFECT && !c->cfg.cmd_every_tick && c->cfg.silent_ticks < two_updates)
+		return two_updates;
+	return c->cfg.silent_ticks;
 }
 
 int swell_ctl_device_lost(const struct swell_ctl *c)

@@ -89,7 +89,8 @@ struct swell_ctl_config {
 	struct swell_body_xform xform;
 	struct swell_fsafety_params safety; /* one stage per device axis; tick_hz is set from tick_hz */
 	uint32_t tick_hz, solver_hz; /* solver_hz divides tick_hz, 2 .. SWELL_BODY_MAX_K ticks a step */
-	uint16_t silent_ticks; /* device silent this many ticks (effect mode: update periods) -> fault; 1 .. 10000 */
+	uint16_t
+		silent_ticks; /* device silent this many ticks (effect mode: at least two update periods) -> fault; 1 .. 10000 */
 	uint16_t recover_ticks; /* autorun: device back (heard, no e-stop) this long before leaving FAULT */
 	uint16_t host_budget; /* host messages a tick, 1 .. SWELL_CTL_QUEUE / 2 */
 	uint8_t node; /* 0 .. SWELL_NODE_MAX */

@@ -46,8 +46,8 @@ size_t swell_ctl_tx(struct swell_ctl *c, enum swell_ctl_link link, struct swell_
 void swell_ctl_link_down(struct swell_ctl *c, enum swell_ctl_link link);
 /* 1 while the device counts as lost (silent for swell_ctl_silent_limit ticks, or its link down). */
 int swell_ctl_device_lost(const struct swell_ctl *c);
-/* The device silence limit in ticks: silent_ticks, or in effect mode silent_ticks update periods
- * (silent_ticks x ticks_per_step: the device reports once an update there; not with cmd_every_tick). */
+/* The device silence limit in ticks: silent_ticks, in effect mode at least two update periods (the
+ * device reports once an update there; not with cmd_every_tick). */
 uint32_t swell_ctl_silent_limit(const struct swell_ctl *c);
 
 /* Port reports. */
