@@ -44,6 +44,10 @@ static const char usage[] =
 	"                      object, damping, force limits; docs/tool.md); options after it override\n"
 	"                      its pool and rates, its parameters override the options; a bad line or a\n"
 	"                      refused value: exit 2 naming the line\n"
+	"  --pool-max N        the arena holds an N x N pool (default 256, and at least the pool started\n"
+	"                      with): outside RUNNING, PARAM_SETs of pool.nx, pool.ny, pool.dx and\n"
+	"                      pool.depth on the host link restart the core with that pool (swell-tool\n"
+	"                      scene load), the water at rest; a pool that does not fit is refused\n"
 	"  --seconds S         stop after S seconds of ticks (default: until SIGINT/SIGTERM)\n"
 	"  --no-rt             do not ask for SCHED_FIFO and mlockall\n"
 	"  --fw-version X.Y.Z  firmware version reported in CTL_INFO (default " SWELL_CTL_FW_VERSION ", the\n"
@@ -98,7 +102,7 @@ static int takes_value(const char *a)
 {
 	static const char *const with_value[] = { "--device",     "--host",         "--clock",       "--tick-hz",
 						  "--solver-hz",  "--silent-ticks", "--host-budget", "--node",
-						  "--fw-version", "--seconds",      "--scene" };
+						  "--fw-version", "--seconds",      "--scene",       "--pool-max" };
 	size_t k;
 
 	for (k = 0; k < sizeof(with_value) / sizeof(with_value[0]); k++)
@@ -218,6 +222,7 @@ void parse(int argc, char **argv, struct opts *o)
 	o->device = "udp";
 	o->host = "udp";
 	o->rt = 1;
+	o->pool_max = 256;
 	swell_ctl_default_config(&o->cfg);
 	if (parse_version(SWELL_CTL_FW_VERSION, o->cfg.fw_version))
 		die("build version is not X.Y.Z: ", SWELL_CTL_FW_VERSION);
@@ -260,6 +265,8 @@ void parse(int argc, char **argv, struct opts *o)
 				o->silent_given = 1;
 			} else if (!strcmp(a, "--host-budget"))
 				o->cfg.host_budget = (uint16_t)num(a, v, 1, SWELL_CTL_QUEUE / 2);
+			else if (!strcmp(a, "--pool-max"))
+				o->pool_max = (uint16_t)num(a, v, SWELL_WAVE_MIN_SIDE, SWELL_WAVE_MAX_SIDE);
 			else if (!strcmp(a, "--node"))
 				o->cfg.node = (uint8_t)num(a, v, 0, SWELL_NODE_MAX);
 			else if (!strcmp(a, "--fw-version")) {

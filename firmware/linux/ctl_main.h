@@ -9,11 +9,13 @@
 
 #include "ctl_link.h"
 #include "swell/ctl.h"
+#include "swell/ctl_pool.h"
 #include "swell/scene.h"
 
 struct opts {
 	const char *device, *host, *scene_path;
 	int device_clock, rt, quiet, silent_given;
+	uint16_t pool_max; /* the arena holds a pool_max x pool_max pool (and at least the one configured) */
 	double seconds;
 	struct swell_ctl_config cfg;
 	struct swell_scene scene;
@@ -23,6 +25,8 @@ struct port {
 	struct swell_ctl c;
 	struct ctl_link dev, host;
 	int have_host;
+	struct fw_mem mem; /* the arena, for a pool chosen at start-up (swell/ctl_pool.h) */
+	struct fw_pool_at place;
 	uint32_t bad_seen;
 	uint32_t bus_offs_seen[2], restarts_seen[2]; /* CAN: device, host link */
 	uint32_t starved; /* times nothing reached the device for silent_ticks ticks in a row */

@@ -75,6 +75,23 @@ static uint32_t rejected(const struct port *p)
 	return swell_proto_rejected_total(&p->dev.st) + (p->have_host ? swell_proto_rejected_total(&p->host.st) : 0);
 }
 
+/* A host message: a start-up parameter (the pool) restarts the core in the port's arena and is
+ * answered at once (swell/ctl_pool.h; between ticks, so no tick sees half a restart); anything else
+ * is the core's. */
+static void host_rx(struct port *p, const struct swell_msg *m)
+{
+	struct swell_msg answer;
+
+	if (!fw_pool_param(&p->c, &p->mem, m, &answer, &p->place)) {
+		swell_ctl_rx(&p->c, SWELL_LINK_HOST, m);
+		return;
+	}
+	if (answer.type == SWELL_MSG_PARAM_ACK && m->type == SWELL_MSG_PARAM_SET)
+		fprintf(stderr, "swell-ctl: pool now %ux%u cells of %u um, depth %u um (restarted, water at rest)\n",
+			p->c.cfg.nx, p->c.cfg.ny, p->c.cfg.dx_um, p->c.cfg.depth_um);
+	ctl_link_send(&p->host, &answer, 1);
+}
+
 /* Take everything waiting on both links into the core; returns 0 if no DEVICE_POS came in, else the
  * device ticks they stand for: 1, or in effect mode the sum of their seq steps (the device reports once
  * an update there; two samples in one take, the first late, stand for both periods), at most the
@@ -112,7 +129,7 @@ static uint32_t take_input(struct port *p)
 	for (rounds = 0; p->have_host && rounds < 16; rounds++) {
 		n = ctl_link_recv(&p->host, m, sizeof(m) / sizeof(m[0]));
 		for (k = 0; k < n; k++)
-			swell_ctl_rx(&p->c, SWELL_LINK_HOST, &m[k]);
+			host_rx(p, &m[k]);
 		if (n == 0) {
 			struct pollfd pf = { ctl_link_fd(&p->host), POLLIN, 0 };
 
@@ -270,13 +287,16 @@ int main(int argc, char **argv)
 
 	parse(argc, argv, &o);
 	setup_rt(&o); /* first: it may set the silence limit the core is configured with */
-	words = swell_ctl_arena_words(o.cfg.nx, o.cfg.ny);
+	words = swell_ctl_arena_words(o.pool_max, o.pool_max);
+	if (words < swell_ctl_arena_words(o.cfg.nx, o.cfg.ny))
+		words = swell_ctl_arena_words(o.cfg.nx, o.cfg.ny);
 	arena = calloc(words, sizeof(*arena)); /* the only allocation, before the loop starts */
 	if (!arena) {
 		fprintf(stderr, "swell-ctl: out of memory\n");
 		return 1;
 	}
-	e = swell_ctl_init(&p.c, &o.cfg, arena, words);
+	p.mem = (struct fw_mem){ arena, words, NULL, 0, "none" };
+	e = fw_pool_start(&p.c, &o.cfg, &p.mem, &p.place);
 	if (e != SWELL_OK) {
 		fprintf(stderr, "swell-ctl: controller refused its configuration: %s\n", swell_err_str(e));
 		free(arena);

@@ -11,6 +11,7 @@
 
 #include "swell/link.h"
 #include "swell/param.h"
+#include "swell/scene.h"
 #include "swell/transport.h"
 #include "tool_scene.h"
 #include "tool_session.h"
@@ -43,8 +44,9 @@ static void usage(FILE *f)
 	      "                           largest wave, link load (until SIGINT, or S seconds)\n"
 	      "  log FILE.csv [--seconds S]  S seconds (default 10) of telemetry at 100 Hz to a CSV file,\n"
 	      "                           with a progress line\n"
-	      "  scene load FILE.scene    a scene file as one change: its pool must be the controller's; a\n"
-	      "                           refused value puts back what was set and names the line\n"
+	      "  scene load FILE.scene    a scene file as one change: another pool first (outside RUNNING, the\n"
+	      "                           controller restarts with it), then the parameters; a refused\n"
+	      "                           value puts back what was set and names the line\n"
 	      "  scene save FILE.scene    the scene in force, every parameter, to a file\n"
 	      "  plot FILE.csv [--out FILE.png]  gnuplot PNG of a log: force, object bottom against the water\n"
 	      "                           under it, submersion (default FILE.png beside the CSV)\n"
@@ -158,8 +160,9 @@ static int parse_args(int argc, char **argv, struct opts *o)
 
 static const struct swell_param_desc *param_named(const char *name)
 {
-	const struct swell_param_desc *d = swell_param_by_name(name);
+	const struct swell_param_desc *d = swell_scene_desc_by_name(name);
 	size_t n, k;
+	uint16_t id;
 
 	if (!d) {
 		const struct swell_param_desc *t = swell_param_table(&n);
@@ -167,7 +170,9 @@ static const struct swell_param_desc *param_named(const char *name)
 		fprintf(stderr, "swell-tool: no parameter '%s'; there are:", name);
 		for (k = 0; k < n; k++)
 			fprintf(stderr, " %s", t[k].name);
-		fprintf(stderr, "\n");
+		for (id = SWELL_SCENE_NX; id <= SWELL_SCENE_DEPTH_UM; id++)
+			fprintf(stderr, " %s", swell_scene_key(id)->name);
+		fprintf(stderr, " (the pool's: outside RUNNING, on a controller that takes them)\n");
 	}
 	return d;
 }

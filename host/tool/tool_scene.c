@@ -52,50 +52,127 @@ static uint32_t solver_hz_of(const struct tool_telemetry *t, int32_t e)
 	return 0;
 }
 
-/* A start-up parameter of the file that differs from the running controller: its line, 0 if none. */
-static int startup_differs(const struct tool_session *s, const struct swell_scene *sc, int32_t e, char *why, size_t len)
+/* The solver rate of the file (solver.hz without wave.e) against the controller's: a rate is a
+ * start-up parameter of every port. Its line when they differ, 0 when they agree or the file is silent. */
+static int rate_differs(const struct tool_session *s, const struct swell_scene *sc, int32_t e, char *why, size_t len)
+{
+	const struct swell_scene_value *v = swell_scene_get(sc, SWELL_SCENE_SOLVER_HZ);
+	uint32_t now;
+
+	if (!v || swell_scene_get(sc, SWELL_PARAM_WAVE_E))
+		return 0;
+	now = solver_hz_of(&s->t, e);
+	if (now == (uint32_t)v->raw)
+		return 0;
+	if (now)
+		snprintf(why, len,
+			 "solver.hz = %ld Hz, the controller runs %lu Hz: a start-up parameter (swell-ctl --scene)",
+			 (long)v->raw, (unsigned long)now);
+	else
+		snprintf(why, len,
+			 "solver.hz = %ld Hz is not the running controller's rate (its wave.e differs): a start-up "
+			 "parameter (swell-ctl --scene)",
+			 (long)v->raw);
+	return v->line;
+}
+
+/* One value to send: the file's, and the one in force before, to put back. */
+struct step {
+	const struct swell_scene_value *v;
+	int32_t old;
+};
+
+/* Where a change of the pool goes in the order of sets: those that shrink the grid or lower e
+ * (e = g dt^2 d / dx^2) first, those that raise e or grow the grid last, so that every pool on the
+ * way is no larger than the first or the last and its e no higher than theirs (each set restarts
+ * the controller with that pool). */
+static int pool_rank(uint16_t id, int32_t from, int32_t to)
+{
+	const int grows = to > from;
+
+	switch (id) {
+	case SWELL_SCENE_NX:
+	case SWELL_SCENE_NY:
+		return grows ? 5 : 0;
+	case SWELL_SCENE_DX_UM:
+		return grows ? 1 : 4;
+	default:
+		return grows ? 3 : 2;
+	}
+}
+
+/* The pool's values of the file that differ from the controller's, in pool_rank order, into plan. */
+static size_t pool_steps(const struct tool_session *s, const struct swell_scene *sc, struct step *plan)
 {
 	const struct tool_telemetry *t = &s->t;
 	const int32_t now[4] = { t->scene.nx, t->scene.ny, t->scene.dx_um, (int32_t)t->scene.depth_10um * 10 };
-	const uint16_t ids[4] = { SWELL_SCENE_NX, SWELL_SCENE_NY, SWELL_SCENE_DX_UM, SWELL_SCENE_DEPTH_UM };
-	const struct swell_scene_value *v;
-	char a[48], b[48];
-	int k;
+	size_t n = 0, k;
+	int rank;
 
-	for (k = 0; k < 4; k++) {
-		v = swell_scene_get(sc, ids[k]);
-		if (v && v->raw != now[k]) {
-			swell_param_format(v->d, v->raw, a, sizeof(a));
-			swell_param_format(v->d, now[k], b, sizeof(b));
-			snprintf(why, len, "%s = %s, the controller runs %s: a start-up parameter (swell-ctl --scene)",
-				 v->d->name, a, b);
-			return v->line;
-		}
-	}
-	v = swell_scene_get(sc, SWELL_SCENE_SOLVER_HZ);
-	if (v && !swell_scene_get(sc, SWELL_PARAM_WAVE_E)) {
-		q30_t x = 0;
+	for (rank = 0; rank <= 5; rank++)
+		for (k = 0; k < 4; k++) {
+			const uint16_t id = (uint16_t)(SWELL_SCENE_NX + k);
+			const struct swell_scene_value *v = swell_scene_get(sc, id);
 
-		if (1000000 % v->raw != 0 ||
-		    swell_wave_e_from_physical(G_MM_S2, 1000000u / (uint32_t)v->raw, (uint32_t)now[3], (uint32_t)now[2],
-					       &x) != SWELL_OK ||
-		    !same_e(x, e)) {
-			snprintf(why, len,
-				 "solver.hz = %ld Hz is not the running controller's rate (its wave.e differs): "
-				 "a start-up parameter (swell-ctl --scene)",
-				 (long)v->raw);
-			return v->line;
+			if (v && v->raw != now[k] && pool_rank(id, now[k], v->raw) == rank)
+				plan[n++] = (struct step){ v, now[k] };
 		}
+	return n;
+}
+
+/* Put back plan[0 .. done), newest first (each earlier state was accepted, so each step back is
+ * too), then wave.e when a pool set changed it by eq. 2. */
+static enum tool_rc put_back(struct tool_session *s, const struct step *plan, size_t done, int32_t e, int timeout_ms)
+{
+	enum swell_err why = SWELL_OK;
+	char err[200];
+	int32_t now = 0;
+	enum tool_rc rc = TOOL_OK;
+	int pool = 0;
+
+	while (rc == TOOL_OK && done-- > 0) {
+		pool |= swell_scene_key(plan[done].v->d->id) != NULL;
+		rc = tool_request(s, 1, plan[done].v->d->id, plan[done].old, timeout_ms, &now, &why, err, sizeof(err));
+		if (rc != TOOL_OK)
+			fprintf(stderr,
+				"swell-tool: scene load: could not put %s back (%s): the controller is part changed\n",
+				plan[done].v->d->name, rc == TOOL_REFUSED ? swell_err_str(why) : err);
 	}
-	return 0;
+	if (rc == TOOL_OK && pool) {
+		rc = tool_request(s, 1, SWELL_PARAM_WAVE_E, e, timeout_ms, &now, &why, err, sizeof(err));
+		if (rc != TOOL_OK)
+			fprintf(stderr, "swell-tool: scene load: could not put wave.e back (%s)\n",
+				rc == TOOL_REFUSED ? swell_err_str(why) : err);
+	}
+	return rc;
+}
+
+/* 0 when the controller takes a new pool (it answers a get of pool.nx); else the refusal on one line. */
+static int takes_pool(struct tool_session *s, const struct step *first, int timeout_ms, char *why, size_t len)
+{
+	enum swell_err no = SWELL_OK;
+	char err[200], a[48], b[48];
+	int32_t v = 0;
+	enum tool_rc rc = tool_request(s, 0, SWELL_SCENE_NX, 0, timeout_ms, &v, &no, err, sizeof(err));
+
+	if (rc == TOOL_OK)
+		return 0;
+	swell_param_format(first->v->d, first->v->raw, a, sizeof(a));
+	swell_param_format(first->v->d, first->old, b, sizeof(b));
+	snprintf(why, len,
+		 "%s = %s, the controller runs %s and takes no new pool (%s): a start-up parameter "
+		 "(swell-ctl --scene)",
+		 first->v->d->name, a, b, rc == TOOL_REFUSED ? swell_err_str(no) : err);
+	return first->v->line;
 }
 
 enum tool_rc tool_scene_load(struct tool_session *s, const char *path, int timeout_ms)
 {
 	struct swell_scene sc;
-	int32_t old[SWELL_SCENE_PARAMS_MAX] = { 0 }, e = 0, now = 0;
+	struct step plan[SWELL_SCENE_PARAMS_MAX];
+	int32_t e = 0, now = 0;
 	char err[400], a[48], b[48];
-	size_t k, done = 0, changed = 0;
+	size_t k, n, pool, done = 0, changed = 0;
 	enum swell_err why = SWELL_OK;
 	enum tool_rc rc;
 	int line;
@@ -109,7 +186,10 @@ enum tool_rc tool_scene_load(struct tool_session *s, const char *path, int timeo
 		rc = get(s, SWELL_PARAM_WAVE_E, timeout_ms, &e, "scene load");
 	if (rc != TOOL_OK)
 		return rc;
-	line = startup_differs(s, &sc, e, err, sizeof(err));
+	line = rate_differs(s, &sc, e, err, sizeof(err));
+	n = pool = pool_steps(s, &sc, plan);
+	if (!line && pool)
+		line = takes_pool(s, &plan[0], timeout_ms, err, sizeof(err));
 	if (line) {
 		fprintf(stderr, "swell-tool: scene load: %s:%d: %s; nothing changed\n", path, line, err);
 		return TOOL_REFUSED;
@@ -117,58 +197,45 @@ enum tool_rc tool_scene_load(struct tool_session *s, const char *path, int timeo
 	for (k = 0; k < sc.n; k++) { /* the values in force, to put back if a later line is refused */
 		if (swell_scene_key(sc.v[k].d->id))
 			continue;
-		rc = get(s, sc.v[k].d->id, timeout_ms, &old[k], "scene load");
+		plan[n].v = &sc.v[k];
+		rc = get(s, sc.v[k].d->id, timeout_ms, &plan[n].old, "scene load");
 		if (rc != TOOL_OK)
 			return rc;
+		n++;
 	}
-	for (k = 0; k < sc.n; k++) {
-		const struct swell_scene_value *v = &sc.v[k];
-
-		if (swell_scene_key(v->d->id))
-			continue;
-		rc = tool_request(s, 1, v->d->id, v->raw, timeout_ms, &now, &why, err, sizeof(err));
+	for (k = 0; k < n; k++) {
+		rc = tool_request(s, 1, plan[k].v->d->id, plan[k].v->raw, timeout_ms, &now, &why, err, sizeof(err));
 		if (rc != TOOL_OK)
 			break;
 		done = k + 1;
-		changed += now != old[k];
+		changed += now != plan[k].old;
 	}
 	if (rc == TOOL_OK) {
-		printf("scene load %s: %zu values, %zu changed, state %s\n", path, sc.n, changed,
+		printf("scene load %s: %zu values, %zu changed%s, state %s\n", path, sc.n, changed,
+		       pool ? " (a new pool: the controller restarted, the water at rest)" : "",
 		       swell_state_name(s->t.hb.state));
-		for (k = 0; k < sc.n; k++) {
-			if (swell_scene_key(sc.v[k].d->id) || old[k] == sc.v[k].raw)
+		for (k = 0; k < n; k++) {
+			if (plan[k].old == plan[k].v->raw)
 				continue;
-			swell_param_format(sc.v[k].d, old[k], a, sizeof(a));
-			swell_param_format(sc.v[k].d, sc.v[k].raw, b, sizeof(b));
-			printf("  %-18s %s -> %s\n", sc.v[k].d->name, a, b);
+			swell_param_format(plan[k].v->d, plan[k].old, a, sizeof(a));
+			swell_param_format(plan[k].v->d, plan[k].v->raw, b, sizeof(b));
+			printf("  %-18s %s -> %s\n", plan[k].v->d->name, a, b);
 		}
 		return TOOL_OK;
 	}
 	if (rc == TOOL_REFUSED)
 		fprintf(stderr, "swell-tool: scene load: %s:%d: %s refused by the controller: %s (state %s)\n", path,
-			sc.v[k].line, sc.v[k].d->name, swell_err_str(why), swell_state_name(s->t.hb.state));
+			plan[k].v->line, plan[k].v->d->name, swell_err_str(why), swell_state_name(s->t.hb.state));
 	else
-		fprintf(stderr, "swell-tool: scene load: %s:%d: %s: %s\n", path, sc.v[k].line, sc.v[k].d->name, err);
-	/* put back, newest first: each earlier state was accepted, so each step back is too */
-	while (done-- > 0) {
-		enum tool_rc back;
-
-		if (swell_scene_key(sc.v[done].d->id))
-			continue;
-		back = tool_request(s, 1, sc.v[done].d->id, old[done], timeout_ms, &now, &why, err, sizeof(err));
-		if (back != TOOL_OK) {
-			fprintf(stderr,
-				"swell-tool: scene load: could not put %s back (%s): the controller is part "
-				"changed\n",
-				sc.v[done].d->name, back == TOOL_REFUSED ? swell_err_str(why) : err);
-			return back;
-		}
-	}
+		fprintf(stderr, "swell-tool: scene load: %s:%d: %s: %s\n", path, plan[k].v->line, plan[k].v->d->name,
+			err);
+	if (put_back(s, plan, done, e, timeout_ms) != TOOL_OK)
+		return rc;
 	if (rc == TOOL_REFUSED)
 		fprintf(stderr,
 			"swell-tool: scene load: every value set before line %d was put back; the controller "
 			"is as it was\n",
-			sc.v[k].line);
+			plan[k].v->line);
 	return rc;
 }
 

@@ -6,7 +6,7 @@
  * parameter table's (swell/param_table.h: body.mass = 80 g, wave.damping = 0.002) and the start-up
  * parameters below, which swell-ctl --scene sets (the pool's memory is laid out at start; the
  * STM32F405 image takes the pool's four as PARAM_SET outside RUNNING and restarts its core with
- * them, firmware/stm32f405/logic/pool.h):
+ * them, firmware/core/include/swell/ctl_pool.h):
  *   pool.nx, pool.ny   grid size in cells, 2 .. 256
  *   pool.dx            cell size, 0.1 .. 65.535 mm
  *   pool.depth         rest depth, 0.01 .. 655.35 mm
@@ -61,5 +61,8 @@ int swell_scene_write(FILE *f, const struct swell_scene *sc, const char *header)
 
 /* The descriptor of a start-up parameter (NULL for a table id). */
 const struct swell_param_desc *swell_scene_key(uint16_t id);
+
+/* The descriptor named name: a start-up parameter or a table row; NULL for none. */
+const struct swell_param_desc *swell_scene_desc_by_name(const char *name);
 
 #endif

@@ -30,7 +30,7 @@ const struct swell_param_desc *swell_scene_key(uint16_t id)
 	return NULL;
 }
 
-static const struct swell_param_desc *by_name(const char *name)
+const struct swell_param_desc *swell_scene_desc_by_name(const char *name)
 {
 	size_t k;
 
@@ -117,7 +117,7 @@ int swell_scene_load(const char *path, struct swell_scene *out, char *err, size_
 		*eq = '\0';
 		name = trim(s);
 		value = trim(eq + 1);
-		d = by_name(name);
+		d = swell_scene_desc_by_name(name);
 		if (!d) {
 			snprintf(err, errlen, "%s:%d: no parameter '%s'", path, line, name);
 			goto refuse;

@@ -5,7 +5,7 @@
 #include <string.h>
 
 #include "../logic/core_run.h"
-#include "../logic/pool.h"
+#include "swell/ctl_pool.h"
 #include "swell/scene.h"
 #include "../logic/scene.h"
 
@@ -18,7 +18,7 @@ static const char usage[] =
 	"self-test's scripted device, and print its checksum (FORCE_CMD payloads, then the water).\n"
 	"--core-hz HZ: the core's tick rate for --core (default 2500; the image also runs 1000).\n"
 	"--pool N: the core on an N x N pool instead, set as the image's self-test sets it (PARAM_SET of\n"
-	"  pool.nx and pool.ny through logic/pool.c; the same bits wherever the buffers are).\n"
+	"  pool.nx and pool.ny through the core's ctl_pool.c; the same bits wherever the buffers are).\n"
 	"--cost: also run the three cost scenes (calm, local, agitated; damped, 40 steps), in the edge-flux\n"
 	"  and then the velocity form (velocity-calm, ...), and print\n"
 	"each one's checksum, as the image's self-test does.\n"

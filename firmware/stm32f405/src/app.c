@@ -31,7 +31,7 @@ static struct {
 	struct swell_proto_stats stats;
 	uint8_t usb_seq;
 	struct fw_pool_at place;
-	/* a start-up parameter's request (logic/pool.h), taken at a tick without a background part
+	/* a start-up parameter's request (swell/ctl_pool.h), taken at a tick without a background part
 	 * running, and its answer, sent by the host link's drain */
 	struct swell_msg pool_req, pool_ans;
 	volatile uint8_t pool_req_on, pool_ans_on;

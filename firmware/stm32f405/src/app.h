@@ -8,14 +8,14 @@
 #include <stdint.h>
 
 #include "../logic/core_run.h"
-#include "../logic/pool.h"
+#include "swell/ctl_pool.h"
 #include "../logic/scene.h"
 #include "clock.h"
 #include "swell/ctl.h"
 
 /* The core and its arena, shared with the self-test (never both at once). The arena is the SRAM
  * left beside the stack and the rest of .bss (120 KB): it holds the self-test scene's field, and the
- * pool's buffers with the fast block found at boot (src/mem.h, logic/pool.h): the largest pool is
+ * pool's buffers with the fast block found at boot (src/mem.h, swell/ctl_pool.h): the largest pool is
  * about 100 x 100 cells (h, v, acc in SRAM; u and the sent samples in the fast block). */
 #define APP_ARENA_WORDS 30720u
 _Static_assert(APP_ARENA_WORDS >= FW_CORE_ARENA_WORDS && APP_ARENA_WORDS >= FW_SCENE_WORDS,

@@ -8,7 +8,7 @@
 #ifndef SWELL_FW_MEM_H
 #define SWELL_FW_MEM_H
 
-#include "../logic/pool.h"
+#include "swell/ctl_pool.h"
 
 #define MEM_CCM_BASE 0x10000000u
 #define MEM_SRAM_ABOVE_BASE 0x20020000u /* QEMU only: the F405's SRAM ends here */

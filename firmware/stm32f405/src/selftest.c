@@ -331,7 +331,7 @@ static void put_core_label(uint32_t tick_hz, uint16_t pool_n, int at)
 	}
 }
 
-/* A PARAM_SET of a start-up parameter through the port's path (logic/pool.h), as the host sends it:
+/* A PARAM_SET of a start-up parameter through the port's path (swell/ctl_pool.h), as the host sends it:
  * 1 when the answer is the one expected (ACK with the value, or NACK with want_err), printed. */
 static int pool_set(uint16_t id, const char *name, int32_t value, enum swell_err want_err)
 {

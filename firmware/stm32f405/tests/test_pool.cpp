@@ -1,4 +1,4 @@
-// The pool as a start-up choice of the image (logic/pool.c): placement in SRAM and the fast block,
+// The pool as a start-up choice of the image (firmware/core/src/ctl_pool.c): placement in SRAM and the fast block,
 // PARAM_SET / PARAM_GET of the start-up parameters, refusals that change nothing.
 #include <catch2/catch.hpp>
 
@@ -7,7 +7,7 @@
 
 extern "C" {
 #include "logic/core_run.h"
-#include "logic/pool.h"
+#include "swell/ctl_pool.h"
 #include "swell/scene.h"
 }
 

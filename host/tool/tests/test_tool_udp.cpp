@@ -87,16 +87,25 @@ struct Rig {
 	int host_port = free_port(), client_port = free_port(), dev_port = free_port();
 	pid_t ctl = -1, hm = -1;
 	std::string dir;
-	explicit Rig(const std::string &name, const std::string &hand = "drop")
+	explicit Rig(const std::string &name, const std::string &hand = "drop", const std::vector<std::string> &more = {})
 	{
 		dir = std::string(SWELL_TOOL_TEST_DIR) + "/" + name;
 		REQUIRE(system(("mkdir -p '" + dir + "'").c_str()) == 0);
 		/* silent_ticks 2500 (1 s): a loaded test machine must not fault the device link; the link
 		 * supervision has its own tests, these are about the console */
-		ctl = spawn({SWELL_CTL_BIN, "--device", "udp:" + std::to_string(dev_port), "--host",
-			     "udp:" + std::to_string(host_port) + ",listen=" + std::to_string(client_port), "--no-rt", "--quiet",
-			     "--silent-ticks", "2500", "--seconds", "60"},
-			    dir + "/ctl.log");
+		std::vector<std::string> args = {SWELL_CTL_BIN,
+						 "--device",
+						 "udp:" + std::to_string(dev_port),
+						 "--host",
+						 "udp:" + std::to_string(host_port) + ",listen=" + std::to_string(client_port),
+						 "--no-rt",
+						 "--quiet",
+						 "--silent-ticks",
+						 "2500",
+						 "--seconds",
+						 "60"};
+		args.insert(args.end(), more.begin(), more.end());
+		ctl = spawn(args, dir + "/ctl.log");
 		hm = spawn({SWELL_HM_BIN, "--port", std::to_string(dev_port), "--quiet", "--seconds", "60", "--hand", hand},
 			   dir + "/hm.log");
 	}
@@ -283,8 +292,8 @@ TEST_CASE("swell-tool exit status: 3 with no controller, 4 for a wrong node, 5 w
 	CHECK(r.tool("--timeout-ms 300 get body.mass").status == 3);
 }
 
-TEST_CASE("swell-tool scene files over UDP: save and load back unchanged, another pool refused with its line, a "
-	  "refused value puts back what was set",
+TEST_CASE("swell-tool scene files over UDP: save and load back unchanged, another pool taken outside RUNNING and "
+	  "refused while running with its line, a refused value puts back what was set",
 	  "[tool][udp][scene]")
 {
 	Rig r("scene");
@@ -299,10 +308,20 @@ TEST_CASE("swell-tool scene files over UDP: save and load back unchanged, anothe
 	CHECK(back.status == 0);
 	CHECK(has(back.out, "0 changed"));
 
-	/* another pool: a start-up parameter, refused before anything is sent */
+	/* another pool outside RUNNING: the controller restarts with it, the water at rest */
+	const std::string e_ref = r.tool("get wave.e").out;
 	Result other = r.tool("scene load " + std::string(SWELL_SCENES_DIR) + "/shallow.scene");
-	CHECK(other.status == 6);
-	CHECK(has(other.out, "shallow.scene:4: pool.nx = 128 cells, the controller runs 64 cells"));
+	CHECK(other.status == 0);
+	CHECK(has(other.out, "a new pool: the controller restarted"));
+	CHECK(has(other.out, "pool.nx            64 cells -> 128 cells"));
+	CHECK(has(other.out, "pool.depth         50 mm -> 20 mm"));
+	CHECK(has(r.tool("get pool.ny").out, "pool.ny = 128 cells"));
+	CHECK(has(r.tool("get wave.e").out, "wave.e = 0.080")); /* eq. 2 for 20 mm at 250 Hz */
+	/* and the saved file puts the reference pool back, wave.e included */
+	Result ref = r.tool("scene load " + saved);
+	CHECK(ref.status == 0);
+	CHECK(has(r.tool("get pool.nx").out, "pool.nx = 64 cells"));
+	CHECK(r.tool("get wave.e").out == e_ref);
 
 	/* a file that does not parse: its line, nothing sent */
 	const std::string bad = r.dir + "/bad.scene";
@@ -327,4 +346,30 @@ TEST_CASE("swell-tool scene files over UDP: save and load back unchanged, anothe
 	CHECK(has(heavy.out, "the controller is as it was"));
 	CHECK(has(r.tool("get wave.damping").out, "wave.damping = 0.05 "));
 	CHECK(has(r.tool("get body.mass").out, "body.mass = 100 g"));
+
+	/* running: a new pool is refused at its first line sent, nothing changed */
+	Result busy = r.tool("scene load " + std::string(SWELL_SCENES_DIR) + "/shallow.scene");
+	CHECK(busy.status == 6);
+	CHECK(has(busy.out, "shallow.scene:7: pool.depth refused by the controller: not allowed in this state"));
+	CHECK(has(busy.out, "the controller is as it was"));
+	CHECK(has(r.tool("get pool.depth").out, "pool.depth = 50 mm"));
+	CHECK(has(r.tool("status").out, "state running"));
+}
+
+TEST_CASE("swell-tool scene load: a pool larger than the controller's arena is refused with its line, and the pool "
+	  "already set and wave.e are put back",
+	  "[tool][udp][scene]")
+{
+	Rig r("scene-max", "drop", {"--pool-max", "64"});
+	const std::string e_ref = r.tool("get wave.e").out;
+	REQUIRE(has(e_ref, "wave.e = "));
+	/* the depth goes first (it lowers e), then pool.nx does not fit: the depth is put back */
+	Result big = r.tool("scene load " + std::string(SWELL_SCENES_DIR) + "/shallow.scene");
+	CHECK(big.status == 6);
+	CHECK(has(big.out, "shallow.scene:4: pool.nx refused by the controller: size out of range"));
+	CHECK(has(big.out, "the controller is as it was"));
+	CHECK(has(r.tool("get pool.depth").out, "pool.depth = 50 mm"));
+	CHECK(has(r.tool("get pool.nx").out, "pool.nx = 64 cells"));
+	CHECK(r.tool("get wave.e").out == e_ref);
+	CHECK(has(r.tool("get body.a").out, "body.a = 50 mm"));
 }

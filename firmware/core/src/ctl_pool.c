@@ -1,4 +1,4 @@
-#include "pool.h"
+#include "swell/ctl_pool.h"
 
 #include "swell/scene.h"
 
