@@ -272,6 +272,35 @@ static int wet(const struct tool_session *s)
 	return s->t.have_pose && s->t.pose.submersion_halfpct > 0;
 }
 
+/* params' rows of the pool, on a controller that answers them (a port that takes a pool at start-up). */
+static int pool_params(struct tool_session *s, const struct opts *o)
+{
+	uint16_t id;
+
+	for (id = SWELL_SCENE_NX; id <= SWELL_SCENE_DEPTH_UM; id++) {
+		const struct swell_param_desc *d = swell_scene_key(id);
+		enum swell_err why = SWELL_OK;
+		char v[48], lo[48], hi[48], def[48], range[100], err[200];
+		int32_t raw = 0;
+		enum tool_rc rc = tool_request(s, 0, id, 0, o->timeout_ms, &raw, &why, err, sizeof(err));
+
+		if (rc == TOOL_REFUSED)
+			return TOOL_OK; /* this controller takes no pool on the wire */
+		if (rc != TOOL_OK) {
+			fprintf(stderr, "swell-tool: get %s: %s\n", d->name, err);
+			return rc;
+		}
+		swell_param_format(d, raw, v, sizeof(v));
+		swell_param_format(d, d->min, lo, sizeof(lo));
+		swell_param_format(d, d->max, hi, sizeof(hi));
+		swell_param_format(d, d->def, def, sizeof(def));
+		snprintf(range, sizeof(range), "%s .. %s", lo, hi);
+		printf("%-18s %-16s %-30s %-14s %s\n", d->name, v, range, def,
+		       s->t.hb.state == SWELL_CTL_RUNNING ? "no: running" : "yes: restarts, the water at rest");
+	}
+	return TOOL_OK;
+}
+
 static int cmd_params(struct tool_session *s, const struct opts *o)
 {
 	const struct swell_param_desc *t;
@@ -302,7 +331,7 @@ static int cmd_params(struct tool_session *s, const struct opts *o)
 	}
 	printf("%-18s %-16s %-30s %-14s %s\n", SWELL_PARAM_COMMAND_NAME, "(write only)", "stop, run, clear", "-",
 	       "yes (clear: in fault)");
-	return worst;
+	return worst == TOOL_OK ? pool_params(s, o) : worst;
 }
 
 /* Send a command, print its answer and the state it leads to (waited for up to the timeout). */

@@ -309,6 +309,7 @@ TEST_CASE("swell-tool scene files over UDP: save and load back unchanged, anothe
 	CHECK(has(back.out, "0 changed"));
 
 	/* another pool outside RUNNING: the controller restarts with it, the water at rest */
+	CHECK(has(r.tool("params").out, "pool.nx            64 cells         2 cells .. 256 cells"));
 	const std::string e_ref = r.tool("get wave.e").out;
 	Result other = r.tool("scene load " + std::string(SWELL_SCENES_DIR) + "/shallow.scene");
 	CHECK(other.status == 0);
@@ -354,6 +355,7 @@ TEST_CASE("swell-tool scene files over UDP: save and load back unchanged, anothe
 	CHECK(has(busy.out, "the controller is as it was"));
 	CHECK(has(r.tool("get pool.depth").out, "pool.depth = 50 mm"));
 	CHECK(has(r.tool("status").out, "state running"));
+	CHECK(has(r.tool("params").out, "50 mm          no: running"));
 }
 
 TEST_CASE("swell-tool scene load: a pool larger than the controller's arena is refused with its line, and the pool "
