@@ -267,11 +267,6 @@ static int cmd_set_args(struct tool_session *s, const struct opts *o)
 }
 
 /* Whether the object is in the water now (its DRY parameters are refused then). */
-static int wet(const struct tool_session *s)
-{
-	return s->t.have_pose && s->t.pose.submersion_halfpct > 0;
-}
-
 /* params' rows of the pool, on a controller that answers them (a port that takes a pool at start-up). */
 static int pool_params(struct tool_session *s, const struct opts *o)
 {
@@ -327,7 +322,7 @@ static int cmd_params(struct tool_session *s, const struct opts *o)
 		swell_param_format(&t[k], t[k].def, def, sizeof(def));
 		snprintf(range, sizeof(range), "%s .. %s", lo, hi);
 		printf("%-18s %-16s %-30s %-14s %s\n", t[k].name, v, range, def,
-		       t[k].when == SWELL_PWHEN_DRY && wet(s) ? "no: the object displaces water" : "yes");
+		       t[k].when == SWELL_PWHEN_DRY && tool_object_wet(s) ? "no: the object displaces water" : "yes");
 	}
 	printf("%-18s %-16s %-30s %-14s %s\n", SWELL_PARAM_COMMAND_NAME, "(write only)", "stop, run, clear", "-",
 	       "yes (clear: in fault)");

@@ -166,6 +166,36 @@ static int takes_pool(struct tool_session *s, const struct step *first, int time
 	return first->v->line;
 }
 
+/* The parameters of the file with the values in force (to put back if a later line is refused)
+ * around the pool's steps plan[0 .. pool): those that may change only while the object is out of
+ * the water (mass, size, damper) and differ first, before a new pool can put the object into water
+ * at rest; then the pool; then the others, each group in file order. Returns the plan's length. */
+static size_t plan_params(struct tool_session *s, const struct swell_scene *sc, struct step *plan, size_t pool,
+			  int timeout_ms, enum tool_rc *rc)
+{
+	struct step pool_part[SWELL_SCENE_PARAMS_MAX], rest[SWELL_SCENE_PARAMS_MAX];
+	size_t k, n = 0, r = 0;
+
+	memcpy(pool_part, plan, pool * sizeof(*plan));
+	*rc = TOOL_OK;
+	for (k = 0; k < sc->n; k++) {
+		struct step st = { &sc->v[k], 0 };
+
+		if (swell_scene_key(st.v->d->id))
+			continue;
+		*rc = get(s, st.v->d->id, timeout_ms, &st.old, "scene load");
+		if (*rc != TOOL_OK)
+			return 0;
+		if (st.v->d->when == SWELL_PWHEN_DRY && st.v->raw != st.old)
+			plan[n++] = st;
+		else
+			rest[r++] = st;
+	}
+	memcpy(plan + n, pool_part, pool * sizeof(*plan));
+	memcpy(plan + n + pool, rest, r * sizeof(*plan));
+	return n + pool + r;
+}
+
 enum tool_rc tool_scene_load(struct tool_session *s, const char *path, int timeout_ms)
 {
 	struct swell_scene sc;
@@ -187,21 +217,23 @@ enum tool_rc tool_scene_load(struct tool_session *s, const char *path, int timeo
 	if (rc != TOOL_OK)
 		return rc;
 	line = rate_differs(s, &sc, e, err, sizeof(err));
-	n = pool = pool_steps(s, &sc, plan);
+	pool = pool_steps(s, &sc, plan);
 	if (!line && pool)
 		line = takes_pool(s, &plan[0], timeout_ms, err, sizeof(err));
 	if (line) {
 		fprintf(stderr, "swell-tool: scene load: %s:%d: %s; nothing changed\n", path, line, err);
 		return TOOL_REFUSED;
 	}
-	for (k = 0; k < sc.n; k++) { /* the values in force, to put back if a later line is refused */
-		if (swell_scene_key(sc.v[k].d->id))
-			continue;
-		plan[n].v = &sc.v[k];
-		rc = get(s, sc.v[k].d->id, timeout_ms, &plan[n].old, "scene load");
-		if (rc != TOOL_OK)
-			return rc;
-		n++;
+	n = plan_params(s, &sc, plan, pool, timeout_ms, &rc);
+	if (rc != TOOL_OK)
+		return rc;
+	if (n > 0 && plan[0].v->d->when == SWELL_PWHEN_DRY && plan[0].v->raw != plan[0].old && tool_object_wet(s)) {
+		swell_param_format(plan[0].v->d, plan[0].v->raw, a, sizeof(a));
+		fprintf(stderr,
+			"swell-tool: scene load: %s:%d: %s = %s: not while the object displaces water (state %s): "
+			"lift it out first; nothing changed\n",
+			path, plan[0].v->line, plan[0].v->d->name, a, swell_state_name(s->t.hb.state));
+		return TOOL_REFUSED;
 	}
 	for (k = 0; k < n; k++) {
 		rc = tool_request(s, 1, plan[k].v->d->id, plan[k].v->raw, timeout_ms, &now, &why, err, sizeof(err));

@@ -19,6 +19,11 @@ static uint64_t ms_ns(int ms)
 	return (uint64_t)(ms > 0 ? ms : 0) * 1000000u;
 }
 
+int tool_object_wet(const struct tool_session *s)
+{
+	return s->t.have_pose && s->t.pose.submersion_halfpct > 0;
+}
+
 double tool_elapsed_s(const struct tool_session *s)
 {
 	return (double)(swell_link_now_ns() - s->t0_ns) / 1e9;

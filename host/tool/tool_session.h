@@ -88,6 +88,9 @@ enum tool_rc tool_request(struct tool_session *s, int set, uint16_t id, int32_t 
 double tool_water_under_mm(const struct tool_session *s);
 double tool_wave_max_mm(const struct tool_session *s);
 
+/* The object displaces water, as the last pose said (mass, size and damper may not change then). */
+int tool_object_wet(const struct tool_session *s);
+
 /* Seconds since the session opened. */
 double tool_elapsed_s(const struct tool_session *s);
 

@@ -335,24 +335,45 @@ TEST_CASE("swell-tool scene files over UDP: save and load back unchanged, anothe
 	CHECK(has(parse.out, "bad.scene:3: body.mass: unit 'mm' is not g"));
 	CHECK(has(r.tool("get wave.damping").out, "wave.damping = 0.001 "));
 
-	/* running, the object in the water: heavy.scene's damping goes in, its mass is refused, and the
-	 * damping is put back */
+	/* running, the object in the water: heavy.scene's mass may not change now, so nothing is sent */
 	REQUIRE(r.tool("set wave.damping 0.05").status == 0);
 	r.armed();
 	REQUIRE(r.tool("run").status == 0);
 	std::string wet = r.floating();
 	Result heavy = r.tool("scene load " + std::string(SWELL_SCENES_DIR) + "/heavy.scene");
 	CHECK(heavy.status == 6);
-	CHECK(has(heavy.out, "heavy.scene:9: body.mass refused by the controller: not allowed in this state"));
-	CHECK(has(heavy.out, "the controller is as it was"));
+	CHECK(has(heavy.out, "heavy.scene:9: body.mass = 150 g: not while the object displaces water (state running)"));
+	CHECK(has(heavy.out, "nothing changed"));
 	CHECK(has(r.tool("get wave.damping").out, "wave.damping = 0.05 "));
 	CHECK(has(r.tool("get body.mass").out, "body.mass = 100 g"));
 
-	/* running: a new pool is refused at its first line sent, nothing changed */
-	Result busy = r.tool("scene load " + std::string(SWELL_SCENES_DIR) + "/shallow.scene");
+	/* a refused value puts back what was set: the stability limit refuses the last line */
+	const std::string unstable = r.dir + "/unstable.scene";
+	{
+		std::ofstream f(unstable);
+		f << "# damping first, then an e over the limit\nwave.damping = 0.01\nforce.max = 8 N\nwave.e = 0.9\n";
+	}
+	Result limit = r.tool("scene load " + unstable);
+	CHECK(limit.status == 6);
+	CHECK(has(limit.out, "unstable.scene:4: wave.e refused by the controller: parameters outside the stability limit"));
+	CHECK(has(limit.out, "the controller is as it was"));
+	CHECK(has(r.tool("get wave.damping").out, "wave.damping = 0.05 "));
+	CHECK(has(r.tool("get force.max").out, "force.max = 10 N"));
+
+	/* running: the controller refuses a new pool at its line, nothing changed */
+	const std::string deeper = r.dir + "/deeper.scene";
+	{
+		std::ofstream f(deeper);
+		f << "# the same pool, deeper\npool.depth = 60 mm\n";
+	}
+	Result busy = r.tool("scene load " + deeper);
 	CHECK(busy.status == 6);
-	CHECK(has(busy.out, "shallow.scene:7: pool.depth refused by the controller: not allowed in this state"));
+	CHECK(has(busy.out, "deeper.scene:2: pool.depth refused by the controller: not allowed in this state"));
 	CHECK(has(busy.out, "the controller is as it was"));
+	/* and shallow.scene, which also changes the object's size, is refused before anything is sent */
+	Result shallow = r.tool("scene load " + std::string(SWELL_SCENES_DIR) + "/shallow.scene");
+	CHECK(shallow.status == 6);
+	CHECK(has(shallow.out, "shallow.scene:11: body.a = 80 mm: not while the object displaces water"));
 	CHECK(has(r.tool("get pool.depth").out, "pool.depth = 50 mm"));
 	CHECK(has(r.tool("status").out, "state running"));
 	CHECK(has(r.tool("params").out, "50 mm          no: running"));
