@@ -21,6 +21,9 @@
 #define COST_CLEAR 3u
 #define NEVER_SENT INT16_MIN
 
+/* the telemetry's stale bits follow the solver's tiles: a wire tile is a sleeping tile */
+_Static_assert(SWELL_PROTO_TILE == SWELL_WAVE_TILE && SWELL_QUADS_PER_TILE == 16, "a tile's quads: 16 bits");
+
 static const struct swell_ctl_config pool_config = {
 	.nx = SWELL_POOL_N,
 	.ny = SWELL_POOL_N,
@@ -72,9 +75,15 @@ static size_t sent_words(uint16_t nx, uint16_t ny)
 	return ((size_t)nx * ny + 1) / 2;
 }
 
+/* The telemetry's stale-quad bits: 16 a tile, two tiles a word. */
+static size_t stale_words(uint16_t nx, uint16_t ny)
+{
+	return ((size_t)SWELL_TILES(nx) * SWELL_TILES(ny) + 1) / 2;
+}
+
 size_t swell_ctl_arena_words(uint16_t nx, uint16_t ny)
 {
-	return SWELL_WAVE_VEL_WORDS(nx, ny) + sent_words(nx, ny);
+	return SWELL_WAVE_VEL_WORDS(nx, ny) + sent_words(nx, ny) + stale_words(nx, ny);
 }
 
 static struct swell_body_scene body_scene(const struct swell_ctl_config *cfg)
@@ -150,7 +159,7 @@ static void sent_set(struct swell_ctl *c, uint32_t a, int16_t v)
 
 size_t swell_ctl_arena_words_apart(uint16_t nx, uint16_t ny)
 {
-	return SWELL_WAVE_VEL_WORDS(nx, ny) - (size_t)nx * ny;
+	return SWELL_WAVE_VEL_WORDS(nx, ny) - (size_t)nx * ny + stale_words(nx, ny);
 }
 
 size_t swell_ctl_apart_words(uint16_t nx, uint16_t ny)
@@ -187,10 +196,13 @@ static enum swell_err init_at(struct swell_ctl *c, const struct swell_ctl_config
 	if (apart) {
 		swell_wave_init_vel_apart(&c->wave, cfg->nx, cfg->ny, arena, words, apart, n, &cfg->wave);
 		c->sent = (uint32_t *)(apart + n);
+		c->quad_stale = (uint16_t *)(arena + swell_ctl_arena_words_apart(cfg->nx, cfg->ny) -
+					     stale_words(cfg->nx, cfg->ny));
 	} else {
 		swell_wave_init_form(&c->wave, cfg->nx, cfg->ny, arena, SWELL_WAVE_VEL_WORDS(cfg->nx, cfg->ny),
 				     &cfg->wave, SWELL_FORM_VELOCITY);
 		c->sent = (uint32_t *)(arena + SWELL_WAVE_VEL_WORDS(cfg->nx, cfg->ny));
+		c->quad_stale = (uint16_t *)(c->sent + sent_words(cfg->nx, cfg->ny));
 	}
 	swell_body_init(&c->body, &cfg->body, &cfg->xform, &sc, &c->wave);
 	for (k = 0; k < 3; k++)
@@ -204,6 +216,8 @@ static enum swell_err init_at(struct swell_ctl *c, const struct swell_ctl_config
 	c->tiles_x = (uint16_t)SWELL_TILES(cfg->nx);
 	c->tiles_y = (uint16_t)SWELL_TILES(cfg->ny);
 	c->quads = (uint32_t)c->tiles_x * c->tiles_y * SWELL_QUADS_PER_TILE;
+	for (a = 0; a < (uint32_t)c->tiles_x * c->tiles_y; a++)
+		c->quad_stale[a] = 0xffffu; /* nothing sent yet */
 	c->fp_cells = (cfg->body.a_um / cfg->dx_um + 2) * (cfg->body.b_um / cfg->dx_um + 2);
 	c->since_dev = UINT32_MAX;
 	c->state = SWELL_CTL_BOOT;
@@ -662,7 +676,9 @@ static inline uint32_t sample_pair(int32_t h0, int32_t h1)
 /* Read quad q into s[4] (cells outside the grid read 0): the heights of the last finished solver
  * step (swell_wave_h). Returns how many of its cells are in the grid (0: a quad of a partial tile
  * wholly outside), and sets *changed when any sample differs from the one last sent. */
-static uint32_t quad_read(const struct swell_ctl *c, const struct swell_quad_at *at, int16_t s[4], int *changed)
+static inline __attribute__((always_inline)) uint32_t quad_read(const struct swell_ctl *c,
+								 const struct swell_quad_at *at, int16_t s[4],
+								 int *changed)
 {
 	const uint32_t nx = c->cfg.nx, a = at->y * nx + at->x0;
 	uint32_t k, cells = 0;
@@ -716,9 +732,66 @@ static void quad_send(struct swell_ctl *c, const struct swell_quad_at *at, const
 	c->n.quads_sent++;
 }
 
-/* Scan quads round-robin and send the ones whose samples changed, within the budget. A budget left
- * over sends one quad of a second, slower round-robin whatever its state, so that a quad lost on the
- * way is put right even where the water no longer moves (every quad within quads / tick_hz s). */
+/* The solver step just finished: the quads of every tile that moved may now differ from what was
+ * last sent. */
+static void mark_moved_tiles(struct swell_ctl *c)
+{
+	const uint32_t tiles = (uint32_t)c->tiles_x * c->tiles_y;
+	uint32_t t;
+
+	for (t = 0; t < tiles; t++)
+		if (swell_wave_tile_changed(&c->wave, t))
+			c->quad_stale[t] = 0xffffu;
+}
+
+/* The quad was compared (and sent where it differed): its samples are what was last sent. */
+static void quad_fresh(struct swell_ctl *c, uint32_t q)
+{
+	c->quad_stale[q / SWELL_QUADS_PER_TILE] &= (uint16_t) ~(1u << (q % SWELL_QUADS_PER_TILE));
+}
+
+/* The stale quads of the run [q, q + run) of one tile read (quad_read inlined, the tile located once)
+ * and sent where they changed, while the budget lasts. Returns how many of the run were scanned: all
+ * of them, or up to and with the quad that spent the last of the budget. The stale bits, the budget
+ * and the cell count are kept in locals, so that the loop does not reload the field's pointers after
+ * every store. */
+static __attribute__((noinline)) uint32_t scan_run(struct swell_ctl *c, uint32_t q, uint32_t run, uint32_t *budget, uint32_t *cells)
+{
+	uint16_t *const stale_at = &c->quad_stale[q / SWELL_QUADS_PER_TILE];
+	struct swell_quad_at at = swell_quad_locate(q, c->tiles_x);
+	const uint32_t x_tile = at.x0 - 4u * at.half, y_tile = at.y - at.row;
+	uint32_t stale = *stale_at, left = *budget, read = 0, k, n;
+	int16_t s[4];
+	int changed;
+
+	for (k = 0; k < run && left; k++) {
+		const uint32_t bit = (q + k) % SWELL_QUADS_PER_TILE;
+
+		if (!(stale >> bit & 1u))
+			continue;
+		stale &= ~(1u << bit);
+		at.row = bit >> 1;
+		at.half = bit & 1u;
+		at.x0 = x_tile + 4u * at.half;
+		at.y = y_tile + at.row;
+		n = quad_read(c, &at, s, &changed);
+		read += n;
+		if (n && changed) {
+			quad_send(c, &at, s, n);
+			left--;
+		}
+	}
+	*stale_at = (uint16_t)stale;
+	*budget = left;
+	*cells += read;
+	return k;
+}
+
+/* Scan quads round-robin and send the ones whose samples changed, within the budget. A quad whose
+ * stale bit is clear is passed unread (it counts as scanned: the same quads go out as when every one
+ * is read), a tile's run of them in one test. A budget left over sends one quad of a second, slower
+ * round-robin whatever its state, so that a quad lost on the way is put right even where the water
+ * no longer moves (every quad within quads / tick_hz s). */
 static uint32_t send_heights(struct swell_ctl *c, uint32_t budget)
 {
 	uint32_t scanned = 0, cells = 0, n;
@@ -726,17 +799,15 @@ static uint32_t send_heights(struct swell_ctl *c, uint32_t budget)
 	int changed;
 
 	while (budget && scanned < QUAD_SCAN_PER_TICK) {
-		const uint32_t q = c->quad_cursor;
-		const struct swell_quad_at at = swell_quad_locate(q, c->tiles_x);
+		const uint32_t q = c->quad_cursor, first = q % SWELL_QUADS_PER_TILE;
+		const uint32_t left = QUAD_SCAN_PER_TICK - scanned;
+		uint32_t run = SWELL_QUADS_PER_TILE - first < left ? SWELL_QUADS_PER_TILE - first : left;
 
-		c->quad_cursor = q + 1 == c->quads ? 0 : q + 1;
-		scanned++;
-		n = quad_read(c, &at, s, &changed);
-		cells += n;
-		if (n && changed) {
-			quad_send(c, &at, s, n);
-			budget--;
-		}
+		if ((uint32_t)c->quad_stale[q / SWELL_QUADS_PER_TILE] >> first & ((1u << run) - 1u))
+			run = scan_run(c, q, run, &budget, &cells);
+		/* else none of the tile's next run of quads can differ: passed whole */
+		c->quad_cursor = q + run == c->quads ? 0 : q + run; /* quads: whole tiles, a run never wraps */
+		scanned += run;
 	}
 	for (scanned = 0; budget && scanned < 4; scanned++) { /* skip quads outside a partial tile */
 		const uint32_t q = c->refresh_cursor;
@@ -746,6 +817,7 @@ static uint32_t send_heights(struct swell_ctl *c, uint32_t budget)
 		n = quad_read(c, &at, s, &changed);
 		if (n) {
 			quad_send(c, &at, s, n);
+			quad_fresh(c, q);
 			c->n.quads_refreshed++;
 			break;
 		}
@@ -890,7 +962,9 @@ static uint32_t solver_slice(struct swell_ctl *c)
 		}
 		work = (rows + 2u * (w->done_row - done0)) * w->nx;
 	} else {
+		swell_body_place(&c->body, w); /* the period's coupling, kept back, into h(n+1) */
 		swell_wave_step_finish(w);
+		mark_moved_tiles(c);
 		swell_body_solver_stepped(&c->body, w);
 		c->n.solver_steps++;
 		/* the finishing pass and the ceiling scan of the rows left */
@@ -917,7 +991,9 @@ void swell_ctl_tick_background(struct swell_ctl *c)
 
 	if (!c->bg_pending)
 		return;
-	swell_body_couple(&c->body, &c->wave); /* the force part's coupling, before the field moves on */
+	/* the force part's coupling, before the field moves on; while the object stays in the water its
+	 * cells are written once a period, at the step's end (swell_body_couple_later) */
+	swell_body_couple_later(&c->body, &c->wave);
 	work += solver_slice(c);
 	if (t % period(c, HEARTBEAT_HZ) == 0) {
 		send_heartbeat(c);

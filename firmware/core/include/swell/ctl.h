@@ -124,6 +124,9 @@ struct swell_ctl {
 	struct swell_body body;
 	struct swell_fsafety safety[3];
 	uint32_t *sent; /* last wire sample sent per cell, two int16 a word; INT16_MIN: never sent */
+	/* a bit a quad, 16 a tile: set where the quad's samples may differ from sent (its tile moved
+	 * since the quad was last compared); a clear bit lets the scan pass the quad without reading it */
+	uint16_t *quad_stale;
 
 	/* device link */
 	int32_t pos_um[3], vel_um_s[3];
