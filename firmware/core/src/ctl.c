@@ -676,9 +676,7 @@ static inline uint32_t sample_pair(int32_t h0, int32_t h1)
 /* Read quad q into s[4] (cells outside the grid read 0): the heights of the last finished solver
  * step (swell_wave_h). Returns how many of its cells are in the grid (0: a quad of a partial tile
  * wholly outside), and sets *changed when any sample differs from the one last sent. */
-static inline __attribute__((always_inline)) uint32_t quad_read(const struct swell_ctl *c,
-								 const struct swell_quad_at *at, int16_t s[4],
-								 int *changed)
+static uint32_t quad_read(const struct swell_ctl *c, const struct swell_quad_at *at, int16_t s[4], int *changed)
 {
 	const uint32_t nx = c->cfg.nx, a = at->y * nx + at->x0;
 	uint32_t k, cells = 0;
@@ -750,12 +748,63 @@ static void quad_fresh(struct swell_ctl *c, uint32_t q)
 	c->quad_stale[q / SWELL_QUADS_PER_TILE] &= (uint16_t) ~(1u << (q % SWELL_QUADS_PER_TILE));
 }
 
-/* The stale quads of the run [q, q + run) of one tile read (quad_read inlined, the tile located once)
- * and sent where they changed, while the budget lasts. Returns how many of the run were scanned: all
- * of them, or up to and with the quad that spent the last of the budget. The stale bits, the budget
- * and the cell count are kept in locals, so that the loop does not reload the field's pointers after
- * every store. */
-static __attribute__((noinline)) uint32_t scan_run(struct swell_ctl *c, uint32_t q, uint32_t run, uint32_t *budget, uint32_t *cells)
+/* HEIGHT_QUAD of a whole quad at cell a from its samples as sent[] holds them (two words). */
+static void quad_send_words(struct swell_ctl *c, const struct swell_quad_at *at, uint32_t a, uint32_t w0, uint32_t w1)
+{
+	const int16_t s[4] = { (int16_t)(uint16_t)w0, (int16_t)(uint16_t)(w0 >> 16), (int16_t)(uint16_t)w1,
+			       (int16_t)(uint16_t)(w1 >> 16) };
+	struct swell_msg m = swell_height_quad(at, c->n.solver_steps, s);
+
+	m.node = c->cfg.node;
+	push(c, SWELL_LINK_HOST, &m);
+	c->sent[a >> 1] = w0;
+	c->sent[(a >> 1) + 1] = w1;
+	c->n.quads_sent++;
+}
+
+/* scan_run over a tile wholly inside a grid of even width: every quad is four cells of one row and two
+ * words of sent[], read through swell_wave_h (h(n) of the last finished step), sent from the words. */
+static uint32_t scan_whole_tile(struct swell_ctl *c, uint32_t q, uint32_t run, uint32_t *budget, uint32_t *cells,
+				struct swell_quad_at *at)
+{
+	uint16_t *const stale_at = &c->quad_stale[q / SWELL_QUADS_PER_TILE];
+	const struct swell_wave *const w = &c->wave;
+	const uint32_t *const sent = c->sent;
+	const uint32_t nx = c->cfg.nx, x_tile = at->x0 - 4u * at->half, y_tile = at->y - at->row;
+	const uint32_t corner = y_tile * nx + x_tile;
+	uint32_t stale = *stale_at, left = *budget, read = 0, k;
+
+	for (k = 0; k < run && left; k++) {
+		const uint32_t bit = (q + k) % SWELL_QUADS_PER_TILE;
+		const uint32_t a = corner + (bit >> 1) * nx + 4u * (bit & 1u);
+		uint32_t w0, w1;
+
+		if (!(stale >> bit & 1u))
+			continue;
+		stale &= ~(1u << bit);
+		read += 4;
+		w0 = sample_pair(swell_wave_h(w, a), swell_wave_h(w, a + 1));
+		w1 = sample_pair(swell_wave_h(w, a + 2), swell_wave_h(w, a + 3));
+		if (w0 == sent[a >> 1] && w1 == sent[(a >> 1) + 1])
+			continue;
+		at->row = bit >> 1;
+		at->half = bit & 1u;
+		at->x0 = x_tile + 4u * at->half;
+		at->y = y_tile + at->row;
+		quad_send_words(c, at, a, w0, w1);
+		left--;
+	}
+	*stale_at = (uint16_t)stale;
+	*budget = left;
+	*cells += read;
+	return k;
+}
+
+/* The stale quads of the run [q, q + run) of one tile read (the tile located once) and sent where they
+ * changed, while the budget lasts. Returns how many of the run were scanned: all of them, or up to and
+ * with the quad that spent the last of the budget. A tile wholly inside a grid of even width (every
+ * quad two words of sent[]) goes through scan_whole_tile. */
+static uint32_t scan_run(struct swell_ctl *c, uint32_t q, uint32_t run, uint32_t *budget, uint32_t *cells)
 {
 	uint16_t *const stale_at = &c->quad_stale[q / SWELL_QUADS_PER_TILE];
 	struct swell_quad_at at = swell_quad_locate(q, c->tiles_x);
@@ -764,6 +813,8 @@ static __attribute__((noinline)) uint32_t scan_run(struct swell_ctl *c, uint32_t
 	int16_t s[4];
 	int changed;
 
+	if (!(c->cfg.nx & 1u) && x_tile + SWELL_PROTO_TILE <= c->cfg.nx && y_tile + SWELL_PROTO_TILE <= c->cfg.ny)
+		return scan_whole_tile(c, q, run, budget, cells, &at);
 	for (k = 0; k < run && left; k++) {
 		const uint32_t bit = (q + k) % SWELL_QUADS_PER_TILE;
 
