@@ -11,7 +11,9 @@
 #define SCENE_HZ 1u
 #define INFO_HZ 1u
 #define POSE_HZ 100u
-#define QUAD_SCAN_PER_TICK 64u /* 256 cells compared a tick at most */
+/* Quads scanned a solver period: 64 a tick, spread over the ticks that do not end a step (the step's
+ * end, the period's heaviest tick, scans nothing; the heights it finished are scanned from the next) */
+#define QUAD_SCAN_PER_TICK 64u
 /* Relative costs for spreading a solver step (the velocity form) over its ticks, measured on the
  * Cortex-M4 image (64 cells a row, damped, every tile awake): a row of the kernel about 1.9 k
  * instructions, a row of the finishing pass with the body's ceiling scan about 1.3 k, the fixers, the
@@ -211,6 +213,7 @@ static enum swell_err init_at(struct swell_ctl *c, const struct swell_ctl_config
 	for (a = 0; a < n; a++)
 		sent_set(c, a, NEVER_SENT);
 	c->ticks_per_step = cfg->tick_hz / cfg->solver_hz;
+	c->scan_per_tick = (QUAD_SCAN_PER_TICK * c->ticks_per_step + c->ticks_per_step - 2) / (c->ticks_per_step - 1);
 	c->units_per_tick =
 		((COST_EDGE_ROW + COST_FINISH_ROW) * cfg->ny + COST_CLEAR + c->ticks_per_step - 1) / c->ticks_per_step;
 	c->tiles_x = (uint16_t)SWELL_TILES(cfg->nx);
@@ -843,15 +846,15 @@ static uint32_t scan_run(struct swell_ctl *c, uint32_t q, uint32_t run, uint32_t
  * is read), a tile's run of them in one test. A budget left over sends one quad of a second, slower
  * round-robin whatever its state, so that a quad lost on the way is put right even where the water
  * no longer moves (every quad within quads / tick_hz s). */
-static uint32_t send_heights(struct swell_ctl *c, uint32_t budget)
+static uint32_t send_heights(struct swell_ctl *c, uint32_t budget, uint32_t scan)
 {
 	uint32_t scanned = 0, cells = 0, n;
 	int16_t s[4];
 	int changed;
 
-	while (budget && scanned < QUAD_SCAN_PER_TICK) {
+	while (budget && scanned < scan) {
 		const uint32_t q = c->quad_cursor, first = q % SWELL_QUADS_PER_TILE;
-		const uint32_t left = QUAD_SCAN_PER_TICK - scanned;
+		const uint32_t left = scan - scanned;
 		uint32_t run = SWELL_QUADS_PER_TILE - first < left ? SWELL_QUADS_PER_TILE - first : left;
 
 		if ((uint32_t)c->quad_stale[q / SWELL_QUADS_PER_TILE] >> first & ((1u << run) - 1u))
@@ -1064,7 +1067,8 @@ void swell_ctl_tick_background(struct swell_ctl *c)
 		send_pose(c);
 		budget -= 2;
 	}
-	work += send_heights(c, budget);
+	/* c->phase 0: this tick ended a step */
+	work += send_heights(c, budget, c->phase == 0 ? 0u : c->scan_per_tick);
 
 	c->n.work = work;
 	if (work > c->n.work_max)
