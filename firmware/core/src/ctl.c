@@ -11,8 +11,8 @@
 #define SCENE_HZ 1u
 #define INFO_HZ 1u
 #define POSE_HZ 100u
-/* Quads scanned a solver period: 64 a tick, spread over the ticks that do not end a step (the step's
- * end, the period's heaviest tick, scans nothing; the heights it finished are scanned from the next) */
+/* Quads scanned a tick, except in the tick that ends a solver step: the period's heaviest (the
+ * solver's finish) scans nothing, the heights it finished are scanned from the next tick on */
 #define QUAD_SCAN_PER_TICK 64u
 /* Relative costs for spreading a solver step (the velocity form) over its ticks, measured on the
  * Cortex-M4 image (64 cells a row, damped, every tile awake): a row of the kernel about 1.9 k
@@ -213,7 +213,6 @@ static enum swell_err init_at(struct swell_ctl *c, const struct swell_ctl_config
 	for (a = 0; a < n; a++)
 		sent_set(c, a, NEVER_SENT);
 	c->ticks_per_step = cfg->tick_hz / cfg->solver_hz;
-	c->scan_per_tick = (QUAD_SCAN_PER_TICK * c->ticks_per_step + c->ticks_per_step - 2) / (c->ticks_per_step - 1);
 	c->units_per_tick =
 		((COST_EDGE_ROW + COST_FINISH_ROW) * cfg->ny + COST_CLEAR + c->ticks_per_step - 1) / c->ticks_per_step;
 	c->tiles_x = (uint16_t)SWELL_TILES(cfg->nx);
@@ -1068,7 +1067,7 @@ void swell_ctl_tick_background(struct swell_ctl *c)
 		budget -= 2;
 	}
 	/* c->phase 0: this tick ended a step */
-	work += send_heights(c, budget, c->phase == 0 ? 0u : c->scan_per_tick);
+	work += send_heights(c, budget, c->phase == 0 ? 0u : QUAD_SCAN_PER_TICK);
 
 	c->n.work = work;
 	if (work > c->n.work_max)

@@ -22,11 +22,11 @@
  *      device), scene (1 Hz), controller info (CTL_INFO: firmware version and object size, 1 Hz and
  *      on change), object pose and force (100 Hz), and the heights that changed since they
  *      were last sent: the grid is scanned round-robin in quads (4 cells of one tile row, one
- *      HEIGHT_QUAD message), a bounded number a tick (64 K / (K-1) in the ticks that do not end a
- *      solver step, none in the one that does), and only quads whose wire samples differ from what
- *      was last sent go out; a quad whose tile has not moved since it was last compared is passed
- *      unread (the solver's changed tiles); a budget left over resends one quad of a slower
- *      round-robin, so that a lost quad is repaired where the water no longer moves.
+ *      HEIGHT_QUAD message), a bounded number a tick (none in the tick that ends a solver step), and
+ *      only quads whose wire samples differ from what was last sent go out; a quad whose tile has
+ *      not moved since it was last compared is passed unread (the solver's changed tiles); a budget
+ *      left over resends one quad of a slower round-robin, so that a lost quad is repaired where the
+ *      water no longer moves.
  * Work per tick is counted in cell-operations (solver cells, footprint cells, tile cells scanned); the
  * maximum is kept. Overruns are measured by the port and reported here.
  *
@@ -165,7 +165,6 @@ struct swell_ctl {
 	/* telemetry */
 	uint16_t tiles_x, tiles_y;
 	uint32_t quads, quad_cursor; /* quads in the grid (16 a tile), next one to scan */
-	uint32_t scan_per_tick; /* quads scanned in a tick that does not end a solver step */
 	uint32_t refresh_cursor; /* next quad to resend whatever its state */
 	uint32_t fp_cells; /* footprint cells of the object, for the work count */
 
