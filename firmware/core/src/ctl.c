@@ -855,8 +855,10 @@ static uint32_t send_heights(struct swell_ctl *c, uint32_t budget, uint32_t scan
 		const uint32_t q = c->quad_cursor, first = q % SWELL_QUADS_PER_TILE;
 		const uint32_t left = scan - scanned;
 		uint32_t run = SWELL_QUADS_PER_TILE - first < left ? SWELL_QUADS_PER_TILE - first : left;
+		/* the run's bits, from the tile's bits shifted down to the cursor: at most `left` of them */
+		const uint32_t bits = left < SWELL_QUADS_PER_TILE ? (1u << left) - 1u : 0xffffu;
 
-		if ((uint32_t)c->quad_stale[q / SWELL_QUADS_PER_TILE] >> first & ((1u << run) - 1u))
+		if ((uint32_t)c->quad_stale[q / SWELL_QUADS_PER_TILE] >> first & bits)
 			run = scan_run(c, q, run, &budget, &cells);
 		/* else none of the tile's next run of quads can differ: passed whole */
 		c->quad_cursor = q + run == c->quads ? 0 : q + run; /* quads: whole tiles, a run never wraps */
