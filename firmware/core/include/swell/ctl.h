@@ -7,8 +7,10 @@
  *   2. state machine: BOOT -> IDLE -> ARMED -> RUNNING, any -> FAULT; force is zero outside RUNNING;
  *   3. force law (swell_body_tick_force) on the surface interpolated between the two latest solver
  *      states, then the safety stage (gain, |F| <= F_max, |dF/dt| <= R), then FORCE_CMD to the device,
- *      every tick; the water the object displaces moves at the start of the background part
- *      (swell_body_couple), before the solver slice: the same bits as coupling in the force part;
+ *      every tick; the water the object displaces is counted at the start of the background part
+ *      (swell_body_couple_later), before the solver slice, and its cells are written at once or,
+ *      while the object stays in the water, once a period before the step's finish
+ *      (swell_body_place): the same bits as coupling in the force part;
  *      in effect mode (force.mode 1) FORCE_CMD carries zero force and, at each solver step, the effect
  *      set goes to the device instead (swell/effect.h); the safety stage then watches the force the
  *      set produces at the device's state (telemetry and limit flags);
