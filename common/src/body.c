@@ -477,35 +477,90 @@ static int64_t deposit(struct swell_body *b, struct swell_wave *w, const struct 
 	return added;
 }
 
+/* The volume a row of f adds when its depth goes from old_delta to new_delta: deposit()'s row sum
+ * without the writes. A row's cells have at most three weights: the two end cells and the wholly
+ * covered ones between. */
+static int64_t row_volume(const struct swell_body_fp *f, int64_t oy, int32_t i0, int32_t i1, int32_t new_delta,
+			  int32_t old_delta)
+{
+	const int64_t a0 = oy * overlap(i0, f->x0, f->x1), a1 = oy * overlap(i1, f->x0, f->x1);
+	const int64_t inner = oy * (1 << FP_SHIFT);
+	int64_t row = deposit_of(new_delta, a0) - deposit_of(old_delta, a0);
+
+	if (i1 > i0)
+		row += deposit_of(new_delta, a1) - deposit_of(old_delta, a1);
+	if (i1 > i0 + 1)
+		row += (int64_t)(deposit_of(new_delta, inner) - deposit_of(old_delta, inner)) * (i1 - i0 - 1);
+	return row;
+}
+
+/* deposit()'s volume without the writes: the rows have at most three row sums (the two end rows and
+ * the wholly covered ones between), so a few products instead of a pass over the footprint. */
+static int64_t deposit_volume(const struct swell_body_fp *f, int32_t new_delta, int32_t old_delta)
+{
+	const int32_t i0 = f->x0 >> FP_SHIFT, i1 = (f->x1 - 1) >> FP_SHIFT;
+	const int32_t j0 = f->y0 >> FP_SHIFT, j1 = (f->y1 - 1) >> FP_SHIFT;
+	int64_t v = row_volume(f, overlap(j0, f->y0, f->y1), i0, i1, new_delta, old_delta);
+
+	if (j1 > j0)
+		v += row_volume(f, overlap(j1, f->y0, f->y1), i0, i1, new_delta, old_delta);
+	if (j1 > j0 + 1)
+		v += row_volume(f, 1 << FP_SHIFT, i0, i1, new_delta, old_delta) * (j1 - j0 - 1);
+	return v;
+}
+
 static int same_rect(const struct swell_body_fp *a, const struct swell_body_fp *b)
 {
 	return a->x0 == b->x0 && a->x1 == b->x1 && a->y0 == b->y0 && a->y1 == b->y1;
 }
 
-/* Replace what the object holds in the water by f (f->delta_lsb 0: nothing). Over the same footprint
- * one pass adds the difference of the two deposits to each cell (half the adds of taking the old
- * out and putting the new in; the same water, unless an accumulator saturates at +-2^29). */
-static void couple(struct swell_body *b, struct swell_wave *w, const struct swell_body_fp *f)
+/* The water the object holds goes from `from` to `to` (delta_lsb 0: nothing); write: into the cells
+ * (returns the volume added), else only the volume. Over the same footprint one pass adds the
+ * difference of the two deposits to each cell (half the adds of taking the old out and putting the new
+ * in; the same water, unless an accumulator saturates at +-2^29). */
+static int64_t move_water(struct swell_body *b, struct swell_wave *w, const struct swell_body_fp *from,
+			  const struct swell_body_fp *to, int write)
+{
+	int64_t moved = 0;
+
+	if (from->delta_lsb == 0 && to->delta_lsb == 0)
+		return 0;
+	if (from->delta_lsb == to->delta_lsb && same_rect(from, to))
+		return 0;
+	if (from->delta_lsb != 0 && to->delta_lsb != 0 && same_rect(from, to))
+		return write ? deposit(b, w, to, to->delta_lsb, from->delta_lsb)
+			     : deposit_volume(to, to->delta_lsb, from->delta_lsb);
+	if (from->delta_lsb != 0)
+		moved += write ? deposit(b, w, from, 0, from->delta_lsb) : deposit_volume(from, 0, from->delta_lsb);
+	if (to->delta_lsb != 0)
+		moved += write ? deposit(b, w, to, to->delta_lsb, 0) : deposit_volume(to, to->delta_lsb, 0);
+	return moved;
+}
+
+/* Replace what the object holds in the water by f (f->delta_lsb 0: nothing). later: count the volume
+ * and leave the cells for swell_body_place; else the cells get everything not yet placed at once (the
+ * same cells as the couplings one by one: the differences telescope). */
+static void couple(struct swell_body *b, struct swell_wave *w, const struct swell_body_fp *f, int later)
 {
 	const struct swell_body_fp *o = &b->applied;
-	int64_t gained = 0;
+	int64_t gained;
 
-	if (o->delta_lsb == 0 && f->delta_lsb == 0)
-		return;
-	if (o->delta_lsb == f->delta_lsb && same_rect(o, f))
-		return;
-	if (o->delta_lsb != 0 && f->delta_lsb != 0 && same_rect(o, f)) {
-		gained += deposit(b, w, f, f->delta_lsb, o->delta_lsb);
-	} else {
-		if (o->delta_lsb != 0)
-			gained += deposit(b, w, o, 0, o->delta_lsb);
-		if (f->delta_lsb != 0)
-			gained += deposit(b, w, f, f->delta_lsb, 0);
+	if ((o->delta_lsb != 0 || f->delta_lsb != 0) && (o->delta_lsb != f->delta_lsb || !same_rect(o, f))) {
+		if (later) {
+			gained = move_water(b, w, o, f, 0);
+			b->v_unplaced += gained;
+		} else {
+			gained = move_water(b, w, &b->placed, f, 1) - b->v_unplaced;
+			b->v_unplaced = 0;
+			b->placed = *f;
+		}
+		b->v_displaced += gained;
+		b->water_sum += gained;
+		b->applied = *f;
+		b->coupled++;
 	}
-	b->v_displaced += gained;
-	b->water_sum += gained;
-	b->applied = *f;
-	b->coupled++;
+	if (!later)
+		swell_body_place(b, w); /* what an earlier coupling kept back, when this one changed nothing */
 }
 
 /* The force is vertical in the pool; it goes back to the device axis that drives pool z. */
@@ -566,8 +621,28 @@ void swell_body_couple(struct swell_body *b, struct swell_wave *w)
 	if (!b->pending_set)
 		return;
 	b->pending_set = 0;
-	couple(b, w, &b->pending);
+	couple(b, w, &b->pending, 0);
 	b->wet = b->pending_wet || b->applied.delta_lsb != 0;
+}
+
+void swell_body_couple_later(struct swell_body *b, struct swell_wave *w)
+{
+	/* deposit()'s rows scanned ahead: water there must arrive now, for the scan's sum and ceiling */
+	const int scanned = b->scan_ok && b->scan_steps == w->steps && b->scan_row > 0;
+
+	if (!b->pending_set)
+		return;
+	b->pending_set = 0;
+	couple(b, w, &b->pending, (b->pending_wet || b->pending.delta_lsb != 0) && !scanned);
+	b->wet = b->pending_wet || b->applied.delta_lsb != 0;
+}
+
+void swell_body_place(struct swell_body *b, struct swell_wave *w)
+{
+	if (b->placed.delta_lsb == b->applied.delta_lsb && same_rect(&b->placed, &b->applied))
+		return;
+	b->v_unplaced -= move_water(b, w, &b->placed, &b->applied, 1); /* 0 now: the same volume */
+	b->placed = b->applied;
 }
 
 void swell_body_tick_force(struct swell_body *b, const struct swell_wave *w, const int32_t pos_dev_um[3],
@@ -670,5 +745,5 @@ int64_t swell_body_invariant(const struct swell_body *b, const struct swell_wave
 	 * added to one cell and taken from another (rows finished ahead have theirs in h already) */
 	for (a = w->done_row * w->nx; a < n; a++)
 		pending += w->acc[a];
-	return swell_wave_volume(w) + pending - b->v_displaced;
+	return swell_wave_volume(w) + pending - (b->v_displaced - b->v_unplaced);
 }

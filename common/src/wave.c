@@ -282,6 +282,11 @@ void swell_wave_touched(struct swell_wave *w, int i, int j)
 				w->tile[y * w->tiles_x + x] &= (uint8_t)~T_SLEEPING;
 }
 
+int swell_wave_tile_changed(const struct swell_wave *w, size_t t)
+{
+	return (w->tile[t] & T_CHANGED) != 0;
+}
+
 void swell_wave_set_sleep(struct swell_wave *w, int on)
 {
 	w->sleep = on != 0;

@@ -80,3 +80,59 @@ TEST_CASE("re-couplings over one footprint leave exactly the water of one deposi
 	CHECK(s.b.v_displaced == 0);
 	CHECK(differ == 0);
 }
+
+TEST_CASE("the coupling kept back and placed once a period gives the coupling's bits tick by tick", "[body][couple]")
+{
+	// as the controller core schedules the step: slices, rows finished and scanned ahead; "now"
+	// couples every tick, "later" with swell_body_couple_later and swell_body_place before the finish
+	body_scene now(64, 0.001), later(64, 0.001);
+	for (body_scene *s : {&now, &later}) {
+		swell_shape_gauss(s->w.h, 64, 64, 20 << 16, 40 << 16, 4 << 16, 3 * MM);
+		swell_wave_rest(&s->w);
+		swell_body_rescan(&s->b, &s->w);
+	}
+	const int kk = (int)now.b.ticks_per_step;
+	int kept = 0, placed_whole = 0;
+	for (int k = 0; k < 10 * 240; k++) {
+		// in and out of the water, drifting sideways: depths and footprints change, the object leaves
+		const int32_t x = 200000 + 30 * (k % 700), y = 200000 - 20 * (k % 500), z = z_at(k * 3);
+		int32_t pos[3] = {x, y, z}, vel[3] = {0, 0, -1000};
+		swell_body_out a, b;
+		const int phase = k % kk;
+
+		swell_body_tick_force(&now.b, &now.w, pos, vel, &a);
+		swell_body_tick_force(&later.b, &later.w, pos, vel, &b);
+		INFO("tick " << k);
+		REQUIRE(std::memcmp(&a, &b, sizeof(a)) == 0);
+		swell_body_couple(&now.b, &now.w);
+		swell_body_couple_later(&later.b, &later.w);
+		kept += later.b.v_unplaced != 0;
+		REQUIRE(now.b.v_displaced == later.b.v_displaced);
+		REQUIRE(now.b.water_sum == later.b.water_sum);
+		REQUIRE(now.b.wet == later.b.wet);
+		REQUIRE(swell_body_invariant(&now.b, &now.w) == swell_body_invariant(&later.b, &later.w));
+		if (phase + 1 < kk) {
+			const int rows = (64 * (phase + 1) + kk - 2) / (kk - 1) - now.w.next_row;
+			for (body_scene *s : {&now, &later}) {
+				swell_wave_step_rows(&s->w, rows);
+				swell_wave_finish_rows(&s->w, 8);
+				swell_body_scan_ahead(&s->b, &s->w);
+			}
+		} else {
+			placed_whole += later.b.v_unplaced != 0;
+			swell_body_place(&later.b, &later.w);
+			REQUIRE(later.b.v_unplaced == 0);
+			for (body_scene *s : {&now, &later}) {
+				swell_wave_step_finish(&s->w);
+				swell_body_solver_stepped(&s->b, &s->w);
+			}
+			REQUIRE(swell_wave_checksum(&now.w) == swell_wave_checksum(&later.w));
+			REQUIRE(now.b.ceiling_ok == later.b.ceiling_ok);
+			REQUIRE((now.b.ceiling_ok == 0 || now.b.ceiling_lsb == later.b.ceiling_lsb));
+		}
+	}
+	WARN(kept << " ticks with water kept back, " << placed_whole << " periods placed at the step's end");
+	CHECK(kept > 500); // the water really waited
+	CHECK(placed_whole > 50);
+	CHECK(now.b.coupled > 1000);
+}

@@ -139,6 +139,10 @@ struct swell_body {
 	uint32_t floor_g; /* and the gravity */
 	struct swell_body_fp applied; /* what is in the water now */
 	int64_t v_displaced; /* LSB * cell, the sum of what coupling added */
+	/* what the field's cells hold of it: applied, or an older coupling while swell_body_couple_later
+	 * keeps the cells' writes for swell_body_place; v_unplaced the volume still to write */
+	struct swell_body_fp placed;
+	int64_t v_unplaced;
 	/* the scan spread over a solver period (swell_body_scan_ahead): rows [0, scan_row) of step
 	 * scan_steps scanned so far, their ceiling and sum; scan_ok 0 once the object was in the water */
 	int64_t scan_sum;
@@ -235,7 +239,22 @@ void swell_body_tick_force(struct swell_body *b, const struct swell_wave *w, con
 /* The coupling of the last swell_body_tick_force (none pending: nothing). */
 void swell_body_couple(struct swell_body *b, struct swell_wave *w);
 
-/* sum(h) + adds pending in the solver - V_displaced, in LSB * cell: constant while nothing else
+/* The same coupling with the cells' writes kept for later where nothing reads them before: while the
+ * object stays in the water and no row of this solver period has been scanned, only the volume is
+ * counted now (V_displaced and the mean level, as swell_body_couple counts them), and
+ * swell_body_place writes the period's changes in one pass. Within a solver period the field's h(n)
+ * does not move and the water added only reaches h(n+1), so the force law, the solver's slices and
+ * the telemetry read the same; the coupling's difference over a period telescopes to one deposit
+ * (the same bits as swell_body_couple unless an accumulator or height saturates). Call
+ * swell_body_place before the step in progress finishes (swell_wave_step_finish) and before anything
+ * else reads the field's h + acc. A coupling that cannot wait writes everything pending at once. */
+void swell_body_couple_later(struct swell_body *b, struct swell_wave *w);
+
+/* Write into the field what swell_body_couple_later kept back (nothing kept: nothing). */
+void swell_body_place(struct swell_body *b, struct swell_wave *w);
+
+/* sum(h) + adds pending in the solver - (V_displaced less what is not yet placed), in LSB * cell:
+ * constant while nothing else
  * writes h and the solver saturates nothing (w->saturations). One pass over the field. */
 int64_t swell_body_invariant(const struct swell_body *b, const struct swell_wave *w);
 

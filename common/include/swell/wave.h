@@ -242,6 +242,11 @@ void swell_wave_add(struct swell_wave *w, int i, int j, int32_t dh);
  * for dh 0), with the row's tests made once: the coupling's wholly covered cells. */
 void swell_wave_add_span(struct swell_wave *w, int i0, int i1, int j, int32_t dh);
 
+/* 1 when a cell of tile t (row-major, tiles_x a row) may have changed in the last finished step, 0 when
+ * none did: h(n) there is h(n-1). Never 0 for a tile that changed (the sleeping tiles rest on it), so a
+ * reader that keeps what it last saw of the heights need only look again where this is 1. */
+int swell_wave_tile_changed(const struct swell_wave *w, size_t t);
+
 /* Cell (i, j) was written from outside: wake its tile and the neighbours (outside the grid: ignored). */
 void swell_wave_touched(struct swell_wave *w, int i, int j);
 

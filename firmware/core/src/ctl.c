@@ -11,7 +11,9 @@
 #define SCENE_HZ 1u
 #define INFO_HZ 1u
 #define POSE_HZ 100u
-#define QUAD_SCAN_PER_TICK 64u /* 256 cells compared a tick at most */
+/* Quads scanned a tick, except in the tick that ends a solver step: the period's heaviest (the
+ * solver's finish) scans nothing, the heights it finished are scanned from the next tick on */
+#define QUAD_SCAN_PER_TICK 64u
 /* Relative costs for spreading a solver step (the velocity form) over its ticks, measured on the
  * Cortex-M4 image (64 cells a row, damped, every tile awake): a row of the kernel about 1.9 k
  * instructions, a row of the finishing pass with the body's ceiling scan about 1.3 k, the fixers, the
@@ -20,6 +22,9 @@
 #define COST_FINISH_ROW 1u
 #define COST_CLEAR 3u
 #define NEVER_SENT INT16_MIN
+
+/* the telemetry's stale bits follow the solver's tiles: a wire tile is a sleeping tile */
+_Static_assert(SWELL_PROTO_TILE == SWELL_WAVE_TILE && SWELL_QUADS_PER_TILE == 16, "a tile's quads: 16 bits");
 
 static const struct swell_ctl_config pool_config = {
 	.nx = SWELL_POOL_N,
@@ -72,9 +77,15 @@ static size_t sent_words(uint16_t nx, uint16_t ny)
 	return ((size_t)nx * ny + 1) / 2;
 }
 
+/* The telemetry's stale-quad bits: 16 a tile, two tiles a word. */
+static size_t stale_words(uint16_t nx, uint16_t ny)
+{
+	return ((size_t)SWELL_TILES(nx) * SWELL_TILES(ny) + 1) / 2;
+}
+
 size_t swell_ctl_arena_words(uint16_t nx, uint16_t ny)
 {
-	return SWELL_WAVE_VEL_WORDS(nx, ny) + sent_words(nx, ny);
+	return SWELL_WAVE_VEL_WORDS(nx, ny) + sent_words(nx, ny) + stale_words(nx, ny);
 }
 
 static struct swell_body_scene body_scene(const struct swell_ctl_config *cfg)
@@ -150,7 +161,7 @@ static void sent_set(struct swell_ctl *c, uint32_t a, int16_t v)
 
 size_t swell_ctl_arena_words_apart(uint16_t nx, uint16_t ny)
 {
-	return SWELL_WAVE_VEL_WORDS(nx, ny) - (size_t)nx * ny;
+	return SWELL_WAVE_VEL_WORDS(nx, ny) - (size_t)nx * ny + stale_words(nx, ny);
 }
 
 size_t swell_ctl_apart_words(uint16_t nx, uint16_t ny)
@@ -187,10 +198,13 @@ static enum swell_err init_at(struct swell_ctl *c, const struct swell_ctl_config
 	if (apart) {
 		swell_wave_init_vel_apart(&c->wave, cfg->nx, cfg->ny, arena, words, apart, n, &cfg->wave);
 		c->sent = (uint32_t *)(apart + n);
+		c->quad_stale = (uint16_t *)(arena + swell_ctl_arena_words_apart(cfg->nx, cfg->ny) -
+					     stale_words(cfg->nx, cfg->ny));
 	} else {
 		swell_wave_init_form(&c->wave, cfg->nx, cfg->ny, arena, SWELL_WAVE_VEL_WORDS(cfg->nx, cfg->ny),
 				     &cfg->wave, SWELL_FORM_VELOCITY);
 		c->sent = (uint32_t *)(arena + SWELL_WAVE_VEL_WORDS(cfg->nx, cfg->ny));
+		c->quad_stale = (uint16_t *)(c->sent + sent_words(cfg->nx, cfg->ny));
 	}
 	swell_body_init(&c->body, &cfg->body, &cfg->xform, &sc, &c->wave);
 	for (k = 0; k < 3; k++)
@@ -204,6 +218,8 @@ static enum swell_err init_at(struct swell_ctl *c, const struct swell_ctl_config
 	c->tiles_x = (uint16_t)SWELL_TILES(cfg->nx);
 	c->tiles_y = (uint16_t)SWELL_TILES(cfg->ny);
 	c->quads = (uint32_t)c->tiles_x * c->tiles_y * SWELL_QUADS_PER_TILE;
+	for (a = 0; a < (uint32_t)c->tiles_x * c->tiles_y; a++)
+		c->quad_stale[a] = 0xffffu; /* nothing sent yet */
 	c->fp_cells = (cfg->body.a_um / cfg->dx_um + 2) * (cfg->body.b_um / cfg->dx_um + 2);
 	c->since_dev = UINT32_MAX;
 	c->state = SWELL_CTL_BOOT;
@@ -716,27 +732,137 @@ static void quad_send(struct swell_ctl *c, const struct swell_quad_at *at, const
 	c->n.quads_sent++;
 }
 
-/* Scan quads round-robin and send the ones whose samples changed, within the budget. A budget left
- * over sends one quad of a second, slower round-robin whatever its state, so that a quad lost on the
- * way is put right even where the water no longer moves (every quad within quads / tick_hz s). */
-static uint32_t send_heights(struct swell_ctl *c, uint32_t budget)
+/* The solver step just finished: the quads of every tile that moved may now differ from what was
+ * last sent. */
+static void mark_moved_tiles(struct swell_ctl *c)
+{
+	const uint32_t tiles = (uint32_t)c->tiles_x * c->tiles_y;
+	uint32_t t;
+
+	for (t = 0; t < tiles; t++)
+		if (swell_wave_tile_changed(&c->wave, t))
+			c->quad_stale[t] = 0xffffu;
+}
+
+/* The quad was compared (and sent where it differed): its samples are what was last sent. */
+static void quad_fresh(struct swell_ctl *c, uint32_t q)
+{
+	c->quad_stale[q / SWELL_QUADS_PER_TILE] &= (uint16_t) ~(1u << (q % SWELL_QUADS_PER_TILE));
+}
+
+/* HEIGHT_QUAD of a whole quad at cell a from its samples as sent[] holds them (two words). */
+static void quad_send_words(struct swell_ctl *c, const struct swell_quad_at *at, uint32_t a, uint32_t w0, uint32_t w1)
+{
+	const int16_t s[4] = { (int16_t)(uint16_t)w0, (int16_t)(uint16_t)(w0 >> 16), (int16_t)(uint16_t)w1,
+			       (int16_t)(uint16_t)(w1 >> 16) };
+	struct swell_msg m = swell_height_quad(at, c->n.solver_steps, s);
+
+	m.node = c->cfg.node;
+	push(c, SWELL_LINK_HOST, &m);
+	c->sent[a >> 1] = w0;
+	c->sent[(a >> 1) + 1] = w1;
+	c->n.quads_sent++;
+}
+
+/* scan_run over a tile wholly inside a grid of even width: every quad is four cells of one row and two
+ * words of sent[], read through swell_wave_h (h(n) of the last finished step), sent from the words. */
+static uint32_t scan_whole_tile(struct swell_ctl *c, uint32_t q, uint32_t run, uint32_t *budget, uint32_t *cells,
+				struct swell_quad_at *at)
+{
+	uint16_t *const stale_at = &c->quad_stale[q / SWELL_QUADS_PER_TILE];
+	const struct swell_wave *const w = &c->wave;
+	const uint32_t *const sent = c->sent;
+	const uint32_t nx = c->cfg.nx, x_tile = at->x0 - 4u * at->half, y_tile = at->y - at->row;
+	const uint32_t corner = y_tile * nx + x_tile;
+	uint32_t stale = *stale_at, left = *budget, read = 0, k;
+
+	for (k = 0; k < run && left; k++) {
+		const uint32_t bit = (q + k) % SWELL_QUADS_PER_TILE;
+		const uint32_t a = corner + (bit >> 1) * nx + 4u * (bit & 1u);
+		uint32_t w0, w1;
+
+		if (!(stale >> bit & 1u))
+			continue;
+		stale &= ~(1u << bit);
+		read += 4;
+		w0 = sample_pair(swell_wave_h(w, a), swell_wave_h(w, a + 1));
+		w1 = sample_pair(swell_wave_h(w, a + 2), swell_wave_h(w, a + 3));
+		if (w0 == sent[a >> 1] && w1 == sent[(a >> 1) + 1])
+			continue;
+		at->row = bit >> 1;
+		at->half = bit & 1u;
+		at->x0 = x_tile + 4u * at->half;
+		at->y = y_tile + at->row;
+		quad_send_words(c, at, a, w0, w1);
+		left--;
+	}
+	*stale_at = (uint16_t)stale;
+	*budget = left;
+	*cells += read;
+	return k;
+}
+
+/* The stale quads of the run [q, q + run) of one tile read (the tile located once) and sent where they
+ * changed, while the budget lasts. Returns how many of the run were scanned: all of them, or up to and
+ * with the quad that spent the last of the budget. A tile wholly inside a grid of even width (every
+ * quad two words of sent[]) goes through scan_whole_tile. */
+static uint32_t scan_run(struct swell_ctl *c, uint32_t q, uint32_t run, uint32_t *budget, uint32_t *cells)
+{
+	uint16_t *const stale_at = &c->quad_stale[q / SWELL_QUADS_PER_TILE];
+	struct swell_quad_at at = swell_quad_locate(q, c->tiles_x);
+	const uint32_t x_tile = at.x0 - 4u * at.half, y_tile = at.y - at.row;
+	uint32_t stale = *stale_at, left = *budget, read = 0, k, n;
+	int16_t s[4];
+	int changed;
+
+	if (!(c->cfg.nx & 1u) && x_tile + SWELL_PROTO_TILE <= c->cfg.nx && y_tile + SWELL_PROTO_TILE <= c->cfg.ny)
+		return scan_whole_tile(c, q, run, budget, cells, &at);
+	for (k = 0; k < run && left; k++) {
+		const uint32_t bit = (q + k) % SWELL_QUADS_PER_TILE;
+
+		if (!(stale >> bit & 1u))
+			continue;
+		stale &= ~(1u << bit);
+		at.row = bit >> 1;
+		at.half = bit & 1u;
+		at.x0 = x_tile + 4u * at.half;
+		at.y = y_tile + at.row;
+		n = quad_read(c, &at, s, &changed);
+		read += n;
+		if (n && changed) {
+			quad_send(c, &at, s, n);
+			left--;
+		}
+	}
+	*stale_at = (uint16_t)stale;
+	*budget = left;
+	*cells += read;
+	return k;
+}
+
+/* Scan quads round-robin and send the ones whose samples changed, within the budget. A quad whose
+ * stale bit is clear is passed unread (it counts as scanned: the same quads go out as when every one
+ * is read), a tile's run of them in one test. A budget left over sends one quad of a second, slower
+ * round-robin whatever its state, so that a quad lost on the way is put right even where the water
+ * no longer moves (every quad within quads / tick_hz s). */
+static uint32_t send_heights(struct swell_ctl *c, uint32_t budget, uint32_t scan)
 {
 	uint32_t scanned = 0, cells = 0, n;
 	int16_t s[4];
 	int changed;
 
-	while (budget && scanned < QUAD_SCAN_PER_TICK) {
-		const uint32_t q = c->quad_cursor;
-		const struct swell_quad_at at = swell_quad_locate(q, c->tiles_x);
+	while (budget && scanned < scan) {
+		const uint32_t q = c->quad_cursor, first = q % SWELL_QUADS_PER_TILE;
+		const uint32_t left = scan - scanned;
+		uint32_t run = SWELL_QUADS_PER_TILE - first < left ? SWELL_QUADS_PER_TILE - first : left;
+		/* the run's bits, from the tile's bits shifted down to the cursor: at most `left` of them */
+		const uint32_t bits = left < SWELL_QUADS_PER_TILE ? (1u << left) - 1u : 0xffffu;
 
-		c->quad_cursor = q + 1 == c->quads ? 0 : q + 1;
-		scanned++;
-		n = quad_read(c, &at, s, &changed);
-		cells += n;
-		if (n && changed) {
-			quad_send(c, &at, s, n);
-			budget--;
-		}
+		if ((uint32_t)c->quad_stale[q / SWELL_QUADS_PER_TILE] >> first & bits)
+			run = scan_run(c, q, run, &budget, &cells);
+		/* else none of the tile's next run of quads can differ: passed whole */
+		c->quad_cursor = q + run == c->quads ? 0 : q + run; /* quads: whole tiles, a run never wraps */
+		scanned += run;
 	}
 	for (scanned = 0; budget && scanned < 4; scanned++) { /* skip quads outside a partial tile */
 		const uint32_t q = c->refresh_cursor;
@@ -746,6 +872,7 @@ static uint32_t send_heights(struct swell_ctl *c, uint32_t budget)
 		n = quad_read(c, &at, s, &changed);
 		if (n) {
 			quad_send(c, &at, s, n);
+			quad_fresh(c, q);
 			c->n.quads_refreshed++;
 			break;
 		}
@@ -890,7 +1017,9 @@ static uint32_t solver_slice(struct swell_ctl *c)
 		}
 		work = (rows + 2u * (w->done_row - done0)) * w->nx;
 	} else {
+		swell_body_place(&c->body, w); /* the period's coupling, kept back, into h(n+1) */
 		swell_wave_step_finish(w);
+		mark_moved_tiles(c);
 		swell_body_solver_stepped(&c->body, w);
 		c->n.solver_steps++;
 		/* the finishing pass and the ceiling scan of the rows left */
@@ -917,7 +1046,9 @@ void swell_ctl_tick_background(struct swell_ctl *c)
 
 	if (!c->bg_pending)
 		return;
-	swell_body_couple(&c->body, &c->wave); /* the force part's coupling, before the field moves on */
+	/* the force part's coupling, before the field moves on; while the object stays in the water its
+	 * cells are written once a period, at the step's end (swell_body_couple_later) */
+	swell_body_couple_later(&c->body, &c->wave);
 	work += solver_slice(c);
 	if (t % period(c, HEARTBEAT_HZ) == 0) {
 		send_heartbeat(c);
@@ -937,7 +1068,8 @@ void swell_ctl_tick_background(struct swell_ctl *c)
 		send_pose(c);
 		budget -= 2;
 	}
-	work += send_heights(c, budget);
+	/* c->phase 0: this tick ended a step */
+	work += send_heights(c, budget, c->phase == 0 ? 0u : QUAD_SCAN_PER_TICK);
 
 	c->n.work = work;
 	if (work > c->n.work_max)

@@ -52,7 +52,7 @@ TEST_CASE("a pool goes whole into SRAM when it fits, else u and the sent samples
 	CHECK(p.fast_words == 0);
 	REQUIRE(fw_pool_place(88, 88, &f.m, &p) == SWELL_OK);
 	CHECK(p.apart == 1);
-	CHECK(p.sram_words == 3 * 88 * 88 + (11 * 11 + 3) / 4); // h, v, acc and the tile flags
+	CHECK(p.sram_words == 3 * 88 * 88 + (11 * 11 + 3) / 4 + (11 * 11 + 1) / 2); // h, v, acc, the tile flags, stale bits
 	CHECK(p.fast_words == 88 * 88 + 88 * 88 / 2); // u and the sent samples
 	REQUIRE(fw_pool_place(100, 100, &f.m, &p) == SWELL_OK);
 	const fw_pool_at before = p;

@@ -7,8 +7,10 @@
  *   2. state machine: BOOT -> IDLE -> ARMED -> RUNNING, any -> FAULT; force is zero outside RUNNING;
  *   3. force law (swell_body_tick_force) on the surface interpolated between the two latest solver
  *      states, then the safety stage (gain, |F| <= F_max, |dF/dt| <= R), then FORCE_CMD to the device,
- *      every tick; the water the object displaces moves at the start of the background part
- *      (swell_body_couple), before the solver slice: the same bits as coupling in the force part;
+ *      every tick; the water the object displaces is counted at the start of the background part
+ *      (swell_body_couple_later), before the solver slice, and its cells are written at once or,
+ *      while the object stays in the water, once a period before the step's finish
+ *      (swell_body_place): the same bits as coupling in the force part;
  *      in effect mode (force.mode 1) FORCE_CMD carries zero force and, at each solver step, the effect
  *      set goes to the device instead (swell/effect.h); the safety stage then watches the force the
  *      set produces at the device's state (telemetry and limit flags);
@@ -22,9 +24,11 @@
  *      device), scene (1 Hz), controller info (CTL_INFO: firmware version and object size, 1 Hz and
  *      on change), object pose and force (100 Hz), and the heights that changed since they
  *      were last sent: the grid is scanned round-robin in quads (4 cells of one tile row, one
- *      HEIGHT_QUAD message), a bounded number a tick, and only quads whose wire samples differ from
- *      what was last sent go out; a budget left over resends one quad of a slower round-robin, so
- *      that a lost quad is repaired where the water no longer moves.
+ *      HEIGHT_QUAD message), a bounded number a tick (none in the tick that ends a solver step), and
+ *      only quads whose wire samples differ from what was last sent go out; a quad whose tile has
+ *      not moved since it was last compared is passed unread (the solver's changed tiles); a budget
+ *      left over resends one quad of a slower round-robin, so that a lost quad is repaired where the
+ *      water no longer moves.
  * Work per tick is counted in cell-operations (solver cells, footprint cells, tile cells scanned); the
  * maximum is kept. Overruns are measured by the port and reported here.
  *
@@ -124,6 +128,9 @@ struct swell_ctl {
 	struct swell_body body;
 	struct swell_fsafety safety[3];
 	uint32_t *sent; /* last wire sample sent per cell, two int16 a word; INT16_MIN: never sent */
+	/* a bit a quad, 16 a tile: set where the quad's samples may differ from sent (its tile moved
+	 * since the quad was last compared); a clear bit lets the scan pass the quad without reading it */
+	uint16_t *quad_stale;
 
 	/* device link */
 	int32_t pos_um[3], vel_um_s[3];
