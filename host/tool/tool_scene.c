@@ -173,7 +173,7 @@ static int takes_pool(struct tool_session *s, const struct step *first, int time
 static size_t plan_params(struct tool_session *s, const struct swell_scene *sc, struct step *plan, size_t pool,
 			  int timeout_ms, enum tool_rc *rc)
 {
-	struct step pool_part[SWELL_SCENE_PARAMS_MAX], rest[SWELL_SCENE_PARAMS_MAX];
+	struct step pool_part[SWELL_SCENE_PARAMS_MAX] = { { NULL, 0 } }, rest[SWELL_SCENE_PARAMS_MAX] = { { NULL, 0 } };
 	size_t k, n = 0, r = 0;
 
 	memcpy(pool_part, plan, pool * sizeof(*plan));
