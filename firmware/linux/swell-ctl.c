@@ -331,7 +331,7 @@ int main(int argc, char **argv)
 		o.device_clock ? "device" : "internal");
 	if (p.have_host && p.host.kind == CTL_LINK_UDP)
 		fprintf(stderr, "swell-ctl: host link clients: send to %s (up to %u, kept while they speak)%s\n",
-			addr_str(&p.host.local, 1, 0, abuf, sizeof(abuf)), CTL_LINK_CLIENTS,
+			addr_str(&p.host.local, 1, 0, abuf, sizeof(abuf)), SWELL_PEERS_CLIENTS,
 			p.host.clients_port_taken ? "; the default port 47802 is taken (another controller?): tools "
 						    "need --link udp:PORT with this port"
 						  : "");
@@ -392,7 +392,7 @@ int main(int argc, char **argv)
 			 * let go, the next sender of this node's DEVICE_POS becomes the device (the old one still
 			 * gets the zero force until then) */
 			if (swell_ctl_device_lost(&p.c))
-				p.releases += (uint32_t)ctl_link_release_peer(&p.dev);
+				p.releases += (uint32_t)swell_peers_release(&p.dev.peers);
 			if (swell_ctl_bootloader_requested(&p.c)) /* zero force and the last heartbeat are out */
 				break;
 		}

@@ -9,7 +9,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "usb_ffs.h"
+#include "swell/usb_ffs.h"
 
 #define PACKET 64u
 

@@ -17,6 +17,7 @@
 
 extern "C" {
 #include "ctl_link.h"
+#include "link_priv.h"
 }
 
 namespace {
@@ -80,6 +81,22 @@ struct FakeCan {
 
 		REQUIRE(write(sv[1], &f, sizeof(f)) == (ssize_t)sizeof(f));
 		return ctl_link_recv(&l, m, 4);
+	}
+};
+
+/* A stand-in for the library's FunctionFS link: every send refused with the code the test sets (-EBUSY:
+ * every IN slot in flight, or the host going away before DISABLE; -ENODEV: unplugged). */
+struct FakeUsb {
+	struct swell_link base;
+	int refuse = -EBUSY;
+	static int send(struct swell_link *l, const struct swell_frame *) { return reinterpret_cast<FakeUsb *>(l)->refuse; }
+	static int recv(struct swell_link *, struct swell_frame *, int) { return -ETIMEDOUT; }
+	static void close(struct swell_link *) {}
+	FakeUsb()
+	{
+		static const struct swell_link_ops ops = {send, recv, close, nullptr};
+		memset(&base, 0, sizeof(base));
+		base.ops = &ops;
 	}
 };
 
@@ -173,12 +190,12 @@ TEST_CASE("USB link: an answer that finds the IN queue busy is held and kept in 
 {
 	struct ctl_link l;
 	struct swell_msg ack, quad;
+	FakeUsb usb; /* every write is refused, the link is up: a busy IN queue */
 
 	memset(&l, 0, sizeof(l));
 	l.kind = CTL_LINK_USB;
 	l.fd = -1;
-	l.usb.ep0 = l.usb.ep_out = l.usb.ep_in = l.usb.efd = -1; /* closed: every write is refused */
-	l.usb_up = 1; /* as between a refusal and DISABLE */
+	l.usb = &usb.base;
 	memset(&ack, 0, sizeof(ack));
 	ack.type = SWELL_MSG_PARAM_NACK;
 	ack.u.param_nack.id = 999;
@@ -203,7 +220,7 @@ TEST_CASE("USB link: an answer that finds the IN queue busy is held and kept in 
 	CHECK(l.answers_dropped == 1);
 	CHECK(l.held_len == held);
 	CHECK(memcmp(l.held, first, held) == 0);
-	l.usb_up = 0; /* unplugged: the host asks again after the replug */
+	usb.refuse = -ENODEV; /* unplugged: the host asks again after the replug */
 	ctl_link_send(&l, &quad, 1);
 	CHECK(l.held_len == 0);
 	CHECK(l.answers_dropped == 2);
@@ -420,13 +437,13 @@ TEST_CASE("UDP host link: a client's HEARTBEAT admits it and keeps it and is not
 	REQUIRE(ctl_link_open(&l, "udp:47994,listen=0", 0, 0, err, sizeof(err)) == 0);
 	tool.send(l, SWELL_MSG_HEARTBEAT);
 	CHECK(take(l) == 0u); /* the keep-alive: nothing for the core */
-	CHECK(ctl_link_clients(&l) == 1u);
-	CHECK(l.clients_admitted == 1u);
+	CHECK(swell_peers_clients(&l.peers) == 1u);
+	CHECK(l.peers.clients_admitted == 1u);
 	force_cmd(l); /* telemetry of any kind goes to the client now */
 	CHECK(tool.got() == 1);
 	tool.send(l, SWELL_MSG_PARAM_GET);
 	CHECK(take(l) == 1u);
-	CHECK(l.clients_admitted == 1u); /* the same client */
+	CHECK(l.peers.clients_admitted == 1u); /* the same client */
 	ctl_link_close(&l);
 }
 
@@ -449,10 +466,10 @@ TEST_CASE("UDP device link: the first sender of DEVICE_POS is the device, held a
 	}
 	other.send(l, SWELL_MSG_HEARTBEAT); /* valid, but not a position: takes nothing */
 	CHECK(take(l) == 0);
-	CHECK(l.have_peer == 0);
+	CHECK(l.peers.have_peer == 0);
 	dev.send(l, SWELL_MSG_DEVICE_POS);
 	CHECK(take(l) == 1);
-	CHECK(l.peers_taken == 1);
+	CHECK(l.peers.peers_taken == 1);
 	/* every type from another sender, positions too: dropped unread */
 	for (unsigned t = 0; t < swell_msg_desc_count; t++)
 		other.send(l, swell_msg_descs[t].type);
@@ -461,19 +478,19 @@ TEST_CASE("UDP device link: the first sender of DEVICE_POS is the device, held a
 	dev.send(l, SWELL_MSG_DEVICE_VEL);
 	CHECK(take(l) == 1);
 	force_cmd(l);
-	INFO("other senders' datagrams " << l.others);
-	CHECK(l.others == swell_msg_desc_count + 1);
+	INFO("other senders' datagrams " << l.peers.others);
+	CHECK(l.peers.others == swell_msg_desc_count + 1);
 	CHECK(dev.got() == 1);
 	CHECK(other.got() == 0);
 
 	/* let go (declared lost): the old device still gets the zero force; the next DEVICE_POS takes it */
-	CHECK(ctl_link_release_peer(&l) == 1);
-	CHECK(ctl_link_release_peer(&l) == 0);
+	CHECK(swell_peers_release(&l.peers) == 1);
+	CHECK(swell_peers_release(&l.peers) == 0);
 	force_cmd(l);
 	CHECK(dev.got() == 1);
 	other.send(l, SWELL_MSG_DEVICE_POS);
 	CHECK(take(l) == 1);
-	CHECK(l.peers_taken == 2);
+	CHECK(l.peers.peers_taken == 2);
 	force_cmd(l);
 	CHECK(other.got() == 1);
 	CHECK(dev.got() == 0);
@@ -515,13 +532,13 @@ TEST_CASE("UDP device link: a configured device is never let go, others are refu
 	force_cmd(l);
 	CHECK(dev.got() == 1);
 	CHECK(other.got() == 0);
-	CHECK(ctl_link_release_peer(&l) == 0);
+	CHECK(swell_peers_release(&l.peers) == 0);
 	other.send(l, SWELL_MSG_DEVICE_POS);
 	CHECK(take(l) == 0);
 	dev.send(l, SWELL_MSG_DEVICE_POS);
 	CHECK(take(l) == 1);
-	CHECK(l.others == 2);
-	CHECK(l.peers_taken == 0);
+	CHECK(l.peers.others == 2);
+	CHECK(l.peers.peers_taken == 0);
 	ctl_link_close(&l);
 }
 

@@ -18,7 +18,7 @@
 #include <vector>
 
 extern "C" {
-#include "ctl_link.h"
+#include "swell/transport.h"
 #include "swell/ctl.h"
 #include "swell/proto.h"
 }
@@ -451,7 +451,7 @@ TEST_CASE("swell-ctl UDP host link: four clients beside the viewer get telemetry
 	CHECK(client[4].wait_for(SWELL_MSG_HEARTBEAT, 300).type == 0);
 
 	/* client 3 falls silent; the others keep talking; after its silence the fifth is admitted */
-	const uint64_t quiet_until = now_ns() + (uint64_t)(CTL_LINK_CLIENT_SILENT_MS + 700) * 1000000u;
+	const uint64_t quiet_until = now_ns() + (uint64_t)(SWELL_UDP_CLIENT_SILENT_MS + 700) * 1000000u;
 	uint8_t s = 20;
 	while (now_ns() < quiet_until)
 		for (int k = 0; k < 3; k++)

@@ -123,7 +123,7 @@ static void can_close(struct swell_link *l)
 	free(c);
 }
 
-static const struct swell_link_ops can_ops = { can_send, can_recv, can_close };
+static const struct swell_link_ops can_ops = { can_send, can_recv, can_close, NULL };
 
 static int set_bitrate(const char *ifname, uint32_t bitrate)
 {

@@ -1,12 +1,12 @@
-/* swell host links: one small interface over SocketCAN, libusb, UDP and recordings.
+/* swell links: one small interface over SocketCAN, libusb, FunctionFS, UDP and recordings.
  *
  * A link moves frames: CAN frames (classic or FD, id + up to 64 bytes) or packets (USB bulk / UDP,
  * up to 64 bytes, id 0). swell_link_encode / swell_link_decode turn messages into frames and back
  * for the link's carrier with the strict codecs of swell/proto.h.
  *
  * Functions returning int give 0 on success or a negative errno: -ETIMEDOUT when a receive timed
- * out, -ENODATA at the end of a replay, -ENODEV while a USB device is unplugged. Host only (POSIX);
- * the controller has its own port drivers. */
+ * out, -ENODATA at the end of a replay, -ENODEV while a USB device is unplugged. POSIX only: the
+ * host programs and the Linux controller (swell-ctl) use it, the MCU has its own port drivers. */
 #ifndef SWELL_LINK_H
 #define SWELL_LINK_H
 
@@ -15,6 +15,7 @@
 
 #include "swell/link_spec.h"
 #include "swell/proto.h"
+#include "swell/usb_ffs.h"
 
 #define SWELL_LINK_MTU 64u
 
@@ -53,6 +54,9 @@ void swell_link_close(struct swell_link *l);
 const struct swell_link_counters *swell_link_get_counters(const struct swell_link *l);
 enum swell_carrier swell_link_carrier(const struct swell_link *l);
 const char *swell_link_name(const struct swell_link *l);
+/* The descriptor that poll() reports readable when input may be waiting; -1 for a link that has none
+ * to offer (only the FunctionFS link offers one: ep0 until enabled, then the transfers' eventfd). */
+int swell_link_poll_fd(const struct swell_link *l);
 /* CLOCK_MONOTONIC in ns: the clock of swell_frame.t_ns. */
 uint64_t swell_link_now_ns(void);
 
@@ -108,6 +112,16 @@ struct swell_usb_opts {
 int swell_link_open_usb(struct swell_link **out, const struct swell_usb_opts *opts);
 void swell_usb_opts_default(struct swell_usb_opts *o);
 
+/* FunctionFS, the USB device's side: the descriptors and strings of iface written to DIR/ep0 of a
+ * mounted instance (the gadget around it is set up in configfs by the caller). Nothing waits for the
+ * host after open: receive looks at ep0's events and takes a finished OUT transfer (with a timeout,
+ * it sleeps on both); send queues into a free IN slot (swell/usb_ffs.h). Send returns -ENODEV while
+ * the host has not enabled the interface or a receive found it gone, -EBUSY when every IN slot is in
+ * flight. Open: the system's errno (-ENOENT: no such mount), -EINVAL for a bad iface, -ENAMETOOLONG. */
+int swell_link_open_ffs(struct swell_link **out, const char *dir, const struct swell_usb_ffs_iface *iface);
+/* The FunctionFS state of an FFS link (its counters), NULL for any other link. */
+const struct swell_usb_ffs *swell_link_ffs(const struct swell_link *l);
+
 /* Recording: a link that passes everything through to `inner` (which it then owns) and writes
  * every received frame with its time to path. */
 int swell_link_open_record(struct swell_link **out, struct swell_link *inner, const char *path);
@@ -122,9 +136,10 @@ struct swell_link_open_opts {
 	uint16_t udp_bind_tries; /* > 0: the first free of this many ports from udp_bind_port, else any free one */
 	int udp_answer; /* 1: bind the spec's port and answer whoever sent last; 0: send to the spec's port */
 	int can_errors; /* CAN: receive error frames (counted in bus_errors) */
+	const struct swell_usb_ffs_iface *ffs_iface; /* FunctionFS: the interface written; NULL: refused */
 };
-/* UDP, CAN (classic frames; FD for canfd:), USB (libusb, the spec's VID, PID and interface) or a
- * replay. 0 or a negative errno; -EINVAL for the controller's kinds (FunctionFS, hm:). */
+/* UDP, CAN (classic frames; FD for canfd:), USB (libusb, the spec's VID, PID and interface),
+ * FunctionFS (with ffs_iface) or a replay. 0 or a negative errno; -EINVAL for hm: (hm_client.h). */
 int swell_link_open_spec(struct swell_link **out, const struct swell_link_spec *s,
 			 const struct swell_link_open_opts *o);
 

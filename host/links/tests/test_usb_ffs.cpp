@@ -6,7 +6,7 @@
 #include <vector>
 
 extern "C" {
-#include "usb_ffs.h"
+#include "swell/usb_ffs.h"
 }
 
 namespace {

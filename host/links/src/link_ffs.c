@@ -1,10 +1,12 @@
-/* FunctionFS device side of the controller's vendor USB interface. See usb_ffs.h. */
+/* FunctionFS: the device side of the controller's vendor USB interface (swell/usb_ffs.h), and the
+ * link on it (swell_link_open_ffs in swell/link.h). */
 #define _DEFAULT_SOURCE /* syscall() for Linux AIO */
 
-#include "usb_ffs.h"
+#include "swell/usb_ffs.h"
 
 #include <errno.h>
 #include <fcntl.h>
+#include <stdlib.h>
 #include <linux/usb/ch9.h>
 #include <linux/usb/functionfs.h>
 #include <poll.h>
@@ -15,6 +17,8 @@
 #include <sys/syscall.h>
 #include <time.h>
 #include <unistd.h>
+
+#include "link_priv.h"
 
 #define HS_BULK_PACKET 512u /* the only bulk wMaxPacketSize USB 2.0 allows at high speed */
 #define LANG_EN_US 0x0409u
@@ -460,4 +464,109 @@ void swell_usb_ffs_close(struct swell_usb_ffs *f)
 	close_data(f);
 	close_fd(&f->efd);
 	close_fd(&f->ep0);
+}
+
+/* ---- the link: packets through the two bulk endpoints ---- */
+
+struct ffs_link {
+	struct swell_link base;
+	struct swell_usb_ffs usb;
+	int up; /* endpoints enabled at the last look at ep0, and no read has failed since */
+};
+
+/* Never waits for the host: a packet goes into a free IN slot or is refused. -ENODEV while the host
+ * has not enabled the interface (or a read found it gone), -EBUSY when every IN slot is in flight or
+ * the host is going away (the DISABLE event follows). */
+static int ffs_send(struct swell_link *l, const struct swell_frame *f)
+{
+	struct ffs_link *u = (struct ffs_link *)l;
+
+	if (!u->up)
+		return -ENODEV;
+	return swell_usb_ffs_write(&u->usb, f->data, f->len) == SWELL_OK ? 0 : -EBUSY;
+}
+
+/* One packet: ep0's events first (ENABLE opens the data endpoints, DISABLE and UNBIND close them),
+ * then a finished OUT transfer; until the deadline, sleep on both. */
+static int ffs_recv(struct swell_link *l, struct swell_frame *f, int timeout_ms)
+{
+	struct ffs_link *u = (struct ffs_link *)l;
+	const uint64_t deadline = swell_link_deadline(timeout_ms);
+
+	for (;;) {
+		enum swell_usb_ffs_event ev = SWELL_USB_FFS_NONE;
+		size_t len = 0;
+		int ms;
+
+		swell_usb_ffs_poll(&u->usb, 0, &ev);
+		u->up = swell_usb_ffs_enabled(&u->usb);
+		if (u->up && swell_usb_ffs_read(&u->usb, f->data, SWELL_LINK_MTU, &len) == SWELL_ESTATE)
+			u->up = 0;
+		if (u->up && len > 0) {
+			f->t_ns = swell_link_now_ns();
+			f->id = 0;
+			f->flags = 0;
+			f->len = (uint16_t)len;
+			return 0;
+		}
+		ms = swell_link_ms_left(deadline, timeout_ms);
+		if (ms == 0)
+			return u->up ? -ETIMEDOUT : -ENODEV;
+		struct pollfd p[2] = { { .fd = u->usb.ep0, .events = POLLIN }, { .fd = u->usb.efd, .events = POLLIN } };
+		if (poll(p, 2, ms) < 0 && errno != EINTR)
+			return -errno;
+	}
+}
+
+static int ffs_poll_fd(const struct swell_link *l)
+{
+	const struct ffs_link *u = (const struct ffs_link *)l;
+
+	return u->up ? u->usb.efd : u->usb.ep0; /* the data endpoints cannot be polled: their AIO eventfd can */
+}
+
+static void ffs_close(struct swell_link *l)
+{
+	struct ffs_link *u = (struct ffs_link *)l;
+
+	swell_usb_ffs_close(&u->usb);
+	free(u);
+}
+
+static const struct swell_link_ops ffs_ops = { ffs_send, ffs_recv, ffs_close, ffs_poll_fd };
+
+static int errno_of(enum swell_err e, int last_errno)
+{
+	if (last_errno)
+		return -last_errno;
+	return e == SWELL_ESIZE ? -ENAMETOOLONG : -EINVAL;
+}
+
+int swell_link_open_ffs(struct swell_link **out, const char *dir, const struct swell_usb_ffs_iface *iface)
+{
+	struct ffs_link *u;
+	enum swell_err e;
+
+	if (!out || !dir)
+		return -EINVAL;
+	u = calloc(1, sizeof(*u));
+	if (!u)
+		return -ENOMEM;
+	e = swell_usb_ffs_open(&u->usb, dir, iface);
+	if (e != SWELL_OK) {
+		const int rc = errno_of(e, u->usb.last_errno);
+
+		free(u);
+		return rc;
+	}
+	u->base.ops = &ffs_ops;
+	u->base.carrier = SWELL_CARRIER_PKT;
+	snprintf(u->base.name, sizeof(u->base.name), "usb:%s", dir);
+	*out = &u->base;
+	return 0;
+}
+
+const struct swell_usb_ffs *swell_link_ffs(const struct swell_link *l)
+{
+	return (l && l->ops == &ffs_ops) ? &((const struct ffs_link *)l)->usb : NULL;
 }
