@@ -57,80 +57,6 @@ static int open_udp(struct ctl_link *l, const char *spec, const struct swell_lin
 	return 0;
 }
 
-const char *ctl_can_state_name(enum ctl_can_state s)
-{
-	switch (s) {
-	case CTL_CAN_ACTIVE:
-		return "error-active";
-	case CTL_CAN_WARNING:
-		return "error-warning";
-	case CTL_CAN_PASSIVE:
-		return "error-passive";
-	case CTL_CAN_BUS_OFF:
-		return "bus-off";
-	}
-	return "?";
-}
-
-enum ctl_can_event ctl_can_error_frame(struct ctl_can_health *h, uint32_t can_id, const uint8_t d[8])
-{
-	enum ctl_can_state before, now;
-
-	if (!h || !d || !(can_id & CAN_ERR_FLAG))
-		return CTL_CAN_EV_NONE;
-	before = now = (enum ctl_can_state)h->state;
-	h->error_frames++;
-	if (can_id & (CAN_ERR_CNT | CAN_ERR_CRTL)) { /* drivers put the counters in data[6], data[7] */
-		h->tx_err = d[6];
-		h->rx_err = d[7];
-	}
-	h->tx_timeouts += (can_id & CAN_ERR_TX_TIMEOUT) != 0;
-	h->lost_arb += (can_id & CAN_ERR_LOSTARB) != 0;
-	h->no_ack += (can_id & CAN_ERR_ACK) != 0;
-	h->prot += (can_id & CAN_ERR_PROT) != 0;
-	h->transceiver += (can_id & CAN_ERR_TRX) != 0;
-	if (can_id & CAN_ERR_CRTL) {
-		h->overflows += (d[1] & (CAN_ERR_CRTL_RX_OVERFLOW | CAN_ERR_CRTL_TX_OVERFLOW)) != 0;
-		if (before != CTL_CAN_BUS_OFF) { /* only a restart leaves bus-off, not a counter report */
-			if (d[1] & (CAN_ERR_CRTL_RX_PASSIVE | CAN_ERR_CRTL_TX_PASSIVE))
-				now = CTL_CAN_PASSIVE;
-			else if (d[1] & (CAN_ERR_CRTL_RX_WARNING | CAN_ERR_CRTL_TX_WARNING))
-				now = CTL_CAN_WARNING;
-		}
-		if (d[1] & CAN_ERR_CRTL_ACTIVE)
-			now = CTL_CAN_ACTIVE;
-	}
-	if (can_id & CAN_ERR_RESTARTED) {
-		now = CTL_CAN_ACTIVE;
-		if (!(can_id & CAN_ERR_CNT)) /* a restarted controller starts with clear counters */
-			h->tx_err = h->rx_err = 0;
-	}
-	if (can_id & CAN_ERR_BUSOFF) /* wins over a restart in the same frame: fail safe */
-		now = CTL_CAN_BUS_OFF;
-	if (now == before)
-		return CTL_CAN_EV_NONE;
-	h->state = (uint8_t)now;
-	switch (now) {
-	case CTL_CAN_BUS_OFF:
-		h->bus_offs++;
-		return CTL_CAN_EV_BUS_OFF;
-	case CTL_CAN_PASSIVE:
-		h->passives++;
-		break;
-	case CTL_CAN_WARNING:
-		h->warnings++;
-		break;
-	case CTL_CAN_ACTIVE:
-		h->actives++;
-		break;
-	}
-	if (before == CTL_CAN_BUS_OFF) {
-		h->restarts++;
-		return CTL_CAN_EV_RESTARTED;
-	}
-	return CTL_CAN_EV_STATE;
-}
-
 static int open_can(struct ctl_link *l, const char *spec, const char *iface, char *err, size_t errlen)
 {
 	/* every error class but CAN_ERR_BUSERROR, which may flood */
@@ -149,8 +75,8 @@ static int open_can(struct ctl_link *l, const char *spec, const char *iface, cha
 	return 0;
 }
 
-static int open_usb(struct ctl_link *l, const char *spec, const struct swell_link_spec *ls, int device_side,
-		    char *err, size_t errlen)
+static int open_usb(struct ctl_link *l, const char *spec, const struct swell_link_spec *ls, int device_side, char *err,
+		    size_t errlen)
 {
 	/* each link its own FunctionFS function: interface 0 the device link, 1 the host link when both
 	 * are on USB (the gadget numbers them in the order they are linked into the configuration) */
@@ -284,33 +210,11 @@ size_t ctl_link_recv(struct ctl_link *l, struct swell_msg *out, size_t cap)
 		return recv_usb(l, out, cap);
 	if (l->kind == CTL_LINK_CAN) {
 		struct can_frame f;
-		ssize_t r;
+		const int r = cap < 1 ? -1 : swell_can_read(l->fd, &l->can, &f);
 
-		if (cap < 1)
+		l->frames_rx += r >= 0;
+		if (r <= 0)
 			return 0;
-		r = read(l->fd, &f, sizeof(f));
-		if (r < 0 && errno == ENETDOWN) {
-			/* the interface went down: brought up again it starts error-active (a down/up restart
-			 * sends no RESTARTED frame) */
-			l->can.downs++;
-			l->can.tx_err = l->can.rx_err = 0;
-			if (l->can.state == CTL_CAN_BUS_OFF) {
-				l->can.state = CTL_CAN_ACTIVE;
-				l->can.restarts++;
-			}
-			return 0;
-		}
-		if (r != (ssize_t)sizeof(f))
-			return 0;
-		l->frames_rx++;
-		if (f.can_id & CAN_ERR_FLAG) {
-			ctl_can_error_frame(&l->can, f.can_id, f.data);
-			return 0;
-		}
-		if (l->can.state == CTL_CAN_BUS_OFF) {
-			l->can.dropped_off++;
-			return 0;
-		}
 		if (f.can_id & (CAN_RTR_FLAG | CAN_EFF_FLAG)) {
 			l->st.rejected[SWELL_EUNKNOWN]++; /* foreign formats: counted, dropped */
 			return 0;

@@ -26,39 +26,6 @@ enum ctl_link_kind {
 	CTL_LINK_HM
 };
 
-/* The CAN controller's fault confinement state, as the driver's error frames tell it. */
-enum ctl_can_state {
-	CTL_CAN_ACTIVE = 0,
-	CTL_CAN_WARNING,
-	CTL_CAN_PASSIVE,
-	CTL_CAN_BUS_OFF
-};
-
-/* What an error frame changed. */
-enum ctl_can_event {
-	CTL_CAN_EV_NONE = 0, /* counted, nothing to act on */
-	CTL_CAN_EV_STATE, /* warning / passive / back to active: counted and reported */
-	CTL_CAN_EV_BUS_OFF, /* the controller left the bus: nothing goes out or comes in */
-	CTL_CAN_EV_RESTARTED, /* back on the bus after a bus-off (restart-ms or a manual restart) */
-};
-
-struct ctl_can_health {
-	uint8_t state; /* enum ctl_can_state */
-	uint8_t tx_err, rx_err; /* the error counters of the last frame that carried them */
-	uint32_t error_frames; /* every error frame read */
-	uint32_t warnings, passives, bus_offs, restarts, actives; /* state changes into each state */
-	uint32_t no_ack, prot, overflows, tx_timeouts, lost_arb, transceiver;
-	uint32_t dropped_off; /* data frames that arrived while bus-off (dropped, never acted on) */
-	uint32_t downs; /* the interface went down (a down/up restart leaves bus-off too) */
-};
-
-/* Take one error frame (can_id carries CAN_ERR_FLAG; data the 8 bytes of linux/can/error.h) into h.
- * Pure: no I/O. Bus-off holds until a RESTARTED frame or a CRTL_ACTIVE one; a frame without
- * CAN_ERR_FLAG is refused (CTL_CAN_EV_NONE, h untouched). */
-enum ctl_can_event ctl_can_error_frame(struct ctl_can_health *h, uint32_t can_id, const uint8_t data[8]);
-
-const char *ctl_can_state_name(enum ctl_can_state s);
-
 struct ctl_link {
 	enum ctl_link_kind kind;
 	int fd; /* UDP, CAN: the socket */
@@ -71,7 +38,7 @@ struct ctl_link {
 	struct swell_proto_stats st;
 	uint32_t frames_rx, frames_tx, tx_errors;
 	uint32_t foreign; /* valid messages of another node: dropped, never acted on */
-	struct ctl_can_health can; /* CAN: error frames and bus state (the port compares bus_offs) */
+	struct swell_can_health can; /* CAN: error frames and bus state (the port compares bus_offs) */
 	/* USB: a packet with a parameter answer that found every IN slot busy (telemetry the host has
 	 * not read yet) is held and sent first next time, not dropped: an answer is asked for once */
 	uint8_t held[SWELL_PKT_MAX];

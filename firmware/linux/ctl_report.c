@@ -20,14 +20,14 @@ static double jitter_pct(const struct jitter *j, double p)
 
 static void report_can(const char *what, const struct ctl_link *l)
 {
-	const struct ctl_can_health *h = &l->can;
+	const struct swell_can_health *h = &l->can;
 
 	if (l->kind != CTL_LINK_CAN)
 		return;
 	printf("  %s CAN  %s: %s, %u error frames: %u bus-off, %u restarts, %u error-passive, %u warnings, "
 	       "%u back to active; %u no-ACK, %u protocol, %u overflows, %u TX timeouts; counters tx %u rx %u; "
 	       "%u frames dropped while bus-off, interface down %u times\n",
-	       what, l->name, ctl_can_state_name(h->state), h->error_frames, h->bus_offs, h->restarts, h->passives,
+	       what, l->name, swell_can_state_name(h->state), h->error_frames, h->bus_offs, h->restarts, h->passives,
 	       h->warnings, h->actives, h->no_ack, h->prot, h->overflows, h->tx_timeouts, h->tx_err, h->rx_err,
 	       h->dropped_off, h->downs);
 }
@@ -84,7 +84,8 @@ void report(const struct opts *o, const struct port *p, const struct jitter *jit
 	if (p->dev.kind == CTL_LINK_UDP)
 		printf("  device peer     %s; %u datagrams of other senders dropped; device taken %u times, "
 		       "let go %u times (declared lost)\n",
-		       addr_str(&p->dev.peers.peer, p->dev.peers.have_peer, p->dev.peers.peer_fixed, abuf, sizeof(abuf)),
+		       addr_str(&p->dev.peers.peer, p->dev.peers.have_peer, p->dev.peers.peer_fixed, abuf,
+				sizeof(abuf)),
 		       p->dev.peers.others, p->dev.peers.peers_taken, p->releases);
 	printf("  device starved  %u times (nothing reached the device in %u sends in a row)\n", p->starved,
 	       o->cfg.silent_ticks);

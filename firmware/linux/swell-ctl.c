@@ -192,7 +192,7 @@ static int link_faults(struct port *p)
 	int k, tick = 0;
 
 	for (k = 0; k < 2; k++) {
-		const struct ctl_can_health *h = &l[k]->can;
+		const struct swell_can_health *h = &l[k]->can;
 
 		if (l[k]->kind != CTL_LINK_CAN || (k == 1 && !p->have_host))
 			continue;
@@ -211,7 +211,8 @@ static int link_faults(struct port *p)
 		if (h->restarts != p->restarts_seen[k]) {
 			p->restarts_seen[k] = h->restarts;
 			fprintf(stderr, "swell-ctl: %s link %s: back on the bus (restart %u, %s) at %.6f s\n",
-				k ? "host" : "device", l[k]->name, h->restarts, ctl_can_state_name(h->state), mono_s());
+				k ? "host" : "device", l[k]->name, h->restarts, swell_can_state_name(h->state),
+				mono_s());
 		}
 	}
 	return tick;

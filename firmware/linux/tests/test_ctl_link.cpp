@@ -1,7 +1,9 @@
-/* swell-ctl's CAN link and its error frames: the bus state kept from the driver's error frames, and
- * the link's read path over a stand-in socket (a SOCK_SEQPACKET pair carries struct can_frame records
- * as a raw CAN socket does; the build machines have no CAN). */
+/* swell-ctl's links: the CAN read path over a stand-in socket (a SOCK_SEQPACKET pair carries struct
+ * can_frame records as a raw CAN socket does; the build machines have no CAN), the held USB answer,
+ * the UDP peers and clients. The CAN bus state itself is the link library's (test_links.cpp there). */
 #include <catch2/catch.hpp>
+
+#include "swell_msgs.hpp"
 
 #include <dirent.h>
 #include <linux/can.h>
@@ -35,22 +37,15 @@ struct can_frame err_frame(uint32_t classes, uint8_t crtl = 0, uint8_t txerr = 0
 	return f;
 }
 
-enum ctl_can_event feed(struct ctl_can_health *h, const struct can_frame &f) { return ctl_can_error_frame(h, f.can_id, f.data); }
-
 struct can_frame device_pos(uint8_t node, uint8_t seq)
 {
-	struct swell_msg m;
+	struct swell_msg m = swell_test::device_pos_msg(seq, -3940);
 	struct can_frame f;
 	uint32_t id = 0;
 	uint8_t len = 0;
 
-	memset(&m, 0, sizeof(m));
 	memset(&f, 0, sizeof(f));
-	m.type = SWELL_MSG_DEVICE_POS;
 	m.node = node;
-	m.u.device_pos.z_10um = -3940;
-	m.u.device_pos.seq = seq;
-	m.u.device_pos.status = 1;
 	REQUIRE(swell_can_encode(&m, &id, f.data, &len) == SWELL_OK);
 	f.can_id = id;
 	f.can_dlc = len;
@@ -102,57 +97,6 @@ struct FakeUsb {
 
 } // namespace
 
-TEST_CASE("CAN error frames: warning and passive are counted, bus-off holds until a restart", "[ctl_link]")
-{
-	struct ctl_can_health h;
-	memset(&h, 0, sizeof(h));
-
-	CHECK(feed(&h, err_frame(CAN_ERR_CRTL | CAN_ERR_CNT, CAN_ERR_CRTL_TX_WARNING, 96, 0)) == CTL_CAN_EV_STATE);
-	CHECK(h.state == CTL_CAN_WARNING);
-	CHECK(h.tx_err == 96);
-	CHECK(feed(&h, err_frame(CAN_ERR_CRTL | CAN_ERR_CNT, CAN_ERR_CRTL_TX_PASSIVE, 128, 3)) == CTL_CAN_EV_STATE);
-	CHECK(h.state == CTL_CAN_PASSIVE);
-	CHECK(h.tx_err == 128);
-	CHECK(h.rx_err == 3);
-	CHECK(feed(&h, err_frame(CAN_ERR_ACK)) == CTL_CAN_EV_NONE); /* no ACK: counted, state unchanged */
-	CHECK(h.no_ack == 1);
-	CHECK(feed(&h, err_frame(CAN_ERR_BUSOFF)) == CTL_CAN_EV_BUS_OFF);
-	CHECK(h.state == CTL_CAN_BUS_OFF);
-	/* a counter report while off the bus does not bring it back */
-	CHECK(feed(&h, err_frame(CAN_ERR_CRTL, CAN_ERR_CRTL_RX_WARNING)) == CTL_CAN_EV_NONE);
-	CHECK(h.state == CTL_CAN_BUS_OFF);
-	CHECK(feed(&h, err_frame(CAN_ERR_RESTARTED)) == CTL_CAN_EV_RESTARTED);
-	CHECK(h.state == CTL_CAN_ACTIVE);
-	CHECK(h.tx_err == 0); /* the kernel's restart frame carries no counters: a restart clears them */
-	CHECK(feed(&h, err_frame(CAN_ERR_CRTL, CAN_ERR_CRTL_ACTIVE)) == CTL_CAN_EV_NONE); /* already active */
-	INFO("frames " << h.error_frames << ", warnings " << h.warnings << ", passives " << h.passives << ", bus-offs "
-		       << h.bus_offs << ", restarts " << h.restarts);
-	CHECK(h.error_frames == 7);
-	CHECK(h.warnings == 1);
-	CHECK(h.passives == 1);
-	CHECK(h.bus_offs == 1);
-	CHECK(h.restarts == 1);
-	CHECK(h.actives == 1);
-}
-
-TEST_CASE("CAN error frames: bus-off wins over a restart in the same frame, a data frame is refused", "[ctl_link]")
-{
-	struct ctl_can_health h, before;
-	memset(&h, 0, sizeof(h));
-
-	CHECK(feed(&h, err_frame(CAN_ERR_RESTARTED | CAN_ERR_BUSOFF)) == CTL_CAN_EV_BUS_OFF);
-	CHECK(h.state == CTL_CAN_BUS_OFF);
-	/* recovered to error-active (some drivers say so instead of RESTARTED) also leaves bus-off */
-	CHECK(feed(&h, err_frame(CAN_ERR_CRTL, CAN_ERR_CRTL_ACTIVE)) == CTL_CAN_EV_RESTARTED);
-	CHECK(h.state == CTL_CAN_ACTIVE);
-	before = h;
-	const uint8_t d[8] = {0};
-	CHECK(ctl_can_error_frame(&h, 0x123, d) == CTL_CAN_EV_NONE);
-	CHECK(ctl_can_error_frame(&h, CAN_ERR_FLAG | CAN_ERR_BUSOFF, nullptr) == CTL_CAN_EV_NONE);
-	CHECK(ctl_can_error_frame(nullptr, CAN_ERR_FLAG | CAN_ERR_BUSOFF, d) == CTL_CAN_EV_NONE);
-	CHECK(memcmp(&h, &before, sizeof(h)) == 0);
-}
-
 TEST_CASE("CAN link: data frames are taken, error frames are not messages, nothing is taken while bus-off", "[ctl_link]")
 {
 	FakeCan c;
@@ -161,7 +105,7 @@ TEST_CASE("CAN link: data frames are taken, error frames are not messages, nothi
 	CHECK(c.put(device_pos(5, 2)) == 0); /* another node's sample */
 	CHECK(c.l.foreign == 1);
 	CHECK(c.put(err_frame(CAN_ERR_CRTL | CAN_ERR_CNT, CAN_ERR_CRTL_RX_PASSIVE, 0, 130)) == 0);
-	CHECK(c.l.can.state == CTL_CAN_PASSIVE);
+	CHECK(c.l.can.state == SWELL_CAN_PASSIVE);
 	CHECK(c.put(device_pos(0, 3)) == 1); /* error-passive still takes part in the bus */
 	CHECK(c.put(err_frame(CAN_ERR_BUSOFF)) == 0);
 	CHECK(c.l.can.bus_offs == 1);
@@ -169,19 +113,12 @@ TEST_CASE("CAN link: data frames are taken, error frames are not messages, nothi
 	CHECK(c.put(device_pos(0, 5)) == 0);
 	CHECK(c.l.can.dropped_off == 2);
 	CHECK(c.put(err_frame(CAN_ERR_RESTARTED)) == 0);
-	CHECK(c.l.can.state == CTL_CAN_ACTIVE);
+	CHECK(c.l.can.state == SWELL_CAN_ACTIVE);
 	CHECK(c.put(device_pos(0, 6)) == 1);
 	INFO("bad frames " << swell_proto_rejected_total(&c.l.st) << ", error frames " << c.l.can.error_frames);
 	CHECK(swell_proto_rejected_total(&c.l.st) == 0); /* error frames are not counted as bad frames */
 	CHECK(c.l.can.error_frames == 3);
 	CHECK(c.l.frames_rx == 9);
-}
-
-TEST_CASE("CAN link names its states", "[ctl_link]")
-{
-	CHECK(std::string(ctl_can_state_name(CTL_CAN_ACTIVE)) == "error-active");
-	CHECK(std::string(ctl_can_state_name(CTL_CAN_PASSIVE)) == "error-passive");
-	CHECK(std::string(ctl_can_state_name(CTL_CAN_BUS_OFF)) == "bus-off");
 }
 
 TEST_CASE("USB link: an answer that finds the IN queue busy is held and kept in order, telemetry is dropped, "

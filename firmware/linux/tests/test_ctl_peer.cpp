@@ -2,6 +2,7 @@
  * (the first sender of this node's DEVICE_POS, or the one configured) and drops every other sender's
  * datagrams, whatever they hold; a silent device faults the loop even while others send valid
  * packets; the host link serves a bounded table of clients beside the configured viewer address. */
+#include "swell_msgs.hpp"
 #include "swell_test.hpp"
 
 #include <poll.h>
@@ -103,30 +104,8 @@ struct Udp {
 	}
 };
 
-swell_msg device_pos(uint8_t seq, int16_t z_10um)
-{
-	swell_msg m{};
-	m.type = SWELL_MSG_DEVICE_POS;
-	m.u.device_pos.z_10um = z_10um;
-	m.u.device_pos.seq = seq;
-	m.u.device_pos.status = 1; /* powered */
-	return m;
-}
-
-swell_msg param(uint8_t type, uint16_t id, int32_t value, uint8_t seq)
-{
-	swell_msg m{};
-	m.type = type;
-	if (type == SWELL_MSG_PARAM_SET) {
-		m.u.param_set.id = id;
-		m.u.param_set.value = value;
-		m.u.param_set.seq = seq;
-	} else {
-		m.u.param_get.id = id;
-		m.u.param_get.seq = seq;
-	}
-	return m;
-}
+using swell_test::device_pos_msg;
+using swell_test::param_msg;
 
 /* swell-ctl with args, its standard output into out_path. */
 pid_t spawn_ctl(std::vector<std::string> args, const std::string &out_path)
@@ -233,7 +212,7 @@ TEST_CASE("swell-ctl UDP device link: a flood of valid packets of every type and
 	};
 	const uint64_t t0 = now_ns();
 	while (force_seq.empty() && now_ns() - t0 < 10000000000u) {
-		swell_msg p = device_pos(seq++, dev_z);
+		swell_msg p = device_pos_msg(seq++, dev_z);
 		REQUIRE(dev.send(ctl_port, &p, 1) == 0);
 		if (dev.recv(got, 50))
 			take(got);
@@ -258,7 +237,7 @@ TEST_CASE("swell-ctl UDP device link: a flood of valid packets of every type and
 	int unanswered = 0, n_samples = 0;
 	const uint64_t flood_until = now_ns() + 30000000000u;
 	for (; n_samples < samples || (flood.sent < 20000 && now_ns() < flood_until); n_samples++) {
-		swell_msg p = device_pos(seq++, dev_z);
+		swell_msg p = device_pos_msg(seq++, dev_z);
 		REQUIRE(dev.send(ctl_port, &p, 1) == 0);
 		int forces = 0;
 		const uint64_t until = now_ns() + 2000000000u;
@@ -323,7 +302,7 @@ TEST_CASE("swell-ctl UDP device link: a device that falls silent faults the loop
 		uint8_t seq = 0;
 		while (alive) {
 			if (talking) {
-				swell_msg p = device_pos(seq++, 10000);
+				swell_msg p = device_pos_msg(seq++, 10000);
 				dev.send(ctl_port, &p, 1);
 			}
 			while (dev.recv(v, 0))
@@ -419,21 +398,21 @@ TEST_CASE("swell-ctl UDP host link: four clients beside the viewer get telemetry
 		return swell_msg{};
 	};
 	for (int k = 0; k < 4; k++) {
-		const swell_msg a = ask(client[k], param(SWELL_MSG_PARAM_GET, SWELL_PARAM_WAVE_DAMPING, 0, (uint8_t)k), 2000);
+		const swell_msg a = ask(client[k], param_msg(SWELL_MSG_PARAM_GET, SWELL_PARAM_WAVE_DAMPING, 0, (uint8_t)k), 2000);
 		INFO("client " << k);
 		CHECK(a.type == SWELL_MSG_PARAM_ACK);
 	}
-	const swell_msg before = ask(client[0], param(SWELL_MSG_PARAM_GET, SWELL_PARAM_WAVE_DAMPING, 0, 10), 2000);
+	const swell_msg before = ask(client[0], param_msg(SWELL_MSG_PARAM_GET, SWELL_PARAM_WAVE_DAMPING, 0, 10), 2000);
 	REQUIRE(before.type == SWELL_MSG_PARAM_ACK);
 
 	/* a fifth: refused, its requests take no effect */
-	const swell_msg refused =
-		ask(client[4], param(SWELL_MSG_PARAM_SET, SWELL_PARAM_WAVE_DAMPING, before.u.param_ack.value + 1000, 11), 500);
+	const swell_msg refused = ask(
+		client[4], param_msg(SWELL_MSG_PARAM_SET, SWELL_PARAM_WAVE_DAMPING, before.u.param_ack.value + 1000, 11), 500);
 	swell_msg boot{};
 	boot.type = SWELL_MSG_ENTER_BOOTLOADER;
 	boot.u.enter_bootloader.key = SWELL_PROTO_BOOT_KEY;
 	REQUIRE(client[4].send(listen_port, &boot, 1) == 0);
-	const swell_msg after = ask(client[0], param(SWELL_MSG_PARAM_GET, SWELL_PARAM_WAVE_DAMPING, 0, 12), 2000);
+	const swell_msg after = ask(client[0], param_msg(SWELL_MSG_PARAM_GET, SWELL_PARAM_WAVE_DAMPING, 0, 12), 2000);
 	int st = 0;
 	const pid_t exited = waitpid(pid, &st, WNOHANG);
 	CHECK(refused.type == 0);
@@ -455,9 +434,9 @@ TEST_CASE("swell-ctl UDP host link: four clients beside the viewer get telemetry
 	uint8_t s = 20;
 	while (now_ns() < quiet_until)
 		for (int k = 0; k < 3; k++)
-			CHECK(ask(client[k], param(SWELL_MSG_PARAM_GET, SWELL_PARAM_WAVE_E, 0, s++), 2000).type ==
+			CHECK(ask(client[k], param_msg(SWELL_MSG_PARAM_GET, SWELL_PARAM_WAVE_E, 0, s++), 2000).type ==
 			      SWELL_MSG_PARAM_ACK);
-	const swell_msg joined = ask(client[4], param(SWELL_MSG_PARAM_GET, SWELL_PARAM_WAVE_E, 0, 99), 2000);
+	const swell_msg joined = ask(client[4], param_msg(SWELL_MSG_PARAM_GET, SWELL_PARAM_WAVE_E, 0, 99), 2000);
 	CHECK(joined.type == SWELL_MSG_PARAM_ACK);
 	client[3].drain();
 	const int late = client[3].wait_for(SWELL_MSG_HEARTBEAT, 300).type;

@@ -1,5 +1,6 @@
 /* swell-ctl as a process, over its UDP host link: parameter sets from a viewer are validated, refused
  * ones answered with a NACK and without effect, good ones acknowledged with the value in force. */
+#include "swell_msgs.hpp"
 #include "swell_test.hpp"
 
 #include <cstring>
@@ -46,17 +47,7 @@ struct Viewer {
 	}
 	swell_msg param(uint8_t type, uint16_t id, int32_t value)
 	{
-		swell_msg m{};
-		m.type = type;
-		if (type == SWELL_MSG_PARAM_SET) {
-			m.u.param_set.id = id;
-			m.u.param_set.value = value;
-			m.u.param_set.seq = seq;
-		} else {
-			m.u.param_get.id = id;
-			m.u.param_get.seq = seq;
-		}
-		send(m);
+		send(swell_test::param_msg(type, id, value, seq));
 		return wait_for(SWELL_MSG_PARAM_ACK, 2000, SWELL_MSG_PARAM_NACK); /* among telemetry */
 	}
 };
@@ -129,10 +120,7 @@ TEST_CASE("swell-ctl --clock device: a silent device is ticked on every period, 
 	uint8_t seq = 0, pseq = 0;
 	int answered = 0;
 	for (int k = 0; k < 3000 && answered < 20; k++) {
-		swell_msg m{};
-		m.type = SWELL_MSG_DEVICE_POS;
-		m.u.device_pos.seq = seq++;
-		m.u.device_pos.status = 1;
+		const swell_msg m = swell_test::device_pos_msg(seq++, 0);
 		swell_frame f{};
 		size_t used = 0;
 		REQUIRE(swell_link_encode(SWELL_CARRIER_PKT, 0, pseq++, &m, 1, &f, &used) == SWELL_OK);
@@ -234,11 +222,7 @@ TEST_CASE("swell-ctl without real-time scheduling says so and uses a 20 ms silen
 	bool running = false;
 	const uint64_t until = swell_link_now_ns() + 10000000000u;
 	while (!running && swell_link_now_ns() < until) {
-		swell_msg m{};
-		m.type = SWELL_MSG_DEVICE_POS;
-		m.u.device_pos.seq = seq++;
-		m.u.device_pos.status = 1;
-		m.u.device_pos.z_10um = 10000;
+		const swell_msg m = swell_test::device_pos_msg(seq++, 10000);
 		swell_frame f{};
 		size_t used = 0;
 		REQUIRE(swell_link_encode(SWELL_CARRIER_PKT, 0, pseq++, &m, 1, &f, &used) == SWELL_OK);

@@ -1,6 +1,7 @@
 #include <catch2/catch.hpp>
 
 #include <arpa/inet.h>
+#include <linux/can/error.h>
 #include <cerrno>
 #include <chrono>
 #include <cstdio>
@@ -331,4 +332,83 @@ TEST_CASE("recording a replay keeps the recorded times: the copy replays as the 
 	}
 	std::remove(orig.c_str());
 	std::remove(copy.c_str());
+}
+
+/* ---- the CAN bus state kept from the driver's error frames (swell-ctl's CAN links) ---- */
+
+namespace {
+
+struct can_frame err_frame(uint32_t classes, uint8_t crtl = 0, uint8_t txerr = 0, uint8_t rxerr = 0)
+{
+	struct can_frame f;
+
+	memset(&f, 0, sizeof(f));
+	f.can_id = CAN_ERR_FLAG | classes;
+	f.can_dlc = CAN_ERR_DLC;
+	f.data[1] = crtl;
+	f.data[6] = txerr;
+	f.data[7] = rxerr;
+	return f;
+}
+
+swell_can_event feed(swell_can_health *h, const can_frame &f) { return swell_can_error_frame(h, f.can_id, f.data); }
+
+} // namespace
+
+TEST_CASE("CAN error frames: warning and passive are counted, bus-off holds until a restart", "[links]")
+{
+	struct swell_can_health h;
+	memset(&h, 0, sizeof(h));
+
+	CHECK(feed(&h, err_frame(CAN_ERR_CRTL | CAN_ERR_CNT, CAN_ERR_CRTL_TX_WARNING, 96, 0)) == SWELL_CAN_EV_STATE);
+	CHECK(h.state == SWELL_CAN_WARNING);
+	CHECK(h.tx_err == 96);
+	CHECK(feed(&h, err_frame(CAN_ERR_CRTL | CAN_ERR_CNT, CAN_ERR_CRTL_TX_PASSIVE, 128, 3)) == SWELL_CAN_EV_STATE);
+	CHECK(h.state == SWELL_CAN_PASSIVE);
+	CHECK(h.tx_err == 128);
+	CHECK(h.rx_err == 3);
+	CHECK(feed(&h, err_frame(CAN_ERR_ACK)) == SWELL_CAN_EV_NONE); /* no ACK: counted, state unchanged */
+	CHECK(h.no_ack == 1);
+	CHECK(feed(&h, err_frame(CAN_ERR_BUSOFF)) == SWELL_CAN_EV_BUS_OFF);
+	CHECK(h.state == SWELL_CAN_BUS_OFF);
+	/* a counter report while off the bus does not bring it back */
+	CHECK(feed(&h, err_frame(CAN_ERR_CRTL, CAN_ERR_CRTL_RX_WARNING)) == SWELL_CAN_EV_NONE);
+	CHECK(h.state == SWELL_CAN_BUS_OFF);
+	CHECK(feed(&h, err_frame(CAN_ERR_RESTARTED)) == SWELL_CAN_EV_RESTARTED);
+	CHECK(h.state == SWELL_CAN_ACTIVE);
+	CHECK(h.tx_err == 0); /* the kernel's restart frame carries no counters: a restart clears them */
+	CHECK(feed(&h, err_frame(CAN_ERR_CRTL, CAN_ERR_CRTL_ACTIVE)) == SWELL_CAN_EV_NONE); /* already active */
+	INFO("frames " << h.error_frames << ", warnings " << h.warnings << ", passives " << h.passives << ", bus-offs "
+		       << h.bus_offs << ", restarts " << h.restarts);
+	CHECK(h.error_frames == 7);
+	CHECK(h.warnings == 1);
+	CHECK(h.passives == 1);
+	CHECK(h.bus_offs == 1);
+	CHECK(h.restarts == 1);
+	CHECK(h.actives == 1);
+}
+
+TEST_CASE("CAN error frames: bus-off wins over a restart in the same frame, a data frame is refused", "[links]")
+{
+	struct swell_can_health h, before;
+	memset(&h, 0, sizeof(h));
+
+	CHECK(feed(&h, err_frame(CAN_ERR_RESTARTED | CAN_ERR_BUSOFF)) == SWELL_CAN_EV_BUS_OFF);
+	CHECK(h.state == SWELL_CAN_BUS_OFF);
+	/* recovered to error-active (some drivers say so instead of RESTARTED) also leaves bus-off */
+	CHECK(feed(&h, err_frame(CAN_ERR_CRTL, CAN_ERR_CRTL_ACTIVE)) == SWELL_CAN_EV_RESTARTED);
+	CHECK(h.state == SWELL_CAN_ACTIVE);
+	before = h;
+	const uint8_t d[8] = {0};
+	CHECK(swell_can_error_frame(&h, 0x123, d) == SWELL_CAN_EV_NONE);
+	CHECK(swell_can_error_frame(&h, CAN_ERR_FLAG | CAN_ERR_BUSOFF, nullptr) == SWELL_CAN_EV_NONE);
+	CHECK(swell_can_error_frame(nullptr, CAN_ERR_FLAG | CAN_ERR_BUSOFF, d) == SWELL_CAN_EV_NONE);
+	CHECK(memcmp(&h, &before, sizeof(h)) == 0);
+}
+
+TEST_CASE("CAN link names its states", "[links]")
+{
+	CHECK(std::string(swell_can_state_name(SWELL_CAN_ACTIVE)) == "error-active");
+	CHECK(std::string(swell_can_state_name(SWELL_CAN_PASSIVE)) == "error-passive");
+	CHECK(std::string(swell_can_state_name(SWELL_CAN_BUS_OFF)) == "bus-off");
 }

@@ -78,28 +78,6 @@ struct Ctl {
 	}
 };
 
-struct row {
-	double t, fz;
-	int state;
-};
-
-std::vector<row> read_log(const std::string &path)
-{
-	std::vector<row> rows;
-	std::ifstream f(path);
-	std::string line;
-	std::getline(f, line);
-	while (std::getline(f, line)) {
-		double v[13];
-		int i[5];
-		if (std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%d,%d,%d,%d,%d", &v[0], &v[1],
-				&v[2], &v[3], &v[4], &v[5], &v[6], &v[7], &v[8], &v[9], &v[10], &v[11], &v[12], &i[0], &i[1],
-				&i[2], &i[3], &i[4]) == 18)
-			rows.push_back({v[0], v[9], i[3]});
-	}
-	return rows;
-}
-
 } // namespace
 
 TEST_CASE(
@@ -137,15 +115,15 @@ TEST_CASE(
 	CHECK(rc == 0);
 	CHECK(swell_test::count_before(sum, " trips (2 ticks") >= 1);
 	CHECK(sum.find("1 resets") != std::string::npos);
-	const std::vector<row> rows = read_log(csv);
+	const std::vector<swell_test::HmLogRow> rows = swell_test::read_hm_log(csv);
 	REQUIRE(rows.size() > 100);
 	int at_1_5 = 0, other = 0;
 	size_t last_force = 0;
 	for (size_t k = 0; k < rows.size(); k++) {
-		if (std::fabs(rows[k].fz - 1.5) < 1e-9) {
+		if (std::fabs(rows[k].fcmd[2] - 1.5) < 1e-9) {
 			at_1_5++;
 			last_force = k;
-		} else if (rows[k].fz != 0.0) {
+		} else if (rows[k].fcmd[2] != 0.0) {
 			other++;
 		}
 	}
@@ -153,7 +131,7 @@ TEST_CASE(
 	CHECK(at_1_5 > 500);
 	CHECK(other == 0);
 	CHECK(last_force + 1 < rows.size());
-	CHECK(rows.back().fz == 0.0);
+	CHECK(rows.back().fcmd[2] == 0.0);
 }
 
 TEST_CASE("bridge, effect mode: the effect sets become the HapticMaster's springs, damper and bias force with the same values, "

@@ -10,6 +10,7 @@
 #ifndef SWELL_LINK_H
 #define SWELL_LINK_H
 
+#include <linux/can.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -101,6 +102,46 @@ int swell_link_open_can(struct swell_link **out, const char *ifname, const struc
  * frames, filters and error classes (bitrate is the link's), non-blocking when nonblock. The
  * descriptor, or a negative errno with nothing left open. */
 int swell_can_socket(const char *ifname, const struct swell_can_opts *opts, int nonblock);
+
+/* The CAN controller's fault confinement state, as the driver's error frames tell it. */
+enum swell_can_state {
+	SWELL_CAN_ACTIVE = 0,
+	SWELL_CAN_WARNING,
+	SWELL_CAN_PASSIVE,
+	SWELL_CAN_BUS_OFF
+};
+
+/* What an error frame changed. */
+enum swell_can_event {
+	SWELL_CAN_EV_NONE = 0, /* counted, nothing to act on */
+	SWELL_CAN_EV_STATE, /* warning / passive / back to active: counted and reported */
+	SWELL_CAN_EV_BUS_OFF, /* the controller left the bus: nothing goes out or comes in */
+	SWELL_CAN_EV_RESTARTED, /* back on the bus after a bus-off (restart-ms or a manual restart) */
+};
+
+struct swell_can_health {
+	uint8_t state; /* enum swell_can_state */
+	uint8_t tx_err, rx_err; /* the error counters of the last frame that carried them */
+	uint32_t error_frames; /* every error frame read */
+	uint32_t warnings, passives, bus_offs, restarts, actives; /* state changes into each state */
+	uint32_t no_ack, prot, overflows, tx_timeouts, lost_arb, transceiver;
+	uint32_t dropped_off; /* data frames that arrived while bus-off (dropped, never acted on) */
+	uint32_t downs; /* the interface went down (a down/up restart leaves bus-off too) */
+};
+
+/* Take one error frame (can_id carries CAN_ERR_FLAG; data the 8 bytes of linux/can/error.h) into h.
+ * Pure: no I/O. Bus-off holds until a RESTARTED frame or a CRTL_ACTIVE one; a frame without
+ * CAN_ERR_FLAG is refused (SWELL_CAN_EV_NONE, h untouched). */
+enum swell_can_event swell_can_error_frame(struct swell_can_health *h, uint32_t can_id, const uint8_t data[8]);
+
+const char *swell_can_state_name(enum swell_can_state s);
+
+/* One frame of a raw CAN socket into f (never waits on a non-blocking one): 1 for a data frame, 0 for
+ * a frame that is not handed up, -1 when nothing was read. Error frames go into h. While the bus is off,
+ * data frames are counted in h->dropped_off and dropped: a controller off the bus hears nothing. The
+ * interface going down (ENETDOWN) counts in h->downs and ends a bus-off: brought up again it starts
+ * error-active, and a down/up restart sends no RESTARTED frame. */
+int swell_can_read(int fd, struct swell_can_health *h, struct can_frame *f);
 
 struct swell_usb_opts {
 	uint16_t vid, pid; /* SWELL_USB_VID / SWELL_USB_PID by default */
