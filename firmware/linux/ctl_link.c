@@ -3,30 +3,20 @@
 
 #include <arpa/inet.h>
 #include <errno.h>
-#include <fcntl.h>
 #include <linux/can.h>
 #include <linux/can/error.h>
-#include <linux/can/raw.h>
 #include <stdio.h>
-#include <stdlib.h>
 #include <string.h>
-#include <sys/socket.h>
 #include <time.h>
 #include <unistd.h>
-
-#include "swell/link.h"
-#include "swell/transport.h"
 
 /* hm: an answer to a request sent more than this many ticks ago is stale: a silent device tick */
 #define CTL_HM_MAX_AGE_TICKS 2
 
-/* The reason first (close may change errno), then the socket goes: a failed open leaves nothing open. */
-static int fail(struct ctl_link *l, char *err, size_t len, const char *what, const char *spec)
+/* The socket layer leaves nothing open when it refuses (rc, a negative errno): the reason is said. */
+static int refused(char *err, size_t len, const char *what, const char *spec, int rc)
 {
-	snprintf(err, len, "%s %s: %s", what, spec, strerror(errno));
-	if (l->fd >= 0)
-		close(l->fd);
-	l->fd = -1;
+	snprintf(err, len, "%s %s: %s", what, spec, strerror(-rc));
 	return -1;
 }
 
@@ -46,12 +36,10 @@ static int open_udp(struct ctl_link *l, const char *spec, const struct swell_lin
 		a = ls->listen_at; /* the clients' port (and address, when spelled out) */
 	/* the default clients' port is another controller's: this one takes any free port (said at
 	 * start); a port spelled out is never swapped for another */
-	l->fd = swell_udp_socket(&a, 1, !device_side && !have_opt, &l->clients_port_taken, &l->local);
-	if (l->fd < 0) {
-		errno = -l->fd;
-		l->fd = -1;
-		return fail(l, err, errlen, "bind", spec);
-	}
+	const int fd = swell_udp_socket(&a, 1, !device_side && !have_opt, &l->clients_port_taken, &l->local);
+	if (fd < 0)
+		return refused(err, errlen, "bind", spec, fd);
+	l->fd = fd;
 	swell_peers_init(&l->peers, device_side, device_side ? (have_opt ? &ls->peer : NULL) : &viewer);
 	snprintf(l->name, sizeof(l->name), "udp:%u", (unsigned)ls->port);
 	return 0;
@@ -65,12 +53,10 @@ static int open_can(struct ctl_link *l, const char *spec, const char *iface, cha
 						  CAN_ERR_PROT | CAN_ERR_TRX | CAN_ERR_ACK | CAN_ERR_BUSOFF |
 						  CAN_ERR_RESTARTED | CAN_ERR_CNT };
 
-	l->fd = swell_can_socket(iface, &o, 1);
-	if (l->fd < 0) {
-		errno = -l->fd;
-		l->fd = -1;
-		return fail(l, err, errlen, "CAN", spec);
-	}
+	const int fd = swell_can_socket(iface, &o, 1);
+	if (fd < 0)
+		return refused(err, errlen, "CAN", spec, fd);
+	l->fd = fd;
 	snprintf(l->name, sizeof(l->name), "%s", spec); /* can:IFACE */
 	return 0;
 }
@@ -171,11 +157,6 @@ static size_t recv_usb(struct ctl_link *l, struct swell_msg *out, size_t cap)
 	return own_node(l, out, n);
 }
 
-static int64_t mono_ns(void)
-{
-	return (int64_t)swell_link_now_ns();
-}
-
 /* UDP: the peer rules (swell/link_peers.h) around the decoder. Another node's packet takes nothing,
  * holds nothing. */
 static size_t recv_udp(struct ctl_link *l, struct swell_msg *out, size_t cap)
@@ -195,7 +176,7 @@ static size_t recv_udp(struct ctl_link *l, struct swell_msg *out, size_t cap)
 	    swell_pkt_decode(buf, (size_t)r, out, cap, &n, &seq, &l->st) != SWELL_OK)
 		return 0;
 	n = own_node(l, out, n);
-	return n ? swell_peers_take(&l->peers, &from, out, n, mono_ns()) : 0;
+	return n ? swell_peers_take(&l->peers, &from, out, n, (int64_t)swell_link_now_ns()) : 0;
 }
 
 size_t ctl_link_recv(struct ctl_link *l, struct swell_msg *out, size_t cap)
@@ -260,42 +241,33 @@ static int has_answer(const struct swell_msg *m, size_t n)
 	return 0;
 }
 
-static int send_packet(struct ctl_link *l, const uint8_t *pkt, size_t len)
-{
-	struct swell_frame f = { .len = (uint16_t)len };
-
-	memcpy(f.data, pkt, len);
-	return swell_link_send(l->usb, &f);
-}
-
 /* USB: the held answer goes first; 0 when nothing is held any more. */
 static int send_held(struct ctl_link *l)
 {
-	const int rc = l->held_len ? send_packet(l, l->held, l->held_len) : 0;
+	const int rc = l->held.len ? swell_link_send(l->usb, &l->held) : 0;
 
 	if (rc == -EBUSY)
 		return -1;
-	if (l->held_len && rc == 0)
+	if (l->held.len && rc == 0)
 		l->frames_tx++;
-	else if (l->held_len)
+	else if (l->held.len)
 		l->answers_dropped++; /* unplugged: the host asks again */
-	l->held_len = 0;
+	l->held.len = 0;
 	return 0;
 }
 
 /* Queued, never waits: a host that stops reading loses telemetry (counted), not ticks. An answer that
  * finds the IN slots busy is held (one) and goes first next time; packets stay in order. */
-static void send_usb(struct ctl_link *l, const uint8_t *pkt, size_t len, int answer)
+static void send_usb(struct ctl_link *l, const struct swell_frame *f, int answer)
 {
-	int rc = send_held(l) == 0 ? send_packet(l, pkt, len) : -EBUSY;
+	const int rc = send_held(l) == 0 ? swell_link_send(l->usb, f) : -EBUSY;
 
 	if (rc == 0) {
 		l->frames_tx++;
 		return;
 	}
-	if (answer && rc == -EBUSY && !l->held_len) {
-		memcpy(l->held, pkt, len);
-		l->held_len = (uint16_t)len;
+	if (answer && rc == -EBUSY && !l->held.len) {
+		l->held = *f;
 		l->answers_held++;
 		return;
 	}
@@ -312,7 +284,7 @@ void ctl_link_send(struct ctl_link *l, const struct swell_msg *m, size_t n)
 	if (n == 0)
 		return;
 	if (l->kind == CTL_LINK_UDP)
-		swell_peers_expire(&l->peers, mono_ns());
+		swell_peers_expire(&l->peers, (int64_t)swell_link_now_ns());
 	send_msgs(l, m, n);
 	if (l->frames_tx != before)
 		l->unsent_run = 0;
@@ -359,18 +331,18 @@ static void send_msgs(struct ctl_link *l, const struct swell_msg *m, size_t n)
 		return;
 	}
 	while (k < n) {
-		uint8_t pkt[SWELL_PKT_MAX];
-		size_t len = 0, used = 0;
+		struct swell_frame f;
+		size_t used = 0;
 
-		if (swell_pkt_encode(l->node, l->seq++, m + k, n - k, pkt, sizeof(pkt), &len, &used) != SWELL_OK ||
+		if (swell_link_encode(SWELL_CARRIER_PKT, l->node, l->seq++, m + k, n - k, &f, &used) != SWELL_OK ||
 		    used == 0) {
 			l->tx_errors++;
 			return;
 		}
 		if (l->kind == CTL_LINK_USB)
-			send_usb(l, pkt, len, has_answer(m + k, used));
+			send_usb(l, &f, has_answer(m + k, used));
 		else
-			send_bytes(l, pkt, len);
+			send_bytes(l, f.data, f.len);
 		k += used;
 	}
 }

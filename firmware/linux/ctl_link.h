@@ -41,8 +41,7 @@ struct ctl_link {
 	struct swell_can_health can; /* CAN: error frames and bus state (the port compares bus_offs) */
 	/* USB: a packet with a parameter answer that found every IN slot busy (telemetry the host has
 	 * not read yet) is held and sent first next time, not dropped: an answer is asked for once */
-	uint8_t held[SWELL_PKT_MAX];
-	uint16_t held_len;
+	struct swell_frame held; /* len 0: none */
 	uint32_t answers_held, answers_dropped;
 	struct hm_client hm; /* hm: a HapticMaster on its TCP command interface (device side only) */
 	struct hm_fx hmfx; /* hm: the effect sets as the HapticMaster's own effects (effect mode) */

@@ -142,24 +142,24 @@ TEST_CASE("USB link: an answer that finds the IN queue busy is held and kept in 
 
 	ctl_link_send(&l, &quad, 1);
 	CHECK(l.tx_errors == 1);
-	CHECK(l.held_len == 0);
+	CHECK(l.held.len == 0);
 	ctl_link_send(&l, &ack, 1);
-	CHECK(l.held_len > 0);
+	CHECK(l.held.len > 0);
 	CHECK(l.answers_held == 1);
 	CHECK(l.tx_errors == 1);
-	const uint16_t held = l.held_len;
+	const uint16_t held = l.held.len;
 	uint8_t first[SWELL_PKT_MAX];
-	memcpy(first, l.held, held);
+	memcpy(first, l.held.data, held);
 	ctl_link_send(&l, &quad, 1); /* cannot overtake the held answer */
 	ctl_link_send(&l, &ack, 1); /* a second answer while one is held: dropped, counted */
 	INFO("tx errors " << l.tx_errors << ", answers held " << l.answers_held << ", dropped " << l.answers_dropped);
 	CHECK(l.tx_errors == 3);
 	CHECK(l.answers_dropped == 1);
-	CHECK(l.held_len == held);
-	CHECK(memcmp(l.held, first, held) == 0);
+	CHECK(l.held.len == held);
+	CHECK(memcmp(l.held.data, first, held) == 0);
 	usb.refuse = -ENODEV; /* unplugged: the host asks again after the replug */
 	ctl_link_send(&l, &quad, 1);
-	CHECK(l.held_len == 0);
+	CHECK(l.held.len == 0);
 	CHECK(l.answers_dropped == 2);
 	CHECK(l.frames_tx == 0);
 }
