@@ -1,8 +1,8 @@
 /* The controller's links on Linux: the device link (HapticMaster) and the host link (viewer), each on
  * UDP (software in the loop), SocketCAN (classic CAN frames) or USB (a FunctionFS function: the
  * controller is the USB device, as the MCU is), or hm: for the device. The sockets, the FunctionFS
- * link and the UDP peer rules are the link library's (host/links); what is the controller's own is
- * here: which link carries what, the node filter, the CAN bus state, the held USB answer, the zero
+ * link, the UDP peer rules and the CAN bus state are the link library's (host/links); what is the
+ * controller's own is here: which link carries what, the node filter, the held USB answer, the zero
  * force on exit. Messages in and out are struct swell_msg; encoding, decoding and the counting of bad
  * frames are the protocol module's. */
 #ifndef SWELL_CTL_LINK_H

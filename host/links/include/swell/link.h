@@ -70,7 +70,7 @@ int swell_link_open_udp(struct swell_link **out, const char *bind_host, uint16_t
 uint16_t swell_link_udp_port(const struct swell_link *l);
 
 /* The UDP socket calls of both sides, the host links above and the Linux controller's links (which
- * add the device's peer and the host link's clients on top; firmware/linux/ctl_link.h). */
+ * add the device's peer and the host link's clients on top: swell/link_peers.h). */
 /* A datagram socket bound to *at (port 0: any free port; when the port is taken and any_if_taken, any
  * free port of the same address, with *taken set to 1), close-on-exec, non-blocking when nonblock, with
  * a receive queue deep enough for a burst of a few thousand small datagrams. *bound gets the address
