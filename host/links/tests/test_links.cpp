@@ -15,6 +15,7 @@
 
 extern "C" {
 #include "swell/link.h"
+#include "swell/link_peers.h"
 #include "swell/transport.h"
 }
 
@@ -411,4 +412,75 @@ TEST_CASE("CAN link names its states", "[links]")
 	CHECK(std::string(swell_can_state_name(SWELL_CAN_ACTIVE)) == "error-active");
 	CHECK(std::string(swell_can_state_name(SWELL_CAN_PASSIVE)) == "error-passive");
 	CHECK(std::string(swell_can_state_name(SWELL_CAN_BUS_OFF)) == "bus-off");
+}
+
+/* ---- the peer rules of a served UDP socket (swell/link_peers.h), on made-up addresses and times ---- */
+
+namespace {
+
+sockaddr_in loopback_at(uint16_t port)
+{
+	sockaddr_in a{};
+	a.sin_family = AF_INET;
+	a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+	a.sin_port = htons(port);
+	return a;
+}
+
+} // namespace
+
+TEST_CASE("peers: four clients beside the viewer, a fifth refused until one is silent for 3 s, a client's "
+	  "HEARTBEAT taken",
+	  "[links]")
+{
+	const sockaddr_in viewer = loopback_at(47801);
+	const int64_t s = 1000000000;
+	swell_peers p;
+	swell_msg m[2] = {};
+	sockaddr_in to[1 + SWELL_PEERS_CLIENTS];
+
+	swell_peers_init(&p, 0, &viewer);
+	m[0].type = SWELL_MSG_HEARTBEAT;
+	m[1].type = SWELL_MSG_PARAM_GET;
+	CHECK(swell_peers_take(&p, &viewer, m, 2, s) == 2); /* the viewer's HEARTBEAT is handed on */
+	for (uint16_t k = 0; k < SWELL_PEERS_CLIENTS; k++) {
+		const sockaddr_in c = loopback_at((uint16_t)(50000 + k));
+		CHECK(swell_peers_take(&p, &c, m, 1, s + k) == 0); /* admitted by its keep-alive, which is taken */
+	}
+	const sockaddr_in fifth = loopback_at(50009);
+	CHECK(swell_peers_take(&p, &fifth, m, 2, 2 * s) == 0);
+	CHECK(p.clients_refused == 1);
+	CHECK(swell_peers_dests(&p, to) == 1 + SWELL_PEERS_CLIENTS);
+	const sockaddr_in first = loopback_at(50000);
+	CHECK(swell_peers_take(&p, &first, m, 2, 3 * s) == 1); /* keeps its slot: the PARAM_GET goes on */
+	CHECK(m[0].type == SWELL_MSG_PARAM_GET);
+	m[0].type = SWELL_MSG_HEARTBEAT;
+	/* 3 s after their last packet the other three are silent: the fifth gets a slot */
+	CHECK(swell_peers_take(&p, &fifth, m, 2, 4 * s + 10) == 1);
+	CHECK(p.clients_silent == 3);
+	CHECK(swell_peers_clients(&p) == 2);
+	CHECK(p.clients_admitted == 5);
+}
+
+TEST_CASE("peers: the first sender of DEVICE_POS is the device until let go, a configured one never is", "[links]")
+{
+	const sockaddr_in dev = loopback_at(50100), other = loopback_at(50101);
+	swell_peers p;
+	swell_msg pos[1] = {}, hb[1] = {};
+
+	pos[0].type = SWELL_MSG_DEVICE_POS;
+	hb[0].type = SWELL_MSG_HEARTBEAT;
+	swell_peers_init(&p, 1, nullptr);
+	CHECK(swell_peers_hear(&p, &other) == 1);
+	CHECK(swell_peers_take(&p, &other, hb, 1, 0) == 0); /* not a position: nobody is held */
+	CHECK(swell_peers_take(&p, &dev, pos, 1, 0) == 1);
+	CHECK(swell_peers_hear(&p, &other) == 0); /* dropped unread */
+	CHECK(p.others == 2);
+	CHECK(swell_peers_release(&p) == 1);
+	CHECK(swell_peers_hear(&p, &other) == 1);
+	CHECK(swell_peers_take(&p, &other, pos, 1, 0) == 1);
+	CHECK(p.peers_taken == 2);
+	swell_peers_init(&p, 1, &dev);
+	CHECK(swell_peers_hear(&p, &other) == 0);
+	CHECK(swell_peers_release(&p) == 0);
 }
