@@ -34,7 +34,7 @@ static void report_can(const char *what, const struct ctl_link *l)
 
 static void report_usb(const char *what, const struct ctl_link *l)
 {
-	const struct swell_usb_ffs *u = l->kind == CTL_LINK_USB ? swell_link_ffs(l->usb) : NULL;
+	const struct swell_usb_ffs_stats *u = l->kind == CTL_LINK_USB ? swell_link_ffs_stats(l->usb) : NULL;
 
 	if (!u)
 		return;

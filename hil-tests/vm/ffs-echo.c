@@ -117,7 +117,7 @@ int main(int argc, char **argv)
 		if (pending && echo(l, &f, &bytes))
 			pending = 0;
 	}
-	const struct swell_usb_ffs *u = swell_link_ffs(l);
+	const struct swell_usb_ffs_stats *u = swell_link_ffs_stats(l);
 	printf("swell-ffs-echo: %llu packets echoed, %llu bytes, %u control requests stalled, "
 	       "%u writes waited for a free IN slot\n",
 	       (unsigned long long)swell_link_get_counters(l)->tx_frames, bytes, (unsigned)u->setup_stalled,

@@ -1,8 +1,10 @@
-/* FunctionFS: the device side of the controller's vendor USB interface (swell/usb_ffs.h), and the
- * link on it (swell_link_open_ffs in swell/link.h). */
+/* FunctionFS: the device side of the controller's vendor USB interface (swell/usb_ffs.h), a link
+ * (swell_link_open_ffs in swell/link.h). */
 #define _DEFAULT_SOURCE /* syscall() for Linux AIO */
 
 #include "swell/usb_ffs.h"
+
+#include <linux/aio_abi.h>
 
 #include <errno.h>
 #include <fcntl.h>
@@ -137,6 +139,27 @@ enum swell_err swell_usb_ffs_strings(const struct swell_usb_ffs_iface *iface, ui
 	return SWELL_OK;
 }
 
+/* ---- the link: ep0, the two bulk endpoints and their transfers ---- */
+
+struct ffs_link {
+	struct swell_link base;
+	int ep0, ep_out, ep_in; /* file descriptors, -1 when closed */
+	int efd; /* eventfd: readable when a transfer finished */
+	int up; /* endpoints enabled at the last look at ep0, and no read has failed since */
+	struct swell_usb_ffs_stats st;
+	aio_context_t ctx;
+	struct iocb rx_cb;
+	struct iocb tx_cb[SWELL_USB_FFS_TX_SLOTS];
+	int64_t rx_res; /* result of the finished OUT transfer */
+	uint16_t rx_packet; /* OUT wMaxPacketSize at the connected speed: one packet a read */
+	uint8_t rx_state; /* 0 idle, 1 queued, 2 finished */
+	uint8_t tx_queued[SWELL_USB_FFS_TX_SLOTS];
+	uint8_t link_lost; /* a transfer ended with an error: endpoints are going away */
+	uint8_t rx_buf[SWELL_USB_FFS_XFER_MAX];
+	uint8_t tx_buf[SWELL_USB_FFS_TX_SLOTS][SWELL_USB_FFS_XFER_MAX];
+	char dir[SWELL_USB_FFS_PATH_MAX];
+};
+
 /* Linux AIO through its system calls (glibc has no wrappers; libaio is not needed). */
 static int aio_setup(unsigned nr, aio_context_t *ctx)
 {
@@ -172,7 +195,7 @@ static void close_fd(int *fd)
 
 /* Close the data endpoints. Destroying the AIO context waits for (and cancels) every transfer in
  * flight, so no buffer of ours is written after this returns. */
-static void close_data(struct swell_usb_ffs *f)
+static void close_data(struct ffs_link *f)
 {
 	if (f->ctx) {
 		aio_destroy(f->ctx);
@@ -185,7 +208,12 @@ static void close_data(struct swell_usb_ffs *f)
 	f->link_lost = 0;
 }
 
-static int open_ep(const struct swell_usb_ffs *f, int n, int flags)
+static int enabled(const struct ffs_link *f)
+{
+	return f->ep_out >= 0 && f->ep_in >= 0 && f->ctx != 0;
+}
+
+static int open_ep(const struct ffs_link *f, int n, int flags)
 {
 	char path[SWELL_USB_FFS_PATH_MAX + 8];
 
@@ -193,22 +221,17 @@ static int open_ep(const struct swell_usb_ffs *f, int n, int flags)
 	return open(path, flags | O_CLOEXEC);
 }
 
-static enum swell_err write_all(struct swell_usb_ffs *f, int fd, const uint8_t *b, size_t n)
+/* 0 when all n bytes went to ep0, else a negative errno. */
+static int write_all(int fd, const uint8_t *b, size_t n)
 {
-	ssize_t w = write(fd, b, n);
+	const ssize_t w = write(fd, b, n);
 
-	if (w < 0) {
-		f->last_errno = errno;
-		return SWELL_ESTATE;
-	}
-	if ((size_t)w != n) {
-		f->last_errno = EIO;
-		return SWELL_ETRUNC;
-	}
-	return SWELL_OK;
+	if (w < 0)
+		return -errno;
+	return (size_t)w == n ? 0 : -EIO;
 }
 
-static void prep(struct swell_usb_ffs *f, struct iocb *cb, unsigned tag, int fd, uint16_t op, uint8_t *buf, size_t len)
+static void prep(struct ffs_link *f, struct iocb *cb, unsigned tag, int fd, uint16_t op, uint8_t *buf, size_t len)
 {
 	memset(cb, 0, sizeof(*cb));
 	cb->aio_data = tag;
@@ -220,20 +243,20 @@ static void prep(struct swell_usb_ffs *f, struct iocb *cb, unsigned tag, int fd,
 	cb->aio_resfd = (uint32_t)f->efd;
 }
 
-static enum swell_err queue_rx(struct swell_usb_ffs *f)
+/* One packet per transfer: a read longer than wMaxPacketSize would only end at a short packet. */
+static int queue_rx(struct ffs_link *f)
 {
-	/* One packet per transfer: a read longer than wMaxPacketSize would only end at a short packet. */
 	prep(f, &f->rx_cb, RX_TAG, f->ep_out, IOCB_CMD_PREAD, f->rx_buf, f->rx_packet);
 	if (aio_submit(f->ctx, &f->rx_cb) != 1) {
-		f->last_errno = errno;
-		return SWELL_ESTATE;
+		f->st.last_errno = errno;
+		return -1;
 	}
 	f->rx_state = 1;
-	return SWELL_OK;
+	return 0;
 }
 
 /* Collect finished transfers without waiting. */
-static void reap(struct swell_usb_ffs *f)
+static void reap(struct ffs_link *f)
 {
 	struct io_event ev[1 + SWELL_USB_FFS_TX_SLOTS];
 	uint64_t count;
@@ -252,321 +275,203 @@ static void reap(struct swell_usb_ffs *f)
 			continue;
 		}
 		if (ev[i].res < 0) {
-			f->last_errno = (int)-ev[i].res;
+			f->st.last_errno = (int)-ev[i].res;
 			f->link_lost = 1;
 		}
 	}
 }
 
-enum swell_err swell_usb_ffs_open(struct swell_usb_ffs *f, const char *dir, const struct swell_usb_ffs_iface *iface)
+/* ENABLE: the data endpoints open, at the packet size of the speed the host connected at. */
+static void enable(struct ffs_link *f)
 {
-	uint8_t desc[SWELL_USB_FFS_DESC_MAX];
-	uint8_t str[SWELL_USB_FFS_STR_MAX];
-	size_t desc_len, str_len;
-	enum swell_err err;
+	struct usb_endpoint_descriptor d;
 
-	if (!f || !dir)
-		return SWELL_EINVAL;
-	if (strlen(dir) >= sizeof(f->dir))
-		return SWELL_ESIZE;
-	err = swell_usb_ffs_descriptors(iface, desc, sizeof(desc), &desc_len);
-	if (err == SWELL_OK)
-		err = swell_usb_ffs_strings(iface, str, sizeof(str), &str_len);
-	if (err != SWELL_OK)
-		return err;
-	memset(f, 0, sizeof(*f));
-	f->ep0 = f->ep_out = f->ep_in = f->efd = -1;
-	memcpy(f->dir, dir, strlen(dir) + 1);
-
-	char path[SWELL_USB_FFS_PATH_MAX + 8];
-	snprintf(path, sizeof(path), "%s/ep0", f->dir);
-	f->ep0 = open(path, O_RDWR | O_CLOEXEC);
-	if (f->ep0 < 0) {
-		f->last_errno = errno;
-		return SWELL_ESTATE;
-	}
-	f->efd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
-	if (f->efd < 0) {
-		f->last_errno = errno;
-		err = SWELL_ESTATE;
-	} else {
-		err = write_all(f, f->ep0, desc, desc_len);
-	}
-	if (err == SWELL_OK)
-		err = write_all(f, f->ep0, str, str_len);
-	if (err != SWELL_OK) {
-		close_fd(&f->efd);
-		close_fd(&f->ep0);
-	}
-	return err;
-}
-
-static enum swell_err enable(struct swell_usb_ffs *f)
-{
 	close_data(f);
 	f->ep_out = open_ep(f, 1, O_RDONLY);
 	if (f->ep_out >= 0)
 		f->ep_in = open_ep(f, 2, O_WRONLY);
 	if (f->ep_out < 0 || f->ep_in < 0 || aio_setup(1 + SWELL_USB_FFS_TX_SLOTS, &f->ctx) < 0) {
-		f->last_errno = errno;
+		f->st.last_errno = errno;
 		f->ctx = 0;
 		close_data(f);
-		return SWELL_ESTATE;
+		return;
 	}
-	/* The descriptor of the speed the host connected at. */
-	struct usb_endpoint_descriptor d;
 	memset(&d, 0, sizeof(d));
 	f->rx_packet = 64;
 	if (ioctl(f->ep_out, FUNCTIONFS_ENDPOINT_DESC, &d) == 0 && d.wMaxPacketSize >= 8 &&
 	    d.wMaxPacketSize <= SWELL_USB_FFS_XFER_MAX)
 		f->rx_packet = d.wMaxPacketSize;
-	if (queue_rx(f) != SWELL_OK) {
+	if (queue_rx(f) != 0)
 		close_data(f);
-		return SWELL_ESTATE;
-	}
-	return SWELL_OK;
 }
 
-static void stall(struct swell_usb_ffs *f, const struct usb_ctrlrequest *req)
+/* FunctionFS stalls a control request when ep0 is used in the wrong direction. */
+static void stall(struct ffs_link *f, const struct usb_ctrlrequest *req)
 {
 	uint8_t dummy = 0;
 
-	/* FunctionFS stalls a control request when ep0 is used in the wrong direction. */
-	if (req->bRequestType & USB_DIR_IN) {
-		if (read(f->ep0, &dummy, 0) < 0)
-			f->last_errno = errno;
-	} else {
-		if (write(f->ep0, &dummy, 0) < 0)
-			f->last_errno = errno;
-	}
-	f->setup_stalled++;
+	if (((req->bRequestType & USB_DIR_IN) ? read(f->ep0, &dummy, 0) : write(f->ep0, &dummy, 0)) < 0)
+		f->st.last_errno = errno;
+	f->st.setup_stalled++;
 }
 
-enum swell_err swell_usb_ffs_poll(struct swell_usb_ffs *f, int timeout_ms, enum swell_usb_ffs_event *ev)
+/* One ep0 event, if one is waiting, acted on. */
+static void ep0_event(struct ffs_link *f)
 {
 	struct usb_functionfs_event e;
-	struct pollfd pfd;
+	struct pollfd pfd = { .fd = f->ep0, .events = POLLIN };
 
-	if (!f || !ev || f->ep0 < 0)
-		return SWELL_EINVAL;
-	*ev = SWELL_USB_FFS_NONE;
-	pfd.fd = f->ep0;
-	pfd.events = POLLIN;
-	pfd.revents = 0;
-	int r = poll(&pfd, 1, timeout_ms);
-	if (r < 0) {
-		if (errno == EINTR)
-			return SWELL_OK;
-		f->last_errno = errno;
-		return SWELL_ESTATE;
-	}
-	if (r == 0)
-		return SWELL_OK;
-	ssize_t n = read(f->ep0, &e, sizeof(e));
-	if (n < 0) {
-		f->last_errno = errno;
-		return (errno == EAGAIN || errno == EINTR) ? SWELL_OK : SWELL_ESTATE;
-	}
-	if ((size_t)n < sizeof(e))
-		return SWELL_ETRUNC;
-	switch (e.type) {
-	case FUNCTIONFS_BIND:
-		*ev = SWELL_USB_FFS_BIND;
-		break;
-	case FUNCTIONFS_UNBIND:
+	if (poll(&pfd, 1, 0) <= 0 || read(f->ep0, &e, sizeof(e)) != (ssize_t)sizeof(e))
+		return;
+	if (e.type == FUNCTIONFS_ENABLE)
+		enable(f);
+	else if (e.type == FUNCTIONFS_DISABLE || e.type == FUNCTIONFS_UNBIND)
 		close_data(f);
-		*ev = SWELL_USB_FFS_UNBIND;
-		break;
-	case FUNCTIONFS_ENABLE:
-		*ev = SWELL_USB_FFS_ENABLE;
-		return enable(f);
-	case FUNCTIONFS_DISABLE:
-		close_data(f);
-		*ev = SWELL_USB_FFS_DISABLE;
-		break;
-	case FUNCTIONFS_SETUP:
+	else if (e.type == FUNCTIONFS_SETUP)
 		stall(f, &e.u.setup);
-		*ev = SWELL_USB_FFS_SETUP;
-		break;
-	case FUNCTIONFS_SUSPEND:
-		*ev = SWELL_USB_FFS_SUSPEND;
-		break;
-	case FUNCTIONFS_RESUME:
-		*ev = SWELL_USB_FFS_RESUME;
-		break;
-	default:
-		return SWELL_EUNKNOWN;
-	}
-	return SWELL_OK;
 }
 
-int swell_usb_ffs_enabled(const struct swell_usb_ffs *f)
+/* The next finished OUT transfer, up to cap bytes (a longer one is cut): its length, 0 when none has
+ * arrived, -1 when the host went away (the DISABLE event follows on ep0). */
+static long take_rx(struct ffs_link *f, uint8_t *buf, size_t cap)
 {
-	return f && f->ep_out >= 0 && f->ep_in >= 0 && f->ctx != 0;
-}
-
-int swell_usb_ffs_data_fd(const struct swell_usb_ffs *f)
-{
-	return f ? f->efd : -1;
-}
-
-enum swell_err swell_usb_ffs_read(struct swell_usb_ffs *f, uint8_t *buf, size_t cap, size_t *len)
-{
-	if (!f || !buf || !len || cap == 0)
-		return SWELL_EINVAL;
-	if (!swell_usb_ffs_enabled(f))
-		return SWELL_ESTATE;
 	reap(f);
 	if (f->rx_state == 2 && f->rx_res >= 0) {
-		size_t n = (size_t)f->rx_res < cap ? (size_t)f->rx_res : cap;
+		const size_t n = (size_t)f->rx_res < cap ? (size_t)f->rx_res : cap;
+
 		memcpy(buf, f->rx_buf, n);
-		*len = n;
-		return queue_rx(f);
+		return queue_rx(f) == 0 ? (long)n : -1;
 	}
-	if (f->link_lost)
-		return SWELL_ESTATE;
-	*len = 0;
-	return SWELL_OK;
+	return f->link_lost ? -1 : 0;
 }
-
-enum swell_err swell_usb_ffs_write(struct swell_usb_ffs *f, const uint8_t *buf, size_t len)
-{
-	if (!f || (!buf && len))
-		return SWELL_EINVAL;
-	if (len > SWELL_USB_FFS_XFER_MAX)
-		return SWELL_ESIZE;
-	if (!swell_usb_ffs_enabled(f))
-		return SWELL_ESTATE;
-	reap(f);
-	if (f->link_lost)
-		return SWELL_ESTATE;
-	for (int k = 0; k < SWELL_USB_FFS_TX_SLOTS; k++) {
-		if (f->tx_queued[k])
-			continue;
-		if (len)
-			memcpy(f->tx_buf[k], buf, len);
-		prep(f, &f->tx_cb[k], TX_TAG(k), f->ep_in, IOCB_CMD_PWRITE, f->tx_buf[k], len);
-		if (aio_submit(f->ctx, &f->tx_cb[k]) != 1) {
-			f->last_errno = errno;
-			return SWELL_ESTATE;
-		}
-		f->tx_queued[k] = 1;
-		return SWELL_OK;
-	}
-	f->tx_busy_drops++;
-	return SWELL_ESIZE;
-}
-
-void swell_usb_ffs_close(struct swell_usb_ffs *f)
-{
-	if (!f)
-		return;
-	close_data(f);
-	close_fd(&f->efd);
-	close_fd(&f->ep0);
-}
-
-/* ---- the link: packets through the two bulk endpoints ---- */
-
-struct ffs_link {
-	struct swell_link base;
-	struct swell_usb_ffs usb;
-	int up; /* endpoints enabled at the last look at ep0, and no read has failed since */
-};
 
 /* Never waits for the host: a packet goes into a free IN slot or is refused. -ENODEV while the host
- * has not enabled the interface (or a read found it gone), -EBUSY when every IN slot is in flight or
- * the host is going away (the DISABLE event follows). */
-static int ffs_send(struct swell_link *l, const struct swell_frame *f)
+ * has not enabled the interface (or a receive found it gone), -EBUSY when every IN slot is in flight
+ * or the host is going away (the DISABLE event follows). */
+static int ffs_send(struct swell_link *l, const struct swell_frame *fr)
 {
-	struct ffs_link *u = (struct ffs_link *)l;
+	struct ffs_link *f = (struct ffs_link *)l;
 
-	if (!u->up)
+	if (!f->up)
 		return -ENODEV;
-	return swell_usb_ffs_write(&u->usb, f->data, f->len) == SWELL_OK ? 0 : -EBUSY;
+	if (!enabled(f))
+		return -EBUSY;
+	reap(f);
+	for (int k = 0; k < SWELL_USB_FFS_TX_SLOTS && !f->link_lost; k++) {
+		if (f->tx_queued[k])
+			continue;
+		memcpy(f->tx_buf[k], fr->data, fr->len);
+		prep(f, &f->tx_cb[k], TX_TAG(k), f->ep_in, IOCB_CMD_PWRITE, f->tx_buf[k], fr->len);
+		if (aio_submit(f->ctx, &f->tx_cb[k]) != 1) {
+			f->st.last_errno = errno;
+			return -EBUSY;
+		}
+		f->tx_queued[k] = 1;
+		return 0;
+	}
+	f->st.tx_busy_drops += !f->link_lost;
+	return -EBUSY;
 }
 
-/* One packet: ep0's events first (ENABLE opens the data endpoints, DISABLE and UNBIND close them),
- * then a finished OUT transfer; until the deadline, sleep on both. */
-static int ffs_recv(struct swell_link *l, struct swell_frame *f, int timeout_ms)
+/* One packet: ep0's events first, then a finished OUT transfer; until the deadline, sleep on both. */
+static int ffs_recv(struct swell_link *l, struct swell_frame *fr, int timeout_ms)
 {
-	struct ffs_link *u = (struct ffs_link *)l;
+	struct ffs_link *f = (struct ffs_link *)l;
 	const uint64_t deadline = swell_link_deadline(timeout_ms);
 
 	for (;;) {
-		enum swell_usb_ffs_event ev = SWELL_USB_FFS_NONE;
-		size_t len = 0;
+		long n = 0;
 		int ms;
 
-		swell_usb_ffs_poll(&u->usb, 0, &ev);
-		u->up = swell_usb_ffs_enabled(&u->usb);
-		if (u->up && swell_usb_ffs_read(&u->usb, f->data, SWELL_LINK_MTU, &len) == SWELL_ESTATE)
-			u->up = 0;
-		if (u->up && len > 0) {
-			f->t_ns = swell_link_now_ns();
-			f->id = 0;
-			f->flags = 0;
-			f->len = (uint16_t)len;
+		ep0_event(f);
+		f->up = enabled(f);
+		if (f->up && (n = take_rx(f, fr->data, SWELL_LINK_MTU)) < 0)
+			f->up = 0;
+		if (f->up && n > 0) {
+			fr->t_ns = swell_link_now_ns();
+			fr->id = 0;
+			fr->flags = 0;
+			fr->len = (uint16_t)n;
 			return 0;
 		}
 		ms = swell_link_ms_left(deadline, timeout_ms);
 		if (ms == 0)
-			return u->up ? -ETIMEDOUT : -ENODEV;
-		struct pollfd p[2] = { { .fd = u->usb.ep0, .events = POLLIN }, { .fd = u->usb.efd, .events = POLLIN } };
+			return f->up ? -ETIMEDOUT : -ENODEV;
+		struct pollfd p[2] = { { .fd = f->ep0, .events = POLLIN }, { .fd = f->efd, .events = POLLIN } };
 		if (poll(p, 2, ms) < 0 && errno != EINTR)
 			return -errno;
 	}
 }
 
+/* The data endpoints cannot be polled: their AIO eventfd can. */
 static int ffs_poll_fd(const struct swell_link *l)
 {
-	const struct ffs_link *u = (const struct ffs_link *)l;
+	const struct ffs_link *f = (const struct ffs_link *)l;
 
-	return u->up ? u->usb.efd : u->usb.ep0; /* the data endpoints cannot be polled: their AIO eventfd can */
+	return f->up ? f->efd : f->ep0;
 }
 
 static void ffs_close(struct swell_link *l)
 {
-	struct ffs_link *u = (struct ffs_link *)l;
+	struct ffs_link *f = (struct ffs_link *)l;
 
-	swell_usb_ffs_close(&u->usb);
-	free(u);
+	close_data(f);
+	close_fd(&f->efd);
+	close_fd(&f->ep0);
+	free(f);
 }
 
 static const struct swell_link_ops ffs_ops = { ffs_send, ffs_recv, ffs_close, ffs_poll_fd };
 
-static int errno_of(enum swell_err e, int last_errno)
+/* ep0 and the eventfd opened, the descriptors and strings written: the function can be bound to a UDC. */
+static int open_ep0(struct ffs_link *f, const struct swell_usb_ffs_iface *iface)
 {
-	if (last_errno)
-		return -last_errno;
-	return e == SWELL_ESIZE ? -ENAMETOOLONG : -EINVAL;
+	uint8_t desc[SWELL_USB_FFS_DESC_MAX], str[SWELL_USB_FFS_STR_MAX];
+	size_t desc_len = 0, str_len = 0;
+	char path[SWELL_USB_FFS_PATH_MAX + 8];
+	enum swell_err e = swell_usb_ffs_descriptors(iface, desc, sizeof(desc), &desc_len);
+	int rc;
+
+	if (e == SWELL_OK)
+		e = swell_usb_ffs_strings(iface, str, sizeof(str), &str_len);
+	if (e != SWELL_OK)
+		return -EINVAL;
+	snprintf(path, sizeof(path), "%s/ep0", f->dir);
+	f->ep0 = open(path, O_RDWR | O_CLOEXEC);
+	if (f->ep0 < 0)
+		return -errno;
+	f->efd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+	rc = f->efd < 0 ? -errno : write_all(f->ep0, desc, desc_len);
+	return rc ? rc : write_all(f->ep0, str, str_len);
 }
 
 int swell_link_open_ffs(struct swell_link **out, const char *dir, const struct swell_usb_ffs_iface *iface)
 {
-	struct ffs_link *u;
-	enum swell_err e;
+	struct ffs_link *f;
+	int rc;
 
 	if (!out || !dir)
 		return -EINVAL;
-	u = calloc(1, sizeof(*u));
-	if (!u)
+	if (strlen(dir) >= SWELL_USB_FFS_PATH_MAX)
+		return -ENAMETOOLONG;
+	f = calloc(1, sizeof(*f));
+	if (!f)
 		return -ENOMEM;
-	e = swell_usb_ffs_open(&u->usb, dir, iface);
-	if (e != SWELL_OK) {
-		const int rc = errno_of(e, u->usb.last_errno);
-
-		free(u);
+	f->ep0 = f->ep_out = f->ep_in = f->efd = -1;
+	memcpy(f->dir, dir, strlen(dir) + 1);
+	rc = open_ep0(f, iface);
+	if (rc) {
+		ffs_close(&f->base);
 		return rc;
 	}
-	u->base.ops = &ffs_ops;
-	u->base.carrier = SWELL_CARRIER_PKT;
-	snprintf(u->base.name, sizeof(u->base.name), "usb:%s", dir);
-	*out = &u->base;
+	f->base.ops = &ffs_ops;
+	f->base.carrier = SWELL_CARRIER_PKT;
+	snprintf(f->base.name, sizeof(f->base.name), "usb:%s", dir);
+	*out = &f->base;
 	return 0;
 }
 
-const struct swell_usb_ffs *swell_link_ffs(const struct swell_link *l)
+const struct swell_usb_ffs_stats *swell_link_ffs_stats(const struct swell_link *l)
 {
-	return (l && l->ops == &ffs_ops) ? &((const struct ffs_link *)l)->usb : NULL;
+	return (l && l->ops == &ffs_ops) ? &((const struct ffs_link *)l)->st : NULL;
 }
