@@ -1,4 +1,5 @@
-// The messages the tests build, every field not named 0 (node 0): a parameter request, a device sample.
+// The messages the tests build, every field not named 0 (node 0): a parameter request, a device
+// sample. A UDP end that speaks them: swell_msg_udp.hpp.
 #ifndef SWELL_TEST_MSGS_HPP
 #define SWELL_TEST_MSGS_HPP
 

@@ -3,7 +3,7 @@
  * the UDP peers and clients. The CAN bus state itself is the link library's (test_links.cpp there). */
 #include <catch2/catch.hpp>
 
-#include "swell_msgs.hpp"
+#include "swell_msg_udp.hpp"
 
 #include <dirent.h>
 #include <linux/can.h>
@@ -301,48 +301,25 @@ TEST_CASE("UDP host link: clients on 127.0.0.1:47802 unless given, a second cont
 
 namespace {
 
-struct UdpEnd {
-	int fd = -1;
-	struct sockaddr_in a;
-	UdpEnd()
-	{
-		socklen_t al = sizeof(a);
-
-		fd = socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK, 0);
-		REQUIRE(fd >= 0);
-		memset(&a, 0, sizeof(a));
-		a.sin_family = AF_INET;
-		a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-		REQUIRE(bind(fd, (struct sockaddr *)&a, sizeof(a)) == 0);
-		REQUIRE(getsockname(fd, (struct sockaddr *)&a, &al) == 0);
-	}
-	~UdpEnd() { close(fd); }
+/* A UDP end on loopback that sends a message with every field valid (at its minimum) to a link. */
+struct UdpEnd : swell_test::MsgUdp {
 	void send(const struct ctl_link &to, uint8_t type)
 	{
-		struct swell_msg m;
-		uint8_t pkt[SWELL_PKT_MAX];
-		size_t len = 0, used = 0;
-
 		const struct swell_msg_desc *d = swell_msg_desc_find(type);
+		struct swell_msg m;
 
 		REQUIRE(d != nullptr);
 		memset(&m, 0, sizeof(m));
 		m.type = type;
-		for (unsigned k = 0; k < d->nfields; k++) /* every field valid: at its minimum */
+		for (unsigned k = 0; k < d->nfields; k++)
 			REQUIRE(swell_msg_field_set(&m, &d->fields[k], d->fields[k].min) == SWELL_OK);
-		REQUIRE(swell_pkt_encode(0, 0, &m, 1, pkt, sizeof(pkt), &len, &used) == SWELL_OK);
-		REQUIRE(sendto(fd, pkt, len, 0, (const struct sockaddr *)&to.local, sizeof(to.local)) == (ssize_t)len);
+		REQUIRE(MsgUdp::send(ntohs(to.local.sin_port), &m) == 0);
 	}
 	/* datagrams waiting, read */
 	int got()
 	{
-		uint8_t buf[SWELL_PKT_MAX];
-		int n = 0;
-
 		std::this_thread::sleep_for(std::chrono::milliseconds(5));
-		while (recv(fd, buf, sizeof(buf), 0) > 0)
-			n++;
-		return n;
+		return drain();
 	}
 };
 
@@ -396,7 +373,7 @@ TEST_CASE("UDP device link: the first sender of DEVICE_POS is the device, held a
 	{
 		/* a free port, then the link on it */
 		UdpEnd probe;
-		const std::string spec = "udp:" + std::to_string(ntohs(probe.a.sin_port));
+		const std::string spec = "udp:" + std::to_string(probe.port);
 		close(probe.fd);
 		probe.fd = -1;
 		REQUIRE(ctl_link_open(&l, spec.c_str(), 1, 0, err, sizeof(err)) == 0);
@@ -459,8 +436,7 @@ TEST_CASE("UDP device link: a configured device is never let go, others are refu
 	}
 	/* a free port, then the link on it with the device's address (loopback when only the port is given) */
 	UdpEnd probe;
-	const std::string good =
-		"udp:" + std::to_string(ntohs(probe.a.sin_port)) + ",peer=" + std::to_string(ntohs(dev.a.sin_port));
+	const std::string good = "udp:" + std::to_string(probe.port) + ",peer=" + std::to_string(dev.port);
 	close(probe.fd);
 	probe.fd = -1;
 	REQUIRE(ctl_link_open(&l, good.c_str(), 1, 0, err, sizeof(err)) == 0);
