@@ -8,6 +8,7 @@
 #include <catch2/catch.hpp>
 
 #include <arpa/inet.h>
+#include <dirent.h>
 #include <fcntl.h>
 #include <netinet/in.h>
 #include <signal.h>
@@ -190,6 +191,18 @@ inline void check_help(const std::string &bin)
 	CHECK(r.out.find("Exit status: 0 ") != std::string::npos);
 	CHECK(r.out.find("1 ") != std::string::npos);
 	CHECK(r.out.find("2 bad arguments") != std::string::npos);
+}
+
+// Files this process has open now (to see that a failed open left none behind).
+inline int open_fds()
+{
+	int n = 0;
+	DIR *d = opendir("/proc/self/fd");
+	REQUIRE(d);
+	while (readdir(d))
+		n++;
+	closedir(d);
+	return n;
 }
 
 // A socket of type (SOCK_DGRAM, SOCK_STREAM) bound to loopback on a port of the kernel's choosing;

@@ -4,8 +4,8 @@
 #include <catch2/catch.hpp>
 
 #include "swell_msg_udp.hpp"
+#include "swell_test.hpp"
 
-#include <dirent.h>
 #include <linux/can.h>
 #include <netinet/in.h>
 #include <linux/can/error.h>
@@ -228,22 +228,6 @@ TEST_CASE("CAN link: the zero force on exit gives up after its wait when the que
 	CHECK(ms < 1000);
 }
 
-namespace {
-
-int open_fds()
-{
-	int n = 0;
-	DIR *d = opendir("/proc/self/fd");
-
-	REQUIRE(d);
-	while (readdir(d))
-		n++;
-	closedir(d);
-	return n;
-}
-
-} // namespace
-
 TEST_CASE("UDP link: an open that fails (port taken) leaves no socket open and names the reason", "[ctl_link]")
 {
 	int taken = socket(AF_INET, SOCK_DGRAM, 0);
@@ -259,9 +243,9 @@ TEST_CASE("UDP link: an open that fails (port taken) leaves no socket open and n
 	const std::string spec = "udp:" + std::to_string(ntohs(a.sin_port));
 	struct ctl_link l;
 	char err[160] = "";
-	const int before = open_fds();
+	const int before = swell_test::open_fds();
 	CHECK(ctl_link_open(&l, spec.c_str(), 1, 0, err, sizeof(err)) == -1);
-	const int after = open_fds();
+	const int after = swell_test::open_fds();
 	INFO("open files before " << before << ", after " << after << "; reason: " << err);
 	CHECK(after == before);
 	CHECK(l.fd == -1);

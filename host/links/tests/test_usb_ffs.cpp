@@ -1,30 +1,17 @@
 // FunctionFS: the descriptor and string blocks, what a rejected input leaves behind, a link that
 // cannot be opened.
-#include <catch2/catch.hpp>
+#include "swell_test.hpp"
 
 #include <cerrno>
 #include <cstring>
 #include <string>
 #include <vector>
 
-#include <dirent.h>
-
 extern "C" {
 #include "swell/link.h"
 }
 
 namespace {
-
-int open_fds()
-{
-	int n = 0;
-	DIR *d = opendir("/proc/self/fd");
-	REQUIRE(d);
-	while (readdir(d))
-		n++;
-	closedir(d);
-	return n;
-}
 
 uint32_t le32(const uint8_t *p) { return p[0] | p[1] << 8 | p[2] << 16 | (uint32_t)p[3] << 24; }
 uint16_t le16(const uint8_t *p) { return (uint16_t)(p[0] | p[1] << 8); }
@@ -144,7 +131,7 @@ TEST_CASE("FunctionFS link: a rejected argument or a missing ep0 opens nothing a
 	swell_usb_ffs_iface it = vendor_iface();
 	swell_link *l = nullptr;
 	const std::string long_dir(SWELL_USB_FFS_PATH_MAX, 'd');
-	const int fds = open_fds();
+	const int fds = swell_test::open_fds();
 
 	CHECK(swell_link_open_ffs(&l, long_dir.c_str(), &it) == -ENAMETOOLONG);
 	it.fs_packet = 65;
@@ -153,6 +140,6 @@ TEST_CASE("FunctionFS link: a rejected argument or a missing ep0 opens nothing a
 	CHECK(swell_link_open_ffs(&l, "/nonexistent-ffs", &it) == -ENOENT);
 	CHECK(swell_link_open_ffs(&l, "/dev/null", &it) == -ENOTDIR);
 	CHECK(l == nullptr);
-	CHECK(open_fds() == fds); /* the failed opens left nothing open */
+	CHECK(swell_test::open_fds() == fds); /* the failed opens left nothing open */
 	CHECK(swell_link_ffs_stats(nullptr) == nullptr);
 }
