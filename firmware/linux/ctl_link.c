@@ -133,14 +133,13 @@ int ctl_link_fd(const struct ctl_link *l)
  * bus) are counted and dropped, never acted on. */
 static size_t own_node(struct ctl_link *l, struct swell_msg *m, size_t n)
 {
-	size_t k, kept = 0;
+	size_t kept = 0;
 
-	for (k = 0; k < n; k++) {
+	for (size_t k = 0; k < n; k++)
 		if (m[k].node != l->node)
 			l->foreign++;
 		else
 			m[kept++] = m[k];
-	}
 	return kept;
 }
 
@@ -233,9 +232,7 @@ static int has_destination(const struct ctl_link *l)
 
 static int has_answer(const struct swell_msg *m, size_t n)
 {
-	size_t k;
-
-	for (k = 0; k < n; k++)
+	for (size_t k = 0; k < n; k++)
 		if (m[k].type == SWELL_MSG_PARAM_ACK || m[k].type == SWELL_MSG_PARAM_NACK)
 			return 1;
 	return 0;

@@ -345,9 +345,8 @@ static long take_rx(struct ffs_link *f, uint8_t *buf, size_t cap)
 	return f->link_lost ? -1 : 0;
 }
 
-/* Never waits for the host: a packet goes into a free IN slot or is refused. -ENODEV while the host
- * has not enabled the interface (or a receive found it gone), -EBUSY when every IN slot is in flight
- * or the host is going away (the DISABLE event follows). */
+/* A packet into a free IN slot, or refused at once (-EBUSY also while the host is going away: the
+ * DISABLE event follows). */
 static int ffs_send(struct swell_link *l, const struct swell_frame *fr)
 {
 	struct ffs_link *f = (struct ffs_link *)l;

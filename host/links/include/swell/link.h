@@ -153,12 +153,10 @@ struct swell_usb_opts {
 int swell_link_open_usb(struct swell_link **out, const struct swell_usb_opts *opts);
 void swell_usb_opts_default(struct swell_usb_opts *o);
 
-/* FunctionFS, the USB device's side: the descriptors and strings of iface written to DIR/ep0 of a
- * mounted instance (the gadget around it is set up in configfs by the caller). Nothing waits for the
- * host after open: receive looks at ep0's events and takes a finished OUT transfer (with a timeout,
- * it sleeps on both); send queues into one of SWELL_USB_FFS_TX_SLOTS IN slots (swell/usb_ffs.h). Send returns -ENODEV while
- * the host has not enabled the interface or a receive found it gone, -EBUSY when every IN slot is in
- * flight. Open: the system's errno (-ENOENT: no such mount), -EINVAL for a bad iface, -ENAMETOOLONG. */
+/* FunctionFS, the USB device's side (swell/usb_ffs.h): iface's descriptors and strings written to
+ * DIR/ep0 of a mounted instance that the caller set up in configfs. Never waits for the host. Send:
+ * -ENODEV while the host has not enabled the interface (or is gone), -EBUSY with every IN slot busy. Open: the
+ * system's errno (-ENOENT: no such mount), -EINVAL for a bad iface, -ENAMETOOLONG. */
 int swell_link_open_ffs(struct swell_link **out, const char *dir, const struct swell_usb_ffs_iface *iface);
 /* The counters of a FunctionFS link, NULL for any other link. */
 const struct swell_usb_ffs_stats *swell_link_ffs_stats(const struct swell_link *l);

@@ -1,10 +1,7 @@
-/* Who may talk on a UDP socket that serves more than one sender: swell-ctl's device link (one device,
- * configured or the first sender of this node's DEVICE_POS, held until let go) and host link (the
- * configured viewer address and a bounded table of clients, each admitted by its first valid packet
- * and dropped after SWELL_UDP_CLIENT_SILENT_MS without one). docs/links.md has the rules.
- *
- * Pure: no I/O. The caller reads (swell_udp_recv), asks swell_peers_hear before decoding and
- * swell_peers_take after, and sends to swell_peers_dests. Times are CLOCK_MONOTONIC ns. */
+/* Who may talk on a UDP socket that serves more than one sender: swell-ctl's device link and host
+ * link (docs/links.md has the rules). Pure: no I/O. The caller reads (swell_udp_recv), asks
+ * swell_peers_hear before decoding and swell_peers_take after, and sends to swell_peers_dests. Times
+ * are CLOCK_MONOTONIC ns. */
 #ifndef SWELL_LINK_PEERS_H
 #define SWELL_LINK_PEERS_H
 
