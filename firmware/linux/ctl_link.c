@@ -3,139 +3,46 @@
 
 #include <arpa/inet.h>
 #include <errno.h>
-#include <fcntl.h>
 #include <linux/can.h>
 #include <linux/can/error.h>
-#include <linux/can/raw.h>
 #include <stdio.h>
-#include <stdlib.h>
 #include <string.h>
-#include <sys/socket.h>
 #include <time.h>
 #include <unistd.h>
-
-#include "swell/link.h"
-#include "swell/transport.h"
 
 /* hm: an answer to a request sent more than this many ticks ago is stale: a silent device tick */
 #define CTL_HM_MAX_AGE_TICKS 2
 
-/* The reason first (close may change errno), then the socket goes: a failed open leaves nothing open. */
-static int fail(struct ctl_link *l, char *err, size_t len, const char *what, const char *spec)
+/* The socket layer leaves nothing open when it refuses (rc, a negative errno): the reason is said. */
+static int refused(char *err, size_t len, const char *what, const char *spec, int rc)
 {
-	snprintf(err, len, "%s %s: %s", what, spec, strerror(errno));
-	if (l->fd >= 0)
-		close(l->fd);
-	l->fd = -1;
+	snprintf(err, len, "%s %s: %s", what, spec, strerror(-rc));
 	return -1;
 }
 
 static int open_udp(struct ctl_link *l, const char *spec, const struct swell_link_spec *ls, int device_side, char *err,
 		    size_t errlen)
 {
-	const long port = ls->port;
 	const int have_opt = device_side ? ls->have_peer : ls->have_listen;
-	struct sockaddr_in a;
+	struct sockaddr_in a, viewer;
 
 	memset(&a, 0, sizeof(a));
 	a.sin_family = AF_INET;
 	a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-	a.sin_port = htons((uint16_t)(device_side ? port : SWELL_UDP_PORT_CLIENTS));
+	viewer = a;
+	viewer.sin_port = htons(ls->port);
+	a.sin_port = htons((uint16_t)(device_side ? ls->port : SWELL_UDP_PORT_CLIENTS));
 	if (!device_side && have_opt)
 		a = ls->listen_at; /* the clients' port (and address, when spelled out) */
 	/* the default clients' port is another controller's: this one takes any free port (said at
 	 * start); a port spelled out is never swapped for another */
-	l->fd = swell_udp_socket(&a, 1, !device_side && !have_opt, &l->clients_port_taken, &l->local);
-	if (l->fd < 0) {
-		errno = -l->fd;
-		l->fd = -1;
-		return fail(l, err, errlen, "bind", spec);
-	}
-	if (!device_side) {
-		a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-		a.sin_port = htons((uint16_t)port);
-		l->peer = a;
-		l->have_peer = l->peer_fixed = 1;
-	} else if (have_opt) {
-		l->peer = ls->peer;
-		l->have_peer = l->peer_fixed = 1;
-	}
-	snprintf(l->name, sizeof(l->name), "udp:%ld", port);
+	const int fd = swell_udp_socket(&a, 1, !device_side && !have_opt, &l->clients_port_taken, &l->local);
+	if (fd < 0)
+		return refused(err, errlen, "bind", spec, fd);
+	l->fd = fd;
+	swell_peers_init(&l->peers, device_side, device_side ? (have_opt ? &ls->peer : NULL) : &viewer);
+	snprintf(l->name, sizeof(l->name), "udp:%u", (unsigned)ls->port);
 	return 0;
-}
-
-const char *ctl_can_state_name(enum ctl_can_state s)
-{
-	switch (s) {
-	case CTL_CAN_ACTIVE:
-		return "error-active";
-	case CTL_CAN_WARNING:
-		return "error-warning";
-	case CTL_CAN_PASSIVE:
-		return "error-passive";
-	case CTL_CAN_BUS_OFF:
-		return "bus-off";
-	}
-	return "?";
-}
-
-enum ctl_can_event ctl_can_error_frame(struct ctl_can_health *h, uint32_t can_id, const uint8_t d[8])
-{
-	enum ctl_can_state before, now;
-
-	if (!h || !d || !(can_id & CAN_ERR_FLAG))
-		return CTL_CAN_EV_NONE;
-	before = now = (enum ctl_can_state)h->state;
-	h->error_frames++;
-	if (can_id & (CAN_ERR_CNT | CAN_ERR_CRTL)) { /* drivers put the counters in data[6], data[7] */
-		h->tx_err = d[6];
-		h->rx_err = d[7];
-	}
-	h->tx_timeouts += (can_id & CAN_ERR_TX_TIMEOUT) != 0;
-	h->lost_arb += (can_id & CAN_ERR_LOSTARB) != 0;
-	h->no_ack += (can_id & CAN_ERR_ACK) != 0;
-	h->prot += (can_id & CAN_ERR_PROT) != 0;
-	h->transceiver += (can_id & CAN_ERR_TRX) != 0;
-	if (can_id & CAN_ERR_CRTL) {
-		h->overflows += (d[1] & (CAN_ERR_CRTL_RX_OVERFLOW | CAN_ERR_CRTL_TX_OVERFLOW)) != 0;
-		if (before != CTL_CAN_BUS_OFF) { /* only a restart leaves bus-off, not a counter report */
-			if (d[1] & (CAN_ERR_CRTL_RX_PASSIVE | CAN_ERR_CRTL_TX_PASSIVE))
-				now = CTL_CAN_PASSIVE;
-			else if (d[1] & (CAN_ERR_CRTL_RX_WARNING | CAN_ERR_CRTL_TX_WARNING))
-				now = CTL_CAN_WARNING;
-		}
-		if (d[1] & CAN_ERR_CRTL_ACTIVE)
-			now = CTL_CAN_ACTIVE;
-	}
-	if (can_id & CAN_ERR_RESTARTED) {
-		now = CTL_CAN_ACTIVE;
-		if (!(can_id & CAN_ERR_CNT)) /* a restarted controller starts with clear counters */
-			h->tx_err = h->rx_err = 0;
-	}
-	if (can_id & CAN_ERR_BUSOFF) /* wins over a restart in the same frame: fail safe */
-		now = CTL_CAN_BUS_OFF;
-	if (now == before)
-		return CTL_CAN_EV_NONE;
-	h->state = (uint8_t)now;
-	switch (now) {
-	case CTL_CAN_BUS_OFF:
-		h->bus_offs++;
-		return CTL_CAN_EV_BUS_OFF;
-	case CTL_CAN_PASSIVE:
-		h->passives++;
-		break;
-	case CTL_CAN_WARNING:
-		h->warnings++;
-		break;
-	case CTL_CAN_ACTIVE:
-		h->actives++;
-		break;
-	}
-	if (before == CTL_CAN_BUS_OFF) {
-		h->restarts++;
-		return CTL_CAN_EV_RESTARTED;
-	}
-	return CTL_CAN_EV_STATE;
 }
 
 static int open_can(struct ctl_link *l, const char *spec, const char *iface, char *err, size_t errlen)
@@ -146,17 +53,16 @@ static int open_can(struct ctl_link *l, const char *spec, const char *iface, cha
 						  CAN_ERR_PROT | CAN_ERR_TRX | CAN_ERR_ACK | CAN_ERR_BUSOFF |
 						  CAN_ERR_RESTARTED | CAN_ERR_CNT };
 
-	l->fd = swell_can_socket(iface, &o, 1);
-	if (l->fd < 0) {
-		errno = -l->fd;
-		l->fd = -1;
-		return fail(l, err, errlen, "CAN", spec);
-	}
+	const int fd = swell_can_socket(iface, &o, 1);
+	if (fd < 0)
+		return refused(err, errlen, "CAN", spec, fd);
+	l->fd = fd;
 	snprintf(l->name, sizeof(l->name), "%s", spec); /* can:IFACE */
 	return 0;
 }
 
-static int open_usb(struct ctl_link *l, const char *spec, const char *dir, int device_side, char *err, size_t errlen)
+static int open_usb(struct ctl_link *l, const char *spec, const struct swell_link_spec *ls, int device_side, char *err,
+		    size_t errlen)
 {
 	/* each link its own FunctionFS function: interface 0 the device link, 1 the host link when both
 	 * are on USB (the gadget numbers them in the order they are linked into the configuration) */
@@ -167,18 +73,13 @@ static int open_usb(struct ctl_link *l, const char *spec, const char *dir, int d
 		.fs_packet = SWELL_USB_PACKET,
 		.name = device_side ? "swell controller: device link" : "swell controller: host link",
 	};
-	enum swell_err e;
+	const struct swell_link_open_opts o = { .ffs_iface = &iface };
+	const int rc = swell_link_open_spec(&l->usb, ls, &o);
 
-	e = swell_usb_ffs_open(&l->usb, dir, &iface);
-	if (e != SWELL_OK) {
-		/* the OS's reason when there is one, not swell's code for it */
-		if (l->usb.last_errno)
-			snprintf(err, errlen, "%s: FunctionFS open failed: %s", spec, strerror(l->usb.last_errno));
-		else
-			snprintf(err, errlen, "%s: FunctionFS open failed: %s", spec, swell_err_str(e));
+	if (rc < 0) {
+		snprintf(err, errlen, "%s: FunctionFS open failed: %s", spec, strerror(-rc));
 		return -1;
 	}
-	l->fd = l->usb.ep0;
 	snprintf(l->name, sizeof(l->name), "%s", spec); /* usb:FFS_DIR */
 	return 0;
 }
@@ -193,7 +94,6 @@ int ctl_link_open(struct ctl_link *l, const char *spec, int device_side, uint8_t
 	memset(l, 0, sizeof(*l));
 	l->fd = -1;
 	l->node = node;
-	l->device_side = device_side;
 	if (swell_link_spec_parse(spec, accept, device_side ? SWELL_UDP_PORT_DEVICE : SWELL_UDP_PORT_VIEWER, &ls, err,
 				  errlen))
 		return -2;
@@ -213,7 +113,7 @@ int ctl_link_open(struct ctl_link *l, const char *spec, int device_side, uint8_t
 		return open_can(l, spec, ls.name, err, errlen);
 	case SWELL_LINK_FFS:
 		l->kind = CTL_LINK_USB;
-		return open_usb(l, spec, ls.name, device_side, err, errlen);
+		return open_usb(l, spec, &ls, device_side, err, errlen);
 	default:
 		break;
 	}
@@ -224,8 +124,8 @@ int ctl_link_fd(const struct ctl_link *l)
 {
 	if (l->kind == CTL_LINK_HM)
 		return hm_client_fd(&l->hm);
-	if (l->kind == CTL_LINK_USB) /* FunctionFS data endpoints cannot be polled: their AIO eventfd can */
-		return l->usb_up ? swell_usb_ffs_data_fd(&l->usb) : l->usb.ep0;
+	if (l->kind == CTL_LINK_USB)
+		return swell_link_poll_fd(l->usb);
 	return l->fd;
 }
 
@@ -233,185 +133,49 @@ int ctl_link_fd(const struct ctl_link *l)
  * bus) are counted and dropped, never acted on. */
 static size_t own_node(struct ctl_link *l, struct swell_msg *m, size_t n)
 {
-	size_t k, kept = 0;
+	size_t kept = 0;
 
-	for (k = 0; k < n; k++) {
+	for (size_t k = 0; k < n; k++)
 		if (m[k].node != l->node)
 			l->foreign++;
 		else
 			m[kept++] = m[k];
-	}
 	return kept;
 }
 
 static size_t recv_usb(struct ctl_link *l, struct swell_msg *out, size_t cap)
 {
-	uint8_t buf[SWELL_PKT_MAX];
-	size_t len = 0, n = 0;
-	uint8_t seq;
-	enum swell_err e;
+	struct swell_frame f;
+	size_t n = 0;
 
-	enum swell_usb_ffs_event ev = SWELL_USB_FFS_NONE;
-
-	/* ep0 events first (enable opens the data endpoints, disable and unbind close them) */
-	swell_usb_ffs_poll(&l->usb, 0, &ev);
-	l->usb_up = swell_usb_ffs_enabled(&l->usb);
-	if (!l->usb_up)
-		return 0;
-	/* never waits: *len is 0 when no OUT transfer has finished */
-	e = swell_usb_ffs_read(&l->usb, buf, sizeof(buf), &len);
-	if (e == SWELL_ESTATE) {
-		l->usb_up = 0;
-		return 0;
-	}
-	if (e != SWELL_OK || len == 0)
+	if (swell_link_recv(l->usb, &f, 0) != 0) /* never waits */
 		return 0;
 	l->frames_rx++;
-	if (swell_pkt_decode(buf, len, out, cap, &n, &seq, &l->st) != SWELL_OK)
+	if (swell_link_decode(SWELL_CARRIER_PKT, &f, out, cap, &n, NULL, &l->st) != SWELL_OK)
 		return 0;
 	return own_node(l, out, n);
 }
 
-static int64_t mono_ns(void)
-{
-	struct timespec t;
-
-	clock_gettime(CLOCK_MONOTONIC, &t);
-	return (int64_t)t.tv_sec * 1000000000 + t.tv_nsec;
-}
-
-static int has_type(const struct swell_msg *m, size_t n, uint8_t type)
-{
-	size_t k;
-
-	for (k = 0; k < n; k++)
-		if (m[k].type == type)
-			return 1;
-	return 0;
-}
-
-/* Host link: a client's HEARTBEAT is its keep-alive, taken here: the core has nothing to do with it. */
-static size_t keep_alives_out(struct swell_msg *m, size_t n)
-{
-	size_t k, kept = 0;
-
-	for (k = 0; k < n; k++)
-		if (m[k].type != SWELL_MSG_HEARTBEAT)
-			m[kept++] = m[k];
-	return kept;
-}
-
-/* Host link: clients silent for longer than CTL_LINK_CLIENT_SILENT_MS lose their slot. */
-static void expire_clients(struct ctl_link *l, int64_t now)
-{
-	const int64_t silent_ns = (int64_t)CTL_LINK_CLIENT_SILENT_MS * 1000000;
-	size_t k;
-
-	for (k = 0; k < CTL_LINK_CLIENTS; k++)
-		if (l->clients[k].heard_ns && now - l->clients[k].heard_ns > silent_ns) {
-			l->clients[k].heard_ns = 0;
-			l->clients_silent++;
-		}
-}
-
-/* Host link: the client slot of from (taking a free one when admit), or NULL. */
-static struct ctl_link_client *client_of(struct ctl_link *l, const struct sockaddr_in *from, int admit)
-{
-	struct ctl_link_client *free_slot = NULL;
-	size_t k;
-
-	for (k = 0; k < CTL_LINK_CLIENTS; k++) {
-		struct ctl_link_client *c = &l->clients[k];
-
-		if (c->heard_ns && swell_udp_same(&c->addr, from))
-			return c;
-		if (!c->heard_ns && !free_slot)
-			free_slot = c;
-	}
-	if (!admit || !free_slot)
-		return NULL;
-	free_slot->addr = *from;
-	l->clients_admitted++;
-	return free_slot;
-}
-
-/* UDP. Device link: once the device is held, any other sender's datagram is counted and dropped
- * before it is decoded; until then only a packet holding this node's DEVICE_POS is taken, and its
- * sender becomes the device. Host link: the configured viewer address and admitted clients are
- * heard; a new sender is admitted by its first valid packet while a slot is free, else refused. */
+/* UDP: the peer rules (swell/link_peers.h) around the decoder. Another node's packet takes nothing,
+ * holds nothing. */
 static size_t recv_udp(struct ctl_link *l, struct swell_msg *out, size_t cap)
 {
 	uint8_t buf[SWELL_PKT_MAX + 1];
 	struct sockaddr_in from = { 0 }; /* filled by recvfrom; zeroed for the analyzer */
-	struct ctl_link_client *c = NULL;
 	size_t n = 0;
 	uint8_t seq;
 	long r = swell_udp_recv(l->fd, buf, sizeof(buf), &from, 0);
-	int64_t now;
 
 	if (r < 0)
 		return 0;
 	if (r > (long)sizeof(buf))
 		r = (long)sizeof(buf); /* too long for a packet: the decoder refuses it and counts it */
 	l->frames_rx++;
-	if (l->device_side && l->have_peer && !l->peer_open && !swell_udp_same(&from, &l->peer)) {
-		l->others++;
-		return 0;
-	}
-	if (swell_pkt_decode(buf, (size_t)r, out, cap, &n, &seq, &l->st) != SWELL_OK)
+	if (!swell_peers_hear(&l->peers, &from) ||
+	    swell_pkt_decode(buf, (size_t)r, out, cap, &n, &seq, &l->st) != SWELL_OK)
 		return 0;
 	n = own_node(l, out, n);
-	if (n == 0)
-		return 0; /* another node's packet takes nothing, holds nothing */
-	if (l->device_side) {
-		const int pos = has_type(out, n, SWELL_MSG_DEVICE_POS);
-
-		if (l->have_peer && !l->peer_open)
-			return n; /* the device */
-		if (l->have_peer && swell_udp_same(&from, &l->peer)) {
-			l->peer_open = !pos; /* the device let go is back: held again by its next sample */
-			return n;
-		}
-		if (!pos) {
-			l->others++;
-			return 0;
-		}
-		l->peer = from;
-		l->have_peer = 1;
-		l->peer_open = 0;
-		l->peers_taken++;
-		return n;
-	}
-	if (l->have_peer && swell_udp_same(&from, &l->peer))
-		return n;
-	now = mono_ns();
-	expire_clients(l, now);
-	c = client_of(l, &from, 1);
-	if (!c) {
-		l->clients_refused++;
-		return 0;
-	}
-	c->heard_ns = now;
-	return keep_alives_out(out, n);
-}
-
-int ctl_link_release_peer(struct ctl_link *l)
-{
-	if (l->kind != CTL_LINK_UDP || !l->device_side || l->peer_fixed || !l->have_peer || l->peer_open)
-		return 0;
-	l->peer_open = 1;
-	return 1;
-}
-
-unsigned ctl_link_clients(const struct ctl_link *l)
-{
-	unsigned k, n = 0;
-
-	if (l->kind != CTL_LINK_UDP || l->device_side)
-		return 0;
-	for (k = 0; k < CTL_LINK_CLIENTS; k++)
-		n += l->clients[k].heard_ns != 0;
-	return n;
+	return n ? swell_peers_take(&l->peers, &from, out, n, (int64_t)swell_link_now_ns()) : 0;
 }
 
 size_t ctl_link_recv(struct ctl_link *l, struct swell_msg *out, size_t cap)
@@ -426,33 +190,11 @@ size_t ctl_link_recv(struct ctl_link *l, struct swell_msg *out, size_t cap)
 		return recv_usb(l, out, cap);
 	if (l->kind == CTL_LINK_CAN) {
 		struct can_frame f;
-		ssize_t r;
+		const int r = cap < 1 ? -1 : swell_can_read(l->fd, &l->can, &f);
 
-		if (cap < 1)
+		l->frames_rx += r >= 0;
+		if (r <= 0)
 			return 0;
-		r = read(l->fd, &f, sizeof(f));
-		if (r < 0 && errno == ENETDOWN) {
-			/* the interface went down: brought up again it starts error-active (a down/up restart
-			 * sends no RESTARTED frame) */
-			l->can.downs++;
-			l->can.tx_err = l->can.rx_err = 0;
-			if (l->can.state == CTL_CAN_BUS_OFF) {
-				l->can.state = CTL_CAN_ACTIVE;
-				l->can.restarts++;
-			}
-			return 0;
-		}
-		if (r != (ssize_t)sizeof(f))
-			return 0;
-		l->frames_rx++;
-		if (f.can_id & CAN_ERR_FLAG) {
-			ctl_can_error_frame(&l->can, f.can_id, f.data);
-			return 0;
-		}
-		if (l->can.state == CTL_CAN_BUS_OFF) {
-			l->can.dropped_off++;
-			return 0;
-		}
 		if (f.can_id & (CAN_RTR_FLAG | CAN_EFF_FLAG)) {
 			l->st.rejected[SWELL_EUNKNOWN]++; /* foreign formats: counted, dropped */
 			return 0;
@@ -475,26 +217,22 @@ static void send_to(struct ctl_link *l, const struct sockaddr_in *to, const uint
 /* UDP: to the peer (device link: the device; host link: the configured viewer) and every client. */
 static void send_bytes(struct ctl_link *l, const uint8_t *p, size_t len)
 {
-	size_t k;
+	struct sockaddr_in to[1 + SWELL_PEERS_CLIENTS];
+	const size_t n = swell_peers_dests(&l->peers, to);
 
-	if (l->have_peer)
-		send_to(l, &l->peer, p, len);
-	for (k = 0; k < CTL_LINK_CLIENTS; k++)
-		if (l->clients[k].heard_ns)
-			send_to(l, &l->clients[k].addr, p, len);
+	for (size_t k = 0; k < n; k++)
+		send_to(l, &to[k], p, len);
 }
 
 /* Whether a send has somewhere to go: a UDP link without peer or client has not. */
 static int has_destination(const struct ctl_link *l)
 {
-	return l->kind != CTL_LINK_UDP || l->have_peer || ctl_link_clients(l) > 0;
+	return l->kind != CTL_LINK_UDP || l->peers.have_peer || swell_peers_clients(&l->peers) > 0;
 }
 
 static int has_answer(const struct swell_msg *m, size_t n)
 {
-	size_t k;
-
-	for (k = 0; k < n; k++)
+	for (size_t k = 0; k < n; k++)
 		if (m[k].type == SWELL_MSG_PARAM_ACK || m[k].type == SWELL_MSG_PARAM_NACK)
 			return 1;
 	return 0;
@@ -503,31 +241,30 @@ static int has_answer(const struct swell_msg *m, size_t n)
 /* USB: the held answer goes first; 0 when nothing is held any more. */
 static int send_held(struct ctl_link *l)
 {
-	if (!l->held_len)
-		return 0;
-	if (!l->usb_up) {
-		l->held_len = 0; /* unplugged: the host asks again */
-		l->answers_dropped++;
-		return 0;
-	}
-	if (swell_usb_ffs_write(&l->usb, l->held, l->held_len) != SWELL_OK)
+	const int rc = l->held.len ? swell_link_send(l->usb, &l->held) : 0;
+
+	if (rc == -EBUSY)
 		return -1;
-	l->frames_tx++;
-	l->held_len = 0;
+	if (l->held.len && rc == 0)
+		l->frames_tx++;
+	else if (l->held.len)
+		l->answers_dropped++; /* unplugged: the host asks again */
+	l->held.len = 0;
 	return 0;
 }
 
 /* Queued, never waits: a host that stops reading loses telemetry (counted), not ticks. An answer that
  * finds the IN slots busy is held (one) and goes first next time; packets stay in order. */
-static void send_usb(struct ctl_link *l, const uint8_t *pkt, size_t len, int answer)
+static void send_usb(struct ctl_link *l, const struct swell_frame *f, int answer)
 {
-	if (send_held(l) == 0 && l->usb_up && swell_usb_ffs_write(&l->usb, pkt, len) == SWELL_OK) {
+	const int rc = send_held(l) == 0 ? swell_link_send(l->usb, f) : -EBUSY;
+
+	if (rc == 0) {
 		l->frames_tx++;
 		return;
 	}
-	if (answer && l->usb_up && !l->held_len) {
-		memcpy(l->held, pkt, len);
-		l->held_len = (uint16_t)len;
+	if (answer && rc == -EBUSY && !l->held.len) {
+		l->held = *f;
 		l->answers_held++;
 		return;
 	}
@@ -543,8 +280,8 @@ void ctl_link_send(struct ctl_link *l, const struct swell_msg *m, size_t n)
 
 	if (n == 0)
 		return;
-	if (l->kind == CTL_LINK_UDP && !l->device_side)
-		expire_clients(l, mono_ns());
+	if (l->kind == CTL_LINK_UDP)
+		swell_peers_expire(&l->peers, (int64_t)swell_link_now_ns());
 	send_msgs(l, m, n);
 	if (l->frames_tx != before)
 		l->unsent_run = 0;
@@ -591,18 +328,18 @@ static void send_msgs(struct ctl_link *l, const struct swell_msg *m, size_t n)
 		return;
 	}
 	while (k < n) {
-		uint8_t pkt[SWELL_PKT_MAX];
-		size_t len = 0, used = 0;
+		struct swell_frame f;
+		size_t used = 0;
 
-		if (swell_pkt_encode(l->node, l->seq++, m + k, n - k, pkt, sizeof(pkt), &len, &used) != SWELL_OK ||
+		if (swell_link_encode(SWELL_CARRIER_PKT, l->node, l->seq++, m + k, n - k, &f, &used) != SWELL_OK ||
 		    used == 0) {
 			l->tx_errors++;
 			return;
 		}
 		if (l->kind == CTL_LINK_USB)
-			send_usb(l, pkt, len, has_answer(m + k, used));
+			send_usb(l, &f, has_answer(m + k, used));
 		else
-			send_bytes(l, pkt, len);
+			send_bytes(l, f.data, f.len);
 		k += used;
 	}
 }
@@ -645,9 +382,10 @@ void ctl_link_close(struct ctl_link *l)
 {
 	if (l->kind == CTL_LINK_HM)
 		hm_client_close(&l->hm);
-	else if (l->kind == CTL_LINK_USB)
-		swell_usb_ffs_close(&l->usb);
+	else if (l->kind == CTL_LINK_USB && l->usb)
+		swell_link_close(l->usb);
 	else if (l->fd >= 0)
 		close(l->fd);
 	l->fd = -1;
+	l->usb = NULL;
 }

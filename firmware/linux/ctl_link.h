@@ -1,7 +1,10 @@
 /* The controller's links on Linux: the device link (HapticMaster) and the host link (viewer), each on
  * UDP (software in the loop), SocketCAN (classic CAN frames) or USB (a FunctionFS function: the
- * controller is the USB device, as the MCU is). Messages in and out are struct swell_msg; encoding,
- * decoding and the counting of bad frames are the protocol module's. */
+ * controller is the USB device, as the MCU is), or hm: for the device. The sockets, the FunctionFS
+ * link, the UDP peer rules and the CAN bus state are the link library's (host/links); what is the
+ * controller's own is here: which link carries what, the node filter, the held USB answer, the zero
+ * force on exit. Messages in and out are struct swell_msg; encoding, decoding and the counting of bad
+ * frames are the protocol module's. */
 #ifndef SWELL_CTL_LINK_H
 #define SWELL_CTL_LINK_H
 
@@ -11,9 +14,10 @@
 
 #include "hm_client.h"
 #include "hm_fx.h"
+#include "swell/link.h"
+#include "swell/link_peers.h"
 #include "swell/proto.h"
 #include "swell/transport.h"
-#include "usb_ffs.h"
 
 enum ctl_link_kind {
 	CTL_LINK_UDP,
@@ -22,78 +26,22 @@ enum ctl_link_kind {
 	CTL_LINK_HM
 };
 
-/* The CAN controller's fault confinement state, as the driver's error frames tell it. */
-enum ctl_can_state {
-	CTL_CAN_ACTIVE = 0,
-	CTL_CAN_WARNING,
-	CTL_CAN_PASSIVE,
-	CTL_CAN_BUS_OFF
-};
-
-/* What an error frame changed. */
-enum ctl_can_event {
-	CTL_CAN_EV_NONE = 0, /* counted, nothing to act on */
-	CTL_CAN_EV_STATE, /* warning / passive / back to active: counted and reported */
-	CTL_CAN_EV_BUS_OFF, /* the controller left the bus: nothing goes out or comes in */
-	CTL_CAN_EV_RESTARTED, /* back on the bus after a bus-off (restart-ms or a manual restart) */
-};
-
-struct ctl_can_health {
-	uint8_t state; /* enum ctl_can_state */
-	uint8_t tx_err, rx_err; /* the error counters of the last frame that carried them */
-	uint32_t error_frames; /* every error frame read */
-	uint32_t warnings, passives, bus_offs, restarts, actives; /* state changes into each state */
-	uint32_t no_ack, prot, overflows, tx_timeouts, lost_arb, transceiver;
-	uint32_t dropped_off; /* data frames that arrived while bus-off (dropped, never acted on) */
-	uint32_t downs; /* the interface went down (a down/up restart leaves bus-off too) */
-};
-
-/* Take one error frame (can_id carries CAN_ERR_FLAG; data the 8 bytes of linux/can/error.h) into h.
- * Pure: no I/O. Bus-off holds until a RESTARTED frame or a CRTL_ACTIVE one; a frame without
- * CAN_ERR_FLAG is refused (CTL_CAN_EV_NONE, h untouched). */
-enum ctl_can_event ctl_can_error_frame(struct ctl_can_health *h, uint32_t can_id, const uint8_t data[8]);
-
-const char *ctl_can_state_name(enum ctl_can_state s);
-
-/* UDP host link: clients beside the configured viewer address, each admitted by its first valid
- * packet, dropped after CTL_LINK_CLIENT_SILENT_MS without a valid packet. */
-#define CTL_LINK_CLIENTS 4u
-#define CTL_LINK_CLIENT_SILENT_MS SWELL_UDP_CLIENT_SILENT_MS
-
-struct ctl_link_client {
-	struct sockaddr_in addr;
-	int64_t heard_ns; /* CLOCK_MONOTONIC of its last valid packet; 0: the slot is free */
-};
-
 struct ctl_link {
 	enum ctl_link_kind kind;
-	int fd;
-	/* UDP device link: the device, configured (peer_fixed) or the first sender of this node's
-	 * DEVICE_POS, held until ctl_link_release_peer opens it (peer_open: still sent to, and the next
-	 * sender of DEVICE_POS takes it). UDP host link: the configured viewer address, which receives
-	 * telemetry whether or not it speaks. */
-	struct sockaddr_in peer;
-	int have_peer, peer_fixed, peer_open;
-	uint32_t others; /* device link: datagrams of any other sender, dropped (unread once held) */
-	uint32_t peers_taken; /* device link: times a sender became the device */
-	uint32_t unsent_run; /* sends in a row in which nothing reached the carrier though it had a destination */
-	struct ctl_link_client clients[CTL_LINK_CLIENTS];
-	uint32_t clients_admitted, clients_silent; /* host link: admitted, dropped after their silence */
-	uint32_t clients_refused; /* host link: valid packets of senders refused for a full table */
+	int fd; /* UDP, CAN: the socket */
+	struct swell_link *usb; /* USB: the FunctionFS link of the link library */
+	struct swell_peers peers; /* UDP: who the device is (device link), who the clients are (host link) */
 	struct sockaddr_in local; /* UDP: the address the socket is bound to */
 	int clients_port_taken; /* host link: the default clients' port was taken, another one is bound */
-	int device_side;
 	uint8_t node, seq;
-	struct swell_usb_ffs usb;
-	int usb_up;
+	uint32_t unsent_run; /* sends in a row in which nothing reached the carrier though it had a destination */
 	struct swell_proto_stats st;
 	uint32_t frames_rx, frames_tx, tx_errors;
 	uint32_t foreign; /* valid messages of another node: dropped, never acted on */
-	struct ctl_can_health can; /* CAN: error frames and bus state (the port compares bus_offs) */
+	struct swell_can_health can; /* CAN: error frames and bus state (the port compares bus_offs) */
 	/* USB: a packet with a parameter answer that found every IN slot busy (telemetry the host has
 	 * not read yet) is held and sent first next time, not dropped: an answer is asked for once */
-	uint8_t held[SWELL_PKT_MAX];
-	uint16_t held_len;
+	struct swell_frame held; /* len 0: none */
 	uint32_t answers_held, answers_dropped;
 	struct hm_client hm; /* hm: a HapticMaster on its TCP command interface (device side only) */
 	struct hm_fx hmfx; /* hm: the effect sets as the HapticMaster's own effects (effect mode) */
@@ -103,8 +51,8 @@ struct ctl_link {
 /* spec, in swell/link_spec.h's spellings: "udp[:PORT]" (device link: listen on 127.0.0.1:PORT, default
  * 47800, ",peer=[ADDR:]PORT" fixes the device's address; host link: telemetry to 127.0.0.1:PORT, default
  * 47801, clients on ",listen=[ADDR:]PORT", default 127.0.0.1:47802 or any free port when that one is
- * taken: l->clients_port_taken says so), "can:IFACE", "usb:FFS_DIR", "hm:HOST[:PORT]" (device link
- * only, hm_client.h). Returns 0, -2 for a spec that is not one of these (nothing opened), -1 when
+ * taken: l->clients_port_taken says so; the peer rules are swell/link_peers.h's), "can:IFACE",
+ * "usb:FFS_DIR" (the link library's FunctionFS link), "hm:HOST[:PORT]" (device link only, hm_client.h). Returns 0, -2 for a spec that is not one of these (nothing opened), -1 when
  * the system refused; either way a one-line reason is in err. */
 int ctl_link_open(struct ctl_link *l, const char *spec, int device_side, uint8_t node, char *err, size_t errlen);
 
@@ -128,14 +76,8 @@ void ctl_link_send(struct ctl_link *l, const struct swell_msg *m, size_t n);
  * effect mode's effects are removed too, and the device confirms both (hm_client_zero_wait). */
 int ctl_link_send_wait(struct ctl_link *l, const struct swell_msg *m, size_t n, int wait_ms);
 
-/* Device link: the device is declared lost. A learned UDP peer is let go: it still gets what is sent
- * (the zero force), and the next sender of this node's DEVICE_POS, it or another, becomes the device.
- * A configured peer is kept. No effect on CAN and USB, whose peer is the bus node or the USB host.
- * Returns 1 when a peer was let go. */
-int ctl_link_release_peer(struct ctl_link *l);
-
-/* Host link: clients now admitted (CAN, USB: 0). */
-unsigned ctl_link_clients(const struct ctl_link *l);
+/* A device declared lost is let go with swell_peers_release(&l->peers) (UDP only: on CAN and USB the
+ * peer is the bus node or the USB host); the host link's clients are swell_peers_clients(&l->peers). */
 
 void ctl_link_close(struct ctl_link *l);
 

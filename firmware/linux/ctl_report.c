@@ -20,25 +20,27 @@ static double jitter_pct(const struct jitter *j, double p)
 
 static void report_can(const char *what, const struct ctl_link *l)
 {
-	const struct ctl_can_health *h = &l->can;
+	const struct swell_can_health *h = &l->can;
 
 	if (l->kind != CTL_LINK_CAN)
 		return;
 	printf("  %s CAN  %s: %s, %u error frames: %u bus-off, %u restarts, %u error-passive, %u warnings, "
 	       "%u back to active; %u no-ACK, %u protocol, %u overflows, %u TX timeouts; counters tx %u rx %u; "
 	       "%u frames dropped while bus-off, interface down %u times\n",
-	       what, l->name, ctl_can_state_name(h->state), h->error_frames, h->bus_offs, h->restarts, h->passives,
+	       what, l->name, swell_can_state_name(h->state), h->error_frames, h->bus_offs, h->restarts, h->passives,
 	       h->warnings, h->actives, h->no_ack, h->prot, h->overflows, h->tx_timeouts, h->tx_err, h->rx_err,
 	       h->dropped_off, h->downs);
 }
 
 static void report_usb(const char *what, const struct ctl_link *l)
 {
-	if (l->kind != CTL_LINK_USB)
+	const struct swell_usb_ffs_stats *u = l->kind == CTL_LINK_USB ? swell_link_ffs_stats(l->usb) : NULL;
+
+	if (!u)
 		return;
 	printf("  %s USB  %s: %u parameter answers held for a busy IN queue, %u dropped; %u IN writes "
 	       "refused (all %d slots in flight)\n",
-	       what, l->name, l->answers_held, l->answers_dropped, l->usb.tx_busy_drops, SWELL_USB_FFS_TX_SLOTS);
+	       what, l->name, l->answers_held, l->answers_dropped, u->tx_busy_drops, SWELL_USB_FFS_TX_SLOTS);
 }
 
 /* "ADDR:PORT" of a, "(fixed)" after a configured one, or "none yet". */
@@ -82,8 +84,9 @@ void report(const struct opts *o, const struct port *p, const struct jitter *jit
 	if (p->dev.kind == CTL_LINK_UDP)
 		printf("  device peer     %s; %u datagrams of other senders dropped; device taken %u times, "
 		       "let go %u times (declared lost)\n",
-		       addr_str(&p->dev.peer, p->dev.have_peer, p->dev.peer_fixed, abuf, sizeof(abuf)), p->dev.others,
-		       p->dev.peers_taken, p->releases);
+		       addr_str(&p->dev.peers.peer, p->dev.peers.have_peer, p->dev.peers.peer_fixed, abuf,
+				sizeof(abuf)),
+		       p->dev.peers.others, p->dev.peers.peers_taken, p->releases);
 	printf("  device starved  %u times (nothing reached the device in %u sends in a row)\n", p->starved,
 	       o->cfg.silent_ticks);
 	if (p->have_host)
@@ -94,9 +97,9 @@ void report(const struct opts *o, const struct port *p, const struct jitter *jit
 	if (p->have_host && p->host.kind == CTL_LINK_UDP)
 		printf("  host clients    on %s: %u admitted, %u dropped after %u ms of silence, %u now (at most %u); "
 		       "%u packets of senders refused (table full)\n",
-		       addr_str(&p->host.local, 1, 0, abuf, sizeof(abuf)), p->host.clients_admitted,
-		       p->host.clients_silent, CTL_LINK_CLIENT_SILENT_MS, ctl_link_clients(&p->host), CTL_LINK_CLIENTS,
-		       p->host.clients_refused);
+		       addr_str(&p->host.local, 1, 0, abuf, sizeof(abuf)), p->host.peers.clients_admitted,
+		       p->host.peers.clients_silent, SWELL_UDP_CLIENT_SILENT_MS, swell_peers_clients(&p->host.peers),
+		       SWELL_PEERS_CLIENTS, p->host.peers.clients_refused);
 	if (p->dev.kind == CTL_LINK_HM) {
 		hm_client_report(&p->dev.hm, stdout);
 		hm_fx_report(&p->dev.hmfx, stdout);

@@ -192,7 +192,7 @@ static int link_faults(struct port *p)
 	int k, tick = 0;
 
 	for (k = 0; k < 2; k++) {
-		const struct ctl_can_health *h = &l[k]->can;
+		const struct swell_can_health *h = &l[k]->can;
 
 		if (l[k]->kind != CTL_LINK_CAN || (k == 1 && !p->have_host))
 			continue;
@@ -211,7 +211,8 @@ static int link_faults(struct port *p)
 		if (h->restarts != p->restarts_seen[k]) {
 			p->restarts_seen[k] = h->restarts;
 			fprintf(stderr, "swell-ctl: %s link %s: back on the bus (restart %u, %s) at %.6f s\n",
-				k ? "host" : "device", l[k]->name, h->restarts, ctl_can_state_name(h->state), mono_s());
+				k ? "host" : "device", l[k]->name, h->restarts, swell_can_state_name(h->state),
+				mono_s());
 		}
 	}
 	return tick;
@@ -331,7 +332,7 @@ int main(int argc, char **argv)
 		o.device_clock ? "device" : "internal");
 	if (p.have_host && p.host.kind == CTL_LINK_UDP)
 		fprintf(stderr, "swell-ctl: host link clients: send to %s (up to %u, kept while they speak)%s\n",
-			addr_str(&p.host.local, 1, 0, abuf, sizeof(abuf)), CTL_LINK_CLIENTS,
+			addr_str(&p.host.local, 1, 0, abuf, sizeof(abuf)), SWELL_PEERS_CLIENTS,
 			p.host.clients_port_taken ? "; the default port 47802 is taken (another controller?): tools "
 						    "need --link udp:PORT with this port"
 						  : "");
@@ -392,7 +393,7 @@ int main(int argc, char **argv)
 			 * let go, the next sender of this node's DEVICE_POS becomes the device (the old one still
 			 * gets the zero force until then) */
 			if (swell_ctl_device_lost(&p.c))
-				p.releases += (uint32_t)ctl_link_release_peer(&p.dev);
+				p.releases += (uint32_t)swell_peers_release(&p.dev.peers);
 			if (swell_ctl_bootloader_requested(&p.c)) /* zero force and the last heartbeat are out */
 				break;
 		}

@@ -1,5 +1,6 @@
 // Helpers every Catch2 test of a program shares: run it and capture what it says, start, stop and
-// reap it, check a table of bad arguments, loopback sockets on free ports, a whole file as text.
+// reap it, check a table of bad arguments, loopback sockets on free ports, a whole file as text,
+// swell-hm's log. The messages tests build are in swell_msgs.hpp.
 // CMake puts this folder on every test's include path (swell_catch_test).
 #ifndef SWELL_TEST_SUPPORT_HPP
 #define SWELL_TEST_SUPPORT_HPP
@@ -7,6 +8,7 @@
 #include <catch2/catch.hpp>
 
 #include <arpa/inet.h>
+#include <dirent.h>
 #include <fcntl.h>
 #include <netinet/in.h>
 #include <signal.h>
@@ -18,6 +20,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <string>
 #include <utility>
 #include <vector>
@@ -190,6 +193,18 @@ inline void check_help(const std::string &bin)
 	CHECK(r.out.find("2 bad arguments") != std::string::npos);
 }
 
+// Files this process has open now (to see that a failed open left none behind).
+inline int open_fds()
+{
+	int n = 0;
+	DIR *d = opendir("/proc/self/fd");
+	REQUIRE(d);
+	while (readdir(d))
+		n++;
+	closedir(d);
+	return n;
+}
+
 // A socket of type (SOCK_DGRAM, SOCK_STREAM) bound to loopback on a port of the kernel's choosing;
 // the port in *port. A TCP socket listens.
 inline int loopback_socket(int type, int *port)
@@ -237,6 +252,34 @@ inline long count_before(const std::string &text, const std::string &label)
 	while (k > 0 && text[k - 1] >= '0' && text[k - 1] <= '9')
 		k--;
 	return k == e ? -1 : std::stol(text.substr(k, e - k));
+}
+
+// One row of swell-hm's --log (docs/hm.md): time s, position mm, velocity mm/s, commanded and hand
+// force N, then five whole columns: enable, cmd_age, applied, ctl_state, holding; with --serve
+// req_age, clients, applied, dev_state, holding (named by the accessors).
+struct HmLogRow {
+	double t, x[3], v[3], fcmd[3], fhand[3];
+	int enable, age, applied, state, holding;
+	int req_age() const { return enable; }
+	int clients() const { return age; }
+};
+
+// Every complete row of the log at path (the header and a cut last line are skipped).
+inline std::vector<HmLogRow> read_hm_log(const std::string &path)
+{
+	std::ifstream f(path);
+	std::string line;
+	std::vector<HmLogRow> rows;
+	std::getline(f, line); // the header
+	while (std::getline(f, line)) {
+		HmLogRow r{};
+		if (std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%d,%d,%d,%d,%d", &r.t,
+				&r.x[0], &r.x[1], &r.x[2], &r.v[0], &r.v[1], &r.v[2], &r.fcmd[0], &r.fcmd[1], &r.fcmd[2],
+				&r.fhand[0], &r.fhand[1], &r.fhand[2], &r.enable, &r.age, &r.applied, &r.state,
+				&r.holding) == 18)
+			rows.push_back(r);
+	}
+	return rows;
 }
 
 } // namespace swell_test

@@ -1,6 +1,8 @@
 /* The controller core: states, link supervision, parameters, bounded work, telemetry, determinism. */
 #include <catch2/catch.hpp>
 
+#include "swell_msgs.hpp"
+
 #include <algorithm>
 #include <cstdlib>
 #include <cstring>
@@ -24,13 +26,8 @@ struct Ctl {
 	/* The device says where it is (um, device frame) and that it is powered. */
 	void device(int32_t x, int32_t y, int32_t z, uint8_t status = 1)
 	{
-		swell_msg m{};
-		m.type = SWELL_MSG_DEVICE_POS;
-		m.u.device_pos.x_10um = (int16_t)(x / 10);
-		m.u.device_pos.y_10um = (int16_t)(y / 10);
-		m.u.device_pos.z_10um = (int16_t)(z / 10);
-		m.u.device_pos.seq = seq++;
-		m.u.device_pos.status = status;
+		const swell_msg m =
+			swell_test::device_pos_msg(seq++, (int16_t)(z / 10), status, (int16_t)(x / 10), (int16_t)(y / 10));
 		swell_ctl_rx(&c, SWELL_LINK_DEVICE, &m);
 	}
 	/* n ticks, each with a device sample held 100 mm above the water (status: powered) */
@@ -43,11 +40,7 @@ struct Ctl {
 	}
 	void param(uint16_t id, int32_t v)
 	{
-		swell_msg m{};
-		m.type = SWELL_MSG_PARAM_SET;
-		m.u.param_set.id = id;
-		m.u.param_set.value = v;
-		m.u.param_set.seq = seq++;
+		const swell_msg m = swell_test::param_msg(SWELL_MSG_PARAM_SET, id, v, seq++);
 		swell_ctl_rx(&c, SWELL_LINK_HOST, &m);
 	}
 	std::vector<swell_msg> drain(swell_ctl_link l)

@@ -2,6 +2,8 @@
  * state rule, read-back, and the lookup that tools use. */
 #include <catch2/catch.hpp>
 
+#include "swell_msgs.hpp"
+
 #include <cstring>
 #include <set>
 #include <string>
@@ -28,16 +30,7 @@ struct Core {
 	/* one request, its one answer: ACK (value in *v) or NACK (reason returned) */
 	swell_err ask(uint8_t type, uint16_t id, int32_t value, int32_t *v)
 	{
-		swell_msg m{};
-		m.type = type;
-		if (type == SWELL_MSG_PARAM_SET) {
-			m.u.param_set.id = id;
-			m.u.param_set.value = value;
-			m.u.param_set.seq = ++seq;
-		} else {
-			m.u.param_get.id = id;
-			m.u.param_get.seq = ++seq;
-		}
+		const swell_msg m = swell_test::param_msg(type, id, value, ++seq);
 		swell_ctl_rx(&c, SWELL_LINK_HOST, &m);
 		swell_msg out[4];
 		size_t n = swell_ctl_tx(&c, SWELL_LINK_HOST, out, 4);
@@ -128,11 +121,7 @@ TEST_CASE("DRY parameters are refused while the object displaces water, the othe
 	Core k;
 	/* the device holds the object 20 mm into the water, running */
 	for (int t = 0; t < 600; t++) {
-		swell_msg m{};
-		m.type = SWELL_MSG_DEVICE_POS;
-		m.u.device_pos.z_10um = -2000;
-		m.u.device_pos.seq = (uint8_t)t;
-		m.u.device_pos.status = 1;
+		const swell_msg m = swell_test::device_pos_msg((uint8_t)t, -2000);
 		swell_ctl_rx(&k.c, SWELL_LINK_DEVICE, &m);
 		swell_ctl_tick(&k.c);
 		swell_msg out[SWELL_CTL_QUEUE];

@@ -1,9 +1,11 @@
-/* swell-ctl's CAN link and its error frames: the bus state kept from the driver's error frames, and
- * the link's read path over a stand-in socket (a SOCK_SEQPACKET pair carries struct can_frame records
- * as a raw CAN socket does; the build machines have no CAN). */
+/* swell-ctl's links: the CAN read path over a stand-in socket (a SOCK_SEQPACKET pair carries struct
+ * can_frame records as a raw CAN socket does; the build machines have no CAN), the held USB answer,
+ * the UDP peers and clients. The CAN bus state itself is the link library's (test_links.cpp there). */
 #include <catch2/catch.hpp>
 
-#include <dirent.h>
+#include "swell_msg_udp.hpp"
+#include "swell_test.hpp"
+
 #include <linux/can.h>
 #include <netinet/in.h>
 #include <linux/can/error.h>
@@ -17,6 +19,7 @@
 
 extern "C" {
 #include "ctl_link.h"
+#include "link_priv.h"
 }
 
 namespace {
@@ -34,22 +37,15 @@ struct can_frame err_frame(uint32_t classes, uint8_t crtl = 0, uint8_t txerr = 0
 	return f;
 }
 
-enum ctl_can_event feed(struct ctl_can_health *h, const struct can_frame &f) { return ctl_can_error_frame(h, f.can_id, f.data); }
-
 struct can_frame device_pos(uint8_t node, uint8_t seq)
 {
-	struct swell_msg m;
+	struct swell_msg m = swell_test::device_pos_msg(seq, -3940);
 	struct can_frame f;
 	uint32_t id = 0;
 	uint8_t len = 0;
 
-	memset(&m, 0, sizeof(m));
 	memset(&f, 0, sizeof(f));
-	m.type = SWELL_MSG_DEVICE_POS;
 	m.node = node;
-	m.u.device_pos.z_10um = -3940;
-	m.u.device_pos.seq = seq;
-	m.u.device_pos.status = 1;
 	REQUIRE(swell_can_encode(&m, &id, f.data, &len) == SWELL_OK);
 	f.can_id = id;
 	f.can_dlc = len;
@@ -83,58 +79,23 @@ struct FakeCan {
 	}
 };
 
+/* A stand-in for the library's FunctionFS link: every send refused with the code the test sets (-EBUSY:
+ * every IN slot in flight, or the host going away before DISABLE; -ENODEV: unplugged). */
+struct FakeUsb {
+	struct swell_link base;
+	int refuse = -EBUSY;
+	static int send(struct swell_link *l, const struct swell_frame *) { return reinterpret_cast<FakeUsb *>(l)->refuse; }
+	static int recv(struct swell_link *, struct swell_frame *, int) { return -ETIMEDOUT; }
+	static void close(struct swell_link *) {}
+	FakeUsb()
+	{
+		static const struct swell_link_ops ops = {send, recv, close, nullptr};
+		memset(&base, 0, sizeof(base));
+		base.ops = &ops;
+	}
+};
+
 } // namespace
-
-TEST_CASE("CAN error frames: warning and passive are counted, bus-off holds until a restart", "[ctl_link]")
-{
-	struct ctl_can_health h;
-	memset(&h, 0, sizeof(h));
-
-	CHECK(feed(&h, err_frame(CAN_ERR_CRTL | CAN_ERR_CNT, CAN_ERR_CRTL_TX_WARNING, 96, 0)) == CTL_CAN_EV_STATE);
-	CHECK(h.state == CTL_CAN_WARNING);
-	CHECK(h.tx_err == 96);
-	CHECK(feed(&h, err_frame(CAN_ERR_CRTL | CAN_ERR_CNT, CAN_ERR_CRTL_TX_PASSIVE, 128, 3)) == CTL_CAN_EV_STATE);
-	CHECK(h.state == CTL_CAN_PASSIVE);
-	CHECK(h.tx_err == 128);
-	CHECK(h.rx_err == 3);
-	CHECK(feed(&h, err_frame(CAN_ERR_ACK)) == CTL_CAN_EV_NONE); /* no ACK: counted, state unchanged */
-	CHECK(h.no_ack == 1);
-	CHECK(feed(&h, err_frame(CAN_ERR_BUSOFF)) == CTL_CAN_EV_BUS_OFF);
-	CHECK(h.state == CTL_CAN_BUS_OFF);
-	/* a counter report while off the bus does not bring it back */
-	CHECK(feed(&h, err_frame(CAN_ERR_CRTL, CAN_ERR_CRTL_RX_WARNING)) == CTL_CAN_EV_NONE);
-	CHECK(h.state == CTL_CAN_BUS_OFF);
-	CHECK(feed(&h, err_frame(CAN_ERR_RESTARTED)) == CTL_CAN_EV_RESTARTED);
-	CHECK(h.state == CTL_CAN_ACTIVE);
-	CHECK(h.tx_err == 0); /* the kernel's restart frame carries no counters: a restart clears them */
-	CHECK(feed(&h, err_frame(CAN_ERR_CRTL, CAN_ERR_CRTL_ACTIVE)) == CTL_CAN_EV_NONE); /* already active */
-	INFO("frames " << h.error_frames << ", warnings " << h.warnings << ", passives " << h.passives << ", bus-offs "
-		       << h.bus_offs << ", restarts " << h.restarts);
-	CHECK(h.error_frames == 7);
-	CHECK(h.warnings == 1);
-	CHECK(h.passives == 1);
-	CHECK(h.bus_offs == 1);
-	CHECK(h.restarts == 1);
-	CHECK(h.actives == 1);
-}
-
-TEST_CASE("CAN error frames: bus-off wins over a restart in the same frame, a data frame is refused", "[ctl_link]")
-{
-	struct ctl_can_health h, before;
-	memset(&h, 0, sizeof(h));
-
-	CHECK(feed(&h, err_frame(CAN_ERR_RESTARTED | CAN_ERR_BUSOFF)) == CTL_CAN_EV_BUS_OFF);
-	CHECK(h.state == CTL_CAN_BUS_OFF);
-	/* recovered to error-active (some drivers say so instead of RESTARTED) also leaves bus-off */
-	CHECK(feed(&h, err_frame(CAN_ERR_CRTL, CAN_ERR_CRTL_ACTIVE)) == CTL_CAN_EV_RESTARTED);
-	CHECK(h.state == CTL_CAN_ACTIVE);
-	before = h;
-	const uint8_t d[8] = {0};
-	CHECK(ctl_can_error_frame(&h, 0x123, d) == CTL_CAN_EV_NONE);
-	CHECK(ctl_can_error_frame(&h, CAN_ERR_FLAG | CAN_ERR_BUSOFF, nullptr) == CTL_CAN_EV_NONE);
-	CHECK(ctl_can_error_frame(nullptr, CAN_ERR_FLAG | CAN_ERR_BUSOFF, d) == CTL_CAN_EV_NONE);
-	CHECK(memcmp(&h, &before, sizeof(h)) == 0);
-}
 
 TEST_CASE("CAN link: data frames are taken, error frames are not messages, nothing is taken while bus-off", "[ctl_link]")
 {
@@ -144,7 +105,7 @@ TEST_CASE("CAN link: data frames are taken, error frames are not messages, nothi
 	CHECK(c.put(device_pos(5, 2)) == 0); /* another node's sample */
 	CHECK(c.l.foreign == 1);
 	CHECK(c.put(err_frame(CAN_ERR_CRTL | CAN_ERR_CNT, CAN_ERR_CRTL_RX_PASSIVE, 0, 130)) == 0);
-	CHECK(c.l.can.state == CTL_CAN_PASSIVE);
+	CHECK(c.l.can.state == SWELL_CAN_PASSIVE);
 	CHECK(c.put(device_pos(0, 3)) == 1); /* error-passive still takes part in the bus */
 	CHECK(c.put(err_frame(CAN_ERR_BUSOFF)) == 0);
 	CHECK(c.l.can.bus_offs == 1);
@@ -152,19 +113,12 @@ TEST_CASE("CAN link: data frames are taken, error frames are not messages, nothi
 	CHECK(c.put(device_pos(0, 5)) == 0);
 	CHECK(c.l.can.dropped_off == 2);
 	CHECK(c.put(err_frame(CAN_ERR_RESTARTED)) == 0);
-	CHECK(c.l.can.state == CTL_CAN_ACTIVE);
+	CHECK(c.l.can.state == SWELL_CAN_ACTIVE);
 	CHECK(c.put(device_pos(0, 6)) == 1);
 	INFO("bad frames " << swell_proto_rejected_total(&c.l.st) << ", error frames " << c.l.can.error_frames);
 	CHECK(swell_proto_rejected_total(&c.l.st) == 0); /* error frames are not counted as bad frames */
 	CHECK(c.l.can.error_frames == 3);
 	CHECK(c.l.frames_rx == 9);
-}
-
-TEST_CASE("CAN link names its states", "[ctl_link]")
-{
-	CHECK(std::string(ctl_can_state_name(CTL_CAN_ACTIVE)) == "error-active");
-	CHECK(std::string(ctl_can_state_name(CTL_CAN_PASSIVE)) == "error-passive");
-	CHECK(std::string(ctl_can_state_name(CTL_CAN_BUS_OFF)) == "bus-off");
 }
 
 TEST_CASE("USB link: an answer that finds the IN queue busy is held and kept in order, telemetry is dropped, "
@@ -173,12 +127,12 @@ TEST_CASE("USB link: an answer that finds the IN queue busy is held and kept in 
 {
 	struct ctl_link l;
 	struct swell_msg ack, quad;
+	FakeUsb usb; /* every write is refused, the link is up: a busy IN queue */
 
 	memset(&l, 0, sizeof(l));
 	l.kind = CTL_LINK_USB;
 	l.fd = -1;
-	l.usb.ep0 = l.usb.ep_out = l.usb.ep_in = l.usb.efd = -1; /* closed: every write is refused */
-	l.usb_up = 1; /* as between a refusal and DISABLE */
+	l.usb = &usb.base;
 	memset(&ack, 0, sizeof(ack));
 	ack.type = SWELL_MSG_PARAM_NACK;
 	ack.u.param_nack.id = 999;
@@ -188,24 +142,24 @@ TEST_CASE("USB link: an answer that finds the IN queue busy is held and kept in 
 
 	ctl_link_send(&l, &quad, 1);
 	CHECK(l.tx_errors == 1);
-	CHECK(l.held_len == 0);
+	CHECK(l.held.len == 0);
 	ctl_link_send(&l, &ack, 1);
-	CHECK(l.held_len > 0);
+	CHECK(l.held.len > 0);
 	CHECK(l.answers_held == 1);
 	CHECK(l.tx_errors == 1);
-	const uint16_t held = l.held_len;
+	const uint16_t held = l.held.len;
 	uint8_t first[SWELL_PKT_MAX];
-	memcpy(first, l.held, held);
+	memcpy(first, l.held.data, held);
 	ctl_link_send(&l, &quad, 1); /* cannot overtake the held answer */
 	ctl_link_send(&l, &ack, 1); /* a second answer while one is held: dropped, counted */
 	INFO("tx errors " << l.tx_errors << ", answers held " << l.answers_held << ", dropped " << l.answers_dropped);
 	CHECK(l.tx_errors == 3);
 	CHECK(l.answers_dropped == 1);
-	CHECK(l.held_len == held);
-	CHECK(memcmp(l.held, first, held) == 0);
-	l.usb_up = 0; /* unplugged: the host asks again after the replug */
+	CHECK(l.held.len == held);
+	CHECK(memcmp(l.held.data, first, held) == 0);
+	usb.refuse = -ENODEV; /* unplugged: the host asks again after the replug */
 	ctl_link_send(&l, &quad, 1);
-	CHECK(l.held_len == 0);
+	CHECK(l.held.len == 0);
 	CHECK(l.answers_dropped == 2);
 	CHECK(l.frames_tx == 0);
 }
@@ -274,22 +228,6 @@ TEST_CASE("CAN link: the zero force on exit gives up after its wait when the que
 	CHECK(ms < 1000);
 }
 
-namespace {
-
-int open_fds()
-{
-	int n = 0;
-	DIR *d = opendir("/proc/self/fd");
-
-	REQUIRE(d);
-	while (readdir(d))
-		n++;
-	closedir(d);
-	return n;
-}
-
-} // namespace
-
 TEST_CASE("UDP link: an open that fails (port taken) leaves no socket open and names the reason", "[ctl_link]")
 {
 	int taken = socket(AF_INET, SOCK_DGRAM, 0);
@@ -305,9 +243,9 @@ TEST_CASE("UDP link: an open that fails (port taken) leaves no socket open and n
 	const std::string spec = "udp:" + std::to_string(ntohs(a.sin_port));
 	struct ctl_link l;
 	char err[160] = "";
-	const int before = open_fds();
+	const int before = swell_test::open_fds();
 	CHECK(ctl_link_open(&l, spec.c_str(), 1, 0, err, sizeof(err)) == -1);
-	const int after = open_fds();
+	const int after = swell_test::open_fds();
 	INFO("open files before " << before << ", after " << after << "; reason: " << err);
 	CHECK(after == before);
 	CHECK(l.fd == -1);
@@ -347,48 +285,25 @@ TEST_CASE("UDP host link: clients on 127.0.0.1:47802 unless given, a second cont
 
 namespace {
 
-struct UdpEnd {
-	int fd = -1;
-	struct sockaddr_in a;
-	UdpEnd()
-	{
-		socklen_t al = sizeof(a);
-
-		fd = socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK, 0);
-		REQUIRE(fd >= 0);
-		memset(&a, 0, sizeof(a));
-		a.sin_family = AF_INET;
-		a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-		REQUIRE(bind(fd, (struct sockaddr *)&a, sizeof(a)) == 0);
-		REQUIRE(getsockname(fd, (struct sockaddr *)&a, &al) == 0);
-	}
-	~UdpEnd() { close(fd); }
+/* A UDP end on loopback that sends a message with every field valid (at its minimum) to a link. */
+struct UdpEnd : swell_test::MsgUdp {
 	void send(const struct ctl_link &to, uint8_t type)
 	{
-		struct swell_msg m;
-		uint8_t pkt[SWELL_PKT_MAX];
-		size_t len = 0, used = 0;
-
 		const struct swell_msg_desc *d = swell_msg_desc_find(type);
+		struct swell_msg m;
 
 		REQUIRE(d != nullptr);
 		memset(&m, 0, sizeof(m));
 		m.type = type;
-		for (unsigned k = 0; k < d->nfields; k++) /* every field valid: at its minimum */
+		for (unsigned k = 0; k < d->nfields; k++)
 			REQUIRE(swell_msg_field_set(&m, &d->fields[k], d->fields[k].min) == SWELL_OK);
-		REQUIRE(swell_pkt_encode(0, 0, &m, 1, pkt, sizeof(pkt), &len, &used) == SWELL_OK);
-		REQUIRE(sendto(fd, pkt, len, 0, (const struct sockaddr *)&to.local, sizeof(to.local)) == (ssize_t)len);
+		REQUIRE(MsgUdp::send(ntohs(to.local.sin_port), &m) == 0);
 	}
 	/* datagrams waiting, read */
 	int got()
 	{
-		uint8_t buf[SWELL_PKT_MAX];
-		int n = 0;
-
 		std::this_thread::sleep_for(std::chrono::milliseconds(5));
-		while (recv(fd, buf, sizeof(buf), 0) > 0)
-			n++;
-		return n;
+		return drain();
 	}
 };
 
@@ -420,13 +335,13 @@ TEST_CASE("UDP host link: a client's HEARTBEAT admits it and keeps it and is not
 	REQUIRE(ctl_link_open(&l, "udp:47994,listen=0", 0, 0, err, sizeof(err)) == 0);
 	tool.send(l, SWELL_MSG_HEARTBEAT);
 	CHECK(take(l) == 0u); /* the keep-alive: nothing for the core */
-	CHECK(ctl_link_clients(&l) == 1u);
-	CHECK(l.clients_admitted == 1u);
+	CHECK(swell_peers_clients(&l.peers) == 1u);
+	CHECK(l.peers.clients_admitted == 1u);
 	force_cmd(l); /* telemetry of any kind goes to the client now */
 	CHECK(tool.got() == 1);
 	tool.send(l, SWELL_MSG_PARAM_GET);
 	CHECK(take(l) == 1u);
-	CHECK(l.clients_admitted == 1u); /* the same client */
+	CHECK(l.peers.clients_admitted == 1u); /* the same client */
 	ctl_link_close(&l);
 }
 
@@ -442,17 +357,17 @@ TEST_CASE("UDP device link: the first sender of DEVICE_POS is the device, held a
 	{
 		/* a free port, then the link on it */
 		UdpEnd probe;
-		const std::string spec = "udp:" + std::to_string(ntohs(probe.a.sin_port));
+		const std::string spec = "udp:" + std::to_string(probe.port);
 		close(probe.fd);
 		probe.fd = -1;
 		REQUIRE(ctl_link_open(&l, spec.c_str(), 1, 0, err, sizeof(err)) == 0);
 	}
 	other.send(l, SWELL_MSG_HEARTBEAT); /* valid, but not a position: takes nothing */
 	CHECK(take(l) == 0);
-	CHECK(l.have_peer == 0);
+	CHECK(l.peers.have_peer == 0);
 	dev.send(l, SWELL_MSG_DEVICE_POS);
 	CHECK(take(l) == 1);
-	CHECK(l.peers_taken == 1);
+	CHECK(l.peers.peers_taken == 1);
 	/* every type from another sender, positions too: dropped unread */
 	for (unsigned t = 0; t < swell_msg_desc_count; t++)
 		other.send(l, swell_msg_descs[t].type);
@@ -461,19 +376,19 @@ TEST_CASE("UDP device link: the first sender of DEVICE_POS is the device, held a
 	dev.send(l, SWELL_MSG_DEVICE_VEL);
 	CHECK(take(l) == 1);
 	force_cmd(l);
-	INFO("other senders' datagrams " << l.others);
-	CHECK(l.others == swell_msg_desc_count + 1);
+	INFO("other senders' datagrams " << l.peers.others);
+	CHECK(l.peers.others == swell_msg_desc_count + 1);
 	CHECK(dev.got() == 1);
 	CHECK(other.got() == 0);
 
 	/* let go (declared lost): the old device still gets the zero force; the next DEVICE_POS takes it */
-	CHECK(ctl_link_release_peer(&l) == 1);
-	CHECK(ctl_link_release_peer(&l) == 0);
+	CHECK(swell_peers_release(&l.peers) == 1);
+	CHECK(swell_peers_release(&l.peers) == 0);
 	force_cmd(l);
 	CHECK(dev.got() == 1);
 	other.send(l, SWELL_MSG_DEVICE_POS);
 	CHECK(take(l) == 1);
-	CHECK(l.peers_taken == 2);
+	CHECK(l.peers.peers_taken == 2);
 	force_cmd(l);
 	CHECK(other.got() == 1);
 	CHECK(dev.got() == 0);
@@ -505,8 +420,7 @@ TEST_CASE("UDP device link: a configured device is never let go, others are refu
 	}
 	/* a free port, then the link on it with the device's address (loopback when only the port is given) */
 	UdpEnd probe;
-	const std::string good =
-		"udp:" + std::to_string(ntohs(probe.a.sin_port)) + ",peer=" + std::to_string(ntohs(dev.a.sin_port));
+	const std::string good = "udp:" + std::to_string(probe.port) + ",peer=" + std::to_string(dev.port);
 	close(probe.fd);
 	probe.fd = -1;
 	REQUIRE(ctl_link_open(&l, good.c_str(), 1, 0, err, sizeof(err)) == 0);
@@ -515,13 +429,13 @@ TEST_CASE("UDP device link: a configured device is never let go, others are refu
 	force_cmd(l);
 	CHECK(dev.got() == 1);
 	CHECK(other.got() == 0);
-	CHECK(ctl_link_release_peer(&l) == 0);
+	CHECK(swell_peers_release(&l.peers) == 0);
 	other.send(l, SWELL_MSG_DEVICE_POS);
 	CHECK(take(l) == 0);
 	dev.send(l, SWELL_MSG_DEVICE_POS);
 	CHECK(take(l) == 1);
-	CHECK(l.others == 2);
-	CHECK(l.peers_taken == 0);
+	CHECK(l.peers.others == 2);
+	CHECK(l.peers.peers_taken == 0);
 	ctl_link_close(&l);
 }
 

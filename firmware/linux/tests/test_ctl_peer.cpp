@@ -2,6 +2,7 @@
  * (the first sender of this node's DEVICE_POS, or the one configured) and drops every other sender's
  * datagrams, whatever they hold; a silent device faults the loop even while others send valid
  * packets; the host link serves a bounded table of clients beside the configured viewer address. */
+#include "swell_msg_udp.hpp"
 #include "swell_test.hpp"
 
 #include <poll.h>
@@ -18,115 +19,16 @@
 #include <vector>
 
 extern "C" {
-#include "ctl_link.h"
+#include "swell/transport.h"
 #include "swell/ctl.h"
 #include "swell/proto.h"
 }
 
 namespace {
 
-uint64_t now_ns()
-{
-	timespec t;
-	clock_gettime(CLOCK_MONOTONIC, &t);
-	return (uint64_t)t.tv_sec * 1000000000u + (uint64_t)t.tv_nsec;
-}
-
-/* A UDP socket on 127.0.0.1, any free port, a deep receive queue. */
-struct Udp {
-	int fd = -1;
-	uint16_t port = 0;
-	uint8_t seq = 0;
-	Udp()
-	{
-		int p = 0;
-		fd = swell_test::loopback_socket(SOCK_DGRAM, &p);
-		port = (uint16_t)p;
-		const int rcvbuf = 4 << 20;
-		setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf);
-	}
-	~Udp() { close(fd); }
-	Udp(const Udp &) = delete;
-	Udp &operator=(const Udp &) = delete;
-	/* 0 when sent */
-	int send(uint16_t to, const swell_msg *m, size_t n)
-	{
-		uint8_t pkt[SWELL_PKT_MAX];
-		size_t len = 0, used = 0;
-		if (swell_pkt_encode(0, seq++, m, n, pkt, sizeof pkt, &len, &used) != SWELL_OK || used != n)
-			return -1;
-		sockaddr_in a{};
-		a.sin_family = AF_INET;
-		a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-		a.sin_port = htons(to);
-		return sendto(fd, pkt, len, 0, reinterpret_cast<sockaddr *>(&a), sizeof a) == (ssize_t)len ? 0 : -1;
-	}
-	/* One datagram within timeout_ms, decoded into out (cleared); false on timeout. A datagram that
-	 * does not decode gives true with out empty. */
-	bool recv(std::vector<swell_msg> &out, int timeout_ms)
-	{
-		pollfd pf{fd, POLLIN, 0};
-		out.clear();
-		if (poll(&pf, 1, timeout_ms) <= 0)
-			return false;
-		uint8_t buf[SWELL_PKT_MAX + 1];
-		const ssize_t r = ::recv(fd, buf, sizeof buf, MSG_DONTWAIT);
-		if (r <= 0)
-			return false;
-		swell_msg m[SWELL_PKT_MSGS_MAX];
-		size_t n = 0;
-		uint8_t s = 0;
-		if (swell_pkt_decode(buf, (size_t)r, m, SWELL_PKT_MSGS_MAX, &n, &s, nullptr) == SWELL_OK)
-			out.assign(m, m + n);
-		return true;
-	}
-	/* The first message of type within timeout_ms (type 0 on timeout). */
-	swell_msg wait_for(uint8_t type, int timeout_ms)
-	{
-		const uint64_t until = now_ns() + (uint64_t)timeout_ms * 1000000u;
-		std::vector<swell_msg> got;
-		while (now_ns() < until)
-			if (recv(got, 20))
-				for (const swell_msg &m : got)
-					if (m.type == type)
-						return m;
-		return swell_msg{};
-	}
-	/* Datagrams waiting now, read and thrown away. */
-	int drain()
-	{
-		int n = 0;
-		uint8_t buf[SWELL_PKT_MAX + 1];
-		while (::recv(fd, buf, sizeof buf, MSG_DONTWAIT) > 0)
-			n++;
-		return n;
-	}
-};
-
-swell_msg device_pos(uint8_t seq, int16_t z_10um)
-{
-	swell_msg m{};
-	m.type = SWELL_MSG_DEVICE_POS;
-	m.u.device_pos.z_10um = z_10um;
-	m.u.device_pos.seq = seq;
-	m.u.device_pos.status = 1; /* powered */
-	return m;
-}
-
-swell_msg param(uint8_t type, uint16_t id, int32_t value, uint8_t seq)
-{
-	swell_msg m{};
-	m.type = type;
-	if (type == SWELL_MSG_PARAM_SET) {
-		m.u.param_set.id = id;
-		m.u.param_set.value = value;
-		m.u.param_set.seq = seq;
-	} else {
-		m.u.param_get.id = id;
-		m.u.param_get.seq = seq;
-	}
-	return m;
-}
+using Udp = swell_test::MsgUdp;
+using swell_test::device_pos_msg;
+using swell_test::param_msg;
 
 /* swell-ctl with args, its standard output into out_path. */
 pid_t spawn_ctl(std::vector<std::string> args, const std::string &out_path)
@@ -231,9 +133,9 @@ TEST_CASE("swell-ctl UDP device link: a flood of valid packets of every type and
 			}
 		return forces;
 	};
-	const uint64_t t0 = now_ns();
-	while (force_seq.empty() && now_ns() - t0 < 10000000000u) {
-		swell_msg p = device_pos(seq++, dev_z);
+	const uint64_t t0 = swell_link_now_ns();
+	while (force_seq.empty() && swell_link_now_ns() - t0 < 10000000000u) {
+		swell_msg p = device_pos_msg(seq++, dev_z);
 		REQUIRE(dev.send(ctl_port, &p, 1) == 0);
 		if (dev.recv(got, 50))
 			take(got);
@@ -256,13 +158,13 @@ TEST_CASE("swell-ctl UDP device link: a flood of valid packets of every type and
 	Flood flood(ctl_port);
 	/* lockstep, at least `samples` samples and until the flood has sent 20 000 datagrams */
 	int unanswered = 0, n_samples = 0;
-	const uint64_t flood_until = now_ns() + 30000000000u;
-	for (; n_samples < samples || (flood.sent < 20000 && now_ns() < flood_until); n_samples++) {
-		swell_msg p = device_pos(seq++, dev_z);
+	const uint64_t flood_until = swell_link_now_ns() + 30000000000u;
+	for (; n_samples < samples || (flood.sent < 20000 && swell_link_now_ns() < flood_until); n_samples++) {
+		swell_msg p = device_pos_msg(seq++, dev_z);
 		REQUIRE(dev.send(ctl_port, &p, 1) == 0);
 		int forces = 0;
-		const uint64_t until = now_ns() + 2000000000u;
-		while (forces == 0 && now_ns() < until)
+		const uint64_t until = swell_link_now_ns() + 2000000000u;
+		while (forces == 0 && swell_link_now_ns() < until)
 			if (dev.recv(got, 50))
 				forces += take(got);
 		unanswered += forces == 0;
@@ -323,7 +225,7 @@ TEST_CASE("swell-ctl UDP device link: a device that falls silent faults the loop
 		uint8_t seq = 0;
 		while (alive) {
 			if (talking) {
-				swell_msg p = device_pos(seq++, 10000);
+				swell_msg p = device_pos_msg(seq++, 10000);
 				dev.send(ctl_port, &p, 1);
 			}
 			while (dev.recv(v, 0))
@@ -340,8 +242,8 @@ TEST_CASE("swell-ctl UDP device link: a device that falls silent faults the loop
 		}
 	});
 	auto state_within = [&](uint8_t want, int ms) {
-		const uint64_t until = now_ns() + (uint64_t)ms * 1000000u;
-		while (now_ns() < until) {
+		const uint64_t until = swell_link_now_ns() + (uint64_t)ms * 1000000u;
+		while (swell_link_now_ns() < until) {
 			swell_msg hb = host.wait_for(SWELL_MSG_HEARTBEAT, 200);
 			if (hb.type == SWELL_MSG_HEARTBEAT && hb.u.heartbeat.state == want)
 				return hb;
@@ -355,16 +257,16 @@ TEST_CASE("swell-ctl UDP device link: a device that falls silent faults the loop
 	const timespec beside{0, 300000000};
 	nanosleep(&beside, nullptr);
 	talking = false;
-	const uint64_t silent_at = now_ns();
+	const uint64_t silent_at = swell_link_now_ns();
 	const swell_msg fault = state_within(SWELL_CTL_FAULT, 5000);
-	const double fault_ms = (now_ns() - silent_at) / 1e6;
+	const double fault_ms = (swell_link_now_ns() - silent_at) / 1e6;
 	nanosleep(&beside, nullptr); /* let the last commands of RUNNING arrive */
 	counting_after = true;
 	host.drain();
 	int running_after = 0;
-	const uint64_t until = now_ns() + 700000000u;
+	const uint64_t until = swell_link_now_ns() + 700000000u;
 	std::vector<swell_msg> v;
-	while (now_ns() < until)
+	while (swell_link_now_ns() < until)
 		if (host.recv(v, 20))
 			for (const swell_msg &m : v)
 				running_after += m.type == SWELL_MSG_HEARTBEAT && m.u.heartbeat.state == SWELL_CTL_RUNNING;
@@ -408,9 +310,9 @@ TEST_CASE("swell-ctl UDP host link: four clients beside the viewer get telemetry
 
 	auto ask = [&](Udp &c, const swell_msg &m, int ms) {
 		REQUIRE(c.send(listen_port, &m, 1) == 0);
-		const uint64_t until = now_ns() + (uint64_t)ms * 1000000u;
+		const uint64_t until = swell_link_now_ns() + (uint64_t)ms * 1000000u;
 		std::vector<swell_msg> v;
-		while (now_ns() < until)
+		while (swell_link_now_ns() < until)
 			if (c.recv(v, 20))
 				for (const swell_msg &a : v)
 					if ((a.type == SWELL_MSG_PARAM_ACK && a.u.param_ack.seq == m.u.param_get.seq) ||
@@ -419,21 +321,21 @@ TEST_CASE("swell-ctl UDP host link: four clients beside the viewer get telemetry
 		return swell_msg{};
 	};
 	for (int k = 0; k < 4; k++) {
-		const swell_msg a = ask(client[k], param(SWELL_MSG_PARAM_GET, SWELL_PARAM_WAVE_DAMPING, 0, (uint8_t)k), 2000);
+		const swell_msg a = ask(client[k], param_msg(SWELL_MSG_PARAM_GET, SWELL_PARAM_WAVE_DAMPING, 0, (uint8_t)k), 2000);
 		INFO("client " << k);
 		CHECK(a.type == SWELL_MSG_PARAM_ACK);
 	}
-	const swell_msg before = ask(client[0], param(SWELL_MSG_PARAM_GET, SWELL_PARAM_WAVE_DAMPING, 0, 10), 2000);
+	const swell_msg before = ask(client[0], param_msg(SWELL_MSG_PARAM_GET, SWELL_PARAM_WAVE_DAMPING, 0, 10), 2000);
 	REQUIRE(before.type == SWELL_MSG_PARAM_ACK);
 
 	/* a fifth: refused, its requests take no effect */
-	const swell_msg refused =
-		ask(client[4], param(SWELL_MSG_PARAM_SET, SWELL_PARAM_WAVE_DAMPING, before.u.param_ack.value + 1000, 11), 500);
+	const swell_msg refused = ask(
+		client[4], param_msg(SWELL_MSG_PARAM_SET, SWELL_PARAM_WAVE_DAMPING, before.u.param_ack.value + 1000, 11), 500);
 	swell_msg boot{};
 	boot.type = SWELL_MSG_ENTER_BOOTLOADER;
 	boot.u.enter_bootloader.key = SWELL_PROTO_BOOT_KEY;
 	REQUIRE(client[4].send(listen_port, &boot, 1) == 0);
-	const swell_msg after = ask(client[0], param(SWELL_MSG_PARAM_GET, SWELL_PARAM_WAVE_DAMPING, 0, 12), 2000);
+	const swell_msg after = ask(client[0], param_msg(SWELL_MSG_PARAM_GET, SWELL_PARAM_WAVE_DAMPING, 0, 12), 2000);
 	int st = 0;
 	const pid_t exited = waitpid(pid, &st, WNOHANG);
 	CHECK(refused.type == 0);
@@ -451,13 +353,13 @@ TEST_CASE("swell-ctl UDP host link: four clients beside the viewer get telemetry
 	CHECK(client[4].wait_for(SWELL_MSG_HEARTBEAT, 300).type == 0);
 
 	/* client 3 falls silent; the others keep talking; after its silence the fifth is admitted */
-	const uint64_t quiet_until = now_ns() + (uint64_t)(CTL_LINK_CLIENT_SILENT_MS + 700) * 1000000u;
+	const uint64_t quiet_until = swell_link_now_ns() + (uint64_t)(SWELL_UDP_CLIENT_SILENT_MS + 700) * 1000000u;
 	uint8_t s = 20;
-	while (now_ns() < quiet_until)
+	while (swell_link_now_ns() < quiet_until)
 		for (int k = 0; k < 3; k++)
-			CHECK(ask(client[k], param(SWELL_MSG_PARAM_GET, SWELL_PARAM_WAVE_E, 0, s++), 2000).type ==
+			CHECK(ask(client[k], param_msg(SWELL_MSG_PARAM_GET, SWELL_PARAM_WAVE_E, 0, s++), 2000).type ==
 			      SWELL_MSG_PARAM_ACK);
-	const swell_msg joined = ask(client[4], param(SWELL_MSG_PARAM_GET, SWELL_PARAM_WAVE_E, 0, 99), 2000);
+	const swell_msg joined = ask(client[4], param_msg(SWELL_MSG_PARAM_GET, SWELL_PARAM_WAVE_E, 0, 99), 2000);
 	CHECK(joined.type == SWELL_MSG_PARAM_ACK);
 	client[3].drain();
 	const int late = client[3].wait_for(SWELL_MSG_HEARTBEAT, 300).type;

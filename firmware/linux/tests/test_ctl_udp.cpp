@@ -1,5 +1,6 @@
 /* swell-ctl as a process, over its UDP host link: parameter sets from a viewer are validated, refused
  * ones answered with a NACK and without effect, good ones acknowledged with the value in force. */
+#include "swell_msg_udp.hpp"
 #include "swell_test.hpp"
 
 #include <cstring>
@@ -11,52 +12,12 @@ extern "C" {
 
 namespace {
 
-struct Viewer {
-	swell_link *l = nullptr;
-	uint8_t seq = 0;
-	~Viewer()
-	{
-		if (l)
-			swell_link_close(l);
-	}
-	void send(const swell_msg &m)
-	{
-		swell_frame f{};
-		size_t used = 0;
-		REQUIRE(swell_link_encode(SWELL_CARRIER_PKT, 0, seq++, &m, 1, &f, &used) == SWELL_OK);
-		REQUIRE(swell_link_send(l, &f) == 0);
-	}
-	/* The first message of type a (or b) within timeout_ms, or type 0. */
-	swell_msg wait_for(uint8_t type, int timeout_ms, uint8_t or_type = 0)
-	{
-		const uint64_t until = swell_link_now_ns() + (uint64_t)timeout_ms * 1000000u;
-		while (swell_link_now_ns() < until) {
-			swell_frame f{};
-			swell_msg m[SWELL_PKT_MSGS_MAX];
-			size_t n = 0;
-			if (swell_link_recv(l, &f, 50) != 0)
-				continue;
-			if (swell_link_decode(SWELL_CARRIER_PKT, &f, m, SWELL_PKT_MSGS_MAX, &n, nullptr, nullptr) != SWELL_OK)
-				continue;
-			for (size_t k = 0; k < n; k++)
-				if (m[k].type == type || (or_type && m[k].type == or_type))
-					return m[k];
-		}
-		return swell_msg{};
-	}
+/* The viewer: telemetry comes in, requests go back to the controller's host link (its last sender). */
+struct Viewer : swell_test::MsgUdp {
 	swell_msg param(uint8_t type, uint16_t id, int32_t value)
 	{
-		swell_msg m{};
-		m.type = type;
-		if (type == SWELL_MSG_PARAM_SET) {
-			m.u.param_set.id = id;
-			m.u.param_set.value = value;
-			m.u.param_set.seq = seq;
-		} else {
-			m.u.param_get.id = id;
-			m.u.param_get.seq = seq;
-		}
-		send(m);
+		const swell_msg m = swell_test::param_msg(type, id, value, seq);
+		REQUIRE(send(0, &m) == 0);
 		return wait_for(SWELL_MSG_PARAM_ACK, 2000, SWELL_MSG_PARAM_NACK); /* among telemetry */
 	}
 };
@@ -66,9 +27,8 @@ struct Viewer {
 TEST_CASE("swell-ctl over UDP: bad parameter sets are refused with a reason and change nothing", "[ctl][udp]")
 {
 	Viewer v;
-	REQUIRE(swell_link_open_udp(&v.l, "127.0.0.1", 0, nullptr, 0) == 0);
-	const std::string host = "udp:" + std::to_string(swell_link_udp_port(v.l));
-	const std::string dev = "udp:" + std::to_string(swell_link_udp_port(v.l) + 1);
+	const std::string host = "udp:" + std::to_string(v.port);
+	const std::string dev = "udp:" + std::to_string(v.port + 1);
 	std::vector<std::string> args = {SWELL_CTL_BIN, "--device", dev, "--host", host, "--no-rt", "--quiet", "--seconds", "30"};
 	pid_t pid = swell_test::spawn(args);
 
@@ -129,10 +89,7 @@ TEST_CASE("swell-ctl --clock device: a silent device is ticked on every period, 
 	uint8_t seq = 0, pseq = 0;
 	int answered = 0;
 	for (int k = 0; k < 3000 && answered < 20; k++) {
-		swell_msg m{};
-		m.type = SWELL_MSG_DEVICE_POS;
-		m.u.device_pos.seq = seq++;
-		m.u.device_pos.status = 1;
+		const swell_msg m = swell_test::device_pos_msg(seq++, 0);
 		swell_frame f{};
 		size_t used = 0;
 		REQUIRE(swell_link_encode(SWELL_CARRIER_PKT, 0, pseq++, &m, 1, &f, &used) == SWELL_OK);
@@ -234,11 +191,7 @@ TEST_CASE("swell-ctl without real-time scheduling says so and uses a 20 ms silen
 	bool running = false;
 	const uint64_t until = swell_link_now_ns() + 10000000000u;
 	while (!running && swell_link_now_ns() < until) {
-		swell_msg m{};
-		m.type = SWELL_MSG_DEVICE_POS;
-		m.u.device_pos.seq = seq++;
-		m.u.device_pos.status = 1;
-		m.u.device_pos.z_10um = 10000;
+		const swell_msg m = swell_test::device_pos_msg(seq++, 10000);
 		swell_frame f{};
 		size_t used = 0;
 		REQUIRE(swell_link_encode(SWELL_CARRIER_PKT, 0, pseq++, &m, 1, &f, &used) == SWELL_OK);

@@ -2,6 +2,8 @@
 // PARAM_SET / PARAM_GET of the start-up parameters, refusals that change nothing.
 #include <catch2/catch.hpp>
 
+#include "swell_msgs.hpp"
+
 #include <cstring>
 #include <vector>
 
@@ -17,16 +19,6 @@ struct mem_f405 {
 	std::vector<int32_t> sram = std::vector<int32_t>(30720), fast = std::vector<int32_t>(16384);
 	fw_mem m{sram.data(), sram.size(), fast.data(), fast.size(), "fast"};
 };
-
-swell_msg set_msg(uint16_t id, int32_t v)
-{
-	swell_msg m{};
-	m.type = SWELL_MSG_PARAM_SET;
-	m.u.param_set.id = id;
-	m.u.param_set.value = v;
-	m.u.param_set.seq = 42;
-	return m;
-}
 
 // ticks of the scripted device (logic/core_run.h) on c; returns the run's checksum
 uint32_t run(swell_ctl *c, fw_core_run *r, uint32_t ticks)
@@ -79,11 +71,11 @@ TEST_CASE("a start-up parameter set on the wire restarts the core with the new p
 	REQUIRE(fw_core_init(&c, &r, f.sram.data(), f.sram.size(), 2500) == SWELL_OK);
 	c.cfg.wave.damping = 5000; // a parameter set before: kept by the restart
 
-	swell_msg m = set_msg(SWELL_PARAM_WAVE_DAMPING, 1);
+	swell_msg m = swell_test::param_msg(SWELL_MSG_PARAM_SET, SWELL_PARAM_WAVE_DAMPING, 1, 42);
 	CHECK(fw_pool_param(&c, &f.m, &m, &ans, &p) == 0); // the core's own parameter
 	CHECK_FALSE(fw_pool_is_startup(&m));
 
-	m = set_msg(SWELL_SCENE_NX, 128);
+	m = swell_test::param_msg(SWELL_MSG_PARAM_SET, SWELL_SCENE_NX, 128, 42);
 	REQUIRE(fw_pool_param(&c, &f.m, &m, &ans, &p) == 1);
 	REQUIRE(ans.type == SWELL_MSG_PARAM_ACK);
 	CHECK(ans.u.param_ack.id == SWELL_SCENE_NX);
@@ -97,25 +89,27 @@ TEST_CASE("a start-up parameter set on the wire restarts the core with the new p
 
 	const swell_ctl_config cfg = c.cfg;
 	const fw_pool_at place = p;
-	m = set_msg(SWELL_SCENE_NY, 128);
+	m = swell_test::param_msg(SWELL_MSG_PARAM_SET, SWELL_SCENE_NY, 128, 42);
 	REQUIRE(fw_pool_param(&c, &f.m, &m, &ans, &p) == 1);
 	REQUIRE(ans.type == SWELL_MSG_PARAM_NACK);
 	CHECK(ans.u.param_nack.err == SWELL_ESIZE);
 	CHECK(ans.u.param_nack.seq == 42);
-	m = set_msg(SWELL_SCENE_NY, 300); // beyond the wire's 256 cells
+	m = swell_test::param_msg(SWELL_MSG_PARAM_SET, SWELL_SCENE_NY, 300, 42); // beyond the wire's 256 cells
 	REQUIRE(fw_pool_param(&c, &f.m, &m, &ans, &p) == 1);
 	CHECK(ans.u.param_nack.err == SWELL_ESIZE);
-	m = set_msg(SWELL_SCENE_DEPTH_UM, 0);
+	m = swell_test::param_msg(SWELL_MSG_PARAM_SET, SWELL_SCENE_DEPTH_UM, 0, 42);
 	REQUIRE(fw_pool_param(&c, &f.m, &m, &ans, &p) == 1);
 	CHECK(ans.u.param_nack.err == SWELL_ERANGE);
-	m = set_msg(SWELL_SCENE_DX_UM, 1000); // eq. 2: e = 7.67 at 1 mm cells, beyond the stability limit
+	m = swell_test::param_msg(SWELL_MSG_PARAM_SET, SWELL_SCENE_DX_UM, 1000,
+				  42); // eq. 2: e = 7.67 at 1 mm cells, beyond the stability limit
 	REQUIRE(fw_pool_param(&c, &f.m, &m, &ans, &p) == 1);
 	REQUIRE(ans.type == SWELL_MSG_PARAM_NACK);
 	CHECK(ans.u.param_nack.err != SWELL_OK);
 	CHECK(std::memcmp(&c.cfg, &cfg, sizeof(cfg)) == 0);
 	CHECK(std::memcmp(&p, &place, sizeof(p)) == 0);
 
-	m = set_msg(SWELL_SCENE_DX_UM, 12500); // e follows eq. 2: a quarter of the reference pool's
+	m = swell_test::param_msg(SWELL_MSG_PARAM_SET, SWELL_SCENE_DX_UM, 12500,
+				  42); // e follows eq. 2: a quarter of the reference pool's
 	REQUIRE(fw_pool_param(&c, &f.m, &m, &ans, &p) == 1);
 	REQUIRE(ans.type == SWELL_MSG_PARAM_ACK);
 	q30_t e = 0;
@@ -135,7 +129,7 @@ TEST_CASE("a start-up parameter set on the wire restarts the core with the new p
 	run(&c, &r, 600); // autorun: the object reaches the water, the force law runs
 	REQUIRE(c.state == SWELL_CTL_RUNNING);
 	const uint32_t wave = swell_wave_checksum(&c.wave);
-	m = set_msg(SWELL_SCENE_NX, 64);
+	m = swell_test::param_msg(SWELL_MSG_PARAM_SET, SWELL_SCENE_NX, 64, 42);
 	REQUIRE(fw_pool_param(&c, &f.m, &m, &ans, &p) == 1);
 	CHECK(ans.u.param_nack.err == SWELL_ESTATE);
 	CHECK(c.cfg.nx == 128);

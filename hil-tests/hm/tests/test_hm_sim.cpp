@@ -75,28 +75,7 @@ struct closed_loop {
 	}
 };
 
-struct row {
-	double t, x[3], v[3], fcmd[3], fhand[3];
-	int enable, age, applied, state, holding;
-};
-
-std::vector<row> read_csv(const std::string &path)
-{
-	std::ifstream f(path);
-	std::string line;
-	std::vector<row> rows;
-	std::getline(f, line); // header
-	while (std::getline(f, line)) {
-		row r{};
-		const int n =
-			std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%d,%d,%d,%d,%d", &r.t,
-				    &r.x[0], &r.x[1], &r.x[2], &r.v[0], &r.v[1], &r.v[2], &r.fcmd[0], &r.fcmd[1], &r.fcmd[2],
-				    &r.fhand[0], &r.fhand[1], &r.fhand[2], &r.enable, &r.age, &r.applied, &r.state, &r.holding);
-		if (n == 18)
-			rows.push_back(r);
-	}
-	return rows;
-}
+using row = swell_test::HmLogRow;
 
 // swell-ctl arguments for effect mode: a scene file that sets only force.mode (the reference scene
 // otherwise).
@@ -152,7 +131,7 @@ TEST_CASE("drop: the object falls from 20 mm, floats (never on the floor, at mos
 	CHECK(std::fabs(z - z_expected) <= 0.02 * std::fabs(z_expected));
 	CHECK(std::fabs(z - z_level) <= 0.005 * std::fabs(z_level));
 	// settled: the last second moves less than 0.5 mm
-	const std::vector<row> rows = read_csv(cl.csv);
+	const std::vector<row> rows = swell_test::read_hm_log(cl.csv);
 	REQUIRE(rows.size() == 25000);
 	double lo = 1e9, hi = -1e9;
 	for (size_t k = rows.size() - 2500; k < rows.size(); k++) {
@@ -190,7 +169,7 @@ TEST_CASE("effect mode: the device renders springs, damper and gravity from the 
 	args.insert(args.end(), {"--sample-every", "10"});
 	const std::string s = cl.run(args);
 	INFO(s);
-	const std::vector<row> rows = read_csv(cl.csv);
+	const std::vector<row> rows = swell_test::read_hm_log(cl.csv);
 	REQUIRE(rows.size() == 15000);
 	// a set every solver step (10 ticks) while running, none went stale, the device rendered them
 	CHECK(figure(s, "effects") >= 1400);
@@ -234,7 +213,7 @@ TEST_CASE("shake: held and shaken vertically and sideways, the closed loop stays
 		std::vector<std::string> args = cl.hm_args(sh.hand, 8.0);
 		args.insert(args.end(), {"--start", "0,0,-39.4"}); // floating at rest when the hand takes it
 		const std::string s = cl.run(args);
-		const std::vector<row> rows = read_csv(cl.csv);
+		const std::vector<row> rows = swell_test::read_hm_log(cl.csv);
 		REQUIRE(rows.size() == 20000);
 		double x_abs = 0.0, v_abs = 0.0, f_abs = 0.0;
 		for (const row &r : rows)
@@ -273,7 +252,7 @@ TEST_CASE("press: held at depth the hand carries buoyancy minus weight (k delta 
 	std::vector<std::string> args = cl.hm_args("press:at=1,depth=45,ramp=0.5,hold=3", 9.0);
 	args.insert(args.end(), {"--start", "0,0,-39.4"});
 	const std::string s = cl.run(args);
-	const std::vector<row> rows = read_csv(cl.csv);
+	const std::vector<row> rows = swell_test::read_hm_log(cl.csv);
 	REQUIRE(rows.size() == 22500);
 	// the last 1.5 s of the hold: the device is at rest on average, so F_hand + F_cmd averages to 0
 	double z = 0.0, f_cmd = 0.0, f_hand = 0.0;
@@ -316,7 +295,7 @@ TEST_CASE("e-stop: while pressed the device applies no force, the controller fau
 	std::vector<std::string> args = cl.hm_args("drop:z=20,hold=100", 4.0);
 	args.insert(args.end(), {"--estop", "2,3"});
 	const std::string s = cl.run(args);
-	const std::vector<row> rows = read_csv(cl.csv);
+	const std::vector<row> rows = swell_test::read_hm_log(cl.csv);
 	REQUIRE(rows.size() == 10000);
 	int applied_in = 0, fault_seen = 0;
 	double t_back = -1.0;
@@ -360,7 +339,7 @@ TEST_CASE("controller killed mid-run: swell-hm applies zero force within its wat
 	std::this_thread::sleep_for(std::chrono::milliseconds(500));
 	REQUIRE(hm.stop(SIGTERM, 20000) == 0);
 	const std::string s = swell_test::slurp(cl.hm_out);
-	const std::vector<row> rows = read_csv(cl.csv);
+	const std::vector<row> rows = swell_test::read_hm_log(cl.csv);
 	INFO(s);
 	REQUIRE(rows.size() > 100);
 	size_t last = rows.size();
@@ -401,7 +380,7 @@ TEST_CASE("real time: paced by its own absolute-deadline clock, never faster tha
 	double sim_s = 0.0, wall_s = 0.0;
 	REQUIRE(std::sscanf(s.c_str() + at, "\n  ran %lf s simulated, %*u ticks at %*g Hz, real time, %lf s wall", &sim_s,
 			    &wall_s) == 2);
-	const std::vector<row> rows = read_csv(cl.csv);
+	const std::vector<row> rows = swell_test::read_hm_log(cl.csv);
 	int weight = 0, n = 0;
 	for (const row &r : rows)
 		if (r.t >= 0.5) {

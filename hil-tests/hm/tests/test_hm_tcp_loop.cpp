@@ -21,28 +21,7 @@ const std::string ctl_bin = SWELL_CTL_BIN;
 const std::string work_dir = SWELL_HM_TEST_DIR;
 constexpr double f_limit_N = 10.0; // the controller's default F_max
 
-struct row {
-	double t, x[3], fcmd[3];
-	int req_age, clients, state;
-};
-
-std::vector<row> read_csv(const std::string &path)
-{
-	std::ifstream f(path);
-	std::string line;
-	std::vector<row> rows;
-	std::getline(f, line);
-	while (std::getline(f, line)) {
-		row r{};
-		double v[3], fh[3];
-		int applied, holding;
-		if (std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%d,%d,%d,%d,%d", &r.t, &r.x[0],
-				&r.x[1], &r.x[2], &v[0], &v[1], &v[2], &r.fcmd[0], &r.fcmd[1], &r.fcmd[2], &fh[0], &fh[1], &fh[2],
-				&r.req_age, &r.clients, &applied, &r.state, &holding) == 18)
-			rows.push_back(r);
-	}
-	return rows;
-}
+using row = swell_test::HmLogRow;
 
 double figure(const std::string &s, const std::string &key)
 {
@@ -70,7 +49,7 @@ struct Ctl : swell_test::Proc {
 // simulated time of the last whole row logged so far (the log is written in blocks)
 double logged_until(const std::string &csv)
 {
-	const std::vector<row> r = read_csv(csv);
+	const std::vector<row> r = swell_test::read_hm_log(csv);
 	return r.empty() ? 0.0 : r.back().t;
 }
 
@@ -95,7 +74,7 @@ TEST_CASE("hm loop: a drop settles within 2% of the level-corrected depth: the e
 	CHECK(z_level == Approx(-39.375).margin(1e-9));
 	CHECK(std::fabs(z - z_level) <= 0.02 * std::fabs(z_level));
 	CHECK(std::fabs(z - z_level) <= 0.005 * std::fabs(z_level));
-	const std::vector<row> rows = read_csv(csv);
+	const std::vector<row> rows = swell_test::read_hm_log(csv);
 	REQUIRE(rows.size() == 30000);
 	int over = 0, forced_in_estop = 0;
 	double back_at = -1, peak = 0;
@@ -137,7 +116,7 @@ TEST_CASE("hm loop: a second client's set state stop zeroes the force at once an
 		for (int k = 0; k < 6000 && logged_until(csv) < stop_t + 3.0; k++)
 			std::this_thread::sleep_for(std::chrono::milliseconds(10));
 	}
-	const std::vector<row> rows = read_csv(csv);
+	const std::vector<row> rows = swell_test::read_hm_log(csv);
 	REQUIRE(!rows.empty());
 	size_t stop_at = 0;
 	while (stop_at < rows.size() && rows[stop_at].state != 5)
@@ -199,7 +178,7 @@ TEST_CASE("hm loop: TCP faults (replies 5 ms and 50 ms late, garbage, a reset) e
 	REQUIRE(hm_rc == 0);
 	CHECK(ctl_rc == 0);
 	CHECK(sum.find("injected        1 connection resets, 1 garbage bursts") != std::string::npos);
-	const std::vector<row> rows = read_csv(csv);
+	const std::vector<row> rows = swell_test::read_hm_log(csv);
 	REQUIRE(rows.size() == 30000);
 	int over = 0;
 	for (const row &r : rows)
@@ -268,15 +247,15 @@ TEST_CASE("hm loop: the controller killed mid-run: the device zeroes its bias fo
 	// the server zeroed the first controller's bias force when its connection ended, before the next
 	// step (a connection that ends is seen in the same poll that runs requests)
 	CHECK(swell_test::count_before(sum, " by a vanished client") == 1);
-	const std::vector<row> rows = read_csv(csv);
+	const std::vector<row> rows = swell_test::read_hm_log(csv);
 	REQUIRE(rows.size() > 2500);
 	int forced_alone = 0, over = 0, rendered_late = 0, late = 0;
 	for (const row &r : rows) {
-		forced_alone += r.clients == 0 && r.fcmd[2] != 0.0;
+		forced_alone += r.clients() == 0 && r.fcmd[2] != 0.0;
 		over += std::fabs(r.fcmd[2]) > f_limit_N * 1.0001;
 		if (r.t > rows.back().t - 2.0) {
 			late++;
-			rendered_late += r.clients == 1 && r.fcmd[2] != 0.0;
+			rendered_late += r.clients() == 1 && r.fcmd[2] != 0.0;
 		}
 	}
 	CHECK(forced_alone == 0);
@@ -381,7 +360,7 @@ TEST_CASE("hm loop, effect mode: the device's springs, damper and bias force flo
 	const std::string sum = swell_test::slurp(srv.out);
 	INFO(sum);
 	CHECK(swell_test::count_before(sum, " by a vanished client") == 4); // pull, push, damper, weight; none at the exit
-	const std::vector<row> rows = read_csv(csv);
+	const std::vector<row> rows = swell_test::read_hm_log(csv);
 	REQUIRE(rows.size() > 10000);
 	int over = 0, forced_alone = 0, n = 0;
 	double zs = 0;
@@ -395,12 +374,12 @@ TEST_CASE("hm loop, effect mode: the device's springs, damper and bias force flo
 	}
 	// from the first tick with the second client, the kill is the first tick with one client again
 	size_t kill_at = 0;
-	while (kill_at < rows.size() && rows[kill_at].clients != 2)
+	while (kill_at < rows.size() && rows[kill_at].clients() != 2)
 		kill_at++;
-	while (kill_at < rows.size() && rows[kill_at].clients == 2)
+	while (kill_at < rows.size() && rows[kill_at].clients() == 2)
 		kill_at++;
 	size_t alone = 0;
-	for (size_t k = kill_at; k < rows.size() && rows[k].clients == 1; k++, alone++)
+	for (size_t k = kill_at; k < rows.size() && rows[k].clients() == 1; k++, alone++)
 		forced_alone += rows[k].fcmd[0] != 0.0 || rows[k].fcmd[1] != 0.0 || rows[k].fcmd[2] != 0.0;
 	CHECK(over == 0);
 	REQUIRE(n > 2000);

@@ -78,6 +78,11 @@ const struct swell_link_counters *swell_link_get_counters(const struct swell_lin
 	return &l->cnt;
 }
 
+int swell_link_poll_fd(const struct swell_link *l)
+{
+	return l->ops->poll_fd ? l->ops->poll_fd(l) : -1;
+}
+
 enum swell_carrier swell_link_carrier(const struct swell_link *l)
 {
 	return l->carrier;
@@ -190,6 +195,8 @@ int swell_link_open_spec(struct swell_link **out, const struct swell_link_spec *
 		uo.iface = s->iface;
 		return swell_link_open_usb(out, &uo);
 	}
+	case SWELL_LINK_FFS:
+		return o->ffs_iface ? swell_link_open_ffs(out, s->name, o->ffs_iface) : -EINVAL;
 	case SWELL_LINK_REPLAY:
 		return swell_link_open_replay(out, s->name, s->realtime);
 	default:

@@ -123,7 +123,107 @@ static void can_close(struct swell_link *l)
 	free(c);
 }
 
-static const struct swell_link_ops can_ops = { can_send, can_recv, can_close };
+const char *swell_can_state_name(enum swell_can_state s)
+{
+	switch (s) {
+	case SWELL_CAN_ACTIVE:
+		return "error-active";
+	case SWELL_CAN_WARNING:
+		return "error-warning";
+	case SWELL_CAN_PASSIVE:
+		return "error-passive";
+	case SWELL_CAN_BUS_OFF:
+		return "bus-off";
+	}
+	return "?";
+}
+
+enum swell_can_event swell_can_error_frame(struct swell_can_health *h, uint32_t can_id, const uint8_t d[8])
+{
+	enum swell_can_state before, now;
+
+	if (!h || !d || !(can_id & CAN_ERR_FLAG))
+		return SWELL_CAN_EV_NONE;
+	before = now = (enum swell_can_state)h->state;
+	h->error_frames++;
+	if (can_id & (CAN_ERR_CNT | CAN_ERR_CRTL)) { /* drivers put the counters in data[6], data[7] */
+		h->tx_err = d[6];
+		h->rx_err = d[7];
+	}
+	h->tx_timeouts += (can_id & CAN_ERR_TX_TIMEOUT) != 0;
+	h->lost_arb += (can_id & CAN_ERR_LOSTARB) != 0;
+	h->no_ack += (can_id & CAN_ERR_ACK) != 0;
+	h->prot += (can_id & CAN_ERR_PROT) != 0;
+	h->transceiver += (can_id & CAN_ERR_TRX) != 0;
+	if (can_id & CAN_ERR_CRTL) {
+		h->overflows += (d[1] & (CAN_ERR_CRTL_RX_OVERFLOW | CAN_ERR_CRTL_TX_OVERFLOW)) != 0;
+		if (before != SWELL_CAN_BUS_OFF) { /* only a restart leaves bus-off, not a counter report */
+			if (d[1] & (CAN_ERR_CRTL_RX_PASSIVE | CAN_ERR_CRTL_TX_PASSIVE))
+				now = SWELL_CAN_PASSIVE;
+			else if (d[1] & (CAN_ERR_CRTL_RX_WARNING | CAN_ERR_CRTL_TX_WARNING))
+				now = SWELL_CAN_WARNING;
+		}
+		if (d[1] & CAN_ERR_CRTL_ACTIVE)
+			now = SWELL_CAN_ACTIVE;
+	}
+	if (can_id & CAN_ERR_RESTARTED) {
+		now = SWELL_CAN_ACTIVE;
+		if (!(can_id & CAN_ERR_CNT)) /* a restarted controller starts with clear counters */
+			h->tx_err = h->rx_err = 0;
+	}
+	if (can_id & CAN_ERR_BUSOFF) /* wins over a restart in the same frame: fail safe */
+		now = SWELL_CAN_BUS_OFF;
+	if (now == before)
+		return SWELL_CAN_EV_NONE;
+	h->state = (uint8_t)now;
+	switch (now) {
+	case SWELL_CAN_BUS_OFF:
+		h->bus_offs++;
+		return SWELL_CAN_EV_BUS_OFF;
+	case SWELL_CAN_PASSIVE:
+		h->passives++;
+		break;
+	case SWELL_CAN_WARNING:
+		h->warnings++;
+		break;
+	case SWELL_CAN_ACTIVE:
+		h->actives++;
+		break;
+	}
+	if (before == SWELL_CAN_BUS_OFF) {
+		h->restarts++;
+		return SWELL_CAN_EV_RESTARTED;
+	}
+	return SWELL_CAN_EV_STATE;
+}
+
+int swell_can_read(int fd, struct swell_can_health *h, struct can_frame *f)
+{
+	const ssize_t r = read(fd, f, sizeof(*f));
+
+	if (r < 0 && errno == ENETDOWN) {
+		h->downs++;
+		h->tx_err = h->rx_err = 0;
+		if (h->state == SWELL_CAN_BUS_OFF) {
+			h->state = SWELL_CAN_ACTIVE;
+			h->restarts++;
+		}
+		return -1;
+	}
+	if (r != (ssize_t)sizeof(*f))
+		return -1;
+	if (f->can_id & CAN_ERR_FLAG) {
+		swell_can_error_frame(h, f->can_id, f->data);
+		return 0;
+	}
+	if (h->state == SWELL_CAN_BUS_OFF) {
+		h->dropped_off++;
+		return 0;
+	}
+	return 1;
+}
+
+static const struct swell_link_ops can_ops = { can_send, can_recv, can_close, NULL };
 
 static int set_bitrate(const char *ifname, uint32_t bitrate)
 {

@@ -8,6 +8,7 @@ struct swell_link_ops {
 	int (*send)(struct swell_link *l, const struct swell_frame *f);
 	int (*recv)(struct swell_link *l, struct swell_frame *f, int timeout_ms);
 	void (*close)(struct swell_link *l);
+	int (*poll_fd)(const struct swell_link *l); /* NULL: nothing to poll */
 };
 
 struct swell_link {

@@ -83,7 +83,7 @@ static void rec_close(struct swell_link *l)
 	free(r);
 }
 
-static const struct swell_link_ops rec_ops = { rec_send, rec_recv, rec_close };
+static const struct swell_link_ops rec_ops = { rec_send, rec_recv, rec_close, NULL };
 
 int swell_link_open_record(struct swell_link **out, struct swell_link *inner, const char *path)
 {
@@ -174,7 +174,7 @@ static void replay_close(struct swell_link *l)
 	free(p);
 }
 
-static const struct swell_link_ops replay_ops = { replay_send, replay_recv, replay_close };
+static const struct swell_link_ops replay_ops = { replay_send, replay_recv, replay_close, NULL };
 
 int swell_link_open_replay(struct swell_link **out, const char *path, int realtime)
 {

@@ -134,7 +134,7 @@ static void udp_close(struct swell_link *l)
 	free(u);
 }
 
-static const struct swell_link_ops udp_ops = { udp_send, udp_recv, udp_close };
+static const struct swell_link_ops udp_ops = { udp_send, udp_recv, udp_close, NULL };
 
 static int parse_addr(const char *host, uint16_t port, struct sockaddr_in *a)
 {

@@ -228,7 +228,7 @@ static void usb_close(struct swell_link *l)
 	free(u);
 }
 
-static const struct swell_link_ops usb_ops = { usb_send, usb_recv, usb_close };
+static const struct swell_link_ops usb_ops = { usb_send, usb_recv, usb_close, NULL };
 
 int swell_link_open_usb(struct swell_link **out, const struct swell_usb_opts *opts)
 {

@@ -1,6 +1,7 @@
 #include <catch2/catch.hpp>
 
 #include <arpa/inet.h>
+#include <linux/can/error.h>
 #include <cerrno>
 #include <chrono>
 #include <cstdio>
@@ -14,6 +15,7 @@
 
 extern "C" {
 #include "swell/link.h"
+#include "swell/link_peers.h"
 #include "swell/transport.h"
 }
 
@@ -331,4 +333,154 @@ TEST_CASE("recording a replay keeps the recorded times: the copy replays as the 
 	}
 	std::remove(orig.c_str());
 	std::remove(copy.c_str());
+}
+
+/* ---- the CAN bus state kept from the driver's error frames (swell-ctl's CAN links) ---- */
+
+namespace {
+
+struct can_frame err_frame(uint32_t classes, uint8_t crtl = 0, uint8_t txerr = 0, uint8_t rxerr = 0)
+{
+	struct can_frame f;
+
+	memset(&f, 0, sizeof(f));
+	f.can_id = CAN_ERR_FLAG | classes;
+	f.can_dlc = CAN_ERR_DLC;
+	f.data[1] = crtl;
+	f.data[6] = txerr;
+	f.data[7] = rxerr;
+	return f;
+}
+
+swell_can_event feed(swell_can_health *h, const can_frame &f) { return swell_can_error_frame(h, f.can_id, f.data); }
+
+} // namespace
+
+TEST_CASE("CAN error frames: warning and passive are counted, bus-off holds until a restart", "[links]")
+{
+	struct swell_can_health h;
+	memset(&h, 0, sizeof(h));
+
+	CHECK(feed(&h, err_frame(CAN_ERR_CRTL | CAN_ERR_CNT, CAN_ERR_CRTL_TX_WARNING, 96, 0)) == SWELL_CAN_EV_STATE);
+	CHECK(h.state == SWELL_CAN_WARNING);
+	CHECK(h.tx_err == 96);
+	CHECK(feed(&h, err_frame(CAN_ERR_CRTL | CAN_ERR_CNT, CAN_ERR_CRTL_TX_PASSIVE, 128, 3)) == SWELL_CAN_EV_STATE);
+	CHECK(h.state == SWELL_CAN_PASSIVE);
+	CHECK(h.tx_err == 128);
+	CHECK(h.rx_err == 3);
+	CHECK(feed(&h, err_frame(CAN_ERR_ACK)) == SWELL_CAN_EV_NONE); /* no ACK: counted, state unchanged */
+	CHECK(h.no_ack == 1);
+	CHECK(feed(&h, err_frame(CAN_ERR_BUSOFF)) == SWELL_CAN_EV_BUS_OFF);
+	CHECK(h.state == SWELL_CAN_BUS_OFF);
+	/* a counter report while off the bus does not bring it back */
+	CHECK(feed(&h, err_frame(CAN_ERR_CRTL, CAN_ERR_CRTL_RX_WARNING)) == SWELL_CAN_EV_NONE);
+	CHECK(h.state == SWELL_CAN_BUS_OFF);
+	CHECK(feed(&h, err_frame(CAN_ERR_RESTARTED)) == SWELL_CAN_EV_RESTARTED);
+	CHECK(h.state == SWELL_CAN_ACTIVE);
+	CHECK(h.tx_err == 0); /* the kernel's restart frame carries no counters: a restart clears them */
+	CHECK(feed(&h, err_frame(CAN_ERR_CRTL, CAN_ERR_CRTL_ACTIVE)) == SWELL_CAN_EV_NONE); /* already active */
+	INFO("frames " << h.error_frames << ", warnings " << h.warnings << ", passives " << h.passives << ", bus-offs "
+		       << h.bus_offs << ", restarts " << h.restarts);
+	CHECK(h.error_frames == 7);
+	CHECK(h.warnings == 1);
+	CHECK(h.passives == 1);
+	CHECK(h.bus_offs == 1);
+	CHECK(h.restarts == 1);
+	CHECK(h.actives == 1);
+}
+
+TEST_CASE("CAN error frames: bus-off wins over a restart in the same frame, a data frame is refused", "[links]")
+{
+	struct swell_can_health h, before;
+	memset(&h, 0, sizeof(h));
+
+	CHECK(feed(&h, err_frame(CAN_ERR_RESTARTED | CAN_ERR_BUSOFF)) == SWELL_CAN_EV_BUS_OFF);
+	CHECK(h.state == SWELL_CAN_BUS_OFF);
+	/* recovered to error-active (some drivers say so instead of RESTARTED) also leaves bus-off */
+	CHECK(feed(&h, err_frame(CAN_ERR_CRTL, CAN_ERR_CRTL_ACTIVE)) == SWELL_CAN_EV_RESTARTED);
+	CHECK(h.state == SWELL_CAN_ACTIVE);
+	before = h;
+	const uint8_t d[8] = {0};
+	CHECK(swell_can_error_frame(&h, 0x123, d) == SWELL_CAN_EV_NONE);
+	CHECK(swell_can_error_frame(&h, CAN_ERR_FLAG | CAN_ERR_BUSOFF, nullptr) == SWELL_CAN_EV_NONE);
+	CHECK(swell_can_error_frame(nullptr, CAN_ERR_FLAG | CAN_ERR_BUSOFF, d) == SWELL_CAN_EV_NONE);
+	CHECK(memcmp(&h, &before, sizeof(h)) == 0);
+}
+
+TEST_CASE("CAN link names its states", "[links]")
+{
+	CHECK(std::string(swell_can_state_name(SWELL_CAN_ACTIVE)) == "error-active");
+	CHECK(std::string(swell_can_state_name(SWELL_CAN_PASSIVE)) == "error-passive");
+	CHECK(std::string(swell_can_state_name(SWELL_CAN_BUS_OFF)) == "bus-off");
+}
+
+/* ---- the peer rules of a served UDP socket (swell/link_peers.h), on made-up addresses and times ---- */
+
+namespace {
+
+sockaddr_in loopback_at(uint16_t port)
+{
+	sockaddr_in a{};
+	a.sin_family = AF_INET;
+	a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+	a.sin_port = htons(port);
+	return a;
+}
+
+} // namespace
+
+TEST_CASE("peers: four clients beside the viewer, a fifth refused until one is silent for 3 s, a client's "
+	  "HEARTBEAT taken",
+	  "[links]")
+{
+	const sockaddr_in viewer = loopback_at(47801);
+	const int64_t s = 1000000000;
+	swell_peers p;
+	swell_msg m[2] = {};
+	sockaddr_in to[1 + SWELL_PEERS_CLIENTS];
+
+	swell_peers_init(&p, 0, &viewer);
+	m[0].type = SWELL_MSG_HEARTBEAT;
+	m[1].type = SWELL_MSG_PARAM_GET;
+	CHECK(swell_peers_take(&p, &viewer, m, 2, s) == 2); /* the viewer's HEARTBEAT is handed on */
+	for (uint16_t k = 0; k < SWELL_PEERS_CLIENTS; k++) {
+		const sockaddr_in c = loopback_at((uint16_t)(50000 + k));
+		CHECK(swell_peers_take(&p, &c, m, 1, s + k) == 0); /* admitted by its keep-alive, which is taken */
+	}
+	const sockaddr_in fifth = loopback_at(50009);
+	CHECK(swell_peers_take(&p, &fifth, m, 2, 2 * s) == 0);
+	CHECK(p.clients_refused == 1);
+	CHECK(swell_peers_dests(&p, to) == 1 + SWELL_PEERS_CLIENTS);
+	const sockaddr_in first = loopback_at(50000);
+	CHECK(swell_peers_take(&p, &first, m, 2, 3 * s) == 1); /* keeps its slot: the PARAM_GET goes on */
+	CHECK(m[0].type == SWELL_MSG_PARAM_GET);
+	m[0].type = SWELL_MSG_HEARTBEAT;
+	/* 3 s after their last packet the other three are silent: the fifth gets a slot */
+	CHECK(swell_peers_take(&p, &fifth, m, 2, 4 * s + 10) == 1);
+	CHECK(p.clients_silent == 3);
+	CHECK(swell_peers_clients(&p) == 2);
+	CHECK(p.clients_admitted == 5);
+}
+
+TEST_CASE("peers: the first sender of DEVICE_POS is the device until let go, a configured one never is", "[links]")
+{
+	const sockaddr_in dev = loopback_at(50100), other = loopback_at(50101);
+	swell_peers p;
+	swell_msg pos[1] = {}, hb[1] = {};
+
+	pos[0].type = SWELL_MSG_DEVICE_POS;
+	hb[0].type = SWELL_MSG_HEARTBEAT;
+	swell_peers_init(&p, 1, nullptr);
+	CHECK(swell_peers_hear(&p, &other) == 1);
+	CHECK(swell_peers_take(&p, &other, hb, 1, 0) == 0); /* not a position: nobody is held */
+	CHECK(swell_peers_take(&p, &dev, pos, 1, 0) == 1);
+	CHECK(swell_peers_hear(&p, &other) == 0); /* dropped unread */
+	CHECK(p.others == 2);
+	CHECK(swell_peers_release(&p) == 1);
+	CHECK(swell_peers_hear(&p, &other) == 1);
+	CHECK(swell_peers_take(&p, &other, pos, 1, 0) == 1);
+	CHECK(p.peers_taken == 2);
+	swell_peers_init(&p, 1, &dev);
+	CHECK(swell_peers_hear(&p, &other) == 0);
+	CHECK(swell_peers_release(&p) == 0);
 }

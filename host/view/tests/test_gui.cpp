@@ -31,11 +31,27 @@ extern char **environ;
 
 #include "png_read.hpp"
 
+extern "C" {
+#include "swell/link.h"
+}
+
 namespace {
 
 const int W = 640, H = 480;
 const double OBJ = 0.05; // the object side, m: swell-view's default (the controller's default body)
 const double L = 0.4, S = 0.9 * std::min(W / L, H / L);
+
+// A loopback UDP port that was free a moment ago: the link library's socket on any free port, closed.
+int free_udp_port()
+{
+	sockaddr_in any{}, bound{};
+	any.sin_family = AF_INET;
+	any.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+	const int fd = swell_udp_socket(&any, 0, 0, nullptr, &bound);
+	REQUIRE(fd >= 0);
+	close(fd);
+	return ntohs(bound.sin_port);
+}
 
 double col_of(double x_m) { return W / 2.0 + (x_m - L / 2) * S; }
 double row_of(double y_m) { return H / 2.0 - (y_m - L / 2) * S; }
@@ -526,7 +542,7 @@ TEST_CASE("a cut recording shows what it holds and a recording of noise draws no
 
 TEST_CASE("live over UDP: the scene stays on screen when the sender stops, marked as no data")
 {
-	// a port nobody holds (/proc/net/udp lists local ports in hex)
+	// whether the viewer holds its port yet (/proc/net/udp lists local ports in hex)
 	auto held = [](int p) {
 		char h[16];
 		snprintf(h, sizeof(h), ":%04X ", (unsigned)p & 0xffffu);
@@ -537,9 +553,7 @@ TEST_CASE("live over UDP: the scene stays on screen when the sender stops, marke
 				return true;
 		return false;
 	};
-	int port = 40000 + int(getpid() % 5000);
-	while (held(port))
-		port++;
+	const int port = free_udp_port();
 	std::string path = tmpdir() + "/udp.png";
 	// its exit status is appended to its output ("exit N") once it has ended and the leak check is done
 	const std::string log = tmpdir() + "/udp.out";
@@ -1133,16 +1147,8 @@ TEST_CASE("SIGINT and SIGTERM end a run with its summary and exit 0, without a d
 	}
 	// without a display, with leak detection on: the model's buffers and the UDP source are freed on
 	// that exit too (it leaked 3 MiB there); a free port for the source
-	const int fd = socket(AF_INET, SOCK_DGRAM, 0);
-	sockaddr_in a{};
-	a.sin_family = AF_INET;
-	a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-	socklen_t al = sizeof a;
-	REQUIRE(bind(fd, reinterpret_cast<sockaddr *>(&a), sizeof a) == 0);
-	REQUIRE(getsockname(fd, reinterpret_cast<sockaddr *>(&a), &al) == 0);
-	close(fd);
 	std::string cmd =
-		"ASAN_OPTIONS=detect_leaks=1 DISPLAY= " SWELL_VIEW_BIN " --source udp:" + std::to_string(ntohs(a.sin_port)) +
+		"ASAN_OPTIONS=detect_leaks=1 DISPLAY= " SWELL_VIEW_BIN " --source udp:" + std::to_string(free_udp_port()) +
 		" 2>&1";
 	FILE *p = popen(cmd.c_str(), "r");
 	REQUIRE(p != nullptr);

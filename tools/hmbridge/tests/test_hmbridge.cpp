@@ -8,6 +8,7 @@
 #include <fstream>
 
 #include "hm_tcp.hpp"
+#include "swell_msg_udp.hpp"
 
 extern "C" {
 #include "swell/effect.h"
@@ -23,38 +24,22 @@ const std::string hm_bin = SWELL_HM_BIN;
 const std::string bridge_bin = SWELL_HMBRIDGE_BIN;
 const std::string work_dir = SWELL_BRIDGE_TEST_DIR;
 
-struct Ctl {
-	int fd = -1;
-	int port = 0;
-	sockaddr_in peer{};
-	bool have_peer = false;
-	uint8_t seq = 0;
-	Ctl() { fd = swell_test::loopback_socket(SOCK_DGRAM, &port); }
-	~Ctl() { close(fd); }
+// The controller's side: the bridge's samples come in, FORCE_CMDs go back to their sender.
+struct Ctl : swell_test::MsgUdp {
 	// samples that arrive within ms: count, and the last DEVICE_POS
-	int samples(int ms, swell_msg_device_pos *last)
+	int samples(int ms, swell_msg_device_pos *newest)
 	{
 		int n = 0;
+		std::vector<swell_msg> got;
 		const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(ms);
-		while (std::chrono::steady_clock::now() < until) {
-			pollfd p = {fd, POLLIN, 0};
-			if (poll(&p, 1, 1) <= 0)
-				continue;
-			uint8_t buf[128];
-			socklen_t l = sizeof peer;
-			const ssize_t r = recvfrom(fd, buf, sizeof buf, 0, reinterpret_cast<sockaddr *>(&peer), &l);
-			have_peer = true;
-			swell_msg m[8];
-			size_t k = 0;
-			uint8_t ps;
-			if (r > 0 && swell_pkt_decode(buf, (size_t)r, m, 8, &k, &ps, nullptr) == SWELL_OK)
-				for (size_t j = 0; j < k; j++)
-					if (m[j].type == SWELL_MSG_DEVICE_POS) {
+		while (std::chrono::steady_clock::now() < until)
+			if (recv(got, 1))
+				for (const swell_msg &m : got)
+					if (m.type == SWELL_MSG_DEVICE_POS) {
 						n++;
-						if (last)
-							*last = m[j].u.device_pos;
+						if (newest)
+							*newest = m.u.device_pos;
 					}
-		}
 		return n;
 	}
 	// a FORCE_CMD, after the effect set when one is given (effect mode), in one packet
@@ -70,35 +55,9 @@ struct Ctl {
 		m[n].u.force_cmd.fz_cN = fz_cN;
 		m[n].u.force_cmd.enable = (uint8_t)enable;
 		m[n].u.force_cmd.seq = seq;
-		uint8_t buf[SWELL_PKT_MAX];
-		size_t len = 0, used = 0;
-		REQUIRE(swell_pkt_encode(0, seq++, m, n + 1, buf, sizeof buf, &len, &used) == SWELL_OK);
-		REQUIRE(used == n + 1);
-		sendto(fd, buf, len, 0, reinterpret_cast<sockaddr *>(&peer), sizeof peer);
+		send(0, m, n + 1); /* to the bridge, once it has sent */
 	}
 };
-
-struct row {
-	double t, fz;
-	int state;
-};
-
-std::vector<row> read_log(const std::string &path)
-{
-	std::vector<row> rows;
-	std::ifstream f(path);
-	std::string line;
-	std::getline(f, line);
-	while (std::getline(f, line)) {
-		double v[13];
-		int i[5];
-		if (std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%d,%d,%d,%d,%d", &v[0], &v[1],
-				&v[2], &v[3], &v[4], &v[5], &v[6], &v[7], &v[8], &v[9], &v[10], &v[11], &v[12], &i[0], &i[1],
-				&i[2], &i[3], &i[4]) == 18)
-			rows.push_back({v[0], v[9], i[3]});
-	}
-	return rows;
-}
 
 } // namespace
 
@@ -137,15 +96,15 @@ TEST_CASE(
 	CHECK(rc == 0);
 	CHECK(swell_test::count_before(sum, " trips (2 ticks") >= 1);
 	CHECK(sum.find("1 resets") != std::string::npos);
-	const std::vector<row> rows = read_log(csv);
+	const std::vector<swell_test::HmLogRow> rows = swell_test::read_hm_log(csv);
 	REQUIRE(rows.size() > 100);
 	int at_1_5 = 0, other = 0;
 	size_t last_force = 0;
 	for (size_t k = 0; k < rows.size(); k++) {
-		if (std::fabs(rows[k].fz - 1.5) < 1e-9) {
+		if (std::fabs(rows[k].fcmd[2] - 1.5) < 1e-9) {
 			at_1_5++;
 			last_force = k;
-		} else if (rows[k].fz != 0.0) {
+		} else if (rows[k].fcmd[2] != 0.0) {
 			other++;
 		}
 	}
@@ -153,7 +112,7 @@ TEST_CASE(
 	CHECK(at_1_5 > 500);
 	CHECK(other == 0);
 	CHECK(last_force + 1 < rows.size());
-	CHECK(rows.back().fz == 0.0);
+	CHECK(rows.back().fcmd[2] == 0.0);
 }
 
 TEST_CASE("bridge, effect mode: the effect sets become the HapticMaster's springs, damper and bias force with the same values, "

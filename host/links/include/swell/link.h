@@ -1,20 +1,22 @@
-/* swell host links: one small interface over SocketCAN, libusb, UDP and recordings.
+/* swell links: one small interface over SocketCAN, libusb, FunctionFS, UDP and recordings.
  *
  * A link moves frames: CAN frames (classic or FD, id + up to 64 bytes) or packets (USB bulk / UDP,
  * up to 64 bytes, id 0). swell_link_encode / swell_link_decode turn messages into frames and back
  * for the link's carrier with the strict codecs of swell/proto.h.
  *
  * Functions returning int give 0 on success or a negative errno: -ETIMEDOUT when a receive timed
- * out, -ENODATA at the end of a replay, -ENODEV while a USB device is unplugged. Host only (POSIX);
- * the controller has its own port drivers. */
+ * out, -ENODATA at the end of a replay, -ENODEV while a USB device is unplugged. POSIX only: the
+ * host programs and the Linux controller (swell-ctl) use it, the MCU has its own port drivers. */
 #ifndef SWELL_LINK_H
 #define SWELL_LINK_H
 
+#include <linux/can.h>
 #include <stddef.h>
 #include <stdint.h>
 
 #include "swell/link_spec.h"
 #include "swell/proto.h"
+#include "swell/usb_ffs.h"
 
 #define SWELL_LINK_MTU 64u
 
@@ -53,6 +55,9 @@ void swell_link_close(struct swell_link *l);
 const struct swell_link_counters *swell_link_get_counters(const struct swell_link *l);
 enum swell_carrier swell_link_carrier(const struct swell_link *l);
 const char *swell_link_name(const struct swell_link *l);
+/* The descriptor that poll() reports readable when input may be waiting; -1 for a link that has none
+ * to offer (only the FunctionFS link offers one: ep0 until enabled, then the transfers' eventfd). */
+int swell_link_poll_fd(const struct swell_link *l);
 /* CLOCK_MONOTONIC in ns: the clock of swell_frame.t_ns. */
 uint64_t swell_link_now_ns(void);
 
@@ -65,7 +70,7 @@ int swell_link_open_udp(struct swell_link **out, const char *bind_host, uint16_t
 uint16_t swell_link_udp_port(const struct swell_link *l);
 
 /* The UDP socket calls of both sides, the host links above and the Linux controller's links (which
- * add the device's peer and the host link's clients on top; firmware/linux/ctl_link.h). */
+ * add the device's peer and the host link's clients on top: swell/link_peers.h). */
 /* A datagram socket bound to *at (port 0: any free port; when the port is taken and any_if_taken, any
  * free port of the same address, with *taken set to 1), close-on-exec, non-blocking when nonblock, with
  * a receive queue deep enough for a burst of a few thousand small datagrams. *bound gets the address
@@ -98,6 +103,46 @@ int swell_link_open_can(struct swell_link **out, const char *ifname, const struc
  * descriptor, or a negative errno with nothing left open. */
 int swell_can_socket(const char *ifname, const struct swell_can_opts *opts, int nonblock);
 
+/* The CAN controller's fault confinement state, as the driver's error frames tell it. */
+enum swell_can_state {
+	SWELL_CAN_ACTIVE = 0,
+	SWELL_CAN_WARNING,
+	SWELL_CAN_PASSIVE,
+	SWELL_CAN_BUS_OFF
+};
+
+/* What an error frame changed. */
+enum swell_can_event {
+	SWELL_CAN_EV_NONE = 0, /* counted, nothing to act on */
+	SWELL_CAN_EV_STATE, /* warning / passive / back to active: counted and reported */
+	SWELL_CAN_EV_BUS_OFF, /* the controller left the bus: nothing goes out or comes in */
+	SWELL_CAN_EV_RESTARTED, /* back on the bus after a bus-off (restart-ms or a manual restart) */
+};
+
+struct swell_can_health {
+	uint8_t state; /* enum swell_can_state */
+	uint8_t tx_err, rx_err; /* the error counters of the last frame that carried them */
+	uint32_t error_frames; /* every error frame read */
+	uint32_t warnings, passives, bus_offs, restarts, actives; /* state changes into each state */
+	uint32_t no_ack, prot, overflows, tx_timeouts, lost_arb, transceiver;
+	uint32_t dropped_off; /* data frames that arrived while bus-off (dropped, never acted on) */
+	uint32_t downs; /* the interface went down (a down/up restart leaves bus-off too) */
+};
+
+/* Take one error frame (can_id carries CAN_ERR_FLAG; data the 8 bytes of linux/can/error.h) into h.
+ * Pure: no I/O. Bus-off holds until a RESTARTED frame or a CRTL_ACTIVE one; a frame without
+ * CAN_ERR_FLAG is refused (SWELL_CAN_EV_NONE, h untouched). */
+enum swell_can_event swell_can_error_frame(struct swell_can_health *h, uint32_t can_id, const uint8_t data[8]);
+
+const char *swell_can_state_name(enum swell_can_state s);
+
+/* One frame of a raw CAN socket into f (never waits on a non-blocking one): 1 for a data frame, 0 for
+ * a frame that is not handed up, -1 when nothing was read. Error frames go into h. While the bus is off,
+ * data frames are counted in h->dropped_off and dropped: a controller off the bus hears nothing. The
+ * interface going down (ENETDOWN) counts in h->downs and ends a bus-off: brought up again it starts
+ * error-active, and a down/up restart sends no RESTARTED frame. */
+int swell_can_read(int fd, struct swell_can_health *h, struct can_frame *f);
+
 struct swell_usb_opts {
 	uint16_t vid, pid; /* SWELL_USB_VID / SWELL_USB_PID by default */
 	int iface; /* interface number */
@@ -107,6 +152,14 @@ struct swell_usb_opts {
  * re-opens it (same VID/PID/interface) as soon as it is back, counting a reconnect. */
 int swell_link_open_usb(struct swell_link **out, const struct swell_usb_opts *opts);
 void swell_usb_opts_default(struct swell_usb_opts *o);
+
+/* FunctionFS, the USB device's side (swell/usb_ffs.h): iface's descriptors and strings written to
+ * DIR/ep0 of a mounted instance that the caller set up in configfs. Never waits for the host. Send:
+ * -ENODEV while the host has not enabled the interface (or is gone), -EBUSY with every IN slot busy. Open: the
+ * system's errno (-ENOENT: no such mount), -EINVAL for a bad iface, -ENAMETOOLONG. */
+int swell_link_open_ffs(struct swell_link **out, const char *dir, const struct swell_usb_ffs_iface *iface);
+/* The counters of a FunctionFS link, NULL for any other link. */
+const struct swell_usb_ffs_stats *swell_link_ffs_stats(const struct swell_link *l);
 
 /* Recording: a link that passes everything through to `inner` (which it then owns) and writes
  * every received frame with its time to path. */
@@ -122,9 +175,10 @@ struct swell_link_open_opts {
 	uint16_t udp_bind_tries; /* > 0: the first free of this many ports from udp_bind_port, else any free one */
 	int udp_answer; /* 1: bind the spec's port and answer whoever sent last; 0: send to the spec's port */
 	int can_errors; /* CAN: receive error frames (counted in bus_errors) */
+	const struct swell_usb_ffs_iface *ffs_iface; /* FunctionFS: the interface written; NULL: refused */
 };
-/* UDP, CAN (classic frames; FD for canfd:), USB (libusb, the spec's VID, PID and interface) or a
- * replay. 0 or a negative errno; -EINVAL for the controller's kinds (FunctionFS, hm:). */
+/* UDP, CAN (classic frames; FD for canfd:), USB (libusb, the spec's VID, PID and interface),
+ * FunctionFS (with ffs_iface) or a replay. 0 or a negative errno; -EINVAL for hm: (hm_client.h). */
 int swell_link_open_spec(struct swell_link **out, const struct swell_link_spec *s,
 			 const struct swell_link_open_opts *o);
 

@@ -1,12 +1,14 @@
-// usb_ffs: the FunctionFS descriptor and string blocks, and what a rejected input leaves behind.
-#include <catch2/catch.hpp>
+// FunctionFS: the descriptor and string blocks, what a rejected input leaves behind, a link that
+// cannot be opened.
+#include "swell_test.hpp"
 
+#include <cerrno>
 #include <cstring>
 #include <string>
 #include <vector>
 
 extern "C" {
-#include "usb_ffs.h"
+#include "swell/link.h"
 }
 
 namespace {
@@ -124,36 +126,20 @@ TEST_CASE("usb_ffs rejects bad interfaces and small buffers and leaves the outpu
 	CHECK(len == 7);
 }
 
-TEST_CASE("usb_ffs_open: a rejected argument leaves the state untouched, a missing ep0 leaves nothing open")
+TEST_CASE("FunctionFS link: a rejected argument or a missing ep0 opens nothing and says why")
 {
 	swell_usb_ffs_iface it = vendor_iface();
-	swell_usb_ffs f;
-	std::memset(&f, 0x5A, sizeof(f));
+	swell_link *l = nullptr;
 	const std::string long_dir(SWELL_USB_FFS_PATH_MAX, 'd');
-	CHECK(swell_usb_ffs_open(&f, long_dir.c_str(), &it) == SWELL_ESIZE);
-	it.fs_packet = 65;
-	CHECK(swell_usb_ffs_open(&f, "/nonexistent-ffs", &it) == SWELL_ERANGE);
-	uint8_t after[sizeof(f)], before[sizeof(f)];
-	std::memcpy(after, &f, sizeof(f));
-	std::memset(before, 0x5A, sizeof(before));
-	CHECK(std::memcmp(after, before, sizeof(f)) == 0);
+	const int fds = swell_test::open_fds();
 
+	CHECK(swell_link_open_ffs(&l, long_dir.c_str(), &it) == -ENAMETOOLONG);
+	it.fs_packet = 65;
+	CHECK(swell_link_open_ffs(&l, "/nonexistent-ffs", &it) == -EINVAL);
 	it = vendor_iface();
-	CHECK(swell_usb_ffs_open(&f, "/nonexistent-ffs", &it) == SWELL_ESTATE);
-	CHECK(f.ep0 == -1);
-	CHECK(f.ep_out == -1);
-	CHECK(f.ep_in == -1);
-	CHECK(f.last_errno != 0);
-	CHECK(swell_usb_ffs_enabled(&f) == 0);
-	CHECK(f.efd == -1);
-	CHECK(swell_usb_ffs_data_fd(&f) == -1);
-	uint8_t b[SWELL_USB_FFS_XFER_MAX + 1] = {};
-	size_t n = 0;
-	CHECK(swell_usb_ffs_read(&f, b, 4, &n) == SWELL_ESTATE);
-	CHECK(swell_usb_ffs_write(&f, b, 4) == SWELL_ESTATE);
-	CHECK(swell_usb_ffs_write(&f, b, sizeof(b)) == SWELL_ESIZE); // longer than one transfer
-	CHECK(swell_usb_ffs_read(&f, b, 0, &n) == SWELL_EINVAL);
-	CHECK(f.tx_busy_drops == 0);
-	swell_usb_ffs_close(&f);
-	swell_usb_ffs_close(&f); // twice is fine
+	CHECK(swell_link_open_ffs(&l, "/nonexistent-ffs", &it) == -ENOENT);
+	CHECK(swell_link_open_ffs(&l, "/dev/null", &it) == -ENOTDIR);
+	CHECK(l == nullptr);
+	CHECK(swell_test::open_fds() == fds); /* the failed opens left nothing open */
+	CHECK(swell_link_ffs_stats(nullptr) == nullptr);
 }
