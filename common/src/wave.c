@@ -1,18 +1,11 @@
-/* Fixed-point solver of eq. (1) in edge-flux form, and the driver of the velocity form (wave_vel_*.c); see wave.h for the maths and the rounding. */
+/* Fixed-point solver of eq. (1): the drivers of the edge-flux and the velocity forms, their kernels one
+ * a file (wave_edge_*.c, wave_vel_*.c); see wave.h for the maths and the rounding. */
 #include "swell/wave.h"
 
 #include <string.h>
 
 #include "swell/crc.h"
 #include "wave_priv.h"
-
-/* A controller image may fix the grid's width at compile time (SWELL_WAVE_FIXED_NX): the row above
- * is then at a constant offset, which frees registers in the M4 kernel. Other widths are refused. */
-#ifdef SWELL_WAVE_FIXED_NX
-#define WAVE_NX(w) SWELL_WAVE_FIXED_NX
-#else
-#define WAVE_NX(w) ((w)->nx)
-#endif
 
 /* The tile flags (T_*) are in wave_priv.h. */
 
@@ -311,385 +304,15 @@ static int asleep(const struct swell_wave *w, int tx, int ty)
 }
 
 /* ---- The kernels ------------------------------------------------------------------------------
- * Every kernel computes, for every edge of an awake tile, exactly flow_ref() below, and adds each new
+ * Every kernel computes, for every edge of an awake tile, exactly flow_ref() (wave_priv.h), and adds each new
  * flow once to one cell's accumulator and subtracts it once from the other's. They differ only in the
  * order of those (exact, non-overflowing) integer additions and in the instructions used. */
 
-/* The flows of cell (i, j) start at this word; the four kinds are 8 words apart. */
-#define FE 0
-#define FN 8
-#define FNE 16
-#define FNW 24
-
-static inline int32_t *flows_at(const struct swell_wave *w, int i, int j)
-{
-	return w->f + 32 * ((size_t)j * w->tiles_x + (size_t)i / SWELL_WAVE_TILE) + i % SWELL_WAVE_TILE;
-}
-
-/* Bounds that make every intermediate fit int32 (checked by the tests with extreme fields):
- * |h| <= 2^27 so |dh| < 2^28 and |4 dh| < 2^30; c <= 1.5 * 2^30 so |c dh| / 2^30 < 1.5 * 2^28;
- * |f| <= 2^27 so |s| < 2^27 + 1.5 * 2^28 = 2^29 and |4 s| < 2^31. */
-static inline int32_t sat28(int32_t x, uint32_t *sat)
-{
-	if (x > SWELL_H_MAX || x < SWELL_H_MIN) {
-		*sat = 1;
-		return x > SWELL_H_MAX ? SWELL_H_MAX : SWELL_H_MIN;
-	}
-	return x;
-}
-
-/* THE definition of one edge: s = f + round_nearest(c dh / 2^30), ties up; damped:
- * s = round_toward_zero(q s / 2^30), which is floor + (s < 0) because q is odd; then saturated. */
-static inline int32_t flow_ref(int32_t f, int32_t dh, q30_t c, q30_t q, int damp, uint32_t *sat)
-{
-	int32_t s = f + (int32_t)(((int64_t)dh * c + ((int64_t)1 << 29)) >> 30);
-
-	if (damp)
-		s = (int32_t)(((int64_t)s * q) >> 30) - (s >> 31);
-	return sat28(s, sat);
-}
-
-/* The reference: one edge at a time, the E edges of the row, then the N, NE and NW edges up to the
- * next row; each flow added to its cell and taken from its neighbour at once. */
-static int32_t segment_ref(struct swell_wave *w, int j, int i0, int i1, int damp)
-{
-	const int nx = w->nx;
-	const q30_t ce = (j == 0 || j == w->ny - 1) ? w->c_wall : w->c_1;
-	const int32_t *h = w->h + j * nx, *hu = h + nx;
-	int32_t *v = w->acc + j * nx, *vu = v + nx;
-	uint32_t sat = 0;
-	int32_t f, any = 0, *fp;
-	int i;
-
-	for (i = i0; i < i1 && i + 1 < nx; i++) {
-		fp = flows_at(w, i, j);
-		fp[FE] = f = flow_ref(fp[FE], h[i + 1] - h[i], ce, w->q, damp, &sat);
-		any |= f;
-		v[i] += f;
-		v[i + 1] -= f;
-	}
-	for (i = i0; i < i1 && j + 1 < w->ny; i++) {
-		fp = flows_at(w, i, j);
-		fp[FN] = f =
-			flow_ref(fp[FN], hu[i] - h[i], (i == 0 || i == nx - 1) ? w->c_wall : w->c_1, w->q, damp, &sat);
-		any |= f;
-		v[i] += f;
-		vu[i] -= f;
-		if (i + 1 < nx) {
-			fp[FNE] = f = flow_ref(fp[FNE], hu[i + 1] - h[i], w->c_half, w->q, damp, &sat);
-			any |= f;
-			v[i] += f;
-			vu[i + 1] -= f;
-		}
-		if (i > 0) {
-			fp[FNW] = f = flow_ref(fp[FNW], hu[i - 1] - h[i], w->c_half, w->q, damp, &sat);
-			any |= f;
-			v[i] += f;
-			vu[i - 1] -= f;
-		}
-	}
-	w->saturations += sat;
-	return any;
-}
-
-#if defined(__ARM_FEATURE_DSP) && defined(__thumb2__)
-#include <arm_acle.h>
-#define WAVE_DSP 1
-/* flow_ref with three DSP instructions: SMMLAR gives f + ((a b + 2^31) >> 32), which is the nearest
- * rounding of c dh / 2^30 with a b = (4 c) dh (mode 1, when 4 c_wall < 2^31) or c (4 dh) (mode 2);
- * SMMUL gives floor(4 s q / 2^32) = floor(s q / 2^30); SSAT saturates to int28 and sets the sticky
- * Q flag, read once a segment. */
-static inline int32_t flow_dsp(int32_t f, int32_t dh, int32_t c, int32_t q, int damp, int c_times4)
-{
-	int32_t s, r;
-
-	if (!c_times4)
-		dh *= 4;
-	__asm__("smmlar %0, %1, %2, %3" : "=r"(s) : "r"(dh), "r"(c), "r"(f));
-	if (damp) {
-		__asm__("smmul %0, %1, %2" : "=r"(r) : "r"(s * 4), "r"(q));
-		s = r - (s >> 31);
-	}
-	return __ssat(s, 28);
-}
-#else
-#define WAVE_DSP 0
-#endif
-
-/* Fused: one pass over the segment's cells computes the cell's four flows, adds them and the
- * negative of its west neighbour's E flow to the cell's accumulator, and finishes the accumulator
- * of the cell above-left (its N flow, the NE flow from its left and the NW flow from its right, kept
- * in registers). Whatever crosses the segment's ends (the last E and NE flows, the first NW flow) is
- * scattered there, as the reference does. Heights are carried from cell to cell: two loads a cell.
- * mode 0: flow_ref; 1, 2: flow_dsp (c times 4, dh times 4). */
-static inline __attribute__((always_inline)) int32_t segment_fused(struct swell_wave *w, int j, int i0, int i1,
-								   int damp, int mode, int shape)
-{
-	/* shape (segment_shape): 0 any segment; else a whole tile row (8 cells) of a row other than
-	 * the first and the last, 1 away from the walls, 2 on the west wall, 3 on the east wall: the
-	 * common cases, unrolled with constant offsets */
-	const int fixed = shape != 0, nx = WAVE_NX(w), n = fixed ? SWELL_WAVE_TILE : i1 - i0;
-	const int west = fixed ? shape == 2 : i0 == 0, east = fixed ? shape == 3 : i1 == nx;
-	const int sh = mode == 1 ? 2 : 0;
-	const int32_t c1 = w->c_1 << sh, ch = w->c_half << sh, cw = w->c_wall << sh;
-	const int32_t ce = (!fixed && (j == 0 || j == w->ny - 1)) ? cw : c1, q = w->q;
-	const int32_t *restrict h = w->h + j * nx + i0;
-	int32_t *restrict v = w->acc + j * nx + i0;
-	int32_t *restrict fb = flows_at(w, i0, j);
-	int32_t any = 0, fe = 0, fe_prev = 0, fn, fne, fnw, fne_prev = 0, up = 0;
-	int32_t ha = h[0], hr, hul, huc, hur;
-	uint32_t sat = 0;
-	int k = 0;
-
-#if WAVE_DSP
-#define WAVE_FLOW(old, dh, c) \
-	(mode == 0 ? flow_ref(old, dh, c, q, damp, &sat) : flow_dsp(old, dh, c, q, damp, mode == 1))
-	if (mode)
-		__set_saturation_occurred(0);
-#else
-#define WAVE_FLOW(old, dh, c) flow_ref(old, dh, c, q, damp, &sat)
-#endif
-	if (!fixed && j + 1 >= w->ny) { /* the top row: E edges only */
-		for (; k < n; k++) {
-			fe = 0;
-			if (i0 + k + 1 < nx) {
-				hr = h[k + 1];
-				fb[FE + k] = fe = WAVE_FLOW(fb[FE + k], hr - ha, ce);
-				ha = hr;
-			}
-			any |= fe;
-			v[k] += fe - fe_prev;
-			fe_prev = fe;
-		}
-	} else {
-		const int end = east ? n - 1 : n;
-
-		huc = h[nx];
-		hul = west ? 0 : h[nx - 1];
-		if (west) { /* the west wall: N along it, NE, no NW */
-			hr = h[1];
-			hur = h[nx + 1];
-			fb[FE] = fe = WAVE_FLOW(fb[FE], hr - ha, ce);
-			fb[FN] = fn = WAVE_FLOW(fb[FN], huc - ha, cw);
-			fb[FNE] = fne = WAVE_FLOW(fb[FNE], hur - ha, ch);
-			any |= fe | fn | fne;
-			v[0] += fe + fn + fne;
-			up = fn;
-			fne_prev = fne;
-			fe_prev = fe;
-			ha = hr;
-			hul = huc;
-			huc = hur;
-			k = 1;
-		}
-#pragma GCC unroll 8
-		for (; k < end; k++) {
-			hr = h[k + 1];
-			hur = h[nx + k + 1];
-			fb[FE + k] = fe = WAVE_FLOW(fb[FE + k], hr - ha, ce);
-			fb[FN + k] = fn = WAVE_FLOW(fb[FN + k], huc - ha, c1);
-			fb[FNE + k] = fne = WAVE_FLOW(fb[FNE + k], hur - ha, ch);
-			fb[FNW + k] = fnw = WAVE_FLOW(fb[FNW + k], hul - ha, ch);
-			any |= fe | fn | fne | fnw;
-			v[nx + k - 1] -= up + fnw;
-			v[k] += fe + fn + fne + fnw - fe_prev;
-			up = fn + fne_prev;
-			fne_prev = fne;
-			fe_prev = fe;
-			ha = hr;
-			hul = huc;
-			huc = hur;
-		}
-		if (east) { /* the east wall: N along it, NW, no E, no NE */
-			fb[FN + k] = fn = WAVE_FLOW(fb[FN + k], huc - ha, cw);
-			fb[FNW + k] = fnw = WAVE_FLOW(fb[FNW + k], hul - ha, ch);
-			any |= fn | fnw;
-			v[nx + k - 1] -= up + fnw;
-			v[k] += fn + fnw - fe_prev;
-			up = fn + fne_prev;
-			fne_prev = fe_prev = 0;
-		}
-		v[nx + n - 1] -= up;
-		if (!east)
-			v[nx + n] -= fne_prev;
-	}
-#undef WAVE_FLOW
-	if (!east)
-		v[n] -= fe_prev;
-#if WAVE_DSP
-	if (mode)
-		sat = (uint32_t)__saturation_occurred();
-#endif
-	w->saturations += sat;
-	return any;
-}
-
-static inline int segment_shape(const struct swell_wave *w, int j, int i0, int i1)
-{
-	if (i1 != i0 + SWELL_WAVE_TILE || j == 0 || j + 1 >= w->ny || (i0 == 0 && i1 == WAVE_NX(w)))
-		return 0;
-	return i0 == 0 ? 2 : i1 == WAVE_NX(w) ? 3 : 1;
-}
-
-#if !WAVE_DSP
-static int32_t segment_fused_c(struct swell_wave *w, int j, int i0, int i1, int damp)
-{
-	switch (segment_shape(w, j, i0, i1)) {
-	case 1:
-		return damp ? segment_fused(w, j, i0, i1, 1, 0, 1) : segment_fused(w, j, i0, i1, 0, 0, 1);
-	case 2:
-		return damp ? segment_fused(w, j, i0, i1, 1, 0, 2) : segment_fused(w, j, i0, i1, 0, 0, 2);
-	case 3:
-		return damp ? segment_fused(w, j, i0, i1, 1, 0, 3) : segment_fused(w, j, i0, i1, 0, 0, 3);
-	default:
-		return damp ? segment_fused(w, j, i0, i1, 1, 0, 0) : segment_fused(w, j, i0, i1, 0, 0, 0);
-	}
-}
-#endif
-
-#if WAVE_DSP
-static int32_t segment_fused_dsp(struct swell_wave *w, int j, int i0, int i1, int damp)
-{
-	if (w->c_wall < ((int32_t)1 << 29)) { /* 4 c fits int32: no multiply of dh */
-		switch (segment_shape(w, j, i0, i1)) {
-		case 1:
-			return damp ? segment_fused(w, j, i0, i1, 1, 1, 1) : segment_fused(w, j, i0, i1, 0, 1, 1);
-		case 2:
-			return damp ? segment_fused(w, j, i0, i1, 1, 1, 2) : segment_fused(w, j, i0, i1, 0, 1, 2);
-		case 3:
-			return damp ? segment_fused(w, j, i0, i1, 1, 1, 3) : segment_fused(w, j, i0, i1, 0, 1, 3);
-		default:
-			return damp ? segment_fused(w, j, i0, i1, 1, 1, 0) : segment_fused(w, j, i0, i1, 0, 1, 0);
-		}
-	}
-	return damp ? segment_fused(w, j, i0, i1, 1, 2, 0) : segment_fused(w, j, i0, i1, 0, 2, 0);
-}
-#endif
-
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(SWELL_NO_AVX2)
-#include <immintrin.h>
-#define WAVE_AVX2 1
-#define AVX2_FN __attribute__((target("avx2"))) static
-
-/* flow_ref on 8 lanes. The 64-bit products of even and odd lanes are formed apart; the low 32 bits
- * of a product shifted right by 30 are the same whether the shift is arithmetic or logical, and
- * AVX2 has only the logical one for 64-bit lanes. codd holds c in the odd lanes' low halves. */
-AVX2_FN __m256i mulshift30(__m256i a, __m256i b, __m256i bodd, __m256i round)
-{
-	__m256i pe = _mm256_mul_epi32(a, b);
-	__m256i po = _mm256_mul_epi32(_mm256_srli_epi64(a, 32), bodd);
-
-	pe = _mm256_srli_epi64(_mm256_add_epi64(pe, round), 30);
-	po = _mm256_slli_epi64(_mm256_srli_epi64(_mm256_add_epi64(po, round), 30), 32);
-	return _mm256_blend_epi32(pe, po, 0xAA);
-}
-
-struct avx2_k {
-	__m256i q, qodd, half, zero, hmin, hmax;
-};
-
-AVX2_FN __m256i flow8(const struct avx2_k *K, __m256i f, __m256i dh, __m256i c, int damp, __m256i *sat)
-{
-	__m256i s = _mm256_add_epi32(f, mulshift30(dh, c, _mm256_srli_epi64(c, 32), K->half));
-	__m256i t;
-
-	if (damp)
-		s = _mm256_sub_epi32(mulshift30(s, K->q, K->qodd, K->zero), _mm256_srai_epi32(s, 31));
-	t = _mm256_min_epi32(_mm256_max_epi32(s, K->hmin), K->hmax);
-	*sat = _mm256_or_si256(*sat, _mm256_xor_si256(s, t));
-	return t;
-}
-
-/* A whole tile row (i1 = i0 + 8) that is not the top row. Lanes whose edge does not exist (E and NE
- * on the east wall, NW on the west wall) get coefficient 0: their flow stays 0, and their neighbour
- * loads are replaced by in-row copies so that nothing outside the field is read. */
-AVX2_FN int32_t segment_avx2_tile(struct swell_wave *w, int j, int i0, int damp)
-{
-	const int nx = w->nx, west = i0 == 0, east = i0 + 8 == nx;
-	const int32_t *h = w->h + j * nx + i0, *hu = h + nx;
-	int32_t *v = w->acc + j * nx + i0, *vu = v + nx;
-	int32_t *fb = flows_at(w, i0, j);
-	const int32_t ce0 = (j == 0) ? w->c_wall : w->c_1;
-	const __m256i up1 = _mm256_setr_epi32(1, 2, 3, 4, 5, 6, 7, 7);
-	const __m256i dn1 = _mm256_setr_epi32(0, 0, 1, 2, 3, 4, 5, 6);
-	struct avx2_k K;
-	__m256i H, Hr, HU, HUr, HUl, ce, cn, cne, cnw, fe, fn, fne, fnw, sat, own, upv, t;
-	int32_t last_fe, last_fne;
-
-	K.q = _mm256_set1_epi32(w->q);
-	K.qodd = _mm256_srli_epi64(K.q, 32);
-	K.half = _mm256_set1_epi64x((int64_t)1 << 29);
-	K.zero = _mm256_setzero_si256();
-	K.hmin = _mm256_set1_epi32(SWELL_H_MIN);
-	K.hmax = _mm256_set1_epi32(SWELL_H_MAX);
-	sat = K.zero;
-
-	H = _mm256_loadu_si256((const __m256i *)h);
-	HU = _mm256_loadu_si256((const __m256i *)hu);
-	Hr = east ? _mm256_permutevar8x32_epi32(H, up1) : _mm256_loadu_si256((const __m256i *)(h + 1));
-	HUr = east ? _mm256_permutevar8x32_epi32(HU, up1) : _mm256_loadu_si256((const __m256i *)(hu + 1));
-	HUl = west ? _mm256_permutevar8x32_epi32(HU, dn1) : _mm256_loadu_si256((const __m256i *)(hu - 1));
-
-	ce = _mm256_set1_epi32(ce0);
-	cn = _mm256_set1_epi32(w->c_1);
-	cne = cnw = _mm256_set1_epi32(w->c_half);
-	if (west) {
-		cn = _mm256_blend_epi32(cn, _mm256_set1_epi32(w->c_wall), 0x01);
-		cnw = _mm256_blend_epi32(cnw, K.zero, 0x01);
-	}
-	if (east) {
-		cn = _mm256_blend_epi32(cn, _mm256_set1_epi32(w->c_wall), 0x80);
-		ce = _mm256_blend_epi32(ce, K.zero, 0x80);
-		cne = _mm256_blend_epi32(cne, K.zero, 0x80);
-	}
-
-	fe = flow8(&K, _mm256_loadu_si256((const __m256i *)(fb + FE)), _mm256_sub_epi32(Hr, H), ce, damp, &sat);
-	fn = flow8(&K, _mm256_loadu_si256((const __m256i *)(fb + FN)), _mm256_sub_epi32(HU, H), cn, damp, &sat);
-	fne = flow8(&K, _mm256_loadu_si256((const __m256i *)(fb + FNE)), _mm256_sub_epi32(HUr, H), cne, damp, &sat);
-	fnw = flow8(&K, _mm256_loadu_si256((const __m256i *)(fb + FNW)), _mm256_sub_epi32(HUl, H), cnw, damp, &sat);
-	_mm256_storeu_si256((__m256i *)(fb + FE), fe);
-	_mm256_storeu_si256((__m256i *)(fb + FN), fn);
-	_mm256_storeu_si256((__m256i *)(fb + FNE), fne);
-	_mm256_storeu_si256((__m256i *)(fb + FNW), fnw);
-
-	/* own row: + all four, - the E flow of the west neighbour inside the tile */
-	own = _mm256_add_epi32(_mm256_add_epi32(fe, fn), _mm256_add_epi32(fne, fnw));
-	t = _mm256_blend_epi32(_mm256_permutevar8x32_epi32(fe, _mm256_setr_epi32(0, 0, 1, 2, 3, 4, 5, 6)), K.zero,
-			       0x01);
-	own = _mm256_sub_epi32(own, t);
-	_mm256_storeu_si256((__m256i *)v, _mm256_add_epi32(_mm256_loadu_si256((const __m256i *)v), own));
-	/* the row above: - N, - NE from the left, - NW from the right, inside the tile */
-	upv = _mm256_add_epi32(fn, _mm256_blend_epi32(_mm256_permutevar8x32_epi32(fne, dn1), K.zero, 0x01));
-	upv = _mm256_add_epi32(upv, _mm256_blend_epi32(_mm256_permutevar8x32_epi32(fnw, up1), K.zero, 0x80));
-	_mm256_storeu_si256((__m256i *)vu, _mm256_sub_epi32(_mm256_loadu_si256((const __m256i *)vu), upv));
-	/* across the tile's ends */
-	last_fe = _mm256_extract_epi32(fe, 7);
-	last_fne = _mm256_extract_epi32(fne, 7);
-	if (!east) {
-		v[8] -= last_fe;
-		vu[8] -= last_fne;
-	}
-	if (!west)
-		vu[-1] -= _mm256_extract_epi32(fnw, 0);
-	if (!_mm256_testz_si256(sat, sat))
-		w->saturations++;
-	t = _mm256_or_si256(_mm256_or_si256(fe, fn), _mm256_or_si256(fne, fnw));
-	return !_mm256_testz_si256(t, t);
-}
-
-static int32_t segment_avx2(struct swell_wave *w, int j, int i0, int i1, int damp)
-{
-	if (i1 - i0 != 8 || j + 1 >= w->ny) /* a ragged tile or the top row */
-		return segment_fused_c(w, j, i0, i1, damp);
-	return segment_avx2_tile(w, j, i0, damp);
-}
-
+#if SWELL_WAVE_AVX2
 static int have_avx2(void)
 {
 	return __builtin_cpu_supports("avx2");
 }
-#else
-#define WAVE_AVX2 0
 #endif
 
 /* The edges owned by cells [i0, i1) of row j (i0 a multiple of 8): E edges, and N, NE, NW edges up
@@ -697,18 +320,14 @@ static int have_avx2(void)
 static int32_t step_segment(struct swell_wave *w, int j, int i0, int i1, int damp)
 {
 	switch (w->kernel) {
-#if WAVE_AVX2
+#if SWELL_WAVE_AVX2
 	case SWELL_KERNEL_AVX2:
-		return segment_avx2(w, j, i0, i1, damp);
+		return swell_wave_edge_avx2(w, j, i0, i1, damp);
 #endif
 	case SWELL_KERNEL_FUSED:
-#if WAVE_DSP
-		return segment_fused_dsp(w, j, i0, i1, damp);
-#else
-		return segment_fused_c(w, j, i0, i1, damp);
-#endif
+		return swell_wave_edge_fused(w, j, i0, i1, damp);
 	default:
-		return segment_ref(w, j, i0, i1, damp);
+		return swell_wave_edge_ref(w, j, i0, i1, damp);
 	}
 }
 
@@ -718,7 +337,7 @@ enum swell_err swell_wave_set_kernel(struct swell_wave *w, enum swell_wave_kerne
 		return SWELL_EINVAL;
 	switch (k) {
 	case SWELL_KERNEL_AUTO:
-#if WAVE_AVX2
+#if SWELL_WAVE_AVX2
 		w->kernel = have_avx2() ? SWELL_KERNEL_AVX2 : SWELL_KERNEL_FUSED;
 #else
 		w->kernel = SWELL_KERNEL_FUSED;
@@ -729,7 +348,7 @@ enum swell_err swell_wave_set_kernel(struct swell_wave *w, enum swell_wave_kerne
 		w->kernel = (uint8_t)k;
 		return SWELL_OK;
 	case SWELL_KERNEL_AVX2:
-#if WAVE_AVX2
+#if SWELL_WAVE_AVX2
 		if (have_avx2()) {
 			w->kernel = SWELL_KERNEL_AVX2;
 			return SWELL_OK;
@@ -759,7 +378,7 @@ const char *swell_wave_kernel_name(enum swell_wave_kernel k)
 	case SWELL_KERNEL_REF:
 		return "ref";
 	case SWELL_KERNEL_FUSED:
-		return WAVE_DSP ? "fused-dsp" : "fused";
+		return SWELL_WAVE_DSP ? "fused-dsp" : "fused";
 	case SWELL_KERNEL_AVX2:
 		return "avx2";
 	default:
@@ -785,7 +404,7 @@ static void step_row_vel(struct swell_wave *w, int j, uint8_t *trow, int damp)
 				break;
 		if (w->kernel == SWELL_KERNEL_REF)
 			swell_wave_vel_ref(w, j, tx, t1, damp, sum, any);
-#if SWELL_WAVE_VEL_AVX2
+#if SWELL_WAVE_AVX2
 		else if (w->kernel == SWELL_KERNEL_AVX2)
 			swell_wave_vel_avx2(w, j, tx, t1, damp, sum, any);
 #endif
@@ -866,7 +485,7 @@ int swell_wave_step_rows(struct swell_wave *w, int rows)
  * single stores, and a quarter of the instructions. Elsewhere a plain loop (the compiler's). */
 static inline void zero_words8(int32_t *p, int n)
 {
-#if WAVE_DSP
+#if SWELL_WAVE_DSP
 	int k = n / 8;
 
 	if (k <= 0)
@@ -900,7 +519,7 @@ static inline __attribute__((always_inline)) int32_t finish_seg(int32_t *restric
 
 			any |= d;
 			/* |h| <= 2^27, |acc| <= 2^29 + 8 2^27: no overflow */
-#if WAVE_DSP
+#if SWELL_WAVE_DSP
 			(void)sat;
 			h[a] = vel ? __ssat(h[a] + d, 27) : __ssat(h[a] + d, 28);
 #else
@@ -933,7 +552,7 @@ static inline __attribute__((always_inline)) void finish_row(struct swell_wave *
 	uint32_t sat = 0;
 	int tx;
 
-#if SWELL_WAVE_VEL_AVX2
+#if SWELL_WAVE_AVX2
 	if (vel && w->kernel == SWELL_KERNEL_AVX2) {
 		swell_wave_vel_finish_avx2(w, j, need);
 		return;
@@ -955,7 +574,7 @@ static inline __attribute__((always_inline)) void finish_row(struct swell_wave *
 		}
 		return;
 	}
-#if WAVE_DSP
+#if SWELL_WAVE_DSP
 	__set_saturation_occurred(0);
 #endif
 	if (!clear && nx % SWELL_WAVE_TILE == 0) { /* a row finished ahead: h += acc alone, whole tiles */
@@ -990,7 +609,7 @@ static inline __attribute__((always_inline)) void finish_row(struct swell_wave *
 		if (any)
 			trow[tx] |= T_TOUCHED;
 	}
-#if WAVE_DSP
+#if SWELL_WAVE_DSP
 	sat = (uint32_t)__saturation_occurred();
 #endif
 	w->saturations += sat;

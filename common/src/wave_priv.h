@@ -26,6 +26,29 @@
 
 #define SWELL_WAVE_VEL_RUN 8 /* tiles a call at most */
 
+/* A controller image may fix the grid's width at compile time (SWELL_WAVE_FIXED_NX): the row above
+ * is then at a constant offset, which frees registers in the M4 kernels. Other widths are refused. */
+#ifdef SWELL_WAVE_FIXED_NX
+#define WAVE_NX(w) SWELL_WAVE_FIXED_NX
+#else
+#define WAVE_NX(w) ((w)->nx)
+#endif
+
+/* ARMv7E-M's DSP instructions (SMMLAR, SMMUL, SSAT) */
+#if defined(__ARM_FEATURE_DSP) && defined(__thumb2__)
+#include <arm_acle.h>
+#define SWELL_WAVE_DSP 1
+#else
+#define SWELL_WAVE_DSP 0
+#endif
+
+/* x86-64 kernels with AVX2 (functions compiled for it, chosen after a CPU check) */
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(SWELL_NO_AVX2)
+#define SWELL_WAVE_AVX2 1
+#else
+#define SWELL_WAVE_AVX2 0
+#endif
+
 /* Tile flags. Z1: every flow of the tile's edges was zero after the last finished step. ZERO: after
  * the last two (then the increments e w dh are zero after damping too, not just cancelling an old
  * flow). NONZERO: some edge gave a non-zero flow in the step in progress. CHANGED: a cell of the tile
@@ -48,15 +71,57 @@ void swell_wave_vel_ref(struct swell_wave *w, int j, int tx0, int tx1, int damp,
 void swell_wave_vel_fused(struct swell_wave *w, int j, int tx0, int tx1, int damp, int64_t sum[2], int32_t *any);
 
 /* x86-64 with AVX2 (wave.c checks the CPU before it chooses it) */
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(SWELL_NO_AVX2)
-#define SWELL_WAVE_VEL_AVX2 1
+#if SWELL_WAVE_AVX2
 void swell_wave_vel_avx2(struct swell_wave *w, int j, int tx0, int tx1, int damp, int64_t sum[2], int32_t *any);
 /* The finishing pass of row j (wave.c's finish_row), the same bits: where a tile has the flags of
  * need, h += acc (T_DIRTY; clamped to int27, a row that clamped counted once, T_TOUCHED where acc
  * is non-zero) and v = 0 (T_DIRTY_PREV); every tile when tiles do not sleep. */
 void swell_wave_vel_finish_avx2(struct swell_wave *w, int j, uint8_t need);
-#else
-#define SWELL_WAVE_VEL_AVX2 0
+#endif
+
+/* ---- The edge-flux form's kernels: one a file (wave_edge_ref.c, wave_edge_fused.c,
+ * wave_edge_avx2.c), called by wave.c for the edges owned by cells [i0, i1) of row j (i0 a multiple
+ * of 8): E edges, and N, NE, NW edges up to row j+1 (none for the top row). Each returns non-zero if
+ * any new flow is non-zero; all give the same bits. */
+
+/* The flows of cell (i, j) start at this word; the four kinds are 8 words apart. */
+#define FE 0
+#define FN 8
+#define FNE 16
+#define FNW 24
+
+static inline int32_t *flows_at(const struct swell_wave *w, int i, int j)
+{
+	return w->f + 32 * ((size_t)j * w->tiles_x + (size_t)i / SWELL_WAVE_TILE) + i % SWELL_WAVE_TILE;
+}
+
+/* Bounds that make every intermediate fit int32 (checked by the tests with extreme fields):
+ * |h| <= 2^27 so |dh| < 2^28 and |4 dh| < 2^30; c <= 1.5 * 2^30 so |c dh| / 2^30 < 1.5 * 2^28;
+ * |f| <= 2^27 so |s| < 2^27 + 1.5 * 2^28 = 2^29 and |4 s| < 2^31. */
+static inline int32_t sat28(int32_t x, uint32_t *sat)
+{
+	if (x > SWELL_H_MAX || x < SWELL_H_MIN) {
+		*sat = 1;
+		return x > SWELL_H_MAX ? SWELL_H_MAX : SWELL_H_MIN;
+	}
+	return x;
+}
+
+/* THE definition of one edge: s = f + round_nearest(c dh / 2^30), ties up; damped:
+ * s = round_toward_zero(q s / 2^30), which is floor + (s < 0) because q is odd; then saturated. */
+static inline int32_t flow_ref(int32_t f, int32_t dh, q30_t c, q30_t q, int damp, uint32_t *sat)
+{
+	int32_t s = f + (int32_t)(((int64_t)dh * c + ((int64_t)1 << 29)) >> 30);
+
+	if (damp)
+		s = (int32_t)(((int64_t)s * q) >> 30) - (s >> 31);
+	return sat28(s, sat);
+}
+
+int32_t swell_wave_edge_ref(struct swell_wave *w, int j, int i0, int i1, int damp);
+int32_t swell_wave_edge_fused(struct swell_wave *w, int j, int i0, int i1, int damp);
+#if SWELL_WAVE_AVX2
+int32_t swell_wave_edge_avx2(struct swell_wave *w, int j, int i0, int i1, int damp);
 #endif
 
 #endif

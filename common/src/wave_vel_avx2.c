@@ -11,7 +11,7 @@
  * C = e_eff 2^(F+1) above INT32_MAX (e_eff = 1 undamped at F = 0) goes to the fused kernel. */
 #include "wave_priv.h"
 
-#if SWELL_WAVE_VEL_AVX2
+#if SWELL_WAVE_AVX2
 #include <immintrin.h>
 
 #define VA_FN __attribute__((target("avx2"), always_inline)) static inline
