@@ -309,7 +309,7 @@ static void send_msgs(struct ctl_link *l, const struct swell_msg *m, size_t n)
 	}
 	if (l->kind == CTL_LINK_CAN) {
 		for (k = 0; k < n; k++) {
-			struct can_frame f;
+			struct swell_frame f;
 			uint32_t id;
 			uint8_t len;
 
@@ -318,9 +318,9 @@ static void send_msgs(struct ctl_link *l, const struct swell_msg *m, size_t n)
 				l->tx_errors++;
 				continue;
 			}
-			f.can_id = id;
-			f.can_dlc = len;
-			if (write(l->fd, &f, sizeof(f)) != (ssize_t)sizeof(f))
+			f.id = id;
+			f.len = len;
+			if (swell_can_write(l->fd, &f, 0) != 0)
 				l->tx_errors++; /* a full TX queue drops: the next tick sends a fresher value */
 			else
 				l->frames_tx++;

@@ -23,13 +23,11 @@ struct can_link {
 	int fd_mode;
 };
 
-static int can_send(struct swell_link *l, const struct swell_frame *f)
+int swell_can_write(int fd, const struct swell_frame *f, int fd_mode)
 {
-	struct can_link *c = (struct can_link *)l;
 	struct canfd_frame fr;
 	size_t size;
 	ssize_t n;
-	uint64_t deadline = 0;
 
 	memset(&fr, 0, sizeof(fr));
 	fr.can_id = f->id & CAN_SFF_MASK;
@@ -38,35 +36,40 @@ static int can_send(struct swell_link *l, const struct swell_frame *f)
 	fr.len = (uint8_t)f->len;
 	memcpy(fr.data, f->data, f->len);
 	if ((f->flags & SWELL_FRAME_FD) || f->len > CAN_MAX_DLEN) {
-		if (!c->fd_mode)
+		if (!fd_mode)
 			return -EMSGSIZE;
 		fr.flags = CANFD_BRS;
 		size = CANFD_MTU;
 	} else {
 		size = CAN_MTU;
 	}
-	for (;;) {
-		n = write(c->fd, &fr, size);
-		if (n < 0 && errno == EINTR)
-			continue;
-		if (n < 0 && errno == ENOBUFS) {
-			/* transmit queue full: wait for room rather than drop a frame, 100 ms at most. Not
-			 * with poll: the socket stays writable (its own buffer is not what is full), POLLOUT
-			 * comes at once, and with no node to ACK or a bus-off the queue never drains. */
-			struct timespec ms = { 0, 1000000 };
-
-			if (!deadline)
-				deadline = swell_link_deadline(100);
-			else if (swell_link_ms_left(deadline, 100) == 0)
-				return -ENOBUFS;
-			nanosleep(&ms, NULL);
-			continue;
-		}
-		break;
-	}
+	do
+		n = write(fd, &fr, size);
+	while (n < 0 && errno == EINTR);
 	if (n < 0)
 		return -errno;
 	return (size_t)n == size ? 0 : -EIO;
+}
+
+static int can_send(struct swell_link *l, const struct swell_frame *f)
+{
+	const struct can_link *c = (const struct can_link *)l;
+	uint64_t deadline = 0;
+	int rc;
+
+	/* transmit queue full: wait for room rather than drop a frame, 100 ms at most. Not with poll:
+	 * the socket stays writable (its own buffer is not what is full), POLLOUT comes at once, and
+	 * with no node to ACK or a bus-off the queue never drains. */
+	while ((rc = swell_can_write(c->fd, f, c->fd_mode)) == -ENOBUFS) {
+		struct timespec ms = { 0, 1000000 };
+
+		if (!deadline)
+			deadline = swell_link_deadline(100);
+		else if (swell_link_ms_left(deadline, 100) == 0)
+			break;
+		nanosleep(&ms, NULL);
+	}
+	return rc;
 }
 
 static int can_recv(struct swell_link *l, struct swell_frame *f, int timeout_ms)

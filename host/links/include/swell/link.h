@@ -142,6 +142,10 @@ const char *swell_can_state_name(enum swell_can_state s);
  * interface going down (ENETDOWN) counts in h->downs and ends a bus-off: brought up again it starts
  * error-active, and a down/up restart sends no RESTARTED frame. */
 int swell_can_read(int fd, struct swell_can_health *h, struct can_frame *f);
+/* One frame written to a SocketCAN socket, never waiting: 0, or a negative errno (-ENOBUFS when the
+ * transmit queue is full, -EMSGSIZE for an FD frame on a classic socket: fd_mode 0). The CAN link's
+ * send waits for room; swell-ctl's tick drops instead, the next tick sends a fresher value. */
+int swell_can_write(int fd, const struct swell_frame *f, int fd_mode);
 
 struct swell_usb_opts {
 	uint16_t vid, pid; /* SWELL_USB_VID / SWELL_USB_PID by default */
