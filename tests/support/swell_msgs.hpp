@@ -1,9 +1,12 @@
 // The messages the tests build, every field not named 0 (node 0): a parameter request, a device
-// sample. A UDP end that speaks them: swell_msg_udp.hpp.
+// sample, a CAN error frame. A UDP end that speaks them: swell_msg_udp.hpp.
 #ifndef SWELL_TEST_MSGS_HPP
 #define SWELL_TEST_MSGS_HPP
 
 #include <cstdint>
+
+#include <linux/can.h>
+#include <linux/can/error.h>
 
 extern "C" {
 #include "swell/proto.h"
@@ -39,6 +42,19 @@ inline swell_msg device_pos_msg(uint8_t seq, int16_t z_10um, uint8_t status = 1,
 	m.u.device_pos.seq = seq;
 	m.u.device_pos.status = status;
 	return m;
+}
+
+// A SocketCAN error frame as the driver sends it: classes (CAN_ERR_*), the controller's status byte
+// and the transmit and receive error counters.
+inline can_frame err_frame(uint32_t classes, uint8_t crtl = 0, uint8_t txerr = 0, uint8_t rxerr = 0)
+{
+	can_frame f{};
+	f.can_id = CAN_ERR_FLAG | classes;
+	f.can_dlc = CAN_ERR_DLC;
+	f.data[1] = crtl;
+	f.data[6] = txerr;
+	f.data[7] = rxerr;
+	return f;
 }
 
 } // namespace swell_test

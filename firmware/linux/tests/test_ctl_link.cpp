@@ -3,6 +3,8 @@
  * the UDP peers and clients. The CAN bus state itself is the link library's (test_links.cpp there). */
 #include <catch2/catch.hpp>
 
+#include "swell_msgs.hpp"
+
 #include "swell_msg_udp.hpp"
 #include "swell_test.hpp"
 
@@ -24,18 +26,7 @@ extern "C" {
 
 namespace {
 
-struct can_frame err_frame(uint32_t classes, uint8_t crtl = 0, uint8_t txerr = 0, uint8_t rxerr = 0)
-{
-	struct can_frame f;
-
-	memset(&f, 0, sizeof(f));
-	f.can_id = CAN_ERR_FLAG | classes;
-	f.can_dlc = CAN_ERR_DLC;
-	f.data[1] = crtl;
-	f.data[6] = txerr;
-	f.data[7] = rxerr;
-	return f;
-}
+using swell_test::err_frame;
 
 struct can_frame device_pos(uint8_t node, uint8_t seq)
 {

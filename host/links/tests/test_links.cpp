@@ -1,5 +1,7 @@
 #include <catch2/catch.hpp>
 
+#include "swell_msgs.hpp"
+
 #include <arpa/inet.h>
 #include <linux/can/error.h>
 #include <cerrno>
@@ -339,18 +341,7 @@ TEST_CASE("recording a replay keeps the recorded times: the copy replays as the 
 
 namespace {
 
-struct can_frame err_frame(uint32_t classes, uint8_t crtl = 0, uint8_t txerr = 0, uint8_t rxerr = 0)
-{
-	struct can_frame f;
-
-	memset(&f, 0, sizeof(f));
-	f.can_id = CAN_ERR_FLAG | classes;
-	f.can_dlc = CAN_ERR_DLC;
-	f.data[1] = crtl;
-	f.data[6] = txerr;
-	f.data[7] = rxerr;
-	return f;
-}
+using swell_test::err_frame;
 
 swell_can_event feed(swell_can_health *h, const can_frame &f) { return swell_can_error_frame(h, f.can_id, f.data); }
 

@@ -74,6 +74,13 @@ std::string slurp(const std::string &path)
 	return ss.str();
 }
 
+void write_file(const std::string &path, const std::string &text)
+{
+	std::ofstream f(path);
+	f << text;
+	REQUIRE(f.good());
+}
+
 bool has(const std::string &s, const std::string &what) { return s.find(what) != std::string::npos; }
 
 struct Result {
@@ -326,10 +333,7 @@ TEST_CASE("swell-tool scene files over UDP: save and load back unchanged, anothe
 
 	/* a file that does not parse: its line, nothing sent */
 	const std::string bad = r.dir + "/bad.scene";
-	{
-		std::ofstream f(bad);
-		f << "# a bad file\nwave.damping = 0.01\nbody.mass = 80 mm\n";
-	}
+	write_file(bad, "# a bad file\nwave.damping = 0.01\nbody.mass = 80 mm\n");
 	Result parse = r.tool("scene load " + bad);
 	CHECK(parse.status == 2);
 	CHECK(has(parse.out, "bad.scene:3: body.mass: unit 'mm' is not g"));
@@ -349,10 +353,7 @@ TEST_CASE("swell-tool scene files over UDP: save and load back unchanged, anothe
 
 	/* a refused value puts back what was set: the stability limit refuses the last line */
 	const std::string unstable = r.dir + "/unstable.scene";
-	{
-		std::ofstream f(unstable);
-		f << "# damping first, then an e over the limit\nwave.damping = 0.01\nforce.max = 8 N\nwave.e = 0.9\n";
-	}
+	write_file(unstable, "# damping first, then an e over the limit\nwave.damping = 0.01\nforce.max = 8 N\nwave.e = 0.9\n");
 	Result limit = r.tool("scene load " + unstable);
 	CHECK(limit.status == 6);
 	CHECK(has(limit.out, "unstable.scene:4: wave.e refused by the controller: parameters outside the stability limit"));
@@ -362,10 +363,7 @@ TEST_CASE("swell-tool scene files over UDP: save and load back unchanged, anothe
 
 	/* running: the controller refuses a new pool at its line, nothing changed */
 	const std::string deeper = r.dir + "/deeper.scene";
-	{
-		std::ofstream f(deeper);
-		f << "# the same pool, deeper\npool.depth = 60 mm\n";
-	}
+	write_file(deeper, "# the same pool, deeper\npool.depth = 60 mm\n");
 	Result busy = r.tool("scene load " + deeper);
 	CHECK(busy.status == 6);
 	CHECK(has(busy.out, "deeper.scene:2: pool.depth refused by the controller: not allowed in this state"));
