@@ -468,6 +468,19 @@ enum swell_err swell_pkt_decode(const uint8_t *pkt, size_t len, struct swell_msg
 	return count(st, err, (uint32_t)k);
 }
 
+int swell_param_answer(const struct swell_msg *m, uint16_t id, uint8_t seq, int32_t *value, enum swell_err *err)
+{
+	if (m->type == SWELL_MSG_PARAM_ACK && m->u.param_ack.id == id && m->u.param_ack.seq == seq) {
+		*value = m->u.param_ack.value;
+		return 1;
+	}
+	if (m->type == SWELL_MSG_PARAM_NACK && m->u.param_nack.id == id && m->u.param_nack.seq == seq) {
+		*err = (enum swell_err)m->u.param_nack.err;
+		return 0;
+	}
+	return -1;
+}
+
 /* ---- heights ---- */
 struct swell_msg swell_height_quad(const struct swell_quad_at *at, unsigned frame, const int16_t s[4])
 {

@@ -411,15 +411,12 @@ static int wait_answer(struct swell_link *l, uint16_t id, uint8_t seq, int timeo
 		if (swell_link_decode(swell_link_carrier(l), &f, m, SWELL_CANFD_MSGS_MAX, &n, NULL, st) != SWELL_OK)
 			continue;
 		for (k = 0; k < n; k++) {
-			if (m[k].type == SWELL_MSG_PARAM_ACK && m[k].u.param_ack.id == id &&
-			    m[k].u.param_ack.seq == seq) {
-				*value = m[k].u.param_ack.value;
-				return 1;
-			}
-			if (m[k].type == SWELL_MSG_PARAM_NACK && m[k].u.param_nack.id == id &&
-			    m[k].u.param_nack.seq == seq) {
-				*err = m[k].u.param_nack.err;
-				return 0;
+			enum swell_err why = SWELL_OK;
+			const int answer = swell_param_answer(&m[k], id, seq, value, &why);
+
+			if (answer >= 0) {
+				*err = (int)why;
+				return answer;
 			}
 		}
 	}

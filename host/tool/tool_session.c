@@ -267,16 +267,10 @@ static int wait_answer(struct tool_session *s, uint16_t id, uint8_t seq, int ms,
 		for (k = 0; k < n; k++) {
 			if ((int)m[k].node != s->node)
 				continue;
-			if (m[k].type == SWELL_MSG_PARAM_ACK && m[k].u.param_ack.id == id &&
-			    m[k].u.param_ack.seq == seq) {
-				*value = m[k].u.param_ack.value;
-				return 1;
-			}
-			if (m[k].type == SWELL_MSG_PARAM_NACK && m[k].u.param_nack.id == id &&
-			    m[k].u.param_nack.seq == seq) {
-				*why = (enum swell_err)m[k].u.param_nack.err;
-				return 0;
-			}
+			const int answer = swell_param_answer(&m[k], id, seq, value, why);
+
+			if (answer >= 0)
+				return answer;
 		}
 	}
 	return -1;

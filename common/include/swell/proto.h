@@ -186,6 +186,10 @@ static inline struct swell_quad_at swell_quad_locate(uint32_t q, unsigned tiles_
 	return at;
 }
 
+/* Whether m answers the parameter request (id, seq): 1 for PARAM_ACK (*value the value in force), 0 for
+ * PARAM_NACK (*err the reason), -1 for any other message. */
+int swell_param_answer(const struct swell_msg *m, uint16_t id, uint8_t seq, int32_t *value, enum swell_err *err);
+
 /* The HEIGHT_QUAD (node 0) of the quad at `at` carrying samples s[0..3]; frame 0..3. */
 struct swell_msg swell_height_quad(const struct swell_quad_at *at, unsigned frame, const int16_t s[4]);
 /* The four samples of a HEIGHT_QUAD in solver units. */
