@@ -2,6 +2,8 @@
  * what it changes and its exit status for every failure. */
 #include <catch2/catch.hpp>
 
+#include "swell_test.hpp"
+
 #include <chrono>
 #include <cstdio>
 #include <cstring>
@@ -13,66 +15,17 @@
 
 #include <fcntl.h>
 #include <signal.h>
-#include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
-extern "C" {
-#include "swell/link.h"
-}
-
-extern char **environ;
-
 namespace {
 
+using swell_test::free_udp_port;
+using swell_test::reap;
+using swell_test::slurp;
+using swell_test::spawn;
+
 using Clock = std::chrono::steady_clock;
-
-/* A free UDP port on loopback (bound and released). */
-int free_port()
-{
-	swell_link *l = nullptr;
-	REQUIRE(swell_link_open_udp(&l, "127.0.0.1", 0, nullptr, 0) == 0);
-	const int p = swell_link_udp_port(l);
-	swell_link_close(l);
-	return p;
-}
-
-pid_t spawn(std::vector<std::string> args, const std::string &out)
-{
-	std::vector<char *> argv;
-	for (auto &a : args)
-		argv.push_back(&a[0]);
-	argv.push_back(nullptr);
-	posix_spawn_file_actions_t fa;
-	posix_spawn_file_actions_init(&fa);
-	posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-	posix_spawn_file_actions_adddup2(&fa, 1, 2);
-	pid_t pid = -1;
-	REQUIRE(posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ) == 0);
-	posix_spawn_file_actions_destroy(&fa);
-	return pid;
-}
-
-/* Exit status of pid, waiting at most ms; -1 if it is still running. */
-int wait_exit(pid_t pid, int ms)
-{
-	const auto until = Clock::now() + std::chrono::milliseconds(ms);
-	int st = 0;
-	while (Clock::now() < until) {
-		if (waitpid(pid, &st, WNOHANG) == pid)
-			return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
-		std::this_thread::sleep_for(std::chrono::milliseconds(10));
-	}
-	return -1;
-}
-
-std::string slurp(const std::string &path)
-{
-	std::ifstream f(path);
-	std::stringstream ss;
-	ss << f.rdbuf();
-	return ss.str();
-}
 
 void write_file(const std::string &path, const std::string &text)
 {
@@ -91,7 +44,7 @@ struct Result {
 /* A controller (swell-ctl, real time without SCHED_FIFO) and its device (swell-hm, dropping the
  * object into the water), on free loopback ports, and swell-tool talking to it. */
 struct Rig {
-	int host_port = free_port(), client_port = free_port(), dev_port = free_port();
+	int host_port = free_udp_port(), client_port = free_udp_port(), dev_port = free_udp_port();
 	pid_t ctl = -1, hm = -1;
 	std::string dir;
 	explicit Rig(const std::string &name, const std::string &hand = "drop", const std::vector<std::string> &more = {})
@@ -138,14 +91,8 @@ struct Rig {
 	}
 	~Rig()
 	{
-		for (pid_t p : {hm, ctl})
-			if (p > 0) {
-				kill(p, SIGTERM);
-				if (wait_exit(p, 3000) < 0) {
-					kill(p, SIGKILL);
-					wait_exit(p, 3000);
-				}
-			}
+		swell_test::stop(hm, SIGTERM, 3000);
+		swell_test::stop(ctl, SIGTERM, 3000);
 	}
 	/* the tool is a client of the host link: its clients' port */
 	std::string link() const { return "udp:" + std::to_string(client_port); }
@@ -260,7 +207,7 @@ TEST_CASE("swell-tool exit status: 3 with no controller, 4 for a wrong node, 5 w
 	  "mid-command, 2 for bad arguments",
 	  "[tool][udp]")
 {
-	const int nobody = free_port();
+	const int nobody = free_udp_port();
 	const auto t0 = Clock::now();
 	const int none = system((std::string(SWELL_TOOL_BIN) + " --link udp:" + std::to_string(nobody) +
 				 " --timeout-ms 300 status >/dev/null 2>&1")
@@ -281,14 +228,13 @@ TEST_CASE("swell-tool exit status: 3 with no controller, 4 for a wrong node, 5 w
 	/* a log in progress; the controller is killed: the tool stops with 5 within its silence limit
 	 * and keeps the rows it had */
 	const std::string csv = r.dir + "/cut.csv", out = r.dir + "/cut.out";
-	const pid_t tool = spawn({SWELL_TOOL_BIN, "--link", r.link(), "log", csv, "--seconds", "20"}, out);
+	pid_t tool = spawn({SWELL_TOOL_BIN, "--link", r.link(), "log", csv, "--seconds", "20"}, out);
 	std::this_thread::sleep_for(std::chrono::milliseconds(1500));
 	kill(r.ctl, SIGKILL);
 	const auto killed = Clock::now();
-	const int rc = wait_exit(tool, 5000);
+	const int rc = reap(tool, 5000);
 	const double gone_s = std::chrono::duration<double>(Clock::now() - killed).count();
-	wait_exit(r.ctl, 1000);
-	r.ctl = -1;
+	reap(r.ctl, 1000);
 	const std::string said = slurp(out);
 	INFO("swell-tool log after the kill: exit " << rc << " after " << gone_s << " s:\n" << said);
 	CHECK(rc == 5);
