@@ -166,40 +166,46 @@ static int takes_pool(struct tool_session *s, const struct step *first, int time
 	return first->v->line;
 }
 
-/* The parameters of the file with the values in force (to put back if a later line is refused)
- * around the pool's steps plan[0 .. pool): those that may change only while the object is out of
- * the water (mass, size, damper) and differ first, before a new pool can put the object into water
- * at rest; then the pool; then the others, each group in file order. Returns the plan's length. */
-static size_t plan_params(struct tool_session *s, const struct swell_scene *sc, struct step *plan, size_t pool,
-			  int timeout_ms, enum tool_rc *rc)
+/* A value of the file that may change only while the object is out of the water (mass, size,
+ * damper) and differs from the one in force. */
+static int dry_change(const struct swell_scene_value *v, int32_t old)
 {
-	struct step pool_part[SWELL_SCENE_PARAMS_MAX] = { { NULL, 0 } }, rest[SWELL_SCENE_PARAMS_MAX] = { { NULL, 0 } };
-	size_t k, n = 0, r = 0;
+	return v->d->when == SWELL_PWHEN_DRY && v->raw != old;
+}
 
-	memcpy(pool_part, plan, pool * sizeof(*plan));
-	*rc = TOOL_OK;
+/* The plan: the file's parameters with the values in force (to put back if a later line is refused),
+ * the dry changes first, before a new pool can put the object into water at rest; then the pool's
+ * steps; then the other parameters, each group in file order. *n is the plan's length. */
+static enum tool_rc plan_steps(struct tool_session *s, const struct swell_scene *sc, const struct step *pool,
+			       size_t npool, struct step *plan, size_t *n, int timeout_ms)
+{
+	int32_t old[SWELL_SCENE_PARAMS_MAX] = { 0 };
+	size_t k;
+
 	for (k = 0; k < sc->n; k++) {
-		struct step st = { &sc->v[k], 0 };
+		const enum tool_rc rc = swell_scene_key(sc->v[k].d->id)
+			? TOOL_OK
+			: get(s, sc->v[k].d->id, timeout_ms, &old[k], "scene load");
 
-		if (swell_scene_key(st.v->d->id))
-			continue;
-		*rc = get(s, st.v->d->id, timeout_ms, &st.old, "scene load");
-		if (*rc != TOOL_OK)
-			return 0;
-		if (st.v->d->when == SWELL_PWHEN_DRY && st.v->raw != st.old)
-			plan[n++] = st;
-		else
-			rest[r++] = st;
+		if (rc != TOOL_OK)
+			return rc;
 	}
-	memcpy(plan + n, pool_part, pool * sizeof(*plan));
-	memcpy(plan + n + pool, rest, r * sizeof(*plan));
-	return n + pool + r;
+	*n = 0;
+	for (k = 0; k < sc->n; k++)
+		if (!swell_scene_key(sc->v[k].d->id) && dry_change(&sc->v[k], old[k]))
+			plan[(*n)++] = (struct step){ &sc->v[k], old[k] };
+	for (k = 0; k < npool; k++)
+		plan[(*n)++] = pool[k];
+	for (k = 0; k < sc->n; k++)
+		if (!swell_scene_key(sc->v[k].d->id) && !dry_change(&sc->v[k], old[k]))
+			plan[(*n)++] = (struct step){ &sc->v[k], old[k] };
+	return TOOL_OK;
 }
 
 enum tool_rc tool_scene_load(struct tool_session *s, const char *path, int timeout_ms)
 {
 	struct swell_scene sc;
-	struct step plan[SWELL_SCENE_PARAMS_MAX];
+	struct step pool_part[4], plan[SWELL_SCENE_PARAMS_MAX];
 	int32_t e = 0, now = 0;
 	char err[400], a[48], b[48];
 	size_t k, n, pool, done = 0, changed = 0;
@@ -217,17 +223,17 @@ enum tool_rc tool_scene_load(struct tool_session *s, const char *path, int timeo
 	if (rc != TOOL_OK)
 		return rc;
 	line = rate_differs(s, &sc, e, err, sizeof(err));
-	pool = pool_steps(s, &sc, plan);
+	pool = pool_steps(s, &sc, pool_part);
 	if (!line && pool)
-		line = takes_pool(s, &plan[0], timeout_ms, err, sizeof(err));
+		line = takes_pool(s, &pool_part[0], timeout_ms, err, sizeof(err));
 	if (line) {
 		fprintf(stderr, "swell-tool: scene load: %s:%d: %s; nothing changed\n", path, line, err);
 		return TOOL_REFUSED;
 	}
-	n = plan_params(s, &sc, plan, pool, timeout_ms, &rc);
+	rc = plan_steps(s, &sc, pool_part, pool, plan, &n, timeout_ms);
 	if (rc != TOOL_OK)
 		return rc;
-	if (n > 0 && plan[0].v->d->when == SWELL_PWHEN_DRY && plan[0].v->raw != plan[0].old && tool_object_wet(s)) {
+	if (n > 0 && dry_change(plan[0].v, plan[0].old) && tool_object_wet(s)) {
 		swell_param_format(plan[0].v->d, plan[0].v->raw, a, sizeof(a));
 		fprintf(stderr,
 			"swell-tool: scene load: %s:%d: %s = %s: not while the object displaces water (state %s): "
