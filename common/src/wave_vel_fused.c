@@ -79,7 +79,8 @@ static inline __attribute__((always_inline)) int32_t vel_cell(int32_t u, int32_t
 		u[K] = s;                                                                      \
 		acc[K] += dh;                                                                  \
 		tot += s;                                                                      \
-		tot_h += dh;                                                                   \
+		if (!damp) /* damped: dh = s, the same sum */                                  \
+			tot_h += dh;                                                           \
 		a_or |= s;                                                                     \
 		sl = sc;                                                                       \
 		sc = sr;                                                                       \
@@ -104,7 +105,8 @@ static inline __attribute__((always_inline)) void vel_run(struct swell_wave *w, 
 	const int32_t cf = dsp ? (int32_t)c64 : 0; /* fits int32 when dsp */
 	const int w0 = i0 > 0 ? -1 : 0;
 	int32_t c = hc[0], sl = hd[w0] + hu[w0] + 2 * hc[w0], sc = hd[0] + hu[0] + 2 * c, sr, cn, s;
-	int32_t a_or, tot = 0, tot_h = 0, dh;
+	int32_t a_or, tot = 0, tot_h = 0, dh; /* the sums of at most 16 cells */
+	int64_t run_tot = 0, run_tot_h = 0; /* the run's: up to 64 cells, beyond int32 */
 	uint32_t sat = 0;
 	int b, k;
 
@@ -120,6 +122,11 @@ static inline __attribute__((always_inline)) void vel_run(struct swell_wave *w, 
 			VEL_CELL(k, hd[k + 1] + hu[k + 1] + 2 * cn);
 		}
 		any[b] = a_or;
+		if (b & 1) { /* 16 cells of int28 still fit int32 */
+			run_tot += tot;
+			run_tot_h += tot_h;
+			tot = tot_h = 0;
+		}
 		hc += 8;
 		hd += 8;
 		hu += 8;
@@ -152,8 +159,9 @@ static inline __attribute__((always_inline)) void vel_run(struct swell_wave *w, 
 		sat = (uint32_t)__saturation_occurred();
 #endif
 	w->saturations += sat;
-	sum[0] += tot;
-	sum[1] += tot_h;
+	run_tot += tot;
+	sum[0] += run_tot;
+	sum[1] += damp ? run_tot : run_tot_h + tot_h;
 }
 
 static inline __attribute__((always_inline)) void vel_rows(struct swell_wave *w, int j, int tx0, int tx1, int damp,
