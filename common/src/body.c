@@ -212,9 +212,9 @@ static void scan_rows(const struct swell_wave *w, const int32_t *d, int j0, int 
 		int32_t part = 0;
 
 		for (; a < end; a++) {
-			const int32_t x = h[a], p = h[a] - d[a];
+			/* the higher of h and h - d is h - min(d, 0): one comparison a cell */
+			const int32_t x = h[a], p = x - (d[a] < 0 ? d[a] : 0);
 
-			t = x > t ? x : t;
 			t = p > t ? p : t;
 			part += x;
 		}

@@ -12,15 +12,23 @@
 #define INFO_HZ 1u
 #define POSE_HZ 100u
 /* Quads scanned a tick, except in the tick that ends a solver step: the period's heaviest (the
- * solver's finish) scans nothing, the heights it finished are scanned from the next tick on */
+ * solver's finish) scans nothing, the heights it finished are scanned from the next tick on. A quad
+ * whose stale bit is clear is passed unread; of the stale ones, QUAD_READS_PER_S / tick_hz are read a
+ * tick (36 at 2500 Hz, 90 at 1000 Hz, about 50 instructions each on the M4): where every quad is
+ * stale, a round over the 1024 quads of the reference pool takes 12.6 ms at 2500 Hz (nine scanning ticks
+ * in ten) and 15.2 ms at 1000 Hz (three in four). */
 #define QUAD_SCAN_PER_TICK 64u
+#define QUAD_READS_PER_S 90000u
 /* Relative costs for spreading a solver step (the velocity form) over its ticks, measured on the
- * Cortex-M4 image (64 cells a row, damped, every tile awake): a row of the kernel about 1.9 k
- * instructions, a row of the finishing pass with the body's ceiling scan about 1.3 k, the fixers, the
- * clearing of the last step's accumulator and the tile flags at the step's end about 5 k. */
-#define COST_EDGE_ROW 1u
-#define COST_FINISH_ROW 1u
-#define COST_CLEAR 3u
+ * Cortex-M4 image (64 cells a row, damped, every tile awake): a row of the kernel with its row driver
+ * about 1.85 k instructions, a row of the finishing pass ahead about 0.41 k (LDM/STM). The step's end
+ * (the fixers, the clear of the last step's changes, the tile flags, the period's coupling) has a tick
+ * of its own: every row is finished ahead before it. */
+#define COST_EDGE_ROW 9u
+#define COST_FINISH_ROW 2u
+/* the body's ceiling scan of a row finished ahead, while the object is out of the water: about 0.8 k */
+#define COST_SCAN_ROW 4u
+#define COST_END 80u
 #define NEVER_SENT INT16_MIN
 
 /* the telemetry's stale bits follow the solver's tiles: a wire tile is a sleeping tile */
@@ -213,11 +221,10 @@ static enum swell_err init_at(struct swell_ctl *c, const struct swell_ctl_config
 	for (a = 0; a < n; a++)
 		sent_set(c, a, NEVER_SENT);
 	c->ticks_per_step = cfg->tick_hz / cfg->solver_hz;
-	c->units_per_tick =
-		((COST_EDGE_ROW + COST_FINISH_ROW) * cfg->ny + COST_CLEAR + c->ticks_per_step - 1) / c->ticks_per_step;
 	c->tiles_x = (uint16_t)SWELL_TILES(cfg->nx);
 	c->tiles_y = (uint16_t)SWELL_TILES(cfg->ny);
 	c->quads = (uint32_t)c->tiles_x * c->tiles_y * SWELL_QUADS_PER_TILE;
+	c->quad_reads = QUAD_READS_PER_S / cfg->tick_hz > 0 ? QUAD_READS_PER_S / cfg->tick_hz : 1u;
 	for (a = 0; a < (uint32_t)c->tiles_x * c->tiles_y; a++)
 		c->quad_stale[a] = 0xffffu; /* nothing sent yet */
 	c->fp_cells = (cfg->body.a_um / cfg->dx_um + 2) * (cfg->body.b_um / cfg->dx_um + 2);
@@ -750,13 +757,22 @@ static void quad_fresh(struct swell_ctl *c, uint32_t q)
 	c->quad_stale[q / SWELL_QUADS_PER_TILE] &= (uint16_t) ~(1u << (q % SWELL_QUADS_PER_TILE));
 }
 
-/* HEIGHT_QUAD of a whole quad at cell a from its samples as sent[] holds them (two words). */
-static void quad_send_words(struct swell_ctl *c, const struct swell_quad_at *at, uint32_t a, uint32_t w0, uint32_t w1)
+/* HEIGHT_QUAD of quad `bit` of the tile at (at->x0, at->y) less that quad's offset, a whole quad at
+ * cell a, from its samples as sent[] holds them (two words). Out of the scan's loop, which keeps its
+ * registers for the reads. */
+static __attribute__((noinline)) void quad_send_words(struct swell_ctl *c, struct swell_quad_at *at, uint32_t bit,
+						      uint32_t a, uint32_t w0, uint32_t w1)
 {
 	const int16_t s[4] = { (int16_t)(uint16_t)w0, (int16_t)(uint16_t)(w0 >> 16), (int16_t)(uint16_t)w1,
 			       (int16_t)(uint16_t)(w1 >> 16) };
-	struct swell_msg m = swell_height_quad(at, c->n.solver_steps, s);
+	const uint32_t x_tile = at->x0 - 4u * at->half, y_tile = at->y - at->row;
+	struct swell_msg m;
 
+	at->row = bit >> 1;
+	at->half = bit & 1u;
+	at->x0 = x_tile + 4u * at->half;
+	at->y = y_tile + at->row;
+	m = swell_height_quad(at, c->n.solver_steps, s);
 	m.node = c->cfg.node;
 	push(c, SWELL_LINK_HOST, &m);
 	c->sent[a >> 1] = w0;
@@ -764,107 +780,147 @@ static void quad_send_words(struct swell_ctl *c, const struct swell_quad_at *at,
 	c->n.quads_sent++;
 }
 
+/* Two heights of the core's field (|h| < 2^28: SSAT 27 in the solver) as the two samples sent[] holds
+ * for them: swell_height_to_sample with its rounding, floor((h + 2^(s-1)) / 2^s) saturated to 12 bits,
+ * in one shift of h + 2^(s-1) (no overflow for such h) and a pack of the two halves. */
+static inline uint32_t field_pair(int32_t h0, int32_t h1)
+{
+	const int shift = 16 - SWELL_PROTO_H_SHIFT;
+	const int32_t half = (int32_t)1 << (shift - 1);
+	int32_t s0 = (h0 + half) >> shift, s1 = (h1 + half) >> shift;
+
+#if defined(__ARM_FEATURE_SAT)
+	s0 = __ssat(s0, 12);
+	s1 = __ssat(s1, 12);
+#else
+	s0 = swell_clamp(s0, -2048, 2047);
+	s1 = swell_clamp(s1, -2048, 2047);
+#endif
+	return (uint32_t)(uint16_t)s0 | (uint32_t)s1 << 16;
+}
+
+/* What a scan may still do in this tick (messages to send, stale quads to read), and the cells read. */
+struct scan_left {
+	uint32_t msgs, reads, cells;
+};
+
 /* scan_run over a tile wholly inside a grid of even width: every quad is four cells of one row and two
- * words of sent[], read through swell_wave_h (h(n) of the last finished step), sent from the words. */
-static uint32_t scan_whole_tile(struct swell_ctl *c, uint32_t q, uint32_t run, uint32_t *budget, uint32_t *cells,
+ * words of sent[], read as h(n) of the last finished step (h - acc in the tile's rows finished ahead,
+ * swell_wave_h), sent from the words. The tile's pointers and its rows finished ahead are found once,
+ * and the loop goes from stale bit to stale bit. */
+static uint32_t scan_whole_tile(struct swell_ctl *c, uint32_t q, uint32_t run, struct scan_left *left,
 				struct swell_quad_at *at)
 {
 	uint16_t *const stale_at = &c->quad_stale[q / SWELL_QUADS_PER_TILE];
-	const struct swell_wave *const w = &c->wave;
-	const uint32_t *const sent = c->sent;
 	const uint32_t nx = c->cfg.nx, x_tile = at->x0 - 4u * at->half, y_tile = at->y - at->row;
-	const uint32_t corner = y_tile * nx + x_tile;
-	uint32_t stale = *stale_at, left = *budget, read = 0, k;
+	const uint32_t corner = y_tile * nx + x_tile, done = c->wave.done_row, first = q % SWELL_QUADS_PER_TILE;
+	const int32_t *const h = c->wave.h + corner, *const acc = c->wave.acc + corner;
+	const uint32_t *const sent = c->sent + corner / 2;
+	/* quads of rows finished ahead: bits below 2 (done_row - y_tile) */
+	const uint32_t ahead = done <= y_tile ? 0 : done - y_tile >= SWELL_PROTO_TILE ? 16u : 2u * (done - y_tile);
+	/* the run's stale bits: [first, first + run) of the tile's */
+	uint32_t todo = *stale_at & ((run < SWELL_QUADS_PER_TILE ? (1u << run) - 1u : 0xffffu) << first);
+	uint32_t msgs = left->msgs, reads = left->reads, bit = first;
 
-	for (k = 0; k < run && left; k++) {
-		const uint32_t bit = (q + k) % SWELL_QUADS_PER_TILE;
-		const uint32_t a = corner + (bit >> 1) * nx + 4u * (bit & 1u);
-		uint32_t w0, w1;
+	while (todo && msgs && reads) {
+		const int32_t *hq;
+		uint32_t o, w0, w1;
 
-		if (!(stale >> bit & 1u))
-			continue;
-		stale &= ~(1u << bit);
-		read += 4;
-		w0 = sample_pair(swell_wave_h(w, a), swell_wave_h(w, a + 1));
-		w1 = sample_pair(swell_wave_h(w, a + 2), swell_wave_h(w, a + 3));
-		if (w0 == sent[a >> 1] && w1 == sent[(a >> 1) + 1])
-			continue;
-		at->row = bit >> 1;
-		at->half = bit & 1u;
-		at->x0 = x_tile + 4u * at->half;
-		at->y = y_tile + at->row;
-		quad_send_words(c, at, a, w0, w1);
-		left--;
+		bit = (uint32_t)__builtin_ctz(todo);
+		todo &= todo - 1u;
+		reads--;
+		o = (bit >> 1) * nx + 4u * (bit & 1u);
+		hq = h + o;
+		if (bit < ahead) {
+			const int32_t *const aq = acc + o;
+
+			w0 = field_pair(hq[0] - aq[0], hq[1] - aq[1]);
+			w1 = field_pair(hq[2] - aq[2], hq[3] - aq[3]);
+		} else {
+			w0 = field_pair(hq[0], hq[1]);
+			w1 = field_pair(hq[2], hq[3]);
+		}
+		if (w0 != sent[o >> 1] || w1 != sent[(o >> 1) + 1]) {
+			quad_send_words(c, at, bit, corner + o, w0, w1);
+			msgs--;
+		}
 	}
-	*stale_at = (uint16_t)stale;
-	*budget = left;
-	*cells += read;
-	return k;
+	left->cells += 4u * (left->reads - reads);
+	left->msgs = msgs;
+	left->reads = reads;
+	if (msgs && reads) { /* the run scanned whole: its stale bits all read */
+		*stale_at &= (uint16_t) ~((run < SWELL_QUADS_PER_TILE ? (1u << run) - 1u : 0xffffu) << first);
+		return run;
+	}
+	/* up to and with the quad that spent the last message or read */
+	*stale_at &= (uint16_t) ~(((2u << bit) - 1u) & ~((1u << first) - 1u));
+	return bit + 1u - first;
 }
 
 /* The stale quads of the run [q, q + run) of one tile read (the tile located once) and sent where they
- * changed, while the budget lasts. Returns how many of the run were scanned: all of them, or up to and
- * with the quad that spent the last of the budget. A tile wholly inside a grid of even width (every
- * quad two words of sent[]) goes through scan_whole_tile. */
-static uint32_t scan_run(struct swell_ctl *c, uint32_t q, uint32_t run, uint32_t *budget, uint32_t *cells)
+ * changed, while the tick's messages and reads last. Returns how many of the run were scanned: all of
+ * them, or up to and with the quad that spent the last message or read. A tile wholly inside a grid of
+ * even width (every quad two words of sent[]) goes through scan_whole_tile. */
+static uint32_t scan_run(struct swell_ctl *c, uint32_t q, uint32_t run, struct scan_left *left)
 {
 	uint16_t *const stale_at = &c->quad_stale[q / SWELL_QUADS_PER_TILE];
 	struct swell_quad_at at = swell_quad_locate(q, c->tiles_x);
 	const uint32_t x_tile = at.x0 - 4u * at.half, y_tile = at.y - at.row;
-	uint32_t stale = *stale_at, left = *budget, read = 0, k, n;
+	uint32_t stale = *stale_at, k, n;
 	int16_t s[4];
 	int changed;
 
 	if (!(c->cfg.nx & 1u) && x_tile + SWELL_PROTO_TILE <= c->cfg.nx && y_tile + SWELL_PROTO_TILE <= c->cfg.ny)
-		return scan_whole_tile(c, q, run, budget, cells, &at);
-	for (k = 0; k < run && left; k++) {
+		return scan_whole_tile(c, q, run, left, &at);
+	for (k = 0; k < run && left->msgs && left->reads; k++) {
 		const uint32_t bit = (q + k) % SWELL_QUADS_PER_TILE;
 
 		if (!(stale >> bit & 1u))
 			continue;
 		stale &= ~(1u << bit);
+		left->reads--;
 		at.row = bit >> 1;
 		at.half = bit & 1u;
 		at.x0 = x_tile + 4u * at.half;
 		at.y = y_tile + at.row;
 		n = quad_read(c, &at, s, &changed);
-		read += n;
+		left->cells += n;
 		if (n && changed) {
 			quad_send(c, &at, s, n);
-			left--;
+			left->msgs--;
 		}
 	}
 	*stale_at = (uint16_t)stale;
-	*budget = left;
-	*cells += read;
 	return k;
 }
 
-/* Scan quads round-robin and send the ones whose samples changed, within the budget. A quad whose
- * stale bit is clear is passed unread (it counts as scanned: the same quads go out as when every one
- * is read), a tile's run of them in one test. A budget left over sends one quad of a second, slower
- * round-robin whatever its state, so that a quad lost on the way is put right even where the water
- * no longer moves (every quad within quads / tick_hz s). */
-static uint32_t send_heights(struct swell_ctl *c, uint32_t budget, uint32_t scan)
+/* Scan quads round-robin and send the ones whose samples changed: at most `scan` quads, `reads` of them
+ * read, `budget` sent. A quad whose stale bit is clear is passed unread (it counts as scanned but not
+ * read: the same quads go out as when every one is read), a tile's run of them in one test. A budget
+ * left over sends one quad of a second, slower round-robin whatever its state, so that a quad lost on
+ * the way is put right even where the water no longer moves (every quad within quads / tick_hz s).
+ * Returns the cells read. */
+static uint32_t send_heights(struct swell_ctl *c, uint32_t budget, uint32_t scan, uint32_t reads)
 {
-	uint32_t scanned = 0, cells = 0, n;
+	struct scan_left left = { budget, reads, 0 };
+	uint32_t scanned = 0, n;
 	int16_t s[4];
 	int changed;
 
-	while (budget && scanned < scan) {
+	while (left.msgs && left.reads && scanned < scan) {
 		const uint32_t q = c->quad_cursor, first = q % SWELL_QUADS_PER_TILE;
-		const uint32_t left = scan - scanned;
-		uint32_t run = SWELL_QUADS_PER_TILE - first < left ? SWELL_QUADS_PER_TILE - first : left;
-		/* the run's bits, from the tile's bits shifted down to the cursor: at most `left` of them */
-		const uint32_t bits = left < SWELL_QUADS_PER_TILE ? (1u << left) - 1u : 0xffffu;
+		const uint32_t rest = scan - scanned;
+		uint32_t run = SWELL_QUADS_PER_TILE - first < rest ? SWELL_QUADS_PER_TILE - first : rest;
+		/* the run's bits, from the tile's bits shifted down to the cursor: at most `rest` of them */
+		const uint32_t bits = rest < SWELL_QUADS_PER_TILE ? (1u << rest) - 1u : 0xffffu;
 
 		if ((uint32_t)c->quad_stale[q / SWELL_QUADS_PER_TILE] >> first & bits)
-			run = scan_run(c, q, run, &budget, &cells);
+			run = scan_run(c, q, run, &left);
 		/* else none of the tile's next run of quads can differ: passed whole */
 		c->quad_cursor = q + run == c->quads ? 0 : q + run; /* quads: whole tiles, a run never wraps */
 		scanned += run;
 	}
-	for (scanned = 0; budget && scanned < 4; scanned++) { /* skip quads outside a partial tile */
+	for (scanned = 0; left.msgs && scanned < 4; scanned++) { /* skip quads outside a partial tile */
 		const uint32_t q = c->refresh_cursor;
 		const struct swell_quad_at at = swell_quad_locate(q, c->tiles_x);
 
@@ -877,7 +933,7 @@ static uint32_t send_heights(struct swell_ctl *c, uint32_t budget, uint32_t scan
 			break;
 		}
 	}
-	return cells;
+	return left.cells;
 }
 
 /* ---- the tick ---- */
@@ -994,25 +1050,30 @@ static uint32_t force_law(struct swell_ctl *c)
 }
 
 /* The solver step spread over the K ticks of its period. Ticks 0 .. K-2 do the edges of their share
- * of rows (ceil(ny (k+1) / (K-1)) done after tick k), then, as far as the tick's share of the
- * period's work allows (units_per_tick), the finishing pass ahead on the rows whose edges are all
- * done and the body's ceiling scan of them; tick K-1 finishes the rest and completes the step. The
- * force law in between reads h(n) and v in every row (wave.h: h - acc where finished ahead), so it
- * never sees a half-finished step. */
+ * of rows (ceil(ny (k+1) / (K-1)) done after tick k), then, as far as the tick's share of what is left
+ * of the period's work before the step's end allows (the relative costs above: what is left over the
+ * ticks left), the finishing pass ahead on the rows whose edges are all done and the body's ceiling
+ * scan of them; tick K-2 finishes every row, and tick K-1 completes the step. The force law in between
+ * reads h(n) and v in every row (wave.h: h - acc where finished ahead), so it never sees a
+ * half-finished step. */
 static uint32_t solver_slice(struct swell_ctl *c)
 {
 	struct swell_wave *w = &c->wave;
 	const uint32_t done0 = w->done_row, k = c->phase, kk = c->ticks_per_step;
-	uint32_t work, rows, units;
+	uint32_t work, rows;
 
 	if (k + 1 < kk) {
-		const uint32_t target = (w->ny * (k + 1) + kk - 2) / (kk - 1);
+		const uint32_t target = (w->ny * (k + 1) + kk - 2) / (kk - 1), ticks_left = kk - 1 - k;
+		/* while the object is out of the water, a row finished ahead is scanned for the ceiling too */
+		const uint32_t finish_cost = c->body.wet ? COST_FINISH_ROW : COST_FINISH_ROW + COST_SCAN_ROW;
+		const uint32_t left = COST_EDGE_ROW * (w->ny - w->next_row) + finish_cost * (w->ny - done0);
+		/* the step's end takes a share as well, less its own work (COST_END) */
+		const uint32_t share = (left + COST_END + ticks_left) / (ticks_left + 1u);
 
 		rows = target > w->next_row ? target - w->next_row : 0;
 		swell_wave_step_rows(w, (int)rows);
-		units = rows * COST_EDGE_ROW;
-		if (units < c->units_per_tick) {
-			swell_wave_finish_rows(w, (int)((c->units_per_tick - units) / COST_FINISH_ROW));
+		if (rows * COST_EDGE_ROW < share) {
+			swell_wave_finish_rows(w, (int)((share - rows * COST_EDGE_ROW) / finish_cost));
 			swell_body_scan_ahead(&c->body, w);
 		}
 		work = (rows + 2u * (w->done_row - done0)) * w->nx;
@@ -1069,7 +1130,7 @@ void swell_ctl_tick_background(struct swell_ctl *c)
 		budget -= 2;
 	}
 	/* c->phase 0: this tick ended a step */
-	work += send_heights(c, budget, c->phase == 0 ? 0u : QUAD_SCAN_PER_TICK);
+	work += send_heights(c, budget, c->phase == 0 ? 0u : QUAD_SCAN_PER_TICK, c->quad_reads);
 
 	c->n.work = work;
 	if (work > c->n.work_max)

@@ -151,7 +151,6 @@ struct swell_ctl {
 
 	/* scheduling */
 	uint32_t ticks_per_step, phase;
-	uint32_t units_per_tick; /* the share of a solver step's work a tick carries (ctl.c) */
 	uint32_t work_force; /* work of the force part of the tick in progress */
 	volatile uint8_t bg_pending; /* force part done, background part not yet */
 
@@ -167,6 +166,7 @@ struct swell_ctl {
 	/* telemetry */
 	uint16_t tiles_x, tiles_y;
 	uint32_t quads, quad_cursor; /* quads in the grid (16 a tile), next one to scan */
+	uint32_t quad_reads; /* stale quads the scan reads a tick at most (ctl.c, QUAD_READS_PER_S) */
 	uint32_t refresh_cursor; /* next quad to resend whatever its state */
 	uint32_t fp_cells; /* footprint cells of the object, for the work count */
 
