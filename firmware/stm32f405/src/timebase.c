@@ -34,10 +34,14 @@ void timebase_init(uint8_t systick_prio)
 }
 
 /* wraps:VAL read consistently from thread mode or any interrupt: if the counter wrapped while we
- * read it and the SysTick interrupt has not run yet, its pending bit says so. */
+ * read it and the SysTick interrupt has not run yet, its pending bit says so. QEMU sets that bit
+ * only when its timer event runs, which can come after VAL has already reloaded: a reading below the
+ * last one is such a wrap, not yet counted (readings come far more often than one a wrap). */
 uint64_t timebase_systick(void)
 {
+	static uint64_t last;
 	uint32_t primask, w, v;
+	uint64_t t;
 
 	primask = irq_save();
 	w = wraps;
@@ -46,8 +50,12 @@ uint64_t timebase_systick(void)
 		v = SYSTICK->VAL;
 		w++;
 	}
+	t = ((uint64_t)w << 24) + (SYSTICK_MAX - v);
+	if (t < last)
+		t += (uint64_t)1 << 24;
+	last = t;
 	irq_restore(primask);
-	return ((uint64_t)w << 24) + (SYSTICK_MAX - v);
+	return t;
 }
 
 int timebase_has_dwt(void)
