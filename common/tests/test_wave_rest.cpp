@@ -98,10 +98,10 @@ TEST_CASE("velocity form: damped water comes to rest (h and u unchanged over 16 
 						cases++;
 						if (m.first) {
 							failed++;
-							fails << "\n  " << (st == SWELL_STENCIL_PAPER ? "paper" : "calibrated") << " e "
-							      << e << " t " << t << " " << p.nx << "x" << p.ny << " seed " << seed
-							      << ": moves at step " << m.first << " of 16, |dh| " << m.max_dh
-							      << " |du| " << m.max_du << " LSB";
+							fails << "\n  " << (st == SWELL_STENCIL_PAPER ? "paper" : "calibrated")
+							      << " e " << e << " t " << t << " " << p.nx << "x" << p.ny
+							      << " seed " << seed << ": moves at step " << m.first
+							      << " of 16, |dh| " << m.max_dh << " |du| " << m.max_du << " LSB";
 						}
 						CHECK(f.w.saturations == 0);
 					}
