@@ -6,10 +6,6 @@
 #include "bench.h"
 #include "measure.h"
 
-double f405_cost[FW_COST_SCENES], f405_cost_awake[FW_COST_SCENES];
-double f405_vcost[FW_COST_SCENES], f405_vcost_awake[FW_COST_SCENES];
-double f405_naive;
-
 /* The image's three cost scenes (firmware/stm32f405/logic/scene.c: calm, one local splash, a fully
  * agitated pool; 64x64, damped t = 0.001, FW_COST_STEPS steps from their start) on every kernel this
  * host has, against a float32 loop of the same stencil over the whole grid, timed in the same run; and
