@@ -9,7 +9,6 @@
 #include <linux/can/error.h>
 #include <linux/can/raw.h>
 #include <net/if.h>
-#include <poll.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -80,16 +79,11 @@ static int can_recv(struct swell_link *l, struct swell_frame *f, int timeout_ms)
 	uint64_t deadline = swell_link_deadline(timeout_ms);
 
 	for (;;) {
-		struct pollfd p = { .fd = c->fd, .events = POLLIN };
 		struct canfd_frame fr;
-		int n, rc = poll(&p, 1, swell_link_ms_left(deadline, timeout_ms));
+		int n = swell_link_wait_in(c->fd, deadline, timeout_ms);
 
-		if (rc < 0 && errno == EINTR)
-			continue;
-		if (rc < 0)
-			return -errno;
-		if (rc == 0)
-			return -ETIMEDOUT;
+		if (n < 0)
+			return n;
 		n = swell_can_read(c->fd, &c->health, &fr);
 		if (n < 0)
 			return -errno;
