@@ -119,7 +119,9 @@ static void measure_matrix(const struct opts *o)
 				for (k = 0; k < BENCH_IMPL_COUNT; k++) {
 					struct row *r = new_row();
 					struct bench_field tmp;
+					struct bench_mode md;
 					uint32_t sat;
+					double lsb_mm;
 
 					r->impl = (enum bench_impl)k;
 					r->st = sts[si];
@@ -127,6 +129,7 @@ static void measure_matrix(const struct opts *o)
 					r->e = e;
 					init_or_die(&tmp, r->impl, nx, e, 0, sts[si]);
 					r->e_eff = tmp.e_eff;
+					lsb_mm = tmp.lsb_mm;
 					bench_field_free(&tmp);
 					r->ns = ns[k];
 					r->ratio = ns[k] / ns[BENCH_F32];
@@ -145,22 +148,12 @@ static void measure_matrix(const struct opts *o)
 							r->e_drift = smp[s].e_drift;
 					}
 					r->vol_lsb = smp[19].vol_lsb;
-					{
-						struct bench_field g;
-
-						init_or_die(&g, r->impl, nx, e, 0, sts[si]);
-						r->vol_mm = r->vol_lsb * g.lsb_mm / ((double)nx * nx);
-						bench_field_free(&g);
-					}
-					{
-						struct bench_mode md;
-
-						bench_mode_init(&md, nx, nx, MODE_M, MODE_N);
-						r->omega_ratio = bench_omega_discrete(r->e_eff, md.S) /
-							bench_omega_seiche(e, &md);
-						r->err_bound = sqrt((double)o->steps) /
-							bench_omega_discrete(r->e_eff, md.S) / SWELL_H_ONE_MM;
-					}
+					r->vol_mm = r->vol_lsb * lsb_mm / ((double)nx * nx);
+					bench_mode_init(&md, nx, nx, MODE_M, MODE_N);
+					r->omega_ratio =
+						bench_omega_discrete(r->e_eff, md.S) / bench_omega_seiche(e, &md);
+					r->err_bound = sqrt((double)o->steps) / bench_omega_discrete(r->e_eff, md.S) /
+						SWELL_H_ONE_MM;
 					r->sat = sat;
 					if (bench_impl_wave(r->impl) || r->impl == BENCH_EF16)
 						check(r->vol_lsb == 0,
