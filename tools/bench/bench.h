@@ -5,9 +5,12 @@
 #ifndef SWELL_BENCH_H
 #define SWELL_BENCH_H
 
+#include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 
 #include "kernels.h"
+#include "measure.h"
 #include "scene.h"
 
 #define MAX_LIST 16

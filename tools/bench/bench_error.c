@@ -1,10 +1,5 @@
 /* swell-bench: the error runs, shared by the matrix, and the error against steps (error_steps.csv). */
-#include <math.h>
-#include <stdio.h>
-#include <stdlib.h>
-
 #include "bench.h"
-#include "measure.h"
 #include "swell/wave_ref.h"
 
 /* Run the (1,1) mode at AMP_MM from rest and compare at the given steps (ascending) with: float64

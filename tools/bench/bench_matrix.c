@@ -1,12 +1,8 @@
 /* swell-bench: the matrix, run time against error of every kernel on every grid, e and stencil
  * (matrix.csv, the table and the Pareto front). */
-#include <math.h>
-#include <stdio.h>
-#include <stdlib.h>
 #include <string.h>
 
 #include "bench.h"
-#include "measure.h"
 
 struct row {
 	enum bench_impl impl;

@@ -1,6 +1,4 @@
 /* swell-bench: the gnuplot script and the plots drawn from the CSV files (plots.gp and the PNGs). */
-#include <stdio.h>
-#include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
 

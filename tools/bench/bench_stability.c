@@ -1,10 +1,6 @@
 /* swell-bench: the stability map over (e, t) and the measured boundary against (1+q)/(4q)
  * (stability.csv, boundary.csv). */
-#include <math.h>
-#include <stdio.h>
-
 #include "bench.h"
-#include "measure.h"
 
 /* the map covers the first two; the boundary all three */
 static const enum bench_impl map_impls[3] = { BENCH_SHIPPED, BENCH_F64, BENCH_VELOCITY };

@@ -1,11 +1,6 @@
 /* swell-bench: the stress runs, at the edge of stability, near saturation and under random pushes
  * (stress.csv). */
-#include <math.h>
-#include <stdio.h>
-#include <stdlib.h>
-
 #include "bench.h"
-#include "measure.h"
 
 static FILE *stress_fp;
 
