@@ -20,24 +20,11 @@ enum swell_err swell_fsafety_check(const struct swell_fsafety_params *p)
 	return SWELL_OK;
 }
 
-static void apply_params(struct swell_fsafety *s, const struct swell_fsafety_params *p)
-{
-	s->p = *p;
-	s->step_uN = (int32_t)(p->rate_uN_per_s / p->tick_hz);
-}
-
 enum swell_err swell_fsafety_init(struct swell_fsafety *s, const struct swell_fsafety_params *p)
 {
-	enum swell_err err;
-
-	if (!s)
-		return SWELL_EINVAL;
-	err = swell_fsafety_check(p);
-	if (err != SWELL_OK)
-		return err;
-	memset(s, 0, sizeof(*s));
-	apply_params(s, p);
-	return SWELL_OK;
+	if (s && swell_fsafety_check(p) == SWELL_OK)
+		memset(s, 0, sizeof(*s)); /* a refused init leaves s as it was */
+	return swell_fsafety_set(s, p);
 }
 
 enum swell_err swell_fsafety_set(struct swell_fsafety *s, const struct swell_fsafety_params *p)
@@ -49,7 +36,8 @@ enum swell_err swell_fsafety_set(struct swell_fsafety *s, const struct swell_fsa
 	err = swell_fsafety_check(p);
 	if (err != SWELL_OK)
 		return err;
-	apply_params(s, p);
+	s->p = *p;
+	s->step_uN = (int32_t)(p->rate_uN_per_s / p->tick_hz);
 	return SWELL_OK;
 }
 

@@ -77,13 +77,6 @@ const char *swell_state_name(unsigned state)
 	return state < sizeof(names) / sizeof(names[0]) ? names[state] : "?";
 }
 
-const char *swell_param_group_name(enum swell_param_group g)
-{
-	static const char *const names[] = { "wave", "body", "size", "safety", "core" };
-
-	return (unsigned)g < sizeof(names) / sizeof(names[0]) ? names[g] : "?";
-}
-
 const char *swell_param_when_text(enum swell_param_when w)
 {
 	return w == SWELL_PWHEN_DRY     ? "not while the object displaces water"

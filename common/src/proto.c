@@ -468,6 +468,25 @@ enum swell_err swell_pkt_decode(const uint8_t *pkt, size_t len, struct swell_msg
 	return count(st, err, (uint32_t)k);
 }
 
+struct swell_msg swell_param_request(uint8_t node, int set, uint16_t id, int32_t value, uint8_t seq)
+{
+	struct swell_msg m;
+
+	memset(&m, 0, sizeof(m));
+	m.node = node;
+	if (set) {
+		m.type = SWELL_MSG_PARAM_SET;
+		m.u.param_set.id = id;
+		m.u.param_set.value = value;
+		m.u.param_set.seq = seq;
+	} else {
+		m.type = SWELL_MSG_PARAM_GET;
+		m.u.param_get.id = id;
+		m.u.param_get.seq = seq;
+	}
+	return m;
+}
+
 int swell_param_answer(const struct swell_msg *m, uint16_t id, uint8_t seq, int32_t *value, enum swell_err *err)
 {
 	if (m->type == SWELL_MSG_PARAM_ACK && m->u.param_ack.id == id && m->u.param_ack.seq == seq) {

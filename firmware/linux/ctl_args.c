@@ -191,17 +191,12 @@ int scene_params(struct swell_ctl *c, const struct opts *o)
 
 	for (k = 0; k < o->scene.n; k++) {
 		const struct swell_scene_value *v = &o->scene.v[k];
-		struct swell_msg m, a;
+		const struct swell_msg m = swell_param_request(o->cfg.node, 1, v->d->id, v->raw, (uint8_t)k);
+		struct swell_msg a;
 
 		if (swell_scene_key(v->d->id))
 			continue; /* start-up: already in the configuration */
-		memset(&m, 0, sizeof(m));
 		memset(&a, 0, sizeof(a));
-		m.type = SWELL_MSG_PARAM_SET;
-		m.node = o->cfg.node;
-		m.u.param_set.id = v->d->id;
-		m.u.param_set.value = v->raw;
-		m.u.param_set.seq = (uint8_t)k;
 		swell_ctl_rx(c, SWELL_LINK_HOST, &m);
 		if (swell_ctl_tx(c, SWELL_LINK_HOST, &a, 1) != 1 || a.type != SWELL_MSG_PARAM_ACK) {
 			fprintf(stderr, "swell-ctl: --scene %s:%d: %s refused: %s\n", o->scene_path, v->line,

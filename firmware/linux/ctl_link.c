@@ -189,7 +189,7 @@ size_t ctl_link_recv(struct ctl_link *l, struct swell_msg *out, size_t cap)
 	if (l->kind == CTL_LINK_USB)
 		return recv_usb(l, out, cap);
 	if (l->kind == CTL_LINK_CAN) {
-		struct can_frame f;
+		struct canfd_frame f;
 		const int r = cap < 1 ? -1 : swell_can_read(l->fd, &l->can, &f);
 
 		l->frames_rx += r >= 0;
@@ -199,7 +199,7 @@ size_t ctl_link_recv(struct ctl_link *l, struct swell_msg *out, size_t cap)
 			l->st.rejected[SWELL_EUNKNOWN]++; /* foreign formats: counted, dropped */
 			return 0;
 		}
-		if (swell_can_decode(f.can_id, f.data, f.can_dlc, out, &l->st) != SWELL_OK)
+		if (swell_can_decode(f.can_id, f.data, f.len, out, &l->st) != SWELL_OK)
 			return 0;
 		return own_node(l, out, 1);
 	}

@@ -423,26 +423,23 @@ static int wait_answer(struct swell_link *l, uint16_t id, uint8_t seq, int timeo
 	return -1;
 }
 
-static int get_param(struct swell_link *l, uint8_t node, uint16_t id, uint8_t seq, int timeout_ms, int32_t *v,
-		     struct swell_proto_stats *st)
+/* PARAM_SET (set 1) or PARAM_GET of id, asked up to three times: an answer can be lost on the way back (in
+ * lockstep over UDP the telemetry comes several times faster than real time and can overflow our receive
+ * buffer), so the same request goes again, as a host would send it. As wait_answer; *resent (may be NULL)
+ * counts the requests that went unanswered. */
+static int request(struct swell_link *l, uint8_t node, int set, uint16_t id, int32_t value, uint8_t seq, int timeout_ms,
+		   int32_t *v, int *err, struct swell_proto_stats *st, int *resent)
 {
-	struct swell_msg m;
-	int err = 0, tries;
+	const struct swell_msg m = swell_param_request(node, set, id, value, seq);
+	int tries, r = -1;
 
-	memset(&m, 0, sizeof(m));
-	m.type = SWELL_MSG_PARAM_GET;
-	m.node = node;
-	m.u.param_get.id = id;
-	m.u.param_get.seq = seq;
-	for (tries = 0; tries < 3; tries++) { /* a lost request or answer is asked again */
-		int r;
-
+	for (tries = 0; tries < 3 && r < 0; tries++) {
 		send_msg(l, &m, seq);
-		r = wait_answer(l, id, seq, timeout_ms, v, &err, st);
-		if (r >= 0)
-			return r;
+		r = wait_answer(l, id, seq, timeout_ms, v, err, st);
+		if (resent)
+			*resent += r < 0;
 	}
-	return -1;
+	return r;
 }
 
 static int cmd_params(struct swell_link *l, uint8_t node, int timeout_ms)
@@ -464,32 +461,17 @@ static int cmd_params(struct swell_link *l, uint8_t node, int timeout_ms)
 	for (k = 0; k < nsets; k++) {
 		const struct pset *p = &bad_sets[k];
 		int32_t before = 0, after = 0, v = 0;
-		int err = 0, r = -1, tries, have_before = p->id != SWELL_PARAM_COMMAND && p->id != 999;
-		struct swell_msg m;
+		int err = 0, get_err = 0, r, have_before = p->id != SWELL_PARAM_COMMAND && p->id != 999;
 
-		if (have_before && get_param(l, node, p->id, seq++, timeout_ms, &before, &st) != 1) {
+		if (have_before &&
+		    request(l, node, 0, p->id, 0, seq++, timeout_ms, &before, &get_err, &st, NULL) != 1) {
 			printf("  FAIL %-48s PARAM_GET %u before: no ACK\n", p->why, p->id);
 			failed++;
 			continue;
 		}
-		memset(&m, 0, sizeof(m));
-		m.type = SWELL_MSG_PARAM_SET;
-		m.node = node;
-		m.u.param_set.id = p->id;
-		m.u.param_set.value = p->value;
-		m.u.param_set.seq = seq;
-		/* an answer can be lost on the way back (in lockstep over UDP the telemetry comes several times
-		 * faster than real time and can overflow our receive buffer): the same request is sent again,
-		 * as a host would; the read-back below still shows whether anything was set */
-		for (tries = 0; tries < 3; tries++) {
-			send_msg(l, &m, seq);
-			r = wait_answer(l, p->id, seq, timeout_ms, &v, &err, &st);
-			if (r >= 0)
-				break;
-			resent++;
-		}
-		seq++;
-		if (have_before && get_param(l, node, p->id, seq++, timeout_ms, &after, &st) != 1) {
+		/* the read-back below shows whether anything was set, answered or not */
+		r = request(l, node, 1, p->id, p->value, seq++, timeout_ms, &v, &err, &st, &resent);
+		if (have_before && request(l, node, 0, p->id, 0, seq++, timeout_ms, &after, &get_err, &st, NULL) != 1) {
 			printf("  FAIL %-48s PARAM_GET %u after: no ACK\n", p->why, p->id);
 			failed++;
 			continue;

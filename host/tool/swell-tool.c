@@ -385,16 +385,8 @@ static int cmd_estop(struct tool_session *s, const struct opts *o)
 	size_t used, k;
 
 	/* both requests at once, no waiting in between: the force is zero within a tick of the second */
-	memset(m, 0, sizeof(m));
-	for (k = 0; k < 2; k++) {
-		m[k].type = SWELL_MSG_PARAM_SET;
-		m[k].node = (uint8_t)s->node;
-		m[k].u.param_set.seq = ++s->seq;
-	}
-	m[0].u.param_set.id = SWELL_PARAM_AUTORUN;
-	m[0].u.param_set.value = 0;
-	m[1].u.param_set.id = SWELL_PARAM_COMMAND;
-	m[1].u.param_set.value = SWELL_CMD_STOP;
+	m[0] = swell_param_request((uint8_t)s->node, 1, SWELL_PARAM_AUTORUN, 0, ++s->seq);
+	m[1] = swell_param_request((uint8_t)s->node, 1, SWELL_PARAM_COMMAND, SWELL_CMD_STOP, ++s->seq);
 	for (k = 0; k < 2; k++)
 		if (swell_link_encode(swell_link_carrier(s->l), m[k].node, s->pkt_seq++, &m[k], 1, &f, &used) ==
 		    SWELL_OK)

@@ -280,21 +280,9 @@ enum tool_rc tool_request(struct tool_session *s, int set, uint16_t id, int32_t 
 			  enum swell_err *why, char *err, size_t errlen)
 {
 	const uint64_t until = swell_link_now_ns() + ms_ns(timeout_ms);
-	struct swell_msg m;
-	uint8_t seq = ++s->seq;
+	const uint8_t seq = ++s->seq;
+	const struct swell_msg m = swell_param_request((uint8_t)s->node, set, id, value, seq);
 
-	memset(&m, 0, sizeof(m));
-	m.node = (uint8_t)s->node;
-	if (set) {
-		m.type = SWELL_MSG_PARAM_SET;
-		m.u.param_set.id = id;
-		m.u.param_set.value = value;
-		m.u.param_set.seq = seq;
-	} else {
-		m.type = SWELL_MSG_PARAM_GET;
-		m.u.param_get.id = id;
-		m.u.param_get.seq = seq;
-	}
 	/* The same request again for a lost frame: a set is idempotent and the answer names its seq. */
 	while (swell_link_now_ns() < until) {
 		uint64_t left = (until - swell_link_now_ns()) / 1000000u;

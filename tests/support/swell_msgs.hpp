@@ -17,17 +17,7 @@ namespace swell_test {
 // SWELL_MSG_PARAM_SET of value, or SWELL_MSG_PARAM_GET (value unused), of parameter id.
 inline swell_msg param_msg(uint8_t type, uint16_t id, int32_t value, uint8_t seq)
 {
-	swell_msg m{};
-	m.type = type;
-	if (type == SWELL_MSG_PARAM_SET) {
-		m.u.param_set.id = id;
-		m.u.param_set.value = value;
-		m.u.param_set.seq = seq;
-	} else {
-		m.u.param_get.id = id;
-		m.u.param_get.seq = seq;
-	}
-	return m;
+	return swell_param_request(0, type == SWELL_MSG_PARAM_SET, id, value, seq);
 }
 
 // A DEVICE_POS at z (x, y) in units of 10 um; status 1: powered.

@@ -1,14 +1,5 @@
 /* swell-bench: what a scene does not need is skipped (the image's cost scenes on every kernel). */
-#include <math.h>
-#include <stdio.h>
-#include <stdlib.h>
-
 #include "bench.h"
-#include "measure.h"
-
-double f405_cost[FW_COST_SCENES], f405_cost_awake[FW_COST_SCENES];
-double f405_vcost[FW_COST_SCENES], f405_vcost_awake[FW_COST_SCENES];
-double f405_naive;
 
 /* The image's three cost scenes (firmware/stm32f405/logic/scene.c: calm, one local splash, a fully
  * agitated pool; 64x64, damped t = 0.001, FW_COST_STEPS steps from their start) on every kernel this

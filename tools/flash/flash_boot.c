@@ -127,16 +127,6 @@ static int send_msgs(struct session *s, const struct swell_msg *m, size_t n)
 	return 0;
 }
 
-static void param_msg(struct swell_msg *m, uint8_t node, uint16_t id, int32_t value, uint8_t seq)
-{
-	memset(m, 0, sizeof(*m));
-	m->type = SWELL_MSG_PARAM_SET;
-	m->node = node;
-	m->u.param_set.id = id;
-	m->u.param_set.value = value;
-	m->u.param_set.seq = seq;
-}
-
 static int open_session(struct session *s, const struct flash_link_spec *spec, int wait_ms, char *where, size_t wlen)
 {
 	int rc;
@@ -234,8 +224,8 @@ enum flash_boot_result flash_enter_bootloader(const struct flash_link_spec *spec
 		printf("swell-flash: --force: sending AUTORUN=0 and COMMAND=STOP (force zeroed by the controller)\n");
 		/* one packet on USB and UDP: swell-ctl's FunctionFS side may take a second OUT packet late
 		 * while nobody reads its IN endpoint (this process, blocked sending) */
-		param_msg(&stop[0], hb.node, SWELL_PARAM_AUTORUN, 0, 1);
-		param_msg(&stop[1], hb.node, SWELL_PARAM_COMMAND, SWELL_CMD_STOP, 2);
+		stop[0] = swell_param_request(hb.node, 1, SWELL_PARAM_AUTORUN, 0, 1);
+		stop[1] = swell_param_request(hb.node, 1, SWELL_PARAM_COMMAND, SWELL_CMD_STOP, 2);
 		rc = send_msgs(&s, stop, 2);
 		if (rc) {
 			r = say(BOOT_ERROR, msg, msg_len, "cannot send PARAM_SET AUTORUN=0, COMMAND=STOP on %s: %s",

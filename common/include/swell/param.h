@@ -47,7 +47,6 @@ int32_t swell_command_by_name(const char *name);
 /* A controller state's name (HEARTBEAT.state, swell/proto_table.h: "running"); "?" for none. */
 const char *swell_state_name(unsigned state);
 
-const char *swell_param_group_name(enum swell_param_group g);
 /* "any state" or "not while the object displaces water" */
 const char *swell_param_when_text(enum swell_param_when w);
 

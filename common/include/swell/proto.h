@@ -186,6 +186,9 @@ static inline struct swell_quad_at swell_quad_locate(uint32_t q, unsigned tiles_
 	return at;
 }
 
+/* The PARAM_SET of value (set 1) or the PARAM_GET (set 0; value unused) of parameter id to node, request
+ * number seq. */
+struct swell_msg swell_param_request(uint8_t node, int set, uint16_t id, int32_t value, uint8_t seq);
 /* Whether m answers the parameter request (id, seq): 1 for PARAM_ACK (*value the value in force), 0 for
  * PARAM_NACK (*err the reason), -1 for any other message. */
 int swell_param_answer(const struct swell_msg *m, uint16_t id, uint8_t seq, int32_t *value, enum swell_err *err);

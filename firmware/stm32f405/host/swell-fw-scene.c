@@ -134,11 +134,11 @@ int main(int argc, char **argv)
 
 		err = fw_core_init(&ctl, &r, arena, FW_CORE_ARENA_WORDS, (uint32_t)core_hz);
 		for (k = 0; pool && err == SWELL_OK && k < 2; k++) {
-			struct swell_msg set = { .type = SWELL_MSG_PARAM_SET }, ans;
+			const struct swell_msg set =
+				swell_param_request(0, 1, k ? SWELL_SCENE_NY : SWELL_SCENE_NX, (int32_t)pool, 0);
+			struct swell_msg ans;
 			struct fw_pool_at place;
 
-			set.u.param_set.id = k ? SWELL_SCENE_NY : SWELL_SCENE_NX;
-			set.u.param_set.value = (int32_t)pool;
 			(void)fw_pool_param(&ctl, &mem, &set, &ans, &place);
 			if (ans.type != SWELL_MSG_PARAM_ACK)
 				err = (enum swell_err)ans.u.param_nack.err;

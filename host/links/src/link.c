@@ -3,6 +3,7 @@
 #include "link_priv.h"
 
 #include <errno.h>
+#include <poll.h>
 #include <string.h>
 #include <time.h>
 
@@ -31,6 +32,21 @@ int swell_link_ms_left(uint64_t deadline_ns, int timeout_ms)
 	if (now >= deadline_ns)
 		return 0;
 	return (int)((deadline_ns - now + 999999u) / 1000000u);
+}
+
+int swell_link_wait_in(int fd, uint64_t deadline_ns, int timeout_ms)
+{
+	for (;;) {
+		struct pollfd p = { .fd = fd, .events = POLLIN };
+		const int rc = poll(&p, 1, swell_link_ms_left(deadline_ns, timeout_ms));
+
+		if (rc > 0)
+			return 0;
+		if (rc == 0)
+			return -ETIMEDOUT;
+		if (errno != EINTR)
+			return -errno;
+	}
 }
 
 int swell_link_send(struct swell_link *l, const struct swell_frame *f)

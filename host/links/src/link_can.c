@@ -1,4 +1,5 @@
-/* SocketCAN link: raw socket, optional filters, error frames counted, bitrate via libsocketcan. */
+/* SocketCAN link: raw socket, optional filters, error frames taken into the bus state, bitrate via
+ * libsocketcan. */
 #define _GNU_SOURCE
 #include "link_priv.h"
 
@@ -8,7 +9,6 @@
 #include <linux/can/error.h>
 #include <linux/can/raw.h>
 #include <net/if.h>
-#include <poll.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -21,6 +21,7 @@ struct can_link {
 	struct swell_link base;
 	int fd;
 	int fd_mode;
+	struct swell_can_health health;
 };
 
 int swell_can_write(int fd, const struct swell_frame *f, int fd_mode)
@@ -78,27 +79,19 @@ static int can_recv(struct swell_link *l, struct swell_frame *f, int timeout_ms)
 	uint64_t deadline = swell_link_deadline(timeout_ms);
 
 	for (;;) {
-		struct pollfd p = { .fd = c->fd, .events = POLLIN };
 		struct canfd_frame fr;
-		ssize_t n;
-		int rc = poll(&p, 1, swell_link_ms_left(deadline, timeout_ms));
+		int n = swell_link_wait_in(c->fd, deadline, timeout_ms);
 
-		if (rc < 0 && errno == EINTR)
-			continue;
-		if (rc < 0)
-			return -errno;
-		if (rc == 0)
-			return -ETIMEDOUT;
-		n = read(c->fd, &fr, sizeof(fr));
+		if (n < 0)
+			return n;
+		n = swell_can_read(c->fd, &c->health, &fr);
 		if (n < 0)
 			return -errno;
-		if (n != CAN_MTU && n != CANFD_MTU)
-			return -EIO;
-		if (fr.can_id & CAN_ERR_FLAG) {
+		if (n == 0 && (fr.can_id & CAN_ERR_FLAG)) { /* taken into the bus state */
 			l->cnt.bus_errors++;
 			continue;
 		}
-		if (fr.can_id & CAN_RTR_FLAG) {
+		if (n == 0 || (fr.can_id & CAN_RTR_FLAG)) { /* heard while bus-off, or a remote frame */
 			l->cnt.rx_dropped++;
 			continue;
 		}
@@ -200,7 +193,7 @@ enum swell_can_event swell_can_error_frame(struct swell_can_health *h, uint32_t 
 	return SWELL_CAN_EV_STATE;
 }
 
-int swell_can_read(int fd, struct swell_can_health *h, struct can_frame *f)
+int swell_can_read(int fd, struct swell_can_health *h, struct canfd_frame *f)
 {
 	const ssize_t r = read(fd, f, sizeof(*f));
 
@@ -213,8 +206,12 @@ int swell_can_read(int fd, struct swell_can_health *h, struct can_frame *f)
 		}
 		return -1;
 	}
-	if (r != (ssize_t)sizeof(*f))
+	if (r < 0)
 		return -1;
+	if (r != CAN_MTU && r != CANFD_MTU) {
+		errno = EIO;
+		return -1;
+	}
 	if (f->can_id & CAN_ERR_FLAG) {
 		swell_can_error_frame(h, f->can_id, f->data);
 		return 0;
@@ -223,7 +220,7 @@ int swell_can_read(int fd, struct swell_can_health *h, struct can_frame *f)
 		h->dropped_off++;
 		return 0;
 	}
-	return 1;
+	return (int)r;
 }
 
 static const struct swell_link_ops can_ops = { can_send, can_recv, can_close, NULL };
@@ -297,6 +294,11 @@ fail_errno:
 	rc = -errno; /* before close, which may change it */
 	close(fd);
 	return rc;
+}
+
+const struct swell_can_health *swell_link_can_health(const struct swell_link *l)
+{
+	return (l && l->ops == &can_ops) ? &((const struct can_link *)l)->health : NULL;
 }
 
 int swell_link_open_can(struct swell_link **out, const char *ifname, const struct swell_can_opts *opts)

@@ -21,5 +21,8 @@ struct swell_link {
 /* Milliseconds left until deadline_ns (CLOCK_MONOTONIC); -1 if timeout_ms was < 0. */
 int swell_link_ms_left(uint64_t deadline_ns, int timeout_ms);
 uint64_t swell_link_deadline(int timeout_ms);
+/* Until fd is readable (0), the deadline (-ETIMEDOUT) or an error (a negative errno); a signal does not
+ * end the wait. */
+int swell_link_wait_in(int fd, uint64_t deadline_ns, int timeout_ms);
 
 #endif

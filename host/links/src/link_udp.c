@@ -5,7 +5,6 @@
 #include <arpa/inet.h>
 #include <errno.h>
 #include <netinet/in.h>
-#include <poll.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -53,20 +52,10 @@ int swell_udp_socket(const struct sockaddr_in *at, int nonblock, int any_if_take
 long swell_udp_recv(int fd, void *buf, size_t cap, struct sockaddr_in *from, int timeout_ms)
 {
 	socklen_t fl = sizeof(*from);
-	ssize_t n;
+	ssize_t n = timeout_ms == 0 ? 0 : swell_link_wait_in(fd, swell_link_deadline(timeout_ms), timeout_ms);
 
-	for (;;) {
-		struct pollfd p = { .fd = fd, .events = POLLIN };
-		int rc = timeout_ms == 0 ? 1 : poll(&p, 1, timeout_ms);
-
-		if (rc < 0 && errno == EINTR)
-			continue;
-		if (rc < 0)
-			return -errno;
-		if (rc == 0)
-			return -ETIMEDOUT;
-		break;
-	}
+	if (n < 0)
+		return (long)n;
 	memset(from, 0, sizeof(*from));
 	n = recvfrom(fd, buf, cap, MSG_TRUNC | MSG_DONTWAIT, (struct sockaddr *)from, &fl);
 	if (n < 0)

@@ -64,6 +64,7 @@ TEST_CASE("UDP links on loopback carry every message both ways and count frames 
 	link_ptr a, b;
 	open_pair(a, b);
 	CHECK(swell_link_carrier(a.l) == SWELL_CARRIER_PKT);
+	CHECK(swell_link_can_health(a.l) == nullptr); /* a bus state is a CAN link's only */
 	uint64_t bytes = 0;
 	for (unsigned t = 0; t < swell_msg_desc_count; t++) {
 		swell_link *from = (t % 2) ? b.l : a.l, *to = (t % 2) ? a.l : b.l;
@@ -396,6 +397,31 @@ TEST_CASE("CAN error frames: bus-off wins over a restart in the same frame, a da
 	CHECK(swell_can_error_frame(&h, CAN_ERR_FLAG | CAN_ERR_BUSOFF, nullptr) == SWELL_CAN_EV_NONE);
 	CHECK(swell_can_error_frame(nullptr, CAN_ERR_FLAG | CAN_ERR_BUSOFF, d) == SWELL_CAN_EV_NONE);
 	CHECK(memcmp(&h, &before, sizeof(h)) == 0);
+}
+
+TEST_CASE("CAN read (the CAN link's and swell-ctl's) gives a data frame's size, classic or FD, and refuses another "
+	  "size",
+	  "[links]")
+{
+	int sv[2];
+	REQUIRE(socketpair(AF_UNIX, SOCK_SEQPACKET, 0, sv) == 0);
+	swell_can_health h{};
+	canfd_frame f{}, fd{};
+	can_frame data{};
+	data.can_id = 0x123;
+	fd.can_id = 0x124;
+	fd.len = 12;
+	REQUIRE(write(sv[0], &data, CAN_MTU) == ssize_t(CAN_MTU));
+	REQUIRE(write(sv[0], &fd, CANFD_MTU) == ssize_t(CANFD_MTU));
+	REQUIRE(write(sv[0], "short", 5) == 5);
+	CHECK(swell_can_read(sv[1], &h, &f) == int(CAN_MTU));
+	CHECK(swell_can_read(sv[1], &h, &f) == int(CANFD_MTU));
+	CHECK(f.len == 12);
+	errno = 0;
+	CHECK(swell_can_read(sv[1], &h, &f) == -1);
+	CHECK(errno == EIO);
+	close(sv[0]);
+	close(sv[1]);
 }
 
 TEST_CASE("CAN link names its states", "[links]")

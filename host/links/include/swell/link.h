@@ -41,8 +41,8 @@ struct swell_link_counters {
 	uint64_t tx_frames, tx_bytes, tx_errors;
 	uint64_t rx_frames, rx_bytes, rx_errors; /* rx_errors: failed reads */
 	uint64_t rx_timeouts;
-	uint64_t rx_dropped; /* oversized datagrams, remote frames: never handed up */
-	uint64_t bus_errors; /* CAN error frames received */
+	uint64_t rx_dropped; /* oversized datagrams, remote frames, CAN frames heard while bus-off */
+	uint64_t bus_errors; /* CAN error frames received (the bus state: swell_link_can_health) */
 	uint64_t reconnects; /* USB device opened again after an unplug */
 };
 
@@ -96,7 +96,8 @@ struct swell_can_opts {
 	const struct swell_can_filter *filters; /* NULL: everything */
 	size_t nfilters;
 };
-/* SocketCAN raw socket on ifname ("can0", "vcan0"). */
+/* SocketCAN raw socket on ifname ("can0", "vcan0"). It reads with swell_can_read below: error frames
+ * make its bus state, and while the bus is off it hands nothing up. */
 int swell_link_open_can(struct swell_link **out, const char *ifname, const struct swell_can_opts *opts);
 /* The raw socket of both sides (the link above and swell-ctl's CAN links): bound to ifname with opts'
  * frames, filters and error classes (bitrate is the link's), non-blocking when nonblock. The
@@ -135,13 +136,16 @@ struct swell_can_health {
 enum swell_can_event swell_can_error_frame(struct swell_can_health *h, uint32_t can_id, const uint8_t data[8]);
 
 const char *swell_can_state_name(enum swell_can_state s);
+/* The bus state of a CAN link (swell_link_open_can); NULL for any other link. */
+const struct swell_can_health *swell_link_can_health(const struct swell_link *l);
 
-/* One frame of a raw CAN socket into f (never waits on a non-blocking one): 1 for a data frame, 0 for
- * a frame that is not handed up, -1 when nothing was read. Error frames go into h. While the bus is off,
+/* One frame of a raw CAN socket into f (never waits on a non-blocking one): its size for a data frame
+ * (CAN_MTU, or CANFD_MTU on an FD socket), 0 for a frame that is not handed up, -1 when nothing was
+ * read (errno says why; EIO for a read of another size). Error frames go into h. While the bus is off,
  * data frames are counted in h->dropped_off and dropped: a controller off the bus hears nothing. The
  * interface going down (ENETDOWN) counts in h->downs and ends a bus-off: brought up again it starts
  * error-active, and a down/up restart sends no RESTARTED frame. */
-int swell_can_read(int fd, struct swell_can_health *h, struct can_frame *f);
+int swell_can_read(int fd, struct swell_can_health *h, struct canfd_frame *f);
 /* One frame written to a SocketCAN socket, never waiting: 0, or a negative errno (-ENOBUFS when the
  * transmit queue is full, -EMSGSIZE for an FD frame on a classic socket: fd_mode 0). The CAN link's
  * send waits for room; swell-ctl's tick drops instead, the next tick sends a fresher value. */
