@@ -393,6 +393,10 @@ static void step_row_vel(struct swell_wave *w, int j, uint8_t *trow, int damp)
 	int64_t sum[2] = { 0, 0 };
 	int tx = 0, t1, k;
 
+#if SWELL_WAVE_AVX2
+	if (w->kernel == SWELL_KERNEL_AVX2 && swell_wave_vel_row_avx2(w, j, trow, damp))
+		return; /* the whole row in one call, its bookkeeping included */
+#endif
 	while (tx < w->tiles_x) {
 		if (w->sleep && (trow[tx] & T_SLEEPING)) {
 			w->tiles_skipped++;
@@ -404,11 +408,7 @@ static void step_row_vel(struct swell_wave *w, int j, uint8_t *trow, int damp)
 				break;
 		if (w->kernel == SWELL_KERNEL_REF)
 			swell_wave_vel_ref(w, j, tx, t1, damp, sum, any);
-#if SWELL_WAVE_AVX2
-		else if (w->kernel == SWELL_KERNEL_AVX2)
-			swell_wave_vel_avx2(w, j, tx, t1, damp, sum, any);
-#endif
-		else
+		else /* the fused kernel, and AVX2's where its coefficient does not fit */
 			swell_wave_vel_fused(w, j, tx, t1, damp, sum, any);
 		for (k = 0; k < t1 - tx; k++)
 			if (any[k])

@@ -72,7 +72,10 @@ void swell_wave_vel_fused(struct swell_wave *w, int j, int tx0, int tx1, int dam
 
 /* x86-64 with AVX2 (wave.c checks the CPU before it chooses it) */
 #if SWELL_WAVE_AVX2
-void swell_wave_vel_avx2(struct swell_wave *w, int j, int tx0, int tx1, int damp, int64_t sum[2], int32_t *any);
+/* Row j whole, tile flags included: the same bits, flags and counts as step_row_vel (wave.c) calling
+ * swell_wave_vel_ref for each run of awake tiles, with the sums added to w->vel_sum and
+ * w->vel_sum_h. Returns 0 (nothing done) where C = e_eff 2^(F+1) does not fit int32 (e_eff = 1). */
+int swell_wave_vel_row_avx2(struct swell_wave *w, int j, uint8_t *trow, int damp);
 /* The finishing pass of row j (wave.c's finish_row), the same bits: where a tile has the flags of
  * need, h += acc (T_DIRTY; clamped to int27, a row that clamped counted once, T_TOUCHED where acc
  * is non-zero) and v = 0 (T_DIRTY_PREV); every tile when tiles do not sleep. */

@@ -70,13 +70,16 @@ VA_FN __m256i va_colsum(const int32_t *hd, const int32_t *hc, const int32_t *hu,
 	return _mm256_add_epi32(_mm256_add_epi32(d, _mm256_loadu_si256((const __m256i *)hu)), _mm256_add_epi32(m, m));
 }
 
+/* The running sums of a row: s and dh as int32 lanes within a run of at most SWELL_WAVE_VEL_RUN
+ * awake tiles, int64 lanes after; the lanes that clamped in the run. */
 struct va_acc {
-	__m256i sat, tot, tot_h;
+	__m256i sat, tot, tot_h, tot64, tot_h64;
 };
 
-/* One vector of cells: x from the column sums left, centre and right, the cell, the stores. */
-VA_FN int32_t va_vec(const struct va_k *K, struct va_acc *A, __m256i sm, __m256i s0, __m256i sp, __m256i c, int32_t *u,
-		     int32_t *acc, __m256i mask, int masked, int damp, int f)
+/* One vector of cells: x from the column sums left, centre and right, the cell, the stores; returns
+ * non-zero when some new s is non-zero. */
+VA_FN int va_vec(const struct va_k *K, struct va_acc *A, __m256i sm, __m256i s0, __m256i sp, __m256i c, int32_t *u,
+		 int32_t *acc, __m256i mask, int masked, int damp, int f)
 {
 	const __m256i x = _mm256_sub_epi32(_mm256_add_epi32(_mm256_add_epi32(sm, sp), _mm256_add_epi32(s0, s0)),
 					   _mm256_slli_epi32(c, 4));
@@ -105,34 +108,58 @@ VA_FN int32_t va_vec(const struct va_k *K, struct va_acc *A, __m256i sm, __m256i
 	return !_mm256_testz_si256(s, s);
 }
 
-/* sum[0] += the lanes of a, sum[1] += those of b, in int64 */
-VA_FN void va_hsum2(int64_t sum[2], __m256i a, __m256i b)
+/* a + the int32 lanes of b, widened to int64 */
+VA_FN __m256i va_widen(__m256i a, __m256i b)
 {
-	const __m256i wa = _mm256_add_epi64(_mm256_cvtepi32_epi64(_mm256_castsi256_si128(a)),
-					    _mm256_cvtepi32_epi64(_mm256_extracti128_si256(a, 1)));
-	const __m256i wb = _mm256_add_epi64(_mm256_cvtepi32_epi64(_mm256_castsi256_si128(b)),
-					    _mm256_cvtepi32_epi64(_mm256_extracti128_si256(b, 1)));
-	const __m256i t = _mm256_add_epi64(_mm256_unpacklo_epi64(wa, wb), _mm256_unpackhi_epi64(wa, wb));
-	const __m128i r = _mm_add_epi64(_mm256_castsi256_si128(t), _mm256_extracti128_si256(t, 1));
-
-	_mm_storeu_si128((__m128i *)sum, _mm_add_epi64(_mm_loadu_si128((const __m128i *)sum), r));
+	return _mm256_add_epi64(a, _mm256_add_epi64(_mm256_cvtepi32_epi64(_mm256_castsi256_si128(b)),
+						    _mm256_cvtepi32_epi64(_mm256_extracti128_si256(b, 1))));
 }
 
-/* A run of awake tiles of row j: vectors of 8 cells, the last one masked when the row's last tile is
- * narrower (it is then at the east wall). */
-VA_FN void va_run(struct swell_wave *w, int j, int tx0, int tx1, int damp, int f, int64_t sum[2], int32_t *any)
+/* The end of a run of awake tiles (the reference's call): one saturation count if a lane clamped,
+ * the int32 sums into the int64 ones. */
+VA_FN uint32_t va_run_end(struct va_acc *A, int f)
 {
-	const int nx = w->nx, i0 = tx0 * SWELL_WAVE_TILE, i1 = tx1 * SWELL_WAVE_TILE < nx ? tx1 * SWELL_WAVE_TILE : nx;
-	const int nv = (i1 - i0 + 7) / 8, r = i1 - i0 - 8 * (nv - 1); /* the last vector's width, 1..8 */
-	const int32_t *hc = w->h + (size_t)j * nx + i0;
+	const uint32_t sat = !_mm256_testz_si256(A->sat, A->sat);
+
+	A->sat = _mm256_setzero_si256();
+	A->tot64 = va_widen(A->tot64, A->tot);
+	A->tot = _mm256_setzero_si256();
+	if (f) {
+		A->tot_h64 = va_widen(A->tot_h64, A->tot_h);
+		A->tot_h = _mm256_setzero_si256();
+	}
+	return sat;
+}
+
+/* the sum of the int64 lanes */
+VA_FN int64_t va_hsum64(__m256i a)
+{
+	const __m128i t = _mm_add_epi64(_mm256_castsi256_si128(a), _mm256_extracti128_si256(a, 1));
+
+	return _mm_cvtsi128_si64(t) + _mm_extract_epi64(t, 1);
+}
+
+/* Row j, every tile: vectors of 8 cells (a tile's row each) from the west wall to the east wall, the
+ * column sums carried from one vector to the next, the last vector masked when the row's last tile
+ * is narrower. A sleeping tile is skipped (its column sums still feed its neighbours). The driver's
+ * bookkeeping is here too, as step_row_vel in wave.c does it for the other kernels: T_NONZERO where a
+ * tile's new s is non-zero, the tiles skipped, and the saturation count of the reference's calls
+ * (runs of up to SWELL_WAVE_VEL_RUN awake tiles, split at sleeping tiles: one a run that clamped). */
+VA_FN void va_row(struct swell_wave *w, int j, uint8_t *trow, int damp, int f)
+{
+	const int nx = w->nx, nv = (nx + 7) / 8, r = nx - 8 * (nv - 1); /* the last vector's width, 1..8 */
+	const int sleep = w->sleep;
+	const int32_t *hc = w->h + (size_t)j * nx;
 	const int32_t *hd = j > 0 ? hc - nx : hc, *hu = j + 1 < w->ny ? hc + nx : hc;
-	int32_t *u = w->u + (size_t)j * nx + i0, *acc = w->acc + (size_t)j * nx + i0;
+	int32_t *u = w->u + (size_t)j * nx, *acc = w->acc + (size_t)j * nx;
 	const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
 	const __m256i mask = _mm256_cmpgt_epi32(_mm256_set1_epi32(r), lane);
 	struct va_k K;
 	struct va_acc A;
 	__m256i s0, c0, sn, cn, sm, sp, t;
-	int b;
+	uint32_t nsat = 0, skipped = 0;
+	int b, run = 0;
+	int64_t tot;
 
 	K.c = _mm256_set1_epi32((int32_t)((int64_t)w->e_eff << (w->vel_frac + 1)));
 	K.q = _mm256_set1_epi32(w->q);
@@ -141,13 +168,11 @@ VA_FN void va_run(struct swell_wave *w, int j, int tx0, int tx1, int damp, int f
 	K.zero = _mm256_setzero_si256();
 	K.hmin = _mm256_set1_epi32(SWELL_H_MIN);
 	K.hmax = _mm256_set1_epi32(SWELL_H_MAX);
-	A.sat = A.tot = A.tot_h = _mm256_setzero_si256();
+	A.sat = A.tot = A.tot_h = A.tot64 = A.tot_h64 = _mm256_setzero_si256();
 
 	s0 = va_colsum(hd, hc, hu, mask, nv == 1 && r < 8, &c0);
-	/* the column left of the run: its own sum, or the run's first column mirrored at the west wall */
+	/* the column left of the row: its first column mirrored at the west wall */
 	sm = _mm256_permutevar8x32_epi32(s0, _mm256_setr_epi32(0, 0, 1, 2, 3, 4, 5, 6));
-	if (i0 > 0)
-		sm = _mm256_blend_epi32(sm, _mm256_set1_epi32(hd[-1] + hu[-1] + 2 * hc[-1]), 0x01);
 	for (b = 0; b + 1 < nv; b++) {
 		const int k = 8 * (b + 1);
 
@@ -157,54 +182,72 @@ VA_FN void va_run(struct swell_wave *w, int j, int tx0, int tx1, int damp, int f
 			sn = va_colsum(hd + k, hc + k, hu + k, mask, 0, &cn);
 		t = _mm256_permute2x128_si256(s0, sn, 0x21); /* s0's high half, sn's low half */
 		sp = _mm256_alignr_epi8(t, s0, 4);
-		any[b] = va_vec(&K, &A, sm, s0, sp, c0, u + 8 * b, acc + 8 * b, mask, 0, damp, f);
+		if (sleep && (trow[b] & T_SLEEPING)) {
+			skipped++;
+			if (run) {
+				nsat += va_run_end(&A, f);
+				run = 0;
+			}
+		} else {
+			if (va_vec(&K, &A, sm, s0, sp, c0, u + 8 * b, acc + 8 * b, mask, 0, damp, f))
+				trow[b] |= T_NONZERO;
+			if (++run == SWELL_WAVE_VEL_RUN) {
+				nsat += va_run_end(&A, f);
+				run = 0;
+			}
+		}
 		sm = _mm256_alignr_epi8(sn, t, 12);
 		s0 = sn;
 		c0 = cn;
 	}
-	/* the last vector: the column right of the run, or the last column mirrored at the east wall */
-	sp = _mm256_permutevar8x32_epi32(
-		s0, _mm256_min_epi32(_mm256_add_epi32(lane, _mm256_set1_epi32(1)), _mm256_set1_epi32(r - 1)));
-	if (i1 < nx) /* then r = 8 */
-		sp = _mm256_blend_epi32(sp, _mm256_set1_epi32(hd[i1 - i0] + hu[i1 - i0] + 2 * hc[i1 - i0]), 0x80);
-	if (r < 8)
-		any[b] = va_vec(&K, &A, sm, s0, sp, c0, u + 8 * b, acc + 8 * b, mask, 1, damp, f);
-	else
-		any[b] = va_vec(&K, &A, sm, s0, sp, c0, u + 8 * b, acc + 8 * b, mask, 0, damp, f);
-	w->saturations += !_mm256_testz_si256(A.sat, A.sat);
-	va_hsum2(sum, A.tot, f ? A.tot_h : A.tot);
+	/* the last vector: the column right of it is its last column mirrored at the east wall */
+	if (sleep && (trow[b] & T_SLEEPING)) {
+		skipped++;
+	} else {
+		sp = _mm256_permutevar8x32_epi32(
+			s0, _mm256_min_epi32(_mm256_add_epi32(lane, _mm256_set1_epi32(1)), _mm256_set1_epi32(r - 1)));
+		if (r < 8 ? va_vec(&K, &A, sm, s0, sp, c0, u + 8 * b, acc + 8 * b, mask, 1, damp, f)
+			  : va_vec(&K, &A, sm, s0, sp, c0, u + 8 * b, acc + 8 * b, mask, 0, damp, f))
+			trow[b] |= T_NONZERO;
+		run++;
+	}
+	if (run)
+		nsat += va_run_end(&A, f);
+	w->saturations += nsat;
+	w->tiles_skipped += skipped;
+	tot = va_hsum64(A.tot64);
+	w->vel_sum += tot;
+	w->vel_sum_h += f ? va_hsum64(A.tot_h64) : tot;
 }
 
-__attribute__((target("avx2"))) void swell_wave_vel_avx2(struct swell_wave *w, int j, int tx0, int tx1, int damp,
-							 int64_t sum[2], int32_t *any)
+__attribute__((target("avx2"))) int swell_wave_vel_row_avx2(struct swell_wave *w, int j, uint8_t *trow, int damp)
 {
 	const int64_t c = (int64_t)w->e_eff << (w->vel_frac + 1);
 
 	/* e_eff = 1 at F = 0: C does not fit VPMULDQ's signed operand; damped water has F = 0 (wave.c) */
-	if (c > INT32_MAX || (damp && w->vel_frac)) {
-		swell_wave_vel_fused(w, j, tx0, tx1, damp, sum, any);
-		return;
-	}
+	if (c > INT32_MAX || (damp && w->vel_frac))
+		return 0;
 	if (damp) {
-		va_run(w, j, tx0, tx1, 1, 0, sum, any);
-		return;
+		va_row(w, j, trow, 1, 0);
+		return 1;
 	}
 	switch (w->vel_frac) { /* F as an immediate shift */
 	case 1:
-		va_run(w, j, tx0, tx1, 0, 1, sum, any);
+		va_row(w, j, trow, 0, 1);
 		break;
 	case 2:
-		va_run(w, j, tx0, tx1, 0, 2, sum, any);
+		va_row(w, j, trow, 0, 2);
 		break;
 	case 3:
-		va_run(w, j, tx0, tx1, 0, 3, sum, any);
+		va_row(w, j, trow, 0, 3);
 		break;
 	case 4:
-		va_run(w, j, tx0, tx1, 0, 4, sum, any);
+		va_row(w, j, trow, 0, 4);
 		break;
 	default:
-		va_run(w, j, tx0, tx1, 0, 0, sum, any);
+		va_row(w, j, trow, 0, 0);
 	}
+	return 1;
 }
 
 /* h += acc of one vector (m: its lanes, or all), clamped, the lanes that clamped in *sat; returns
