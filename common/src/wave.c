@@ -552,12 +552,6 @@ static inline __attribute__((always_inline)) void finish_row(struct swell_wave *
 	uint32_t sat = 0;
 	int tx;
 
-#if SWELL_WAVE_AVX2
-	if (vel && w->kernel == SWELL_KERNEL_AVX2) {
-		swell_wave_vel_finish_avx2(w, j, need);
-		return;
-	}
-#endif
 	if (!add) { /* the clear alone: each run of whole tiles to clear in one go */
 		for (tx = 0; clear && tx < w->tiles_x; tx++) {
 			int t1 = tx;
@@ -622,6 +616,12 @@ static inline __attribute__((always_inline)) void finish_range_form(struct swell
 	const uint8_t need = (uint8_t)((add ? T_DIRTY : 0u) | (clear ? T_DIRTY_PREV : 0u));
 	int j;
 
+#if SWELL_WAVE_AVX2
+	if (vel && w->kernel == SWELL_KERNEL_AVX2) {
+		swell_wave_vel_finish_avx2(w, j0, j1, need);
+		return;
+	}
+#endif
 	for (j = j0; j < j1; j++) {
 		if (w->sleep && j % SWELL_WAVE_TILE == 0 && (j + SWELL_WAVE_TILE <= j1 || j1 == w->ny) &&
 		    !tile_row_has(w, w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x, need)) {

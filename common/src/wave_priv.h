@@ -76,10 +76,11 @@ void swell_wave_vel_fused(struct swell_wave *w, int j, int tx0, int tx1, int dam
  * swell_wave_vel_ref for each run of awake tiles, with the sums added to w->vel_sum and
  * w->vel_sum_h. Returns 0 (nothing done) where C = e_eff 2^(F+1) does not fit int32 (e_eff = 1). */
 int swell_wave_vel_row_avx2(struct swell_wave *w, int j, uint8_t *trow, int damp);
-/* The finishing pass of row j (wave.c's finish_row), the same bits: where a tile has the flags of
- * need, h += acc (T_DIRTY; clamped to int27, a row that clamped counted once, T_TOUCHED where acc
- * is non-zero) and v = 0 (T_DIRTY_PREV); every tile when tiles do not sleep. */
-void swell_wave_vel_finish_avx2(struct swell_wave *w, int j, uint8_t need);
+/* The finishing pass of rows [j0, j1) (wave.c's finish_range), the same bits, flags and counts: where
+ * a tile has the flags of need, h += acc (T_DIRTY; clamped to int27, a row that clamped counted once,
+ * T_TOUCHED where acc is non-zero) and v = 0 (T_DIRTY_PREV); every tile when tiles do not sleep; a
+ * band of tiles none of which has them skipped whole. */
+void swell_wave_vel_finish_avx2(struct swell_wave *w, int j0, int j1, uint8_t need);
 #endif
 
 /* ---- The edge-flux form's kernels: one a file (wave_edge_ref.c, wave_edge_fused.c,

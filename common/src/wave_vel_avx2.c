@@ -266,10 +266,30 @@ VA_FN uint8_t va_finish(int32_t *h, const int32_t *acc, __m256i m, int masked, _
 	return _mm256_testz_si256(a, a) ? 0 : T_TOUCHED;
 }
 
-__attribute__((target("avx2"))) void swell_wave_vel_finish_avx2(struct swell_wave *w, int j, uint8_t need)
+/* Row j of the finish where every tile needs what the pass does (add: h += acc, clear: v = 0), the
+ * row's whole tiles only; the lanes that clamped into *sat. */
+VA_FN void va_finish_tiles(int32_t *h, const int32_t *acc, int32_t *v, uint8_t *trow, int full, int add, int clear,
+			   __m256i *sat)
+{
+	const __m256i hmin = _mm256_set1_epi32(SWELL_HV_MIN), hmax = _mm256_set1_epi32(SWELL_HV_MAX);
+	const __m256i zero = _mm256_setzero_si256();
+	int tx;
+
+	for (tx = 0; tx < full; tx++) {
+		const int i = tx * SWELL_WAVE_TILE;
+
+		if (add)
+			trow[tx] |= va_finish(h + i, acc + i, zero, 0, hmin, hmax, sat);
+		if (clear)
+			_mm256_storeu_si256((__m256i *)(v + i), zero);
+	}
+}
+
+/* Row j of the finish, tile by tile as the flags say (f = what a tile needs, of need), the last tile
+ * masked when it is narrower than 8. every: the flags every tile has when tiles do not sleep. */
+VA_FN void va_finish_row(struct swell_wave *w, int j, uint8_t need, uint8_t every, int whole)
 {
 	const int nx = w->nx, full = nx / SWELL_WAVE_TILE;
-	const uint8_t every = w->sleep ? 0 : (uint8_t)(T_DIRTY | T_DIRTY_PREV);
 	uint8_t *trow = w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x;
 	int32_t *h = w->h + (size_t)j * nx, *v = w->v + (size_t)j * nx;
 	const int32_t *acc = w->acc + (size_t)j * nx;
@@ -279,14 +299,23 @@ __attribute__((target("avx2"))) void swell_wave_vel_finish_avx2(struct swell_wav
 	int tx;
 
 	/* |h| <= 2^26, |acc| <= 2^29 + 8 2^27: h + acc does not overflow */
-	for (tx = 0; tx < full; tx++) {
-		const int i = tx * SWELL_WAVE_TILE;
-		const unsigned f = (unsigned)((trow[tx] | every) & need);
+	if (whole) { /* every tile needs all of need: no flags to test */
+		if (need == (T_DIRTY | T_DIRTY_PREV))
+			va_finish_tiles(h, acc, v, trow, full, 1, 1, &sat);
+		else if (need == T_DIRTY)
+			va_finish_tiles(h, acc, v, trow, full, 1, 0, &sat);
+		else
+			va_finish_tiles(h, acc, v, trow, full, 0, 1, &sat);
+	} else {
+		for (tx = 0; tx < full; tx++) {
+			const int i = tx * SWELL_WAVE_TILE;
+			const unsigned f = (unsigned)((trow[tx] | every) & need);
 
-		if (f & T_DIRTY)
-			trow[tx] |= va_finish(h + i, acc + i, zero, 0, hmin, hmax, &sat);
-		if (f & T_DIRTY_PREV)
-			_mm256_storeu_si256((__m256i *)(v + i), zero);
+			if (f & T_DIRTY)
+				trow[tx] |= va_finish(h + i, acc + i, zero, 0, hmin, hmax, &sat);
+			if (f & T_DIRTY_PREV)
+				_mm256_storeu_si256((__m256i *)(v + i), zero);
+		}
 	}
 	if (full * SWELL_WAVE_TILE < nx) { /* the row's last tile, narrower than 8 */
 		const int i = full * SWELL_WAVE_TILE;
@@ -300,6 +329,37 @@ __attribute__((target("avx2"))) void swell_wave_vel_finish_avx2(struct swell_wav
 			_mm256_maskstore_epi32(v + i, m, zero);
 	}
 	w->saturations += !_mm256_testz_si256(sat, sat);
+}
+
+__attribute__((target("avx2"))) void swell_wave_vel_finish_avx2(struct swell_wave *w, int j0, int j1, uint8_t need)
+{
+	const uint8_t every = w->sleep ? 0 : (uint8_t)(T_DIRTY | T_DIRTY_PREV);
+	const int full = w->nx / SWELL_WAVE_TILE;
+	unsigned any = 0, all = 0;
+	int j, tx;
+
+	for (j = j0; j < j1; j++) {
+		if (j == j0 || j % SWELL_WAVE_TILE == 0) { /* the band's flags: which tiles need what */
+			const uint8_t *trow = w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x;
+
+			any = 0;
+			all = need;
+			for (tx = 0; tx < w->tiles_x; tx++) {
+				any |= trow[tx] & need;
+				all &= (unsigned)(tx < full ? trow[tx] | every : need);
+			}
+			/* a calm band of tiles: nothing wrote acc or v in it (the same test as wave.c's) */
+			if (w->sleep && j % SWELL_WAVE_TILE == 0 && (j + SWELL_WAVE_TILE <= j1 || j1 == w->ny) &&
+			    !any) {
+				j += SWELL_WAVE_TILE - 1;
+				continue;
+			}
+		}
+		if (all == need)
+			va_finish_row(w, j, need, every, 1);
+		else
+			va_finish_row(w, j, need, every, 0);
+	}
 }
 
 #endif
