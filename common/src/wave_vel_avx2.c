@@ -139,13 +139,19 @@ VA_FN int64_t va_hsum64(__m256i a)
 	return _mm_cvtsi128_si64(t) + _mm_extract_epi64(t, 1);
 }
 
+/* What a call counts: the saturations (one a run that clamped) and the tiles skipped. */
+struct va_count {
+	uint32_t sat, skipped;
+};
+
 /* Row j, every tile: vectors of 8 cells (a tile's row each) from the west wall to the east wall, the
  * column sums carried from one vector to the next, the last vector masked when the row's last tile
  * is narrower. A sleeping tile is skipped (its column sums still feed its neighbours). The driver's
  * bookkeeping is here too, as step_row_vel in wave.c does it for the other kernels: T_NONZERO where a
  * tile's new s is non-zero, the tiles skipped, and the saturation count of the reference's calls
  * (runs of up to SWELL_WAVE_VEL_RUN awake tiles, split at sleeping tiles: one a run that clamped). */
-VA_FN void va_row(struct swell_wave *w, int j, uint8_t *trow, int damp, int f)
+VA_FN void va_row(struct swell_wave *w, int j, uint8_t *trow, const struct va_k *K, struct va_acc *A,
+		  struct va_count *n, int damp, int f)
 {
 	const int nx = w->nx, nv = (nx + 7) / 8, r = nx - 8 * (nv - 1); /* the last vector's width, 1..8 */
 	const int sleep = w->sleep;
@@ -154,21 +160,8 @@ VA_FN void va_row(struct swell_wave *w, int j, uint8_t *trow, int damp, int f)
 	int32_t *u = w->u + (size_t)j * nx, *acc = w->acc + (size_t)j * nx;
 	const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
 	const __m256i mask = _mm256_cmpgt_epi32(_mm256_set1_epi32(r), lane);
-	struct va_k K;
-	struct va_acc A;
 	__m256i s0, c0, sn, cn, sm, sp, t;
-	uint32_t nsat = 0, skipped = 0;
 	int b, run = 0;
-	int64_t tot;
-
-	K.c = _mm256_set1_epi32((int32_t)((int64_t)w->e_eff << (w->vel_frac + 1)));
-	K.q = _mm256_set1_epi32(w->q);
-	K.round = _mm256_set1_epi64x((int64_t)1 << 31);
-	K.half = _mm256_set1_epi32(f ? 1 << (f - 1) : 0);
-	K.zero = _mm256_setzero_si256();
-	K.hmin = _mm256_set1_epi32(SWELL_H_MIN);
-	K.hmax = _mm256_set1_epi32(SWELL_H_MAX);
-	A.sat = A.tot = A.tot_h = A.tot64 = A.tot_h64 = _mm256_setzero_si256();
 
 	s0 = va_colsum(hd, hc, hu, mask, nv == 1 && r < 8, &c0);
 	/* the column left of the row: its first column mirrored at the west wall */
@@ -183,16 +176,16 @@ VA_FN void va_row(struct swell_wave *w, int j, uint8_t *trow, int damp, int f)
 		t = _mm256_permute2x128_si256(s0, sn, 0x21); /* s0's high half, sn's low half */
 		sp = _mm256_alignr_epi8(t, s0, 4);
 		if (sleep && (trow[b] & T_SLEEPING)) {
-			skipped++;
+			n->skipped++;
 			if (run) {
-				nsat += va_run_end(&A, f);
+				n->sat += va_run_end(A, f);
 				run = 0;
 			}
 		} else {
-			if (va_vec(&K, &A, sm, s0, sp, c0, u + 8 * b, acc + 8 * b, mask, 0, damp, f))
+			if (va_vec(K, A, sm, s0, sp, c0, u + 8 * b, acc + 8 * b, mask, 0, damp, f))
 				trow[b] |= T_NONZERO;
 			if (++run == SWELL_WAVE_VEL_RUN) {
-				nsat += va_run_end(&A, f);
+				n->sat += va_run_end(A, f);
 				run = 0;
 			}
 		}
@@ -202,52 +195,68 @@ VA_FN void va_row(struct swell_wave *w, int j, uint8_t *trow, int damp, int f)
 	}
 	/* the last vector: the column right of it is its last column mirrored at the east wall */
 	if (sleep && (trow[b] & T_SLEEPING)) {
-		skipped++;
+		n->skipped++;
 	} else {
 		sp = _mm256_permutevar8x32_epi32(
 			s0, _mm256_min_epi32(_mm256_add_epi32(lane, _mm256_set1_epi32(1)), _mm256_set1_epi32(r - 1)));
-		if (r < 8 ? va_vec(&K, &A, sm, s0, sp, c0, u + 8 * b, acc + 8 * b, mask, 1, damp, f)
-			  : va_vec(&K, &A, sm, s0, sp, c0, u + 8 * b, acc + 8 * b, mask, 0, damp, f))
+		if (r < 8 ? va_vec(K, A, sm, s0, sp, c0, u + 8 * b, acc + 8 * b, mask, 1, damp, f)
+			  : va_vec(K, A, sm, s0, sp, c0, u + 8 * b, acc + 8 * b, mask, 0, damp, f))
 			trow[b] |= T_NONZERO;
 		run++;
 	}
 	if (run)
-		nsat += va_run_end(&A, f);
-	w->saturations += nsat;
-	w->tiles_skipped += skipped;
+		n->sat += va_run_end(A, f);
+}
+
+/* Rows [j0, j1) of one band of tiles (flags trow) */
+VA_FN void va_rows(struct swell_wave *w, int j0, int j1, uint8_t *trow, int damp, int f)
+{
+	struct va_k K;
+	struct va_acc A;
+	struct va_count n = { 0, 0 };
+	int64_t tot;
+	int j;
+
+	K.c = _mm256_set1_epi32((int32_t)((int64_t)w->e_eff << (w->vel_frac + 1)));
+	K.q = _mm256_set1_epi32(w->q);
+	K.round = _mm256_set1_epi64x((int64_t)1 << 31);
+	K.half = _mm256_set1_epi32(f ? 1 << (f - 1) : 0);
+	K.zero = _mm256_setzero_si256();
+	K.hmin = _mm256_set1_epi32(SWELL_H_MIN);
+	K.hmax = _mm256_set1_epi32(SWELL_H_MAX);
+	A.sat = A.tot = A.tot_h = A.tot64 = A.tot_h64 = _mm256_setzero_si256();
+	for (j = j0; j < j1; j++)
+		va_row(w, j, trow, &K, &A, &n, damp, f);
+	w->saturations += n.sat;
+	w->tiles_skipped += n.skipped;
 	tot = va_hsum64(A.tot64);
 	w->vel_sum += tot;
 	w->vel_sum_h += f ? va_hsum64(A.tot_h64) : tot;
 }
 
-__attribute__((target("avx2"))) int swell_wave_vel_row_avx2(struct swell_wave *w, int j, uint8_t *trow, int damp)
+__attribute__((target("avx2"))) void swell_wave_vel_rows_avx2(struct swell_wave *w, int j0, int j1, uint8_t *trow,
+							      int damp)
 {
-	const int64_t c = (int64_t)w->e_eff << (w->vel_frac + 1);
-
-	/* e_eff = 1 at F = 0: C does not fit VPMULDQ's signed operand; damped water has F = 0 (wave.c) */
-	if (c > INT32_MAX || (damp && w->vel_frac))
-		return 0;
-	if (damp) {
-		va_row(w, j, trow, 1, 0);
-		return 1;
+	if (damp) { /* then F = 0 (swell_wave_vel_avx2_fits) */
+		va_rows(w, j0, j1, trow, 1, 0);
+		return;
 	}
 	switch (w->vel_frac) { /* F as an immediate shift */
 	case 1:
-		va_row(w, j, trow, 0, 1);
+		va_rows(w, j0, j1, trow, 0, 1);
 		break;
 	case 2:
-		va_row(w, j, trow, 0, 2);
+		va_rows(w, j0, j1, trow, 0, 2);
 		break;
 	case 3:
-		va_row(w, j, trow, 0, 3);
+		va_rows(w, j0, j1, trow, 0, 3);
 		break;
 	case 4:
-		va_row(w, j, trow, 0, 4);
+		va_rows(w, j0, j1, trow, 0, 4);
 		break;
 	default:
-		va_row(w, j, trow, 0, 0);
+		va_rows(w, j0, j1, trow, 0, 0);
 	}
-	return 1;
 }
 
 /* h += acc of one vector (m: its lanes, or all), clamped, the lanes that clamped in *sat; returns
