@@ -144,68 +144,141 @@ struct va_count {
 	uint32_t sat, skipped;
 };
 
+/* A row in progress: the column sums left of, at and (the next vector's) right of vector b, the
+ * centre row's heights of vector b, the awake tiles in the current run. */
+struct va_pipe {
+	__m256i sm, s0, c0;
+	int run;
+};
+
+/* Vector b of row j with the column sums sp right of it: its cells when its tile is awake, and the
+ * run's bookkeeping; awake: no tile of the row sleeps, the caller ends the runs. */
+VA_FN void va_tile(uint8_t *trow, int b, const struct va_k *K, struct va_acc *A, struct va_count *n,
+		   struct va_pipe *P, __m256i sp, int32_t *u, int32_t *acc, __m256i mask, int masked, int awake, int damp,
+		   int f)
+{
+	if (!awake && (trow[b] & T_SLEEPING)) {
+		n->skipped++;
+		if (P->run) {
+			n->sat += va_run_end(A, f);
+			P->run = 0;
+		}
+		return;
+	}
+	if (va_vec(K, A, P->sm, P->s0, sp, P->c0, u + 8 * b, acc + 8 * b, mask, masked, damp, f))
+		trow[b] |= T_NONZERO;
+	if (!awake && ++P->run == SWELL_WAVE_VEL_RUN) {
+		n->sat += va_run_end(A, f);
+		P->run = 0;
+	}
+}
+
+/* Vector b of a row whose next vector's column sums are sn (centre row cn): vector b, then the
+ * pipeline moves on by one vector. */
+VA_FN void va_step(uint8_t *trow, int b, const struct va_k *K, struct va_acc *A, struct va_count *n,
+		   struct va_pipe *P, __m256i sn, __m256i cn, int32_t *u, int32_t *acc, __m256i mask, int awake, int damp,
+		   int f)
+{
+	const __m256i t = _mm256_permute2x128_si256(P->s0, sn, 0x21); /* s0's high half, sn's low half */
+
+	va_tile(trow, b, K, A, n, P, _mm256_alignr_epi8(t, P->s0, 4), u, acc, mask, 0, awake, damp, f);
+	P->sm = _mm256_alignr_epi8(sn, t, 12);
+	P->s0 = sn;
+	P->c0 = cn;
+}
+
 /* Row j, every tile: vectors of 8 cells (a tile's row each) from the west wall to the east wall, the
  * column sums carried from one vector to the next, the last vector masked when the row's last tile
  * is narrower. A sleeping tile is skipped (its column sums still feed its neighbours). The driver's
- * bookkeeping is here too, as step_row_vel in wave.c does it for the other kernels: T_NONZERO where a
- * tile's new s is non-zero, the tiles skipped, and the saturation count of the reference's calls
- * (runs of up to SWELL_WAVE_VEL_RUN awake tiles, split at sleeping tiles: one a run that clamped). */
+ * bookkeeping is here too, as step_row_vel in wave.c does it for the
+ * other kernels: T_NONZERO where a tile's new s is non-zero, the tiles skipped, and the saturation
+ * count of the reference's calls (runs of up to SWELL_WAVE_VEL_RUN awake tiles, split at sleeping
+ * tiles: one a run that clamped). */
 VA_FN void va_row(struct swell_wave *w, int j, uint8_t *trow, const struct va_k *K, struct va_acc *A,
 		  struct va_count *n, int damp, int f)
 {
 	const int nx = w->nx, nv = (nx + 7) / 8, r = nx - 8 * (nv - 1); /* the last vector's width, 1..8 */
-	const int sleep = w->sleep;
 	const int32_t *hc = w->h + (size_t)j * nx;
 	const int32_t *hd = j > 0 ? hc - nx : hc, *hu = j + 1 < w->ny ? hc + nx : hc;
 	int32_t *u = w->u + (size_t)j * nx, *acc = w->acc + (size_t)j * nx;
 	const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
 	const __m256i mask = _mm256_cmpgt_epi32(_mm256_set1_epi32(r), lane);
-	__m256i s0, c0, sn, cn, sm, sp, t;
-	int b, run = 0;
+	struct va_pipe P;
+	__m256i sn, cn;
+	int b;
 
-	s0 = va_colsum(hd, hc, hu, mask, nv == 1 && r < 8, &c0);
+	P.run = 0;
+	P.s0 = va_colsum(hd, hc, hu, mask, nv == 1 && r < 8, &P.c0);
 	/* the column left of the row: its first column mirrored at the west wall */
-	sm = _mm256_permutevar8x32_epi32(s0, _mm256_setr_epi32(0, 0, 1, 2, 3, 4, 5, 6));
-	for (b = 0; b + 1 < nv; b++) {
-		const int k = 8 * (b + 1);
-
-		if (b + 2 == nv && r < 8)
-			sn = va_colsum(hd + k, hc + k, hu + k, mask, 1, &cn);
+	P.sm = _mm256_permutevar8x32_epi32(P.s0, _mm256_setr_epi32(0, 0, 1, 2, 3, 4, 5, 6));
+	for (b = 0; b + 2 < nv; b++) { /* the next vector is whole */
+		sn = va_colsum(hd + 8 * (b + 1), hc + 8 * (b + 1), hu + 8 * (b + 1), mask, 0, &cn);
+		va_step(trow, b, K, A, n, &P, sn, cn, u, acc, mask, 0, damp, f);
+	}
+	if (b + 1 < nv) { /* the last but one: the next vector may be narrower */
+		if (r < 8)
+			sn = va_colsum(hd + 8 * (b + 1), hc + 8 * (b + 1), hu + 8 * (b + 1), mask, 1, &cn);
 		else
-			sn = va_colsum(hd + k, hc + k, hu + k, mask, 0, &cn);
-		t = _mm256_permute2x128_si256(s0, sn, 0x21); /* s0's high half, sn's low half */
-		sp = _mm256_alignr_epi8(t, s0, 4);
-		if (sleep && (trow[b] & T_SLEEPING)) {
-			n->skipped++;
-			if (run) {
-				n->sat += va_run_end(A, f);
-				run = 0;
-			}
-		} else {
-			if (va_vec(K, A, sm, s0, sp, c0, u + 8 * b, acc + 8 * b, mask, 0, damp, f))
-				trow[b] |= T_NONZERO;
-			if (++run == SWELL_WAVE_VEL_RUN) {
-				n->sat += va_run_end(A, f);
-				run = 0;
-			}
-		}
-		sm = _mm256_alignr_epi8(sn, t, 12);
-		s0 = sn;
-		c0 = cn;
+			sn = va_colsum(hd + 8 * (b + 1), hc + 8 * (b + 1), hu + 8 * (b + 1), mask, 0, &cn);
+		va_step(trow, b, K, A, n, &P, sn, cn, u, acc, mask, 0, damp, f);
+		b++;
 	}
 	/* the last vector: the column right of it is its last column mirrored at the east wall */
-	if (sleep && (trow[b] & T_SLEEPING)) {
-		n->skipped++;
-	} else {
-		sp = _mm256_permutevar8x32_epi32(
-			s0, _mm256_min_epi32(_mm256_add_epi32(lane, _mm256_set1_epi32(1)), _mm256_set1_epi32(r - 1)));
-		if (r < 8 ? va_vec(K, A, sm, s0, sp, c0, u + 8 * b, acc + 8 * b, mask, 1, damp, f)
-			  : va_vec(K, A, sm, s0, sp, c0, u + 8 * b, acc + 8 * b, mask, 0, damp, f))
-			trow[b] |= T_NONZERO;
-		run++;
-	}
-	if (run)
+	sn = _mm256_permutevar8x32_epi32(
+		P.s0, _mm256_min_epi32(_mm256_add_epi32(lane, _mm256_set1_epi32(1)), _mm256_set1_epi32(r - 1)));
+	if (r < 8)
+		va_tile(trow, b, K, A, n, &P, sn, u, acc, mask, 1, 0, damp, f);
+	else
+		va_tile(trow, b, K, A, n, &P, sn, u, acc, mask, 0, 0, damp, f);
+	if (P.run)
 		n->sat += va_run_end(A, f);
+}
+
+/* Row j where no tile sleeps: the reference's runs are the tiles [8 k, 8 k + 8), so the run's
+ * bookkeeping leaves the loop over its vectors. */
+VA_FN void va_row_awake(struct swell_wave *w, int j, uint8_t *trow, const struct va_k *K, struct va_acc *A,
+			struct va_count *n, int damp, int f)
+{
+	const int nx = w->nx, nv = (nx + 7) / 8, r = nx - 8 * (nv - 1); /* the last vector's width, 1..8 */
+	const int32_t *hc = w->h + (size_t)j * nx;
+	const int32_t *hd = j > 0 ? hc - nx : hc, *hu = j + 1 < w->ny ? hc + nx : hc;
+	int32_t *u = w->u + (size_t)j * nx, *acc = w->acc + (size_t)j * nx;
+	const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+	const __m256i mask = _mm256_cmpgt_epi32(_mm256_set1_epi32(r), lane);
+	struct va_pipe P;
+	__m256i sn, cn;
+	int b = 0, k1, whole;
+
+	P.run = 0;
+	P.s0 = va_colsum(hd, hc, hu, mask, nv == 1 && r < 8, &P.c0);
+	/* the column left of the row: its first column mirrored at the west wall */
+	P.sm = _mm256_permutevar8x32_epi32(P.s0, _mm256_setr_epi32(0, 0, 1, 2, 3, 4, 5, 6));
+	while (b < nv) { /* a run of SWELL_WAVE_VEL_RUN tiles, the last one shorter */
+		k1 = b + SWELL_WAVE_VEL_RUN < nv ? b + SWELL_WAVE_VEL_RUN : nv;
+		whole = k1 < nv - 1 ? k1 : nv - 2; /* vectors before it have a whole next vector */
+		for (; b < whole; b++) {
+			sn = va_colsum(hd + 8 * (b + 1), hc + 8 * (b + 1), hu + 8 * (b + 1), mask, 0, &cn);
+			va_step(trow, b, K, A, n, &P, sn, cn, u, acc, mask, 1, damp, f);
+		}
+		if (b < k1 && b == nv - 2) { /* the last but one: the next vector may be narrower */
+			if (r < 8)
+				sn = va_colsum(hd + 8 * (b + 1), hc + 8 * (b + 1), hu + 8 * (b + 1), mask, 1, &cn);
+			else
+				sn = va_colsum(hd + 8 * (b + 1), hc + 8 * (b + 1), hu + 8 * (b + 1), mask, 0, &cn);
+			va_step(trow, b, K, A, n, &P, sn, cn, u, acc, mask, 1, damp, f);
+			b++;
+		}
+		if (b < k1) { /* the last: the column right of it is its last column mirrored at the east wall */
+			sn = _mm256_permutevar8x32_epi32(P.s0, _mm256_min_epi32(_mm256_add_epi32(lane, _mm256_set1_epi32(1)),
+										_mm256_set1_epi32(r - 1)));
+			if (r < 8)
+				va_tile(trow, b, K, A, n, &P, sn, u, acc, mask, 1, 1, damp, f);
+			else
+				va_tile(trow, b, K, A, n, &P, sn, u, acc, mask, 0, 1, damp, f);
+			b++;
+		}
+		n->sat += va_run_end(A, f);
+	}
 }
 
 /* Rows [j0, j1) of one band of tiles (flags trow) */
@@ -215,8 +288,12 @@ VA_FN void va_rows(struct swell_wave *w, int j0, int j1, uint8_t *trow, int damp
 	struct va_acc A;
 	struct va_count n = { 0, 0 };
 	int64_t tot;
-	int j;
+	int j, tx, awake = 1;
 
+	/* a band none of whose tiles sleeps (or tiles do not sleep) runs without the tests */
+	if (w->sleep)
+		for (tx = 0; tx < w->tiles_x && awake; tx++)
+			awake = !(trow[tx] & T_SLEEPING);
 	K.c = _mm256_set1_epi32((int32_t)((int64_t)w->e_eff << (w->vel_frac + 1)));
 	K.q = _mm256_set1_epi32(w->q);
 	K.round = _mm256_set1_epi64x((int64_t)1 << 31);
@@ -225,8 +302,12 @@ VA_FN void va_rows(struct swell_wave *w, int j0, int j1, uint8_t *trow, int damp
 	K.hmin = _mm256_set1_epi32(SWELL_H_MIN);
 	K.hmax = _mm256_set1_epi32(SWELL_H_MAX);
 	A.sat = A.tot = A.tot_h = A.tot64 = A.tot_h64 = _mm256_setzero_si256();
-	for (j = j0; j < j1; j++)
-		va_row(w, j, trow, &K, &A, &n, damp, f);
+	if (awake)
+		for (j = j0; j < j1; j++)
+			va_row_awake(w, j, trow, &K, &A, &n, damp, f);
+	else
+		for (j = j0; j < j1; j++)
+			va_row(w, j, trow, &K, &A, &n, damp, f);
 	w->saturations += n.sat;
 	w->tiles_skipped += n.skipped;
 	tot = va_hsum64(A.tot64);
