@@ -421,6 +421,62 @@ VA_FN void va_finish_row(struct swell_wave *w, int j, uint8_t need, uint8_t ever
 	w->saturations += !_mm256_testz_si256(sat, sat);
 }
 
+/* The 8 rows of the band of tiles from row j where every whole tile needs h += acc (and v = 0 with
+ * clear): tile by tile down the band, so that a tile's T_TOUCHED is one test; a row that clamped is
+ * counted once, as row by row. The row's last tile, narrower than 8, as its flags say. */
+VA_FN void va_finish_band(struct swell_wave *w, int j, int clear, uint8_t need, uint8_t every)
+{
+	const int nx = w->nx, full = nx / SWELL_WAVE_TILE;
+	uint8_t *trow = w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x;
+	int32_t *h = w->h + (size_t)j * nx, *v = w->v + (size_t)j * nx;
+	const int32_t *acc = w->acc + (size_t)j * nx;
+	const __m256i hmin = _mm256_set1_epi32(SWELL_HV_MIN), hmax = _mm256_set1_epi32(SWELL_HV_MAX);
+	const __m256i zero = _mm256_setzero_si256();
+	__m256i sat[SWELL_WAVE_TILE];
+	int tx, r, r0;
+
+	for (r = 0; r < SWELL_WAVE_TILE; r++)
+		sat[r] = zero;
+	for (r0 = 0; r0 < SWELL_WAVE_TILE; r0 += 4) { /* four rows at a time: their sat in registers */
+		for (tx = 0; tx < full; tx++) {
+			const size_t i0 = (size_t)r0 * nx + (size_t)tx * SWELL_WAVE_TILE;
+			__m256i any = zero;
+
+#pragma GCC unroll 4
+			for (r = 0; r < 4; r++) {
+				const size_t i = i0 + (size_t)r * nx;
+				const __m256i a = _mm256_loadu_si256((const __m256i *)(acc + i));
+				const __m256i x = _mm256_add_epi32(_mm256_loadu_si256((__m256i *)(h + i)), a);
+				const __m256i t = _mm256_min_epi32(_mm256_max_epi32(x, hmin), hmax);
+
+				any = _mm256_or_si256(any, a);
+				sat[r0 + r] = _mm256_or_si256(sat[r0 + r], _mm256_xor_si256(x, t));
+				_mm256_storeu_si256((__m256i *)(h + i), t);
+				if (clear)
+					_mm256_storeu_si256((__m256i *)(v + i), zero);
+			}
+			trow[tx] |= _mm256_testz_si256(any, any) ? 0 : T_TOUCHED;
+		}
+	}
+	if (full * SWELL_WAVE_TILE < nx) { /* the row's last tile, narrower than 8 */
+		const int i = full * SWELL_WAVE_TILE;
+		const unsigned f = (unsigned)((trow[full] | every) & need);
+		const __m256i m =
+			_mm256_cmpgt_epi32(_mm256_set1_epi32(nx - i), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+
+		for (r = 0; r < SWELL_WAVE_TILE; r++) {
+			const size_t a = (size_t)r * nx + (size_t)i;
+
+			if (f & T_DIRTY)
+				trow[full] |= va_finish(h + a, acc + a, m, 1, hmin, hmax, &sat[r]);
+			if (f & T_DIRTY_PREV)
+				_mm256_maskstore_epi32(v + a, m, zero);
+		}
+	}
+	for (r = 0; r < SWELL_WAVE_TILE; r++)
+		w->saturations += !_mm256_testz_si256(sat[r], sat[r]);
+}
+
 __attribute__((target("avx2"))) void swell_wave_vel_finish_avx2(struct swell_wave *w, int j0, int j1, uint8_t need)
 {
 	const uint8_t every = w->sleep ? 0 : (uint8_t)(T_DIRTY | T_DIRTY_PREV);
@@ -445,10 +501,17 @@ __attribute__((target("avx2"))) void swell_wave_vel_finish_avx2(struct swell_wav
 				continue;
 			}
 		}
-		if (all == need)
+		if (all == need && (need & T_DIRTY) && j % SWELL_WAVE_TILE == 0 && j + SWELL_WAVE_TILE <= j1) {
+			if (need & T_DIRTY_PREV) /* the whole band */
+				va_finish_band(w, j, 1, need, every);
+			else
+				va_finish_band(w, j, 0, need, every);
+			j += SWELL_WAVE_TILE - 1;
+		} else if (all == need) {
 			va_finish_row(w, j, need, every, 1);
-		else
+		} else {
 			va_finish_row(w, j, need, every, 0);
+		}
 	}
 }
 
