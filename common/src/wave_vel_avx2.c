@@ -340,6 +340,16 @@ __attribute__((target("avx2"))) void swell_wave_vel_rows_avx2(struct swell_wave 
 	}
 }
 
+/* h = clamp(h + a) of 8 cells; returns the lanes that clamped */
+VA_FN __m256i va_add_clamp(int32_t *h, __m256i a, __m256i hmin, __m256i hmax)
+{
+	const __m256i x = _mm256_add_epi32(_mm256_loadu_si256((__m256i *)h), a);
+	const __m256i t = _mm256_min_epi32(_mm256_max_epi32(x, hmin), hmax);
+
+	_mm256_storeu_si256((__m256i *)h, t);
+	return _mm256_xor_si256(x, t);
+}
+
 /* h += acc of one vector (m: its lanes, or all), clamped, the lanes that clamped in *sat; returns
  * T_TOUCHED when some acc is non-zero */
 VA_FN uint8_t va_finish(int32_t *h, const int32_t *acc, __m256i m, int masked, __m256i hmin, __m256i hmax, __m256i *sat)
@@ -421,60 +431,75 @@ VA_FN void va_finish_row(struct swell_wave *w, int j, uint8_t need, uint8_t ever
 	w->saturations += !_mm256_testz_si256(sat, sat);
 }
 
+/* Four rows from h, acc and v (a row nx apart), their whole tiles (full) each needing h += acc (and
+ * v = 0 with clear): tile by tile, T_TOUCHED one test for the four rows. Returns the rows that
+ * clamped, a bit each. */
+VA_FN uint32_t va_finish_rows4(int32_t *h, const int32_t *acc, int32_t *v, uint8_t *trow, int nx, int full,
+			       int clear)
+{
+	const __m256i hmin = _mm256_set1_epi32(SWELL_HV_MIN), hmax = _mm256_set1_epi32(SWELL_HV_MAX);
+	const __m256i zero = _mm256_setzero_si256();
+	__m256i sat0 = zero, sat1 = zero, sat2 = zero, sat3 = zero;
+	int tx;
+
+	for (tx = 0; tx < full; tx++) {
+		const size_t i = (size_t)tx * SWELL_WAVE_TILE;
+		const __m256i a0 = _mm256_loadu_si256((const __m256i *)(acc + i));
+		const __m256i a1 = _mm256_loadu_si256((const __m256i *)(acc + i + (size_t)nx));
+		const __m256i a2 = _mm256_loadu_si256((const __m256i *)(acc + i + 2 * (size_t)nx));
+		const __m256i a3 = _mm256_loadu_si256((const __m256i *)(acc + i + 3 * (size_t)nx));
+		const __m256i any = _mm256_or_si256(_mm256_or_si256(a0, a1), _mm256_or_si256(a2, a3));
+
+		sat0 = _mm256_or_si256(sat0, va_add_clamp(h + i, a0, hmin, hmax));
+		sat1 = _mm256_or_si256(sat1, va_add_clamp(h + i + (size_t)nx, a1, hmin, hmax));
+		sat2 = _mm256_or_si256(sat2, va_add_clamp(h + i + 2 * (size_t)nx, a2, hmin, hmax));
+		sat3 = _mm256_or_si256(sat3, va_add_clamp(h + i + 3 * (size_t)nx, a3, hmin, hmax));
+		if (clear) {
+			_mm256_storeu_si256((__m256i *)(v + i), zero);
+			_mm256_storeu_si256((__m256i *)(v + i + (size_t)nx), zero);
+			_mm256_storeu_si256((__m256i *)(v + i + 2 * (size_t)nx), zero);
+			_mm256_storeu_si256((__m256i *)(v + i + 3 * (size_t)nx), zero);
+		}
+		trow[tx] |= _mm256_testz_si256(any, any) ? 0 : T_TOUCHED;
+	}
+	return (uint32_t)(!_mm256_testz_si256(sat0, sat0)) | (uint32_t)(!_mm256_testz_si256(sat1, sat1)) << 1 |
+	       (uint32_t)(!_mm256_testz_si256(sat2, sat2)) << 2 | (uint32_t)(!_mm256_testz_si256(sat3, sat3)) << 3;
+}
+
 /* The 8 rows of the band of tiles from row j where every whole tile needs h += acc (and v = 0 with
- * clear): tile by tile down the band, so that a tile's T_TOUCHED is one test; a row that clamped is
- * counted once, as row by row. The row's last tile, narrower than 8, as its flags say. */
+ * clear): four rows at a time, tile by tile (a row that clamped is counted once, as row by row).
+ * The row's last tile, narrower than 8, as its flags say. */
 VA_FN void va_finish_band(struct swell_wave *w, int j, int clear, uint8_t need, uint8_t every)
 {
 	const int nx = w->nx, full = nx / SWELL_WAVE_TILE;
 	uint8_t *trow = w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x;
 	int32_t *h = w->h + (size_t)j * nx, *v = w->v + (size_t)j * nx;
 	const int32_t *acc = w->acc + (size_t)j * nx;
-	const __m256i hmin = _mm256_set1_epi32(SWELL_HV_MIN), hmax = _mm256_set1_epi32(SWELL_HV_MAX);
-	const __m256i zero = _mm256_setzero_si256();
-	__m256i sat[SWELL_WAVE_TILE];
-	int tx, r, r0;
+	uint32_t rows; /* the rows that clamped, a bit each */
+	int r;
 
-	for (r = 0; r < SWELL_WAVE_TILE; r++)
-		sat[r] = zero;
-	for (r0 = 0; r0 < SWELL_WAVE_TILE; r0 += 4) { /* four rows at a time: their sat in registers */
-		for (tx = 0; tx < full; tx++) {
-			const size_t i0 = (size_t)r0 * nx + (size_t)tx * SWELL_WAVE_TILE;
-			__m256i any = zero;
-
-#pragma GCC unroll 4
-			for (r = 0; r < 4; r++) {
-				const size_t i = i0 + (size_t)r * nx;
-				const __m256i a = _mm256_loadu_si256((const __m256i *)(acc + i));
-				const __m256i x = _mm256_add_epi32(_mm256_loadu_si256((__m256i *)(h + i)), a);
-				const __m256i t = _mm256_min_epi32(_mm256_max_epi32(x, hmin), hmax);
-
-				any = _mm256_or_si256(any, a);
-				sat[r0 + r] = _mm256_or_si256(sat[r0 + r], _mm256_xor_si256(x, t));
-				_mm256_storeu_si256((__m256i *)(h + i), t);
-				if (clear)
-					_mm256_storeu_si256((__m256i *)(v + i), zero);
-			}
-			trow[tx] |= _mm256_testz_si256(any, any) ? 0 : T_TOUCHED;
-		}
-	}
-	if (full * SWELL_WAVE_TILE < nx) { /* the row's last tile, narrower than 8 */
+	rows = va_finish_rows4(h, acc, v, trow, nx, full, clear);
+	rows |= va_finish_rows4(h + 4 * (size_t)nx, acc + 4 * (size_t)nx, v + 4 * (size_t)nx, trow, nx, full, clear)
+		<< 4;
+	if (full * SWELL_WAVE_TILE < nx) { /* the row's last tile, narrower than 8: row by row */
 		const int i = full * SWELL_WAVE_TILE;
 		const unsigned f = (unsigned)((trow[full] | every) & need);
 		const __m256i m =
 			_mm256_cmpgt_epi32(_mm256_set1_epi32(nx - i), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+		const __m256i hmin = _mm256_set1_epi32(SWELL_HV_MIN), hmax = _mm256_set1_epi32(SWELL_HV_MAX);
 
 		for (r = 0; r < SWELL_WAVE_TILE; r++) {
 			const size_t a = (size_t)r * nx + (size_t)i;
+			__m256i sat = _mm256_setzero_si256();
 
 			if (f & T_DIRTY)
-				trow[full] |= va_finish(h + a, acc + a, m, 1, hmin, hmax, &sat[r]);
+				trow[full] |= va_finish(h + a, acc + a, m, 1, hmin, hmax, &sat);
 			if (f & T_DIRTY_PREV)
-				_mm256_maskstore_epi32(v + a, m, zero);
+				_mm256_maskstore_epi32(v + a, m, _mm256_setzero_si256());
+			rows |= (uint32_t)(!_mm256_testz_si256(sat, sat)) << r;
 		}
 	}
-	for (r = 0; r < SWELL_WAVE_TILE; r++)
-		w->saturations += !_mm256_testz_si256(sat[r], sat[r]);
+	w->saturations += (uint32_t)__builtin_popcount(rows);
 }
 
 __attribute__((target("avx2"))) void swell_wave_vel_finish_avx2(struct swell_wave *w, int j0, int j1, uint8_t need)
