@@ -16,7 +16,8 @@
 
 #define VA_FN __attribute__((target("avx2"), always_inline)) static inline
 
-_Static_assert(SWELL_WAVE_VEL_RUN <= 15, "the int32 lane sums hold 15 cells of int28");
+/* The int32 lane sums hold a run of two rows: 16 cells of int28 sum to -2^31 .. 2^31 - 16. */
+_Static_assert(2 * SWELL_WAVE_VEL_RUN <= 16, "the int32 lane sums hold 16 cells of int28");
 
 struct va_k {
 	__m256i c, q, round, half, hmin, hmax, zero;
@@ -70,15 +71,15 @@ VA_FN __m256i va_colsum(const int32_t *hd, const int32_t *hc, const int32_t *hu,
 	return _mm256_add_epi32(_mm256_add_epi32(d, _mm256_loadu_si256((const __m256i *)hu)), _mm256_add_epi32(m, m));
 }
 
-/* The running sums of a row: s and dh as int32 lanes within a run of at most SWELL_WAVE_VEL_RUN
- * awake tiles, int64 lanes after; the lanes that clamped in the run. */
+/* The running sums: s and dh as int32 lanes within a run of at most SWELL_WAVE_VEL_RUN awake tiles
+ * (of one row, or of two rows side by side), int64 lanes after. */
 struct va_acc {
-	__m256i sat, tot, tot_h, tot64, tot_h64;
+	__m256i tot, tot_h, tot64, tot_h64;
 };
 
-/* One vector of cells: x from the column sums left, centre and right, the cell, the stores; returns
- * non-zero when some new s is non-zero. */
-VA_FN int va_vec(const struct va_k *K, struct va_acc *A, __m256i sm, __m256i s0, __m256i sp, __m256i c, int32_t *u,
+/* One vector of cells: x from the column sums left, centre and right, the cell, the stores, the
+ * lanes that clamped into *sat; returns non-zero when some new s is non-zero. */
+VA_FN int va_vec(const struct va_k *K, struct va_acc *A, __m256i *sat, __m256i sm, __m256i s0, __m256i sp, __m256i c, int32_t *u,
 		 int32_t *acc, __m256i mask, int masked, int damp, int f)
 {
 	const __m256i x = _mm256_sub_epi32(_mm256_add_epi32(_mm256_add_epi32(sm, sp), _mm256_add_epi32(s0, s0)),
@@ -101,7 +102,7 @@ VA_FN int va_vec(const struct va_k *K, struct va_acc *A, __m256i sm, __m256i s0,
 		_mm256_storeu_si256((__m256i *)u, s);
 		_mm256_storeu_si256((__m256i *)acc, _mm256_add_epi32(ao, dh));
 	}
-	A->sat = _mm256_or_si256(A->sat, clamped);
+	*sat = _mm256_or_si256(*sat, clamped);
 	A->tot = _mm256_add_epi32(A->tot, s);
 	if (f)
 		A->tot_h = _mm256_add_epi32(A->tot_h, dh);
@@ -115,20 +116,15 @@ VA_FN __m256i va_widen(__m256i a, __m256i b)
 						    _mm256_cvtepi32_epi64(_mm256_extracti128_si256(b, 1))));
 }
 
-/* The end of a run of awake tiles (the reference's call): one saturation count if a lane clamped,
- * the int32 sums into the int64 ones. */
-VA_FN uint32_t va_run_end(struct va_acc *A, int f)
+/* The int32 sums into the int64 ones (at the end of a run). */
+VA_FN void va_widen_sums(struct va_acc *A, int f)
 {
-	const uint32_t sat = !_mm256_testz_si256(A->sat, A->sat);
-
-	A->sat = _mm256_setzero_si256();
 	A->tot64 = va_widen(A->tot64, A->tot);
 	A->tot = _mm256_setzero_si256();
 	if (f) {
 		A->tot_h64 = va_widen(A->tot_h64, A->tot_h);
 		A->tot_h = _mm256_setzero_si256();
 	}
-	return sat;
 }
 
 /* the sum of the int64 lanes */
@@ -144,12 +140,22 @@ struct va_count {
 	uint32_t sat, skipped;
 };
 
-/* A row in progress: the column sums left of, at and (the next vector's) right of vector b, the
- * centre row's heights of vector b, the awake tiles in the current run. */
+/* A row in progress: the column sums left of and at vector b, the centre row's heights of vector b,
+ * the lanes that clamped in the current run and its awake tiles. */
 struct va_pipe {
-	__m256i sm, s0, c0;
+	__m256i sm, s0, c0, sat;
 	int run;
 };
+
+/* The end of a run of awake tiles of a row (the reference's call): one saturation count if a lane
+ * clamped. */
+VA_FN uint32_t va_sat_end(struct va_pipe *P)
+{
+	const uint32_t sat = !_mm256_testz_si256(P->sat, P->sat);
+
+	P->sat = _mm256_setzero_si256();
+	return sat;
+}
 
 /* Vector b of row j with the column sums sp right of it: its cells when its tile is awake, and the
  * run's bookkeeping; awake: no tile of the row sleeps, the caller ends the runs. */
@@ -160,15 +166,17 @@ VA_FN void va_tile(uint8_t *trow, int b, const struct va_k *K, struct va_acc *A,
 	if (!awake && (trow[b] & T_SLEEPING)) {
 		n->skipped++;
 		if (P->run) {
-			n->sat += va_run_end(A, f);
+			n->sat += va_sat_end(P);
+			va_widen_sums(A, f);
 			P->run = 0;
 		}
 		return;
 	}
-	if (va_vec(K, A, P->sm, P->s0, sp, P->c0, u + 8 * b, acc + 8 * b, mask, masked, damp, f))
+	if (va_vec(K, A, &P->sat, P->sm, P->s0, sp, P->c0, u + 8 * b, acc + 8 * b, mask, masked, damp, f))
 		trow[b] |= T_NONZERO;
 	if (!awake && ++P->run == SWELL_WAVE_VEL_RUN) {
-		n->sat += va_run_end(A, f);
+		n->sat += va_sat_end(P);
+		va_widen_sums(A, f);
 		P->run = 0;
 	}
 }
@@ -208,6 +216,7 @@ VA_FN void va_row(struct swell_wave *w, int j, uint8_t *trow, const struct va_k 
 	int b;
 
 	P.run = 0;
+	P.sat = _mm256_setzero_si256();
 	P.s0 = va_colsum(hd, hc, hu, mask, nv == 1 && r < 8, &P.c0);
 	/* the column left of the row: its first column mirrored at the west wall */
 	P.sm = _mm256_permutevar8x32_epi32(P.s0, _mm256_setr_epi32(0, 0, 1, 2, 3, 4, 5, 6));
@@ -230,54 +239,101 @@ VA_FN void va_row(struct swell_wave *w, int j, uint8_t *trow, const struct va_k 
 		va_tile(trow, b, K, A, n, &P, sn, u, acc, mask, 1, 0, damp, f);
 	else
 		va_tile(trow, b, K, A, n, &P, sn, u, acc, mask, 0, 0, damp, f);
-	if (P.run)
-		n->sat += va_run_end(A, f);
+	if (P.run) {
+		n->sat += va_sat_end(&P);
+		va_widen_sums(A, f);
+	}
 }
 
-/* Row j where no tile sleeps: the reference's runs are the tiles [8 k, 8 k + 8), so the run's
- * bookkeeping leaves the loop over its vectors. */
-VA_FN void va_row_awake(struct swell_wave *w, int j, uint8_t *trow, const struct va_k *K, struct va_acc *A,
-			struct va_count *n, int damp, int f)
+/* The column sums of vector b of rows j .. j + q - 1 (q = 1 or 2; rows[] holds rows j - 1 .. j + q,
+ * mirrored at the walls), each row's from three of the q + 2 loads: into sn[], the centre rows into
+ * cn[]; the first r lanes only when masked. */
+VA_FN void va_colsums(const int32_t *const *rows, int q, int i, __m256i mask, int masked, __m256i *sn, __m256i *cn)
+{
+	__m256i l[4];
+	int k;
+
+#pragma GCC unroll 4
+	for (k = 0; k < q + 2; k++)
+		l[k] = masked ? _mm256_maskload_epi32(rows[k] + i, mask) : _mm256_loadu_si256((const __m256i *)(rows[k] + i));
+#pragma GCC unroll 4
+	for (k = 0; k < q; k++) {
+		sn[k] = _mm256_add_epi32(_mm256_add_epi32(l[k], l[k + 2]), _mm256_add_epi32(l[k + 1], l[k + 1]));
+		cn[k] = l[k + 1];
+	}
+}
+
+/* Rows j .. j + q - 1 (q = 1 or 2, in one band) where no tile sleeps, side by side: the reference's
+ * runs are the tiles [8 k, 8 k + 8) of each row, so the runs' bookkeeping leaves the loop over the
+ * vectors, and two rows share their loads of h and the loop. */
+VA_FN void va_rows_awake(struct swell_wave *w, int j, int q, uint8_t *trow, const struct va_k *K, struct va_acc *A,
+			 struct va_count *n, int damp, int f)
 {
 	const int nx = w->nx, nv = (nx + 7) / 8, r = nx - 8 * (nv - 1); /* the last vector's width, 1..8 */
 	const int32_t *hc = w->h + (size_t)j * nx;
-	const int32_t *hd = j > 0 ? hc - nx : hc, *hu = j + 1 < w->ny ? hc + nx : hc;
+	const int32_t *rows[4];
 	int32_t *u = w->u + (size_t)j * nx, *acc = w->acc + (size_t)j * nx;
 	const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
 	const __m256i mask = _mm256_cmpgt_epi32(_mm256_set1_epi32(r), lane);
-	struct va_pipe P;
-	__m256i sn, cn;
-	int b = 0, k1, whole;
+	struct va_pipe P[2];
+	__m256i sn[2], cn[2];
+	int b = 0, k1, whole, k;
 
-	P.run = 0;
-	P.s0 = va_colsum(hd, hc, hu, mask, nv == 1 && r < 8, &P.c0);
-	/* the column left of the row: its first column mirrored at the west wall */
-	P.sm = _mm256_permutevar8x32_epi32(P.s0, _mm256_setr_epi32(0, 0, 1, 2, 3, 4, 5, 6));
+	rows[0] = j > 0 ? hc - nx : hc;
+#pragma GCC unroll 4
+	for (k = 1; k <= q; k++)
+		rows[k] = hc + (size_t)(k - 1) * nx;
+	rows[q + 1] = j + q < w->ny ? hc + (size_t)q * nx : rows[q];
+	va_colsums(rows, q, 0, mask, nv == 1 && r < 8, sn, cn);
+#pragma GCC unroll 4
+	for (k = 0; k < q; k++) {
+		P[k].sat = _mm256_setzero_si256();
+		P[k].s0 = sn[k];
+		P[k].c0 = cn[k];
+		/* the column left of the row: its first column mirrored at the west wall */
+		P[k].sm = _mm256_permutevar8x32_epi32(sn[k], _mm256_setr_epi32(0, 0, 1, 2, 3, 4, 5, 6));
+	}
 	while (b < nv) { /* a run of SWELL_WAVE_VEL_RUN tiles, the last one shorter */
 		k1 = b + SWELL_WAVE_VEL_RUN < nv ? b + SWELL_WAVE_VEL_RUN : nv;
 		whole = k1 < nv - 1 ? k1 : nv - 2; /* vectors before it have a whole next vector */
 		for (; b < whole; b++) {
-			sn = va_colsum(hd + 8 * (b + 1), hc + 8 * (b + 1), hu + 8 * (b + 1), mask, 0, &cn);
-			va_step(trow, b, K, A, n, &P, sn, cn, u, acc, mask, 1, damp, f);
+			va_colsums(rows, q, 8 * (b + 1), mask, 0, sn, cn);
+#pragma GCC unroll 4
+			for (k = 0; k < q; k++)
+				va_step(trow, b, K, A, n, &P[k], sn[k], cn[k], u + (size_t)k * nx, acc + (size_t)k * nx, mask,
+					1, damp, f);
 		}
 		if (b < k1 && b == nv - 2) { /* the last but one: the next vector may be narrower */
 			if (r < 8)
-				sn = va_colsum(hd + 8 * (b + 1), hc + 8 * (b + 1), hu + 8 * (b + 1), mask, 1, &cn);
+				va_colsums(rows, q, 8 * (b + 1), mask, 1, sn, cn);
 			else
-				sn = va_colsum(hd + 8 * (b + 1), hc + 8 * (b + 1), hu + 8 * (b + 1), mask, 0, &cn);
-			va_step(trow, b, K, A, n, &P, sn, cn, u, acc, mask, 1, damp, f);
+				va_colsums(rows, q, 8 * (b + 1), mask, 0, sn, cn);
+#pragma GCC unroll 4
+			for (k = 0; k < q; k++)
+				va_step(trow, b, K, A, n, &P[k], sn[k], cn[k], u + (size_t)k * nx, acc + (size_t)k * nx, mask,
+					1, damp, f);
 			b++;
 		}
 		if (b < k1) { /* the last: the column right of it is its last column mirrored at the east wall */
-			sn = _mm256_permutevar8x32_epi32(P.s0, _mm256_min_epi32(_mm256_add_epi32(lane, _mm256_set1_epi32(1)),
-										_mm256_set1_epi32(r - 1)));
-			if (r < 8)
-				va_tile(trow, b, K, A, n, &P, sn, u, acc, mask, 1, 1, damp, f);
-			else
-				va_tile(trow, b, K, A, n, &P, sn, u, acc, mask, 0, 1, damp, f);
+			const __m256i east = _mm256_min_epi32(_mm256_add_epi32(lane, _mm256_set1_epi32(1)),
+							      _mm256_set1_epi32(r - 1));
+
+#pragma GCC unroll 4
+			for (k = 0; k < q; k++) {
+				sn[k] = _mm256_permutevar8x32_epi32(P[k].s0, east);
+				if (r < 8)
+					va_tile(trow, b, K, A, n, &P[k], sn[k], u + (size_t)k * nx, acc + (size_t)k * nx, mask,
+						1, 1, damp, f);
+				else
+					va_tile(trow, b, K, A, n, &P[k], sn[k], u + (size_t)k * nx, acc + (size_t)k * nx, mask,
+						0, 1, damp, f);
+			}
 			b++;
 		}
-		n->sat += va_run_end(A, f);
+#pragma GCC unroll 4
+		for (k = 0; k < q; k++)
+			n->sat += va_sat_end(&P[k]);
+		va_widen_sums(A, f);
 	}
 }
 
@@ -301,10 +357,13 @@ VA_FN void va_rows(struct swell_wave *w, int j0, int j1, uint8_t *trow, int damp
 	K.zero = _mm256_setzero_si256();
 	K.hmin = _mm256_set1_epi32(SWELL_H_MIN);
 	K.hmax = _mm256_set1_epi32(SWELL_H_MAX);
-	A.sat = A.tot = A.tot_h = A.tot64 = A.tot_h64 = _mm256_setzero_si256();
-	if (awake)
-		for (j = j0; j < j1; j++)
-			va_row_awake(w, j, trow, &K, &A, &n, damp, f);
+	A.tot = A.tot_h = A.tot64 = A.tot_h64 = _mm256_setzero_si256();
+	if (awake) {
+		for (j = j0; j + 1 < j1; j += 2) /* two rows a pass */
+			va_rows_awake(w, j, 2, trow, &K, &A, &n, damp, f);
+		if (j < j1)
+			va_rows_awake(w, j, 1, trow, &K, &A, &n, damp, f);
+	}
 	else
 		for (j = j0; j < j1; j++)
 			va_row(w, j, trow, &K, &A, &n, damp, f);
