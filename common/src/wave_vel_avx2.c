@@ -13,6 +13,7 @@
 
 #if SWELL_WAVE_AVX2
 #include <immintrin.h>
+#include <string.h>
 
 #define VA_FN __attribute__((target("avx2"), always_inline)) static inline
 
@@ -561,23 +562,47 @@ VA_FN void va_finish_band(struct swell_wave *w, int j, int clear, uint8_t need, 
 	w->saturations += (uint32_t)__builtin_popcount(rows);
 }
 
+/* The flags of need that some tile of a band has (*any), and that every whole tile (the first full)
+ * has with every added (*all): eight tiles a word. */
+VA_FN void va_band_flags(const uint8_t *trow, int tiles, int full, uint8_t need, uint8_t every, unsigned *any,
+			 unsigned *all)
+{
+	const uint64_t ones = 0x0101010101010101u, n8 = need * ones, e8 = every * ones;
+	uint64_t a = 0, e = n8, t;
+	int tx = 0;
+
+	for (; tx + 8 <= full; tx += 8) {
+		memcpy(&t, trow + tx, sizeof(t));
+		a |= t;
+		e &= t | e8;
+	}
+	for (; tx < tiles; tx++) {
+		a |= trow[tx];
+		e &= tx < full ? (uint64_t)(trow[tx] | every) * ones : n8;
+	}
+	a &= n8; /* the bytes folded into one */
+	a |= a >> 32;
+	a |= a >> 16;
+	a |= a >> 8;
+	e &= e >> 32;
+	e &= e >> 16;
+	e &= e >> 8;
+	*any = (unsigned)(a & 0xff);
+	*all = (unsigned)(e & need);
+}
+
 __attribute__((target("avx2"))) void swell_wave_vel_finish_avx2(struct swell_wave *w, int j0, int j1, uint8_t need)
 {
 	const uint8_t every = w->sleep ? 0 : (uint8_t)(T_DIRTY | T_DIRTY_PREV);
 	const int full = w->nx / SWELL_WAVE_TILE;
 	unsigned any = 0, all = 0;
-	int j, tx;
+	int j;
 
 	for (j = j0; j < j1; j++) {
 		if (j == j0 || j % SWELL_WAVE_TILE == 0) { /* the band's flags: which tiles need what */
 			const uint8_t *trow = w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x;
 
-			any = 0;
-			all = need;
-			for (tx = 0; tx < w->tiles_x; tx++) {
-				any |= trow[tx] & need;
-				all &= (unsigned)(tx < full ? trow[tx] | every : need);
-			}
+			va_band_flags(trow, w->tiles_x, full, need, every, &any, &all);
 			/* a calm band of tiles: nothing wrote acc or v in it (the same test as wave.c's) */
 			if (w->sleep && j % SWELL_WAVE_TILE == 0 && (j + SWELL_WAVE_TILE <= j1 || j1 == w->ny) &&
 			    !any) {
