@@ -443,7 +443,8 @@ static inline __attribute__((always_inline)) void band_start(struct swell_wave *
 /* Row j, tile by tile, skipping sleeping tiles. */
 static inline void step_row(struct swell_wave *w, int j, int damp)
 {
-	uint8_t *trow = &w->tile[j / SWELL_WAVE_TILE * w->tiles_x];
+	const int ty = j / SWELL_WAVE_TILE;
+	uint8_t *trow = &w->tile[ty * w->tiles_x];
 	int tx;
 
 	band_start(w, j, trow);
