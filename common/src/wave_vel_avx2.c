@@ -1,14 +1,17 @@
 /* The velocity form's AVX2 kernel (x86-64 hosts with AVX2, chosen at run time by wave.c): one 8-lane
  * register a tile row, so that a vector is exactly one tile's cells of row j and its "any" flag one
- * VPTEST. The column sums S = h(j-1) + 2 h(j) + h(j+1) of a vector come from three loads; the
- * neighbours' S(i-1) and S(i+1) are the vector's own lanes shifted in from the vectors left and right
- * (VPERM2I128 + VPALIGNR), mirrored at the walls by a lane permutation. x C / 2^32 is taken from
- * VPMULDQ of the even and of the odd lanes (64-bit products, the high halves blended); the damping
- * as floor(4 s q / 2^32) the same way. The last tile of a row may be narrower than 8: masked loads
- * and stores. The sums of s and dh are int32 a lane within a call (at most SWELL_WAVE_VEL_RUN cells a
- * lane, |s| <= 2^27) and int64 after. Same bits as swell_wave_vel_ref (wave_priv.h has the rule),
- * the saturation count included (one a call that clamped). The finishing pass of a row is here too.
- * C = e_eff 2^(F+1) above INT32_MAX (e_eff = 1 undamped at F = 0) goes to the fused kernel. */
+ * VPTEST. A call does the rows of a band of tiles within a slice, whole (the driver's bookkeeping
+ * included: sleeping tiles, T_NONZERO, the sums, the saturation count), two rows side by side where
+ * no tile of the band sleeps. The column sums S = h(j-1) + 2 h(j) + h(j+1) of a vector come from
+ * three loads (four for two rows); the neighbours' S(i-1) and S(i+1) are the vector's own lanes
+ * shifted in from the vectors left and right (VPERM2I128 + VPALIGNR), mirrored at the walls by a lane
+ * permutation. x C / 2^32 is taken from VPMULDQ of the even and of the odd lanes (64-bit products, the
+ * high halves blended); the damping as floor(4 s q / 2^32) the same way. The last tile of a row may be
+ * narrower than 8: masked loads and stores. The sums of s and dh are int32 a lane within a run (at
+ * most 16 cells a lane, |s| <= 2^27) and int64 after. Same bits as swell_wave_vel_ref (wave_priv.h
+ * has the rule), the saturation count included (one a run of the reference's that clamped). The
+ * finishing pass is here too, a band of tiles at a time where it can. C = e_eff 2^(F+1) above
+ * INT32_MAX (e_eff = 1 undamped at F = 0) is left to the fused kernel (wave.c). */
 #include "wave_priv.h"
 
 #if SWELL_WAVE_AVX2
@@ -55,23 +58,6 @@ VA_FN __m256i va_cell(const struct va_k *K, __m256i x, __m256i u, int damp, __m2
 	return t;
 }
 
-/* Column sums of 8 columns (or the first r, masked) and the centre row in *c. */
-VA_FN __m256i va_colsum(const int32_t *hd, const int32_t *hc, const int32_t *hu, __m256i mask, int masked, __m256i *c)
-{
-	__m256i d, m;
-
-	if (masked) {
-		d = _mm256_maskload_epi32(hd, mask);
-		m = _mm256_maskload_epi32(hc, mask);
-		*c = m;
-		return _mm256_add_epi32(_mm256_add_epi32(d, _mm256_maskload_epi32(hu, mask)), _mm256_add_epi32(m, m));
-	}
-	d = _mm256_loadu_si256((const __m256i *)hd);
-	m = _mm256_loadu_si256((const __m256i *)hc);
-	*c = m;
-	return _mm256_add_epi32(_mm256_add_epi32(d, _mm256_loadu_si256((const __m256i *)hu)), _mm256_add_epi32(m, m));
-}
-
 /* The running sums: s and dh as int32 lanes within a run of at most SWELL_WAVE_VEL_RUN awake tiles
  * (of one row, or of two rows side by side), int64 lanes after. */
 struct va_acc {
@@ -80,8 +66,8 @@ struct va_acc {
 
 /* One vector of cells: x from the column sums left, centre and right, the cell, the stores, the
  * lanes that clamped into *sat; returns non-zero when some new s is non-zero. */
-VA_FN int va_vec(const struct va_k *K, struct va_acc *A, __m256i *sat, __m256i sm, __m256i s0, __m256i sp, __m256i c, int32_t *u,
-		 int32_t *acc, __m256i mask, int masked, int damp, int f)
+VA_FN int va_vec(const struct va_k *K, struct va_acc *A, __m256i *sat, __m256i sm, __m256i s0, __m256i sp, __m256i c,
+		 int32_t *u, int32_t *acc, __m256i mask, int masked, int damp, int f)
 {
 	const __m256i x = _mm256_sub_epi32(_mm256_add_epi32(_mm256_add_epi32(sm, sp), _mm256_add_epi32(s0, s0)),
 					   _mm256_slli_epi32(c, 4));
@@ -113,8 +99,9 @@ VA_FN int va_vec(const struct va_k *K, struct va_acc *A, __m256i *sat, __m256i s
 /* a + the int32 lanes of b, widened to int64 */
 VA_FN __m256i va_widen(__m256i a, __m256i b)
 {
-	return _mm256_add_epi64(a, _mm256_add_epi64(_mm256_cvtepi32_epi64(_mm256_castsi256_si128(b)),
-						    _mm256_cvtepi32_epi64(_mm256_extracti128_si256(b, 1))));
+	return _mm256_add_epi64(a,
+				_mm256_add_epi64(_mm256_cvtepi32_epi64(_mm256_castsi256_si128(b)),
+						 _mm256_cvtepi32_epi64(_mm256_extracti128_si256(b, 1))));
 }
 
 /* The int32 sums into the int64 ones (at the end of a run). */
@@ -160,9 +147,8 @@ VA_FN uint32_t va_sat_end(struct va_pipe *P)
 
 /* Vector b of row j with the column sums sp right of it: its cells when its tile is awake, and the
  * run's bookkeeping; awake: no tile of the row sleeps, the caller ends the runs. */
-VA_FN void va_tile(uint8_t *trow, int b, const struct va_k *K, struct va_acc *A, struct va_count *n,
-		   struct va_pipe *P, __m256i sp, int32_t *u, int32_t *acc, __m256i mask, int masked, int awake, int damp,
-		   int f)
+VA_FN void va_tile(uint8_t *trow, int b, const struct va_k *K, struct va_acc *A, struct va_count *n, struct va_pipe *P,
+		   __m256i sp, int32_t *u, int32_t *acc, __m256i mask, int masked, int awake, int damp, int f)
 {
 	if (!awake && (trow[b] & T_SLEEPING)) {
 		n->skipped++;
@@ -184,9 +170,8 @@ VA_FN void va_tile(uint8_t *trow, int b, const struct va_k *K, struct va_acc *A,
 
 /* Vector b of a row whose next vector's column sums are sn (centre row cn): vector b, then the
  * pipeline moves on by one vector. */
-VA_FN void va_step(uint8_t *trow, int b, const struct va_k *K, struct va_acc *A, struct va_count *n,
-		   struct va_pipe *P, __m256i sn, __m256i cn, int32_t *u, int32_t *acc, __m256i mask, int awake, int damp,
-		   int f)
+VA_FN void va_step(uint8_t *trow, int b, const struct va_k *K, struct va_acc *A, struct va_count *n, struct va_pipe *P,
+		   __m256i sn, __m256i cn, int32_t *u, int32_t *acc, __m256i mask, int awake, int damp, int f)
 {
 	const __m256i t = _mm256_permute2x128_si256(P->s0, sn, 0x21); /* s0's high half, sn's low half */
 
@@ -194,56 +179,6 @@ VA_FN void va_step(uint8_t *trow, int b, const struct va_k *K, struct va_acc *A,
 	P->sm = _mm256_alignr_epi8(sn, t, 12);
 	P->s0 = sn;
 	P->c0 = cn;
-}
-
-/* Row j, every tile: vectors of 8 cells (a tile's row each) from the west wall to the east wall, the
- * column sums carried from one vector to the next, the last vector masked when the row's last tile
- * is narrower. A sleeping tile is skipped (its column sums still feed its neighbours). The driver's
- * bookkeeping is here too, as step_row_vel in wave.c does it for the
- * other kernels: T_NONZERO where a tile's new s is non-zero, the tiles skipped, and the saturation
- * count of the reference's calls (runs of up to SWELL_WAVE_VEL_RUN awake tiles, split at sleeping
- * tiles: one a run that clamped). */
-VA_FN void va_row(struct swell_wave *w, int j, uint8_t *trow, const struct va_k *K, struct va_acc *A,
-		  struct va_count *n, int damp, int f)
-{
-	const int nx = w->nx, nv = (nx + 7) / 8, r = nx - 8 * (nv - 1); /* the last vector's width, 1..8 */
-	const int32_t *hc = w->h + (size_t)j * nx;
-	const int32_t *hd = j > 0 ? hc - nx : hc, *hu = j + 1 < w->ny ? hc + nx : hc;
-	int32_t *u = w->u + (size_t)j * nx, *acc = w->acc + (size_t)j * nx;
-	const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-	const __m256i mask = _mm256_cmpgt_epi32(_mm256_set1_epi32(r), lane);
-	struct va_pipe P;
-	__m256i sn, cn;
-	int b;
-
-	P.run = 0;
-	P.sat = _mm256_setzero_si256();
-	P.s0 = va_colsum(hd, hc, hu, mask, nv == 1 && r < 8, &P.c0);
-	/* the column left of the row: its first column mirrored at the west wall */
-	P.sm = _mm256_permutevar8x32_epi32(P.s0, _mm256_setr_epi32(0, 0, 1, 2, 3, 4, 5, 6));
-	for (b = 0; b + 2 < nv; b++) { /* the next vector is whole */
-		sn = va_colsum(hd + 8 * (b + 1), hc + 8 * (b + 1), hu + 8 * (b + 1), mask, 0, &cn);
-		va_step(trow, b, K, A, n, &P, sn, cn, u, acc, mask, 0, damp, f);
-	}
-	if (b + 1 < nv) { /* the last but one: the next vector may be narrower */
-		if (r < 8)
-			sn = va_colsum(hd + 8 * (b + 1), hc + 8 * (b + 1), hu + 8 * (b + 1), mask, 1, &cn);
-		else
-			sn = va_colsum(hd + 8 * (b + 1), hc + 8 * (b + 1), hu + 8 * (b + 1), mask, 0, &cn);
-		va_step(trow, b, K, A, n, &P, sn, cn, u, acc, mask, 0, damp, f);
-		b++;
-	}
-	/* the last vector: the column right of it is its last column mirrored at the east wall */
-	sn = _mm256_permutevar8x32_epi32(
-		P.s0, _mm256_min_epi32(_mm256_add_epi32(lane, _mm256_set1_epi32(1)), _mm256_set1_epi32(r - 1)));
-	if (r < 8)
-		va_tile(trow, b, K, A, n, &P, sn, u, acc, mask, 1, 0, damp, f);
-	else
-		va_tile(trow, b, K, A, n, &P, sn, u, acc, mask, 0, 0, damp, f);
-	if (P.run) {
-		n->sat += va_sat_end(&P);
-		va_widen_sums(A, f);
-	}
 }
 
 /* The column sums of vector b of rows j .. j + q - 1 (q = 1 or 2; rows[] holds rows j - 1 .. j + q,
@@ -256,7 +191,8 @@ VA_FN void va_colsums(const int32_t *const *rows, int q, int i, __m256i mask, in
 
 #pragma GCC unroll 4
 	for (k = 0; k < q + 2; k++)
-		l[k] = masked ? _mm256_maskload_epi32(rows[k] + i, mask) : _mm256_loadu_si256((const __m256i *)(rows[k] + i));
+		l[k] = masked ? _mm256_maskload_epi32(rows[k] + i, mask)
+			      : _mm256_loadu_si256((const __m256i *)(rows[k] + i));
 #pragma GCC unroll 4
 	for (k = 0; k < q; k++) {
 		sn[k] = _mm256_add_epi32(_mm256_add_epi32(l[k], l[k + 2]), _mm256_add_epi32(l[k + 1], l[k + 1]));
@@ -264,11 +200,17 @@ VA_FN void va_colsums(const int32_t *const *rows, int q, int i, __m256i mask, in
 	}
 }
 
-/* Rows j .. j + q - 1 (q = 1 or 2, in one band) where no tile sleeps, side by side: the reference's
- * runs are the tiles [8 k, 8 k + 8) of each row, so the runs' bookkeeping leaves the loop over the
- * vectors, and two rows share their loads of h and the loop. */
-VA_FN void va_rows_awake(struct swell_wave *w, int j, int q, uint8_t *trow, const struct va_k *K, struct va_acc *A,
-			 struct va_count *n, int damp, int f)
+/* Rows j .. j + q - 1 of one band, every tile: vectors of 8 cells (a tile's row each) from the west
+ * wall to the east wall, the column sums carried from one vector to the next, the last vector masked
+ * when the row's last tile is narrower. A sleeping tile is skipped (its column sums still feed its
+ * neighbours). The driver's bookkeeping is here too, as step_row_vel in wave.c does it for the
+ * other kernels: T_NONZERO where a tile's new s is non-zero, the tiles skipped, and the saturation
+ * count of the reference's calls (runs of up to SWELL_WAVE_VEL_RUN awake tiles, split at sleeping
+ * tiles: one a run that clamped). awake: no tile of the band sleeps, so the runs are the tiles
+ * [8 k, 8 k + 8) and their bookkeeping leaves the loop over the vectors; then two rows (q = 2) go
+ * side by side, sharing their loads of h and the loop. */
+VA_FN void va_rows_pass(struct swell_wave *w, int j, int q, int awake, uint8_t *trow, const struct va_k *K,
+			struct va_acc *A, struct va_count *n, int damp, int f)
 {
 	const int nx = w->nx, nv = (nx + 7) / 8, r = nx - 8 * (nv - 1); /* the last vector's width, 1..8 */
 	const int32_t *hc = w->h + (size_t)j * nx;
@@ -288,21 +230,22 @@ VA_FN void va_rows_awake(struct swell_wave *w, int j, int q, uint8_t *trow, cons
 	va_colsums(rows, q, 0, mask, nv == 1 && r < 8, sn, cn);
 #pragma GCC unroll 4
 	for (k = 0; k < q; k++) {
+		P[k].run = 0;
 		P[k].sat = _mm256_setzero_si256();
 		P[k].s0 = sn[k];
 		P[k].c0 = cn[k];
 		/* the column left of the row: its first column mirrored at the west wall */
 		P[k].sm = _mm256_permutevar8x32_epi32(sn[k], _mm256_setr_epi32(0, 0, 1, 2, 3, 4, 5, 6));
 	}
-	while (b < nv) { /* a run of SWELL_WAVE_VEL_RUN tiles, the last one shorter */
+	while (b < nv) { /* SWELL_WAVE_VEL_RUN tiles (the reference's run when awake), the last ones fewer */
 		k1 = b + SWELL_WAVE_VEL_RUN < nv ? b + SWELL_WAVE_VEL_RUN : nv;
 		whole = k1 < nv - 1 ? k1 : nv - 2; /* vectors before it have a whole next vector */
 		for (; b < whole; b++) {
 			va_colsums(rows, q, 8 * (b + 1), mask, 0, sn, cn);
 #pragma GCC unroll 4
 			for (k = 0; k < q; k++)
-				va_step(trow, b, K, A, n, &P[k], sn[k], cn[k], u + (size_t)k * nx, acc + (size_t)k * nx, mask,
-					1, damp, f);
+				va_step(trow, b, K, A, n, &P[k], sn[k], cn[k], u + (size_t)k * nx, acc + (size_t)k * nx,
+					mask, awake, damp, f);
 		}
 		if (b < k1 && b == nv - 2) { /* the last but one: the next vector may be narrower */
 			if (r < 8)
@@ -311,8 +254,8 @@ VA_FN void va_rows_awake(struct swell_wave *w, int j, int q, uint8_t *trow, cons
 				va_colsums(rows, q, 8 * (b + 1), mask, 0, sn, cn);
 #pragma GCC unroll 4
 			for (k = 0; k < q; k++)
-				va_step(trow, b, K, A, n, &P[k], sn[k], cn[k], u + (size_t)k * nx, acc + (size_t)k * nx, mask,
-					1, damp, f);
+				va_step(trow, b, K, A, n, &P[k], sn[k], cn[k], u + (size_t)k * nx, acc + (size_t)k * nx,
+					mask, awake, damp, f);
 			b++;
 		}
 		if (b < k1) { /* the last: the column right of it is its last column mirrored at the east wall */
@@ -323,17 +266,23 @@ VA_FN void va_rows_awake(struct swell_wave *w, int j, int q, uint8_t *trow, cons
 			for (k = 0; k < q; k++) {
 				sn[k] = _mm256_permutevar8x32_epi32(P[k].s0, east);
 				if (r < 8)
-					va_tile(trow, b, K, A, n, &P[k], sn[k], u + (size_t)k * nx, acc + (size_t)k * nx, mask,
-						1, 1, damp, f);
+					va_tile(trow, b, K, A, n, &P[k], sn[k], u + (size_t)k * nx,
+						acc + (size_t)k * nx, mask, 1, awake, damp, f);
 				else
-					va_tile(trow, b, K, A, n, &P[k], sn[k], u + (size_t)k * nx, acc + (size_t)k * nx, mask,
-						0, 1, damp, f);
+					va_tile(trow, b, K, A, n, &P[k], sn[k], u + (size_t)k * nx,
+						acc + (size_t)k * nx, mask, 0, awake, damp, f);
 			}
 			b++;
 		}
+		if (awake) {
 #pragma GCC unroll 4
-		for (k = 0; k < q; k++)
-			n->sat += va_sat_end(&P[k]);
+			for (k = 0; k < q; k++)
+				n->sat += va_sat_end(&P[k]);
+			va_widen_sums(A, f);
+		}
+	}
+	if (!awake && P[0].run) { /* the row's last run */
+		n->sat += va_sat_end(&P[0]);
 		va_widen_sums(A, f);
 	}
 }
@@ -361,13 +310,13 @@ VA_FN void va_rows(struct swell_wave *w, int j0, int j1, uint8_t *trow, int damp
 	A.tot = A.tot_h = A.tot64 = A.tot_h64 = _mm256_setzero_si256();
 	if (awake) {
 		for (j = j0; j + 1 < j1; j += 2) /* two rows a pass */
-			va_rows_awake(w, j, 2, trow, &K, &A, &n, damp, f);
+			va_rows_pass(w, j, 2, 1, trow, &K, &A, &n, damp, f);
 		if (j < j1)
-			va_rows_awake(w, j, 1, trow, &K, &A, &n, damp, f);
-	}
-	else
+			va_rows_pass(w, j, 1, 1, trow, &K, &A, &n, damp, f);
+	} else {
 		for (j = j0; j < j1; j++)
-			va_row(w, j, trow, &K, &A, &n, damp, f);
+			va_rows_pass(w, j, 1, 0, trow, &K, &A, &n, damp, f);
+	}
 	w->saturations += n.sat;
 	w->tiles_skipped += n.skipped;
 	tot = va_hsum64(A.tot64);
@@ -494,8 +443,7 @@ VA_FN void va_finish_row(struct swell_wave *w, int j, uint8_t need, uint8_t ever
 /* Four rows from h, acc and v (a row nx apart), their whole tiles (full) each needing h += acc (and
  * v = 0 with clear): tile by tile, T_TOUCHED one test for the four rows. Returns the rows that
  * clamped, a bit each. */
-VA_FN uint32_t va_finish_rows4(int32_t *h, const int32_t *acc, int32_t *v, uint8_t *trow, int nx, int full,
-			       int clear)
+VA_FN uint32_t va_finish_rows4(int32_t *h, const int32_t *acc, int32_t *v, uint8_t *trow, int nx, int full, int clear)
 {
 	const __m256i hmin = _mm256_set1_epi32(SWELL_HV_MIN), hmax = _mm256_set1_epi32(SWELL_HV_MAX);
 	const __m256i zero = _mm256_setzero_si256();
@@ -523,7 +471,7 @@ VA_FN uint32_t va_finish_rows4(int32_t *h, const int32_t *acc, int32_t *v, uint8
 		trow[tx] |= _mm256_testz_si256(any, any) ? 0 : T_TOUCHED;
 	}
 	return (uint32_t)(!_mm256_testz_si256(sat0, sat0)) | (uint32_t)(!_mm256_testz_si256(sat1, sat1)) << 1 |
-	       (uint32_t)(!_mm256_testz_si256(sat2, sat2)) << 2 | (uint32_t)(!_mm256_testz_si256(sat3, sat3)) << 3;
+		(uint32_t)(!_mm256_testz_si256(sat2, sat2)) << 2 | (uint32_t)(!_mm256_testz_si256(sat3, sat3)) << 3;
 }
 
 /* The 8 rows of the band of tiles from row j where every whole tile needs h += acc (and v = 0 with
