@@ -404,11 +404,7 @@ static void step_row_vel(struct swell_wave *w, int j, uint8_t *trow, int damp)
 				break;
 		if (w->kernel == SWELL_KERNEL_REF)
 			swell_wave_vel_ref(w, j, tx, t1, damp, sum, any);
-#if SWELL_WAVE_AVX2
-		else if (w->kernel == SWELL_KERNEL_AVX2)
-			swell_wave_vel_avx2(w, j, tx, t1, damp, sum, any);
-#endif
-		else
+		else /* the fused kernel, and AVX2's where its coefficient does not fit */
 			swell_wave_vel_fused(w, j, tx, t1, damp, sum, any);
 		for (k = 0; k < t1 - tx; k++)
 			if (any[k])
@@ -419,11 +415,11 @@ static void step_row_vel(struct swell_wave *w, int j, uint8_t *trow, int damp)
 	w->vel_sum_h += sum[1];
 }
 
-/* Row j, tile by tile, skipping sleeping tiles. */
-static inline void step_row(struct swell_wave *w, int j, int damp)
+/* At the first row of a band of tiles (flags trow), which of its tiles sleep in this step, and
+ * whether all do (band_asleep). */
+static inline __attribute__((always_inline)) void band_start(struct swell_wave *w, int j, uint8_t *trow)
 {
 	const int ty = j / SWELL_WAVE_TILE;
-	uint8_t *trow = &w->tile[ty * w->tiles_x];
 	int tx;
 
 	if (w->sleep && j % SWELL_WAVE_TILE == 0) {
@@ -442,6 +438,16 @@ static inline void step_row(struct swell_wave *w, int j, int damp)
 			}
 		}
 	}
+}
+
+/* Row j, tile by tile, skipping sleeping tiles. */
+static inline void step_row(struct swell_wave *w, int j, int damp)
+{
+	const int ty = j / SWELL_WAVE_TILE;
+	uint8_t *trow = &w->tile[ty * w->tiles_x];
+	int tx;
+
+	band_start(w, j, trow);
 	if (w->sleep && w->band_asleep) { /* the whole band of tiles sleeps: nothing to do in this row */
 		w->tiles_skipped += w->tiles_x;
 		return;
@@ -470,6 +476,25 @@ int swell_wave_step_rows(struct swell_wave *w, int rows)
 
 	if (end > w->ny)
 		end = w->ny;
+#if SWELL_WAVE_AVX2
+	if (w->form == SWELL_FORM_VELOCITY && w->kernel == SWELL_KERNEL_AVX2 && swell_wave_vel_avx2_fits(w, damp)) {
+		int j1;
+
+		for (j = w->next_row; j < end; j = j1) { /* the rows of a band in one call */
+			uint8_t *trow = &w->tile[j / SWELL_WAVE_TILE * w->tiles_x];
+
+			j1 = (j / SWELL_WAVE_TILE + 1) * SWELL_WAVE_TILE;
+			j1 = j1 < end ? j1 : end;
+			band_start(w, j, trow);
+			if (w->sleep && w->band_asleep) /* the whole band of tiles sleeps */
+				w->tiles_skipped += (uint32_t)(w->tiles_x * (j1 - j));
+			else
+				swell_wave_vel_rows_avx2(w, j, j1, trow, damp);
+		}
+		w->next_row = (uint16_t)end;
+		return w->ny - end;
+	}
+#endif
 	for (j = w->next_row; j < end; j++) {
 		if (damp)
 			step_row(w, j, 1);
@@ -578,12 +603,6 @@ static inline __attribute__((always_inline)) void finish_row(struct swell_wave *
 	uint32_t sat = 0;
 	int tx;
 
-#if SWELL_WAVE_AVX2
-	if (vel && w->kernel == SWELL_KERNEL_AVX2) {
-		swell_wave_vel_finish_avx2(w, j, need);
-		return;
-	}
-#endif
 	if (!add) { /* the clear alone: each run of whole tiles to clear in one go */
 		for (tx = 0; clear && tx < w->tiles_x; tx++) {
 			int t1 = tx;
@@ -660,6 +679,12 @@ static inline __attribute__((always_inline)) void finish_range_form(struct swell
 	const uint8_t need = (uint8_t)((add ? T_DIRTY : 0u) | (clear ? T_DIRTY_PREV : 0u));
 	int j;
 
+#if SWELL_WAVE_AVX2
+	if (vel && w->kernel == SWELL_KERNEL_AVX2) {
+		swell_wave_vel_finish_avx2(w, j0, j1, need);
+		return;
+	}
+#endif
 	for (j = j0; j < j1; j++) {
 		if (w->sleep && j % SWELL_WAVE_TILE == 0 && (j + SWELL_WAVE_TILE <= j1 || j1 == w->ny) &&
 		    !tile_row_has(w, w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x, need)) {

@@ -74,11 +74,21 @@ void swell_wave_vel_fused(struct swell_wave *w, int j, int tx0, int tx1, int dam
 
 /* x86-64 with AVX2 (wave.c checks the CPU before it chooses it) */
 #if SWELL_WAVE_AVX2
-void swell_wave_vel_avx2(struct swell_wave *w, int j, int tx0, int tx1, int damp, int64_t sum[2], int32_t *any);
-/* The finishing pass of row j (wave.c's finish_row), the same bits: where a tile has the flags of
- * need, h += acc (T_DIRTY; clamped to int27, a row that clamped counted once, T_TOUCHED where acc
- * is non-zero) and v = 0 (T_DIRTY_PREV); every tile when tiles do not sleep. */
-void swell_wave_vel_finish_avx2(struct swell_wave *w, int j, uint8_t need);
+/* Whether the AVX2 kernel takes the field: C = e_eff 2^(F+1) must fit int32 (not at e_eff = 1, F = 0;
+ * the fused kernel does those), and damped water has F = 0 (wave.c). */
+static inline int swell_wave_vel_avx2_fits(const struct swell_wave *w, int damp)
+{
+	return ((int64_t)w->e_eff << (w->vel_frac + 1)) <= INT32_MAX && !(damp && w->vel_frac);
+}
+/* Rows [j0, j1) of one band of tiles (its flags trow, its sleeping tiles decided), whole, the
+ * driver's bookkeeping included: the same bits, flags and counts as step_row_vel (wave.c) calling
+ * swell_wave_vel_ref for each run of awake tiles, the sums added to w->vel_sum and w->vel_sum_h. */
+void swell_wave_vel_rows_avx2(struct swell_wave *w, int j0, int j1, uint8_t *trow, int damp);
+/* The finishing pass of rows [j0, j1) (wave.c's finish_range), the same bits, flags and counts: where
+ * a tile has the flags of need, h += acc (T_DIRTY; clamped to int27, a row that clamped counted once,
+ * T_TOUCHED where acc is non-zero) and v = 0 (T_DIRTY_PREV); every tile when tiles do not sleep; a
+ * band of tiles none of which has them skipped whole. */
+void swell_wave_vel_finish_avx2(struct swell_wave *w, int j0, int j1, uint8_t need);
 #endif
 
 /* ---- The edge-flux form's kernels: one a file (wave_edge_ref.c, wave_edge_fused.c,

@@ -9,6 +9,7 @@
 #include "wave_field.hpp"
 
 extern "C" {
+#include "swell/shape.h"
 #include "swell/wave.h"
 }
 
@@ -117,6 +118,84 @@ TEST_CASE("velocity form: the AVX2 kernel is bit-identical to the reference afte
 	}
 	CHECK(runs == (int)(sizeof(grids) / sizeof(grids[0])) * 8);
 	WARN(runs << " runs, " << cells << " cell-steps a kernel");
+}
+
+TEST_CASE("velocity form: the AVX2 kernel is bit-identical to the reference where tiles sleep: splashes in a calm "
+	  "pool, rows of awake and sleeping tiles (runs split at sleeping tiles and after 8), clamps in runs side by "
+	  "side, wide and ragged grids",
+	  "[wave][velocity][kernels][avx2][sleep]")
+{
+	if (!have_avx2())
+		return; /* this CPU has no AVX2: the kernel is never chosen */
+	/* widths past two runs of 8 tiles, ragged or not; heights of a few bands */
+	const int grids[][2] = {{150, 40}, {136, 24}, {67, 30}, {200, 17}};
+	std::mt19937 rng(20261203);
+	long skipped = 0, sats = 0;
+
+	for (const auto &g : grids) {
+		const int nx = g[0], ny = g[1], tiles = (nx + SWELL_WAVE_TILE - 1) / SWELL_WAVE_TILE;
+		for (int k = 0; k < 4; k++) {
+			const swell_stencil st = k % 2 ? SWELL_STENCIL_CALIBRATED : SWELL_STENCIL_PAPER;
+			const q30_t t = k == 1 ? q30(0.02) : 0;
+			/* k >= 2: e near the limit, so that a cell at the int27 bound clamps its neighbours' u */
+			const q30_t e = stable_e(rng, t, st, 1.999, k < 2 ? 0.3 : 0.9);
+			Field ref(nx, ny, e, t, st, SWELL_KERNEL_REF, SWELL_FORM_VELOCITY);
+			Field vec(nx, ny, e, t, st, SWELL_KERNEL_AVX2, SWELL_FORM_VELOCITY);
+			std::mt19937 frng(rng());
+			std::uniform_int_distribution<int> ci(0, nx - 1), cj(0, ny - 1);
+
+			if (k < 2) { /* two splashes in a calm pool */
+				swell_shape_gauss(ref.w.h, (uint16_t)nx, (uint16_t)ny, ci(frng) * SWELL_Q16_ONE,
+						  cj(frng) * SWELL_Q16_ONE, 2 * SWELL_Q16_ONE, 3 * SWELL_H_ONE_MM);
+				swell_shape_gauss(ref.w.h, (uint16_t)nx, (uint16_t)ny, ci(frng) * SWELL_Q16_ONE,
+						  cj(frng) * SWELL_Q16_ONE, 2 * SWELL_Q16_ONE, -2 * SWELL_H_ONE_MM);
+				swell_wave_rest(&ref.w);
+				std::copy(ref.w.h, ref.w.h + ref.n(), vec.w.h);
+				swell_wave_rest(&vec.w);
+			}
+			INFO(nx << "x" << ny << " e " << e << " t " << t << " stencil " << st);
+			for (int s = 0; s < 40; s++) {
+				if (k >= 2 && s % 8 == 4) {
+					/* a comb of cells at the bound along a row of a sleeping pool: every second
+					 * tile wakes one run longer than 8 tiles, every fourth runs of three with a
+					 * sleeping tile between them */
+					const int step = s % 16 == 4 ? 2 : 4, j = cj(frng);
+					for (int tx = frng() % 2; tx < tiles - 3; tx += step)
+						for (Field *f : {&ref, &vec})
+							swell_wave_add(&f->w, tx * SWELL_WAVE_TILE + 3, j, SWELL_HV_MAX);
+				} else if (k < 2 && s % 6 == 5) {
+					const int i = ci(frng), j = cj(frng);
+					const int32_t d = std::uniform_int_distribution<int32_t>(-9000, 9000)(frng);
+					for (Field *f : {&ref, &vec})
+						swell_wave_add(&f->w, i, j, d);
+				}
+				const int slice = std::uniform_int_distribution<int>(1, ny)(frng);
+				swell_wave_step_rows(&ref.w, slice);
+				swell_wave_step_rows(&vec.w, slice);
+				{
+					const std::string d = differs(ref, vec, false);
+					INFO("step " << s << ", after a slice of " << slice << " rows: " << d);
+					REQUIRE(d.empty());
+				}
+				swell_wave_step(&ref.w);
+				swell_wave_step(&vec.w);
+				const std::string d = differs(ref, vec);
+				INFO("step " << s << ": " << d);
+				REQUIRE(d.empty());
+				if (k >= 2 && s % 8 == 7) /* the pool calm again, to sleep before the next comb */
+					for (Field *f : {&ref, &vec}) {
+						std::fill(f->w.h, f->w.h + f->n(), 0);
+						swell_wave_rest(&f->w);
+					}
+			}
+			skipped += ref.w.tiles_skipped;
+			sats += ref.w.saturations;
+		}
+	}
+	/* the cases reach what they are for: sleeping tiles beside awake ones, and clamps */
+	CHECK(skipped > 0);
+	CHECK(sats > 0);
+	WARN(skipped << " tile-rows skipped, " << sats << " saturations");
 }
 
 TEST_CASE("velocity form, AVX2: at e_eff = 1 (C = 2^31 does not fit VPMULDQ) the fused path gives the same bits, and "
