@@ -659,6 +659,11 @@ static inline __attribute__((always_inline)) void finish_range_form(struct swell
 {
 	const uint8_t need = (uint8_t)((add ? T_DIRTY : 0u) | (clear ? T_DIRTY_PREV : 0u));
 	int j;
+#if SWELL_WAVE_DSP
+	/* rows finished ahead whose every tile the step wrote: the row in one add_tiles_vel call (the band's
+	 * flags looked at once); 1 a band of them, 0 not, -1 not yet looked at */
+	int band_all = -1;
+#endif
 
 	for (j = j0; j < j1; j++) {
 		if (w->sleep && j % SWELL_WAVE_TILE == 0 && (j + SWELL_WAVE_TILE <= j1 || j1 == w->ny) &&
@@ -666,6 +671,20 @@ static inline __attribute__((always_inline)) void finish_range_form(struct swell
 			j += SWELL_WAVE_TILE - 1; /* a calm band of tiles: nothing wrote acc or v in it */
 			continue;
 		}
+#if SWELL_WAVE_DSP
+		if (vel && add && !clear && w->nx % SWELL_WAVE_TILE == 0) {
+			uint8_t *trow = w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x;
+
+			if (band_all < 0 || j % SWELL_WAVE_TILE == 0)
+				band_all = !w->sleep || tile_row_all(w, trow, T_DIRTY);
+			if (band_all) { /* as finish_row does it, without its search for runs of tiles */
+				__set_saturation_occurred(0);
+				add_tiles_vel(w->h + (size_t)j * w->nx, w->acc + (size_t)j * w->nx, trow, w->tiles_x);
+				w->saturations += (uint32_t)__saturation_occurred();
+				continue;
+			}
+		}
+#endif
 		if (!add && clear && j % SWELL_WAVE_TILE == 0 && j + SWELL_WAVE_TILE <= j1 &&
 		    w->nx % SWELL_WAVE_TILE == 0 &&
 		    (!w->sleep || tile_row_all(w, w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x, T_DIRTY_PREV))) {
@@ -829,11 +848,27 @@ int swell_wave_finish_rows(struct swell_wave *w, int rows)
 	return rows;
 }
 
+/* A finished step's tile flags in each byte of x as the last finished step's: Z1 where the step left
+ * no non-zero flow (not NONZERO), ZERO where that is the second step running (Z1 already), CHANGED
+ * from TOUCHED, DIRTY_PREV from DIRTY, every other flag cleared. Each flag is one bit moved within
+ * its byte (a shift, then a mask of that bit in every byte), so a word does four tiles at once. */
+_Static_assert(T_ZERO == 1u && T_NONZERO == 2u && T_Z1 == 16u && T_CHANGED == T_TOUCHED >> 1 &&
+		       T_DIRTY_PREV == T_DIRTY << 1,
+	       "step_flags4 moves these bits");
+static inline uint32_t step_flags4(uint32_t x)
+{
+	const uint32_t ones = 0x01010101u;
+	const uint32_t z1 = ((x >> 1) & ones) ^ ones; /* NONZERO (bit 1) clear, at bit 0 */
+
+	return z1 * T_Z1 | (z1 & (x >> 4)) * T_ZERO | ((x >> 1) & ones * T_CHANGED) |
+	       ((x << 1) & ones * T_DIRTY_PREV);
+}
+
 void swell_wave_step_finish(struct swell_wave *w)
 {
 	uint8_t *t;
 	int32_t *tmp;
-	int a;
+	int a, n;
 
 	swell_wave_step_rows(w, w->ny);
 	if (w->form == SWELL_FORM_VELOCITY)
@@ -846,15 +881,18 @@ void swell_wave_step_finish(struct swell_wave *w)
 	tmp = w->v;
 	w->v = w->acc;
 	w->acc = tmp;
-	/* the step is done: its flags become the last finished step's */
+	/* the step is done: its flags become the last finished step's, four tiles a word */
 	t = w->tile;
-	for (a = 0; a < (int)w->tiles_x * w->tiles_y; a++) {
-		uint8_t f = t[a];
-		uint8_t z1 = f & T_NONZERO ? 0u : T_Z1;
+	n = (int)w->tiles_x * w->tiles_y;
+	for (a = 0; a + 4 <= n; a += 4) {
+		uint32_t x;
 
-		t[a] = (uint8_t)(z1 | (z1 && (f & T_Z1) ? T_ZERO : 0u) | (f & T_TOUCHED ? T_CHANGED : 0u) |
-				 (f & T_DIRTY ? T_DIRTY_PREV : 0u));
+		memcpy(&x, t + a, sizeof(x));
+		x = step_flags4(x);
+		memcpy(t + a, &x, sizeof(x));
 	}
+	for (; a < n; a++)
+		t[a] = (uint8_t)step_flags4(t[a]);
 	w->next_row = 0;
 	w->done_row = 0;
 	w->steps++;
