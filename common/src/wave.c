@@ -23,23 +23,39 @@ static void mark_dirty(struct swell_wave *w, int tx, int ty, int r)
 			w->tile[y * w->tiles_x + x] |= T_DIRTY;
 }
 
-/* 1 if any tile of a row of tiles has the flag. */
+/* 1 if any tile of a row of tiles has the flag: four flag bytes a word. */
 static int tile_row_has(const struct swell_wave *w, const uint8_t *trow, uint8_t flag)
 {
+	const uint32_t mask = 0x01010101u * flag;
 	int x;
 
-	for (x = 0; x < w->tiles_x; x++)
+	for (x = 0; x + 4 <= w->tiles_x; x += 4) {
+		uint32_t f;
+
+		memcpy(&f, trow + x, sizeof(f));
+		if (f & mask)
+			return 1;
+	}
+	for (; x < w->tiles_x; x++)
 		if (trow[x] & flag)
 			return 1;
 	return 0;
 }
 
-/* 1 if every tile of a row of tiles has the flag. */
+/* 1 if every tile of a row of tiles has the flag: four flag bytes a word. */
 static int tile_row_all(const struct swell_wave *w, const uint8_t *trow, uint8_t flag)
 {
+	const uint32_t mask = 0x01010101u * flag;
 	int x;
 
-	for (x = 0; x < w->tiles_x; x++)
+	for (x = 0; x + 4 <= w->tiles_x; x += 4) {
+		uint32_t f;
+
+		memcpy(&f, trow + x, sizeof(f));
+		if (~f & mask)
+			return 0;
+	}
+	for (; x < w->tiles_x; x++)
 		if (!(trow[x] & flag))
 			return 0;
 	return 1;
@@ -391,17 +407,23 @@ static void step_row_vel(struct swell_wave *w, int j, uint8_t *trow, int damp)
 {
 	int32_t any[SWELL_WAVE_VEL_RUN];
 	int64_t sum[2] = { 0, 0 };
+	/* no tile of the row sleeps (the common case in moving water): runs of SWELL_WAVE_VEL_RUN tiles
+	 * without looking at each tile's flag */
+	const int awake = !w->sleep || !tile_row_has(w, trow, T_SLEEPING);
 	int tx = 0, t1, k;
 
 	while (tx < w->tiles_x) {
-		if (w->sleep && (trow[tx] & T_SLEEPING)) {
+		if (awake) {
+			t1 = w->tiles_x - tx > SWELL_WAVE_VEL_RUN ? tx + SWELL_WAVE_VEL_RUN : w->tiles_x;
+		} else if (trow[tx] & T_SLEEPING) {
 			w->tiles_skipped++;
 			tx++;
 			continue;
+		} else {
+			for (t1 = tx + 1; t1 < w->tiles_x && t1 - tx < SWELL_WAVE_VEL_RUN; t1++)
+				if (trow[t1] & T_SLEEPING)
+					break;
 		}
-		for (t1 = tx + 1; t1 < w->tiles_x && t1 - tx < SWELL_WAVE_VEL_RUN; t1++)
-			if (w->sleep && (trow[t1] & T_SLEEPING))
-				break;
 		if (w->kernel == SWELL_KERNEL_REF)
 			swell_wave_vel_ref(w, j, tx, t1, damp, sum, any);
 #if SWELL_WAVE_AVX2
