@@ -212,10 +212,7 @@ static void apply_params(struct swell_body *b, const struct swell_body_params *p
 /* the group's sum into the 64-bit sum, the next group; the out-of-line updates of the highest value */
 #define SCAN_END \
 	"adds %[lo], %[lo], %[part]\n\tadc %[hi], %[hi], %[part], asr #31\n\tsubs %[g], %[g], #1\n\tbne 3b\n\tb 9f\n"
-#define SCAN_UPS                                                                                       \
-	SCAN_UP("r2", "0")                                                                             \
-	SCAN_UP("r3", "1") SCAN_UP("r4", "2") SCAN_UP("r5", "3") SCAN_UP("r2", "4") SCAN_UP("r3", "5") \
-		SCAN_UP("r4", "6") SCAN_UP("r5", "7") "9:\n"
+#define SCAN_UPS(N0, N1, N2, N3) SCAN_UP("r2", N0) SCAN_UP("r3", N1) SCAN_UP("r4", N2) SCAN_UP("r5", N3)
 #define SCAN_GROUP "3:\tmovs %[part], #0\n\t" SCAN_FOUR("0", "1", "2", "3") SCAN_FOUR("4", "5", "6", "7")
 
 /* scan_rows' cells in groups of eight (g >= 1 groups): the same top and sum. Four d in one LDM, two h
@@ -230,7 +227,7 @@ static __attribute__((noinline)) void scan_groups8(const int32_t *h, const int32
 	int32_t hi = (int32_t)(*sum >> 32), t = *top, part;
 
 	__asm__ volatile(
-		SCAN_GROUP SCAN_END SCAN_UPS
+		SCAN_GROUP SCAN_END SCAN_UPS("0", "1", "2", "3") SCAN_UPS("4", "5", "6", "7") "9:\n"
 		: [h] "+r"(h), [d] "+r"(d), [g] "+r"(g), [t] "+r"(t), [lo] "+r"(lo), [hi] "+r"(hi), [part] "=&r"(part)
 		:
 		: "r2", "r3", "r4", "r5", "r6", "r7", "cc", "memory");

@@ -882,8 +882,7 @@ static inline uint32_t step_flags4(uint32_t x)
 	const uint32_t ones = 0x01010101u;
 	const uint32_t z1 = ((x >> 1) & ones) ^ ones; /* NONZERO (bit 1) clear, at bit 0 */
 
-	return z1 * T_Z1 | (z1 & (x >> 4)) * T_ZERO | ((x >> 1) & ones * T_CHANGED) |
-	       ((x << 1) & ones * T_DIRTY_PREV);
+	return z1 * T_Z1 | (z1 & (x >> 4)) * T_ZERO | ((x >> 1) & ones * T_CHANGED) | ((x << 1) & ones * T_DIRTY_PREV);
 }
 
 void swell_wave_step_finish(struct swell_wave *w)
