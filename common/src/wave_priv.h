@@ -7,9 +7,11 @@
  *     x = 2 L9 = ([1 2 1] x [1 2 1]) h - 16 h          exact in int32 for |h| <= 2^26
  *     C = e_eff 2^(F+1)  (F = vel_frac; C < 2^31)      the coefficient, u in 2^-F height LSB
  *     s = u + floor((x C + 2^31) / 2^32)               undamped: e L9 to nearest, ties up
- *     s = u + floor(x C / 2^32), s += (s < 0)          damped (then F = 0): the sum toward zero (a
- *                                                      negative exact integer one LSB further):
- *                                                      dissipative, so damped water comes to rest
+ *     s = u + floor(x C / 2^32), s += (s + u < 0)      damped (then F = 0): the sum toward half the
+ *                                                      kick, e L9 / 2 (up when 2 u + e L9 < 0; an
+ *                                                      exact integer there one LSB up): it does
+ *                                                      not add to the step's energy, so damped
+ *                                                      water comes to rest (docs/fixed-point.md)
  *     s = clamp(s, SWELL_H_MIN, SWELL_H_MAX)           counted in saturations
  *     s = floor(q s / 2^30) + (s < 0)   (damp only)    toward zero: q = 1 - t is odd
  *     dh = (s + 2^(F-1) - (s < 0)) >> F  (dh = s at 0)  the height change, nearest, ties away

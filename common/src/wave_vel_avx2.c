@@ -39,9 +39,9 @@ VA_FN __m256i va_cell(const struct va_k *K, __m256i x, __m256i u, int damp, __m2
 {
 	__m256i s, t;
 
-	if (damp) { /* toward zero, then the damping toward zero */
+	if (damp) { /* toward half the kick (one up where s + u < 0), then the damping toward zero */
 		s = _mm256_add_epi32(u, va_mulhi(x, K->c, K->round, 0));
-		s = _mm256_sub_epi32(s, _mm256_cmpgt_epi32(K->zero, s));
+		s = _mm256_sub_epi32(s, _mm256_cmpgt_epi32(K->zero, _mm256_add_epi32(s, u)));
 	} else {
 		s = _mm256_add_epi32(u, va_mulhi(x, K->c, K->round, 1));
 	}

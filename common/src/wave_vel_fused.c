@@ -37,9 +37,9 @@ static inline __attribute__((always_inline)) int32_t vel_cell(int32_t u, int32_t
 		(void)sat;
 		(void)f;
 		(void)c64;
-		if (damp) { /* floor (SMMLA), then one toward zero when negative */
+		if (damp) { /* floor (SMMLA), then one up when below half the kick (s + u < 0) */
 			__asm__("smmla %0, %1, %2, %3" : "=r"(s) : "r"(x), "r"(c), "r"(u));
-			s += (int32_t)((uint32_t)s >> 31);
+			s += (int32_t)((uint32_t)(s + u) >> 31);
 		} else {
 			__asm__("smmlar %0, %1, %2, %3" : "=r"(s) : "r"(x), "r"(c), "r"(u));
 		}
@@ -56,7 +56,7 @@ static inline __attribute__((always_inline)) int32_t vel_cell(int32_t u, int32_t
 	(void)c;
 	if (damp) {
 		s = u + (int32_t)(((int64_t)x * c64) >> 32);
-		s += s < 0;
+		s += s + u < 0;
 	} else {
 		s = u + (int32_t)(((int64_t)x * c64 + ((int64_t)1 << 31)) >> 32);
 	}

@@ -27,9 +27,9 @@ void swell_wave_vel_ref(struct swell_wave *w, int j, int tx0, int tx1, int damp,
 		for (dj = -1; dj <= 1; dj++)
 			for (di = -1; di <= 1; di++)
 				x += k[dj + 1][di + 1] * h_at(w, i + di, j + dj);
-		if (damp) { /* the sum toward zero: dissipative (damped, f = 0) */
+		if (damp) { /* the sum toward half the kick: dissipative (damped, f = 0) */
 			s = w->u[a] + ((x * c) >> 32);
-			s += s < 0;
+			s += s + w->u[a] < 0;
 		} else { /* to nearest, ties up */
 			s = w->u[a] + ((x * c + ((int64_t)1 << 31)) >> 32);
 		}

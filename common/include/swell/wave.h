@@ -46,11 +46,14 @@
  * Velocity form (SWELL_FORM_VELOCITY, chosen at init with swell_wave_init_form): eq. (1) as a momentum
  * per cell, u(n+1) = (1-t) [u(n) + e L9(n)], h(n+1) = h(n) + u(n+1) + water added from outside, with
  * the separable stencil 2 L9 = ([1 2 1] x [1 2 1]) h - 16 h. Each cell is rounded on its own:
- * undamped, u + e L9 to nearest (ties up); damped, u + e L9 toward zero and then the damping toward
- * zero (common/src/wave_priv.h has the exact rule). Nearest rounding with damping leaves small limit cycles of
- * single cells (measured: 2-4 LSB/step forever at e 0.35-0.45); rounding the momentum toward zero
- * makes every damped step lose at least what it rounds. At the step's finish the integer
- * residual r = sum u(n+1) is given back in whole LSBs of u (to cells of tiles that moved, one LSB a
+ * undamped, u + e L9 to nearest (ties up); damped, u + e L9 toward e L9 / 2 (half the cell's kick)
+ * and then the damping toward zero (common/src/wave_priv.h has the exact rule). Nearest rounding
+ * with damping leaves small limit cycles of single cells (measured: 2-4 LSB/step forever at e
+ * 0.35-0.45), and so does rounding toward zero at e 0.45 (a cell at rest kicked past its balance
+ * point lands as far on the other side); rounding toward half the kick does not add to the energy the
+ * undamped scheme keeps (by less than an LSB^2 a cell where the sum is within half an LSB of that
+ * point), and damped water comes to rest (measured: 288 of 288 cases,
+ * common/tests/test_wave_rest.cpp). At the step's finish the integer residual r = sum u(n+1) is given back in whole LSBs of u (to cells of tiles that moved, one LSB a
  * cell, from a cursor that rotates over the grid; whole shares first when |r| exceeds their count),
  * so sum u = 0. Undamped, u carries vel_frac fraction bits beyond a height LSB (as many as keep
  * 2^(vel_frac+1) e_eff < 2 in Q1.30 for the M4's SMMLAR, at most 4: 4 for e_eff < 1/16, 2 for the
