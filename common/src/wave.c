@@ -23,23 +23,39 @@ static void mark_dirty(struct swell_wave *w, int tx, int ty, int r)
 			w->tile[y * w->tiles_x + x] |= T_DIRTY;
 }
 
-/* 1 if any tile of a row of tiles has the flag. */
+/* 1 if any tile of a row of tiles has the flag: four flag bytes a word. */
 static int tile_row_has(const struct swell_wave *w, const uint8_t *trow, uint8_t flag)
 {
+	const uint32_t mask = 0x01010101u * flag;
 	int x;
 
-	for (x = 0; x < w->tiles_x; x++)
+	for (x = 0; x + 4 <= w->tiles_x; x += 4) {
+		uint32_t f;
+
+		memcpy(&f, trow + x, sizeof(f));
+		if (f & mask)
+			return 1;
+	}
+	for (; x < w->tiles_x; x++)
 		if (trow[x] & flag)
 			return 1;
 	return 0;
 }
 
-/* 1 if every tile of a row of tiles has the flag. */
+/* 1 if every tile of a row of tiles has the flag: four flag bytes a word. */
 static int tile_row_all(const struct swell_wave *w, const uint8_t *trow, uint8_t flag)
 {
+	const uint32_t mask = 0x01010101u * flag;
 	int x;
 
-	for (x = 0; x < w->tiles_x; x++)
+	for (x = 0; x + 4 <= w->tiles_x; x += 4) {
+		uint32_t f;
+
+		memcpy(&f, trow + x, sizeof(f));
+		if (~f & mask)
+			return 0;
+	}
+	for (; x < w->tiles_x; x++)
 		if (!(trow[x] & flag))
 			return 0;
 	return 1;
@@ -391,17 +407,23 @@ static void step_row_vel(struct swell_wave *w, int j, uint8_t *trow, int damp)
 {
 	int32_t any[SWELL_WAVE_VEL_RUN];
 	int64_t sum[2] = { 0, 0 };
+	/* no tile of the row sleeps (the common case in moving water): runs of SWELL_WAVE_VEL_RUN tiles
+	 * without looking at each tile's flag */
+	const int awake = !w->sleep || !tile_row_has(w, trow, T_SLEEPING);
 	int tx = 0, t1, k;
 
 	while (tx < w->tiles_x) {
-		if (w->sleep && (trow[tx] & T_SLEEPING)) {
+		if (awake) {
+			t1 = w->tiles_x - tx > SWELL_WAVE_VEL_RUN ? tx + SWELL_WAVE_VEL_RUN : w->tiles_x;
+		} else if (trow[tx] & T_SLEEPING) {
 			w->tiles_skipped++;
 			tx++;
 			continue;
+		} else {
+			for (t1 = tx + 1; t1 < w->tiles_x && t1 - tx < SWELL_WAVE_VEL_RUN; t1++)
+				if (trow[t1] & T_SLEEPING)
+					break;
 		}
-		for (t1 = tx + 1; t1 < w->tiles_x && t1 - tx < SWELL_WAVE_VEL_RUN; t1++)
-			if (w->sleep && (trow[t1] & T_SLEEPING))
-				break;
 		if (w->kernel == SWELL_KERNEL_REF)
 			swell_wave_vel_ref(w, j, tx, t1, damp, sum, any);
 		else /* the fused kernel, and AVX2's where its coefficient does not fit */
@@ -569,25 +591,26 @@ static inline __attribute__((always_inline)) int32_t finish_seg(int32_t *restric
  * 27 bits (SSAT sets the Q flag, which finish_row reads); a tile whose acc is not all zero gets
  * T_TOUCHED in t[]. Four cells are an LDM of acc, an LDM of h, four ADD and SSAT, an STM of h
  * (Cortex-M4 TRM: 1 + N cycles each): about 36 instructions a tile with its flag and the loop, against
- * about 58 for the compiler's unrolled loop of single loads and stores. A function of its own: inlined in
+ * about 58 for the compiler's unrolled loop of single loads and stores. A tile already TOUCHED (from
+ * an earlier row of its band) skips the test of its acc: about 28. A function of its own: inlined in
  * the finishing pass, its nine scratch registers leave too few for the operands. */
+#define ADD_FOUR                                                                                                  \
+	"ldmia %[a]!, {r2, r3, r4, r5}\n\tldmia %[h], {r6, r7, r8, r9}\n\tadd r6, r6, r2\n\tssat r6, #27, r6\n\t" \
+	"add r7, r7, r3\n\tssat r7, #27, r7\n\tadd r8, r8, r4\n\tssat r8, #27, r8\n\tadd r9, r9, r5\n\t"          \
+	"ssat r9, #27, r9\n\tstmia %[h]!, {r6, r7, r8, r9}\n\t"
 static __attribute__((noinline)) void add_tiles_vel(int32_t *h, const int32_t *acc, uint8_t *t, int n)
 {
-	__asm__ volatile("1:\tldmia %[a]!, {r2, r3, r4, r5}\n\tldmia %[h], {r6, r7, r8, r9}\n\t"
-			 "add r6, r6, r2\n\tssat r6, #27, r6\n\tadd r7, r7, r3\n\tssat r7, #27, r7\n\t"
-			 "add r8, r8, r4\n\tssat r8, #27, r8\n\tadd r9, r9, r5\n\tssat r9, #27, r9\n\t"
-			 "orr r2, r2, r3\n\torr r4, r4, r5\n\torr r12, r2, r4\n\tstmia %[h]!, {r6, r7, r8, r9}\n\t"
-			 "ldmia %[a]!, {r2, r3, r4, r5}\n\tldmia %[h], {r6, r7, r8, r9}\n\t"
-			 "add r6, r6, r2\n\tssat r6, #27, r6\n\tadd r7, r7, r3\n\tssat r7, #27, r7\n\t"
-			 "add r8, r8, r4\n\tssat r8, #27, r8\n\tadd r9, r9, r5\n\tssat r9, #27, r9\n\t"
-			 "orr r2, r2, r3\n\torr r4, r4, r5\n\torr r2, r2, r4\n\tstmia %[h]!, {r6, r7, r8, r9}\n\t"
-			 "orrs r12, r12, r2\n\tbeq 2f\n\t"
-			 "ldrb r2, [%[t]]\n\torr r2, r2, %[touched]\n\tstrb r2, [%[t]]\n"
+	__asm__ volatile("1:\tldrb r12, [%[t]]\n\ttst r12, %[touched]\n\tbne 3f\n\t" ADD_FOUR
+			 "orr r2, r2, r3\n\torr r4, r4, r5\n\torr r12, r2, r4\n\t" ADD_FOUR
+			 "orr r2, r2, r3\n\torr r4, r4, r5\n\torr r2, r2, r4\n\torrs r12, r12, r2\n\tbeq 2f\n\t"
+			 "ldrb r2, [%[t]]\n\torr r2, r2, %[touched]\n\tstrb r2, [%[t]]\n\tb 2f\n"
+			 "3:\t" ADD_FOUR ADD_FOUR "\n"
 			 "2:\tadds %[t], %[t], #1\n\tsubs %[n], %[n], #1\n\tbne 1b"
 			 : [h] "+r"(h), [a] "+r"(acc), [t] "+r"(t), [n] "+r"(n)
 			 : [touched] "n"(T_TOUCHED)
 			 : "r2", "r3", "r4", "r5", "r6", "r7", "r8", "r9", "r12", "cc", "memory");
 }
+#undef ADD_FOUR
 #endif
 
 /* Row j of the finishing pass: h += acc where the step wrote acc (add, DIRTY), the old v cleared where
@@ -678,6 +701,11 @@ static inline __attribute__((always_inline)) void finish_range_form(struct swell
 {
 	const uint8_t need = (uint8_t)((add ? T_DIRTY : 0u) | (clear ? T_DIRTY_PREV : 0u));
 	int j;
+#if SWELL_WAVE_DSP
+	/* rows finished ahead whose every tile the step wrote: the row in one add_tiles_vel call (the band's
+	 * flags looked at once); 1 a band of them, 0 not, -1 not yet looked at */
+	int band_all = -1;
+#endif
 
 #if SWELL_WAVE_AVX2
 	if (vel && w->kernel == SWELL_KERNEL_AVX2) {
@@ -691,6 +719,20 @@ static inline __attribute__((always_inline)) void finish_range_form(struct swell
 			j += SWELL_WAVE_TILE - 1; /* a calm band of tiles: nothing wrote acc or v in it */
 			continue;
 		}
+#if SWELL_WAVE_DSP
+		if (vel && add && !clear && w->nx % SWELL_WAVE_TILE == 0) {
+			uint8_t *trow = w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x;
+
+			if (band_all < 0 || j % SWELL_WAVE_TILE == 0)
+				band_all = !w->sleep || tile_row_all(w, trow, T_DIRTY);
+			if (band_all) { /* as finish_row does it, without its search for runs of tiles */
+				__set_saturation_occurred(0);
+				add_tiles_vel(w->h + (size_t)j * w->nx, w->acc + (size_t)j * w->nx, trow, w->tiles_x);
+				w->saturations += (uint32_t)__saturation_occurred();
+				continue;
+			}
+		}
+#endif
 		if (!add && clear && j % SWELL_WAVE_TILE == 0 && j + SWELL_WAVE_TILE <= j1 &&
 		    w->nx % SWELL_WAVE_TILE == 0 &&
 		    (!w->sleep || tile_row_all(w, w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x, T_DIRTY_PREV))) {
@@ -854,11 +896,26 @@ int swell_wave_finish_rows(struct swell_wave *w, int rows)
 	return rows;
 }
 
+/* A finished step's tile flags in each byte of x as the last finished step's: Z1 where the step left
+ * no non-zero flow (not NONZERO), ZERO where that is the second step running (Z1 already), CHANGED
+ * from TOUCHED, DIRTY_PREV from DIRTY, every other flag cleared. Each flag is one bit moved within
+ * its byte (a shift, then a mask of that bit in every byte), so a word does four tiles at once. */
+_Static_assert(T_ZERO == 1u && T_NONZERO == 2u && T_Z1 == 16u && T_CHANGED == T_TOUCHED >> 1 &&
+		       T_DIRTY_PREV == T_DIRTY << 1,
+	       "step_flags4 moves these bits");
+static inline uint32_t step_flags4(uint32_t x)
+{
+	const uint32_t ones = 0x01010101u;
+	const uint32_t z1 = ((x >> 1) & ones) ^ ones; /* NONZERO (bit 1) clear, at bit 0 */
+
+	return z1 * T_Z1 | (z1 & (x >> 4)) * T_ZERO | ((x >> 1) & ones * T_CHANGED) | ((x << 1) & ones * T_DIRTY_PREV);
+}
+
 void swell_wave_step_finish(struct swell_wave *w)
 {
 	uint8_t *t;
 	int32_t *tmp;
-	int a;
+	int a, n;
 
 	swell_wave_step_rows(w, w->ny);
 	if (w->form == SWELL_FORM_VELOCITY)
@@ -871,15 +928,18 @@ void swell_wave_step_finish(struct swell_wave *w)
 	tmp = w->v;
 	w->v = w->acc;
 	w->acc = tmp;
-	/* the step is done: its flags become the last finished step's */
+	/* the step is done: its flags become the last finished step's, four tiles a word */
 	t = w->tile;
-	for (a = 0; a < (int)w->tiles_x * w->tiles_y; a++) {
-		uint8_t f = t[a];
-		uint8_t z1 = f & T_NONZERO ? 0u : T_Z1;
+	n = (int)w->tiles_x * w->tiles_y;
+	for (a = 0; a + 4 <= n; a += 4) {
+		uint32_t x;
 
-		t[a] = (uint8_t)(z1 | (z1 && (f & T_Z1) ? T_ZERO : 0u) | (f & T_TOUCHED ? T_CHANGED : 0u) |
-				 (f & T_DIRTY ? T_DIRTY_PREV : 0u));
+		memcpy(&x, t + a, sizeof(x));
+		x = step_flags4(x);
+		memcpy(t + a, &x, sizeof(x));
 	}
+	for (; a < n; a++)
+		t[a] = (uint8_t)step_flags4(t[a]);
 	w->next_row = 0;
 	w->done_row = 0;
 	w->steps++;

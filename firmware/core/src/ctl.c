@@ -26,8 +26,9 @@
  * of its own: every row is finished ahead before it. */
 #define COST_EDGE_ROW 9u
 #define COST_FINISH_ROW 2u
-/* the body's ceiling scan of a row finished ahead, while the object is out of the water: about 0.8 k */
-#define COST_SCAN_ROW 4u
+/* the body's ceiling scan of a row finished ahead, while the object is out of the water: about 0.4 k
+ * (LDM groups of eight cells) */
+#define COST_SCAN_ROW 2u
 #define COST_END 80u
 #define NEVER_SENT INT16_MIN
 
