@@ -1,11 +1,11 @@
 /* swell-ctl's command line and scene file; see ctl_main.h. */
-#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "ctl_main.h"
+#include "swell/num.h"
 #include "swell/pool.h"
 
 static const char usage[] =
@@ -70,12 +70,9 @@ static void die(const char *msg, const char *arg)
 
 static long num(const char *opt, const char *v, long lo, long hi)
 {
-	char *end;
 	long x;
 
-	errno = 0;
-	x = strtol(v, &end, 10);
-	if (errno || *v == '\0' || *end || x < lo || x > hi) {
+	if (swell_parse_long(v, 10, lo, hi, &x) < 0) {
 		fprintf(stderr, "swell-ctl: %s '%s' is not a whole number in [%ld, %ld]\n", opt, v, lo, hi);
 		exit(2);
 	}

@@ -3,6 +3,7 @@
 #include "hm_client.h"
 
 #include "swell/hm_frame.h"
+#include "swell/num.h"
 
 #include <arpa/inet.h>
 #include <errno.h>
@@ -181,15 +182,9 @@ int hm_client_open(struct hm_client *c, const char *spec, uint32_t max_age_ticks
 	}
 	memcpy(host, spec, hl);
 	host[hl] = '\0';
-	if (colon) {
-		char *end;
-
-		errno = 0;
-		port = strtol(colon + 1, &end, 10);
-		if (errno || end == colon + 1 || *end || port < 1 || port > 65535) {
-			snprintf(err, errlen, "hm:%s: port '%s' is not a number in [1, 65535]", spec, colon + 1);
-			return -1;
-		}
+	if (colon && swell_parse_long(colon + 1, 10, 1, 65535, &port) < 0) {
+		snprintf(err, errlen, "hm:%s: port '%s' is not a number in [1, 65535]", spec, colon + 1);
+		return -1;
 	}
 	c->addr.sin_family = AF_INET;
 	c->addr.sin_port = htons((uint16_t)port);

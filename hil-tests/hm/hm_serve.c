@@ -14,6 +14,8 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "swell/num.h"
+
 int hm_serve_parse(const char *spec, struct sockaddr_in *sa, char *err, size_t errlen)
 {
 	char addr[48] = "127.0.0.1";
@@ -22,7 +24,6 @@ int hm_serve_parse(const char *spec, struct sockaddr_in *sa, char *err, size_t e
 
 	if (colon || strspn(spec, "0123456789") == strlen(spec)) {
 		const char *p = colon ? colon + 1 : spec;
-		char *end;
 
 		if (colon) {
 			if ((size_t)(colon - spec) >= sizeof(addr) || colon == spec) {
@@ -32,9 +33,7 @@ int hm_serve_parse(const char *spec, struct sockaddr_in *sa, char *err, size_t e
 			memcpy(addr, spec, (size_t)(colon - spec));
 			addr[colon - spec] = '\0';
 		}
-		errno = 0;
-		port = strtol(p, &end, 10);
-		if (errno || end == p || *end || port < 0 || port > 65535) {
+		if (swell_parse_long(p, 10, 0, 65535, &port) < 0) {
 			snprintf(err, errlen, "port '%s' is not a number in [0, 65535] (0: any free port)", p);
 			return -1;
 		}

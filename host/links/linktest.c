@@ -9,6 +9,7 @@
 #include <time.h>
 
 #include "swell/link.h"
+#include "swell/num.h"
 #include "swell/transport.h"
 
 static void usage(FILE *f)
@@ -424,19 +425,6 @@ static int cmd_replay(const char *path, const struct opts *o)
 	return 0;
 }
 
-static int parse_ul(const char *s, int base, unsigned long lo, unsigned long hi, unsigned long *out)
-{
-	char *end;
-	unsigned long v;
-
-	errno = 0;
-	v = strtoul(s, &end, base);
-	if (errno || *end || end == s || v < lo || v > hi)
-		return -1;
-	*out = v;
-	return 0;
-}
-
 int main(int argc, char **argv)
 {
 	struct opts o;
@@ -453,7 +441,7 @@ int main(int argc, char **argv)
 	}
 	for (i = 1; i < argc; i++) {
 		const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
-		unsigned long x;
+		long x;
 
 		if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
 			usage(stdout);
@@ -470,17 +458,17 @@ int main(int argc, char **argv)
 				return 2;
 			}
 			i++;
-			if (!strcmp(a, "--count") && !parse_ul(v, 10, 1, 10000000, &x)) {
-				o.count = x;
-			} else if (!strcmp(a, "--bitrate") && !parse_ul(v, 10, 10000, 8000000, &x)) {
-				o.bitrate = x;
-			} else if (!strcmp(a, "--timeout") && !parse_ul(v, 10, 1, 600000, &x)) {
+			if (!strcmp(a, "--count") && !swell_parse_long(v, 10, 1, 10000000, &x)) {
+				o.count = (unsigned long)x;
+			} else if (!strcmp(a, "--bitrate") && !swell_parse_long(v, 10, 10000, 8000000, &x)) {
+				o.bitrate = (unsigned long)x;
+			} else if (!strcmp(a, "--timeout") && !swell_parse_long(v, 10, 1, 600000, &x)) {
 				o.timeout_ms = (int)x;
-			} else if (!strcmp(a, "--vid") && !parse_ul(v, 16, 0, 0xFFFF, &x)) {
+			} else if (!strcmp(a, "--vid") && !swell_parse_long(v, 16, 0, 0xFFFF, &x)) {
 				o.usb.vid = (uint16_t)x;
-			} else if (!strcmp(a, "--pid") && !parse_ul(v, 16, 0, 0xFFFF, &x)) {
+			} else if (!strcmp(a, "--pid") && !swell_parse_long(v, 16, 0, 0xFFFF, &x)) {
 				o.usb.pid = (uint16_t)x;
-			} else if (!strcmp(a, "--iface") && !parse_ul(v, 10, 0, 255, &x)) {
+			} else if (!strcmp(a, "--iface") && !swell_parse_long(v, 10, 0, 255, &x)) {
 				o.usb.iface = (int)x;
 			} else if (!strcmp(a, "--record")) {
 				o.record = v;

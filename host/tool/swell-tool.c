@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include "swell/link.h"
+#include "swell/num.h"
 #include "swell/param.h"
 #include "swell/scene.h"
 #include "swell/transport.h"
@@ -82,17 +83,6 @@ static int bad(const char *fmt, const char *arg)
 	return TOOL_USAGE;
 }
 
-static int parse_long(const char *s, long lo, long hi, long *v)
-{
-	char *end;
-
-	if (!s)
-		return -1;
-	errno = 0;
-	*v = strtol(s, &end, 10);
-	return !*s || *end || errno || *v < lo || *v > hi ? -1 : 0;
-}
-
 static int parse_args(int argc, char **argv, struct opts *o)
 {
 	char err[160];
@@ -122,12 +112,12 @@ static int parse_args(int argc, char **argv, struct opts *o)
 				return bad("%s", err);
 			k++;
 		} else if (!strcmp(a, "--node")) {
-			if (parse_long(val, 0, SWELL_NODE_MAX, &v) < 0)
+			if (swell_parse_long(val, 10, 0, SWELL_NODE_MAX, &v) < 0)
 				return bad("--node must be 0..15, not '%s'", val);
 			o->spec.node = (int)v;
 			k++;
 		} else if (!strcmp(a, "--timeout-ms")) {
-			if (parse_long(val, 1, 600000, &v) < 0)
+			if (swell_parse_long(val, 10, 1, 600000, &v) < 0)
 				return bad("--timeout-ms must be 1..600000, not '%s'", val);
 			o->timeout_ms = (int)v;
 			k++;

@@ -2,7 +2,6 @@
  * viewer would have received it, or sends it live over UDP. The gui tests replay its recordings, so
  * they need no controller. */
 #define _GNU_SOURCE
-#include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -10,6 +9,7 @@
 
 #include "gen.h"
 #include "swell/link.h"
+#include "swell/num.h"
 #include "swell/transport.h"
 
 static const char usage[] =
@@ -61,7 +61,6 @@ int main(int argc, char **argv)
 
 	for (int i = 1; i < argc; i++) {
 		const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
-		char *end;
 		if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
 			fputs(usage, stdout);
 			return 0;
@@ -74,16 +73,14 @@ int main(int argc, char **argv)
 		if (!strcmp(a, "--scene")) {
 			scene = v;
 		} else if (!strcmp(a, "--frames")) {
-			frames = strtol(v, &end, 10);
-			if (*end || frames < 1 || frames > 1000000) {
+			if (swell_parse_long(v, 10, 1, 1000000, &frames) < 0) {
 				fprintf(stderr, "swell-view-gen: --frames '%s' is not in 1..1000000\n", v);
 				return 2;
 			}
 		} else if (!strcmp(a, "--out")) {
 			out = v;
 		} else if (!strcmp(a, "--udp")) {
-			port = strtol(v, &end, 10);
-			if (*end || port < 1 || port > 65535) {
+			if (swell_parse_long(v, 10, 1, 65535, &port) < 0) {
 				fprintf(stderr, "swell-view-gen: --udp '%s' is not a port in 1..65535\n", v);
 				return 2;
 			}

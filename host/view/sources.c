@@ -8,6 +8,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "swell/num.h"
 #include "swell/pool.h"
 #include "swell/transport.h"
 
@@ -137,9 +138,8 @@ bool source_open(struct source *s, const char *spec, const char *record, int usb
 		const char *cells = strchr(spec + 8, ':');
 		snprintf(name, sizeof(name), "%.*s", cells ? (int)(cells - spec - 8) : 31, spec + 8);
 		if (cells) {
-			char *end;
-			long n = strtol(cells + 1, &end, 10);
-			if (!cells[1] || *end || n < 8 || n > 256) {
+			long n;
+			if (swell_parse_long(cells + 1, 10, 8, 256, &n) < 0) {
 				snprintf(err, errlen, "pattern cells '%s' is not a number in 8..256", cells + 1);
 				return false;
 			}

@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include "bench.h"
+#include "swell/num.h"
 
 static int failures;
 double f405_instr[BENCH_IMPL_COUNT];
@@ -127,12 +128,9 @@ static void bad(const char *fmt, const char *arg)
 
 static long parse_long(const char *s, const char *what, long lo, long hi)
 {
-	char *end;
 	long v;
 
-	errno = 0;
-	v = strtol(s, &end, 10);
-	if (errno || end == s || *end || v < lo || v > hi)
+	if (swell_parse_long(s, 10, lo, hi, &v) < 0)
 		bad(what, s);
 	return v;
 }

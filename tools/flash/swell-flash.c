@@ -18,6 +18,7 @@
 #include "flash_boot.h"
 #include "flash_image.h"
 #include "flash_plan.h"
+#include "swell/num.h"
 #include "swell/transport.h"
 
 #define MAX_FILE (16u * 1024u * 1024u)
@@ -160,9 +161,9 @@ static void parse(int argc, char **argv, struct cfg *c)
 		} else if (!strcmp(a, "--serial")) {
 			c->o.serial = need(argc, argv, &i);
 		} else if (!strcmp(a, "--baud")) {
-			unsigned long b = strtoul(need(argc, argv, &i), &end, 10);
+			long b;
 
-			if (*end || b < 1200 || b > 4000000)
+			if (swell_parse_long(need(argc, argv, &i), 10, 1200, 4000000, &b) < 0)
 				die(2, "--baud '%s' is not a rate in 1200..4000000 bit/s", argv[i]);
 			c->o.baud = (unsigned)b;
 		} else if (!strcmp(a, "--gdb-remote")) {
@@ -192,15 +193,15 @@ static void parse(int argc, char **argv, struct cfg *c)
 			link_arg(a, need(argc, argv, &i), &c->find_link);
 			c->find = 1;
 		} else if (!strcmp(a, "--node")) {
-			long n = strtol(need(argc, argv, &i), &end, 10);
+			long n;
 
-			if (*end || !*argv[i] || n < 0 || n > 15)
+			if (swell_parse_long(need(argc, argv, &i), 10, 0, 15, &n) < 0)
 				die(2, "--node '%s' is not a node id in 0..15", argv[i]);
 			c->node = (int)n;
 		} else if (!strcmp(a, "--iface")) {
-			long n = strtol(need(argc, argv, &i), &end, 10);
+			long n;
 
-			if (*end || !*argv[i] || n < 0 || n > 255)
+			if (swell_parse_long(need(argc, argv, &i), 10, 0, 255, &n) < 0)
 				die(2, "--iface '%s' is not a USB interface number in 0..255", argv[i]);
 			c->iface = (int)n;
 		} else if (!strcmp(a, "--find-timeout")) {

@@ -6,6 +6,7 @@
 
 #include "../logic/core_run.h"
 #include "swell/ctl_pool.h"
+#include "swell/num.h"
 #include "swell/scene.h"
 #include "../logic/scene.h"
 
@@ -34,6 +35,7 @@ int main(int argc, char **argv)
 	static struct swell_ctl ctl;
 	struct swell_wave w;
 	unsigned long steps = 200, n, core_ticks = 0, core_hz = SWELL_POOL_TICK_HZ, pool = 0;
+	long v;
 	enum swell_err err;
 	enum swell_wave_kernel kernel = SWELL_KERNEL_AUTO;
 	int i, k, cost = 0;
@@ -43,43 +45,34 @@ int main(int argc, char **argv)
 			fputs(usage, stdout);
 			return 0;
 		} else if (!strcmp(argv[i], "--steps") && i + 1 < argc) {
-			char *end;
-
-			steps = strtoul(argv[++i], &end, 10);
-			if (*end || !*argv[i] || steps > 100000000ul) {
+			if (swell_parse_long(argv[++i], 10, 0, 100000000, &v) < 0) {
 				fprintf(stderr, "swell-fw-scene: --steps '%s' is not a count in [0, 1e8]\n", argv[i]);
 				return 2;
 			}
+			steps = (unsigned long)v;
 		} else if (!strcmp(argv[i], "--core") && i + 1 < argc) {
-			char *end;
-
-			core_ticks = strtoul(argv[++i], &end, 10);
-			if (*end || !*argv[i] || core_ticks > 100000000ul) {
+			if (swell_parse_long(argv[++i], 10, 0, 100000000, &v) < 0) {
 				fprintf(stderr, "swell-fw-scene: --core '%s' is not a tick count in [0, 1e8]\n",
 					argv[i]);
 				return 2;
 			}
+			core_ticks = (unsigned long)v;
 		} else if (!strcmp(argv[i], "--core-hz") && i + 1 < argc) {
-			char *end;
-
-			core_hz = strtoul(argv[++i], &end, 10);
-			if (*end || !*argv[i] || core_hz < 500 || core_hz > SWELL_TICK_HZ_MAX ||
-			    core_hz % SWELL_POOL_SOLVER_HZ != 0) {
+			if (swell_parse_long(argv[++i], 10, 500, SWELL_TICK_HZ_MAX, &v) < 0 || v % SWELL_POOL_SOLVER_HZ != 0) {
 				fprintf(stderr,
 					"swell-fw-scene: --core-hz '%s' is not a multiple of the 250 Hz solver "
 					"rate in [500, 100000]\n",
 					argv[i]);
 				return 2;
 			}
+			core_hz = (unsigned long)v;
 		} else if (!strcmp(argv[i], "--pool") && i + 1 < argc) {
-			char *end;
-
-			pool = strtoul(argv[++i], &end, 10);
-			if (*end || !*argv[i] || pool < SWELL_WAVE_MIN_SIDE || pool > SWELL_GRID_MAX) {
+			if (swell_parse_long(argv[++i], 10, SWELL_WAVE_MIN_SIDE, SWELL_GRID_MAX, &v) < 0) {
 				fprintf(stderr, "swell-fw-scene: --pool '%s' is not a side in [2, 256] cells\n",
 					argv[i]);
 				return 2;
 			}
+			pool = (unsigned long)v;
 		} else if (!strcmp(argv[i], "--cost")) {
 			cost = 1;
 		} else if (!strcmp(argv[i], "--kernel") && i + 1 < argc) {
