@@ -527,51 +527,6 @@ void swell_height_quad_heights(const struct swell_msg_height_quad *q, int32_t h[
 	h[3] = swell_sample_to_height(q->h3);
 }
 
-static int grid_ok(unsigned nx, unsigned ny)
-{
-	return nx >= 1 && ny >= 1 && nx <= 32u * SWELL_PROTO_TILE && ny <= 32u * SWELL_PROTO_TILE;
-}
-
-enum swell_err swell_height_quad_pack(const int32_t *h, unsigned nx, unsigned ny, unsigned tile_x, unsigned tile_y,
-				      unsigned row, unsigned half, unsigned frame, struct swell_msg *out)
-{
-	struct swell_quad_at at;
-	int16_t s[4];
-	unsigned k;
-
-	if (!h || !out)
-		return SWELL_EINVAL;
-	if (!grid_ok(nx, ny))
-		return SWELL_ESIZE;
-	if (tile_x > 31 || tile_y > 31 || row >= SWELL_PROTO_TILE || half > 1 || frame > 3)
-		return SWELL_ERANGE;
-	at = swell_quad_locate((tile_y * 32u + tile_x) * SWELL_QUADS_PER_TILE + row * 2u + half, 32u);
-	for (k = 0; k < 4; k++)
-		s[k] = (at.y < ny && at.x0 + k < nx) ? swell_height_to_sample(h[(size_t)at.y * nx + at.x0 + k]) : 0;
-	*out = swell_height_quad(&at, frame, s);
-	return SWELL_OK;
-}
-
-enum swell_err swell_height_quad_unpack(const struct swell_msg *m, int32_t *h, unsigned nx, unsigned ny)
-{
-	const struct swell_msg_height_quad *q;
-	int32_t v[4];
-	unsigned k, j, i0;
-
-	if (!m || !h || m->type != SWELL_MSG_HEIGHT_QUAD)
-		return SWELL_EINVAL;
-	if (!grid_ok(nx, ny))
-		return SWELL_ESIZE;
-	q = &m->u.height_quad;
-	swell_height_quad_heights(q, v);
-	j = (unsigned)q->tile_y * SWELL_PROTO_TILE + q->row;
-	i0 = (unsigned)q->tile_x * SWELL_PROTO_TILE + 4u * q->half;
-	for (k = 0; k < 4; k++)
-		if (j < ny && i0 + k < nx)
-			h[(size_t)j * nx + i0 + k] = v[k];
-	return SWELL_OK;
-}
-
 /* ---- sequence numbers ---- */
 uint32_t swell_seq_loss(uint32_t gap, uint32_t *resyncs)
 {

@@ -1,5 +1,5 @@
 // The messages the tests build, every field not named 0 (node 0): a parameter request, a device
-// sample, a CAN error frame. A UDP end that speaks them: swell_msg_udp.hpp.
+// sample, a CAN error frame; a HEIGHT_QUAD into a grid. A UDP end that speaks them: swell_msg_udp.hpp.
 #ifndef SWELL_TEST_MSGS_HPP
 #define SWELL_TEST_MSGS_HPP
 
@@ -45,6 +45,18 @@ inline can_frame err_frame(uint32_t classes, uint8_t crtl = 0, uint8_t txerr = 0
 	f.data[6] = txerr;
 	f.data[7] = rxerr;
 	return f;
+}
+
+// Stores the cells of a HEIGHT_QUAD that lie inside an nx x ny row-major grid h (solver units), as a
+// viewer places them.
+inline void quad_to_grid(const swell_msg_height_quad &q, int32_t *h, unsigned nx, unsigned ny)
+{
+	int32_t v[4];
+	const unsigned j = q.tile_y * SWELL_PROTO_TILE + q.row, i0 = q.tile_x * SWELL_PROTO_TILE + 4u * q.half;
+	swell_height_quad_heights(&q, v);
+	for (unsigned k = 0; k < 4; k++)
+		if (j < ny && i0 + k < nx)
+			h[(size_t)j * nx + i0 + k] = v[k];
 }
 
 } // namespace swell_test

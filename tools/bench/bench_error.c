@@ -13,7 +13,7 @@ void error_run(enum bench_impl impl, enum swell_stencil st, int nx, double e, do
 	struct bench_mode md;
 	struct bench_amp am;
 	struct swell_wave_ref r;
-	int n = nx * nx, a, s = 0;
+	int n = nx * nx, s = 0;
 	double *h = xmalloc((size_t)n * sizeof(double)), *x = xmalloc((size_t)n * sizeof(double));
 	double *rs = xmalloc(SWELL_WAVE_REF_DOUBLES(nx, nx) * sizeof(double));
 	double v0, e0, w_sei;
@@ -24,15 +24,7 @@ void error_run(enum bench_impl impl, enum swell_stencil st, int nx, double e, do
 	bench_mode_field(&md, AMP_MM, h);
 	bench_field_set_mm(&f, h);
 	bench_field_get_mm(&f, h);
-	r.nx = r.ny = nx;
-	r.h = rs;
-	r.hp = rs + n;
-	r.next = rs + 2 * n;
-	r.e_eff = f.e_eff;
-	r.q = f.q;
-	r.steps = 0;
-	for (a = 0; a < n; a++)
-		r.h[a] = r.hp[a] = h[a];
+	bench_field_ref(&f, h, &r, rs);
 	bench_amp_init(&am, AMP_MM, f.e_eff, f.q, md.S);
 	w_sei = bench_omega_seiche(e, &md);
 	v0 = bench_field_volume_lsb(&f);

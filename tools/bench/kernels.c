@@ -349,6 +349,23 @@ void bench_field_get_mm(const struct bench_field *f, double *h_mm)
 			h_mm[j * f->nx + i] = cell_lsb(f, i, j, 0) * f->lsb_mm;
 }
 
+void bench_field_ref(const struct bench_field *f, const double *h_mm, struct swell_wave_ref *r, double *storage)
+{
+	const int n = f->nx * f->ny;
+	int a;
+
+	r->nx = f->nx;
+	r->ny = f->ny;
+	r->h = storage;
+	r->hp = storage + n;
+	r->next = storage + 2 * n;
+	r->e_eff = f->e_eff;
+	r->q = f->q;
+	r->steps = 0;
+	for (a = 0; a < n; a++)
+		r->h[a] = r->hp[a] = h_mm[a];
+}
+
 void bench_field_add_lsb(struct bench_field *f, int i, int j, int32_t k)
 {
 	size_t a = (size_t)j * f->nx + i, p = pidx(f, i, j);

@@ -29,6 +29,7 @@
 
 #include "swell/err.h"
 #include "swell/wave.h"
+#include "swell/wave_ref.h"
 
 enum bench_impl {
 	BENCH_SHIPPED = 0,
@@ -104,6 +105,9 @@ enum swell_err bench_field_force(struct bench_field *f, q30_t e_eff, q30_t q);
 /* Heights in mm (rounded to nearest LSB, saturated), water at rest (h(n-1) = h(n)). */
 void bench_field_set_mm(struct bench_field *f, const double *h_mm);
 void bench_field_get_mm(const struct bench_field *f, double *h_mm);
+/* r: the float64 reference of f's scheme (its e_eff and q) at rest at h_mm, in storage of
+ * SWELL_WAVE_REF_DOUBLES(nx, ny) doubles. */
+void bench_field_ref(const struct bench_field *f, const double *h_mm, struct swell_wave_ref *r, double *storage);
 /* Add k LSB to cell (i, j) without touching h(n-1): an impulse, as an object pushing the water. */
 void bench_field_add_lsb(struct bench_field *f, int i, int j, int32_t k);
 

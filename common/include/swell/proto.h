@@ -197,13 +197,6 @@ int swell_param_answer(const struct swell_msg *m, uint16_t id, uint8_t seq, int3
 struct swell_msg swell_height_quad(const struct swell_quad_at *at, unsigned frame, const int16_t s[4]);
 /* The four samples of a HEIGHT_QUAD in solver units. */
 void swell_height_quad_heights(const struct swell_msg_height_quad *q, int32_t h[4]);
-/* Fills a HEIGHT_QUAD (node 0) from row-major heights h[j * nx + i] of an nx x ny grid: cells
- * 4*half .. 4*half+3 of row `row` of tile (tile_x, tile_y); cells outside the grid are sent as 0.
- * SWELL_ESIZE for a grid outside 1..256, SWELL_ERANGE for a tile, row, half or frame out of range. */
-enum swell_err swell_height_quad_pack(const int32_t *h, unsigned nx, unsigned ny, unsigned tile_x, unsigned tile_y,
-				      unsigned row, unsigned half, unsigned frame, struct swell_msg *out);
-/* Stores the cells of a decoded HEIGHT_QUAD that lie inside the grid into h (solver units). */
-enum swell_err swell_height_quad_unpack(const struct swell_msg *m, int32_t *h, unsigned nx, unsigned ny);
 
 /* ---- sequence numbers on streams ---- */
 /* A gap of at most this many missing sequence numbers is counted as lost; a longer jump (another

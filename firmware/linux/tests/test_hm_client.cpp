@@ -110,6 +110,21 @@ const std::string startup = "set state init;set state force;remove swell_bias;cr
 const std::string startup_ok = "state set to 'init';state set to 'force';--- ERROR: unknown effect 'swell_bias';"
 			       "Effect biasforce with name swell_bias created;Bias force's force set;Effect swell_bias enabled";
 
+// a client connected to the scripted device, past its start-up; closed at the end
+struct Started {
+	Device dev;
+	hm_client c;
+	Started()
+	{
+		char err[160];
+		REQUIRE(hm_client_open(&c, ("127.0.0.1:" + std::to_string(dev.port)).c_str(), 2, err, sizeof err) == 0);
+		REQUIRE(dev.accept_one(c, 2000));
+		REQUIRE(dev.request(c) == startup);
+		dev.answer(startup_ok);
+	}
+	~Started() { hm_client_close(&c); }
+};
+
 } // namespace
 
 TEST_CASE("hm_client: decimal text to fixed point without floats, rounded half away from zero, saturated")
@@ -171,13 +186,9 @@ TEST_CASE("hm_client: decimal text to fixed point without floats, rounded half a
 
 TEST_CASE("hm_client: start-up to force, then one request a tick, answers become DEVICE_VEL and DEVICE_POS")
 {
-	Device dev;
-	hm_client c;
-	char err[160];
-	REQUIRE(hm_client_open(&c, ("127.0.0.1:" + std::to_string(dev.port)).c_str(), 2, err, sizeof err) == 0);
-	REQUIRE(dev.accept_one(c, 2000));
-	CHECK(dev.request(c) == startup);
-	dev.answer(startup_ok);
+	Started st;
+	Device &dev = st.dev;
+	hm_client &c = st.c;
 	// running: a first sample is asked for at once (a device-clocked controller ticks on it)
 	CHECK(dev.request(c) == "set swell_bias force [0.00,0.00,0.00];get measpos;get modelvel;get state");
 	const int16_t f[3] = {123, -5, 0};
@@ -198,19 +209,14 @@ TEST_CASE("hm_client: start-up to force, then one request a tick, answers become
 	hm_client_force(&c, f, 0); // enable 0: zero force
 	CHECK(dev.request(c) == "set swell_bias force [0.00,0.00,0.00];get measpos;get modelvel;get state");
 	CHECK(c.st.requests == 3);
-	hm_client_close(&c);
 }
 
 TEST_CASE("hm_client: an answer older than 2 ticks is dropped, the pipeline is not deepened past it, a stopped device is "
 	  "reported and started again")
 {
-	Device dev;
-	hm_client c;
-	char err[160];
-	REQUIRE(hm_client_open(&c, ("127.0.0.1:" + std::to_string(dev.port)).c_str(), 2, err, sizeof err) == 0);
-	REQUIRE(dev.accept_one(c, 2000));
-	REQUIRE(dev.request(c) == startup);
-	dev.answer(startup_ok);
+	Started st;
+	Device &dev = st.dev;
+	hm_client &c = st.c;
 	REQUIRE(dev.request(c).rfind("set swell_bias force", 0) == 0);
 	const std::string ok = "Bias force's force set;[0,0,0.01];[0,0,0];force";
 	dev.answer(ok);
@@ -256,18 +262,13 @@ TEST_CASE("hm_client: an answer older than 2 ticks is dropped, the pipeline is n
 		   "force set;Effect swell_bias enabled");
 	CHECK(dev.request(c, 3000) == startup);
 	CHECK(c.st.startup_failures == 1);
-	hm_client_close(&c);
 }
 
 TEST_CASE("hm_client: a garbage answer or a reset closes the link, counts what was in flight as lost, and it reconnects")
 {
-	Device dev;
-	hm_client c;
-	char err[160];
-	REQUIRE(hm_client_open(&c, ("127.0.0.1:" + std::to_string(dev.port)).c_str(), 2, err, sizeof err) == 0);
-	REQUIRE(dev.accept_one(c, 2000));
-	REQUIRE(dev.request(c) == startup);
-	dev.answer(startup_ok);
+	Started st;
+	Device &dev = st.dev;
+	hm_client &c = st.c;
 	REQUIRE(dev.request(c).rfind("set swell_bias force", 0) == 0);
 	dev.answer("junk", true); // bytes 4-7 not zero
 	swell_msg m[8];
@@ -293,18 +294,13 @@ TEST_CASE("hm_client: a garbage answer or a reset closes the link, counts what w
 	CHECK(c.phase == HMC_DOWN);
 	CHECK(c.st.resets == 2);
 	CHECK(c.st.lost == 2);
-	hm_client_close(&c);
 }
 
 TEST_CASE("hm_client: the exit path waits for the device to confirm the zero force, and reports failure when it does not")
 {
-	Device dev;
-	hm_client c;
-	char err[160];
-	REQUIRE(hm_client_open(&c, ("127.0.0.1:" + std::to_string(dev.port)).c_str(), 2, err, sizeof err) == 0);
-	REQUIRE(dev.accept_one(c, 2000));
-	REQUIRE(dev.request(c) == startup);
-	dev.answer(startup_ok);
+	Started st;
+	Device &dev = st.dev;
+	hm_client &c = st.c;
 	REQUIRE(dev.request(c).rfind("set swell_bias force", 0) == 0);
 	// the device answers the tick late and the zero at once: both are waited for
 	std::string seen;
@@ -326,7 +322,6 @@ TEST_CASE("hm_client: the exit path waits for the device to confirm the zero for
 	const auto t0 = std::chrono::steady_clock::now();
 	CHECK(hm_client_zero_wait(&c, 50) == -1);
 	CHECK(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() < 1.0);
-	hm_client_close(&c);
 }
 
 TEST_CASE("hm_fx: an effect set as the device's commands: each value exact in SI units, signs and the deadband's offsets, "

@@ -56,6 +56,17 @@ void clean_all(view_model &m)
 			vm_tile_clean(&m, tx, ty);
 }
 
+// a view model (stale after 1 s), freed at the end; Pool: with the 64 x 48 scene held
+struct Model {
+	view_model m;
+	Model() { vm_init(&m, S); }
+	~Model() { vm_free(&m); }
+};
+struct Pool : Model {
+	view_scene s = pool64();
+	Pool() { REQUIRE(vm_scene(&m, &s, 0) == SWELL_OK); }
+};
+
 } // namespace
 
 TEST_CASE("late join: tiles and poses before the scene description are counted and dropped")
@@ -85,12 +96,8 @@ TEST_CASE("late join: tiles and poses before the scene description are counted a
 	vm_free(&m);
 }
 
-TEST_CASE("a tile lands in its cells in mm and marks only its own tile dirty")
+TEST_CASE_METHOD(Pool, "a tile lands in its cells in mm and marks only its own tile dirty")
 {
-	view_model m;
-	vm_init(&m, S);
-	view_scene s = pool64();
-	REQUIRE(vm_scene(&m, &s, 0) == SWELL_OK);
 	clean_all(m);
 	CHECK(m.dirty_count == 0);
 	std::vector<int32_t> t(256);
@@ -130,15 +137,10 @@ TEST_CASE("a tile lands in its cells in mm and marks only its own tile dirty")
 	CHECK(vm_cells(&m, 0, 0, 15, 0, 2, 1, t.data()) == SWELL_ERANGE); // past the tile
 	CHECK(vm_cells(&m, 0, 0, 0, 0, 2, 0, t.data()) == SWELL_ERANGE); // position 0 is "none"
 	CHECK(m.st.cells == 2);
-	vm_free(&m);
 }
 
-TEST_CASE("reordering: heights from an older stream position never overwrite newer ones")
+TEST_CASE_METHOD(Pool, "reordering: heights from an older stream position never overwrite newer ones")
 {
-	view_model m;
-	vm_init(&m, S);
-	view_scene s = pool64();
-	REQUIRE(vm_scene(&m, &s, 0) == SWELL_OK);
 	auto newer = tile_of(2 * SWELL_H_ONE_MM, 256), older = tile_of(-SWELL_H_ONE_MM, 256);
 	REQUIRE(put_tile(m, 0, 0, 100, newer) == SWELL_OK);
 	CHECK(put_tile(m, 0, 0, 99, older) == SWELL_ESTATE);
@@ -157,13 +159,10 @@ TEST_CASE("reordering: heights from an older stream position never overwrite new
 	// positions compare modulo 2^32
 	REQUIRE(put_tile(m, 2, 0, 0xfffffff0u, newer) == SWELL_OK);
 	CHECK(put_tile(m, 2, 0, 0x10u, older) == SWELL_OK);
-	vm_free(&m);
 }
 
-TEST_CASE("sequence gaps count dropped frames, modulo the sequence width, a late frame is no longer lost")
+TEST_CASE_METHOD(Model, "sequence gaps count dropped frames, modulo the sequence width, a late frame is no longer lost")
 {
-	view_model m;
-	vm_init(&m, S);
 	CHECK(vm_frame(&m, 65530, 16, 1));
 	CHECK(vm_frame(&m, 65531, 16, 2));
 	CHECK(vm_frame(&m, 2, 16, 3)); // 65532..65535, 0, 1 missing
@@ -198,13 +197,10 @@ TEST_CASE("sequence gaps count dropped frames, modulo the sequence width, a late
 	CHECK(k.st.resyncs == 4);
 	CHECK(vm_frame(&k, 200, 8, 8));
 	vm_free(&k);
-	vm_free(&m);
 }
 
-TEST_CASE("controller restart clears the heights and waits for the scene again")
+TEST_CASE_METHOD(Model, "controller restart clears the heights and waits for the scene again")
 {
-	view_model m;
-	vm_init(&m, S);
 	vm_link(&m, true, 0);
 	view_scene s = pool64();
 	REQUIRE(vm_scene(&m, &s, 0) == SWELL_OK);
@@ -224,15 +220,10 @@ TEST_CASE("controller restart clears the heights and waits for the scene again")
 	vm_tick(&m, 40);
 	CHECK(m.status == VIEW_LIVE);
 	CHECK(m.h_mm[0] == 0.0f); // the old heights are gone
-	vm_free(&m);
 }
 
-TEST_CASE("a different scene description restarts, the same one repeated changes nothing")
+TEST_CASE_METHOD(Pool, "a different scene description restarts, the same one repeated changes nothing")
 {
-	view_model m;
-	vm_init(&m, S);
-	view_scene s = pool64();
-	REQUIRE(vm_scene(&m, &s, 0) == SWELL_OK);
 	auto t = tile_of(SWELL_H_ONE_MM, 256);
 	REQUIRE(put_tile(m, 0, 0, 1, t) == SWELL_OK);
 	REQUIRE(vm_scene(&m, &s, 1) == SWELL_OK);
@@ -243,15 +234,10 @@ TEST_CASE("a different scene description restarts, the same one repeated changes
 	CHECK(m.st.restarts == 1);
 	CHECK(m.h_mm[0] == 0.0f);
 	CHECK(m.scene.scene_id == 9);
-	vm_free(&m);
 }
 
-TEST_CASE("a scene out of range is refused and the held scene stays")
+TEST_CASE_METHOD(Pool, "a scene out of range is refused and the held scene stays")
 {
-	view_model m;
-	vm_init(&m, S);
-	view_scene s = pool64();
-	REQUIRE(vm_scene(&m, &s, 0) == SWELL_OK);
 	view_scene bad[5] = {s, s, s, s, s};
 	bad[0].nx = 1;
 	bad[1].ny = VIEW_MAX_SIDE + 1;
@@ -263,7 +249,6 @@ TEST_CASE("a scene out of range is refused and the held scene stays")
 	CHECK(m.scene.nx == 64);
 	CHECK(m.scene.ny == 48);
 	CHECK(m.st.restarts == 0);
-	vm_free(&m);
 }
 
 TEST_CASE("silence makes the data stale, link down wins, replug starts a new sequence")
@@ -289,10 +274,8 @@ TEST_CASE("silence makes the data stale, link down wins, replug starts a new seq
 	vm_free(&m);
 }
 
-TEST_CASE("frame and tile rates are counted over one second")
+TEST_CASE_METHOD(Model, "frame and tile rates are counted over one second")
 {
-	view_model m;
-	vm_init(&m, S);
 	vm_tick(&m, 0);
 	view_scene s = pool64();
 	REQUIRE(vm_scene(&m, &s, 0) == SWELL_OK);
@@ -305,13 +288,10 @@ TEST_CASE("frame and tile rates are counted over one second")
 	vm_tick(&m, S);
 	CHECK(m.st.frame_hz == Approx(250.0));
 	CHECK(m.st.piece_hz == Approx(250.0 * 32));
-	vm_free(&m);
 }
 
-TEST_CASE("latency estimate is the delay above the best path seen, and follows clock drift")
+TEST_CASE_METHOD(Model, "latency estimate is the delay above the best path seen, and follows clock drift")
 {
-	view_model m;
-	vm_init(&m, S);
 	vm_clock(&m, 1000, 6000); // offset 5000 us
 	vm_clock(&m, 2000, 6500); // offset 4500 us: new best
 	CHECK(m.st.latency_valid);
@@ -332,13 +312,10 @@ TEST_CASE("latency estimate is the delay above the best path seen, and follows c
 	INFO("latency estimate " << m.st.latency_ms << " ms");
 	CHECK(m.st.latency_ms < 1.45);
 	CHECK(m.st.latency_ms > 0.95);
-	vm_free(&m);
 }
 
-TEST_CASE("two interleaved 8-bit counts (two senders) are resynchronisations, never more lost than received")
+TEST_CASE_METHOD(Model, "two interleaved 8-bit counts (two senders) are resynchronisations, never more lost than received")
 {
-	view_model m;
-	vm_init(&m, S);
 	uint8_t a = 0, b = 128;
 	for (int k = 0; k < 1000; k++) {
 		vm_frame(&m, a++, 8, (uint64_t)k);
@@ -348,5 +325,4 @@ TEST_CASE("two interleaved 8-bit counts (two senders) are resynchronisations, ne
 	CHECK(m.st.dropped <= m.st.frames);
 	CHECK(m.st.dropped == 0);
 	CHECK(m.st.resyncs >= 1000);
-	vm_free(&m);
 }

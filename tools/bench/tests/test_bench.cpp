@@ -97,15 +97,7 @@ TEST_CASE("the f64 bench kernel agrees with swell_wave_ref to 1e-12 mm", "[bench
 
 		REQUIRE(bench_field_init(&f, BENCH_F64, n, n, 0.4, 0.1, st) == SWELL_OK);
 		bench_field_set_mm(&f, h.data());
-		r.nx = r.ny = n;
-		r.h = rs.data();
-		r.hp = r.h + n * n;
-		r.next = r.hp + n * n;
-		r.e_eff = f.e_eff;
-		r.q = f.q;
-		r.steps = 0;
-		for (int a = 0; a < n * n; a++)
-			r.h[a] = r.hp[a] = h[a];
+		bench_field_ref(&f, h.data(), &r, rs.data());
 		for (int k = 0; k < 300; k++) {
 			bench_field_step(&f);
 			swell_wave_ref_step(&r);
@@ -132,15 +124,7 @@ TEST_CASE("fixed kernels track float64 of the same scheme within 400 LSB over 30
 		REQUIRE(bench_field_init(&f, impl, n, n, 0.3, 0.0, SWELL_STENCIL_PAPER) == SWELL_OK);
 		bench_field_set_mm(&f, h.data());
 		bench_field_get_mm(&f, h.data()); // the quantised start
-		r.nx = r.ny = n;
-		r.h = rs.data();
-		r.hp = r.h + n * n;
-		r.next = r.hp + n * n;
-		r.e_eff = f.e_eff;
-		r.q = f.q;
-		r.steps = 0;
-		for (int a = 0; a < n * n; a++)
-			r.h[a] = r.hp[a] = h[a];
+		bench_field_ref(&f, h.data(), &r, rs.data());
 		for (int k = 0; k < 300; k++) {
 			bench_field_step(&f);
 			swell_wave_ref_step(&r);
