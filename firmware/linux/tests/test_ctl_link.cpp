@@ -43,6 +43,13 @@ struct can_frame device_pos(uint8_t node, uint8_t seq)
 	return f;
 }
 
+swell_msg zero_force()
+{
+	swell_msg m{};
+	m.type = SWELL_MSG_FORCE_CMD;
+	return m;
+}
+
 /* A CAN link whose socket is one end of a SEQPACKET pair; the test writes frames into the other. */
 struct FakeCan {
 	int sv[2] = {-1, -1};
@@ -60,6 +67,17 @@ struct FakeCan {
 	{
 		close(sv[0]);
 		close(sv[1]);
+	}
+	// fills the TX side, the stand-in for a queue that the bus does not drain: the frames queued
+	int fill()
+	{
+		const struct can_frame f = device_pos(0, 1);
+		int queued = 0;
+
+		while (write(sv[0], &f, sizeof(f)) == (ssize_t)sizeof(f))
+			queued++;
+		REQUIRE(errno == EAGAIN);
+		return queued;
 	}
 	size_t put(const struct can_frame &f)
 	{
@@ -158,15 +176,8 @@ TEST_CASE("USB link: an answer that finds the IN queue busy is held and kept in 
 TEST_CASE("CAN link: the zero force on exit waits for room in a full TX queue, a tick's force is dropped", "[ctl_link]")
 {
 	FakeCan c;
-	struct can_frame fill = device_pos(0, 1);
-	struct swell_msg zero;
-	int queued = 0;
-
-	while (write(c.sv[0], &fill, sizeof(fill)) == (ssize_t)sizeof(fill))
-		queued++; /* the stand-in for a TX queue that the bus does not drain */
-	REQUIRE(errno == EAGAIN);
-	memset(&zero, 0, sizeof(zero));
-	zero.type = SWELL_MSG_FORCE_CMD;
+	const int queued = c.fill();
+	swell_msg zero = zero_force();
 	zero.u.force_cmd.seq = 77;
 	ctl_link_send(&c.l, &zero, 1); /* a tick's send: refused, counted, gone */
 	CHECK(c.l.tx_errors == 1);
@@ -202,13 +213,8 @@ TEST_CASE("CAN link: the zero force on exit waits for room in a full TX queue, a
 TEST_CASE("CAN link: the zero force on exit gives up after its wait when the queue never drains", "[ctl_link]")
 {
 	FakeCan c;
-	struct can_frame fill = device_pos(0, 1);
-	struct swell_msg zero;
-
-	while (write(c.sv[0], &fill, sizeof(fill)) == (ssize_t)sizeof(fill))
-		;
-	memset(&zero, 0, sizeof(zero));
-	zero.type = SWELL_MSG_FORCE_CMD;
+	c.fill();
+	swell_msg zero = zero_force();
 	const auto t0 = std::chrono::steady_clock::now();
 	const int rc = ctl_link_send_wait(&c.l, &zero, 1, 30);
 	const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - t0).count();
@@ -433,13 +439,8 @@ TEST_CASE("UDP device link: a configured device is never let go, others are refu
 TEST_CASE("links count the sends in a row in which nothing reached the carrier", "[ctl_link]")
 {
 	FakeCan c;
-	struct can_frame fill = device_pos(0, 1);
-	struct swell_msg zero;
-
-	while (write(c.sv[0], &fill, sizeof(fill)) == (ssize_t)sizeof(fill))
-		;
-	memset(&zero, 0, sizeof(zero));
-	zero.type = SWELL_MSG_FORCE_CMD;
+	c.fill();
+	swell_msg zero = zero_force();
 	for (int k = 0; k < 5; k++)
 		ctl_link_send(&c.l, &zero, 1);
 	CHECK(c.l.unsent_run == 5);

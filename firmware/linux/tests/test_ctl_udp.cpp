@@ -22,6 +22,19 @@ struct Viewer : swell_test::MsgUdp {
 	}
 };
 
+/* The device's UDP link on a free port (mine), sending to the controller's device port, the next one. */
+swell_link *device_link(uint16_t &mine, uint16_t &ctl_port)
+{
+	swell_link *dev = nullptr;
+	REQUIRE(swell_link_open_udp(&dev, "127.0.0.1", 0, "127.0.0.1", 0) == 0);
+	mine = swell_link_udp_port(dev);
+	swell_link_close(dev);
+	dev = nullptr;
+	ctl_port = (uint16_t)(mine + 1);
+	REQUIRE(swell_link_open_udp(&dev, "127.0.0.1", mine, "127.0.0.1", ctl_port) == 0);
+	return dev;
+}
+
 } // namespace
 
 TEST_CASE("swell-ctl over UDP: bad parameter sets are refused with a reason and change nothing", "[ctl][udp]")
@@ -72,13 +85,8 @@ TEST_CASE("swell-ctl over UDP: bad parameter sets are refused with a reason and 
 TEST_CASE("swell-ctl --clock device: a silent device is ticked on every period, not every millisecond", "[ctl][udp]")
 {
 	const int tick_hz = 2500;
-	swell_link *dev = nullptr;
-	REQUIRE(swell_link_open_udp(&dev, "127.0.0.1", 0, "127.0.0.1", 0) == 0);
-	const uint16_t mine = swell_link_udp_port(dev);
-	swell_link_close(dev);
-	dev = nullptr;
-	const uint16_t ctl_port = (uint16_t)(mine + 1);
-	REQUIRE(swell_link_open_udp(&dev, "127.0.0.1", mine, "127.0.0.1", ctl_port) == 0);
+	uint16_t mine, ctl_port;
+	swell_link *dev = device_link(mine, ctl_port);
 	std::vector<std::string> args = {
 		SWELL_CTL_BIN, "--device",  "udp:" + std::to_string(ctl_port), "--host",  "none",    "--clock",
 		"device",      "--tick-hz", std::to_string(tick_hz),           "--no-rt", "--quiet", "--seconds",
@@ -173,13 +181,8 @@ TEST_CASE("swell-ctl without real-time scheduling says so and uses a 20 ms silen
 	  "faulted says FAULTED in its report",
 	  "[ctl][udp]")
 {
-	swell_link *dev = nullptr;
-	REQUIRE(swell_link_open_udp(&dev, "127.0.0.1", 0, "127.0.0.1", 0) == 0);
-	const uint16_t mine = swell_link_udp_port(dev);
-	swell_link_close(dev);
-	dev = nullptr;
-	const uint16_t ctl_port = (uint16_t)(mine + 1);
-	REQUIRE(swell_link_open_udp(&dev, "127.0.0.1", mine, "127.0.0.1", ctl_port) == 0);
+	uint16_t mine, ctl_port;
+	swell_link *dev = device_link(mine, ctl_port);
 	const std::string base = "/tmp/swell-ctl-rt-" + std::to_string(getpid());
 	std::vector<std::string> args = {
 		SWELL_CTL_BIN, "--device", "udp:" + std::to_string(ctl_port), "--host", "none", "--autorun", "--no-rt", "--quiet",

@@ -58,7 +58,8 @@ int main(int argc, char **argv)
 			}
 			core_ticks = (unsigned long)v;
 		} else if (!strcmp(argv[i], "--core-hz") && i + 1 < argc) {
-			if (swell_parse_long(argv[++i], 10, 500, SWELL_TICK_HZ_MAX, &v) < 0 || v % SWELL_POOL_SOLVER_HZ != 0) {
+			if (swell_parse_long(argv[++i], 10, 500, SWELL_TICK_HZ_MAX, &v) < 0 ||
+			    v % SWELL_POOL_SOLVER_HZ != 0) {
 				fprintf(stderr,
 					"swell-fw-scene: --core-hz '%s' is not a multiple of the 250 Hz solver "
 					"rate in [500, 100000]\n",
