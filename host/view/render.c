@@ -179,27 +179,32 @@ static const char *const hud_fs = "#version 330 core\n"
 				  "out vec4 o_col;\n"
 				  "void main() { o_col = texture(u_hud, v_uv); }\n";
 
+/* o when it compiled (a shader) or linked (prog: a program); else its log on stderr, o deleted, 0. */
+static unsigned checked(GLuint o, bool prog, const char *name)
+{
+	GLint ok = 0;
+	char log[2048];
+
+	(prog ? glGetProgramiv : glGetShaderiv)(o, prog ? GL_LINK_STATUS : GL_COMPILE_STATUS, &ok);
+	if (ok)
+		return o;
+	(prog ? glGetProgramInfoLog : glGetShaderInfoLog)(o, sizeof(log), NULL, log);
+	fprintf(stderr, "swell-view: %s %s: %s\n", prog ? "program" : "shader", name, log);
+	(prog ? glDeleteProgram : glDeleteShader)(o);
+	return 0;
+}
+
 static unsigned compile(GLenum kind, const char *src, const char *name)
 {
 	GLuint s = glCreateShader(kind);
-	GLint ok = 0;
 	glShaderSource(s, 1, &src, NULL);
 	glCompileShader(s);
-	glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
-	if (!ok) {
-		char log[2048];
-		glGetShaderInfoLog(s, sizeof(log), NULL, log);
-		fprintf(stderr, "swell-view: shader %s: %s\n", name, log);
-		glDeleteShader(s);
-		return 0;
-	}
-	return s;
+	return checked(s, false, name);
 }
 
 static unsigned program(const char *vs, const char *fs, const char *name)
 {
 	GLuint v = compile(GL_VERTEX_SHADER, vs, name), f = compile(GL_FRAGMENT_SHADER, fs, name);
-	GLint ok = 0;
 	if (!v || !f)
 		return 0;
 	GLuint p = glCreateProgram();
@@ -208,15 +213,16 @@ static unsigned program(const char *vs, const char *fs, const char *name)
 	glLinkProgram(p);
 	glDeleteShader(v);
 	glDeleteShader(f);
-	glGetProgramiv(p, GL_LINK_STATUS, &ok);
-	if (!ok) {
-		char log[2048];
-		glGetProgramInfoLog(p, sizeof(log), NULL, log);
-		fprintf(stderr, "swell-view: program %s: %s\n", name, log);
-		glDeleteProgram(p);
-		return 0;
-	}
-	return p;
+	return checked(p, true, name);
+}
+
+/* The bound 2D texture: filter (GL_NEAREST or GL_LINEAR) both ways, clamped to its edges. */
+static void tex_params(GLint filter)
+{
+	glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, filter);
+	glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, filter);
+	glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+	glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
 }
 
 /* ---- framebuffers ---- */
@@ -314,10 +320,7 @@ bool render_init(struct render *r, const struct render_opts *o)
 	glGenTextures(1, &r->tex_h);
 	glGenTextures(1, &r->tex_hud);
 	glBindTexture(GL_TEXTURE_2D, r->tex_hud);
-	glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-	glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-	glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-	glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+	tex_params(GL_NEAREST);
 
 	if (!fb_make(r))
 		return false;
@@ -399,10 +402,7 @@ static bool water_make(struct render *r, int nx_cells, int ny_cells)
 
 	glBindTexture(GL_TEXTURE_2D, r->tex_h);
 	glTexImage2D(GL_TEXTURE_2D, 0, GL_R32F, nx_cells, ny_cells, 0, GL_RED, GL_FLOAT, NULL);
-	glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
-	glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-	glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-	glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+	tex_params(GL_LINEAR);
 	r->water_nx = nx_cells;
 	r->water_ny = ny_cells;
 	r->water_indices = (int)ni;
@@ -739,10 +739,7 @@ void render_overlay(struct render *r, int slot, const uint8_t *rgba, int w, int 
 	if (!o->tex) {
 		glGenTextures(1, &o->tex);
 		glBindTexture(GL_TEXTURE_2D, o->tex);
-		glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-		glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-		glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-		glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+		tex_params(GL_NEAREST);
 	}
 	glBindTexture(GL_TEXTURE_2D, o->tex);
 	glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
@@ -767,7 +764,8 @@ void render_overlay_off(struct render *r, int slot)
 		r->ov[slot].on = false;
 }
 
-static void draw_overlays(struct render *r)
+/* Blended, no depth: the HUD's program and full-screen triangle, texture unit 0. */
+static void hud_begin(struct render *r)
 {
 	glDisable(GL_DEPTH_TEST);
 	glDisable(GL_CULL_FACE);
@@ -777,6 +775,11 @@ static void draw_overlays(struct render *r)
 	glActiveTexture(GL_TEXTURE0);
 	glUniform1i(glGetUniformLocation(r->prog_hud, "u_hud"), 0);
 	glBindVertexArray(r->vao_hud);
+}
+
+static void draw_overlays(struct render *r)
+{
+	hud_begin(r);
 	for (int k = 0; k < RENDER_OVERLAYS; k++) {
 		const struct render_overlay *o = &r->ov[k];
 		if (!o->on)
@@ -862,15 +865,8 @@ void render_frame(struct render *r, struct view_model *m, bool frozen)
 			memcpy(r->hud_text, r->text, sizeof(r->text));
 			r->hud_ntext = r->ntext;
 		}
-		glDisable(GL_DEPTH_TEST);
-		glDisable(GL_CULL_FACE);
-		glEnable(GL_BLEND);
-		glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
-		glUseProgram(r->prog_hud);
-		glActiveTexture(GL_TEXTURE0);
+		hud_begin(r);
 		glBindTexture(GL_TEXTURE_2D, r->tex_hud);
-		glUniform1i(glGetUniformLocation(r->prog_hud, "u_hud"), 0);
-		glBindVertexArray(r->vao_hud);
 		glDrawArrays(GL_TRIANGLES, 0, 3);
 	}
 	draw_overlays(r);
