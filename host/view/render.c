@@ -183,7 +183,7 @@ static const char *const hud_fs = "#version 330 core\n"
 static unsigned checked(GLuint o, bool prog, const char *name)
 {
 	GLint ok = 0;
-	char log[2048];
+	char log[2048] = ""; /* filled by the info log; empty if the driver gives none */
 
 	(prog ? glGetProgramiv : glGetShaderiv)(o, prog ? GL_LINK_STATUS : GL_COMPILE_STATUS, &ok);
 	if (ok)
