@@ -53,6 +53,13 @@ double logged_until(const std::string &csv)
 	return r.empty() ? 0.0 : r.back().t;
 }
 
+// waits (up to 60 s) until the log reaches simulated time t
+void wait_logged(const std::string &csv, double t)
+{
+	for (int k = 0; k < 6000 && logged_until(csv) < t; k++)
+		std::this_thread::sleep_for(std::chrono::milliseconds(10));
+}
+
 } // namespace
 
 TEST_CASE("hm loop: a drop settles within 2% of the level-corrected depth: the e-stop zeroes the force at once, faults the "
@@ -107,14 +114,12 @@ TEST_CASE("hm loop: a second client's set state stop zeroes the force at once an
 		   {"--lockstep", "--hand", "drop:z=20,hold=0.5", "--seconds", "60", "--log", csv});
 	REQUIRE(srv.port > 0);
 	Ctl ctl(srv.port, "hm-stop");
-	for (int k = 0; k < 6000 && logged_until(csv) < 4.0; k++)
-		std::this_thread::sleep_for(std::chrono::milliseconds(10));
+	wait_logged(csv, 4.0);
 	{
 		Client other(srv.port);
 		CHECK(other.ask("set state stop") == "state set to 'stop'");
 		const double stop_t = logged_until(csv);
-		for (int k = 0; k < 6000 && logged_until(csv) < stop_t + 3.0; k++)
-			std::this_thread::sleep_for(std::chrono::milliseconds(10));
+		wait_logged(csv, stop_t + 3.0);
 	}
 	const std::vector<row> rows = swell_test::read_hm_log(csv);
 	REQUIRE(!rows.empty());
@@ -232,14 +237,12 @@ TEST_CASE("hm loop: the controller killed mid-run: the device zeroes its bias fo
 	double killed_at = 0;
 	{
 		Ctl first(srv.port, "hm-restart-1");
-		for (int k = 0; k < 6000 && logged_until(csv) < 4.0; k++)
-			std::this_thread::sleep_for(std::chrono::milliseconds(10));
+		wait_logged(csv, 4.0);
 		killed_at = logged_until(csv);
 		first.stop(SIGKILL);
 	}
 	Ctl second(srv.port, "hm-restart-2");
-	for (int k = 0; k < 6000 && logged_until(csv) < killed_at + 5.0; k++)
-		std::this_thread::sleep_for(std::chrono::milliseconds(10));
+	wait_logged(csv, killed_at + 5.0);
 	CHECK(second.stop() == 0);
 	CHECK(srv.stop(SIGTERM, 10000) == 0);
 	const std::string sum = swell_test::slurp(srv.out);
@@ -287,8 +290,7 @@ TEST_CASE("hm loop, effect mode: the device's springs, damper and bias force flo
 		   {"--lockstep", "--hand", "drop:z=20,hold=0.5", "--seconds", "60", "--log", csv});
 	REQUIRE(srv.port > 0);
 	Ctl ctl(srv.port, "hm-effect", {"--scene", scene});
-	for (int k = 0; k < 6000 && logged_until(csv) < 4.2; k++)
-		std::this_thread::sleep_for(std::chrono::milliseconds(10));
+	wait_logged(csv, 4.2);
 	// a second client reads the effects back in one request (one device tick)
 	Client other(srv.port);
 	const std::vector<std::string> a = hmtcp::answers(
