@@ -242,19 +242,24 @@ static __attribute__((noinline)) void scan_groups8(const int32_t *h, const int32
 #undef SCAN_UP
 #endif
 
-/* Rows [j0, j1): the highest of h and h - d (d = v, or acc in rows finished ahead) into *top, sum(h)
- * into *sum. Heights are int28: eight of them sum exactly in int32. */
+/* Rows [j0, j1): the highest of h and h - d (d = v, or acc in rows finished ahead; in the velocity
+ * form the solver's own change dh(u), wave.h) into *top, sum(h) into *sum. Heights are int28: eight of
+ * them sum exactly in int32. */
 static void scan_rows(const struct swell_wave *w, const int32_t *d, int j0, int j1, int32_t *top, int64_t *sum)
 {
 	const int32_t *h = w->h + (size_t)j0 * w->nx;
 	const int n = (j1 - j0) * w->nx;
+	/* the velocity form with fraction bits: dh(u) rounded from u, cell by cell */
+	const int frac = w->form == SWELL_FORM_VELOCITY && w->vel_frac;
 	int32_t t = *top;
 	int64_t s = *sum;
 	int a = 0;
 
+	if (w->form == SWELL_FORM_VELOCITY)
+		d = w->u; /* dh(u) = u without fraction bits */
 	d += (size_t)j0 * w->nx;
 #if defined(__thumb2__)
-	if (n >= 8) {
+	if (n >= 8 && !frac) {
 		scan_groups8(h, d, n / 8, &t, &s);
 		a = n / 8 * 8;
 	}
@@ -265,7 +270,8 @@ static void scan_rows(const struct swell_wave *w, const int32_t *d, int j0, int 
 
 		for (; a < end; a++) {
 			/* the higher of h and h - d is h - min(d, 0): one comparison a cell */
-			const int32_t x = h[a], p = x - (d[a] < 0 ? d[a] : 0);
+			const int32_t dd = frac ? swell_wave_vel_dh(w, d[a]) : d[a];
+			const int32_t x = h[a], p = x - (dd < 0 ? dd : 0);
 
 			t = p > t ? p : t;
 			part += x;
@@ -294,7 +300,7 @@ static void scan_adopt(struct swell_body *b, int32_t top, int64_t sum)
 }
 
 /* One pass over the field: the highest surface any interpolation between h(n-1) = h - v and
- * h(n) = h can show, and sum(h) for the mean level. */
+ * h(n) = h can show (velocity form: h - dh(u) for h(n-1), wave.h), and sum(h) for the mean level. */
 static void scan_field(struct swell_body *b, const struct swell_wave *w)
 {
 	int32_t top = INT32_MIN;
@@ -373,7 +379,7 @@ void swell_body_scan_ahead(struct swell_body *b, const struct swell_wave *w)
 		b->scan_ok = 0;
 	if (!b->scan_ok || b->scan_row >= w->done_row)
 		return;
-	scan_rows(w, w->acc, b->scan_row, w->done_row, &b->scan_top, &b->scan_sum);
+	scan_rows(w, w->acc, b->scan_row, w->done_row, &b->scan_top, &b->scan_sum); /* velocity form: dh(u) */
 	b->scan_row = w->done_row;
 }
 
@@ -435,7 +441,40 @@ static int32_t overlap(int32_t c, int32_t e0, int32_t e1)
 	return hi - lo;
 }
 
-/* Area-weighted sums of h and v under a non-empty footprint. |h| <= 2^27 and |v| <= 2^28 over at
+/* fp_sums in the velocity form: v is dh(u), h(n) = h - dh(u) in rows finished ahead (wave.h). */
+static void fp_sums_vel(const struct swell_wave *w, const struct swell_body_fp *f, int64_t *sh, int64_t *sv)
+{
+	const int32_t i0 = f->x0 >> FP_SHIFT, i1 = (f->x1 - 1) >> FP_SHIFT;
+	const int32_t j0 = f->y0 >> FP_SHIFT, j1 = (f->y1 - 1) >> FP_SHIFT;
+	const int32_t ox0 = overlap(i0, f->x0, f->x1), ox1 = overlap(i1, f->x0, f->x1); /* one cell: the same */
+	int32_t i, j;
+
+	for (j = j0; j <= j1; j++) {
+		const int32_t oy = overlap(j, f->y0, f->y1);
+		const int32_t *h = w->h + (size_t)j * w->nx, *u = w->u + (size_t)j * w->nx;
+		const int ahead = j < w->done_row; /* h holds h(n+1), h(n) = h - dh(u) */
+		int64_t mh = 0, mv = 0, rh, rv;
+		const int32_t d0 = swell_wave_vel_dh(w, u[i0]), d1 = swell_wave_vel_dh(w, u[i1]);
+
+		for (i = i0 + 1; i < i1; i++) {
+			const int32_t d = swell_wave_vel_dh(w, u[i]);
+
+			mh += ahead ? h[i] - d : h[i]; /* int27 - int28: no overflow */
+			mv += d;
+		}
+		rh = (int64_t)ox0 * (ahead ? h[i0] - d0 : h[i0]) + mh * (1 << FP_SHIFT);
+		rv = (int64_t)ox0 * d0 + mv * (1 << FP_SHIFT);
+		if (i1 > i0) {
+			rh += (int64_t)ox1 * (ahead ? h[i1] - d1 : h[i1]);
+			rv += (int64_t)ox1 * d1;
+		}
+		*sh += oy * rh;
+		*sv += oy * rv;
+	}
+}
+
+/* Area-weighted sums of h(n) and v under a non-empty footprint (velocity form: the solver's own
+ * change dh(u) for v, wave.h; in rows finished ahead that is the step in progress's). |h| <= 2^27 and |v| <= 2^28 over at
  * most 65 x 65 cells with weights <= 2^22: every sum stays below 2^62. A row's inner cells are wholly
  * covered (weight 2^11): their plain sums are scaled once, the two end cells weighted apart. */
 static void fp_sums(const struct swell_wave *w, const struct swell_body_fp *f, int64_t *sh, int64_t *sv)
@@ -447,6 +486,10 @@ static void fp_sums(const struct swell_wave *w, const struct swell_body_fp *f, i
 
 	*sh = 0;
 	*sv = 0;
+	if (w->form == SWELL_FORM_VELOCITY) {
+		fp_sums_vel(w, f, sh, sv);
+		return;
+	}
 	for (j = j0; j <= j1; j++) {
 		const int32_t oy = overlap(j, f->y0, f->y1);
 		const int32_t *h = w->h + (size_t)j * w->nx, *v = w->v + (size_t)j * w->nx;
@@ -795,7 +838,7 @@ int64_t swell_body_invariant(const struct swell_body *b, const struct swell_wave
 
 	/* the step accumulator sums to the volume added and not yet finished: every flow in it is
 	 * added to one cell and taken from another (rows finished ahead have theirs in h already) */
-	for (a = w->done_row * w->nx; a < n; a++)
+	for (a = w->done_row * w->nx; w->acc && a < n; a++) /* the velocity form: none (no acc) */
 		pending += w->acc[a];
 	return swell_wave_volume(w) + pending - (b->v_displaced - b->v_unplaced);
 }
