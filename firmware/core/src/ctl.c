@@ -742,6 +742,21 @@ static void mark_moved_tiles(struct swell_ctl *c)
 			c->quad_stale[t] = 0xffffu;
 }
 
+/* Water placed in the cells of footprint f in the middle of a step is in h(n) as a reader sees it at
+ * once (swell/wave.h, velocity form): the quads of the tiles it covers may now differ from what was
+ * last sent. */
+static void mark_placed_tiles(struct swell_ctl *c, const struct swell_body_fp *f)
+{
+	const int32_t one = SWELL_BODY_FP_ONE;
+	int32_t tx, ty;
+
+	if (f->delta_lsb == 0 || f->x0 >= f->x1 || f->y0 >= f->y1)
+		return;
+	for (ty = f->y0 / one / SWELL_WAVE_TILE; ty <= (f->y1 - 1) / one / SWELL_WAVE_TILE; ty++)
+		for (tx = f->x0 / one / SWELL_WAVE_TILE; tx <= (f->x1 - 1) / one / SWELL_WAVE_TILE; tx++)
+			c->quad_stale[(uint32_t)ty * c->tiles_x + (uint32_t)tx] = 0xffffu;
+}
+
 /* The quad was compared (and sent where it differed): its samples are what was last sent. */
 static void quad_fresh(struct swell_ctl *c, uint32_t q)
 {
@@ -1087,12 +1102,20 @@ void swell_ctl_tick_background(struct swell_ctl *c)
 {
 	const uint32_t t = c->n.ticks - 1;
 	uint32_t budget = c->cfg.host_budget, work = c->work_force;
+	struct swell_body_fp placed;
 
 	if (!c->bg_pending)
 		return;
 	/* the force part's coupling, before the field moves on; while the object stays in the water its
-	 * cells are written once a period, at the step's end (swell_body_couple_later) */
+	 * cells are written once a period, at the step's end (swell_body_couple_later); written now, the
+	 * tiles it left and those it covers are stale for the telemetry */
+	placed = c->body.placed;
 	swell_body_couple_later(&c->body, &c->wave);
+	if (placed.delta_lsb != c->body.placed.delta_lsb || placed.x0 != c->body.placed.x0 ||
+	    placed.x1 != c->body.placed.x1 || placed.y0 != c->body.placed.y0 || placed.y1 != c->body.placed.y1) {
+		mark_placed_tiles(c, &placed);
+		mark_placed_tiles(c, &c->body.placed);
+	}
 	work += solver_slice(c);
 	if (t % period(c, HEARTBEAT_HZ) == 0) {
 		send_heartbeat(c);
