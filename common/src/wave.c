@@ -1025,7 +1025,8 @@ static void add_vel(struct swell_wave *w, int i0, int i1, int j, int32_t dh)
 		h[i] = c;
 	}
 	w->saturations += sat;
-	if (moved)
+	/* a tile TOUCHED already woke its neighbours for this step (and asleep() keeps them awake) */
+	if (moved && !(w->tile[(j / SWELL_WAVE_TILE) * w->tiles_x + i0 / SWELL_WAVE_TILE] & T_TOUCHED))
 		swell_wave_touched(w, i0, j);
 }
 

@@ -1056,33 +1056,38 @@ static uint32_t force_law(struct swell_ctl *c)
 	return work;
 }
 
-/* The solver step spread over the K ticks of its period. Ticks 0 .. K-2 do the momentum of their
- * share of rows (ceil(ny (k+1) / (K-1)) done after tick k), whose heights become h(n+1) one row behind
- * (wave.h, velocity form), and the body's ceiling scan of the rows that hold h(n+1) (while the object
- * is out of the water); tick K-1 completes the step: the last row's heights, the fixers, the tile
- * flags and the period's coupling. The force law in between reads h(n) and the solver's change in
- * every row (wave.h: h - dh(u) in rows below done_row), so it never sees a half-finished step. */
+/* The solver step spread over the K ticks of its period: tick k does the momentum of its share of
+ * rows (ceil(ny (k+1) / K) done after it), whose heights become h(n+1) one row behind (wave.h, velocity
+ * form), and the body's ceiling scan of the rows that hold h(n+1) (while the object is out of the
+ * water); tick K-1 also completes the step (the last row's heights, the fixers, the tile flags) and
+ * then places the period's coupling into h(n+1). The force law in between reads h(n) and the solver's
+ * change in every row (wave.h: h - dh(u) in rows below done_row), so it never sees a half-finished
+ * step. */
 static uint32_t solver_slice(struct swell_ctl *c)
 {
 	struct swell_wave *w = &c->wave;
 	const uint32_t done0 = w->done_row, k = c->phase, kk = c->ticks_per_step;
-	uint32_t work, rows;
+	const uint32_t target = (w->ny * (k + 1) + kk - 1) / kk;
+	const uint32_t rows = target > w->next_row ? target - w->next_row : 0;
+	struct swell_body_fp placed;
+	uint32_t work;
 
+	swell_wave_step_rows(w, (int)rows);
 	if (k + 1 < kk) {
-		const uint32_t target = (w->ny * (k + 1) + kk - 2) / (kk - 1);
-
-		rows = target > w->next_row ? target - w->next_row : 0;
-		swell_wave_step_rows(w, (int)rows);
 		swell_body_scan_ahead(&c->body, w);
 		work = (rows + (w->done_row - done0)) * w->nx;
 	} else {
-		swell_body_place(&c->body, w); /* the period's coupling, kept back, into h(n+1) */
 		swell_wave_step_finish(w);
 		mark_moved_tiles(c);
+		/* the period's coupling, kept back, into h(n+1): the tiles it wrote are stale too */
+		placed = c->body.placed;
+		swell_body_place(&c->body, w);
+		mark_placed_tiles(c, &placed);
+		mark_placed_tiles(c, &c->body.placed);
 		swell_body_solver_stepped(&c->body, w);
 		c->n.solver_steps++;
-		/* the last row's heights and the ceiling scan of the rows left */
-		work = 2u * (w->ny - done0) * w->nx;
+		/* the rows, the last row's heights and the ceiling scan of the rows left */
+		work = (rows + 2u * (w->ny - done0)) * w->nx;
 	}
 	c->phase = c->phase + 1 == c->ticks_per_step ? 0 : c->phase + 1;
 	return work;

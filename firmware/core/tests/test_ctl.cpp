@@ -730,14 +730,14 @@ TEST_CASE("the solver step spread over the period (rows one behind and scan ahea
 			const uint32_t phase = k.c.phase;
 			swell_ctl_tick_background(&k.c);
 			swell_body_couple_later(&b, &w);
+			const int target = (int)((cfg.ny * (phase + 1) + kk - 1) / kk);
+			swell_wave_step_rows(&w, target - w.next_row);
 			if (k.c.phase == 0) { /* the step just completed, in both */
-				swell_body_place(&b, &w);
 				swell_wave_step_finish(&w);
+				swell_body_place(&b, &w);
 				swell_body_solver_stepped(&b, &w);
 				REQUIRE(swell_wave_checksum(&w) == swell_wave_checksum(&k.c.wave));
 			} else {
-				const int target = (int)((cfg.ny * (phase + 1) + kk - 2) / (kk - 1));
-				swell_wave_step_rows(&w, target - w.next_row);
 				swell_body_scan_ahead(&b, &w);
 			}
 			k.drain(SWELL_LINK_DEVICE);
