@@ -441,36 +441,48 @@ static int32_t overlap(int32_t c, int32_t e0, int32_t e1)
 	return hi - lo;
 }
 
-/* fp_sums in the velocity form: v is dh(u), h(n) = h - dh(u) in rows finished ahead (wave.h). */
+/* fp_sums in the velocity form: h(n) = h - dh(u) in rows finished ahead (wave.h), and for v the
+ * momentum u / 2^F, the solver's own change before its rounding to a height LSB (the weighted sum of u
+ * shifted once, rounded to nearest: two loads and two adds a cell where no row is finished ahead). */
 static void fp_sums_vel(const struct swell_wave *w, const struct swell_body_fp *f, int64_t *sh, int64_t *sv)
 {
 	const int32_t i0 = f->x0 >> FP_SHIFT, i1 = (f->x1 - 1) >> FP_SHIFT;
 	const int32_t j0 = f->y0 >> FP_SHIFT, j1 = (f->y1 - 1) >> FP_SHIFT;
 	const int32_t ox0 = overlap(i0, f->x0, f->x1), ox1 = overlap(i1, f->x0, f->x1); /* one cell: the same */
+	const int frac = w->vel_frac;
+	const int32_t half = frac ? (int32_t)1 << (frac - 1) : 0;
+	int64_t su = 0;
 	int32_t i, j;
 
 	for (j = j0; j <= j1; j++) {
 		const int32_t oy = overlap(j, f->y0, f->y1);
 		const int32_t *h = w->h + (size_t)j * w->nx, *u = w->u + (size_t)j * w->nx;
-		const int ahead = j < w->done_row; /* h holds h(n+1), h(n) = h - dh(u) */
-		int64_t mh = 0, mv = 0, rh, rv;
-		const int32_t d0 = swell_wave_vel_dh(w, u[i0]), d1 = swell_wave_vel_dh(w, u[i1]);
+		int64_t mh = 0, mu = 0, rh, ru;
+		int32_t he0 = h[i0], he1 = h[i1];
 
-		for (i = i0 + 1; i < i1; i++) {
-			const int32_t d = swell_wave_vel_dh(w, u[i]);
-
-			mh += ahead ? h[i] - d : h[i]; /* int27 - int28: no overflow */
-			mv += d;
+		if (j < w->done_row) { /* h holds h(n+1), h(n) = h - dh(u): int27 - int28, no overflow */
+			he0 -= (u[i0] + half - (u[i0] < 0)) >> frac;
+			he1 -= (u[i1] + half - (u[i1] < 0)) >> frac;
+			for (i = i0 + 1; i < i1; i++) {
+				mh += h[i] - ((u[i] + half - (u[i] < 0)) >> frac);
+				mu += u[i];
+			}
+		} else {
+			for (i = i0 + 1; i < i1; i++) {
+				mh += h[i];
+				mu += u[i];
+			}
 		}
-		rh = (int64_t)ox0 * (ahead ? h[i0] - d0 : h[i0]) + mh * (1 << FP_SHIFT);
-		rv = (int64_t)ox0 * d0 + mv * (1 << FP_SHIFT);
+		rh = (int64_t)ox0 * he0 + mh * (1 << FP_SHIFT);
+		ru = (int64_t)ox0 * u[i0] + mu * (1 << FP_SHIFT);
 		if (i1 > i0) {
-			rh += (int64_t)ox1 * (ahead ? h[i1] - d1 : h[i1]);
-			rv += (int64_t)ox1 * d1;
+			rh += (int64_t)ox1 * he1;
+			ru += (int64_t)ox1 * u[i1];
 		}
 		*sh += oy * rh;
-		*sv += oy * rv;
+		su += oy * ru;
 	}
+	*sv = frac ? shr_rn(su, frac) : su;
 }
 
 /* Area-weighted sums of h(n) and v under a non-empty footprint (velocity form: the solver's own
