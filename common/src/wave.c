@@ -564,7 +564,8 @@ static void update_row(struct swell_wave *w, int j)
 			continue;
 		}
 #endif
-		sat |= f ? update_seg(h + i0, u + i0, SWELL_WAVE_TILE, f) : update_seg(h + i0, u + i0, SWELL_WAVE_TILE, 0);
+		sat |= f ? update_seg(h + i0, u + i0, SWELL_WAVE_TILE, f)
+			 : update_seg(h + i0, u + i0, SWELL_WAVE_TILE, 0);
 	}
 #if SWELL_WAVE_DSP
 	sat |= (uint32_t)__saturation_occurred();
@@ -694,7 +695,6 @@ static inline __attribute__((always_inline)) int32_t finish_seg(int32_t *restric
 	}
 	return any;
 }
-
 
 /* Row j of the finishing pass: h += acc where the step wrote acc (add, DIRTY), the old v cleared where
  * the last step wrote it (clear, DIRTY_PREV); sets TOUCHED where a cell changed. */
@@ -938,8 +938,8 @@ int swell_wave_finish_rows(struct swell_wave *w, int rows)
  * no non-zero flow (not NONZERO), ZERO where that is the second step running (Z1 already), CHANGED
  * from TOUCHED, DIRTY_PREV from DIRTY, every other flag cleared. Each flag is one bit moved within
  * its byte (a shift, then a mask of that bit in every byte), so a word does four tiles at once. */
-_Static_assert(T_ZERO == 1u && T_NONZERO == 2u && T_Z1 == 16u && T_CHANGED == T_TOUCHED >> 1 && T_TOUCHED == T_NONZERO << 2 &&
-		       T_DIRTY_PREV == T_DIRTY << 1,
+_Static_assert(T_ZERO == 1u && T_NONZERO == 2u && T_Z1 == 16u && T_CHANGED == T_TOUCHED >> 1 &&
+		       T_TOUCHED == T_NONZERO << 2 && T_DIRTY_PREV == T_DIRTY << 1,
 	       "step_flags4 moves these bits");
 static inline uint32_t step_flags4(uint32_t x)
 {
@@ -1016,9 +1016,10 @@ static void add_vel(struct swell_wave *w, int i0, int i1, int j, int32_t dh)
 	int32_t moved = 0;
 	int i;
 
+	/* beyond twice the height bound every sum clamps the same: then h + dh fits int32 */
+	dh = swell_clamp(dh, 2 * lo, 2 * hi);
 	for (i = i0; i < i1; i++) {
-		const int64_t x = (int64_t)h[i] + dh;
-		const int32_t c = (int32_t)(x > hi ? hi : x < lo ? lo : x);
+		const int32_t x = h[i] + dh, c = x > hi ? hi : x < lo ? lo : x;
 
 		sat += c != x;
 		moved |= c ^ h[i];

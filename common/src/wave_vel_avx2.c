@@ -263,11 +263,11 @@ VA_FN void va_rows_pass(struct swell_wave *w, int j, int q, int awake, uint8_t *
 			for (k = 0; k < q; k++) {
 				sn[k] = _mm256_permutevar8x32_epi32(P[k].s0, east);
 				if (r < 8)
-					va_tile(trow, b, K, A, n, &P[k], sn[k], u + (size_t)k * nx, mask, 1, awake, damp,
-						f);
+					va_tile(trow, b, K, A, n, &P[k], sn[k], u + (size_t)k * nx, mask, 1, awake,
+						damp, f);
 				else
-					va_tile(trow, b, K, A, n, &P[k], sn[k], u + (size_t)k * nx, mask, 0, awake, damp,
-						f);
+					va_tile(trow, b, K, A, n, &P[k], sn[k], u + (size_t)k * nx, mask, 0, awake,
+						damp, f);
 			}
 			b++;
 		}
@@ -352,11 +352,11 @@ VA_FN __m256i va_update(int32_t *h, const int32_t *u, __m256i m, int masked, int
 	const __m256i hmin = _mm256_set1_epi32(SWELL_HV_MIN), hmax = _mm256_set1_epi32(SWELL_HV_MAX);
 	const __m256i uo = masked ? _mm256_maskload_epi32(u, m) : _mm256_loadu_si256((const __m256i *)u);
 	/* nearest, ties away from zero: (u + 2^(F-1) - (u < 0)) >> F; at F = 0, u */
-	const __m256i dh =
-		f ? _mm256_srai_epi32(_mm256_add_epi32(_mm256_add_epi32(uo, _mm256_set1_epi32(f ? 1 << (f - 1) : 0)),
-						       _mm256_cmpgt_epi32(_mm256_setzero_si256(), uo)),
-				      f)
-		  : uo;
+	const __m256i dh = f
+		? _mm256_srai_epi32(_mm256_add_epi32(_mm256_add_epi32(uo, _mm256_set1_epi32(f ? 1 << (f - 1) : 0)),
+						     _mm256_cmpgt_epi32(_mm256_setzero_si256(), uo)),
+				    f)
+		: uo;
 	/* |h| <= 2^26, |dh| <= 2^27: no overflow */
 	const __m256i x = _mm256_add_epi32(masked ? _mm256_maskload_epi32(h, m) : _mm256_loadu_si256((__m256i *)h), dh);
 	const __m256i t = _mm256_min_epi32(_mm256_max_epi32(x, hmin), hmax);

@@ -19,6 +19,14 @@
  * in ten) and 15.2 ms at 1000 Hz (three in four). */
 #define QUAD_SCAN_PER_TICK 64u
 #define QUAD_READS_PER_S 90000u
+/* Relative costs for spreading a solver step (the velocity form) over its ticks, in instructions
+ * measured on the Cortex-M4 image (damped and undamped, every tile awake): a cell of a kernel row with
+ * its row driver and the height update one row behind about 32, the body's ceiling scan of a cell
+ * while the object is out of the water about 7 (LDM groups of eight), the step's end (the last row's
+ * heights, the two fixers of up to 64 cells each, the tile flags, the period's coupling) about 12 k. */
+#define COST_CELL 32u
+#define COST_SCAN_CELL 7u
+#define COST_END 12000u
 #define NEVER_SENT INT16_MIN
 
 /* the telemetry's stale bits follow the solver's tiles: a wire tile is a sleeping tile */
@@ -195,8 +203,8 @@ static enum swell_err init_at(struct swell_ctl *c, const struct swell_ctl_config
 	n = (uint32_t)cfg->nx * cfg->ny;
 	/* checked above: none of these can fail */
 	if (apart) {
-		swell_wave_init_vel_apart(&c->wave, cfg->nx, cfg->ny, arena,
-					  SWELL_WAVE_VEL_WORDS(cfg->nx, cfg->ny) - n, apart, n, &cfg->wave);
+		swell_wave_init_vel_apart(&c->wave, cfg->nx, cfg->ny, arena, SWELL_WAVE_VEL_WORDS(cfg->nx, cfg->ny) - n,
+					  apart, n, &cfg->wave);
 		c->sent = (uint32_t *)(arena + SWELL_WAVE_VEL_WORDS(cfg->nx, cfg->ny) - n);
 		c->quad_stale = (uint16_t *)(c->sent + sent_words(cfg->nx, cfg->ny));
 	} else {
@@ -1057,7 +1065,8 @@ static uint32_t force_law(struct swell_ctl *c)
 }
 
 /* The solver step spread over the K ticks of its period: tick k does the momentum of its share of
- * rows (ceil(ny (k+1) / K) done after it), whose heights become h(n+1) one row behind (wave.h, velocity
+ * rows (by the relative costs above, the period's rows and its end in K equal parts: after tick k < K-1
+ * the rows that fit (k+1) parts, the rest on tick K-1 with the step's end), whose heights become h(n+1) one row behind (wave.h, velocity
  * form), and the body's ceiling scan of the rows that hold h(n+1) (while the object is out of the
  * water); tick K-1 also completes the step (the last row's heights, the fixers, the tile flags) and
  * then places the period's coupling into h(n+1). The force law in between reads h(n) and the solver's
@@ -1067,7 +1076,11 @@ static uint32_t solver_slice(struct swell_ctl *c)
 {
 	struct swell_wave *w = &c->wave;
 	const uint32_t done0 = w->done_row, k = c->phase, kk = c->ticks_per_step;
-	const uint32_t target = (w->ny * (k + 1) + kk - 1) / kk;
+	/* a row's cost, and the period's: the rows and the step's end */
+	const uint32_t row = w->nx * (c->body.wet ? COST_CELL : COST_CELL + COST_SCAN_CELL);
+	const uint32_t total = row * w->ny + COST_END;
+	const uint32_t fit = k + 1 < kk ? total / kk * (k + 1) / row : w->ny;
+	const uint32_t target = fit < w->ny ? fit : w->ny;
 	const uint32_t rows = target > w->next_row ? target - w->next_row : 0;
 	struct swell_body_fp placed;
 	uint32_t work;

@@ -401,8 +401,8 @@ __attribute__((noinline)) void selftest_trace_end(void)
 }
 
 /* The body's ceiling scan (LDM assembly on this core) against a plain loop on the field the core
- * run left: the highest of h and h - dh(u) (the solver's own change, swell/wave.h), and sum(h). On a
- * copy of the body, so the run is untouched. */
+ * run left: the highest of h and h - floor(u / 2^F) (the solver's own change before its rounding,
+ * swell/wave.h), and sum(h). On a copy of the body, so the run is untouched. */
 static int scan_matches(const struct swell_ctl *c)
 {
 	struct swell_body b = c->body;
@@ -412,7 +412,7 @@ static int scan_matches(const struct swell_ctl *c)
 	int a, ok;
 
 	for (a = 0; a < w->nx * w->ny; a++) {
-		const int32_t d = swell_wave_dh(w, (size_t)a), p = w->h[a] - (d < 0 ? d : 0);
+		const int32_t d = w->u[a] >> w->vel_frac, p = w->h[a] - (d < 0 ? d : 0);
 
 		top = p > top ? p : top;
 		sum += w->h[a];
