@@ -491,22 +491,51 @@ static inline void step_row(struct swell_wave *w, int j, int damp)
 }
 
 #if SWELL_WAVE_DSP
-/* n tile rows (8 cells each, n >= 1) of the velocity form's height update at F = 0, h = SSAT27(h + u)
- * (SSAT sets the Q flag, which the caller reads): four cells an LDM of u, an LDM of h, four ADD and
- * SSAT and an STM of h (Cortex-M4 TRM: 1 + N cycles each), about 3 instructions a cell with the loop.
- * A function of its own: inlined, its nine scratch registers leave too few for the operands. */
-#define ADD_FOUR                                                                                                  \
-	"ldmia %[u]!, {r2, r3, r4, r5}\n\tldmia %[h], {r6, r7, r8, r9}\n\tadd r6, r6, r2\n\tssat r6, #27, r6\n\t" \
-	"add r7, r7, r3\n\tssat r7, #27, r7\n\tadd r8, r8, r4\n\tssat r8, #27, r8\n\tadd r9, r9, r5\n\t"          \
-	"ssat r9, #27, r9\n\tstmia %[h]!, {r6, r7, r8, r9}\n\t"
-static __attribute__((noinline)) void add_tiles_u(int32_t *h, const int32_t *u, int n)
-{
-	__asm__ volatile("1:\t" ADD_FOUR ADD_FOUR "subs %[n], %[n], #1\n\tbne 1b"
-			 : [h] "+r"(h), [u] "+r"(u), [n] "+r"(n)
-			 :
-			 : "r2", "r3", "r4", "r5", "r6", "r7", "r8", "r9", "cc", "memory");
-}
+/* n tile rows (8 cells each, n >= 1) of the velocity form's height update, h = SSAT27(h + dh(u))
+ * (SSAT sets the Q flag, which the caller reads): four cells an LDM of u, an LDM of h, the four sums
+ * and an STM of h (Cortex-M4 TRM: 1 + N cycles each). At F = 0, dh = u: ADD and SSAT, about 3
+ * instructions a cell with the loop; with F fraction bits dh = (u - (u < 0) + 2^(F-1)) >> F (nearest,
+ * ties away from zero): SUB of u's sign bit, ADD of the half, ADD with ASR #F, SSAT, about 5.
+ * Functions of their own (one for each shift, an immediate): inlined, their nine scratch registers
+ * leave too few for the operands. */
+#define ADD_CELL0(H, U) "add " H ", " H ", " U "\n\tssat " H ", #27, " H "\n\t"
+#define ADD_CELLF(H, U, F, HALF)                                                                              \
+	"sub " U ", " U ", " U ", lsr #31\n\tadd " U ", " U ", #" HALF "\n\tadd " H ", " H ", " U ", asr #" F \
+	"\n\tssat " H ", #27, " H "\n\t"
+#define ADD_FOUR(C0, C1, C2, C3)                                                        \
+	"ldmia %[u]!, {r2, r3, r4, r5}\n\tldmia %[h], {r6, r7, r8, r9}\n\t" C0 C1 C2 C3 \
+	"stmia %[h]!, {r6, r7, r8, r9}\n\t"
+#define ADD_TILES(NAME, C0, C1, C2, C3)                                                             \
+	static __attribute__((noinline)) void NAME(int32_t *h, const int32_t *u, int n)             \
+	{                                                                                           \
+		__asm__ volatile("1:\t" ADD_FOUR(C0, C1, C2, C3)                                    \
+					 ADD_FOUR(C0, C1, C2, C3) "subs %[n], %[n], #1\n\tbne 1b"   \
+				 : [h] "+r"(h), [u] "+r"(u), [n] "+r"(n)                            \
+				 :                                                                  \
+				 : "r2", "r3", "r4", "r5", "r6", "r7", "r8", "r9", "cc", "memory"); \
+	}
+#define ADD_TILES_F(NAME, F, HALF)                                                      \
+	ADD_TILES(NAME, ADD_CELLF("r6", "r2", F, HALF), ADD_CELLF("r7", "r3", F, HALF), \
+		  ADD_CELLF("r8", "r4", F, HALF), ADD_CELLF("r9", "r5", F, HALF))
+ADD_TILES(add_tiles_u, ADD_CELL0("r6", "r2"), ADD_CELL0("r7", "r3"), ADD_CELL0("r8", "r4"), ADD_CELL0("r9", "r5"))
+ADD_TILES_F(add_tiles_u1, "1", "1")
+ADD_TILES_F(add_tiles_u2, "2", "2")
+ADD_TILES_F(add_tiles_u3, "3", "4")
+ADD_TILES_F(add_tiles_u4, "4", "8")
+#undef ADD_TILES_F
+#undef ADD_TILES
 #undef ADD_FOUR
+#undef ADD_CELLF
+#undef ADD_CELL0
+
+/* add_tiles_u with u's fraction bits f (0 to 4) */
+static void add_tiles_uf(int32_t *h, const int32_t *u, int n, int f)
+{
+	static void (*const fn[5])(int32_t *, const int32_t *, int) = { add_tiles_u, add_tiles_u1, add_tiles_u2,
+									add_tiles_u3, add_tiles_u4 };
+
+	fn[f](h, u, n);
+}
 #endif
 
 /* h = clamp27(h + dh(u)) over cells [0, len) of a row; 1 if a height clamped. With len a constant 8
@@ -554,12 +583,12 @@ static void update_row(struct swell_wave *w, int j)
 			continue;
 		}
 #if SWELL_WAVE_DSP
-		if (!f) { /* the run of whole tiles that moved, in one go */
+		{ /* the run of whole tiles that moved, in one go */
 			int t1 = tx + 1;
 
 			while (t1 < w->tiles_x && (trow[t1] & T_NONZERO) && (t1 + 1) * SWELL_WAVE_TILE <= nx)
 				t1++;
-			add_tiles_u(h + i0, u + i0, t1 - tx);
+			add_tiles_uf(h + i0, u + i0, t1 - tx, f);
 			tx = t1 - 1;
 			continue;
 		}
@@ -587,10 +616,30 @@ static void update_rows(struct swell_wave *w, int j1)
 	}
 #endif
 	for (j = w->done_row; j < j1; j++) {
-		if (!tile_row_has(w, w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x, T_NONZERO)) {
+		const uint8_t *trow = w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x;
+
+		if (!tile_row_has(w, trow, T_NONZERO)) {
 			j = (j / SWELL_WAVE_TILE + 1) * SWELL_WAVE_TILE - 1; /* nothing moved in this band yet */
 			continue;
 		}
+#if SWELL_WAVE_DSP
+		if (w->nx % SWELL_WAVE_TILE == 0 && tile_row_all(w, trow, T_NONZERO)) {
+			/* the whole band moved (moving water): its rows each in one go, a row that clamped
+			 * counted once */
+			const int end = (j / SWELL_WAVE_TILE + 1) * SWELL_WAVE_TILE < j1
+				? (j / SWELL_WAVE_TILE + 1) * SWELL_WAVE_TILE
+				: j1;
+
+			for (; j < end; j++) {
+				__set_saturation_occurred(0);
+				add_tiles_uf(w->h + (size_t)j * w->nx, w->u + (size_t)j * w->nx, w->tiles_x,
+					     w->vel_frac);
+				w->saturations += (uint32_t)__saturation_occurred();
+			}
+			j--;
+			continue;
+		}
+#endif
 		update_row(w, j);
 	}
 	if (j1 > w->done_row)
