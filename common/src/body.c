@@ -371,8 +371,13 @@ enum swell_err swell_body_set_params(struct swell_body *b, const struct swell_bo
 
 void swell_body_solver_stepped(struct swell_body *b, const struct swell_wave *w)
 {
+	const int64_t area = (int64_t)(b->applied.x1 - b->applied.x0) * (b->applied.y1 - b->applied.y0);
+
 	b->phase = 0;
 	b->u_prev = b->u_last;
+	/* the water the object wrote in the period just ended: its part of h(n) - h(n-1) from now on */
+	b->dep_v = b->dep_sv && area > 0 ? sat32(div_rn(b->dep_sv, area)) : 0;
+	b->dep_sv = 0;
 	/* In the water the ceiling is not needed (and the solver conserves sum(h)): the scan is paid
 	 * only in periods when the force law is idle. */
 	if (b->wet) {
@@ -557,12 +562,28 @@ static int32_t deposit_of(int32_t delta_lsb, int64_t a)
 	return (int32_t)(((int64_t)delta_lsb * a + ((int64_t)1 << (AREA_SHIFT - 1))) >> AREA_SHIFT);
 }
 
-/* Add D_c(new_delta) - D_c(old_delta) to every cell under f through swell_wave_add (the solver puts
- * it into h at its next finish, flows untouched): old_delta 0 puts the water in, new_delta 0 takes
- * it out. Returns the volume added. */
-static int64_t deposit(struct swell_body *b, struct swell_wave *w, const struct swell_body_fp *f, int32_t new_delta,
-		       int32_t old_delta)
+static int same_rect(const struct swell_body_fp *a, const struct swell_body_fp *b)
 {
+	return a->x0 == b->x0 && a->x1 == b->x1 && a->y0 == b->y0 && a->y1 == b->y1;
+}
+
+/* The weight of cell (i, j) in footprint r (fp_sums' units): 0 outside it. */
+static int64_t fp_weight(const struct swell_body_fp *r, int32_t i, int32_t j)
+{
+	const int32_t oy = overlap(j, r->y0, r->y1), ox = overlap(i, r->x0, r->x1);
+
+	return oy > 0 && ox > 0 ? (int64_t)oy * ox : 0;
+}
+
+/* Add D_c(new_delta) - D_c(old_delta) to every cell under f through swell_wave_add (the edge-flux form
+ * puts it into h at its next finish, flows untouched; the velocity form at once): old_delta 0 puts
+ * the water in, new_delta 0 takes it out. Returns the volume added. In the velocity form the water
+ * written is also summed with the weights of footprint r (the one the object holds after this
+ * coupling), for the object's part of h(n) - h(n-1) (dep_sv). */
+static int64_t deposit(struct swell_body *b, struct swell_wave *w, const struct swell_body_fp *f, int32_t new_delta,
+		       int32_t old_delta, const struct swell_body_fp *r)
+{
+	const int dep = w->form == SWELL_FORM_VELOCITY, same = same_rect(f, r);
 	const int32_t scanned = b->scan_ok && b->scan_steps == w->steps ? b->scan_row : 0;
 	const int32_t i0 = f->x0 >> FP_SHIFT, i1 = (f->x1 - 1) >> FP_SHIFT;
 	const int32_t j0 = f->y0 >> FP_SHIFT, j1 = (f->y1 - 1) >> FP_SHIFT;
@@ -580,6 +601,10 @@ static int64_t deposit(struct swell_body *b, struct swell_wave *w, const struct 
 			if (i > i0 && i < i1) { /* the inner cells are wholly covered: one d for all of them */
 				swell_wave_add_span(w, i, i1, j, d);
 				row += (int64_t)d * (i1 - i);
+				for (; dep && d && !same && i < i1; i++)
+					b->dep_sv += fp_weight(r, i, j) * d;
+				if (dep && same)
+					b->dep_sv += a * d * (i1 - i);
 				i = i1 - 1;
 				continue;
 			}
@@ -587,6 +612,8 @@ static int64_t deposit(struct swell_body *b, struct swell_wave *w, const struct 
 				continue;
 			swell_wave_add(w, i, j, d);
 			row += d;
+			if (dep)
+				b->dep_sv += (same ? a : fp_weight(r, i, j)) * d;
 		}
 		added += row;
 		if (j < scanned) { /* a row scanned ahead (so finished ahead): the water arrived in h at once */
@@ -632,11 +659,6 @@ static int64_t deposit_volume(const struct swell_body_fp *f, int32_t new_delta, 
 	return v;
 }
 
-static int same_rect(const struct swell_body_fp *a, const struct swell_body_fp *b)
-{
-	return a->x0 == b->x0 && a->x1 == b->x1 && a->y0 == b->y0 && a->y1 == b->y1;
-}
-
 /* The water the object holds goes from `from` to `to` (delta_lsb 0: nothing); write: into the cells
  * (returns the volume added), else only the volume. Over the same footprint one pass adds the
  * difference of the two deposits to each cell (half the adds of taking the old out and putting the new
@@ -651,12 +673,12 @@ static int64_t move_water(struct swell_body *b, struct swell_wave *w, const stru
 	if (from->delta_lsb == to->delta_lsb && same_rect(from, to))
 		return 0;
 	if (from->delta_lsb != 0 && to->delta_lsb != 0 && same_rect(from, to))
-		return write ? deposit(b, w, to, to->delta_lsb, from->delta_lsb)
+		return write ? deposit(b, w, to, to->delta_lsb, from->delta_lsb, to)
 			     : deposit_volume(to, to->delta_lsb, from->delta_lsb);
 	if (from->delta_lsb != 0)
-		moved += write ? deposit(b, w, from, 0, from->delta_lsb) : deposit_volume(from, 0, from->delta_lsb);
+		moved += write ? deposit(b, w, from, 0, from->delta_lsb, to) : deposit_volume(from, 0, from->delta_lsb);
 	if (to->delta_lsb != 0)
-		moved += write ? deposit(b, w, to, to->delta_lsb, 0) : deposit_volume(to, to->delta_lsb, 0);
+		moved += write ? deposit(b, w, to, to->delta_lsb, 0, to) : deposit_volume(to, to->delta_lsb, 0);
 	return moved;
 }
 
@@ -824,7 +846,7 @@ void swell_body_tick_force(struct swell_body *b, const struct swell_wave *w, con
 	/* surface under the footprint, between h(n-1) and h(n) */
 	fp_sums(w, &f, &sh, &sv);
 	area = (int64_t)(f.x1 - f.x0) * (f.y1 - f.y0);
-	wv = sat32(div_rn(sv, area));
+	wv = sat32(div_rn(sv, area) + b->dep_v); /* dep_v: the velocity form's, else 0 */
 	wl = sat32(div_rn(sh, area) - div_rn((int64_t)wv * (int64_t)(kk - k), kk));
 	b->u_last = wv;
 	u = (int64_t)b->u_prev + div_rn(((int64_t)wv - b->u_prev) * (int64_t)k, kk);
