@@ -664,11 +664,13 @@ int swell_wave_step_rows(struct swell_wave *w, int rows)
 			j1 = (j / SWELL_WAVE_TILE + 1) * SWELL_WAVE_TILE;
 			j1 = j1 < end ? j1 : end;
 			band_start(w, j, trow);
-			if (w->sleep && w->band_asleep) /* the whole band of tiles sleeps */
+			if (w->sleep && w->band_asleep) { /* the whole band of tiles sleeps */
 				w->tiles_skipped += (uint32_t)(w->tiles_x * (j1 - j));
-			else
+				update_rows(w, j1 - 1); /* one row behind */
+			} else { /* the heights one row behind in the kernel's pass, from row j - 1 */
+				update_rows(w, j - 1);
 				swell_wave_vel_rows_avx2(w, j, j1, trow, damp);
-			update_rows(w, j1 - 1); /* one row behind */
+			}
 		}
 		w->next_row = (uint16_t)end;
 		return w->ny - end;

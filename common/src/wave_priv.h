@@ -84,9 +84,12 @@ static inline int swell_wave_vel_avx2_fits(const struct swell_wave *w, int damp)
 }
 /* Rows [j0, j1) of one band of tiles (its flags trow, its sleeping tiles decided), whole, the
  * driver's bookkeeping included: the same bits, flags and counts as step_row_vel (wave.c) calling
- * swell_wave_vel_ref for each run of awake tiles, the sums added to w->vel_sum and w->vel_sum_h. */
+ * swell_wave_vel_ref for each run of awake tiles, the sums added to w->vel_sum and w->vel_sum_h. The
+ * heights one row behind too (update_rows, the same bits and counts): rows [done_row, j1 - 1) become
+ * h(n+1) in the same pass, done_row (j0 - 1, or 0 at j0 = 0, on entry) becomes j1 - 1. */
 void swell_wave_vel_rows_avx2(struct swell_wave *w, int j0, int j1, uint8_t *trow, int damp);
-/* The heights' update of rows [j0, j1) (wave.c's update_rows), the same bits and counts: h += dh(u),
+/* The heights' update of rows [j0, j1) on its own (wave.c's update_rows: where the kernel above does
+ * not run), the same bits and counts: h += dh(u),
  * clamped to int27 (a row that clamped counted once), in the tiles with T_NONZERO. */
 void swell_wave_vel_update_avx2(struct swell_wave *w, int j0, int j1);
 #endif

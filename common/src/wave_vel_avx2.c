@@ -10,7 +10,10 @@
  * narrower than 8: masked loads and stores. The sums of s and dh are int32 a lane within a run (at
  * most 16 cells a lane, |s| <= 2^27) and int64 after. Same bits as swell_wave_vel_ref (wave_priv.h
  * has the rule), the saturation count included (one a run of the reference's that clamped). The
- * heights' update one row behind (wave.c's update_rows) is here too. C = e_eff 2^(F+1) above
+ * heights' update one row behind (wave.c's update_rows) goes along in the same pass: row j - 1's
+ * heights are loaded for row j's stencil anyway, and each vector is written once the loads past it
+ * are done (struct va_fold); on its own (swell_wave_vel_update_avx2) only where the kernel does not
+ * run (a band asleep, the last row at the finish). C = e_eff 2^(F+1) above
  * INT32_MAX (e_eff = 1 undamped at F = 0) is left to the fused kernel (wave.c). */
 #include "wave_priv.h"
 
@@ -24,7 +27,7 @@
 _Static_assert(2 * SWELL_WAVE_VEL_RUN <= 16, "the int32 lane sums hold 16 cells of int28");
 
 struct va_k {
-	__m256i c, q, round, half, hmin, hmax, zero;
+	__m256i c, q, round, half, hmin, hmax, hvmin, hvmax, zero;
 };
 
 /* floor((a b + round) / 2^32) a lane; b has the same value in every lane. */
@@ -58,6 +61,13 @@ VA_FN __m256i va_cell(const struct va_k *K, __m256i x, __m256i u, int damp, __m2
 	return t;
 }
 
+/* A cell's height change dh(s): nearest, ties away from zero, (s + 2^(F-1) - (s < 0)) >> F; at F = 0, s */
+VA_FN __m256i va_dh(const struct va_k *K, __m256i s, int f)
+{
+	return f ? _mm256_srai_epi32(_mm256_add_epi32(_mm256_add_epi32(s, K->half), _mm256_cmpgt_epi32(K->zero, s)), f)
+		 : s;
+}
+
 /* The running sums: s and dh as int32 lanes within a run of at most SWELL_WAVE_VEL_RUN awake tiles
  * (of one row, or of two rows side by side), int64 lanes after. */
 struct va_acc {
@@ -65,9 +75,10 @@ struct va_acc {
 };
 
 /* One vector of cells: x from the column sums left, centre and right, the cell, the stores, the
- * lanes that clamped into *sat; returns non-zero when some new s is non-zero. */
-VA_FN int va_vec(const struct va_k *K, struct va_acc *A, __m256i *sat, __m256i sm, __m256i s0, __m256i sp, __m256i c,
-		 int32_t *u, __m256i mask, int masked, int damp, int f)
+ * lanes that clamped into *sat, the new dh into *dho (zero in the lanes past a masked vector's);
+ * returns non-zero when some new s is non-zero. */
+VA_FN int va_vec(const struct va_k *K, struct va_acc *A, __m256i *sat, __m256i *dho, __m256i sm, __m256i s0, __m256i sp,
+		 __m256i c, int32_t *u, __m256i mask, int masked, int damp, int f)
 {
 	const __m256i x = _mm256_sub_epi32(_mm256_add_epi32(_mm256_add_epi32(sm, sp), _mm256_add_epi32(s0, s0)),
 					   _mm256_slli_epi32(c, 4));
@@ -75,9 +86,7 @@ VA_FN int va_vec(const struct va_k *K, struct va_acc *A, __m256i *sat, __m256i s
 
 	uo = masked ? _mm256_maskload_epi32(u, mask) : _mm256_loadu_si256((const __m256i *)u);
 	s = va_cell(K, x, uo, damp, &clamped);
-	/* nearest, ties away from zero: (s + 2^(F-1) - (s < 0)) >> F; at F = 0, s */
-	dh = f ? _mm256_srai_epi32(_mm256_add_epi32(_mm256_add_epi32(s, K->half), _mm256_cmpgt_epi32(K->zero, s)), f)
-	       : s;
+	dh = va_dh(K, s, f);
 	if (masked) {
 		_mm256_maskstore_epi32(u, mask, s);
 		s = _mm256_and_si256(s, mask);
@@ -87,6 +96,7 @@ VA_FN int va_vec(const struct va_k *K, struct va_acc *A, __m256i *sat, __m256i s
 		_mm256_storeu_si256((__m256i *)u, s);
 	}
 	*sat = _mm256_or_si256(*sat, clamped);
+	*dho = dh;
 	A->tot = _mm256_add_epi32(A->tot, s);
 	if (f)
 		A->tot_h = _mm256_add_epi32(A->tot_h, dh);
@@ -145,9 +155,10 @@ VA_FN uint32_t va_sat_end(struct va_pipe *P)
 /* Vector b of row j with the column sums sp right of it: its cells when its tile is awake, and the
  * run's bookkeeping; awake: no tile of the row sleeps, the caller ends the runs. */
 VA_FN void va_tile(uint8_t *trow, int b, const struct va_k *K, struct va_acc *A, struct va_count *n, struct va_pipe *P,
-		   __m256i sp, int32_t *u, __m256i mask, int masked, int awake, int damp, int f)
+		   __m256i sp, int32_t *u, __m256i mask, int masked, int awake, int damp, int f, __m256i *dh)
 {
 	if (!awake && (trow[b] & T_SLEEPING)) {
+		*dh = K->zero;
 		n->skipped++;
 		if (P->run) {
 			n->sat += va_sat_end(P);
@@ -156,7 +167,7 @@ VA_FN void va_tile(uint8_t *trow, int b, const struct va_k *K, struct va_acc *A,
 		}
 		return;
 	}
-	if (va_vec(K, A, &P->sat, P->sm, P->s0, sp, P->c0, u + 8 * b, mask, masked, damp, f))
+	if (va_vec(K, A, &P->sat, dh, P->sm, P->s0, sp, P->c0, u + 8 * b, mask, masked, damp, f))
 		trow[b] |= T_NONZERO;
 	if (!awake && ++P->run == SWELL_WAVE_VEL_RUN) {
 		n->sat += va_sat_end(P);
@@ -168,11 +179,11 @@ VA_FN void va_tile(uint8_t *trow, int b, const struct va_k *K, struct va_acc *A,
 /* Vector b of a row whose next vector's column sums are sn (centre row cn): vector b, then the
  * pipeline moves on by one vector. */
 VA_FN void va_step(uint8_t *trow, int b, const struct va_k *K, struct va_acc *A, struct va_count *n, struct va_pipe *P,
-		   __m256i sn, __m256i cn, int32_t *u, __m256i mask, int awake, int damp, int f)
+		   __m256i sn, __m256i cn, int32_t *u, __m256i mask, int awake, int damp, int f, __m256i *dh)
 {
 	const __m256i t = _mm256_permute2x128_si256(P->s0, sn, 0x21); /* s0's high half, sn's low half */
 
-	va_tile(trow, b, K, A, n, P, _mm256_alignr_epi8(t, P->s0, 4), u, mask, 0, awake, damp, f);
+	va_tile(trow, b, K, A, n, P, _mm256_alignr_epi8(t, P->s0, 4), u, mask, 0, awake, damp, f, dh);
 	P->sm = _mm256_alignr_epi8(sn, t, 12);
 	P->s0 = sn;
 	P->c0 = cn;
@@ -180,8 +191,9 @@ VA_FN void va_step(uint8_t *trow, int b, const struct va_k *K, struct va_acc *A,
 
 /* The column sums of vector b of rows j .. j + q - 1 (q = 1 or 2; rows[] holds rows j - 1 .. j + q,
  * mirrored at the walls), each row's from three of the q + 2 loads: into sn[], the centre rows into
- * cn[]; the first r lanes only when masked. */
-VA_FN void va_colsums(const int32_t *const *rows, int q, int i, __m256i mask, int masked, __m256i *sn, __m256i *cn)
+ * cn[], row j - 1's heights into *ha; the first r lanes only when masked. */
+VA_FN void va_colsums(const int32_t *const *rows, int q, int i, __m256i mask, int masked, __m256i *sn, __m256i *cn,
+		      __m256i *ha)
 {
 	__m256i l[4];
 	int k;
@@ -195,6 +207,49 @@ VA_FN void va_colsums(const int32_t *const *rows, int q, int i, __m256i mask, in
 		sn[k] = _mm256_add_epi32(_mm256_add_epi32(l[k], l[k + 2]), _mm256_add_epi32(l[k + 1], l[k + 1]));
 		cn[k] = l[k + 1];
 	}
+	*ha = l[0];
+}
+
+/* The heights one row behind, in the pass of rows j .. j + q - 1: row j - 1 (unless done already) from
+ * its h(n), loaded for the stencil anyway, and its u(n+1), stored by the pass before; in a two-row
+ * pass row j too, from its h(n) and new dh in registers. Row j + q - 1 is left to the next pass (or
+ * the driver), as row j + q reads it. Vector b is written after the loads of vector b + 1: a pass
+ * loads each vector of its rows once, and the stencil's neighbour columns come from the sums it
+ * carries, so nothing reads h(n) of vector b after that. */
+struct va_fold {
+	int32_t *h; /* row j - 1's heights, NULL when it is not to be updated */
+	const int32_t *u; /* row j - 1's u(n+1) */
+	const uint8_t *ut; /* the tile flags of row j - 1's band */
+	__m256i ha, sat_a, sat_b; /* row j - 1's h(n) of vector b; the lanes that clamped in rows j - 1, j */
+};
+
+/* h = clamp27(hv + dh) of one vector (hv its h(n)); the lanes that clamped into *sat */
+VA_FN void va_put(const struct va_k *K, int32_t *h, __m256i hv, __m256i dh, __m256i mask, int masked, __m256i *sat)
+{
+	const __m256i x = _mm256_add_epi32(hv, dh); /* |h| <= 2^26, |dh| <= 2^27: no overflow */
+	const __m256i t = _mm256_min_epi32(_mm256_max_epi32(x, K->hvmin), K->hvmax);
+
+	if (masked)
+		_mm256_maskstore_epi32(h, mask, t);
+	else
+		_mm256_storeu_si256((__m256i *)h, t);
+	*sat = _mm256_or_si256(*sat, _mm256_xor_si256(x, t));
+}
+
+/* Vector b of the rows one behind (struct va_fold); c0 and dh: row j's h(n) and new dh there (q = 2).
+ * Row j - 1's tiles are those with T_NONZERO (update_row in wave.c) where some tile of the band sleeps;
+ * in an awake band every tile (elsewhere u(n+1) is zero and h within int27: h stays as it is). */
+VA_FN void va_fold_vec(const struct va_k *K, struct va_fold *F, int b, int q, int awake, __m256i c0, __m256i dh,
+		       int32_t *hj, __m256i mask, int masked, int f)
+{
+	if (F->h && (awake || (F->ut[b] & T_NONZERO))) {
+		const int32_t *u = F->u + 8 * b;
+		const __m256i uo = masked ? _mm256_maskload_epi32(u, mask) : _mm256_loadu_si256((const __m256i *)u);
+
+		va_put(K, F->h + 8 * b, F->ha, va_dh(K, uo, f), mask, masked, &F->sat_a);
+	}
+	if (q == 2)
+		va_put(K, hj + 8 * b, c0, dh, mask, masked, &F->sat_b);
 }
 
 /* Rows j .. j + q - 1 of one band, every tile: vectors of 8 cells (a tile's row each) from the west
@@ -205,26 +260,32 @@ VA_FN void va_colsums(const int32_t *const *rows, int q, int i, __m256i mask, in
  * count of the reference's calls (runs of up to SWELL_WAVE_VEL_RUN awake tiles, split at sleeping
  * tiles: one a run that clamped). awake: no tile of the band sleeps, so the runs are the tiles
  * [8 k, 8 k + 8) and their bookkeeping leaves the loop over the vectors; then two rows (q = 2) go
- * side by side, sharing their loads of h and the loop. */
-VA_FN void va_rows_pass(struct swell_wave *w, int j, int q, int awake, uint8_t *trow, const struct va_k *K,
+ * side by side, sharing their loads of h and the loop. The heights one row behind go along (struct
+ * va_fold: row j - 1 when up, and row j when q = 2), a row that clamped counted once. */
+VA_FN void va_rows_pass(struct swell_wave *w, int j, int q, int awake, int up, uint8_t *trow, const struct va_k *K,
 			struct va_acc *A, struct va_count *n, int damp, int f)
 {
 	const int nx = w->nx, nv = (nx + 7) / 8, r = nx - 8 * (nv - 1); /* the last vector's width, 1..8 */
-	const int32_t *hc = w->h + (size_t)j * nx;
+	int32_t *hj = w->h + (size_t)j * nx;
 	const int32_t *rows[4];
 	int32_t *u = w->u + (size_t)j * nx;
 	const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
 	const __m256i mask = _mm256_cmpgt_epi32(_mm256_set1_epi32(r), lane);
 	struct va_pipe P[2];
-	__m256i sn[2], cn[2];
+	struct va_fold F;
+	__m256i sn[2], cn[2], dh[2], c0, han;
 	int b = 0, k1, whole, k;
 
-	rows[0] = j > 0 ? hc - nx : hc;
+	rows[0] = j > 0 ? hj - nx : hj;
 #pragma GCC unroll 4
 	for (k = 1; k <= q; k++)
-		rows[k] = hc + (size_t)(k - 1) * nx;
-	rows[q + 1] = j + q < w->ny ? hc + (size_t)q * nx : rows[q];
-	va_colsums(rows, q, 0, mask, nv == 1 && r < 8, sn, cn);
+		rows[k] = hj + (size_t)(k - 1) * nx;
+	rows[q + 1] = j + q < w->ny ? hj + (size_t)q * nx : rows[q];
+	F.h = up && j > 0 ? hj - nx : NULL;
+	F.u = u - (F.h ? nx : 0);
+	F.ut = w->tile + (size_t)((j - (F.h ? 1 : 0)) / SWELL_WAVE_TILE) * w->tiles_x;
+	F.sat_a = F.sat_b = _mm256_setzero_si256();
+	va_colsums(rows, q, 0, mask, nv == 1 && r < 8, sn, cn, &F.ha);
 #pragma GCC unroll 4
 	for (k = 0; k < q; k++) {
 		P[k].run = 0;
@@ -238,37 +299,48 @@ VA_FN void va_rows_pass(struct swell_wave *w, int j, int q, int awake, uint8_t *
 		k1 = b + SWELL_WAVE_VEL_RUN < nv ? b + SWELL_WAVE_VEL_RUN : nv;
 		whole = k1 < nv - 1 ? k1 : nv - 2; /* vectors before it have a whole next vector */
 		for (; b < whole; b++) {
-			va_colsums(rows, q, 8 * (b + 1), mask, 0, sn, cn);
+			va_colsums(rows, q, 8 * (b + 1), mask, 0, sn, cn, &han);
+			c0 = P[0].c0;
 #pragma GCC unroll 4
 			for (k = 0; k < q; k++)
-				va_step(trow, b, K, A, n, &P[k], sn[k], cn[k], u + (size_t)k * nx, mask, awake, damp,
-					f);
+				va_step(trow, b, K, A, n, &P[k], sn[k], cn[k], u + (size_t)k * nx, mask, awake, damp, f,
+					&dh[k]);
+			va_fold_vec(K, &F, b, q, awake, c0, dh[0], hj, mask, 0, f);
+			F.ha = han;
 		}
 		if (b < k1 && b == nv - 2) { /* the last but one: the next vector may be narrower */
 			if (r < 8)
-				va_colsums(rows, q, 8 * (b + 1), mask, 1, sn, cn);
+				va_colsums(rows, q, 8 * (b + 1), mask, 1, sn, cn, &han);
 			else
-				va_colsums(rows, q, 8 * (b + 1), mask, 0, sn, cn);
+				va_colsums(rows, q, 8 * (b + 1), mask, 0, sn, cn, &han);
+			c0 = P[0].c0;
 #pragma GCC unroll 4
 			for (k = 0; k < q; k++)
-				va_step(trow, b, K, A, n, &P[k], sn[k], cn[k], u + (size_t)k * nx, mask, awake, damp,
-					f);
+				va_step(trow, b, K, A, n, &P[k], sn[k], cn[k], u + (size_t)k * nx, mask, awake, damp, f,
+					&dh[k]);
+			va_fold_vec(K, &F, b, q, awake, c0, dh[0], hj, mask, 0, f);
+			F.ha = han;
 			b++;
 		}
 		if (b < k1) { /* the last: the column right of it is its last column mirrored at the east wall */
 			const __m256i east = _mm256_min_epi32(_mm256_add_epi32(lane, _mm256_set1_epi32(1)),
 							      _mm256_set1_epi32(r - 1));
 
+			c0 = P[0].c0;
 #pragma GCC unroll 4
 			for (k = 0; k < q; k++) {
 				sn[k] = _mm256_permutevar8x32_epi32(P[k].s0, east);
 				if (r < 8)
 					va_tile(trow, b, K, A, n, &P[k], sn[k], u + (size_t)k * nx, mask, 1, awake,
-						damp, f);
+						damp, f, &dh[k]);
 				else
 					va_tile(trow, b, K, A, n, &P[k], sn[k], u + (size_t)k * nx, mask, 0, awake,
-						damp, f);
+						damp, f, &dh[k]);
 			}
+			if (r < 8)
+				va_fold_vec(K, &F, b, q, awake, c0, dh[0], hj, mask, 1, f);
+			else
+				va_fold_vec(K, &F, b, q, awake, c0, dh[0], hj, mask, 0, f);
 			b++;
 		}
 		if (awake) {
@@ -282,9 +354,14 @@ VA_FN void va_rows_pass(struct swell_wave *w, int j, int q, int awake, uint8_t *
 		n->sat += va_sat_end(&P[0]);
 		va_widen_sums(A, f);
 	}
+	if (F.h)
+		n->sat += !_mm256_testz_si256(F.sat_a, F.sat_a);
+	if (q == 2)
+		n->sat += !_mm256_testz_si256(F.sat_b, F.sat_b);
 }
 
-/* Rows [j0, j1) of one band of tiles (flags trow) */
+/* Rows [j0, j1) of one band of tiles (flags trow), and the heights of rows [done_row, j1 - 1) one row
+ * behind (done_row is j0 - 1, or 0 at j0 = 0): done_row becomes j1 - 1 */
 VA_FN void va_rows(struct swell_wave *w, int j0, int j1, uint8_t *trow, int damp, int f)
 {
 	struct va_k K;
@@ -304,16 +381,20 @@ VA_FN void va_rows(struct swell_wave *w, int j0, int j1, uint8_t *trow, int damp
 	K.zero = _mm256_setzero_si256();
 	K.hmin = _mm256_set1_epi32(SWELL_H_MIN);
 	K.hmax = _mm256_set1_epi32(SWELL_H_MAX);
+	K.hvmin = _mm256_set1_epi32(SWELL_HV_MIN);
+	K.hvmax = _mm256_set1_epi32(SWELL_HV_MAX);
 	A.tot = A.tot_h = A.tot64 = A.tot_h64 = _mm256_setzero_si256();
+	/* row j0 - 1 one behind unless done (at j0 = 0 there is none); every later row is this call's */
 	if (awake) {
 		for (j = j0; j + 1 < j1; j += 2) /* two rows a pass */
-			va_rows_pass(w, j, 2, 1, trow, &K, &A, &n, damp, f);
+			va_rows_pass(w, j, 2, 1, j > w->done_row, trow, &K, &A, &n, damp, f);
 		if (j < j1)
-			va_rows_pass(w, j, 1, 1, trow, &K, &A, &n, damp, f);
+			va_rows_pass(w, j, 1, 1, j > w->done_row, trow, &K, &A, &n, damp, f);
 	} else {
 		for (j = j0; j < j1; j++)
-			va_rows_pass(w, j, 1, 0, trow, &K, &A, &n, damp, f);
+			va_rows_pass(w, j, 1, 0, j > w->done_row, trow, &K, &A, &n, damp, f);
 	}
+	w->done_row = (uint16_t)(j1 - 1);
 	w->saturations += n.sat;
 	w->tiles_skipped += n.skipped;
 	tot = va_hsum64(A.tot64);
