@@ -168,7 +168,8 @@ enum swell_err swell_wave_init(struct swell_wave *w, uint16_t nx, uint16_t ny, i
 	return swell_wave_init_form(w, nx, ny, storage, words, p, SWELL_FORM_EDGE);
 }
 
-/* The layout of both forms: h, v, acc, then the flows or u (unless given apart), then the flags. */
+/* The layout of the forms: h, v, acc, the flows, the flags (edge-flux); h, u (unless given apart),
+ * the flags (velocity). */
 static enum swell_err init_at(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage, size_t words,
 			      int32_t *u, const struct swell_wave_params *p, enum swell_wave_form form)
 {
@@ -198,15 +199,15 @@ static enum swell_err init_at(struct swell_wave *w, uint16_t nx, uint16_t ny, in
 	w->tiles_x = (uint16_t)SWELL_WAVE_TILES_X(nx);
 	w->tiles_y = (uint16_t)SWELL_WAVE_TILES_X(ny);
 	w->h = storage;
-	w->v = storage + n;
-	w->acc = storage + 2 * n;
 	w->form = (uint8_t)form; /* the kernel choice below depends on it */
-	if (form == SWELL_FORM_VELOCITY) {
-		w->u = u ? u : storage + 3 * n;
-		w->tile = (uint8_t *)(u ? storage + 3 * n : w->u + n);
+	if (form == SWELL_FORM_VELOCITY) { /* h, u (unless apart), the flags: no v, no acc */
+		w->u = u ? u : storage + n;
+		w->tile = (uint8_t *)(u ? storage + n : w->u + n);
 		if (u)
 			memset(u, 0, n * sizeof(*u));
 	} else {
+		w->v = storage + n;
+		w->acc = storage + 2 * n;
 		w->f = storage + 3 * n;
 		w->tile = (uint8_t *)(w->f + 4 * SWELL_WAVE_TILE * (size_t)w->tiles_x * ny);
 	}
@@ -264,11 +265,11 @@ void swell_wave_rest(struct swell_wave *w)
 	/* a step in progress starts over: rows finished ahead go back to h(n) (their flows' other ends,
 	 * in acc, are dropped with the step); a saturated height stays within the bounds */
 	for (a = 0; a < (size_t)w->done_row * w->nx; a++)
-		w->h[a] = swell_clamp(w->h[a] - w->acc[a], h_min(w), h_max(w));
-	/* v, acc and the flows (or u) are contiguous, up to the tile flags; u may be kept apart */
-	memset(w->h + n, 0, (size_t)((uint8_t *)w->tile - (uint8_t *)(w->h + n)));
-	if (w->u && w->u != w->h + 3 * n)
+		w->h[a] = swell_clamp(w->h[a] - (w->acc ? w->acc[a] : swell_wave_dh(w, a)), h_min(w), h_max(w));
+	if (w->form == SWELL_FORM_VELOCITY) /* u may be kept apart */
 		memset(w->u, 0, n * sizeof(*w->u));
+	else /* v, acc and the flows are contiguous, up to the tile flags */
+		memset(w->h + n, 0, (size_t)((uint8_t *)w->tile - (uint8_t *)(w->h + n)));
 	w->next_row = 0;
 	w->done_row = 0;
 	w->vel_sum = 0;
@@ -284,7 +285,8 @@ void swell_wave_touched(struct swell_wave *w, int i, int j)
 		return;
 	w->tile[ty * w->tiles_x + tx] |= T_TOUCHED;
 	w->band_asleep = 0;
-	mark_dirty(w, tx, ty, 2);
+	if (w->form == SWELL_FORM_EDGE) /* the velocity form has no acc to clear */
+		mark_dirty(w, tx, ty, 2);
 	for (y = ty - 1; y <= ty + 1; y++) /* the rest of this step must not skip its neighbours */
 		for (x = tx - 1; x <= tx + 1; x++)
 			if (x >= 0 && y >= 0 && x < w->tiles_x && y < w->tiles_y)
@@ -451,10 +453,7 @@ static inline __attribute__((always_inline)) void band_start(struct swell_wave *
 				trow[tx] |= T_SLEEPING;
 			} else {
 				trow[tx] &= (uint8_t)~T_SLEEPING;
-				/* the velocity form writes acc in the tile's own cells only */
-				if (w->form == SWELL_FORM_VELOCITY)
-					trow[tx] |= T_DIRTY;
-				else
+				if (w->form == SWELL_FORM_EDGE) /* the velocity form has no acc */
 					mark_dirty(w, tx, ty, 1);
 				w->band_asleep = 0;
 			}
@@ -491,15 +490,172 @@ static inline void step_row(struct swell_wave *w, int j, int damp)
 	}
 }
 
+#if SWELL_WAVE_DSP
+/* n tile rows (8 cells each, n >= 1) of the velocity form's height update, h = SSAT27(h + dh(u))
+ * (SSAT sets the Q flag, which the caller reads): four cells an LDM of u, an LDM of h, the four sums
+ * and an STM of h (Cortex-M4 TRM: 1 + N cycles each). At F = 0, dh = u: ADD and SSAT, about 3
+ * instructions a cell with the loop; with F fraction bits dh = (u - (u < 0) + 2^(F-1)) >> F (nearest,
+ * ties away from zero): SUB of u's sign bit, ADD of the half, ADD with ASR #F, SSAT, about 5.
+ * Functions of their own (one for each shift, an immediate): inlined, their nine scratch registers
+ * leave too few for the operands. */
+#define ADD_CELL0(H, U) "add " H ", " H ", " U "\n\tssat " H ", #27, " H "\n\t"
+#define ADD_CELLF(H, U, F, HALF)                                                                              \
+	"sub " U ", " U ", " U ", lsr #31\n\tadd " U ", " U ", #" HALF "\n\tadd " H ", " H ", " U ", asr #" F \
+	"\n\tssat " H ", #27, " H "\n\t"
+#define ADD_FOUR(C0, C1, C2, C3)                                                        \
+	"ldmia %[u]!, {r2, r3, r4, r5}\n\tldmia %[h], {r6, r7, r8, r9}\n\t" C0 C1 C2 C3 \
+	"stmia %[h]!, {r6, r7, r8, r9}\n\t"
+#define ADD_TILES(NAME, C0, C1, C2, C3)                                                             \
+	static __attribute__((noinline)) void NAME(int32_t *h, const int32_t *u, int n)             \
+	{                                                                                           \
+		__asm__ volatile("1:\t" ADD_FOUR(C0, C1, C2, C3)                                    \
+					 ADD_FOUR(C0, C1, C2, C3) "subs %[n], %[n], #1\n\tbne 1b"   \
+				 : [h] "+r"(h), [u] "+r"(u), [n] "+r"(n)                            \
+				 :                                                                  \
+				 : "r2", "r3", "r4", "r5", "r6", "r7", "r8", "r9", "cc", "memory"); \
+	}
+#define ADD_TILES_F(NAME, F, HALF)                                                      \
+	ADD_TILES(NAME, ADD_CELLF("r6", "r2", F, HALF), ADD_CELLF("r7", "r3", F, HALF), \
+		  ADD_CELLF("r8", "r4", F, HALF), ADD_CELLF("r9", "r5", F, HALF))
+ADD_TILES(add_tiles_u, ADD_CELL0("r6", "r2"), ADD_CELL0("r7", "r3"), ADD_CELL0("r8", "r4"), ADD_CELL0("r9", "r5"))
+ADD_TILES_F(add_tiles_u1, "1", "1")
+ADD_TILES_F(add_tiles_u2, "2", "2")
+ADD_TILES_F(add_tiles_u3, "3", "4")
+ADD_TILES_F(add_tiles_u4, "4", "8")
+#undef ADD_TILES_F
+#undef ADD_TILES
+#undef ADD_FOUR
+#undef ADD_CELLF
+#undef ADD_CELL0
+
+/* add_tiles_u with u's fraction bits f (0 to 4) */
+static void add_tiles_uf(int32_t *h, const int32_t *u, int n, int f)
+{
+	static void (*const fn[5])(int32_t *, const int32_t *, int) = { add_tiles_u, add_tiles_u1, add_tiles_u2,
+									add_tiles_u3, add_tiles_u4 };
+
+	fn[f](h, u, n);
+}
+#endif
+
+/* h = clamp27(h + dh(u)) over cells [0, len) of a row; 1 if a height clamped. With len a constant 8
+ * the compiler unrolls it. */
+static inline __attribute__((always_inline)) uint32_t update_seg(int32_t *restrict h, const int32_t *restrict u,
+								 int len, int f)
+{
+	const int32_t half = f ? (int32_t)1 << (f - 1) : 0;
+	uint32_t sat = 0;
+	int a;
+
+#pragma GCC unroll 8
+	for (a = 0; a < len; a++) { /* |h| <= 2^26, |dh| <= 2^27: no overflow */
+		const int32_t d = f ? (u[a] + half - (u[a] < 0)) >> f : u[a], x = h[a] + d;
+		const int32_t c = x > SWELL_HV_MAX ? SWELL_HV_MAX : x < SWELL_HV_MIN ? SWELL_HV_MIN : x;
+
+		sat |= c != x;
+		h[a] = c;
+	}
+	return sat;
+}
+
+/* Row j of the velocity form becomes h(n+1) = h(n) + dh(u(n+1)), saturated (a row that clamped counted
+ * once), in the tiles whose momentum moved in this step (T_NONZERO: elsewhere every new u of the step
+ * is zero, so is dh). */
+static void update_row(struct swell_wave *w, int j)
+{
+	const int nx = w->nx, f = w->vel_frac;
+	const uint8_t *trow = w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x;
+	int32_t *h = w->h + (size_t)j * nx;
+	const int32_t *u = w->u + (size_t)j * nx;
+	uint32_t sat = 0;
+	int tx;
+
+#if SWELL_WAVE_DSP
+	__set_saturation_occurred(0);
+#endif
+	for (tx = 0; tx < w->tiles_x; tx++) {
+		const int i0 = tx * SWELL_WAVE_TILE;
+
+		if (!(trow[tx] & T_NONZERO))
+			continue;
+		if (i0 + SWELL_WAVE_TILE > nx) { /* the row's last tile, narrower */
+			sat |= update_seg(h + i0, u + i0, nx - i0, f);
+			continue;
+		}
+#if SWELL_WAVE_DSP
+		{ /* the run of whole tiles that moved, in one go */
+			int t1 = tx + 1;
+
+			while (t1 < w->tiles_x && (trow[t1] & T_NONZERO) && (t1 + 1) * SWELL_WAVE_TILE <= nx)
+				t1++;
+			add_tiles_uf(h + i0, u + i0, t1 - tx, f);
+			tx = t1 - 1;
+			continue;
+		}
+#endif
+		sat |= f ? update_seg(h + i0, u + i0, SWELL_WAVE_TILE, f)
+			 : update_seg(h + i0, u + i0, SWELL_WAVE_TILE, 0);
+	}
+#if SWELL_WAVE_DSP
+	sat |= (uint32_t)__saturation_occurred();
+#endif
+	w->saturations += sat;
+}
+
+/* The velocity form's heights one row behind: rows [done_row, j1) become h(n+1) (every row that reads
+ * their h(n) is done); a band of tiles none of which moved is skipped whole. */
+static void update_rows(struct swell_wave *w, int j1)
+{
+	int j;
+
+#if SWELL_WAVE_AVX2
+	if (w->kernel == SWELL_KERNEL_AVX2 && j1 > w->done_row) {
+		swell_wave_vel_update_avx2(w, w->done_row, j1);
+		w->done_row = (uint16_t)j1;
+		return;
+	}
+#endif
+	for (j = w->done_row; j < j1; j++) {
+		const uint8_t *trow = w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x;
+
+		if (!tile_row_has(w, trow, T_NONZERO)) {
+			j = (j / SWELL_WAVE_TILE + 1) * SWELL_WAVE_TILE - 1; /* nothing moved in this band yet */
+			continue;
+		}
+#if SWELL_WAVE_DSP
+		if (w->nx % SWELL_WAVE_TILE == 0 && tile_row_all(w, trow, T_NONZERO)) {
+			/* the whole band moved (moving water): its rows each in one go, a row that clamped
+			 * counted once */
+			const int end = (j / SWELL_WAVE_TILE + 1) * SWELL_WAVE_TILE < j1
+				? (j / SWELL_WAVE_TILE + 1) * SWELL_WAVE_TILE
+				: j1;
+
+			for (; j < end; j++) {
+				__set_saturation_occurred(0);
+				add_tiles_uf(w->h + (size_t)j * w->nx, w->u + (size_t)j * w->nx, w->tiles_x,
+					     w->vel_frac);
+				w->saturations += (uint32_t)__saturation_occurred();
+			}
+			j--;
+			continue;
+		}
+#endif
+		update_row(w, j);
+	}
+	if (j1 > w->done_row)
+		w->done_row = (uint16_t)j1;
+}
+
 int swell_wave_step_rows(struct swell_wave *w, int rows)
 {
 	const int damp = w->q != SWELL_Q30_ONE; /* t = 0: no damping multiply at all */
+	const int vel = w->form == SWELL_FORM_VELOCITY;
 	int j, end = w->next_row + (rows > 0 ? rows : 0);
 
 	if (end > w->ny)
 		end = w->ny;
 #if SWELL_WAVE_AVX2
-	if (w->form == SWELL_FORM_VELOCITY && w->kernel == SWELL_KERNEL_AVX2 && swell_wave_vel_avx2_fits(w, damp)) {
+	if (vel && w->kernel == SWELL_KERNEL_AVX2 && swell_wave_vel_avx2_fits(w, damp)) {
 		int j1;
 
 		for (j = w->next_row; j < end; j = j1) { /* the rows of a band in one call */
@@ -508,10 +664,13 @@ int swell_wave_step_rows(struct swell_wave *w, int rows)
 			j1 = (j / SWELL_WAVE_TILE + 1) * SWELL_WAVE_TILE;
 			j1 = j1 < end ? j1 : end;
 			band_start(w, j, trow);
-			if (w->sleep && w->band_asleep) /* the whole band of tiles sleeps */
+			if (w->sleep && w->band_asleep) { /* the whole band of tiles sleeps */
 				w->tiles_skipped += (uint32_t)(w->tiles_x * (j1 - j));
-			else
+				update_rows(w, j1 - 1); /* one row behind */
+			} else { /* the heights one row behind in the kernel's pass, from row j - 1 */
+				update_rows(w, j - 1);
 				swell_wave_vel_rows_avx2(w, j, j1, trow, damp);
+			}
 		}
 		w->next_row = (uint16_t)end;
 		return w->ny - end;
@@ -522,6 +681,8 @@ int swell_wave_step_rows(struct swell_wave *w, int rows)
 			step_row(w, j, 1);
 		else
 			step_row(w, j, 0);
+		if (vel && j > w->done_row) /* row j - 1's last reader is done */
+			update_rows(w, j);
 	}
 	w->next_row = (uint16_t)end;
 	return w->ny - end;
@@ -586,33 +747,6 @@ static inline __attribute__((always_inline)) int32_t finish_seg(int32_t *restric
 	return any;
 }
 
-#if SWELL_WAVE_DSP
-/* n tile rows (8 cells each, n >= 1) of the velocity form finished ahead, h += acc alone, saturated to
- * 27 bits (SSAT sets the Q flag, which finish_row reads); a tile whose acc is not all zero gets
- * T_TOUCHED in t[]. Four cells are an LDM of acc, an LDM of h, four ADD and SSAT, an STM of h
- * (Cortex-M4 TRM: 1 + N cycles each): about 36 instructions a tile with its flag and the loop, against
- * about 58 for the compiler's unrolled loop of single loads and stores. A tile already TOUCHED (from
- * an earlier row of its band) skips the test of its acc: about 28. A function of its own: inlined in
- * the finishing pass, its nine scratch registers leave too few for the operands. */
-#define ADD_FOUR                                                                                                  \
-	"ldmia %[a]!, {r2, r3, r4, r5}\n\tldmia %[h], {r6, r7, r8, r9}\n\tadd r6, r6, r2\n\tssat r6, #27, r6\n\t" \
-	"add r7, r7, r3\n\tssat r7, #27, r7\n\tadd r8, r8, r4\n\tssat r8, #27, r8\n\tadd r9, r9, r5\n\t"          \
-	"ssat r9, #27, r9\n\tstmia %[h]!, {r6, r7, r8, r9}\n\t"
-static __attribute__((noinline)) void add_tiles_vel(int32_t *h, const int32_t *acc, uint8_t *t, int n)
-{
-	__asm__ volatile("1:\tldrb r12, [%[t]]\n\ttst r12, %[touched]\n\tbne 3f\n\t" ADD_FOUR
-			 "orr r2, r2, r3\n\torr r4, r4, r5\n\torr r12, r2, r4\n\t" ADD_FOUR
-			 "orr r2, r2, r3\n\torr r4, r4, r5\n\torr r2, r2, r4\n\torrs r12, r12, r2\n\tbeq 2f\n\t"
-			 "ldrb r2, [%[t]]\n\torr r2, r2, %[touched]\n\tstrb r2, [%[t]]\n\tb 2f\n"
-			 "3:\t" ADD_FOUR ADD_FOUR "\n"
-			 "2:\tadds %[t], %[t], #1\n\tsubs %[n], %[n], #1\n\tbne 1b"
-			 : [h] "+r"(h), [a] "+r"(acc), [t] "+r"(t), [n] "+r"(n)
-			 : [touched] "n"(T_TOUCHED)
-			 : "r2", "r3", "r4", "r5", "r6", "r7", "r8", "r9", "r12", "cc", "memory");
-}
-#undef ADD_FOUR
-#endif
-
 /* Row j of the finishing pass: h += acc where the step wrote acc (add, DIRTY), the old v cleared where
  * the last step wrote it (clear, DIRTY_PREV); sets TOUCHED where a cell changed. */
 static inline __attribute__((always_inline)) void finish_row(struct swell_wave *w, int j, int add, int clear, int vel)
@@ -651,17 +785,6 @@ static inline __attribute__((always_inline)) void finish_row(struct swell_wave *
 
 			if (!all && !(trow[tx] & T_DIRTY))
 				continue;
-#if SWELL_WAVE_DSP
-			if (vel) { /* the run of tiles to finish from tx on, in one go */
-				int t1 = tx + 1;
-
-				while (t1 < w->tiles_x && (all || (trow[t1] & T_DIRTY)))
-					t1++;
-				add_tiles_vel(h + i0, acc + i0, trow + tx, t1 - tx);
-				tx = t1 - 1;
-				continue;
-			}
-#endif
 			if (finish_seg(h + i0, acc + i0, v + i0, SWELL_WAVE_TILE, 1, 0, vel, &sat))
 				trow[tx] |= T_TOUCHED;
 		}
@@ -701,38 +824,13 @@ static inline __attribute__((always_inline)) void finish_range_form(struct swell
 {
 	const uint8_t need = (uint8_t)((add ? T_DIRTY : 0u) | (clear ? T_DIRTY_PREV : 0u));
 	int j;
-#if SWELL_WAVE_DSP
-	/* rows finished ahead whose every tile the step wrote: the row in one add_tiles_vel call (the band's
-	 * flags looked at once); 1 a band of them, 0 not, -1 not yet looked at */
-	int band_all = -1;
-#endif
 
-#if SWELL_WAVE_AVX2
-	if (vel && w->kernel == SWELL_KERNEL_AVX2) {
-		swell_wave_vel_finish_avx2(w, j0, j1, need);
-		return;
-	}
-#endif
 	for (j = j0; j < j1; j++) {
 		if (w->sleep && j % SWELL_WAVE_TILE == 0 && (j + SWELL_WAVE_TILE <= j1 || j1 == w->ny) &&
 		    !tile_row_has(w, w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x, need)) {
 			j += SWELL_WAVE_TILE - 1; /* a calm band of tiles: nothing wrote acc or v in it */
 			continue;
 		}
-#if SWELL_WAVE_DSP
-		if (vel && add && !clear && w->nx % SWELL_WAVE_TILE == 0) {
-			uint8_t *trow = w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x;
-
-			if (band_all < 0 || j % SWELL_WAVE_TILE == 0)
-				band_all = !w->sleep || tile_row_all(w, trow, T_DIRTY);
-			if (band_all) { /* as finish_row does it, without its search for runs of tiles */
-				__set_saturation_occurred(0);
-				add_tiles_vel(w->h + (size_t)j * w->nx, w->acc + (size_t)j * w->nx, trow, w->tiles_x);
-				w->saturations += (uint32_t)__saturation_occurred();
-				continue;
-			}
-		}
-#endif
 		if (!add && clear && j % SWELL_WAVE_TILE == 0 && j + SWELL_WAVE_TILE <= j1 &&
 		    w->nx % SWELL_WAVE_TILE == 0 &&
 		    (!w->sleep || tile_row_all(w, w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x, T_DIRTY_PREV))) {
@@ -745,30 +843,25 @@ static inline __attribute__((always_inline)) void finish_range_form(struct swell
 	}
 }
 
+/* The edge-flux form's (the velocity form has no finishing pass: update_rows) */
 static void finish_range(struct swell_wave *w, int j0, int j1, int add, int clear)
 {
-	if (w->form == SWELL_FORM_VELOCITY) {
-		if (add)
-			finish_range_form(w, j0, j1, 1, clear, 1);
-		else
-			finish_range_form(w, j0, j1, 0, clear, 1);
-	} else {
-		if (add)
-			finish_range_form(w, j0, j1, 1, clear, 0);
-		else
-			finish_range_form(w, j0, j1, 0, clear, 0);
-	}
+	if (add)
+		finish_range_form(w, j0, j1, 1, clear, 0);
+	else
+		finish_range_form(w, j0, j1, 0, clear, 0);
 }
 
 /* d (one LSB, or a whole share) of a fixer into the n cells from a, all in one tile of one row: into
- * u (mom), or into the step's height change, and h at once in a row finished ahead (as swell_wave_add
- * does). A tight loop a run: the give-back can reach thousands of cells a step. */
+ * u (mom), or into h (every row holds h(n+1) by then). A tight loop a run: the give-back can reach
+ * thousands of cells a step. */
 static void fix_run(struct swell_wave *w, size_t a, int n, int32_t d, int mom, uint8_t *t)
 {
+	int32_t *restrict h = w->h + a;
 	uint32_t sat = 0;
 	int k;
 
-	*t |= T_DIRTY | T_NONZERO;
+	*t |= T_NONZERO;
 	if (mom) {
 		int32_t *restrict u = w->u + a;
 
@@ -781,20 +874,14 @@ static void fix_run(struct swell_wave *w, size_t a, int n, int32_t d, int mom, u
 		w->saturations += sat;
 		return;
 	}
-	for (k = 0; k < n; k++)
-		w->acc[a + (size_t)k] += d;
-	if (a < (size_t)w->done_row * w->nx) {
-		int32_t *restrict h = w->h + a;
+	for (k = 0; k < n; k++) {
+		const int32_t x = h[k] + d, c = swell_clamp(x, SWELL_HV_MIN, SWELL_HV_MAX);
 
-		for (k = 0; k < n; k++) {
-			const int32_t x = h[k] + d, c = swell_clamp(x, SWELL_HV_MIN, SWELL_HV_MAX);
-
-			sat += c != x;
-			h[k] = c;
-		}
-		w->saturations += sat;
-		*t |= T_TOUCHED;
+		sat += c != x;
+		h[k] = c;
 	}
+	w->saturations += sat;
+	*t |= T_TOUCHED;
 }
 
 /* Cells a fixer touches a step at most: a residual larger than this goes back in equal chunks, so the
@@ -879,6 +966,8 @@ int swell_wave_finish_rows(struct swell_wave *w, int rows)
 {
 	int ready, end;
 
+	if (w->form == SWELL_FORM_VELOCITY) /* rows become h(n+1) as the kernel goes */
+		return 0;
 	if (w->next_row >= w->ny)
 		ready = w->ny;
 	else if (w->next_row == 0)
@@ -901,7 +990,7 @@ int swell_wave_finish_rows(struct swell_wave *w, int rows)
  * from TOUCHED, DIRTY_PREV from DIRTY, every other flag cleared. Each flag is one bit moved within
  * its byte (a shift, then a mask of that bit in every byte), so a word does four tiles at once. */
 _Static_assert(T_ZERO == 1u && T_NONZERO == 2u && T_Z1 == 16u && T_CHANGED == T_TOUCHED >> 1 &&
-		       T_DIRTY_PREV == T_DIRTY << 1,
+		       T_TOUCHED == T_NONZERO << 2 && T_DIRTY_PREV == T_DIRTY << 1,
 	       "step_flags4 moves these bits");
 static inline uint32_t step_flags4(uint32_t x)
 {
@@ -918,8 +1007,27 @@ void swell_wave_step_finish(struct swell_wave *w)
 	int a, n;
 
 	swell_wave_step_rows(w, w->ny);
-	if (w->form == SWELL_FORM_VELOCITY)
+	t = w->tile;
+	n = (int)w->tiles_x * w->tiles_y;
+	if (w->form == SWELL_FORM_VELOCITY) {
+		/* the last row's heights, then the fixers; a tile changed where its momentum moved (or it was
+		 * written from outside, or by the fixer: TOUCHED), so NONZERO counts as TOUCHED */
+		update_rows(w, w->ny);
 		vel_fix(w);
+		for (a = 0; a + 4 <= n; a += 4) {
+			uint32_t x;
+
+			memcpy(&x, t + a, sizeof(x));
+			x = step_flags4(x | (x & 0x01010101u * T_NONZERO) << 2);
+			memcpy(t + a, &x, sizeof(x));
+		}
+		for (; a < n; a++)
+			t[a] = (uint8_t)step_flags4(t[a] | (t[a] & T_NONZERO) << 2);
+		w->next_row = 0;
+		w->done_row = 0;
+		w->steps++;
+		return;
+	}
 	/* h += acc where the step wrote acc (DIRTY; rows finished ahead have it already); the old v,
 	 * which becomes the next accumulator, is cleared where the last step wrote it (DIRTY_PREV); then
 	 * the two swap. */
@@ -929,8 +1037,6 @@ void swell_wave_step_finish(struct swell_wave *w)
 	w->v = w->acc;
 	w->acc = tmp;
 	/* the step is done: its flags become the last finished step's, four tiles a word */
-	t = w->tile;
-	n = (int)w->tiles_x * w->tiles_y;
 	for (a = 0; a + 4 <= n; a += 4) {
 		uint32_t x;
 
@@ -950,6 +1056,32 @@ void swell_wave_step(struct swell_wave *w)
 	swell_wave_step_finish(w);
 }
 
+/* The velocity form: water added to the cells [i0, i1) of row j, one tile, goes into h at once
+ * (saturating, counted); the tile is TOUCHED and it and its neighbours awake for the rest of the step
+ * where a height changed. */
+static void add_vel(struct swell_wave *w, int i0, int i1, int j, int32_t dh)
+{
+	int32_t *restrict h = w->h + (size_t)j * w->nx;
+	const int32_t lo = SWELL_HV_MIN, hi = SWELL_HV_MAX;
+	uint32_t sat = 0;
+	int32_t moved = 0;
+	int i;
+
+	/* beyond twice the height bound every sum clamps the same: then h + dh fits int32 */
+	dh = swell_clamp(dh, 2 * lo, 2 * hi);
+	for (i = i0; i < i1; i++) {
+		const int32_t x = h[i] + dh, c = x > hi ? hi : x < lo ? lo : x;
+
+		sat += c != x;
+		moved |= c ^ h[i];
+		h[i] = c;
+	}
+	w->saturations += sat;
+	/* a tile TOUCHED already woke its neighbours for this step (and asleep() keeps them awake) */
+	if (moved && !(w->tile[(j / SWELL_WAVE_TILE) * w->tiles_x + i0 / SWELL_WAVE_TILE] & T_TOUCHED))
+		swell_wave_touched(w, i0, j);
+}
+
 void swell_wave_add(struct swell_wave *w, int i, int j, int32_t dh)
 {
 	size_t a;
@@ -958,6 +1090,10 @@ void swell_wave_add(struct swell_wave *w, int i, int j, int32_t dh)
 
 	if (i < 0 || j < 0 || i >= w->nx || j >= w->ny)
 		return;
+	if (w->form == SWELL_FORM_VELOCITY) {
+		add_vel(w, i, i + 1, j, dh);
+		return;
+	}
 	a = (size_t)j * w->nx + (size_t)i;
 	t = &w->tile[(j / SWELL_WAVE_TILE) * w->tiles_x + i / SWELL_WAVE_TILE];
 	old = w->acc[a];
@@ -989,6 +1125,15 @@ void swell_wave_add_span(struct swell_wave *w, int i0, int i1, int j, int32_t dh
 	i1 = i1 < w->nx ? i1 : w->nx;
 	if (i0 >= i1)
 		return;
+	if (w->form == SWELL_FORM_VELOCITY) { /* tile by tile */
+		while (i0 < i1) {
+			const int end = (i0 / SWELL_WAVE_TILE + 1) * SWELL_WAVE_TILE;
+
+			add_vel(w, i0, end < i1 ? end : i1, j, dh);
+			i0 = end;
+		}
+		return;
+	}
 	trow = &w->tile[(j / SWELL_WAVE_TILE) * w->tiles_x];
 	acc = w->acc + (size_t)j * w->nx;
 	h = w->h + (size_t)j * w->nx;
@@ -1054,11 +1199,17 @@ int64_t swell_wave_volume(const struct swell_wave *w)
 	return sum;
 }
 
+/* The last step's change of cell a: v, or in the velocity form the solver's own change dh(u) (wave.h) */
+static int32_t last_change(const struct swell_wave *w, int a)
+{
+	return w->v ? w->v[a] : swell_wave_dh(w, (size_t)a);
+}
+
 /* 2 w (h_b - h_a)(n) (h_b - h_a)(n-1) for one edge; h(n-1) = h - v. */
 static int64_t edge_pot2(const struct swell_wave *w, int a, int b, int64_t two_w)
 {
 	int64_t d_now = (int64_t)w->h[b] - w->h[a];
-	int64_t d_prev = d_now - ((int64_t)w->v[b] - w->v[a]);
+	int64_t d_prev = d_now - ((int64_t)last_change(w, b) - last_change(w, a));
 
 	return two_w * d_now * d_prev;
 }
@@ -1072,7 +1223,7 @@ struct swell_energy swell_wave_energy(const struct swell_wave *w)
 	for (j = 0; j < ny; j++) {
 		for (i = 0; i < nx; i++) {
 			a = j * nx + i;
-			en.kin += (int64_t)w->v[a] * w->v[a];
+			en.kin += (int64_t)last_change(w, a) * last_change(w, a);
 			if (i + 1 < nx)
 				en.pot2 += edge_pot2(w, a, a + 1, (j == 0 || j == ny - 1) ? 3 : 2);
 			if (j + 1 >= ny)

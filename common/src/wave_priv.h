@@ -16,7 +16,7 @@
  *     s = floor(q s / 2^30) + (s < 0)   (damp only)    toward zero: q = 1 - t is odd
  *     dh = (s + 2^(F-1) - (s < 0)) >> F  (dh = s at 0)  the height change, nearest, ties away
  *                                                      from zero (no bias in the volume residual)
- * and stores u = s, acc += dh; it adds the sums of the new s and dh to sum[0] and sum[1] and sets
+ * and stores u = s (the heights follow one row behind, in the driver: h += dh); it adds the sums of the new s and dh to sum[0] and sum[1] and sets
  * any[tx - tx0] non-zero exactly when some new s of that tile is non-zero. Every kernel gives the
  * same bits as swell_wave_vel_ref. */
 #ifndef SWELL_WAVE_PRIV_H
@@ -62,7 +62,9 @@
 #define T_TOUCHED 8u
 #define T_Z1 16u
 /* DIRTY: the step in progress may have written acc in this tile (an edge of it or of a neighbour tile
- * was computed, or water was added). PREV: the same for the last finished step, whose acc is now v. */
+ * was computed, or water was added). PREV: the same for the last finished step, whose acc is now v.
+ * Edge-flux form only: the velocity form has no acc nor v (it counts NONZERO as TOUCHED at the
+ * step's finish: its heights changed only where its momentum moved or something wrote them). */
 #define T_DIRTY 32u
 #define T_DIRTY_PREV 64u
 /* SLEEPING: decided at the first row of the tile's row in this step (asleep() is a 3 x 3 scan; one
@@ -82,13 +84,14 @@ static inline int swell_wave_vel_avx2_fits(const struct swell_wave *w, int damp)
 }
 /* Rows [j0, j1) of one band of tiles (its flags trow, its sleeping tiles decided), whole, the
  * driver's bookkeeping included: the same bits, flags and counts as step_row_vel (wave.c) calling
- * swell_wave_vel_ref for each run of awake tiles, the sums added to w->vel_sum and w->vel_sum_h. */
+ * swell_wave_vel_ref for each run of awake tiles, the sums added to w->vel_sum and w->vel_sum_h. The
+ * heights one row behind too (update_rows, the same bits and counts): rows [done_row, j1 - 1) become
+ * h(n+1) in the same pass, done_row (j0 - 1, or 0 at j0 = 0, on entry) becomes j1 - 1. */
 void swell_wave_vel_rows_avx2(struct swell_wave *w, int j0, int j1, uint8_t *trow, int damp);
-/* The finishing pass of rows [j0, j1) (wave.c's finish_range), the same bits, flags and counts: where
- * a tile has the flags of need, h += acc (T_DIRTY; clamped to int27, a row that clamped counted once,
- * T_TOUCHED where acc is non-zero) and v = 0 (T_DIRTY_PREV); every tile when tiles do not sleep; a
- * band of tiles none of which has them skipped whole. */
-void swell_wave_vel_finish_avx2(struct swell_wave *w, int j0, int j1, uint8_t need);
+/* The heights' update of rows [j0, j1) on its own (wave.c's update_rows: where the kernel above does
+ * not run), the same bits and counts: h += dh(u),
+ * clamped to int27 (a row that clamped counted once), in the tiles with T_NONZERO. */
+void swell_wave_vel_update_avx2(struct swell_wave *w, int j0, int j1);
 #endif
 
 /* ---- The edge-flux form's kernels: one a file (wave_edge_ref.c, wave_edge_fused.c,

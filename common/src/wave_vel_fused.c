@@ -1,7 +1,7 @@
 /* The velocity form's fast kernel: one pass along a run of awake tiles of a row with the column sums
  * h(j-1) + 2 h(j) + h(j+1) of the cells left, centre and right carried in registers, so that a cell
  * costs three loads of h, a handful of adds and shifts, the product and the momentum's load and
- * store. On ARMv7E-M: SMMLAR gives u + nearest(x C / 2^32) in one instruction (SMMUL and a range
+ * store (the heights' update is the driver's, one row behind). On ARMv7E-M: SMMLAR gives u + nearest(x C / 2^32) in one instruction (SMMUL and a range
  * test when damped), SSAT #28 the saturation (the sticky Q flag, read once a run) and SMMUL the
  * damping toward zero, as in the edge-flux kernel. Same bits as swell_wave_vel_ref. */
 #include "wave_priv.h"
@@ -77,7 +77,6 @@ static inline __attribute__((always_inline)) int32_t vel_cell(int32_t u, int32_t
 		s = vel_cell(u[K], sl + sr + 2 * sc - 16 * c, cf, c64, f, q, damp, dsp, &sat); \
 		dh = damp ? s : (s + half + ((s >> 31) & fm)) >> f; /* damped: f = 0 */        \
 		u[K] = s;                                                                      \
-		acc[K] += dh;                                                                  \
 		tot += s;                                                                      \
 		if (!damp) /* damped: dh = s, the same sum */                                  \
 			tot_h += dh;                                                           \
@@ -99,7 +98,6 @@ static inline __attribute__((always_inline)) void vel_run(struct swell_wave *w, 
 	const int32_t *restrict hd = mid ? hc - nx : j > 0 ? hc - nx : hc;
 	const int32_t *restrict hu = mid ? hc + nx : j + 1 < w->ny ? hc + nx : hc;
 	int32_t *restrict u = w->u + (size_t)j * nx + i0;
-	int32_t *restrict acc = w->acc + (size_t)j * nx + i0;
 	const int32_t f = w->vel_frac, half = f ? 1 << (f - 1) : 0, fm = f ? -1 : 0, q = w->q; /* f 0: dh = s */
 	const int64_t c64 = (int64_t)w->e_eff << (f + 1);
 	const int32_t cf = dsp ? (int32_t)c64 : 0; /* fits int32 when dsp */
@@ -131,7 +129,6 @@ static inline __attribute__((always_inline)) void vel_run(struct swell_wave *w, 
 		hd += 8;
 		hu += 8;
 		u += 8;
-		acc += 8;
 	}
 	a_or = 0;
 	if (east && m % 8 == 7) { /* a whole last tile at the east wall (widths of whole tiles): unrolled too */

@@ -41,7 +41,6 @@ void swell_wave_vel_ref(struct swell_wave *w, int j, int tx0, int tx1, int damp,
 			s = ((s * w->q) >> 30) + (s < 0);
 		dh = f ? (s + ((int64_t)1 << (f - 1)) - (s < 0)) >> f : s; /* nearest, ties away from zero */
 		w->u[a] = (int32_t)s;
-		w->acc[a] += (int32_t)dh;
 		total += s;
 		total_h += dh;
 		any[(i - i0) / SWELL_WAVE_TILE] |= (int32_t)s;

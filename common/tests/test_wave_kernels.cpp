@@ -139,3 +139,68 @@ TEST_CASE("kernel selection: unknown kernels are refused and change nothing, AUT
 	CHECK(swell_wave_kernel_name(SWELL_KERNEL_AUTO) == nullptr);
 	CHECK(std::string(swell_wave_kernel_name(SWELL_KERNEL_REF)) == "ref");
 }
+
+TEST_CASE("velocity form: the heights one row behind, where a kernel folds them into its pass, are the reference's "
+	  "after every slice: slices of 1 to 9 rows across bands, narrow and ragged rows, bands half asleep under "
+	  "awake ones, rows that clamp counted once",
+	  "[wave][kernel][velocity]")
+{
+	/* widths under a vector, a cell short of and past whole tiles; heights of one band and a few */
+	const int widths[] = {2, 3, 5, 7, 8, 9, 15, 16, 17, 23, 64, 67};
+	const int heights[] = {2, 3, 8, 9, 17, 24};
+	std::mt19937 rng(20261207);
+	long sats = 0, skipped = 0;
+
+	for (swell_wave_kernel k : fast_kernels())
+		for (int nx : widths)
+			for (int ny : heights)
+				for (int c = 0; c < 3; c++) {
+					/* c 0: a calm pool with pushes at the bands' first and last rows (tiles
+					 * asleep beside awake ones); c 1: the same damped; c 2: every cell at an
+					 * int27 bound near the stability limit (h and u clamp) */
+					const q30_t t = c == 1 ? q30(0.02) : 0;
+					const q30_t e = c == 2 ? swell_wave_e_limit(t, SWELL_STENCIL_PAPER) - 2 : q30(0.2);
+					Field ref(nx, ny, e, t, SWELL_STENCIL_PAPER, SWELL_KERNEL_REF, SWELL_FORM_VELOCITY);
+					Field fast(nx, ny, e, t, SWELL_STENCIL_PAPER, k, SWELL_FORM_VELOCITY);
+					std::mt19937 frng(rng());
+
+					for (int a = 0; a < ref.n(); a++)
+						ref.w.h[a] = c == 2 ? ((a % nx + a / nx) % 2 ? SWELL_HV_MAX : SWELL_HV_MIN) : 0;
+					std::memcpy(fast.w.h, ref.w.h, sizeof(int32_t) * ref.n());
+					swell_wave_rest(&ref.w);
+					swell_wave_rest(&fast.w);
+					for (int s = 0; s < 12; s++) {
+						int left = ny;
+						if (c < 2 && s % 4 == 0) { /* the last row of a band, the next's first */
+							const int i = (int)(frng() % nx),
+								  b = (int)(frng() % ny) / SWELL_WAVE_TILE;
+							for (int j :
+							     {b * SWELL_WAVE_TILE + SWELL_WAVE_TILE - 1, b * SWELL_WAVE_TILE})
+								for (Field *f : {&ref, &fast})
+									swell_wave_add(&f->w, i, j, (s % 8 ? -1 : 1) * 40000);
+						}
+						while (left > 0) {
+							const int rows = 1 + (int)(frng() % 9);
+							left = swell_wave_step_rows(&ref.w, rows);
+							REQUIRE(swell_wave_step_rows(&fast.w, rows) == left);
+							const std::string d = differs(ref, fast, false);
+							INFO(swell_wave_kernel_name(k)
+							     << " " << nx << "x" << ny << " case " << c << " step " << s << ", "
+							     << left << " rows left: " << d);
+							REQUIRE(d.empty());
+							REQUIRE(ref.w.saturations == fast.w.saturations);
+						}
+						swell_wave_step_finish(&ref.w);
+						swell_wave_step_finish(&fast.w);
+						const std::string d = differs(ref, fast);
+						INFO(swell_wave_kernel_name(k) << " " << nx << "x" << ny << " case " << c
+									       << " after step " << s << ": " << d);
+						REQUIRE(d.empty());
+					}
+					sats += ref.w.saturations;
+					skipped += ref.w.tiles_skipped;
+				}
+	/* the cases reach what they are for: clamps, and tiles asleep */
+	CHECK(sats > 0);
+	CHECK(skipped > 0);
+}

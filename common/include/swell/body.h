@@ -143,6 +143,11 @@ struct swell_body {
 	 * keeps the cells' writes for swell_body_place; v_unplaced the volume still to write */
 	struct swell_body_fp placed;
 	int64_t v_unplaced;
+	/* the velocity form keeps no h(n) - h(n-1) (swell/wave.h): the object's own part of it, the water
+	 * it wrote in this solver period weighted by the footprint it holds after each write (fp_sums'
+	 * units), and the last period's as a mean height change under the footprint (LSB) */
+	int64_t dep_sv;
+	int32_t dep_v;
 	/* the scan spread over a solver period (swell_body_scan_ahead): rows [0, scan_row) of step
 	 * scan_steps scanned so far, their ceiling and sum; scan_ok 0 once the object was in the water */
 	int64_t scan_sum;

@@ -53,20 +53,32 @@
  * point lands as far on the other side); rounding toward half the kick does not add to the energy the
  * undamped scheme keeps (by less than an LSB^2 a cell where the sum is within half an LSB of that
  * point), and damped water comes to rest (measured: 288 of 288 cases,
- * common/tests/test_wave_rest.cpp). At the step's finish the integer residual r = sum u(n+1) is given back in whole LSBs of u (to cells of tiles that moved, one LSB a
- * cell, from a cursor that rotates over the grid; whole shares first when |r| exceeds their count),
- * so sum u = 0. Undamped, u carries vel_frac fraction bits beyond a height LSB (as many as keep
- * 2^(vel_frac+1) e_eff < 2 in Q1.30 for the M4's SMMLAR, at most 4: 4 for e_eff < 1/16, 2 for the
- * pool's 0.2), which brings the rounding error under the edge-flux form's; damped, none (with them,
- * single cells keep cycling by 2-3 LSB at e 0.35 and t 0.02). A cell's height change is u(n+1) rounded to a height LSB (nearest, ties away from zero), and the
- * residual of those roundings is given back the same way in whole height LSBs (h and acc only), so
- * the volume stays exact. Water added from outside never enters u (as in the
- * edge-flux form, it is mass, not momentum). Heights saturate to int27 (SWELL_HV_MIN..MAX,
- * +-1024 mm) so that 2 L9 fits int32; u to int28. Storage SWELL_WAVE_VEL_WORDS: h, v, acc, u and
- * the tile flags, 16 bytes a cell instead of 28. Kernels: SWELL_KERNEL_REF (the definition, one cell
- * at a time in int64), SWELL_KERNEL_FUSED (column sums carried in registers; SMMLAR/SMMUL/SSAT
- * on ARMv7E-M) and SWELL_KERNEL_AVX2 (x86-64 with AVX2: a tile row a vector, and the finishing pass
- * too), bit-identical. The two forms are not bit-identical to each other.
+ * common/tests/test_wave_rest.cpp). At the step's finish the integer residual r = sum u(n+1) is given
+ * back in whole LSBs of u (to cells of tiles that moved, one LSB a cell, from a cursor that rotates
+ * over the grid; whole shares first when |r| exceeds their count), so sum u = 0. Undamped, u carries
+ * vel_frac fraction bits beyond a height LSB (as many as keep 2^(vel_frac+1) e_eff < 2 in Q1.30 for
+ * the M4's SMMLAR, at most 4: 4 for e_eff < 1/16, 2 for the pool's 0.2), which brings the rounding
+ * error under the edge-flux form's; damped, none (with them, single cells keep cycling by 2-3 LSB at
+ * e 0.35 and t 0.02). A cell's height change dh(u) is u(n+1) rounded to a height LSB (nearest, ties
+ * away from zero; u itself when vel_frac is 0), and the residual of those roundings is given back
+ * the same way in whole height LSBs (into h), so the volume stays exact. Water added from outside
+ * never enters u (as in the edge-flux form, it is mass, not momentum). Heights saturate to int27
+ * (SWELL_HV_MIN..MAX, +-1024 mm) so that 2 L9 fits int32; u to int28.
+ *   Storage SWELL_WAVE_VEL_WORDS: h, u and the tile flags, 8 bytes a cell (the edge-flux form's 28);
+ * v and acc are NULL. There is no step accumulator: row j's heights become h(n+1) = h(n) + dh(u(n+1))
+ * (saturated) as soon as row j+1's momentum is done (the last row that reads row j's h(n)), one row
+ * behind the kernel, and the last row at the step's finish. So after swell_wave_step_rows has done
+ * rows [0, next_row), rows [0, done_row) hold h(n+1), done_row = next_row - 1 (every row after the
+ * finish), and a reader takes h(n) = h - dh(u) there (swell_wave_h). swell_wave_finish_rows has
+ * nothing to do in this form. The last step's change h(n) - h(n-1) is not kept: swell_wave_dh gives
+ * the solver's own change dh(u) instead, which differs from it by the water added from outside and
+ * the volume fixer's LSBs (at most one LSB a cell in a step, and only where water moved). Water added
+ * from outside (swell_wave_add) goes into h at once: in rows below done_row it is part of h(n+1) and
+ * also shows in h - dh(u); elsewhere the rest of the step reads it.
+ *   Kernels: SWELL_KERNEL_REF (the definition, one cell at a time in int64), SWELL_KERNEL_FUSED
+ * (column sums carried in registers; SMMLAR/SMMUL/SSAT on ARMv7E-M) and SWELL_KERNEL_AVX2 (x86-64
+ * with AVX2: a tile row a vector, and the height update too), bit-identical. The two forms are not
+ * bit-identical to each other.
  *
  * Sleeping tiles (lossless): the grid is cut into 8 x 8 tiles. A tile whose edges all gave zero flow
  * in the last step, and none of whose cells nor its neighbour tiles' cells changed since, would give
@@ -101,8 +113,8 @@
 	(3 * (size_t)(nx) * (size_t)(ny) + 4 * SWELL_WAVE_TILE * SWELL_WAVE_TILES_X(nx) * (size_t)(ny) + \
 	 (SWELL_WAVE_TILES(nx, ny) + 3) / 4)
 
-/* The velocity form: h, v, acc and the momentum u (nx ny words each), then the tile flags */
-#define SWELL_WAVE_VEL_WORDS(nx, ny) (4 * (size_t)(nx) * (size_t)(ny) + (SWELL_WAVE_TILES(nx, ny) + 3) / 4)
+/* The velocity form: h and the momentum u (nx ny words each), then the tile flags */
+#define SWELL_WAVE_VEL_WORDS(nx, ny) (2 * (size_t)(nx) * (size_t)(ny) + (SWELL_WAVE_TILES(nx, ny) + 3) / 4)
 
 enum swell_wave_form {
 	SWELL_FORM_EDGE = 0, /* edge-flux: four flows a cell (default) */
@@ -131,8 +143,8 @@ struct swell_wave {
 	uint16_t nx, ny;
 	/* Row-major, index j * nx + i (i the column, x; j the row, y). */
 	int32_t *h; /* h(n): height above rest, LSB 2^-16 mm */
-	int32_t *v; /* h(n) - h(n-1), the last step's change */
-	int32_t *acc; /* the step in progress: sum of the new flows of every cell */
+	int32_t *v; /* h(n) - h(n-1), the last step's change (edge-flux form; NULL in the velocity form) */
+	int32_t *acc; /* the step in progress: sum of the new flows of every cell (edge-flux form; NULL) */
 	/* Flows, by tile row: the 8 cells (i, j) with i / 8 = tx have their flows at
 	 * f + 32 (j tiles_x + tx) + 8 k + i % 8, k = 0 E (into (i,j) from (i+1,j)), 1 N (from (i,j+1)),
 	 * 2 NE (from (i+1,j+1)), 3 NW (from (i-1,j+1)). */
@@ -146,7 +158,7 @@ struct swell_wave {
 	uint32_t steps;
 	uint32_t saturations; /* row segments (up to a tile row) in which a height or flow was clamped */
 	uint16_t next_row; /* first row not yet done in the step in progress */
-	uint16_t done_row; /* rows [0, done_row) of the step in progress finished ahead (h = h(n+1)) */
+	uint16_t done_row; /* rows [0, done_row) of the step in progress hold h(n+1) (finished ahead) */
 	uint16_t tiles_x, tiles_y;
 	uint8_t *tile; /* flag byte a tile (wave.c) */
 	uint8_t sleep; /* 1: skip sleeping tiles (default); 0: every edge every step */
@@ -163,11 +175,31 @@ struct swell_wave {
 	uint64_t fixed_lsb; /* LSB given back by the fixer, cumulative */
 };
 
+/* The velocity form's height change of a cell whose momentum is u: u rounded to a height LSB
+ * (nearest, ties away from zero), u itself without fraction bits. */
+static inline int32_t swell_wave_vel_dh(const struct swell_wave *w, int32_t u)
+{
+	const int f = w->vel_frac;
+
+	return f ? (u + ((int32_t)1 << (f - 1)) - (u < 0)) >> f : u;
+}
+
+/* The velocity form: the solver's own change of cell a, dh(u). In rows below done_row that is
+ * h(n+1) - h(n) of the step in progress; elsewhere it is h(n) - h(n-1) of the last finished step less
+ * the water added from outside and the volume fixer's LSBs (see above). */
+static inline int32_t swell_wave_dh(const struct swell_wave *w, size_t a)
+{
+	return swell_wave_vel_dh(w, w->u[a]);
+}
+
 /* h(n), the height of the last finished step, of cell a at any point of a step in progress: rows
- * finished ahead (below done_row) hold h(n+1) in h and its change in acc. */
+ * finished ahead (below done_row) hold h(n+1) in h and its change in acc (edge-flux form) or dh(u)
+ * (velocity form; water added from outside there shows in it). */
 static inline int32_t swell_wave_h(const struct swell_wave *w, size_t a)
 {
-	return a < (size_t)w->done_row * w->nx ? w->h[a] - w->acc[a] : w->h[a];
+	if (a >= (size_t)w->done_row * w->nx)
+		return w->h[a];
+	return w->acc ? w->h[a] - w->acc[a] : w->h[a] - swell_wave_dh(w, a);
 }
 
 /* Exact integer energy (docs/design.md, section 2), for tests: with t = 0,
@@ -202,7 +234,7 @@ enum swell_err swell_wave_init_form(struct swell_wave *w, uint16_t nx, uint16_t 
 				    const struct swell_wave_params *p, enum swell_wave_form form);
 
 /* The velocity form with the momentum u apart from the rest (a port may put it in another memory):
- * storage holds h, v, acc and the tile flags (SWELL_WAVE_VEL_WORDS(nx, ny) - nx ny words), u nx ny
+ * storage holds h and the tile flags (SWELL_WAVE_VEL_WORDS(nx, ny) - nx ny words), u nx ny
  * words. The same bits as swell_wave_init_form; on error *w is untouched. */
 enum swell_err swell_wave_init_vel_apart(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage, size_t words,
 					 int32_t *u, size_t u_words, const struct swell_wave_params *p);
@@ -210,8 +242,8 @@ enum swell_err swell_wave_init_vel_apart(struct swell_wave *w, uint16_t nx, uint
 /* Change parameters on a running field; on error nothing changes. */
 enum swell_err swell_wave_set_params(struct swell_wave *w, const struct swell_wave_params *p);
 
-/* Make the present heights the rest state: all flows and v zero (h(n-1) = h(n)). A step in progress
- * is dropped: rows finished ahead go back to h(n). */
+/* Make the present heights the rest state: all flows and v zero (h(n-1) = h(n)), u zero in the
+ * velocity form. A step in progress is dropped: rows finished ahead go back to h(n). */
 void swell_wave_rest(struct swell_wave *w);
 
 /* Advance one solver step. Bounded: 4 edges per cell, no data-dependent loops.
@@ -219,7 +251,8 @@ void swell_wave_rest(struct swell_wave *w);
 void swell_wave_step(struct swell_wave *w);
 
 /* Do the edges of the next `rows` rows of the step in progress (at most up to the last row); returns
- * the number of rows still to do. Reads h, writes the flows and acc only. */
+ * the number of rows still to do. Edge-flux form: reads h, writes the flows and acc only. Velocity
+ * form: writes u of those rows and h(n+1) one row behind (done_row = next_row - 1). */
 int swell_wave_step_rows(struct swell_wave *w, int rows);
 
 /* Finish ahead, part of the finishing pass: h += acc on up to `rows` rows of the step in progress
@@ -229,16 +262,17 @@ int swell_wave_step_rows(struct swell_wave *w, int rows);
  * Between this and the finish, read h(n) as h - acc in rows below done_row (see above); h written
  * from outside there is taken as h(n+1). Saturated heights (+-2048 mm) are the exception: there
  * h - acc is not h(n). */
-int swell_wave_finish_rows(struct swell_wave *w, int rows);
+int swell_wave_finish_rows(struct swell_wave *w, int rows); /* velocity form: nothing to do, 0 */
 
 /* Finish the step: every remaining row, then h += acc (rows not finished ahead), v = acc. One pass
- * over the cells. */
+ * over the cells. Velocity form: the last row's heights, the fixers and the tile flags. */
 void swell_wave_step_finish(struct swell_wave *w);
 
 /* Add dh (LSB) to cell (i, j) at the next finish, saturating: the way to move water in from outside
  * (an object's displacement) without disturbing a step in progress. The step's flows are unchanged,
  * so the added volume is conserved from then on. In a row finished ahead it goes into h and acc at
- * once (the same h(n+1) and v(n+1) as at the finish, h(n) = h - acc unchanged). */
+ * once (the same h(n+1) and v(n+1) as at the finish, h(n) = h - acc unchanged). Velocity form: into
+ * h at once, saturating (see above), and the tile wakes (TOUCHED). */
 void swell_wave_add(struct swell_wave *w, int i, int j, int32_t dh);
 
 /* swell_wave_add(w, i, j, dh) for i0 <= i < i1 in order (cells outside the grid ignored, nothing

@@ -19,17 +19,14 @@
  * in ten) and 15.2 ms at 1000 Hz (three in four). */
 #define QUAD_SCAN_PER_TICK 64u
 #define QUAD_READS_PER_S 90000u
-/* Relative costs for spreading a solver step (the velocity form) over its ticks, measured on the
- * Cortex-M4 image (64 cells a row, damped, every tile awake): a row of the kernel with its row driver
- * about 1.85 k instructions, a row of the finishing pass ahead about 0.41 k (LDM/STM). The step's end
- * (the fixers, the clear of the last step's changes, the tile flags, the period's coupling) has a tick
- * of its own: every row is finished ahead before it. */
-#define COST_EDGE_ROW 9u
-#define COST_FINISH_ROW 2u
-/* the body's ceiling scan of a row finished ahead, while the object is out of the water: about 0.4 k
- * (LDM groups of eight cells) */
-#define COST_SCAN_ROW 2u
-#define COST_END 80u
+/* Relative costs for spreading a solver step (the velocity form) over its ticks, in instructions
+ * measured on the Cortex-M4 image (damped and undamped, every tile awake): a cell of a kernel row with
+ * its row driver and the height update one row behind about 32, the body's ceiling scan of a cell
+ * while the object is out of the water about 7 (LDM groups of eight), the step's end (the last row's
+ * heights, the two fixers of up to 64 cells each, the tile flags, the period's coupling) about 12 k. */
+#define COST_CELL 32u
+#define COST_SCAN_CELL 7u
+#define COST_END 12000u
 #define NEVER_SENT INT16_MIN
 
 /* the telemetry's stale bits follow the solver's tiles: a wire tile is a sleeping tile */
@@ -170,15 +167,16 @@ static void sent_set(struct swell_ctl *c, uint32_t a, int16_t v)
 
 size_t swell_ctl_arena_words_apart(uint16_t nx, uint16_t ny)
 {
-	return SWELL_WAVE_VEL_WORDS(nx, ny) - (size_t)nx * ny + stale_words(nx, ny);
+	return SWELL_WAVE_VEL_WORDS(nx, ny) - (size_t)nx * ny + sent_words(nx, ny) + stale_words(nx, ny);
 }
 
 size_t swell_ctl_apart_words(uint16_t nx, uint16_t ny)
 {
-	return (size_t)nx * ny + sent_words(nx, ny);
+	return (size_t)nx * ny;
 }
 
-/* apart: NULL, or the block for the solver's momentum u and the sent samples (in that order). */
+/* apart: NULL, or the block for the solver's momentum u alone (the sent samples stay in the arena,
+ * after the solver's h and flags). */
 static enum swell_err init_at(struct swell_ctl *c, const struct swell_ctl_config *cfg, int32_t *arena, size_t words,
 			      int32_t *apart, size_t apart_words)
 {
@@ -205,10 +203,10 @@ static enum swell_err init_at(struct swell_ctl *c, const struct swell_ctl_config
 	n = (uint32_t)cfg->nx * cfg->ny;
 	/* checked above: none of these can fail */
 	if (apart) {
-		swell_wave_init_vel_apart(&c->wave, cfg->nx, cfg->ny, arena, words, apart, n, &cfg->wave);
-		c->sent = (uint32_t *)(apart + n);
-		c->quad_stale = (uint16_t *)(arena + swell_ctl_arena_words_apart(cfg->nx, cfg->ny) -
-					     stale_words(cfg->nx, cfg->ny));
+		swell_wave_init_vel_apart(&c->wave, cfg->nx, cfg->ny, arena, SWELL_WAVE_VEL_WORDS(cfg->nx, cfg->ny) - n,
+					  apart, n, &cfg->wave);
+		c->sent = (uint32_t *)(arena + SWELL_WAVE_VEL_WORDS(cfg->nx, cfg->ny) - n);
+		c->quad_stale = (uint16_t *)(c->sent + sent_words(cfg->nx, cfg->ny));
 	} else {
 		swell_wave_init_form(&c->wave, cfg->nx, cfg->ny, arena, SWELL_WAVE_VEL_WORDS(cfg->nx, cfg->ny),
 				     &cfg->wave, SWELL_FORM_VELOCITY);
@@ -701,13 +699,13 @@ static uint32_t quad_read(const struct swell_ctl *c, const struct swell_quad_at 
 		int32_t x0 = h[0], x1 = h[1], x2 = h[2], x3 = h[3];
 		uint32_t w0, w1;
 
-		if (at->y < c->wave.done_row) {
-			const int32_t *acc = c->wave.acc + a;
+		if (at->y < c->wave.done_row) { /* h(n) = h - dh(u) */
+			const int32_t *u = c->wave.u + a;
 
-			x0 -= acc[0];
-			x1 -= acc[1];
-			x2 -= acc[2];
-			x3 -= acc[3];
+			x0 -= swell_wave_vel_dh(&c->wave, u[0]);
+			x1 -= swell_wave_vel_dh(&c->wave, u[1]);
+			x2 -= swell_wave_vel_dh(&c->wave, u[2]);
+			x3 -= swell_wave_vel_dh(&c->wave, u[3]);
 		}
 		w0 = sample_pair(x0, x1);
 		w1 = sample_pair(x2, x3);
@@ -750,6 +748,21 @@ static void mark_moved_tiles(struct swell_ctl *c)
 	for (t = 0; t < tiles; t++)
 		if (swell_wave_tile_changed(&c->wave, t))
 			c->quad_stale[t] = 0xffffu;
+}
+
+/* Water placed in the cells of footprint f in the middle of a step is in h(n) as a reader sees it at
+ * once (swell/wave.h, velocity form): the quads of the tiles it covers may now differ from what was
+ * last sent. */
+static void mark_placed_tiles(struct swell_ctl *c, const struct swell_body_fp *f)
+{
+	const int32_t one = SWELL_BODY_FP_ONE;
+	int32_t tx, ty;
+
+	if (f->delta_lsb == 0 || f->x0 >= f->x1 || f->y0 >= f->y1)
+		return;
+	for (ty = f->y0 / one / SWELL_WAVE_TILE; ty <= (f->y1 - 1) / one / SWELL_WAVE_TILE; ty++)
+		for (tx = f->x0 / one / SWELL_WAVE_TILE; tx <= (f->x1 - 1) / one / SWELL_WAVE_TILE; tx++)
+			c->quad_stale[(uint32_t)ty * c->tiles_x + (uint32_t)tx] = 0xffffu;
 }
 
 /* The quad was compared (and sent where it differed): its samples are what was last sent. */
@@ -806,8 +819,8 @@ struct scan_left {
 };
 
 /* scan_run over a tile wholly inside a grid of even width: every quad is four cells of one row and two
- * words of sent[], read as h(n) of the last finished step (h - acc in the tile's rows finished ahead,
- * swell_wave_h), sent from the words. The tile's pointers and its rows finished ahead are found once,
+ * words of sent[], read as h(n) of the last finished step (h - dh(u) in the tile's rows finished
+ * ahead, swell_wave_h), sent from the words. The tile's pointers and its rows finished ahead are found once,
  * and the loop goes from stale bit to stale bit. */
 static uint32_t scan_whole_tile(struct swell_ctl *c, uint32_t q, uint32_t run, struct scan_left *left,
 				struct swell_quad_at *at)
@@ -815,7 +828,7 @@ static uint32_t scan_whole_tile(struct swell_ctl *c, uint32_t q, uint32_t run, s
 	uint16_t *const stale_at = &c->quad_stale[q / SWELL_QUADS_PER_TILE];
 	const uint32_t nx = c->cfg.nx, x_tile = at->x0 - 4u * at->half, y_tile = at->y - at->row;
 	const uint32_t corner = y_tile * nx + x_tile, done = c->wave.done_row, first = q % SWELL_QUADS_PER_TILE;
-	const int32_t *const h = c->wave.h + corner, *const acc = c->wave.acc + corner;
+	const int32_t *const h = c->wave.h + corner, *const u = c->wave.u + corner;
 	const uint32_t *const sent = c->sent + corner / 2;
 	/* quads of rows finished ahead: bits below 2 (done_row - y_tile) */
 	const uint32_t ahead = done <= y_tile ? 0 : done - y_tile >= SWELL_PROTO_TILE ? 16u : 2u * (done - y_tile);
@@ -832,11 +845,12 @@ static uint32_t scan_whole_tile(struct swell_ctl *c, uint32_t q, uint32_t run, s
 		reads--;
 		o = (bit >> 1) * nx + 4u * (bit & 1u);
 		hq = h + o;
-		if (bit < ahead) {
-			const int32_t *const aq = acc + o;
+		if (bit < ahead) { /* h(n) = h - dh(u) */
+			const int32_t *const uq = u + o;
+			const struct swell_wave *const w = &c->wave;
 
-			w0 = field_pair(hq[0] - aq[0], hq[1] - aq[1]);
-			w1 = field_pair(hq[2] - aq[2], hq[3] - aq[3]);
+			w0 = field_pair(hq[0] - swell_wave_vel_dh(w, uq[0]), hq[1] - swell_wave_vel_dh(w, uq[1]));
+			w1 = field_pair(hq[2] - swell_wave_vel_dh(w, uq[2]), hq[3] - swell_wave_vel_dh(w, uq[3]));
 		} else {
 			w0 = field_pair(hq[0], hq[1]);
 			w1 = field_pair(hq[2], hq[3]);
@@ -1050,42 +1064,43 @@ static uint32_t force_law(struct swell_ctl *c)
 	return work;
 }
 
-/* The solver step spread over the K ticks of its period. Ticks 0 .. K-2 do the edges of their share
- * of rows (ceil(ny (k+1) / (K-1)) done after tick k), then, as far as the tick's share of what is left
- * of the period's work before the step's end allows (the relative costs above: what is left over the
- * ticks left), the finishing pass ahead on the rows whose edges are all done and the body's ceiling
- * scan of them; tick K-2 finishes every row, and tick K-1 completes the step. The force law in between
- * reads h(n) and v in every row (wave.h: h - acc where finished ahead), so it never sees a
- * half-finished step. */
+/* The solver step spread over the K ticks of its period: tick k does the momentum of its share of
+ * rows (by the relative costs above, the period's rows and its end in K equal parts: after tick k < K-1
+ * the rows that fit (k+1) parts, the rest on tick K-1 with the step's end), whose heights become h(n+1) one row behind (wave.h, velocity
+ * form), and the body's ceiling scan of the rows that hold h(n+1) (while the object is out of the
+ * water); tick K-1 also completes the step (the last row's heights, the fixers, the tile flags) and
+ * then places the period's coupling into h(n+1). The force law in between reads h(n) and the solver's
+ * change in every row (wave.h: h - dh(u) in rows below done_row), so it never sees a half-finished
+ * step. */
 static uint32_t solver_slice(struct swell_ctl *c)
 {
 	struct swell_wave *w = &c->wave;
 	const uint32_t done0 = w->done_row, k = c->phase, kk = c->ticks_per_step;
-	uint32_t work, rows;
+	/* a row's cost, and the period's: the rows and the step's end */
+	const uint32_t row = w->nx * (c->body.wet ? COST_CELL : COST_CELL + COST_SCAN_CELL);
+	const uint32_t total = row * w->ny + COST_END;
+	const uint32_t fit = k + 1 < kk ? total / kk * (k + 1) / row : w->ny;
+	const uint32_t target = fit < w->ny ? fit : w->ny;
+	const uint32_t rows = target > w->next_row ? target - w->next_row : 0;
+	struct swell_body_fp placed;
+	uint32_t work;
 
+	swell_wave_step_rows(w, (int)rows);
 	if (k + 1 < kk) {
-		const uint32_t target = (w->ny * (k + 1) + kk - 2) / (kk - 1), ticks_left = kk - 1 - k;
-		/* while the object is out of the water, a row finished ahead is scanned for the ceiling too */
-		const uint32_t finish_cost = c->body.wet ? COST_FINISH_ROW : COST_FINISH_ROW + COST_SCAN_ROW;
-		const uint32_t left = COST_EDGE_ROW * (w->ny - w->next_row) + finish_cost * (w->ny - done0);
-		/* the step's end takes a share as well, less its own work (COST_END) */
-		const uint32_t share = (left + COST_END + ticks_left) / (ticks_left + 1u);
-
-		rows = target > w->next_row ? target - w->next_row : 0;
-		swell_wave_step_rows(w, (int)rows);
-		if (rows * COST_EDGE_ROW < share) {
-			swell_wave_finish_rows(w, (int)((share - rows * COST_EDGE_ROW) / finish_cost));
-			swell_body_scan_ahead(&c->body, w);
-		}
-		work = (rows + 2u * (w->done_row - done0)) * w->nx;
+		swell_body_scan_ahead(&c->body, w);
+		work = (rows + (w->done_row - done0)) * w->nx;
 	} else {
-		swell_body_place(&c->body, w); /* the period's coupling, kept back, into h(n+1) */
 		swell_wave_step_finish(w);
 		mark_moved_tiles(c);
+		/* the period's coupling, kept back, into h(n+1): the tiles it wrote are stale too */
+		placed = c->body.placed;
+		swell_body_place(&c->body, w);
+		mark_placed_tiles(c, &placed);
+		mark_placed_tiles(c, &c->body.placed);
 		swell_body_solver_stepped(&c->body, w);
 		c->n.solver_steps++;
-		/* the finishing pass and the ceiling scan of the rows left */
-		work = 2u * (w->ny - done0) * w->nx;
+		/* the rows, the last row's heights and the ceiling scan of the rows left */
+		work = (rows + 2u * (w->ny - done0)) * w->nx;
 	}
 	c->phase = c->phase + 1 == c->ticks_per_step ? 0 : c->phase + 1;
 	return work;
@@ -1105,12 +1120,20 @@ void swell_ctl_tick_background(struct swell_ctl *c)
 {
 	const uint32_t t = c->n.ticks - 1;
 	uint32_t budget = c->cfg.host_budget, work = c->work_force;
+	struct swell_body_fp placed;
 
 	if (!c->bg_pending)
 		return;
 	/* the force part's coupling, before the field moves on; while the object stays in the water its
-	 * cells are written once a period, at the step's end (swell_body_couple_later) */
+	 * cells are written once a period, at the step's end (swell_body_couple_later); written now, the
+	 * tiles it left and those it covers are stale for the telemetry */
+	placed = c->body.placed;
 	swell_body_couple_later(&c->body, &c->wave);
+	if (placed.delta_lsb != c->body.placed.delta_lsb || placed.x0 != c->body.placed.x0 ||
+	    placed.x1 != c->body.placed.x1 || placed.y0 != c->body.placed.y0 || placed.y1 != c->body.placed.y1) {
+		mark_placed_tiles(c, &placed);
+		mark_placed_tiles(c, &c->body.placed);
+	}
 	work += solver_slice(c);
 	if (t % period(c, HEARTBEAT_HZ) == 0) {
 		send_heartbeat(c);

@@ -73,11 +73,9 @@ void mem_report(const struct swell_ctl *c, const struct fw_mem *m, const struct 
 	con_put_u32(c->cfg.depth_um);
 	con_puts(" um; bytes: ");
 	put_buf("h", n * 4u, "SRAM");
-	put_buf(", v", n * 4u, "SRAM");
-	put_buf(", acc", n * 4u, "SRAM");
 	put_buf(", tile flags", (uint32_t)c->wave.tiles_x * c->wave.tiles_y, "SRAM");
 	put_buf(", u", n * 4u, fast);
-	put_buf(", sent", (n + 1u) / 2u * 4u, fast);
+	put_buf(", sent", (n + 1u) / 2u * 4u, "SRAM");
 	con_puts("; SRAM ");
 	con_put_u32((uint32_t)p->sram_words * 4u);
 	con_puts(" of ");

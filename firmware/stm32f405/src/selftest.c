@@ -304,7 +304,7 @@ static int run_tick(uint32_t tim_clk_hz)
 #define SWELL_FW_CORE_TICKS 2500u
 #endif
 #define CORE_MAX_K 10u
-#define SELFTEST_POOL_N 88u /* the larger pool's side: u and the sent samples in the fast block */
+#define SELFTEST_POOL_N 128u /* the larger pool's side: u alone in the fast block */
 
 /* instructions as % of a tick at tick_hz at one instruction a cycle (168 MHz), one decimal */
 static void put_pct(uint64_t systicks, uint32_t tick_hz)
@@ -371,14 +371,15 @@ static int pool_set(uint16_t id, const char *name, int32_t value, enum swell_err
 	return ok;
 }
 
-/* The pool chosen at start-up: 128 x 64 fits (u and the sent samples go to the fast block), 128 x
- * 128 does not (refused, nothing changed), then pool_n x pool_n. */
+/* The pool chosen at start-up: 128 x 64 fits (whole in SRAM), 128 x 136 does not (u would need more
+ * than the fast block: refused, nothing changed), then pool_n x pool_n (128 x 128: u alone in the fast
+ * block). */
 static int choose_pool(uint16_t pool_n)
 {
 	int ok = 1;
 
 	ok &= pool_set(SWELL_SCENE_NX, "pool.nx", 128, SWELL_OK);
-	ok &= pool_set(SWELL_SCENE_NY, "pool.ny", 128, SWELL_ESIZE);
+	ok &= pool_set(SWELL_SCENE_NY, "pool.ny", 136, SWELL_ESIZE);
 	ok &= pool_set(SWELL_SCENE_NX, "pool.nx", pool_n, SWELL_OK);
 	ok &= pool_set(SWELL_SCENE_NY, "pool.ny", pool_n, SWELL_OK);
 	return ok;
@@ -400,7 +401,8 @@ __attribute__((noinline)) void selftest_trace_end(void)
 }
 
 /* The body's ceiling scan (LDM assembly on this core) against a plain loop on the field the core
- * run left: the highest of h and h - v, and sum(h). On a copy of the body, so the run is untouched. */
+ * run left: the highest of h and h - floor(u / 2^F) (the solver's own change before its rounding,
+ * swell/wave.h), and sum(h). On a copy of the body, so the run is untouched. */
 static int scan_matches(const struct swell_ctl *c)
 {
 	struct swell_body b = c->body;
@@ -410,7 +412,7 @@ static int scan_matches(const struct swell_ctl *c)
 	int a, ok;
 
 	for (a = 0; a < w->nx * w->ny; a++) {
-		const int32_t p = w->h[a] - (w->v[a] < 0 ? w->v[a] : 0);
+		const int32_t d = w->u[a] >> w->vel_frac, p = w->h[a] - (d < 0 ? d : 0);
 
 		top = p > top ? p : top;
 		sum += w->h[a];

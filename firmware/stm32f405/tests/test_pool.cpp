@@ -32,8 +32,7 @@ uint32_t run(swell_ctl *c, fw_core_run *r, uint32_t ticks)
 }
 } // namespace
 
-TEST_CASE("a pool goes whole into SRAM when it fits, else u and the sent samples into the fast block, else it is refused",
-	  "[pool]")
+TEST_CASE("a pool goes whole into SRAM when it fits, else u into the fast block, else it is refused", "[pool]")
 {
 	mem_f405 f;
 	fw_pool_at p{};
@@ -42,20 +41,25 @@ TEST_CASE("a pool goes whole into SRAM when it fits, else u and the sent samples
 	CHECK(p.apart == 0);
 	CHECK(p.sram_words == swell_ctl_arena_words(64, 64));
 	CHECK(p.fast_words == 0);
-	REQUIRE(fw_pool_place(88, 88, &f.m, &p) == SWELL_OK);
+	REQUIRE(fw_pool_place(110, 110, &f.m, &p) == SWELL_OK); // h, u, flags, samples, stale bits: 30400 words
+	CHECK(p.apart == 0);
+	CHECK(p.sram_words == swell_ctl_arena_words(110, 110));
+	REQUIRE(fw_pool_place(111, 111, &f.m, &p) == SWELL_OK); // 30802 words whole: u goes apart
 	CHECK(p.apart == 1);
-	CHECK(p.sram_words == 3 * 88 * 88 + (11 * 11 + 3) / 4 + (11 * 11 + 1) / 2); // h, v, acc, the tile flags, stale bits
-	CHECK(p.fast_words == 88 * 88 + 88 * 88 / 2); // u and the sent samples
-	REQUIRE(fw_pool_place(100, 100, &f.m, &p) == SWELL_OK);
+	REQUIRE(fw_pool_place(128, 128, &f.m, &p) == SWELL_OK);
+	CHECK(p.apart == 1);
+	// h, the tile flags, the sent samples, the stale bits: 99072 bytes of the 122880
+	CHECK(p.sram_words == 128 * 128 + (16 * 16 + 3) / 4 + 128 * 128 / 2 + (16 * 16 + 1) / 2);
+	CHECK(p.fast_words == 128 * 128); // u alone: the whole 64 KB
 	const fw_pool_at before = p;
-	CHECK(fw_pool_place(128, 128, &f.m, &p) == SWELL_ESIZE);
-	CHECK(fw_pool_place(104, 104, &f.m, &p) == SWELL_ESIZE); // SRAM: 3 x 10816 words > 30720
+	CHECK(fw_pool_place(128, 136, &f.m, &p) == SWELL_ESIZE); // u: 17408 words > 16384
+	CHECK(fw_pool_place(136, 136, &f.m, &p) == SWELL_ESIZE);
 	CHECK(std::memcmp(&p, &before, sizeof(p)) == 0);
 	fw_mem no_fast = f.m;
 	no_fast.fast = nullptr;
 	no_fast.fast_words = 0;
-	CHECK(fw_pool_place(88, 88, &no_fast, &p) == SWELL_ESIZE);
-	CHECK(fw_pool_place(80, 80, &no_fast, &p) == SWELL_OK);
+	CHECK(fw_pool_place(111, 111, &no_fast, &p) == SWELL_ESIZE);
+	CHECK(fw_pool_place(110, 110, &no_fast, &p) == SWELL_OK);
 }
 
 TEST_CASE("a start-up parameter set on the wire restarts the core with the new pool, and one that does not fit is "
@@ -85,11 +89,11 @@ TEST_CASE("a start-up parameter set on the wire restarts the core with the new p
 	CHECK(c.cfg.ny == 64);
 	CHECK(c.cfg.wave.damping == 5000);
 	CHECK(c.state == SWELL_CTL_BOOT);
-	CHECK(p.apart == 1);
+	CHECK(p.apart == 0); // 128 x 64 fits SRAM whole
 
 	const swell_ctl_config cfg = c.cfg;
 	const fw_pool_at place = p;
-	m = swell_test::param_msg(SWELL_MSG_PARAM_SET, SWELL_SCENE_NY, 128, 42);
+	m = swell_test::param_msg(SWELL_MSG_PARAM_SET, SWELL_SCENE_NY, 136, 42); // u: 17408 words > 16384
 	REQUIRE(fw_pool_param(&c, &f.m, &m, &ans, &p) == 1);
 	REQUIRE(ans.type == SWELL_MSG_PARAM_NACK);
 	CHECK(ans.u.param_nack.err == SWELL_ESIZE);
@@ -137,7 +141,7 @@ TEST_CASE("a start-up parameter set on the wire restarts the core with the new p
 	CHECK(swell_wave_checksum(&c.wave) == wave);
 }
 
-TEST_CASE("the core with u and the sent samples in a block apart gives the same bits as in one arena", "[pool]")
+TEST_CASE("the core with u in a block apart gives the same bits as in one arena", "[pool]")
 {
 	static swell_ctl one, apart;
 	std::vector<int32_t> arena(swell_ctl_arena_words(88, 88)), sram(swell_ctl_arena_words_apart(88, 88)),

@@ -188,9 +188,9 @@ enum swell_err swell_ctl_check(const struct swell_ctl_config *cfg);
  * On error *c is untouched. */
 enum swell_err swell_ctl_init(struct swell_ctl *c, const struct swell_ctl_config *cfg, int32_t *arena, size_t words);
 
-/* The same with the buffers only the CPU touches, the solver's momentum and the telemetry's last
- * samples (swell_ctl_apart_words), in a block of their own, so that a port can put them in another
- * memory (the STM32F405's core-coupled RAM); arena then holds the rest (swell_ctl_arena_words_apart).
+/* The same with the buffer only the CPU touches, the solver's momentum u (swell_ctl_apart_words), in a
+ * block of its own, so that a port can put it in another memory (the STM32F405's core-coupled RAM);
+ * arena then holds the rest, the telemetry's last samples with it (swell_ctl_arena_words_apart).
  * The same bits as swell_ctl_init. On error *c is untouched. */
 size_t swell_ctl_arena_words_apart(uint16_t nx, uint16_t ny);
 size_t swell_ctl_apart_words(uint16_t nx, uint16_t ny);
