@@ -33,28 +33,13 @@ void swell_usb_opts_default(struct swell_usb_opts *o)
 
 static int errno_of(int e)
 {
-	switch (e) {
-	case LIBUSB_ERROR_TIMEOUT:
-		return -ETIMEDOUT;
-	case LIBUSB_ERROR_NO_DEVICE:
-		return -ENODEV;
-	case LIBUSB_ERROR_NOT_FOUND:
-		return -ENODEV;
-	case LIBUSB_ERROR_ACCESS:
-		return -EACCES;
-	case LIBUSB_ERROR_BUSY:
-		return -EBUSY;
-	case LIBUSB_ERROR_OVERFLOW:
-		return -EMSGSIZE;
-	case LIBUSB_ERROR_PIPE:
-		return -EPIPE;
-	case LIBUSB_ERROR_NO_MEM:
-		return -ENOMEM;
-	case LIBUSB_ERROR_INTERRUPTED:
-		return -EINTR;
-	default:
-		return -EIO;
-	}
+	static const int to[] = { [-LIBUSB_ERROR_TIMEOUT] = ETIMEDOUT, [-LIBUSB_ERROR_NO_DEVICE] = ENODEV,
+				  [-LIBUSB_ERROR_NOT_FOUND] = ENODEV,  [-LIBUSB_ERROR_ACCESS] = EACCES,
+				  [-LIBUSB_ERROR_BUSY] = EBUSY,        [-LIBUSB_ERROR_OVERFLOW] = EMSGSIZE,
+				  [-LIBUSB_ERROR_PIPE] = EPIPE,        [-LIBUSB_ERROR_NO_MEM] = ENOMEM,
+				  [-LIBUSB_ERROR_INTERRUPTED] = EINTR };
+
+	return e < 0 && -e < (int)(sizeof(to) / sizeof(to[0])) && to[-e] ? -to[-e] : -EIO;
 }
 
 static void drop(struct usb_link *u)
