@@ -138,18 +138,16 @@ int swell_link_open_udp(struct swell_link **out, const char *bind_host, uint16_t
 		return -ENOMEM;
 	u->base.ops = &udp_ops;
 	u->base.carrier = SWELL_CARRIER_PKT;
-	rc = parse_addr(bind_host, bind_port, &a);
-	if (rc == 0 && peer_host) {
-		rc = parse_addr(peer_host, peer_port, &u->peer);
-		u->have_peer = 1;
-	}
+	u->have_peer = peer_host != NULL;
 	u->follow = !peer_host;
-	if (rc)
-		goto fail;
-	u->base.fd = swell_udp_socket(&a, 0, 0, NULL, &a);
+	rc = parse_addr(bind_host, bind_port, &a);
+	if (rc == 0 && peer_host)
+		rc = parse_addr(peer_host, peer_port, &u->peer);
+	u->base.fd = rc ? rc : swell_udp_socket(&a, 0, 0, NULL, &a);
 	if (u->base.fd < 0) {
 		rc = u->base.fd;
-		goto fail;
+		free(u);
+		return rc;
 	}
 	u->port = ntohs(a.sin_port);
 	if (peer_host)
@@ -159,9 +157,6 @@ int swell_link_open_udp(struct swell_link **out, const char *bind_host, uint16_t
 		snprintf(u->base.name, sizeof(u->base.name), "udp %s:%u -> last sender", bind_host, u->port);
 	*out = &u->base;
 	return 0;
-fail:
-	free(u);
-	return rc;
 }
 
 uint16_t swell_link_udp_port(const struct swell_link *l)

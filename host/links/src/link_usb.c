@@ -232,13 +232,10 @@ int swell_link_open_usb(struct swell_link **out, const struct swell_usb_opts *op
 	u->base.ops = &usb_ops;
 	u->base.carrier = SWELL_CARRIER_PKT;
 	rc = libusb_init(&u->ctx);
-	if (rc < 0) {
-		free(u);
-		return errno_of(rc);
-	}
-	rc = attach(u);
+	rc = rc < 0 ? errno_of(rc) : attach(u);
 	if (rc) {
-		libusb_exit(u->ctx);
+		if (u->ctx) /* NULL when libusb_init failed: libusb_exit(NULL) would end the default context */
+			libusb_exit(u->ctx);
 		free(u);
 		return rc;
 	}

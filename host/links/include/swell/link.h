@@ -1,12 +1,7 @@
-/* swell links: one small interface over SocketCAN, libusb, FunctionFS, UDP and recordings.
- *
- * A link moves frames: CAN frames (classic or FD, id + up to 64 bytes) or packets (USB bulk / UDP,
- * up to 64 bytes, id 0). swell_link_encode / swell_link_decode turn messages into frames and back
- * for the link's carrier with the strict codecs of swell/proto.h.
- *
- * Functions returning int give 0 on success or a negative errno: -ETIMEDOUT when a receive timed
- * out, -ENODATA at the end of a replay, -ENODEV while a USB device is unplugged. POSIX only: the
- * host programs and the Linux controller (swell-ctl) use it, the MCU has its own port drivers. */
+/* swell links: one small interface over SocketCAN, libusb, FunctionFS, UDP and recordings, for the
+ * host programs and swell-ctl (docs/links.md). A link moves frames: CAN (classic or FD) or packets
+ * (USB bulk, UDP), up to 64 bytes. Functions returning int give 0 or a negative errno: -ETIMEDOUT when
+ * a receive timed out, -ENODATA at the end of a replay, -ENODEV while a USB device is unplugged. */
 #ifndef SWELL_LINK_H
 #define SWELL_LINK_H
 
@@ -68,8 +63,7 @@ int swell_link_open_udp(struct swell_link **out, const char *bind_host, uint16_t
 /* The local port actually bound (useful after binding port 0); 0 if l is not a UDP link. */
 uint16_t swell_link_udp_port(const struct swell_link *l);
 
-/* The UDP socket calls of both sides, the host links above and the Linux controller's links (which
- * add the device's peer and the host link's clients on top: swell/link_peers.h). */
+/* The UDP socket calls of the link above and of swell-ctl's links (swell/link_peers.h on top). */
 /* A datagram socket bound to *at (port 0: any free port; when the port is taken and any_if_taken, any
  * free port of the same address, with *taken set to 1), close-on-exec, non-blocking when nonblock, with
  * a receive queue deep enough for a burst of a few thousand small datagrams. *bound gets the address
