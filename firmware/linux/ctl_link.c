@@ -206,14 +206,6 @@ size_t ctl_link_recv(struct ctl_link *l, struct swell_msg *out, size_t cap)
 	return recv_udp(l, out, cap);
 }
 
-static void send_to(struct ctl_link *l, const struct sockaddr_in *to, const uint8_t *p, size_t len)
-{
-	if (swell_udp_send(l->fd, to, p, len) != 0)
-		l->tx_errors++;
-	else
-		l->frames_tx++;
-}
-
 /* UDP: to the peer (device link: the device; host link: the configured viewer) and every client. */
 static void send_bytes(struct ctl_link *l, const uint8_t *p, size_t len)
 {
@@ -221,13 +213,10 @@ static void send_bytes(struct ctl_link *l, const uint8_t *p, size_t len)
 	const size_t n = swell_peers_dests(&l->peers, to);
 
 	for (size_t k = 0; k < n; k++)
-		send_to(l, &to[k], p, len);
-}
-
-/* Whether a send has somewhere to go: a UDP link without peer or client has not. */
-static int has_destination(const struct ctl_link *l)
-{
-	return l->kind != CTL_LINK_UDP || l->peers.have_peer || swell_peers_clients(&l->peers) > 0;
+		if (swell_udp_send(l->fd, &to[k], p, len) != 0)
+			l->tx_errors++;
+		else
+			l->frames_tx++;
 }
 
 static int has_answer(const struct swell_msg *m, size_t n)
@@ -272,23 +261,6 @@ static void send_usb(struct ctl_link *l, const struct swell_frame *f, int answer
 	l->answers_dropped += answer != 0;
 }
 
-static void send_msgs(struct ctl_link *l, const struct swell_msg *m, size_t n);
-
-void ctl_link_send(struct ctl_link *l, const struct swell_msg *m, size_t n)
-{
-	const uint32_t before = l->frames_tx;
-
-	if (n == 0)
-		return;
-	if (l->kind == CTL_LINK_UDP)
-		swell_peers_expire(&l->peers, (int64_t)swell_link_now_ns());
-	send_msgs(l, m, n);
-	if (l->frames_tx != before)
-		l->unsent_run = 0;
-	else if (has_destination(l) && l->unsent_run < UINT32_MAX)
-		l->unsent_run++;
-}
-
 static void send_msgs(struct ctl_link *l, const struct swell_msg *m, size_t n)
 {
 	size_t k = 0;
@@ -307,30 +279,19 @@ static void send_msgs(struct ctl_link *l, const struct swell_msg *m, size_t n)
 			}
 		return;
 	}
-	if (l->kind == CTL_LINK_CAN) {
-		for (k = 0; k < n; k++) {
-			struct swell_frame f;
-			uint32_t id;
-			uint8_t len;
-
-			memset(&f, 0, sizeof(f));
-			if (swell_can_encode(&m[k], &id, f.data, &len) != SWELL_OK) {
-				l->tx_errors++;
-				continue;
-			}
-			f.id = id;
-			f.len = len;
-			if (swell_can_write(l->fd, &f, 0) != 0)
-				l->tx_errors++; /* a full TX queue drops: the next tick sends a fresher value */
-			else
-				l->frames_tx++;
-		}
-		return;
-	}
 	while (k < n) {
 		struct swell_frame f;
 		size_t used = 0;
 
+		if (l->kind ==
+		    CTL_LINK_CAN) { /* one frame a message; a full TX queue drops (the next tick is fresher) */
+			const int bad = swell_link_encode(SWELL_CARRIER_CAN, 0, 0, &m[k++], 1, &f, &used) != SWELL_OK ||
+				swell_can_write(l->fd, &f, 0) != 0;
+
+			l->tx_errors += bad;
+			l->frames_tx += !bad;
+			continue;
+		}
 		if (swell_link_encode(SWELL_CARRIER_PKT, l->node, l->seq++, m + k, n - k, &f, &used) != SWELL_OK ||
 		    used == 0) {
 			l->tx_errors++;
@@ -342,6 +303,22 @@ static void send_msgs(struct ctl_link *l, const struct swell_msg *m, size_t n)
 			send_bytes(l, f.data, f.len);
 		k += used;
 	}
+}
+
+void ctl_link_send(struct ctl_link *l, const struct swell_msg *m, size_t n)
+{
+	const uint32_t before = l->frames_tx;
+
+	if (n == 0)
+		return;
+	if (l->kind == CTL_LINK_UDP)
+		swell_peers_expire(&l->peers, (int64_t)swell_link_now_ns());
+	send_msgs(l, m, n);
+	if (l->frames_tx != before)
+		l->unsent_run = 0;
+	else if ((l->kind != CTL_LINK_UDP || l->peers.have_peer || swell_peers_clients(&l->peers) > 0) &&
+		 l->unsent_run < UINT32_MAX) /* a UDP link without peer or client has nowhere to send */
+		l->unsent_run++;
 }
 
 int ctl_link_send_wait(struct ctl_link *l, const struct swell_msg *m, size_t n, int wait_ms)

@@ -1,10 +1,6 @@
-/* The controller's links on Linux: the device link (HapticMaster) and the host link (viewer), each on
- * UDP (software in the loop), SocketCAN (classic CAN frames) or USB (a FunctionFS function: the
- * controller is the USB device, as the MCU is), or hm: for the device. The sockets, the FunctionFS
- * link, the UDP peer rules and the CAN bus state are the link library's (host/links); what is the
- * controller's own is here: which link carries what, the node filter, the held USB answer, the zero
- * force on exit. Messages in and out are struct swell_msg; encoding, decoding and the counting of bad
- * frames are the protocol module's. */
+/* The controller's links on Linux, the device link and the host link, on UDP, SocketCAN, USB
+ * (FunctionFS) or, for the device, hm:. Built from the link library (docs/links.md, "swell-ctl's
+ * links"); here is the controller's own: the node filter, the held USB answer, the zero force on exit. */
 #ifndef SWELL_CTL_LINK_H
 #define SWELL_CTL_LINK_H
 
@@ -48,12 +44,11 @@ struct ctl_link {
 	char name[48];
 };
 
-/* spec, in swell/link_spec.h's spellings: "udp[:PORT]" (device link: listen on 127.0.0.1:PORT, default
- * 47800, ",peer=[ADDR:]PORT" fixes the device's address; host link: telemetry to 127.0.0.1:PORT, default
- * 47801, clients on ",listen=[ADDR:]PORT", default 127.0.0.1:47802 or any free port when that one is
- * taken: l->clients_port_taken says so; the peer rules are swell/link_peers.h's), "can:IFACE",
- * "usb:FFS_DIR" (the link library's FunctionFS link), "hm:HOST[:PORT]" (device link only, hm_client.h). Returns 0, -2 for a spec that is not one of these (nothing opened), -1 when
- * the system refused; either way a one-line reason is in err. */
+/* spec, in swell/link_spec.h's spellings: udp[:PORT] (device link: listen there, default 47800,
+ * ",peer=" fixes the device; host link: telemetry there, default 47801, clients on ",listen=", default
+ * 127.0.0.1:47802 or any free port when that one is taken: l->clients_port_taken), can:IFACE,
+ * usb:FFS_DIR, hm:HOST[:PORT] (device link only). Returns 0, -2 for a spec that is not one of these
+ * (nothing opened), -1 when the system refused; either way a one-line reason is in err. */
 int ctl_link_open(struct ctl_link *l, const char *spec, int device_side, uint8_t node, char *err, size_t errlen);
 
 /* The file descriptor to poll for input (-1 if none). */

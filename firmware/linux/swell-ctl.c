@@ -48,11 +48,6 @@ static void jitter_add(struct jitter *j, int64_t late_ns)
 		j->max_ns = late_ns;
 }
 
-static int64_t ns_of(const struct timespec *t)
-{
-	return (int64_t)t->tv_sec * 1000000000 + t->tv_nsec;
-}
-
 static struct timespec ts_of(int64_t ns)
 {
 	struct timespec t = { (time_t)(ns / 1000000000), (long)(ns % 1000000000) };
@@ -60,12 +55,9 @@ static struct timespec ts_of(int64_t ns)
 	return t;
 }
 
-static int64_t now_ns(void)
+static int64_t now_ns(void) /* CLOCK_MONOTONIC, the links' clock */
 {
-	struct timespec t;
-
-	clock_gettime(CLOCK_MONOTONIC, &t);
-	return ns_of(&t);
+	return (int64_t)swell_link_now_ns();
 }
 
 /* ---- the loop ---- */
@@ -90,6 +82,14 @@ static void host_rx(struct port *p, const struct swell_msg *m)
 		fprintf(stderr, "swell-ctl: pool now %ux%u cells of %u um, depth %u um (restarted, water at rest)\n",
 			p->c.cfg.nx, p->c.cfg.ny, p->c.cfg.dx_um, p->c.cfg.depth_um);
 	ctl_link_send(&p->host, &answer, 1);
+}
+
+/* 1 when nothing more is waiting on the link. */
+static int link_idle(const struct ctl_link *l)
+{
+	struct pollfd pf = { ctl_link_fd(l), POLLIN, 0 };
+
+	return pf.fd < 0 || poll(&pf, 1, 0) <= 0;
 }
 
 /* Take everything waiting on both links into the core; returns 0 if no DEVICE_POS came in, else the
@@ -117,11 +117,8 @@ static uint32_t take_input(struct port *p)
 				steps += p->c.dev_step;
 			}
 		}
-		if (n == 0) {
-			struct pollfd pf = { ctl_link_fd(&p->dev), POLLIN, 0 };
-			if (pf.fd < 0 || poll(&pf, 1, 0) <= 0)
-				break;
-		}
+		if (n == 0 && link_idle(&p->dev))
+			break;
 	}
 	/* Read first, poll only when nothing came: on USB the fd is the AIO eventfd, and a write's reap
 	 * (telemetry, flush_output) can take the event of a finished OUT transfer, whose packet would
@@ -130,12 +127,8 @@ static uint32_t take_input(struct port *p)
 		n = ctl_link_recv(&p->host, m, sizeof(m) / sizeof(m[0]));
 		for (k = 0; k < n; k++)
 			host_rx(p, &m[k]);
-		if (n == 0) {
-			struct pollfd pf = { ctl_link_fd(&p->host), POLLIN, 0 };
-
-			if (pf.fd < 0 || poll(&pf, 1, 0) <= 0)
-				break;
-		}
+		if (n == 0 && link_idle(&p->host))
+			break;
 	}
 	bad = rejected(p);
 	if (bad != p->bad_seen) {
@@ -174,14 +167,6 @@ static int device_starved(struct port *p)
 	return 1;
 }
 
-static double mono_s(void)
-{
-	struct timespec t;
-
-	clock_gettime(CLOCK_MONOTONIC, &t);
-	return (double)t.tv_sec + t.tv_nsec / 1e9;
-}
-
 /* CAN error frames (ctl_link.c keeps the bus state). A bus-off of the device link zeroes the force
  * at once and faults the loop like a silent device; while the bus is off the link drops whatever
  * comes in, and after the restart (restart-ms, a manual restart, down/up) the device is heard again
@@ -206,13 +191,13 @@ static int link_faults(struct port *p)
 			}
 			fprintf(stderr, "swell-ctl: %s link %s: bus-off %u (tx/rx error counters %u/%u)%s at %.6f s\n",
 				k ? "host" : "device", l[k]->name, h->bus_offs, h->tx_err, h->rx_err,
-				k ? "" : ": force zeroed, loop faulted", mono_s());
+				k ? "" : ": force zeroed, loop faulted", now_ns() / 1e9);
 		}
 		if (h->restarts != p->restarts_seen[k]) {
 			p->restarts_seen[k] = h->restarts;
 			fprintf(stderr, "swell-ctl: %s link %s: back on the bus (restart %u, %s) at %.6f s\n",
 				k ? "host" : "device", l[k]->name, h->restarts, swell_can_state_name(h->state),
-				mono_s());
+				now_ns() / 1e9);
 		}
 	}
 	return tick;

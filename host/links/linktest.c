@@ -88,10 +88,7 @@ static int64_t seq_of(const struct swell_msg *m)
 
 static double now_s(void)
 {
-	struct timespec ts;
-
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+	return (double)swell_link_now_ns() / 1e9;
 }
 
 struct pair_result {
@@ -201,20 +198,20 @@ static int report(const char *what, const struct pair_result *r, const struct sw
 	return ok ? 0 : 1;
 }
 
-static int wrap_record(struct swell_link **rx, const char *path)
+/* With a path, rx wrapped in a recording; on failure both links closed. */
+static int wrap_record(struct swell_link **rx, const char *path, struct swell_link *tx)
 {
 	struct swell_link *rec;
-	int rc;
+	int rc = path ? swell_link_open_record(&rec, *rx, path) : 0;
 
-	if (!path)
-		return 0;
-	rc = swell_link_open_record(&rec, *rx, path);
 	if (rc) {
 		fprintf(stderr, "swell-linktest: cannot record to %s: %s\n", path, strerror(-rc));
-		return rc;
+		swell_link_close(tx);
+		swell_link_close(*rx);
+	} else if (path) {
+		*rx = rec;
 	}
-	*rx = rec;
-	return 0;
+	return rc;
 }
 
 static int cmd_can_pair(const char *txname, const char *rxname, const struct opts *o)
@@ -239,11 +236,8 @@ static int cmd_can_pair(const char *txname, const char *rxname, const struct opt
 		swell_link_close(tx);
 		return 2;
 	}
-	if (wrap_record(&rx, o->record)) {
-		swell_link_close(tx);
-		swell_link_close(rx);
+	if (wrap_record(&rx, o->record, tx))
 		return 2;
-	}
 	rc = run_pair(tx, rx, o, 1, &r);
 	snprintf(what, sizeof(what), "can-pair %s -> %s%s", txname, rxname, o->fd ? " (CAN FD)" : "");
 	if (rc == 0)
@@ -267,11 +261,8 @@ static int cmd_udp_pair(const struct opts *o)
 		swell_link_close(b);
 		return 2;
 	}
-	if (wrap_record(&b, o->record)) {
-		swell_link_close(a);
-		swell_link_close(b);
+	if (wrap_record(&b, o->record, a))
 		return 2;
-	}
 	rc = run_pair(a, b, o, 2, &r);
 	if (rc == 0)
 		rc = report("udp-pair a -> b", &r, b, o->count);

@@ -1,8 +1,6 @@
-/* swell-flash: which host link to talk to a running controller on. The spellings are swell-view's
- * sources, parsed by swell/link_spec.h: udp[:PORT], can:IFACE, usb[:VID:PID]; the controller's node and a
- * USB interface other than 0 come from options (--node, --iface, as swell-ctl and swell-hm spell
- * them). One code path for every carrier: the host link library (swell/link.h). On UDP the tools are
- * clients of the controller's host link: they send to its clients' port, 47802 unless given. */
+/* swell-flash: the host link to a running controller (udp[:PORT], can:IFACE, usb[:VID:PID]; the node
+ * and a USB interface other than 0 are options). On UDP the tools are clients of the controller's host
+ * link: they send to its clients' port, 47802 unless given. */
 #ifndef SWELL_FLASH_LINK_H
 #define SWELL_FLASH_LINK_H
 
@@ -23,11 +21,11 @@ struct flash_link_spec {
  * to wait_ms. 0 or a negative errno. */
 int flash_link_open(const struct flash_link_spec *s, int wait_ms, struct swell_link **out);
 
-/* UDP: the controller keeps a client while it hears from it (SWELL_UDP_CLIENT_SILENT_MS) and
- * admits it by its first packet of its node: when *due_ns (CLOCK_MONOTONIC; 0 at first) has come,
- * send a HEARTBEAT of node (-1: one for each node 0..15, the controller is not known yet, and the
- * next ones come every 100 ms instead of every second) and set the next time. Returns the ms until the next one is due, for a receive to wait at most; -1 on
- * other carriers (nothing sent: a heartbeat on a CAN bus would pass for the controller's). */
+/* UDP: the controller keeps a client while it hears from it: when *due_ns (CLOCK_MONOTONIC; 0 at
+ * first) has come, send a HEARTBEAT of node (-1: one for each node 0..15, every 100 ms instead of every
+ * second, until the controller is known) and set the next time. Returns the ms until the next one is
+ * due, for a receive to wait at most; -1 on other carriers (a heartbeat on a CAN bus would pass for
+ * the controller's). */
 int flash_link_keepalive(struct swell_link *l, int node, uint64_t *due_ns);
 
 #endif

@@ -109,15 +109,11 @@ static void drain(enum swell_ctl_link l)
 		if (!k)
 			break;
 		for (size_t j = 0; l == SWELL_LINK_DEVICE && j < k; j++) {
-			if (out[j].type == SWELL_MSG_FORCE_CMD) {
-				int on = out[j].u.force_cmd.enable;
+			const struct swell_msg_force_cmd *fc = &out[j].u.force_cmd;
 
-				if (on)
-					safe_force_record(out[j].u.force_cmd.fx_cN, out[j].u.force_cmd.fy_cN,
-							  out[j].u.force_cmd.fz_cN);
-				else
-					safe_force_record(0, 0, 0);
-			}
+			if (out[j].type == SWELL_MSG_FORCE_CMD)
+				safe_force_record(fc->enable ? fc->fx_cN : 0, fc->enable ? fc->fy_cN : 0,
+						  fc->enable ? fc->fz_cN : 0);
 		}
 		if (on_can) {
 			for (size_t j = 0; j < k; j++)
@@ -219,12 +215,10 @@ void app_fw_version(uint8_t v[3])
  * involved). */
 static void app_send_zero_force(void)
 {
-	struct swell_msg m = { .type = SWELL_MSG_FORCE_CMD, .node = app_ctl.cfg.node };
-	struct fw_frame f = { 0 };
+	const struct swell_msg m = { .type = SWELL_MSG_FORCE_CMD, .node = app_ctl.cfg.node };
 
-	m.u.force_cmd.enable = 0;
-	if (app.device_on_can && swell_can_encode(&m, &f.id, f.data, &f.len) == SWELL_OK)
-		(void)can_send(&f);
+	if (app.device_on_can)
+		send_can(&m);
 }
 
 void app_run(const struct clock_info *ci, int can_ok, int usb_ok, const struct app_prio *prio, uint32_t watchdog_ms)

@@ -17,14 +17,12 @@ typedef void (*safe_hook)(void);
  * SWELL_EINVAL for a null hook, SWELL_ESIZE when SAFE_HOOKS_MAX are taken. */
 enum swell_err safe_register(safe_hook fn);
 
-/* Put every force output into its safe state now: the force record goes to zero, then each hook
- * runs. Safe from any context, fault handlers included. */
+/* Every force output into its safe state now: the record to zero, then each hook; from any context. */
 void safe_force_zero(void);
 
-/* Record the force the port has put on the wire, per axis in 0.01 N: the one writer of the record. */
+/* The force the port has put on the wire, per axis (0 x, 1 y, 2 z) in 0.01 N: recorded (the one
+ * writer), read back (0 after safe_force_zero). */
 void safe_force_record(int32_t fx_cN, int32_t fy_cN, int32_t fz_cN);
-
-/* The recorded force on one axis (0 x, 1 y, 2 z), in 0.01 N; 0 after safe_force_zero. */
 int32_t safe_force_cN(unsigned axis);
 
 #endif

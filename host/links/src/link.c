@@ -4,8 +4,10 @@
 
 #include <errno.h>
 #include <poll.h>
+#include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "swell/transport.h"
 
@@ -32,6 +34,13 @@ int swell_link_ms_left(uint64_t deadline_ns, int timeout_ms)
 	if (now >= deadline_ns)
 		return 0;
 	return (int)((deadline_ns - now + 999999u) / 1000000u);
+}
+
+uint8_t *swell_put_le(uint8_t *p, uint64_t v, int n)
+{
+	for (int i = 0; i < n; i++)
+		p[i] = (uint8_t)(v >> (8 * i));
+	return p + n;
 }
 
 int swell_link_wait_in(int fd, uint64_t deadline_ns, int timeout_ms)
@@ -87,6 +96,12 @@ void swell_link_close(struct swell_link *l)
 {
 	if (l)
 		l->ops->close(l);
+}
+
+void swell_link_close_fd(struct swell_link *l)
+{
+	close(l->fd);
+	free(l);
 }
 
 const struct swell_link_counters *swell_link_get_counters(const struct swell_link *l)

@@ -19,8 +19,6 @@
 
 struct can_link {
 	struct swell_link base;
-	int fd;
-	int fd_mode;
 	struct swell_can_health health;
 };
 
@@ -54,14 +52,13 @@ int swell_can_write(int fd, const struct swell_frame *f, int fd_mode)
 
 static int can_send(struct swell_link *l, const struct swell_frame *f)
 {
-	const struct can_link *c = (const struct can_link *)l;
 	uint64_t deadline = 0;
 	int rc;
 
 	/* transmit queue full: wait for room rather than drop a frame, 100 ms at most. Not with poll:
 	 * the socket stays writable (its own buffer is not what is full), POLLOUT comes at once, and
 	 * with no node to ACK or a bus-off the queue never drains. */
-	while ((rc = swell_can_write(c->fd, f, c->fd_mode)) == -ENOBUFS) {
+	while ((rc = swell_can_write(l->fd, f, l->carrier == SWELL_CARRIER_CANFD)) == -ENOBUFS) {
 		struct timespec ms = { 0, 1000000 };
 
 		if (!deadline)
@@ -80,11 +77,11 @@ static int can_recv(struct swell_link *l, struct swell_frame *f, int timeout_ms)
 
 	for (;;) {
 		struct canfd_frame fr;
-		int n = swell_link_wait_in(c->fd, deadline, timeout_ms);
+		int n = swell_link_wait_in(l->fd, deadline, timeout_ms);
 
 		if (n < 0)
 			return n;
-		n = swell_can_read(c->fd, &c->health, &fr);
+		n = swell_can_read(l->fd, &c->health, &fr);
 		if (n < 0)
 			return -errno;
 		if (n == 0 && (fr.can_id & CAN_ERR_FLAG)) { /* taken into the bus state */
@@ -97,41 +94,20 @@ static int can_recv(struct swell_link *l, struct swell_frame *f, int timeout_ms)
 		}
 		memset(f, 0, sizeof(*f));
 		f->t_ns = swell_link_now_ns();
-		if (fr.can_id & CAN_EFF_FLAG) {
-			f->flags |= SWELL_FRAME_EFF;
-			f->id = fr.can_id & CAN_EFF_MASK;
-		} else {
-			f->id = fr.can_id & CAN_SFF_MASK;
-		}
-		if (n == CANFD_MTU)
-			f->flags |= SWELL_FRAME_FD;
+		f->id = fr.can_id & (fr.can_id & CAN_EFF_FLAG ? CAN_EFF_MASK : CAN_SFF_MASK);
+		f->flags = (uint8_t)((fr.can_id & CAN_EFF_FLAG ? SWELL_FRAME_EFF : 0u) |
+				     (n == CANFD_MTU ? SWELL_FRAME_FD : 0u));
 		f->len = fr.len > CANFD_MAX_DLEN ? CANFD_MAX_DLEN : fr.len;
 		memcpy(f->data, fr.data, f->len);
 		return 0;
 	}
 }
 
-static void can_close(struct swell_link *l)
-{
-	struct can_link *c = (struct can_link *)l;
-
-	close(c->fd);
-	free(c);
-}
-
 const char *swell_can_state_name(enum swell_can_state s)
 {
-	switch (s) {
-	case SWELL_CAN_ACTIVE:
-		return "error-active";
-	case SWELL_CAN_WARNING:
-		return "error-warning";
-	case SWELL_CAN_PASSIVE:
-		return "error-passive";
-	case SWELL_CAN_BUS_OFF:
-		return "bus-off";
-	}
-	return "?";
+	static const char *const names[] = { "error-active", "error-warning", "error-passive", "bus-off" };
+
+	return (unsigned)s <= SWELL_CAN_BUS_OFF ? names[s] : "?";
 }
 
 enum swell_can_event swell_can_error_frame(struct swell_can_health *h, uint32_t can_id, const uint8_t d[8])
@@ -172,20 +148,10 @@ enum swell_can_event swell_can_error_frame(struct swell_can_health *h, uint32_t 
 	if (now == before)
 		return SWELL_CAN_EV_NONE;
 	h->state = (uint8_t)now;
-	switch (now) {
-	case SWELL_CAN_BUS_OFF:
-		h->bus_offs++;
+	uint32_t *const into[] = { &h->actives, &h->warnings, &h->passives, &h->bus_offs }; /* by state */
+	(*into[now])++;
+	if (now == SWELL_CAN_BUS_OFF)
 		return SWELL_CAN_EV_BUS_OFF;
-	case SWELL_CAN_PASSIVE:
-		h->passives++;
-		break;
-	case SWELL_CAN_WARNING:
-		h->warnings++;
-		break;
-	case SWELL_CAN_ACTIVE:
-		h->actives++;
-		break;
-	}
 	if (before == SWELL_CAN_BUS_OFF) {
 		h->restarts++;
 		return SWELL_CAN_EV_RESTARTED;
@@ -223,17 +189,7 @@ int swell_can_read(int fd, struct swell_can_health *h, struct canfd_frame *f)
 	return (int)r;
 }
 
-static const struct swell_link_ops can_ops = { can_send, can_recv, can_close, NULL };
-
-static int set_bitrate(const char *ifname, uint32_t bitrate)
-{
-	/* libsocketcan returns -1 and leaves errno from netlink (EPERM without CAP_NET_ADMIN,
-	 * EOPNOTSUPP on vcan) */
-	errno = 0;
-	if (can_do_stop(ifname) < 0 || can_set_bitrate(ifname, bitrate) < 0 || can_do_start(ifname) < 0)
-		return errno ? -errno : -EIO;
-	return 0;
-}
+static const struct swell_link_ops can_ops = { can_send, can_recv, swell_link_close_fd, NULL };
 
 int swell_can_socket(const char *ifname, const struct swell_can_opts *opts, int nonblock)
 {
@@ -311,20 +267,18 @@ int swell_link_open_can(struct swell_link **out, const char *ifname, const struc
 		return -EINVAL;
 	if (!opts)
 		opts = &defaults;
-	if (opts->bitrate) {
-		rc = set_bitrate(ifname, opts->bitrate);
-		if (rc)
-			return rc;
-	}
+	errno = 0; /* libsocketcan returns -1 with errno from netlink (EPERM without CAP_NET_ADMIN, EOPNOTSUPP on vcan) */
+	if (opts->bitrate &&
+	    (can_do_stop(ifname) < 0 || can_set_bitrate(ifname, opts->bitrate) < 0 || can_do_start(ifname) < 0))
+		return errno ? -errno : -EIO;
 	c = calloc(1, sizeof(*c));
 	if (!c)
 		return -ENOMEM;
 	c->base.ops = &can_ops;
 	c->base.carrier = opts->fd ? SWELL_CARRIER_CANFD : SWELL_CARRIER_CAN;
-	c->fd_mode = opts->fd;
-	c->fd = swell_can_socket(ifname, opts, 0);
-	if (c->fd < 0) {
-		rc = c->fd;
+	c->base.fd = swell_can_socket(ifname, opts, 0);
+	if (c->base.fd < 0) {
+		rc = c->base.fd;
 		free(c);
 		return rc;
 	}

@@ -1,8 +1,5 @@
-/* FunctionFS: the device side of the controller's vendor USB interface (swell/usb_ffs.h), a link
- * (swell_link_open_ffs in swell/link.h). */
+/* FunctionFS: the device side of the controller's vendor USB interface, a link (swell/link.h). */
 #define _DEFAULT_SOURCE /* syscall() for Linux AIO */
-
-#include "swell/usb_ffs.h"
 
 #include <linux/aio_abi.h>
 
@@ -27,29 +24,6 @@
 #define EP_DESC_LEN 7u /* USB_DT_ENDPOINT_SIZE: no audio extension */
 #define SET_LEN (USB_DT_INTERFACE_SIZE + 2u * EP_DESC_LEN)
 
-static uint8_t *put_le16(uint8_t *p, uint16_t v)
-{
-	p[0] = (uint8_t)(v & 0xFFu);
-	p[1] = (uint8_t)(v >> 8);
-	return p + 2;
-}
-
-static uint8_t *put_le32(uint8_t *p, uint32_t v)
-{
-	for (int i = 0; i < 4; i++)
-		p[i] = (uint8_t)(v >> (8 * i));
-	return p + 4;
-}
-
-static size_t name_len(const char *s)
-{
-	size_t n = 0;
-
-	while (n <= SWELL_USB_FFS_NAME_MAX && s[n] != '\0')
-		n++;
-	return n;
-}
-
 static enum swell_err check_iface(const struct swell_usb_ffs_iface *it)
 {
 	if (!it || !it->name)
@@ -60,7 +34,7 @@ static enum swell_err check_iface(const struct swell_usb_ffs_iface *it)
 		return SWELL_ERANGE;
 	if (it->fs_packet != 8 && it->fs_packet != 16 && it->fs_packet != 32 && it->fs_packet != 64)
 		return SWELL_ERANGE;
-	size_t n = name_len(it->name);
+	size_t n = strnlen(it->name, SWELL_USB_FFS_NAME_MAX + 1);
 	if (n == 0 || n > SWELL_USB_FFS_NAME_MAX)
 		return SWELL_ERANGE;
 	for (size_t i = 0; i < n; i++)
@@ -86,7 +60,7 @@ static uint8_t *put_set(uint8_t *p, const struct swell_usb_ffs_iface *it, uint16
 		*p++ = USB_DT_ENDPOINT;
 		*p++ = addr[i];
 		*p++ = USB_ENDPOINT_XFER_BULK;
-		p = put_le16(p, packet);
+		p = swell_put_le(p, packet, 2);
 		*p++ = 0; /* bInterval: unused for bulk */
 	}
 	return p;
@@ -104,11 +78,11 @@ enum swell_err swell_usb_ffs_descriptors(const struct swell_usb_ffs_iface *iface
 	if (cap < total)
 		return SWELL_ESIZE;
 	uint8_t *p = buf;
-	p = put_le32(p, FUNCTIONFS_DESCRIPTORS_MAGIC_V2);
-	p = put_le32(p, (uint32_t)total);
-	p = put_le32(p, FUNCTIONFS_HAS_FS_DESC | FUNCTIONFS_HAS_HS_DESC);
-	p = put_le32(p, 3); /* fs_count */
-	p = put_le32(p, 3); /* hs_count */
+	p = swell_put_le(p, FUNCTIONFS_DESCRIPTORS_MAGIC_V2, 4);
+	p = swell_put_le(p, (uint32_t)total, 4);
+	p = swell_put_le(p, FUNCTIONFS_HAS_FS_DESC | FUNCTIONFS_HAS_HS_DESC, 4);
+	p = swell_put_le(p, 3, 4); /* fs_count */
+	p = swell_put_le(p, 3, 4); /* hs_count */
 	p = put_set(p, iface, iface->fs_packet);
 	p = put_set(p, iface, HS_BULK_PACKET);
 	*len = (size_t)(p - buf);
@@ -123,16 +97,16 @@ enum swell_err swell_usb_ffs_strings(const struct swell_usb_ffs_iface *iface, ui
 		return err;
 	if (!buf || !len)
 		return SWELL_EINVAL;
-	size_t n = name_len(iface->name);
+	size_t n = strnlen(iface->name, SWELL_USB_FFS_NAME_MAX + 1);
 	size_t total = 4u * 4u + 2u + n + 1u;
 	if (cap < total)
 		return SWELL_ESIZE;
 	uint8_t *p = buf;
-	p = put_le32(p, FUNCTIONFS_STRINGS_MAGIC);
-	p = put_le32(p, (uint32_t)total);
-	p = put_le32(p, 1); /* str_count */
-	p = put_le32(p, 1); /* lang_count */
-	p = put_le16(p, LANG_EN_US);
+	p = swell_put_le(p, FUNCTIONFS_STRINGS_MAGIC, 4);
+	p = swell_put_le(p, (uint32_t)total, 4);
+	p = swell_put_le(p, 1, 4); /* str_count */
+	p = swell_put_le(p, 1, 4); /* lang_count */
+	p = swell_put_le(p, LANG_EN_US, 2);
 	memcpy(p, iface->name, n);
 	p[n] = '\0';
 	*len = total;
@@ -161,26 +135,10 @@ struct ffs_link {
 };
 
 /* Linux AIO through its system calls (glibc has no wrappers; libaio is not needed). */
-static int aio_setup(unsigned nr, aio_context_t *ctx)
-{
-	return (int)syscall(SYS_io_setup, nr, ctx);
-}
-
-static int aio_destroy(aio_context_t ctx)
-{
-	return (int)syscall(SYS_io_destroy, ctx);
-}
-
 static int aio_submit(aio_context_t ctx, struct iocb *cb)
 {
 	struct iocb *list[1] = { cb };
 	return (int)syscall(SYS_io_submit, ctx, 1L, list);
-}
-
-static int aio_reap(aio_context_t ctx, struct io_event *ev, long max)
-{
-	struct timespec zero = { 0, 0 };
-	return (int)syscall(SYS_io_getevents, ctx, 0L, max, ev, &zero);
 }
 
 #define RX_TAG 0u
@@ -198,7 +156,7 @@ static void close_fd(int *fd)
 static void close_data(struct ffs_link *f)
 {
 	if (f->ctx) {
-		aio_destroy(f->ctx);
+		syscall(SYS_io_destroy, f->ctx);
 		f->ctx = 0;
 	}
 	close_fd(&f->ep_out);
@@ -259,12 +217,13 @@ static int queue_rx(struct ffs_link *f)
 static void reap(struct ffs_link *f)
 {
 	struct io_event ev[1 + SWELL_USB_FFS_TX_SLOTS];
+	struct timespec zero = { 0, 0 };
 	uint64_t count;
 
 	if (read(f->efd, &count, sizeof(count)) < 0) {
 		/* EAGAIN: nothing signalled since the last look; the events are read anyway */
 	}
-	int n = aio_reap(f->ctx, ev, (long)(sizeof(ev) / sizeof(ev[0])));
+	int n = (int)syscall(SYS_io_getevents, f->ctx, 0L, (long)(sizeof(ev) / sizeof(ev[0])), ev, &zero);
 	for (int i = 0; i < n; i++) {
 		if (ev[i].data == RX_TAG) {
 			f->rx_res = ev[i].res;
@@ -290,7 +249,7 @@ static void enable(struct ffs_link *f)
 	f->ep_out = open_ep(f, 1, O_RDONLY);
 	if (f->ep_out >= 0)
 		f->ep_in = open_ep(f, 2, O_WRONLY);
-	if (f->ep_out < 0 || f->ep_in < 0 || aio_setup(1 + SWELL_USB_FFS_TX_SLOTS, &f->ctx) < 0) {
+	if (f->ep_out < 0 || f->ep_in < 0 || syscall(SYS_io_setup, 1 + SWELL_USB_FFS_TX_SLOTS, &f->ctx) < 0) {
 		f->st.last_errno = errno;
 		f->ctx = 0;
 		close_data(f);

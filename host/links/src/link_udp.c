@@ -13,7 +13,6 @@
 
 struct udp_link {
 	struct swell_link base;
-	int fd;
 	int have_peer;
 	int follow; /* no fixed peer: answer the last sender */
 	struct sockaddr_in peer;
@@ -81,7 +80,7 @@ static int udp_send(struct swell_link *l, const struct swell_frame *f)
 {
 	struct udp_link *u = (struct udp_link *)l;
 
-	return u->have_peer ? swell_udp_send(u->fd, &u->peer, f->data, f->len) : -ENOTCONN;
+	return u->have_peer ? swell_udp_send(u->base.fd, &u->peer, f->data, f->len) : -ENOTCONN;
 }
 
 static int udp_recv(struct swell_link *l, struct swell_frame *f, int timeout_ms)
@@ -92,7 +91,7 @@ static int udp_recv(struct swell_link *l, struct swell_frame *f, int timeout_ms)
 	for (;;) {
 		struct sockaddr_in from = { 0 }; /* filled by recvfrom; zeroed for the analyzer */
 		uint8_t buf[SWELL_LINK_MTU + 1];
-		long n = swell_udp_recv(u->fd, buf, sizeof(buf), &from, swell_link_ms_left(deadline, timeout_ms));
+		long n = swell_udp_recv(u->base.fd, buf, sizeof(buf), &from, swell_link_ms_left(deadline, timeout_ms));
 
 		if (n < 0)
 			return (int)n;
@@ -115,15 +114,7 @@ static int udp_recv(struct swell_link *l, struct swell_frame *f, int timeout_ms)
 	}
 }
 
-static void udp_close(struct swell_link *l)
-{
-	struct udp_link *u = (struct udp_link *)l;
-
-	close(u->fd);
-	free(u);
-}
-
-static const struct swell_link_ops udp_ops = { udp_send, udp_recv, udp_close, NULL };
+static const struct swell_link_ops udp_ops = { udp_send, udp_recv, swell_link_close_fd, NULL };
 
 static int parse_addr(const char *host, uint16_t port, struct sockaddr_in *a)
 {
@@ -147,18 +138,16 @@ int swell_link_open_udp(struct swell_link **out, const char *bind_host, uint16_t
 		return -ENOMEM;
 	u->base.ops = &udp_ops;
 	u->base.carrier = SWELL_CARRIER_PKT;
-	rc = parse_addr(bind_host, bind_port, &a);
-	if (rc == 0 && peer_host) {
-		rc = parse_addr(peer_host, peer_port, &u->peer);
-		u->have_peer = 1;
-	}
+	u->have_peer = peer_host != NULL;
 	u->follow = !peer_host;
-	if (rc)
-		goto fail;
-	u->fd = swell_udp_socket(&a, 0, 0, NULL, &a);
-	if (u->fd < 0) {
-		rc = u->fd;
-		goto fail;
+	rc = parse_addr(bind_host, bind_port, &a);
+	if (rc == 0 && peer_host)
+		rc = parse_addr(peer_host, peer_port, &u->peer);
+	u->base.fd = rc ? rc : swell_udp_socket(&a, 0, 0, NULL, &a);
+	if (u->base.fd < 0) {
+		rc = u->base.fd;
+		free(u);
+		return rc;
 	}
 	u->port = ntohs(a.sin_port);
 	if (peer_host)
@@ -168,9 +157,6 @@ int swell_link_open_udp(struct swell_link **out, const char *bind_host, uint16_t
 		snprintf(u->base.name, sizeof(u->base.name), "udp %s:%u -> last sender", bind_host, u->port);
 	*out = &u->base;
 	return 0;
-fail:
-	free(u);
-	return rc;
 }
 
 uint16_t swell_link_udp_port(const struct swell_link *l)

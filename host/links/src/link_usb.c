@@ -33,28 +33,13 @@ void swell_usb_opts_default(struct swell_usb_opts *o)
 
 static int errno_of(int e)
 {
-	switch (e) {
-	case LIBUSB_ERROR_TIMEOUT:
-		return -ETIMEDOUT;
-	case LIBUSB_ERROR_NO_DEVICE:
-		return -ENODEV;
-	case LIBUSB_ERROR_NOT_FOUND:
-		return -ENODEV;
-	case LIBUSB_ERROR_ACCESS:
-		return -EACCES;
-	case LIBUSB_ERROR_BUSY:
-		return -EBUSY;
-	case LIBUSB_ERROR_OVERFLOW:
-		return -EMSGSIZE;
-	case LIBUSB_ERROR_PIPE:
-		return -EPIPE;
-	case LIBUSB_ERROR_NO_MEM:
-		return -ENOMEM;
-	case LIBUSB_ERROR_INTERRUPTED:
-		return -EINTR;
-	default:
-		return -EIO;
-	}
+	static const int to[] = { [-LIBUSB_ERROR_TIMEOUT] = ETIMEDOUT, [-LIBUSB_ERROR_NO_DEVICE] = ENODEV,
+				  [-LIBUSB_ERROR_NOT_FOUND] = ENODEV,  [-LIBUSB_ERROR_ACCESS] = EACCES,
+				  [-LIBUSB_ERROR_BUSY] = EBUSY,        [-LIBUSB_ERROR_OVERFLOW] = EMSGSIZE,
+				  [-LIBUSB_ERROR_PIPE] = EPIPE,        [-LIBUSB_ERROR_NO_MEM] = ENOMEM,
+				  [-LIBUSB_ERROR_INTERRUPTED] = EINTR };
+
+	return e < 0 && -e < (int)(sizeof(to) / sizeof(to[0])) && to[-e] ? -to[-e] : -EIO;
 }
 
 static void drop(struct usb_link *u)
@@ -247,13 +232,10 @@ int swell_link_open_usb(struct swell_link **out, const struct swell_usb_opts *op
 	u->base.ops = &usb_ops;
 	u->base.carrier = SWELL_CARRIER_PKT;
 	rc = libusb_init(&u->ctx);
-	if (rc < 0) {
-		free(u);
-		return errno_of(rc);
-	}
-	rc = attach(u);
+	rc = rc < 0 ? errno_of(rc) : attach(u);
 	if (rc) {
-		libusb_exit(u->ctx);
+		if (u->ctx) /* NULL when libusb_init failed: libusb_exit(NULL) would end the default context */
+			libusb_exit(u->ctx);
 		free(u);
 		return rc;
 	}

@@ -1,8 +1,6 @@
-/* The contract between the controller core and a port (Linux process, STM32F405): everything a port
- * does with the core goes through these calls, never through the core's fields. In: decoded messages
- * (swell_ctl_rx), the clock (one swell_ctl_tick per device tick, or its two parts), link events and
- * reports. Out: the two message queues (swell_ctl_tx; FORCE_CMD on the device queue is the force
- * output) and the few states a port acts on. */
+/* The contract between the controller core and a port (Linux process, STM32F405): a port acts on
+ * the core only through these calls. In: decoded messages, the clock, link events, reports. Out: the
+ * two message queues (FORCE_CMD on the device queue is the force output) and the states it acts on. */
 #ifndef SWELL_CTL_PORT_H
 #define SWELL_CTL_PORT_H
 
@@ -24,12 +22,10 @@ void swell_ctl_rx(struct swell_ctl *c, enum swell_ctl_link from, const struct sw
 /* One device tick (swell/ctl.h): swell_ctl_tick_force then swell_ctl_tick_background. */
 void swell_ctl_tick(struct swell_ctl *c);
 
-/* The same tick in two parts for ports with interrupt priorities: the force part (steps 1-3:
- * supervision, state, force law, safety, FORCE_CMD) from the highest-priority tick interrupt, the
- * background part (steps 4-5: solver slice, telemetry) from a lower priority right after it. The
- * background of tick k must be done before the force part of tick k+1 starts: that keeps the order of
- * every read and write the same as swell_ctl_tick's, so results stay bit-identical. If it is not done,
- * the force part counts an overrun and runs anyway (safety before waves). */
+/* The same tick in two parts for ports with interrupt priorities: the force part (steps 1-3, up to
+ * FORCE_CMD) from the tick interrupt, the background part (steps 4-5, solver slice and telemetry) at
+ * a lower priority right after it. Done before the next force part, the results are bit-identical to
+ * swell_ctl_tick's; not done, the force part counts an overrun and runs anyway (safety first). */
 void swell_ctl_tick_force(struct swell_ctl *c);
 void swell_ctl_tick_background(struct swell_ctl *c);
 /* 1 while the background part of the last force part has not run. */
@@ -38,11 +34,10 @@ int swell_ctl_background_due(const struct swell_ctl *c);
 /* Up to cap queued messages for a link, oldest first, removed from the queue. */
 size_t swell_ctl_tx(struct swell_ctl *c, enum swell_ctl_link link, struct swell_msg *out, size_t cap);
 
-/* The carrier of a link is gone (CAN bus-off, USB unplug, TCP reset, nothing reaches the device):
- * for the device link the device counts as silent from now, so the next tick faults exactly as
- * after silent_ticks of silence (RUNNING -> FAULT with SWELL_ETIMEOUT, ARMED -> IDLE, zero force),
- * and autorun's recovery counts from when it is heard again. The host link going down changes
- * nothing: the force loop does not depend on the host. */
+/* The carrier of a link is gone (CAN bus-off, USB unplug, TCP reset, nothing reaches the device).
+ * Device link: the next tick faults exactly as after silent_ticks of silence (RUNNING -> FAULT with
+ * SWELL_ETIMEOUT, ARMED -> IDLE, zero force); recovery counts from when the device is heard again.
+ * The host link: nothing changes, the force loop does not depend on the host. */
 void swell_ctl_link_down(struct swell_ctl *c, enum swell_ctl_link link);
 /* 1 while the device counts as lost (silent for swell_ctl_silent_limit ticks, or its link down). */
 int swell_ctl_device_lost(const struct swell_ctl *c);

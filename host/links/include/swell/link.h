@@ -1,12 +1,7 @@
-/* swell links: one small interface over SocketCAN, libusb, FunctionFS, UDP and recordings.
- *
- * A link moves frames: CAN frames (classic or FD, id + up to 64 bytes) or packets (USB bulk / UDP,
- * up to 64 bytes, id 0). swell_link_encode / swell_link_decode turn messages into frames and back
- * for the link's carrier with the strict codecs of swell/proto.h.
- *
- * Functions returning int give 0 on success or a negative errno: -ETIMEDOUT when a receive timed
- * out, -ENODATA at the end of a replay, -ENODEV while a USB device is unplugged. POSIX only: the
- * host programs and the Linux controller (swell-ctl) use it, the MCU has its own port drivers. */
+/* swell links: one small interface over SocketCAN, libusb, FunctionFS, UDP and recordings, for the
+ * host programs and swell-ctl (docs/links.md). A link moves frames: CAN (classic or FD) or packets
+ * (USB bulk, UDP), up to 64 bytes. Functions returning int give 0 or a negative errno: -ETIMEDOUT when
+ * a receive timed out, -ENODATA at the end of a replay, -ENODEV while a USB device is unplugged. */
 #ifndef SWELL_LINK_H
 #define SWELL_LINK_H
 
@@ -16,7 +11,6 @@
 
 #include "swell/link_spec.h"
 #include "swell/proto.h"
-#include "swell/usb_ffs.h"
 
 #define SWELL_LINK_MTU 64u
 
@@ -69,8 +63,7 @@ int swell_link_open_udp(struct swell_link **out, const char *bind_host, uint16_t
 /* The local port actually bound (useful after binding port 0); 0 if l is not a UDP link. */
 uint16_t swell_link_udp_port(const struct swell_link *l);
 
-/* The UDP socket calls of both sides, the host links above and the Linux controller's links (which
- * add the device's peer and the host link's clients on top: swell/link_peers.h). */
+/* The UDP socket calls of the link above and of swell-ctl's links (swell/link_peers.h on top). */
 /* A datagram socket bound to *at (port 0: any free port; when the port is taken and any_if_taken, any
  * free port of the same address, with *taken set to 1), close-on-exec, non-blocking when nonblock, with
  * a receive queue deep enough for a burst of a few thousand small datagrams. *bound gets the address
@@ -161,10 +154,45 @@ struct swell_usb_opts {
 int swell_link_open_usb(struct swell_link **out, const struct swell_usb_opts *opts);
 void swell_usb_opts_default(struct swell_usb_opts *o);
 
-/* FunctionFS, the USB device's side (swell/usb_ffs.h): iface's descriptors and strings written to
- * DIR/ep0 of a mounted instance that the caller set up in configfs. Never waits for the host. Send:
- * -ENODEV while the host has not enabled the interface (or is gone), -EBUSY with every IN slot busy. Open: the
- * system's errno (-ENOENT: no such mount), -EINVAL for a bad iface, -ENAMETOOLONG. */
+/* FunctionFS, the USB device's side: one vendor interface, one bulk OUT and one bulk IN endpoint (the
+ * controller's USB link). The gadget (VID/PID, configuration, UDC) is the caller's, in configfs; the
+ * link writes iface's descriptors and strings to DIR/ep0, acts on ep0's events (ENABLE opens the data
+ * endpoints, DISABLE and UNBIND close them, control requests are stalled) and moves packets through
+ * Linux AIO: one OUT transfer always queued, up to SWELL_USB_FFS_TX_SLOTS IN transfers in flight. */
+#define SWELL_USB_FFS_PATH_MAX 96 /* FunctionFS mount directory, including the NUL */
+#define SWELL_USB_FFS_NAME_MAX 63 /* interface string, ASCII, without the NUL */
+#define SWELL_USB_FFS_DESC_MAX 80 /* bytes of the descriptor block (66 used) */
+#define SWELL_USB_FFS_STR_MAX (18 + SWELL_USB_FFS_NAME_MAX + 1)
+#define SWELL_USB_FFS_XFER_MAX 512 /* bytes of one transfer (a high-speed bulk packet) */
+#define SWELL_USB_FFS_TX_SLOTS 4 /* IN transfers in flight */
+
+struct swell_usb_ffs_iface {
+	uint8_t class_code; /* 0xFF: vendor specific */
+	uint8_t subclass;
+	uint8_t protocol;
+	uint8_t ep_out; /* bulk OUT address, 0x01..0x0F */
+	uint8_t ep_in; /* bulk IN address, 0x81..0x8F */
+	uint16_t fs_packet; /* full-speed wMaxPacketSize: 8, 16, 32 or 64 bytes (high speed: 512) */
+	const char *name; /* interface string (iInterface), printable ASCII */
+};
+
+struct swell_usb_ffs_stats {
+	uint32_t setup_stalled; /* control requests answered with a stall */
+	uint32_t tx_busy_drops; /* sends refused because every IN slot was in flight */
+	int last_errno; /* errno of the last failed system call, 0 if none */
+};
+
+/* The FunctionFS v2 descriptor block (full- and high-speed sets: interface + bulk OUT + bulk IN,
+ * OUT first so it is file ep1 and IN is ep2) and the string block (language 0x0409, one string),
+ * little-endian as ep0 expects. Pure. A rejected iface (SWELL_EINVAL, SWELL_ERANGE) or a buffer too
+ * small (SWELL_ESIZE) leaves *len untouched. */
+enum swell_err swell_usb_ffs_descriptors(const struct swell_usb_ffs_iface *iface, uint8_t *buf, size_t cap,
+					 size_t *len);
+enum swell_err swell_usb_ffs_strings(const struct swell_usb_ffs_iface *iface, uint8_t *buf, size_t cap, size_t *len);
+
+/* Never waits for the host. Send: -ENODEV while the host has not enabled the interface (or is gone),
+ * -EBUSY with every IN slot busy. Open: the system's errno (-ENOENT: no such mount), -EINVAL for a bad
+ * iface, -ENAMETOOLONG. */
 int swell_link_open_ffs(struct swell_link **out, const char *dir, const struct swell_usb_ffs_iface *iface);
 /* The counters of a FunctionFS link, NULL for any other link. */
 const struct swell_usb_ffs_stats *swell_link_ffs_stats(const struct swell_link *l);

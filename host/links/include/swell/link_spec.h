@@ -1,20 +1,6 @@
-/* Link specs: the one spelling of a link on every command line (swell-ctl's --device and --host,
- * swell-view's --source, swell-tool's, swell-flash's, swell-hm's and swell-hmbridge's --link,
- * swell-inject's LINK), parsed by one function with one form of error ("'SPEC': reason", one line).
- *
- *   udp[:PORT][,peer=[ADDR:]PORT]   UDP; the option only where the program takes it (swell-ctl's device
- *   udp[:PORT][,listen=[ADDR:]PORT] link fixes its device, its host link its clients' port)
- *   can:IFACE, canfd:IFACE          SocketCAN, classic frames or CAN FD
- *   usb[:VID:PID]                   libusb, the host's side (VID, PID: 1 to 4 hex digits)
- *   usb:FFS_DIR                     a mounted FunctionFS instance, the controller's side
- *   hm:HOST[:PORT]                  a HapticMaster's TCP command interface (checked by hm_client)
- *   replay:FILE, replay-fast:FILE   a recording, paced as recorded or as fast as it is read
- * Each program says which it accepts; "usb:X" is a FunctionFS mount only where usb[:VID:PID] is not
- * accepted. The controller's node and a USB interface other than 0 are options of the programs.
- *
- * This is part of the host link library (host/links), not common/: it is POSIX-hosted code that
- * never runs on the MCU. The Linux controller (firmware/linux, a POSIX process) links it; the
- * controller core does not. */
+/* Link specs: the one spelling of a link on every command line (the spellings: docs/links.md, "Link
+ * specs"), parsed by one function with one form of error ("'SPEC': reason", one line). Part of the
+ * host link library: POSIX-hosted, linked by the host programs and swell-ctl, never by the core. */
 #ifndef SWELL_LINK_SPEC_H
 #define SWELL_LINK_SPEC_H
 
