@@ -112,12 +112,16 @@ static inline __attribute__((always_inline)) void vel_run(struct swell_wave *w, 
 	if (dsp)
 		__set_saturation_occurred(0);
 #endif
+		/* a row with rows above and below in a grid of the fixed width: the three rows from one pointer
+	 * with immediate offsets (fewer registers live in the unrolled block) */
+#define VEL_DOWN(K) (mid && fixed ? hc[(K)-nx] : hd[K])
+#define VEL_UP(K) (mid && fixed ? hc[(K) + nx] : hu[K])
 	for (b = 0; b < m / 8; b++) {
 		a_or = 0;
 #pragma GCC unroll 8
 		for (k = 0; k < 8; k++) {
 			cn = hc[k + 1];
-			VEL_CELL(k, hd[k + 1] + hu[k + 1] + 2 * cn);
+			VEL_CELL(k, VEL_DOWN(k + 1) + VEL_UP(k + 1) + 2 * cn);
 		}
 		any[b] = a_or;
 		if (b & 1) { /* 16 cells of int28 still fit int32 */
@@ -126,8 +130,10 @@ static inline __attribute__((always_inline)) void vel_run(struct swell_wave *w, 
 			tot = tot_h = 0;
 		}
 		hc += 8;
-		hd += 8;
-		hu += 8;
+		if (!(mid && fixed)) {
+			hd += 8;
+			hu += 8;
+		}
 		u += 8;
 	}
 	a_or = 0;
@@ -135,14 +141,14 @@ static inline __attribute__((always_inline)) void vel_run(struct swell_wave *w, 
 #pragma GCC unroll 8
 		for (k = 0; k < 7; k++) {
 			cn = hc[k + 1];
-			VEL_CELL(k, hd[k + 1] + hu[k + 1] + 2 * cn);
+			VEL_CELL(k, VEL_DOWN(k + 1) + VEL_UP(k + 1) + 2 * cn);
 		}
 		cn = c; /* the mirrored column beyond the east wall is the last one */
 		VEL_CELL(7, sc);
 	} else {
 		for (k = 0; k < m % 8; k++) {
 			cn = hc[k + 1];
-			VEL_CELL(k, hd[k + 1] + hu[k + 1] + 2 * cn);
+			VEL_CELL(k, VEL_DOWN(k + 1) + VEL_UP(k + 1) + 2 * cn);
 		}
 		if (east) {
 			cn = c;
@@ -160,6 +166,9 @@ static inline __attribute__((always_inline)) void vel_run(struct swell_wave *w, 
 	sum[0] += run_tot;
 	sum[1] += damp ? run_tot : run_tot_h + tot_h;
 }
+
+#undef VEL_DOWN
+#undef VEL_UP
 
 static inline __attribute__((always_inline)) void vel_rows(struct swell_wave *w, int j, int tx0, int tx1, int damp,
 							   int64_t sum[2], int32_t *any, int fixed)
