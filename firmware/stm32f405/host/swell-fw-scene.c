@@ -91,7 +91,7 @@ int main(int argc, char **argv)
 			return 2;
 		}
 	}
-	err = fw_scene_init(&w, storage, FW_SCENE_WORDS);
+	err = fw_scene_init(&w, storage, FW_SCENE_WORDS, SWELL_FORM_EDGE);
 	if (err != SWELL_OK) {
 		fprintf(stderr, "swell-fw-scene: scene refused: %s\n", swell_err_str(err));
 		return 1;
@@ -107,6 +107,17 @@ int main(int argc, char **argv)
 	printf("e 0x%08x (Q1.30)\n", (unsigned)w.p.e);
 	printf("checksum 0x%08x\n", (unsigned)swell_wave_checksum(&w));
 	printf("volume %lld LSB (2^-16 mm per cell)\n", (long long)swell_wave_volume(&w));
+	/* the same scene in the velocity form, undamped (the image's "velocity splash") */
+	err = fw_scene_init(&w, storage, FW_SCENE_WORDS, SWELL_FORM_VELOCITY);
+	if (err == SWELL_OK)
+		err = swell_wave_set_kernel(&w, kernel);
+	if (err != SWELL_OK) {
+		fprintf(stderr, "swell-fw-scene: velocity scene refused: %s\n", swell_err_str(err));
+		return 1;
+	}
+	for (n = 0; n < steps; n++)
+		swell_wave_step(&w);
+	printf("velocity splash checksum 0x%08x\n", (unsigned)swell_wave_checksum(&w));
 	for (i = 0; cost && i < 2 * FW_COST_SCENES; i++) { /* edge-flux, then velocity form */
 		const int velocity = i >= FW_COST_SCENES;
 

@@ -21,8 +21,10 @@
 #define FW_SCENE_DEPTH_UM ((uint32_t)SWELL_POOL_DEPTH_UM)
 #define FW_SCENE_DX_UM ((uint32_t)SWELL_POOL_DX_UM)
 
-/* Bind storage (FW_SCENE_WORDS words) and set the initial field. */
-enum swell_err fw_scene_init(struct swell_wave *w, int32_t *storage, size_t words);
+/* Bind storage (FW_SCENE_WORDS words) and set the initial field, in the form asked for (the image's
+ * main scene is the edge-flux form's; the velocity form's undamped twin runs its kernel with fraction
+ * bits). */
+enum swell_err fw_scene_init(struct swell_wave *w, int32_t *storage, size_t words, enum swell_wave_form form);
 
 /* The three cost scenes (calm, local, agitated), on the same pool with damping t = 0.001 (the demo's), so that
  * the damped kernel runs: CALM, the water at rest; LOCAL, one 2 mm splash of sigma 2 cells at

@@ -63,7 +63,7 @@ static int run_split(uint32_t tick_hz, uint32_t solver_hz)
 	uint64_t t0, dt, slice_max = 0, finish_max = 0, sum = 0;
 	uint32_t sum_crc;
 
-	if (fw_scene_init(&wave, wave_storage, FW_SCENE_WORDS) != SWELL_OK)
+	if (fw_scene_init(&wave, wave_storage, FW_SCENE_WORDS, SWELL_FORM_EDGE) != SWELL_OK)
 		return 0;
 	for (n = 0; n < SWELL_FW_SELFTEST_STEPS; n++) {
 		for (t = 0; t + 1 < k; t++) {
@@ -107,7 +107,7 @@ static int run_scene(void)
 	enum swell_err err;
 	uint32_t n;
 
-	err = fw_scene_init(&wave, wave_storage, FW_SCENE_WORDS);
+	err = fw_scene_init(&wave, wave_storage, FW_SCENE_WORDS, SWELL_FORM_EDGE);
 	if (err != SWELL_OK) {
 		con_puts("selftest: scene refused: ");
 		con_puts(swell_err_str(err));
@@ -156,6 +156,31 @@ static int run_scene(void)
 	con_puts("solver cell-step: ");
 	put_insn(sum, (uint64_t)SWELL_FW_SELFTEST_STEPS * FW_SCENE_NX * FW_SCENE_NY);
 	con_puts(" instructions per cell-step (swell_wave_step, edge-flux, 64x64)\n");
+	return 1;
+}
+
+/* The main scene in the velocity form, undamped: the kernel's SMMLAR path and the height update with
+ * fraction bits (the cost scenes and the core run damped, without them); its checksum the host
+ * compares, its cost per cell-step. */
+static int run_scene_velocity(void)
+{
+	uint64_t t0, sum = 0;
+	uint32_t n;
+
+	if (fw_scene_init(&wave, wave_storage, FW_SCENE_WORDS, SWELL_FORM_VELOCITY) != SWELL_OK)
+		return 0;
+	for (n = 0; n < SWELL_FW_SELFTEST_STEPS; n++) {
+		t0 = timebase_systick();
+		swell_wave_step(&wave);
+		sum += timebase_systick() - t0;
+	}
+	con_puts("velocity splash: ");
+	put_insn(sum, (uint64_t)SWELL_FW_SELFTEST_STEPS * FW_SCENE_NX * FW_SCENE_NY);
+	con_puts(" instructions per cell-step (undamped, ");
+	con_put_u32(wave.vel_frac);
+	con_puts(" fraction bits), checksum 0x");
+	con_put_hex32(swell_wave_checksum(&wave));
+	con_putc('\n');
 	return 1;
 }
 
@@ -545,6 +570,7 @@ int selftest_run(uint32_t tim_clk_hz)
 	ok &= run_scene();
 	ok &= run_split(2500, 250); /* HapticMaster servo rate */
 	ok &= run_split(1000, 250); /* classic CAN */
+	ok &= run_scene_velocity();
 	ok &= run_cost();
 	ok &= run_cost_split();
 	run_naive();

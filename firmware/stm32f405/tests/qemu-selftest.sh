@@ -18,6 +18,12 @@ echo "qemu-selftest: $steps steps: target checksum $target, host checksum $host"
 ref=$("$scene" --steps "$steps" --kernel ref | sed -n 's/^checksum \(0x[0-9a-f]*\).*/\1/p')
 echo "qemu-selftest: host scalar reference kernel checksum $ref"
 [ "$target" = "$ref" ] || { echo "qemu-selftest: FAIL: the reference kernel differs"; exit 1; }
+# the same scene in the velocity form, undamped (fraction bits in u): the image against the host's
+# reference kernel
+tvel=$(sed -n 's/^velocity splash: .* checksum \(0x[0-9a-f]*\).*/\1/p' "$out")
+hvel=$("$scene" --steps "$steps" --kernel ref | sed -n 's/^velocity splash checksum \(0x[0-9a-f]*\).*/\1/p')
+echo "qemu-selftest: velocity splash: target checksum $tvel, host (reference kernel) $hvel; $(sed -n 's/^velocity splash: \([0-9.]*\) instructions per cell-step (\([^)]*\)).*/\1 instructions per cell-step, \2/p' "$out")"
+[ -n "$tvel" ] && [ "$tvel" = "$hvel" ] || { echo "qemu-selftest: FAIL: the velocity splash checksums differ"; exit 1; }
 # the three cost scenes (damped: the M4's damped kernel), each against the host
 costs=$(grep '^cost scene ' "$out" | sed -n 's/^cost scene \([a-z-]*\):.*checksum \(0x[0-9a-f]*\).*/\1 \2/p')
 [ "$(echo "$costs" | grep -c .)" = 6 ] || { echo "qemu-selftest: FAIL: the image printed $(echo "$costs" | grep -c .) cost scenes, want 6"; exit 1; }
