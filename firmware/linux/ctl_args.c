@@ -94,18 +94,14 @@ static int parse_version(const char *s, uint8_t v[3])
 	return 0;
 }
 
-/* 1 for an option that takes a value. */
-static int takes_value(const char *a)
+/* 1 when a is the option name, which takes a value: v, and there must be one. */
+static int is(const char *a, const char *name, const char *v)
 {
-	static const char *const with_value[] = { "--device",     "--host",         "--clock",       "--tick-hz",
-						  "--solver-hz",  "--silent-ticks", "--host-budget", "--node",
-						  "--fw-version", "--seconds",      "--scene",       "--pool-max" };
-	size_t k;
-
-	for (k = 0; k < sizeof(with_value) / sizeof(with_value[0]); k++)
-		if (!strcmp(a, with_value[k]))
-			return 1;
-	return 0;
+	if (strcmp(a, name))
+		return 0;
+	if (!v)
+		die("this option needs a value: ", a);
+	return 1;
 }
 
 /* The two links must not be one: the host link's telemetry sent into the device port, or one
@@ -232,45 +228,41 @@ void parse(int argc, char **argv, struct opts *o)
 			o->quiet = 1;
 		} else if (strncmp(a, "--", 2)) {
 			die("unexpected argument (see --help): ", a);
-		} else if (!takes_value(a)) {
-			die("unknown option (see --help): ", a);
-		} else if (!v) {
-			die("this option needs a value: ", a);
 		} else {
-			k++;
-			if (!strcmp(a, "--device"))
+			k++; /* an unknown option stops here anyway */
+			if (is(a, "--device", v))
 				o->device = v;
-			else if (!strcmp(a, "--host"))
+			else if (is(a, "--host", v))
 				o->host = v;
-			else if (!strcmp(a, "--scene"))
+			else if (is(a, "--scene", v))
 				scene_start(o, v);
-			else if (!strcmp(a, "--clock")) {
+			else if (is(a, "--clock", v)) {
 				if (strcmp(v, "internal") && strcmp(v, "device"))
 					die("--clock must be internal or device, not ", v);
 				o->device_clock = !strcmp(v, "device");
-			} else if (!strcmp(a, "--tick-hz"))
+			} else if (is(a, "--tick-hz", v))
 				o->cfg.tick_hz = (uint32_t)num(a, v, SWELL_TICK_HZ_MIN, SWELL_TICK_HZ_MAX);
-			else if (!strcmp(a, "--solver-hz"))
+			else if (is(a, "--solver-hz", v))
 				o->cfg.solver_hz = (uint32_t)num(a, v, 1, SWELL_TICK_HZ_MAX);
-			else if (!strcmp(a, "--silent-ticks")) {
+			else if (is(a, "--silent-ticks", v)) {
 				o->cfg.silent_ticks = (uint16_t)num(a, v, 1, 10000);
 				o->silent_given = 1;
-			} else if (!strcmp(a, "--host-budget"))
+			} else if (is(a, "--host-budget", v))
 				o->cfg.host_budget = (uint16_t)num(a, v, 1, SWELL_CTL_QUEUE / 2);
-			else if (!strcmp(a, "--pool-max"))
+			else if (is(a, "--pool-max", v))
 				o->pool_max = (uint16_t)num(a, v, SWELL_WAVE_MIN_SIDE, SWELL_WAVE_MAX_SIDE);
-			else if (!strcmp(a, "--node"))
+			else if (is(a, "--node", v))
 				o->cfg.node = (uint8_t)num(a, v, 0, SWELL_NODE_MAX);
-			else if (!strcmp(a, "--fw-version")) {
+			else if (is(a, "--fw-version", v)) {
 				if (parse_version(v, o->cfg.fw_version))
 					die("--fw-version must be X.Y.Z with each part 0..255, not ", v);
-			} else if (!strcmp(a, "--seconds")) {
+			} else if (is(a, "--seconds", v)) {
 				char *end;
 				o->seconds = strtod(v, &end);
 				if (*end || !(o->seconds > 0 && o->seconds < 1e7))
 					die("--seconds must be a positive number, not ", v);
 			} else
-				die("unknown option ", a);
+				die("unknown option (see --help): ", a);
 		}
 	}
 	check_links(o);

@@ -517,7 +517,8 @@ int hm_client_zero_wait(struct hm_client *c, int wait_ms)
 	return c->fd >= 0 && c->st.answers >= want ? 0 : -1;
 }
 
-double hm_client_rtt_pct(const struct hm_client *c, double p)
+/* Percentile p (0..1) of the round trip, in us. */
+static double hm_client_rtt_pct(const struct hm_client *c, double p)
 {
 	uint64_t want = (uint64_t)(p * (double)c->st.answers + 0.999999), seen = 0;
 	int k;

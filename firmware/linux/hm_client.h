@@ -1,29 +1,13 @@
-/* A HapticMaster client on its TCP command interface (docs/hapticmaster.md), for the controller's
- * device link (swell-ctl --device hm:HOST[:PORT]) and for swell-hmbridge.
- *
- * Inside it speaks swell's device protocol: each tick's FORCE_CMD becomes one pipelined request
- *     set swell_bias force [fx,fy,fz];get measpos;get modelvel;get state
- * and each answer becomes DEVICE_VEL + DEVICE_POS (status: bit 0 powered, bit 1 force rendered (state
- * `force`), bit 2 not rendering (`stop`, e-stop, any other state, or the bias force refused), bit 3
- * an error answer). Nothing blocks a tick: the socket is non-blocking, requests are written as they
- * come, answers are read as they arrive. An answer read more than max_age_ticks ticks after the tick
- * that asked for it (0: read before the next tick's request) is late: it is counted and dropped (a stale position must not drive the force law), so the controller sees a
- * silent device tick. Integers only: forces in 0.01 N, positions in 0.01 mm, velocities in 0.1 mm/s,
- * the device's decimal text parsed without floating point.
- *
- * Start-up, on every (re)connection: one request
- *     set state init;set state force;remove swell_bias;create biasforce swell_bias;
- *     set swell_bias force [0,0,0];set swell_bias enable
- * (the remove may fail: there was no such effect). A device found in any state but `force` while
- * running (another client's `set state stop`, the e-stop) is reported as not rendering at once, and
- * the start-up is tried again every HMC_RETRY_MS. A reset or EOF closes the socket, counts the
- * requests in flight as lost, and a new connection is tried every HMC_RETRY_MS.
- *
- * For the effect mode (the controller updating the device's spring, damper and bias effects at the
- * solver rate instead of streaming a force; hm_fx.h), hm_client_set_extra appends commands to the next
- * tick's request: the same pipeline carries them and their answers are checked for errors; and
- * hm_client_request sends a request of its own at once, its answers checked or not. cleanup, when set,
- * is sent before every start-up, its answers not checked. */
+/* A HapticMaster client on its TCP command interface, for the controller's device link (swell-ctl
+ * --device hm:HOST[:PORT]) and for swell-hmbridge; its requests, start-up, retries and units:
+ * docs/hapticmaster.md. Inside it speaks swell's device protocol: each tick's FORCE_CMD becomes one
+ * pipelined request, each answer DEVICE_VEL + DEVICE_POS (status: bit 0 powered, bit 1 force
+ * rendered, bit 2 not rendering, bit 3 an error answer). Nothing blocks a tick (non-blocking socket);
+ * an answer read more than max_age_ticks ticks after its tick is late: counted and dropped, so the
+ * controller sees a silent device tick. Integers only, the device's decimal text parsed without
+ * floating point. For the effect mode (hm_fx.h) hm_client_set_extra appends commands to the next
+ * tick's request and hm_client_request sends one of its own at once; cleanup, when set, is sent
+ * before every start-up, its answers not checked. */
 #ifndef SWELL_HM_CLIENT_H
 #define SWELL_HM_CLIENT_H
 
@@ -113,9 +97,6 @@ int hm_client_zero_wait(struct hm_client *c, int wait_ms);
  * (scale 5: metres to 0.01 mm), rounded half away from zero and saturated to +-limit; *s moves past
  * it. -1 (nothing moved) when no number is there. No floating point. */
 int hm_client_parse_fixed(const char **s, int scale, int32_t limit, int32_t *out);
-
-/* Percentile p (0..1) of the round trip, in us. */
-double hm_client_rtt_pct(const struct hm_client *c, double p);
 
 /* The counters and round-trip times, a few lines of "  hm ..." for a program's report. */
 void hm_client_report(const struct hm_client *c, FILE *f);

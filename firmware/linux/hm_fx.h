@@ -1,27 +1,7 @@
-/* Effect mode on a HapticMaster (docs/hapticmaster.md, "Effect mode"): the controller's effect sets
- * (EFFECT_SPRING, EFFECT_DAMPER, EFFECT_LIMIT, swell/effect.h) become the device's own effects, which
- * it renders every servo tick. Shared by swell-ctl's hm: link and swell-hmbridge, on top of hm_client.
- *
- * The device's effects, all named swell_*:
- *   swell_pull   spring, stiffness k, origin [0,0,w + D], vel [0,0,u_w], direction [0,0,1], deadband D,
- *                dampfactor 0, maxforce F_max
- *   swell_push   spring, stiffness -k, origin [0,0,w - H + D], the rest as swell_pull
- *   swell_damp   damper, dampcoef [0,0,b], vel [0,0,u_w]
- *   swell_weight biasforce, force [0,0,bias]
- * with D = HM_FX_DEADBAND_10UM (1 m, more than the workspace: the far sides of the deadbands are never
- * reached), so that their sum is the set's k clamp(w - z, 0, H) - b (v - u_w) + bias. Units on the
- * wire: 0.01 mm -> m (5 decimals), 0.1 mm/s -> m/s (4), 0.01 N/m -> N/m (2), 0.01 N s/m -> N s/m (2),
- * mN -> N (3), 0.01 N -> N (2): every value written exactly, in integers.
- *
- * Requests (none waits; they ride hm_client's pipeline):
- *   first set of a session: one request creates, configures and enables the four with the set's
- *     values (every answer must be a success, or the next sample reports a fault);
- *   every later set: its values, appended to the next tick's request (hm_client_set_extra);
- *   stop (the command disabled: fault, e-stop, mode change, exit; the set older than the freshness
- *     limit; the client not running): one request removing the four, sent on the tick the stop is
- *     seen (a set not yet sent is dropped);
- *   every (re)connection's start-up first removes them (answers ignored: they may not exist), so a
- *     device never keeps a dead session's effects. */
+/* Effect mode on a HapticMaster (docs/hapticmaster.md, "Effect mode": the four swell_* effects, their
+ * units and the requests): the controller's effect sets (EFFECT_SPRING, EFFECT_DAMPER, EFFECT_LIMIT,
+ * swell/effect.h) become the device's own effects, which it renders every servo tick. Shared by
+ * swell-ctl's hm: link and swell-hmbridge, on top of hm_client; no request waits. */
 #ifndef SWELL_HM_FX_H
 #define SWELL_HM_FX_H
 

@@ -1,16 +1,10 @@
 /* swell-ctl: the controller as a Linux real-time process. The core (firmware/core) does everything
- * that matters; this port gives it a clock, its two links and a report.
- *
- * Clock: absolute-deadline clock_nanosleep on CLOCK_MONOTONIC at the device rate, under SCHED_FIFO
- * and mlockall where permitted (a warning otherwise); or, with --clock device, one tick per
- * DEVICE_POS received (the device's servo clock drives the loop, as on a HapticMaster bus; in effect
- * mode, where the device reports once an update, as many ticks as the sample's seq step), with the
- * silence of the device still detected by a timeout of the silence limit (swell_ctl_silent_limit).
- * SIGINT/SIGTERM: zero force is sent first, then the report, then a clean exit.
- * ENTER_BOOTLOADER accepted by the core (outside RUNNING, with the key): the core has zeroed the force
- * and queued a last heartbeat; both go out, then the report, then exit status 3, so that a
- * supervisor can run the flasher and start the new image (the Linux port has no ROM bootloader).
- * Its parts: ctl_main.h. */
+ * that matters; this port gives it a clock, its two links and a report. Clock: absolute-deadline
+ * clock_nanosleep on CLOCK_MONOTONIC at the device rate under SCHED_FIFO and mlockall where
+ * permitted, or with --clock device one tick per DEVICE_POS (in effect mode as many as its seq step),
+ * the device's silence still timed out (swell_ctl_silent_limit). SIGINT/SIGTERM: zero force, the
+ * report, exit 0; an accepted ENTER_BOOTLOADER: zero force and the last heartbeat out, the report,
+ * exit 3 for a supervisor to flash and start the new image. Its parts: ctl_main.h. */
 #define _GNU_SOURCE
 #include <errno.h>
 #include <poll.h>
@@ -61,11 +55,6 @@ static int64_t now_ns(void) /* CLOCK_MONOTONIC, the links' clock */
 }
 
 /* ---- the loop ---- */
-
-static uint32_t rejected(const struct port *p)
-{
-	return swell_proto_rejected_total(&p->dev.st) + (p->have_host ? swell_proto_rejected_total(&p->host.st) : 0);
-}
 
 /* A host message: a start-up parameter (the pool) restarts the core in the port's arena and is
  * answered at once (swell/ctl_pool.h; between ticks, so no tick sees half a restart); anything else
@@ -130,7 +119,7 @@ static uint32_t take_input(struct port *p)
 		if (n == 0 && link_idle(&p->host))
 			break;
 	}
-	bad = rejected(p);
+	bad = swell_proto_rejected_total(&p->dev.st) + (p->have_host ? swell_proto_rejected_total(&p->host.st) : 0);
 	if (bad != p->bad_seen) {
 		swell_ctl_bad_frames(&p->c, bad - p->bad_seen);
 		p->bad_seen = bad;
@@ -224,7 +213,7 @@ static int setup_rt(struct opts *o)
 {
 	struct sched_param sp = { .sched_priority = 80 };
 	const char *why = "--no-rt";
-	char buf[96];
+	char buf[96], more[64] = "";
 	uint32_t slow;
 
 	if (o->rt) {
@@ -243,15 +232,11 @@ static int setup_rt(struct opts *o)
 	}
 	slow = o->cfg.tick_hz * SLOW_SILENCE_MS / 1000;
 	if (!o->silent_given && slow > o->cfg.silent_ticks) {
-		fprintf(stderr,
-			"swell-ctl: no real-time scheduling (%s): device silence limit %u ticks (%.1f ms) "
-			"instead of %u; --silent-ticks N to choose\n",
-			why, slow, slow * 1e3 / o->cfg.tick_hz, o->cfg.silent_ticks);
+		snprintf(more, sizeof(more), " instead of %u; --silent-ticks N to choose", o->cfg.silent_ticks);
 		o->cfg.silent_ticks = (uint16_t)slow;
-	} else {
-		fprintf(stderr, "swell-ctl: no real-time scheduling (%s): device silence limit %u ticks (%.1f ms)\n",
-			why, o->cfg.silent_ticks, o->cfg.silent_ticks * 1e3 / o->cfg.tick_hz);
 	}
+	fprintf(stderr, "swell-ctl: no real-time scheduling (%s): device silence limit %u ticks (%.1f ms)%s\n", why,
+		o->cfg.silent_ticks, o->cfg.silent_ticks * 1e3 / o->cfg.tick_hz, more);
 	return 0;
 }
 
