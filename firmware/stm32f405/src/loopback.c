@@ -7,7 +7,8 @@
 static struct fw_frame ring[LOOPBACK_DEPTH];
 static uint32_t head, tail; /* free-running; head - tail frames queued */
 
-enum swell_err loopback_send(const struct fw_frame *f)
+/* SWELL_EINVAL for a bad frame, SWELL_ESIZE when full; nothing queued then. */
+static enum swell_err loopback_send(const struct fw_frame *f)
 {
 	if (!f || f->len > 8 || f->id > 0x7FFu)
 		return SWELL_EINVAL;
@@ -18,7 +19,8 @@ enum swell_err loopback_send(const struct fw_frame *f)
 	return SWELL_OK;
 }
 
-enum swell_err loopback_recv(struct fw_frame *f)
+/* SWELL_ETRUNC when empty. */
+static enum swell_err loopback_recv(struct fw_frame *f)
 {
 	if (head == tail)
 		return SWELL_ETRUNC;

@@ -15,10 +15,6 @@ struct fw_frame {
 
 #define LOOPBACK_DEPTH 8
 
-/* SWELL_EINVAL for a bad frame, SWELL_ESIZE when full; nothing queued then. */
-enum swell_err loopback_send(const struct fw_frame *f);
-/* SWELL_ETRUNC when empty. */
-enum swell_err loopback_recv(struct fw_frame *f);
 int loopback_selftest(void);
 
 #endif

@@ -591,7 +591,9 @@ int selftest_run(uint32_t tim_clk_hz)
 	con_put_u32(stack_used_bytes());
 	con_puts(" of ");
 	con_put_u32(stack_size_bytes());
-	con_puts(" bytes used\n");
+	con_puts(" bytes used; console: ");
+	con_put_u32(con_dropped()); /* counted before this line is written */
+	con_puts(" characters dropped\n");
 	con_puts(ok ? "selftest: end ok\n" : "selftest: end FAILED\n");
 	return ok;
 }
