@@ -1,4 +1,4 @@
-/* The controller core; see ctl.h for the tick, the states and the telemetry. */
+/* The controller core; the tick, the states and the telemetry: docs/design.md. */
 #include "swell/ctl.h"
 
 #include <string.h>

@@ -1,16 +1,9 @@
 /* Entering the STM32F405's ROM bootloader (system memory, 0x1FFF0000: USART, CAN and USB DfuSe,
- * ST AN2606) from a running image, without BOOT0.
- *
- * ENTER_BOOTLOADER accepted by the core (outside RUNNING, force zeroed) -> boot_request_reset():
- * one line on USART1, the magic word into SRAM that start-up never clears, a system reset.
- * At the very start of the next reset, before the FPU, the clocks and .data/.bss (boot_early(), from
- * isr_reset): magic there -> cleared -> interrupts and SysTick off -> the ROM's vector table read at
- * 0x1FFF0000 (MSP, PC) -> checked to look like ST's bootloader (MSP in SRAM, PC a Thumb address inside
- * the 30 KB of system memory) -> SYSCFG MEMRMP = system flash (AN2606: the ROM expects its vector
- * table at 0) -> MSP set, jump. A table that does not look like one is not jumped to: the reset goes on into this image.
- * Where the read bus-faults (QEMU's netduinoplus2 maps nothing there) the fault handler calls
- * boot_probe_fault(), which records BFAR and CFSR and resets into this image. Either way main()
- * reports what happened (boot_report()). */
+ * ST AN2606) from a running image, without BOOT0: boot_request_reset() leaves a magic word in SRAM
+ * and resets, boot_early() at the very start of the next reset checks the ROM's vector table and
+ * jumps, a table that does not look like ST's (or a read that bus-faults: boot_probe_fault()) starts
+ * this image instead, and main() says so (boot_report()). The steps: docs/stm32f405.md, "Entering the
+ * ROM bootloader". */
 #ifndef SWELL_FW_BOOT_H
 #define SWELL_FW_BOOT_H
 

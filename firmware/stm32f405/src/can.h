@@ -2,8 +2,7 @@
  * acceptance filters from logic/can_filter, three TX mailboxes sent by identifier priority (lowest
  * id first, safety frames have the lowest ids), error counters, bus-off handled by the driver:
  * force zeroed at once, recovery after a hold-off that doubles while the bus keeps failing
- * (logic/can_busoff; not the hardware's automatic recovery, so that
- * a node that keeps going bus-off is counted and rate-limited). */
+ * (logic/can_busoff, not the hardware's own: a node that keeps going bus-off is rate-limited). */
 #ifndef SWELL_FW_CAN_H
 #define SWELL_FW_CAN_H
 

@@ -1,10 +1,6 @@
 /* The memory of the pool, found at boot: the SRAM arena (app_arena, .bss) and a fast block of 64 KB
- * only the CPU reaches. On silicon that is the core-coupled RAM at 0x10000000 (RM0090: CCM data
- * RAM, on the D-bus only: no DMA, no peripheral reaches it); QEMU 7.2's netduinoplus2 maps no CCM
- * but 192 KB of SRAM at 0x20000000 where the F405 has 128 KB (hw/arm/stm32f405_soc.c, SRAM_SIZE),
- * so under emulation the block is the 64 KB above 0x20020000 (a bus fault on silicon). A read probe
- * that survives the bus fault (fault_probe_read) decides, each block checked as RAM (written and
- * read back at both ends); neither: no fast block, pools must fit the SRAM arena. */
+ * only the CPU reaches: the core-coupled RAM on silicon, the SRAM QEMU maps above 0x20020000 under
+ * emulation, or none; each probed through fault_probe_read and checked as RAM (docs/stm32f405.md). */
 #ifndef SWELL_FW_MEM_H
 #define SWELL_FW_MEM_H
 

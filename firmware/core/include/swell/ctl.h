@@ -1,50 +1,7 @@
-/* The controller core: the same code on every port (Linux process, STM32F405). No OS calls, no
- * allocation, no float. A port feeds decoded messages in (swell_ctl_rx), calls swell_ctl_tick once per
- * device tick, and drains the two output queues (swell_ctl_tx) onto its carriers.
- *
- * Tick (device rate, 2500 Hz default, 1000 Hz for classic CAN), in this order:
- *   1. link supervision: the device silent for silent_ticks ticks -> zero force and FAULT;
- *   2. state machine: BOOT -> IDLE -> ARMED -> RUNNING, any -> FAULT; force is zero outside RUNNING;
- *   3. force law (swell_body_tick_force) on the surface interpolated between the two latest solver
- *      states, then the safety stage (gain, |F| <= F_max, |dF/dt| <= R), then FORCE_CMD to the device,
- *      every tick; the water the object displaces is counted at the start of the background part
- *      (swell_body_couple_later), before the solver slice, and its cells are written at once or,
- *      while the object stays in the water, once a period before the step's finish
- *      (swell_body_place): the same bits as coupling in the force part;
- *      in effect mode (force.mode 1) FORCE_CMD carries zero force and, at each solver step, the effect
- *      set goes to the device instead (swell/effect.h); the safety stage then watches the force the
- *      set produces at the device's state (telemetry and limit flags);
- *   4. solver slice: the solver (wave.h, the velocity form: 4 words a cell) runs at the scene's own
- *      rate; its step is split over the K = tick_hz / solver_hz ticks of a period: ticks 0 .. K-2 each
- *      do about ny / (K-1) rows of the kernel ("edges" below) and, within
- *      an equal share of the period's work, the finishing pass (h += acc) and the body's ceiling scan
- *      of rows whose edges are all done; tick K-1 finishes the rest. No tick carries a whole grid step,
- *      and the force law always reads the last finished step (wave.h, finishing ahead).
- *   5. telemetry to the host link within its per-tick message budget: heartbeat (10 Hz, also to the
- *      device), scene (1 Hz), controller info (CTL_INFO: firmware version and object size, 1 Hz and
- *      on change), object pose and force (100 Hz), and the heights that changed since they
- *      were last sent: the grid is scanned round-robin in quads (4 cells of one tile row, one
- *      HEIGHT_QUAD message), a bounded number a tick (none in the tick that ends a solver step), and
- *      only quads whose wire samples differ from what was last sent go out; a quad whose tile has
- *      not moved since it was last compared is passed unread (the solver's changed tiles); a budget
- *      left over resends one quad of a slower round-robin, so that a lost quad is repaired where the
- *      water no longer moves.
- * Work per tick is counted in cell-operations (solver cells, footprint cells, tile cells scanned); the
- * maximum is kept. Overruns are measured by the port and reported here.
- *
- * States and the way back (heartbeat state codes 0..4):
- *   BOOT     until the first tick.
- *   IDLE     no device: nothing is commanded. -> ARMED when the device has been heard.
- *   ARMED    device present, force zero. -> RUNNING on the RUN command, or by itself with autorun
- *            unless the host's last command was STOP,
- *            when the device reports power and no e-stop (never after an accepted ENTER_BOOTLOADER). -> IDLE when the device goes silent.
- *   RUNNING  force law active. -> ARMED on STOP (with autorun too); -> FAULT on a silent device or e-stop.
- *   FAULT    zero force. -> IDLE on CLEAR once the device is heard again and its e-stop released, or
- *            by itself with autorun after the device has been back, heard with its e-stop released,
- *            for recover_ticks ticks (counted from the release, not from when it was first heard).
- *
- * Determinism: the core's outputs depend only on its configuration and the sequence of rx/tick calls,
- * so a trace recorded at the device link replays to bit-identical outputs on any port. */
+/* The controller core: the same code on every port, no OS calls, no allocation, no float; a port
+ * drives it through swell/ctl_port.h. The tick's five steps (supervision, states, force law and
+ * safety, solver slice, telemetry), the states and the determinism it keeps: docs/design.md, "The
+ * controller's tick and states". */
 #ifndef SWELL_CTL_H
 #define SWELL_CTL_H
 
@@ -60,9 +17,8 @@
 #include "swell/param_table.h"
 #include "swell/wave.h"
 
-/* enum swell_ctl_state (the heartbeat's state codes) is in swell/proto_table.h. */
-
-/* Parameter ids, commands and their ranges: swell/param_table.h. */
+/* enum swell_ctl_state (the heartbeat's state codes): swell/proto_table.h; parameter ids, commands and
+ * their ranges: swell/param_table.h. */
 
 #define SWELL_CTL_QUEUE 64
 
@@ -142,9 +98,7 @@ struct swell_ctl {
 	uint8_t dev_step; /* the last DEVICE_POS's seq step: device ticks it stands for (1 for the first) */
 	uint8_t run_request, clear_request;
 	uint8_t host_stop; /* STOP received and no RUN since: autorun does not start the force law */
-	/* Set when an ENTER_BOOTLOADER was accepted (outside RUNNING, with the key): the core has zeroed
-	 * the force and queued a last heartbeat; the port drains its queues and reboots into its
-	 * bootloader (or, without one, exits). The core never clears it. */
+	/* an ENTER_BOOTLOADER accepted (swell_ctl_bootloader_requested); the core never clears it */
 	uint8_t bootloader_request;
 	uint8_t info_pending; /* CTL_INFO to send at the next tick with budget (start, object changed) */
 	uint32_t info_wait; /* ticks until the periodic CTL_INFO */

@@ -1,19 +1,10 @@
-/* The pool (grid, cell size, depth) as a start-up choice of a port, within the memory the port
- * has: an arena and, on the STM32F405, a fast block only the CPU reaches (core-coupled RAM on
- * silicon; under QEMU, which maps no CCM, the SRAM it maps above 128 KB). The core's buffers all
- * go into the arena when they fit there; else the solver's momentum u and the telemetry's sent
- * samples (read and written by the CPU only, never by DMA, CAN or USB) go into the fast block. A
- * pool that fits neither way is refused with SWELL_ESIZE and nothing changes. swell-ctl has one
- * block, the arena it allocates before its loop (--pool-max), and no fast block.
- *
- * On the wire: PARAM_SET of a start-up parameter (pool.nx, pool.ny, pool.dx, pool.depth; the ids
- * of enum swell_scene_key, swell/scene.h) outside RUNNING restarts the core from BOOT with the new
- * pool, the water at rest and every other parameter kept; pool.dx and pool.depth set wave.e by
- * eq. 2 at the solver rate (as a scene file does when it gives no wave.e). Answered by PARAM_ACK
- * with the value now in force, or PARAM_NACK with the reason: SWELL_ESTATE in RUNNING, SWELL_ERANGE
- * or SWELL_ESIZE for a value outside its range (swell_ctl_check), SWELL_ESIZE for a pool that does
- * not fit, SWELL_EUNSTABLE when eq. 2 gives an e the solver refuses. PARAM_GET reads them. Pure
- * logic, tested on the host. */
+/* The pool (grid, cell size, depth) as a start-up choice of a port, within its memory: an arena and,
+ * on the STM32F405, a fast block only the CPU reaches (swell-ctl: the arena it allocates before its
+ * loop, --pool-max). The core's buffers go whole into the arena when they fit, else with the solver's
+ * momentum u in the fast block; a pool that fits neither way is refused with SWELL_ESIZE and nothing
+ * changes. PARAM_SET and PARAM_GET of the start-up parameters (pool.nx, pool.ny, pool.dx, pool.depth,
+ * swell/scene.h) on the host link, their answers and the restart: docs/stm32f405.md. Pure logic,
+ * tested on the host. */
 #ifndef SWELL_CTL_POOL_H
 #define SWELL_CTL_POOL_H
 

@@ -19,7 +19,7 @@ enum swell_ctl_link {
 /* A decoded message from one link. Messages from the wrong side are counted and ignored. */
 void swell_ctl_rx(struct swell_ctl *c, enum swell_ctl_link from, const struct swell_msg *m);
 
-/* One device tick (swell/ctl.h): swell_ctl_tick_force then swell_ctl_tick_background. */
+/* One device tick (docs/design.md): swell_ctl_tick_force then swell_ctl_tick_background. */
 void swell_ctl_tick(struct swell_ctl *c);
 
 /* The same tick in two parts for ports with interrupt priorities: the force part (steps 1-3, up to
