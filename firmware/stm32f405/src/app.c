@@ -260,7 +260,7 @@ void app_run(const struct clock_info *ci, int can_ok, int usb_ok, const struct a
 		con_putc('\n');
 		fault_stop("controller start refused");
 	}
-	con_put_u32(tick_hz);
+	con_put_u64(tick_hz);
 	con_puts(" Hz tick, device on ");
 	con_puts(app.device_on_can ? "CAN 1 Mbit/s" : "USB");
 	con_puts(app.usb_on ? ", host on USB\n" : ", host on CAN\n");

@@ -25,8 +25,8 @@ static void console_drain(void)
 void boot_request_reset(void)
 {
 	safe_force_zero();
-	con_puts("boot: ENTER_BOOTLOADER accepted, force zeroed: resetting into the ROM bootloader at 0x");
-	con_put_hex32(BOOT_SYSMEM);
+	con_puts_hex32("boot: ENTER_BOOTLOADER accepted, force zeroed: resetting into the ROM bootloader at 0x",
+		       BOOT_SYSMEM);
 	con_putc('\n');
 	console_drain();
 	irq_disable();
@@ -113,19 +113,14 @@ int boot_report(void)
 	if (outcome != BOOT_OUTCOME_NOROM && outcome != BOOT_OUTCOME_FAULTED)
 		return 0;
 	BOOT_WORD(1) = 0;
-	con_puts("boot: bootloader requested before this reset; the ROM table at 0x");
-	con_put_hex32(BOOT_SYSMEM);
+	con_puts_hex32("boot: bootloader requested before this reset; the ROM table at 0x", BOOT_SYSMEM);
 	if (outcome == BOOT_OUTCOME_FAULTED) {
-		con_puts(" bus-faulted when read (bfar 0x");
-		con_put_hex32(BOOT_WORD(2));
-		con_puts(", cfsr 0x");
-		con_put_hex32(BOOT_WORD(3));
+		con_puts_hex32(" bus-faulted when read (bfar 0x", BOOT_WORD(2));
+		con_puts_hex32(", cfsr 0x", BOOT_WORD(3));
 		con_puts(")");
 	} else {
-		con_puts(" read as MSP 0x");
-		con_put_hex32(BOOT_WORD(2));
-		con_puts(" PC 0x");
-		con_put_hex32(BOOT_WORD(3));
+		con_puts_hex32(" read as MSP 0x", BOOT_WORD(2));
+		con_puts_hex32(" PC 0x", BOOT_WORD(3));
 	}
 	con_puts(": no bootloader there, not jumped; this image started instead\n");
 	return 1;

@@ -53,8 +53,9 @@ void con_put_u64(uint64_t v)
 	con_puts(&buf[i]);
 }
 
-void con_put_u32(uint32_t v)
+void con_puts_u32(const char *s, uint32_t v)
 {
+	con_puts(s);
 	con_put_u64(v);
 }
 
@@ -75,6 +76,12 @@ void con_put_hex32(uint32_t v)
 
 	for (s = 28; s >= 0; s -= 4)
 		con_putc(hex[(v >> s) & 0xFu]);
+}
+
+void con_puts_hex32(const char *s, uint32_t v)
+{
+	con_puts(s);
+	con_put_hex32(v);
 }
 
 void con_put_ratio(uint64_t num, uint64_t den, unsigned decimals)

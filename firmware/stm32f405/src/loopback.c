@@ -50,12 +50,9 @@ int loopback_selftest(void)
 	}
 	if (loopback_recv(&g) != SWELL_ETRUNC)
 		bad++;
-	con_puts("link: loopback ");
-	con_put_u32(LOOPBACK_DEPTH);
-	con_puts(" frames round trip, ");
-	con_put_u32(bad);
-	con_puts(" bad, ");
-	con_put_u32(refused);
+	con_puts_u32("link: loopback ", LOOPBACK_DEPTH);
+	con_puts_u32(" frames round trip, ", bad);
+	con_puts_u32(" bad, ", refused);
 	con_puts(" refused when full (expect 2)\n");
 	return bad == 0 && refused == 2;
 }

@@ -83,12 +83,9 @@ int main(void)
 	came_back = boot_report();
 	con_puts("clock: ");
 	con_puts(clock_src_name(ci.src));
-	con_puts(" sysclk ");
-	con_put_u32(ci.sysclk_hz);
-	con_puts(" Hz, apb1 ");
-	con_put_u32(ci.pclk1_hz);
-	con_puts(" Hz, apb2 ");
-	con_put_u32(ci.pclk2_hz);
+	con_puts_u32(" sysclk ", ci.sysclk_hz);
+	con_puts_u32(" Hz, apb1 ", ci.pclk1_hz);
+	con_puts_u32(" Hz, apb2 ", ci.pclk2_hz);
 	con_puts(" Hz");
 	if (ci.hse_timeout)
 		con_puts(" (HSE did not start: timeout)");
@@ -106,16 +103,13 @@ int main(void)
 		con_putc('\n');
 		fault_stop("image check failed");
 	}
-	con_puts("version ");
-	con_put_u32(img.version >> 16);
+	con_puts_u32("version ", img.version >> 16);
 	con_putc('.');
-	con_put_u32((img.version >> 8) & 0xFFu);
+	con_put_u64((img.version >> 8) & 0xFFu);
 	con_putc('.');
-	con_put_u32(img.version & 0xFFu);
-	con_puts(", ");
-	con_put_u32(img.length);
-	con_puts(" bytes, crc32 0x");
-	con_put_hex32(img.crc);
+	con_put_u64(img.version & 0xFFu);
+	con_puts_u32(", ", img.length);
+	con_puts_hex32(" bytes, crc32 0x", img.crc);
 	con_puts(" ok\n");
 
 	mem_probe(&app_mem, app_arena,

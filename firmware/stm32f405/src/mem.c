@@ -38,12 +38,9 @@ void mem_probe(struct fw_mem *m, int32_t *sram, size_t sram_words)
 	}
 	if (m->fast)
 		m->fast_words = MEM_FAST_BYTES / 4u;
-	con_puts("memory: SRAM arena ");
-	con_put_u32((uint32_t)m->sram_words * 4u);
-	con_puts(" bytes at 0x");
-	con_put_hex32((uint32_t)(uintptr_t)m->sram);
-	con_puts(", fast block ");
-	con_put_u32((uint32_t)m->fast_words * 4u);
+	con_puts_u32("memory: SRAM arena ", (uint32_t)m->sram_words * 4u);
+	con_puts_hex32(" bytes at 0x", (uint32_t)(uintptr_t)m->sram);
+	con_puts_u32(", fast block ", (uint32_t)m->fast_words * 4u);
 	con_puts(" bytes in ");
 	con_puts(m->fast_name);
 	con_putc('\n');
@@ -53,7 +50,7 @@ static void put_buf(const char *name, uint32_t bytes, const char *where)
 {
 	con_puts(name);
 	con_putc(' ');
-	con_put_u32(bytes);
+	con_put_u64(bytes);
 	con_puts(" in ");
 	con_puts(where);
 }
@@ -63,26 +60,19 @@ void mem_report(const struct swell_ctl *c, const struct fw_mem *m, const struct 
 	const uint32_t n = (uint32_t)c->cfg.nx * c->cfg.ny;
 	const char *fast = p->apart ? m->fast_name : "SRAM";
 
-	con_puts("pool: ");
-	con_put_u32(c->cfg.nx);
+	con_puts_u32("pool: ", c->cfg.nx);
 	con_putc('x');
-	con_put_u32(c->cfg.ny);
-	con_puts(" cells of ");
-	con_put_u32(c->cfg.dx_um);
-	con_puts(" um, depth ");
-	con_put_u32(c->cfg.depth_um);
+	con_put_u64(c->cfg.ny);
+	con_puts_u32(" cells of ", c->cfg.dx_um);
+	con_puts_u32(" um, depth ", c->cfg.depth_um);
 	con_puts(" um; bytes: ");
 	put_buf("h", n * 4u, "SRAM");
 	put_buf(", tile flags", (uint32_t)c->wave.tiles_x * c->wave.tiles_y, "SRAM");
 	put_buf(", u", n * 4u, fast);
 	put_buf(", sent", (n + 1u) / 2u * 4u, "SRAM");
-	con_puts("; SRAM ");
-	con_put_u32((uint32_t)p->sram_words * 4u);
-	con_puts(" of ");
-	con_put_u32((uint32_t)m->sram_words * 4u);
-	con_puts(", fast ");
-	con_put_u32((uint32_t)p->fast_words * 4u);
-	con_puts(" of ");
-	con_put_u32((uint32_t)m->fast_words * 4u);
+	con_puts_u32("; SRAM ", (uint32_t)p->sram_words * 4u);
+	con_puts_u32(" of ", (uint32_t)m->sram_words * 4u);
+	con_puts_u32(", fast ", (uint32_t)p->fast_words * 4u);
+	con_puts_u32(" of ", (uint32_t)m->fast_words * 4u);
 	con_putc('\n');
 }

@@ -80,12 +80,9 @@ static int run_split(uint32_t tick_hz, uint32_t solver_hz)
 		finish_max = dt > finish_max ? dt : finish_max;
 	}
 	sum_crc = swell_wave_checksum(&wave);
-	con_puts("solver per tick at ");
-	con_put_u32(tick_hz);
-	con_puts(" Hz (");
-	con_put_u32(k);
-	con_puts(" ticks a step, ");
-	con_put_u32(rows);
+	con_puts_u32("solver per tick at ", tick_hz);
+	con_puts_u32(" Hz (", k);
+	con_puts_u32(" ticks a step, ", rows);
 	con_puts(" rows a slice): worst slice ");
 	put_insn(slice_max, 1);
 	con_puts(", finish ");
@@ -114,11 +111,9 @@ static int run_scene(void)
 		con_putc('\n');
 		return 0;
 	}
-	con_puts("selftest: scene pool 64x64 dx 6.25 mm depth 50 mm dt 4 ms e 0x");
-	con_put_hex32((uint32_t)wave.p.e);
+	con_puts_hex32("selftest: scene pool 64x64 dx 6.25 mm depth 50 mm dt 4 ms e 0x", (uint32_t)wave.p.e);
 	con_puts(" (Q1.30) paper stencil, damping 0, gauss 2 mm sigma 3 cells at (32,32)\n");
-	con_puts("selftest: initial checksum 0x");
-	con_put_hex32(swell_wave_checksum(&wave));
+	con_puts_hex32("selftest: initial checksum 0x", swell_wave_checksum(&wave));
 	con_putc('\n');
 
 	t0 = timebase_systick();
@@ -131,18 +126,15 @@ static int run_scene(void)
 		min = dt < min ? dt : min;
 		max = dt > max ? dt : max;
 	}
-	con_puts("steps ");
-	con_put_u32(SWELL_FW_SELFTEST_STEPS);
+	con_puts_u32("steps ", SWELL_FW_SELFTEST_STEPS);
 	con_putc('\n');
 	scene_checksum = swell_wave_checksum(&wave);
-	con_puts("checksum 0x");
-	con_put_hex32(scene_checksum);
+	con_puts_hex32("checksum 0x", scene_checksum);
 	con_putc('\n');
 	con_puts("volume ");
 	con_put_i64(swell_wave_volume(&wave));
 	con_puts(" LSB (2^-16 mm per cell)\n");
-	con_puts("saturations ");
-	con_put_u32(wave.saturations);
+	con_puts_u32("saturations ", wave.saturations);
 	con_putc('\n');
 	con_puts("solver step: mean ");
 	con_put_ratio(sum, SWELL_FW_SELFTEST_STEPS, 1);
@@ -178,10 +170,8 @@ static int run_scene_velocity(void)
 	}
 	con_puts("velocity splash: ");
 	put_insn(sum, (uint64_t)SWELL_FW_SELFTEST_STEPS * FW_SCENE_NX * FW_SCENE_NY);
-	con_puts(" instructions per cell-step (undamped, ");
-	con_put_u32(wave.vel_frac);
-	con_puts(" fraction bits), checksum 0x");
-	con_put_hex32(swell_wave_checksum(&wave));
+	con_puts_u32(" instructions per cell-step (undamped, ", wave.vel_frac);
+	con_puts_hex32(" fraction bits), checksum 0x", swell_wave_checksum(&wave));
 	con_putc('\n');
 	/* the ceiling scan with the fraction bits' shift, on a field where the momentum's negative part
 	 * decides the highest value (the splash's crest would hide a wrong shift) */
@@ -224,10 +214,8 @@ static int run_cost(void)
 				con_puts("-");
 			con_puts(" per awake cell-step, awake ");
 			con_put_ratio(awake * 100u, rows, 1);
-			con_puts(" % (damped t = 0.001, 64x64, ");
-			con_put_u32(FW_COST_STEPS);
-			con_puts(" steps) checksum 0x");
-			con_put_hex32(swell_wave_checksum(&wave));
+			con_puts_u32(" % (damped t = 0.001, 64x64, ", FW_COST_STEPS);
+			con_puts_hex32(" steps) checksum 0x", swell_wave_checksum(&wave));
 			con_putc('\n');
 		}
 	return 1;
@@ -256,8 +244,7 @@ static int run_cost_split(void)
 	put_insn(fin, (uint64_t)FW_COST_STEPS * FW_SCENE_NX * FW_SCENE_NY);
 	con_puts(" instructions per cell-step; LSB given back ");
 	con_put_u64(wave.fixed_lsb);
-	con_puts(" in ");
-	con_put_u32(FW_COST_STEPS);
+	con_puts_u32(" in ", FW_COST_STEPS);
 	con_puts(" steps\n");
 	return 1;
 }
@@ -317,18 +304,13 @@ static int run_tick(uint32_t tim_clk_hz)
 	}
 	tick_read(&st);
 	tick_stop();
-	con_puts("tick: TIM2 1000 Hz from ");
-	con_put_u32(tim_clk_hz);
-	con_puts(" Hz, priority 0: ");
-	con_put_u32(st.count - before);
-	con_puts(" of ");
-	con_put_u32(TICK_RUNS);
-	con_puts(" pended interrupts taken, ");
-	con_put_u32(before);
+	con_puts_u32("tick: TIM2 1000 Hz from ", tim_clk_hz);
+	con_puts_u32(" Hz, priority 0: ", st.count - before);
+	con_puts_u32(" of ", TICK_RUNS);
+	con_puts_u32(" pended interrupts taken, ", before);
 	con_puts(" hardware updates; force-path stub ");
 	put_insn(st.max_cost, 1);
-	con_puts(" instructions per tick (max), overruns ");
-	con_put_u32(st.overruns);
+	con_puts_u32(" instructions per tick (max), overruns ", st.overruns);
 	con_putc('\n');
 	return st.count - before == TICK_RUNS && st.overruns == 0;
 }
@@ -351,15 +333,14 @@ static void put_core_label(uint32_t tick_hz, uint16_t pool_n, int at)
 {
 	con_puts(pool_n ? "pool" : "core");
 	if (pool_n) {
-		con_put_u32(pool_n);
+		con_put_u64(pool_n);
 		con_putc('x');
-		con_put_u32(pool_n);
+		con_put_u64(pool_n);
 	} else if (tick_hz != 2500u && !at) {
-		con_put_u32(tick_hz);
+		con_put_u64(tick_hz);
 	}
 	if (at) {
-		con_puts(" at ");
-		con_put_u32(tick_hz);
+		con_puts_u32(" at ", tick_hz);
 		con_puts(" Hz");
 	}
 }
@@ -385,10 +366,9 @@ static int pool_set(uint16_t id, const char *name, int32_t value, enum swell_err
 	con_puts(" in ");
 	con_puts(swell_ctl_state_name(ctl.state));
 	if (ans.type == SWELL_MSG_PARAM_ACK) {
-		con_puts(": ACK, pool now ");
-		con_put_u32(ctl.cfg.nx);
+		con_puts_u32(": ACK, pool now ", ctl.cfg.nx);
 		con_putc('x');
-		con_put_u32(ctl.cfg.ny);
+		con_put_u64(ctl.cfg.ny);
 		con_putc('\n');
 		mem_report(&ctl, &app_mem, &place);
 		return want_err == SWELL_OK && ans.u.param_ack.value == value && ans.u.param_ack.seq == 7;
@@ -396,10 +376,9 @@ static int pool_set(uint16_t id, const char *name, int32_t value, enum swell_err
 	ok = want_err == (enum swell_err)ans.u.param_nack.err && ctl.cfg.nx == nx && ctl.cfg.ny == ny;
 	con_puts(": NACK ");
 	con_puts(swell_err_str((enum swell_err)ans.u.param_nack.err));
-	con_puts(", pool still ");
-	con_put_u32(ctl.cfg.nx);
+	con_puts_u32(", pool still ", ctl.cfg.nx);
 	con_putc('x');
-	con_put_u32(ctl.cfg.ny);
+	con_put_u64(ctl.cfg.ny);
 	con_puts(ok ? "\n" : " (UNEXPECTED)\n");
 	return ok;
 }
@@ -518,31 +497,25 @@ static int run_core(uint32_t tick_hz, uint32_t ticks, uint16_t pool_n)
 	}
 	/* "core" at 2500 Hz (the qemu-arm test compares it with swell-fw-scene --core), "core<hz>" else */
 	put_core_label(tick_hz, pool_n, 0);
-	con_puts(" ticks ");
-	con_put_u32(ticks);
+	con_puts_u32(" ticks ", ticks);
 	con_putc('\n');
 	put_core_label(tick_hz, pool_n, 0);
-	con_puts(" checksum 0x");
-	con_put_hex32(fw_core_checksum(&ctl, &r));
+	con_puts_hex32(" checksum 0x", fw_core_checksum(&ctl, &r));
 	con_putc('\n');
 	con_puts("core: state ");
 	con_puts(swell_ctl_state_name(ctl.state));
-	con_puts(", ");
-	con_put_u32(r.force_cmds);
-	con_puts(" FORCE_CMD, ");
-	con_put_u32(r.host_msgs);
+	con_puts_u32(", ", r.force_cmds);
+	con_puts_u32(" FORCE_CMD, ", r.host_msgs);
 	con_puts(" host messages, last fz ");
 	con_put_i64(r.last_fz_uN);
-	con_puts(" uN, solver steps ");
-	con_put_u32(ctl.n.solver_steps);
+	con_puts_u32(" uN, solver steps ", ctl.n.solver_steps);
 	con_putc('\n');
 	put_core_label(tick_hz, pool_n, 1);
 	con_puts(": worst background ");
 	put_insn(bmax, 1);
 	con_puts(" instructions (");
 	put_pct(bmax, tick_hz);
-	con_puts(" % of the period, phase ");
-	con_put_u32(bworst_phase);
+	con_puts_u32(" % of the period, phase ", bworst_phase);
 	con_puts("), worst force path ");
 	put_insn(fmax, 1);
 	con_puts(" (");
@@ -551,12 +524,10 @@ static int run_core(uint32_t tick_hz, uint32_t ticks, uint16_t pool_n)
 	put_insn(wmax, 1);
 	con_puts(" (");
 	put_pct(wmax, tick_hz);
-	con_puts(" %) at tick ");
-	con_put_u32(wworst_tick);
+	con_puts_u32(" %) at tick ", wworst_tick);
 	con_puts(", mean ");
 	put_insn(sum, ticks);
-	con_puts("; overruns ");
-	con_put_u32(overruns);
+	con_puts_u32("; overruns ", overruns);
 	con_putc('\n');
 	put_core_label(tick_hz, pool_n, 1);
 	con_puts(": worst background by solver phase (instructions):");
@@ -587,12 +558,10 @@ int selftest_run(uint32_t tim_clk_hz)
 	ok &= run_core(2500, SWELL_FW_CORE_TICKS, 0); /* HapticMaster servo rate, device on USB */
 	ok &= run_core(1000, SWELL_FW_CORE_TICKS * 2 / 5, 0); /* classic CAN, the same 1 s */
 	ok &= run_core(2500, SWELL_FW_CORE_TICKS, SELFTEST_POOL_N); /* a larger pool chosen at start-up */
-	con_puts("stack: ");
-	con_put_u32(stack_used_bytes());
-	con_puts(" of ");
-	con_put_u32(stack_size_bytes());
+	con_puts_u32("stack: ", stack_used_bytes());
+	con_puts_u32(" of ", stack_size_bytes());
 	con_puts(" bytes used; console: ");
-	con_put_u32(con_dropped()); /* counted before this line is written */
+	con_put_u64(con_dropped()); /* counted before this line is written */
 	con_puts(" characters dropped\n");
 	con_puts(ok ? "selftest: end ok\n" : "selftest: end FAILED\n");
 	return ok;
@@ -627,11 +596,11 @@ void selftest_boot_request(void)
 		con_puts("NONE\n");
 		return;
 	}
-	con_put_u32(info[k].u.ctl_info.fw_major);
+	con_put_u64(info[k].u.ctl_info.fw_major);
 	con_putc('.');
-	con_put_u32(info[k].u.ctl_info.fw_minor);
+	con_put_u64(info[k].u.ctl_info.fw_minor);
 	con_putc('.');
-	con_put_u32(info[k].u.ctl_info.fw_patch);
+	con_put_u64(info[k].u.ctl_info.fw_patch);
 	con_putc('\n');
 	fw_core_drain(&ctl, &r);
 	for (n = 0; n < 1250; n++) { /* 0.5 s: the object pressed 5 mm into the water */
