@@ -18,29 +18,23 @@ static double jitter_pct(const struct jitter *j, double p)
 	return 0;
 }
 
-static void report_can(const char *what, const struct ctl_link *l)
+/* A CAN or USB link's own counters (none for UDP and hm:). */
+static void report_link(const char *what, const struct ctl_link *l)
 {
 	const struct swell_can_health *h = &l->can;
-
-	if (l->kind != CTL_LINK_CAN)
-		return;
-	printf("  %s CAN  %s: %s, %u error frames: %u bus-off, %u restarts, %u error-passive, %u warnings, "
-	       "%u back to active; %u no-ACK, %u protocol, %u overflows, %u TX timeouts; counters tx %u rx %u; "
-	       "%u frames dropped while bus-off, interface down %u times\n",
-	       what, l->name, swell_can_state_name(h->state), h->error_frames, h->bus_offs, h->restarts, h->passives,
-	       h->warnings, h->actives, h->no_ack, h->prot, h->overflows, h->tx_timeouts, h->tx_err, h->rx_err,
-	       h->dropped_off, h->downs);
-}
-
-static void report_usb(const char *what, const struct ctl_link *l)
-{
 	const struct swell_usb_ffs_stats *u = l->kind == CTL_LINK_USB ? swell_link_ffs_stats(l->usb) : NULL;
 
-	if (!u)
-		return;
-	printf("  %s USB  %s: %u parameter answers held for a busy IN queue, %u dropped; %u IN writes "
-	       "refused (all %d slots in flight)\n",
-	       what, l->name, l->answers_held, l->answers_dropped, u->tx_busy_drops, SWELL_USB_FFS_TX_SLOTS);
+	if (l->kind == CTL_LINK_CAN)
+		printf("  %s CAN  %s: %s, %u error frames: %u bus-off, %u restarts, %u error-passive, %u warnings, "
+		       "%u back to active; %u no-ACK, %u protocol, %u overflows, %u TX timeouts; counters tx %u rx %u; "
+		       "%u frames dropped while bus-off, interface down %u times\n",
+		       what, l->name, swell_can_state_name(h->state), h->error_frames, h->bus_offs, h->restarts,
+		       h->passives, h->warnings, h->actives, h->no_ack, h->prot, h->overflows, h->tx_timeouts,
+		       h->tx_err, h->rx_err, h->dropped_off, h->downs);
+	if (u)
+		printf("  %s USB  %s: %u parameter answers held for a busy IN queue, %u dropped; %u IN writes "
+		       "refused (all %d slots in flight)\n",
+		       what, l->name, l->answers_held, l->answers_dropped, u->tx_busy_drops, SWELL_USB_FFS_TX_SLOTS);
 }
 
 /* "ADDR:PORT" of a, "(fixed)" after a configured one, or "none yet". */
@@ -104,12 +98,9 @@ void report(const struct opts *o, const struct port *p, const struct jitter *jit
 		hm_client_report(&p->dev.hm, stdout);
 		hm_fx_report(&p->dev.hmfx, stdout);
 	}
-	report_can("device", &p->dev);
-	report_usb("device", &p->dev);
-	if (p->have_host) {
-		report_can("host  ", &p->host);
-		report_usb("host  ", &p->host);
-	}
+	report_link("device", &p->dev);
+	if (p->have_host)
+		report_link("host  ", &p->host);
 	printf("  parameters      %u set, %u refused\n", p->c.n.params_set, p->c.n.params_refused);
 	printf("  waves           largest |h| %.3f mm (sampled once a second), %u solver saturations "
 	       "(row segments clamped)\n",
