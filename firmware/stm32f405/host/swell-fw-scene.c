@@ -25,6 +25,21 @@ static const char usage[] =
 	"each one's checksum, as the image's self-test does.\n"
 	"--kernel ref|fused|avx2: the solver kernel (default: the fastest; all are bit-identical).\n";
 
+/* A scene bound with err: the kernel chosen, then steps of it; 0 (said why) when either is refused. */
+static int run_steps(struct swell_wave *w, enum swell_err err, enum swell_wave_kernel kernel, unsigned long steps,
+		     const char *what)
+{
+	if (err == SWELL_OK)
+		err = swell_wave_set_kernel(w, kernel);
+	if (err != SWELL_OK) {
+		fprintf(stderr, "swell-fw-scene: %s refused: %s\n", what, swell_err_str(err));
+		return 0;
+	}
+	while (steps--)
+		swell_wave_step(w);
+	return 1;
+}
+
 int main(int argc, char **argv)
 {
 	static int32_t storage[FW_SCENE_WORDS];
@@ -109,28 +124,16 @@ int main(int argc, char **argv)
 	printf("volume %lld LSB (2^-16 mm per cell)\n", (long long)swell_wave_volume(&w));
 	/* the same scene in the velocity form, undamped (the image's "velocity splash") */
 	err = fw_scene_init(&w, storage, FW_SCENE_WORDS, SWELL_FORM_VELOCITY);
-	if (err == SWELL_OK)
-		err = swell_wave_set_kernel(&w, kernel);
-	if (err != SWELL_OK) {
-		fprintf(stderr, "swell-fw-scene: velocity scene refused: %s\n", swell_err_str(err));
+	if (!run_steps(&w, err, kernel, steps, "velocity scene"))
 		return 1;
-	}
-	for (n = 0; n < steps; n++)
-		swell_wave_step(&w);
 	printf("velocity splash checksum 0x%08x\n", (unsigned)swell_wave_checksum(&w));
 	for (i = 0; cost && i < 2 * FW_COST_SCENES; i++) { /* edge-flux, then velocity form */
 		const int velocity = i >= FW_COST_SCENES;
 
 		err = fw_cost_scene_init(&w, storage, FW_SCENE_WORDS, (enum fw_cost_scene)(i % FW_COST_SCENES),
 					 velocity ? SWELL_FORM_VELOCITY : SWELL_FORM_EDGE);
-		if (err == SWELL_OK)
-			err = swell_wave_set_kernel(&w, kernel);
-		if (err != SWELL_OK) {
-			fprintf(stderr, "swell-fw-scene: cost scene refused: %s\n", swell_err_str(err));
+		if (!run_steps(&w, err, kernel, FW_COST_STEPS, "cost scene"))
 			return 1;
-		}
-		for (n = 0; n < FW_COST_STEPS; n++)
-			swell_wave_step(&w);
 		printf("cost scene %s%s checksum 0x%08x\n", velocity ? "velocity-" : "",
 		       fw_cost_scene_name[i % FW_COST_SCENES], (unsigned)swell_wave_checksum(&w));
 	}
