@@ -111,8 +111,6 @@ uint32_t swell_proto_rejected_total(const struct swell_proto_stats *st);
 /* Writes desc->len bytes to payload (cap >= len). SWELL_ERANGE if a field is out of range,
  * SWELL_EUNKNOWN for an unknown type, SWELL_ESIZE if cap is too small. */
 enum swell_err swell_payload_encode(const struct swell_msg *m, uint8_t *payload, size_t cap);
-/* Decodes one payload of the given type; len must be exactly the message length. */
-enum swell_err swell_payload_decode(unsigned type, const uint8_t *payload, size_t len, struct swell_msg *out);
 
 /* ---- classic CAN ---- */
 enum swell_err swell_can_encode(const struct swell_msg *m, uint32_t *id, uint8_t data[8], uint8_t *len);
