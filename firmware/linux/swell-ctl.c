@@ -328,10 +328,9 @@ int main(int argc, char **argv)
 			burst = take_input(&p);
 			if (burst)
 				last_sample = now_ns();
-			else if (link_faults(&p))
-				burst = 1;
-			else if (last_sample == 0 ||
-				 now_ns() - last_sample < (int64_t)swell_ctl_silent_limit(&p.c) * period)
+			else if (!link_faults(&p) &&
+				 (last_sample == 0 ||
+				  now_ns() - last_sample < (int64_t)swell_ctl_silent_limit(&p.c) * period))
 				continue;
 			else
 				burst = 1;
