@@ -131,8 +131,6 @@ static void measure_matrix(const struct opts *o)
 					r->ratio = ns[k] / ns[BENCH_F32];
 					r->instr = f405_instr[k];
 					error_run(r->impl, sts[si], nx, e, 0.0, at, 20, smp, &sat);
-					r->linf_ref = r->l2_ref = r->linf_eig = r->l2_eig = r->linf_sei = r->l2_sei = 0;
-					r->e_drift = 0;
 					for (s = 0; s < 20; s++) {
 						r->linf_ref = fmax(r->linf_ref, smp[s].linf_ref);
 						r->l2_ref = fmax(r->l2_ref, smp[s].l2_ref);

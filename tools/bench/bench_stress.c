@@ -144,7 +144,6 @@ void run_stress(const struct opts *o)
 	 * with 10 % noise at the edge of stability (saturates: look for wrap, growth, volume) */
 	stress_edge(o, "near-bound", BENCH_SHIPPED, 0.0, 0.97, 0);
 	stress_edge(o, "near-bound", BENCH_TL32_RN, 0.0, 0.97, 0);
-	/* near saturation: the (1,1) mode at 90 % of the bound plus 10 % noise, at the edge */
 	stress_edge(o, "saturation", BENCH_SHIPPED, 0.0, 0.9, 0.1);
 	stress_edge(o, "saturation", BENCH_SHIPPED, 0.5, 0.9, 0.1);
 	stress_edge(o, "saturation", BENCH_TL32_RN, 0.0, 0.9, 0.1);
