@@ -327,7 +327,7 @@ enum swell_err swell_pkt_encode(uint8_t node, uint8_t seq, const struct swell_ms
 				size_t cap, size_t *len, size_t *used)
 {
 	uint8_t buf[SWELL_PKT_MAX];
-	size_t pos = SWELL_PKT_HEADER, k = 0, limit = cap < SWELL_PKT_MAX ? cap : SWELL_PKT_MAX;
+	size_t pos = SWELL_PKT_HEADER, k = 0, limit = cap < SWELL_PKT_MAX ? cap : SWELL_PKT_MAX, i;
 	uint32_t crc;
 
 	if (node > SWELL_NODE_MAX)
@@ -357,10 +357,8 @@ enum swell_err swell_pkt_encode(uint8_t node, uint8_t seq, const struct swell_ms
 	buf[3] = seq;
 	buf[4] = (uint8_t)k;
 	crc = swell_crc32(0, buf, pos);
-	buf[pos++] = (uint8_t)crc;
-	buf[pos++] = (uint8_t)(crc >> 8);
-	buf[pos++] = (uint8_t)(crc >> 16);
-	buf[pos++] = (uint8_t)(crc >> 24);
+	for (i = 0; i < 4; i++)
+		buf[pos++] = (uint8_t)(crc >> (8 * i)); /* little-endian */
 	memcpy(pkt, buf, pos);
 	*len = pos;
 	*used = k;
