@@ -268,30 +268,23 @@ int main(int argc, char **argv)
 	}
 	p.mem = (struct fw_mem){ arena, words, NULL, 0, "none" };
 	e = fw_pool_start(&p.c, &o.cfg, &p.mem, &p.place);
-	if (e != SWELL_OK) {
+	if (e != SWELL_OK)
 		fprintf(stderr, "swell-ctl: controller refused its configuration: %s\n", swell_err_str(e));
+	if (e != SWELL_OK || (o.scene_path && scene_params(&p.c, &o) < 0)) {
 		free(arena);
 		return 2;
 	}
-	if (o.scene_path && scene_params(&p.c, &o) < 0) {
-		free(arena);
-		return 2;
-	}
+	p.have_host = strcmp(o.host, "none") != 0;
 	rc = ctl_link_open(&p.dev, o.device, 1, o.cfg.node, err, sizeof(err));
 	if (rc < 0) {
 		fprintf(stderr, "swell-ctl: device link: %s\n", err);
+	} else if (p.have_host && (rc = ctl_link_open(&p.host, o.host, 0, o.cfg.node, err, sizeof(err))) < 0) {
+		fprintf(stderr, "swell-ctl: host link: %s\n", err);
+		ctl_link_close(&p.dev);
+	}
+	if (rc < 0) {
 		free(arena);
 		return rc == -2 ? 2 : 1; /* a malformed spec is a bad argument */
-	}
-	if (strcmp(o.host, "none")) {
-		rc = ctl_link_open(&p.host, o.host, 0, o.cfg.node, err, sizeof(err));
-		if (rc < 0) {
-			fprintf(stderr, "swell-ctl: host link: %s\n", err);
-			ctl_link_close(&p.dev);
-			free(arena);
-			return rc == -2 ? 2 : 1;
-		}
-		p.have_host = 1;
 	}
 	memset(&sa, 0, sizeof(sa));
 	sa.sa_handler = on_signal;
