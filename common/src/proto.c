@@ -441,16 +441,11 @@ struct swell_msg swell_param_request(uint8_t node, int set, uint16_t id, int32_t
 
 	memset(&m, 0, sizeof(m));
 	m.node = node;
-	if (set) {
-		m.type = SWELL_MSG_PARAM_SET;
-		m.u.param_set.id = id;
-		m.u.param_set.value = value;
-		m.u.param_set.seq = seq;
-	} else {
-		m.type = SWELL_MSG_PARAM_GET;
-		m.u.param_get.id = id;
-		m.u.param_get.seq = seq;
-	}
+	m.type = set ? SWELL_MSG_PARAM_SET : SWELL_MSG_PARAM_GET;
+	if (set)
+		m.u.param_set = (struct swell_msg_param_set){ .id = id, .value = value, .seq = seq };
+	else
+		m.u.param_get = (struct swell_msg_param_get){ .id = id, .seq = seq };
 	return m;
 }
 
