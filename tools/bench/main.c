@@ -222,9 +222,8 @@ static void preset(struct opts *o, int full)
 
 	o->preset = full ? "full" : "quick";
 	o->ngrids = full ? 3 : 1;
-	o->grids[0] = 64;
-	o->grids[1] = 128;
-	o->grids[2] = 256;
+	for (k = 0; k < 3; k++)
+		o->grids[k] = 64 << k; /* 64, 128, 256 */
 	o->nes = full ? 5 : 3;
 	for (k = 0; k < o->nes; k++)
 		o->es[k] = full ? e_full[k] : e_quick[k];
@@ -241,6 +240,7 @@ static void preset(struct opts *o, int full)
 int main(int argc, char **argv)
 {
 	struct opts o;
+	struct stat st;
 	int k, full = 0, replot = 0;
 	double t0 = now_s(), list[MAX_LIST];
 
@@ -300,14 +300,10 @@ int main(int argc, char **argv)
 		fprintf(stderr, "swell-bench: cannot create %s: %s\n", o.out, strerror(errno));
 		return 2;
 	}
-	{
-		/* before the run, not when its first CSV file is written */
-		struct stat st;
-
-		if (stat(o.out, &st) != 0 || !S_ISDIR(st.st_mode) || access(o.out, W_OK | X_OK) != 0) {
-			fprintf(stderr, "swell-bench: --out %s is not a writable directory\n", o.out);
-			return 2;
-		}
+	/* before the run, not when its first CSV file is written */
+	if (stat(o.out, &st) != 0 || !S_ISDIR(st.st_mode) || access(o.out, W_OK | X_OK) != 0) {
+		fprintf(stderr, "swell-bench: --out %s is not a writable directory\n", o.out);
+		return 2;
 	}
 	if (replot) { /* the CSV files of an earlier run in --out: plots only */
 		const char *miss = missing_results(&o);
