@@ -198,9 +198,8 @@ int swell_link_open_spec(struct swell_link **out, const struct swell_link_spec *
 		return swell_link_open_udp(out, host, o->udp_bind_tries ? 0 : o->udp_bind_port, host, s->port);
 	case SWELL_LINK_CAN:
 	case SWELL_LINK_CANFD: {
-		struct swell_can_opts co;
+		struct swell_can_opts co = { 0 }; /* every id: other nodes are told apart by decoding */
 
-		memset(&co, 0, sizeof(co)); /* every id: other nodes are told apart by decoding */
 		co.fd = s->kind == SWELL_LINK_CANFD;
 		co.error_frames = o->can_errors;
 		return swell_link_open_can(out, s->name, &co);
