@@ -111,11 +111,10 @@ static enum swell_err count(struct swell_proto_stats *st, enum swell_err err, ui
 {
 	if (!st)
 		return err;
-	if (err == SWELL_OK) {
+	if (err == SWELL_OK)
 		st->ok = (st->ok > UINT32_MAX - ok) ? UINT32_MAX : st->ok + ok;
-	} else if ((unsigned)err < SWELL_ERR_COUNT && st->rejected[err] != UINT32_MAX) {
+	else if ((unsigned)err < SWELL_ERR_COUNT && st->rejected[err] != UINT32_MAX)
 		st->rejected[err]++;
-	}
 	return err;
 }
 
