@@ -42,11 +42,10 @@ static void time_group(const struct opts *o, enum swell_stencil st, int nx, doub
 	}
 	for (rep = 0; rep < o->reps; rep++) {
 		for (k = 0; k < BENCH_IMPL_COUNT; k++) {
-			double t0 = now_s(), dt;
+			const double t0 = now_s();
 
 			bench_field_steps(&f[k], batch);
-			dt = now_s() - t0;
-			ns[k] = fmin(ns[k], dt * 1e9 / ((double)batch * n));
+			ns[k] = fmin(ns[k], (now_s() - t0) * 1e9 / ((double)batch * n));
 		}
 	}
 	for (k = 0; k < BENCH_IMPL_COUNT; k++)
