@@ -131,7 +131,19 @@ static uint32_t take_input(struct port *p)
 	return steps;
 }
 
-static void flush_output(struct port *p);
+static void flush_output(struct port *p)
+{
+	struct swell_msg m[SWELL_CTL_QUEUE];
+	size_t n;
+
+	/* the force first: it is what the device waits for */
+	n = swell_ctl_tx(&p->c, SWELL_LINK_DEVICE, m, SWELL_CTL_QUEUE);
+	if (n)
+		ctl_link_send(&p->dev, m, n);
+	n = swell_ctl_tx(&p->c, SWELL_LINK_HOST, m, SWELL_CTL_QUEUE);
+	if (n && p->have_host)
+		ctl_link_send(&p->host, m, n);
+}
 
 /* Nothing reached the device (send refused, no destination) for silent_ticks ticks in a row while it
  * was there: it is starved even if it still talks, and the loop faults as for a silent device (zero
@@ -190,20 +202,6 @@ static int link_faults(struct port *p)
 		}
 	}
 	return tick;
-}
-
-static void flush_output(struct port *p)
-{
-	struct swell_msg m[SWELL_CTL_QUEUE];
-	size_t n;
-
-	/* the force first: it is what the device waits for */
-	n = swell_ctl_tx(&p->c, SWELL_LINK_DEVICE, m, SWELL_CTL_QUEUE);
-	if (n)
-		ctl_link_send(&p->dev, m, n);
-	n = swell_ctl_tx(&p->c, SWELL_LINK_HOST, m, SWELL_CTL_QUEUE);
-	if (n && p->have_host)
-		ctl_link_send(&p->host, m, n);
 }
 
 /* SCHED_FIFO and mlockall where permitted. Without real-time scheduling the tick is late by
