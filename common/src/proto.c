@@ -55,53 +55,38 @@ const struct swell_msg_desc *swell_msg_desc_find(unsigned type)
 }
 
 /* ---- generic field access ---- */
+/* A member of 1, 2 or 4 bytes, read or written through the union member of its size (any byte order). */
+union raw {
+	uint8_t b;
+	uint16_t h;
+	uint32_t w;
+};
+
 int64_t swell_msg_field_get(const struct swell_msg *m, const struct swell_field_desc *f)
 {
-	const uint8_t *p = (const uint8_t *)m + f->offset;
-	int sgn = f->min < 0;
+	union raw r;
+	uint32_t v;
 
-	switch (f->size) {
-	case 1: {
-		uint8_t v;
-		memcpy(&v, p, 1);
-		return sgn ? (int64_t)(int8_t)v : (int64_t)v;
-	}
-	case 2: {
-		uint16_t v;
-		memcpy(&v, p, 2);
-		return sgn ? (int64_t)(int16_t)v : (int64_t)v;
-	}
-	default: {
-		uint32_t v;
-		memcpy(&v, p, 4);
-		return sgn ? (int64_t)(int32_t)v : (int64_t)v;
-	}
-	}
+	memcpy(&r, (const uint8_t *)m + f->offset, f->size);
+	v = f->size == 1 ? r.b : f->size == 2 ? r.h : r.w;
+	if (f->min < 0 && (v >> (8u * f->size - 1u)) & 1u)
+		return (int64_t)v - ((int64_t)1 << (8u * f->size)); /* sign-extend */
+	return (int64_t)v;
 }
 
 enum swell_err swell_msg_field_set(struct swell_msg *m, const struct swell_field_desc *f, int64_t v)
 {
-	uint8_t *p = (uint8_t *)m + f->offset;
+	union raw r;
 
 	if (v < f->min || v > f->max)
 		return SWELL_ERANGE;
-	switch (f->size) {
-	case 1: {
-		uint8_t b = (uint8_t)v;
-		memcpy(p, &b, 1);
-		break;
-	}
-	case 2: {
-		uint16_t h = (uint16_t)v;
-		memcpy(p, &h, 2);
-		break;
-	}
-	default: {
-		uint32_t w = (uint32_t)v;
-		memcpy(p, &w, 4);
-		break;
-	}
-	}
+	if (f->size == 1)
+		r.b = (uint8_t)v;
+	else if (f->size == 2)
+		r.h = (uint16_t)v;
+	else
+		r.w = (uint32_t)v;
+	memcpy((uint8_t *)m + f->offset, &r, f->size);
 	return SWELL_OK;
 }
 
@@ -126,11 +111,10 @@ static enum swell_err count(struct swell_proto_stats *st, enum swell_err err, ui
 {
 	if (!st)
 		return err;
-	if (err == SWELL_OK) {
+	if (err == SWELL_OK)
 		st->ok = (st->ok > UINT32_MAX - ok) ? UINT32_MAX : st->ok + ok;
-	} else if ((unsigned)err < SWELL_ERR_COUNT && st->rejected[err] != UINT32_MAX) {
+	else if ((unsigned)err < SWELL_ERR_COUNT && st->rejected[err] != UINT32_MAX)
 		st->rejected[err]++;
-	}
 	return err;
 }
 
@@ -173,7 +157,8 @@ enum swell_err swell_payload_encode(const struct swell_msg *m, uint8_t *payload,
 	return SWELL_OK;
 }
 
-enum swell_err swell_payload_decode(unsigned type, const uint8_t *payload, size_t len, struct swell_msg *out)
+/* Decodes one payload of the given type; len must be exactly the message length. */
+static enum swell_err payload_decode(unsigned type, const uint8_t *payload, size_t len, struct swell_msg *out)
 {
 	const struct swell_msg_desc *d = swell_msg_desc_find(type);
 	struct swell_msg tmp;
@@ -228,27 +213,16 @@ enum swell_err swell_can_encode(const struct swell_msg *m, uint32_t *id, uint8_t
 	return SWELL_OK;
 }
 
-static enum swell_err can_decode(uint32_t id, const uint8_t *data, size_t len, struct swell_msg *out)
-{
-	struct swell_msg tmp;
-	enum swell_err err;
-
-	if (id > 0x7FFu)
-		return SWELL_EUNKNOWN;
-	if (len > SWELL_CAN_LEN)
-		return SWELL_ESIZE;
-	tmp.node = (uint8_t)(id & 0xFu);
-	err = swell_payload_decode(id >> 4, data, len, &tmp);
-	if (err)
-		return err;
-	*out = tmp;
-	return SWELL_OK;
-}
-
 enum swell_err swell_can_decode(uint32_t id, const uint8_t *data, size_t len, struct swell_msg *out,
 				struct swell_proto_stats *st)
 {
-	return count(st, can_decode(id, data, len, out), 1);
+	enum swell_err err = id > 0x7FFu ? SWELL_EUNKNOWN : len > SWELL_CAN_LEN ? SWELL_ESIZE : SWELL_OK;
+
+	if (!err)
+		err = payload_decode(id >> 4, data, len, out); /* out untouched unless it succeeds */
+	if (!err)
+		out->node = (uint8_t)(id & 0xFu);
+	return count(st, err, 1);
 }
 
 /* ---- CAN FD ---- */
@@ -327,7 +301,7 @@ static enum swell_err canfd_decode(uint32_t id, const uint8_t *data, size_t len,
 		enum swell_err err;
 
 		tmp[i].node = (uint8_t)(id & 0xFu);
-		err = swell_payload_decode(d->type, data + i * slot, d->len, &tmp[i]);
+		err = payload_decode(d->type, data + i * slot, d->len, &tmp[i]);
 		if (err)
 			return err;
 		for (j = d->len; j < slot; j++)
@@ -342,12 +316,9 @@ static enum swell_err canfd_decode(uint32_t id, const uint8_t *data, size_t len,
 enum swell_err swell_canfd_decode(uint32_t id, const uint8_t *data, size_t len, struct swell_msg *out, size_t cap,
 				  size_t *n, struct swell_proto_stats *st)
 {
-	size_t k = 0;
-	enum swell_err err = canfd_decode(id, data, len, out, cap, &k);
+	const enum swell_err err = canfd_decode(id, data, len, out, cap, n);
 
-	if (!err)
-		*n = k;
-	return count(st, err, (uint32_t)k);
+	return count(st, err, err ? 0u : (uint32_t)*n);
 }
 
 /* ---- packets ---- */
@@ -355,7 +326,7 @@ enum swell_err swell_pkt_encode(uint8_t node, uint8_t seq, const struct swell_ms
 				size_t cap, size_t *len, size_t *used)
 {
 	uint8_t buf[SWELL_PKT_MAX];
-	size_t pos = SWELL_PKT_HEADER, k = 0, limit = cap < SWELL_PKT_MAX ? cap : SWELL_PKT_MAX;
+	size_t pos = SWELL_PKT_HEADER, k = 0, limit = cap < SWELL_PKT_MAX ? cap : SWELL_PKT_MAX, i;
 	uint32_t crc;
 
 	if (node > SWELL_NODE_MAX)
@@ -385,10 +356,8 @@ enum swell_err swell_pkt_encode(uint8_t node, uint8_t seq, const struct swell_ms
 	buf[3] = seq;
 	buf[4] = (uint8_t)k;
 	crc = swell_crc32(0, buf, pos);
-	buf[pos++] = (uint8_t)crc;
-	buf[pos++] = (uint8_t)(crc >> 8);
-	buf[pos++] = (uint8_t)(crc >> 16);
-	buf[pos++] = (uint8_t)(crc >> 24);
+	for (i = 0; i < 4; i++)
+		buf[pos++] = (uint8_t)(crc >> (8 * i)); /* little-endian */
 	memcpy(pkt, buf, pos);
 	*len = pos;
 	*used = k;
@@ -414,7 +383,7 @@ static enum swell_err pkt_records(const uint8_t *pkt, size_t end, struct swell_m
 		if (pos + 1 + d->len > end)
 			return SWELL_ETRUNC;
 		out[k].node = pkt[2];
-		err = swell_payload_decode(d->type, pkt + pos + 1, d->len, &out[k]);
+		err = payload_decode(d->type, pkt + pos + 1, d->len, &out[k]);
 		if (err)
 			return err;
 		pos += 1u + d->len;
@@ -460,12 +429,9 @@ static enum swell_err pkt_decode(const uint8_t *pkt, size_t len, struct swell_ms
 enum swell_err swell_pkt_decode(const uint8_t *pkt, size_t len, struct swell_msg *out, size_t cap, size_t *n,
 				uint8_t *seq, struct swell_proto_stats *st)
 {
-	size_t k = 0;
-	enum swell_err err = pkt_decode(pkt, len, out, cap, &k, seq);
+	const enum swell_err err = pkt_decode(pkt, len, out, cap, n, seq);
 
-	if (!err)
-		*n = k;
-	return count(st, err, (uint32_t)k);
+	return count(st, err, err ? 0u : (uint32_t)*n);
 }
 
 struct swell_msg swell_param_request(uint8_t node, int set, uint16_t id, int32_t value, uint8_t seq)
@@ -474,16 +440,11 @@ struct swell_msg swell_param_request(uint8_t node, int set, uint16_t id, int32_t
 
 	memset(&m, 0, sizeof(m));
 	m.node = node;
-	if (set) {
-		m.type = SWELL_MSG_PARAM_SET;
-		m.u.param_set.id = id;
-		m.u.param_set.value = value;
-		m.u.param_set.seq = seq;
-	} else {
-		m.type = SWELL_MSG_PARAM_GET;
-		m.u.param_get.id = id;
-		m.u.param_get.seq = seq;
-	}
+	m.type = set ? SWELL_MSG_PARAM_SET : SWELL_MSG_PARAM_GET;
+	if (set)
+		m.u.param_set = (struct swell_msg_param_set){ .id = id, .value = value, .seq = seq };
+	else
+		m.u.param_get = (struct swell_msg_param_get){ .id = id, .seq = seq };
 	return m;
 }
 

@@ -1,5 +1,6 @@
 /* swell-ctl's command line and scene file; see ctl_main.h. */
 #include <math.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -62,9 +63,16 @@ static const char usage[] =
 	"3 a viewer or swell-flash asked for the bootloader (ENTER_BOOTLOADER accepted: force zeroed,\n"
 	"last heartbeat sent; a supervisor starts the flasher, then the new image).\n";
 
-static void die(const char *msg, const char *arg)
+/* A bad argument: one line on stderr, exit 2. */
+__attribute__((noreturn, format(printf, 1, 2))) static void die(const char *fmt, ...)
 {
-	fprintf(stderr, "swell-ctl: %s%s\n", msg, arg ? arg : "");
+	va_list ap;
+
+	fputs("swell-ctl: ", stderr);
+	va_start(ap, fmt);
+	vfprintf(stderr, fmt, ap);
+	va_end(ap);
+	fputc('\n', stderr);
 	exit(2);
 }
 
@@ -72,10 +80,8 @@ static long num(const char *opt, const char *v, long lo, long hi)
 {
 	long x;
 
-	if (swell_parse_long(v, 10, lo, hi, &x) < 0) {
-		fprintf(stderr, "swell-ctl: %s '%s' is not a whole number in [%ld, %ld]\n", opt, v, lo, hi);
-		exit(2);
-	}
+	if (swell_parse_long(v, 10, lo, hi, &x) < 0)
+		die("%s '%s' is not a whole number in [%ld, %ld]", opt, v, lo, hi);
 	return x;
 }
 
@@ -100,7 +106,7 @@ static int is(const char *a, const char *name, const char *v)
 	if (strcmp(a, name))
 		return 0;
 	if (!v)
-		die("this option needs a value: ", a);
+		die("this option needs a value: %s", a);
 	return 1;
 }
 
@@ -111,18 +117,11 @@ static void check_links(const struct opts *o)
 	const char *dp = !strcmp(o->device, "udp") ? "47800" : !strncmp(o->device, "udp:", 4) ? o->device + 4 : NULL;
 	const char *hp = !strcmp(o->host, "udp") ? "47801" : !strncmp(o->host, "udp:", 4) ? o->host + 4 : NULL;
 
-	if (dp && hp && strtol(dp, NULL, 10) == strtol(hp, NULL, 10) && strtol(dp, NULL, 10) > 0) {
-		fprintf(stderr,
-			"swell-ctl: --device %s and --host %s: the telemetry would go to the device link's own "
-			"port\n",
-			o->device, o->host);
-		exit(2);
-	}
-	if (!strncmp(o->device, "usb:", 4) && !strcmp(o->device, o->host)) {
-		fprintf(stderr, "swell-ctl: --device and --host are one FunctionFS mount (%s): give each its own\n",
-			o->device);
-		exit(2);
-	}
+	if (dp && hp && strtol(dp, NULL, 10) == strtol(hp, NULL, 10) && strtol(dp, NULL, 10) > 0)
+		die("--device %s and --host %s: the telemetry would go to the device link's own port", o->device,
+		    o->host);
+	if (!strncmp(o->device, "usb:", 4) && !strcmp(o->device, o->host))
+		die("--device and --host are one FunctionFS mount (%s): give each its own", o->device);
 }
 
 /* ---- scene files (start-up only, before the loop: parsing uses double, the loop never does) ---- */
@@ -133,10 +132,8 @@ static void scene_start(struct opts *o, const char *path)
 	const struct swell_scene_value *v;
 	char err[300];
 
-	if (swell_scene_load(path, &o->scene, err, sizeof(err)) < 0) {
-		fprintf(stderr, "swell-ctl: --scene %s\n", err);
-		exit(2);
-	}
+	if (swell_scene_load(path, &o->scene, err, sizeof(err)) < 0)
+		die("--scene %s", err);
 	o->scene_path = path;
 	if ((v = swell_scene_get(&o->scene, SWELL_SCENE_NX)))
 		o->cfg.nx = (uint16_t)v->raw;
@@ -160,20 +157,13 @@ static void scene_e(struct opts *o)
 	    !(swell_scene_get(sc, SWELL_SCENE_DX_UM) || swell_scene_get(sc, SWELL_SCENE_DEPTH_UM) ||
 	      swell_scene_get(sc, SWELL_SCENE_SOLVER_HZ)))
 		return;
-	if (o->cfg.solver_hz == 0 || 1000000u % o->cfg.solver_hz != 0) {
-		fprintf(stderr,
-			"swell-ctl: --scene %s: solver rate %u Hz is not a whole number of us a step: give "
-			"wave.e\n",
-			o->scene_path, o->cfg.solver_hz);
-		exit(2);
-	}
+	if (o->cfg.solver_hz == 0 || 1000000u % o->cfg.solver_hz != 0)
+		die("--scene %s: solver rate %u Hz is not a whole number of us a step: give wave.e", o->scene_path,
+		    o->cfg.solver_hz);
 	e = swell_wave_e_from_physical(o->cfg.body.g_mm_s2, 1000000u / o->cfg.solver_hz, o->cfg.depth_um, o->cfg.dx_um,
 				       &o->cfg.wave.e);
-	if (e != SWELL_OK) {
-		fprintf(stderr, "swell-ctl: --scene %s: e = g dt^2 d / dx^2 from the pool: %s\n", o->scene_path,
-			swell_err_str(e));
-		exit(2);
-	}
+	if (e != SWELL_OK)
+		die("--scene %s: e = g dt^2 d / dx^2 from the pool: %s", o->scene_path, swell_err_str(e));
 }
 
 /* The scene's parameters through the core's own validated path (PARAM_SET on the host link, before
@@ -204,6 +194,7 @@ int scene_params(struct swell_ctl *c, const struct opts *o)
 
 void parse(int argc, char **argv, struct opts *o)
 {
+	enum swell_err e;
 	int k;
 
 	memset(o, 0, sizeof(*o));
@@ -213,7 +204,7 @@ void parse(int argc, char **argv, struct opts *o)
 	o->pool_max = 256;
 	swell_ctl_default_config(&o->cfg);
 	if (parse_version(SWELL_CTL_FW_VERSION, o->cfg.fw_version))
-		die("build version is not X.Y.Z: ", SWELL_CTL_FW_VERSION);
+		die("build version is not X.Y.Z: %s", SWELL_CTL_FW_VERSION);
 	for (k = 1; k < argc; k++) {
 		const char *a = argv[k], *v = k + 1 < argc ? argv[k + 1] : NULL;
 
@@ -227,7 +218,7 @@ void parse(int argc, char **argv, struct opts *o)
 		} else if (!strcmp(a, "--quiet")) {
 			o->quiet = 1;
 		} else if (strncmp(a, "--", 2)) {
-			die("unexpected argument (see --help): ", a);
+			die("unexpected argument (see --help): %s", a);
 		} else {
 			k++; /* an unknown option stops here anyway */
 			if (is(a, "--device", v))
@@ -238,7 +229,7 @@ void parse(int argc, char **argv, struct opts *o)
 				scene_start(o, v);
 			else if (is(a, "--clock", v)) {
 				if (strcmp(v, "internal") && strcmp(v, "device"))
-					die("--clock must be internal or device, not ", v);
+					die("--clock must be internal or device, not %s", v);
 				o->device_clock = !strcmp(v, "device");
 			} else if (is(a, "--tick-hz", v))
 				o->cfg.tick_hz = (uint32_t)num(a, v, SWELL_TICK_HZ_MIN, SWELL_TICK_HZ_MAX);
@@ -255,14 +246,14 @@ void parse(int argc, char **argv, struct opts *o)
 				o->cfg.node = (uint8_t)num(a, v, 0, SWELL_NODE_MAX);
 			else if (is(a, "--fw-version", v)) {
 				if (parse_version(v, o->cfg.fw_version))
-					die("--fw-version must be X.Y.Z with each part 0..255, not ", v);
+					die("--fw-version must be X.Y.Z with each part 0..255, not %s", v);
 			} else if (is(a, "--seconds", v)) {
 				char *end;
 				o->seconds = strtod(v, &end);
 				if (*end || !(o->seconds > 0 && o->seconds < 1e7))
-					die("--seconds must be a positive number, not ", v);
+					die("--seconds must be a positive number, not %s", v);
 			} else
-				die("unknown option (see --help): ", a);
+				die("unknown option (see --help): %s", a);
 		}
 	}
 	check_links(o);
@@ -271,13 +262,8 @@ void parse(int argc, char **argv, struct opts *o)
 	o->cfg.recover_ticks = (uint16_t)(o->cfg.tick_hz / 10 > 0 ? o->cfg.tick_hz / 10 : 1);
 	if (o->scene_path)
 		scene_e(o);
-	{
-		enum swell_err e = swell_ctl_check(&o->cfg);
-
-		if (e != SWELL_OK) {
-			fprintf(stderr, "swell-ctl: configuration refused: %s (tick %u Hz, solver %u Hz)\n",
-				swell_err_str(e), o->cfg.tick_hz, o->cfg.solver_hz);
-			exit(2);
-		}
-	}
+	e = swell_ctl_check(&o->cfg);
+	if (e != SWELL_OK)
+		die("configuration refused: %s (tick %u Hz, solver %u Hz)", swell_err_str(e), o->cfg.tick_hz,
+		    o->cfg.solver_hz);
 }

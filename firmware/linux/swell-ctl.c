@@ -131,7 +131,19 @@ static uint32_t take_input(struct port *p)
 	return steps;
 }
 
-static void flush_output(struct port *p);
+static void flush_output(struct port *p)
+{
+	struct swell_msg m[SWELL_CTL_QUEUE];
+	size_t n;
+
+	/* the force first: it is what the device waits for */
+	n = swell_ctl_tx(&p->c, SWELL_LINK_DEVICE, m, SWELL_CTL_QUEUE);
+	if (n)
+		ctl_link_send(&p->dev, m, n);
+	n = swell_ctl_tx(&p->c, SWELL_LINK_HOST, m, SWELL_CTL_QUEUE);
+	if (n && p->have_host)
+		ctl_link_send(&p->host, m, n);
+}
 
 /* Nothing reached the device (send refused, no destination) for silent_ticks ticks in a row while it
  * was there: it is starved even if it still talks, and the loop faults as for a silent device (zero
@@ -190,20 +202,6 @@ static int link_faults(struct port *p)
 		}
 	}
 	return tick;
-}
-
-static void flush_output(struct port *p)
-{
-	struct swell_msg m[SWELL_CTL_QUEUE];
-	size_t n;
-
-	/* the force first: it is what the device waits for */
-	n = swell_ctl_tx(&p->c, SWELL_LINK_DEVICE, m, SWELL_CTL_QUEUE);
-	if (n)
-		ctl_link_send(&p->dev, m, n);
-	n = swell_ctl_tx(&p->c, SWELL_LINK_HOST, m, SWELL_CTL_QUEUE);
-	if (n && p->have_host)
-		ctl_link_send(&p->host, m, n);
 }
 
 /* SCHED_FIFO and mlockall where permitted. Without real-time scheduling the tick is late by
@@ -268,30 +266,23 @@ int main(int argc, char **argv)
 	}
 	p.mem = (struct fw_mem){ arena, words, NULL, 0, "none" };
 	e = fw_pool_start(&p.c, &o.cfg, &p.mem, &p.place);
-	if (e != SWELL_OK) {
+	if (e != SWELL_OK)
 		fprintf(stderr, "swell-ctl: controller refused its configuration: %s\n", swell_err_str(e));
+	if (e != SWELL_OK || (o.scene_path && scene_params(&p.c, &o) < 0)) {
 		free(arena);
 		return 2;
 	}
-	if (o.scene_path && scene_params(&p.c, &o) < 0) {
-		free(arena);
-		return 2;
-	}
+	p.have_host = strcmp(o.host, "none") != 0;
 	rc = ctl_link_open(&p.dev, o.device, 1, o.cfg.node, err, sizeof(err));
 	if (rc < 0) {
 		fprintf(stderr, "swell-ctl: device link: %s\n", err);
+	} else if (p.have_host && (rc = ctl_link_open(&p.host, o.host, 0, o.cfg.node, err, sizeof(err))) < 0) {
+		fprintf(stderr, "swell-ctl: host link: %s\n", err);
+		ctl_link_close(&p.dev);
+	}
+	if (rc < 0) {
 		free(arena);
 		return rc == -2 ? 2 : 1; /* a malformed spec is a bad argument */
-	}
-	if (strcmp(o.host, "none")) {
-		rc = ctl_link_open(&p.host, o.host, 0, o.cfg.node, err, sizeof(err));
-		if (rc < 0) {
-			fprintf(stderr, "swell-ctl: host link: %s\n", err);
-			ctl_link_close(&p.dev);
-			free(arena);
-			return rc == -2 ? 2 : 1;
-		}
-		p.have_host = 1;
 	}
 	memset(&sa, 0, sizeof(sa));
 	sa.sa_handler = on_signal;
@@ -328,10 +319,9 @@ int main(int argc, char **argv)
 			burst = take_input(&p);
 			if (burst)
 				last_sample = now_ns();
-			else if (link_faults(&p))
-				burst = 1;
-			else if (last_sample == 0 ||
-				 now_ns() - last_sample < (int64_t)swell_ctl_silent_limit(&p.c) * period)
+			else if (!link_faults(&p) &&
+				 (last_sample == 0 ||
+				  now_ns() - last_sample < (int64_t)swell_ctl_silent_limit(&p.c) * period))
 				continue;
 			else
 				burst = 1;

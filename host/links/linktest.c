@@ -102,8 +102,8 @@ static int run_pair(struct swell_link *tx, struct swell_link *rx, const struct o
 		    struct pair_result *r)
 {
 	enum swell_carrier c = swell_link_carrier(tx);
-	struct swell_seq seqs[128], pkt_seq;
-	struct swell_proto_stats st;
+	struct swell_seq seqs[128], pkt_seq = { 0 };
+	struct swell_proto_stats st = { 0 };
 	int seen[128] = { 0 };
 	unsigned long i;
 	unsigned ti = 0;
@@ -111,8 +111,6 @@ static int run_pair(struct swell_link *tx, struct swell_link *rx, const struct o
 
 	memset(r, 0, sizeof(*r));
 	memset(seqs, 0, sizeof(seqs));
-	memset(&pkt_seq, 0, sizeof(pkt_seq));
-	memset(&st, 0, sizeof(st));
 	for (i = 0; i < o->count; i++) {
 		struct swell_msg sent[SWELL_CANFD_MSGS_MAX], got[SWELL_CANFD_MSGS_MAX];
 		struct swell_frame f, in;
@@ -216,13 +214,12 @@ static int wrap_record(struct swell_link **rx, const char *path, struct swell_li
 
 static int cmd_can_pair(const char *txname, const char *rxname, const struct opts *o)
 {
-	struct swell_can_opts co;
+	struct swell_can_opts co = { 0 };
 	struct swell_link *tx = NULL, *rx = NULL;
 	struct pair_result r;
 	char what[128];
 	int rc;
 
-	memset(&co, 0, sizeof(co));
 	co.fd = o->fd;
 	co.error_frames = 1;
 	co.bitrate = (uint32_t)o->bitrate;
@@ -285,7 +282,7 @@ static int cmp_u64(const void *x, const void *y)
 static int cmd_usb_echo(const struct opts *o)
 {
 	struct swell_link *l;
-	struct swell_proto_stats st;
+	struct swell_proto_stats st = { 0 };
 	uint64_t *rtt;
 	unsigned long i, ok = 0, wrong = 0, timeouts = 0, away = 0, ok_after = 0;
 	unsigned long long reconnects;
@@ -302,7 +299,6 @@ static int cmd_usb_echo(const struct opts *o)
 		swell_link_close(l);
 		return 2;
 	}
-	memset(&st, 0, sizeof(st));
 	for (i = 0; i < o->count; i++) {
 		struct swell_msg sent[6], got[SWELL_PKT_MSGS_MAX];
 		struct swell_frame f, in;
@@ -370,7 +366,7 @@ static int cmd_usb_echo(const struct opts *o)
 static int cmd_replay(const char *path, const struct opts *o)
 {
 	struct swell_link *l;
-	struct swell_proto_stats st;
+	struct swell_proto_stats st = { 0 };
 	unsigned long frames = 0, msgs = 0, per_type[128] = { 0 };
 	uint64_t last_t = 0;
 	double t0 = now_s();
@@ -382,7 +378,6 @@ static int cmd_replay(const char *path, const struct opts *o)
 		fprintf(stderr, "swell-linktest: cannot replay %s: %s\n", path, strerror(-rc));
 		return 2;
 	}
-	memset(&st, 0, sizeof(st));
 	for (;;) {
 		struct swell_frame f;
 		struct swell_msg got[SWELL_CANFD_MSGS_MAX];

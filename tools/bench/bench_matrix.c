@@ -42,11 +42,10 @@ static void time_group(const struct opts *o, enum swell_stencil st, int nx, doub
 	}
 	for (rep = 0; rep < o->reps; rep++) {
 		for (k = 0; k < BENCH_IMPL_COUNT; k++) {
-			double t0 = now_s(), dt;
+			const double t0 = now_s();
 
 			bench_field_steps(&f[k], batch);
-			dt = now_s() - t0;
-			ns[k] = fmin(ns[k], dt * 1e9 / ((double)batch * n));
+			ns[k] = fmin(ns[k], (now_s() - t0) * 1e9 / ((double)batch * n));
 		}
 	}
 	for (k = 0; k < BENCH_IMPL_COUNT; k++)
@@ -131,8 +130,6 @@ static void measure_matrix(const struct opts *o)
 					r->ratio = ns[k] / ns[BENCH_F32];
 					r->instr = f405_instr[k];
 					error_run(r->impl, sts[si], nx, e, 0.0, at, 20, smp, &sat);
-					r->linf_ref = r->l2_ref = r->linf_eig = r->l2_eig = r->linf_sei = r->l2_sei = 0;
-					r->e_drift = 0;
 					for (s = 0; s < 20; s++) {
 						r->linf_ref = fmax(r->linf_ref, smp[s].linf_ref);
 						r->l2_ref = fmax(r->l2_ref, smp[s].l2_ref);

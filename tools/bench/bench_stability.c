@@ -16,12 +16,8 @@ static int bounded_at(enum bench_impl impl, double e_eff, double t, long steps, 
 	int ok;
 
 	init_or_die(&f, impl, MAP_N, 0.1, 0.0, SWELL_STENCIL_PAPER);
-	if (bench_field_force(&f, ee, q) != SWELL_OK) {
-		bench_field_free(&f);
-		*gain = NAN;
-		return -1;
-	}
-	ok = bench_bounded(&f, AMP_MM, steps, MAP_GROWTH, 12345, gain);
+	*gain = NAN; /* stays when the kernel refuses e_eff and t (-1) */
+	ok = bench_field_force(&f, ee, q) != SWELL_OK ? -1 : bench_bounded(&f, AMP_MM, steps, MAP_GROWTH, 12345, gain);
 	bench_field_free(&f);
 	return ok;
 }

@@ -19,6 +19,13 @@ double f405_cost[FW_COST_SCENES], f405_cost_awake[FW_COST_SCENES];
 double f405_vcost[FW_COST_SCENES], f405_vcost_awake[FW_COST_SCENES];
 double f405_naive;
 
+static void vsay(const char *what, const char *fmt, va_list ap)
+{
+	fprintf(stderr, "swell-bench: %s", what);
+	vfprintf(stderr, fmt, ap);
+	fputc('\n', stderr);
+}
+
 void check(int ok, const char *fmt, ...)
 {
 	va_list ap;
@@ -26,22 +33,18 @@ void check(int ok, const char *fmt, ...)
 	if (ok)
 		return;
 	failures++;
-	fprintf(stderr, "swell-bench: CHECK FAILED: ");
 	va_start(ap, fmt);
-	vfprintf(stderr, fmt, ap);
+	vsay("CHECK FAILED: ", fmt, ap);
 	va_end(ap);
-	fputc('\n', stderr);
 }
 
 void progress(const char *fmt, ...)
 {
 	va_list ap;
 
-	fprintf(stderr, "swell-bench: ");
 	va_start(ap, fmt);
-	vfprintf(stderr, fmt, ap);
+	vsay("", fmt, ap);
 	va_end(ap);
-	fputc('\n', stderr);
 }
 
 void *xmalloc(size_t n)
@@ -182,21 +185,16 @@ static void load_f405(const char *path)
 	while (fgets(line, sizeof(line), fp)) {
 		int sc;
 
-		for (sc = 0; sc < FW_COST_SCENES; sc++) {
+		for (sc = 0; sc < 2 * FW_COST_SCENES; sc++) { /* the edge form's scenes, then the velocity form's */
+			const int vel = sc >= FW_COST_SCENES, i = sc % FW_COST_SCENES;
 			char want[128];
 			double aw;
 
-			snprintf(want, sizeof(want), "cost scene %s: %%lf instructions per cell-step, %%lf",
-				 fw_cost_scene_name[sc]);
+			snprintf(want, sizeof(want), "cost scene %s%s: %%lf instructions per cell-step, %%lf",
+				 vel ? "velocity-" : "", fw_cost_scene_name[i]);
 			if (sscanf(line, want, &v, &aw) == 2) {
-				f405_cost[sc] = v;
-				f405_cost_awake[sc] = aw;
-			}
-			snprintf(want, sizeof(want), "cost scene velocity-%s: %%lf instructions per cell-step, %%lf",
-				 fw_cost_scene_name[sc]);
-			if (sscanf(line, want, &v, &aw) == 2) {
-				f405_vcost[sc] = v;
-				f405_vcost_awake[sc] = aw;
+				(vel ? f405_vcost : f405_cost)[i] = v;
+				(vel ? f405_vcost_awake : f405_cost_awake)[i] = aw;
 			}
 		}
 		if (sscanf(line, "solver cell-step: %lf", &v) == 1) {
@@ -224,9 +222,8 @@ static void preset(struct opts *o, int full)
 
 	o->preset = full ? "full" : "quick";
 	o->ngrids = full ? 3 : 1;
-	o->grids[0] = 64;
-	o->grids[1] = 128;
-	o->grids[2] = 256;
+	for (k = 0; k < 3; k++)
+		o->grids[k] = 64 << k; /* 64, 128, 256 */
 	o->nes = full ? 5 : 3;
 	for (k = 0; k < o->nes; k++)
 		o->es[k] = full ? e_full[k] : e_quick[k];
@@ -243,6 +240,7 @@ static void preset(struct opts *o, int full)
 int main(int argc, char **argv)
 {
 	struct opts o;
+	struct stat st;
 	int k, full = 0, replot = 0;
 	double t0 = now_s(), list[MAX_LIST];
 
@@ -296,22 +294,16 @@ int main(int argc, char **argv)
 			o.stress_cells = parse_double(v, "bad --stress-cells '%s' (1e4..1e12)", 1e4, 1e12);
 		} else if (!strcmp(a, "--f405")) {
 			o.f405 = v;
-		} else {
-			bad("unknown option %s", a);
 		}
 	}
 	if (!replot && mkdir(o.out, 0777) != 0 && errno != EEXIST) {
 		fprintf(stderr, "swell-bench: cannot create %s: %s\n", o.out, strerror(errno));
 		return 2;
 	}
-	{
-		/* before the run, not when its first CSV file is written */
-		struct stat st;
-
-		if (stat(o.out, &st) != 0 || !S_ISDIR(st.st_mode) || access(o.out, W_OK | X_OK) != 0) {
-			fprintf(stderr, "swell-bench: --out %s is not a writable directory\n", o.out);
-			return 2;
-		}
+	/* before the run, not when its first CSV file is written */
+	if (stat(o.out, &st) != 0 || !S_ISDIR(st.st_mode) || access(o.out, W_OK | X_OK) != 0) {
+		fprintf(stderr, "swell-bench: --out %s is not a writable directory\n", o.out);
+		return 2;
 	}
 	if (replot) { /* the CSV files of an earlier run in --out: plots only */
 		const char *miss = missing_results(&o);

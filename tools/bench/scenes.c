@@ -53,7 +53,7 @@ void run_scenes(const struct opts *o)
 			snprintf(kname, sizeof(kname), "%s%s", vel ? "vel-" : "", swell_wave_kernel_name(kernels[k]));
 			progress("scenes: %s, %s kernel", fw_cost_scene_name[s], kname);
 			for (rep = 0; rep < o->reps; rep++) {
-				double t0, dt;
+				double t0;
 				long n;
 
 				/* float32 in turn with the kernels, so that both see the same machine load */
@@ -68,8 +68,7 @@ void run_scenes(const struct opts *o)
 				t0 = now_s();
 				for (n = 0; n < (long)FW_COST_STEPS; n++)
 					swell_wave_step(&w);
-				dt = now_s() - t0;
-				best = fmin(best, dt * 1e9 / (double)cells);
+				best = fmin(best, (now_s() - t0) * 1e9 / (double)cells);
 				awake = 100.0 *
 					(1.0 -
 					 (double)w.tiles_skipped / ((double)FW_COST_STEPS * FW_SCENE_NY * w.tiles_x));

@@ -1,12 +1,7 @@
 /* swell wire protocol: encoders and decoders for every carrier, expanded from swell/proto_table.h.
- *
- * Carriers (docs/protocol.md has the byte-level description and the bus-load budget):
- *   classic CAN  one message per 8-byte frame, 11-bit id = type << 4 | node.
- *   CAN FD       up to 64 bytes: k messages of ONE type and node, same id as classic, each in a
- *                slot of its length rounded up to 4 bytes (zero padding); k * slot is a valid length.
- *   packet       USB bulk (64-byte packets) and UDP datagrams, same bytes:
- *                magic 0x57, version, node, seq, count, count x (type, payload), CRC-32 LE.
- * CAN has its own CRC; packets carry one (swell_crc32 over every byte before it).
+ * Carriers, byte by byte, in docs/protocol.md: classic CAN (one message a frame, 11-bit id = type << 4
+ * | node), CAN FD (messages of one type and node in 4-byte-aligned slots) and packets (USB bulk and
+ * UDP, the same bytes, with a CRC-32).
  *
  * Every decoder is strict: truncated, oversized, unknown, wrong-version, wrong-CRC, out-of-range and
  * reserved-bit frames are rejected with a swell_err reason, counted in struct swell_proto_stats when
@@ -111,8 +106,6 @@ uint32_t swell_proto_rejected_total(const struct swell_proto_stats *st);
 /* Writes desc->len bytes to payload (cap >= len). SWELL_ERANGE if a field is out of range,
  * SWELL_EUNKNOWN for an unknown type, SWELL_ESIZE if cap is too small. */
 enum swell_err swell_payload_encode(const struct swell_msg *m, uint8_t *payload, size_t cap);
-/* Decodes one payload of the given type; len must be exactly the message length. */
-enum swell_err swell_payload_decode(unsigned type, const uint8_t *payload, size_t len, struct swell_msg *out);
 
 /* ---- classic CAN ---- */
 enum swell_err swell_can_encode(const struct swell_msg *m, uint32_t *id, uint8_t data[8], uint8_t *len);

@@ -129,37 +129,28 @@ enum swell_err swell_link_encode(enum swell_carrier c, uint8_t node, uint8_t pkt
 {
 	struct swell_frame tmp;
 	enum swell_err err;
+	uint8_t can_len = 0;
+	size_t len = 0;
 
 	if (!m || !f || !used || n == 0)
 		return SWELL_EINVAL;
 	memset(&tmp, 0, sizeof(tmp));
 	switch (c) {
-	case SWELL_CARRIER_CAN: {
-		uint8_t len;
-
-		err = swell_can_encode(&m[0], &tmp.id, tmp.data, &len);
-		tmp.len = len;
+	case SWELL_CARRIER_CAN:
+		err = swell_can_encode(&m[0], &tmp.id, tmp.data, &can_len);
 		*used = 1;
 		break;
-	}
-	case SWELL_CARRIER_CANFD: {
-		uint8_t len;
-
-		err = swell_canfd_encode(m, n, &tmp.id, tmp.data, &len, used);
-		tmp.len = len;
+	case SWELL_CARRIER_CANFD:
+		err = swell_canfd_encode(m, n, &tmp.id, tmp.data, &can_len, used);
 		tmp.flags = SWELL_FRAME_FD;
 		break;
-	}
-	case SWELL_CARRIER_PKT: {
-		size_t len;
-
+	case SWELL_CARRIER_PKT:
 		err = swell_pkt_encode(node, pkt_seq, m, n, tmp.data, sizeof(tmp.data), &len, used);
-		tmp.len = (uint16_t)len;
 		break;
-	}
 	default:
 		return SWELL_EINVAL;
 	}
+	tmp.len = (uint16_t)(c == SWELL_CARRIER_PKT ? len : can_len);
 	if (err == SWELL_OK)
 		*f = tmp;
 	return err;
@@ -184,11 +175,8 @@ enum swell_err swell_link_decode(enum swell_carrier c, const struct swell_frame 
 		if (err == SWELL_OK)
 			*n = 1;
 		return err;
-	case SWELL_CARRIER_PKT:
-		err = swell_pkt_decode(f->data, f->len, out, cap, n, &seq, st);
-		if (err == SWELL_OK && pkt_seq)
-			*pkt_seq = seq;
-		return err;
+	case SWELL_CARRIER_PKT: /* *pkt_seq written only on success */
+		return swell_pkt_decode(f->data, f->len, out, cap, n, pkt_seq ? pkt_seq : &seq, st);
 	}
 	return SWELL_EINVAL;
 }
@@ -210,9 +198,8 @@ int swell_link_open_spec(struct swell_link **out, const struct swell_link_spec *
 		return swell_link_open_udp(out, host, o->udp_bind_tries ? 0 : o->udp_bind_port, host, s->port);
 	case SWELL_LINK_CAN:
 	case SWELL_LINK_CANFD: {
-		struct swell_can_opts co;
+		struct swell_can_opts co = { 0 }; /* every id: other nodes are told apart by decoding */
 
-		memset(&co, 0, sizeof(co)); /* every id: other nodes are told apart by decoding */
 		co.fd = s->kind == SWELL_LINK_CANFD;
 		co.error_frames = o->can_errors;
 		return swell_link_open_can(out, s->name, &co);

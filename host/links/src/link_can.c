@@ -170,7 +170,6 @@ int swell_can_read(int fd, struct swell_can_health *h, struct canfd_frame *f)
 			h->state = SWELL_CAN_ACTIVE;
 			h->restarts++;
 		}
-		return -1;
 	}
 	if (r < 0)
 		return -1;

@@ -24,7 +24,8 @@
 #define EP_DESC_LEN 7u /* USB_DT_ENDPOINT_SIZE: no audio extension */
 #define SET_LEN (USB_DT_INTERFACE_SIZE + 2u * EP_DESC_LEN)
 
-static enum swell_err check_iface(const struct swell_usb_ffs_iface *it)
+/* The interface, then the output buffer and length of the two blocks below. */
+static enum swell_err check_args(const struct swell_usb_ffs_iface *it, const uint8_t *buf, const size_t *len)
 {
 	if (!it || !it->name)
 		return SWELL_EINVAL;
@@ -40,7 +41,7 @@ static enum swell_err check_iface(const struct swell_usb_ffs_iface *it)
 	for (size_t i = 0; i < n; i++)
 		if (it->name[i] < 0x20 || it->name[i] > 0x7E)
 			return SWELL_ERANGE;
-	return SWELL_OK;
+	return buf && len ? SWELL_OK : SWELL_EINVAL;
 }
 
 static uint8_t *put_set(uint8_t *p, const struct swell_usb_ffs_iface *it, uint16_t packet)
@@ -69,12 +70,10 @@ static uint8_t *put_set(uint8_t *p, const struct swell_usb_ffs_iface *it, uint16
 enum swell_err swell_usb_ffs_descriptors(const struct swell_usb_ffs_iface *iface, uint8_t *buf, size_t cap, size_t *len)
 {
 	const size_t total = 5u * 4u + 2u * SET_LEN;
-	enum swell_err err = check_iface(iface);
+	enum swell_err err = check_args(iface, buf, len);
 
 	if (err != SWELL_OK)
 		return err;
-	if (!buf || !len)
-		return SWELL_EINVAL;
 	if (cap < total)
 		return SWELL_ESIZE;
 	uint8_t *p = buf;
@@ -91,12 +90,10 @@ enum swell_err swell_usb_ffs_descriptors(const struct swell_usb_ffs_iface *iface
 
 enum swell_err swell_usb_ffs_strings(const struct swell_usb_ffs_iface *iface, uint8_t *buf, size_t cap, size_t *len)
 {
-	enum swell_err err = check_iface(iface);
+	enum swell_err err = check_args(iface, buf, len);
 
 	if (err != SWELL_OK)
 		return err;
-	if (!buf || !len)
-		return SWELL_EINVAL;
 	size_t n = strnlen(iface->name, SWELL_USB_FFS_NAME_MAX + 1);
 	size_t total = 4u * 4u + 2u + n + 1u;
 	if (cap < total)

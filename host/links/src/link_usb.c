@@ -104,13 +104,12 @@ static int attach(struct usb_link *u)
 		libusb_close(h);
 		return errno_of(rc);
 	}
+	u->h = h;
 	rc = find_endpoints(u, h);
 	if (rc) {
-		libusb_release_interface(h, u->o.iface);
-		libusb_close(h);
+		drop(u); /* released and closed */
 		return rc;
 	}
-	u->h = h;
 	snprintf(u->base.name, sizeof(u->base.name), "usb %04x:%04x if %d ep 0x%02x/0x%02x", u->o.vid, u->o.pid,
 		 u->o.iface, u->ep_out, u->ep_in);
 	return 0;
