@@ -765,6 +765,19 @@ static void mark_placed_tiles(struct swell_ctl *c, const struct swell_body_fp *f
 			c->quad_stale[(uint32_t)ty * c->tiles_x + (uint32_t)tx] = 0xffffu;
 }
 
+/* The object's water in the cells was `before` and is now c->body.placed: where it changed, the tiles
+ * it left and those it covers are stale for the telemetry. */
+static void mark_water_moved(struct swell_ctl *c, const struct swell_body_fp *before)
+{
+	const struct swell_body_fp *now = &c->body.placed;
+
+	if (before->delta_lsb == now->delta_lsb && before->x0 == now->x0 && before->x1 == now->x1 &&
+	    before->y0 == now->y0 && before->y1 == now->y1)
+		return;
+	mark_placed_tiles(c, before);
+	mark_placed_tiles(c, now);
+}
+
 /* The quad was compared (and sent where it differed): its samples are what was last sent. */
 static void quad_fresh(struct swell_ctl *c, uint32_t q)
 {
@@ -1066,8 +1079,8 @@ static uint32_t force_law(struct swell_ctl *c)
 
 /* The solver step spread over the K ticks of its period: tick k does the momentum of its share of
  * rows (by the relative costs above, the period's rows and its end in K equal parts: after tick k < K-1
- * the rows that fit (k+1) parts, the rest on tick K-1 with the step's end), whose heights become h(n+1) one row behind (wave.h, velocity
- * form), and the body's ceiling scan of the rows that hold h(n+1) (while the object is out of the
+ * the rows that fit (k+1) parts, the rest on tick K-1 with the step's end), whose heights become
+ * h(n+1) one row behind (wave.h, velocity form), and the body's ceiling scan of the rows that hold h(n+1) (while the object is out of the
  * water); tick K-1 also completes the step (the last row's heights, the fixers, the tile flags) and
  * then places the period's coupling into h(n+1). The force law in between reads h(n) and the solver's
  * change in every row (wave.h: h - dh(u) in rows below done_row), so it never sees a half-finished
@@ -1095,8 +1108,7 @@ static uint32_t solver_slice(struct swell_ctl *c)
 		/* the period's coupling, kept back, into h(n+1): the tiles it wrote are stale too */
 		placed = c->body.placed;
 		swell_body_place(&c->body, w);
-		mark_placed_tiles(c, &placed);
-		mark_placed_tiles(c, &c->body.placed);
+		mark_water_moved(c, &placed);
 		swell_body_solver_stepped(&c->body, w);
 		c->n.solver_steps++;
 		/* the rows, the last row's heights and the ceiling scan of the rows left */
@@ -1129,11 +1141,7 @@ void swell_ctl_tick_background(struct swell_ctl *c)
 	 * tiles it left and those it covers are stale for the telemetry */
 	placed = c->body.placed;
 	swell_body_couple_later(&c->body, &c->wave);
-	if (placed.delta_lsb != c->body.placed.delta_lsb || placed.x0 != c->body.placed.x0 ||
-	    placed.x1 != c->body.placed.x1 || placed.y0 != c->body.placed.y0 || placed.y1 != c->body.placed.y1) {
-		mark_placed_tiles(c, &placed);
-		mark_placed_tiles(c, &c->body.placed);
-	}
+	mark_water_moved(c, &placed);
 	work += solver_slice(c);
 	if (t % period(c, HEARTBEAT_HZ) == 0) {
 		send_heartbeat(c);
