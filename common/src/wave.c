@@ -414,6 +414,10 @@ static void step_row_vel(struct swell_wave *w, int j, uint8_t *trow, int damp)
 	const int awake = !w->sleep || !tile_row_has(w, trow, T_SLEEPING);
 	int tx = 0, t1, k;
 
+#if SWELL_WAVE_DSP
+	if (awake && damp && w->kernel != SWELL_KERNEL_REF && swell_wave_vel_row_m4(w, j, trow))
+		return;
+#endif
 	while (tx < w->tiles_x) {
 		if (awake) {
 			t1 = w->tiles_x - tx > SWELL_WAVE_VEL_RUN ? tx + SWELL_WAVE_VEL_RUN : w->tiles_x;
@@ -447,6 +451,13 @@ static inline __attribute__((always_inline)) void band_start(struct swell_wave *
 	int tx;
 
 	if (w->sleep && j % SWELL_WAVE_TILE == 0) {
+		if (w->form == SWELL_FORM_VELOCITY && !tile_row_has(w, trow, T_ZERO)) {
+			/* no tile of the band was still for two steps (moving water): none sleeps */
+			for (tx = 0; tx < w->tiles_x; tx++)
+				trow[tx] &= (uint8_t)~T_SLEEPING;
+			w->band_asleep = 0;
+			return;
+		}
 		w->band_asleep = 1;
 		for (tx = 0; tx < w->tiles_x; tx++) {
 			if (asleep(w, tx, ty)) {
@@ -461,8 +472,9 @@ static inline __attribute__((always_inline)) void band_start(struct swell_wave *
 	}
 }
 
-/* Row j, tile by tile, skipping sleeping tiles. */
-static inline void step_row(struct swell_wave *w, int j, int damp)
+/* Row j, tile by tile, skipping sleeping tiles; the rows done: 1, or on the M4 in the velocity form
+ * those of the band up to end (the last a step's) in one call */
+static inline int step_row(struct swell_wave *w, int j, int end, int damp)
 {
 	const int ty = j / SWELL_WAVE_TILE;
 	uint8_t *trow = &w->tile[ty * w->tiles_x];
@@ -471,11 +483,22 @@ static inline void step_row(struct swell_wave *w, int j, int damp)
 	band_start(w, j, trow);
 	if (w->sleep && w->band_asleep) { /* the whole band of tiles sleeps: nothing to do in this row */
 		w->tiles_skipped += w->tiles_x;
-		return;
+		return 1;
 	}
 	if (w->form == SWELL_FORM_VELOCITY) {
+#if SWELL_WAVE_DSP
+		if (damp && w->kernel != SWELL_KERNEL_REF && (!w->sleep || !tile_row_has(w, trow, T_SLEEPING))) {
+			int j1 = (ty + 1) * SWELL_WAVE_TILE < end ? (ty + 1) * SWELL_WAVE_TILE : end;
+
+			j1 = j1 < w->ny - 1 ? j1 : w->ny - 1; /* the top wall's row on its own */
+			if (j1 > j && swell_wave_vel_band_m4(w, j, j1, trow))
+				return j1 - j;
+		}
+#else
+		(void)end;
+#endif
 		step_row_vel(w, j, trow, damp);
-		return;
+		return 1;
 	}
 	for (tx = 0; tx < w->tiles_x; tx++) {
 		const int i0 = tx * SWELL_WAVE_TILE;
@@ -488,6 +511,7 @@ static inline void step_row(struct swell_wave *w, int j, int damp)
 		if (step_segment(w, j, i0, i1, damp))
 			trow[tx] |= T_NONZERO;
 	}
+	return 1;
 }
 
 #if SWELL_WAVE_DSP
@@ -650,7 +674,7 @@ int swell_wave_step_rows(struct swell_wave *w, int rows)
 {
 	const int damp = w->q != SWELL_Q30_ONE; /* t = 0: no damping multiply at all */
 	const int vel = w->form == SWELL_FORM_VELOCITY;
-	int j, end = w->next_row + (rows > 0 ? rows : 0);
+	int j, n, end = w->next_row + (rows > 0 ? rows : 0);
 
 	if (end > w->ny)
 		end = w->ny;
@@ -676,13 +700,10 @@ int swell_wave_step_rows(struct swell_wave *w, int rows)
 		return w->ny - end;
 	}
 #endif
-	for (j = w->next_row; j < end; j++) {
-		if (damp)
-			step_row(w, j, 1);
-		else
-			step_row(w, j, 0);
-		if (vel && j > w->done_row) /* row j - 1's last reader is done */
-			update_rows(w, j);
+	for (j = w->next_row; j < end; j += n) {
+		n = damp ? step_row(w, j, end, 1) : step_row(w, j, end, 0);
+		if (vel && j + n - 1 > w->done_row) /* row j + n - 2's last reader is done */
+			update_rows(w, j + n - 1);
 	}
 	w->next_row = (uint16_t)end;
 	return w->ny - end;
