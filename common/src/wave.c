@@ -595,7 +595,7 @@ static void update_row(struct swell_wave *w, int j)
 	int tx;
 
 #if SWELL_WAVE_DSP
-	__set_saturation_occurred(0);
+	swell_q_clear();
 #endif
 	for (tx = 0; tx < w->tiles_x; tx++) {
 		const int i0 = tx * SWELL_WAVE_TILE;
@@ -621,7 +621,7 @@ static void update_row(struct swell_wave *w, int j)
 			 : update_seg(h + i0, u + i0, SWELL_WAVE_TILE, 0);
 	}
 #if SWELL_WAVE_DSP
-	sat |= (uint32_t)__saturation_occurred();
+	sat |= swell_q_take();
 #endif
 	w->saturations += sat;
 }
@@ -655,10 +655,10 @@ static void update_rows(struct swell_wave *w, int j1)
 				: j1;
 
 			for (; j < end; j++) {
-				__set_saturation_occurred(0);
+				swell_q_clear();
 				add_tiles_uf(w->h + (size_t)j * w->nx, w->u + (size_t)j * w->nx, w->tiles_x,
 					     w->vel_frac);
-				w->saturations += (uint32_t)__saturation_occurred();
+				w->saturations += swell_q_take();
 			}
 			j--;
 			continue;

@@ -44,6 +44,24 @@
 #define SWELL_WAVE_DSP 0
 #endif
 
+#if SWELL_WAVE_DSP
+/* The Q flag (sticky saturation) around a call of assembly: GCC does not take a call or an asm to set
+ * Q, so its ACLE __saturation_occurred() after one may give the value read before it (seen: the
+ * clamps of the heights' update went uncounted). Volatile asm with a memory clobber stays in place. */
+static inline void swell_q_clear(void)
+{
+	__asm__ volatile("msr APSR_nzcvq, %0" : : "r"(0) : "cc", "memory");
+}
+
+static inline uint32_t swell_q_take(void)
+{
+	uint32_t r;
+
+	__asm__ volatile("mrs %0, APSR" : "=r"(r) : : "memory");
+	return (r >> 27) & 1u;
+}
+#endif
+
 /* x86-64 kernels with AVX2 (functions compiled for it, chosen after a CPU check) */
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(SWELL_NO_AVX2)
 #define SWELL_WAVE_AVX2 1

@@ -247,24 +247,30 @@ VR_ROW_FN(vel_row_mid128, "-512", "512", "-516", "508")
 	HERE ":\tldr r8, [sp]\n\tldr r9, [r8, #12]\n\tadds r9, r9, #1\n\tstr r9, [r8, #12]\n\tmovs r9, #0\n\t" \
 	"msr APSR_nzcvq, r9\n\tb " BACK "\n"
 /* k[2] rows of a band, each a whole row with rows above and below in a grid 64 cells wide: the row's
- * new u (as vel_row_mid64, its block sums 8 a row from r2 = a 32-byte boundary + 4), then the heights
- * of the row below it become h(n+1) (its u are final and no later row reads its h(n)). A row whose
- * momentum clamped and a row whose heights clamped each count one in k[3] (the Q flag, clear on entry,
- * read after each). */
+ * new u (as vel_row_mid64: its running block sums, 8 a row from r2 = a 32-byte boundary + 4, from 0
+ * at each row), the row's sum added to k[4], k[5] (int64, low word first), then the heights of the
+ * row below it become h(n+1) (its u are final and no later row reads its h(n)). A row whose momentum
+ * clamped and a row whose heights clamped each count one in k[3] (the Q flag, clear on entry, read
+ * after each). */
 static __attribute__((naked, noinline)) void vel_band64(const int32_t *hp __attribute__((unused)),
 						       int32_t *up __attribute__((unused)),
 						       int32_t *ap __attribute__((unused)),
 						       int32_t *k __attribute__((unused)))
 {
-	__asm__ volatile("push {r3-r11, lr}\n\tldrd r12, lr, [r3]\n\tmovs r3, #0\n"
-			 "4:\tldr r6, [r0, #-4]\n\tldrd r5, r7, [r0, #-260]\n\tldr r7, [r0, #252]\n\t"
+	__asm__ volatile("push {r3-r11, lr}\n\tldrd r12, lr, [r3]\n"
+			 "4:\tmovs r3, #0\n\tldr r6, [r0, #-4]\n\tldrd r5, r7, [r0, #-260]\n\tldr r7, [r0, #252]\n\t"
 			 "add r5, r5, r7\n\tadd r5, r5, r6, lsl #1\n\tmov r4, r5\n"
 			 "1:\t" VR_A("-256", "256") VR_B("-256", "256") VR_A("-256", "256") VR_B("-256", "256")
 			 "str r3, [r2], #4\n\ttst r2, #31\n\tbne 1b\n\t"
 			 VR_A("-256", "256") VR_B("-256", "256") VR_A("-256", "256")
 			 VR_PAIR_EAST("r7", "r8", "r10", "r4", "r9", "r11", "-256", "256")
 			 "str r3, [r2], #4\n\tmrs r7, APSR\n\ttst r7, #0x8000000\n\tbne 5f\n"
-			 "6:\tsub r12, r0, #516\n\tsub lr, r1, #512\n\t" VR_ADD16 VR_ADD16 VR_ADD16 VR_ADD16
+			 /* the row's sum into k[4], k[5] (64 bits): four sums of 16 cells, each exact */
+			 "6:\tldmdb r2, {r4-r11}\n\tsub r11, r11, r9\n\tsub r9, r9, r7\n\tsub r7, r7, r5\n\t"
+			 "ldr r8, [sp]\n\tldrd r4, r6, [r8, #16]\n\tadds r4, r4, r5\n\tadc r6, r6, r5, asr #31\n\t"
+			 "adds r4, r4, r7\n\tadc r6, r6, r7, asr #31\n\tadds r4, r4, r9\n\tadc r6, r6, r9, asr #31\n\t"
+			 "adds r4, r4, r11\n\tadc r6, r6, r11, asr #31\n\tstrd r4, r6, [r8, #16]\n\t"
+			 "sub r12, r0, #516\n\tsub lr, r1, #512\n\t" VR_ADD16 VR_ADD16 VR_ADD16 VR_ADD16
 			 "mrs r7, APSR\n\ttst r7, #0x8000000\n\tbne 7f\n"
 			 "8:\tldr r7, [sp]\n\tldrd r12, lr, [r7]\n\tldr r8, [r7, #8]\n\tsubs r8, r8, #1\n\t"
 			 "str r8, [r7, #8]\n\tbne 4b\n\tpop {r3-r11, pc}\n" VR_Q("5", "6b") VR_Q("7", "8b"));
@@ -316,14 +322,29 @@ static int64_t vel_m4_sum(const int32_t *s, int32_t before)
 	       (int32_t)((uint32_t)s[5] - (uint32_t)s[3]) + (int32_t)((uint32_t)s[7] - (uint32_t)s[5]);
 }
 
+/* 1 if tile b of the band's n rows (their running block sums v, u from the tile's first cell of the
+ * first row) has a non-zero u: the rare case where the first row's block sums to 0 */
+static __attribute__((noinline)) int vel_m4_moved(const int32_t *v, const int32_t *u, int n, int b)
+{
+	int32_t any = 0;
+	int r, a;
+
+	for (r = 0; !any && r < n; r++)
+		any = v[8 * r + b] - (b ? v[8 * r + b - 1] : 0);
+	for (r = 0; !any && r < n * 64; r += 64)
+		for (a = 0; a < SWELL_WAVE_TILE; a++)
+			any |= u[r + a];
+	return any != 0;
+}
+
 int swell_wave_vel_band_m4(struct swell_wave *w, int j0, int j1, uint8_t *trow)
 {
 	int32_t sums[8 * SWELL_WAVE_TILE + 8] __attribute__((aligned(32)));
-	const int32_t *v = sums + 1; /* the running sums, 8 a row */
+	const int32_t *v = sums + 1; /* the running sums of each row's blocks, 8 a row */
 	const int n = j1 - j0;
-	int32_t k[4], prev = 0;
-	int64_t tot = 0;
-	int a, b, r;
+	int32_t k[6];
+	int64_t tot;
+	int b;
 
 	if (w->nx != 64 || j0 < 1 || j1 >= w->ny || n < 1 || n > SWELL_WAVE_TILE || w->done_row != j0 - 1 ||
 	    !vel_m4_fits(w))
@@ -332,27 +353,17 @@ int swell_wave_vel_band_m4(struct swell_wave *w, int j0, int j1, uint8_t *trow)
 	k[1] = (int32_t)(0u - 4u * (uint32_t)w->q);
 	k[2] = n;
 	k[3] = 0;
-	__set_saturation_occurred(0);
+	k[4] = k[5] = 0;
+	swell_q_clear();
 	vel_band64(w->h + (size_t)j0 * 64 + 1, w->u + (size_t)j0 * 64, sums + 1, k);
 	w->saturations += (uint32_t)k[3];
-	for (a = 1; a < 8 * n; a += 2) { /* 16 cells a sum: exact in int32 */
-		tot += (int32_t)((uint32_t)v[a] - (uint32_t)prev);
-		prev = v[a];
-	}
+	tot = (int64_t)((uint64_t)(uint32_t)k[5] << 32 | (uint32_t)k[4]);
 	w->vel_sum += tot;
 	w->vel_sum_h += tot;
-	for (b = 0; b < 8; b++) { /* a tile moved if a block's sum is not 0, or else one of its u */
-		const int32_t *u = w->u + (size_t)j0 * 64 + b * SWELL_WAVE_TILE;
-		int32_t any = trow[b] & T_NONZERO;
-
-		for (r = 0; !any && r < n; r++)
-			any = (int32_t)((uint32_t)v[8 * r + b] - (uint32_t)(8 * r + b ? v[8 * r + b - 1] : 0));
-		for (r = 0; !any && r < n * 64; r += 64)
-			for (a = 0; a < SWELL_WAVE_TILE; a++)
-				any |= u[r + a];
-		if (any)
+	for (b = 0; b < 8; b++) /* a tile moved: its first row's block sum is not 0, or else one of its u */
+		if (!(trow[b] & T_NONZERO) &&
+		    (v[b] != (b ? v[b - 1] : 0) || vel_m4_moved(v, w->u + (size_t)j0 * 64 + b * SWELL_WAVE_TILE, n, b)))
 			trow[b] |= T_NONZERO;
-	}
 	w->done_row = (uint16_t)(j1 - 1);
 	return 1;
 }
@@ -384,9 +395,9 @@ int swell_wave_vel_row_m4(struct swell_wave *w, int j, uint8_t *trow)
 
 		k[2] = i0 ? hc[dn - 1] + hc[up - 1] + 2 * hc[-1] : hc[dn] + hc[up] + 2 * hc[0];
 		k[3] = east;
-		__set_saturation_occurred(0);
+		swell_q_clear();
 		row(hc + 1, w->u + (size_t)j * nx + i0, s, k);
-		w->saturations += (uint32_t)__saturation_occurred();
+		w->saturations += swell_q_take();
 		tot += vel_m4_sum(s, 0);
 		vel_m4_flags(trow, u, s, 0);
 	}
