@@ -174,7 +174,7 @@ static inline __attribute__((always_inline)) void vel_run(struct swell_wave *w, 
 
 #if VEL_DSP
 /* ---- The damped row kernel in Cortex-M4 assembly ---------------------------------------------
- * A row of a grid 64 or 128 cells wide, damped (F = 0), 64 cells a call: the row below and the row
+ * Rows of a grid 64 or 128 cells wide, damped (F = 0), 64 cells a pass: the row below and the row
  * above are then at immediate offsets of the centre row (or the centre row itself, mirrored, at the
  * bottom and top walls), and LDRD/STRD move two cells at a time (three LDRD of h and one LDRD and one
  * STRD of u for two cells). The damping toward zero is one SMMLS: with D = 2^32 - 4 q (q > 2^29, so
@@ -182,103 +182,133 @@ static inline __attribute__((always_inline)) void vel_run(struct swell_wave *w, 
  * fused kernel's SMMUL of 4 s without the shift; its sign is s's, so the step toward zero is
  * r - (r >> 31). The column sums of the cell's left and centre columns (sl, sc) and the centre
  * height (c) stay in registers from pair to pair; the registers' roles alternate between two pairs
- * (A and B below), so that a block of 8 cells is A B A B and ends where it began. No register is left
- * for a per-tile flag or a 64-bit sum: after each block the running 32-bit sum of the new momentum is
- * stored (the sum of 16 cells is the difference of two, exact: |16 s| <= 2^31) and the C side adds
- * them in 64 bits. The store pointer is also the loop's counter: the blocks end when it reaches a
- * 64-byte boundary.
- * Arguments (AAPCS): r0 = &h(j, i0 + 1), r1 = &u(j, i0), r2 = where the block sums go,
- * r3 = { C = 2 e_eff, D, sl of column i0, the east wall: the last block mirrors column i0 + 64 }.
+ * (A and B below), so that a block of 8 cells is A B A B and ends where it began: 29 instructions a
+ * pair. No register is left for a per-tile flag or a 64-bit sum: after each block the running 32-bit
+ * sum of the new momentum is stored (a sum of 16 cells, the difference of two, is exact: |16 s| <=
+ * 2^31), and the sums are added in 64 bits after the row. The store pointer is also the loop's
+ * counter: the blocks end when it reaches an aligned boundary.
+ * A row (vel_row_*): r0 = &h(j, i0 + 1), r1 = &u(j, i0), r2 = where the block sums go, r3 = { C =
+ * 2 e_eff, D, sl of column i0, the east wall: the last block mirrors column i0 + 64 }.
  * Registers: r0 h, r1 u, r2 sums, r3 the running sum, r12 C, lr D, r4-r11 the pair's. */
 #define VR_X(X, L, C, R, H) /* x = 2 L9 = L + R + 2 C - 16 H (column sums L, C, R; centre height H) */ \
 	"add " X ", " L ", " R "\n\tadd " X ", " X ", " C ", lsl #1\n\tsub " X ", " X ", " H ", lsl #4\n\t"
-#define VR_CELL(X, U) /* X = the new u of a cell from x in X, its old u in U (U is spent) */              \
+#define VR_CELL(X, U) /* X = the new u of a cell from x in X, its old u in U (U is spent) */                \
 	"smmla " X ", " X ", r12, " U "\n\tadd " U ", " X ", " U "\n\tadd " X ", " X ", " U ", lsr #31\n\t" \
-	"ssat " X ", #28, " X "\n\tsmmls " X ", " X ", lr, " X "\n\tsub " X ", " X ", " X ", asr #31\n\t"  \
+	"ssat " X ", #28, " X "\n\tsmmls " X ", " X ", lr, " X "\n\tsub " X ", " X ", " X ", asr #31\n\t"   \
 	"add r3, r3, " X "\n\t"
 /* Two cells k, k + 1: their right columns k + 1, k + 2 (LDRD from the row below at offset DN, above
  * at UP, and the centre row, which advances), their new u (LDRD, STRD); sl, sc, c become T0, T1, T3 */
-#define VR_PAIR(SL, SC, CC, T0, T1, T2, T3, T4, DN, UP)                                               \
-	"ldrd " T0 ", " T1 ", [r0, #" DN "]\n\tldrd " T2 ", " T3 ", [r0, #" UP "]\n\t"                \
+#define VR_PAIR(SL, SC, CC, T0, T1, T2, T3, T4, DN, UP)                                                 \
+	"ldrd " T0 ", " T1 ", [r0, #" DN "]\n\tldrd " T2 ", " T3 ", [r0, #" UP "]\n\t"                  \
 	"add " T0 ", " T0 ", " T2 "\n\tadd " T1 ", " T1 ", " T3 "\n\tldrd " T2 ", " T3 ", [r0], #8\n\t" \
-	"add " T0 ", " T0 ", " T2 ", lsl #1\n\tadd " T1 ", " T1 ", " T3 ", lsl #1\n\t" VR_X(SL, SL, SC, T0, CC) \
-	"ldrd " CC ", " T4 ", [r1]\n\t" VR_CELL(SL, CC) VR_X(SC, SC, T0, T1, T2) VR_CELL(SC, T4)          \
-	"strd " SL ", " SC ", [r1], #8\n\t"
+	"add " T0 ", " T0 ", " T2 ", lsl #1\n\tadd " T1 ", " T1 ", " T3                                 \
+	", lsl #1\n\t" VR_X(SL, SL, SC, T0, CC) "ldrd " CC ", " T4 ", [r1]\n\t" VR_CELL(SL, CC)         \
+		VR_X(SC, SC, T0, T1, T2) VR_CELL(SC, T4) "strd " SL ", " SC ", [r1], #8\n\t"
 /* The last two cells at the east wall: column k + 2 mirrors k + 1 (its sum T0 twice). A single LDR
  * reaches 255 bytes back at most: the row below by an LDRD whose second word is not used. */
-#define VR_PAIR_EAST(SL, SC, CC, T0, T2, T4, DN, UP)                                                  \
+#define VR_PAIR_EAST(SL, SC, CC, T0, T2, T4, DN, UP)                                                        \
 	"ldrd " T0 ", " T2 ", [r0, #" DN "]\n\tldr " T2 ", [r0, #" UP "]\n\tadd " T0 ", " T0 ", " T2 "\n\t" \
-	"ldr " T2 ", [r0], #8\n\tadd " T0 ", " T0 ", " T2 ", lsl #1\n\t" VR_X(SL, SL, SC, T0, CC)          \
-	"ldrd " CC ", " T4 ", [r1]\n\t" VR_CELL(SL, CC) VR_X(SC, SC, T0, T0, T2) VR_CELL(SC, T4)          \
-	"strd " SL ", " SC ", [r1], #8\n\t"
+	"ldr " T2 ", [r0], #8\n\tadd " T0 ", " T0 ", " T2                                                   \
+	", lsl #1\n\t" VR_X(SL, SL, SC, T0, CC) "ldrd " CC ", " T4 ", [r1]\n\t" VR_CELL(SL, CC)             \
+		VR_X(SC, SC, T0, T0, T2) VR_CELL(SC, T4) "strd " SL ", " SC ", [r1], #8\n\t"
+/* clang-format off: assembly laid out by hand, an instruction group a line */
 #define VR_A(DN, UP) VR_PAIR("r4", "r5", "r6", "r7", "r8", "r9", "r10", "r11", DN, UP)
 #define VR_B(DN, UP) VR_PAIR("r7", "r8", "r10", "r4", "r5", "r9", "r6", "r11", DN, UP)
+#define VR_BLOCK(DN, UP) VR_A(DN, UP) VR_B(DN, UP) VR_A(DN, UP) VR_B(DN, UP)
+#define VR_BLOCK_EAST(DN, UP) \
+	VR_A(DN, UP) VR_B(DN, UP) VR_A(DN, UP) VR_PAIR_EAST("r7", "r8", "r10", "r4", "r9", "r11", DN, UP)
+/* the column sum sc of the row's first column into r5 (DN4, UP4: the offsets from r0 of its cells
+ * below and above), its height c into r6 */
+#define VR_FIRST(DN4, UP4)                                                               \
+	"ldr r6, [r0, #-4]\n\tldrd r5, r7, [r0, #" DN4 "]\n\tldr r7, [r0, #" UP4 "]\n\t" \
+	"add r5, r5, r7\n\tadd r5, r5, r6, lsl #1\n\t"
 /* DN, UP the offsets in bytes of the rows below and above (0: the row itself, at a wall), DN4 and UP4
  * those of the cell left of r0 (as text: immediates) */
-#define VR_ROW_FN(NAME, DN, UP, DN4, UP4)                                                                  \
-	static __attribute__((naked, noinline)) void NAME(const int32_t *hp __attribute__((unused)),       \
-							  int32_t *up __attribute__((unused)),             \
-							  int32_t *ap __attribute__((unused)),             \
-							  const int32_t *k __attribute__((unused)))        \
-	{                                                                                                  \
-		__asm__ volatile("push {r3-r11, lr}\n\tldrd r12, lr, [r3]\n\tldr r4, [r3, #8]\n\t"         \
-				 "ldr r6, [r0, #-4]\n\tldrd r5, r7, [r0, #" DN4 "]\n\tldr r7, [r0, #" UP4 "]\n\t" \
-				 "add r5, r5, r7\n\tadd r5, r5, r6, lsl #1\n\tmovs r3, #0\n"                 \
-				 "1:\t" VR_A(DN, UP) VR_B(DN, UP) VR_A(DN, UP) VR_B(DN, UP) "str r3, [r2], #4\n\t" \
-				 "tst r2, #63\n\tbne 1b\n\tldr r7, [sp]\n\tldr r7, [r7, #12]\n\tcmp r7, #0\n\t" \
-				 "beq 2f\n\t" VR_A(DN, UP) VR_B(DN, UP) VR_A(DN, UP)                          \
-					 VR_PAIR_EAST("r7", "r8", "r10", "r4", "r9", "r11", DN, UP)          \
-				 "str r3, [r2]\n2:\tpop {r3-r11, pc}");                                      \
+#define VR_ROW_FN(NAME, DN, UP, DN4, UP4)                                                                           \
+	static __attribute__((naked, noinline)) void NAME(                                                          \
+		const int32_t *hp __attribute__((unused)), int32_t *up __attribute__((unused)),                     \
+		int32_t *ap __attribute__((unused)), const int32_t *k __attribute__((unused)))                      \
+	{                                                                                                           \
+		__asm__ volatile("push {r3-r11, lr}\n\tldrd r12, lr, [r3]\n\tldr r4, [r3, #8]\n\t" VR_FIRST(        \
+			DN4, UP4) "movs r3, #0\n"                                                                   \
+				  "1:\t" VR_BLOCK(DN, UP) "str r3, [r2], #4\n\ttst r2, #63\n\tbne 1b\n\t"           \
+							  "ldr r7, [sp]\n\tldr r7, [r7, #12]\n\tcmp r7, #0\n\tbeq " \
+							  "2f\n\t" VR_BLOCK_EAST(DN, UP) "str r3, [r2]\n"           \
+											 "2:\tpop {r3-r11, pc}");   \
 	}
-VR_ROW_FN(vel_row_mid64, "-256", "256", "-260", "252")
 VR_ROW_FN(vel_row_bottom64, "0", "256", "-4", "252")
 VR_ROW_FN(vel_row_top64, "-256", "0", "-260", "-4")
 VR_ROW_FN(vel_row_mid128, "-512", "512", "-516", "508")
 
 /* The heights' update of the row below (rows are 64 cells): h = SSAT27(h + u), four cells an LDM of u
  * (lr), an LDM of h (r12), four ADD and SSAT and an STM; unrolled, no register left for a counter */
-#define VR_ADD4                                                                                         \
-	"ldmia lr!, {r4, r5, r6, r7}\n\tldmia r12, {r8, r9, r10, r11}\n\tadd r8, r8, r4\n\tadd r9, r9, r5\n\t" \
-	"add r10, r10, r6\n\tadd r11, r11, r7\n\tssat r8, #27, r8\n\tssat r9, #27, r9\n\t"                \
-	"ssat r10, #27, r10\n\tssat r11, #27, r11\n\tstmia r12!, {r8, r9, r10, r11}\n\t"
+#define VR_ADD4                                                                                \
+	"ldmia lr!, {r4, r5, r6, r7}\n\tldmia r12, {r8, r9, r10, r11}\n\t"                     \
+	"add r8, r8, r4\n\tadd r9, r9, r5\n\tadd r10, r10, r6\n\tadd r11, r11, r7\n\t"         \
+	"ssat r8, #27, r8\n\tssat r9, #27, r9\n\tssat r10, #27, r10\n\tssat r11, #27, r11\n\t" \
+	"stmia r12!, {r8, r9, r10, r11}\n\t"
 #define VR_ADD16 VR_ADD4 VR_ADD4 VR_ADD4 VR_ADD4
 /* The Q flag set (a clamp): one more in k[3], Q cleared, back to label BACK */
-#define VR_Q(HERE, BACK) \
-	HERE ":\tldr r8, [sp]\n\tldr r9, [r8, #12]\n\tadds r9, r9, #1\n\tstr r9, [r8, #12]\n\tmovs r9, #0\n\t" \
-	"msr APSR_nzcvq, r9\n\tb " BACK "\n"
+#define VR_Q(HERE, BACK)                                                                        \
+	HERE ":\tldr r8, [sp]\n\tldr r9, [r8, #12]\n\tadds r9, r9, #1\n\tstr r9, [r8, #12]\n\t" \
+	     "movs r9, #0\n\tmsr APSR_nzcvq, r9\n\tb " BACK "\n"
 /* k[2] rows of a band, each a whole row with rows above and below in a grid 64 cells wide: the row's
- * new u (as vel_row_mid64: its running block sums, 8 a row from r2 = a 32-byte boundary + 4, from 0
+ * new u (as the row kernels: its running block sums, 8 a row from r2 = a 32-byte boundary + 4, from 0
  * at each row), the row's sum added to k[4], k[5] (int64, low word first), then the heights of the
  * row below it become h(n+1) (its u are final and no later row reads its h(n)). A row whose momentum
  * clamped and a row whose heights clamped each count one in k[3] (the Q flag, clear on entry, read
  * after each). */
 static __attribute__((naked, noinline)) void vel_band64(const int32_t *hp __attribute__((unused)),
-						       int32_t *up __attribute__((unused)),
-						       int32_t *ap __attribute__((unused)),
-						       int32_t *k __attribute__((unused)))
+							int32_t *up __attribute__((unused)),
+							int32_t *ap __attribute__((unused)),
+							int32_t *k __attribute__((unused)))
 {
-	__asm__ volatile("push {r3-r11, lr}\n\tldrd r12, lr, [r3]\n"
-			 "4:\tmovs r3, #0\n\tldr r6, [r0, #-4]\n\tldrd r5, r7, [r0, #-260]\n\tldr r7, [r0, #252]\n\t"
-			 "add r5, r5, r7\n\tadd r5, r5, r6, lsl #1\n\tmov r4, r5\n"
-			 "1:\t" VR_A("-256", "256") VR_B("-256", "256") VR_A("-256", "256") VR_B("-256", "256")
-			 "str r3, [r2], #4\n\ttst r2, #31\n\tbne 1b\n\t"
-			 VR_A("-256", "256") VR_B("-256", "256") VR_A("-256", "256")
-			 VR_PAIR_EAST("r7", "r8", "r10", "r4", "r9", "r11", "-256", "256")
-			 "str r3, [r2], #4\n\tmrs r7, APSR\n\ttst r7, #0x8000000\n\tbne 5f\n"
-			 /* the row's sum into k[4], k[5] (64 bits): four sums of 16 cells, each exact */
-			 "6:\tldmdb r2, {r4-r11}\n\tsub r11, r11, r9\n\tsub r9, r9, r7\n\tsub r7, r7, r5\n\t"
-			 "ldr r8, [sp]\n\tldrd r4, r6, [r8, #16]\n\tadds r4, r4, r5\n\tadc r6, r6, r5, asr #31\n\t"
-			 "adds r4, r4, r7\n\tadc r6, r6, r7, asr #31\n\tadds r4, r4, r9\n\tadc r6, r6, r9, asr #31\n\t"
-			 "adds r4, r4, r11\n\tadc r6, r6, r11, asr #31\n\tstrd r4, r6, [r8, #16]\n\t"
-			 "sub r12, r0, #516\n\tsub lr, r1, #512\n\t" VR_ADD16 VR_ADD16 VR_ADD16 VR_ADD16
-			 "mrs r7, APSR\n\ttst r7, #0x8000000\n\tbne 7f\n"
-			 "8:\tldr r7, [sp]\n\tldrd r12, lr, [r7]\n\tldr r8, [r7, #8]\n\tsubs r8, r8, #1\n\t"
-			 "str r8, [r7, #8]\n\tbne 4b\n\tpop {r3-r11, pc}\n" VR_Q("5", "6b") VR_Q("7", "8b"));
+	__asm__ volatile(
+		"push {r3-r11, lr}\n\tldrd r12, lr, [r3]\n"
+		"4:\tmovs r3, #0\n\t" VR_FIRST(
+			"-260",
+			"252") "mov r4, r5\n" /* sl: the west wall */
+			       "1:\t" VR_BLOCK(
+				       "-256",
+				       "256") "str r3, [r2], #4\n\ttst r2, #31\n\tbne "
+					      "1b\n\t" VR_BLOCK_EAST(
+						      "-256",
+						      "256") "str r3, [r2], #4\n\t"
+							     "mrs r7, APSR\n\ttst r7, "
+							     "#0x8000000\n\tbne 5f\n"
+							     /* the row's sum into k[4], k[5] (64 bits): four sums of 16 cells, each exact */
+							     "6:\tldmdb r2, {r4-r11}\n\tsub r11, r11, "
+							     "r9\n\tsub r9, r9, r7\n\tsub r7, r7, "
+							     "r5\n\t"
+							     "ldr r8, [sp]\n\tldrd r4, r6, [r8, "
+							     "#16]\n\t"
+							     "adds r4, r4, r5\n\tadc r6, r6, r5, asr "
+							     "#31\n\tadds r4, r4, r7\n\tadc r6, r6, "
+							     "r7, asr #31\n\t"
+							     "adds r4, r4, r9\n\tadc r6, r6, r9, asr "
+							     "#31\n\tadds r4, r4, r11\n\tadc r6, r6, "
+							     "r11, asr #31\n\t"
+							     "strd r4, r6, [r8, #16]\n\t"
+							     /* the row below becomes h(n+1) */
+							     "sub r12, r0, #516\n\tsub lr, r1, "
+							     "#512\n\t" VR_ADD16 VR_ADD16 VR_ADD16 VR_ADD16
+							     "mrs r7, APSR\n\ttst r7, "
+							     "#0x8000000\n\tbne 7f\n"
+							     /* the next row */
+							     "8:\tldr r7, [sp]\n\tldrd r12, lr, "
+							     "[r7]\n\tldr r8, [r7, #8]\n\tsubs r8, r8, "
+							     "#1\n\t"
+							     "str r8, [r7, #8]\n\tbne 4b\n\tpop "
+							     "{r3-r11, pc}\n" VR_Q("5", "6b") VR_Q("7", "8b"));
 }
+/* clang-format on */
 #undef VR_Q
 #undef VR_ADD16
 #undef VR_ADD4
 #undef VR_ROW_FN
+#undef VR_FIRST
+#undef VR_BLOCK_EAST
+#undef VR_BLOCK
 #undef VR_A
 #undef VR_B
 #undef VR_PAIR_EAST
@@ -319,7 +349,7 @@ static void vel_m4_flags(uint8_t *trow, const int32_t *u, const int32_t *s, int3
 static int64_t vel_m4_sum(const int32_t *s, int32_t before)
 {
 	return (int64_t)(int32_t)((uint32_t)s[1] - (uint32_t)before) + (int32_t)((uint32_t)s[3] - (uint32_t)s[1]) +
-	       (int32_t)((uint32_t)s[5] - (uint32_t)s[3]) + (int32_t)((uint32_t)s[7] - (uint32_t)s[5]);
+		(int32_t)((uint32_t)s[5] - (uint32_t)s[3]) + (int32_t)((uint32_t)s[7] - (uint32_t)s[5]);
 }
 
 /* 1 if tile b of the band's n rows (their running block sums v, u from the tile's first cell of the
@@ -379,8 +409,8 @@ int swell_wave_vel_row_m4(struct swell_wave *w, int j, uint8_t *trow)
 
 	if (!vel_m4_fits(w) || w->ny < 2)
 		return 0;
-	if (nx == 64)
-		row = mid ? vel_row_mid64 : j ? vel_row_top64 : vel_row_bottom64;
+	if (nx == 64 && !mid) /* the other rows: swell_wave_vel_band_m4 */
+		row = j ? vel_row_top64 : vel_row_bottom64;
 	else if (nx == 128 && mid)
 		row = vel_row_mid128;
 	else

@@ -269,7 +269,9 @@ static void vel_check_field(struct swell_wave *w)
 			w->u[n] = (i * 3 + j) % 4 ? SWELL_H_MAX - (int32_t)(n % 7u) : SWELL_H_MIN;
 		} else { /* still, but rows 3 and 4 of the odd tiles */
 			w->h[n] = 0;
-			w->u[n] = (j % 8 == 3 || j % 8 == 4) && (i / 8) % 2 ? (int32_t)(n * 2654435761u % 20001u) - 10000 : 0;
+			w->u[n] = (j % 8 == 3 || j % 8 == 4) && (i / 8) % 2
+				? (int32_t)(n * 2654435761u % 20001u) - 10000
+				: 0;
 		}
 	}
 	swell_wave_set_sleep(w, 1);
