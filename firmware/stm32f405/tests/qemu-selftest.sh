@@ -67,9 +67,9 @@ grep -q '^pool: set pool.ny 136 in boot: NACK size out of range, pool still 128x
 	{ echo "qemu-selftest: FAIL: 128 x 136 was not refused as too big with nothing changed"; exit 1; }
 grep -q '^pool128x128 at 2500 Hz: worst background [0-9].*; overruns 0$' "$out" ||
 	{ echo "qemu-selftest: FAIL: the 128 x 128 pool overran its 2500 Hz tick"; exit 1; }
-# and its worst whole tick at most 94 % of the period in instructions (measured 92.2 %)
+# and its worst whole tick at most 90 % of the period in instructions (measured 88.0 %)
 pool_whole=$(sed -n 's/^pool128x128 at 2500 Hz: .*worst whole tick [0-9.]* (\([0-9.]*\) %).*/\1/p' "$out")
-pool_budget_pct=94
+pool_budget_pct=90
 awk -v w="$pool_whole" -v b="$pool_budget_pct" 'BEGIN { exit !(w != "" && w + 0 <= b) }' ||
 	{ echo "qemu-selftest: FAIL: the 128 x 128 pool's worst whole tick $pool_whole % is over its budget of $pool_budget_pct %"; exit 1; }
 { grep '^memory: ' "$out"; grep '^pool: [0-9]' "$out" | tail -1; } | sed 's/^/qemu-selftest: /'
@@ -81,10 +81,10 @@ grep '^\(core\|pool\).* Hz: worst background [0-9]' "$out" | sed 's/^/qemu-selft
 # the tick's budgets at 2500 Hz on the reference scene, in instructions under -icount (exact) and by
 # the cycle model of docs/stm32f405.md (tools/bench/m4-cycles.py on a trace of the force path:
 # 1.81 cycles an instruction; its solver kernels 1.27): the force path (device sample to FORCE_CMD)
-# at most 2850 instructions, measured 2738; the worst whole tick at most 34 % of the period at one
-# instruction a cycle, measured 32.4 % (the aim of 35 % is reached, see docs/stm32f405.md; its
+# at most 2850 instructions, measured 2744; the worst whole tick at most 31 % of the period at one
+# instruction a cycle, measured 28.9 % (the aim of 35 % is reached, see docs/stm32f405.md; its
 # cycles by the model: qemu-arm.worst-tick-cycles-within-budget)
-force_budget=2850 tick_budget_pct=34
+force_budget=2850 tick_budget_pct=31
 line=$(grep '^core at 2500 Hz: worst background [0-9]' "$out")
 force=$(echo "$line" | sed -n 's/.*worst force path \([0-9.]*\) .*/\1/p')
 whole=$(echo "$line" | sed -n 's/.*worst whole tick [0-9.]* (\([0-9.]*\) %).*/\1/p')
