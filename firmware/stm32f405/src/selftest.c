@@ -252,24 +252,28 @@ static int run_cost_split(void)
 }
 
 /* The damped velocity kernel in M4 assembly against the reference kernel, both on the image, from the
- * same start: bands 0-3 at the bounds (the momentum and the heights clamp), bands 4-7 still but for
- * two rows of every other tile (the tiles' first rows sum to 0: the flags look further). The fields,
- * the tile flags, the saturations and the skipped tiles must be equal after the steps. */
-#define VEL_CHECK_STEPS 6u
+ * same start, on grids 64 x 64 (the band kernel, the wall rows) and 128 x 32 (128 cells a row: two
+ * passes of 64): the lowest quarter at the bounds (the momentum and the heights clamp), the rest
+ * still but for two rows of the last tile column in the last band (the tile's first row sums to 0:
+ * the flags look further; tiles away from both fall asleep, so bands with sleeping tiles take the C
+ * kernel's runs). The fields, the tile flags, the saturations and the skipped tiles must be equal
+ * after the steps. */
+#define VEL_CHECK_STEPS 12u
 
 static void vel_check_field(struct swell_wave *w)
 {
+	const uint32_t nx = w->nx, ny = w->ny, last = nx / SWELL_WAVE_TILE - 1u;
 	uint32_t n, i, j;
 
-	for (n = 0; n < FW_SCENE_NX * FW_SCENE_NY; n++) {
-		i = n % FW_SCENE_NX;
-		j = n / FW_SCENE_NX;
-		if (j < FW_SCENE_NY / 2) { /* alternating at the bounds */
+	for (n = 0; n < nx * ny; n++) {
+		i = n % nx;
+		j = n / nx;
+		if (j < ny / 4) { /* alternating at the bounds */
 			w->h[n] = (i + j) % 2 ? SWELL_HV_MAX : SWELL_HV_MIN + (int32_t)(n % 5u);
 			w->u[n] = (i * 3 + j) % 4 ? SWELL_H_MAX - (int32_t)(n % 7u) : SWELL_H_MIN;
-		} else { /* still, but rows 3 and 4 of the odd tiles */
+		} else { /* still, but two rows of the last tile column */
 			w->h[n] = 0;
-			w->u[n] = (j % 8 == 3 || j % 8 == 4) && (i / 8) % 2
+			w->u[n] = (j == ny - 5 || j == ny - 4) && i / 8 == last
 				? (int32_t)(n * 2654435761u % 20001u) - 10000
 				: 0;
 		}
@@ -277,14 +281,20 @@ static void vel_check_field(struct swell_wave *w)
 	swell_wave_set_sleep(w, 1);
 }
 
-static int run_vel_kernel_check(void)
+/* One grid nx x ny, both kernels: 1 if they agree and something clamped */
+static int vel_kernel_check(uint16_t nx, uint16_t ny)
 {
+	struct swell_wave_params p = { .damping = FW_COST_DAMPING, .stencil = SWELL_STENCIL_PAPER };
 	uint32_t sum[2] = { 0, 0 }, sat[2] = { 0, 0 }, skipped[2] = { 0, 0 }, k, n;
-	uint8_t tiles[FW_SCENE_NX / SWELL_WAVE_TILE * FW_SCENE_NY / SWELL_WAVE_TILE];
+	uint8_t tiles[FW_SCENE_NX * FW_SCENE_NY / (SWELL_WAVE_TILE * SWELL_WAVE_TILE)];
 	int same_tiles = 1;
 
+	if (swell_wave_e_from_physical(FW_SCENE_G_MM_S2, FW_SCENE_DT_US, FW_SCENE_DEPTH_UM, FW_SCENE_DX_UM, &p.e) !=
+		    SWELL_OK ||
+	    (uint32_t)nx * ny > FW_SCENE_NX * FW_SCENE_NY)
+		return 0;
 	for (k = 0; k < 2; k++) {
-		if (fw_cost_scene_init(&wave, wave_storage, FW_SCENE_WORDS, FW_COST_AGITATED, SWELL_FORM_VELOCITY) !=
+		if (swell_wave_init_form(&wave, nx, ny, wave_storage, FW_SCENE_WORDS, &p, SWELL_FORM_VELOCITY) !=
 			    SWELL_OK ||
 		    swell_wave_set_kernel(&wave, k ? SWELL_KERNEL_FUSED : SWELL_KERNEL_REF) != SWELL_OK)
 			return 0;
@@ -297,9 +307,11 @@ static int run_vel_kernel_check(void)
 		if (!k)
 			memcpy(tiles, wave.tile, sizeof(tiles));
 		else
-			same_tiles = memcmp(tiles, wave.tile, sizeof(tiles)) == 0;
+			same_tiles = memcmp(tiles, wave.tile, (size_t)wave.tiles_x * wave.tiles_y) == 0;
 	}
-	con_puts_u32("velocity kernel check: ", VEL_CHECK_STEPS);
+	con_puts_u32("velocity kernel check ", nx);
+	con_puts_u32("x", ny);
+	con_puts_u32(": ", VEL_CHECK_STEPS);
 	con_puts_hex32(" clamping steps, reference 0x", sum[0]);
 	con_puts_hex32(" assembly 0x", sum[1]);
 	con_puts_u32(", saturations ", sat[0]);
@@ -307,7 +319,13 @@ static int run_vel_kernel_check(void)
 	con_puts_u32(", tiles skipped ", skipped[0]);
 	con_puts_u32(" and ", skipped[1]);
 	con_puts(same_tiles ? ", tile flags equal\n" : ", tile flags DIFFER\n");
-	return sum[0] == sum[1] && sat[0] == sat[1] && sat[0] > 0 && skipped[0] == skipped[1] && same_tiles;
+	return sum[0] == sum[1] && sat[0] == sat[1] && sat[0] > 0 && skipped[0] == skipped[1] && skipped[0] > 0 &&
+		same_tiles;
+}
+
+static int run_vel_kernel_check(void)
+{
+	return vel_kernel_check(FW_SCENE_NX, FW_SCENE_NY) & vel_kernel_check(2 * FW_SCENE_NX, FW_SCENE_NY / 2);
 }
 
 static void run_naive(void)

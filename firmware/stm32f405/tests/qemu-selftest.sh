@@ -32,7 +32,7 @@ echo "qemu-selftest: cost scenes, target: $(echo $costs); host (reference kernel
 [ "$costs" = "$hcost" ] || { echo "qemu-selftest: FAIL: cost scene checksums differ"; exit 1; }
 # the M4 assembly kernel against the reference kernel on the image, on a field that clamps (the
 # self-test fails on a difference; shown here)
-echo "qemu-selftest: $(grep '^velocity kernel check: ' "$out")"
+grep '^velocity kernel check ' "$out" | sed 's/^/qemu-selftest: /'
 # the velocity form's budget on the agitated pool (instructions per cell-step under -icount, exact):
 # measured 19.6 (8 bytes a cell, the heights' update and the fixers included), against 86.2 for the
 # edge-flux form in the same run
