@@ -42,6 +42,18 @@ static int tile_row_has(const struct swell_wave *w, const uint8_t *trow, uint8_t
 	return 0;
 }
 
+#if SWELL_WAVE_DSP
+/* How many tiles of a row of tiles sleep */
+static int tiles_asleep(const struct swell_wave *w, const uint8_t *trow)
+{
+	int x, n = 0;
+
+	for (x = 0; x < w->tiles_x; x++)
+		n += (trow[x] & T_SLEEPING) != 0;
+	return n;
+}
+#endif
+
 /* 1 if every tile of a row of tiles has the flag: four flag bytes a word. */
 static int tile_row_all(const struct swell_wave *w, const uint8_t *trow, uint8_t flag)
 {
@@ -487,7 +499,10 @@ static inline int step_row(struct swell_wave *w, int j, int end, int damp)
 	}
 	if (w->form == SWELL_FORM_VELOCITY) {
 #if SWELL_WAVE_DSP
-		if (damp && w->kernel != SWELL_KERNEL_REF && (!w->sleep || !tile_row_has(w, trow, T_SLEEPING))) {
+		/* a band with a quarter of its tiles asleep or fewer: computed whole (a sleeping tile gives 0
+		 * again), cheaper than runs between them */
+		if (damp && w->kernel != SWELL_KERNEL_REF &&
+		    (!w->sleep || !tile_row_has(w, trow, T_SLEEPING) || tiles_asleep(w, trow) * 4 <= w->tiles_x)) {
 			int j1 = (ty + 1) * SWELL_WAVE_TILE < end ? (ty + 1) * SWELL_WAVE_TILE : end;
 
 			j1 = j1 < w->ny - 1 ? j1 : w->ny - 1; /* the top wall's row on its own */

@@ -93,15 +93,16 @@ void swell_wave_vel_ref(struct swell_wave *w, int j, int tx0, int tx1, int damp,
 void swell_wave_vel_fused(struct swell_wave *w, int j, int tx0, int tx1, int damp, int64_t sum[2], int32_t *any);
 
 #if SWELL_WAVE_DSP
-/* Row j whole (no tile of it asleep), damped with F = 0, on the M4 in assembly: the new u, the sums
- * added to w->vel_sum and w->vel_sum_h, T_NONZERO set in trow where a tile moved, saturations counted
- * as swell_wave_vel_fused's runs of 8 tiles count them; the same bits. 0 (nothing done) unless the
- * grid is 64 cells wide, or 128 and j is not a wall's row, and q > 2^29. */
+/* Row j, the first or the last, whole (no tile of it asleep), damped with F = 0, in a grid 64 cells
+ * wide, in assembly: the same bits, flags, sums and saturations as swell_wave_vel_fused's run of the
+ * row. 0 (nothing done) where it does not apply. */
 int swell_wave_vel_row_m4(struct swell_wave *w, int j, uint8_t *trow);
-/* Rows [j0, j1) of one band (its flags trow, no tile asleep), damped with F = 0, in a grid 64 cells
- * wide, none of them a wall's row, and done_row = j0 - 1: the same as swell_wave_vel_row_m4 for each,
- * and the heights one row behind (update_rows' bits and counts): rows [j0 - 1, j1 - 1) become h(n+1),
- * done_row j1 - 1. 0 (nothing done) where it does not apply. */
+/* Rows [j0, j1) of one band (its flags trow), damped with F = 0, in a grid 64 or 128 cells wide,
+ * none of them a wall's row, and done_row = j0 - 1: every tile computed (a sleeping tile's new u are
+ * 0: it has not moved for two steps and nothing around it changed, so its stencil reads what gave 0
+ * before; it is not counted as skipped), the same bits, flags, sums and saturations as
+ * swell_wave_vel_fused's runs, and the heights one row behind (update_rows' bits and counts): rows
+ * [j0 - 1, j1 - 1) become h(n+1), done_row j1 - 1. 0 (nothing done) where it does not apply. */
 int swell_wave_vel_band_m4(struct swell_wave *w, int j0, int j1, uint8_t *trow);
 #endif
 

@@ -211,7 +211,8 @@ static inline __attribute__((always_inline)) void vel_run(struct swell_wave *w, 
 	"ldr " T2 ", [r0], #8\n\tadd " T0 ", " T0 ", " T2                                                   \
 	", lsl #1\n\t" VR_X(SL, SL, SC, T0, CC) "ldrd " CC ", " T4 ", [r1]\n\t" VR_CELL(SL, CC)             \
 		VR_X(SC, SC, T0, T0, T2) VR_CELL(SC, T4) "strd " SL ", " SC ", [r1], #8\n\t"
-/* clang-format off: assembly laid out by hand, an instruction group a line */
+/* The assembly is laid out by hand, an instruction group a line: */
+/* clang-format off */
 #define VR_A(DN, UP) VR_PAIR("r4", "r5", "r6", "r7", "r8", "r9", "r10", "r11", DN, UP)
 #define VR_B(DN, UP) VR_PAIR("r7", "r8", "r10", "r4", "r5", "r9", "r6", "r11", DN, UP)
 #define VR_BLOCK(DN, UP) VR_A(DN, UP) VR_B(DN, UP) VR_A(DN, UP) VR_B(DN, UP)
@@ -238,7 +239,6 @@ static inline __attribute__((always_inline)) void vel_run(struct swell_wave *w, 
 	}
 VR_ROW_FN(vel_row_bottom64, "0", "256", "-4", "252")
 VR_ROW_FN(vel_row_top64, "-256", "0", "-260", "-4")
-VR_ROW_FN(vel_row_mid128, "-512", "512", "-516", "508")
 
 /* The heights' update of the row below (rows are 64 cells): h = SSAT27(h + u), four cells an LDM of u
  * (lr), an LDM of h (r12), four ADD and SSAT and an STM; unrolled, no register left for a counter */
@@ -252,56 +252,74 @@ VR_ROW_FN(vel_row_mid128, "-512", "512", "-516", "508")
 #define VR_Q(HERE, BACK)                                                                        \
 	HERE ":\tldr r8, [sp]\n\tldr r9, [r8, #12]\n\tadds r9, r9, #1\n\tstr r9, [r8, #12]\n\t" \
 	     "movs r9, #0\n\tmsr APSR_nzcvq, r9\n\tb " BACK "\n"
-/* k[2] rows of a band, each a whole row with rows above and below in a grid 64 cells wide: the row's
- * new u (as the row kernels: its running block sums, 8 a row from r2 = a 32-byte boundary + 4, from 0
- * at each row), the row's sum added to k[4], k[5] (int64, low word first), then the heights of the
- * row below it become h(n+1) (its u are final and no later row reads its h(n)). A row whose momentum
- * clamped and a row whose heights clamped each count one in k[3] (the Q flag, clear on entry, read
- * after each). */
-static __attribute__((naked, noinline)) void vel_band64(const int32_t *hp __attribute__((unused)),
-							int32_t *up __attribute__((unused)),
-							int32_t *ap __attribute__((unused)),
-							int32_t *k __attribute__((unused)))
+/* The running block sums of 8 blocks (LOAD puts them in r4-r11) as four sums of 16 cells, each
+ * exact, added to the 64-bit k[4], k[5]; the first sum is from 0, or with PRE from the running sum in
+ * r12; POST may keep the last running sum in r12 */
+#define VR_SUM8(LOAD, PRE, POST) \
+	LOAD "sub r10, r11, r9\n\tsub r9, r9, r7\n\tsub r7, r7, r5\n\t" PRE POST \
+	"ldr r8, [sp]\n\tldrd r4, r6, [r8, #16]\n\t" \
+	"adds r4, r4, r5\n\tadc r6, r6, r5, asr #31\n\tadds r4, r4, r7\n\tadc r6, r6, r7, asr #31\n\t" \
+	"adds r4, r4, r9\n\tadc r6, r6, r9, asr #31\n\tadds r4, r4, r10\n\tadc r6, r6, r10, asr #31\n\t" \
+	"strd r4, r6, [r8, #16]\n\t"
+/* k[2] rows of a band, each a whole row with rows above and below: the row's new u (as the row
+ * kernels: its running block sums from 0 at the row's start, nx / 8 a row from r2 = an aligned
+ * boundary + 4, the loop's end where the next store would reach the boundary: MASK), the row's sum
+ * added to k[4], k[5] (int64, low word first: SUMS), then the heights of the row below it become
+ * h(n+1) (its u are final and no later row reads its h(n): UPDATE from r12 = h, lr = u, the offsets
+ * HB and UB back from r0 and r1). A row whose momentum clamped and a row whose heights clamped each
+ * count one in k[3] (the Q flag, clear on entry, read after each). */
+#define VR_BAND_FN(NAME, DN, UP, DN4, UP4, MASK, SUMS, HB, UB, UPDATE) \
+	static __attribute__((naked, noinline)) void NAME(const int32_t *hp __attribute__((unused)), \
+							  int32_t *up __attribute__((unused)), \
+							  int32_t *ap __attribute__((unused)), \
+							  int32_t *k __attribute__((unused))) \
+	{ \
+		__asm__ volatile("push {r3-r11, lr}\n\tldrd r12, lr, [r3]\n" \
+				 "4:\tmovs r3, #0\n\t" VR_FIRST(DN4, UP4) "mov r4, r5\n" /* sl: the west wall */ \
+				 "1:\t" VR_BLOCK(DN, UP) "str r3, [r2], #4\n\ttst r2, #" MASK "\n\tbne 1b\n\t" \
+				 VR_BLOCK_EAST(DN, UP) "str r3, [r2], #4\n\t" \
+				 "mrs r7, APSR\n\ttst r7, #0x8000000\n\tbne 5f\n" \
+				 "6:\t" SUMS \
+				 "sub r12, r0, #" HB "\n\tsub lr, r1, #" UB "\n\t" UPDATE \
+				 "mrs r7, APSR\n\ttst r7, #0x8000000\n\tbne 7f\n" \
+				 /* the next row */ \
+				 "8:\tldr r7, [sp]\n\tldrd r12, lr, [r7]\n\tldr r8, [r7, #8]\n\tsubs r8, r8, #1\n\t" \
+				 "str r8, [r7, #8]\n\tbne 4b\n\tpop {r3-r11, pc}\n" \
+				 VR_Q("5", "6b") VR_Q("7", "8b")); \
+	}
+/* 64 cells: 8 block sums a row from a 32-byte boundary + 4, the update unrolled */
+VR_BAND_FN(vel_band64, "-256", "256", "-260", "252", "31", VR_SUM8("ldmdb r2, {r4-r11}\n\t", "", ""),
+	   "516", "512",
+	   VR_ADD16 VR_ADD16 VR_ADD16 VR_ADD16)
+/* 128 cells: the row in two halves of 64, as the C driver's runs of 8 tiles, so that a half whose
+ * momentum clamped counts one; 24 words a row from a 32-byte boundary: the first half's 8 block sums,
+ * a gap, the second half's 8 (the sums run on over the row), a gap to the next boundary; the update
+ * a loop (r3 is free then) */
+static __attribute__((naked, noinline)) void vel_band128(const int32_t *hp __attribute__((unused)),
+							 int32_t *up __attribute__((unused)),
+							 int32_t *ap __attribute__((unused)),
+							 int32_t *k __attribute__((unused)))
 {
-	__asm__ volatile(
-		"push {r3-r11, lr}\n\tldrd r12, lr, [r3]\n"
-		"4:\tmovs r3, #0\n\t" VR_FIRST(
-			"-260",
-			"252") "mov r4, r5\n" /* sl: the west wall */
-			       "1:\t" VR_BLOCK(
-				       "-256",
-				       "256") "str r3, [r2], #4\n\ttst r2, #31\n\tbne "
-					      "1b\n\t" VR_BLOCK_EAST(
-						      "-256",
-						      "256") "str r3, [r2], #4\n\t"
-							     "mrs r7, APSR\n\ttst r7, "
-							     "#0x8000000\n\tbne 5f\n"
-							     /* the row's sum into k[4], k[5] (64 bits): four sums of 16 cells, each exact */
-							     "6:\tldmdb r2, {r4-r11}\n\tsub r11, r11, "
-							     "r9\n\tsub r9, r9, r7\n\tsub r7, r7, "
-							     "r5\n\t"
-							     "ldr r8, [sp]\n\tldrd r4, r6, [r8, "
-							     "#16]\n\t"
-							     "adds r4, r4, r5\n\tadc r6, r6, r5, asr "
-							     "#31\n\tadds r4, r4, r7\n\tadc r6, r6, "
-							     "r7, asr #31\n\t"
-							     "adds r4, r4, r9\n\tadc r6, r6, r9, asr "
-							     "#31\n\tadds r4, r4, r11\n\tadc r6, r6, "
-							     "r11, asr #31\n\t"
-							     "strd r4, r6, [r8, #16]\n\t"
-							     /* the row below becomes h(n+1) */
-							     "sub r12, r0, #516\n\tsub lr, r1, "
-							     "#512\n\t" VR_ADD16 VR_ADD16 VR_ADD16 VR_ADD16
-							     "mrs r7, APSR\n\ttst r7, "
-							     "#0x8000000\n\tbne 7f\n"
-							     /* the next row */
-							     "8:\tldr r7, [sp]\n\tldrd r12, lr, "
-							     "[r7]\n\tldr r8, [r7, #8]\n\tsubs r8, r8, "
-							     "#1\n\t"
-							     "str r8, [r7, #8]\n\tbne 4b\n\tpop "
-							     "{r3-r11, pc}\n" VR_Q("5", "6b") VR_Q("7", "8b"));
+	__asm__ volatile("push {r3-r11, lr}\n\tldrd r12, lr, [r3]\n"
+			 "4:\tmovs r3, #0\n\t" VR_FIRST("-516", "508") "mov r4, r5\n" /* sl: the west wall */
+			 "1:\t" VR_BLOCK("-512", "512") "str r3, [r2], #4\n\ttst r2, #31\n\tbne 1b\n\t"
+			 "mrs r7, APSR\n\ttst r7, #0x8000000\n\tbne 10f\n"
+			 "11:\tadd r2, r2, #4\n"
+			 "2:\t" VR_BLOCK("-512", "512") "str r3, [r2], #4\n\ttst r2, #31\n\tbne 2b\n\t"
+			 VR_BLOCK_EAST("-512", "512") "str r3, [r2], #4\n\t"
+			 "mrs r7, APSR\n\ttst r7, #0x8000000\n\tbne 5f\n"
+			 "6:\t" VR_SUM8("sub lr, r2, #68\n\tldmia lr, {r4-r11}\n\t", "", "mov r12, r11\n\t")
+			 VR_SUM8("ldmdb r2, {r4-r11}\n\t", "sub r5, r5, r12\n\t", "") "add r2, r2, #28\n\t"
+			 "sub r12, r0, #1028\n\tsub lr, r1, #1024\n\tmovs r3, #8\n"
+			 "9:\t" VR_ADD16 "subs r3, r3, #1\n\tbne 9b\n\t"
+			 "mrs r7, APSR\n\ttst r7, #0x8000000\n\tbne 7f\n"
+			 "8:\tldr r7, [sp]\n\tldrd r12, lr, [r7]\n\tldr r8, [r7, #8]\n\tsubs r8, r8, #1\n\t"
+			 "str r8, [r7, #8]\n\tbne 4b\n\tpop {r3-r11, pc}\n"
+			 VR_Q("5", "6b") VR_Q("7", "8b") VR_Q("10", "11b"));
 }
 /* clang-format on */
+#undef VR_BAND_FN
+#undef VR_SUM8
 #undef VR_Q
 #undef VR_ADD16
 #undef VR_ADD4
@@ -322,61 +340,43 @@ static int vel_m4_fits(const struct swell_wave *w)
 	return !w->vel_frac && w->q > ((int32_t)1 << 29);
 }
 
-/* The tiles of a run of 8 (its flags trow, its u from u) that moved in this step get T_NONZERO, from
- * the run's 8 block sums s (running sums of the new u): a block whose sum is 0 looks at its cells */
-static void vel_m4_flags(uint8_t *trow, const int32_t *u, const int32_t *s, int32_t before)
+/* Where the running sum after block b of a band's row is, from the row's first (the 128-cell rows'
+ * halves are a word apart) */
+static inline int vel_m4_at(int b)
 {
-	static const uint32_t nonzero = 0x01010101u * T_NONZERO;
-	uint32_t f0, f1;
-	int b, a;
-
-	memcpy(&f0, trow, 4);
-	memcpy(&f1, trow + 4, 4);
-	if ((f0 & f1 & nonzero) == nonzero) /* moving water: every tile already moved in this step */
-		return;
-	for (b = 0; b < 8; b++) {
-		int32_t any = (int32_t)((uint32_t)s[b] - (uint32_t)(b ? s[b - 1] : before));
-
-		for (a = 0; !any && a < SWELL_WAVE_TILE; a++)
-			any |= u[b * SWELL_WAVE_TILE + a];
-		if (any)
-			trow[b] |= T_NONZERO;
-	}
+	return b + (b >= SWELL_WAVE_TILE);
 }
 
-/* The sum of a run of 8 block sums s (running, from before): four sums of 16 cells, each exact in
- * int32 */
-static int64_t vel_m4_sum(const int32_t *s, int32_t before)
+/* 1 if tile b of the band's n rows (their running block sums v, stride words a row; u from the
+ * tile's first cell of the first row, nx a row) has a non-zero u: the case where the first row's
+ * block sums to 0 (rare in moving water, every tile in still water that is awake) */
+static __attribute__((noinline)) int vel_m4_moved(const int32_t *v, int stride, const int32_t *u, int nx, int n, int b)
 {
-	return (int64_t)(int32_t)((uint32_t)s[1] - (uint32_t)before) + (int32_t)((uint32_t)s[3] - (uint32_t)s[1]) +
-		(int32_t)((uint32_t)s[5] - (uint32_t)s[3]) + (int32_t)((uint32_t)s[7] - (uint32_t)s[5]);
-}
+	const int at = vel_m4_at(b), before = b ? vel_m4_at(b - 1) : -1;
+	uint32_t any = 0;
+	int r;
 
-/* 1 if tile b of the band's n rows (their running block sums v, u from the tile's first cell of the
- * first row) has a non-zero u: the rare case where the first row's block sums to 0 */
-static __attribute__((noinline)) int vel_m4_moved(const int32_t *v, const int32_t *u, int n, int b)
-{
-	int32_t any = 0;
-	int r, a;
-
-	for (r = 0; !any && r < n; r++)
-		any = v[8 * r + b] - (b ? v[8 * r + b - 1] : 0);
-	for (r = 0; !any && r < n * 64; r += 64)
-		for (a = 0; a < SWELL_WAVE_TILE; a++)
-			any |= u[r + a];
+	for (r = 0; r < n; r++, v += stride)
+		if (v[at] != (before < 0 ? 0 : v[before]))
+			return 1;
+	for (r = 0; r < n; r++, u += nx) /* the block sums are all 0: the cells */
+		any |= (uint32_t)(u[0] | u[1] | u[2] | u[3]) | (uint32_t)(u[4] | u[5] | u[6] | u[7]);
 	return any != 0;
 }
 
 int swell_wave_vel_band_m4(struct swell_wave *w, int j0, int j1, uint8_t *trow)
 {
-	int32_t sums[8 * SWELL_WAVE_TILE + 8] __attribute__((aligned(32)));
-	const int32_t *v = sums + 1; /* the running sums of each row's blocks, 8 a row */
-	const int n = j1 - j0;
-	int32_t k[6];
+	/* the running block sums of the rows: 8 a row at 64 cells (from a 32-byte boundary + 4), 24
+	 * words a row at 128 (from a boundary) */
+	int32_t sums[24 * SWELL_WAVE_TILE + 8] __attribute__((aligned(32)));
+	const int nx = w->nx, n = j1 - j0, wide = nx == 128;
+	const int32_t *v = wide ? sums : sums + 1;
+	const int stride = wide ? 24 : 8;
+	int32_t k[6], prev = 0;
 	int64_t tot;
 	int b;
 
-	if (w->nx != 64 || j0 < 1 || j1 >= w->ny || n < 1 || n > SWELL_WAVE_TILE || w->done_row != j0 - 1 ||
+	if ((nx != 64 && !wide) || j0 < 1 || j1 >= w->ny || n < 1 || n > SWELL_WAVE_TILE || w->done_row != j0 - 1 ||
 	    !vel_m4_fits(w))
 		return 0;
 	k[0] = (int32_t)(w->e_eff * 2);
@@ -385,54 +385,54 @@ int swell_wave_vel_band_m4(struct swell_wave *w, int j0, int j1, uint8_t *trow)
 	k[3] = 0;
 	k[4] = k[5] = 0;
 	swell_q_clear();
-	vel_band64(w->h + (size_t)j0 * 64 + 1, w->u + (size_t)j0 * 64, sums + 1, k);
+	(wide ? vel_band128 : vel_band64)(w->h + (size_t)j0 * nx + 1, w->u + (size_t)j0 * nx, (int32_t *)v, k);
 	w->saturations += (uint32_t)k[3];
 	tot = (int64_t)((uint64_t)(uint32_t)k[5] << 32 | (uint32_t)k[4]);
 	w->vel_sum += tot;
 	w->vel_sum_h += tot;
-	for (b = 0; b < 8; b++) /* a tile moved: its first row's block sum is not 0, or else one of its u */
+	for (b = 0; b < w->tiles_x; b++) { /* a tile moved: its first row's block sums to non-zero, or one of its u */
+		const int32_t cur = v[vel_m4_at(b)];
+
 		if (!(trow[b] & T_NONZERO) &&
-		    (v[b] != (b ? v[b - 1] : 0) || vel_m4_moved(v, w->u + (size_t)j0 * 64 + b * SWELL_WAVE_TILE, n, b)))
+		    (cur != prev || vel_m4_moved(v, stride, w->u + (size_t)j0 * nx + b * SWELL_WAVE_TILE, nx, n, b)))
 			trow[b] |= T_NONZERO;
+		prev = cur;
+	}
 	w->done_row = (uint16_t)(j1 - 1);
 	return 1;
 }
 
 int swell_wave_vel_row_m4(struct swell_wave *w, int j, uint8_t *trow)
 {
-	void (*row)(const int32_t *, int32_t *, int32_t *, const int32_t *);
 	int32_t sums[17] __attribute__((aligned(64)));
-	const int nx = w->nx, mid = j > 0 && j + 1 < w->ny;
-	int32_t k[4];
-	int64_t tot = 0;
-	int i0;
+	int32_t *s = sums + 9; /* the 8th sum at the 64-byte boundary */
+	const int32_t *hc = w->h + (size_t)j * 64;
+	int32_t k[4], any;
+	int64_t tot;
+	int b, a;
 
-	if (!vel_m4_fits(w) || w->ny < 2)
-		return 0;
-	if (nx == 64 && !mid) /* the other rows: swell_wave_vel_band_m4 */
-		row = j ? vel_row_top64 : vel_row_bottom64;
-	else if (nx == 128 && mid)
-		row = vel_row_mid128;
-	else
+	if (w->nx != 64 || (j > 0 && j + 1 < w->ny) || w->ny < 2 || !vel_m4_fits(w))
 		return 0;
 	k[0] = (int32_t)(w->e_eff * 2);
 	k[1] = (int32_t)(0u - 4u * (uint32_t)w->q);
-	for (i0 = 0; i0 < nx; i0 += 64, trow += 8) { /* runs of 8 tiles, as step_row_vel's */
-		const int32_t *hc = w->h + (size_t)j * nx + i0, *u = w->u + (size_t)j * nx + i0;
-		const int east = i0 + 64 == nx;
-		const int dn = j ? -nx : 0, up = j + 1 < w->ny ? nx : 0;
-		int32_t *s = sums + 16 - (8 - east); /* the 8th sum at the 64-byte boundary */
-
-		k[2] = i0 ? hc[dn - 1] + hc[up - 1] + 2 * hc[-1] : hc[dn] + hc[up] + 2 * hc[0];
-		k[3] = east;
-		swell_q_clear();
-		row(hc + 1, w->u + (size_t)j * nx + i0, s, k);
-		w->saturations += swell_q_take();
-		tot += vel_m4_sum(s, 0);
-		vel_m4_flags(trow, u, s, 0);
-	}
+	k[2] = j ? hc[-64] + 2 * hc[0] + hc[0] : hc[0] + 2 * hc[0] + hc[64]; /* mirrored west, and below or above */
+	k[3] = 1;
+	swell_q_clear();
+	(j ? vel_row_top64 : vel_row_bottom64)(hc + 1, w->u + (size_t)j * 64, s, k);
+	w->saturations += swell_q_take();
+	tot = (int64_t)s[1] + (int32_t)((uint32_t)s[3] - (uint32_t)s[1]) + (int32_t)((uint32_t)s[5] - (uint32_t)s[3]) +
+		(int32_t)((uint32_t)s[7] - (uint32_t)s[5]); /* sums of 16 cells, exact in int32 */
 	w->vel_sum += tot;
 	w->vel_sum_h += tot;
+	for (b = 0; b < 8; b++) {
+		if (trow[b] & T_NONZERO)
+			continue;
+		any = (int32_t)((uint32_t)s[b] - (uint32_t)(b ? s[b - 1] : 0));
+		for (a = 0; !any && a < SWELL_WAVE_TILE; a++) /* a block's sum is 0: are its u all 0? */
+			any |= w->u[(size_t)j * 64 + (size_t)b * SWELL_WAVE_TILE + (size_t)a];
+		if (any)
+			trow[b] |= T_NONZERO;
+	}
 	return 1;
 }
 #endif
