@@ -34,7 +34,7 @@ echo "qemu-selftest: cost scenes, target: $(echo $costs); host (reference kernel
 # self-test fails on a difference; shown here)
 grep '^velocity kernel check ' "$out" | sed 's/^/qemu-selftest: /'
 # the velocity form's budget on the agitated pool (instructions per cell-step under -icount, exact):
-# measured 19.6 (8 bytes a cell, the heights' update and the fixers included), against 86.2 for the
+# measured 19.7 (8 bytes a cell, the heights' update and the fixers included), against 86.2 for the
 # edge-flux form in the same run
 vel_budget=20
 edge_ag=$(sed -n 's/^cost scene agitated: \([0-9.]*\) instructions.*/\1/p' "$out")
@@ -67,9 +67,9 @@ grep -q '^pool: set pool.ny 136 in boot: NACK size out of range, pool still 128x
 	{ echo "qemu-selftest: FAIL: 128 x 136 was not refused as too big with nothing changed"; exit 1; }
 grep -q '^pool128x128 at 2500 Hz: worst background [0-9].*; overruns 0$' "$out" ||
 	{ echo "qemu-selftest: FAIL: the 128 x 128 pool overran its 2500 Hz tick"; exit 1; }
-# and its worst whole tick at most 90 % of the period in instructions (measured 88.0 %)
+# and its worst whole tick at most 85 % of the period in instructions (measured 81.6 %)
 pool_whole=$(sed -n 's/^pool128x128 at 2500 Hz: .*worst whole tick [0-9.]* (\([0-9.]*\) %).*/\1/p' "$out")
-pool_budget_pct=90
+pool_budget_pct=85
 awk -v w="$pool_whole" -v b="$pool_budget_pct" 'BEGIN { exit !(w != "" && w + 0 <= b) }' ||
 	{ echo "qemu-selftest: FAIL: the 128 x 128 pool's worst whole tick $pool_whole % is over its budget of $pool_budget_pct %"; exit 1; }
 { grep '^memory: ' "$out"; grep '^pool: [0-9]' "$out" | tail -1; } | sed 's/^/qemu-selftest: /'
@@ -82,7 +82,7 @@ grep '^\(core\|pool\).* Hz: worst background [0-9]' "$out" | sed 's/^/qemu-selft
 # the cycle model of docs/stm32f405.md (tools/bench/m4-cycles.py on a trace of the force path:
 # 1.81 cycles an instruction; its solver kernels 1.27): the force path (device sample to FORCE_CMD)
 # at most 2850 instructions, measured 2744; the worst whole tick at most 31 % of the period at one
-# instruction a cycle, measured 28.9 % (the aim of 35 % is reached, see docs/stm32f405.md; its
+# instruction a cycle, measured 28.5 % (the aim of 35 % is reached, see docs/stm32f405.md; its
 # cycles by the model: qemu-arm.worst-tick-cycles-within-budget)
 force_budget=2850 tick_budget_pct=31
 line=$(grep '^core at 2500 Hz: worst background [0-9]' "$out")
