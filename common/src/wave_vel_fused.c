@@ -370,7 +370,7 @@ int swell_wave_vel_band_m4(struct swell_wave *w, int j0, int j1, uint8_t *trow)
 	 * words a row at 128 (from a boundary) */
 	int32_t sums[24 * SWELL_WAVE_TILE + 8] __attribute__((aligned(32)));
 	const int nx = w->nx, n = j1 - j0, wide = nx == 128;
-	const int32_t *v = wide ? sums : sums + 1;
+	int32_t *v = wide ? sums : sums + 1;
 	const int stride = wide ? 24 : 8;
 	int32_t k[6], prev = 0;
 	int64_t tot;
@@ -385,7 +385,7 @@ int swell_wave_vel_band_m4(struct swell_wave *w, int j0, int j1, uint8_t *trow)
 	k[3] = 0;
 	k[4] = k[5] = 0;
 	swell_q_clear();
-	(wide ? vel_band128 : vel_band64)(w->h + (size_t)j0 * nx + 1, w->u + (size_t)j0 * nx, (int32_t *)v, k);
+	(wide ? vel_band128 : vel_band64)(w->h + (size_t)j0 * nx + 1, w->u + (size_t)j0 * nx, v, k);
 	w->saturations += (uint32_t)k[3];
 	tot = (int64_t)((uint64_t)(uint32_t)k[5] << 32 | (uint32_t)k[4]);
 	w->vel_sum += tot;
