@@ -254,15 +254,15 @@ static int run_cost_split(void)
 /* The damped velocity kernel in M4 assembly against the reference kernel, both on the image, from the
  * same start, on grids 64 x 64 (the band kernel, the wall rows) and 128 x 32 (128 cells a row: two
  * passes of 64): the lowest quarter at the bounds (the momentum and the heights clamp), the rest
- * still but for two rows of the last tile column in the last band (the tile's first row sums to 0:
- * the flags look further; tiles away from both fall asleep, so bands with sleeping tiles take the C
- * kernel's runs). The fields, the tile flags, the saturations and the skipped tiles must be equal
- * after the steps. */
+ * still but for two rows of the first five eighths of the last band (its tiles' first rows sum to 0:
+ * the flags look further). Tiles away from both fall asleep: bands with many sleeping tiles take the
+ * C kernel's runs, bands with a few are computed whole by the assembly (sleeping tiles included, so
+ * it skips fewer). The fields, the tile flags and the saturations must be equal after the steps. */
 #define VEL_CHECK_STEPS 12u
 
 static void vel_check_field(struct swell_wave *w)
 {
-	const uint32_t nx = w->nx, ny = w->ny, last = nx / SWELL_WAVE_TILE - 1u;
+	const uint32_t nx = w->nx, ny = w->ny, last = nx / SWELL_WAVE_TILE - 1u; /* the last tile column */
 	uint32_t n, i, j;
 
 	for (n = 0; n < nx * ny; n++) {
@@ -273,7 +273,7 @@ static void vel_check_field(struct swell_wave *w)
 			w->u[n] = (i * 3 + j) % 4 ? SWELL_H_MAX - (int32_t)(n % 7u) : SWELL_H_MIN;
 		} else { /* still, but two rows of the last tile column */
 			w->h[n] = 0;
-			w->u[n] = (j == ny - 5 || j == ny - 4) && i / 8 == last
+			w->u[n] = (j == ny - 5 || j == ny - 4) && i / 8 < (last + 1) * 5 / 8
 				? (int32_t)(n * 2654435761u % 20001u) - 10000
 				: 0;
 		}
@@ -319,7 +319,7 @@ static int vel_kernel_check(uint16_t nx, uint16_t ny)
 	con_puts_u32(", tiles skipped ", skipped[0]);
 	con_puts_u32(" and ", skipped[1]);
 	con_puts(same_tiles ? ", tile flags equal\n" : ", tile flags DIFFER\n");
-	return sum[0] == sum[1] && sat[0] == sat[1] && sat[0] > 0 && skipped[0] == skipped[1] && skipped[0] > 0 &&
+	return sum[0] == sum[1] && sat[0] == sat[1] && sat[0] > 0 && skipped[1] <= skipped[0] && skipped[0] > 0 &&
 		same_tiles;
 }
 
