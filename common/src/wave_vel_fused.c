@@ -190,29 +190,31 @@ static inline __attribute__((always_inline)) void vel_run(struct swell_wave *w, 
  * A row (vel_row_*): r0 = &h(j, i0 + 1), r1 = &u(j, i0), r2 = where the block sums go, r3 = { C =
  * 2 e_eff, D, sl of column i0, the east wall: the last block mirrors column i0 + 64 }.
  * Registers: r0 h, r1 u, r2 sums, r3 the running sum, r12 C, lr D, r4-r11 the pair's. */
-#define VR_X(X, L, C, R, H) /* x = 2 L9 = L + R + 2 C - 16 H (column sums L, C, R; centre height H) */ \
+/* The assembly is laid out by hand, an instruction group a line: */
+/* clang-format off */
+/* x = 2 L9 = L + R + 2 C - 16 H (column sums L, C, R; centre height H) into X */
+#define VR_X(X, L, C, R, H) \
 	"add " X ", " L ", " R "\n\tadd " X ", " X ", " C ", lsl #1\n\tsub " X ", " X ", " H ", lsl #4\n\t"
-#define VR_CELL(X, U) /* X = the new u of a cell from x in X, its old u in U (U is spent) */                \
+/* X = the new u of a cell from x in X, its old u in U (U is spent); its sum into r3 */
+#define VR_CELL(X, U) \
 	"smmla " X ", " X ", r12, " U "\n\tadd " U ", " X ", " U "\n\tadd " X ", " X ", " U ", lsr #31\n\t" \
-	"ssat " X ", #28, " X "\n\tsmmls " X ", " X ", lr, " X "\n\tsub " X ", " X ", " X ", asr #31\n\t"   \
+	"ssat " X ", #28, " X "\n\tsmmls " X ", " X ", lr, " X "\n\tsub " X ", " X ", " X ", asr #31\n\t" \
 	"add r3, r3, " X "\n\t"
 /* Two cells k, k + 1: their right columns k + 1, k + 2 (LDRD from the row below at offset DN, above
  * at UP, and the centre row, which advances), their new u (LDRD, STRD); sl, sc, c become T0, T1, T3 */
-#define VR_PAIR(SL, SC, CC, T0, T1, T2, T3, T4, DN, UP)                                                 \
-	"ldrd " T0 ", " T1 ", [r0, #" DN "]\n\tldrd " T2 ", " T3 ", [r0, #" UP "]\n\t"                  \
-	"add " T0 ", " T0 ", " T2 "\n\tadd " T1 ", " T1 ", " T3 "\n\tldrd " T2 ", " T3 ", [r0], #8\n\t" \
-	"add " T0 ", " T0 ", " T2 ", lsl #1\n\tadd " T1 ", " T1 ", " T3                                 \
-	", lsl #1\n\t" VR_X(SL, SL, SC, T0, CC) "ldrd " CC ", " T4 ", [r1]\n\t" VR_CELL(SL, CC)         \
-		VR_X(SC, SC, T0, T1, T2) VR_CELL(SC, T4) "strd " SL ", " SC ", [r1], #8\n\t"
+#define VR_PAIR(SL, SC, CC, T0, T1, T2, T3, T4, DN, UP) \
+	"ldrd " T0 ", " T1 ", [r0, #" DN "]\n\tldrd " T2 ", " T3 ", [r0, #" UP "]\n\t" \
+	"add " T0 ", " T0 ", " T2 "\n\tadd " T1 ", " T1 ", " T3 "\n\t" \
+	"ldrd " T2 ", " T3 ", [r0], #8\n\tadd " T0 ", " T0 ", " T2 ", lsl #1\n\tadd " T1 ", " T1 ", " T3 ", lsl #1\n\t" \
+	VR_X(SL, SL, SC, T0, CC) "ldrd " CC ", " T4 ", [r1]\n\t" VR_CELL(SL, CC) \
+	VR_X(SC, SC, T0, T1, T2) VR_CELL(SC, T4) "strd " SL ", " SC ", [r1], #8\n\t"
 /* The last two cells at the east wall: column k + 2 mirrors k + 1 (its sum T0 twice). A single LDR
  * reaches 255 bytes back at most: the row below by an LDRD whose second word is not used. */
-#define VR_PAIR_EAST(SL, SC, CC, T0, T2, T4, DN, UP)                                                        \
+#define VR_PAIR_EAST(SL, SC, CC, T0, T2, T4, DN, UP) \
 	"ldrd " T0 ", " T2 ", [r0, #" DN "]\n\tldr " T2 ", [r0, #" UP "]\n\tadd " T0 ", " T0 ", " T2 "\n\t" \
-	"ldr " T2 ", [r0], #8\n\tadd " T0 ", " T0 ", " T2                                                   \
-	", lsl #1\n\t" VR_X(SL, SL, SC, T0, CC) "ldrd " CC ", " T4 ", [r1]\n\t" VR_CELL(SL, CC)             \
-		VR_X(SC, SC, T0, T0, T2) VR_CELL(SC, T4) "strd " SL ", " SC ", [r1], #8\n\t"
-/* The assembly is laid out by hand, an instruction group a line: */
-/* clang-format off */
+	"ldr " T2 ", [r0], #8\n\tadd " T0 ", " T0 ", " T2 ", lsl #1\n\t" \
+	VR_X(SL, SL, SC, T0, CC) "ldrd " CC ", " T4 ", [r1]\n\t" VR_CELL(SL, CC) \
+	VR_X(SC, SC, T0, T0, T2) VR_CELL(SC, T4) "strd " SL ", " SC ", [r1], #8\n\t"
 #define VR_A(DN, UP) VR_PAIR("r4", "r5", "r6", "r7", "r8", "r9", "r10", "r11", DN, UP)
 #define VR_B(DN, UP) VR_PAIR("r7", "r8", "r10", "r4", "r5", "r9", "r6", "r11", DN, UP)
 #define VR_BLOCK(DN, UP) VR_A(DN, UP) VR_B(DN, UP) VR_A(DN, UP) VR_B(DN, UP)
