@@ -409,9 +409,9 @@ int swell_wave_vel_row_m4(struct swell_wave *w, int j, uint8_t *trow)
 	int32_t sums[17] __attribute__((aligned(64)));
 	int32_t *s = sums + 9; /* the 8th sum at the 64-byte boundary */
 	const int32_t *hc = w->h + (size_t)j * 64;
-	int32_t k[4], any;
+	int32_t k[4];
 	int64_t tot;
-	int b, a;
+	int b;
 
 	if (w->nx != 64 || (j > 0 && j + 1 < w->ny) || w->ny < 2 || !vel_m4_fits(w))
 		return 0;
@@ -426,15 +426,11 @@ int swell_wave_vel_row_m4(struct swell_wave *w, int j, uint8_t *trow)
 		(int32_t)((uint32_t)s[7] - (uint32_t)s[5]); /* sums of 16 cells, exact in int32 */
 	w->vel_sum += tot;
 	w->vel_sum_h += tot;
-	for (b = 0; b < 8; b++) {
-		if (trow[b] & T_NONZERO)
-			continue;
-		any = (int32_t)((uint32_t)s[b] - (uint32_t)(b ? s[b - 1] : 0));
-		for (a = 0; !any && a < SWELL_WAVE_TILE; a++) /* a block's sum is 0: are its u all 0? */
-			any |= w->u[(size_t)j * 64 + (size_t)b * SWELL_WAVE_TILE + (size_t)a];
-		if (any)
+	for (b = 0; b < 8; b++) /* a tile moved: its block sums to non-zero, or one of its u */
+		if (!(trow[b] & T_NONZERO) &&
+		    (s[b] != (b ? s[b - 1] : 0) ||
+		     vel_m4_moved(s, 8, w->u + (size_t)j * 64 + b * SWELL_WAVE_TILE, 64, 1, b)))
 			trow[b] |= T_NONZERO;
-	}
 	return 1;
 }
 #endif

@@ -262,7 +262,7 @@ static int run_cost_split(void)
 
 static void vel_check_field(struct swell_wave *w)
 {
-	const uint32_t nx = w->nx, ny = w->ny, last = nx / SWELL_WAVE_TILE - 1u; /* the last tile column */
+	const uint32_t nx = w->nx, ny = w->ny, tiles = nx / SWELL_WAVE_TILE;
 	uint32_t n, i, j;
 
 	for (n = 0; n < nx * ny; n++) {
@@ -271,9 +271,9 @@ static void vel_check_field(struct swell_wave *w)
 		if (j < ny / 4) { /* alternating at the bounds */
 			w->h[n] = (i + j) % 2 ? SWELL_HV_MAX : SWELL_HV_MIN + (int32_t)(n % 5u);
 			w->u[n] = (i * 3 + j) % 4 ? SWELL_H_MAX - (int32_t)(n % 7u) : SWELL_H_MIN;
-		} else { /* still, but two rows of the last tile column */
+		} else { /* still, but two rows of the last band's first five eighths */
 			w->h[n] = 0;
-			w->u[n] = (j == ny - 5 || j == ny - 4) && i / 8 < (last + 1) * 5 / 8
+			w->u[n] = (j == ny - 5 || j == ny - 4) && i / SWELL_WAVE_TILE < tiles * 5 / 8
 				? (int32_t)(n * 2654435761u % 20001u) - 10000
 				: 0;
 		}
