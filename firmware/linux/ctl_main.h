@@ -32,6 +32,9 @@ struct port {
 	uint32_t starved; /* times nothing reached the device for silent_ticks ticks in a row */
 	int starving; /* the present run of unsent ticks has been reported */
 	uint32_t releases; /* times the device was declared lost and a learned UDP device let go */
+	int64_t sample_ns; /* when the device's last DEVICE_POS came (0: none yet) */
+	uint32_t faults_seen; /* the core's fault count after the last tick */
+	int64_t fault_ns, fault_sample_ns; /* the last fault: when it began, and sample_ns then */
 };
 
 /* timing statistics: lateness of each wake-up against its deadline */

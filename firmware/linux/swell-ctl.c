@@ -109,6 +109,8 @@ static uint32_t take_input(struct port *p)
 		if (n == 0 && link_idle(&p->dev))
 			break;
 	}
+	if (pos)
+		p->sample_ns = now_ns();
 	/* Read first, poll only when nothing came: on USB the fd is the AIO eventfd, and a write's reap
 	 * (telemetry, flush_output) can take the event of a finished OUT transfer, whose packet would
 	 * then wait for the next transfer to finish. ctl_link_recv never blocks. */
@@ -347,6 +349,11 @@ int main(int argc, char **argv)
 			link_faults(&p);
 			device_starved(&p);
 			swell_ctl_tick(&p.c);
+			if (p.c.n.faults != p.faults_seen) { /* a fault began: for the report */
+				p.faults_seen = p.c.n.faults;
+				p.fault_ns = now_ns();
+				p.fault_sample_ns = p.sample_ns;
+			}
 			ticks++;
 			flush_output(&p);
 			/* the device declared lost (its zero force has just gone to it): a learned UDP device is
