@@ -41,6 +41,8 @@ static const char usage[] =
 	"  --inject SPEC       --serve fault injection (repeatable, up to 8): delay:at=S,for=S,ms=N (replies\n"
 	"                      held N ms), garbage:at=S (16 unframed bytes to every client), reset:at=S\n"
 	"                      (every connection reset), stop:at=S (the device put in stop, as by a client)\n"
+	"  --uncalibrated      --serve fault injection: 'set state init' leaves the device uncalibrated\n"
+	"                      (position_calibrated and force_calibrated stay false)\n"
 	"Device model (m_v a = F_user + F_cmd - b_v v, per axis; see docs/hm.md):\n"
 	"  --mass KG           virtual mass m_v (default 2)\n"
 	"  --damping NS_M      virtual damping b_v in N s/m (default 2)\n"
@@ -213,6 +215,9 @@ void parse(int argc, char **argv, struct opts *o)
 			continue;
 		} else if (!strcmp(a, "--quiet")) {
 			o->quiet = 1;
+			continue;
+		} else if (!strcmp(a, "--uncalibrated")) {
+			o->uncalibrated = 1;
 			continue;
 		} else if (!strcmp(a, "--rt")) {
 			o->rt = 1;

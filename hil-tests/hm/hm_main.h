@@ -29,6 +29,7 @@ struct opts {
 	int n_inj;
 	unsigned port, bind_port, node, iface;
 	int lockstep, quiet, have_start, rt, watchdog_given;
+	int uncalibrated; /* --serve: init does not calibrate (a device whose calibration fails) */
 	unsigned timeout_ms;
 	double seconds, start_mm[3], estop_s[2];
 	double obj_mass_g, obj_a_mm, obj_b_mm, pool_mm[2];

@@ -120,6 +120,7 @@ int serve_main(struct opts *o, FILE *log, const double x0[3])
 	}
 	hm_dev_init(&dev, o->p.rate_hz, o->p.f_max_N);
 	dev.inertia_kg = o->p.mass_kg;
+	dev.init_fails_calibration = o->uncalibrated;
 	dev.watchdog_ticks = (uint32_t)llround(o->bias_watchdog_ms * 1e-3 * o->p.rate_hz);
 	if (o->bias_watchdog_ms > 0 && dev.watchdog_ticks == 0)
 		dev.watchdog_ticks = 1;

@@ -198,6 +198,7 @@ struct bridge {
 	uint64_t ticks, commands, samples_fwd, samples_dropped, silent_ticks, trips, send_errors, ignored;
 	uint64_t hm_trips; /* forces zeroed because the HapticMaster fell silent */
 	int zeroed; /* the watchdog has zeroed the force since the last command */
+	uint32_t refusal_seen; /* the HapticMaster start-up's refusal last printed (hm.refusal_seq) */
 	int hm_zeroed; /* ... since the last answer */
 };
 
@@ -288,6 +289,12 @@ static void tick(struct bridge *b, const struct opts *o)
 	take_commands(b);
 	/* the newest answer only: the controller gets one sample a tick */
 	n = hm_client_poll(&b->hm, in, sizeof(in) / sizeof(in[0]), b->node);
+	if (b->hm.refusal_seq != b->refusal_seen) { /* the start-up stopped before any force: once a reason */
+		b->refusal_seen = b->hm.refusal_seq;
+		fprintf(stderr,
+			"swell-hmbridge: %s: start-up stopped before any force: %s (trying again every %d ms)\n",
+			b->hm.name, b->hm.refusal, HMC_RETRY_MS);
+	}
 	for (k = 0; k + 1 < n; k += 2)
 		newest = &in[k];
 	if (newest) {
