@@ -268,7 +268,7 @@ int main(int argc, char **argv)
 	e = fw_pool_start(&p.c, &o.cfg, &p.mem, &p.place);
 	if (e != SWELL_OK)
 		fprintf(stderr, "swell-ctl: controller refused its configuration: %s\n", swell_err_str(e));
-	if (e != SWELL_OK || (o.scene_path && scene_params(&p.c, &o) < 0)) {
+	if (e != SWELL_OK || (o.scene_path && scene_params(&p.c, &o) < 0) || first_run_limits(&p.c, &o) < 0) {
 		free(arena);
 		return 2;
 	}

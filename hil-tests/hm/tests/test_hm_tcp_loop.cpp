@@ -40,7 +40,7 @@ struct Ctl : swell_test::Proc {
 	{
 		std::vector<std::string> args = {
 			ctl_bin,  "--clock", "device",  "--autorun", "--device",       "hm:127.0.0.1:" + std::to_string(port),
-			"--host", "none",    "--no-rt", "--quiet",   "--silent-ticks", silent_ticks};
+			"--host", "none",    "--no-rt", "--quiet",   "--silent-ticks", silent_ticks, "--full-force"};
 		args.insert(args.end(), extra.begin(), extra.end());
 		start(args, work_dir + "/" + name + ".ctl.txt");
 	}
