@@ -381,8 +381,17 @@ static size_t startup_answer(struct hm_client *c, int kind, const char *text)
 			refuse(c, "the device did not answer 'get emergencybuttonpushed;get state'");
 		else if (part_true(text, 0))
 			refuse(c, "the device's e-stop is pushed: no force until it is released");
-		else if (request(c, KIND_INIT, init_text, sizeof(init_text) - 1) < 0)
-			refuse(c, "no room for the start-up request");
+		else {
+			/* the inertia swell's force law is tuned for, after the calibrations are read */
+			char req[sizeof(init_text) + 40];
+			int n = c->inertia_g
+				? snprintf(req, sizeof(req), "%s;set inertia %u.%03u", init_text,
+					   (unsigned)(c->inertia_g / 1000u), (unsigned)(c->inertia_g % 1000u))
+				: snprintf(req, sizeof(req), "%s", init_text);
+
+			if (n < 0 || (size_t)n >= sizeof(req) || request(c, KIND_INIT, req, (size_t)n) < 0)
+				refuse(c, "no room for the start-up request");
+		}
 		return 0;
 	}
 	if (kind == KIND_INIT) {
@@ -397,6 +406,8 @@ static size_t startup_answer(struct hm_client *c, int kind, const char *text)
 			refuse(c,
 			       "the device's force sensor is not calibrated after init: calibrate it (handle "
 			       "free) with the vendor's tools");
+		else if (c->inertia_g && !part_ok(text, REMOVE_N + 3))
+			refuse(c, "the device refused 'set inertia' (hm.inertia)");
 		else if (request(c, KIND_START, start_text, sizeof(start_text) - 1) < 0)
 			refuse(c, "no room for the start-up request");
 		return 0;

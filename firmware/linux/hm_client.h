@@ -69,6 +69,7 @@ struct hm_client {
 	int sent_zero; /* the last tick request sent carried zero force */
 	char extra[HMC_TEXT_MAX / 2]; /* commands for the next request (effect mode) */
 	const char *cleanup; /* a request before every start-up (NULL: none) */
+	uint32_t inertia_g; /* set at every start-up after the calibrations (set inertia), 0: not set */
 	char refusal[120]; /* why the last start-up stopped before any force ("" once running) */
 	uint32_t refusal_seq; /* +1 whenever refusal changes to another reason */
 	int fault_next; /* a checked request had an error answer: the next sample says fault */

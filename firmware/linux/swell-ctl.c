@@ -95,6 +95,7 @@ static uint32_t take_input(struct port *p)
 	/* Bounded, a flood cannot hold the tick; deep enough that a flood of datagrams from other senders,
 	 * each dropped unread (no CRC), does not hide the device's samples behind it: 256 reads a tick
 	 * drain 640 000 datagrams a second at 2500 Hz. */
+	p->dev.hm.inertia_g = p->c.cfg.hm_inertia_g; /* hm: the next start-up sets it (hm.inertia) */
 	for (rounds = 0; rounds < 256; rounds++) {
 		n = ctl_link_recv(&p->dev, m, sizeof(m) / sizeof(m[0]));
 		if (n == 0 && p->dev.frames_rx == 0)

@@ -262,6 +262,8 @@ static int set_words(const struct opts *o, const struct swell_param_desc **d, in
 	*d = param_named(o->argv[1]);
 	if (!*d)
 		return TOOL_USAGE;
+	if ((*d)->access == SWELL_PACCESS_RO)
+		return bad("%s is read only: the controller measures it (swell-tool get)", (*d)->name);
 	for (k = 2; k < o->argc; k++) /* "80 g" as two words, too */
 		if (strlen(text) + strlen(o->argv[k]) + 1 < sizeof(text)) {
 			strcat(text, o->argv[k]);
@@ -336,7 +338,11 @@ static int cmd_params(struct tool_session *s, const struct opts *o)
 		swell_param_format(&t[k], t[k].def, def, sizeof(def));
 		snprintf(range, sizeof(range), "%s .. %s", lo, hi);
 		printf("%-18s %-16s %-30s %-14s %s\n", t[k].name, v, range, def,
-		       t[k].when == SWELL_PWHEN_DRY && tool_object_wet(s) ? "no: the object displaces water" : "yes");
+		       t[k].access == SWELL_PACCESS_RO                              ? "no: read only (measured)"
+			       : t[k].when == SWELL_PWHEN_DRY && tool_object_wet(s) ? "no: the object displaces water"
+			       : t[k].when == SWELL_PWHEN_IDLE && s->t.hb.state == SWELL_CTL_RUNNING
+			       ? "no: while running"
+			       : "yes");
 	}
 	printf("%-18s %-16s %-30s %-14s %s\n", SWELL_PARAM_COMMAND_NAME, "(write only)", "stop, run, clear", "-",
 	       "yes (clear: in fault)");

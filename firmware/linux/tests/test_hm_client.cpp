@@ -456,3 +456,27 @@ TEST_CASE("hm_fx: an effect set as the device's commands: each value exact in SI
 		CHECK(v == (int32_t)e.fmax_cN);
 	}
 }
+
+TEST_CASE("hm_client: with an inertia to set, init sets it after the calibrations, and a refusal of it stops the start-up")
+{
+	Device dev;
+	hm_client c;
+	char err[160];
+	REQUIRE(hm_client_open(&c, ("127.0.0.1:" + std::to_string(dev.port)).c_str(), 2, err, sizeof err) == 0);
+	c.inertia_g = 2500;
+	REQUIRE(dev.accept_one(c, 2000));
+	REQUIRE(dev.request(c) == probe);
+	dev.answer(probe_ok);
+	REQUIRE(dev.request(c) == init + ";set inertia 2.500");
+	dev.answer(init_ok + ";--- ERROR: inertia 2.5 refused");
+	REQUIRE(dev.request(c, 3000) == probe); // refused: no force state, the probe again after the pause
+	CHECK(std::string(c.refusal).find("set inertia") != std::string::npos);
+	dev.answer(probe_ok);
+	REQUIRE(dev.request(c) == init + ";set inertia 2.500");
+	dev.answer(init_ok + ";Inertia set");
+	REQUIRE(dev.request(c) == start);
+	dev.answer(start_ok);
+	REQUIRE(dev.request(c).rfind("set swell_bias force", 0) == 0);
+	CHECK(c.phase == HMC_RUNNING);
+	hm_client_close(&c);
+}
