@@ -55,7 +55,7 @@ function(swell_board_header board out)
     list(TRANSFORM known REPLACE "\\.cmake$" "")
     list(JOIN known ", " known)
     message(FATAL_ERROR "SWELL_BOARD=${board}: unknown board (known: ${known}; or the path of a board "
-                        "file, see firmware/stm32f405/boards/board.cmake and docs/boards.md)")
+                        "file, see firmware/stm32f405/boards/board.cmake and docs/bringup-f405.md)")
   endif()
   get_filename_component(SWELL_BOARD_FILE_NAME "${file}" NAME_WE)
   foreach(v TITLE HSE_HZ CAN_RX CAN_TX CAN_STANDBY CAN_STANDBY_NORMAL CONSOLE CONSOLE_TX LED LED_ON)

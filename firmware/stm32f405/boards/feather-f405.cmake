@@ -11,7 +11,7 @@
 # LED1 pin_C1 red; pins.csv D5 = PC7, D9 = PB8, D10 = PB9, TX = PB10) and the STM32F405 datasheet's
 # alternate-function table (AF9: PB8 CAN1_RX, PB9 CAN1_TX; AF7: PB10 USART3_TX). Adafruit's CAN guide
 # for CircuitPython names D9 as TX and D10 as RX; the datasheet's table is the one the hardware
-# follows: wire D10 (PB9) to the transceiver's TXD. Not checked on a board (docs/boards.md).
+# follows: wire D10 (PB9) to the transceiver's TXD. Not checked on a board (docs/bringup-f405.md).
 set(BOARD_TITLE "Adafruit Feather STM32F405 Express + CAN transceiver breakout")
 set(BOARD_HSE_HZ 12000000)
 set(BOARD_CAN_RX PB8)
