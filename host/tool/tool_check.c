@@ -237,15 +237,14 @@ int tool_check(struct tool_session *s, enum tool_rc open_rc, const char *open_er
 	};
 	struct tally t = { 0, 0, 0 };
 	char err[200], fw[24] = "?";
-	int32_t v = 0, st = 0, rate = 0, tick = 0, fmax = 0, frate = 0;
+	int32_t v = 0, st = 0, rate = 0, tick = 0, fmax = 0, frate = 0, mode = 0;
 	int have_status = 0, heard, k, r;
 	unsigned state;
 
 	if (open_rc != TOOL_OK) {
 		line(&t, "FAIL", "link",
-		     "%s: fix: is the controller running and powered? swell-ctl's clients' port "
-		     "is --link udp:PORT (its listen=); CAN: the interface up at 1 Mbit/s (ip link "
-		     "set can0 up type can bitrate 1000000), 120 ohm at each end; USB: the cable",
+		     "%s: fix: start swell-ctl (or power the board); CAN: ip link set can0 up type can bitrate "
+		     "1000000, 120 ohm at each end; USB: the cable",
 		     open_err);
 		for (k = 0; k < (int)(sizeof(names) / sizeof(names[0])); k++)
 			line(&t, "skip", names[k], "no controller to ask");
@@ -284,6 +283,8 @@ int tool_check(struct tool_session *s, enum tool_rc open_rc, const char *open_er
 		r = param(s, "dev.rate", co, &rate, err, sizeof(err));
 	if (r == 0)
 		r = param(s, "ctl.tick_hz", co, &tick, err, sizeof(err));
+	if (r == 0)
+		r = param(s, "force.mode", co, &mode, err, sizeof(err));
 	heard = state == SWELL_CTL_ARMED || state == SWELL_CTL_RUNNING ||
 		(state == SWELL_CTL_FAULT && r == 0 && rate > 0);
 	if (r < 0) {
@@ -298,15 +299,15 @@ int tool_check(struct tool_session *s, enum tool_rc open_rc, const char *open_er
 	else if (r == 1)
 		line(&t, "ok", "device", "heard (state %s); rate and status not reported by this controller",
 		     swell_state_name(state));
-	else if (rate < tick * 9 / 10 && rate * 20 < tick) /* effect mode: once an update, 1/10 of the ticks */
+	else if (rate * (mode ? 20 : 2) < tick) /* stream: every tick; effect: once an update, 1/10 of them */
 		line(&t, "FAIL", "device",
 		     "heard at %ld Hz, the controller ticks at %ld Hz: fix: a slow or lossy device link (swell-ctl's "
 		     "report counts lost samples; hm: round trips above a tick)",
 		     (long)rate, (long)tick);
-	else if (!(st & SWELL_DEV_POWERED))
+	else if (!(st & SWELL_DEV_POWERED) || (st & SWELL_DEV_FAULT))
 		line(&t, "FAIL", "device",
-		     "heard at %ld Hz but not ready (status 0x%lx: not powered or not in its force state): fix: "
-		     "power the device; hm: swell-ctl's log says why its start-up stopped",
+		     "heard at %ld Hz but not ready (status 0x%lx: not powered, not in its force state or in "
+		     "fault): fix: power the device; hm: swell-ctl's log says why its start-up stopped",
 		     (long)rate, (long)st);
 	else
 		line(&t, "ok", "device", "heard at %ld Hz (tick %ld Hz), status 0x%lx (powered%s)", (long)rate,
@@ -343,24 +344,46 @@ int tool_check(struct tool_session *s, enum tool_rc open_rc, const char *open_er
 			line(&t, "ok", "round trip", "%.2f ms at best, %.2f ms worst of %d", best, worst, n);
 	}
 
-	/* frame: the handle's place in the pool, through the controller's device-to-pool frame */
-	if (!heard || !s->t.have_pose || !s->t.have_scene)
-		line(&t, "skip", "frame", "%s", !heard ? "no device heard" : "no pose or scene heard yet");
-	else {
-		const double x = s->t.pose.x_10um * 0.01, y = s->t.pose.y_10um * 0.01;
-		const double lx = s->t.scene.nx * s->t.scene.dx_um * 1e-3, ly = s->t.scene.ny * s->t.scene.dx_um * 1e-3;
+	/* frame: the handle's place in the pool, from the device's position through the controller's frame
+	 * (the pose's wire field stops at 300 mm: not enough for a pool's far side) */
+	{
+		static const char *const fp[] = { "frame.x0",   "frame.y0", "frame.z0", "frame.scale", "frame.axes",
+						  "frame.flip", "dev.x",    "dev.y",    "dev.z" };
+		int32_t f[9];
+		int bad = 0;
 
-		if (x < 0 || x > lx || y < 0 || y > ly)
-			line(&t, "FAIL", "frame",
-			     "the handle is at pool x %.1f, y %.1f mm, outside the pool's 0..%.0f x 0..%.0f mm: fix: "
-			     "move the handle over the water, or place the pool in the device's workspace with "
-			     "frame.x0 / frame.y0 / frame.axes (docs/frame.md)",
-			     x, y, lx, ly);
-		else
-			line(&t, "ok", "frame",
-			     "the handle is at pool x %.1f, y %.1f mm (pool 0..%.0f x 0..%.0f mm), object "
-			     "bottom %+.1f mm from the rest level",
-			     x, y, lx, ly, s->t.pose.z_10um * 0.01);
+		for (k = 0; k < 9 && !bad; k++)
+			bad = param(s, fp[k], co, &f[k], err, sizeof(err)) != 0;
+		if (!heard || bad || !s->t.have_scene)
+			line(&t, "skip", "frame", "%s",
+			     !heard        ? "no device heard"
+				     : bad ? "no frame from this controller"
+					   : "no scene heard yet");
+		else {
+			const int axis[3] = { f[4] / 100 - 1, f[4] / 10 % 10 - 1, f[4] % 10 - 1 };
+			double pool[3];
+			const double lx = s->t.scene.nx * s->t.scene.dx_um * 1e-3,
+				     ly = s->t.scene.ny * s->t.scene.dx_um * 1e-3;
+
+			for (k = 0; k < 3; k++)
+				pool[k] = f[k] * 1e-3 +
+					((f[5] >> k & 1) ? -1.0 : 1.0) * (f[3] / 65536.0) *
+						(axis[k] >= 0 && axis[k] < 3 ? f[6 + axis[k]] * 1e-3 : 0.0);
+			if (pool[0] < 0 || pool[0] > lx || pool[1] < 0 || pool[1] > ly)
+				line(&t, "FAIL", "frame",
+				     "the handle (device %.1f, %.1f, %.1f mm) is at pool x %.1f, y %.1f mm, outside "
+				     "the "
+				     "pool's 0..%.0f x 0..%.0f mm: fix: move the handle over the water, or place the "
+				     "pool "
+				     "in the device's workspace with frame.x0 / frame.y0 / frame.axes (docs/frame.md)",
+				     f[6] * 1e-3, f[7] * 1e-3, f[8] * 1e-3, pool[0], pool[1], lx, ly);
+			else
+				line(&t, "ok", "frame",
+				     "the handle (device %.1f, %.1f, %.1f mm) is at pool x %.1f, y %.1f, z %+.1f mm "
+				     "(pool "
+				     "0..%.0f x 0..%.0f mm, z 0 the rest level)",
+				     f[6] * 1e-3, f[7] * 1e-3, f[8] * 1e-3, pool[0], pool[1], pool[2], lx, ly);
+		}
 	}
 
 	/* force limits: at most the first-run ones unless told otherwise */

@@ -89,7 +89,13 @@
 	P(DEV_RATE, 61, "dev.rate", dev_rate_hz, uint16_t, CORE, 0, 65535, 0, "1", "Hz", RO, ANY,                      \
 	  "device samples heard in the last whole second")                                                             \
 	P(CTL_TICK_HZ, 62, "ctl.tick_hz", cfg.tick_hz, uint32_t, CORE, 0, 100000, 2500, "1", "Hz", RO, ANY,            \
-	  "the controller's tick rate")
+	  "the controller's tick rate")                                                                                \
+	P(DEV_X, 63, "dev.x", pos_um[0], int32_t, CORE, -300000, 300000, 0, "0.001", "mm", RO, ANY,                    \
+	  "the device's last position x, in its own frame (frame.* map it into the pool)")                             \
+	P(DEV_Y, 64, "dev.y", pos_um[1], int32_t, CORE, -300000, 300000, 0, "0.001", "mm", RO, ANY,                    \
+	  "the device's last position y, in its own frame")                                                            \
+	P(DEV_Z, 65, "dev.z", pos_um[2], int32_t, CORE, -300000, 300000, 0, "0.001", "mm", RO, ANY,                    \
+	  "the device's last position z, in its own frame")
 
 #define SWELL_PARAM_COMMAND_ID 40
 #define SWELL_PARAM_COMMAND_NAME "ctl.command"

@@ -39,32 +39,42 @@ int free_tcp_port()
 	return port;
 }
 
-/* one request on the HapticMaster's TCP framing (8-byte header, big-endian length) and its answer */
-std::string hm_request(int port, const std::string &text)
-{
-	const int fd = socket(AF_INET, SOCK_STREAM, 0);
-	sockaddr_in a{};
-	a.sin_family = AF_INET;
-	a.sin_port = htons((uint16_t)port);
-	a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-	REQUIRE(connect(fd, (sockaddr *)&a, sizeof a) == 0);
-	const uint32_t n = (uint32_t)text.size();
-	std::string f = {char(n >> 24), char(n >> 16), char(n >> 8), char(n), 0, 0, 0, 0};
-	f += text;
-	REQUIRE(send(fd, f.data(), f.size(), 0) == (ssize_t)f.size());
-	std::string got;
-	char b[2048];
-	timeval tv = {2, 0};
-	setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
-	while (got.size() < 8 || got.size() < 8 + ((size_t)(uint8_t)got[2] << 8 | (uint8_t)got[3])) {
-		const ssize_t r = recv(fd, b, sizeof b, 0);
-		if (r <= 0)
-			break;
-		got.append(b, (size_t)r);
+/* a client of the HapticMaster's TCP interface (8-byte header, big-endian length), kept open */
+struct HmConn {
+	int fd = -1;
+	explicit HmConn(int port)
+	{
+		fd = socket(AF_INET, SOCK_STREAM, 0);
+		sockaddr_in a{};
+		a.sin_family = AF_INET;
+		a.sin_port = htons((uint16_t)port);
+		a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+		REQUIRE(connect(fd, (sockaddr *)&a, sizeof a) == 0);
+		timeval tv = {2, 0};
+		setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
 	}
-	close(fd);
-	return got.size() > 8 ? got.substr(8) : "";
-}
+	~HmConn()
+	{
+		if (fd >= 0)
+			close(fd);
+	}
+	std::string ask(const std::string &text) const
+	{
+		const uint32_t n = (uint32_t)text.size();
+		std::string f = {char(n >> 24), char(n >> 16), char(n >> 8), char(n), 0, 0, 0, 0};
+		f += text;
+		REQUIRE(send(fd, f.data(), f.size(), 0) == (ssize_t)f.size());
+		std::string got;
+		char b[2048];
+		while (got.size() < 8 || got.size() < 8 + ((size_t)(uint8_t)got[2] << 8 | (uint8_t)got[3])) {
+			const ssize_t r = recv(fd, b, sizeof b, 0);
+			if (r <= 0)
+				break;
+			got.append(b, (size_t)r);
+		}
+		return got.size() > 8 ? got.substr(8) : "";
+	}
+};
 
 /* swell-hm (serving the HapticMaster interface unless udp) and swell-ctl on it, on free ports */
 struct Chain {
@@ -186,9 +196,9 @@ TEST_CASE("swell-tool check: a device that never answers: FAIL device (not heard
 	CHECK(line_of(r.out, "controller").rfind("ok", 0) == 0);
 }
 
-TEST_CASE("swell-tool check: a device heard at a tenth of the tick rate: FAIL device with both rates", "[tool][check]")
+TEST_CASE("swell-tool check: a device heard at a fifth of the tick rate: FAIL device with both rates", "[tool][check]")
 {
-	Chain c("slow", {"--rate", "100"}, {}, true);
+	Chain c("slow", {"--rate", "500"}, {}, true); /* a fifth of the ticks, in stream mode */
 	c.wait_state("armed");
 	const Result r = c.tool("check");
 	CHECK(r.status == 7);
@@ -224,13 +234,14 @@ TEST_CASE("swell-tool check: a device that stays uncalibrated after init: FAIL c
 
 TEST_CASE("swell-tool check: the handle outside the pool's footprint: FAIL frame with where it is", "[tool][check]")
 {
-	Chain c("frame", {"--start", "300,0,0"}, {}); /* 300 mm along x from the pool's centre: x 500 of 400 */
+	/* 250 mm along x from the pool's centre (a workspace of +-300 mm): pool x 450 of 400 */
+	Chain c("frame", {"--limit", "300", "--start", "250,0,0"}, {});
 	c.wait_state("armed");
 	const Result r = c.tool("check");
 	CHECK(r.status == 7);
 	const std::string f = line_of(r.out, "frame");
 	CHECK(f.rfind("FAIL", 0) == 0);
-	CHECK(has(f, "pool x 500.0"));
+	CHECK(has(f, "pool x 450.0"));
 }
 
 TEST_CASE("swell-tool check: force limits above the first-run ones fail unless accepted on purpose", "[tool][check]")
@@ -249,21 +260,26 @@ TEST_CASE("swell-tool check: force limits above the first-run ones fail unless a
 TEST_CASE("swell-tool check: springs of swell's left enabled on the device while the force law is off: FAIL effects",
 	  "[tool][check]")
 {
-	Chain c("effects", {}, {});
+	/* the emulator's own watchdog off: a silent client keeps its effects, as a device may */
+	Chain c("effects", {"--bias-watchdog", "0"}, {});
 	c.wait_state("armed");
-	/* what an effect-mode run that lost its connection leaves (the springs stay on) */
-	REQUIRE(hm_request(c.hm_port, "create spring swell_pull;set swell_pull enable") ==
-		"Effect spring with name swell_pull created;Effect swell_pull enabled");
-	const Result r = c.tool("check --hm " + c.hm_spec());
-	CHECK(r.status == 7);
-	const std::string e = line_of(r.out, "effects");
-	CHECK(e.rfind("FAIL", 0) == 0);
-	CHECK(has(e, "swell_pull"));
-	CHECK(hm_request(c.hm_port, "remove swell_pull") == "Removed effect swell_pull");
+	{
+		/* what an effect-mode run that lost its controller leaves: the springs on (its client still
+		 * connected: the emulator drops a closed client's effects) */
+		HmConn left(c.hm_port);
+		REQUIRE(left.ask("create spring swell_pull;set swell_pull enable") ==
+			"Effect spring with name swell_pull created;Effect swell_pull enabled");
+		const Result r = c.tool("check --hm " + c.hm_spec());
+		CHECK(r.status == 7);
+		const std::string e = line_of(r.out, "effects");
+		CHECK(e.rfind("FAIL", 0) == 0);
+		CHECK(has(e, "swell_pull"));
+		CHECK(left.ask("remove swell_pull") == "Removed effect swell_pull");
+	}
 	CHECK(c.tool("check --hm " + c.hm_spec()).status == 0);
 }
 
-TEST_CASE("swell-tool check: a round trip above the bound fails; the controller in fault fails with its last error",
+TEST_CASE("swell-tool check: a round trip above the bound fails, and the controller in fault fails with its last error",
 	  "[tool][check]")
 {
 	Chain c("rtt", {}, {"--autorun"});
