@@ -149,8 +149,11 @@ static int parse_args(int argc, char **argv, struct opts *o)
 			k++;
 		} else if (!strcmp(a, "--max-force") || !strcmp(a, "--max-rate") || !strcmp(a, "--max-rtt-ms")) {
 			char *end;
-			const double x = strtod(val, &end);
+			double x;
 
+			if (!val)
+				return bad("%s needs a value", a);
+			x = strtod(val, &end);
 			if (!*val || *end || !(x > 0 && x <= 1e6))
 				return bad("%s must be a number in (0, 1e6]", a);
 			*(!strcmp(a, "--max-force")          ? &o->max_force
