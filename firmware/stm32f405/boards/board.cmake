@@ -74,9 +74,9 @@ function(swell_board_header board out)
   endif()
   swell_board_pll(${BOARD_HSE_HZ} pll_m pll_n)
   if(NOT pll_m)
-    message(FATAL_ERROR "board ${SWELL_BOARD_FILE_NAME}: crystal ${BOARD_HSE_HZ} Hz gives no exact "
-                        "168 MHz / 48 MHz (HSE x N must equal 336 MHz x M with HSE/M in 0.95..2.1 MHz): "
-                        "use a crystal such as 8, 12, 16 or 25 MHz")
+    message(FATAL_ERROR "board ${SWELL_BOARD_FILE_NAME}: crystal ${BOARD_HSE_HZ} Hz: no exact 168/48 MHz "
+                        "(HSE x N must equal 336 MHz x M with HSE/M in 0.95..2.1 MHz): use a crystal such "
+                        "as 8, 12, 16 or 25 MHz")
   endif()
 
   set(can "${BOARD_CAN_RX}/${BOARD_CAN_TX}")
