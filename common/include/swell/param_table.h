@@ -1,5 +1,5 @@
 /* The controller's parameters: THE single source, beside the message table (proto_table.h). The
- * core's get/set (firmware/core/src/ctl.c), the reference configuration, docs/protocol.md
+ * core's get/set (firmware/core/src/ctl_param.c), the reference configuration, docs/protocol.md
  * (tools/protocol/swell-protogen) and every tool that names a parameter (swell-tool, swell-inject,
  * swell-flash) are expanded from it.
  *

@@ -1,5 +1,6 @@
-/* STM32F405 port: boot, checks, then either the controller (a CAN or USB peripheral answered) or the
- * self-test (QEMU netduinoplus2 has neither). */
+/* STM32F405 port: boot, checks, then the controller (a CAN or USB peripheral answered). With no link
+ * the product stops with the force at zero; the self-test image (SWELL_FW_SELFTEST, QEMU netduinoplus2
+ * has neither) runs the self-test there instead. */
 #include <stdint.h>
 
 #include "../regs/cortex_m4.h"
@@ -15,7 +16,9 @@
 #include "image.h"
 #include "mem.h"
 #include "safe.h"
+#ifdef SWELL_FW_SELFTEST
 #include "selftest.h"
+#endif
 #include "timebase.h"
 #include "usb.h"
 
@@ -28,8 +31,8 @@
 
 #define WATCHDOG_MS 100u
 
-/* Boot-mode word in the last 16 bytes of SRAM (outside every section, not cleared at start-up): a
- * test harness writes it before reset (QEMU: -device loader,addr=0x2001fff0,data=...,data-len=4).
+/* Boot-mode word in the last 16 bytes of SRAM (outside every section, not cleared at start-up), read
+ * by the self-test image only: a test harness writes it before reset (QEMU: -device loader,addr=0x2001fff0,data=...,data-len=4).
  * BOOT_MODE_FAULT: after the self-test, command a force and execute an undefined instruction, to
  * check that the fault handler zeroes the force and reports. Cleared once read. */
 #define BOOT_MODE (*(volatile uint32_t *)0x2001FFF0u)
@@ -131,6 +134,7 @@ int main(void)
 	con_putc('\n');
 
 	if (!can_ok && !usb_ok) {
+#ifdef SWELL_FW_SELFTEST
 		if (boot_mode == BOOT_MODE_BOOTLOADER) {
 			if (!came_back)
 				selftest_boot_request(); /* returns only on a failed check */
@@ -144,6 +148,11 @@ int main(void)
 			safe_force_record(0, 0, 1234);
 			__asm__ volatile("udf #0");
 		}
+#else
+		(void)boot_mode;
+		(void)came_back;
+		con_puts("link: none answered: stopped, force zero\n");
+#endif
 		for (;;)
 			__asm__ volatile("wfi");
 	}

@@ -127,7 +127,7 @@ struct swell_ctl {
 	/* telemetry */
 	uint16_t tiles_x, tiles_y;
 	uint32_t quads, quad_cursor; /* quads in the grid (16 a tile), next one to scan */
-	uint32_t quad_reads; /* stale quads the scan reads a tick at most (ctl.c, QUAD_READS_PER_S) */
+	uint32_t quad_reads; /* stale quads the scan reads a tick at most (ctl_priv.h, QUAD_READS_PER_S) */
 	uint32_t refresh_cursor; /* next quad to resend whatever its state */
 	uint32_t fp_cells; /* footprint cells of the object, for the work count */
 
