@@ -95,6 +95,7 @@ static uint32_t take_input(struct port *p)
 	/* Bounded, a flood cannot hold the tick; deep enough that a flood of datagrams from other senders,
 	 * each dropped unread (no CRC), does not hide the device's samples behind it: 256 reads a tick
 	 * drain 640 000 datagrams a second at 2500 Hz. */
+	p->dev.hm.inertia_g = p->c.cfg.hm_inertia_g; /* hm: the next start-up sets it (hm.inertia) */
 	for (rounds = 0; rounds < 256; rounds++) {
 		n = ctl_link_recv(&p->dev, m, sizeof(m) / sizeof(m[0]));
 		if (n == 0 && p->dev.frames_rx == 0)
@@ -270,7 +271,7 @@ int main(int argc, char **argv)
 	e = fw_pool_start(&p.c, &o.cfg, &p.mem, &p.place);
 	if (e != SWELL_OK)
 		fprintf(stderr, "swell-ctl: controller refused its configuration: %s\n", swell_err_str(e));
-	if (e != SWELL_OK || (o.scene_path && scene_params(&p.c, &o) < 0)) {
+	if (e != SWELL_OK || (o.scene_path && scene_params(&p.c, &o) < 0) || first_run_limits(&p.c, &o) < 0) {
 		free(arena);
 		return 2;
 	}

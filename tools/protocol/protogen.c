@@ -254,7 +254,9 @@ static void write_md_params(FILE *o)
 	for (k = 0; k < n; k++)
 		fprintf(o, "| %u | `%s` | %s | %ld .. %ld | %ld | %s | %s | %s | %s |\n", t[k].id, t[k].name,
 			t[k].ctype, (long)t[k].min, (long)t[k].max, (long)t[k].def, t[k].factor,
-			t[k].unit[0] ? t[k].unit : "-", swell_param_when_text(t[k].when), t[k].desc);
+			t[k].unit[0] ? t[k].unit : "-",
+			t[k].access == SWELL_PACCESS_RO ? "read only (measured)" : swell_param_when_text(t[k].when),
+			t[k].desc);
 	fprintf(o,
 		"\nParameter %d (`%s`) is write only: its value is a command, answered by PARAM_ACK\n"
 		"with the value echoed, or PARAM_NACK (a GET is refused as invalid):\n\n"

@@ -47,6 +47,9 @@ static const struct swell_ctl_config pool_config = {
 	.node = 0,
 	.autorun = SWELL_PARAM_DEF_AUTORUN,
 	.force_mode = SWELL_PARAM_DEF_FORCE_MODE,
+	.frame_axes = SWELL_PARAM_DEF_FRAME_AXES,
+	.frame_flip = SWELL_PARAM_DEF_FRAME_FLIP,
+	.hm_inertia_g = SWELL_PARAM_DEF_HM_INERTIA,
 };
 
 void swell_ctl_default_config(struct swell_ctl_config *cfg)
@@ -82,6 +85,18 @@ static struct swell_body_scene body_scene(const struct swell_ctl_config *cfg)
 	return sc;
 }
 
+/* frame.axes and frame.flip from the frame's axes and signs, and back (a code that is not three
+ * different axes: SWELL_EINVAL, nothing changed). */
+static uint16_t frame_axes_code(const struct swell_body_xform *xf)
+{
+	return (uint16_t)((xf->axis[0] + 1u) * 100u + (xf->axis[1] + 1u) * 10u + xf->axis[2] + 1u);
+}
+
+static uint8_t frame_flip_code(const struct swell_body_xform *xf)
+{
+	return (uint8_t)((xf->sign[0] < 0) | (xf->sign[1] < 0) << 1 | (xf->sign[2] < 0) << 2);
+}
+
 enum swell_err swell_ctl_check(const struct swell_ctl_config *cfg)
 {
 	struct swell_body_scene sc;
@@ -103,6 +118,8 @@ enum swell_err swell_ctl_check(const struct swell_ctl_config *cfg)
 	    cfg->host_budget > SWELL_CTL_QUEUE / 2 || cfg->node > SWELL_NODE_MAX || cfg->autorun > 1 ||
 	    cfg->force_mode > SWELL_FORCE_EFFECT)
 		return SWELL_ERANGE;
+	if (cfg->frame_axes != frame_axes_code(&cfg->xform) || cfg->frame_flip != frame_flip_code(&cfg->xform))
+		return SWELL_EINVAL;
 	/* the effects act along the device's z: the pool's z must be it, unscaled (swell/effect.h) */
 	if (cfg->force_mode == SWELL_FORCE_EFFECT &&
 	    (cfg->xform.axis[2] != 2 || cfg->xform.sign[2] != 1 || cfg->xform.scale != SWELL_Q16_ONE))
@@ -249,6 +266,7 @@ void swell_ctl_rx(struct swell_ctl *c, enum swell_ctl_link from, const struct sw
 			lost = swell_seq_track(&c->dev_seq, m->u.device_pos.seq);
 			c->n.dev_lost += c->cfg.force_mode == SWELL_FORCE_EFFECT ? lost / c->ticks_per_step : lost;
 			c->dev_heard = 1;
+			c->dev_count++;
 			return;
 		case SWELL_MSG_DEVICE_VEL:
 			c->vel_um_s[0] = (int32_t)m->u.device_vel.vx_100ums * 100;
@@ -395,6 +413,12 @@ static void supervise(struct swell_ctl *c)
 	}
 	c->dev_heard = 0;
 	alive = c->since_dev < swell_ctl_silent_limit(c);
+	/* dev.rate: DEVICE_POS counted over each whole second of ticks */
+	if (++c->dev_window >= c->cfg.tick_hz) {
+		c->dev_rate_hz = (uint16_t)(c->dev_count > UINT16_MAX ? UINT16_MAX : c->dev_count);
+		c->dev_count = 0;
+		c->dev_window = 0;
+	}
 
 	switch (c->state) {
 	case SWELL_CTL_BOOT:

@@ -22,34 +22,55 @@ static void answer(struct swell_ctl *c, uint16_t id, uint8_t seq, enum swell_err
 	ctl_push(c, SWELL_LINK_HOST, &m);
 }
 
-/* The parameter table as the core needs it: each row's range, group and accessors to
- * its field of the configuration (one pair of functions a row, expanded from swell/param_table.h). */
+/* The parameter table as the core needs it: each row's range, group, access and accessors (one pair
+ * of functions a row, expanded from swell/param_table.h): an RW row's field is in the configuration,
+ * an RO row's in the controller (what it measures; its setter is never called). */
 struct param {
 	uint16_t id;
-	uint8_t group, when;
+	uint8_t group, when, access;
 	int32_t min, max;
-	int32_t (*get)(const struct swell_ctl_config *g);
+	int32_t (*get)(const struct swell_ctl *c);
 	void (*set)(struct swell_ctl_config *g, int32_t v);
 };
 
+#define PARAM_AT_RW(c, member) ((c)->cfg.member)
+#define PARAM_AT_RO(c, member) ((c)->member)
+#define PARAM_SET_RW(g, member, ctype, v) ((g)->member = (ctype)(v))
+#define PARAM_SET_RO(g, member, ctype, v) ((void)(g), (void)(v))
 #define SWELL_X(NAME, id, name, member, ctype, group, min, max, def, factor, unit, access, when, desc) \
-	static int32_t get_##NAME(const struct swell_ctl_config *g)                                    \
+	static int32_t get_##NAME(const struct swell_ctl *c)                                           \
 	{                                                                                              \
-		return (int32_t)g->member;                                                             \
+		return (int32_t)PARAM_AT_##access(c, member);                                          \
 	}                                                                                              \
 	static void set_##NAME(struct swell_ctl_config *g, int32_t v)                                  \
 	{                                                                                              \
-		g->member = (ctype)v;                                                                  \
+		PARAM_SET_##access(g, member, ctype, v);                                               \
 	}
 SWELL_PARAMS(SWELL_X)
 #undef SWELL_X
 
 static const struct param params[] = {
 #define SWELL_X(NAME, id, name, member, ctype, group, min, max, def, factor, unit, access, when, desc) \
-	{ id, SWELL_PGROUP_##group, SWELL_PWHEN_##when, min, max, get_##NAME, set_##NAME },
+	{ id, SWELL_PGROUP_##group, SWELL_PWHEN_##when, SWELL_PACCESS_##access, min, max, get_##NAME, set_##NAME },
 	SWELL_PARAMS(SWELL_X)
 #undef SWELL_X
 };
+
+/* frame.axes and frame.flip back into the frame's axes and signs (a code that is not three
+ * different axes: SWELL_EINVAL). */
+static enum swell_err frame_decode(struct swell_ctl_config *g)
+{
+	const unsigned a[3] = { g->frame_axes / 100u - 1u, g->frame_axes / 10u % 10u - 1u, g->frame_axes % 10u - 1u };
+	int k;
+
+	if (a[0] > 2 || a[1] > 2 || a[2] > 2 || a[0] == a[1] || a[0] == a[2] || a[1] == a[2] || g->frame_flip > 7)
+		return SWELL_EINVAL;
+	for (k = 0; k < 3; k++) {
+		g->xform.axis[k] = (uint8_t)a[k];
+		g->xform.sign[k] = (int8_t)(g->frame_flip >> k & 1u ? -1 : 1);
+	}
+	return SWELL_OK;
+}
 
 static const struct param *param_find(uint16_t id)
 {
@@ -70,7 +91,7 @@ static enum swell_err param_get(const struct swell_ctl *c, uint16_t id, int32_t 
 		return SWELL_EINVAL; /* write only */
 	if (!p)
 		return SWELL_EUNKNOWN;
-	*v = p->get(&c->cfg);
+	*v = p->get(c);
 	return SWELL_OK;
 }
 
@@ -112,9 +133,13 @@ static enum swell_err param_set(struct swell_ctl *c, uint16_t id, int32_t v)
 		return SWELL_EUNKNOWN;
 	if (v < p->min || v > p->max)
 		return SWELL_ERANGE;
+	if (p->access == SWELL_PACCESS_RO)
+		return SWELL_EINVAL; /* measured, not set */
 	if (p->when == SWELL_PWHEN_IDLE && c->state == SWELL_CTL_RUNNING)
 		return SWELL_ESTATE;
 	p->set(&g, v);
+	if (p->group == SWELL_PGROUP_FRAME && (err = frame_decode(&g)) != SWELL_OK)
+		return err;
 	err = swell_ctl_check(&g);
 	if (err != SWELL_OK)
 		return err;
@@ -125,6 +150,7 @@ static enum swell_err param_set(struct swell_ctl *c, uint16_t id, int32_t v)
 		break;
 	case SWELL_PGROUP_BODY:
 	case SWELL_PGROUP_SIZE:
+	case SWELL_PGROUP_FRAME: /* the body refuses a new frame while the object displaces water */
 		err = swell_body_set_params(&c->body, &g.body, &g.xform);
 		if (err == SWELL_OK) {
 			c->fp_cells = (g.body.a_um / g.dx_um + 2) * (g.body.b_um / g.dx_um + 2);

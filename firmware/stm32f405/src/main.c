@@ -7,6 +7,7 @@
 #include "../regs/stm32f405_periph.h"
 #include "../regs/stm32f405_rcc.h"
 #include "app.h"
+#include "board.h"
 #include "boot.h"
 #include "can.h"
 #include "clock.h"
@@ -77,11 +78,12 @@ int main(void)
 	RCC->CSR |= RCC_CSR_RMVF;
 	safe_force_zero();
 	clock_init(&ci);
-	con_init(ci.pclk2_hz, 115200);
+	board_init(); /* the CAN transceiver out of standby, the LED off */
+	con_init(ci.pclk1_hz, ci.pclk2_hz, 115200);
 	setup_faults();
 	con_puts("\nswell-fw stm32f405 ");
 	con_puts(SWELL_FW_VERSION_STR);
-	con_putc('\n');
+	con_puts(" board " SWELL_BOARD_NAME "\n");
 	put_reset_cause(csr);
 	came_back = boot_report();
 	con_puts("clock: ");
@@ -114,6 +116,7 @@ int main(void)
 	con_puts_u32(", ", img.length);
 	con_puts_hex32(" bytes, crc32 0x", img.crc);
 	con_puts(" ok\n");
+	board_led(1); /* lit: the image is whole; a stop on a fault (fault_stop) puts it out */
 
 	mem_probe(&app_mem, app_arena,
 		  APP_ARENA_WORDS); /* the bus fault is enabled: a missing block is a recoverable fault */

@@ -38,9 +38,11 @@ struct Ctl : swell_test::Proc {
 	}
 	Ctl(int port, const std::string &name, const std::vector<std::string> &extra, const char *silent_ticks = "200")
 	{
-		std::vector<std::string> args = {
-			ctl_bin,  "--clock", "device",  "--autorun", "--device",       "hm:127.0.0.1:" + std::to_string(port),
-			"--host", "none",    "--no-rt", "--quiet",   "--silent-ticks", silent_ticks};
+		std::vector<std::string> args = {ctl_bin,       "--clock",        "device",
+						 "--autorun",   "--device",       "hm:127.0.0.1:" + std::to_string(port),
+						 "--host",      "none",           "--no-rt",
+						 "--quiet",     "--silent-ticks", silent_ticks,
+						 "--full-force"};
 		args.insert(args.end(), extra.begin(), extra.end());
 		start(args, work_dir + "/" + name + ".ctl.txt");
 	}
