@@ -252,9 +252,11 @@ TEST_CASE("hm loop: the controller killed mid-run: the device zeroes its bias fo
 	const std::vector<row> rows = swell_test::read_hm_log(csv);
 	REQUIRE(rows.size() > 2500);
 	// the server zeroed the first controller's bias force when its connection ended, before the next
-	// step (a connection that ends is seen in the same poll that runs requests): counted when that
-	// force was not zero already (the last tick before the device was alone; a controller faulted by
-	// a loaded machine's silence just before the kill had sent zero)
+	// step (a connection that ends is seen in the same poll that runs requests). The count is the bias
+	// held at the close: a force rendered on the last tick before the device was alone is counted; a
+	// zero there (a controller faulted by a loaded machine's silence just before the kill) may still
+	// be followed by a nonzero set that arrived after that tick and was never rendered, so zero allows
+	// zero or one. What matters for safety is checked below: no force on any tick alone.
 	size_t alone = 1;
 	while (alone < rows.size() && rows[alone].clients() == 0) /* before the first controller */
 		alone++;
@@ -262,7 +264,9 @@ TEST_CASE("hm loop: the controller killed mid-run: the device zeroes its bias fo
 		alone++;
 	REQUIRE(alone < rows.size());
 	INFO("the device alone from t = " << rows[alone].t << " s; the force before: " << rows[alone - 1].fcmd[2] << " N");
-	CHECK(swell_test::count_before(sum, " by a vanished client") == (rows[alone - 1].fcmd[2] != 0.0 ? 1 : 0));
+	const long vanished = swell_test::count_before(sum, " by a vanished client");
+	CHECK(vanished >= (rows[alone - 1].fcmd[2] != 0.0 ? 1 : 0));
+	CHECK(vanished <= 1);
 	CHECK(rows[alone].fcmd[2] == 0.0);
 	int forced_alone = 0, over = 0, rendered_late = 0, late = 0;
 	for (const row &r : rows) {
