@@ -368,7 +368,8 @@ static void write_example(FILE *o, const struct swell_msg_desc *d)
 		for (j = 8; j-- > 0;)
 			fputc(data[b] >> j & 1u ? '1' : '0', o);
 		fprintf(o, " | ");
-		for (j = 0; j < d->nfields; j++) {
+		/* fields from the byte's high bits down, as the bits column reads */
+		for (j = d->nfields; j-- > 0;) {
 			const struct swell_field_desc *f = &d->fields[j];
 			unsigned lo = 8u * b, hi = 8u * b + 7u, s = f->start, e = f->start + f->bits - 1u;
 
@@ -376,10 +377,11 @@ static void write_example(FILE *o, const struct swell_msg_desc *d)
 				continue;
 			lo = s > lo ? s : lo;
 			hi = e < hi ? e : hi;
-			if (f->bits == 1)
-				fprintf(o, "%s%s (bit %u)", any ? ", " : "", f->name, lo - 8u * b);
+			if (hi == lo)
+				fprintf(o, "%s%s[%u] in bit %u", any ? "; " : "", f->name, lo - s, lo - 8u * b);
 			else
-				fprintf(o, "%s%s bits %u..%u", any ? ", " : "", f->name, hi - s, lo - s);
+				fprintf(o, "%s%s[%u:%u] in bits %u..%u", any ? "; " : "", f->name, hi - s, lo - s,
+					hi - 8u * b, lo - 8u * b);
 			any = 1;
 		}
 		fprintf(o, "%s |\n", any ? "" : "(padding, 0)");
@@ -478,7 +480,9 @@ static void write_md(FILE *o)
 		"Each message below has its field table and one example frame on classic CAN, decoded byte\n"
 		"by byte. Bit i of a message is bit i %% 8 of byte i / 8 (little-endian, Intel order); a\n"
 		"field of bits a-b holds its value's bit 0 at bit a; a signed field is two's complement over\n"
-		"its bits. The example values are spread over each field's range, not typical values.\n\n");
+		"its bits. `name[h:l] in bits x..y` says that bits h..l of the field's raw value sit in bits\n"
+		"x..y of that byte. The example values are spread over each field's range, not typical\n"
+		"values.\n\n");
 
 	for (i = 0; i < swell_msg_desc_count; i++) {
 		const struct swell_msg_desc *d = &swell_msg_descs[i];
