@@ -4,7 +4,18 @@
 
 static const struct swell_param_desc table[] = {
 #define SWELL_X(NAME, id, name, member, ctype, group, min, max, def, factor, unit, access, when, desc) \
-	{ id, name, #ctype, SWELL_PGROUP_##group, min, max, def, factor, unit, SWELL_PWHEN_##when, desc },
+	{ id,                                                                                          \
+	  name,                                                                                        \
+	  #ctype,                                                                                      \
+	  SWELL_PGROUP_##group,                                                                        \
+	  min,                                                                                         \
+	  max,                                                                                         \
+	  def,                                                                                         \
+	  factor,                                                                                      \
+	  unit,                                                                                        \
+	  SWELL_PWHEN_##when,                                                                          \
+	  SWELL_PACCESS_##access,                                                                      \
+	  desc },
 	SWELL_PARAMS(SWELL_X)
 #undef SWELL_X
 };

@@ -533,6 +533,37 @@ TEST_CASE("a count started again a little behind is one resynchronisation after 
 	CHECK(t.lost == 0u);
 }
 
+TEST_CASE("the window's edges hold across the 8-bit wrap: 32 missing are lost, 33 are one resync", "[proto]")
+{
+	/* forward from 250: 33 ahead (27) stands for the 32 in between lost; 34 ahead (28) for a count
+	 * that started elsewhere, never 33 lost */
+	swell_seq t = {};
+	swell_seq_track(&t, 250);
+	CHECK(swell_seq_track(&t, uint8_t(250 + SWELL_SEQ_WINDOW + 1u)) == SWELL_SEQ_WINDOW);
+	CHECK(t.lost == SWELL_SEQ_WINDOW);
+	CHECK(t.resyncs == 0u);
+	swell_seq u = {};
+	swell_seq_track(&u, 250);
+	CHECK(swell_seq_track(&u, uint8_t(250 + SWELL_SEQ_WINDOW + 2u)) == 0u);
+	CHECK(u.lost == 0u);
+	CHECK(u.resyncs == 1u);
+	CHECK(u.last == uint8_t(250 + SWELL_SEQ_WINDOW + 2u)); /* the new reference */
+	CHECK(swell_seq_track(&u, uint8_t(250 + SWELL_SEQ_WINDOW + 3u)) == 0u); /* goes on from there */
+	CHECK(u.lost == 0u);
+	/* backward from 5: 32 behind (229) is late, 33 behind (228) is a restart */
+	swell_seq b = {};
+	swell_seq_track(&b, 5);
+	CHECK(swell_seq_track(&b, uint8_t(5 - SWELL_SEQ_WINDOW)) == 0u);
+	CHECK(b.repeated == 1u);
+	CHECK(b.resyncs == 0u);
+	CHECK(b.last == 5u);
+	CHECK(swell_seq_track(&b, uint8_t(5 - SWELL_SEQ_WINDOW - 1u)) == 0u);
+	CHECK(b.repeated == 1u);
+	CHECK(b.resyncs == 1u);
+	CHECK(b.last == uint8_t(5 - SWELL_SEQ_WINDOW - 1u));
+	CHECK(b.lost == 0u);
+}
+
 TEST_CASE("heights go to the wire rounded to nearest 1/64 mm and saturate at -32 / +31.98 mm", "[proto]")
 {
 	/* every solver value in a band around zero and at the edges: error <= half a wire LSB */

@@ -53,6 +53,12 @@ TEST_CASE("the shipped scenes parse, with the pool and object each describes", "
 	char err[300];
 	REQUIRE(swell_scene_load((std::string(SWELL_SCENES_DIR) + "/pool.scene").c_str(), &sc, err, sizeof(err)) == 0);
 	CHECK(swell_scene_get(&sc, SWELL_PARAM_WAVE_E)->raw == SWELL_PARAM_DEF_WAVE_E); /* the built-in reference */
+	/* frame.scene: the frame's values as the controller takes them */
+	REQUIRE(swell_scene_load((std::string(SWELL_SCENES_DIR) + "/frame.scene").c_str(), &sc, err, sizeof(err)) == 0);
+	CHECK(swell_scene_get(&sc, SWELL_PARAM_FRAME_X0)->raw == 170000);
+	CHECK(swell_scene_get(&sc, SWELL_PARAM_FRAME_Y0)->raw == 230000);
+	CHECK(swell_scene_get(&sc, SWELL_PARAM_FRAME_Z0)->raw == 35000);
+	CHECK(swell_scene_get(&sc, SWELL_PARAM_FRAME_AXES)->raw == 213);
 }
 
 TEST_CASE("a bad scene file is refused whole and the reason names its line", "[scene]")
@@ -65,6 +71,7 @@ TEST_CASE("a bad scene file is refused whole and the reason names its line", "[s
 	      std::string::npos);
 	CHECK(refused("wave.damping 0.1\n").find(":1: 'wave.damping 0.1' is not 'name = value unit'") != std::string::npos);
 	CHECK(refused("body.h = 4 kg\n").find(":1: body.h: unit 'kg' is not mm") != std::string::npos);
+	CHECK(refused("body.mass = 80 g\ndev.rate = 100 Hz\n").find(":2: dev.rate is read only") != std::string::npos);
 }
 
 TEST_CASE("a written scene reads back to the same raw values (12 digits are enough for Q1.30)", "[scene]")

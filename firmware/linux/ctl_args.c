@@ -39,6 +39,10 @@ static const char usage[] =
 	"                      refused, 20 ms of ticks, said at start: a process that is not real time\n"
 	"                      is late by milliseconds); in effect mode at least two update periods\n"
 	"  --autorun           run whenever the device is there; leave a link-loss fault by itself\n"
+	"  --full-force        hm: keep the force limits of the scene (or the built-in ones) from the start;\n"
+	"                      without it a HapticMaster starts with the first-run limits force.max 2 N and\n"
+	"                      force.rate 20 N/s (lower ones are kept), which only a PARAM_SET raises\n"
+	"                      (swell-tool set force.max 10N): docs/first-contact.md\n"
 	"  --host-budget N     host messages a tick (default 16)\n"
 	"  --node N            node id on the bus, 0..15 (default 0)\n"
 	"  --scene FILE        start with a scene file (*.scene: pool size, cell size, depth, solver rate,\n"
@@ -192,6 +196,49 @@ int scene_params(struct swell_ctl *c, const struct opts *o)
 	return 0;
 }
 
+/* One parameter through the core's own path: get (set 0) or set; 0 with *v the value in force. */
+static int core_param(struct swell_ctl *c, const struct opts *o, int set, uint16_t id, int32_t *v)
+{
+	const struct swell_msg m = swell_param_request(o->cfg.node, set, id, *v, 0);
+	struct swell_msg a;
+
+	memset(&a, 0, sizeof(a));
+	swell_ctl_rx(c, SWELL_LINK_HOST, &m);
+	if (swell_ctl_tx(c, SWELL_LINK_HOST, &a, 1) != 1 || a.type != SWELL_MSG_PARAM_ACK)
+		return -1;
+	*v = a.u.param_ack.value;
+	return 0;
+}
+
+int first_run_limits(struct swell_ctl *c, const struct opts *o)
+{
+	static const struct {
+		uint16_t id;
+		int32_t first;
+	} lim[] = { { SWELL_PARAM_FORCE_MAX_UN, CTL_FIRST_FORCE_MAX_UN },
+		    { SWELL_PARAM_FORCE_RATE, CTL_FIRST_FORCE_RATE } };
+	int32_t v[2];
+	size_t k;
+
+	if (o->full_force || strncmp(o->device, "hm:", 3) != 0)
+		return 0;
+	for (k = 0; k < 2; k++) {
+		v[k] = 0;
+		if (core_param(c, o, 0, lim[k].id, &v[k]) < 0)
+			return -1;
+		if (v[k] > lim[k].first) {
+			v[k] = lim[k].first;
+			if (core_param(c, o, 1, lim[k].id, &v[k]) < 0)
+				return -1;
+		}
+	}
+	fprintf(stderr,
+		"swell-ctl: first run on a HapticMaster: force.max %.3g N, force.rate %.3g N/s (raise them on purpose: "
+		"swell-tool set force.max 10N; or --full-force)\n",
+		v[0] * 1e-6, v[1] * 1e-6);
+	return 0;
+}
+
 void parse(int argc, char **argv, struct opts *o)
 {
 	enum swell_err e;
@@ -213,6 +260,8 @@ void parse(int argc, char **argv, struct opts *o)
 			exit(0);
 		} else if (!strcmp(a, "--autorun")) {
 			o->cfg.autorun = 1;
+		} else if (!strcmp(a, "--full-force")) {
+			o->full_force = 1;
 		} else if (!strcmp(a, "--no-rt")) {
 			o->rt = 0;
 		} else if (!strcmp(a, "--quiet")) {

@@ -184,6 +184,12 @@ size_t ctl_link_recv(struct ctl_link *l, struct swell_msg *out, size_t cap)
 		size_t n = hm_client_poll(&l->hm, out, cap, l->node);
 
 		l->frames_rx += n > 0;
+		if (l->hm.refusal_seq != l->hm_refusal_seen) { /* once a reason, not every retry */
+			l->hm_refusal_seen = l->hm.refusal_seq;
+			fprintf(stderr,
+				"swell-ctl: %s: start-up stopped before any force: %s (trying again every %d ms)\n",
+				l->hm.name, l->hm.refusal, HMC_RETRY_MS);
+		}
 		return n;
 	}
 	if (l->kind == CTL_LINK_USB)

@@ -41,6 +41,7 @@ struct ctl_link {
 	uint32_t answers_held, answers_dropped;
 	struct hm_client hm; /* hm: a HapticMaster on its TCP command interface (device side only) */
 	struct hm_fx hmfx; /* hm: the effect sets as the HapticMaster's own effects (effect mode) */
+	uint32_t hm_refusal_seen; /* hm: the start-up refusal last printed (hm.refusal_seq) */
 	char name[48];
 };
 

@@ -15,6 +15,7 @@
 struct opts {
 	const char *device, *host, *scene_path;
 	int device_clock, rt, quiet, silent_given;
+	int full_force; /* hm: keep the configured force limits (no first-run limits) */
 	uint16_t pool_max; /* the arena holds a pool_max x pool_max pool (and at least the one configured) */
 	double seconds;
 	struct swell_ctl_config cfg;
@@ -32,6 +33,9 @@ struct port {
 	uint32_t starved; /* times nothing reached the device for silent_ticks ticks in a row */
 	int starving; /* the present run of unsent ticks has been reported */
 	uint32_t releases; /* times the device was declared lost and a learned UDP device let go */
+	int64_t sample_ns; /* when the device's last DEVICE_POS came (0: none yet) */
+	uint32_t faults_seen; /* the core's fault count after the last tick */
+	int64_t fault_ns, fault_sample_ns; /* the last fault: when it began, and sample_ns then */
 };
 
 /* timing statistics: lateness of each wake-up against its deadline */
@@ -47,6 +51,12 @@ struct jitter {
  * parameters through the core's own validated path once the core is up (-1 when it refuses one). */
 void parse(int argc, char **argv, struct opts *o);
 int scene_params(struct swell_ctl *c, const struct opts *o);
+
+/* The gentle start on a HapticMaster (device hm:, no --full-force): force.max and force.rate lowered
+ * to the first-run limits (never raised), said on stderr; -1 when the core refuses. */
+#define CTL_FIRST_FORCE_MAX_UN 2000000 /* 2 N */
+#define CTL_FIRST_FORCE_RATE 20000000 /* 20 N/s */
+int first_run_limits(struct swell_ctl *c, const struct opts *o);
 
 /* ctl_report.c: "ADDR:PORT" of a, "(fixed)" after a configured one, or "none yet"; the report. */
 const char *addr_str(const struct sockaddr_in *a, int have, int fixed, char *buf, size_t len);

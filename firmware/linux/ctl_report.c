@@ -65,6 +65,12 @@ void report(const struct opts *o, const struct port *p, const struct jitter *jit
 		       "silence limit %u ticks = %.1f ms)\n",
 		       p->c.n.faults, swell_err_str(p->c.last_err), swell_ctl_silent_limit(&p->c),
 		       swell_ctl_silent_limit(&p->c) * 1e3 / o->cfg.tick_hz);
+	/* a fault after the device's last sample is the device going away (the end of a bench run
+	 * whose device exits first), not the loop's */
+	if (p->c.n.faults && p->fault_sample_ns)
+		printf("  last fault      began %.1f ms after the device's sample before it; the device %s\n",
+		       (p->fault_ns - p->fault_sample_ns) / 1e6,
+		       p->sample_ns > p->fault_sample_ns ? "sent samples again after it" : "sent nothing after it");
 	if (!o->device_clock)
 		printf("  tick jitter     p50 %.0f us, p99 %.0f us, max %.0f us (lateness of the wake-up)\n",
 		       jitter_pct(jit, 0.5), jitter_pct(jit, 0.99), jit->max_ns / 1e3);

@@ -18,16 +18,27 @@
 #include <unistd.h>
 
 #define BIAS "swell_bias"
+/* Every effect swell creates (the stream mode's bias, the effect mode's springs, damper and weight):
+ * removed before every start-up and on exit, whichever mode left them. */
+#define REMOVE_ALL "remove " BIAS ";remove swell_pull;remove swell_push;remove swell_damp;remove swell_weight"
+#define REMOVE_N 5
 
 enum {
 	KIND_TICK,
-	KIND_START,
+	KIND_START, /* 3: force state and the zero bias, every answer a success */
 	KIND_ZERO, /* answers not looked at */
-	KIND_CHECKED /* every answer must be a success */
+	KIND_CHECKED, /* every answer must be a success */
+	KIND_PROBE, /* 1: e-stop and state, before anything is changed */
+	KIND_INIT /* 2: swell's effects removed, init, then both calibrations read */
 };
 
-static const char startup_text[] = "set state init;set state force;remove " BIAS ";create biasforce " BIAS ";set " BIAS
-				   " force [0,0,0];set " BIAS " enable";
+/* The start-up, three requests, each sent once the previous one's answers are understood and good:
+ * nothing that can produce a force goes out before the e-stop is seen released and the device reports
+ * itself calibrated after init; a refusal holds off HMC_RETRY_MS and starts again at the probe. */
+static const char probe_text[] = "get emergencybuttonpushed;get state";
+static const char init_text[] = REMOVE_ALL ";set state init;get position_calibrated;get force_calibrated";
+static const char start_text[] =
+	"set state force;create biasforce " BIAS ";set " BIAS " force [0,0,0];set " BIAS " enable";
 
 static int64_t now_ns(void)
 {
@@ -239,10 +250,23 @@ static void startup(struct hm_client *c)
 {
 	if (c->cleanup && request(c, KIND_ZERO, c->cleanup, strlen(c->cleanup)) < 0)
 		return; /* no room: the next retry */
-	if (request(c, KIND_START, startup_text, sizeof(startup_text) - 1) == 0) {
+	if (request(c, KIND_PROBE, probe_text, sizeof(probe_text) - 1) == 0) {
 		c->phase = HMC_STARTING;
 		c->st.startups++;
 	}
+}
+
+/* The start-up stops here: why, kept for the program's log (refusal_seq counts changes of reason), and
+ * the next attempt after the pause. */
+static void refuse(struct hm_client *c, const char *why)
+{
+	c->st.startup_failures++;
+	if (strcmp(c->refusal, why) != 0) {
+		snprintf(c->refusal, sizeof(c->refusal), "%s", why);
+		c->refusal_seq++;
+	}
+	c->phase = HMC_HOLDOFF;
+	c->retry_at_ns = now_ns() + (int64_t)HMC_RETRY_MS * 1000000;
 }
 
 /* "-1.23" from -123 cN */
@@ -256,7 +280,8 @@ static int fmt_cN(char *b, size_t n, int16_t v)
 void hm_client_force(struct hm_client *c, const int16_t f_cN[3], int enable)
 {
 	char text[HMC_TEXT_MAX], f[3][16];
-	int n, k, zero = !enable || (f_cN[0] == 0 && f_cN[1] == 0 && f_cN[2] == 0);
+	/* zero until the start-up has found the e-stop released and the device calibrated (RUNNING) */
+	int n, k, zero = !enable || c->phase != HMC_RUNNING || (f_cN[0] == 0 && f_cN[1] == 0 && f_cN[2] == 0);
 
 	c->tick++;
 	if (c->phase == HMC_DOWN || c->phase == HMC_CONNECTING)
@@ -328,6 +353,82 @@ static uint8_t status_of_state(const char *st)
 	return SWELL_DEV_POWERED | SWELL_DEV_ESTOP; /* stop (e-stop), init, home, position: not rendering our force */
 }
 
+/* Part i of an answer is "true" (a boolean get's answer, maybe quoted). */
+static int part_true(const char *text, int i)
+{
+	const char *p = part(text, i);
+
+	while (p && *p == '"')
+		p++;
+	return p && !strncmp(p, "true", 4);
+}
+
+/* Part i of an answer exists and is not an error. */
+static int part_ok(const char *text, int i)
+{
+	const char *p = part(text, i);
+
+	return p && *p && strncmp(p, "---", 3) != 0;
+}
+
+/* An answer to one of the start-up's three requests: the next request, RUNNING, or a refusal. */
+static size_t startup_answer(struct hm_client *c, int kind, const char *text)
+{
+	static const int16_t none[3] = { 0, 0, 0 };
+
+	if (kind == KIND_PROBE) {
+		if (!part_ok(text, 0) || !part_ok(text, 1))
+			refuse(c, "the device did not answer 'get emergencybuttonpushed;get state'");
+		else if (part_true(text, 0))
+			refuse(c, "the device's e-stop is pushed: no force until it is released");
+		else {
+			/* the inertia swell's force law is tuned for, after the calibrations are read */
+			char req[sizeof(init_text) + 40];
+			int n = c->inertia_g
+				? snprintf(req, sizeof(req), "%s;set inertia %u.%03u", init_text,
+					   (unsigned)(c->inertia_g / 1000u), (unsigned)(c->inertia_g % 1000u))
+				: snprintf(req, sizeof(req), "%s", init_text);
+
+			if (n < 0 || (size_t)n >= sizeof(req) || request(c, KIND_INIT, req, (size_t)n) < 0)
+				refuse(c, "no room for the start-up request");
+		}
+		return 0;
+	}
+	if (kind == KIND_INIT) {
+		/* the removes may fail (nothing of swell's was there); init must not */
+		if (!part_ok(text, REMOVE_N))
+			refuse(c, "the device refused 'set state init' (e-stop, or its own fault)");
+		else if (!part_true(text, REMOVE_N + 1))
+			refuse(c,
+			       "the device's position is not calibrated after init: calibrate it with the "
+			       "vendor's tools");
+		else if (!part_true(text, REMOVE_N + 2))
+			refuse(c,
+			       "the device's force sensor is not calibrated after init: calibrate it (handle "
+			       "free) with the vendor's tools");
+		else if (c->inertia_g && !part_ok(text, REMOVE_N + 3))
+			refuse(c, "the device refused 'set inertia' (hm.inertia)");
+		else if (request(c, KIND_START, start_text, sizeof(start_text) - 1) < 0)
+			refuse(c, "no room for the start-up request");
+		return 0;
+	}
+	{
+		int i;
+
+		for (i = 0; i < 4; i++)
+			if (!part_ok(text, i)) {
+				refuse(c, "the device refused the force state or swell's zero bias force");
+				return 0;
+			}
+	}
+	c->phase = HMC_RUNNING;
+	c->refusal[0] = '\0';
+	/* a first sample at once: a controller clocked by the device ticks on it */
+	c->tick--;
+	hm_client_force(c, none, 0);
+	return 0;
+}
+
 /* One answer of len bytes; may write a sample into out. Returns messages written. */
 static size_t answer(struct hm_client *c, char *text, struct swell_msg *out, size_t cap, uint8_t node)
 {
@@ -347,30 +448,8 @@ static size_t answer(struct hm_client *c, char *text, struct swell_msg *out, siz
 	if ((uint64_t)rtt > c->st.rtt_ns_max)
 		c->st.rtt_ns_max = (uint64_t)rtt;
 	c->st.rtt_hist[rtt / 1000 > HMC_RTT_US ? HMC_RTT_US : rtt / 1000]++;
-	if (kind == KIND_START) {
-		/* every answer but the remove's must be a success */
-		int i, bad = 0;
-
-		for (i = 0; i < 6; i++) {
-			const char *p = part(text, i);
-
-			if (!p || (i != 2 && !strncmp(p, "---", 3)))
-				bad = 1;
-		}
-		if (bad) {
-			c->st.startup_failures++;
-			c->phase = HMC_HOLDOFF;
-			c->retry_at_ns = now_ns() + (int64_t)HMC_RETRY_MS * 1000000;
-		} else {
-			static const int16_t none[3] = { 0, 0, 0 };
-
-			c->phase = HMC_RUNNING;
-			/* a first sample at once: a controller clocked by the device ticks on it */
-			c->tick--;
-			hm_client_force(c, none, 0);
-		}
-		return 0;
-	}
+	if (kind == KIND_PROBE || kind == KIND_INIT || kind == KIND_START)
+		return startup_answer(c, kind, text);
 	if (kind == KIND_CHECKED && strstr(text, "---")) {
 		c->st.error_answers++;
 		c->fault_next = 1;
@@ -495,7 +574,7 @@ size_t hm_client_poll(struct hm_client *c, struct swell_msg *out, size_t cap, ui
 
 int hm_client_zero_wait(struct hm_client *c, int wait_ms)
 {
-	static const char zero[] = "set " BIAS " force [0,0,0]";
+	static const char zero[] = "set " BIAS " force [0,0,0];" REMOVE_ALL;
 	int64_t end = now_ns() + (int64_t)wait_ms * 1000000;
 	uint32_t want;
 

@@ -7,7 +7,11 @@
  * controller sees a silent device tick. Integers only, the device's decimal text parsed without
  * floating point. For the effect mode (hm_fx.h) hm_client_set_extra appends commands to the next
  * tick's request and hm_client_request sends one of its own at once; cleanup, when set, is sent
- * before every start-up, its answers not checked. */
+ * before every start-up, its answers not checked. The start-up is three requests, each after the
+ * previous one's answers are good: the e-stop and state; swell's effects removed, init, both
+ * calibrations read; the force state and a zero bias force. A pushed e-stop or a calibration the
+ * device does not report stops it before any force (refusal says why; it starts again after
+ * HMC_RETRY_MS). The exit removes swell's effects too (hm_client_zero_wait). */
 #ifndef SWELL_HM_CLIENT_H
 #define SWELL_HM_CLIENT_H
 
@@ -65,6 +69,9 @@ struct hm_client {
 	int sent_zero; /* the last tick request sent carried zero force */
 	char extra[HMC_TEXT_MAX / 2]; /* commands for the next request (effect mode) */
 	const char *cleanup; /* a request before every start-up (NULL: none) */
+	uint32_t inertia_g; /* set at every start-up after the calibrations (set inertia), 0: not set */
+	char refusal[120]; /* why the last start-up stopped before any force ("" once running) */
+	uint32_t refusal_seq; /* +1 whenever refusal changes to another reason */
 	int fault_next; /* a checked request had an error answer: the next sample says fault */
 	struct hmc_stats st;
 };
@@ -89,8 +96,9 @@ int hm_client_set_extra(struct hm_client *c, const char *cmds);
  * otherwise its answers are not looked at. -1 when not connected or there is no room (nothing sent). */
 int hm_client_request(struct hm_client *c, const char *text, int checked);
 
-/* The exit and fault path: zero bias force on the device now, waiting up to wait_ms for the request to
- * go out and its answer to come. 0 when the device confirmed it. Blocks: never on the tick path. */
+/* The exit path: zero bias force on the device now and every effect of swell's removed (one request,
+ * the zero first), waiting up to wait_ms for it to go out and its answer to come. 0 when the device
+ * answered. Blocks: never on the tick path. */
 int hm_client_zero_wait(struct hm_client *c, int wait_ms);
 
 /* Parses the decimal text at *s ("-0.0123", "1.5e-05", "2") into an integer in units of 10^-scale

@@ -95,6 +95,7 @@ static uint32_t take_input(struct port *p)
 	/* Bounded, a flood cannot hold the tick; deep enough that a flood of datagrams from other senders,
 	 * each dropped unread (no CRC), does not hide the device's samples behind it: 256 reads a tick
 	 * drain 640 000 datagrams a second at 2500 Hz. */
+	p->dev.hm.inertia_g = p->c.cfg.hm_inertia_g; /* hm: the next start-up sets it (hm.inertia) */
 	for (rounds = 0; rounds < 256; rounds++) {
 		n = ctl_link_recv(&p->dev, m, sizeof(m) / sizeof(m[0]));
 		if (n == 0 && p->dev.frames_rx == 0)
@@ -109,6 +110,8 @@ static uint32_t take_input(struct port *p)
 		if (n == 0 && link_idle(&p->dev))
 			break;
 	}
+	if (pos)
+		p->sample_ns = now_ns();
 	/* Read first, poll only when nothing came: on USB the fd is the AIO eventfd, and a write's reap
 	 * (telemetry, flush_output) can take the event of a finished OUT transfer, whose packet would
 	 * then wait for the next transfer to finish. ctl_link_recv never blocks. */
@@ -268,7 +271,7 @@ int main(int argc, char **argv)
 	e = fw_pool_start(&p.c, &o.cfg, &p.mem, &p.place);
 	if (e != SWELL_OK)
 		fprintf(stderr, "swell-ctl: controller refused its configuration: %s\n", swell_err_str(e));
-	if (e != SWELL_OK || (o.scene_path && scene_params(&p.c, &o) < 0)) {
+	if (e != SWELL_OK || (o.scene_path && scene_params(&p.c, &o) < 0) || first_run_limits(&p.c, &o) < 0) {
 		free(arena);
 		return 2;
 	}
@@ -347,6 +350,11 @@ int main(int argc, char **argv)
 			link_faults(&p);
 			device_starved(&p);
 			swell_ctl_tick(&p.c);
+			if (p.c.n.faults != p.faults_seen) { /* a fault began: for the report */
+				p.faults_seen = p.c.n.faults;
+				p.fault_ns = now_ns();
+				p.fault_sample_ns = p.sample_ns;
+			}
 			ticks++;
 			flush_output(&p);
 			/* the device declared lost (its zero force has just gone to it): a learned UDP device is

@@ -41,6 +41,8 @@ static const char usage[] =
 	"  --inject SPEC       --serve fault injection (repeatable, up to 8): delay:at=S,for=S,ms=N (replies\n"
 	"                      held N ms), garbage:at=S (16 unframed bytes to every client), reset:at=S\n"
 	"                      (every connection reset), stop:at=S (the device put in stop, as by a client)\n"
+	"  --uncalibrated      --serve fault injection: 'set state init' leaves the device uncalibrated\n"
+	"                      (position_calibrated and force_calibrated stay false)\n"
 	"Device model (m_v a = F_user + F_cmd - b_v v, per axis; see docs/hm.md):\n"
 	"  --mass KG           virtual mass m_v (default 2)\n"
 	"  --damping NS_M      virtual damping b_v in N s/m (default 2)\n"
@@ -140,6 +142,7 @@ static void scene_object(struct opts *o, const char *path)
 	const struct swell_scene_value *v;
 	double dx = SWELL_POOL_DX_UM / 1000.0, nx = SWELL_POOL_N, ny = SWELL_POOL_N;
 	char err[300];
+	int k;
 
 	if (swell_scene_load(path, &sc, err, sizeof(err)) < 0)
 		die("--scene %s%s", err, "");
@@ -159,6 +162,24 @@ static void scene_object(struct opts *o, const char *path)
 		ny = v->raw;
 	if ((v = swell_scene_get(&sc, SWELL_SCENE_DEPTH_UM)))
 		o->depth_mm = v->raw / 1000.0;
+	/* the frame, as the controller takes it from the same file */
+	for (k = 0; k < 3; k++)
+		if ((v = swell_scene_get(&sc, (uint16_t)(SWELL_PARAM_FRAME_X0 + k))))
+			o->frame_off_mm[k] = v->raw / 1000.0;
+	if ((v = swell_scene_get(&sc, SWELL_PARAM_FRAME_SCALE)))
+		o->frame_scale = v->raw / 65536.0;
+	if ((v = swell_scene_get(&sc, SWELL_PARAM_FRAME_AXES))) {
+		const int a[3] = { v->raw / 100 - 1, v->raw / 10 % 10 - 1, v->raw % 10 - 1 };
+
+		if (a[0] < 0 || a[0] > 2 || a[1] < 0 || a[1] > 2 || a[2] < 0 || a[2] > 2 || a[0] == a[1] ||
+		    a[0] == a[2] || a[1] == a[2])
+			die("--scene %s: frame.axes is not three different device axes 1..3%s", path, "");
+		for (k = 0; k < 3; k++)
+			o->frame_axis[k] = a[k];
+	}
+	if ((v = swell_scene_get(&sc, SWELL_PARAM_FRAME_FLIP)))
+		for (k = 0; k < 3; k++)
+			o->frame_sign[k] = (v->raw >> k & 1) ? -1 : 1;
 	o->pool_mm[0] = nx * dx;
 	o->pool_mm[1] = ny * dx;
 }
@@ -202,6 +223,14 @@ void parse(int argc, char **argv, struct opts *o)
 	o->estop_s[0] = o->estop_s[1] = -1.0;
 	hm_params_default(&o->p);
 	hm_hand_parse("idle", &o->hand, NULL, 0);
+	o->frame_off_mm[0] = SWELL_PARAM_DEF_FRAME_X0 / 1000.0;
+	o->frame_off_mm[1] = SWELL_PARAM_DEF_FRAME_Y0 / 1000.0;
+	o->frame_off_mm[2] = SWELL_PARAM_DEF_FRAME_Z0 / 1000.0;
+	o->frame_scale = SWELL_PARAM_DEF_FRAME_SCALE / 65536.0;
+	for (k = 0; k < 3; k++) {
+		o->frame_axis[k] = k;
+		o->frame_sign[k] = 1;
+	}
 	for (k = 1; k < argc; k++) {
 		const char *a = argv[k], *v = k + 1 < argc ? argv[k + 1] : NULL;
 
@@ -213,6 +242,9 @@ void parse(int argc, char **argv, struct opts *o)
 			continue;
 		} else if (!strcmp(a, "--quiet")) {
 			o->quiet = 1;
+			continue;
+		} else if (!strcmp(a, "--uncalibrated")) {
+			o->uncalibrated = 1;
 			continue;
 		} else if (!strcmp(a, "--rt")) {
 			o->rt = 1;

@@ -233,7 +233,7 @@ static void cmd_state(struct hm_dev *d, struct out *o, const char *v)
 		return;
 	}
 	if (s == HM_STATE_INIT)
-		d->force_calibrated = 1;
+		d->force_calibrated = !d->init_fails_calibration;
 	if (s != HM_STATE_FORCE && s != HM_STATE_POSITION && s != HM_STATE_HOME)
 		zero_bias(d, -1); /* off, init, stop: a client sets its force again afterwards */
 	d->state = (enum hm_dev_state)s;

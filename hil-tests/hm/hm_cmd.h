@@ -67,6 +67,7 @@ struct hm_dev {
 	double inertia_kg, coulomb_N;
 	int estop; /* the emergency button is pushed */
 	int force_calibrated;
+	int init_fails_calibration; /* fault injection: init leaves the device uncalibrated */
 	uint32_t watchdog_ticks; /* a client silent this long: its bias forces zero, its springs and dampers
 				  * disabled; 0: off */
 	/* the model, as the last tick left it (swell-hm writes these) */

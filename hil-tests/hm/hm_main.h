@@ -29,12 +29,18 @@ struct opts {
 	int n_inj;
 	unsigned port, bind_port, node, iface;
 	int lockstep, quiet, have_start, rt, watchdog_given;
+	int uncalibrated; /* --serve: init does not calibrate (a device whose calibration fails) */
 	unsigned timeout_ms;
 	double seconds, start_mm[3], estop_s[2];
 	double obj_mass_g, obj_a_mm, obj_b_mm, pool_mm[2];
 	double obj_h_mm, depth_mm; /* from --scene: the object sinks to the floor when m > rho a b H */
 	struct hm_params p;
 	struct hm_hand hand;
+	/* The scene's device-to-pool frame (frame.*, as the controller has it: pool = off + sign x scale x
+	 * device[axis]). The device model, its samples and --start are in the device's own frame; the
+	 * hand and the report's z in the reference frame's (pool - the default offset, 200, 200, 0 mm). */
+	double frame_off_mm[3], frame_scale;
+	int frame_axis[3], frame_sign[3];
 };
 
 #define HIST_US 10000
@@ -61,7 +67,12 @@ void setup_rt(struct opts *o, int watchdog_given);
 int64_t now_ns(void);
 double pct(const struct run *r, double p);
 void sleep_deadline(struct run *r, int64_t *next, int64_t period_ns);
-void account(struct run *r, const struct hm_state *s, double t, double last_window, int holding);
+void account(struct run *r, const struct hm_state *s, double z_mm, double t, double last_window, int holding);
+/* The frame: a position from the reference frame to the device's (metres), and back; the hand's
+ * force for the device (reference-frame hand, forces mapped unscaled as the controller maps its own). */
+void frame_to_dev(const struct opts *o, const double ref_m[3], double dev_m[3]);
+void frame_from_dev(const struct opts *o, const double dev_m[3], double ref_m[3]);
+int frame_hand_force(struct opts *o, double t, const double x_dev[3], const double v_dev[3], double f_dev[3]);
 void summary_head(const struct opts *o, const struct hm_state *s, const struct run *r, uint32_t ctl_faults,
 		  double wall_s);
 

@@ -484,7 +484,7 @@ int proto_main(struct opts *o, FILE *log, const double x0[3])
 			;
 		deliver(&d, &s);
 		/* the hand acts on the state of this tick, which the wait below does not change */
-		holding = hm_hand_force(&o->hand, t, s.x, s.v, f_hand);
+		holding = frame_hand_force(o, t, s.x, s.v, f_hand);
 		if (!d.sets_coming || n == 0 || n - d.last_sample >= sample_every(o, &d)) {
 			sample(&d, &s, f_hand, (uint8_t)n);
 			if (o->lockstep)
@@ -498,7 +498,12 @@ int proto_main(struct opts *o, FILE *log, const double x0[3])
 		memcpy(v, s.v, sizeof(v));
 		effect_tick(&d, &s, &o->p);
 		hm_step(&o->p, &s, f_hand);
-		account(&r, &s, t, last_window, holding);
+		{
+			double ref[3];
+
+			frame_from_dev(o, s.x, ref);
+			account(&r, &s, ref[2] * 1e3, t, last_window, holding);
+		}
 		if (log)
 			fprintf(log,
 				"%.4f,%.3f,%.3f,%.3f,%.2f,%.2f,%.2f,%.2f,%.2f,%.2f,%.3f,%.3f,%.3f,%d,%u,%d,%d,%d\n", t,

@@ -9,6 +9,8 @@
 
 #include "hm_main.h"
 
+#include "swell/param_table.h"
+
 /* The watchdog without real-time scheduling: 20 ms of ticks (the default 2 trips on every late tick). */
 #define SLOW_WATCHDOG_MS 20
 
@@ -105,10 +107,10 @@ void sleep_deadline(struct run *r, int64_t *next, int64_t period_ns)
 }
 
 /* After a tick: the figures of the summary. */
-void account(struct run *r, const struct hm_state *s, double t, double last_window, int holding)
+void account(struct run *r, const struct hm_state *s, double z_mm, double t, double last_window, int holding)
 {
 	double fc = sqrt(s->f_cmd_N[0] * s->f_cmd_N[0] + s->f_cmd_N[1] * s->f_cmd_N[1] + s->f_cmd_N[2] * s->f_cmd_N[2]);
-	double z = s->x[2] * 1e3;
+	double z = z_mm;
 
 	r->ticks++;
 	r->zeroed_ticks += !s->applying && s->cmd_enable;
@@ -162,4 +164,40 @@ void summary_head(const struct opts *o, const struct hm_state *s, const struct r
 			       z_rest + z_level, z_level, (zm - z_rest - z_level) / -(z_rest + z_level) * 100.0);
 		}
 	}
+}
+
+/* the reference frame's origin in the pool: the controller's default offset */
+static const double ref_off_mm[3] = { SWELL_PARAM_DEF_FRAME_X0 * 1e-3, SWELL_PARAM_DEF_FRAME_Y0 * 1e-3,
+				      SWELL_PARAM_DEF_FRAME_Z0 * 1e-3 };
+
+void frame_from_dev(const struct opts *o, const double dev_m[3], double ref_m[3])
+{
+	int k;
+
+	for (k = 0; k < 3; k++)
+		ref_m[k] = (o->frame_off_mm[k] - ref_off_mm[k]) * 1e-3 +
+			o->frame_sign[k] * o->frame_scale * dev_m[o->frame_axis[k]];
+}
+
+void frame_to_dev(const struct opts *o, const double ref_m[3], double dev_m[3])
+{
+	int k;
+
+	for (k = 0; k < 3; k++)
+		dev_m[o->frame_axis[k]] =
+			(ref_m[k] - (o->frame_off_mm[k] - ref_off_mm[k]) * 1e-3) / (o->frame_sign[k] * o->frame_scale);
+}
+
+int frame_hand_force(struct opts *o, double t, const double x_dev[3], const double v_dev[3], double f_dev[3])
+{
+	double x[3], v[3], f[3];
+	int k, holding;
+
+	frame_from_dev(o, x_dev, x);
+	for (k = 0; k < 3; k++)
+		v[k] = o->frame_sign[k] * o->frame_scale * v_dev[o->frame_axis[k]];
+	holding = hm_hand_force(&o->hand, t, x, v, f);
+	for (k = 0; k < 3; k++)
+		f_dev[o->frame_axis[k]] = o->frame_sign[k] * f[k];
+	return holding;
 }

@@ -120,6 +120,7 @@ int serve_main(struct opts *o, FILE *log, const double x0[3])
 	}
 	hm_dev_init(&dev, o->p.rate_hz, o->p.f_max_N);
 	dev.inertia_kg = o->p.mass_kg;
+	dev.init_fails_calibration = o->uncalibrated;
 	dev.watchdog_ticks = (uint32_t)llround(o->bias_watchdog_ms * 1e-3 * o->p.rate_hz);
 	if (o->bias_watchdog_ms > 0 && dev.watchdog_ticks == 0)
 		dev.watchdog_ticks = 1;
@@ -140,7 +141,7 @@ int serve_main(struct opts *o, FILE *log, const double x0[3])
 		inject(o, &srv, &dev, t);
 		memcpy(dev.x_m, s.x, sizeof(dev.x_m));
 		memcpy(dev.v_m_s, s.v, sizeof(dev.v_m_s));
-		holding = hm_hand_force(&o->hand, t, s.x, s.v, f_hand);
+		holding = frame_hand_force(o, t, s.x, s.v, f_hand);
 		for (k = 0; k < 3; k++)
 			dev.fmeas_N[k] = f_hand[k];
 		if (o->lockstep)
@@ -162,7 +163,12 @@ int serve_main(struct opts *o, FILE *log, const double x0[3])
 		requests_seen = srv.st.requests;
 		for (k = 0; k < 3; k++)
 			dev.a_m_s2[k] = (s.v[k] - v[k]) / dt;
-		account(&r, &s, t, last_window, holding);
+		{
+			double ref[3];
+
+			frame_from_dev(o, s.x, ref);
+			account(&r, &s, ref[2] * 1e3, t, last_window, holding);
+		}
 		if (log)
 			fprintf(log,
 				"%.4f,%.3f,%.3f,%.3f,%.2f,%.2f,%.2f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%d,%d,%d,%d,%d\n", t,

@@ -29,8 +29,12 @@ int main(int argc, char **argv)
 	if (o.have_start)
 		for (k = 0; k < 3; k++)
 			x0[k] = o.start_mm[k] * 1e-3;
-	else
-		hm_hand_start(&o.hand, x0);
+	else {
+		double ref[3];
+
+		hm_hand_start(&o.hand, ref); /* where the hand starts, in the reference frame */
+		frame_to_dev(&o, ref, x0);
+	}
 	if (o.log) {
 		log = fopen(o.log, "w");
 		if (!log) {

@@ -14,6 +14,7 @@
 #include "swell/param.h"
 #include "swell/scene.h"
 #include "swell/transport.h"
+#include "tool_check.h"
 #include "tool_scene.h"
 #include "tool_session.h"
 #include "swell/param_text.h"
@@ -49,11 +50,19 @@ static void usage(FILE *f)
 	      "                           controller restarts with it), then the parameters; a refused\n"
 	      "                           value puts back what was set and names the line\n"
 	      "  scene save FILE.scene    the scene in force, every parameter, to a file\n"
+	      "  check [--hm HOST[:PORT]] [--max-force N] [--max-rate N/S] [--max-rtt-ms MS]\n"
+	      "                           walk the chain before holding the handle, one line each with the fix:\n"
+	      "                           link, controller (version, state), device (heard, rate, status),\n"
+	      "                           round trip, frame (the handle over the pool), force limits (at most\n"
+	      "                           the first-run 2 N and 20 N/s unless given), e-stop, and with --hm the\n"
+	      "                           HapticMaster's own interface (read only): its e-stop and swell's\n"
+	      "                           effects left on it; exit 0 only when none fails\n"
 	      "  plot FILE.csv [--out FILE.png]  gnuplot PNG of a log: force, object bottom against the water\n"
 	      "                           under it, submersion (default FILE.png beside the CSV)\n"
 	      "Exit status: 0 done; 1 runtime failure (link, file); 2 bad arguments; 3 no controller heard;\n"
 	      "4 wrong node (another node heard, or several and no --node); 5 timeout (no answer, or the\n"
-	      "controller went silent); 6 refused (the controller's reason is printed; nothing changed).\n",
+	      "controller went silent); 6 refused (the controller's reason is printed; nothing changed); 7 check:\n"
+	      "a link of the chain failed.\n",
 	      f);
 }
 
@@ -63,6 +72,8 @@ struct opts {
 	int json;
 	double seconds;
 	const char *out;
+	const char *hm; /* check --hm */
+	double max_force, max_rate, max_rtt_ms; /* check: 0 = the defaults */
 	int argc;
 	char *argv[16]; /* the command and its arguments, options taken out */
 };
@@ -132,6 +143,22 @@ static int parse_args(int argc, char **argv, struct opts *o)
 			k++;
 		} else if (!strcmp(a, "--out")) {
 			o->out = val;
+			k++;
+		} else if (!strcmp(a, "--hm")) {
+			o->hm = val;
+			k++;
+		} else if (!strcmp(a, "--max-force") || !strcmp(a, "--max-rate") || !strcmp(a, "--max-rtt-ms")) {
+			char *end;
+			double x;
+
+			if (!val)
+				return bad("%s needs a value", a);
+			x = strtod(val, &end);
+			if (!*val || *end || !(x > 0 && x <= 1e6))
+				return bad("%s must be a number in (0, 1e6]", a);
+			*(!strcmp(a, "--max-force")          ? &o->max_force
+				  : !strcmp(a, "--max-rate") ? &o->max_rate
+							     : &o->max_rtt_ms) = x;
 			k++;
 		} else if (a[0] == '-' && a[1] && !(a[1] >= '0' && a[1] <= '9') && a[1] != '.') {
 			return bad("unknown option '%s'", a);
@@ -238,6 +265,8 @@ static int set_words(const struct opts *o, const struct swell_param_desc **d, in
 	*d = param_named(o->argv[1]);
 	if (!*d)
 		return TOOL_USAGE;
+	if ((*d)->access == SWELL_PACCESS_RO)
+		return bad("%s is read only: the controller measures it (swell-tool get)", (*d)->name);
 	for (k = 2; k < o->argc; k++) /* "80 g" as two words, too */
 		if (strlen(text) + strlen(o->argv[k]) + 1 < sizeof(text)) {
 			strcat(text, o->argv[k]);
@@ -312,7 +341,11 @@ static int cmd_params(struct tool_session *s, const struct opts *o)
 		swell_param_format(&t[k], t[k].def, def, sizeof(def));
 		snprintf(range, sizeof(range), "%s .. %s", lo, hi);
 		printf("%-18s %-16s %-30s %-14s %s\n", t[k].name, v, range, def,
-		       t[k].when == SWELL_PWHEN_DRY && tool_object_wet(s) ? "no: the object displaces water" : "yes");
+		       t[k].access == SWELL_PACCESS_RO                              ? "no: read only (measured)"
+			       : t[k].when == SWELL_PWHEN_DRY && tool_object_wet(s) ? "no: the object displaces water"
+			       : t[k].when == SWELL_PWHEN_IDLE && s->t.hb.state == SWELL_CTL_RUNNING
+			       ? "no: while running"
+			       : "yes");
 	}
 	printf("%-18s %-16s %-30s %-14s %s\n", SWELL_PARAM_COMMAND_NAME, "(write only)", "stop, run, clear", "-",
 	       "yes (clear: in fault)");
@@ -673,6 +706,8 @@ static int check_words(const struct opts *o)
 		return bad("--seconds is an option of watch and log, not of %s", cmd);
 	if (o->out && strcmp(cmd, "plot"))
 		return bad("--out is an option of plot, not of %s", cmd);
+	if ((o->hm || o->max_force > 0 || o->max_rate > 0 || o->max_rtt_ms > 0) && strcmp(cmd, "check"))
+		return bad("--hm, --max-force, --max-rate and --max-rtt-ms are options of check, not of %s", cmd);
 	if (!strcmp(cmd, "set"))
 		return set_words(o, &d, &raw);
 	if (!strcmp(cmd, "get") && o->argc == 2 && !param_named(o->argv[1]))
@@ -687,8 +722,8 @@ static int check_words(const struct opts *o)
 	return TOOL_OK;
 }
 
-static const char *const session_cmds[] = { "status", "get",   "set",   "params", "arm", "run",
-					    "stop",   "clear", "estop", "watch",  "log", "scene" };
+static const char *const session_cmds[] = { "status", "get",   "set",   "params", "arm",   "run",  "stop",
+					    "clear",  "estop", "watch", "log",    "scene", "check" };
 
 int main(int argc, char **argv)
 {
@@ -717,6 +752,18 @@ int main(int argc, char **argv)
 	signal(SIGINT, on_signal);
 	signal(SIGTERM, on_signal);
 	rc = tool_open(&s, &o.spec, o.timeout_ms, err, sizeof(err));
+	if (!strcmp(cmd, "check")) {
+		const struct tool_check_opts co = { s.name,
+						    o.hm,
+						    o.max_force > 0 ? o.max_force : TOOL_CHECK_FORCE_N,
+						    o.max_rate > 0 ? o.max_rate : TOOL_CHECK_RATE_N_S,
+						    o.max_rtt_ms > 0 ? o.max_rtt_ms : TOOL_CHECK_RTT_MS,
+						    o.timeout_ms };
+
+		rc = tool_check(&s, (enum tool_rc)rc, err, &co);
+		tool_close(&s);
+		return rc;
+	}
 	if (rc != TOOL_OK) {
 		fprintf(stderr, "swell-tool: %s\n", err);
 		return rc;

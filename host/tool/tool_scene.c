@@ -299,6 +299,8 @@ enum tool_rc tool_scene_save(struct tool_session *s, const char *path, int timeo
 	swell_scene_put(&sc, SWELL_SCENE_DEPTH_UM, (int32_t)s->t.scene.depth_10um * 10);
 	t = swell_param_table(&n);
 	for (k = 0; k < n; k++) {
+		if (t[k].access == SWELL_PACCESS_RO)
+			continue; /* measured, not a setting */
 		rc = get(s, t[k].id, timeout_ms, &v, "scene save");
 		if (rc != TOOL_OK)
 			return rc;

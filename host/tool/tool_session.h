@@ -21,6 +21,7 @@ enum tool_rc {
 	TOOL_WRONG_NODE = 4, /* controllers heard, but not the node asked for (or several, none asked for) */
 	TOOL_TIMEOUT = 5, /* the controller was there and went silent, or did not answer */
 	TOOL_REFUSED = 6, /* the controller refused the request (PARAM_NACK), or the state did not follow */
+	TOOL_CHECK_FAILED = 7, /* check: at least one link of the chain failed */
 };
 
 #define TOOL_GRID_MAX 256

@@ -12,7 +12,7 @@ struct row {
 	double ns, ratio, instr;
 	double linf_ref, l2_ref, linf_eig, l2_eig, linf_sei, l2_sei, omega_ratio;
 	double vol_lsb, vol_mm, e_drift;
-	double err_bound; /* shipped: LSB sqrt(steps) / omega_d, mm */
+	double err_bound; /* ef32: LSB sqrt(steps) / omega_d, mm */
 	uint32_t sat;
 	int pareto;
 };
@@ -159,20 +159,20 @@ static void measure_matrix(const struct opts *o)
 						      "%s %s %dx%d e=%.3f: error differs from velocity (another kernel "
 						      "of the same bits)",
 						      bench_impl_name(r->impl), stencil_name(sts[si]), nx, nx, e);
-					if (r->impl == BENCH_SHIPPED) {
-						check(sat == 0, "shipped %s %dx%d e=%.3f: %u saturations at 1 mm",
+					if (r->impl == BENCH_EF32) {
+						check(sat == 0, "ef32 %s %dx%d e=%.3f: %u saturations at 1 mm",
 						      stencil_name(sts[si]), nx, nx, e, sat);
 						/* Stated bound: rounding errors of +-1/2 LSB per flow and step act as a
 						 * random force, so the error of a mode of frequency w grows like a random
 						 * walk, about LSB sqrt(steps) / w; measured 0.14..0.22 of that, checked
 						 * against 1x. */
 						check(r->linf_ref < r->err_bound,
-						      "shipped %s %dx%d e=%.3f: L-inf against float64 %.3g mm > bound "
+						      "ef32 %s %dx%d e=%.3f: L-inf against float64 %.3g mm > bound "
 						      "LSB sqrt(steps)/w = %.3g mm",
 						      stencil_name(sts[si]), nx, nx, e, r->linf_ref, r->err_bound);
 						/* the same model for energy: relative drift below 2 bound / amplitude */
 						check(fabs(r->e_drift) < 2 * r->err_bound / AMP_MM,
-						      "shipped %s %dx%d e=%.3f: energy drift %.3g > 2 bound / A = %.3g "
+						      "ef32 %s %dx%d e=%.3f: energy drift %.3g > 2 bound / A = %.3g "
 						      "(t = 0)",
 						      stencil_name(sts[si]), nx, nx, e, r->e_drift,
 						      2 * r->err_bound / AMP_MM);

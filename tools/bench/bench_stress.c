@@ -21,7 +21,7 @@ static void stress_edge(const struct opts *o, const char *scenario, enum bench_i
 	int a;
 
 	init_or_die(&f, impl, 64, 0.1, t, SWELL_STENCIL_PAPER);
-	/* the largest e_eff the shipped check accepts: one even step below the exclusive limit */
+	/* the largest e_eff swell_wave_check accepts: one even step below the exclusive limit */
 	bench_field_force(&f, (lim - 1) & ~(q30_t)1, SWELL_Q30_ONE - (q30_t)llround(t * SWELL_Q30_ONE));
 	bench_mode_init(&md, 64, 64, MODE_M, MODE_N);
 	bench_mode_field(&md, mode_frac * f.h_max * f.lsb_mm, h);
@@ -62,12 +62,12 @@ static void stress_edge(const struct opts *o, const char *scenario, enum bench_i
 	       bench_field_volume_lsb(&f) - v0, f.saturations, sat_at);
 	fprintf(stress_fp, "%s,%s,%.3f,%.9f,%.3e,%.4f,%.3e,%.0f,%u,,\n", scenario, bench_impl_name(impl), t, f.e_eff,
 		(double)steps * n, ratio, t == 0 ? ed_max : e_end, bench_field_volume_lsb(&f) - v0, f.saturations);
-	/* the shipped kernel saturates to the int28 range: down to -(h_max + 1) */
-	check(m_all <= f.h_max + (impl == BENCH_SHIPPED || impl == BENCH_VELOCITY),
+	/* ef32 saturates to the int28 range: down to -(h_max + 1) */
+	check(m_all <= f.h_max + (impl == BENCH_EF32 || impl == BENCH_VELOCITY),
 	      "%s %s: |h| %.0f LSB beyond the saturation bound", scenario, bench_impl_name(impl), m_all);
-	if (impl == BENCH_SHIPPED && noise_frac < 0.01) {
-		check(f.saturations == 0 && ratio < 1.5, "shipped at the stability edge t=%.2f grew %.2fx", t, ratio);
-		check(bench_field_volume_lsb(&f) == v0, "shipped at the edge: volume drift %+.0f LSB",
+	if (impl == BENCH_EF32 && noise_frac < 0.01) {
+		check(f.saturations == 0 && ratio < 1.5, "ef32 at the stability edge t=%.2f grew %.2fx", t, ratio);
+		check(bench_field_volume_lsb(&f) == v0, "ef32 at the edge: volume drift %+.0f LSB",
 		      bench_field_volume_lsb(&f) - v0);
 	}
 	bench_field_free(&f);
@@ -111,7 +111,7 @@ static void stress_forcing(enum bench_impl impl, long push_steps, long decay_ste
 	fprintf(stress_fp, "forcing,%s,0.02,%.9f,%.3e,,,%.0f,%u,%.0f,%.0f\n", bench_impl_name(impl), f.e_eff,
 		(double)(push_steps + decay_steps) * n, bench_field_volume_lsb(&f) - v0, f.saturations, resid_v,
 		resid_h);
-	if (impl == BENCH_SHIPPED || impl == BENCH_VELOCITY) {
+	if (impl == BENCH_EF32 || impl == BENCH_VELOCITY) {
 		check(bench_field_volume_lsb(&f) == v0, "%s under random pushes: volume drift %+.0f LSB",
 		      bench_impl_name(impl), bench_field_volume_lsb(&f) - v0);
 		check(resid_v == 0, "%s: motion of %.0f LSB/step left after damping (limit cycle)",
@@ -122,7 +122,7 @@ static void stress_forcing(enum bench_impl impl, long push_steps, long decay_ste
 
 void run_stress(const struct opts *o)
 {
-	const enum bench_impl forced[] = { BENCH_SHIPPED, BENCH_VELOCITY, BENCH_EF16,    BENCH_TL32_FLOOR,
+	const enum bench_impl forced[] = { BENCH_EF32,    BENCH_VELOCITY, BENCH_EF16,    BENCH_TL32_FLOOR,
 					   BENCH_TL32_RN, BENCH_TL32_RZ,  BENCH_TL16_RN, BENCH_F32 };
 	size_t k;
 
@@ -132,18 +132,18 @@ void run_stress(const struct opts *o)
 		"saturations,residual_step_lsb,residual_height_lsb\n");
 	printf("\n== stress ==\n");
 	/* 1 mm of noise (64 LSB of the int16 kernels' 2^-10 mm: 1/32 of their bound) */
-	stress_edge(o, "edge", BENCH_SHIPPED, 0.0, 0, 1.0 / 2048);
-	stress_edge(o, "edge", BENCH_SHIPPED, 0.5, 0, 1.0 / 2048);
+	stress_edge(o, "edge", BENCH_EF32, 0.0, 0, 1.0 / 2048);
+	stress_edge(o, "edge", BENCH_EF32, 0.5, 0, 1.0 / 2048);
 	stress_edge(o, "edge", BENCH_TL32_RN, 0.0, 0, 1.0 / 2048);
 	stress_edge(o, "edge", BENCH_EF16, 0.0, 0, 1.0 / 32);
 	for (k = 0; k < sizeof(forced) / sizeof(forced[0]); k++)
 		stress_forcing(forced[k], 2000, 4000);
 	/* near saturation: the (1,1) mode alone at 97 % of the bound (must not saturate), then at 90 %
 	 * with 10 % noise at the edge of stability (saturates: look for wrap, growth, volume) */
-	stress_edge(o, "near-bound", BENCH_SHIPPED, 0.0, 0.97, 0);
+	stress_edge(o, "near-bound", BENCH_EF32, 0.0, 0.97, 0);
 	stress_edge(o, "near-bound", BENCH_TL32_RN, 0.0, 0.97, 0);
-	stress_edge(o, "saturation", BENCH_SHIPPED, 0.0, 0.9, 0.1);
-	stress_edge(o, "saturation", BENCH_SHIPPED, 0.5, 0.9, 0.1);
+	stress_edge(o, "saturation", BENCH_EF32, 0.0, 0.9, 0.1);
+	stress_edge(o, "saturation", BENCH_EF32, 0.5, 0.9, 0.1);
 	stress_edge(o, "saturation", BENCH_TL32_RN, 0.0, 0.9, 0.1);
 	stress_edge(o, "saturation", BENCH_VELOCITY, 0.0, 0.9, 0.1);
 	stress_edge(o, "saturation", BENCH_EF16, 0.0, 0.9, 0.1);

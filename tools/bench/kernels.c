@@ -18,7 +18,7 @@ static const struct {
 	size_t bytes; /* per cell, between steps, scratch included */
 	int fixed;
 } impl_info[BENCH_IMPL_COUNT] = {
-	[BENCH_SHIPPED] = { "shipped", 7 * 4, 1 }, [BENCH_VELOCITY] = { "velocity", 2 * 4, 1 },
+	[BENCH_EF32] = { "ef32", 7 * 4, 1 },       [BENCH_VELOCITY] = { "velocity", 2 * 4, 1 },
 	[BENCH_VEL_REF] = { "vel-ref", 2 * 4, 1 }, [BENCH_VEL_FUSED] = { "vel-fused", 2 * 4, 1 },
 	[BENCH_EF16] = { "ef16", 5 * 2 + 4, 1 },   [BENCH_TL32_FLOOR] = { "tl32-floor", 3 * 4, 1 },
 	[BENCH_TL32_RN] = { "tl32-rn", 3 * 4, 1 }, [BENCH_TL32_RZ] = { "tl32-rz", 3 * 4, 1 },
@@ -61,7 +61,7 @@ int bench_impl_velocity(enum bench_impl impl)
 
 int bench_impl_wave(enum bench_impl impl)
 {
-	return impl == BENCH_SHIPPED || bench_impl_velocity(impl);
+	return impl == BENCH_EF32 || bench_impl_velocity(impl);
 }
 
 /* x / 2^s with the given rounding; s >= 1. */
@@ -123,7 +123,7 @@ enum swell_err bench_field_init(struct bench_field *f, enum bench_impl impl, int
 	n = (size_t)nx * ny;
 	np = (size_t)(nx + 2) * (ny + 2);
 	switch (impl) {
-	case BENCH_SHIPPED:
+	case BENCH_EF32:
 	case BENCH_VELOCITY:
 	case BENCH_VEL_REF:
 	case BENCH_VEL_FUSED:
@@ -132,7 +132,7 @@ enum swell_err bench_field_init(struct bench_field *f, enum bench_impl impl, int
 			return SWELL_ESIZE;
 		err = swell_wave_init_form(&f->w, (uint16_t)nx, (uint16_t)ny, f->mem, SWELL_WAVE_WORDS(nx, ny), &p,
 					   bench_impl_velocity(impl) ? SWELL_FORM_VELOCITY : SWELL_FORM_EDGE);
-		if (err == SWELL_OK && impl != BENCH_SHIPPED && impl != BENCH_VELOCITY)
+		if (err == SWELL_OK && impl != BENCH_EF32 && impl != BENCH_VELOCITY)
 			err = swell_wave_set_kernel(&f->w,
 						    impl == BENCH_VEL_REF ? SWELL_KERNEL_REF : SWELL_KERNEL_FUSED);
 		if (err != SWELL_OK) {
@@ -277,7 +277,7 @@ void bench_field_set_mm(struct bench_field *f, const double *h_mm)
 			int32_t s = f->h_max ? (r > f->h_max ? f->h_max : (r < -f->h_max ? -f->h_max : (int32_t)r)) : 0;
 
 			switch (f->impl) {
-			case BENCH_SHIPPED:
+			case BENCH_EF32:
 			case BENCH_VELOCITY:
 			case BENCH_VEL_REF:
 			case BENCH_VEL_FUSED:
@@ -320,7 +320,7 @@ static double cell_lsb(const struct bench_field *f, int i, int j, int prev)
 	size_t a = (size_t)j * f->nx + i, k = pidx(f, i, j);
 
 	switch (f->impl) {
-	case BENCH_SHIPPED:
+	case BENCH_EF32:
 		return prev ? (double)f->w.h[a] - f->w.v[a] : f->w.h[a];
 	case BENCH_VELOCITY:
 	case BENCH_VEL_REF:
@@ -372,7 +372,7 @@ void bench_field_add_lsb(struct bench_field *f, int i, int j, int32_t k)
 	size_t a = (size_t)j * f->nx + i, p = pidx(f, i, j);
 
 	switch (f->impl) {
-	case BENCH_SHIPPED:
+	case BENCH_EF32:
 	case BENCH_VELOCITY:
 	case BENCH_VEL_REF:
 	case BENCH_VEL_FUSED: /* h(n) moves, the momentum does not: an impulse of volume, not of motion */
@@ -525,7 +525,7 @@ static void step_ef16(struct bench_field *f)
 void bench_field_step(struct bench_field *f)
 {
 	switch (f->impl) {
-	case BENCH_SHIPPED:
+	case BENCH_EF32:
 	case BENCH_VELOCITY:
 	case BENCH_VEL_REF:
 	case BENCH_VEL_FUSED:

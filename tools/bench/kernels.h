@@ -1,12 +1,13 @@
 /* swell-bench kernels: the implementations of eq. (1) the benchmark compares, behind one interface.
  *
  * Host-only benchmark code (it allocates and uses float); nothing here runs on the controller.
- * The shipped solver is common/src/wave.c; every other variant is written here so that the
- * benchmark can compare it without touching the shipped code.
+ The solver the controller runs is wave.c's velocity form (velocity below); wave.c's edge-flux
+ * form is compared too (ef32); every other variant is written here so that the benchmark can compare
+ * them without touching wave.c.
  *
- *   shipped      wave.c: edge-flux, int32 heights and flows (LSB 2^-16 mm), e w dh to nearest,
+ *   ef32         wave.c's edge-flux form: int32 heights and flows (LSB 2^-16 mm), e w dh to nearest,
  *                damping toward zero
- *   velocity     wave.c's velocity form: one momentum a cell, separable L9, per-cell rounding and
+ *   velocity     wave.c's velocity form, the controller's solver: one momentum a cell, separable L9, per-cell rounding and
  *                the exact global volume fixer (int27 heights, LSB 2^-16 mm); the kernel wave.c
  *                chooses (AVX2 where the CPU has it)
  *   vel-ref      the same with its scalar reference kernel, vel-fused with the fused kernel (the
@@ -32,7 +33,7 @@
 #include "swell/wave_ref.h"
 
 enum bench_impl {
-	BENCH_SHIPPED = 0,
+	BENCH_EF32 = 0,
 	BENCH_VELOCITY,
 	BENCH_VEL_REF,
 	BENCH_VEL_FUSED,
@@ -56,7 +57,7 @@ struct bench_field {
 	double lsb_mm; /* 1 LSB in mm; float kernels report 2^-16 mm so pushes have one unit */
 	int h_max; /* saturation bound in LSB (0: float, none) */
 	uint32_t saturations;
-	struct swell_wave w; /* shipped and velocity */
+	struct swell_wave w; /* ef32 and the velocity forms */
 	void *mem;
 	/* three-level fixed: padded h(n), h(n-1), scratch; int32 or int16 */
 	int32_t *h32, *hp32, *hn32;
@@ -85,7 +86,7 @@ enum bench_impl bench_impl_parse(const char *name);
 /* Storage bytes per cell the kernel keeps between steps (scratch included). */
 size_t bench_impl_bytes_per_cell(enum bench_impl impl);
 int bench_impl_is_fixed(enum bench_impl impl);
-/* 1 for wave.c's velocity form (velocity, vel-ref, vel-fused); 1 for either form of wave.c (shipped
+/* 1 for wave.c's velocity form (velocity, vel-ref, vel-fused); 1 for either form of wave.c (ef32
  * too) in bench_impl_wave. */
 int bench_impl_velocity(enum bench_impl impl);
 int bench_impl_wave(enum bench_impl impl);
@@ -97,7 +98,7 @@ enum swell_err bench_field_init(struct bench_field *f, enum bench_impl impl, int
 void bench_field_free(struct bench_field *f);
 
 /* Bench-only: set e_eff and 1-t directly, bypassing the stability check, to map where runs stay
- * bounded outside the validated region (for the shipped kernel this writes the coefficient fields
+ * bounded outside the validated region (for ef32 this writes the coefficient fields
  * of struct swell_wave, which no controller code may do). SWELL_ERANGE when the wall coefficient
  * 3/2 e_eff would not fit Q1.30. */
 enum swell_err bench_field_force(struct bench_field *f, q30_t e_eff, q30_t q);

@@ -7,7 +7,7 @@ TRACE is a QEMU log of `-d in_asm,exec,nochain` (every translated block's instru
 line per execution of a block), usually limited to the code of interest with -dfilter, e.g.
 
     qemu-system-arm -M netduinoplus2 -nographic -icount shift=0 -serial file:serial.log \\
-        -d in_asm,exec,nochain -dfilter 0x0800dd78+0x327c -D trace.log -kernel swell-fw.elf
+        -d in_asm,exec,nochain -dfilter 0x0800dd78+0x327c -D trace.log -kernel swell-fw-selftest.elf
 
 (-dfilter takes the address and size of the function, from `arm-none-eabi-nm -S`).
 Prints the executed instructions, the estimated cycles and cycles per instruction, by class; with

@@ -32,6 +32,7 @@
 #include "hm_client.h"
 #include "hm_fx.h"
 #include "swell/link.h"
+#include "swell/param_table.h"
 #include "swell/pool.h"
 #include "swell/proto.h"
 #include "swell/transport.h"
@@ -47,6 +48,8 @@ static const char usage[] =
 	"  --link udp[:PORT]|can:IFACE|usb[:VID:PID]   carrier to the controller (default udp: packets to "
 	"--host:--port)\n"
 	"  --host ADDR         controller's IPv4 address for udp (default 127.0.0.1)\n"
+	"  --inertia KG        the HapticMaster's inertia, set at every start-up after its calibrations are\n"
+	"                      read (default 2, what the force law's damper is tuned for; 0: left as it is)\n"
 	"  --port N            controller's UDP port (default 47800)\n"
 	"  --bind-port N       own UDP port (default 0: any free port)\n"
 	"  --iface N           usb: the controller's interface number (default 0)\n"
@@ -71,6 +74,7 @@ struct opts {
 	struct swell_link_spec ls; /* --link parsed */
 	unsigned port, bind_port, iface, node, watchdog;
 	double rate_hz, seconds, fresh_ms;
+	double inertia_kg; /* set on the HapticMaster at every start-up, 0: left as it is */
 	int rt, quiet;
 };
 
@@ -106,6 +110,7 @@ static void parse(int argc, char **argv, struct opts *o)
 	o->host = SWELL_UDP_HOST;
 	o->port = SWELL_UDP_PORT_DEVICE;
 	o->rate_hz = SWELL_POOL_TICK_HZ;
+	o->inertia_kg = SWELL_PARAM_DEF_HM_INERTIA / 1000.0;
 	o->watchdog = 2;
 	o->fresh_ms = 10.0;
 	for (k = 1; k < argc; k++) {
@@ -152,6 +157,8 @@ static void parse(int argc, char **argv, struct opts *o)
 			o->iface = (unsigned)number(a, v, 0, 255, 1);
 		else if (!strcmp(a, "--node"))
 			o->node = (unsigned)number(a, v, 0, SWELL_NODE_MAX, 1);
+		else if (!strcmp(a, "--inertia"))
+			o->inertia_kg = number(a, v, 0, 100, 0);
 		else if (!strcmp(a, "--rate"))
 			o->rate_hz = number(a, v, 100, 10000, 0);
 		else if (!strcmp(a, "--watchdog"))
@@ -198,6 +205,7 @@ struct bridge {
 	uint64_t ticks, commands, samples_fwd, samples_dropped, silent_ticks, trips, send_errors, ignored;
 	uint64_t hm_trips; /* forces zeroed because the HapticMaster fell silent */
 	int zeroed; /* the watchdog has zeroed the force since the last command */
+	uint32_t refusal_seen; /* the HapticMaster start-up's refusal last printed (hm.refusal_seq) */
 	int hm_zeroed; /* ... since the last answer */
 };
 
@@ -288,6 +296,12 @@ static void tick(struct bridge *b, const struct opts *o)
 	take_commands(b);
 	/* the newest answer only: the controller gets one sample a tick */
 	n = hm_client_poll(&b->hm, in, sizeof(in) / sizeof(in[0]), b->node);
+	if (b->hm.refusal_seq != b->refusal_seen) { /* the start-up stopped before any force: once a reason */
+		b->refusal_seen = b->hm.refusal_seq;
+		fprintf(stderr,
+			"swell-hmbridge: %s: start-up stopped before any force: %s (trying again every %d ms)\n",
+			b->hm.name, b->hm.refusal, HMC_RETRY_MS);
+	}
 	for (k = 0; k + 1 < n; k += 2)
 		newest = &in[k];
 	if (newest) {
@@ -338,6 +352,7 @@ int main(int argc, char **argv)
 		fprintf(stderr, "swell-hmbridge: %s\n", err);
 		return 2;
 	}
+	b.hm.inertia_g = (uint32_t)lround(o.inertia_kg * 1000.0);
 	hm_fx_init(&b.fx, &b.hm, (uint32_t)fmax(1.0, round(o.fresh_ms * o.rate_hz / 1000.0)));
 	if (open_link(&b, &o) < 0)
 		return 1;

@@ -252,9 +252,15 @@ static void param_row(FILE *o, const struct swell_param_desc *d, const char *who
 	swell_param_format(d, d->def, def, sizeof(def));
 	swell_param_format(d, d->min, lo, sizeof(lo));
 	swell_param_format(d, d->max, hi, sizeof(hi));
+	const int ro = d->access == SWELL_PACCESS_RO;
+
 	fprintf(o, "| `%s` | 0x%04X | %s | %s | %s .. %s | %ld .. %ld x %s | %s | %s | %s |\n", d->name, d->id,
-		d->unit[0] ? d->unit : "-", def, lo, hi, (long)d->min, (long)d->max, d->factor, who,
-		d->id >= SWELL_SCENE_NX ? "outside RUNNING (start-up)" : swell_param_when_text(d->when), d->desc);
+		d->unit[0] ? d->unit : "-", ro ? "-" : def, lo, hi, (long)d->min, (long)d->max, d->factor,
+		ro ? "nobody: the controller measures it" : who,
+		ro                                ? "read only"
+			: d->id >= SWELL_SCENE_NX ? "outside RUNNING (start-up)"
+						  : swell_param_when_text(d->when),
+		d->desc);
 }
 
 static void write_params(FILE *o)
@@ -298,6 +304,9 @@ static void write_params(FILE *o)
 	t = swell_param_table(&n);
 	for (k = 0; k < n; k++)
 		param_row(o, &t[k], "host link, scene file");
+	fprintf(o,
+		"\nRead-only parameters are what the controller measures: `swell-tool get NAME` reads them, a\n"
+		"set is refused (`invalid argument`), a scene file may not name them.\n");
 	fprintf(o,
 		"\n## Scene keys (start-up)\n\n"
 		"The pool and the solver rate are laid out in memory at start. `swell-ctl --scene FILE` and\n"

@@ -14,7 +14,12 @@ enum swell_param_group {
 	SWELL_PGROUP_BODY,
 	SWELL_PGROUP_SIZE,
 	SWELL_PGROUP_SAFETY,
+	SWELL_PGROUP_FRAME,
 	SWELL_PGROUP_CORE
+};
+enum swell_param_access {
+	SWELL_PACCESS_RW,
+	SWELL_PACCESS_RO /* measured by the controller: read only, never in a scene */
 };
 enum swell_param_when {
 	SWELL_PWHEN_ANY,
@@ -31,6 +36,7 @@ struct swell_param_desc {
 	const char *factor; /* physical = raw x factor, exact decimal */
 	const char *unit;
 	enum swell_param_when when;
+	enum swell_param_access access;
 	const char *desc;
 };
 

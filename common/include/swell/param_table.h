@@ -1,5 +1,5 @@
 /* The controller's parameters: THE single source, beside the message table (proto_table.h). The
- * core's get/set (firmware/core/src/ctl.c), the reference configuration, docs/protocol.md
+ * core's get/set (firmware/core/src/ctl_param.c), the reference configuration, docs/protocol.md
  * (tools/protocol/swell-protogen) and every tool that names a parameter (swell-tool, swell-inject,
  * swell-flash) are expanded from it.
  *
@@ -9,14 +9,18 @@
  *     NAME     suffix of the id constant SWELL_PARAM_<NAME> and the default SWELL_PARAM_DEF_<NAME>
  *     id       16-bit id on the wire (never reused)
  *     "name"   what people and tools call it (swell-tool get body.mass)
- *     member   the field of struct swell_ctl_config that holds it (expanded only in the core)
+ *     member   RW: the field of struct swell_ctl_config that holds it; RO: the field of struct
+ *              swell_ctl (expanded only in the core)
  *     ctype    its C type there
  *     group    the module that validates and takes it: WAVE (solver), BODY (force law), SIZE (force
- *              law; the object's size, also sent in CTL_INFO), SAFETY (safety stage), CORE
+ *              law; the object's size, also sent in CTL_INFO), SAFETY (safety stage), FRAME (the
+ *              device-to-pool frame, taken by the force law), CORE
  *     min, max raw range; outside it the set is refused with SWELL_ERANGE before anything else
  *              (the module's own checks, such as stability, come after it)
  *     def      raw value in the reference scene (swell_ctl_default_config)
- *     access   RW: read and written by the host link (the controller writes none itself)
+ *     access   RW: read and written by the host link (the controller writes none itself); RO: what
+ *              the controller measures, read only (a set is refused with SWELL_EINVAL; never in a
+ *              scene file)
  *     when     ANY: in every state; DRY: refused (SWELL_ESTATE) while the object displaces water;
  *              IDLE: refused (SWELL_ESTATE) while the force law runs (RUNNING)
  *
@@ -63,7 +67,35 @@
 	P(SILENT_TICKS, 30, "link.silent_ticks", silent_ticks, uint16_t, CORE, 1, 10000, 2, "1", "ticks", RW, ANY,     \
 	  "device silent this many ticks (effect mode: at least two update periods): zero force and FAULT")            \
 	P(AUTORUN, 31, "ctl.autorun", autorun, uint8_t, CORE, 0, 1, 0, "1", "", RW, ANY,                               \
-	  "1: ARMED goes to RUNNING by itself (unless the host sent STOP) and FAULT recovers by itself")
+	  "1: ARMED goes to RUNNING by itself (unless the host sent STOP) and FAULT recovers by itself")               \
+	P(FRAME_X0, 50, "frame.x0", xform.offset_um[0], int32_t, FRAME, -2000000, 2000000, 200000, "0.001", "mm", RW,  \
+	  IDLE, "pool x of the device's origin (docs/frame.md: pool = offset + flip x scale x device[axes])")          \
+	P(FRAME_Y0, 51, "frame.y0", xform.offset_um[1], int32_t, FRAME, -2000000, 2000000, 200000, "0.001", "mm", RW,  \
+	  IDLE, "pool y of the device's origin")                                                                       \
+	P(FRAME_Z0, 52, "frame.z0", xform.offset_um[2], int32_t, FRAME, -2000000, 2000000, 0, "0.001", "mm", RW, IDLE, \
+	  "pool z of the device's origin (pool z 0: the water's rest level)")                                          \
+	P(FRAME_SCALE, 53, "frame.scale", xform.scale, int32_t, FRAME, 6554, 1048576, 65536, SWELL_PARAM_Q16, "", RW,  \
+	  IDLE, "pool mm per device mm, Q15.16, 0.1 to 16 (forces go back unscaled); effect mode: 1")                  \
+	P(FRAME_AXES, 54, "frame.axes", frame_axes, uint16_t, FRAME, 123, 321, 123, "1", "", RW, IDLE,                 \
+	  "the device axes (1 x, 2 y, 3 z) that give pool x, y and z, three digits: 123 as they are, 213 x and y "     \
+	  "swapped; effect mode: z stays 3")                                                                           \
+	P(FRAME_FLIP, 55, "frame.flip", frame_flip, uint8_t, FRAME, 0, 7, 0, "1", "", RW, IDLE,                        \
+	  "pool axes that run against their device axis: 1 x, 2 y, 4 z, summed; effect mode: not 4")                   \
+	P(HM_INERTIA, 56, "hm.inertia", hm_inertia_g, uint32_t, CORE, 0, 100000, 2000, "0.001", "kg", RW, IDLE,        \
+	  "the inertia a HapticMaster is set to at start-up (hm: links: set inertia), the force law's damper is "      \
+	  "tuned for 2 kg; 0: left as the device has it")                                                              \
+	P(DEV_STATUS, 60, "dev.status", dev_status, uint8_t, CORE, 0, 255, 0, "1", "", RO, ANY,                        \
+	  "the device's last status: 1 powered, 2 force on, 4 e-stop (or not rendering), 8 fault, summed")             \
+	P(DEV_RATE, 61, "dev.rate", dev_rate_hz, uint16_t, CORE, 0, 65535, 0, "1", "Hz", RO, ANY,                      \
+	  "device samples heard in the last whole second")                                                             \
+	P(CTL_TICK_HZ, 62, "ctl.tick_hz", cfg.tick_hz, uint32_t, CORE, 0, 100000, 2500, "1", "Hz", RO, ANY,            \
+	  "the controller's tick rate")                                                                                \
+	P(DEV_X, 63, "dev.x", pos_um[0], int32_t, CORE, -300000, 300000, 0, "0.001", "mm", RO, ANY,                    \
+	  "the device's last position x, in its own frame (frame.* map it into the pool)")                             \
+	P(DEV_Y, 64, "dev.y", pos_um[1], int32_t, CORE, -300000, 300000, 0, "0.001", "mm", RO, ANY,                    \
+	  "the device's last position y, in its own frame")                                                            \
+	P(DEV_Z, 65, "dev.z", pos_um[2], int32_t, CORE, -300000, 300000, 0, "0.001", "mm", RO, ANY,                    \
+	  "the device's last position z, in its own frame")
 
 #define SWELL_PARAM_COMMAND_ID 40
 #define SWELL_PARAM_COMMAND_NAME "ctl.command"

@@ -9,15 +9,15 @@
 
 static const struct swell_param_desc keys[] = {
 	{ SWELL_SCENE_NX, "pool.nx", "uint16_t", SWELL_PGROUP_CORE, 2, SWELL_GRID_MAX, SWELL_POOL_N, "1", "cells",
-	  SWELL_PWHEN_ANY, "grid columns (start-up)" },
+	  SWELL_PWHEN_ANY, SWELL_PACCESS_RW, "grid columns (start-up)" },
 	{ SWELL_SCENE_NY, "pool.ny", "uint16_t", SWELL_PGROUP_CORE, 2, SWELL_GRID_MAX, SWELL_POOL_N, "1", "cells",
-	  SWELL_PWHEN_ANY, "grid rows (start-up)" },
+	  SWELL_PWHEN_ANY, SWELL_PACCESS_RW, "grid rows (start-up)" },
 	{ SWELL_SCENE_DX_UM, "pool.dx", "uint32_t", SWELL_PGROUP_CORE, 100, 65535, SWELL_POOL_DX_UM, "0.001", "mm",
-	  SWELL_PWHEN_ANY, "cell size (start-up)" },
+	  SWELL_PWHEN_ANY, SWELL_PACCESS_RW, "cell size (start-up)" },
 	{ SWELL_SCENE_DEPTH_UM, "pool.depth", "uint32_t", SWELL_PGROUP_CORE, 10, 655350, SWELL_POOL_DEPTH_UM, "0.001",
-	  "mm", SWELL_PWHEN_ANY, "rest depth (start-up)" },
+	  "mm", SWELL_PWHEN_ANY, SWELL_PACCESS_RW, "rest depth (start-up)" },
 	{ SWELL_SCENE_SOLVER_HZ, "solver.hz", "uint32_t", SWELL_PGROUP_CORE, 1, SWELL_TICK_HZ_MAX, SWELL_POOL_SOLVER_HZ,
-	  "1", "Hz", SWELL_PWHEN_ANY, "solver rate (start-up)" },
+	  "1", "Hz", SWELL_PWHEN_ANY, SWELL_PACCESS_RW, "solver rate (start-up)" },
 };
 
 const struct swell_param_desc *swell_scene_key(uint16_t id)
@@ -120,6 +120,10 @@ int swell_scene_load(const char *path, struct swell_scene *out, char *err, size_
 		d = swell_scene_desc_by_name(name);
 		if (!d) {
 			snprintf(err, errlen, "%s:%d: no parameter '%s'", path, line, name);
+			goto refuse;
+		}
+		if (d->access == SWELL_PACCESS_RO) {
+			snprintf(err, errlen, "%s:%d: %s is read only (the controller measures it)", path, line, name);
 			goto refuse;
 		}
 		if (swell_scene_get(&sc, d->id)) {

@@ -97,10 +97,14 @@ TEST_CASE("a parameter set to a new value inside its range reads back that value
 	} sets[] = {{"wave.e", 200000000},    {"wave.damping", 2000000}, {"wave.stencil", 1},   {"body.mass", 80},
 		    {"body.a", 40000},        {"body.b", 30000},         {"body.h", 20000},     {"body.damper", 3000},
 		    {"force.max", 5000000},   {"force.rate", 100000000}, {"force.gain", 32768}, {"force.mode", 1},
-		    {"link.silent_ticks", 5}, {"ctl.autorun", 1}};
-	size_t n = 0;
-	swell_param_table(&n);
-	CHECK(sizeof(sets) / sizeof(sets[0]) == n); /* every row is exercised */
+		    {"link.silent_ticks", 5}, {"ctl.autorun", 1},        {"frame.x0", 150000},  {"frame.y0", 250000},
+		    {"frame.z0", -20000},     {"frame.axes", 213},       {"frame.flip", 3},     {"hm.inertia", 3000}};
+	size_t n = 0, rw = 0;
+	const swell_param_desc *t = swell_param_table(&n);
+	for (size_t i = 0; i < n; i++)
+		rw += t[i].access == SWELL_PACCESS_RW;
+	/* every writable row is exercised (frame.scale below: effect mode, set here, wants scale 1) */
+	CHECK(sizeof(sets) / sizeof(sets[0]) + 1 == rw);
 	for (auto &s : sets) {
 		const swell_param_desc *d = swell_param_by_name(s.name);
 		INFO(s.name << " = " << s.v);
@@ -114,6 +118,109 @@ TEST_CASE("a parameter set to a new value inside its range reads back that value
 	CHECK(k.c.cfg.body.mass_g == 80u);
 	CHECK(k.c.cfg.wave.stencil == SWELL_STENCIL_CALIBRATED);
 	CHECK(k.c.cfg.silent_ticks == 5);
+	Core k2;
+	int32_t v = 0;
+	REQUIRE(k2.ask(SWELL_MSG_PARAM_SET, SWELL_PARAM_FRAME_SCALE, 131072, &v) == SWELL_OK);
+	CHECK(k2.c.cfg.xform.scale == 131072);
+	/* effect mode renders along the device's z, unscaled: refused now, and the scale refused there */
+	CHECK(k2.ask(SWELL_MSG_PARAM_SET, SWELL_PARAM_FORCE_MODE, 1, &v) == SWELL_EINVAL);
+	CHECK(k.ask(SWELL_MSG_PARAM_SET, SWELL_PARAM_FRAME_SCALE, 131072, &v) == SWELL_EINVAL);
+}
+
+TEST_CASE("the frame parameters place, swap and flip the device's axes in the pool, and a code that is not a permutation "
+	  "or a change while running is refused and changes nothing",
+	  "[ctl][param][frame]")
+{
+	Core k;
+	int32_t v = 0;
+	REQUIRE(k.ask(SWELL_MSG_PARAM_SET, SWELL_PARAM_FRAME_X0, 150000, &v) == SWELL_OK);
+	REQUIRE(k.ask(SWELL_MSG_PARAM_SET, SWELL_PARAM_FRAME_Y0, 250000, &v) == SWELL_OK);
+	REQUIRE(k.ask(SWELL_MSG_PARAM_SET, SWELL_PARAM_FRAME_Z0, 30000, &v) == SWELL_OK);
+	REQUIRE(k.ask(SWELL_MSG_PARAM_SET, SWELL_PARAM_FRAME_AXES, 213, &v) == SWELL_OK);
+	REQUIRE(k.ask(SWELL_MSG_PARAM_SET, SWELL_PARAM_FRAME_FLIP, 1, &v) == SWELL_OK);
+	CHECK(k.c.cfg.xform.axis[0] == 1);
+	CHECK(k.c.cfg.xform.axis[1] == 0);
+	CHECK(k.c.cfg.xform.axis[2] == 2);
+	CHECK(k.c.cfg.xform.sign[0] == -1);
+	CHECK(k.c.cfg.xform.sign[1] == 1);
+	CHECK(k.c.cfg.xform.sign[2] == 1);
+	CHECK(k.c.body.xf.offset_um[2] == 30000); /* taken by the force law */
+	/* the device at x 10, y 20, z 40 mm (in the air): the pose says where that is in the pool */
+	swell_msg out[SWELL_CTL_QUEUE];
+	int pose = 0;
+	for (int t = 0; t < 60 && !pose; t++) {
+		const swell_msg m = swell_test::device_pos_msg((uint8_t)t, 4000, 1, 1000, 2000);
+		swell_ctl_rx(&k.c, SWELL_LINK_DEVICE, &m);
+		swell_ctl_tick(&k.c);
+		const size_t n = swell_ctl_tx(&k.c, SWELL_LINK_HOST, out, SWELL_CTL_QUEUE);
+		swell_ctl_tx(&k.c, SWELL_LINK_DEVICE, out + n, SWELL_CTL_QUEUE - n);
+		for (size_t i = 0; i < n; i++)
+			if (out[i].type == SWELL_MSG_OBJECT_POSE) {
+				pose = 1;
+				CHECK(out[i].u.object_pose.x_10um == 15000 - 2000); /* pool x = 150 - device y */
+				CHECK(out[i].u.object_pose.y_10um == 25000 + 1000); /* pool y = 250 + device x */
+			}
+	}
+	CHECK(pose == 1);
+	/* not three different axes: refused, nothing changed */
+	const swell_ctl_config before = k.c.cfg;
+	for (int32_t bad : {112, 124, 223, 320, 301})
+		CHECK(k.ask(SWELL_MSG_PARAM_SET, SWELL_PARAM_FRAME_AXES, bad, &v) ==
+		      (bad < 123 || bad > 321 ? SWELL_ERANGE : SWELL_EINVAL));
+	CHECK(std::memcmp(&before, &k.c.cfg, sizeof(before)) == 0);
+	/* running: every frame parameter is refused (state), the frame stays */
+	REQUIRE(k.ask(SWELL_MSG_PARAM_SET, SWELL_PARAM_COMMAND, SWELL_CMD_RUN, &v) == SWELL_OK);
+	for (int t = 0; t < 10 && k.c.state != SWELL_CTL_RUNNING; t++) {
+		const swell_msg m = swell_test::device_pos_msg((uint8_t)(100 + t), 4000, 1, 1000, 2000);
+		swell_ctl_rx(&k.c, SWELL_LINK_DEVICE, &m);
+		swell_ctl_tick(&k.c);
+		swell_ctl_tx(&k.c, SWELL_LINK_HOST, out, SWELL_CTL_QUEUE);
+		swell_ctl_tx(&k.c, SWELL_LINK_DEVICE, out, SWELL_CTL_QUEUE);
+	}
+	REQUIRE(k.c.state == SWELL_CTL_RUNNING);
+	for (uint16_t id : {SWELL_PARAM_FRAME_X0, SWELL_PARAM_FRAME_Y0, SWELL_PARAM_FRAME_Z0, SWELL_PARAM_FRAME_SCALE,
+			    SWELL_PARAM_FRAME_AXES, SWELL_PARAM_FRAME_FLIP})
+		CHECK(k.ask(SWELL_MSG_PARAM_SET, id,
+			    id == SWELL_PARAM_FRAME_AXES            ? 123
+				    : id == SWELL_PARAM_FRAME_SCALE ? 65536
+								    : 0,
+			    &v) == SWELL_ESTATE);
+	CHECK(k.c.cfg.xform.offset_um[0] == 150000);
+	CHECK(k.c.cfg.frame_axes == 213);
+}
+
+TEST_CASE("dev.status, dev.rate and ctl.tick_hz say what the controller measures and refuse a set", "[ctl][param]")
+{
+	Core k;
+	int32_t v = -1;
+	swell_msg out[SWELL_CTL_QUEUE];
+	const uint32_t hz = k.c.cfg.tick_hz;
+	/* a device heard every other tick for two whole seconds of ticks, powered and in e-stop */
+	for (uint32_t t = 0; t < 2 * hz; t++) {
+		if (t % 2 == 0) {
+			const swell_msg m = swell_test::device_pos_msg((uint8_t)(t / 2), 4000, 1 | 4);
+			swell_ctl_rx(&k.c, SWELL_LINK_DEVICE, &m);
+		}
+		swell_ctl_tick(&k.c);
+		swell_ctl_tx(&k.c, SWELL_LINK_HOST, out, SWELL_CTL_QUEUE);
+		swell_ctl_tx(&k.c, SWELL_LINK_DEVICE, out, SWELL_CTL_QUEUE);
+	}
+	REQUIRE(k.ask(SWELL_MSG_PARAM_GET, SWELL_PARAM_DEV_RATE, 0, &v) == SWELL_OK);
+	CHECK(v == (int32_t)(hz / 2));
+	REQUIRE(k.ask(SWELL_MSG_PARAM_GET, SWELL_PARAM_DEV_STATUS, 0, &v) == SWELL_OK);
+	CHECK(v == 5);
+	REQUIRE(k.ask(SWELL_MSG_PARAM_GET, SWELL_PARAM_CTL_TICK_HZ, 0, &v) == SWELL_OK);
+	CHECK(v == (int32_t)hz);
+	for (uint16_t id : {SWELL_PARAM_DEV_RATE, SWELL_PARAM_DEV_STATUS, SWELL_PARAM_CTL_TICK_HZ})
+		CHECK(k.ask(SWELL_MSG_PARAM_SET, id, 0, &v) == SWELL_EINVAL);
+	/* silent for a whole second: the rate falls to 0 */
+	for (uint32_t t = 0; t < hz + 1; t++) {
+		swell_ctl_tick(&k.c);
+		swell_ctl_tx(&k.c, SWELL_LINK_HOST, out, SWELL_CTL_QUEUE);
+		swell_ctl_tx(&k.c, SWELL_LINK_DEVICE, out, SWELL_CTL_QUEUE);
+	}
+	REQUIRE(k.ask(SWELL_MSG_PARAM_GET, SWELL_PARAM_DEV_RATE, 0, &v) == SWELL_OK);
+	CHECK(v == 0);
 }
 
 TEST_CASE("DRY parameters are refused while the object displaces water, the others are not", "[ctl][param]")
@@ -138,7 +245,15 @@ TEST_CASE("DRY parameters are refused while the object displaces water, the othe
 		const int32_t want = now < t[i].max ? now + 1 : now - 1;
 		INFO(t[i].name << ": " << now << " -> " << want << ", " << swell_param_when_text(t[i].when));
 		swell_err e = k.ask(SWELL_MSG_PARAM_SET, t[i].id, want, &v);
-		if (t[i].when == SWELL_PWHEN_DRY) {
+		if (t[i].access == SWELL_PACCESS_RO) {
+			CHECK(e == SWELL_EINVAL);
+		} else if (t[i].group == SWELL_PGROUP_FRAME) {
+			/* the frame moves the object: the body refuses it in the water (124 is no frame; a
+			 * scale other than 1 is none in effect mode, set by force.mode's row above) */
+			const bool invalid = t[i].id == SWELL_PARAM_FRAME_AXES ||
+				(t[i].id == SWELL_PARAM_FRAME_SCALE && k.c.cfg.force_mode == SWELL_FORCE_EFFECT);
+			CHECK(e == (invalid ? SWELL_EINVAL : SWELL_ESTATE));
+		} else if (t[i].when == SWELL_PWHEN_DRY) {
 			CHECK(e == SWELL_ESTATE);
 			dry++;
 		} else if (t[i].id != SWELL_PARAM_WAVE_E || want > 0) {

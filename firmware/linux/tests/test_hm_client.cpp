@@ -105,10 +105,28 @@ size_t collect(hm_client &c, swell_msg *m, size_t cap, int ms = 1000)
 	return 0;
 }
 
-const std::string startup = "set state init;set state force;remove swell_bias;create biasforce swell_bias;"
-			    "set swell_bias force [0,0,0];set swell_bias enable";
-const std::string startup_ok = "state set to 'init';state set to 'force';--- ERROR: unknown effect 'swell_bias';"
-			       "Effect biasforce with name swell_bias created;Bias force's force set;Effect swell_bias enabled";
+// the start-up's three requests and a device's good answers to them
+const std::string remove_all = "remove swell_bias;remove swell_pull;remove swell_push;remove swell_damp;remove swell_weight";
+const std::string probe = "get emergencybuttonpushed;get state";
+const std::string probe_ok = "false;off";
+const std::string init = remove_all + ";set state init;get position_calibrated;get force_calibrated";
+const std::string init_ok = "--- ERROR: unknown effect 'swell_bias';--- ERROR: unknown effect 'swell_pull';--- ERROR: "
+			    "unknown effect 'swell_push';--- ERROR: unknown effect 'swell_damp';--- ERROR: unknown "
+			    "effect 'swell_weight';state set to 'init';true;true";
+const std::string start = "set state force;create biasforce swell_bias;set swell_bias force [0,0,0];set swell_bias enable";
+const std::string start_ok =
+	"state set to 'force';Effect biasforce with name swell_bias created;Bias force's force set;Effect swell_bias enabled";
+
+// the whole start-up, answered well
+void start_up(Device &dev, hm_client &c, int ms = 2000)
+{
+	REQUIRE(dev.request(c, ms) == probe);
+	dev.answer(probe_ok);
+	REQUIRE(dev.request(c) == init);
+	dev.answer(init_ok);
+	REQUIRE(dev.request(c) == start);
+	dev.answer(start_ok);
+}
 
 // a client connected to the scripted device, past its start-up; closed at the end
 struct Started {
@@ -119,8 +137,7 @@ struct Started {
 		char err[160];
 		REQUIRE(hm_client_open(&c, ("127.0.0.1:" + std::to_string(dev.port)).c_str(), 2, err, sizeof err) == 0);
 		REQUIRE(dev.accept_one(c, 2000));
-		REQUIRE(dev.request(c) == startup);
-		dev.answer(startup_ok);
+		start_up(dev, c);
 	}
 	~Started() { hm_client_close(&c); }
 };
@@ -241,7 +258,7 @@ TEST_CASE("hm_client: an answer older than 2 ticks is dropped, the pipeline is n
 	size_t got = 0;
 	for (int k = 0; k < 200 && c.st.answers < 6; k++)
 		got += collect(c, m + got, 8 - got, 5);
-	CHECK(c.st.answers == 6); // start-up, the first sample, four ticks
+	CHECK(c.st.answers == 8); // start-up (three), the first sample, four ticks
 	CHECK(c.st.late == 3); // read 5, 4 and 3 ticks after they were asked for (6 ticks have passed)
 	CHECK(got == 2); // the zero's answer, 1 tick old, is a sample
 	// another client stopped the device: not rendering (bit 2), and a new start-up after the pause
@@ -253,15 +270,66 @@ TEST_CASE("hm_client: an answer older than 2 ticks is dropped, the pipeline is n
 	CHECK(c.phase == HMC_HOLDOFF);
 	CHECK(c.st.not_force == 1);
 	const auto t0 = std::chrono::steady_clock::now();
-	CHECK(dev.request(c, 3000) == startup);
+	CHECK(dev.request(c, 3000) == probe);
 	const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 	CHECK(waited >= HMC_RETRY_MS * 1e-3 * 0.9);
-	// refused (e-stop still pushed): holds off again
-	dev.answer("--- ERROR: emergency button pushed: state 'init' refused;--- ERROR: emergency button pushed: state "
-		   "'force' refused;Removed effect swell_bias;Effect biasforce with name swell_bias created;Bias force's "
-		   "force set;Effect swell_bias enabled");
-	CHECK(dev.request(c, 3000) == startup);
+	// refused (e-stop still pushed): nothing more is asked, it holds off and probes again
+	dev.answer("true;stop");
+	CHECK(dev.request(c, 3000) == probe);
 	CHECK(c.st.startup_failures == 1);
+	CHECK(std::string(c.refusal).find("e-stop is pushed") != std::string::npos);
+	dev.answer(probe_ok); // released: the start-up goes on, and the reason is cleared once running
+	REQUIRE(dev.request(c) == init);
+	dev.answer(init_ok);
+	REQUIRE(dev.request(c) == start);
+	dev.answer(start_ok);
+	REQUIRE(dev.request(c).rfind("set swell_bias force", 0) == 0);
+	CHECK(c.phase == HMC_RUNNING);
+	CHECK(c.refusal[0] == '\0');
+}
+
+TEST_CASE("hm_client: a device that does not report itself calibrated after init, or refuses init, gets no force state "
+	  "and no bias, and the reason is kept")
+{
+	Device dev;
+	hm_client c;
+	char err[160];
+	REQUIRE(hm_client_open(&c, ("127.0.0.1:" + std::to_string(dev.port)).c_str(), 2, err, sizeof err) == 0);
+	REQUIRE(dev.accept_one(c, 2000));
+	struct {
+		std::string init_answer, reason;
+	} cases[] = {
+		{init_ok.substr(0, init_ok.size() - 9) + "false;true", "position is not calibrated"},
+		{init_ok.substr(0, init_ok.size() - 9) + "true;false", "force sensor is not calibrated"},
+		{init_ok.substr(0, init_ok.size() - 9) + "\"true\";\"false\"", "force sensor is not calibrated"},
+		{init_ok.substr(0, init_ok.size() - 29) + "--- ERROR: emergency button pushed: state 'init' refused;false;false",
+		 "refused 'set state init'"},
+	};
+	uint32_t failures = 0, seq = 0;
+	for (const auto &k : cases) {
+		INFO(k.init_answer);
+		REQUIRE(dev.request(c, 3000) == probe);
+		dev.answer(probe_ok);
+		REQUIRE(dev.request(c) == init);
+		dev.answer(k.init_answer);
+		// the next request is the probe again, after the pause: never the force state
+		const auto t0 = std::chrono::steady_clock::now();
+		REQUIRE(dev.request(c, 3000) == probe);
+		CHECK(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() >= HMC_RETRY_MS * 1e-3 * 0.9);
+		CHECK(c.phase == HMC_STARTING);
+		CHECK(c.st.startup_failures == ++failures);
+		CHECK(std::string(c.refusal).find(k.reason) != std::string::npos);
+		CHECK(c.refusal_seq >= seq);
+		seq = c.refusal_seq;
+		dev.answer("true;stop"); // and back to the top of the loop through an e-stop refusal
+		failures++;
+	}
+	swell_msg m[8];
+	for (int k = 0; k < 500 && c.st.startup_failures < failures; k++)
+		collect(c, m, 8, 1);
+	CHECK(c.st.startup_failures == failures);
+	CHECK(c.st.samples == 0);
+	hm_client_close(&c);
 }
 
 TEST_CASE("hm_client: a garbage answer or a reset closes the link, counts what was in flight as lost, and it reconnects")
@@ -280,10 +348,9 @@ TEST_CASE("hm_client: a garbage answer or a reset closes the link, counts what w
 	CHECK(c.st.lost == 1);
 	CHECK(hm_client_fd(&c) == -1);
 	REQUIRE(dev.accept_one(c, 3000)); // a new connection after the retry period
-	CHECK(dev.request(c) == startup);
+	start_up(dev, c);
 	CHECK(c.st.connects == 2);
 	// a reset from the device's side
-	dev.answer(startup_ok);
 	REQUIRE(dev.request(c).rfind("set swell_bias force", 0) == 0);
 	linger lg = {1, 0};
 	setsockopt(dev.fd, SOL_SOCKET, SO_LINGER, &lg, sizeof lg);
@@ -313,11 +380,13 @@ TEST_CASE("hm_client: the exit path waits for the device to confirm the zero for
 			const ssize_t n = recv(dev.fd, b, sizeof b, 0);
 			seen.assign(b, n > 0 ? (size_t)n : 0);
 		}
-		dev.answer("Bias force's force set");
+		dev.answer("Bias force's force set;Removed effect swell_bias;--- ERROR: unknown effect 'swell_pull';--- ERROR: "
+			   "unknown effect 'swell_push';--- ERROR: unknown effect 'swell_damp';--- ERROR: unknown effect "
+			   "'swell_weight'");
 	});
 	CHECK(hm_client_zero_wait(&c, 1000) == 0);
 	device.join();
-	CHECK(seen.substr(8) == "set swell_bias force [0,0,0]");
+	CHECK(seen.substr(8) == "set swell_bias force [0,0,0];" + remove_all); // the zero first, then swell's effects
 	// a device that never answers: -1 after the wait
 	const auto t0 = std::chrono::steady_clock::now();
 	CHECK(hm_client_zero_wait(&c, 50) == -1);
@@ -386,4 +455,28 @@ TEST_CASE("hm_fx: an effect set as the device's commands: each value exact in SI
 		REQUIRE(hm_client_parse_fixed(&p, 2, 1 << 30, &v) == 0);
 		CHECK(v == (int32_t)e.fmax_cN);
 	}
+}
+
+TEST_CASE("hm_client: with an inertia to set, init sets it after the calibrations, and a refusal of it stops the start-up")
+{
+	Device dev;
+	hm_client c;
+	char err[160];
+	REQUIRE(hm_client_open(&c, ("127.0.0.1:" + std::to_string(dev.port)).c_str(), 2, err, sizeof err) == 0);
+	c.inertia_g = 2500;
+	REQUIRE(dev.accept_one(c, 2000));
+	REQUIRE(dev.request(c) == probe);
+	dev.answer(probe_ok);
+	REQUIRE(dev.request(c) == init + ";set inertia 2.500");
+	dev.answer(init_ok + ";--- ERROR: inertia 2.5 refused");
+	REQUIRE(dev.request(c, 3000) == probe); // refused: no force state, the probe again after the pause
+	CHECK(std::string(c.refusal).find("set inertia") != std::string::npos);
+	dev.answer(probe_ok);
+	REQUIRE(dev.request(c) == init + ";set inertia 2.500");
+	dev.answer(init_ok + ";Inertia set");
+	REQUIRE(dev.request(c) == start);
+	dev.answer(start_ok);
+	REQUIRE(dev.request(c).rfind("set swell_bias force", 0) == 0);
+	CHECK(c.phase == HMC_RUNNING);
+	hm_client_close(&c);
 }

@@ -13,22 +13,13 @@
 #define SRAM_BASE 0x20000000u
 #define SRAM_END 0x20020000u
 
-/* Wait for the last character to leave the shift register (bounded: QEMU sets TC at once). */
-static void console_drain(void)
-{
-	uint32_t n;
-
-	for (n = 0; n < 2000000u && !(USART1->SR & USART_SR_TC); n++)
-		;
-}
-
 void boot_request_reset(void)
 {
 	safe_force_zero();
 	con_puts_hex32("boot: ENTER_BOOTLOADER accepted, force zeroed: resetting into the ROM bootloader at 0x",
 		       BOOT_SYSMEM);
 	con_putc('\n');
-	console_drain();
+	con_drain();
 	irq_disable();
 	BOOT_WORD(1) = BOOT_MAGIC_REQUEST;
 	__asm__ volatile("dsb" ::: "memory");

@@ -5,6 +5,7 @@
 #include "../regs/stm32f405_can.h"
 #include "../regs/stm32f405_periph.h"
 #include "../regs/stm32f405_rcc.h"
+#include "board.h"
 #include "irq.h"
 #include "isr.h"
 #include "safe.h"
@@ -72,12 +73,11 @@ enum swell_err can_start(uint32_t pclk1_hz, uint32_t bitrate, const struct can_f
 	if (err != SWELL_OK)
 		return err;
 
-	RCC->AHB1ENR |= RCC_AHB1ENR_GPIOB;
 	RCC->APB1ENR |= RCC_APB1ENR_CAN1;
 	(void)RCC->APB1ENR;
-	/* PB8 CAN1_RX, PB9 CAN1_TX: AF9. */
-	GPIOB->AFR[1] = (GPIOB->AFR[1] & ~0xFFu) | 0x99u;
-	GPIOB->MODER = (GPIOB->MODER & ~(0xFu << 16)) | (GPIO_MODE_AF << 16) | (GPIO_MODE_AF << 18);
+	/* CAN1_RX and CAN1_TX, AF9, on the board's pins (PB8/PB9 on every board so far). */
+	board_pin_af(SWELL_BOARD_CAN_RX_PORT, SWELL_BOARD_CAN_RX_PIN, 9u, 0);
+	board_pin_af(SWELL_BOARD_CAN_TX_PORT, SWELL_BOARD_CAN_TX_PIN, 9u, 0);
 
 	CAN1->MCR = CAN_MCR_INRQ;
 	if (!wait_msr(CAN_MSR_INAK | CAN_MSR_SLAK, CAN_MSR_INAK))

@@ -1,4 +1,4 @@
-/* bxCAN1 driver (PB8 RX, PB9 TX, AF9) from RM0090 section 32: bit timing from logic/can_timing,
+/* bxCAN1 driver (RX and TX on the board's pins, AF9: PB8/PB9 on src/board.h's boards so far) from RM0090 section 32: bit timing from logic/can_timing,
  * acceptance filters from logic/can_filter, three TX mailboxes sent by identifier priority (lowest
  * id first, safety frames have the lowest ids), error counters, bus-off handled by the driver:
  * force zeroed at once, recovery after a hold-off that doubles while the bus keeps failing

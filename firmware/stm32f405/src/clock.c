@@ -28,7 +28,7 @@ static void run_on_hsi(struct clock_info *ci)
 
 void clock_init(struct clock_info *ci)
 {
-	uint32_t m, src_bit;
+	uint32_t m, n, src_bit;
 	enum clock_src want;
 
 	*ci = (struct clock_info){ 0 };
@@ -44,19 +44,21 @@ void clock_init(struct clock_info *ci)
 	RCC->CR |= RCC_CR_HSEON;
 	if (wait_bits(&RCC->CR, RCC_CR_HSERDY, RCC_CR_HSERDY, HSE_WAIT_LOOPS)) {
 		want = CLOCK_HSE_PLL;
-		m = SWELL_HSE_HZ / 2000000u; /* VCO input 2 MHz */
+		m = SWELL_PLL_M; /* the board's crystal / M x N = 336 MHz (boards/board.cmake) */
+		n = SWELL_PLL_N;
 		src_bit = RCC_PLLCFGR_SRC_HSE;
 	} else {
 		ci->hse_timeout = 1;
 		RCC->CR &= ~RCC_CR_HSEON;
 		want = CLOCK_HSI_PLL;
-		m = 8; /* 16 MHz / 8 */
+		m = 8; /* 16 MHz / 8 = 2 MHz, x 168 */
+		n = 168;
 		src_bit = 0;
 	}
-	/* VCO 2 MHz x 168 = 336 MHz; P /2 = 168 MHz; Q /7 = 48 MHz. */
+	/* VCO 336 MHz; P /2 = 168 MHz; Q /7 = 48 MHz. */
 	RCC->CR &= ~RCC_CR_PLLON;
-	RCC->PLLCFGR = (m << RCC_PLLCFGR_M_SHIFT) | (168u << RCC_PLLCFGR_N_SHIFT) | (0u << RCC_PLLCFGR_P_SHIFT) |
-		src_bit | (7u << RCC_PLLCFGR_Q_SHIFT);
+	RCC->PLLCFGR = (m << RCC_PLLCFGR_M_SHIFT) | (n << RCC_PLLCFGR_N_SHIFT) | (0u << RCC_PLLCFGR_P_SHIFT) | src_bit |
+		(7u << RCC_PLLCFGR_Q_SHIFT);
 	RCC->CR |= RCC_CR_PLLON;
 	if (!wait_bits(&RCC->CR, RCC_CR_PLLRDY, RCC_CR_PLLRDY, PLL_WAIT_LOOPS)) {
 		ci->pll_timeout = 1;

@@ -6,9 +6,7 @@
 
 #include <stdint.h>
 
-#ifndef SWELL_HSE_HZ
-#define SWELL_HSE_HZ 8000000u /* board crystal; must be an even number of MHz, 4..26 */
-#endif
+#include "swell_board.h" /* SWELL_HSE_HZ and the PLL's M and N, checked at configure time */
 
 enum clock_src {
 	CLOCK_HSI = 0, /* 16 MHz internal RC, no PLL */

@@ -2,23 +2,55 @@
 
 #include "../regs/stm32f405_periph.h"
 #include "../regs/stm32f405_rcc.h"
+#include "board.h"
 
 #define TXE_WAIT_LOOPS 20000u /* > 1 character time at 9600 baud and 168 MHz */
 
+/* The board's console USART: base address, its enable bit, and on which APB it sits. */
+#if SWELL_BOARD_CON_USART == 1
+#define CON ((struct usart_regs *)0x40011000u)
+#define CON_ENR RCC->APB2ENR
+#define CON_EN (1u << 4)
+#define CON_ON_APB2 1
+#elif SWELL_BOARD_CON_USART == 2
+#define CON ((struct usart_regs *)0x40004400u)
+#define CON_ENR RCC->APB1ENR
+#define CON_EN (1u << 17)
+#define CON_ON_APB2 0
+#elif SWELL_BOARD_CON_USART == 3
+#define CON ((struct usart_regs *)0x40004800u)
+#define CON_ENR RCC->APB1ENR
+#define CON_EN (1u << 18)
+#define CON_ON_APB2 0
+#elif SWELL_BOARD_CON_USART == 6
+#define CON ((struct usart_regs *)0x40011400u)
+#define CON_ENR RCC->APB2ENR
+#define CON_EN (1u << 5)
+#define CON_ON_APB2 1
+#else
+#error "SWELL_BOARD_CON_USART: 1, 2, 3 or 6 (boards/board.cmake checks it)"
+#endif
+
 static uint32_t dropped;
 
-void con_init(uint32_t pclk2_hz, uint32_t baud)
+void con_init(uint32_t pclk1_hz, uint32_t pclk2_hz, uint32_t baud)
 {
-	RCC->AHB1ENR |= RCC_AHB1ENR_GPIOA;
-	RCC->APB2ENR |= RCC_APB2ENR_USART1;
-	(void)RCC->APB2ENR; /* the enable takes effect before the first register access */
-	/* PA9: alternate function 7 (USART1_TX). */
-	GPIOA->AFR[1] = (GPIOA->AFR[1] & ~(0xFu << 4)) | (7u << 4);
-	GPIOA->OSPEEDR = (GPIOA->OSPEEDR & ~(3u << 18)) | (GPIO_SPEED_HIGH << 18);
-	GPIOA->MODER = (GPIOA->MODER & ~(3u << 18)) | (GPIO_MODE_AF << 18);
-	USART1->CR1 = 0;
-	USART1->BRR = (pclk2_hz + baud / 2) / baud; /* oversampling by 16: BRR = f / baud */
-	USART1->CR1 = USART_CR1_UE | USART_CR1_TE;
+	const uint32_t f = CON_ON_APB2 ? pclk2_hz : pclk1_hz;
+
+	CON_ENR |= CON_EN;
+	(void)CON_ENR; /* the enable takes effect before the first register access */
+	board_pin_af(SWELL_BOARD_CON_TX_PORT, SWELL_BOARD_CON_TX_PIN, SWELL_BOARD_CON_TX_AF, 1);
+	CON->CR1 = 0;
+	CON->BRR = (f + baud / 2) / baud; /* oversampling by 16: BRR = f / baud */
+	CON->CR1 = USART_CR1_UE | USART_CR1_TE;
+}
+
+void con_drain(void)
+{
+	uint32_t n;
+
+	for (n = 0; n < 2000000u && !(CON->SR & USART_SR_TC); n++) /* QEMU sets TC at once */
+		;
 }
 
 void con_putc(char c)
@@ -26,8 +58,8 @@ void con_putc(char c)
 	uint32_t n;
 
 	for (n = 0; n < TXE_WAIT_LOOPS; n++) {
-		if (USART1->SR & USART_SR_TXE) {
-			USART1->DR = (uint8_t)c;
+		if (CON->SR & USART_SR_TXE) {
+			CON->DR = (uint8_t)c;
 			return;
 		}
 	}

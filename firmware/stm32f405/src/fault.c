@@ -3,6 +3,7 @@
 #include <stdint.h>
 
 #include "../regs/cortex_m4.h"
+#include "board.h"
 #include "boot.h"
 #include "console.h"
 #include "irq.h"
@@ -25,6 +26,7 @@ __attribute__((noreturn)) static void halt(void)
 void fault_stop(const char *why)
 {
 	safe_force_zero();
+	board_led(0);
 	con_puts("FAULT: ");
 	con_puts(why);
 	con_puts(" (force zeroed, waiting for the watchdog)\n");

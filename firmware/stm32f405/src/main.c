@@ -1,11 +1,13 @@
-/* STM32F405 port: boot, checks, then either the controller (a CAN or USB peripheral answered) or the
- * self-test (QEMU netduinoplus2 has neither). */
+/* STM32F405 port: boot, checks, then the controller (a CAN or USB peripheral answered). With no link
+ * the product stops with the force at zero; the self-test image (SWELL_FW_SELFTEST, QEMU netduinoplus2
+ * has neither) runs the self-test there instead. */
 #include <stdint.h>
 
 #include "../regs/cortex_m4.h"
 #include "../regs/stm32f405_periph.h"
 #include "../regs/stm32f405_rcc.h"
 #include "app.h"
+#include "board.h"
 #include "boot.h"
 #include "can.h"
 #include "clock.h"
@@ -14,7 +16,9 @@
 #include "image.h"
 #include "mem.h"
 #include "safe.h"
+#ifdef SWELL_FW_SELFTEST
 #include "selftest.h"
+#endif
 #include "timebase.h"
 #include "usb.h"
 
@@ -27,8 +31,8 @@
 
 #define WATCHDOG_MS 100u
 
-/* Boot-mode word in the last 16 bytes of SRAM (outside every section, not cleared at start-up): a
- * test harness writes it before reset (QEMU: -device loader,addr=0x2001fff0,data=...,data-len=4).
+/* Boot-mode word in the last 16 bytes of SRAM (outside every section, not cleared at start-up), read
+ * by the self-test image only: a test harness writes it before reset (QEMU: -device loader,addr=0x2001fff0,data=...,data-len=4).
  * BOOT_MODE_FAULT: after the self-test, command a force and execute an undefined instruction, to
  * check that the fault handler zeroes the force and reports. Cleared once read. */
 #define BOOT_MODE (*(volatile uint32_t *)0x2001FFF0u)
@@ -74,11 +78,12 @@ int main(void)
 	RCC->CSR |= RCC_CSR_RMVF;
 	safe_force_zero();
 	clock_init(&ci);
-	con_init(ci.pclk2_hz, 115200);
+	board_init(); /* the CAN transceiver out of standby, the LED off */
+	con_init(ci.pclk1_hz, ci.pclk2_hz, 115200);
 	setup_faults();
 	con_puts("\nswell-fw stm32f405 ");
 	con_puts(SWELL_FW_VERSION_STR);
-	con_putc('\n');
+	con_puts(" board " SWELL_BOARD_NAME "\n");
 	put_reset_cause(csr);
 	came_back = boot_report();
 	con_puts("clock: ");
@@ -111,6 +116,7 @@ int main(void)
 	con_puts_u32(", ", img.length);
 	con_puts_hex32(" bytes, crc32 0x", img.crc);
 	con_puts(" ok\n");
+	board_led(1); /* lit: the image is whole; a stop on a fault (fault_stop) puts it out */
 
 	mem_probe(&app_mem, app_arena,
 		  APP_ARENA_WORDS); /* the bus fault is enabled: a missing block is a recoverable fault */
@@ -128,6 +134,7 @@ int main(void)
 	con_putc('\n');
 
 	if (!can_ok && !usb_ok) {
+#ifdef SWELL_FW_SELFTEST
 		if (boot_mode == BOOT_MODE_BOOTLOADER) {
 			if (!came_back)
 				selftest_boot_request(); /* returns only on a failed check */
@@ -141,6 +148,11 @@ int main(void)
 			safe_force_record(0, 0, 1234);
 			__asm__ volatile("udf #0");
 		}
+#else
+		(void)boot_mode;
+		(void)came_back;
+		con_puts("link: none answered: stopped, force zero\n");
+#endif
 		for (;;)
 			__asm__ volatile("wfi");
 	}

@@ -60,6 +60,11 @@ struct swell_ctl_config {
 	 * HapticMaster's TCP interface: each tick's request carries it): enabled with zero force while
 	 * RUNNING, beside the sets, and the silence limit stays in ticks */
 	uint8_t cmd_every_tick;
+	/* the frame's axes and flips as the parameters frame.axes and frame.flip say them: always what
+	 * xform.axis and xform.sign hold (swell_ctl_check refuses a configuration where they differ) */
+	uint16_t frame_axes; /* (axis[0] + 1) * 100 + (axis[1] + 1) * 10 + axis[2] + 1 */
+	uint8_t frame_flip; /* bit k: sign[k] is -1 */
+	uint32_t hm_inertia_g; /* hm.inertia: a HapticMaster link's port sets the device to it, 0: not */
 	uint8_t fw_version[3]; /* major, minor, patch of the running firmware, sent in CTL_INFO */
 };
 
@@ -92,6 +97,8 @@ struct swell_ctl {
 	int32_t pos_um[3], vel_um_s[3];
 	uint8_t dev_status;
 	uint8_t dev_heard; /* a device message arrived since the last tick */
+	uint16_t dev_rate_hz; /* DEVICE_POS heard in the last whole second of ticks (dev.rate) */
+	uint32_t dev_count, dev_window; /* DEVICE_POS and ticks in the second being counted */
 	uint32_t since_dev; /* ticks since the device was last heard (saturating) */
 	uint32_t dev_back; /* ticks the device has been heard without a gap */
 	struct swell_seq dev_seq;
@@ -120,7 +127,7 @@ struct swell_ctl {
 	/* telemetry */
 	uint16_t tiles_x, tiles_y;
 	uint32_t quads, quad_cursor; /* quads in the grid (16 a tile), next one to scan */
-	uint32_t quad_reads; /* stale quads the scan reads a tick at most (ctl.c, QUAD_READS_PER_S) */
+	uint32_t quad_reads; /* stale quads the scan reads a tick at most (ctl_priv.h, QUAD_READS_PER_S) */
 	uint32_t refresh_cursor; /* next quad to resend whatever its state */
 	uint32_t fp_cells; /* footprint cells of the object, for the work count */
 

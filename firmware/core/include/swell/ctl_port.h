@@ -56,4 +56,14 @@ void swell_ctl_zero_force(struct swell_ctl *c);
  * drains its queues and reboots into its bootloader (or, without one, exits). */
 int swell_ctl_bootloader_requested(const struct swell_ctl *c);
 
+/* The port's relative costs of a solver step's parts, in instructions of its processor: the core
+ * spreads a step over the ticks of its period by them (ctl_solver.c). */
+struct swell_ctl_costs {
+	uint32_t cell; /* a cell of a kernel row with its row driver and the height update one row behind */
+	uint32_t scan_cell; /* the body's ceiling scan of a cell while the object is out of the water */
+	uint32_t end; /* the step's end: the last row's heights, the fixers, the tile flags, the coupling */
+};
+/* Defined by the port, one table a program (the Cortex-M4's: firmware/stm32f405/logic/m4_costs.c). */
+extern const struct swell_ctl_costs swell_ctl_port_costs;
+
 #endif
