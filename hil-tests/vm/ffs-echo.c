@@ -31,7 +31,9 @@ static void usage(FILE *to)
 		"of a mounted FunctionFS instance, then send every packet received on OUT back on IN.\n"
 		"  --count N   exit after N packets echoed (default 0: until SIGTERM/SIGINT)\n"
 		"On exit prints the packets and bytes echoed. The gadget (VID/PID, UDC) is set up in\n"
-		"configfs by the caller (hil-tests/vm/vm-gadget).\n",
+		"configfs by the caller (hil-tests/vm/vm-gadget).\n"
+		"Exit status: 0 done (N packets echoed, or SIGTERM/SIGINT), 1 the FunctionFS instance cannot be\n"
+		"opened or a transfer failed, 2 bad arguments.\n",
 		PACKET);
 }
 

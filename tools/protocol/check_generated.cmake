@@ -1,15 +1,15 @@
 # cmake -DGEN=swell-protogen -DOUT=dir -DSRC=docs -P check_generated.cmake
-# Regenerates protocol.md and swell.dbc into OUT and fails on any difference with the committed ones.
+# Regenerates protocol.md, parameters.md and swell.dbc into OUT and fails on any difference with the committed ones.
 file(MAKE_DIRECTORY ${OUT})
-execute_process(COMMAND ${GEN} --md ${OUT}/protocol.md --dbc ${OUT}/swell.dbc RESULT_VARIABLE rc)
+execute_process(COMMAND ${GEN} --md ${OUT}/protocol.md --params ${OUT}/parameters.md --dbc ${OUT}/swell.dbc RESULT_VARIABLE rc)
 if(NOT rc EQUAL 0)
   message(FATAL_ERROR "swell-protogen failed (${rc})")
 endif()
-foreach(f protocol.md swell.dbc)
+foreach(f protocol.md parameters.md swell.dbc)
   execute_process(COMMAND ${CMAKE_COMMAND} -E compare_files ${OUT}/${f} ${SRC}/${f} RESULT_VARIABLE diff)
   if(NOT diff EQUAL 0)
     message(FATAL_ERROR "docs/${f} differs from what the table generates (${OUT}/${f}): "
-                        "run swell-protogen --md docs/protocol.md --dbc docs/swell.dbc and commit")
+                        "run swell-protogen --md docs/protocol.md --params docs/parameters.md --dbc docs/swell.dbc and commit")
   endif()
   message(STATUS "docs/${f}: identical to the generated file")
 endforeach()

@@ -1,5 +1,6 @@
 /* swell-protogen: writes the protocol reference (Markdown), the CAN database (.dbc), test vectors
- * for the independent DBC decoder and seed inputs for the fuzzers, all from swell/proto_table.h. */
+ * for the independent DBC decoder and seed inputs for the fuzzers, all from swell/proto_table.h, and
+ * the parameter and scene-key reference from swell/param_table.h and the scene keys (swell/scene.h). */
 #include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -7,22 +8,28 @@
 #include <sys/stat.h>
 
 #include "swell/param.h"
+#include "swell/param_text.h"
 #include "swell/pool.h"
 #include "swell/proto.h"
+#include "swell/scene.h"
 #include "swell/transport.h"
 
 static void usage(FILE *f)
 {
-	fputs("usage: swell-protogen [--md FILE] [--dbc FILE] [--vectors FILE [--count N] [--seed S]]\n"
-	      "                      [--corpus DIR]\n"
-	      "Writes, from the one message table (swell/proto_table.h):\n"
-	      "  --md FILE       the protocol reference with the bus-load budget (docs/protocol.md)\n"
+	fputs("usage: swell-protogen [--md FILE] [--params FILE] [--dbc FILE]\n"
+	      "                      [--vectors FILE [--count N] [--seed S]] [--corpus DIR]\n"
+	      "Writes, from the one message table (swell/proto_table.h) and parameter table\n"
+	      "(swell/param_table.h, with the scene file's start-up keys):\n"
+	      "  --md FILE       the protocol reference: carriers, one annotated frame per message,\n"
+	      "                  the bus-load budget (docs/protocol.md)\n"
+	      "  --params FILE   the parameter and scene-key reference (docs/parameters.md)\n"
 	      "  --dbc FILE      the CAN database for node 0 (docs/swell.dbc)\n"
 	      "  --vectors FILE  classic CAN frames from the C encoder, one line each, with the\n"
 	      "                  physical values they encode (input of tools/protocol/dbc_check.py)\n"
 	      "  --count N       frames per message type in --vectors (default 200)\n"
 	      "  --seed S        random seed for --vectors (default 1)\n"
-	      "  --corpus DIR    seed inputs for the fuzzers in DIR/can, DIR/canfd, DIR/pkt\n",
+	      "  --corpus DIR    seed inputs for the fuzzers in DIR/can, DIR/canfd, DIR/pkt\n"
+	      "Exit status: 0 written, 1 a file could not be written, 2 bad arguments.\n",
 	      f);
 }
 
@@ -225,47 +232,181 @@ static const char *type_name(const struct swell_field_desc *f)
 	return buf;
 }
 
-static void write_md_params(FILE *o)
+static void write_md_states(FILE *o)
 {
-	const struct swell_param_desc *t;
-	size_t n, k;
-
 	fprintf(o, "## Controller states\n\nHEARTBEAT.state:");
 #define SWELL_X(NAME, code, name) fprintf(o, " %d %s%s", code, name, code < SWELL_CTL_FAULT ? "," : ".");
 	SWELL_STATES(SWELL_X)
 #undef SWELL_X
-	fprintf(o, "\n\n");
+	fprintf(o,
+		"\n\nParameters travel in PARAM_SET / PARAM_GET / PARAM_ACK / PARAM_NACK as an id and a raw\n"
+		"int32 value; their ids, units, defaults, ranges and the states that take them are in\n"
+		"[parameters.md](parameters.md), generated from the same tables.\n\n");
+}
+
+/* One reference row: a parameter of the table or a start-up key of scene files. */
+static void param_row(FILE *o, const struct swell_param_desc *d, const char *who)
+{
+	char def[48], lo[48], hi[48];
+
+	swell_param_format(d, d->def, def, sizeof(def));
+	swell_param_format(d, d->min, lo, sizeof(lo));
+	swell_param_format(d, d->max, hi, sizeof(hi));
+	const int ro = d->access == SWELL_PACCESS_RO;
+
+	fprintf(o, "| `%s` | 0x%04X | %s | %s | %s .. %s | %ld .. %ld x %s | %s | %s | %s |\n", d->name, d->id,
+		d->unit[0] ? d->unit : "-", ro ? "-" : def, lo, hi, (long)d->min, (long)d->max, d->factor,
+		ro ? "nobody: the controller measures it" : who,
+		ro                                ? "read only"
+			: d->id >= SWELL_SCENE_NX ? "outside RUNNING (start-up)"
+						  : swell_param_when_text(d->when),
+		d->desc);
+}
+
+static void write_params(FILE *o)
+{
+	static const uint16_t scene_keys[] = { SWELL_SCENE_NX, SWELL_SCENE_NY, SWELL_SCENE_DX_UM, SWELL_SCENE_DEPTH_UM,
+					       SWELL_SCENE_SOLVER_HZ };
+	const struct swell_param_desc *t;
+	size_t n, k;
 
 	fprintf(o,
-		"## Parameters\n\nFrom `common/include/swell/param_table.h`. PARAM_SET and PARAM_GET carry the\n"
-		"id and a raw int32 value; physical value = raw x factor, in the unit given. A set outside\n"
-		"the raw range is refused with PARAM_NACK (range) before anything else; inside it the\n"
-		"owning module checks the whole configuration (stability of the solver, the force law's\n"
-		"limits) and refuses with its reason; a refused set changes nothing. Every parameter is\n"
-		"written by the host link (VIEW: viewers, swell-tool); the controller answers with the\n"
-		"value now in force. \"when\" says in which states a write is taken: the object's mass,\n"
-		"size and damper are refused (state) while the object displaces water. Defaults are the\n"
-		"reference scene's (64 x 64 cells of 6.25 mm, depth 50 mm, 250 Hz solver, a 50 mm cube of\n"
-		"100 g).\n\n");
+		"<!-- Generated by swell-protogen --params from common/include/swell/param_table.h and the\n"
+		"     scene keys of common/src/host/scene.c: do not edit. -->\n");
 	fprintf(o,
-		"| id | name | C type | raw range | default (raw) | factor | unit | when | meaning |\n"
+		"# Parameters and scene keys\n\n"
+		"Reference. Every value a lab user or a tool can change on a controller, with its unit,\n"
+		"default, range and who may change it when. The parameter table\n"
+		"(`common/include/swell/param_table.h`) is the one source of the controller's get/set, of\n"
+		"swell-tool's names and units and of this page; the scene file's start-up keys come from\n"
+		"`common/src/host/scene.c`.\n\n"
+		"- **Default** is the reference scene's: %u x %u cells of %.2f mm, depth %.0f mm, solver\n"
+		"  %u Hz, a %.0f mm cube of 100 g.\n"
+		"- **Range** is checked first: a value outside it is refused (PARAM_NACK `range`) and nothing\n"
+		"  changes. Inside it the owning module checks the whole configuration (the solver's\n"
+		"  stability, the force law's limits) and may refuse with its own reason.\n"
+		"- **Raw** is what travels in PARAM_SET / PARAM_GET: a raw int32, physical = raw x factor.\n"
+		"- **When**: `%s`, `%s`, `%s` (a write outside it is refused with\n"
+		"  PARAM_NACK `state`); start-up keys are taken outside RUNNING and restart the controller's\n"
+		"  core with the water at rest.\n\n",
+		(unsigned)SWELL_POOL_N, (unsigned)SWELL_POOL_N, SWELL_POOL_DX_UM / 1000.0, SWELL_POOL_DEPTH_UM / 1000.0,
+		(unsigned)SWELL_POOL_SOLVER_HZ, SWELL_POOL_BOX_UM / 1000.0, swell_param_when_text(SWELL_PWHEN_ANY),
+		swell_param_when_text(SWELL_PWHEN_DRY), swell_param_when_text(SWELL_PWHEN_IDLE));
+	fprintf(o,
+		"## Parameters\n\n"
+		"Written on the host link by `swell-tool set NAME VALUE`, by any viewer or tool speaking\n"
+		"PARAM_SET, and by a scene file (`swell-ctl --scene FILE` at start, `swell-tool scene load\n"
+		"FILE` on a running controller). The controller never changes one by itself; every answer\n"
+		"carries the value now in force.\n\n");
+	fprintf(o,
+		"| name | id | unit | default | range | raw x factor | changed by | when | meaning |\n"
 		"|---|---|---|---|---|---|---|---|---|\n");
 	t = swell_param_table(&n);
 	for (k = 0; k < n; k++)
-		fprintf(o, "| %u | `%s` | %s | %ld .. %ld | %ld | %s | %s | %s | %s |\n", t[k].id, t[k].name,
-			t[k].ctype, (long)t[k].min, (long)t[k].max, (long)t[k].def, t[k].factor,
-			t[k].unit[0] ? t[k].unit : "-",
-			t[k].access == SWELL_PACCESS_RO ? "read only (measured)" : swell_param_when_text(t[k].when),
-			t[k].desc);
+		param_row(o, &t[k], "host link, scene file");
 	fprintf(o,
-		"\nParameter %d (`%s`) is write only: its value is a command, answered by PARAM_ACK\n"
-		"with the value echoed, or PARAM_NACK (a GET is refused as invalid):\n\n"
+		"\nRead-only parameters are what the controller measures: `swell-tool get NAME` reads them, a\n"
+		"set is refused (`invalid argument`), a scene file may not name them.\n");
+	fprintf(o,
+		"\n## Scene keys (start-up)\n\n"
+		"The pool and the solver rate are laid out in memory at start. `swell-ctl --scene FILE` and\n"
+		"its options set them at start; on a running controller, PARAM_SETs of the four `pool.*`\n"
+		"keys outside RUNNING (`swell-tool scene load FILE`) restart its core with that pool, and a\n"
+		"pool that does not fit the controller's memory is refused. `solver.hz` is a scene-file and\n"
+		"command-line key only. When a scene gives the pool or the solver rate and not `wave.e`,\n"
+		"`wave.e` follows eq. 2 from them.\n\n");
+	fprintf(o,
+		"| name | id | unit | default | range | raw x factor | changed by | when | meaning |\n"
+		"|---|---|---|---|---|---|---|---|---|\n");
+	for (k = 0; k < sizeof(scene_keys) / sizeof(scene_keys[0]); k++) {
+		const struct swell_param_desc *d = swell_scene_key(scene_keys[k]);
+
+		if (d)
+			param_row(o, d,
+				  d->id == SWELL_SCENE_SOLVER_HZ ? "scene file, `swell-ctl --solver-hz`"
+								 : "scene file, host link (`pool.*`)");
+	}
+	fprintf(o,
+		"\n## Commands\n\nParameter %d (`%s`) is write only: its value is a command, answered by\n"
+		"PARAM_ACK with the value echoed, or PARAM_NACK (a GET is refused as invalid). `swell-tool`\n"
+		"sends them as `swell-tool run`, `stop`, `clear`.\n\n"
 		"| value | command | effect |\n|---|---|---|\n",
 		SWELL_PARAM_COMMAND_ID, SWELL_PARAM_COMMAND_NAME);
 #define SWELL_X(NAME, value, name, desc) fprintf(o, "| %d | %s | %s |\n", value, name, desc);
 	SWELL_COMMANDS(SWELL_X)
 #undef SWELL_X
-	fprintf(o, "\n");
+}
+
+/* The example value of field j of n: spread over its range by position (a flag set, a sequence
+ * number 42, the protocol version). */
+static int64_t example_raw(const struct swell_field_desc *f, unsigned j, unsigned n)
+{
+	if (f->bits == 1)
+		return f->max;
+	if (f->kind == SWELL_FK_SEQ)
+		return f->max >= 42 ? 42 : f->max;
+	if (f->kind == SWELL_FK_VERSION)
+		return SWELL_PROTO_VERSION;
+	return f->min + (f->max - f->min) * (int64_t)(2u * j + 1u) / (int64_t)(2u * n);
+}
+
+/* One classic CAN frame of d, byte by byte: which bits of which field each byte holds. */
+static void write_example(FILE *o, const struct swell_msg_desc *d)
+{
+	struct swell_msg m;
+	uint32_t id;
+	uint8_t data[8], len;
+	unsigned j, b;
+
+	memset(&m, 0, sizeof(m));
+	m.type = d->type;
+	for (j = 0; j < d->nfields; j++)
+		swell_msg_field_set(&m, &d->fields[j], example_raw(&d->fields[j], j, d->nfields));
+	if (swell_can_encode(&m, &id, data, &len) != SWELL_OK) {
+		fprintf(o, "(no example: the encoder refused it)\n\n");
+		return;
+	}
+	fprintf(o, "Example on classic CAN, node 0: id 0x%03X, %u bytes `", (unsigned)id, len);
+	for (b = 0; b < len; b++)
+		fprintf(o, "%s%02X", b ? " " : "", data[b]);
+	fprintf(o, "`\n\n| byte | hex | bits 7..0 | holds |\n|---|---|---|---|\n");
+	for (b = 0; b < len; b++) {
+		int any = 0;
+
+		fprintf(o, "| %u | %02X | ", b, data[b]);
+		for (j = 8; j-- > 0;)
+			fputc(data[b] >> j & 1u ? '1' : '0', o);
+		fprintf(o, " | ");
+		/* fields from the byte's high bits down, as the bits column reads */
+		for (j = d->nfields; j-- > 0;) {
+			const struct swell_field_desc *f = &d->fields[j];
+			unsigned lo = 8u * b, hi = 8u * b + 7u, s = f->start, e = f->start + f->bits - 1u;
+
+			if (e < lo || s > hi)
+				continue;
+			lo = s > lo ? s : lo;
+			hi = e < hi ? e : hi;
+			if (hi == lo)
+				fprintf(o, "%s%s[%u] in bit %u", any ? "; " : "", f->name, lo - s, lo - 8u * b);
+			else
+				fprintf(o, "%s%s[%u:%u] in bits %u..%u", any ? "; " : "", f->name, hi - s, lo - s,
+					hi - 8u * b, lo - 8u * b);
+			any = 1;
+		}
+		fprintf(o, "%s |\n", any ? "" : "(padding, 0)");
+	}
+	fprintf(o, "\nDecoded:");
+	for (j = 0; j < d->nfields; j++) {
+		const struct swell_field_desc *f = &d->fields[j];
+		int64_t raw = swell_msg_field_get(&m, f);
+		char v[32];
+
+		phys(v, sizeof(v), raw, f);
+		fprintf(o, "%s %s = %lld", j ? ";" : "", f->name, (long long)raw);
+		if (strcmp(f->factor, "1") || f->unit[0])
+			fprintf(o, " -> %s%s%s", v, f->unit[0] ? " " : "", f->unit);
+	}
+	fprintf(o, ".\n\n");
 }
 
 static void write_md(FILE *o)
@@ -275,7 +416,7 @@ static void write_md(FILE *o)
 	fprintf(o, "<!-- Generated by swell-protogen from common/include/swell/proto_table.h: do not edit. -->\n");
 	fprintf(o, "# swell wire protocol, version %d\n\n", SWELL_PROTO_VERSION);
 	fprintf(o,
-		"One table (`common/include/swell/proto_table.h`) is the single source of the C codecs\n"
+		"Reference. One table (`common/include/swell/proto_table.h`) is the single source of the C codecs\n"
 		"(`swell/proto.h`), the CAN database (`docs/swell.dbc`) and this page. Every message has a\n"
 		"fixed layout of at most 8 bytes, little-endian (Intel) bit order, integer units; the\n"
 		"physical value is raw x factor. Raw values outside the stated range, and set bits that no\n"
@@ -341,8 +482,16 @@ static void write_md(FILE *o)
 			(unsigned)SWELL_CAN_ID(d->type, 0), d->len, d->from, d->to, d->desc);
 	}
 	fprintf(o,
-		"\nNodes: CTL the controller, DEV the HapticMaster (or its model), VIEW the host viewer\n"
-		"and tools. CAN id 0x000-0x00F (type 0) is reserved.\n\n");
+		"\nNodes: CTL the controller; DEV the device node: the HapticMaster model (swell-hm), or\n"
+		"swell-hmbridge in front of a real HapticMaster, which speaks only its own TCP interface\n"
+		"([hapticmaster.md](hapticmaster.md)); VIEW the viewer and tools. CAN id 0x000-0x00F (type 0)\n"
+		"is reserved.\n\n"
+		"Each message below has its field table and one example frame on classic CAN, decoded byte\n"
+		"by byte. Bit i of a message is bit i %% 8 of byte i / 8 (little-endian, Intel order); a\n"
+		"field of bits a-b holds its value's bit 0 at bit a; a signed field is two's complement over\n"
+		"its bits. `name[h:l] in bits x..y` says that bits h..l of the field's raw value sit in bits\n"
+		"x..y of that byte. The example values are spread over each field's range, not typical\n"
+		"values.\n\n");
 
 	for (i = 0; i < swell_msg_desc_count; i++) {
 		const struct swell_msg_desc *d = &swell_msg_descs[i];
@@ -367,6 +516,7 @@ static void write_md(FILE *o)
 				f->desc);
 		}
 		fprintf(o, "\n");
+		write_example(o, d);
 	}
 
 	fprintf(o,
@@ -387,7 +537,7 @@ static void write_md(FILE *o)
 		fprintf(o, "| %u | %s | %s |\n", e, swell_err_str((enum swell_err)e), why[e] ? why[e] : "");
 	}
 	fprintf(o, "\n");
-	write_md_params(o);
+	write_md_states(o);
 	bus_load(o);
 }
 
@@ -583,7 +733,7 @@ static int write_with(const char *path, void (*fn)(FILE *))
 
 int main(int argc, char **argv)
 {
-	const char *md = NULL, *dbc = NULL, *vec = NULL, *corpus = NULL;
+	const char *md = NULL, *params = NULL, *dbc = NULL, *vec = NULL, *corpus = NULL;
 	unsigned long count = 200;
 	int i;
 
@@ -607,6 +757,8 @@ int main(int argc, char **argv)
 		i++;
 		if (!strcmp(a, "--md")) {
 			md = v;
+		} else if (!strcmp(a, "--params")) {
+			params = v;
 		} else if (!strcmp(a, "--dbc")) {
 			dbc = v;
 		} else if (!strcmp(a, "--vectors")) {
@@ -631,6 +783,8 @@ int main(int argc, char **argv)
 		}
 	}
 	if (md && write_with(md, write_md))
+		return 1;
+	if (params && write_with(params, write_params))
 		return 1;
 	if (dbc && write_with(dbc, write_dbc))
 		return 1;
