@@ -341,7 +341,13 @@ TEST_CASE("controller killed mid-run: swell-hm applies zero force within its wat
 	INFO("log size when the controller is killed: " << st.st_size << " bytes");
 	REQUIRE(st.st_size >= 200000);
 	REQUIRE(cl.ctl.stop(SIGKILL, 10000) == 128 + SIGKILL);
-	std::this_thread::sleep_for(std::chrono::milliseconds(500));
+	// the device ticks on without it (slowly while it waits for an answer, then fast once it counts
+	// the controller lost): until the log has grown by 16 KB, at least 12 KB of it (over 100 rows)
+	// written after the kill (one block, 4 KB, may have waited in the buffer)
+	stat(cl.csv.c_str(), &st);
+	const off_t at_kill = st.st_size;
+	for (int k = 0; k < 6000 && (stat(cl.csv.c_str(), &st) != 0 || st.st_size < at_kill + 16384); k++)
+		std::this_thread::sleep_for(std::chrono::milliseconds(10));
 	REQUIRE(hm.stop(SIGTERM, 20000) == 0);
 	const std::string s = swell_test::slurp(cl.hm_out);
 	const std::vector<row> rows = swell_test::read_hm_log(cl.csv);
