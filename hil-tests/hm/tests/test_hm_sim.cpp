@@ -51,7 +51,10 @@ struct closed_loop {
 			"--host", "none",    "--no-rt", "--quiet",   "--silent-ticks", std::to_string(silent_ticks)};
 		args.insert(args.end(), ctl_extra.begin(), ctl_extra.end());
 		ctl.start(args, ctl_out);
-		std::this_thread::sleep_for(std::chrono::milliseconds(100));
+		// until its device link is open (it says so once its links are): a sample sent before would be
+		// lost, and the model's first lockstep wait would time out
+		for (int k = 0; k < 6000 && swell_test::slurp(ctl_out).find(" pool, tick ") == std::string::npos; k++)
+			std::this_thread::sleep_for(std::chrono::milliseconds(10));
 	}
 	std::vector<std::string> hm_args(const std::string &hand, double seconds) const
 	{
