@@ -255,11 +255,24 @@ TEST_CASE("hm loop: TCP faults (replies 5 ms and 50 ms late, garbage, a reset) e
 		figures += std::string(f.what) + ": zero after " + std::to_string(z - i) + " ticks, back after " +
 			std::to_string(rows[b].t - f.at) + " s; ";
 	}
-	// each fault faulted the controller, and it ends with the weight commanded again
+	// each fault faulted the controller, and it ends with the weight commanded again, or in a fault's
+	// zero that began within the recovery allowed above (3 s): a loaded machine's own fault (the
+	// controller's wall-clock silence limit, 2 ticks) may come late in the run, and the run ends
+	// before it has recovered
 	const size_t fat = rep.find("faults ");
 	REQUIRE(fat != std::string::npos);
 	CHECK(std::stol(rep.substr(fat + 7)) >= 4);
-	CHECK(std::fabs(rows.back().fcmd[2] + 0.98) < 0.011);
+	size_t last_zero = rows.size();
+	while (last_zero > 0 && rows[last_zero - 1].fcmd[2] == 0.0)
+		last_zero--;
+	if (last_zero == rows.size()) {
+		CHECK(std::fabs(rows.back().fcmd[2] + 0.98) < 0.011);
+	} else {
+		INFO("zero force from t = " << rows[last_zero].t << " s to the end; faults: " << std::stol(rep.substr(fat + 7)));
+		REQUIRE(last_zero < rows.size());
+		CHECK(rows[last_zero].t > rows.back().t - 3.0);
+		CHECK(std::stol(rep.substr(fat + 7)) >= 5); // the four injected and that one
+	}
 	WARN("hm TCP faults: " << figures);
 }
 
