@@ -47,6 +47,7 @@ struct opts {
 
 struct run {
 	uint64_t ticks, timeouts, zeroed_ticks, late_ticks;
+	uint32_t timeouts_in_row; /* lockstep: waits without an answer since the last answer */
 	uint64_t own_ticks; /* lockstep: controller ticks that no sample drove (its seq moved against ours) */
 	int have_offset;
 	uint8_t offset, offset0; /* FORCE_CMD seq - n: now, and at the first answer */

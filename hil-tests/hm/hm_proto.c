@@ -345,11 +345,14 @@ static void sample(struct dev *d, const struct hm_state *s, const double f_hand_
 }
 
 /* Lockstep: the answer to sample n is the first FORCE_CMD or complete effect set after it. Once the
- * controller is lost (the watchdog, or the set's freshness, has dropped its force) wait only 1 ms a
- * tick, so that simulated time goes on. */
+ * controller is lost (the watchdog, or the set's freshness, has dropped its force, and LOST_WAITS
+ * waits in a row went unanswered) wait only 1 ms a tick, so that simulated time goes on. A
+ * controller that a loaded machine has not scheduled for a while is not lost: it answers within a
+ * few waits, and meanwhile the device ticks once a wait, not a thousand times a second. */
+#define LOST_WAITS 10u
 static void wait_answer(struct dev *d, struct hm_state *s, const struct opts *o, struct run *r, uint64_t n)
 {
-	int lost = s->cmd_age > hm_cmd_watchdog(&o->p, s), got = 0;
+	int lost = s->cmd_age > hm_cmd_watchdog(&o->p, s) && r->timeouts_in_row >= LOST_WAITS, got = 0;
 	int64_t deadline = now_ns() + (int64_t)(lost ? 1 : o->timeout_ms) * 1000000;
 	uint8_t off;
 
@@ -364,8 +367,11 @@ static void wait_answer(struct dev *d, struct hm_state *s, const struct opts *o,
 	}
 	if (!got) {
 		r->timeouts++;
+		if (r->timeouts_in_row < UINT32_MAX)
+			r->timeouts_in_row++;
 		return;
 	}
+	r->timeouts_in_row = 0;
 	if (d->answer_set || d->sets_coming) { /* no FORCE_CMD while sets come: count again after them */
 		r->have_offset = 0;
 		return;

@@ -77,8 +77,13 @@ static void on_button(GLFWwindow *w, int button, int action, int mods)
 	(void)mods;
 	struct app *a = glfwGetWindowUserPointer(w);
 	if (button == GLFW_MOUSE_BUTTON_LEFT) {
+		/* the drag starts where the events say the pointer was, not where it is now: a slow frame
+		 * leaves the press and the moves after it queued, and the pointer has moved on */
+		if (action == GLFW_PRESS && !a->have_pointer) {
+			glfwGetCursorPos(w, &a->mx, &a->my);
+			a->have_pointer = true;
+		}
 		a->dragging = action == GLFW_PRESS;
-		glfwGetCursorPos(w, &a->mx, &a->my);
 	}
 }
 
@@ -89,6 +94,7 @@ static void on_cursor(GLFWwindow *w, double x, double y)
 		render_cam_orbit(&a->r, (float)(a->mx - x) * 0.008f, (float)(y - a->my) * 0.008f);
 	a->mx = x;
 	a->my = y;
+	a->have_pointer = true;
 }
 
 static void on_scroll(GLFWwindow *w, double dx, double dy)

@@ -36,7 +36,8 @@ struct app {
 	float tile_hz; /* tiles uploaded a second (the tiles whose heights changed) */
 	struct view_object shown_obj; /* the object as drawn (held while paused) */
 	uint64_t tile_window_us, tile_window_start;
-	double mx, my;
+	double mx, my; /* the pointer as of the last cursor event handled */
+	bool have_pointer; /* mx, my hold a cursor event's position */
 	unsigned shots;
 };
 

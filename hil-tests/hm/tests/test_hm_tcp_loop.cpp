@@ -10,6 +10,7 @@
 #include <cstdio>
 
 #include "hm_tcp.hpp"
+#include "swell_msg_udp.hpp"
 
 using hmtcp::Client;
 using hmtcp::Server;
@@ -60,6 +61,33 @@ void wait_logged(const std::string &csv, double t)
 {
 	for (int k = 0; k < 6000 && logged_until(csv) < t; k++)
 		std::this_thread::sleep_for(std::chrono::milliseconds(10));
+}
+
+// waits (up to 60 s) until the log's last row shows no request run for `ticks` device ticks: every
+// request a stopped client had sent has been served; the row, or none
+bool wait_requests_served(const std::string &csv, int ticks, row *last)
+{
+	for (int k = 0; k < 6000; k++) {
+		const std::vector<row> r = swell_test::read_hm_log(csv);
+		if (!r.empty() && r.back().req_age() >= ticks) {
+			*last = r.back();
+			return true;
+		}
+		std::this_thread::sleep_for(std::chrono::milliseconds(10));
+	}
+	return false;
+}
+
+// waits (up to 60 s) for a heartbeat of the controller in `state` with last error `err` on its
+// telemetry port; whether one came
+bool wait_heartbeat(swell_test::MsgUdp &tele, uint8_t state, uint8_t err)
+{
+	for (int k = 0; k < 600; k++) {
+		const swell_msg m = tele.wait_for(SWELL_MSG_HEARTBEAT, 100);
+		if (m.type == SWELL_MSG_HEARTBEAT && m.u.heartbeat.state == state && m.u.heartbeat.err == err)
+			return true;
+	}
+	return false;
 }
 
 } // namespace
@@ -115,7 +143,10 @@ TEST_CASE("hm loop: a second client's set state stop zeroes the force at once an
 	Server srv(hm_bin, work_dir + "/hm-stop.hm.txt",
 		   {"--lockstep", "--hand", "drop:z=20,hold=0.5", "--seconds", "60", "--log", csv});
 	REQUIRE(srv.port > 0);
-	Ctl ctl(srv.port, "hm-stop");
+	// the controller's telemetry comes here: its heartbeat tells when it has faulted
+	swell_test::MsgUdp tele;
+	Ctl ctl(srv.port, "hm-stop",
+		{"--host", "udp:" + std::to_string(tele.port) + ",listen=" + std::to_string(swell_test::free_udp_port())});
 	wait_logged(csv, 4.0);
 	{
 		Client other(srv.port);
@@ -145,12 +176,16 @@ TEST_CASE("hm loop: a second client's set state stop zeroes the force at once an
 	CHECK(over == 0);
 	CHECK(back_at > rows[stop_at].t);
 	CHECK(back_at < rows[stop_at].t + 3.0);
-	// the emulator dies: the controller faults (link silent) and keeps trying to reconnect
+	// the emulator dies: the controller faults (link silent) and keeps trying to reconnect. Its
+	// heartbeat says when (silent-ticks periods of wall time, then as many ticks of its own: on a
+	// loaded machine that is not a fixed time)
+	tele.drain();
 	srv.stop(SIGKILL);
-	std::this_thread::sleep_for(std::chrono::milliseconds(500));
+	const bool faulted = wait_heartbeat(tele, 4 /* fault */, SWELL_ETIMEOUT);
 	const int ctl_rc = ctl.stop();
 	const std::string rep = swell_test::slurp(ctl.out);
 	INFO(rep);
+	CHECK(faulted);
 	CHECK(ctl_rc == 0);
 	CHECK(rep.find("state           fault (last error: link silent)") != std::string::npos);
 	CHECK(rep.find("1 connections, 1 resets") != std::string::npos);
@@ -220,11 +255,24 @@ TEST_CASE("hm loop: TCP faults (replies 5 ms and 50 ms late, garbage, a reset) e
 		figures += std::string(f.what) + ": zero after " + std::to_string(z - i) + " ticks, back after " +
 			std::to_string(rows[b].t - f.at) + " s; ";
 	}
-	// each fault faulted the controller, and it ends with the weight commanded again
+	// each fault faulted the controller, and it ends with the weight commanded again, or in a fault's
+	// zero that began within the recovery allowed above (3 s): a loaded machine's own fault (the
+	// controller's wall-clock silence limit, 2 ticks) may come late in the run, and the run ends
+	// before it has recovered
 	const size_t fat = rep.find("faults ");
 	REQUIRE(fat != std::string::npos);
 	CHECK(std::stol(rep.substr(fat + 7)) >= 4);
-	CHECK(std::fabs(rows.back().fcmd[2] + 0.98) < 0.011);
+	size_t last_zero = rows.size();
+	while (last_zero > 0 && rows[last_zero - 1].fcmd[2] == 0.0)
+		last_zero--;
+	if (last_zero == rows.size()) {
+		CHECK(std::fabs(rows.back().fcmd[2] + 0.98) < 0.011);
+	} else {
+		INFO("zero force from t = " << rows[last_zero].t << " s to the end; faults: " << std::stol(rep.substr(fat + 7)));
+		REQUIRE(last_zero < rows.size());
+		CHECK(rows[last_zero].t > rows.back().t - 3.0);
+		CHECK(std::stol(rep.substr(fat + 7)) >= 5); // the four injected and that one
+	}
 	WARN("hm TCP faults: " << figures);
 }
 
@@ -237,9 +285,16 @@ TEST_CASE("hm loop: the controller killed mid-run: the device zeroes its bias fo
 		   {"--lockstep", "--hand", "drop:z=20,hold=0.5", "--seconds", "60", "--log", csv});
 	REQUIRE(srv.port > 0);
 	double killed_at = 0;
+	row before_kill{};
 	{
 		Ctl first(srv.port, "hm-restart-1");
 		wait_logged(csv, 4.0);
+		// killed between two device ticks: stopped first (SIGSTOP), so that the device has served
+		// every request it had sent and renders the last force it set, then killed. A kill at any
+		// moment could land between a set and the tick that renders it, and the log could not say
+		// what the device held when the connection ended.
+		kill(first.pid, SIGSTOP);
+		REQUIRE(wait_requests_served(csv, 3, &before_kill));
 		killed_at = logged_until(csv);
 		first.stop(SIGKILL);
 	}
@@ -252,21 +307,23 @@ TEST_CASE("hm loop: the controller killed mid-run: the device zeroes its bias fo
 	const std::vector<row> rows = swell_test::read_hm_log(csv);
 	REQUIRE(rows.size() > 2500);
 	// the server zeroed the first controller's bias force when its connection ended, before the next
-	// step (a connection that ends is seen in the same poll that runs requests). The count is the bias
-	// held at the close: a force rendered on the last tick before the device was alone is counted; a
-	// zero there (a controller faulted by a loaded machine's silence just before the kill) may still
-	// be followed by a nonzero set that arrived after that tick and was never rendered, so zero allows
-	// zero or one. What matters for safety is checked below: no force on any tick alone.
+	// step (a connection that ends is seen in the same poll that runs requests): counted when that
+	// force was not zero (the last tick before the device was alone renders it: no request came
+	// after it; a controller faulted by a loaded machine's silence before the stop had set zero)
 	size_t alone = 1;
 	while (alone < rows.size() && rows[alone].clients() == 0) /* before the first controller */
 		alone++;
 	while (alone < rows.size() && rows[alone].clients() != 0)
 		alone++;
 	REQUIRE(alone < rows.size());
-	INFO("the device alone from t = " << rows[alone].t << " s; the force before: " << rows[alone - 1].fcmd[2] << " N");
-	const long vanished = swell_test::count_before(sum, " by a vanished client");
-	CHECK(vanished >= (rows[alone - 1].fcmd[2] != 0.0 ? 1 : 0));
-	CHECK(vanished <= 1);
+	const row &held = rows[alone - 1];
+	INFO("the device alone from t = " << rows[alone].t << " s; the force before: " << held.fcmd[0] << ", " << held.fcmd[1]
+					  << ", " << held.fcmd[2] << " N; requests served " << before_kill.req_age()
+					  << " ticks before the kill at t = " << before_kill.t << " s");
+	const bool forced = held.fcmd[0] != 0.0 || held.fcmd[1] != 0.0 || held.fcmd[2] != 0.0;
+	CHECK(held.t >= before_kill.t);
+	CHECK(held.req_age() >= 3);
+	CHECK(swell_test::count_before(sum, " by a vanished client") == (forced ? 1 : 0));
 	CHECK(rows[alone].fcmd[2] == 0.0);
 	int forced_alone = 0, over = 0, rendered_late = 0, late = 0;
 	for (const row &r : rows) {

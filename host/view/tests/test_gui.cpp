@@ -157,7 +157,12 @@ run_result view(const std::string &args)
 {
 	run_result r;
 	REQUIRE_FALSE(x().display.empty());
-	std::string cmd = "DISPLAY=" + x().display + " " + leak_sh() + "timeout 60 " SWELL_VIEW_BIN " " + args + " 2>&1";
+	// a guard against a program that never ends, not a criterion: CPU time (ulimit -t: 300 frames of
+	// 1024 x 768 cost about 7 s of CPU here), which the machine's load does not stretch as it does wall
+	// time (the same run took 60 s of wall time at a load of 20); and a wall limit for a program that
+	// blocks (waiting for X), well above what the load stretches
+	std::string cmd =
+		"ulimit -t 60; DISPLAY=" + x().display + " " + leak_sh() + "timeout 600 " SWELL_VIEW_BIN " " + args + " 2>&1";
 	FILE *p = popen(cmd.c_str(), "r");
 	REQUIRE(p != nullptr);
 	char buf[4096];
