@@ -262,22 +262,19 @@ static void scan_groups8_shift(const int32_t *h, const int32_t *d, int g, int f,
 }
 #endif
 
-/* Rows [j0, j1): the highest of h and h - d (d = v, or acc in rows finished ahead) into *top, sum(h)
- * into *sum. In the velocity form d is the solver's own change dh(u) (wave.h), taken as floor(u / 2^F)
- * where u has F fraction bits: never above dh(u) (nearest), so the result stays an upper bound, at most
- * one LSB higher. Heights are int28: eight of them sum exactly in int32. */
-static void scan_rows(const struct swell_wave *w, const int32_t *d, int j0, int j1, int32_t *top, int64_t *sum)
+/* Rows [j0, j1): the highest of h and h - d into *top, sum(h) into *sum, with d the solver's own
+ * change dh(u) (wave.h) taken as floor(u / 2^F) where u has F fraction bits: never above dh(u)
+ * (nearest), so the result stays an upper bound, at most one LSB higher. Heights are int27: eight of
+ * them sum exactly in int32. */
+static void scan_rows(const struct swell_wave *w, int j0, int j1, int32_t *top, int64_t *sum)
 {
-	const int32_t *h = w->h + (size_t)j0 * w->nx;
+	const int32_t *h = w->h + (size_t)j0 * w->nx, *d = w->u + (size_t)j0 * w->nx;
 	const int n = (j1 - j0) * w->nx;
-	const int f = w->form == SWELL_FORM_VELOCITY ? w->vel_frac : 0;
+	const int f = w->vel_frac;
 	int32_t t = *top;
 	int64_t s = *sum;
 	int a = 0;
 
-	if (w->form == SWELL_FORM_VELOCITY)
-		d = w->u;
-	d += (size_t)j0 * w->nx;
 #if defined(__thumb2__)
 	if (n >= 8) {
 		scan_groups8_shift(h, d, n / 8, f, &t, &s);
@@ -318,14 +315,14 @@ static void scan_adopt(struct swell_body *b, int32_t top, int64_t sum)
 	b->scans++;
 }
 
-/* One pass over the field: the highest surface any interpolation between h(n-1) = h - v and
- * h(n) = h can show (velocity form: h - dh(u) for h(n-1), wave.h), and sum(h) for the mean level. */
+/* One pass over the field: the highest surface any interpolation between h(n-1) = h - dh(u)
+ * (wave.h) and h(n) = h can show, and sum(h) for the mean level. */
 static void scan_field(struct swell_body *b, const struct swell_wave *w)
 {
 	int32_t top = INT32_MIN;
 	int64_t sum = 0;
 
-	scan_rows(w, w->v, 0, w->ny, &top, &sum);
+	scan_rows(w, 0, w->ny, &top, &sum);
 	scan_adopt(b, top, sum);
 }
 
@@ -386,7 +383,7 @@ void swell_body_solver_stepped(struct swell_body *b, const struct swell_wave *w)
 		scan_field(b, w);
 	} else if (b->scan_ok && b->scan_steps + 1 == w->steps) {
 		/* the rows scanned ahead hold the same h(n+1) and h(n) as now; the rest now */
-		scan_rows(w, w->v, b->scan_row, w->ny, &b->scan_top, &b->scan_sum);
+		scan_rows(w, b->scan_row, w->ny, &b->scan_top, &b->scan_sum);
 		scan_adopt(b, b->scan_top, b->scan_sum);
 	} else {
 		b->ceiling_ok = 0; /* in the water during the period: no whole scan in one tick */
@@ -403,7 +400,7 @@ void swell_body_scan_ahead(struct swell_body *b, const struct swell_wave *w)
 		b->scan_ok = 0;
 	if (!b->scan_ok || b->scan_row >= w->done_row)
 		return;
-	scan_rows(w, w->acc, b->scan_row, w->done_row, &b->scan_top, &b->scan_sum); /* velocity form: dh(u) */
+	scan_rows(w, b->scan_row, w->done_row, &b->scan_top, &b->scan_sum);
 	b->scan_row = w->done_row;
 }
 
@@ -465,12 +462,15 @@ static int32_t overlap(int32_t c, int32_t e0, int32_t e1)
 	return hi - lo;
 }
 
-/* fp_sums in the velocity form: for v the momentum u / 2^F, the solver's own change before its
- * rounding to a height LSB (the weighted sum of u shifted once, rounded to nearest), and h(n) = h - dh(u)
- * in rows finished ahead (wave.h): exact at the two end cells, for the inner cells of such a row their
- * sum of u shifted once and rounded (within half an LSB a cell of the per-cell roundings). So every row
- * costs two loads and two adds a cell. */
-static void fp_sums_vel(const struct swell_wave *w, const struct swell_body_fp *f, int64_t *sh, int64_t *sv)
+/* Area-weighted sums of h(n) and v under a non-empty footprint: for v the momentum u / 2^F, the
+ * solver's own change before its rounding to a height LSB (the weighted sum of u shifted once, rounded
+ * to nearest), and h(n) = h - dh(u) in rows finished ahead (wave.h): exact at the two end cells, for
+ * the inner cells of such a row their sum of u shifted once and rounded (within half an LSB a cell of
+ * the per-cell roundings). So every row costs two loads and two adds a cell. |h| <= 2^26 and
+ * |u| <= 2^27 over at most 65 x 65 cells with weights <= 2^22: every sum stays below 2^62. A row's
+ * inner cells are wholly covered (weight 2^11): their plain sums are scaled once, the two end cells
+ * weighted apart. */
+static void fp_sums(const struct swell_wave *w, const struct swell_body_fp *f, int64_t *sh, int64_t *sv)
 {
 	const int32_t i0 = f->x0 >> FP_SHIFT, i1 = (f->x1 - 1) >> FP_SHIFT;
 	const int32_t j0 = f->y0 >> FP_SHIFT, j1 = (f->y1 - 1) >> FP_SHIFT;
@@ -478,6 +478,8 @@ static void fp_sums_vel(const struct swell_wave *w, const struct swell_body_fp *
 	const int frac = w->vel_frac;
 	int64_t su = 0;
 	int32_t i, j;
+
+	*sh = 0;
 
 	for (j = j0; j <= j1; j++) {
 		const int32_t oy = overlap(j, f->y0, f->y1);
@@ -490,8 +492,8 @@ static void fp_sums_vel(const struct swell_wave *w, const struct swell_body_fp *
 			mu += u[i];
 		}
 		if (j < w->done_row) { /* h holds h(n+1): int27 - int28, no overflow */
-			he0 -= swell_wave_vel_dh(w, u[i0]);
-			he1 -= swell_wave_vel_dh(w, u[i1]);
+			he0 -= swell_wave_dh(w, (size_t)j * w->nx + (size_t)i0);
+			he1 -= swell_wave_dh(w, (size_t)j * w->nx + (size_t)i1);
 			mh -= frac ? shr_rn(mu, frac) : mu;
 		}
 		rh = (int64_t)ox0 * he0 + mh * (1 << FP_SHIFT);
@@ -504,55 +506,6 @@ static void fp_sums_vel(const struct swell_wave *w, const struct swell_body_fp *
 		su += oy * ru;
 	}
 	*sv = frac ? shr_rn(su, frac) : su;
-}
-
-/* Area-weighted sums of h(n) and v under a non-empty footprint (velocity form: the solver's own
- * change dh(u) for v, wave.h; in rows finished ahead that is the step in progress's). |h| <= 2^27 and |v| <= 2^28 over at
- * most 65 x 65 cells with weights <= 2^22: every sum stays below 2^62. A row's inner cells are wholly
- * covered (weight 2^11): their plain sums are scaled once, the two end cells weighted apart. */
-static void fp_sums(const struct swell_wave *w, const struct swell_body_fp *f, int64_t *sh, int64_t *sv)
-{
-	const int32_t i0 = f->x0 >> FP_SHIFT, i1 = (f->x1 - 1) >> FP_SHIFT;
-	const int32_t j0 = f->y0 >> FP_SHIFT, j1 = (f->y1 - 1) >> FP_SHIFT;
-	const int32_t ox0 = overlap(i0, f->x0, f->x1), ox1 = overlap(i1, f->x0, f->x1); /* one cell: the same */
-	int32_t i, j;
-
-	*sh = 0;
-	*sv = 0;
-	if (w->form == SWELL_FORM_VELOCITY) {
-		fp_sums_vel(w, f, sh, sv);
-		return;
-	}
-	for (j = j0; j <= j1; j++) {
-		const int32_t oy = overlap(j, f->y0, f->y1);
-		const int32_t *h = w->h + (size_t)j * w->nx, *v = w->v + (size_t)j * w->nx;
-		const int32_t *acc = w->acc + (size_t)j * w->nx;
-		const int ahead = j < w->done_row; /* finished ahead: h holds h(n+1), h(n) = h - acc */
-		int64_t mh = 0, mv = 0, rh, rv;
-		int32_t he0 = h[i0], he1 = h[i1];
-
-		if (ahead) { /* int28 - int30: no overflow */
-			he0 -= acc[i0];
-			he1 -= acc[i1];
-			for (i = i0 + 1; i < i1; i++) {
-				mh += h[i] - acc[i];
-				mv += v[i];
-			}
-		} else {
-			for (i = i0 + 1; i < i1; i++) {
-				mh += h[i];
-				mv += v[i];
-			}
-		}
-		rh = (int64_t)ox0 * he0 + mh * (1 << FP_SHIFT);
-		rv = (int64_t)ox0 * v[i0] + mv * (1 << FP_SHIFT);
-		if (i1 > i0) {
-			rh += (int64_t)ox1 * he1;
-			rv += (int64_t)ox1 * v[i1];
-		}
-		*sh += oy * rh;
-		*sv += oy * rv;
-	}
 }
 
 /* D_c = round(delta * area_c) of the cell whose area weight (Q22) is a: delta <= H < 2^26 and
@@ -575,15 +528,14 @@ static int64_t fp_weight(const struct swell_body_fp *r, int32_t i, int32_t j)
 	return oy > 0 && ox > 0 ? (int64_t)oy * ox : 0;
 }
 
-/* Add D_c(new_delta) - D_c(old_delta) to every cell under f through swell_wave_add (the edge-flux form
- * puts it into h at its next finish, flows untouched; the velocity form at once): old_delta 0 puts
- * the water in, new_delta 0 takes it out. Returns the volume added. In the velocity form the water
- * written is also summed with the weights of footprint r (the one the object holds after this
- * coupling), for the object's part of h(n) - h(n-1) (dep_sv). */
+/* Add D_c(new_delta) - D_c(old_delta) to every cell under f through swell_wave_add (into h at once,
+ * the momentum untouched): old_delta 0 puts the water in, new_delta 0 takes it out. Returns the volume
+ * added. The water written is also summed with the weights of footprint r (the one the object holds
+ * after this coupling), for the object's part of h(n) - h(n-1) (dep_sv). */
 static int64_t deposit(struct swell_body *b, struct swell_wave *w, const struct swell_body_fp *f, int32_t new_delta,
 		       int32_t old_delta, const struct swell_body_fp *r)
 {
-	const int dep = w->form == SWELL_FORM_VELOCITY, same = same_rect(f, r);
+	const int same = same_rect(f, r);
 	const int32_t scanned = b->scan_ok && b->scan_steps == w->steps ? b->scan_row : 0;
 	const int32_t i0 = f->x0 >> FP_SHIFT, i1 = (f->x1 - 1) >> FP_SHIFT;
 	const int32_t j0 = f->y0 >> FP_SHIFT, j1 = (f->y1 - 1) >> FP_SHIFT;
@@ -601,9 +553,9 @@ static int64_t deposit(struct swell_body *b, struct swell_wave *w, const struct 
 			if (i > i0 && i < i1) { /* the inner cells are wholly covered: one d for all of them */
 				swell_wave_add_span(w, i, i1, j, d);
 				row += (int64_t)d * (i1 - i);
-				for (; dep && d && !same && i < i1; i++)
+				for (; d && !same && i < i1; i++)
 					b->dep_sv += fp_weight(r, i, j) * d;
-				if (dep && same)
+				if (same)
 					b->dep_sv += a * d * (i1 - i);
 				i = i1 - 1;
 				continue;
@@ -612,8 +564,7 @@ static int64_t deposit(struct swell_body *b, struct swell_wave *w, const struct 
 				continue;
 			swell_wave_add(w, i, j, d);
 			row += d;
-			if (dep)
-				b->dep_sv += (same ? a : fp_weight(r, i, j)) * d;
+			b->dep_sv += (same ? a : fp_weight(r, i, j)) * d;
 		}
 		added += row;
 		if (j < scanned) { /* a row scanned ahead (so finished ahead): the water arrived in h at once */
@@ -882,13 +833,6 @@ void swell_body_tick_force(struct swell_body *b, const struct swell_wave *w, con
 
 int64_t swell_body_invariant(const struct swell_body *b, const struct swell_wave *w)
 {
-	const int n = w->nx * w->ny;
-	int64_t pending = 0;
-	int a;
-
-	/* the step accumulator sums to the volume added and not yet finished: every flow in it is
-	 * added to one cell and taken from another (rows finished ahead have theirs in h already) */
-	for (a = w->done_row * w->nx; w->acc && a < n; a++) /* the velocity form: none (no acc) */
-		pending += w->acc[a];
-	return swell_wave_volume(w) + pending - (b->v_displaced - b->v_unplaced);
+	/* water added goes into h at once: the volume holds it */
+	return swell_wave_volume(w) - (b->v_displaced - b->v_unplaced);
 }

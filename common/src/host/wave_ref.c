@@ -14,8 +14,8 @@ void swell_wave_ref_from_fixed(struct swell_wave_ref *r, const struct swell_wave
 	r->steps = 0;
 	for (a = 0; a < n; a++) {
 		r->h[a] = (double)w->h[a] / SWELL_H_ONE_MM;
-		/* h(n-1): the velocity form keeps no v, its own change dh(u) instead (swell/wave.h) */
-		r->hp[a] = r->h[a] - (double)(w->v ? w->v[a] : swell_wave_dh(w, (size_t)a)) / SWELL_H_ONE_MM;
+		/* h(n-1): the solver keeps no h(n) - h(n-1), its own change dh(u) instead (swell/wave.h) */
+		r->hp[a] = r->h[a] - (double)swell_wave_dh(w, (size_t)a) / SWELL_H_ONE_MM;
 	}
 }
 
