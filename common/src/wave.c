@@ -851,6 +851,145 @@ int64_t swell_wave_sum(const struct swell_wave *w, int i0, int i1, int j0, int j
 	return sum;
 }
 
+#if defined(__thumb2__)
+/* The cell of register R (a value of d, the next of h in H): d's negative part (shifted right by the
+ * velocity form's fraction bits: S is "" or ", asr #F") taken from h, the result compared with the
+ * highest so far (a higher one, rare once the scan is under way, goes to label 1N and back to 2N), h
+ * added to the group's sum. */
+#define SCAN_CELL(R, H, N, S)                                               \
+	"and " R ", " R ", " R ", asr #31\n\tsub " R ", " H ", " R S "\n\t" \
+	"add %[part], %[part], " H "\n\tcmp " R ", %[t]\n\tbgt 1" N "f\n2" N ":\n\t"
+#define SCAN_UP(R, N) "1" N ":\tmov %[t], " R "\n\tb 2" N "b\n"
+/* four cells: four d in one LDM, their h two at a time */
+#define SCAN_FOUR(N0, N1, N2, N3, S)                                                                  \
+	"ldmia %[d]!, {r2, r3, r4, r5}\n\tldmia %[h]!, {r6, r7}\n\t" SCAN_CELL("r2", "r6", N0, S)     \
+		SCAN_CELL("r3", "r7", N1, S) "ldmia %[h]!, {r6, r7}\n\t" SCAN_CELL("r4", "r6", N2, S) \
+			SCAN_CELL("r5", "r7", N3, S)
+/* the group's sum into the 64-bit sum, the next group; the out-of-line updates of the highest value */
+#define SCAN_END \
+	"adds %[lo], %[lo], %[part]\n\tadc %[hi], %[hi], %[part], asr #31\n\tsubs %[g], %[g], #1\n\tbne 3b\n\tb 9f\n"
+#define SCAN_UPS(N0, N1, N2, N3) SCAN_UP("r2", N0) SCAN_UP("r3", N1) SCAN_UP("r4", N2) SCAN_UP("r5", N3)
+#define SCAN_GROUP(S) "3:\tmovs %[part], #0\n\t" SCAN_FOUR("0", "1", "2", "3", S) SCAN_FOUR("4", "5", "6", "7", S)
+
+/* swell_wave_ceiling's cells in groups of eight (g >= 1 groups): the same top and sum. Four d in one LDM, two h
+ * in another, then the cell: AND (min(d, 0) from d's sign), SUB (with the shift of the fraction bits),
+ * ADD to the sum, CMP and a branch not taken: about 6.4 instructions a cell with the loads and the
+ * loop, against about 13 for the compiler's loop. The group's sum (eight int28 heights, exact in
+ * int32) goes into the 64-bit sum with ADDS and ADC. Functions of their own, one for each shift (an
+ * immediate): six scratch registers for the loads. */
+#define SCAN_GROUPS8(NAME, S)                                                                                        \
+	static __attribute__((noinline)) void NAME(const int32_t *h, const int32_t *d, int g, int32_t *top,          \
+						   int64_t *sum)                                                     \
+	{                                                                                                            \
+		uint32_t lo = (uint32_t)*sum;                                                                        \
+		int32_t hi = (int32_t)(*sum >> 32), t = *top, part;                                                  \
+                                                                                                                     \
+		__asm__ volatile(SCAN_GROUP(S) SCAN_END SCAN_UPS("0", "1", "2", "3")                                 \
+					 SCAN_UPS("4", "5", "6", "7") "9:\n"                                         \
+				 : [h] "+r"(h), [d] "+r"(d), [g] "+r"(g), [t] "+r"(t), [lo] "+r"(lo), [hi] "+r"(hi), \
+				   [part] "=&r"(part)                                                                \
+				 :                                                                                   \
+				 : "r2", "r3", "r4", "r5", "r6", "r7", "cc", "memory");                              \
+		*top = t;                                                                                            \
+		*sum = (int64_t)((uint64_t)(uint32_t)hi << 32 | lo);                                                 \
+	}
+SCAN_GROUPS8(scan_groups8, "")
+SCAN_GROUPS8(scan_groups8_f1, ", asr #1")
+SCAN_GROUPS8(scan_groups8_f2, ", asr #2")
+SCAN_GROUPS8(scan_groups8_f3, ", asr #3")
+SCAN_GROUPS8(scan_groups8_f4, ", asr #4")
+#undef SCAN_GROUPS8
+#undef SCAN_GROUP
+#undef SCAN_UPS
+#undef SCAN_END
+#undef SCAN_FOUR
+#undef SCAN_CELL
+#undef SCAN_UP
+
+/* scan_groups8 with d's negative part shifted right by f (0 to 4) */
+static void scan_groups8_shift(const int32_t *h, const int32_t *d, int g, int f, int32_t *top, int64_t *sum)
+{
+	static void (*const fn[5])(const int32_t *, const int32_t *, int, int32_t *,
+				   int64_t *) = { scan_groups8, scan_groups8_f1, scan_groups8_f2, scan_groups8_f3,
+						  scan_groups8_f4 };
+
+	fn[f](h, d, g, top, sum);
+}
+#endif
+
+/* Heights are int27: eight of them sum exactly in int32 (wave.h has the rule). */
+void swell_wave_ceiling(const struct swell_wave *w, int j0, int j1, int32_t *top, int64_t *sum)
+{
+	const int32_t *h = w->h + (size_t)j0 * w->nx, *d = w->u + (size_t)j0 * w->nx;
+	const int n = (j1 - j0) * w->nx;
+	const int f = w->vel_frac;
+	int32_t t = *top;
+	int64_t s = *sum;
+	int a = 0;
+
+#if defined(__thumb2__)
+	if (n >= 8) {
+		scan_groups8_shift(h, d, n / 8, f, &t, &s);
+		a = n / 8 * 8;
+	}
+#endif
+	while (a < n) {
+		const int end = a + 8 < n ? a + 8 : n;
+		int32_t part = 0;
+
+		for (; a < end; a++) {
+			/* the higher of h and h - d is h - min(d, 0): one comparison a cell */
+			const int32_t x = h[a], p = x - ((d[a] < 0 ? d[a] : 0) >> f);
+
+			t = p > t ? p : t;
+			part += x;
+		}
+		s += part;
+	}
+	*top = t;
+	*sum = s;
+}
+
+/* The weighted sums of h(n) and of u / 2^F (rounded once) under an area (wave.h): exact h(n) at the
+ * two end cells of a row finished ahead, for its inner cells their sum of u shifted once and rounded
+ * (within half an LSB a cell of the per-cell roundings); every row costs two loads and two adds a
+ * cell. */
+void swell_wave_footprint(const struct swell_wave *w, const struct swell_wave_area *ar, int64_t *sh, int64_t *sv)
+{
+	const int32_t i0 = ar->i0, i1 = ar->i1, ox0 = ar->wx0, ox1 = ar->wx1; /* one cell: the same */
+	const int frac = w->vel_frac;
+	int64_t su = 0;
+	int32_t i, j;
+
+	*sh = 0;
+
+	for (j = ar->j0; j <= ar->j1; j++) {
+		const int32_t oy = j == ar->j0 ? ar->wy0 : j == ar->j1 ? ar->wy1 : ar->one;
+		const int32_t *h = w->h + (size_t)j * w->nx, *u = w->u + (size_t)j * w->nx;
+		int64_t mh = 0, mu = 0, rh, ru;
+		int32_t he0 = h[i0], he1 = h[i1];
+
+		for (i = i0 + 1; i < i1; i++) {
+			mh += h[i];
+			mu += u[i];
+		}
+		if (j < w->done_row) { /* h holds h(n+1): int27 - int28, no overflow */
+			he0 -= swell_wave_dh(w, (size_t)j * w->nx + (size_t)i0);
+			he1 -= swell_wave_dh(w, (size_t)j * w->nx + (size_t)i1);
+			mh -= frac ? swell_shr_rn(mu, frac) : mu;
+		}
+		rh = (int64_t)ox0 * he0 + mh * ar->one;
+		ru = (int64_t)ox0 * u[i0] + mu * ar->one;
+		if (i1 > i0) {
+			rh += (int64_t)ox1 * he1;
+			ru += (int64_t)ox1 * u[i1];
+		}
+		*sh += oy * rh;
+		su += oy * ru;
+	}
+	*sv = frac ? swell_shr_rn(su, frac) : su;
+}
+
 int64_t swell_wave_volume(const struct swell_wave *w)
 {
 	return swell_wave_sum(w, 0, w->nx, 0, w->ny);

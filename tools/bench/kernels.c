@@ -336,7 +336,7 @@ static double cell_lsb(const struct bench_field *f, int i, int j, int prev)
 	case BENCH_VELOCITY:
 	case BENCH_VEL_REF:
 	case BENCH_VEL_FUSED: /* h(n-1) as the solver's own change gives it (no v kept: swell/wave.h) */
-		return prev ? (double)f->w.h[a] - swell_wave_dh(&f->w, a) : f->w.h[a];
+		return prev ? (double)swell_wave_h(&f->w, a) - swell_wave_dh(&f->w, a) : swell_wave_h(&f->w, a);
 	case BENCH_EF16:
 		return prev ? (double)f->h16[a] - f->v32[a] : f->h16[a];
 	case BENCH_TL32_FLOOR:

@@ -175,6 +175,26 @@ static inline void swell_wave_quad(const struct swell_wave *w, size_t a, int32_t
 /* sum of h(n) over cells [i0, i1) of rows [j0, j1) (a footprint), in LSB, exact */
 int64_t swell_wave_sum(const struct swell_wave *w, int i0, int i1, int j0, int j1);
 
+/* An area of cells [i0, i1] x [j0, j1] (inclusive) with weights: wx0 and wx1 of its end columns, wy0
+ * and wy1 of its end rows, `one` (a whole cell's side) between (one column: wx0; one row: wy0); a
+ * cell's weight is its column's times its row's. */
+struct swell_wave_area {
+	int32_t i0, i1, j0, j1;
+	int32_t wx0, wx1, wy0, wy1, one;
+};
+
+/* Weighted sums under an area: of h(n) into *sh, and of the solver's change, u / 2^F (the weighted sum
+ * of u rounded once to a height LSB), into *sv. In rows finished ahead h(n) is exact at the end cells
+ * and, for the cells between, h minus their sum of u shifted once and rounded (within half an LSB a
+ * cell of the per-cell dh(u)). Exact in int64 for areas up to 65 x 65 cells with weights up to 2^22. */
+void swell_wave_footprint(const struct swell_wave *w, const struct swell_wave_area *a, int64_t *sh, int64_t *sv);
+
+/* The ceiling of rows [j0, j1): the highest of h and h - floor(u / 2^F) (the solver's change rounded
+ * down: never above dh(u), so an upper bound at most one LSB high), that is of the two levels a row
+ * holds (h(n+1) and h(n) below done_row, h(n) and about h(n-1) elsewhere), into *top if higher; the
+ * sum of h added to *sum. Eight cells an SMLA-free pass on the Cortex-M4. */
+void swell_wave_ceiling(const struct swell_wave *w, int j0, int j1, int32_t *top, int64_t *sum);
+
 /* Exact integer energy (docs/design.md, section 2), for tests: with t = 0,
  *     E * 2^31 = kin * 2^31 + e_eff * pot2
  * is conserved exactly in exact arithmetic; kin = sum (h(n) - h(n-1))^2 and
