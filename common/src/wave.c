@@ -950,46 +950,6 @@ void swell_wave_ceiling(const struct swell_wave *w, int j0, int j1, int32_t *top
 	*sum = s;
 }
 
-/* The weighted sums of h(n) and of u / 2^F (rounded once) under an area (wave.h): exact h(n) at the
- * two end cells of a row finished ahead, for its inner cells their sum of u shifted once and rounded
- * (within half an LSB a cell of the per-cell roundings); every row costs two loads and two adds a
- * cell. */
-void swell_wave_footprint(const struct swell_wave *w, const struct swell_wave_area *ar, int64_t *sh, int64_t *sv)
-{
-	const int32_t i0 = ar->i0, i1 = ar->i1, ox0 = ar->wx0, ox1 = ar->wx1; /* one cell: the same */
-	const int frac = w->vel_frac;
-	int64_t su = 0;
-	int32_t i, j;
-
-	*sh = 0;
-
-	for (j = ar->j0; j <= ar->j1; j++) {
-		const int32_t oy = j == ar->j0 ? ar->wy0 : j == ar->j1 ? ar->wy1 : ar->one;
-		const int32_t *h = w->h + (size_t)j * w->nx, *u = w->u + (size_t)j * w->nx;
-		int64_t mh = 0, mu = 0, rh, ru;
-		int32_t he0 = h[i0], he1 = h[i1];
-
-		for (i = i0 + 1; i < i1; i++) {
-			mh += h[i];
-			mu += u[i];
-		}
-		if (j < w->done_row) { /* h holds h(n+1): int27 - int28, no overflow */
-			he0 -= swell_wave_dh(w, (size_t)j * w->nx + (size_t)i0);
-			he1 -= swell_wave_dh(w, (size_t)j * w->nx + (size_t)i1);
-			mh -= frac ? swell_shr_rn(mu, frac) : mu;
-		}
-		rh = (int64_t)ox0 * he0 + mh * ar->one;
-		ru = (int64_t)ox0 * u[i0] + mu * ar->one;
-		if (i1 > i0) {
-			rh += (int64_t)ox1 * he1;
-			ru += (int64_t)ox1 * u[i1];
-		}
-		*sh += oy * rh;
-		su += oy * ru;
-	}
-	*sv = frac ? swell_shr_rn(su, frac) : su;
-}
-
 int64_t swell_wave_volume(const struct swell_wave *w)
 {
 	return swell_wave_sum(w, 0, w->nx, 0, w->ny);
