@@ -32,14 +32,6 @@ static int64_t div_rn(int64_t num, int64_t den)
 	return div_floor(num + den / 2, den);
 }
 
-/* x / 2^n rounded to nearest, ties toward +inf: the same as div_rn(x, 2^n) without a 64-bit
- * division (a library call on the Cortex-M4). >> of a negative int64 is arithmetic on every compiler
- * this project supports (GCC, Clang), so it floors. */
-static int64_t shr_rn(int64_t x, int n)
-{
-	return (x + ((int64_t)1 << (n - 1))) >> n;
-}
-
 static int32_t sat32(int64_t x)
 {
 	return swell_sat_i64(x);
@@ -196,111 +188,6 @@ static void apply_params(struct swell_body *b, const struct swell_body_params *p
 	b->gravity_uN = -(int32_t)((int64_t)p->mass_g * p->g_mm_s2);
 }
 
-#if defined(__thumb2__)
-/* The cell of register R (a value of d, the next of h in H): d's negative part (shifted right by the
- * velocity form's fraction bits: S is "" or ", asr #F") taken from h, the result compared with the
- * highest so far (a higher one, rare once the scan is under way, goes to label 1N and back to 2N), h
- * added to the group's sum. */
-#define SCAN_CELL(R, H, N, S)                                               \
-	"and " R ", " R ", " R ", asr #31\n\tsub " R ", " H ", " R S "\n\t" \
-	"add %[part], %[part], " H "\n\tcmp " R ", %[t]\n\tbgt 1" N "f\n2" N ":\n\t"
-#define SCAN_UP(R, N) "1" N ":\tmov %[t], " R "\n\tb 2" N "b\n"
-/* four cells: four d in one LDM, their h two at a time */
-#define SCAN_FOUR(N0, N1, N2, N3, S)                                                                  \
-	"ldmia %[d]!, {r2, r3, r4, r5}\n\tldmia %[h]!, {r6, r7}\n\t" SCAN_CELL("r2", "r6", N0, S)     \
-		SCAN_CELL("r3", "r7", N1, S) "ldmia %[h]!, {r6, r7}\n\t" SCAN_CELL("r4", "r6", N2, S) \
-			SCAN_CELL("r5", "r7", N3, S)
-/* the group's sum into the 64-bit sum, the next group; the out-of-line updates of the highest value */
-#define SCAN_END \
-	"adds %[lo], %[lo], %[part]\n\tadc %[hi], %[hi], %[part], asr #31\n\tsubs %[g], %[g], #1\n\tbne 3b\n\tb 9f\n"
-#define SCAN_UPS(N0, N1, N2, N3) SCAN_UP("r2", N0) SCAN_UP("r3", N1) SCAN_UP("r4", N2) SCAN_UP("r5", N3)
-#define SCAN_GROUP(S) "3:\tmovs %[part], #0\n\t" SCAN_FOUR("0", "1", "2", "3", S) SCAN_FOUR("4", "5", "6", "7", S)
-
-/* scan_rows' cells in groups of eight (g >= 1 groups): the same top and sum. Four d in one LDM, two h
- * in another, then the cell: AND (min(d, 0) from d's sign), SUB (with the shift of the fraction bits),
- * ADD to the sum, CMP and a branch not taken: about 6.4 instructions a cell with the loads and the
- * loop, against about 13 for the compiler's loop. The group's sum (eight int28 heights, exact in
- * int32) goes into the 64-bit sum with ADDS and ADC. Functions of their own, one for each shift (an
- * immediate): six scratch registers for the loads. */
-#define SCAN_GROUPS8(NAME, S)                                                                                        \
-	static __attribute__((noinline)) void NAME(const int32_t *h, const int32_t *d, int g, int32_t *top,          \
-						   int64_t *sum)                                                     \
-	{                                                                                                            \
-		uint32_t lo = (uint32_t)*sum;                                                                        \
-		int32_t hi = (int32_t)(*sum >> 32), t = *top, part;                                                  \
-                                                                                                                     \
-		__asm__ volatile(SCAN_GROUP(S) SCAN_END SCAN_UPS("0", "1", "2", "3")                                 \
-					 SCAN_UPS("4", "5", "6", "7") "9:\n"                                         \
-				 : [h] "+r"(h), [d] "+r"(d), [g] "+r"(g), [t] "+r"(t), [lo] "+r"(lo), [hi] "+r"(hi), \
-				   [part] "=&r"(part)                                                                \
-				 :                                                                                   \
-				 : "r2", "r3", "r4", "r5", "r6", "r7", "cc", "memory");                              \
-		*top = t;                                                                                            \
-		*sum = (int64_t)((uint64_t)(uint32_t)hi << 32 | lo);                                                 \
-	}
-SCAN_GROUPS8(scan_groups8, "")
-SCAN_GROUPS8(scan_groups8_f1, ", asr #1")
-SCAN_GROUPS8(scan_groups8_f2, ", asr #2")
-SCAN_GROUPS8(scan_groups8_f3, ", asr #3")
-SCAN_GROUPS8(scan_groups8_f4, ", asr #4")
-#undef SCAN_GROUPS8
-#undef SCAN_GROUP
-#undef SCAN_UPS
-#undef SCAN_END
-#undef SCAN_FOUR
-#undef SCAN_CELL
-#undef SCAN_UP
-
-/* scan_groups8 with d's negative part shifted right by f (0 to 4) */
-static void scan_groups8_shift(const int32_t *h, const int32_t *d, int g, int f, int32_t *top, int64_t *sum)
-{
-	static void (*const fn[5])(const int32_t *, const int32_t *, int, int32_t *,
-				   int64_t *) = { scan_groups8, scan_groups8_f1, scan_groups8_f2, scan_groups8_f3,
-						  scan_groups8_f4 };
-
-	fn[f](h, d, g, top, sum);
-}
-#endif
-
-/* Rows [j0, j1): the highest of h and h - d (d = v, or acc in rows finished ahead) into *top, sum(h)
- * into *sum. In the velocity form d is the solver's own change dh(u) (wave.h), taken as floor(u / 2^F)
- * where u has F fraction bits: never above dh(u) (nearest), so the result stays an upper bound, at most
- * one LSB higher. Heights are int28: eight of them sum exactly in int32. */
-static void scan_rows(const struct swell_wave *w, const int32_t *d, int j0, int j1, int32_t *top, int64_t *sum)
-{
-	const int32_t *h = w->h + (size_t)j0 * w->nx;
-	const int n = (j1 - j0) * w->nx;
-	const int f = w->form == SWELL_FORM_VELOCITY ? w->vel_frac : 0;
-	int32_t t = *top;
-	int64_t s = *sum;
-	int a = 0;
-
-	if (w->form == SWELL_FORM_VELOCITY)
-		d = w->u;
-	d += (size_t)j0 * w->nx;
-#if defined(__thumb2__)
-	if (n >= 8) {
-		scan_groups8_shift(h, d, n / 8, f, &t, &s);
-		a = n / 8 * 8;
-	}
-#endif
-	while (a < n) {
-		const int end = a + 8 < n ? a + 8 : n;
-		int32_t part = 0;
-
-		for (; a < end; a++) {
-			/* the higher of h and h - d is h - min(d, 0): one comparison a cell */
-			const int32_t x = h[a], p = x - ((d[a] < 0 ? d[a] : 0) >> f);
-
-			t = p > t ? p : t;
-			part += x;
-		}
-		s += part;
-	}
-	*top = t;
-	*sum = s;
-}
-
 static void scan_reset(struct swell_body *b, const struct swell_wave *w)
 {
 	b->scan_steps = w->steps;
@@ -318,14 +205,14 @@ static void scan_adopt(struct swell_body *b, int32_t top, int64_t sum)
 	b->scans++;
 }
 
-/* One pass over the field: the highest surface any interpolation between h(n-1) = h - v and
- * h(n) = h can show (velocity form: h - dh(u) for h(n-1), wave.h), and sum(h) for the mean level. */
+/* One pass over the field: the highest surface any interpolation between h(n-1) = h - dh(u)
+ * (wave.h) and h(n) = h can show, and sum(h) for the mean level. */
 static void scan_field(struct swell_body *b, const struct swell_wave *w)
 {
 	int32_t top = INT32_MIN;
 	int64_t sum = 0;
 
-	scan_rows(w, w->v, 0, w->ny, &top, &sum);
+	swell_wave_ceiling(w, 0, w->ny, &top, &sum);
 	scan_adopt(b, top, sum);
 }
 
@@ -386,7 +273,7 @@ void swell_body_solver_stepped(struct swell_body *b, const struct swell_wave *w)
 		scan_field(b, w);
 	} else if (b->scan_ok && b->scan_steps + 1 == w->steps) {
 		/* the rows scanned ahead hold the same h(n+1) and h(n) as now; the rest now */
-		scan_rows(w, w->v, b->scan_row, w->ny, &b->scan_top, &b->scan_sum);
+		swell_wave_ceiling(w, b->scan_row, w->ny, &b->scan_top, &b->scan_sum);
 		scan_adopt(b, b->scan_top, b->scan_sum);
 	} else {
 		b->ceiling_ok = 0; /* in the water during the period: no whole scan in one tick */
@@ -403,7 +290,7 @@ void swell_body_scan_ahead(struct swell_body *b, const struct swell_wave *w)
 		b->scan_ok = 0;
 	if (!b->scan_ok || b->scan_row >= w->done_row)
 		return;
-	scan_rows(w, w->acc, b->scan_row, w->done_row, &b->scan_top, &b->scan_sum); /* velocity form: dh(u) */
+	swell_wave_ceiling(w, b->scan_row, w->done_row, &b->scan_top, &b->scan_sum);
 	b->scan_row = w->done_row;
 }
 
@@ -465,94 +352,24 @@ static int32_t overlap(int32_t c, int32_t e0, int32_t e1)
 	return hi - lo;
 }
 
-/* fp_sums in the velocity form: for v the momentum u / 2^F, the solver's own change before its
- * rounding to a height LSB (the weighted sum of u shifted once, rounded to nearest), and h(n) = h - dh(u)
- * in rows finished ahead (wave.h): exact at the two end cells, for the inner cells of such a row their
- * sum of u shifted once and rounded (within half an LSB a cell of the per-cell roundings). So every row
- * costs two loads and two adds a cell. */
-static void fp_sums_vel(const struct swell_wave *w, const struct swell_body_fp *f, int64_t *sh, int64_t *sv)
-{
-	const int32_t i0 = f->x0 >> FP_SHIFT, i1 = (f->x1 - 1) >> FP_SHIFT;
-	const int32_t j0 = f->y0 >> FP_SHIFT, j1 = (f->y1 - 1) >> FP_SHIFT;
-	const int32_t ox0 = overlap(i0, f->x0, f->x1), ox1 = overlap(i1, f->x0, f->x1); /* one cell: the same */
-	const int frac = w->vel_frac;
-	int64_t su = 0;
-	int32_t i, j;
-
-	for (j = j0; j <= j1; j++) {
-		const int32_t oy = overlap(j, f->y0, f->y1);
-		const int32_t *h = w->h + (size_t)j * w->nx, *u = w->u + (size_t)j * w->nx;
-		int64_t mh = 0, mu = 0, rh, ru;
-		int32_t he0 = h[i0], he1 = h[i1];
-
-		for (i = i0 + 1; i < i1; i++) {
-			mh += h[i];
-			mu += u[i];
-		}
-		if (j < w->done_row) { /* h holds h(n+1): int27 - int28, no overflow */
-			he0 -= swell_wave_vel_dh(w, u[i0]);
-			he1 -= swell_wave_vel_dh(w, u[i1]);
-			mh -= frac ? shr_rn(mu, frac) : mu;
-		}
-		rh = (int64_t)ox0 * he0 + mh * (1 << FP_SHIFT);
-		ru = (int64_t)ox0 * u[i0] + mu * (1 << FP_SHIFT);
-		if (i1 > i0) {
-			rh += (int64_t)ox1 * he1;
-			ru += (int64_t)ox1 * u[i1];
-		}
-		*sh += oy * rh;
-		su += oy * ru;
-	}
-	*sv = frac ? shr_rn(su, frac) : su;
-}
-
-/* Area-weighted sums of h(n) and v under a non-empty footprint (velocity form: the solver's own
- * change dh(u) for v, wave.h; in rows finished ahead that is the step in progress's). |h| <= 2^27 and |v| <= 2^28 over at
- * most 65 x 65 cells with weights <= 2^22: every sum stays below 2^62. A row's inner cells are wholly
- * covered (weight 2^11): their plain sums are scaled once, the two end cells weighted apart. */
+/* Area-weighted sums of h(n) and v (the solver's change) under a non-empty footprint
+ * (swell_wave_footprint): the two end cells of a row and of a column weighted by their covered
+ * length (Q11), the cells between whole. */
 static void fp_sums(const struct swell_wave *w, const struct swell_body_fp *f, int64_t *sh, int64_t *sv)
 {
 	const int32_t i0 = f->x0 >> FP_SHIFT, i1 = (f->x1 - 1) >> FP_SHIFT;
 	const int32_t j0 = f->y0 >> FP_SHIFT, j1 = (f->y1 - 1) >> FP_SHIFT;
-	const int32_t ox0 = overlap(i0, f->x0, f->x1), ox1 = overlap(i1, f->x0, f->x1); /* one cell: the same */
-	int32_t i, j;
+	const struct swell_wave_area a = { i0,
+					   i1,
+					   j0,
+					   j1,
+					   overlap(i0, f->x0, f->x1),
+					   overlap(i1, f->x0, f->x1),
+					   overlap(j0, f->y0, f->y1),
+					   overlap(j1, f->y0, f->y1),
+					   1 << FP_SHIFT };
 
-	*sh = 0;
-	*sv = 0;
-	if (w->form == SWELL_FORM_VELOCITY) {
-		fp_sums_vel(w, f, sh, sv);
-		return;
-	}
-	for (j = j0; j <= j1; j++) {
-		const int32_t oy = overlap(j, f->y0, f->y1);
-		const int32_t *h = w->h + (size_t)j * w->nx, *v = w->v + (size_t)j * w->nx;
-		const int32_t *acc = w->acc + (size_t)j * w->nx;
-		const int ahead = j < w->done_row; /* finished ahead: h holds h(n+1), h(n) = h - acc */
-		int64_t mh = 0, mv = 0, rh, rv;
-		int32_t he0 = h[i0], he1 = h[i1];
-
-		if (ahead) { /* int28 - int30: no overflow */
-			he0 -= acc[i0];
-			he1 -= acc[i1];
-			for (i = i0 + 1; i < i1; i++) {
-				mh += h[i] - acc[i];
-				mv += v[i];
-			}
-		} else {
-			for (i = i0 + 1; i < i1; i++) {
-				mh += h[i];
-				mv += v[i];
-			}
-		}
-		rh = (int64_t)ox0 * he0 + mh * (1 << FP_SHIFT);
-		rv = (int64_t)ox0 * v[i0] + mv * (1 << FP_SHIFT);
-		if (i1 > i0) {
-			rh += (int64_t)ox1 * he1;
-			rv += (int64_t)ox1 * v[i1];
-		}
-		*sh += oy * rh;
-		*sv += oy * rv;
-	}
+	swell_wave_footprint(w, &a, sh, sv);
 }
 
 /* D_c = round(delta * area_c) of the cell whose area weight (Q22) is a: delta <= H < 2^26 and
@@ -575,15 +392,14 @@ static int64_t fp_weight(const struct swell_body_fp *r, int32_t i, int32_t j)
 	return oy > 0 && ox > 0 ? (int64_t)oy * ox : 0;
 }
 
-/* Add D_c(new_delta) - D_c(old_delta) to every cell under f through swell_wave_add (the edge-flux form
- * puts it into h at its next finish, flows untouched; the velocity form at once): old_delta 0 puts
- * the water in, new_delta 0 takes it out. Returns the volume added. In the velocity form the water
- * written is also summed with the weights of footprint r (the one the object holds after this
- * coupling), for the object's part of h(n) - h(n-1) (dep_sv). */
+/* Add D_c(new_delta) - D_c(old_delta) to every cell under f through swell_wave_add (into h at once,
+ * the momentum untouched): old_delta 0 puts the water in, new_delta 0 takes it out. Returns the volume
+ * added. The water written is also summed with the weights of footprint r (the one the object holds
+ * after this coupling), for the object's part of h(n) - h(n-1) (dep_sv). */
 static int64_t deposit(struct swell_body *b, struct swell_wave *w, const struct swell_body_fp *f, int32_t new_delta,
 		       int32_t old_delta, const struct swell_body_fp *r)
 {
-	const int dep = w->form == SWELL_FORM_VELOCITY, same = same_rect(f, r);
+	const int same = same_rect(f, r);
 	const int32_t scanned = b->scan_ok && b->scan_steps == w->steps ? b->scan_row : 0;
 	const int32_t i0 = f->x0 >> FP_SHIFT, i1 = (f->x1 - 1) >> FP_SHIFT;
 	const int32_t j0 = f->y0 >> FP_SHIFT, j1 = (f->y1 - 1) >> FP_SHIFT;
@@ -601,9 +417,9 @@ static int64_t deposit(struct swell_body *b, struct swell_wave *w, const struct 
 			if (i > i0 && i < i1) { /* the inner cells are wholly covered: one d for all of them */
 				swell_wave_add_span(w, i, i1, j, d);
 				row += (int64_t)d * (i1 - i);
-				for (; dep && d && !same && i < i1; i++)
+				for (; d && !same && i < i1; i++)
 					b->dep_sv += fp_weight(r, i, j) * d;
-				if (dep && same)
+				if (same)
 					b->dep_sv += a * d * (i1 - i);
 				i = i1 - 1;
 				continue;
@@ -612,16 +428,18 @@ static int64_t deposit(struct swell_body *b, struct swell_wave *w, const struct 
 				continue;
 			swell_wave_add(w, i, j, d);
 			row += d;
-			if (dep)
-				b->dep_sv += (same ? a : fp_weight(r, i, j)) * d;
+			b->dep_sv += (same ? a : fp_weight(r, i, j)) * d;
 		}
 		added += row;
-		if (j < scanned) { /* a row scanned ahead (so finished ahead): the water arrived in h at once */
-			const int32_t *h = w->h + (size_t)j * w->nx;
+		if (j < scanned) { /* a row scanned ahead (so finished ahead): the water arrived in h(n+1) at once */
+			const size_t a0 = (size_t)j * b->nx;
 
-			b->scan_sum += row; /* exact unless a height saturated (+-2048 mm) */
-			for (i = i0; new_delta > 0 && i <= i1; i++)
-				b->scan_top = h[i] > b->scan_top ? h[i] : b->scan_top;
+			b->scan_sum += row; /* exact unless a height saturated (+-1024 mm) */
+			for (i = i0; new_delta > 0 && i <= i1; i++) {
+				const int32_t next = swell_wave_h(w, a0 + (size_t)i) + swell_wave_dh(w, a0 + (size_t)i);
+
+				b->scan_top = next > b->scan_top ? next : b->scan_top;
+			}
 		}
 	}
 	return added;
@@ -722,15 +540,15 @@ static void device_force(const struct swell_body *b, struct swell_body_out *out)
  * step: exactly 0 um/s. */
 static int64_t uw_filter(struct swell_body *b, int64_t u)
 {
-	b->uw1_q16 += shr_rn((u * 65536 - b->uw1_q16) * b->uw_alpha_q16, 16);
-	b->uw2_q16 += shr_rn((b->uw1_q16 - b->uw2_q16) * b->uw_alpha_q16, 16);
+	b->uw1_q16 += swell_shr_rn((u * 65536 - b->uw1_q16) * b->uw_alpha_q16, 16);
+	b->uw2_q16 += swell_shr_rn((b->uw1_q16 - b->uw2_q16) * b->uw_alpha_q16, 16);
 	return b->uw2_q16;
 }
 
 /* LSB per solver step * 2^q -> um/s: 2^-16 mm * solver_hz = solver_hz * 125 / 8192 um/s. */
 static int32_t lsb_step_to_um_s(const struct swell_body *b, int64_t u, int q)
 {
-	return sat32(shr_rn(u * (int64_t)b->sc.solver_hz * 125, 13 + q));
+	return sat32(swell_shr_rn(u * (int64_t)b->sc.solver_hz * 125, 13 + q));
 }
 
 /* Contact with the floor at penetration p > 0 (LSB) and velocity v (um/s, up): a spring k_c p and a
@@ -741,7 +559,7 @@ static int32_t floor_force(int32_t p, int32_t v_um_s)
 {
 	const int64_t ramp = ((int64_t)SWELL_BODY_FLOOR_RAMP_UM << 16) / 1000; /* um -> LSB, exact for 1000 */
 	const int64_t pr = p < ramp ? p : ramp;
-	int64_t f = shr_rn((int64_t)SWELL_BODY_FLOOR_K * p, 16);
+	int64_t f = swell_shr_rn((int64_t)SWELL_BODY_FLOOR_K * p, 16);
 
 	f -= div_rn((int64_t)SWELL_BODY_FLOOR_DAMPER * v_um_s * pr, ramp * 1000);
 	return (int32_t)(f < 0 ? 0 : (f > SWELL_BODY_FLOOR_F_MAX_UN ? SWELL_BODY_FLOOR_F_MAX_UN : f));
@@ -853,7 +671,7 @@ void swell_body_tick_force(struct swell_body *b, const struct swell_wave *w, con
 	out->surface_lsb = wl;
 	out->surface_raw_um_s = lsb_step_to_um_s(b, u, 0);
 	/* the damper's u_w: low-passed, 2^8 finer than a LSB per step into the conversion */
-	out->surface_um_s = lsb_step_to_um_s(b, shr_rn(uw_filter(b, u), 8), 8);
+	out->surface_um_s = lsb_step_to_um_s(b, swell_shr_rn(uw_filter(b, u), 8), 8);
 
 	delta = swell_clamp(sat32((int64_t)wl - zw), 0, b->h_lsb);
 	out->delta_lsb = delta;
@@ -882,13 +700,6 @@ void swell_body_tick_force(struct swell_body *b, const struct swell_wave *w, con
 
 int64_t swell_body_invariant(const struct swell_body *b, const struct swell_wave *w)
 {
-	const int n = w->nx * w->ny;
-	int64_t pending = 0;
-	int a;
-
-	/* the step accumulator sums to the volume added and not yet finished: every flow in it is
-	 * added to one cell and taken from another (rows finished ahead have theirs in h already) */
-	for (a = w->done_row * w->nx; w->acc && a < n; a++) /* the velocity form: none (no acc) */
-		pending += w->acc[a];
-	return swell_wave_volume(w) + pending - (b->v_displaced - b->v_unplaced);
+	/* water added goes into h at once: the volume holds it */
+	return swell_wave_volume(w) - (b->v_displaced - b->v_unplaced);
 }

@@ -14,3 +14,16 @@ uint32_t swell_crc32(uint32_t crc, const void *data, size_t len)
 	}
 	return ~crc;
 }
+
+uint32_t swell_crc32_words(uint32_t crc, const int32_t *x, size_t n)
+{
+	size_t k;
+
+	for (k = 0; k < n; k++) {
+		const uint32_t u = (uint32_t)x[k];
+		const uint8_t le[4] = { (uint8_t)u, (uint8_t)(u >> 8), (uint8_t)(u >> 16), (uint8_t)(u >> 24) };
+
+		crc = swell_crc32(crc, le, sizeof(le));
+	}
+	return crc;
+}

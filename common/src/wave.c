@@ -1,5 +1,5 @@
-/* Fixed-point solver of eq. (1): the drivers of the edge-flux and the velocity forms, their kernels one
- * a file (wave_edge_*.c, wave_vel_*.c); see wave.h for the maths and the rounding. */
+/* Fixed-point solver of eq. (1): the driver of the kernels (one a file, wave_vel_*.c), the finish
+ * with its fixers, and the read functions; see wave.h for the maths and the rounding. */
 #include "swell/wave.h"
 
 #include <string.h>
@@ -8,20 +8,6 @@
 #include "wave_priv.h"
 
 /* The tile flags (T_*) are in wave_priv.h. */
-
-/* The edges of an awake tile write acc in it and in the tiles right of it and above it: mark the
- * block of radius r around (tx, ty) so that the finish visits them (r = 1 for a tile found awake,
- * 2 around a touched tile, whose awake neighbours write around themselves). */
-static void mark_dirty(struct swell_wave *w, int tx, int ty, int r)
-{
-	const int x0 = tx > r ? tx - r : 0, x1 = tx + r < w->tiles_x ? tx + r : w->tiles_x - 1;
-	const int y0 = ty > r ? ty - r : 0, y1 = ty + r < w->tiles_y ? ty + r : w->tiles_y - 1;
-	int x, y;
-
-	for (y = y0; y <= y1; y++)
-		for (x = x0; x <= x1; x++)
-			w->tile[y * w->tiles_x + x] |= T_DIRTY;
-}
 
 /* 1 if any tile of a row of tiles has the flag: four flag bytes a word. */
 static int tile_row_has(const struct swell_wave *w, const uint8_t *trow, uint8_t flag)
@@ -43,17 +29,6 @@ static int tile_row_has(const struct swell_wave *w, const uint8_t *trow, uint8_t
 }
 
 #if SWELL_WAVE_DSP
-/* How many tiles of a row of tiles sleep */
-static int tiles_asleep(const struct swell_wave *w, const uint8_t *trow)
-{
-	int x, n = 0;
-
-	for (x = 0; x < w->tiles_x; x++)
-		n += (trow[x] & T_SLEEPING) != 0;
-	return n;
-}
-#endif
-
 /* 1 if every tile of a row of tiles has the flag: four flag bytes a word. */
 static int tile_row_all(const struct swell_wave *w, const uint8_t *trow, uint8_t flag)
 {
@@ -73,13 +48,24 @@ static int tile_row_all(const struct swell_wave *w, const uint8_t *trow, uint8_t
 	return 1;
 }
 
-/* Every tile awake, and every tile's acc and v to be visited at the next finish. In the middle of a
- * step the flags lost include NONZERO of the rows done: the step counts as non-zero everywhere, or a
- * tile whose flows just went to zero would sleep a step early (ZERO needs two zero steps). */
+/* How many tiles of a row of tiles sleep */
+static int tiles_asleep(const struct swell_wave *w, const uint8_t *trow)
+{
+	int x, n = 0;
+
+	for (x = 0; x < w->tiles_x; x++)
+		n += (trow[x] & T_SLEEPING) != 0;
+	return n;
+}
+#endif
+
+/* Every tile awake. In the middle of a step the flags lost include NONZERO of the rows done: the step
+ * counts as non-zero everywhere, or a tile whose momentum just went to zero would sleep a step early
+ * (ZERO needs two zero steps). */
 static void wake_all(struct swell_wave *w)
 {
 	w->band_asleep = 0;
-	memset(w->tile, T_DIRTY | T_DIRTY_PREV | (w->next_row ? T_NONZERO : 0u), (size_t)w->tiles_x * w->tiles_y);
+	memset(w->tile, w->next_row ? T_NONZERO : 0u, (size_t)w->tiles_x * w->tiles_y);
 }
 
 static int e_eff_stable(uint64_t e_eff, uint64_t q)
@@ -137,7 +123,7 @@ q30_t swell_wave_e_limit(q30_t damping, enum swell_stencil stencil)
 	return lim > INT32_MAX ? INT32_MAX : (q30_t)lim;
 }
 
-/* The velocity form's fraction bits: undamped, as many (up to 4) as keep e_eff 2^(F+1) within int32;
+/* The fraction bits of u: undamped, as many (up to 4) as keep e_eff 2^(F+1) within int32;
  * damped, none. u is rescaled when they change (toward zero: the fixer gives back what that loses). */
 static void set_vel_frac(struct swell_wave *w)
 {
@@ -162,47 +148,28 @@ static void apply_params(struct swell_wave *w, const struct swell_wave_params *p
 {
 	w->p = *p;
 	w->e_eff = effective_e(p);
-	w->c_1 = w->e_eff;
-	w->c_half = w->e_eff / 2;
-	w->c_wall = w->e_eff + w->c_half;
-	w->q = SWELL_Q30_ONE - p->damping;
-	if (w->q != SWELL_Q30_ONE)
-		w->q |= 1; /* odd: see wave.h */
-	if (w->form == SWELL_FORM_VELOCITY)
-		set_vel_frac(w);
+	w->q = (q30_t)run_q(p->damping); /* odd: see wave.h */
+	set_vel_frac(w);
 	if (w->tile) /* new coefficients round differently: every tile awake */
 		wake_all(w);
 }
 
-enum swell_err swell_wave_init(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage, size_t words,
-			       const struct swell_wave_params *p)
-{
-	return swell_wave_init_form(w, nx, ny, storage, words, p, SWELL_FORM_EDGE);
-}
-
-/* The layout of the forms: h, v, acc, the flows, the flags (edge-flux); h, u (unless given apart),
- * the flags (velocity). */
+/* The layout: h, u (unless given apart), the flags. */
 static enum swell_err init_at(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage, size_t words,
-			      int32_t *u, const struct swell_wave_params *p, enum swell_wave_form form)
+			      int32_t *u, const struct swell_wave_params *p)
 {
 	size_t n = (size_t)nx * ny;
 	enum swell_err err;
 
-	if (!w || !storage || (form != SWELL_FORM_EDGE && form != SWELL_FORM_VELOCITY))
+	if (!w || !storage)
 		return SWELL_EINVAL;
 	if (nx < SWELL_WAVE_MIN_SIDE || ny < SWELL_WAVE_MIN_SIDE || nx > SWELL_WAVE_MAX_SIDE ||
 	    ny > SWELL_WAVE_MAX_SIDE)
 		return SWELL_ESIZE;
-#ifdef SWELL_WAVE_FIXED_NX
-	if (form == SWELL_FORM_EDGE && nx != SWELL_WAVE_FIXED_NX) /* the velocity form takes any width */
-		return SWELL_ESIZE;
-#endif
 	err = swell_wave_check(p);
 	if (err != SWELL_OK)
 		return err;
-	if (words < (form == SWELL_FORM_EDGE ? SWELL_WAVE_WORDS(nx, ny)
-			     : u             ? SWELL_WAVE_VEL_WORDS(nx, ny) - n
-					     : SWELL_WAVE_VEL_WORDS(nx, ny)))
+	if (words < SWELL_WAVE_WORDS(nx, ny) - (u ? n : 0))
 		return SWELL_ESIZE;
 
 	memset(w, 0, sizeof(*w));
@@ -211,18 +178,10 @@ static enum swell_err init_at(struct swell_wave *w, uint16_t nx, uint16_t ny, in
 	w->tiles_x = (uint16_t)SWELL_WAVE_TILES_X(nx);
 	w->tiles_y = (uint16_t)SWELL_WAVE_TILES_X(ny);
 	w->h = storage;
-	w->form = (uint8_t)form; /* the kernel choice below depends on it */
-	if (form == SWELL_FORM_VELOCITY) { /* h, u (unless apart), the flags: no v, no acc */
-		w->u = u ? u : storage + n;
-		w->tile = (uint8_t *)(u ? storage + n : w->u + n);
-		if (u)
-			memset(u, 0, n * sizeof(*u));
-	} else {
-		w->v = storage + n;
-		w->acc = storage + 2 * n;
-		w->f = storage + 3 * n;
-		w->tile = (uint8_t *)(w->f + 4 * SWELL_WAVE_TILE * (size_t)w->tiles_x * ny);
-	}
+	w->u = u ? u : storage + n;
+	w->tile = (uint8_t *)(u ? storage + n : w->u + n);
+	if (u)
+		memset(u, 0, n * sizeof(*u));
 	w->sleep = 1;
 	swell_wave_set_kernel(w, SWELL_KERNEL_AUTO);
 	memset(storage, 0, (size_t)((w->tile - (uint8_t *)storage) + w->tiles_x * w->tiles_y));
@@ -230,10 +189,10 @@ static enum swell_err init_at(struct swell_wave *w, uint16_t nx, uint16_t ny, in
 	return SWELL_OK;
 }
 
-enum swell_err swell_wave_init_form(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage, size_t words,
-				    const struct swell_wave_params *p, enum swell_wave_form form)
+enum swell_err swell_wave_init(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage, size_t words,
+			       const struct swell_wave_params *p)
 {
-	return init_at(w, nx, ny, storage, words, NULL, p, form);
+	return init_at(w, nx, ny, storage, words, NULL, p);
 }
 
 enum swell_err swell_wave_init_vel_apart(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage, size_t words,
@@ -243,7 +202,7 @@ enum swell_err swell_wave_init_vel_apart(struct swell_wave *w, uint16_t nx, uint
 		return SWELL_EINVAL;
 	if (u_words < (size_t)nx * ny)
 		return SWELL_ESIZE;
-	return init_at(w, nx, ny, storage, words, u, p, SWELL_FORM_VELOCITY);
+	return init_at(w, nx, ny, storage, words, u, p);
 }
 
 enum swell_err swell_wave_set_params(struct swell_wave *w, const struct swell_wave_params *p)
@@ -259,29 +218,15 @@ enum swell_err swell_wave_set_params(struct swell_wave *w, const struct swell_wa
 	return SWELL_OK;
 }
 
-/* The height bounds of the form: int28, or int27 in the velocity form (2 L9 fits int32). */
-static int32_t h_max(const struct swell_wave *w)
-{
-	return w->form == SWELL_FORM_VELOCITY ? SWELL_HV_MAX : SWELL_H_MAX;
-}
-
-static int32_t h_min(const struct swell_wave *w)
-{
-	return w->form == SWELL_FORM_VELOCITY ? SWELL_HV_MIN : SWELL_H_MIN;
-}
-
 void swell_wave_rest(struct swell_wave *w)
 {
 	size_t n = (size_t)w->nx * w->ny, a;
 
-	/* a step in progress starts over: rows finished ahead go back to h(n) (their flows' other ends,
-	 * in acc, are dropped with the step); a saturated height stays within the bounds */
+	/* a step in progress starts over: rows finished ahead go back to h(n); a saturated height stays
+	 * within the bounds */
 	for (a = 0; a < (size_t)w->done_row * w->nx; a++)
-		w->h[a] = swell_clamp(w->h[a] - (w->acc ? w->acc[a] : swell_wave_dh(w, a)), h_min(w), h_max(w));
-	if (w->form == SWELL_FORM_VELOCITY) /* u may be kept apart */
-		memset(w->u, 0, n * sizeof(*w->u));
-	else /* v, acc and the flows are contiguous, up to the tile flags */
-		memset(w->h + n, 0, (size_t)((uint8_t *)w->tile - (uint8_t *)(w->h + n)));
+		w->h[a] = swell_clamp(w->h[a] - swell_wave_dh(w, a), SWELL_HV_MIN, SWELL_HV_MAX);
+	memset(w->u, 0, n * sizeof(*w->u));
 	w->next_row = 0;
 	w->done_row = 0;
 	w->vel_sum = 0;
@@ -297,8 +242,6 @@ void swell_wave_touched(struct swell_wave *w, int i, int j)
 		return;
 	w->tile[ty * w->tiles_x + tx] |= T_TOUCHED;
 	w->band_asleep = 0;
-	if (w->form == SWELL_FORM_EDGE) /* the velocity form has no acc to clear */
-		mark_dirty(w, tx, ty, 2);
 	for (y = ty - 1; y <= ty + 1; y++) /* the rest of this step must not skip its neighbours */
 		for (x = tx - 1; x <= tx + 1; x++)
 			if (x >= 0 && y >= 0 && x < w->tiles_x && y < w->tiles_y)
@@ -316,7 +259,7 @@ void swell_wave_set_sleep(struct swell_wave *w, int on)
 	wake_all(w);
 }
 
-/* A tile may be skipped: its edges gave zero last step and nothing around it has changed since. */
+/* A tile may be skipped: its momentum was zero for two steps and nothing around it has changed since. */
 static int asleep(const struct swell_wave *w, int tx, int ty)
 {
 	const uint8_t *t = w->tile;
@@ -333,33 +276,12 @@ static int asleep(const struct swell_wave *w, int tx, int ty)
 	return 1;
 }
 
-/* ---- The kernels ------------------------------------------------------------------------------
- * Every kernel computes, for every edge of an awake tile, exactly flow_ref() (wave_priv.h), and adds each new
- * flow once to one cell's accumulator and subtracts it once from the other's. They differ only in the
- * order of those (exact, non-overflowing) integer additions and in the instructions used. */
-
 #if SWELL_WAVE_AVX2
 static int have_avx2(void)
 {
 	return __builtin_cpu_supports("avx2");
 }
 #endif
-
-/* The edges owned by cells [i0, i1) of row j (i0 a multiple of 8): E edges, and N, NE, NW edges up
- * to row j+1 (none for the top row). Returns non-zero if any new flow is non-zero. */
-static int32_t step_segment(struct swell_wave *w, int j, int i0, int i1, int damp)
-{
-	switch (w->kernel) {
-#if SWELL_WAVE_AVX2
-	case SWELL_KERNEL_AVX2:
-		return swell_wave_edge_avx2(w, j, i0, i1, damp);
-#endif
-	case SWELL_KERNEL_FUSED:
-		return swell_wave_edge_fused(w, j, i0, i1, damp);
-	default:
-		return swell_wave_edge_ref(w, j, i0, i1, damp);
-	}
-}
 
 enum swell_err swell_wave_set_kernel(struct swell_wave *w, enum swell_wave_kernel k)
 {
@@ -390,18 +312,6 @@ enum swell_err swell_wave_set_kernel(struct swell_wave *w, enum swell_wave_kerne
 	}
 }
 
-const char *swell_wave_form_name(enum swell_wave_form f)
-{
-	switch (f) {
-	case SWELL_FORM_EDGE:
-		return "edge";
-	case SWELL_FORM_VELOCITY:
-		return "velocity";
-	default:
-		return NULL;
-	}
-}
-
 const char *swell_wave_kernel_name(enum swell_wave_kernel k)
 {
 	switch (k) {
@@ -416,7 +326,7 @@ const char *swell_wave_kernel_name(enum swell_wave_kernel k)
 	}
 }
 
-/* Row j of the velocity form: runs of up to SWELL_WAVE_VEL_RUN awake tiles in one kernel call. */
+/* Row j: runs of up to SWELL_WAVE_VEL_RUN awake tiles in one kernel call. */
 static void step_row_vel(struct swell_wave *w, int j, uint8_t *trow, int damp)
 {
 	int32_t any[SWELL_WAVE_VEL_RUN];
@@ -463,7 +373,7 @@ static inline __attribute__((always_inline)) void band_start(struct swell_wave *
 	int tx;
 
 	if (w->sleep && j % SWELL_WAVE_TILE == 0) {
-		if (w->form == SWELL_FORM_VELOCITY && !tile_row_has(w, trow, T_ZERO)) {
+		if (!tile_row_has(w, trow, T_ZERO)) {
 			/* no tile of the band was still for two steps (moving water): none sleeps */
 			for (tx = 0; tx < w->tiles_x; tx++)
 				trow[tx] &= (uint8_t)~T_SLEEPING;
@@ -476,61 +386,44 @@ static inline __attribute__((always_inline)) void band_start(struct swell_wave *
 				trow[tx] |= T_SLEEPING;
 			} else {
 				trow[tx] &= (uint8_t)~T_SLEEPING;
-				if (w->form == SWELL_FORM_EDGE) /* the velocity form has no acc */
-					mark_dirty(w, tx, ty, 1);
 				w->band_asleep = 0;
 			}
 		}
 	}
 }
 
-/* Row j, tile by tile, skipping sleeping tiles; the rows done: 1, or on the M4 in the velocity form
- * those of the band up to end (the last a step's) in one call */
+/* Row j, skipping sleeping tiles; the rows done: 1, or on the M4 those of the band up to end (the
+ * last a step's) in one call */
 static inline int step_row(struct swell_wave *w, int j, int end, int damp)
 {
 	const int ty = j / SWELL_WAVE_TILE;
 	uint8_t *trow = &w->tile[ty * w->tiles_x];
-	int tx;
 
 	band_start(w, j, trow);
 	if (w->sleep && w->band_asleep) { /* the whole band of tiles sleeps: nothing to do in this row */
 		w->tiles_skipped += w->tiles_x;
 		return 1;
 	}
-	if (w->form == SWELL_FORM_VELOCITY) {
 #if SWELL_WAVE_DSP
-		/* a band with a quarter of its tiles asleep or fewer: computed whole (a sleeping tile gives 0
-		 * again), cheaper than runs between them */
-		if (damp && w->kernel != SWELL_KERNEL_REF &&
-		    (!w->sleep || !tile_row_has(w, trow, T_SLEEPING) || tiles_asleep(w, trow) * 4 <= w->tiles_x)) {
-			int j1 = (ty + 1) * SWELL_WAVE_TILE < end ? (ty + 1) * SWELL_WAVE_TILE : end;
+	/* a band with a quarter of its tiles asleep or fewer: computed whole (a sleeping tile gives 0
+	 * again), cheaper than runs between them */
+	if (damp && w->kernel != SWELL_KERNEL_REF &&
+	    (!w->sleep || !tile_row_has(w, trow, T_SLEEPING) || tiles_asleep(w, trow) * 4 <= w->tiles_x)) {
+		int j1 = (ty + 1) * SWELL_WAVE_TILE < end ? (ty + 1) * SWELL_WAVE_TILE : end;
 
-			j1 = j1 < w->ny - 1 ? j1 : w->ny - 1; /* the top wall's row on its own */
-			if (j1 > j && swell_wave_vel_band_m4(w, j, j1, trow))
-				return j1 - j;
-		}
+		j1 = j1 < w->ny - 1 ? j1 : w->ny - 1; /* the top wall's row on its own */
+		if (j1 > j && swell_wave_vel_band_m4(w, j, j1, trow))
+			return j1 - j;
+	}
 #else
-		(void)end;
+	(void)end;
 #endif
-		step_row_vel(w, j, trow, damp);
-		return 1;
-	}
-	for (tx = 0; tx < w->tiles_x; tx++) {
-		const int i0 = tx * SWELL_WAVE_TILE;
-		const int i1 = i0 + SWELL_WAVE_TILE < w->nx ? i0 + SWELL_WAVE_TILE : w->nx;
-
-		if (w->sleep && (trow[tx] & T_SLEEPING)) {
-			w->tiles_skipped++;
-			continue;
-		}
-		if (step_segment(w, j, i0, i1, damp))
-			trow[tx] |= T_NONZERO;
-	}
+	step_row_vel(w, j, trow, damp);
 	return 1;
 }
 
 #if SWELL_WAVE_DSP
-/* n tile rows (8 cells each, n >= 1) of the velocity form's height update, h = SSAT27(h + dh(u))
+/* n tile rows (8 cells each, n >= 1) of the height update, h = SSAT27(h + dh(u))
  * (SSAT sets the Q flag, which the caller reads): four cells an LDM of u, an LDM of h, the four sums
  * and an STM of h (Cortex-M4 TRM: 1 + N cycles each). At F = 0, dh = u: ADD and SSAT, about 3
  * instructions a cell with the loop; with F fraction bits dh = (u - (u < 0) + 2^(F-1)) >> F (nearest,
@@ -597,7 +490,7 @@ static inline __attribute__((always_inline)) uint32_t update_seg(int32_t *restri
 	return sat;
 }
 
-/* Row j of the velocity form becomes h(n+1) = h(n) + dh(u(n+1)), saturated (a row that clamped counted
+/* Row j becomes h(n+1) = h(n) + dh(u(n+1)), saturated (a row that clamped counted
  * once), in the tiles whose momentum moved in this step (T_NONZERO: elsewhere every new u of the step
  * is zero, so is dh). */
 static void update_row(struct swell_wave *w, int j)
@@ -641,7 +534,7 @@ static void update_row(struct swell_wave *w, int j)
 	w->saturations += sat;
 }
 
-/* The velocity form's heights one row behind: rows [done_row, j1) become h(n+1) (every row that reads
+/* The heights one row behind: rows [done_row, j1) become h(n+1) (every row that reads
  * their h(n) is done); a band of tiles none of which moved is skipped whole. */
 static void update_rows(struct swell_wave *w, int j1)
 {
@@ -688,13 +581,12 @@ static void update_rows(struct swell_wave *w, int j1)
 int swell_wave_step_rows(struct swell_wave *w, int rows)
 {
 	const int damp = w->q != SWELL_Q30_ONE; /* t = 0: no damping multiply at all */
-	const int vel = w->form == SWELL_FORM_VELOCITY;
 	int j, n, end = w->next_row + (rows > 0 ? rows : 0);
 
 	if (end > w->ny)
 		end = w->ny;
 #if SWELL_WAVE_AVX2
-	if (vel && w->kernel == SWELL_KERNEL_AVX2 && swell_wave_vel_avx2_fits(w, damp)) {
+	if (w->kernel == SWELL_KERNEL_AVX2 && swell_wave_vel_avx2_fits(w, damp)) {
 		int j1;
 
 		for (j = w->next_row; j < end; j = j1) { /* the rows of a band in one call */
@@ -717,175 +609,11 @@ int swell_wave_step_rows(struct swell_wave *w, int rows)
 #endif
 	for (j = w->next_row; j < end; j += n) {
 		n = damp ? step_row(w, j, end, 1) : step_row(w, j, end, 0);
-		if (vel && j + n - 1 > w->done_row) /* row j + n - 2's last reader is done */
+		if (j + n - 1 > w->done_row) /* row j + n - 2's last reader is done */
 			update_rows(w, j + n - 1);
 	}
 	w->next_row = (uint16_t)end;
 	return w->ny - end;
-}
-
-/* n words from p set to zero, n a multiple of 8. On the M4 two STM of four zero registers an 8 words
- * (5 cycles each, Cortex-M4 TRM: 1 + N) and one loop branch: about 2 cycles a word against 3-4 for
- * single stores, and a quarter of the instructions. Elsewhere a plain loop (the compiler's). */
-static inline void zero_words8(int32_t *p, int n)
-{
-#if SWELL_WAVE_DSP
-	int k = n / 8;
-
-	if (k <= 0)
-		return;
-	__asm__ volatile("movs r1, #0\n\tmovs r2, #0\n\tmovs r3, #0\n\tmov r12, #0\n"
-			 "1:\tstmia %0!, {r1, r2, r3, r12}\n\tstmia %0!, {r1, r2, r3, r12}\n\tsubs %1, %1, #1\n\tbne 1b"
-			 : "+r"(p), "+r"(k)
-			 :
-			 : "r1", "r2", "r3", "r12", "cc", "memory");
-#else
-	int a;
-
-	for (a = 0; a < n; a++)
-		p[a] = 0;
-#endif
-}
-
-/* One tile row of the finish: h += acc (add), and the old v cleared (clear); returns non-zero if any
- * cell changed. With len a constant 8 the compiler unrolls it. */
-static inline __attribute__((always_inline)) int32_t finish_seg(int32_t *restrict h, const int32_t *restrict acc,
-								int32_t *restrict v, int len, int add, int clear,
-								int vel, uint32_t *sat)
-{
-	int32_t any = 0;
-	int a;
-
-#pragma GCC unroll 8
-	for (a = 0; a < len; a++) {
-		if (add) {
-			const int32_t d = acc[a];
-
-			any |= d;
-			/* |h| <= 2^27, |acc| <= 2^29 + 8 2^27: no overflow */
-#if SWELL_WAVE_DSP
-			(void)sat;
-			h[a] = vel ? __ssat(h[a] + d, 27) : __ssat(h[a] + d, 28);
-#else
-			if (vel) {
-				const int32_t x = h[a] + d;
-
-				h[a] = x > SWELL_HV_MAX ? SWELL_HV_MAX : x < SWELL_HV_MIN ? SWELL_HV_MIN : x;
-				*sat |= h[a] != x;
-			} else {
-				h[a] = sat28(h[a] + d, sat);
-			}
-#endif
-		}
-		if (clear)
-			v[a] = 0;
-	}
-	return any;
-}
-
-/* Row j of the finishing pass: h += acc where the step wrote acc (add, DIRTY), the old v cleared where
- * the last step wrote it (clear, DIRTY_PREV); sets TOUCHED where a cell changed. */
-static inline __attribute__((always_inline)) void finish_row(struct swell_wave *w, int j, int add, int clear, int vel)
-{
-	const int nx = w->nx, all = !w->sleep;
-	uint8_t *restrict trow = w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x;
-	int32_t *restrict h = w->h + j * nx;
-	const int32_t *restrict acc = w->acc + j * nx;
-	int32_t *restrict v = w->v + j * nx;
-	const uint8_t need = (uint8_t)((add ? T_DIRTY : 0u) | (clear ? T_DIRTY_PREV : 0u));
-	uint32_t sat = 0;
-	int tx;
-
-	if (!add) { /* the clear alone: each run of whole tiles to clear in one go */
-		for (tx = 0; clear && tx < w->tiles_x; tx++) {
-			int t1 = tx;
-
-			while (t1 < w->tiles_x && (all || (trow[t1] & T_DIRTY_PREV)) &&
-			       (t1 + 1) * SWELL_WAVE_TILE <= nx)
-				t1++;
-			if (t1 > tx) {
-				zero_words8(v + tx * SWELL_WAVE_TILE, (t1 - tx) * SWELL_WAVE_TILE);
-				tx = t1 - 1;
-			} else if ((tx + 1) * SWELL_WAVE_TILE > nx && (all || (trow[tx] & T_DIRTY_PREV))) { /* ragged */
-				memset(v + tx * SWELL_WAVE_TILE, 0, (size_t)(nx - tx * SWELL_WAVE_TILE) * sizeof(*v));
-			}
-		}
-		return;
-	}
-#if SWELL_WAVE_DSP
-	__set_saturation_occurred(0);
-#endif
-	if (!clear && nx % SWELL_WAVE_TILE == 0) { /* a row finished ahead: h += acc alone, whole tiles */
-		for (tx = 0; tx < w->tiles_x; tx++) {
-			const int i0 = tx * SWELL_WAVE_TILE;
-
-			if (!all && !(trow[tx] & T_DIRTY))
-				continue;
-			if (finish_seg(h + i0, acc + i0, v + i0, SWELL_WAVE_TILE, 1, 0, vel, &sat))
-				trow[tx] |= T_TOUCHED;
-		}
-		tx = w->tiles_x; /* nothing left for the general loop */
-	} else {
-		tx = 0;
-	}
-	for (; tx < w->tiles_x; tx++) {
-		const int i0 = tx * SWELL_WAVE_TILE, f = (all ? T_DIRTY | T_DIRTY_PREV : trow[tx]) & need;
-		int32_t any;
-
-		if (i0 + SWELL_WAVE_TILE <= nx) {
-			if ((f & T_DIRTY) && (f & T_DIRTY_PREV))
-				any = finish_seg(h + i0, acc + i0, v + i0, SWELL_WAVE_TILE, 1, 1, vel, &sat);
-			else if (f & T_DIRTY)
-				any = finish_seg(h + i0, acc + i0, v + i0, SWELL_WAVE_TILE, 1, 0, vel, &sat);
-			else if (f & T_DIRTY_PREV)
-				any = finish_seg(h + i0, acc + i0, v + i0, SWELL_WAVE_TILE, 0, 1, vel, &sat);
-			else
-				continue;
-		} else {
-			any = finish_seg(h + i0, acc + i0, v + i0, nx - i0, (f & T_DIRTY) != 0, (f & T_DIRTY_PREV) != 0,
-					 vel, &sat);
-		}
-		if (any)
-			trow[tx] |= T_TOUCHED;
-	}
-#if SWELL_WAVE_DSP
-	sat = (uint32_t)__saturation_occurred();
-#endif
-	w->saturations += sat;
-}
-
-/* Rows [j0, j1) of the finishing pass; a band of tiles without the flags it needs is skipped whole. */
-static inline __attribute__((always_inline)) void finish_range_form(struct swell_wave *w, int j0, int j1, int add,
-								    int clear, int vel)
-{
-	const uint8_t need = (uint8_t)((add ? T_DIRTY : 0u) | (clear ? T_DIRTY_PREV : 0u));
-	int j;
-
-	for (j = j0; j < j1; j++) {
-		if (w->sleep && j % SWELL_WAVE_TILE == 0 && (j + SWELL_WAVE_TILE <= j1 || j1 == w->ny) &&
-		    !tile_row_has(w, w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x, need)) {
-			j += SWELL_WAVE_TILE - 1; /* a calm band of tiles: nothing wrote acc or v in it */
-			continue;
-		}
-		if (!add && clear && j % SWELL_WAVE_TILE == 0 && j + SWELL_WAVE_TILE <= j1 &&
-		    w->nx % SWELL_WAVE_TILE == 0 &&
-		    (!w->sleep || tile_row_all(w, w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x, T_DIRTY_PREV))) {
-			/* the clear of a whole band whose every tile was written: one run of nx 8 words */
-			zero_words8(w->v + (size_t)j * w->nx, SWELL_WAVE_TILE * w->nx);
-			j += SWELL_WAVE_TILE - 1;
-			continue;
-		}
-		finish_row(w, j, add, clear, vel);
-	}
-}
-
-/* The edge-flux form's (the velocity form has no finishing pass: update_rows) */
-static void finish_range(struct swell_wave *w, int j0, int j1, int add, int clear)
-{
-	if (add)
-		finish_range_form(w, j0, j1, 1, clear, 0);
-	else
-		finish_range_form(w, j0, j1, 0, clear, 0);
 }
 
 /* d (one LSB, or a whole share) of a fixer into the n cells from a, all in one tile of one row: into
@@ -986,7 +714,7 @@ static void give_back(struct swell_wave *w, int64_t r, int mom)
 	w->fix_cursor = (uint32_t)((size_t)j * w->nx + (size_t)i);
 }
 
-/* The velocity form's fixers: sum u(n+1) = 0 (momentum, in u's LSB) and the heights' changes sum
+/* The fixers: sum u(n+1) = 0 (momentum, in u's LSB) and the heights' changes sum
  * to the water added from outside (volume, in height LSB). */
 static void vel_fix(struct swell_wave *w)
 {
@@ -998,80 +726,33 @@ static void vel_fix(struct swell_wave *w)
 	give_back(w, rh, 0);
 }
 
-int swell_wave_finish_rows(struct swell_wave *w, int rows)
-{
-	int ready, end;
-
-	if (w->form == SWELL_FORM_VELOCITY) /* rows become h(n+1) as the kernel goes */
-		return 0;
-	if (w->next_row >= w->ny)
-		ready = w->ny;
-	else if (w->next_row == 0)
-		ready = 0;
-	else /* the bands before the one holding the last row done */
-		ready = (w->next_row - 1) / SWELL_WAVE_TILE * SWELL_WAVE_TILE;
-	end = w->done_row + (rows > 0 ? rows : 0);
-	if (end > ready)
-		end = ready;
-	if (end <= w->done_row)
-		return 0;
-	finish_range(w, w->done_row, end, 1, 0);
-	rows = end - w->done_row;
-	w->done_row = (uint16_t)end;
-	return rows;
-}
-
 /* A finished step's tile flags in each byte of x as the last finished step's: Z1 where the step left
- * no non-zero flow (not NONZERO), ZERO where that is the second step running (Z1 already), CHANGED
- * from TOUCHED, DIRTY_PREV from DIRTY, every other flag cleared. Each flag is one bit moved within
- * its byte (a shift, then a mask of that bit in every byte), so a word does four tiles at once. */
+ * no non-zero momentum (not NONZERO), ZERO where that is the second step running (Z1 already),
+ * CHANGED from TOUCHED or NONZERO (its heights changed only where its momentum moved or something
+ * wrote them), every other flag cleared. Each flag is one bit moved within its byte (a shift, then a
+ * mask of that bit in every byte), so a word does four tiles at once. */
 _Static_assert(T_ZERO == 1u && T_NONZERO == 2u && T_Z1 == 16u && T_CHANGED == T_TOUCHED >> 1 &&
-		       T_TOUCHED == T_NONZERO << 2 && T_DIRTY_PREV == T_DIRTY << 1,
+		       T_TOUCHED == T_NONZERO << 2,
 	       "step_flags4 moves these bits");
 static inline uint32_t step_flags4(uint32_t x)
 {
 	const uint32_t ones = 0x01010101u;
 	const uint32_t z1 = ((x >> 1) & ones) ^ ones; /* NONZERO (bit 1) clear, at bit 0 */
 
-	return z1 * T_Z1 | (z1 & (x >> 4)) * T_ZERO | ((x >> 1) & ones * T_CHANGED) | ((x << 1) & ones * T_DIRTY_PREV);
+	x |= (x & ones * T_NONZERO) << 2; /* NONZERO counts as TOUCHED */
+	return z1 * T_Z1 | (z1 & (x >> 4)) * T_ZERO | ((x >> 1) & ones * T_CHANGED);
 }
 
 void swell_wave_step_finish(struct swell_wave *w)
 {
-	uint8_t *t;
-	int32_t *tmp;
-	int a, n;
+	uint8_t *const t = w->tile;
+	const int n = (int)w->tiles_x * w->tiles_y;
+	int a;
 
+	/* every row, the last row's heights, then the fixers */
 	swell_wave_step_rows(w, w->ny);
-	t = w->tile;
-	n = (int)w->tiles_x * w->tiles_y;
-	if (w->form == SWELL_FORM_VELOCITY) {
-		/* the last row's heights, then the fixers; a tile changed where its momentum moved (or it was
-		 * written from outside, or by the fixer: TOUCHED), so NONZERO counts as TOUCHED */
-		update_rows(w, w->ny);
-		vel_fix(w);
-		for (a = 0; a + 4 <= n; a += 4) {
-			uint32_t x;
-
-			memcpy(&x, t + a, sizeof(x));
-			x = step_flags4(x | (x & 0x01010101u * T_NONZERO) << 2);
-			memcpy(t + a, &x, sizeof(x));
-		}
-		for (; a < n; a++)
-			t[a] = (uint8_t)step_flags4(t[a] | (t[a] & T_NONZERO) << 2);
-		w->next_row = 0;
-		w->done_row = 0;
-		w->steps++;
-		return;
-	}
-	/* h += acc where the step wrote acc (DIRTY; rows finished ahead have it already); the old v,
-	 * which becomes the next accumulator, is cleared where the last step wrote it (DIRTY_PREV); then
-	 * the two swap. */
-	finish_range(w, 0, w->done_row, 0, 1);
-	finish_range(w, w->done_row, w->ny, 1, 1);
-	tmp = w->v;
-	w->v = w->acc;
-	w->acc = tmp;
+	update_rows(w, w->ny);
+	vel_fix(w);
 	/* the step is done: its flags become the last finished step's, four tiles a word */
 	for (a = 0; a + 4 <= n; a += 4) {
 		uint32_t x;
@@ -1092,7 +773,7 @@ void swell_wave_step(struct swell_wave *w)
 	swell_wave_step_finish(w);
 }
 
-/* The velocity form: water added to the cells [i0, i1) of row j, one tile, goes into h at once
+/* Water added to the cells [i0, i1) of row j, one tile, goes into h at once
  * (saturating, counted); the tile is TOUCHED and it and its neighbours awake for the rest of the step
  * where a height changed. */
 static void add_vel(struct swell_wave *w, int i0, int i1, int j, int32_t dh)
@@ -1120,128 +801,167 @@ static void add_vel(struct swell_wave *w, int i0, int i1, int j, int32_t dh)
 
 void swell_wave_add(struct swell_wave *w, int i, int j, int32_t dh)
 {
-	size_t a;
-	uint8_t *t;
-	int32_t old, now, x;
-
-	if (i < 0 || j < 0 || i >= w->nx || j >= w->ny)
-		return;
-	if (w->form == SWELL_FORM_VELOCITY) {
+	if (i >= 0 && j >= 0 && i < w->nx && j < w->ny)
 		add_vel(w, i, i + 1, j, dh);
-		return;
-	}
-	a = (size_t)j * w->nx + (size_t)i;
-	t = &w->tile[(j / SWELL_WAVE_TILE) * w->tiles_x + i / SWELL_WAVE_TILE];
-	old = w->acc[a];
-	/* bounded to +-2^29 so that acc plus a step's flows (8 2^27) and h + acc cannot overflow */
-	now = (int32_t)swell_clamp(swell_sat_add(old, dh), -(1 << 29), 1 << 29);
-	w->acc[a] = now;
-	if (j >= w->done_row || now == old) {
-		*t |= T_DIRTY;
-		return;
-	}
-	/* a row finished ahead: what the finish would add, now (|h| <= 2^27, |now - old| <= 2^30) */
-	*t |= T_DIRTY | T_TOUCHED;
-	x = w->h[a] + (now - old);
-	w->h[a] = (int32_t)swell_clamp(x, h_min(w), h_max(w));
-	w->saturations += w->h[a] != x;
 }
 
 void swell_wave_add_span(struct swell_wave *w, int i0, int i1, int j, int32_t dh)
 {
-	const int ahead = j < w->done_row;
-	uint8_t *trow;
-	int32_t *acc, *h;
-	uint32_t sat = 0;
-	int i;
-
 	if (j < 0 || j >= w->ny || dh == 0)
 		return;
 	i0 = i0 > 0 ? i0 : 0;
 	i1 = i1 < w->nx ? i1 : w->nx;
-	if (i0 >= i1)
-		return;
-	if (w->form == SWELL_FORM_VELOCITY) { /* tile by tile */
-		while (i0 < i1) {
-			const int end = (i0 / SWELL_WAVE_TILE + 1) * SWELL_WAVE_TILE;
+	while (i0 < i1) { /* tile by tile */
+		const int end = (i0 / SWELL_WAVE_TILE + 1) * SWELL_WAVE_TILE;
 
-			add_vel(w, i0, end < i1 ? end : i1, j, dh);
-			i0 = end;
-		}
+		add_vel(w, i0, end < i1 ? end : i1, j, dh);
+		i0 = end;
+	}
+}
+
+/* ---- Reading h(n): rows below done_row hold h(n+1), h(n) = h - dh(u) there (wave.h) */
+
+void swell_wave_row(const struct swell_wave *w, int j, int32_t *out)
+{
+	const size_t a0 = (size_t)j * w->nx;
+	int i;
+
+	if (j >= w->done_row) {
+		memcpy(out, w->h + a0, (size_t)w->nx * sizeof(*out));
 		return;
 	}
-	trow = &w->tile[(j / SWELL_WAVE_TILE) * w->tiles_x];
-	acc = w->acc + (size_t)j * w->nx;
-	h = w->h + (size_t)j * w->nx;
-	if (dh > -(1 << 29) && dh < (1 << 29)) {
-		/* every tile of the span DIRTY (as swell_wave_add marks it); |acc| < 2^29 + 2^30 (water
-		 * added and a step's changes), so acc + dh fits int32 */
-		const int32_t lo = h_min(w), hi = h_max(w);
+	for (i = 0; i < w->nx; i++)
+		out[i] = w->h[a0 + i] - swell_wave_dh(w, a0 + i);
+}
 
-		for (i = i0 / SWELL_WAVE_TILE; i <= (i1 - 1) / SWELL_WAVE_TILE; i++)
-			trow[i] |= T_DIRTY;
-		if (!ahead) { /* acc only */
+int64_t swell_wave_sum(const struct swell_wave *w, int i0, int i1, int j0, int j1)
+{
+	int64_t sum = 0;
+	int i, j;
+
+	for (j = j0; j < j1; j++) {
+		const size_t a0 = (size_t)j * w->nx;
+
+		for (i = i0; i < i1; i++)
+			sum += w->h[a0 + i];
+		if (j < w->done_row)
 			for (i = i0; i < i1; i++)
-				acc[i] = swell_clamp(acc[i] + dh, -(1 << 29), 1 << 29);
-			return;
-		}
-		while (i0 < i1) { /* finished ahead: h at once, TOUCHED for a tile where a cell changed */
-			const int end = (i0 / SWELL_WAVE_TILE + 1) * SWELL_WAVE_TILE < i1
-				? (i0 / SWELL_WAVE_TILE + 1) * SWELL_WAVE_TILE
-				: i1;
-			int32_t moved = 0;
-
-			for (i = i0; i < end; i++) {
-				const int32_t old = acc[i], now = swell_clamp(old + dh, -(1 << 29), 1 << 29);
-				const int32_t x = h[i] + (now - old), c = swell_clamp(x, lo, hi);
-
-				acc[i] = now;
-				h[i] = c;
-				sat += c != x;
-				moved |= now - old;
-			}
-			if (moved)
-				trow[i0 / SWELL_WAVE_TILE] |= T_TOUCHED;
-			i0 = end;
-		}
-		w->saturations += sat;
-		return;
+				sum -= swell_wave_dh(w, a0 + i);
 	}
-	for (i = i0; i < i1; i++) { /* swell_wave_add of each cell, with the row's tests made once */
-		const int32_t old = acc[i], now = (int32_t)swell_clamp(swell_sat_add(old, dh), -(1 << 29), 1 << 29);
+	return sum;
+}
 
-		acc[i] = now;
-		if (!ahead || now == old) {
-			trow[i / SWELL_WAVE_TILE] |= T_DIRTY;
-		} else {
-			const int32_t x = h[i] + (now - old);
+#if defined(__thumb2__)
+/* The cell of register R (a value of d, the next of h in H): d's negative part (shifted right by the
+ * velocity form's fraction bits: S is "" or ", asr #F") taken from h, the result compared with the
+ * highest so far (a higher one, rare once the scan is under way, goes to label 1N and back to 2N), h
+ * added to the group's sum. */
+#define SCAN_CELL(R, H, N, S)                                               \
+	"and " R ", " R ", " R ", asr #31\n\tsub " R ", " H ", " R S "\n\t" \
+	"add %[part], %[part], " H "\n\tcmp " R ", %[t]\n\tbgt 1" N "f\n2" N ":\n\t"
+#define SCAN_UP(R, N) "1" N ":\tmov %[t], " R "\n\tb 2" N "b\n"
+/* four cells: four d in one LDM, their h two at a time */
+#define SCAN_FOUR(N0, N1, N2, N3, S)                                                                  \
+	"ldmia %[d]!, {r2, r3, r4, r5}\n\tldmia %[h]!, {r6, r7}\n\t" SCAN_CELL("r2", "r6", N0, S)     \
+		SCAN_CELL("r3", "r7", N1, S) "ldmia %[h]!, {r6, r7}\n\t" SCAN_CELL("r4", "r6", N2, S) \
+			SCAN_CELL("r5", "r7", N3, S)
+/* the group's sum into the 64-bit sum, the next group; the out-of-line updates of the highest value */
+#define SCAN_END \
+	"adds %[lo], %[lo], %[part]\n\tadc %[hi], %[hi], %[part], asr #31\n\tsubs %[g], %[g], #1\n\tbne 3b\n\tb 9f\n"
+#define SCAN_UPS(N0, N1, N2, N3) SCAN_UP("r2", N0) SCAN_UP("r3", N1) SCAN_UP("r4", N2) SCAN_UP("r5", N3)
+#define SCAN_GROUP(S) "3:\tmovs %[part], #0\n\t" SCAN_FOUR("0", "1", "2", "3", S) SCAN_FOUR("4", "5", "6", "7", S)
 
-			trow[i / SWELL_WAVE_TILE] |= T_DIRTY | T_TOUCHED;
-			h[i] = (int32_t)swell_clamp(x, h_min(w), h_max(w));
-			sat += h[i] != x;
-		}
+/* swell_wave_ceiling's cells in groups of eight (g >= 1 groups): the same top and sum. Four d in one LDM, two h
+ * in another, then the cell: AND (min(d, 0) from d's sign), SUB (with the shift of the fraction bits),
+ * ADD to the sum, CMP and a branch not taken: about 6.4 instructions a cell with the loads and the
+ * loop, against about 13 for the compiler's loop. The group's sum (eight int28 heights, exact in
+ * int32) goes into the 64-bit sum with ADDS and ADC. Functions of their own, one for each shift (an
+ * immediate): six scratch registers for the loads. */
+#define SCAN_GROUPS8(NAME, S)                                                                                        \
+	static __attribute__((noinline)) void NAME(const int32_t *h, const int32_t *d, int g, int32_t *top,          \
+						   int64_t *sum)                                                     \
+	{                                                                                                            \
+		uint32_t lo = (uint32_t)*sum;                                                                        \
+		int32_t hi = (int32_t)(*sum >> 32), t = *top, part;                                                  \
+                                                                                                                     \
+		__asm__ volatile(SCAN_GROUP(S) SCAN_END SCAN_UPS("0", "1", "2", "3")                                 \
+					 SCAN_UPS("4", "5", "6", "7") "9:\n"                                         \
+				 : [h] "+r"(h), [d] "+r"(d), [g] "+r"(g), [t] "+r"(t), [lo] "+r"(lo), [hi] "+r"(hi), \
+				   [part] "=&r"(part)                                                                \
+				 :                                                                                   \
+				 : "r2", "r3", "r4", "r5", "r6", "r7", "cc", "memory");                              \
+		*top = t;                                                                                            \
+		*sum = (int64_t)((uint64_t)(uint32_t)hi << 32 | lo);                                                 \
 	}
-	w->saturations += sat;
+SCAN_GROUPS8(scan_groups8, "")
+SCAN_GROUPS8(scan_groups8_f1, ", asr #1")
+SCAN_GROUPS8(scan_groups8_f2, ", asr #2")
+SCAN_GROUPS8(scan_groups8_f3, ", asr #3")
+SCAN_GROUPS8(scan_groups8_f4, ", asr #4")
+#undef SCAN_GROUPS8
+#undef SCAN_GROUP
+#undef SCAN_UPS
+#undef SCAN_END
+#undef SCAN_FOUR
+#undef SCAN_CELL
+#undef SCAN_UP
+
+/* scan_groups8 with d's negative part shifted right by f (0 to 4) */
+static void scan_groups8_shift(const int32_t *h, const int32_t *d, int g, int f, int32_t *top, int64_t *sum)
+{
+	static void (*const fn[5])(const int32_t *, const int32_t *, int, int32_t *,
+				   int64_t *) = { scan_groups8, scan_groups8_f1, scan_groups8_f2, scan_groups8_f3,
+						  scan_groups8_f4 };
+
+	fn[f](h, d, g, top, sum);
+}
+#endif
+
+/* Heights are int27: eight of them sum exactly in int32 (wave.h has the rule). */
+void swell_wave_ceiling(const struct swell_wave *w, int j0, int j1, int32_t *top, int64_t *sum)
+{
+	const int32_t *h = w->h + (size_t)j0 * w->nx, *d = w->u + (size_t)j0 * w->nx;
+	const int n = (j1 - j0) * w->nx;
+	const int f = w->vel_frac;
+	int32_t t = *top;
+	int64_t s = *sum;
+	int a = 0;
+
+#if defined(__thumb2__)
+	if (n >= 8) {
+		scan_groups8_shift(h, d, n / 8, f, &t, &s);
+		a = n / 8 * 8;
+	}
+#endif
+	while (a < n) {
+		const int end = a + 8 < n ? a + 8 : n;
+		int32_t part = 0;
+
+		for (; a < end; a++) {
+			/* the higher of h and h - d is h - min(d, 0): one comparison a cell */
+			const int32_t x = h[a], p = x - ((d[a] < 0 ? d[a] : 0) >> f);
+
+			t = p > t ? p : t;
+			part += x;
+		}
+		s += part;
+	}
+	*top = t;
+	*sum = s;
 }
 
 int64_t swell_wave_volume(const struct swell_wave *w)
 {
-	const int n = w->nx * w->ny;
-	int64_t sum = 0;
-	int a;
-
-	for (a = 0; a < n; a++)
-		sum += w->h[a];
-	return sum;
+	return swell_wave_sum(w, 0, w->nx, 0, w->ny);
 }
 
-/* The last step's change of cell a: v, or in the velocity form the solver's own change dh(u) (wave.h) */
+/* The last step's change of cell a: the solver's own change dh(u) (wave.h) */
 static int32_t last_change(const struct swell_wave *w, int a)
 {
-	return w->v ? w->v[a] : swell_wave_dh(w, (size_t)a);
+	return swell_wave_dh(w, (size_t)a);
 }
 
-/* 2 w (h_b - h_a)(n) (h_b - h_a)(n-1) for one edge; h(n-1) = h - v. */
+/* 2 w (h_b - h_a)(n) (h_b - h_a)(n-1) for one edge; h(n-1) = h - dh(u). */
 static int64_t edge_pot2(const struct swell_wave *w, int a, int b, int64_t two_w)
 {
 	int64_t d_now = (int64_t)w->h[b] - w->h[a];
@@ -1274,32 +994,11 @@ struct swell_energy swell_wave_energy(const struct swell_wave *w)
 	return en;
 }
 
-static uint32_t crc_words(uint32_t crc, const int32_t *x, size_t n)
-{
-	size_t k;
-
-	for (k = 0; k < n; k++) {
-		uint32_t u = (uint32_t)x[k];
-		uint8_t le[4] = { (uint8_t)u, (uint8_t)(u >> 8), (uint8_t)(u >> 16), (uint8_t)(u >> 24) };
-
-		crc = swell_crc32(crc, le, sizeof(le));
-	}
-	return crc;
-}
-
 uint32_t swell_wave_checksum(const struct swell_wave *w)
 {
-	size_t n = (size_t)w->nx * w->ny;
-	uint32_t crc = crc_words(0, w->h, n);
-	int k, i, j;
+	const size_t n = (size_t)w->nx * w->ny;
 
-	if (w->form == SWELL_FORM_VELOCITY)
-		return crc_words(crc, w->u, n);
-	for (k = 0; k < 4; k++)
-		for (j = 0; j < w->ny; j++)
-			for (i = 0; i < w->nx; i++)
-				crc = crc_words(crc, flows_at(w, i, j) + 8 * k, 1);
-	return crc;
+	return swell_crc32_words(swell_crc32_words(0, w->h, n), w->u, n);
 }
 
 enum swell_err swell_wave_e_from_physical(uint32_t g_mm_s2, uint32_t dt_us, uint32_t depth_um, uint32_t dx_um, q30_t *e)

@@ -1,4 +1,4 @@
-/* The velocity form's row kernels (wave.h, "Velocity form"): private to the solver, one kernel a
+/* The solver's row kernels (wave.h, "Form"): private to the solver, one kernel a
  * file (wave_vel_ref.c, wave_vel_fused.c, wave_vel_avx2.c), called by wave.c for a run of awake tiles of a row.
  *
  * A kernel computes, for every cell (i, j) of the tiles tx0 <= tx < tx1 (at most SWELL_WAVE_VEL_RUN;
@@ -69,22 +69,15 @@ static inline uint32_t swell_q_take(void)
 #define SWELL_WAVE_AVX2 0
 #endif
 
-/* Tile flags. Z1: every flow of the tile's edges was zero after the last finished step. ZERO: after
- * the last two (then the increments e w dh are zero after damping too, not just cancelling an old
- * flow). NONZERO: some edge gave a non-zero flow in the step in progress. CHANGED: a cell of the tile
- * changed in the last finished step. TOUCHED: a cell changed (from outside, or at the finish) in the
- * step in progress. */
+/* Tile flags. Z1: every new u of the tile was zero in the last finished step. ZERO: in the last two
+ * (then the kicks e L9 are zero too, not just cancelling an old momentum). NONZERO: some new u of the
+ * step in progress is non-zero. CHANGED: a cell of the tile changed in the last finished step.
+ * TOUCHED: a cell changed (from outside, or by the fixer) in the step in progress. */
 #define T_ZERO 1u
 #define T_NONZERO 2u
 #define T_CHANGED 4u
 #define T_TOUCHED 8u
 #define T_Z1 16u
-/* DIRTY: the step in progress may have written acc in this tile (an edge of it or of a neighbour tile
- * was computed, or water was added). PREV: the same for the last finished step, whose acc is now v.
- * Edge-flux form only: the velocity form has no acc nor v (it counts NONZERO as TOUCHED at the
- * step's finish: its heights changed only where its momentum moved or something wrote them). */
-#define T_DIRTY 32u
-#define T_DIRTY_PREV 64u
 /* SLEEPING: decided at the first row of the tile's row in this step (asleep() is a 3 x 3 scan; one
  * decision serves the tile's eight rows); swell_wave_touched() clears it around the touched cell. */
 #define T_SLEEPING 128u
@@ -124,51 +117,6 @@ void swell_wave_vel_rows_avx2(struct swell_wave *w, int j0, int j1, uint8_t *tro
  * not run), the same bits and counts: h += dh(u),
  * clamped to int27 (a row that clamped counted once), in the tiles with T_NONZERO. */
 void swell_wave_vel_update_avx2(struct swell_wave *w, int j0, int j1);
-#endif
-
-/* ---- The edge-flux form's kernels: one a file (wave_edge_ref.c, wave_edge_fused.c,
- * wave_edge_avx2.c), called by wave.c for the edges owned by cells [i0, i1) of row j (i0 a multiple
- * of 8): E edges, and N, NE, NW edges up to row j+1 (none for the top row). Each returns non-zero if
- * any new flow is non-zero; all give the same bits. */
-
-/* The flows of cell (i, j) start at this word; the four kinds are 8 words apart. */
-#define FE 0
-#define FN 8
-#define FNE 16
-#define FNW 24
-
-static inline int32_t *flows_at(const struct swell_wave *w, int i, int j)
-{
-	return w->f + 32 * ((size_t)j * w->tiles_x + (size_t)i / SWELL_WAVE_TILE) + i % SWELL_WAVE_TILE;
-}
-
-/* Bounds that make every intermediate fit int32 (checked by the tests with extreme fields):
- * |h| <= 2^27 so |dh| < 2^28 and |4 dh| < 2^30; c <= 1.5 * 2^30 so |c dh| / 2^30 < 1.5 * 2^28;
- * |f| <= 2^27 so |s| < 2^27 + 1.5 * 2^28 = 2^29 and |4 s| < 2^31. */
-static inline int32_t sat28(int32_t x, uint32_t *sat)
-{
-	if (x > SWELL_H_MAX || x < SWELL_H_MIN) {
-		*sat = 1;
-		return x > SWELL_H_MAX ? SWELL_H_MAX : SWELL_H_MIN;
-	}
-	return x;
-}
-
-/* THE definition of one edge: s = f + round_nearest(c dh / 2^30), ties up; damped:
- * s = round_toward_zero(q s / 2^30), which is floor + (s < 0) because q is odd; then saturated. */
-static inline int32_t flow_ref(int32_t f, int32_t dh, q30_t c, q30_t q, int damp, uint32_t *sat)
-{
-	int32_t s = f + (int32_t)(((int64_t)dh * c + ((int64_t)1 << 29)) >> 30);
-
-	if (damp)
-		s = (int32_t)(((int64_t)s * q) >> 30) - (s >> 31);
-	return sat28(s, sat);
-}
-
-int32_t swell_wave_edge_ref(struct swell_wave *w, int j, int i0, int i1, int damp);
-int32_t swell_wave_edge_fused(struct swell_wave *w, int j, int i0, int i1, int damp);
-#if SWELL_WAVE_AVX2
-int32_t swell_wave_edge_avx2(struct swell_wave *w, int j, int i0, int i1, int damp);
 #endif
 
 #endif

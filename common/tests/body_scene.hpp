@@ -21,8 +21,7 @@ struct body_scene {
 	uint64_t count = 0; // device ticks so far
 	bool interpolate = true; // false: never tell the body of solver steps (it reads h(n) only)
 
-	explicit body_scene(uint16_t n = 64, double damping = 0.0, uint32_t dx_um = 6250,
-			    swell_wave_form form = SWELL_FORM_EDGE)
+	explicit body_scene(uint16_t n = 64, double damping = 0.0, uint32_t dx_um = 6250)
 	{
 		swell_wave_params wp{};
 		q30_t e = 0;
@@ -30,8 +29,8 @@ struct body_scene {
 		wp.e = e;
 		wp.damping = (q30_t)(damping * SWELL_Q30_ONE);
 		wp.stencil = SWELL_STENCIL_PAPER;
-		store.assign(form == SWELL_FORM_EDGE ? SWELL_WAVE_WORDS(n, n) : SWELL_WAVE_VEL_WORDS(n, n), 0);
-		swell_wave_init_form(&w, n, n, store.data(), store.size(), &wp, form);
+		store.assign(SWELL_WAVE_WORDS(n, n), 0);
+		swell_wave_init(&w, n, n, store.data(), store.size(), &wp);
 		p = default_params();
 		xf = identity();
 		sc = {dx_um, 2500, 250};

@@ -523,7 +523,7 @@ TEST_CASE("coupling raises covered cells by delta times covered area, and moving
 			double ox = std::fmin((i + 1) * dx, x + a / 2) - std::fmax(i * dx, x - a / 2);
 			double oy = std::fmin((j + 1) * dx, y + bb / 2) - std::fmax(j * dx, y - bb / 2);
 			double frac = ox > 0 && oy > 0 ? ox * oy / (dx * dx) : 0;
-			int32_t got = s.w.acc[j * 16 + i];
+			int32_t got = s.w.h[j * 16 + i];
 			// edges are placed to 1/2048 cell: the covered fraction to about 1e-3
 			if (std::fabs(got - delta * frac) > 2e-3 * delta + 1) {
 				if (wrong++ < 3)
@@ -541,12 +541,12 @@ TEST_CASE("coupling raises covered cells by delta times covered area, and moving
 	CHECK(std::fabs(v0 - delta * area) <= tol);
 
 	// one cell to the right, same depth: the column left behind goes back down, a new one goes up
-	std::vector<int32_t> before(s.w.acc, s.w.acc + 256);
+	std::vector<int32_t> before(s.w.h, s.w.h + 256);
 	s.tick((int32_t)(x + dx), (int32_t)y, -10000, 0, &out);
 	const int i_left = (int)((x - a / 2) / dx), i_new = (int)((x + dx + a / 2) / dx);
 	for (int j = 0; j < 16; j++) {
-		CHECK(s.w.acc[j * 16 + i_left] <= before[j * 16 + i_left]);
-		CHECK(s.w.acc[j * 16 + i_new] >= before[j * 16 + i_new]);
+		CHECK(s.w.h[j * 16 + i_left] <= before[j * 16 + i_left]);
+		CHECK(s.w.h[j * 16 + i_new] >= before[j * 16 + i_new]);
 	}
 	// same depth below the mean level, which the first push raised by v0 / 256 cells
 	INFO("displaced " << s.b.v_displaced << " LSB*cell, expected " << (delta + v0 / 256.0) * area);
@@ -556,7 +556,7 @@ TEST_CASE("coupling raises covered cells by delta times covered area, and moving
 	CHECK(s.b.v_displaced == 0);
 	int64_t pending = 0;
 	for (int c = 0; c < 256; c++)
-		pending += s.w.acc[c];
+		pending += s.w.h[c];
 	CHECK(pending == 0);
 }
 

@@ -1,8 +1,11 @@
-// The object against a solver that finishes rows ahead (swell_wave_finish_rows) and a ceiling scan
+// The object against a solver whose rows hold h(n+1) one row behind its kernel and a ceiling scan
 // spread over the solver period (swell_body_scan_ahead), as the controller core schedules them: the
-// force law must read exactly what it reads when the step is finished whole at the period's end.
+// force law must read what it reads when the step's field is scanned whole at the period's end, to
+// within the LSBs the solver's volume fixer gives back into rows already scanned at the step's end.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
+#include <cstdlib>
 #include <cstring>
 #include <random>
 #include <string>
@@ -17,13 +20,14 @@ namespace {
 
 const int32_t MM = SWELL_H_ONE_MM;
 
-// One solver period split over K ticks in two ways: "whole" does the edges in slices and the finish
-// at the last tick (the step's result appears at once); "ahead" also finishes and scans rows as the
-// slices complete them, in amounts that vary from tick to tick.
+// One solver period split over K ticks in two ways: "whole" does the rows in slices and scans the
+// field at the last tick; "ahead" also scans rows as the slices complete them.
 struct twin {
 	body_scene whole, ahead;
 	std::mt19937 rng;
 	int phase = 0;
+	int32_t worst_surface = 0; // the largest surface difference the force law saw, LSB
+	uint64_t fixed_at_step = 0; // the fixers' LSBs given back before the last step
 	explicit twin(uint32_t seed, double damping = 0.001) : whole(64, damping), ahead(64, damping), rng(seed) {}
 
 	void field(int32_t amp)
@@ -43,9 +47,9 @@ struct twin {
 			const int rows = 64 * (phase + 1) / (kk - 1) - whole.w.next_row;
 			swell_wave_step_rows(&whole.w, rows);
 			swell_wave_step_rows(&ahead.w, rows);
-			swell_wave_finish_rows(&ahead.w, (int)(rng() % 20));
 			swell_body_scan_ahead(&ahead.b, &ahead.w);
 		} else {
+			fixed_at_step = whole.w.fixed_lsb;
 			for (body_scene *s : {&whole, &ahead}) {
 				swell_wave_step_finish(&s->w);
 				swell_body_solver_stepped(&s->b, &s->w);
@@ -61,14 +65,12 @@ struct twin {
 		swell_body_out a, b;
 		swell_body_tick(&whole.b, &whole.w, pos, vel, &a);
 		swell_body_tick(&ahead.b, &ahead.w, pos, vel, &b);
-		if (a.surface_lsb != b.surface_lsb)
-			return "surface " + std::to_string(a.surface_lsb) + " vs " + std::to_string(b.surface_lsb);
-		if (a.surface_raw_um_s != b.surface_raw_um_s)
-			return "surface velocity";
-		if (std::memcmp(&a, &b, sizeof(a)) != 0)
-			return "outputs";
+		worst_surface = std::max(worst_surface, std::abs(a.surface_lsb - b.surface_lsb));
 		if (swell_body_invariant(&whole.b, &whole.w) != swell_body_invariant(&ahead.b, &ahead.w))
 			return "invariant";
+		if (a.surface_lsb != b.surface_lsb && !ahead.b.wet && !whole.b.wet)
+			return "surface out of the water " + std::to_string(a.surface_lsb) + " vs " +
+				std::to_string(b.surface_lsb);
 		return "";
 	}
 };
@@ -89,8 +91,10 @@ TEST_CASE("the ceiling scan spread over the period finds the whole scan's ceilin
 				INFO("seed " << seed << " step " << t.whole.w.steps);
 				REQUIRE(t.whole.b.ceiling_ok == 1);
 				REQUIRE(t.ahead.b.ceiling_ok == 1);
-				REQUIRE(t.ahead.b.ceiling_lsb == t.whole.b.ceiling_lsb);
-				REQUIRE(t.ahead.b.water_sum == t.whole.b.water_sum);
+				// the fixer's LSBs of the step: a bound on what rows scanned ahead missed
+				const int64_t fixed = (int64_t)(t.whole.w.fixed_lsb - t.fixed_at_step);
+				REQUIRE(std::llabs((int64_t)t.ahead.b.ceiling_lsb - t.whole.b.ceiling_lsb) <= fixed);
+				REQUIRE(std::llabs(t.ahead.b.water_sum - t.whole.b.water_sum) <= fixed);
 				adopted++;
 			}
 		}
@@ -99,8 +103,8 @@ TEST_CASE("the ceiling scan spread over the period finds the whole scan's ceilin
 	}
 }
 
-TEST_CASE("with rows finished ahead the force law reads the last finished step: same forces, coupling and "
-	  "invariant as the whole finish",
+TEST_CASE("with rows finished ahead the force law reads the last finished step: the surface within a few LSB "
+	  "of the whole scan's, the invariant exact",
 	  "[body][ahead]")
 {
 	for (uint32_t seed = 1; seed <= 3; seed++) {
@@ -118,9 +122,10 @@ TEST_CASE("with rows finished ahead the force law reads the last finished step: 
 			wet += t.ahead.b.wet;
 			t.background();
 		}
+		INFO("surface differs by up to " << t.worst_surface << " LSB");
 		CHECK(wet > 1000);
 		CHECK(t.ahead.b.coupled > 1000);
-		CHECK(swell_wave_checksum(&t.whole.w) == swell_wave_checksum(&t.ahead.w));
+		CHECK(t.worst_surface <= 64); // 2^-10 mm: the mean level's share of the fixer's LSBs
 		CHECK(t.whole.w.saturations == 0);
 	}
 }
@@ -137,15 +142,17 @@ TEST_CASE("leaving the water mid-period: the ceiling is not claimed for the next
 		if (t.phase != 0)
 			continue;
 		const int step = (int)t.ahead.w.steps;
-		if (step >= 12) { // two whole dry periods after the exit: exact again
+		if (step >= 12) { // two whole dry periods after the exit: found again (to the fixer's LSBs)
+			const int64_t fixed = (int64_t)(t.whole.w.fixed_lsb - t.fixed_at_step);
 			INFO("step " << step);
 			REQUIRE(t.ahead.b.ceiling_ok == 1);
-			REQUIRE(t.ahead.b.ceiling_lsb == t.whole.b.ceiling_lsb);
-			REQUIRE(t.ahead.b.water_sum == t.whole.b.water_sum);
+			REQUIRE(std::llabs((int64_t)t.ahead.b.ceiling_lsb - t.whole.b.ceiling_lsb) <= fixed);
+			REQUIRE(std::llabs(t.ahead.b.water_sum - t.whole.b.water_sum) <= fixed);
 		} else if (t.ahead.b.ceiling_ok) { // never a ceiling below the water it must bound
 			int32_t top = INT32_MIN;
 			for (int a = 0; a < 64 * 64; a++)
-				top = std::max(top, std::max(t.ahead.w.h[a], t.ahead.w.h[a] - t.ahead.w.v[a]));
+				top = std::max(top,
+					       std::max(t.ahead.w.h[a], t.ahead.w.h[a] - swell_wave_dh(&t.ahead.w, (size_t)a)));
 			REQUIRE(t.ahead.b.ceiling_lsb >= top);
 		}
 	}

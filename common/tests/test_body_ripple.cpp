@@ -49,7 +49,7 @@ static double band_rms(std::vector<double> x, double rate, double f0, double f1)
 }
 
 // Drive u_w directly: no solver steps (the phase saturates, so the surface read is h and u_w is the
-// footprint mean of v), v set under the whole pool each tick.
+// footprint mean of the solver's change dh(u)), u set under the whole pool each tick.
 static double filtered_gain(double f_hz, double *raw_rms)
 {
 	body_scene s(16);
@@ -60,7 +60,7 @@ static double filtered_gain(double f_hz, double *raw_rms)
 	for (long t = 0; t < n; t++) {
 		const int32_t v = (int32_t)std::lround(amp * std::sin(2 * PI * f_hz * t / 2500.0));
 		for (int a = 0; a < 16 * 16; a++)
-			s.w.v[a] = v;
+			s.w.u[a] = v * (1 << s.w.vel_frac); // dh(u) = v exactly
 		int32_t pos[3] = {50000, 50000, -10000}, vel[3] = {0, 0, 0};
 		swell_body_tick(&s.b, &s.w, pos, vel, &out);
 		if (t >= skip) {
@@ -96,13 +96,13 @@ TEST_CASE("the damper's u_w is low-passed: gain 1 / (1 + (f / f_c)^2), 1 at rest
 	swell_body_out out;
 	int32_t pos[3] = {50000, 50000, -10000}, vel[3] = {0, 0, 0};
 	for (int a = 0; a < 16 * 16; a++)
-		s.w.v[a] = 3000;
+		s.w.u[a] = 3000 * (1 << s.w.vel_frac);
 	for (int t = 0; t < 2500; t++)
 		swell_body_tick(&s.b, &s.w, pos, vel, &out);
 	INFO("constant: raw " << out.surface_raw_um_s << " um/s, filtered " << out.surface_um_s << " um/s");
 	CHECK(out.surface_um_s == out.surface_raw_um_s);
 	for (int a = 0; a < 16 * 16; a++)
-		s.w.v[a] = 0;
+		s.w.u[a] = 0;
 	int32_t last = -1;
 	for (int t = 0; t < 2500; t++) {
 		swell_body_tick(&s.b, &s.w, pos, vel, &out);

@@ -1,6 +1,7 @@
 /* The integer cos of shape.h against an exact model over the whole int64 range of its arguments. */
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -53,4 +54,23 @@ TEST_CASE("integer cos(pi num / den) is within 1e-8 for any num and den > 0, int
 	WARN("worst error of 200000 random (num, den): " << worst);
 	CHECK(swell_cos_pi_frac(1, 0) == 0);
 	CHECK(swell_cos_pi_frac(1, -5) == 0);
+}
+
+TEST_CASE("integer exp and cos match the exact functions", "[shape]")
+{
+	double worst_exp = 0, worst_cos = 0;
+	for (int k = 0; k < 32 * 64; k++) {
+		q16_t x = (q16_t)(k * (SWELL_Q16_ONE / 64));
+		worst_exp =
+			std::max(worst_exp,
+				 std::fabs((double)swell_exp_neg_q16(x) / SWELL_Q30_ONE - std::exp(-(double)x / SWELL_Q16_ONE)));
+	}
+	for (int num = -500; num <= 500; num++)
+		worst_cos = std::max(worst_cos,
+				     std::fabs((double)swell_cos_pi_frac(num, 97) / SWELL_Q30_ONE - std::cos(M_PI * num / 97)));
+	WARN("integer exp error " << worst_exp << ", cos error " << worst_cos);
+	CHECK(worst_exp < 2e-6);
+	CHECK(worst_cos < 1e-8);
+	CHECK(swell_exp_neg_q16(0) == SWELL_Q30_ONE);
+	CHECK(swell_exp_neg_q16(40 << 16) == 0);
 }

@@ -160,8 +160,8 @@ TEST_CASE("velocity form: the heights one row behind, where a kernel folds them 
 					 * int27 bound near the stability limit (h and u clamp) */
 					const q30_t t = c == 1 ? q30(0.02) : 0;
 					const q30_t e = c == 2 ? swell_wave_e_limit(t, SWELL_STENCIL_PAPER) - 2 : q30(0.2);
-					Field ref(nx, ny, e, t, SWELL_STENCIL_PAPER, SWELL_KERNEL_REF, SWELL_FORM_VELOCITY);
-					Field fast(nx, ny, e, t, SWELL_STENCIL_PAPER, k, SWELL_FORM_VELOCITY);
+					Field ref(nx, ny, e, t, SWELL_STENCIL_PAPER, SWELL_KERNEL_REF);
+					Field fast(nx, ny, e, t, SWELL_STENCIL_PAPER, k);
 					std::mt19937 frng(rng());
 
 					for (int a = 0; a < ref.n(); a++)

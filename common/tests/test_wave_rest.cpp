@@ -76,7 +76,7 @@ TEST_CASE("velocity form: damped water comes to rest (h and u unchanged over 16 
 			for (double t : {0.001, 0.02})
 				for (const Pool &p : pools)
 					for (int seed = 0; seed < p.seeds; seed++) {
-						Field f(p.nx, p.ny, q30(e), q30(t), st, SWELL_KERNEL_FUSED, SWELL_FORM_VELOCITY);
+						Field f(p.nx, p.ny, q30(e), q30(t), st, SWELL_KERNEL_FUSED);
 						std::mt19937 rng((uint32_t)(1000 * p.nx + seed));
 						/* pushes up to +-0.3 mm at t 0.02, +-0.03 mm at t 0.001 (whose linear decay
 						 * over 4000 steps is only e^-2: larger waves are still decaying, not cycling) */

@@ -26,11 +26,10 @@ struct Vel {
 	std::vector<int32_t> store;
 	swell_wave w{};
 	Vel(int nx, int ny, q30_t e, q30_t t, swell_stencil st, swell_wave_kernel k = SWELL_KERNEL_FUSED)
-	    : store(SWELL_WAVE_VEL_WORDS(nx, ny))
+	    : store(SWELL_WAVE_WORDS(nx, ny))
 	{
 		swell_wave_params p{e, t, st};
-		REQUIRE(swell_wave_init_form(&w, (uint16_t)nx, (uint16_t)ny, store.data(), store.size(), &p,
-					     SWELL_FORM_VELOCITY) == SWELL_OK);
+		REQUIRE(swell_wave_init(&w, (uint16_t)nx, (uint16_t)ny, store.data(), store.size(), &p) == SWELL_OK);
 		REQUIRE(swell_wave_set_kernel(&w, k) == SWELL_OK);
 	}
 	int n() const { return w.nx * w.ny; }
@@ -126,8 +125,6 @@ TEST_CASE("velocity form: the fused kernel is bit-identical to the reference aft
 					push(r, rng_r, 3000 + s);
 					push(f, rng_f, 3000 + s);
 				}
-				swell_wave_finish_rows(&r.w, 5);
-				swell_wave_finish_rows(&f.w, 5);
 				{
 					std::string d = differs(r, f);
 					INFO("step " << s << " after a slice: " << d);
@@ -183,7 +180,6 @@ TEST_CASE("velocity form: volume is exact (0 LSB) under damping, random pushes a
 			if (s % 4 == 0)
 				push(f, rng, 19661); /* +-0.3 mm */
 			swell_wave_step_rows(&f.w, 20);
-			swell_wave_finish_rows(&f.w, 64);
 			swell_wave_step(&f.w);
 			worst = std::max<int64_t>(worst, std::llabs(swell_wave_volume(&f.w) - v0));
 		}
@@ -297,20 +293,19 @@ TEST_CASE("velocity form: a run of 8 tiles whose every u is at the int28 bound s
 	}
 }
 
-TEST_CASE("velocity form: chosen at init, kept by set_params, needs its own storage, and unknown forms are refused",
+TEST_CASE("velocity form: needs its own storage, 8 bytes a cell and the tile flags, and set_params keeps it",
 	  "[wave][velocity][params]")
 {
-	std::vector<int32_t> store(SWELL_WAVE_VEL_WORDS(8, 8));
+	std::vector<int32_t> store(SWELL_WAVE_WORDS(8, 8));
 	swell_wave w{};
 	swell_wave_params p{q30(0.2), 0, SWELL_STENCIL_PAPER};
-	CHECK(swell_wave_init_form(&w, 8, 8, store.data(), store.size() - 1, &p, SWELL_FORM_VELOCITY) == SWELL_ESIZE);
-	CHECK(swell_wave_init_form(&w, 8, 8, store.data(), store.size(), &p, (swell_wave_form)7) == SWELL_EINVAL);
-	REQUIRE(swell_wave_init_form(&w, 8, 8, store.data(), store.size(), &p, SWELL_FORM_VELOCITY) == SWELL_OK);
+	CHECK(swell_wave_init(&w, 8, 8, store.data(), store.size() - 1, &p) == SWELL_ESIZE);
+	CHECK(w.h == nullptr);
+	REQUIRE(swell_wave_init(&w, 8, 8, store.data(), store.size(), &p) == SWELL_OK);
 	p.e = q30(0.3);
 	CHECK(swell_wave_set_params(&w, &p) == SWELL_OK);
-	CHECK(w.form == SWELL_FORM_VELOCITY);
-	CHECK(std::string(swell_wave_form_name(SWELL_FORM_VELOCITY)) == "velocity");
-	CHECK(SWELL_WAVE_VEL_WORDS(64, 64) * 4 < SWELL_WAVE_WORDS(64, 64) * 4 * 6 / 10);
+	CHECK(w.u == store.data() + 64);
+	CHECK(SWELL_WAVE_WORDS(64, 64) == 2 * 64 * 64 + 16);
 }
 
 TEST_CASE("velocity form: heights one row behind the kernel: between slices swell_wave_h reads h(n) in every row, "

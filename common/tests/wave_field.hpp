@@ -21,22 +21,15 @@ inline q30_t q30(double x) { return (q30_t)std::llround(x * SWELL_Q30_ONE); }
 struct Field {
 	std::vector<int32_t> store;
 	swell_wave w{};
-	Field(int nx, int ny, q30_t e, q30_t t, swell_stencil st, swell_wave_kernel k,
-	      swell_wave_form form = SWELL_FORM_EDGE)
-	    : store(form == SWELL_FORM_VELOCITY ? SWELL_WAVE_VEL_WORDS(nx, ny) : SWELL_WAVE_WORDS(nx, ny))
+	Field(int nx, int ny, q30_t e, q30_t t, swell_stencil st, swell_wave_kernel k) : store(SWELL_WAVE_WORDS(nx, ny))
 	{
 		swell_wave_params p{e, t, st};
-		REQUIRE(swell_wave_init_form(&w, (uint16_t)nx, (uint16_t)ny, store.data(), store.size(), &p, form) ==
-			SWELL_OK);
+		REQUIRE(swell_wave_init(&w, (uint16_t)nx, (uint16_t)ny, store.data(), store.size(), &p) == SWELL_OK);
 		REQUIRE(swell_wave_set_kernel(&w, k) == SWELL_OK);
 	}
 	int n() const { return w.nx * w.ny; }
-	/* h(n) of cell a while a step is in progress: rows finished ahead hold h(n+1) with the change in acc
-	 * (the velocity form: dh(u)) */
-	int32_t h_last(int a) const
-	{
-		return a / w.nx < w.done_row ? w.h[a] - (w.acc ? w.acc[a] : swell_wave_dh(&w, (size_t)a)) : w.h[a];
-	}
+	/* h(n) of cell a while a step is in progress (rows finished ahead hold h(n+1)) */
+	int32_t h_last(int a) const { return swell_wave_h(&w, (size_t)a); }
 };
 
 /* The kernels besides the reference this CPU runs: fused always, avx2 where the CPU has it. */
@@ -54,35 +47,27 @@ inline std::string cell_diff(const char *what, int i, int32_t a, int32_t b)
 	return std::string(what) + "[" + std::to_string(i) + "] " + std::to_string(a) + " vs " + std::to_string(b);
 }
 
-/* Everything that must agree (the velocity form's momentum, residuals and fixer in place of the
- * flows), with where it first differs; all = false: the cells only (between slices, where flows and
- * flags are still being written). "" when the two are the same bits. */
+/* Everything that must agree (heights, momentum, residuals, fixer, flags and counts), with where it
+ * first differs; all = false: the cells only (between slices, where flags are still being written).
+ * "" when the two are the same bits. */
 inline std::string differs(const Field &a, const Field &b, bool all = true)
 {
 	for (int i = 0; i < a.n(); i++) {
 		if (a.w.h[i] != b.w.h[i])
 			return cell_diff("h", i, a.w.h[i], b.w.h[i]);
-		if (a.w.v && a.w.v[i] != b.w.v[i]) /* the velocity form has no v, no acc */
-			return cell_diff("v", i, a.w.v[i], b.w.v[i]);
-		if (a.w.acc && a.w.acc[i] != b.w.acc[i])
-			return cell_diff("acc", i, a.w.acc[i], b.w.acc[i]);
 	}
 	if (a.w.done_row != b.w.done_row || a.w.next_row != b.w.next_row)
 		return "rows done " + std::to_string(a.w.done_row) + " vs " + std::to_string(b.w.done_row);
-	for (int i = 0; a.w.u && i < a.n(); i++)
+	for (int i = 0; i < a.n(); i++)
 		if (a.w.u[i] != b.w.u[i])
 			return cell_diff("u", i, a.w.u[i], b.w.u[i]);
 	if (!all)
 		return "";
-	if (a.w.form == SWELL_FORM_VELOCITY) { /* the residuals in progress and the fixers' state */
-		if (a.w.vel_sum != b.w.vel_sum || a.w.vel_sum_h != b.w.vel_sum_h)
-			return "residuals " + std::to_string(a.w.vel_sum) + ", " + std::to_string(a.w.vel_sum_h) + " vs " +
-			       std::to_string(b.w.vel_sum) + ", " + std::to_string(b.w.vel_sum_h);
-		if (a.w.fixed_lsb != b.w.fixed_lsb || a.w.fix_cursor != b.w.fix_cursor)
-			return "fixer " + std::to_string(a.w.fixed_lsb) + " vs " + std::to_string(b.w.fixed_lsb);
-	} else if (std::memcmp(a.w.f, b.w.f, sizeof(int32_t) * 4 * SWELL_WAVE_TILE * a.w.tiles_x * a.w.ny) != 0) {
-		return "flows";
-	}
+	if (a.w.vel_sum != b.w.vel_sum || a.w.vel_sum_h != b.w.vel_sum_h) /* the residuals in progress */
+		return "residuals " + std::to_string(a.w.vel_sum) + ", " + std::to_string(a.w.vel_sum_h) + " vs " +
+			std::to_string(b.w.vel_sum) + ", " + std::to_string(b.w.vel_sum_h);
+	if (a.w.fixed_lsb != b.w.fixed_lsb || a.w.fix_cursor != b.w.fix_cursor) /* the fixers' state */
+		return "fixer " + std::to_string(a.w.fixed_lsb) + " vs " + std::to_string(b.w.fixed_lsb);
 	if (std::memcmp(a.w.tile, b.w.tile, (size_t)a.w.tiles_x * a.w.tiles_y) != 0)
 		return "tile flags";
 	if (a.w.saturations != b.w.saturations)

@@ -373,7 +373,9 @@ int main(int argc, char **argv)
 			last_status = now_ns();
 			/* once a second, outside the force path: the largest wave so far */
 			for (a = 0; a < (int)o.cfg.nx * o.cfg.ny; a++) {
-				int32_t h = p.c.wave.h[a] < 0 ? -p.c.wave.h[a] : p.c.wave.h[a];
+				int32_t h = swell_wave_h(&p.c.wave, (size_t)a);
+
+				h = h < 0 ? -h : h;
 				peak_h = h > peak_h ? h : peak_h;
 			}
 			if (!o.quiet)

@@ -56,8 +56,7 @@ void error_run(enum bench_impl impl, enum swell_stencil st, int nx, double e, do
 /* The STM32F405 image's instruction counts (--f405): per cell-step of each kernel; its cost scenes
  * per cell-step and per awake cell-step, in the edge-flux and the velocity form; the naive int32 loop. */
 extern double f405_instr[BENCH_IMPL_COUNT];
-extern double f405_cost[FW_COST_SCENES], f405_cost_awake[FW_COST_SCENES];
-extern double f405_vcost[FW_COST_SCENES], f405_vcost_awake[FW_COST_SCENES];
+extern double f405_cost[FW_COST_SCENES], f405_cost_awake[FW_COST_SCENES]; /* the solver's */
 extern double f405_naive;
 
 /* The modes, in the order of a run; each writes its CSV file and prints its figures. */

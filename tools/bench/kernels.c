@@ -124,15 +124,24 @@ enum swell_err bench_field_init(struct bench_field *f, enum bench_impl impl, int
 	np = (size_t)(nx + 2) * (ny + 2);
 	switch (impl) {
 	case BENCH_EF32:
+		f->mem = calloc(EF32_WORDS(nx, ny), sizeof(int32_t));
+		if (!f->mem)
+			return SWELL_ESIZE;
+		err = ef32_init(&f->ef, (uint16_t)nx, (uint16_t)ny, f->mem, EF32_WORDS(nx, ny), &p);
+		if (err != SWELL_OK) {
+			free(f->mem);
+			return err;
+		}
+		set_coeffs(f, f->ef.e_eff, f->ef.q);
+		break;
 	case BENCH_VELOCITY:
 	case BENCH_VEL_REF:
 	case BENCH_VEL_FUSED:
 		f->mem = calloc(SWELL_WAVE_WORDS(nx, ny), sizeof(int32_t));
 		if (!f->mem)
 			return SWELL_ESIZE;
-		err = swell_wave_init_form(&f->w, (uint16_t)nx, (uint16_t)ny, f->mem, SWELL_WAVE_WORDS(nx, ny), &p,
-					   bench_impl_velocity(impl) ? SWELL_FORM_VELOCITY : SWELL_FORM_EDGE);
-		if (err == SWELL_OK && impl != BENCH_EF32 && impl != BENCH_VELOCITY)
+		err = swell_wave_init(&f->w, (uint16_t)nx, (uint16_t)ny, f->mem, SWELL_WAVE_WORDS(nx, ny), &p);
+		if (err == SWELL_OK && impl != BENCH_VELOCITY)
 			err = swell_wave_set_kernel(&f->w,
 						    impl == BENCH_VEL_REF ? SWELL_KERNEL_REF : SWELL_KERNEL_FUSED);
 		if (err != SWELL_OK) {
@@ -229,23 +238,21 @@ enum swell_err bench_field_force(struct bench_field *f, q30_t e_eff, q30_t q)
 		return SWELL_ERANGE;
 	e_eff &= ~(q30_t)1;
 	set_coeffs(f, e_eff, q);
-	if (bench_impl_wave(f->impl)) {
+	if (bench_impl_velocity(f->impl)) {
 		/* Bench-only: writes the solver's private coefficients to run it outside the validated
 		 * region. No controller code may do this; swell_wave_set_params refuses such values. */
-		f->w.e_eff = e_eff;
-		f->w.c_1 = e_eff;
-		f->w.c_half = e_eff / 2;
-		f->w.c_wall = e_eff + e_eff / 2;
-		f->w.q = q;
-		if (bench_impl_velocity(f->impl)) { /* its fraction bits, as wave.c chooses them (u is 0 here) */
-			int fr = 4;
+		int fr = 4;
 
-			while (fr > 0 && ((int64_t)e_eff << (fr + 1)) > INT32_MAX)
-				fr--;
-			f->w.vel_frac = (uint8_t)(q != SWELL_Q30_ONE ? 0 : fr);
-		}
+		f->w.e_eff = e_eff;
+		f->w.q = q;
+		/* its fraction bits, as wave.c chooses them (u is 0 here) */
+		while (fr > 0 && ((int64_t)e_eff << (fr + 1)) > INT32_MAX)
+			fr--;
+		f->w.vel_frac = (uint8_t)(q != SWELL_Q30_ONE ? 0 : fr);
 		memset(f->w.tile, 0, (size_t)f->w.tiles_x * f->w.tiles_y); /* wake every tile */
 	}
+	if (f->impl == BENCH_EF32)
+		ef32_force(&f->ef, e_eff, q);
 	f->e_eff_f = (float)f->e_eff;
 	f->q_f = (float)f->q;
 	return SWELL_OK;
@@ -278,6 +285,8 @@ void bench_field_set_mm(struct bench_field *f, const double *h_mm)
 
 			switch (f->impl) {
 			case BENCH_EF32:
+				f->ef.h[a] = s;
+				break;
 			case BENCH_VELOCITY:
 			case BENCH_VEL_REF:
 			case BENCH_VEL_FUSED:
@@ -303,8 +312,10 @@ void bench_field_set_mm(struct bench_field *f, const double *h_mm)
 			}
 		}
 	}
-	if (bench_impl_wave(f->impl))
+	if (bench_impl_velocity(f->impl))
 		swell_wave_rest(&f->w);
+	if (f->impl == BENCH_EF32)
+		ef32_rest(&f->ef);
 	if (f->impl == BENCH_EF16) {
 		size_t n = (size_t)f->nx * f->ny;
 
@@ -321,11 +332,11 @@ static double cell_lsb(const struct bench_field *f, int i, int j, int prev)
 
 	switch (f->impl) {
 	case BENCH_EF32:
-		return prev ? (double)f->w.h[a] - f->w.v[a] : f->w.h[a];
+		return prev ? (double)f->ef.h[a] - f->ef.v[a] : f->ef.h[a];
 	case BENCH_VELOCITY:
 	case BENCH_VEL_REF:
 	case BENCH_VEL_FUSED: /* h(n-1) as the solver's own change gives it (no v kept: swell/wave.h) */
-		return prev ? (double)f->w.h[a] - swell_wave_dh(&f->w, a) : f->w.h[a];
+		return prev ? (double)swell_wave_h(&f->w, a) - swell_wave_dh(&f->w, a) : swell_wave_h(&f->w, a);
 	case BENCH_EF16:
 		return prev ? (double)f->h16[a] - f->v32[a] : f->h16[a];
 	case BENCH_TL32_FLOOR:
@@ -373,6 +384,9 @@ void bench_field_add_lsb(struct bench_field *f, int i, int j, int32_t k)
 
 	switch (f->impl) {
 	case BENCH_EF32:
+		f->ef.h[a] = sat_count(f, (int64_t)f->ef.h[a] + k, f->h_max);
+		ef32_touched(&f->ef, i, j);
+		break;
 	case BENCH_VELOCITY:
 	case BENCH_VEL_REF:
 	case BENCH_VEL_FUSED: /* h(n) moves, the momentum does not: an impulse of volume, not of motion */
@@ -526,6 +540,9 @@ void bench_field_step(struct bench_field *f)
 {
 	switch (f->impl) {
 	case BENCH_EF32:
+		ef32_step(&f->ef);
+		f->saturations = f->ef.saturations;
+		break;
 	case BENCH_VELOCITY:
 	case BENCH_VEL_REF:
 	case BENCH_VEL_FUSED:
@@ -570,7 +587,9 @@ double bench_field_volume_lsb(const struct bench_field *f)
 	double sd = 0;
 	int i, j;
 
-	if (bench_impl_wave(f->impl))
+	if (f->impl == BENCH_EF32)
+		return (double)ef32_volume(&f->ef);
+	if (bench_impl_velocity(f->impl))
 		return (double)swell_wave_volume(&f->w);
 	for (j = 0; j < f->ny; j++)
 		for (i = 0; i < f->nx; i++) {
@@ -600,7 +619,7 @@ static double energy_fixed(const struct bench_field *f)
 	int i, j, k;
 
 	if ((bench_impl_wave(f->impl)) && bench_field_max_abs_lsb(f) < (1 << 23) && f->nx * f->ny <= 65536) {
-		struct swell_energy en = swell_wave_energy(&f->w);
+		struct swell_energy en = f->impl == BENCH_EF32 ? ef32_energy(&f->ef) : swell_wave_energy(&f->w);
 
 		kin = en.kin;
 		pot2 = en.pot2;

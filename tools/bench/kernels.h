@@ -1,13 +1,12 @@
 /* swell-bench kernels: the implementations of eq. (1) the benchmark compares, behind one interface.
  *
  * Host-only benchmark code (it allocates and uses float); nothing here runs on the controller.
- The solver the controller runs is wave.c's velocity form (velocity below); wave.c's edge-flux
- * form is compared too (ef32); every other variant is written here so that the benchmark can compare
- * them without touching wave.c.
+ * The solver (swell/wave.h, velocity below) is what the controller runs; every other variant is
+ * written here (ef32 in ef32/) so that the benchmark can compare them without touching the solver.
  *
- *   ef32         wave.c's edge-flux form: int32 heights and flows (LSB 2^-16 mm), e w dh to nearest,
- *                damping toward zero
- *   velocity     wave.c's velocity form, the controller's solver: one momentum a cell, separable L9, per-cell rounding and
+ *   ef32         edge-flux form (ef32/ef32.h): int32 heights and flows (LSB 2^-16 mm), e w dh to
+ *                nearest, damping toward zero; reference, fused and AVX2 kernels, sleeping tiles
+ *   velocity     the solver, the controller's: one momentum a cell, separable L9, per-cell rounding and
  *                the exact global volume fixer (int27 heights, LSB 2^-16 mm); the kernel wave.c
  *                chooses (AVX2 where the CPU has it)
  *   vel-ref      the same with its scalar reference kernel, vel-fused with the fused kernel (the
@@ -31,6 +30,7 @@
 #include "swell/err.h"
 #include "swell/wave.h"
 #include "swell/wave_ref.h"
+#include "ef32/ef32.h"
 
 enum bench_impl {
 	BENCH_EF32 = 0,
@@ -57,7 +57,8 @@ struct bench_field {
 	double lsb_mm; /* 1 LSB in mm; float kernels report 2^-16 mm so pushes have one unit */
 	int h_max; /* saturation bound in LSB (0: float, none) */
 	uint32_t saturations;
-	struct swell_wave w; /* ef32 and the velocity forms */
+	struct swell_wave w; /* the solver: velocity, vel-ref, vel-fused */
+	struct ef32 ef; /* ef32 */
 	void *mem;
 	/* three-level fixed: padded h(n), h(n-1), scratch; int32 or int16 */
 	int32_t *h32, *hp32, *hn32;
@@ -86,8 +87,7 @@ enum bench_impl bench_impl_parse(const char *name);
 /* Storage bytes per cell the kernel keeps between steps (scratch included). */
 size_t bench_impl_bytes_per_cell(enum bench_impl impl);
 int bench_impl_is_fixed(enum bench_impl impl);
-/* 1 for wave.c's velocity form (velocity, vel-ref, vel-fused); 1 for either form of wave.c (ef32
- * too) in bench_impl_wave. */
+/* 1 for the solver (velocity, vel-ref, vel-fused); 1 for the solver or ef32 in bench_impl_wave. */
 int bench_impl_velocity(enum bench_impl impl);
 int bench_impl_wave(enum bench_impl impl);
 
@@ -98,7 +98,7 @@ enum swell_err bench_field_init(struct bench_field *f, enum bench_impl impl, int
 void bench_field_free(struct bench_field *f);
 
 /* Bench-only: set e_eff and 1-t directly, bypassing the stability check, to map where runs stay
- * bounded outside the validated region (for ef32 this writes the coefficient fields
+ * bounded outside the validated region (for the solver this writes the coefficient fields
  * of struct swell_wave, which no controller code may do). SWELL_ERANGE when the wall coefficient
  * 3/2 e_eff would not fit Q1.30. */
 enum swell_err bench_field_force(struct bench_field *f, q30_t e_eff, q30_t q);

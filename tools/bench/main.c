@@ -16,7 +16,6 @@
 static int failures;
 double f405_instr[BENCH_IMPL_COUNT];
 double f405_cost[FW_COST_SCENES], f405_cost_awake[FW_COST_SCENES];
-double f405_vcost[FW_COST_SCENES], f405_vcost_awake[FW_COST_SCENES];
 double f405_naive;
 
 static void vsay(const char *what, const char *fmt, va_list ap)
@@ -170,7 +169,7 @@ static int parse_list(const char *s, const char *what, double *out, double lo, d
 
 /* Instructions per cell-step on the STM32F405 image: lines 'impl value', or the image's self-test
  * output under QEMU (-icount shift=0), whose 'solver cell-step: X instructions ...' line is the
- * edge-flux form (ef32) and 'naive int32 9-point cell-step: X' a plain loop, printed for reference. */
+ * solver's (velocity) and 'naive int32 9-point cell-step: X' a plain loop, printed for reference. */
 
 static void load_f405(const char *path)
 {
@@ -185,20 +184,19 @@ static void load_f405(const char *path)
 	while (fgets(line, sizeof(line), fp)) {
 		int sc;
 
-		for (sc = 0; sc < 2 * FW_COST_SCENES; sc++) { /* the edge form's scenes, then the velocity form's */
-			const int vel = sc >= FW_COST_SCENES, i = sc % FW_COST_SCENES;
+		for (sc = 0; sc < FW_COST_SCENES; sc++) {
 			char want[128];
 			double aw;
 
-			snprintf(want, sizeof(want), "cost scene %s%s: %%lf instructions per cell-step, %%lf",
-				 vel ? "velocity-" : "", fw_cost_scene_name[i]);
+			snprintf(want, sizeof(want), "cost scene %s: %%lf instructions per cell-step, %%lf",
+				 fw_cost_scene_name[sc]);
 			if (sscanf(line, want, &v, &aw) == 2) {
-				(vel ? f405_vcost : f405_cost)[i] = v;
-				(vel ? f405_vcost_awake : f405_cost_awake)[i] = aw;
+				f405_cost[sc] = v;
+				f405_cost_awake[sc] = aw;
 			}
 		}
 		if (sscanf(line, "solver cell-step: %lf", &v) == 1) {
-			f405_instr[BENCH_EF32] = v;
+			f405_instr[BENCH_VELOCITY] = v;
 		} else if (sscanf(line, "naive int32 9-point cell-step: %lf", &v) == 1) {
 			f405_naive = v;
 		} else if (sscanf(line, "%63s %lf", name, &v) == 2) {
@@ -209,10 +207,10 @@ static void load_f405(const char *path)
 		}
 	}
 	fclose(fp);
-	if (f405_instr[BENCH_EF32] > 0 || f405_naive > 0)
-		printf("STM32F405 (QEMU -icount shift=0): ef32 (edge-flux) %.2f, naive int32 9-point loop %.2f "
-		       "instructions per cell-step\n",
-		       f405_instr[BENCH_EF32], f405_naive);
+	if (f405_instr[BENCH_VELOCITY] > 0 || f405_naive > 0)
+		printf("STM32F405 (QEMU -icount shift=0): the solver (velocity, undamped) %.2f, naive int32 9-point "
+		       "loop %.2f instructions per cell-step\n",
+		       f405_instr[BENCH_VELOCITY], f405_naive);
 }
 
 static void preset(struct opts *o, int full)

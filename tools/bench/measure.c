@@ -157,7 +157,7 @@ int bench_bounded(struct bench_field *f, double amp_mm, long steps, double growt
 	free(h);
 	f->saturations = 0;
 	if (f->impl == BENCH_EF32)
-		f->w.saturations = 0;
+		f->ef.saturations = 0;
 	m0 = bench_field_max_abs_lsb(f);
 	for (k = 1; k <= steps; k++) {
 		double m;

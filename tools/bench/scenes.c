@@ -8,19 +8,20 @@
  * must end on the reference kernel's checksum. */
 void run_scenes(const struct opts *o)
 {
-	static int32_t storage[FW_SCENE_WORDS];
+	static int32_t storage[FW_SCENE_WORDS], ef_storage[EF32_WORDS(FW_SCENE_NX, FW_SCENE_NY)];
 	const enum swell_wave_kernel kernels[] = { SWELL_KERNEL_REF, SWELL_KERNEL_FUSED, SWELL_KERNEL_AVX2,
 						   SWELL_KERNEL_REF, SWELL_KERNEL_FUSED, SWELL_KERNEL_AVX2 };
-	const int nedge = 3; /* the first three in the edge-flux form, the last three in the velocity form */
+	const int nedge = 3; /* the first three ef32's, the last three the solver's */
 	const long cells = (long)FW_COST_STEPS * FW_SCENE_NX * FW_SCENE_NY;
 	struct swell_wave w;
+	struct ef32 ef;
 	struct bench_field f;
 	struct bench_mode md;
 	double ns_f32 = INFINITY, e, *h;
 	FILE *fp = open_out(o, "scenes.csv");
 	int s, k, rep;
 
-	if (fw_cost_scene_init(&w, storage, FW_SCENE_WORDS, FW_COST_CALM, SWELL_FORM_EDGE) != SWELL_OK) {
+	if (fw_cost_scene_init(&w, storage, FW_SCENE_WORDS, FW_COST_CALM) != SWELL_OK) {
 		check(0, "scenes: the cost scene is refused");
 		return;
 	}
@@ -44,8 +45,7 @@ void run_scenes(const struct opts *o)
 
 		for (k = 0; k < (int)(sizeof(kernels) / sizeof(kernels[0])); k++) {
 			const int vel = k >= nedge;
-			const double f405 = vel ? f405_vcost[s] : f405_cost[s];
-			const double f405_aw = vel ? f405_vcost_awake[s] : f405_cost_awake[s];
+			const double f405 = vel ? f405_cost[s] : 0, f405_aw = vel ? f405_cost_awake[s] : 0;
 			double best = INFINITY, awake = 0;
 			uint32_t sum = 0;
 			char kname[32];
@@ -61,18 +61,26 @@ void run_scenes(const struct opts *o)
 				bench_field_steps(&f, FW_COST_STEPS);
 				ns_f32 = fmin(ns_f32, (now_s() - t0) * 1e9 / (double)cells);
 
-				fw_cost_scene_init(&w, storage, FW_SCENE_WORDS, (enum fw_cost_scene)s,
-						   vel ? SWELL_FORM_VELOCITY : SWELL_FORM_EDGE);
-				if (swell_wave_set_kernel(&w, kernels[k]) != SWELL_OK)
+				/* ef32 from the scene's heights (the solver's field, not stepped) */
+				fw_cost_scene_init(&w, storage, FW_SCENE_WORDS, (enum fw_cost_scene)s);
+				if (!vel) {
+					ef32_init(&ef, FW_SCENE_NX, FW_SCENE_NY, ef_storage,
+						  EF32_WORDS(FW_SCENE_NX, FW_SCENE_NY), &w.p);
+					for (n = 0; n < FW_SCENE_NY; n++)
+						swell_wave_row(&w, (int)n, ef.h + n * FW_SCENE_NX);
+				}
+				if ((vel ? swell_wave_set_kernel(&w, kernels[k]) : ef32_set_kernel(&ef, kernels[k])) !=
+				    SWELL_OK)
 					break; /* AVX2 on a CPU without it */
 				t0 = now_s();
 				for (n = 0; n < (long)FW_COST_STEPS; n++)
-					swell_wave_step(&w);
+					vel ? swell_wave_step(&w) : ef32_step(&ef);
 				best = fmin(best, (now_s() - t0) * 1e9 / (double)cells);
 				awake = 100.0 *
 					(1.0 -
-					 (double)w.tiles_skipped / ((double)FW_COST_STEPS * FW_SCENE_NY * w.tiles_x));
-				sum = swell_wave_checksum(&w);
+					 (double)(vel ? w.tiles_skipped : ef.tiles_skipped) /
+						 ((double)FW_COST_STEPS * FW_SCENE_NY * w.tiles_x));
+				sum = vel ? swell_wave_checksum(&w) : ef32_checksum(&ef);
 			}
 			if (isinf(best)) {
 				printf("  %-9s %-9s not available on this CPU\n", fw_cost_scene_name[s], kname);
@@ -97,12 +105,9 @@ void run_scenes(const struct opts *o)
 		}
 	}
 	if (f405_cost[FW_COST_AGITATED] > 0)
-		printf("  F405 agitated pool: edge-flux %.2f, velocity form %.2f instructions per cell-step (%.2fx "
-		       "cheaper; target 20; naive int32 loop %.2f)\n",
-		       f405_cost[FW_COST_AGITATED], f405_vcost[FW_COST_AGITATED],
-		       f405_vcost[FW_COST_AGITATED] > 0 ? f405_cost[FW_COST_AGITATED] / f405_vcost[FW_COST_AGITATED]
-							: 0.0,
-		       f405_naive);
+		printf("  F405 agitated pool: the solver %.2f instructions per cell-step (target 20; naive int32 loop "
+		       "%.2f)\n",
+		       f405_cost[FW_COST_AGITATED], f405_naive);
 	bench_field_free(&f);
 	free(h);
 	fclose(fp);

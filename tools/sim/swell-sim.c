@@ -442,7 +442,7 @@ int main(int argc, char **argv)
 		fprintf(stderr, "\r%60s\r", "");
 
 	for (a = 0; a < n; a++)
-		mm[a] = o.float64 ? r.h[a] : (double)w.h[a] / SWELL_H_ONE_MM;
+		mm[a] = o.float64 ? r.h[a] : (double)swell_wave_h(&w, (size_t)a) / SWELL_H_ONE_MM;
 	for (a = 0; a < n; a++) {
 		hmin = a == 0 || mm[a] < hmin ? mm[a] : hmin;
 		hmax = a == 0 || mm[a] > hmax ? mm[a] : hmax;

@@ -10,4 +10,7 @@
 /* Continue a CRC: start with crc = 0 for a new message; feed pieces in order. */
 uint32_t swell_crc32(uint32_t crc, const void *data, size_t len);
 
+/* The same over n int32 words, each little-endian (the solver's checksums). */
+uint32_t swell_crc32_words(uint32_t crc, const int32_t *x, size_t n);
+
 #endif

@@ -25,6 +25,14 @@ typedef int32_t q16_t;
 /* Compile-time check that >> on a negative signed value is arithmetic. */
 typedef char swell_asr_check[((-8 >> 1) == -4 && ((int64_t)-8 >> 1) == -4) ? 1 : -1];
 
+/* x / 2^n (n >= 1) rounded to nearest, ties toward +inf, without a 64-bit division (a library call on
+ * the Cortex-M4). >> of a negative int64 is arithmetic on every compiler this project supports (GCC,
+ * Clang), so it floors. */
+static inline int64_t swell_shr_rn(int64_t x, int n)
+{
+	return (x + ((int64_t)1 << (n - 1))) >> n;
+}
+
 static inline int32_t swell_sat_i64(int64_t x)
 {
 	if (x > INT32_MAX)

@@ -1,4 +1,4 @@
-/* The shallow-water height field of the paper's eq. (1) and (2), in fixed point.
+/* The shallow-water height field of the paper's eq. (1) and (2), in fixed point: swell's solver.
  *
  *   h(n) = h(n-1) + (1-t) [ h(n-1) - h(n-2) + e L9(n-1) ]
  *   L9   = -6 h[i,j] + h[i±1,j] + h[i,j±1] + 1/2 (four diagonal neighbours)
@@ -6,85 +6,62 @@
  *
  * Walls reflect: ghost cells mirror the edge cells. The water starts at rest (h(-1) = h(0)).
  *
- * Form. L9 is a graph Laplacian, L9_a = sum over neighbours b of w_ab (h_b - h_a), so eq. (1) is solved
- * in its edge-flux form: every edge (a, b) keeps a flow f, the volume that moves from b into a in one
- * step,
- *     f(n) = (1-t) [ f(n-1) + e w_ab (h_b - h_a)(n-1) ],   h_a += f,   h_b -= f.
- * Summing the flows of a cell gives back eq. (1) exactly (the cell's velocity is the sum of its
- * flows, zero at rest). In fixed point every rounded flow is added to one cell and subtracted from
- * another, so the volume sum(h) is conserved exactly, whatever the rounding.
- * Mirrored ghosts turn into edge weights: diagonals 1/2, inner orthogonal edges 1, and orthogonal
- * edges that run along a wall 3/2 (the two diagonals through the ghost fold onto them).
- *
- * Fixed point. Heights and flows are int32 with 1 LSB = 2^-16 mm (SWELL_H_FRAC), saturated to the
- * int28 range [SWELL_H_MIN, SWELL_H_MAX] (+-2048 mm), so no intermediate can overflow. Coefficients
- * are Q1.30. Rounding: e w dh is rounded to nearest (ties up); the damping product (1-t) s is rounded
- * toward zero, so damping never leaves a flow stuck in a limit cycle (any non-zero flow loses at least
- * one LSB per step when t > 0). With t = 0 no damping multiply is done at all. 1-t is made odd (t
- * moves by at most 2^-30): then (1-t) s is never a multiple of 2^30 for 0 < |s| < 2^30, so rounding
- * toward zero is floor + (s < 0), which the Cortex-M4 kernel computes with one SMMUL.
- *
- * Kernels (swell_wave_set_kernel): the scalar reference (SWELL_KERNEL_REF, the definition), a fused
- * scalar kernel (one pass per row: flows, the cell's own sum and the row above's, with the M4's
- * SMMLAR/SMMUL/SSAT where the compiler targets ARMv7E-M) and, on x86-64 hosts with AVX2, an 8-lane
- * kernel over whole tile rows. All are bit-identical: same flows, heights and sleeping tiles.
- *
- * Stability (von Neumann, q = 1-t): modes are stable iff e_eff < (1+q) / (4q), where e_eff is e for
- * the paper stencil and e/2 for the calibrated one (L9/2, waves at sqrt(g d)). Parameters outside
- * that limit are refused, never run.
- *
- * Storage is the caller's: SWELL_WAVE_WORDS(nx, ny) int32 words. No allocation, no float.
- *
- * Bounded work per call: a step can be split into row slices (swell_wave_step_rows) and a finishing
- * pass (swell_wave_step_finish), so that a controller tick never carries a whole grid step. Until the
- * finish, h and v still hold h(n) and h(n) - h(n-1): a force law may read them between slices.
- * The finishing pass can itself be spread over the slices (swell_wave_finish_rows): rows whose flows
- * are all computed get h += acc ahead of the rest; until the step's finish such a row (j < done_row)
- * holds h(n+1) in h and its change in acc, so a reader takes h(n) = h - acc there (v is untouched
- * everywhere until the finish). Results are bit-identical to the unsplit step.
- *
- * Velocity form (SWELL_FORM_VELOCITY, chosen at init with swell_wave_init_form): eq. (1) as a momentum
- * per cell, u(n+1) = (1-t) [u(n) + e L9(n)], h(n+1) = h(n) + u(n+1) + water added from outside, with
- * the separable stencil 2 L9 = ([1 2 1] x [1 2 1]) h - 16 h. Each cell is rounded on its own:
- * undamped, u + e L9 to nearest (ties up); damped, u + e L9 toward e L9 / 2 (half the cell's kick)
- * and then the damping toward zero (common/src/wave_priv.h has the exact rule). Nearest rounding
- * with damping leaves small limit cycles of single cells (measured: 2-4 LSB/step forever at e
- * 0.35-0.45), and so does rounding toward zero at e 0.45 (a cell at rest kicked past its balance
- * point lands as far on the other side); rounding toward half the kick does not add to the energy the
- * undamped scheme keeps (by less than an LSB^2 a cell where the sum is within half an LSB of that
- * point), and damped water comes to rest (measured: 288 of 288 cases,
+ * Form. Eq. (1) as a momentum per cell, u(n+1) = (1-t) [u(n) + e L9(n)], h(n+1) = h(n) + u(n+1) +
+ * water added from outside, with the separable stencil 2 L9 = ([1 2 1] x [1 2 1]) h - 16 h. Each cell
+ * is rounded on its own: undamped, u + e L9 to nearest (ties up); damped, u + e L9 toward e L9 / 2
+ * (half the cell's kick) and then the damping toward zero (common/src/wave_priv.h has the exact
+ * rule). Nearest rounding with damping leaves small limit cycles of single cells (measured: 2-4
+ * LSB/step forever at e 0.35-0.45), and so does rounding toward zero at e 0.45 (a cell at rest kicked
+ * past its balance point lands as far on the other side); rounding toward half the kick does not add
+ * to the energy the undamped scheme keeps (by less than an LSB^2 a cell where the sum is within half
+ * an LSB of that point), and damped water comes to rest (measured: 288 of 288 cases,
  * common/tests/test_wave_rest.cpp). At the step's finish the integer residual r = sum u(n+1) is given
  * back in whole LSBs of u (to cells of tiles that moved, one LSB a cell, from a cursor that rotates
  * over the grid; whole shares first when |r| exceeds their count), so sum u = 0. Undamped, u carries
  * vel_frac fraction bits beyond a height LSB (as many as keep 2^(vel_frac+1) e_eff < 2 in Q1.30 for
  * the M4's SMMLAR, at most 4: 4 for e_eff < 1/16, 2 for the pool's 0.2), which brings the rounding
- * error under the edge-flux form's; damped, none (with them, single cells keep cycling by 2-3 LSB at
- * e 0.35 and t 0.02). A cell's height change dh(u) is u(n+1) rounded to a height LSB (nearest, ties
- * away from zero; u itself when vel_frac is 0), and the residual of those roundings is given back
- * the same way in whole height LSBs (into h), so the volume stays exact. Water added from outside
- * never enters u (as in the edge-flux form, it is mass, not momentum). Heights saturate to int27
- * (SWELL_HV_MIN..MAX, +-1024 mm) so that 2 L9 fits int32; u to int28.
- *   Storage SWELL_WAVE_VEL_WORDS: h, u and the tile flags, 8 bytes a cell (the edge-flux form's 28);
- * v and acc are NULL. There is no step accumulator: row j's heights become h(n+1) = h(n) + dh(u(n+1))
- * (saturated) as soon as row j+1's momentum is done (the last row that reads row j's h(n)), one row
- * behind the kernel, and the last row at the step's finish. So after swell_wave_step_rows has done
- * rows [0, next_row), rows [0, done_row) hold h(n+1), done_row = next_row - 1 (every row after the
- * finish), and a reader takes h(n) = h - dh(u) there (swell_wave_h). swell_wave_finish_rows has
- * nothing to do in this form. The last step's change h(n) - h(n-1) is not kept: swell_wave_dh gives
- * the solver's own change dh(u) instead, which differs from it by the water added from outside and
- * the volume fixer's LSBs (at most one LSB a cell in a step, and only where water moved). Water added
- * from outside (swell_wave_add) goes into h at once: in rows below done_row it is part of h(n+1) and
- * also shows in h - dh(u); elsewhere the rest of the step reads it.
- *   Kernels: SWELL_KERNEL_REF (the definition, one cell at a time in int64), SWELL_KERNEL_FUSED
- * (column sums carried in registers; SMMLAR/SMMUL/SSAT on ARMv7E-M) and SWELL_KERNEL_AVX2 (x86-64
- * with AVX2: a tile row a vector, and the height update too), bit-identical. The two forms are not
- * bit-identical to each other.
+ * error under an edge-flux form's (tools/bench, ef32); damped, none (with them, single cells keep
+ * cycling by 2-3 LSB at e 0.35 and t 0.02). A cell's height change dh(u) is u(n+1) rounded to a
+ * height LSB (nearest, ties away from zero; u itself when vel_frac is 0), and the residual of those
+ * roundings is given back the same way in whole height LSBs (into h), so the volume sum(h) stays
+ * exact. Water added from outside never enters u (it is mass, not momentum).
  *
- * Sleeping tiles (lossless): the grid is cut into 8 x 8 tiles. A tile whose edges all gave zero flow
- * in the last step, and none of whose cells nor its neighbour tiles' cells changed since, would give
- * zero flows again (same height differences, same rounding): its edges are skipped, bit-identically.
- * Anything that writes h from outside must say so with swell_wave_touched() (or swell_wave_rest()),
- * or use swell_wave_add(). */
+ * Fixed point. Heights are int32 with 1 LSB = 2^-16 mm (SWELL_H_FRAC), saturated to int27
+ * (SWELL_HV_MIN..MAX, +-1024 mm) so that 2 L9 fits int32; u to int28 (SWELL_H_MIN..MAX).
+ * Coefficients are Q1.30; 1-t is made odd (t moves by at most 2^-30), so that rounding toward zero
+ * is floor + (s < 0), which the Cortex-M4 kernel computes with one SMMUL.
+ *
+ * Stability (von Neumann, q = 1-t): modes are stable iff e_eff < (1+q) / (4q), where e_eff is e for
+ * the paper stencil and e/2 for the calibrated one (L9/2, waves at sqrt(g d)). Parameters outside
+ * that limit are refused, never run.
+ *
+ * Storage is the caller's: SWELL_WAVE_WORDS(nx, ny) int32 words, 8 bytes a cell (h, u and the tile
+ * flags). No allocation, no float.
+ *
+ * Bounded work per call: a step can be split into row slices (swell_wave_step_rows) and a finishing
+ * pass (swell_wave_step_finish), so that a controller tick never carries a whole grid step. There is
+ * no step accumulator: row j's heights become h(n+1) = h(n) + dh(u(n+1)) (saturated) as soon as row
+ * j+1's momentum is done (the last row that reads row j's h(n)), one row behind the kernel, and the
+ * last row at the step's finish. So after swell_wave_step_rows has done rows [0, next_row), rows
+ * [0, done_row) hold h(n+1), done_row = next_row - 1 (every row after the finish), and h(n) there is
+ * h - dh(u). A reader takes h(n) only through the read functions below (swell_wave_h, _row, _quad,
+ * _sum), which apply that rule; the fields are the solver's own (wave*.c). The last step's change
+ * h(n) - h(n-1) is not kept: swell_wave_dh gives the solver's own change dh(u) instead, which differs
+ * from it by the water added from outside and the volume fixer's LSBs (at most one LSB a cell in a
+ * step, and only where water moved). Water added from outside (swell_wave_add) goes into h at once:
+ * in rows below done_row it is part of h(n+1) and also shows in h - dh(u); elsewhere the rest of the
+ * step reads it. Results are bit-identical to the unsplit step.
+ *
+ * Kernels (swell_wave_set_kernel): SWELL_KERNEL_REF (the definition, one cell at a time in int64),
+ * SWELL_KERNEL_FUSED (column sums carried in registers; SMMLAR/SMMUL/SSAT on ARMv7E-M) and
+ * SWELL_KERNEL_AVX2 (x86-64 with AVX2: a tile row a vector, and the height update too),
+ * bit-identical: same heights, momenta and sleeping tiles.
+ *
+ * Sleeping tiles (lossless): the grid is cut into 8 x 8 tiles. A tile whose momentum was zero for
+ * the last two steps, and none of whose cells nor its neighbour tiles' cells changed since, would
+ * give zero momentum again (same heights, same rounding): it is skipped, bit-identically. Anything
+ * that writes h from outside must say so with swell_wave_touched() (or swell_wave_rest()), or use
+ * swell_wave_add(). */
 #ifndef SWELL_WAVE_H
 #define SWELL_WAVE_H
 
@@ -96,10 +73,10 @@
 
 #define SWELL_H_FRAC 16 /* fractional bits of a height, in mm */
 #define SWELL_H_ONE_MM ((int32_t)1 << SWELL_H_FRAC) /* 1 mm in height LSB */
-#define SWELL_H_MAX (((int32_t)1 << 27) - 1) /* saturation bounds of heights and flows: int28 */
+#define SWELL_H_MAX (((int32_t)1 << 27) - 1) /* saturation bounds of the momentum u: int28 */
 #define SWELL_H_MIN (-((int32_t)1 << 27))
 
-#define SWELL_HV_MAX (((int32_t)1 << 26) - 1) /* height bounds of the velocity form: int27 */
+#define SWELL_HV_MAX (((int32_t)1 << 26) - 1) /* height bounds: int27 */
 #define SWELL_HV_MIN (-((int32_t)1 << 26))
 
 #define SWELL_WAVE_MIN_SIDE 2
@@ -107,25 +84,14 @@
 #define SWELL_WAVE_TILE 8 /* side of a sleeping tile, in cells */
 #define SWELL_WAVE_TILES_X(nx) (((size_t)(nx) + SWELL_WAVE_TILE - 1) / SWELL_WAVE_TILE)
 #define SWELL_WAVE_TILES(nx, ny) (SWELL_WAVE_TILES_X(nx) * SWELL_WAVE_TILES_X(ny))
-/* h, v and the step accumulator (nx ny words each); the four flows of every tile row, E N NE NW,
- * 8 words each (rows padded to whole tiles); then one flag byte a tile */
-#define SWELL_WAVE_WORDS(nx, ny)                                                                         \
-	(3 * (size_t)(nx) * (size_t)(ny) + 4 * SWELL_WAVE_TILE * SWELL_WAVE_TILES_X(nx) * (size_t)(ny) + \
-	 (SWELL_WAVE_TILES(nx, ny) + 3) / 4)
-
-/* The velocity form: h and the momentum u (nx ny words each), then the tile flags */
-#define SWELL_WAVE_VEL_WORDS(nx, ny) (2 * (size_t)(nx) * (size_t)(ny) + (SWELL_WAVE_TILES(nx, ny) + 3) / 4)
-
-enum swell_wave_form {
-	SWELL_FORM_EDGE = 0, /* edge-flux: four flows a cell (default) */
-	SWELL_FORM_VELOCITY = 1, /* three-level: one momentum a cell and a global volume fixer */
-};
+/* h and the momentum u (nx ny words each), then the tile flags */
+#define SWELL_WAVE_WORDS(nx, ny) (2 * (size_t)(nx) * (size_t)(ny) + (SWELL_WAVE_TILES(nx, ny) + 3) / 4)
 
 enum swell_wave_kernel {
 	SWELL_KERNEL_AUTO = 0, /* the fastest this build and CPU have (default) */
-	SWELL_KERNEL_REF = 1, /* the scalar reference: one edge at a time, the definition */
+	SWELL_KERNEL_REF = 1, /* the scalar reference: one cell at a time, the definition */
 	SWELL_KERNEL_FUSED = 2, /* one pass per row segment; M4 DSP instructions on ARMv7E-M */
-	SWELL_KERNEL_AVX2 = 3, /* x86-64 with AVX2: 8 cells at a time (edge-flux: tile rows of 8, else fused) */
+	SWELL_KERNEL_AVX2 = 3, /* x86-64 with AVX2: 8 cells at a time */
 };
 
 enum swell_stencil {
@@ -139,35 +105,25 @@ struct swell_wave_params {
 	enum swell_stencil stencil;
 };
 
+/* The solver's state. Its fields are the solver's own: read heights through the functions below. */
 struct swell_wave {
 	uint16_t nx, ny;
 	/* Row-major, index j * nx + i (i the column, x; j the row, y). */
-	int32_t *h; /* h(n): height above rest, LSB 2^-16 mm */
-	int32_t *v; /* h(n) - h(n-1), the last step's change (edge-flux form; NULL in the velocity form) */
-	int32_t *acc; /* the step in progress: sum of the new flows of every cell (edge-flux form; NULL) */
-	/* Flows, by tile row: the 8 cells (i, j) with i / 8 = tx have their flows at
-	 * f + 32 (j tiles_x + tx) + 8 k + i % 8, k = 0 E (into (i,j) from (i+1,j)), 1 N (from (i,j+1)),
-	 * 2 NE (from (i+1,j+1)), 3 NW (from (i-1,j+1)). */
-	int32_t *f;
+	int32_t *h; /* h(n): height above rest, LSB 2^-16 mm; h(n+1) in rows below done_row */
+	int32_t *u; /* momentum u(n), LSB 2^-(16 + vel_frac) mm per step; u(n+1) in rows done */
 	struct swell_wave_params p;
 	q30_t e_eff; /* e (paper) or e/2 (calibrated), made even so that e_eff/2 is exact */
-	q30_t c_1; /* e_eff * 1   inner orthogonal edges */
-	q30_t c_half; /* e_eff * 1/2 diagonal edges */
-	q30_t c_wall; /* e_eff * 3/2 orthogonal edges along a wall */
 	q30_t q; /* 1 - t, made odd when t > 0 */
 	uint32_t steps;
-	uint32_t saturations; /* row segments (up to a tile row) in which a height or flow was clamped */
+	uint32_t saturations; /* row segments (up to a tile row) in which a height or momentum was clamped */
 	uint16_t next_row; /* first row not yet done in the step in progress */
-	uint16_t done_row; /* rows [0, done_row) of the step in progress hold h(n+1) (finished ahead) */
+	uint16_t done_row; /* rows [0, done_row) of the step in progress hold h(n+1) */
 	uint16_t tiles_x, tiles_y;
 	uint8_t *tile; /* flag byte a tile (wave.c) */
-	uint8_t sleep; /* 1: skip sleeping tiles (default); 0: every edge every step */
+	uint8_t sleep; /* 1: skip sleeping tiles (default); 0: every cell every step */
 	uint8_t band_asleep; /* every tile of the band of rows in progress sleeps */
-	uint32_t tiles_skipped; /* tile-rows skipped, cumulative: 8 x 4 edges saved each */
+	uint32_t tiles_skipped; /* tile-rows skipped, cumulative */
 	uint8_t kernel; /* enum swell_wave_kernel in use (never AUTO) */
-	uint8_t form; /* enum swell_wave_form, fixed at init */
-	/* velocity form only */
-	int32_t *u; /* momentum u(n), LSB 2^-(16 + vel_frac) mm per step; u(n+1) in rows done */
 	int64_t vel_sum; /* sum of u(n+1) over the rows done: the residual the finish gives back */
 	int64_t vel_sum_h; /* sum of the rows' height changes (without water added from outside) */
 	uint8_t vel_frac; /* fraction bits of u beyond a height LSB: 4, 3, 2, 1 or 0 by e_eff */
@@ -175,32 +131,105 @@ struct swell_wave {
 	uint64_t fixed_lsb; /* LSB given back by the fixer, cumulative */
 };
 
-/* The velocity form's height change of a cell whose momentum is u: u rounded to a height LSB
- * (nearest, ties away from zero), u itself without fraction bits. */
-static inline int32_t swell_wave_vel_dh(const struct swell_wave *w, int32_t u)
+/* ---- Reading the heights: h(n), the last finished step's, at any point of a step in progress
+ * (rows below done_row hold h(n+1) in h: h(n) = h - dh(u) there). */
+
+/* The solver's own change of cell a, dh(u): u rounded to a height LSB (nearest, ties away from zero;
+ * u itself without fraction bits). In rows below done_row that is h(n+1) - h(n) of the step in
+ * progress; elsewhere it is h(n) - h(n-1) of the last finished step less the water added from
+ * outside and the volume fixer's LSBs. */
+static inline int32_t swell_wave_dh(const struct swell_wave *w, size_t a)
 {
 	const int f = w->vel_frac;
+	const int32_t u = w->u[a];
 
 	return f ? (u + ((int32_t)1 << (f - 1)) - (u < 0)) >> f : u;
 }
 
-/* The velocity form: the solver's own change of cell a, dh(u). In rows below done_row that is
- * h(n+1) - h(n) of the step in progress; elsewhere it is h(n) - h(n-1) of the last finished step less
- * the water added from outside and the volume fixer's LSBs (see above). */
-static inline int32_t swell_wave_dh(const struct swell_wave *w, size_t a)
-{
-	return swell_wave_vel_dh(w, w->u[a]);
-}
-
-/* h(n), the height of the last finished step, of cell a at any point of a step in progress: rows
- * finished ahead (below done_row) hold h(n+1) in h and its change in acc (edge-flux form) or dh(u)
- * (velocity form; water added from outside there shows in it). */
+/* h(n) of cell a (inline: the force path reads a few cells a tick) */
 static inline int32_t swell_wave_h(const struct swell_wave *w, size_t a)
 {
-	if (a >= (size_t)w->done_row * w->nx)
-		return w->h[a];
-	return w->acc ? w->h[a] - w->acc[a] : w->h[a] - swell_wave_dh(w, a);
+	return a >= (size_t)w->done_row * w->nx ? w->h[a] : w->h[a] - swell_wave_dh(w, a);
 }
+
+/* h(n) of row j (nx cells) into out */
+void swell_wave_row(const struct swell_wave *w, int j, int32_t *out);
+
+/* h(n) of the four cells a .. a+3 of one row into out (inline: telemetry reads quads in the tick) */
+static inline void swell_wave_quad(const struct swell_wave *w, size_t a, int32_t out[4])
+{
+	const int32_t *h = w->h + a;
+
+	out[0] = h[0];
+	out[1] = h[1];
+	out[2] = h[2];
+	out[3] = h[3];
+	if (a < (size_t)w->done_row * w->nx) {
+		out[0] -= swell_wave_dh(w, a);
+		out[1] -= swell_wave_dh(w, a + 1);
+		out[2] -= swell_wave_dh(w, a + 2);
+		out[3] -= swell_wave_dh(w, a + 3);
+	}
+}
+
+/* sum of h(n) over cells [i0, i1) of rows [j0, j1) (a footprint), in LSB, exact */
+int64_t swell_wave_sum(const struct swell_wave *w, int i0, int i1, int j0, int j1);
+
+/* An area of cells [i0, i1] x [j0, j1] (inclusive) with weights: wx0 and wx1 of its end columns, wy0
+ * and wy1 of its end rows, `one` (a whole cell's side) between (one column: wx0; one row: wy0); a
+ * cell's weight is its column's times its row's. */
+struct swell_wave_area {
+	int32_t i0, i1, j0, j1;
+	int32_t wx0, wx1, wy0, wy1, one;
+};
+
+/* Weighted sums under an area: of h(n) into *sh, and of the solver's change, u / 2^F (the weighted sum
+ * of u rounded once to a height LSB), into *sv. In rows finished ahead h(n) is exact at the end cells
+ * and, for the cells between, h minus their sum of u shifted once and rounded (within half an LSB a
+ * cell of the per-cell dh(u)). Exact in int64 for areas up to 65 x 65 cells with weights up to 2^22.
+ * Inline: the force law calls it every tick (two loads and two adds a cell). */
+static inline void swell_wave_footprint(const struct swell_wave *w, const struct swell_wave_area *ar, int64_t *sh,
+					int64_t *sv)
+{
+	const int32_t i0 = ar->i0, i1 = ar->i1, ox0 = ar->wx0, ox1 = ar->wx1; /* one cell: the same */
+	const int frac = w->vel_frac;
+	int64_t su = 0;
+	int32_t i, j;
+
+	*sh = 0;
+
+	for (j = ar->j0; j <= ar->j1; j++) {
+		const int32_t oy = j == ar->j0 ? ar->wy0 : j == ar->j1 ? ar->wy1 : ar->one;
+		const int32_t *h = w->h + (size_t)j * w->nx, *u = w->u + (size_t)j * w->nx;
+		int64_t mh = 0, mu = 0, rh, ru;
+		int32_t he0 = h[i0], he1 = h[i1];
+
+		for (i = i0 + 1; i < i1; i++) {
+			mh += h[i];
+			mu += u[i];
+		}
+		if (j < w->done_row) { /* h holds h(n+1): int27 - int28, no overflow */
+			he0 -= swell_wave_dh(w, (size_t)j * w->nx + (size_t)i0);
+			he1 -= swell_wave_dh(w, (size_t)j * w->nx + (size_t)i1);
+			mh -= frac ? swell_shr_rn(mu, frac) : mu;
+		}
+		rh = (int64_t)ox0 * he0 + mh * ar->one;
+		ru = (int64_t)ox0 * u[i0] + mu * ar->one;
+		if (i1 > i0) {
+			rh += (int64_t)ox1 * he1;
+			ru += (int64_t)ox1 * u[i1];
+		}
+		*sh += oy * rh;
+		su += oy * ru;
+	}
+	*sv = frac ? swell_shr_rn(su, frac) : su;
+}
+
+/* The ceiling of rows [j0, j1): the highest of h and h - floor(u / 2^F) (the solver's change rounded
+ * down: never above dh(u), so an upper bound at most one LSB high), that is of the two levels a row
+ * holds (h(n+1) and h(n) below done_row, h(n) and about h(n-1) elsewhere), into *top if higher; the
+ * sum of h added to *sum. Eight cells an SMLA-free pass on the Cortex-M4. */
+void swell_wave_ceiling(const struct swell_wave *w, int j0, int j1, int32_t *top, int64_t *sum);
 
 /* Exact integer energy (docs/design.md, section 2), for tests: with t = 0,
  *     E * 2^31 = kin * 2^31 + e_eff * pot2
@@ -222,57 +251,38 @@ enum swell_err swell_wave_check(const struct swell_wave_params *p);
  * to INT32_MAX when it exceeds the Q1.30 range. */
 q30_t swell_wave_e_limit(q30_t damping, enum swell_stencil stencil);
 
-/* Bind caller storage (at least SWELL_WAVE_WORDS(nx, ny) words, SWELL_WAVE_VEL_WORDS for the
- * velocity form) and set the water flat and at rest.
+/* Bind caller storage (at least SWELL_WAVE_WORDS(nx, ny) words) and set the water flat and at rest.
  * On error *w is untouched. */
 enum swell_err swell_wave_init(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage, size_t words,
 			       const struct swell_wave_params *p);
 
-/* The same, in the form asked for (swell_wave_init is the edge-flux form); SWELL_EINVAL for an
- * unknown form. */
-enum swell_err swell_wave_init_form(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage, size_t words,
-				    const struct swell_wave_params *p, enum swell_wave_form form);
-
-/* The velocity form with the momentum u apart from the rest (a port may put it in another memory):
- * storage holds h and the tile flags (SWELL_WAVE_VEL_WORDS(nx, ny) - nx ny words), u nx ny
- * words. The same bits as swell_wave_init_form; on error *w is untouched. */
+/* The same with the momentum u apart from the rest (a port may put it in another memory): storage
+ * holds h and the tile flags (SWELL_WAVE_WORDS(nx, ny) - nx ny words), u nx ny words. The same bits
+ * as swell_wave_init; on error *w is untouched. */
 enum swell_err swell_wave_init_vel_apart(struct swell_wave *w, uint16_t nx, uint16_t ny, int32_t *storage, size_t words,
 					 int32_t *u, size_t u_words, const struct swell_wave_params *p);
 
 /* Change parameters on a running field; on error nothing changes. */
 enum swell_err swell_wave_set_params(struct swell_wave *w, const struct swell_wave_params *p);
 
-/* Make the present heights the rest state: all flows and v zero (h(n-1) = h(n)), u zero in the
- * velocity form. A step in progress is dropped: rows finished ahead go back to h(n). */
+/* Make the present heights the rest state: u zero (h(n-1) = h(n)). A step in progress is dropped:
+ * rows finished ahead go back to h(n). */
 void swell_wave_rest(struct swell_wave *w);
 
-/* Advance one solver step. Bounded: 4 edges per cell, no data-dependent loops.
+/* Advance one solver step. Bounded: one stencil per cell, no data-dependent loops.
  * Same as swell_wave_step_rows(w, ny) followed by swell_wave_step_finish(w). */
 void swell_wave_step(struct swell_wave *w);
 
-/* Do the edges of the next `rows` rows of the step in progress (at most up to the last row); returns
- * the number of rows still to do. Edge-flux form: reads h, writes the flows and acc only. Velocity
- * form: writes u of those rows and h(n+1) one row behind (done_row = next_row - 1). */
+/* Do the next `rows` rows of the step in progress (at most up to the last row); returns the number
+ * of rows still to do. Writes u of those rows and h(n+1) one row behind (done_row = next_row - 1). */
 int swell_wave_step_rows(struct swell_wave *w, int rows);
 
-/* Finish ahead, part of the finishing pass: h += acc on up to `rows` rows of the step in progress
- * whose flows are all computed; returns how many it finished (done_row advances). Rows of a band of
- * tiles (8 rows) are ready once the first row of the next band is done (that band's sleeping-tile
- * decision must not see this step's changes, as in the unsplit step), all rows once all are done.
- * Between this and the finish, read h(n) as h - acc in rows below done_row (see above); h written
- * from outside there is taken as h(n+1). Saturated heights (+-2048 mm) are the exception: there
- * h - acc is not h(n). */
-int swell_wave_finish_rows(struct swell_wave *w, int rows); /* velocity form: nothing to do, 0 */
-
-/* Finish the step: every remaining row, then h += acc (rows not finished ahead), v = acc. One pass
- * over the cells. Velocity form: the last row's heights, the fixers and the tile flags. */
+/* Finish the step: every remaining row, the last row's heights, the fixers and the tile flags. */
 void swell_wave_step_finish(struct swell_wave *w);
 
-/* Add dh (LSB) to cell (i, j) at the next finish, saturating: the way to move water in from outside
- * (an object's displacement) without disturbing a step in progress. The step's flows are unchanged,
- * so the added volume is conserved from then on. In a row finished ahead it goes into h and acc at
- * once (the same h(n+1) and v(n+1) as at the finish, h(n) = h - acc unchanged). Velocity form: into
- * h at once, saturating (see above), and the tile wakes (TOUCHED). */
+/* Add dh (LSB) to cell (i, j), saturating: the way to move water in from outside (an object's
+ * displacement) without disturbing a step in progress. Into h at once (see above); the momentum is
+ * unchanged, so the added volume is conserved from then on; the tile wakes (TOUCHED). */
 void swell_wave_add(struct swell_wave *w, int i, int j, int32_t dh);
 
 /* swell_wave_add(w, i, j, dh) for i0 <= i < i1 in order (cells outside the grid ignored, nothing
@@ -297,16 +307,12 @@ enum swell_err swell_wave_set_kernel(struct swell_wave *w, enum swell_wave_kerne
 /* "ref", "fused", "fused-dsp" (ARMv7E-M), "avx2"; NULL for AUTO or an unknown value. */
 const char *swell_wave_kernel_name(enum swell_wave_kernel k);
 
-/* "edge" or "velocity"; NULL for an unknown value. */
-const char *swell_wave_form_name(enum swell_wave_form f);
-
-/* sum(h) in LSB: the volume, exact. */
+/* sum of h(n) in LSB: the volume, exact at any point of a step (water added from outside included). */
 int64_t swell_wave_volume(const struct swell_wave *w);
 
 struct swell_energy swell_wave_energy(const struct swell_wave *w);
 
-/* CRC-32 of the state (heights, then every E flow in cell order, then N, NE, NW; int32
- * little-endian). Velocity form: heights, then u in cell order. */
+/* CRC-32 of the state: heights, then u, in cell order (int32 little-endian). */
 uint32_t swell_wave_checksum(const struct swell_wave *w);
 
 /* e = g dt^2 d / dx^2 from integer physical units, rounded to nearest Q1.30.

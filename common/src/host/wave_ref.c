@@ -13,9 +13,9 @@ void swell_wave_ref_from_fixed(struct swell_wave_ref *r, const struct swell_wave
 	r->q = (double)w->q / (double)SWELL_Q30_ONE;
 	r->steps = 0;
 	for (a = 0; a < n; a++) {
-		r->h[a] = (double)w->h[a] / SWELL_H_ONE_MM;
-		/* h(n-1): the velocity form keeps no v, its own change dh(u) instead (swell/wave.h) */
-		r->hp[a] = r->h[a] - (double)(w->v ? w->v[a] : swell_wave_dh(w, (size_t)a)) / SWELL_H_ONE_MM;
+		r->h[a] = (double)swell_wave_h(w, (size_t)a) / SWELL_H_ONE_MM;
+		/* h(n-1): the solver keeps no h(n) - h(n-1), its own change dh(u) instead (swell/wave.h) */
+		r->hp[a] = r->h[a] - (double)swell_wave_dh(w, (size_t)a) / SWELL_H_ONE_MM;
 	}
 }
 

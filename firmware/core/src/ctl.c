@@ -75,7 +75,7 @@ static size_t stale_words(uint16_t nx, uint16_t ny)
 
 size_t swell_ctl_arena_words(uint16_t nx, uint16_t ny)
 {
-	return SWELL_WAVE_VEL_WORDS(nx, ny) + sent_words(nx, ny) + stale_words(nx, ny);
+	return SWELL_WAVE_WORDS(nx, ny) + sent_words(nx, ny) + stale_words(nx, ny);
 }
 
 static struct swell_body_scene body_scene(const struct swell_ctl_config *cfg)
@@ -137,7 +137,7 @@ enum swell_err swell_ctl_check(const struct swell_ctl_config *cfg)
 
 size_t swell_ctl_arena_words_apart(uint16_t nx, uint16_t ny)
 {
-	return SWELL_WAVE_VEL_WORDS(nx, ny) - (size_t)nx * ny + sent_words(nx, ny) + stale_words(nx, ny);
+	return SWELL_WAVE_WORDS(nx, ny) - (size_t)nx * ny + sent_words(nx, ny) + stale_words(nx, ny);
 }
 
 size_t swell_ctl_apart_words(uint16_t nx, uint16_t ny)
@@ -173,14 +173,13 @@ static enum swell_err init_at(struct swell_ctl *c, const struct swell_ctl_config
 	n = (uint32_t)cfg->nx * cfg->ny;
 	/* checked above: none of these can fail */
 	if (apart) {
-		swell_wave_init_vel_apart(&c->wave, cfg->nx, cfg->ny, arena, SWELL_WAVE_VEL_WORDS(cfg->nx, cfg->ny) - n,
+		swell_wave_init_vel_apart(&c->wave, cfg->nx, cfg->ny, arena, SWELL_WAVE_WORDS(cfg->nx, cfg->ny) - n,
 					  apart, n, &cfg->wave);
-		c->sent = (uint32_t *)(arena + SWELL_WAVE_VEL_WORDS(cfg->nx, cfg->ny) - n);
+		c->sent = (uint32_t *)(arena + SWELL_WAVE_WORDS(cfg->nx, cfg->ny) - n);
 		c->quad_stale = (uint16_t *)(c->sent + sent_words(cfg->nx, cfg->ny));
 	} else {
-		swell_wave_init_form(&c->wave, cfg->nx, cfg->ny, arena, SWELL_WAVE_VEL_WORDS(cfg->nx, cfg->ny),
-				     &cfg->wave, SWELL_FORM_VELOCITY);
-		c->sent = (uint32_t *)(arena + SWELL_WAVE_VEL_WORDS(cfg->nx, cfg->ny));
+		swell_wave_init(&c->wave, cfg->nx, cfg->ny, arena, SWELL_WAVE_WORDS(cfg->nx, cfg->ny), &cfg->wave);
+		c->sent = (uint32_t *)(arena + SWELL_WAVE_WORDS(cfg->nx, cfg->ny));
 		c->quad_stale = (uint16_t *)(c->sent + sent_words(cfg->nx, cfg->ny));
 	}
 	swell_body_init(&c->body, &cfg->body, &cfg->xform, &sc, &c->wave);

@@ -109,21 +109,12 @@ static uint32_t quad_read(const struct swell_ctl *c, const struct swell_quad_at 
 	if (at->y >= c->cfg.ny)
 		return 0;
 	if (at->x0 + 4 <= nx && !(a & 1u)) { /* a whole quad: its samples are two words of sent[] */
-		/* swell_wave_h of the four cells, one row: one test whether the row is finished ahead */
-		const int32_t *h = c->wave.h + a;
-		int32_t x0 = h[0], x1 = h[1], x2 = h[2], x3 = h[3];
+		int32_t x[4];
 		uint32_t w0, w1;
 
-		if (at->y < c->wave.done_row) { /* h(n) = h - dh(u) */
-			const int32_t *u = c->wave.u + a;
-
-			x0 -= swell_wave_vel_dh(&c->wave, u[0]);
-			x1 -= swell_wave_vel_dh(&c->wave, u[1]);
-			x2 -= swell_wave_vel_dh(&c->wave, u[2]);
-			x3 -= swell_wave_vel_dh(&c->wave, u[3]);
-		}
-		w0 = sample_pair(x0, x1);
-		w1 = sample_pair(x2, x3);
+		swell_wave_quad(&c->wave, a, x);
+		w0 = sample_pair(x[0], x[1]);
+		w1 = sample_pair(x[2], x[3]);
 
 		s[0] = (int16_t)(uint16_t)w0;
 		s[1] = (int16_t)(uint16_t)(w0 >> 16);
@@ -247,42 +238,30 @@ struct scan_left {
 };
 
 /* scan_run over a tile wholly inside a grid of even width: every quad is four cells of one row and two
- * words of sent[], read as h(n) of the last finished step (h - dh(u) in the tile's rows finished
- * ahead, swell_wave_h), sent from the words. The tile's pointers and its rows finished ahead are found once,
- * and the loop goes from stale bit to stale bit. */
+ * words of sent[], read as h(n) of the last finished step (swell_wave_quad), sent from the words. The
+ * loop goes from stale bit to stale bit. */
 static uint32_t scan_whole_tile(struct swell_ctl *c, uint32_t q, uint32_t run, struct scan_left *left,
 				struct swell_quad_at *at)
 {
 	uint16_t *const stale_at = &c->quad_stale[q / SWELL_QUADS_PER_TILE];
 	const uint32_t nx = c->cfg.nx, x_tile = at->x0 - 4u * at->half, y_tile = at->y - at->row;
-	const uint32_t corner = y_tile * nx + x_tile, done = c->wave.done_row, first = q % SWELL_QUADS_PER_TILE;
-	const int32_t *const h = c->wave.h + corner, *const u = c->wave.u + corner;
+	const uint32_t corner = y_tile * nx + x_tile, first = q % SWELL_QUADS_PER_TILE;
 	const uint32_t *const sent = c->sent + corner / 2;
-	/* quads of rows finished ahead: bits below 2 (done_row - y_tile) */
-	const uint32_t ahead = done <= y_tile ? 0 : done - y_tile >= SWELL_PROTO_TILE ? 16u : 2u * (done - y_tile);
 	/* the run's stale bits: [first, first + run) of the tile's */
 	uint32_t todo = *stale_at & ((run < SWELL_QUADS_PER_TILE ? (1u << run) - 1u : 0xffffu) << first);
 	uint32_t msgs = left->msgs, reads = left->reads, bit = first;
 
 	while (todo && msgs && reads) {
-		const int32_t *hq;
+		int32_t x[4];
 		uint32_t o, w0, w1;
 
 		bit = (uint32_t)__builtin_ctz(todo);
 		todo &= todo - 1u;
 		reads--;
 		o = (bit >> 1) * nx + 4u * (bit & 1u);
-		hq = h + o;
-		if (bit < ahead) { /* h(n) = h - dh(u) */
-			const int32_t *const uq = u + o;
-			const struct swell_wave *const w = &c->wave;
-
-			w0 = field_pair(hq[0] - swell_wave_vel_dh(w, uq[0]), hq[1] - swell_wave_vel_dh(w, uq[1]));
-			w1 = field_pair(hq[2] - swell_wave_vel_dh(w, uq[2]), hq[3] - swell_wave_vel_dh(w, uq[3]));
-		} else {
-			w0 = field_pair(hq[0], hq[1]);
-			w1 = field_pair(hq[2], hq[3]);
-		}
+		swell_wave_quad(&c->wave, corner + o, x);
+		w0 = field_pair(x[0], x[1]);
+		w1 = field_pair(x[2], x[3]);
 		if (w0 != sent[o >> 1] || w1 != sent[(o >> 1) + 1]) {
 			quad_send_words(c, at, bit, corner + o, w0, w1);
 			msgs--;

@@ -76,8 +76,7 @@ TEST_CASE("the reference configuration is valid and its arena is the velocity fo
 {
 	swell_ctl_config cfg = pool();
 	CHECK(swell_ctl_check(&cfg) == SWELL_OK);
-	CHECK(swell_ctl_arena_words(64, 64) == SWELL_WAVE_VEL_WORDS(64, 64) + 64 * 64 / 2 + 64 / 2);
-	CHECK(swell_ctl_arena_words(64, 64) < SWELL_WAVE_WORDS(64, 64)); /* smaller than the edge-flux form's */
+	CHECK(swell_ctl_arena_words(64, 64) == SWELL_WAVE_WORDS(64, 64) + 64 * 64 / 2 + 64 / 2);
 	cfg.solver_hz = 333; /* does not divide 2500 */
 	CHECK(swell_ctl_check(&cfg) == SWELL_ERANGE);
 	cfg = pool();
@@ -701,13 +700,11 @@ TEST_CASE("the solver step spread over the period (rows one behind and scan ahea
 		cfg.autorun = 1;
 		Ctl k(cfg);
 		/* the twin: the same water and object, each step finished whole at the period's last tick */
-		std::vector<int32_t> store(SWELL_WAVE_VEL_WORDS(cfg.nx, cfg.ny));
+		std::vector<int32_t> store(SWELL_WAVE_WORDS(cfg.nx, cfg.ny));
 		swell_wave w{};
 		swell_body b{};
 		const swell_body_scene sc = {cfg.dx_um, cfg.tick_hz, cfg.solver_hz};
-		REQUIRE(swell_wave_init_form(&w, cfg.nx, cfg.ny, store.data(), store.size(), &cfg.wave, SWELL_FORM_VELOCITY) ==
-			SWELL_OK);
-		REQUIRE(k.c.wave.form == SWELL_FORM_VELOCITY);
+		REQUIRE(swell_wave_init(&w, cfg.nx, cfg.ny, store.data(), store.size(), &cfg.wave) == SWELL_OK);
 		REQUIRE(swell_body_init(&b, &cfg.body, &cfg.xform, &sc, &w) == SWELL_OK);
 		int ahead_ticks = 0, wet = 0;
 		for (uint32_t t = 0; t < tick_hz; t++) { /* 1 s: down into the water from 20 mm above, swaying */

@@ -14,15 +14,14 @@ static const char usage[] =
 	"usage: swell-fw-scene [--steps N] [--core TICKS] [--core-hz HZ] [--cost]\n"
 	"Runs the STM32F405 self-test scene on the host: 64x64 pool, dx 6.25 mm, depth 50 mm,\n"
 	"dt 4 ms, paper stencil, no damping, Gaussian 2 mm sigma 3 cells at (32,32); N solver steps\n"
-	"(default 200). Prints the state checksum (CRC-32 of heights and flows) and the volume.\n"
+	"(default 200). Prints the state checksum (CRC-32 of heights and momenta) and the volume.\n"
 	"--core TICKS: also run the controller core on that scene at 2500 Hz for TICKS ticks with the\n"
 	"self-test's scripted device, and print its checksum (FORCE_CMD payloads, then the water).\n"
 	"--core-hz HZ: the core's tick rate for --core (default 2500; the image also runs 1000).\n"
 	"--pool N: the core on an N x N pool instead, set as the image's self-test sets it (PARAM_SET of\n"
 	"  pool.nx and pool.ny through the core's ctl_pool.c; the same bits wherever the buffers are).\n"
-	"--cost: also run the three cost scenes (calm, local, agitated; damped, 40 steps), in the edge-flux\n"
-	"  and then the velocity form (velocity-calm, ...), and print\n"
-	"each one's checksum, as the image's self-test does.\n"
+	"--cost: also run the three cost scenes (calm, local, agitated; damped, 40 steps) and print\n"
+	"  each one's checksum, as the image's self-test does.\n"
 	"--kernel ref|fused|avx2: the solver kernel (default: the fastest; all are bit-identical).\n";
 
 /* A scene bound with err: the kernel chosen, then steps of it; 0 (said why) when either is refused. */
@@ -44,7 +43,7 @@ int main(int argc, char **argv)
 {
 	static int32_t storage[FW_SCENE_WORDS];
 	static int32_t arena[FW_CORE_ARENA_WORDS];
-	static int32_t pool_arena[SWELL_WAVE_VEL_WORDS(SWELL_GRID_MAX, SWELL_GRID_MAX)];
+	static int32_t pool_arena[SWELL_WAVE_WORDS(SWELL_GRID_MAX, SWELL_GRID_MAX)];
 	static int32_t pool_apart[SWELL_GRID_MAX * SWELL_GRID_MAX * 3 / 2];
 	const struct fw_mem mem = { pool_arena, sizeof(pool_arena) / 4, pool_apart, sizeof(pool_apart) / 4, "host" };
 	static struct swell_ctl ctl;
@@ -106,36 +105,23 @@ int main(int argc, char **argv)
 			return 2;
 		}
 	}
-	err = fw_scene_init(&w, storage, FW_SCENE_WORDS, SWELL_FORM_EDGE);
-	if (err != SWELL_OK) {
-		fprintf(stderr, "swell-fw-scene: scene refused: %s\n", swell_err_str(err));
-		return 1;
-	}
-	if (swell_wave_set_kernel(&w, kernel) != SWELL_OK) {
+	err = fw_scene_init(&w, storage, FW_SCENE_WORDS);
+	if (err == SWELL_OK && swell_wave_set_kernel(&w, kernel) != SWELL_OK) {
 		fprintf(stderr, "swell-fw-scene: kernel %s is not available here\n", swell_wave_kernel_name(kernel));
 		return 2;
 	}
-	for (n = 0; n < steps; n++)
-		swell_wave_step(&w);
+	if (!run_steps(&w, err, kernel, steps, "scene"))
+		return 1;
 	printf("kernel %s\n", swell_wave_kernel_name((enum swell_wave_kernel)w.kernel));
 	printf("steps %lu\n", steps);
 	printf("e 0x%08x (Q1.30)\n", (unsigned)w.p.e);
 	printf("checksum 0x%08x\n", (unsigned)swell_wave_checksum(&w));
 	printf("volume %lld LSB (2^-16 mm per cell)\n", (long long)swell_wave_volume(&w));
-	/* the same scene in the velocity form, undamped (the image's "velocity splash") */
-	err = fw_scene_init(&w, storage, FW_SCENE_WORDS, SWELL_FORM_VELOCITY);
-	if (!run_steps(&w, err, kernel, steps, "velocity scene"))
-		return 1;
-	printf("velocity splash checksum 0x%08x\n", (unsigned)swell_wave_checksum(&w));
-	for (i = 0; cost && i < 2 * FW_COST_SCENES; i++) { /* edge-flux, then velocity form */
-		const int velocity = i >= FW_COST_SCENES;
-
-		err = fw_cost_scene_init(&w, storage, FW_SCENE_WORDS, (enum fw_cost_scene)(i % FW_COST_SCENES),
-					 velocity ? SWELL_FORM_VELOCITY : SWELL_FORM_EDGE);
+	for (i = 0; cost && i < FW_COST_SCENES; i++) {
+		err = fw_cost_scene_init(&w, storage, FW_SCENE_WORDS, (enum fw_cost_scene)i);
 		if (!run_steps(&w, err, kernel, FW_COST_STEPS, "cost scene"))
 			return 1;
-		printf("cost scene %s%s checksum 0x%08x\n", velocity ? "velocity-" : "",
-		       fw_cost_scene_name[i % FW_COST_SCENES], (unsigned)swell_wave_checksum(&w));
+		printf("cost scene %s checksum 0x%08x\n", fw_cost_scene_name[i], (unsigned)swell_wave_checksum(&w));
 	}
 	if (core_ticks) {
 		struct fw_core_run r;

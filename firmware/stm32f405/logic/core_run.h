@@ -15,8 +15,8 @@
 
 /* Arena words for the 64 x 64 reference scene (checked against swell_ctl_arena_words at init): the
  * field, the sent samples and the telemetry's stale-quad bits (16 a tile). */
-#define FW_CORE_ARENA_WORDS                                                                         \
-	(SWELL_WAVE_VEL_WORDS(SWELL_POOL_N, SWELL_POOL_N) + (SWELL_POOL_N * SWELL_POOL_N + 1) / 2 + \
+#define FW_CORE_ARENA_WORDS                                                                     \
+	(SWELL_WAVE_WORDS(SWELL_POOL_N, SWELL_POOL_N) + (SWELL_POOL_N * SWELL_POOL_N + 1) / 2 + \
 	 (SWELL_WAVE_TILES(SWELL_POOL_N, SWELL_POOL_N) + 1) / 2)
 
 struct fw_core_run {

@@ -2,7 +2,7 @@
 
 #include "swell/shape.h"
 
-enum swell_err fw_scene_init(struct swell_wave *w, int32_t *storage, size_t words, enum swell_wave_form form)
+enum swell_err fw_scene_init(struct swell_wave *w, int32_t *storage, size_t words)
 {
 	struct swell_wave_params p = { .damping = 0, .stencil = SWELL_STENCIL_PAPER };
 	enum swell_err err;
@@ -10,7 +10,7 @@ enum swell_err fw_scene_init(struct swell_wave *w, int32_t *storage, size_t word
 	err = swell_wave_e_from_physical(FW_SCENE_G_MM_S2, FW_SCENE_DT_US, FW_SCENE_DEPTH_UM, FW_SCENE_DX_UM, &p.e);
 	if (err != SWELL_OK)
 		return err;
-	err = swell_wave_init_form(w, FW_SCENE_NX, FW_SCENE_NY, storage, words, &p, form);
+	err = swell_wave_init(w, FW_SCENE_NX, FW_SCENE_NY, storage, words, &p);
 	if (err != SWELL_OK)
 		return err;
 	swell_shape_gauss(w->h, w->nx, w->ny, 32 * SWELL_Q16_ONE, 32 * SWELL_Q16_ONE, 3 * SWELL_Q16_ONE,
@@ -21,8 +21,7 @@ enum swell_err fw_scene_init(struct swell_wave *w, int32_t *storage, size_t word
 
 const char *const fw_cost_scene_name[FW_COST_SCENES] = { "calm", "local", "agitated" };
 
-enum swell_err fw_cost_scene_init(struct swell_wave *w, int32_t *storage, size_t words, enum fw_cost_scene s,
-				  enum swell_wave_form form)
+enum swell_err fw_cost_scene_init(struct swell_wave *w, int32_t *storage, size_t words, enum fw_cost_scene s)
 {
 	struct swell_wave_params p = { .damping = FW_COST_DAMPING, .stencil = SWELL_STENCIL_PAPER };
 	enum swell_err err;
@@ -34,7 +33,7 @@ enum swell_err fw_cost_scene_init(struct swell_wave *w, int32_t *storage, size_t
 	err = swell_wave_e_from_physical(FW_SCENE_G_MM_S2, FW_SCENE_DT_US, FW_SCENE_DEPTH_UM, FW_SCENE_DX_UM, &p.e);
 	if (err != SWELL_OK)
 		return err;
-	err = swell_wave_init_form(w, FW_SCENE_NX, FW_SCENE_NY, storage, words, &p, form);
+	err = swell_wave_init(w, FW_SCENE_NX, FW_SCENE_NY, storage, words, &p);
 	if (err != SWELL_OK)
 		return err;
 	if (s == FW_COST_LOCAL)

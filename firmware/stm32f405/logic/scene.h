@@ -21,10 +21,9 @@
 #define FW_SCENE_DEPTH_UM ((uint32_t)SWELL_POOL_DEPTH_UM)
 #define FW_SCENE_DX_UM ((uint32_t)SWELL_POOL_DX_UM)
 
-/* Bind storage (FW_SCENE_WORDS words) and set the initial field, in the form asked for (the image's
- * main scene is the edge-flux form's; the velocity form's undamped twin runs its kernel with fraction
- * bits). */
-enum swell_err fw_scene_init(struct swell_wave *w, int32_t *storage, size_t words, enum swell_wave_form form);
+/* Bind storage (FW_SCENE_WORDS words) and set the initial field (undamped: the kernel runs with
+ * fraction bits in u). */
+enum swell_err fw_scene_init(struct swell_wave *w, int32_t *storage, size_t words);
 
 /* The three cost scenes (calm, local, agitated), on the same pool with damping t = 0.001 (the demo's), so that
  * the damped kernel runs: CALM, the water at rest; LOCAL, one 2 mm splash of sigma 2 cells at
@@ -41,8 +40,6 @@ enum fw_cost_scene {
 
 extern const char *const fw_cost_scene_name[FW_COST_SCENES];
 
-/* form: the solver's form (the edge-flux form is the one the controller core runs). */
-enum swell_err fw_cost_scene_init(struct swell_wave *w, int32_t *storage, size_t words, enum fw_cost_scene s,
-				  enum swell_wave_form form);
+enum swell_err fw_cost_scene_init(struct swell_wave *w, int32_t *storage, size_t words, enum fw_cost_scene s);
 
 #endif

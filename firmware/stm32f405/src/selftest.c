@@ -65,7 +65,7 @@ static int run_split(uint32_t tick_hz, uint32_t solver_hz)
 	uint64_t t0, dt, slice_max = 0, finish_max = 0, sum = 0;
 	uint32_t sum_crc;
 
-	if (fw_scene_init(&wave, wave_storage, FW_SCENE_WORDS, SWELL_FORM_EDGE) != SWELL_OK)
+	if (fw_scene_init(&wave, wave_storage, FW_SCENE_WORDS) != SWELL_OK)
 		return 0;
 	for (n = 0; n < SWELL_FW_SELFTEST_STEPS; n++) {
 		for (t = 0; t + 1 < k; t++) {
@@ -106,7 +106,7 @@ static int run_scene(void)
 	enum swell_err err;
 	uint32_t n;
 
-	err = fw_scene_init(&wave, wave_storage, FW_SCENE_WORDS, SWELL_FORM_EDGE);
+	err = fw_scene_init(&wave, wave_storage, FW_SCENE_WORDS);
 	if (err != SWELL_OK) {
 		con_puts("selftest: scene refused: ");
 		con_puts(swell_err_str(err));
@@ -149,34 +149,21 @@ static int run_scene(void)
 	con_puts(" instructions per step (tick at 168 MHz, 1 tick = 125/21 instructions)\n");
 	con_puts("solver cell-step: ");
 	put_insn(sum, (uint64_t)SWELL_FW_SELFTEST_STEPS * FW_SCENE_NX * FW_SCENE_NY);
-	con_puts(" instructions per cell-step (swell_wave_step, edge-flux, 64x64)\n");
+	con_puts_u32(" instructions per cell-step (swell_wave_step, undamped, ", wave.vel_frac);
+	con_puts(" fraction bits, 64x64)\n");
 	return 1;
 }
 
-/* The main scene in the velocity form, undamped: the kernel's SMMLAR path and the height update with
- * fraction bits (the cost scenes and the core run damped, without them); its checksum the host
- * compares, its cost per cell-step. */
 static int scan_matches(const struct swell_body *b0, const struct swell_wave *w);
 
-static int run_scene_velocity(void)
+/* The ceiling scan with the fraction bits' shift (the main scene's, undamped), on a field where the
+ * momentum's negative part decides the highest value (a splash's crest would hide a wrong shift). */
+static int run_scan_check(void)
 {
-	uint64_t t0, sum = 0;
 	uint32_t n;
 
-	if (fw_scene_init(&wave, wave_storage, FW_SCENE_WORDS, SWELL_FORM_VELOCITY) != SWELL_OK)
+	if (fw_scene_init(&wave, wave_storage, FW_SCENE_WORDS) != SWELL_OK)
 		return 0;
-	for (n = 0; n < SWELL_FW_SELFTEST_STEPS; n++) {
-		t0 = timebase_systick();
-		swell_wave_step(&wave);
-		sum += timebase_systick() - t0;
-	}
-	con_puts("velocity splash: ");
-	put_insn(sum, (uint64_t)SWELL_FW_SELFTEST_STEPS * FW_SCENE_NX * FW_SCENE_NY);
-	con_puts_u32(" instructions per cell-step (undamped, ", wave.vel_frac);
-	con_puts_hex32(" fraction bits), checksum 0x", swell_wave_checksum(&wave));
-	con_putc('\n');
-	/* the ceiling scan with the fraction bits' shift, on a field where the momentum's negative part
-	 * decides the highest value (the splash's crest would hide a wrong shift) */
 	for (n = 0; n < FW_SCENE_NX * FW_SCENE_NY; n++) {
 		wave.h[n] = (int32_t)(n * 7919u % 4096u) - 2048;
 		wave.u[n] = -(int32_t)(n * 104729u % 65536u);
@@ -188,49 +175,46 @@ static int run_scene_velocity(void)
  * awake cell-step (tile rows not skipped), and the checksum the host compares. */
 static int run_cost(void)
 {
-	uint32_t k, n, f;
+	uint32_t k, n;
 
-	for (f = SWELL_FORM_EDGE; f <= SWELL_FORM_VELOCITY; f++)
-		for (k = 0; k < FW_COST_SCENES; k++) {
-			uint64_t t0, sum = 0, rows, awake;
+	for (k = 0; k < FW_COST_SCENES; k++) {
+		uint64_t t0, sum = 0, rows, awake;
 
-			if (fw_cost_scene_init(&wave, wave_storage, FW_SCENE_WORDS, (enum fw_cost_scene)k,
-					       (enum swell_wave_form)f) != SWELL_OK)
-				return 0;
-			for (n = 0; n < FW_COST_STEPS; n++) {
-				t0 = timebase_systick();
-				swell_wave_step(&wave);
-				sum += timebase_systick() - t0;
-			}
-			rows = (uint64_t)FW_COST_STEPS * FW_SCENE_NY * wave.tiles_x; /* tile rows, 8 cells each */
-			awake = rows - wave.tiles_skipped;
-			con_puts("cost scene ");
-			con_puts(f == SWELL_FORM_VELOCITY ? "velocity-" : "");
-			con_puts(fw_cost_scene_name[k]);
-			con_puts(": ");
-			put_insn(sum, (uint64_t)FW_COST_STEPS * FW_SCENE_NX * FW_SCENE_NY);
-			con_puts(" instructions per cell-step, ");
-			if (awake)
-				put_insn(sum, awake * SWELL_WAVE_TILE);
-			else
-				con_puts("-");
-			con_puts(" per awake cell-step, awake ");
-			con_put_ratio(awake * 100u, rows, 1);
-			con_puts_u32(" % (damped t = 0.001, 64x64, ", FW_COST_STEPS);
-			con_puts_hex32(" steps) checksum 0x", swell_wave_checksum(&wave));
-			con_putc('\n');
+		if (fw_cost_scene_init(&wave, wave_storage, FW_SCENE_WORDS, (enum fw_cost_scene)k) != SWELL_OK)
+			return 0;
+		for (n = 0; n < FW_COST_STEPS; n++) {
+			t0 = timebase_systick();
+			swell_wave_step(&wave);
+			sum += timebase_systick() - t0;
 		}
+		rows = (uint64_t)FW_COST_STEPS * FW_SCENE_NY * wave.tiles_x; /* tile rows, 8 cells each */
+		awake = rows - wave.tiles_skipped;
+		con_puts("cost scene ");
+		con_puts(fw_cost_scene_name[k]);
+		con_puts(": ");
+		put_insn(sum, (uint64_t)FW_COST_STEPS * FW_SCENE_NX * FW_SCENE_NY);
+		con_puts(" instructions per cell-step, ");
+		if (awake)
+			put_insn(sum, awake * SWELL_WAVE_TILE);
+		else
+			con_puts("-");
+		con_puts(" per awake cell-step, awake ");
+		con_put_ratio(awake * 100u, rows, 1);
+		con_puts_u32(" % (damped t = 0.001, 64x64, ", FW_COST_STEPS);
+		con_puts_hex32(" steps) checksum 0x", swell_wave_checksum(&wave));
+		con_putc('\n');
+	}
 	return 1;
 }
 
-/* Where the velocity form's agitated step goes: the row kernels (swell_wave_step_rows) against the
+/* Where the agitated step goes: the row kernels (swell_wave_step_rows) against the
  * finishing pass with the fixers (swell_wave_step_finish), instructions per cell-step. */
 static int run_cost_split(void)
 {
 	uint64_t t0, rows = 0, fin = 0;
 	uint32_t n;
 
-	if (fw_cost_scene_init(&wave, wave_storage, FW_SCENE_WORDS, FW_COST_AGITATED, SWELL_FORM_VELOCITY) != SWELL_OK)
+	if (fw_cost_scene_init(&wave, wave_storage, FW_SCENE_WORDS, FW_COST_AGITATED) != SWELL_OK)
 		return 0;
 	for (n = 0; n < FW_COST_STEPS; n++) {
 		t0 = timebase_systick();
@@ -240,7 +224,7 @@ static int run_cost_split(void)
 		swell_wave_step_finish(&wave);
 		fin += timebase_systick() - t0;
 	}
-	con_puts("cost split velocity-agitated: rows ");
+	con_puts("cost split agitated: rows ");
 	put_insn(rows, (uint64_t)FW_COST_STEPS * FW_SCENE_NX * FW_SCENE_NY);
 	con_puts(", finish and fixers ");
 	put_insn(fin, (uint64_t)FW_COST_STEPS * FW_SCENE_NX * FW_SCENE_NY);
@@ -251,7 +235,7 @@ static int run_cost_split(void)
 	return 1;
 }
 
-/* The damped velocity kernel in M4 assembly against the reference kernel, both on the image, from the
+/* The damped kernel in M4 assembly against the reference kernel, both on the image, from the
  * same start, on grids 64 x 64 (the band kernel, the wall rows) and 128 x 32 (128 cells a row: two
  * passes of 64): the lowest quarter at the bounds (the momentum and the heights clamp), the rest
  * still but for two rows of the first five eighths of the last band (its tiles' first rows sum to 0:
@@ -294,8 +278,7 @@ static int vel_kernel_check(uint16_t nx, uint16_t ny)
 	    (uint32_t)nx * ny > FW_SCENE_NX * FW_SCENE_NY)
 		return 0;
 	for (k = 0; k < 2; k++) {
-		if (swell_wave_init_form(&wave, nx, ny, wave_storage, FW_SCENE_WORDS, &p, SWELL_FORM_VELOCITY) !=
-			    SWELL_OK ||
+		if (swell_wave_init(&wave, nx, ny, wave_storage, FW_SCENE_WORDS, &p) != SWELL_OK ||
 		    swell_wave_set_kernel(&wave, k ? SWELL_KERNEL_FUSED : SWELL_KERNEL_REF) != SWELL_OK)
 			return 0;
 		vel_check_field(&wave);
@@ -492,7 +475,7 @@ __attribute__((noinline)) void selftest_trace_end(void)
 }
 
 /* The body's ceiling scan (LDM assembly on this core, one variant for each shift) against a plain
- * loop on a velocity-form field: the highest of h and h - floor(u / 2^F) (the solver's own change
+ * loop on a field: the highest of h and h - floor(u / 2^F) (the solver's own change
  * before its rounding, swell/wave.h), and sum(h). On a copy of the body, so a run is untouched. */
 static int scan_matches(const struct swell_body *b0, const struct swell_wave *w)
 {
@@ -628,7 +611,7 @@ int selftest_run(uint32_t tim_clk_hz)
 	ok &= run_scene();
 	ok &= run_split(2500, 250); /* HapticMaster servo rate */
 	ok &= run_split(1000, 250); /* classic CAN */
-	ok &= run_scene_velocity();
+	ok &= run_scan_check();
 	ok &= run_cost();
 	ok &= run_cost_split();
 	ok &= run_vel_kernel_check();

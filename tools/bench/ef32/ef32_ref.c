@@ -1,10 +1,10 @@
-/* The edge-flux form's reference kernel: the definition, one edge at a time (wave.h; wave_priv.h
- * has flow_ref, the rule for one edge). */
-#include "wave_priv.h"
+/* ef32's reference kernel: the definition, one edge at a time (ef32.h; ef32_priv.h has flow_ref,
+ * the rule for one edge). */
+#include "ef32_priv.h"
 
 /* The reference: one edge at a time, the E edges of the row, then the N, NE and NW edges up to the
  * next row; each flow added to its cell and taken from its neighbour at once. */
-int32_t swell_wave_edge_ref(struct swell_wave *w, int j, int i0, int i1, int damp)
+int32_t ef32_kernel_ref(struct ef32 *w, int j, int i0, int i1, int damp)
 {
 	const int nx = w->nx;
 	const q30_t ce = (j == 0 || j == w->ny - 1) ? w->c_wall : w->c_1;

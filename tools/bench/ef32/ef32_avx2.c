@@ -1,8 +1,8 @@
 /* The edge-flux form's AVX2 kernel (x86-64): one 8-lane register a tile row and edge kind; ragged
- * tiles and the top row go to the fused kernel. Same bits as swell_wave_edge_ref. */
-#include "wave_priv.h"
+ * tiles and the top row go to the fused kernel. Same bits as ef32_kernel_ref. */
+#include "ef32_priv.h"
 
-#if SWELL_WAVE_AVX2
+#if EF32_AVX2
 #include <immintrin.h>
 
 #define AVX2_FN __attribute__((target("avx2"))) static
@@ -39,7 +39,7 @@ AVX2_FN __m256i flow8(const struct avx2_k *K, __m256i f, __m256i dh, __m256i c, 
 /* A whole tile row (i1 = i0 + 8) that is not the top row. Lanes whose edge does not exist (E and NE
  * on the east wall, NW on the west wall) get coefficient 0: their flow stays 0, and their neighbour
  * loads are replaced by in-row copies so that nothing outside the field is read. */
-AVX2_FN int32_t segment_avx2_tile(struct swell_wave *w, int j, int i0, int damp)
+AVX2_FN int32_t segment_avx2_tile(struct ef32 *w, int j, int i0, int damp)
 {
 	const int nx = w->nx, west = i0 == 0, east = i0 + 8 == nx;
 	const int32_t *h = w->h + j * nx + i0, *hu = h + nx;
@@ -113,10 +113,10 @@ AVX2_FN int32_t segment_avx2_tile(struct swell_wave *w, int j, int i0, int damp)
 	return !_mm256_testz_si256(t, t);
 }
 
-int32_t swell_wave_edge_avx2(struct swell_wave *w, int j, int i0, int i1, int damp)
+int32_t ef32_kernel_avx2(struct ef32 *w, int j, int i0, int i1, int damp)
 {
 	if (i1 - i0 != 8 || j + 1 >= w->ny) /* a ragged tile or the top row */
-		return swell_wave_edge_fused(w, j, i0, i1, damp);
+		return ef32_kernel_fused(w, j, i0, i1, damp);
 	return segment_avx2_tile(w, j, i0, damp);
 }
 #endif

@@ -1,4 +1,5 @@
-/* Properties of the fixed-point wave solver (common/src/wave.c) against exact and float64 references. */
+/* Properties of ef32, the bench's edge-flux form of eq. (1) (ef32/ef32.c), against exact and float64
+ * references: volume, energy, eigenmode error, the stability boundary, saturation, sleeping tiles. */
 #include <catch2/catch.hpp>
 
 #include <algorithm>
@@ -11,6 +12,7 @@ extern "C" {
 #include "swell/shape.h"
 #include "swell/wave.h"
 #include "swell/wave_ref.h"
+#include "ef32/ef32.h"
 }
 
 namespace {
@@ -19,14 +21,14 @@ constexpr double kLsbMm = 1.0 / SWELL_H_ONE_MM;
 
 q30_t q30(double x) { return (q30_t)std::llround(x * SWELL_Q30_ONE); }
 
-/* A solver with its own storage. */
+/* An ef32 field with its own storage. */
 struct Field {
 	std::vector<int32_t> store;
-	swell_wave w{};
-	Field(int nx, int ny, double e, double t = 0, swell_stencil st = SWELL_STENCIL_PAPER) : store(SWELL_WAVE_WORDS(nx, ny))
+	ef32 w{};
+	Field(int nx, int ny, double e, double t = 0, swell_stencil st = SWELL_STENCIL_PAPER) : store(EF32_WORDS(nx, ny))
 	{
 		swell_wave_params p{q30(e), q30(t), st};
-		REQUIRE(swell_wave_init(&w, (uint16_t)nx, (uint16_t)ny, store.data(), store.size(), &p) == SWELL_OK);
+		REQUIRE(ef32_init(&w, (uint16_t)nx, (uint16_t)ny, store.data(), store.size(), &p) == SWELL_OK);
 	}
 	int n() const { return w.nx * w.ny; }
 	void random(uint32_t seed, double amp_mm)
@@ -35,12 +37,12 @@ struct Field {
 		std::uniform_int_distribution<int32_t> d(-(int32_t)(amp_mm * SWELL_H_ONE_MM), (int32_t)(amp_mm * SWELL_H_ONE_MM));
 		for (int a = 0; a < n(); a++)
 			w.h[a] = d(rng);
-		swell_wave_rest(&w);
+		ef32_rest(&w);
 	}
 	/* E * 2^31 exactly, as a 128-bit integer. */
 	__int128 energy() const
 	{
-		swell_energy en = swell_wave_energy(&w);
+		swell_energy en = ef32_energy(&w);
 		return (__int128)en.kin * ((__int128)1 << 31) + (__int128)en.e_eff * en.pot2;
 	}
 	int32_t max_abs() const
@@ -53,6 +55,24 @@ struct Field {
 };
 
 double to_double(__int128 x) { return (double)x; }
+
+/* The float64 reference of f's scheme at rest at its heights, h(n-1) = h - v (its e_eff and q). */
+void ref_from_ef32(swell_wave_ref *r, const ef32 *w, double *storage)
+{
+	const int n = w->nx * w->ny;
+	r->nx = w->nx;
+	r->ny = w->ny;
+	r->h = storage;
+	r->hp = storage + n;
+	r->next = storage + 2 * n;
+	r->e_eff = (double)w->e_eff / SWELL_Q30_ONE;
+	r->q = (double)w->q / SWELL_Q30_ONE;
+	r->steps = 0;
+	for (int a = 0; a < n; a++) {
+		r->h[a] = (double)w->h[a] / SWELL_H_ONE_MM;
+		r->hp[a] = r->h[a] - (double)w->v[a] / SWELL_H_ONE_MM;
+	}
+}
 
 /* The (m, n) eigenmode's discrete angular step for e_eff: cos(omega) = 1 + e_eff S / 2. */
 double discrete_omega(int nx, int ny, int m, int n, double e_eff)
@@ -76,10 +96,10 @@ TEST_CASE("a seiche eigenmode follows the exact discrete solution to rounding er
 	for (swell_stencil st : {SWELL_STENCIL_PAPER, SWELL_STENCIL_CALIBRATED}) {
 		Field f(nx, ny, (double)e / SWELL_Q30_ONE, 0, st);
 		swell_shape_seiche(f.w.h, nx, ny, m, n, (int32_t)(amp_mm * SWELL_H_ONE_MM));
-		swell_wave_rest(&f.w);
+		ef32_rest(&f.w);
 		std::vector<double> ref_store(SWELL_WAVE_REF_DOUBLES(nx, ny));
 		swell_wave_ref r;
-		swell_wave_ref_from_fixed(&r, &f.w, ref_store.data());
+		ref_from_ef32(&r, &f.w, ref_store.data());
 
 		const double e_eff = (double)f.w.e_eff / SWELL_Q30_ONE;
 		const double om = discrete_omega(nx, ny, m, n, e_eff);
@@ -88,7 +108,7 @@ TEST_CASE("a seiche eigenmode follows the exact discrete solution to rounding er
 		const double om_c = std::sqrt(9.81 * 0.05) * M_PI * std::hypot(m / lx, n / ly) * 0.004;
 		double err_fixed = 0, err_ref = 0, err_cont = 0, l2_fixed = 0;
 		for (int k = 1; k <= steps; k++) {
-			swell_wave_step(&f.w);
+			ef32_step(&f.w);
 			swell_wave_ref_step(&r);
 			/* at rest at n = 0 means h(-1) = h(0): c_k = cos(omega (k + 1/2)) / cos(omega / 2) */
 			double c = std::cos(om * (k + 0.5)) / std::cos(om / 2);
@@ -129,7 +149,7 @@ TEST_CASE("a seiche eigenmode follows the exact discrete solution to rounding er
 	}
 }
 
-TEST_CASE("the edge-flux solver equals the float64 three-level eq. (1) to rounding, walls included", "[wave][reference]")
+TEST_CASE("ef32 equals the float64 three-level eq. (1) to rounding, walls included", "[wave][reference]")
 {
 	struct Case {
 		int nx, ny;
@@ -145,10 +165,10 @@ TEST_CASE("the edge-flux solver equals the float64 three-level eq. (1) to roundi
 		f.random(11, 5.0);
 		std::vector<double> rs(SWELL_WAVE_REF_DOUBLES(c.nx, c.ny));
 		swell_wave_ref r;
-		swell_wave_ref_from_fixed(&r, &f.w, rs.data());
+		ref_from_ef32(&r, &f.w, rs.data());
 		double worst = 0;
 		for (int k = 0; k < 300; k++) {
-			swell_wave_step(&f.w);
+			ef32_step(&f.w);
 			swell_wave_ref_step(&r);
 			for (int a = 0; a < f.n(); a++)
 				worst = std::max(worst, std::fabs(f.w.h[a] * kLsbMm - r.h[a]));
@@ -169,11 +189,11 @@ TEST_CASE("volume is conserved exactly over 1e6 cell-steps from random fields, w
 			const double lim = (double)swell_wave_e_limit(q30(t), st) / SWELL_Q30_ONE;
 			Field f(32, 32, std::min(0.98 * lim, 1.9), t, st);
 			f.random(1234, 20.0);
-			const int64_t v0 = swell_wave_volume(&f.w);
+			const int64_t v0 = ef32_volume(&f.w);
 			long long worst = 0;
 			for (int k = 0; k < 1000; k++) { /* 1000 steps x 1024 cells */
-				swell_wave_step(&f.w);
-				worst = std::max(worst, std::llabs(swell_wave_volume(&f.w) - v0));
+				ef32_step(&f.w);
+				worst = std::max(worst, std::llabs(ef32_volume(&f.w) - v0));
 			}
 			INFO("t " << t << " stencil " << st << ": worst volume drift " << worst << " LSB");
 			CHECK(worst == 0);
@@ -191,7 +211,7 @@ TEST_CASE("energy never increases with damping and stays bounded without", "[wav
 		const double e0 = to_double(f.energy());
 		double worst = 0;
 		for (int k = 0; k < 5000; k++) {
-			swell_wave_step(&f.w);
+			ef32_step(&f.w);
 			worst = std::max(worst, std::fabs(to_double(f.energy()) - e0) / e0);
 		}
 		WARN("t = 0, e = 0.45, 5000 steps: worst relative energy drift " << worst);
@@ -212,7 +232,7 @@ TEST_CASE("energy never increases with damping and stays bounded without", "[wav
 			double worst_rise = 0;
 			const __int128 floor_ = (__int128)4 * 4 * 32 * 32 * ((__int128)1 << 31);
 			for (int k = 0; k < 3000; k++) {
-				swell_wave_step(&f.w);
+				ef32_step(&f.w);
 				__int128 now = f.energy();
 				if (now > prev) {
 					rises++;
@@ -235,19 +255,19 @@ TEST_CASE("just under the stability limit stays bounded for 1e5 steps, at or ove
 {
 	for (double t : {0.0, 0.1}) {
 		const q30_t lim = swell_wave_e_limit(q30(t), SWELL_STENCIL_PAPER);
-		std::vector<int32_t> store(SWELL_WAVE_WORDS(12, 12));
-		swell_wave w;
+		std::vector<int32_t> store(EF32_WORDS(12, 12));
+		ef32 w;
 		swell_wave_params under{lim - 2, q30(t), SWELL_STENCIL_PAPER};
-		REQUIRE(swell_wave_init(&w, 12, 12, store.data(), store.size(), &under) == SWELL_OK);
+		REQUIRE(ef32_init(&w, 12, 12, store.data(), store.size(), &under) == SWELL_OK);
 		std::mt19937 rng(99);
 		for (int a = 0; a < 144; a++)
 			w.h[a] = (int32_t)(rng() % (2 * SWELL_H_ONE_MM)) - SWELL_H_ONE_MM;
-		swell_wave_rest(&w);
+		ef32_rest(&w);
 		int32_t start = 0, worst = 0;
 		for (int a = 0; a < 144; a++)
 			start = std::max(start, std::abs(w.h[a]));
 		for (int k = 0; k < 100000; k++) {
-			swell_wave_step(&w);
+			ef32_step(&w);
 			if ((k & 255) == 0)
 				for (int a = 0; a < 144; a++)
 					worst = std::max(worst, std::abs(w.h[a]));
@@ -257,15 +277,13 @@ TEST_CASE("just under the stability limit stays bounded for 1e5 steps, at or ove
 		CHECK(worst < 20 * start);
 
 		/* at the limit and just over: refused, state untouched */
-		swell_wave before = w;
 		std::vector<int32_t> snap(store);
 		for (q30_t e : {lim, lim + 2, lim + 1000}) {
 			swell_wave_params over{e, q30(t), SWELL_STENCIL_PAPER};
 			CHECK(swell_wave_check(&over) == SWELL_EUNSTABLE);
-			CHECK(swell_wave_set_params(&w, &over) == SWELL_EUNSTABLE);
-			CHECK(std::memcmp(&before, &w, sizeof(w)) == 0);
-			swell_wave fresh{};
-			CHECK(swell_wave_init(&fresh, 12, 12, store.data(), store.size(), &over) == SWELL_EUNSTABLE);
+			ef32 fresh{};
+			CHECK(ef32_init(&fresh, 12, 12, store.data(), store.size(), &over) == SWELL_EUNSTABLE);
+			CHECK(fresh.h == nullptr);
 		}
 		CHECK(snap == store);
 	}
@@ -275,51 +293,15 @@ TEST_CASE("just under the stability limit stays bounded for 1e5 steps, at or ove
 	CHECK((double)swell_wave_e_limit(0, SWELL_STENCIL_CALIBRATED) / SWELL_Q30_ONE == Approx(1.0).epsilon(1e-9));
 }
 
-TEST_CASE("malformed parameters are refused with a reason and change nothing", "[wave][params]")
-{
-	Field f(8, 8, 0.2);
-	f.random(3, 1.0);
-	swell_wave before = f.w;
-	std::vector<int32_t> snap(f.store);
-	swell_wave_params bad[] = {
-		{0, 0, SWELL_STENCIL_PAPER}, /* e = 0 */
-		{-q30(0.1), 0, SWELL_STENCIL_PAPER}, /* e < 0 */
-		{q30(0.2), -1, SWELL_STENCIL_PAPER}, /* t < 0 */
-		{q30(0.2), SWELL_Q30_ONE, SWELL_STENCIL_PAPER}, /* t = 1 */
-		{q30(0.2), 0, (swell_stencil)7}, /* unknown stencil */
-		{q30(1.5), q30(0.9), SWELL_STENCIL_PAPER}, /* e_eff above 1: coefficient range */
-	};
-	enum swell_err want[] = {SWELL_ERANGE, SWELL_ERANGE, SWELL_ERANGE, SWELL_ERANGE, SWELL_EINVAL, SWELL_ERANGE};
-	for (size_t k = 0; k < sizeof(bad) / sizeof(bad[0]); k++) {
-		INFO("case " << k);
-		CHECK(swell_wave_set_params(&f.w, &bad[k]) == want[k]);
-	}
-	CHECK(swell_wave_set_params(&f.w, nullptr) == SWELL_EINVAL);
-	CHECK(std::memcmp(&before, &f.w, sizeof(before)) == 0);
-	CHECK(snap == f.store);
-
-	swell_wave w{};
-	std::vector<int32_t> small(SWELL_WAVE_WORDS(8, 8) - 1);
-	swell_wave_params ok{q30(0.2), 0, SWELL_STENCIL_PAPER};
-	CHECK(swell_wave_init(&w, 8, 8, small.data(), small.size(), &ok) == SWELL_ESIZE);
-	CHECK(swell_wave_init(&w, 1, 8, small.data(), small.size(), &ok) == SWELL_ESIZE);
-	CHECK(swell_wave_init(&w, 8, 2000, small.data(), small.size(), &ok) == SWELL_ESIZE);
-	CHECK(w.h == nullptr);
-	q30_t e = 77;
-	CHECK(swell_wave_e_from_physical(9810, 0, 50000, 6250, &e) == SWELL_ERANGE);
-	CHECK(swell_wave_e_from_physical(9810, 400000, 50000, 6250, &e) == SWELL_ERANGE); /* e >= 2 */
-	CHECK(e == 77);
-}
-
 TEST_CASE("extreme inputs saturate at the int28 bounds (+-2048 mm) and never wrap", "[wave][saturation]")
 {
 	Field f(16, 16, 0.49);
 	for (int j = 0; j < 16; j++)
 		for (int i = 0; i < 16; i++) /* checkerboard at full scale: the fastest, largest mode */
 			f.w.h[j * 16 + i] = ((i + j) & 1) ? SWELL_H_MAX : -SWELL_H_MAX;
-	swell_wave_rest(&f.w);
+	ef32_rest(&f.w);
 	for (int k = 0; k < 2000; k++) {
-		swell_wave_step(&f.w);
+		ef32_step(&f.w);
 		for (int a = 0; a < f.n(); a++) {
 			REQUIRE(f.w.h[a] <= SWELL_H_MAX);
 			REQUIRE(f.w.h[a] >= SWELL_H_MIN);
@@ -334,102 +316,37 @@ TEST_CASE("extreme inputs saturate at the int28 bounds (+-2048 mm) and never wra
 		CHECK(x == SWELL_H_MAX);
 }
 
-TEST_CASE("integer exp and cos match the exact functions", "[shape]")
-{
-	double worst_exp = 0, worst_cos = 0;
-	for (int k = 0; k < 32 * 64; k++) {
-		q16_t x = (q16_t)(k * (SWELL_Q16_ONE / 64));
-		worst_exp =
-			std::max(worst_exp,
-				 std::fabs((double)swell_exp_neg_q16(x) / SWELL_Q30_ONE - std::exp(-(double)x / SWELL_Q16_ONE)));
-	}
-	for (int num = -500; num <= 500; num++)
-		worst_cos = std::max(worst_cos,
-				     std::fabs((double)swell_cos_pi_frac(num, 97) / SWELL_Q30_ONE - std::cos(M_PI * num / 97)));
-	WARN("integer exp error " << worst_exp << ", cos error " << worst_cos);
-	CHECK(worst_exp < 2e-6);
-	CHECK(worst_cos < 1e-8);
-	CHECK(swell_exp_neg_q16(0) == SWELL_Q30_ONE);
-	CHECK(swell_exp_neg_q16(40 << 16) == 0);
-}
-
-TEST_CASE("a step split into row slices is bit-identical to a whole step", "[wave][split]")
-{
-	Field whole(23, 17, 0.3, 0.01), split(23, 17, 0.3, 0.01);
-	whole.random(21, 3.0);
-	split.random(21, 3.0);
-	std::mt19937 rng(4);
-	for (int k = 0; k < 200; k++) {
-		swell_wave_step(&whole.w);
-		/* slices of random size, with the force law's reads in between seeing h(n) and v intact */
-		std::vector<int32_t> h_before(split.w.h, split.w.h + split.n()), v_before(split.w.v, split.w.v + split.n());
-		while (swell_wave_step_rows(&split.w, 1 + (int)(rng() % 5)) > 0) {
-			REQUIRE(std::equal(h_before.begin(), h_before.end(), split.w.h));
-			REQUIRE(std::equal(v_before.begin(), v_before.end(), split.w.v));
-		}
-		swell_wave_step_finish(&split.w);
-		REQUIRE(swell_wave_checksum(&whole.w) == swell_wave_checksum(&split.w));
-	}
-	CHECK(std::equal(whole.w.v, whole.w.v + whole.n(), split.w.v));
-	CHECK(whole.w.steps == split.w.steps);
-}
-
-TEST_CASE("water added from outside arrives at the next finish and is conserved from then on", "[wave][add]")
-{
-	Field f(16, 16, 0.25, 0.02);
-	f.random(8, 1.0);
-	const int64_t v0 = swell_wave_volume(&f.w);
-	swell_wave_step_rows(&f.w, 5);
-	swell_wave_add(&f.w, 3, 4, 1000);
-	swell_wave_add(&f.w, 15, 15, -250);
-	swell_wave_add(&f.w, 16, 0, 999); /* outside: ignored */
-	swell_wave_add(&f.w, -1, 0, 999);
-	CHECK(swell_wave_volume(&f.w) == v0); /* not yet */
-	swell_wave_step_finish(&f.w);
-	CHECK(swell_wave_volume(&f.w) == v0 + 750);
-	for (int k = 0; k < 1000; k++)
-		swell_wave_step(&f.w);
-	CHECK(swell_wave_volume(&f.w) == v0 + 750);
-	/* huge additions saturate instead of wrapping */
-	for (int k = 0; k < 8; k++)
-		swell_wave_add(&f.w, 0, 0, INT32_MAX);
-	swell_wave_step_finish(&f.w);
-	CHECK(f.w.h[0] == SWELL_H_MAX);
-}
-
 TEST_CASE("sleeping tiles are lossless: bit-identical to the full update, splash, touches and all", "[wave][sleep]")
 {
 	for (double t : {0.0, 0.02}) {
 		Field awake(45, 37, 0.3, t), sleepy(45, 37, 0.3, t);
-		swell_wave_set_sleep(&awake.w, 0);
+		ef32_set_sleep(&awake.w, 0);
 		/* one local splash in a calm pool */
 		for (Field *f : {&awake, &sleepy}) {
 			swell_shape_gauss(f->w.h, 45, 37, 10 << 16, 8 << 16, 1 << 16, 3 * SWELL_H_ONE_MM);
-			swell_wave_rest(&f->w);
+			ef32_rest(&f->w);
 		}
 		std::mt19937 rng(17);
 		for (int k = 0; k < 3000; k++) {
-			if (k % 97 == 50) { /* water moved in from outside, two ways */
+			if (k % 97 == 50) { /* water moved in from outside */
 				int i = (int)(rng() % 45), j = (int)(rng() % 37);
 				int32_t d = (int32_t)(rng() % 2000) - 1000;
 				for (Field *f : {&awake, &sleepy}) {
-					swell_wave_add(&f->w, i, j, d);
 					f->w.h[(j * 45 + 44 - i)] += d;
-					swell_wave_touched(&f->w, 44 - i, j);
+					ef32_touched(&f->w, 44 - i, j);
 				}
 			}
-			if (k % 89 == 30) { /* a write between two slices of a step */
+			if (k % 89 == 30) { /* a second write, inside the grid */
 				int i = (int)(rng() % 45), j = 12 + (int)(rng() % 20);
 				int32_t d = (int32_t)(rng() % 4000) - 2000;
 				for (Field *f : {&awake, &sleepy}) {
-					swell_wave_step_rows(&f->w, 11);
 					f->w.h[j * 45 + i] += d;
-					swell_wave_touched(&f->w, i, j);
+					ef32_touched(&f->w, i, j);
 				}
 			}
-			swell_wave_step(&awake.w);
-			swell_wave_step(&sleepy.w);
-			REQUIRE(swell_wave_checksum(&awake.w) == swell_wave_checksum(&sleepy.w));
+			ef32_step(&awake.w);
+			ef32_step(&sleepy.w);
+			REQUIRE(ef32_checksum(&awake.w) == ef32_checksum(&sleepy.w));
 		}
 		CHECK(std::equal(awake.w.v, awake.w.v + awake.n(), sleepy.w.v));
 		const double total = 3000.0 * 37 * sleepy.w.tiles_x;
@@ -441,10 +358,44 @@ TEST_CASE("sleeping tiles are lossless: bit-identical to the full update, splash
 	}
 	/* a calm pool costs nothing after the first two steps */
 	Field calm(64, 64, 0.2);
-	swell_wave_step(&calm.w);
-	swell_wave_step(&calm.w);
+	ef32_step(&calm.w);
+	ef32_step(&calm.w);
 	const uint32_t before = calm.w.tiles_skipped;
 	for (int k = 0; k < 10; k++)
-		swell_wave_step(&calm.w);
+		ef32_step(&calm.w);
 	CHECK(calm.w.tiles_skipped - before == 10u * 64 * 8);
+}
+
+TEST_CASE("ef32 gives the edge-flux form's former bits: the pool scene and the three cost scenes", "[wave][bits]")
+{
+	/* The controller self-test's scenes (64 x 64 pool, firmware/stm32f405/logic/scene.h) as the
+	 * edge-flux form ran them when it was the library's: 200 undamped steps of the 2 mm splash, and 40
+	 * damped steps (t = 0.001) of the calm, local and agitated pools. Every kernel gives these bits. */
+	q30_t e;
+	REQUIRE(swell_wave_e_from_physical(9810, 4000, 50000, 6250, &e) == SWELL_OK);
+	const uint32_t want[4] = {0xa9eda8d4u, 0xa7a90a69u, 0x5debd93au, 0x8cb93cd2u};
+	for (int sc = 0; sc < 4; sc++) {
+		for (swell_wave_kernel k : {SWELL_KERNEL_REF, SWELL_KERNEL_FUSED, SWELL_KERNEL_AVX2}) {
+			Field f(64, 64, (double)e / SWELL_Q30_ONE, sc ? 0.001 : 0);
+			if (ef32_set_kernel(&f.w, k) != SWELL_OK)
+				continue; /* AVX2 on a CPU without it */
+			REQUIRE(f.w.p.damping == (sc ? 1073742 : 0)); /* t = 0.001 as the scene sets it */
+			if (sc == 0)
+				swell_shape_gauss(f.w.h, 64, 64, 32 << 16, 32 << 16, 3 << 16, 2 * SWELL_H_ONE_MM);
+			if (sc == 2)
+				swell_shape_gauss(f.w.h, 64, 64, 12 << 16, 12 << 16, 2 << 16, 2 * SWELL_H_ONE_MM);
+			uint32_t x = 12345u;
+			for (int a = 0; sc == 3 && a < 64 * 64; a++) { /* xorshift32, as the scene */
+				x ^= x << 13;
+				x ^= x >> 17;
+				x ^= x << 5;
+				f.w.h[a] = (int32_t)(x % (4u * SWELL_H_ONE_MM + 1u)) - 2 * SWELL_H_ONE_MM;
+			}
+			ef32_rest(&f.w);
+			for (int s = 0; s < (sc ? 40 : 200); s++)
+				ef32_step(&f.w);
+			INFO("scene " << sc << " kernel " << swell_wave_kernel_name(k));
+			CHECK(ef32_checksum(&f.w) == want[sc]);
+		}
+	}
 }

@@ -1,0 +1,74 @@
+/* ef32's row kernels (ef32.h): one a file (ef32_ref.c, ef32_fused.c, ef32_avx2.c), called by ef32.c
+ * for the edges owned by cells [i0, i1) of row j (i0 a multiple of 8): E edges, and N, NE, NW edges
+ * up to row j+1 (none for the top row). Each returns non-zero if any new flow is non-zero; all give
+ * the same bits. */
+#ifndef SWELL_EF32_PRIV_H
+#define SWELL_EF32_PRIV_H
+
+#include <stdint.h>
+
+#include "ef32.h"
+
+/* x86-64 kernel with AVX2 (compiled for it, chosen after a CPU check) */
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(SWELL_NO_AVX2)
+#define EF32_AVX2 1
+#else
+#define EF32_AVX2 0
+#endif
+
+/* Tile flags. Z1: every flow of the tile's edges was zero after the last finished step. ZERO: after
+ * the last two. NONZERO: some edge gave a non-zero flow in the step in progress. CHANGED: a cell of
+ * the tile changed in the last finished step. TOUCHED: a cell changed (from outside, or at the
+ * finish) in the step in progress. DIRTY: the step in progress may have written acc in this tile.
+ * PREV: the same for the last finished step, whose acc is now v. SLEEPING: decided at the first row
+ * of the tile's row in this step. */
+#define T_ZERO 1u
+#define T_NONZERO 2u
+#define T_CHANGED 4u
+#define T_TOUCHED 8u
+#define T_Z1 16u
+#define T_DIRTY 32u
+#define T_DIRTY_PREV 64u
+#define T_SLEEPING 128u
+
+/* The flows of cell (i, j) start at this word; the four kinds are 8 words apart. */
+#define FE 0
+#define FN 8
+#define FNE 16
+#define FNW 24
+
+static inline int32_t *flows_at(const struct ef32 *w, int i, int j)
+{
+	return w->f + 32 * ((size_t)j * w->tiles_x + (size_t)i / SWELL_WAVE_TILE) + i % SWELL_WAVE_TILE;
+}
+
+/* Bounds that make every intermediate fit int32 (checked by the tests with extreme fields):
+ * |h| <= 2^27 so |dh| < 2^28 and |4 dh| < 2^30; c <= 1.5 * 2^30 so |c dh| / 2^30 < 1.5 * 2^28;
+ * |f| <= 2^27 so |s| < 2^27 + 1.5 * 2^28 = 2^29 and |4 s| < 2^31. */
+static inline int32_t sat28(int32_t x, uint32_t *sat)
+{
+	if (x > SWELL_H_MAX || x < SWELL_H_MIN) {
+		*sat = 1;
+		return x > SWELL_H_MAX ? SWELL_H_MAX : SWELL_H_MIN;
+	}
+	return x;
+}
+
+/* THE definition of one edge: s = f + round_nearest(c dh / 2^30), ties up; damped:
+ * s = round_toward_zero(q s / 2^30), which is floor + (s < 0) because q is odd; then saturated. */
+static inline int32_t flow_ref(int32_t f, int32_t dh, q30_t c, q30_t q, int damp, uint32_t *sat)
+{
+	int32_t s = f + (int32_t)(((int64_t)dh * c + ((int64_t)1 << 29)) >> 30);
+
+	if (damp)
+		s = (int32_t)(((int64_t)s * q) >> 30) - (s >> 31);
+	return sat28(s, sat);
+}
+
+int32_t ef32_kernel_ref(struct ef32 *w, int j, int i0, int i1, int damp);
+int32_t ef32_kernel_fused(struct ef32 *w, int j, int i0, int i1, int damp);
+#if EF32_AVX2
+int32_t ef32_kernel_avx2(struct ef32 *w, int j, int i0, int i1, int damp);
+#endif
+
+#endif
