@@ -67,7 +67,7 @@ static void usage(FILE *f)
 }
 
 struct opts {
-	struct flash_link_spec spec;
+	struct swell_client_spec spec;
 	int timeout_ms;
 	int json;
 	double seconds;

@@ -136,7 +136,7 @@ static int take_frame(struct tool_session *s, const struct swell_frame *f)
  * until the next; -1 on other carriers. */
 static int keep_alive(struct tool_session *s)
 {
-	return flash_link_keepalive(s->l, s->node, &s->keep_ns);
+	return swell_client_keepalive(s->l, s->node, &s->keep_ns);
 }
 
 int tool_pump(struct tool_session *s, int ms)
@@ -167,7 +167,7 @@ int tool_pump(struct tool_session *s, int ms)
 	}
 }
 
-enum tool_rc tool_open(struct tool_session *s, const struct flash_link_spec *spec, int timeout_ms, char *err,
+enum tool_rc tool_open(struct tool_session *s, const struct swell_client_spec *spec, int timeout_ms, char *err,
 		       size_t errlen)
 {
 	uint64_t until, found_ns = 0;
@@ -180,7 +180,7 @@ enum tool_rc tool_open(struct tool_session *s, const struct flash_link_spec *spe
 	s->silent_ms = timeout_ms > TOOL_SILENT_MS ? timeout_ms : TOOL_SILENT_MS;
 	s->t0_ns = swell_link_now_ns();
 	swell_link_spec_describe(&spec->link, s->name, sizeof(s->name));
-	rc = flash_link_open(spec, timeout_ms, &s->l);
+	rc = swell_client_open(spec, timeout_ms, &s->l);
 	if (rc < 0) {
 		snprintf(err, errlen, "cannot open %s: %s", s->name, strerror(-rc));
 		return TOOL_FAIL;

@@ -1,5 +1,5 @@
 /* swell-tool: one conversation with a running controller over its host link (UDP, CAN or USB, the
- * spellings of swell-view and swell-flash: flash_link.h). It listens to the controller's telemetry
+ * spellings of swell-view and swell-flash: swell/link_client.h). It listens to the controller's telemetry
  * (heartbeat, scene, controller info, object pose and force, heights) and keeps the latest of each,
  * and it sends parameter requests and commands and waits for their answers.
  *
@@ -10,7 +10,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "flash_link.h"
+#include "swell/link_client.h"
 #include "swell/proto.h"
 
 enum tool_rc {
@@ -42,7 +42,7 @@ struct tool_telemetry {
 };
 
 struct tool_session {
-	struct flash_link_spec spec;
+	struct swell_client_spec spec;
 	char name[64];
 	struct swell_link *l;
 	int node; /* the controller's node once found; -1 before */
@@ -62,7 +62,7 @@ struct tool_session {
 /* Open the link and wait up to timeout_ms for the controller's heartbeat (node spec->node, or the
  * one controller heard). Silence longer than timeout_ms (TOOL_SILENT_MS at least) later means the
  * controller is gone. TOOL_OK, or NO_CTL / WRONG_NODE / FAIL with a one-line reason in err. */
-enum tool_rc tool_open(struct tool_session *s, const struct flash_link_spec *spec, int timeout_ms, char *err,
+enum tool_rc tool_open(struct tool_session *s, const struct swell_client_spec *spec, int timeout_ms, char *err,
 		       size_t errlen);
 void tool_close(struct tool_session *s);
 

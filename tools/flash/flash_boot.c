@@ -59,7 +59,7 @@ static int next_frame(struct session *s, uint64_t end, struct swell_msg *m, size
 		if (now >= end)
 			return -1;
 		wait_ms = (int)((end - now) / 1000000u) + 1;
-		due = flash_link_keepalive(s->l, s->heard, &s->keep_ns); /* UDP: stay a client */
+		due = swell_client_keepalive(s->l, s->heard, &s->keep_ns); /* UDP: stay a client */
 		rc = swell_link_recv(s->l, &f, due >= 0 && due < wait_ms ? due : wait_ms);
 		if (rc == -ENODEV && !s->gone_ns)
 			s->gone_ns = swell_link_now_ns();
@@ -127,7 +127,7 @@ static int send_msgs(struct session *s, const struct swell_msg *m, size_t n)
 	return 0;
 }
 
-static int open_session(struct session *s, const struct flash_link_spec *spec, int wait_ms, char *where, size_t wlen)
+static int open_session(struct session *s, const struct swell_client_spec *spec, int wait_ms, char *where, size_t wlen)
 {
 	int rc;
 
@@ -135,7 +135,7 @@ static int open_session(struct session *s, const struct flash_link_spec *spec, i
 	s->node = spec->node;
 	s->heard = -1;
 	swell_link_spec_describe(&spec->link, where, wlen);
-	rc = flash_link_open(spec, wait_ms, &s->l);
+	rc = swell_client_open(spec, wait_ms, &s->l);
 	if (rc == 0)
 		s->carrier = swell_link_carrier(s->l);
 	return rc;
@@ -192,7 +192,7 @@ static enum flash_boot_result find_target(struct session *s, const char *where, 
 	return BOOT_ENTERED;
 }
 
-enum flash_boot_result flash_enter_bootloader(const struct flash_link_spec *spec, int force, int watch_ms,
+enum flash_boot_result flash_enter_bootloader(const struct swell_client_spec *spec, int force, int watch_ms,
 					      struct flash_boot_times *times, char *msg, size_t msg_len)
 {
 	struct session s;
@@ -286,7 +286,7 @@ out:
 	return r;
 }
 
-int flash_find_controller(const struct flash_link_spec *spec, int timeout_ms, struct flash_found *out, char *msg,
+int flash_find_controller(const struct swell_client_spec *spec, int timeout_ms, struct flash_found *out, char *msg,
 			  size_t msg_len)
 {
 	struct session s;

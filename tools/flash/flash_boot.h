@@ -1,4 +1,4 @@
-/* swell-flash: ask a running controller, over its host link (UDP, CAN or USB: flash_link.h), to
+/* swell-flash: ask a running controller, over its host link (UDP, CAN or USB: swell/link_client.h), to
  * enter its bootloader (ENTER_BOOTLOADER with the key), the way a viewer talks to it; after
  * flashing, find it again and read the firmware version it reports (CTL_INFO). */
 #ifndef SWELL_FLASH_BOOT_H
@@ -7,7 +7,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "flash_link.h"
+#include "swell/link_client.h"
 
 enum flash_boot_result {
 	BOOT_ENTERED = 0, /* request sent, the controller's heartbeat stopped (it reboots) */
@@ -29,7 +29,7 @@ struct flash_boot_times {
  * RUNNING refuse unless force, in which case send PARAM_SET AUTORUN=0 and COMMAND=STOP and wait for
  * it to leave RUNNING; then send ENTER_BOOTLOADER and watch the heartbeat for watch_ms. Progress
  * lines go to stdout; msg gets a one-line outcome; times (may be NULL) what the watch saw. */
-enum flash_boot_result flash_enter_bootloader(const struct flash_link_spec *spec, int force, int watch_ms,
+enum flash_boot_result flash_enter_bootloader(const struct swell_client_spec *spec, int force, int watch_ms,
 					      struct flash_boot_times *times, char *msg, size_t msg_len);
 
 /* What a controller reports in CTL_INFO. */
@@ -44,7 +44,7 @@ struct flash_found {
 /* Listen on the link (a USB device is waited for) for up to timeout_ms for a CTL_INFO of
  * spec->node (any node when -1), sent at start and at 1 Hz.
  * 0 found (*out filled); -1 nothing heard (msg says so); -2 the link cannot be opened. */
-int flash_find_controller(const struct flash_link_spec *spec, int timeout_ms, struct flash_found *out, char *msg,
+int flash_find_controller(const struct swell_client_spec *spec, int timeout_ms, struct flash_found *out, char *msg,
 			  size_t msg_len);
 
 #endif

@@ -74,7 +74,7 @@ struct cfg {
 	const char *image, *work_dir, *console, *expect_version;
 	int backend, dry_run, check_only, gdb_server_set, force;
 	int boot, find; /* --enter-bootloader, --find given (find: also after boot, unless --no-find) */
-	struct flash_link_spec boot_link, find_link;
+	struct swell_client_spec boot_link, find_link;
 	int node, iface; /* --node (-1: the one heard), --iface */
 	int no_find;
 	unsigned long mcu;
@@ -103,7 +103,7 @@ static double now_s(void)
 }
 
 /* A host link of an option; exit 2 with the reason otherwise. */
-static void link_arg(const char *opt, const char *l, struct flash_link_spec *out)
+static void link_arg(const char *opt, const char *l, struct swell_client_spec *out)
 {
 	char why[200];
 

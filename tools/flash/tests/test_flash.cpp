@@ -18,7 +18,7 @@
 
 extern "C" {
 #include "flash_image.h"
-#include "flash_link.h"
+#include "swell/link_client.h"
 #include "flash_plan.h"
 }
 

@@ -1,6 +1,6 @@
-/* swell-flash: the host link to a running controller; see flash_link.h. */
+/* The tools' link to a running controller; see swell/link_client.h. */
 #define _GNU_SOURCE
-#include "flash_link.h"
+#include "swell/link_client.h"
 
 #include <errno.h>
 #include <string.h>
@@ -9,7 +9,7 @@
 #include "swell/link.h"
 #include "swell/transport.h"
 
-int flash_link_open(const struct flash_link_spec *s, int wait_ms, struct swell_link **out)
+int swell_client_open(const struct swell_client_spec *s, int wait_ms, struct swell_link **out)
 {
 	uint64_t end = swell_link_now_ns() + (uint64_t)(wait_ms > 0 ? wait_ms : 0) * 1000000u;
 	const struct swell_link_open_opts o = { .udp_bind_port = SWELL_UDP_PORT_TOOLS_FIRST,
@@ -25,7 +25,7 @@ int flash_link_open(const struct flash_link_spec *s, int wait_ms, struct swell_l
 	}
 }
 
-int flash_link_keepalive(struct swell_link *l, int node, uint64_t *due_ns)
+int swell_client_keepalive(struct swell_link *l, int node, uint64_t *due_ns)
 {
 	const uint64_t now = swell_link_now_ns(), period = (uint64_t)SWELL_UDP_KEEPALIVE_MS * 1000000u;
 	struct swell_msg hb;
