@@ -14,6 +14,8 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "hm_client.h"
+#include "swell/link.h"
 #include "swell/num.h"
 
 int hm_serve_parse(const char *spec, struct sockaddr_in *sa, char *err, size_t errlen)
@@ -123,17 +125,11 @@ static size_t releasable(struct hm_conn *c, int64_t now)
 static int flush(struct hm_serve *s, int k)
 {
 	struct hm_conn *c = &s->c[k];
-	struct timespec t;
-	int64_t now;
-	size_t want;
 	unsigned j, keep;
 	size_t n;
-	int rc;
+	const int rc =
+		swell_hm_frame_flush(c->fd, c->out, &c->out_len, releasable(c, (int64_t)swell_link_now_ns()), &n);
 
-	clock_gettime(CLOCK_MONOTONIC, &t);
-	now = (int64_t)t.tv_sec * 1000000000 + t.tv_nsec;
-	want = releasable(c, now);
-	rc = swell_hm_frame_flush(c->fd, c->out, &c->out_len, want, &n);
 	s->st.bytes_out += (uint64_t)n;
 	for (j = keep = 0; j < c->held_n; j++) {
 		if (c->held_end[j] <= n)
@@ -154,11 +150,8 @@ static int queue(struct hm_serve *s, int k, const char *text, size_t n)
 		return -1;
 	s->st.replies++;
 	if (s->reply_delay_ns > 0 && c->held_n < HM_SERVE_HELD) {
-		struct timespec t;
-
-		clock_gettime(CLOCK_MONOTONIC, &t);
 		c->held_end[c->held_n] = c->out_len;
-		c->held_until_ns[c->held_n++] = (int64_t)t.tv_sec * 1000000000 + t.tv_nsec + s->reply_delay_ns;
+		c->held_until_ns[c->held_n++] = (int64_t)swell_link_now_ns() + s->reply_delay_ns;
 		s->st.delayed_replies++;
 	}
 	return 0;
@@ -233,19 +226,6 @@ void hm_serve_applied(struct hm_serve *s)
 	s->st.ages++;
 	if (age > s->st.age_max_ns)
 		s->st.age_max_ns = age;
-}
-
-double hm_serve_age_pct(const struct hm_serve *s, double p)
-{
-	uint64_t want = (uint64_t)(p * (double)s->st.ages + 0.999999), seen = 0;
-	int k;
-
-	for (k = 0; k <= HM_SERVE_AGE_US; k++) {
-		seen += s->st.age_hist[k];
-		if (want > 0 && seen >= want)
-			return k;
-	}
-	return 0;
 }
 
 /* Runs the whole requests in the input buffer, up to the tick's budget. -1: drop the client. */

@@ -89,9 +89,6 @@ void hm_serve_poll(struct hm_serve *s, struct hm_dev *d, int64_t now_ns);
  * age (kernel arrival to now). */
 void hm_serve_applied(struct hm_serve *s);
 
-/* Percentile p (0..1) of the request age at application, in us. */
-double hm_serve_age_pct(const struct hm_serve *s, double p);
-
 /* Fault injection (the bench's TCP faults): every client's connection reset (RST), or 16 bytes of
  * unframed garbage written to every client; replies delayed by setting reply_delay_ns. */
 void hm_serve_inject_reset(struct hm_serve *s, struct hm_dev *d);

@@ -4,6 +4,7 @@
 #include <poll.h>
 #include <string.h>
 
+#include "hm_client.h"
 #include "hm_cmd.h"
 #include "hm_main.h"
 #include "hm_serve.h"
@@ -53,14 +54,14 @@ static void serve_summary(const struct opts *o, const struct hm_serve *srv, cons
 	       (unsigned long long)st->bytes_out);
 	printf("  request age     p50 %.0f us, p99 %.0f us, max %.0f us at application (kernel arrival to the end "
 	       "of the step that applies it; %llu ticks)\n",
-	       hm_serve_age_pct(srv, 0.5), hm_serve_age_pct(srv, 0.99), st->age_max_ns / 1e3,
+	       hm_hist_pct(st->age_hist, HM_SERVE_AGE_US, st->ages, 0.5),
+	       hm_hist_pct(st->age_hist, HM_SERVE_AGE_US, st->ages, 0.99), st->age_max_ns / 1e3,
 	       (unsigned long long)st->ages);
 	if (o->lockstep)
 		printf("  timeouts        %llu (lockstep waits of %u ms without a request)\n",
 		       (unsigned long long)r->timeouts, o->timeout_ms);
 	else
-		printf("  tick lateness   p50 %.0f us, p99 %.0f us, max %.0f us; %llu periods lost\n", pct(r, 0.5),
-		       pct(r, 0.99), r->late_max_ns / 1e3, (unsigned long long)r->late_ticks);
+		print_lateness(r);
 	printf("  device          state %s, %u effects stopped by the watchdog (bias forces zeroed, springs and "
 	       "dampers disabled; %u ticks), %u by a vanished client, %u e-stops\n",
 	       hm_dev_state_name(dev->state), dev->watchdog_trips, dev->watchdog_ticks, dev->vanished_zeroed,
@@ -109,7 +110,7 @@ int serve_main(struct opts *o, FILE *log, const double x0[3])
 	static struct run r;
 	struct hm_state s;
 	char err[160];
-	double dt = 1.0 / o->p.rate_hz, last_window = o->seconds > 1.0 ? o->seconds - 1.0 : 0.0;
+	double dt = 1.0 / o->p.rate_hz;
 	int64_t start, next, period_ns = (int64_t)llround(1e9 / o->p.rate_hz), last_status;
 	uint64_t n, total = (uint64_t)llround(o->seconds * o->p.rate_hz);
 	uint32_t requests_seen = 0, req_age = 0;
@@ -163,12 +164,7 @@ int serve_main(struct opts *o, FILE *log, const double x0[3])
 		requests_seen = srv.st.requests;
 		for (k = 0; k < 3; k++)
 			dev.a_m_s2[k] = (s.v[k] - v[k]) / dt;
-		{
-			double ref[3];
-
-			frame_from_dev(o, s.x, ref);
-			account(&r, &s, ref[2] * 1e3, t, last_window, holding);
-		}
+		account(&r, o, &s, t, holding);
 		if (log)
 			fprintf(log,
 				"%.4f,%.3f,%.3f,%.3f,%.2f,%.2f,%.2f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%d,%d,%d,%d,%d\n", t,

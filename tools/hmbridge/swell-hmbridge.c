@@ -182,13 +182,7 @@ static void on_signal(int sig)
 	stop_flag = 1;
 }
 
-static int64_t now_ns(void)
-{
-	struct timespec t;
-
-	clock_gettime(CLOCK_MONOTONIC, &t);
-	return (int64_t)t.tv_sec * 1000000000 + t.tv_nsec;
-}
+#define now_ns() ((int64_t)swell_link_now_ns())
 
 struct bridge {
 	struct swell_link *l;
@@ -270,23 +264,6 @@ static void take_commands(struct bridge *b)
 	}
 }
 
-static void send_msgs(struct bridge *b, const struct swell_msg *m, size_t n, uint8_t seq)
-{
-	struct swell_frame f;
-	size_t used;
-
-	while (n > 0) {
-		if (swell_link_encode(b->carrier, b->node, seq, m, n, &f, &used) != SWELL_OK || used == 0) {
-			b->send_errors++;
-			return;
-		}
-		if (swell_link_send(b->l, &f) < 0)
-			b->send_errors++;
-		m += used;
-		n -= used;
-	}
-}
-
 static void tick(struct bridge *b, const struct opts *o)
 {
 	struct swell_msg in[2 * HMC_RING], *newest = NULL;
@@ -307,7 +284,7 @@ static void tick(struct bridge *b, const struct opts *o)
 	if (newest) {
 		b->samples_dropped += n / 2 - 1;
 		b->samples_fwd++;
-		send_msgs(b, newest, 2, newest[1].u.device_pos.seq);
+		b->send_errors += hm_node_send(b->l, b->node, newest[1].u.device_pos.seq, newest, 2);
 		b->ans_age = 0;
 		b->hm_zeroed = 0;
 	} else {
