@@ -134,27 +134,16 @@ static const struct field *field(const struct field *t, size_t n, const char *na
 	return NULL;
 }
 
-static int parse_number(const char *s, double *x)
+/* n numbers: with n 1 a bare number (spaces and tabs may follow), else "[a,b,c]" with exactly n
+ * (spaces allowed around them). */
+static int parse_numbers(const char *s, double *v, int n)
 {
-	char *end;
-
-	if (!*s)
-		return -1;
-	errno = 0;
-	*x = strtod(s, &end);
-	while (*end == ' ' || *end == '\t')
-		end++;
-	return errno || end == s || *end || !isfinite(*x) ? -1 : 0;
-}
-
-/* "[a,b,c]" (spaces allowed) with exactly n numbers. */
-static int parse_vec(const char *s, double *v, int n)
-{
+	const int vec = n > 1;
 	int k;
 
-	while (*s == ' ')
+	while (vec && *s == ' ')
 		s++;
-	if (*s++ != '[')
+	if (vec && *s++ != '[')
 		return -1;
 	for (k = 0; k < n; k++) {
 		char *end;
@@ -163,11 +152,11 @@ static int parse_vec(const char *s, double *v, int n)
 		v[k] = strtod(s, &end);
 		if (errno || end == s || !isfinite(v[k]))
 			return -1;
-		while (*end == ' ')
+		while (*end == ' ' || (!vec && *end == '\t'))
 			end++;
-		if (*end != (k + 1 < n ? ',' : ']'))
+		if (vec && *end++ != (k + 1 < n ? ',' : ']'))
 			return -1;
-		s = end + 1;
+		s = end;
 	}
 	while (*s == ' ')
 		s++;
@@ -299,7 +288,7 @@ static void set_effect(struct hm_dev *d, struct out *o, int client, struct hm_ef
 		fail(d, o, "%s '%s' has no parameter '%s'", kind_names[e->kind], e->name, p);
 		return;
 	}
-	bad = q->n == 0 ? parse_bool(v, &b) : q->n == 1 ? parse_number(v, x) : parse_vec(v, x, q->n);
+	bad = q->n ? parse_numbers(v, x, q->n) : parse_bool(v, &b);
 	for (i = 0; i < q->n; i++)
 		n2 += x[i] * x[i];
 	/* each parameter's own limits: refused whole, the effect as it was */
@@ -392,14 +381,14 @@ static void cmd_set(struct hm_dev *d, struct out *o, int client, const char *w1,
 		else
 			cmd_state(d, o, w2);
 	} else if (!strcmp(w1, "inertia")) {
-		if (parse_number(after_w1, &x) || x < 1.0 || x > 100.0) {
+		if (parse_numbers(after_w1, &x, 1) || x < 1.0 || x > 100.0) {
 			fail(d, o, "inertia '%s' refused (1..100 kg)", after_w1);
 			return;
 		}
 		d->inertia_kg = x;
 		put(o, "Inertia set");
 	} else if (!strcmp(w1, "coulombfriction")) {
-		if (parse_number(after_w1, &x) || x < 0.0 || x > 20.0) {
+		if (parse_numbers(after_w1, &x, 1) || x < 0.0 || x > 20.0) {
 			fail(d, o, "coulombfriction '%s' refused (0..20 N)", after_w1);
 			return;
 		}
@@ -477,20 +466,15 @@ static void cmd_remove(struct hm_dev *d, struct out *o, const char *w1, const ch
 	}
 }
 
-/* Next word of s at *i (spaces and tabs between words) into w (cap bytes); 0 if it did not fit. */
+/* The next word of s at *i (spaces and tabs between words) into w; 0 when it does not fit in cap bytes. */
 static int word(const char *s, size_t *i, char *w, size_t cap)
 {
-	size_t n = 0;
+	const size_t a = *i + strspn(s + *i, " \t"), n = strcspn(s + a, " \t");
 
-	while (s[*i] == ' ' || s[*i] == '\t')
-		(*i)++;
-	while (s[*i] && s[*i] != ' ' && s[*i] != '\t') {
-		if (n + 1 >= cap) {
-			w[n] = '\0';
-			return 0;
-		}
-		w[n++] = s[(*i)++];
-	}
+	*i = a + n;
+	if (n >= cap)
+		return 0;
+	memcpy(w, s + a, n);
 	w[n] = '\0';
 	return 1;
 }
@@ -500,23 +484,17 @@ static void command(struct hm_dev *d, struct out *o, int client, const char *s)
 {
 	char w0[32], w1[LINE_MAX_CHARS], w2[LINE_MAX_CHARS];
 	const char *after_w1, *rest;
-	size_t i = 0, j;
+	size_t i = 0;
 
 	d->commands++;
-	if (!word(s, &i, w0, sizeof(w0)) || !word(s, &i, w1, sizeof(w1))) {
+	if (!word(s, &i, w0, sizeof(w0))) {
 		fail(d, o, "unknown command '%.40s'", s);
 		return;
 	}
-	for (j = i; s[j] == ' ' || s[j] == '\t'; j++)
-		;
-	after_w1 = s + j;
-	if (!word(s, &i, w2, sizeof(w2))) {
-		fail(d, o, "word too long in '%.40s'", s);
-		return;
-	}
-	for (; s[i] == ' ' || s[i] == '\t'; i++)
-		;
-	rest = s + i;
+	word(s, &i, w1, sizeof(w1)); /* w1 and w2 fit: the whole command does */
+	after_w1 = s + i + strspn(s + i, " \t");
+	word(s, &i, w2, sizeof(w2));
+	rest = s + i + strspn(s + i, " \t");
 	if (!strcmp(w0, "get"))
 		cmd_get(d, o, w1, w2, rest);
 	else if (!strcmp(w0, "set"))

@@ -93,27 +93,6 @@ struct dev {
 	uint32_t rx_type[256], tx_type[256]; /* messages by type over the run (one classic CAN frame each) */
 };
 
-static int dev_open(struct dev *d, const struct opts *o)
-{
-	const struct swell_link_open_opts uo = { .udp_host = o->host, .udp_bind_port = (uint16_t)o->bind_port };
-	struct swell_link_spec ls;
-	int rc;
-
-	memset(d, 0, sizeof(*d));
-	d->node = (uint8_t)o->node;
-	d->ctl_state = -1;
-	ls = o->ls;
-	ls.port = (uint16_t)o->port;
-	ls.iface = (uint8_t)o->iface;
-	rc = swell_link_open_spec(&d->l, &ls, &uo);
-	if (rc < 0) {
-		fprintf(stderr, "swell-hm: cannot open link %s: %s\n", o->link, strerror(-rc));
-		return -1;
-	}
-	d->carrier = swell_link_carrier(d->l);
-	return 0;
-}
-
 static void dev_send(struct dev *d, const struct swell_msg *m, size_t n, uint8_t seq)
 {
 	size_t k;
@@ -423,8 +402,13 @@ int proto_main(struct opts *o, FILE *log, const double x0[3])
 	int64_t start, next, period_ns, last_status;
 	uint64_t n, total;
 
-	if (dev_open(&d, o) < 0)
+	memset(&d, 0, sizeof(d));
+	d.node = (uint8_t)o->node;
+	d.ctl_state = -1;
+	d.l = hm_node_open(&o->ls, o->port, o->iface, o->host, o->bind_port, "swell-hm", o->link);
+	if (!d.l)
 		return 1;
+	d.carrier = swell_link_carrier(d.l);
 	d.eff_fresh_ticks = (uint32_t)lround(o->effect_fresh_ms * 1e-3 * o->p.rate_hz);
 	if (d.eff_fresh_ticks < 1)
 		d.eff_fresh_ticks = 1;

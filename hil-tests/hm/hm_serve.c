@@ -96,11 +96,8 @@ int hm_serve_open(struct hm_serve *s, const char *spec, char *err, size_t errlen
 static void drop(struct hm_serve *s, struct hm_dev *d, int k)
 {
 	close(s->c[k].fd);
+	memset(&s->c[k], 0, sizeof(s->c[k]));
 	s->c[k].fd = -1;
-	s->c[k].in_len = s->c[k].out_len = 0;
-	s->c[k].partial_since_ns = 0;
-	s->c[k].closing = 0;
-	s->c[k].held_n = 0;
 	hm_dev_client_gone(d, k);
 }
 
@@ -305,10 +302,8 @@ void hm_serve_poll(struct hm_serve *s, struct hm_dev *d, int64_t now_ns)
 		if (c->fd < 0)
 			continue;
 		if (c->closing) {
-			if (flush(s, k) < 0 || c->out_len == 0) {
-				s->st.drop_closing_write += c->out_len > 0;
+			if (flush(s, k) < 0 || c->out_len == 0)
 				drop(s, d, k);
-			}
 			continue;
 		}
 		/* read only what fits: a client's flood waits in its own socket, not in ours */

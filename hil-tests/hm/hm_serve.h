@@ -55,7 +55,7 @@ struct hm_conn {
 
 struct hm_serve_stats {
 	uint32_t accepted, refused_full, requests, replies;
-	uint32_t drop_header, drop_stalled, drop_not_reading, drop_closing_write;
+	uint32_t drop_header, drop_stalled, drop_not_reading;
 	uint32_t garbage, vanished, deferred_ticks;
 	uint32_t injected_resets, injected_garbage, delayed_replies;
 	uint64_t bytes_in, bytes_out;

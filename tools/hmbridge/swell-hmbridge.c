@@ -203,24 +203,6 @@ struct bridge {
 	int hm_zeroed; /* ... since the last answer */
 };
 
-static int open_link(struct bridge *b, const struct opts *o)
-{
-	const struct swell_link_open_opts uo = { .udp_host = o->host, .udp_bind_port = (uint16_t)o->bind_port };
-	struct swell_link_spec ls;
-	int rc;
-
-	ls = o->ls;
-	ls.port = (uint16_t)o->port;
-	ls.iface = (uint8_t)o->iface;
-	rc = swell_link_open_spec(&b->l, &ls, &uo);
-	if (rc < 0) {
-		fprintf(stderr, "swell-hmbridge: cannot open link %s: %s\n", o->link, strerror(-rc));
-		return -1;
-	}
-	b->carrier = swell_link_carrier(b->l);
-	return 0;
-}
-
 /* Every FORCE_CMD and effect set waiting: the latest wins. In effect mode the controller sends no
  * FORCE_CMD while RUNNING: a complete set is then an enabled command with zero bias force, and its
  * freshness (--effect-fresh) the watchdog, as on swell-hm. */
@@ -331,8 +313,10 @@ int main(int argc, char **argv)
 	}
 	b.hm.inertia_g = (uint32_t)lround(o.inertia_kg * 1000.0);
 	hm_fx_init(&b.fx, &b.hm, (uint32_t)fmax(1.0, round(o.fresh_ms * o.rate_hz / 1000.0)));
-	if (open_link(&b, &o) < 0)
+	b.l = hm_node_open(&o.ls, o.port, o.iface, o.host, o.bind_port, "swell-hmbridge", o.link);
+	if (!b.l)
 		return 1;
+	b.carrier = swell_link_carrier(b.l);
 	memset(&sa, 0, sizeof(sa));
 	sa.sa_handler = on_signal;
 	sigaction(SIGINT, &sa, NULL);

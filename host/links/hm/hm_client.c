@@ -136,6 +136,22 @@ double hm_hist_pct(const uint32_t *hist, int last, uint64_t n, double p)
 	return 0;
 }
 
+struct swell_link *hm_node_open(const struct swell_link_spec *spec, unsigned port, unsigned iface, const char *host,
+				unsigned bind_port, const char *prog, const char *what)
+{
+	const struct swell_link_open_opts uo = { .udp_host = host, .udp_bind_port = (uint16_t)bind_port };
+	struct swell_link_spec ls = *spec;
+	struct swell_link *l = NULL;
+	int rc;
+
+	ls.port = (uint16_t)port;
+	ls.iface = (uint8_t)iface;
+	rc = swell_link_open_spec(&l, &ls, &uo);
+	if (rc < 0)
+		fprintf(stderr, "%s: cannot open link %s: %s\n", prog, what, strerror(-rc));
+	return rc < 0 ? NULL : l;
+}
+
 uint32_t hm_node_send(struct swell_link *l, uint8_t node, uint8_t seq, const struct swell_msg *m, size_t n)
 {
 	struct swell_frame f;
@@ -401,30 +417,24 @@ static int part_ok(const char *text, int i)
 }
 
 /* An answer to one of the start-up's three requests: the next request, RUNNING, or a refusal. */
-static size_t startup_answer(struct hm_client *c, int kind, const char *text)
+static void startup_answer(struct hm_client *c, int kind, const char *text)
 {
 	static const int16_t none[3] = { 0, 0, 0 };
+	char req[sizeof(init_text) + 40], kg[24];
+	int n;
 
-	if (kind == KIND_PROBE) {
-		if (!part_ok(text, 0) || !part_ok(text, 1))
-			refuse(c, "the device did not answer 'get emergencybuttonpushed;get state'");
-		else if (part_true(text, 0))
-			refuse(c, "the device's e-stop is pushed: no force until it is released");
-		else {
-			/* the inertia swell's force law is tuned for, after the calibrations are read */
-			char req[sizeof(init_text) + 40], kg[24];
-			int n;
-
-			hm_client_fmt_fixed(kg, sizeof(kg), c->inertia_g, 3);
-			n = snprintf(req, sizeof(req), "%s%s%s", init_text, c->inertia_g ? ";set inertia " : "",
-				     c->inertia_g ? kg : "");
-
-			if (n < 0 || (size_t)n >= sizeof(req) || request(c, KIND_INIT, req, (size_t)n) < 0)
-				refuse(c, "no room for the start-up request");
-		}
-		return 0;
-	}
-	if (kind == KIND_INIT) {
+	if (kind == KIND_PROBE && (!part_ok(text, 0) || !part_ok(text, 1))) {
+		refuse(c, "the device did not answer 'get emergencybuttonpushed;get state'");
+	} else if (kind == KIND_PROBE && part_true(text, 0)) {
+		refuse(c, "the device's e-stop is pushed: no force until it is released");
+	} else if (kind == KIND_PROBE) {
+		/* the inertia swell's force law is tuned for, after the calibrations are read */
+		hm_client_fmt_fixed(kg, sizeof(kg), c->inertia_g, 3);
+		n = snprintf(req, sizeof(req), "%s%s%s", init_text, c->inertia_g ? ";set inertia " : "",
+			     c->inertia_g ? kg : "");
+		if (n < 0 || (size_t)n >= sizeof(req) || request(c, KIND_INIT, req, (size_t)n) < 0)
+			refuse(c, "no room for the start-up request");
+	} else if (kind == KIND_INIT) {
 		/* the removes may fail (nothing of swell's was there); init must not */
 		if (!part_ok(text, REMOVE_N))
 			refuse(c, "the device refused 'set state init' (e-stop, or its own fault)");
@@ -440,23 +450,15 @@ static size_t startup_answer(struct hm_client *c, int kind, const char *text)
 			refuse(c, "the device refused 'set inertia' (hm.inertia)");
 		else if (request(c, KIND_START, start_text, sizeof(start_text) - 1) < 0)
 			refuse(c, "no room for the start-up request");
-		return 0;
+	} else if (!part_ok(text, 0) || !part_ok(text, 1) || !part_ok(text, 2) || !part_ok(text, 3)) {
+		refuse(c, "the device refused the force state or swell's zero bias force");
+	} else {
+		c->phase = HMC_RUNNING;
+		c->refusal[0] = '\0';
+		/* a first sample at once: a controller clocked by the device ticks on it */
+		c->tick--;
+		hm_client_force(c, none, 0);
 	}
-	{
-		int i;
-
-		for (i = 0; i < 4; i++)
-			if (!part_ok(text, i)) {
-				refuse(c, "the device refused the force state or swell's zero bias force");
-				return 0;
-			}
-	}
-	c->phase = HMC_RUNNING;
-	c->refusal[0] = '\0';
-	/* a first sample at once: a controller clocked by the device ticks on it */
-	c->tick--;
-	hm_client_force(c, none, 0);
-	return 0;
 }
 
 /* One answer of len bytes; may write a sample into out. Returns messages written. */
@@ -478,8 +480,10 @@ static size_t answer(struct hm_client *c, char *text, struct swell_msg *out, siz
 	if ((uint64_t)rtt > c->st.rtt_ns_max)
 		c->st.rtt_ns_max = (uint64_t)rtt;
 	c->st.rtt_hist[rtt / 1000 > HMC_RTT_US ? HMC_RTT_US : rtt / 1000]++;
-	if (kind == KIND_PROBE || kind == KIND_INIT || kind == KIND_START)
-		return startup_answer(c, kind, text);
+	if (kind == KIND_PROBE || kind == KIND_INIT || kind == KIND_START) {
+		startup_answer(c, kind, text);
+		return 0;
+	}
 	if (kind == KIND_CHECKED && strstr(text, "---")) {
 		c->st.error_answers++;
 		c->fault_next = 1;
@@ -506,11 +510,8 @@ static size_t answer(struct hm_client *c, char *text, struct swell_msg *out, siz
 		c->st.not_force++;
 		hold(c, HMC_HOLDOFF);
 	}
-	if (age > c->max_age_ticks) {
-		c->st.late++;
-		return 0;
-	}
-	if (cap < 2)
+	c->st.late += age > c->max_age_ticks;
+	if (age > c->max_age_ticks || cap < 2)
 		return 0;
 	memset(out, 0, 2 * sizeof(*out));
 	out[0].type = SWELL_MSG_DEVICE_VEL;

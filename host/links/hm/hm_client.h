@@ -20,7 +20,10 @@
 #include <stdio.h>
 #include <stdint.h>
 
+#include "swell/link_spec.h"
 #include "swell/proto.h"
+
+struct swell_link;
 
 #define HMC_PORT 7654
 #define HMC_TEXT_MAX 1024 /* longest request or answer text */
@@ -113,9 +116,14 @@ int hm_client_parse_fixed(const char **s, int scale, int32_t limit, int32_t *out
  * written, cap when it did not fit. */
 size_t hm_client_fmt_fixed(char *b, size_t cap, int64_t v, int decimals);
 
-/* The device node's messages to the controller on a host link (swell-hmbridge, swell-hm): as many
- * frames of the link's carrier as they take, under node and seq. Returns how many failed. */
-struct swell_link;
+/* The device node's link to the controller (swell-hmbridge, swell-hm): spec with the controller's
+ * port and USB interface, its UDP address host and our own UDP port. NULL when it cannot be opened,
+ * said on stderr after prog and the link's text (what). */
+struct swell_link *hm_node_open(const struct swell_link_spec *spec, unsigned port, unsigned iface, const char *host,
+				unsigned bind_port, const char *prog, const char *what);
+
+/* The device node's messages on it: as many frames of the link's carrier as they take, under node
+ * and seq. Returns how many failed. */
 uint32_t hm_node_send(struct swell_link *l, uint8_t node, uint8_t seq, const struct swell_msg *m, size_t n);
 
 /* Percentile p (0..1) of the n values counted in hist[0..last] (1 us bins, later ones in the last),
