@@ -281,6 +281,8 @@ static void set_effect(struct hm_dev *d, struct out *o, int client, struct hm_ef
 			return;
 		}
 		e->enabled = p[0] == 'e';
+		if (e->kind != HM_FX_BIAS)
+			e->owner = client;
 		put(o, "Effect %s %s", e->name, e->enabled ? "enabled" : "disabled");
 		return;
 	}
@@ -331,8 +333,8 @@ static void set_effect(struct hm_dev *d, struct out *o, int client, struct hm_ef
 		memcpy((char *)e + q->off, x, (size_t)q->n * sizeof(double));
 	else
 		memcpy((char *)e + q->off, &b, sizeof(b));
-	if (e->kind == HM_FX_BIAS)
-		e->owner = client; /* its force: the one parameter a bias force has */
+	if (e->kind != HM_FX_BIAS || !strcmp(p, "force"))
+		e->owner = client; /* a spring or damper: whoever last set it; a bias force: its force */
 	put(o, "%s", q->set);
 }
 
@@ -397,13 +399,8 @@ static void cmd_set(struct hm_dev *d, struct out *o, int client, const char *w1,
 	} else if ((e = find(d, w1)) != NULL) {
 		if (!*w2)
 			fail(d, o, "'set %s' needs a parameter", w1);
-		else {
-			const uint32_t errors = d->errors;
-
+		else
 			set_effect(d, o, client, e, w2, rest);
-			if (d->errors == errors && e->kind != HM_FX_BIAS)
-				e->owner = client; /* a spring or damper answers to the client that last set it */
-		}
 	} else {
 		fail(d, o, "unknown effect or quantity '%s'", w1);
 	}

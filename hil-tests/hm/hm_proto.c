@@ -419,8 +419,6 @@ int proto_main(struct opts *o, FILE *log, const double x0[3])
 	dt = 1.0 / o->p.rate_hz;
 	period_ns = (int64_t)llround(1e9 / o->p.rate_hz);
 	total = (uint64_t)llround(o->seconds * o->p.rate_hz);
-	r.z_min = INFINITY;
-	r.z_max = -INFINITY;
 	fprintf(stderr, "swell-hm: %s, %s at %g Hz, hand %s, m_v %g kg, b_v %g N s/m, watchdog %u ticks\n",
 		swell_link_name(d.l), o->lockstep ? "lockstep" : "real time", o->p.rate_hz, hm_hand_name(o->hand.kind),
 		o->p.mass_kg, o->p.damping_Ns_m, o->p.watchdog_ticks);

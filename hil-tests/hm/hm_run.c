@@ -112,10 +112,10 @@ void account(struct run *r, const struct opts *o, const struct hm_state *s, doub
 		return;
 	frame_from_dev(o, s->x, ref);
 	z = ref[2] * 1e3;
+	r->z_min = r->z_n == 0 || z < r->z_min ? z : r->z_min;
+	r->z_max = r->z_n == 0 || z > r->z_max ? z : r->z_max;
 	r->z_sum += z;
 	r->z_n++;
-	r->z_min = z < r->z_min ? z : r->z_min;
-	r->z_max = z > r->z_max ? z : r->z_max;
 	r->held_late |= holding;
 }
 

@@ -59,6 +59,7 @@ int hm_serve_parse(const char *spec, struct sockaddr_in *sa, char *err, size_t e
 int hm_serve_open(struct hm_serve *s, const char *spec, char *err, size_t errlen)
 {
 	struct sockaddr_in sa;
+	socklen_t sl = sizeof(sa);
 	char addr[INET_ADDRSTRLEN];
 	long port;
 	int k, one = 1;
@@ -83,12 +84,8 @@ int hm_serve_open(struct hm_serve *s, const char *spec, char *err, size_t errlen
 		s->lfd = -1;
 		return -1;
 	}
-	{
-		socklen_t sl = sizeof(sa);
-
-		if (getsockname(s->lfd, (struct sockaddr *)&sa, &sl) == 0) /* port 0: the one the kernel chose */
-			port = ntohs(sa.sin_port);
-	}
+	if (getsockname(s->lfd, (struct sockaddr *)&sa, &sl) == 0) /* port 0: the one the kernel chose */
+		port = ntohs(sa.sin_port);
 	snprintf(s->name, sizeof(s->name), "tcp %s:%ld", addr, port);
 	return 0;
 }

@@ -126,8 +126,6 @@ int serve_main(struct opts *o, FILE *log, const double x0[3])
 	if (o->bias_watchdog_ms > 0 && dev.watchdog_ticks == 0)
 		dev.watchdog_ticks = 1;
 	hm_init(&s, x0);
-	r.z_min = INFINITY;
-	r.z_max = -INFINITY;
 	fprintf(stderr,
 		"swell-hm: serving the HapticMaster interface on %s, %s at %g Hz, hand %s, inertia %g kg, "
 		"bias watchdog %u ms\n",
@@ -135,24 +133,22 @@ int serve_main(struct opts *o, FILE *log, const double x0[3])
 		dev.inertia_kg, o->bias_watchdog_ms);
 	start = next = last_status = now_ns();
 	for (n = 0; n < total && !stop_flag; n++) {
-		double t = (double)n * dt, f_hand[3], f_fx[3], x[3], v[3];
+		double t = (double)n * dt, f_hand[3], f_fx[3], *x = dev.x_m, *v = dev.v_m_s;
 		int holding, k;
 
 		hm_dev_set_estop(&dev, t >= o->estop_s[0] && t < o->estop_s[1]);
 		inject(o, &srv, &dev, t);
+		/* the state before this tick's step: what the requests read, the log's x and v */
 		memcpy(dev.x_m, s.x, sizeof(dev.x_m));
 		memcpy(dev.v_m_s, s.v, sizeof(dev.v_m_s));
 		holding = frame_hand_force(o, t, s.x, s.v, f_hand);
-		for (k = 0; k < 3; k++)
-			dev.fmeas_N[k] = f_hand[k];
+		memcpy(dev.fmeas_N, f_hand, sizeof(dev.fmeas_N));
 		if (o->lockstep)
 			serve_wait(&srv, &dev, o, &r);
 		else {
 			sleep_deadline(&r, &next, period_ns);
 			hm_serve_poll(&srv, &dev, now_ns());
 		}
-		memcpy(x, s.x, sizeof(x));
-		memcpy(v, s.v, sizeof(v));
 		hm_dev_tick(&dev, s.x, s.v, f_fx);
 		hm_command(&s, f_fx, 1);
 		o->p.mass_kg = dev.inertia_kg;

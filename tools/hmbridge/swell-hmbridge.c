@@ -218,30 +218,27 @@ static void take_commands(struct bridge *b)
 		if (swell_link_decode(b->carrier, &f, m, SWELL_CANFD_MSGS_MAX, &n, NULL, &b->st) != SWELL_OK)
 			continue; /* counted in st, never acted on */
 		for (k = 0; k < n; k++) {
+			const struct swell_msg_force_cmd *c = &m[k].u.force_cmd;
 			const uint32_t sets = b->fx.st.sets;
 
 			if (m[k].node == b->node && hm_fx_msg(&b->fx, &b->hm, &m[k])) {
-				if (b->fx.st.sets != sets) {
-					b->f_cN[0] = b->f_cN[1] = b->f_cN[2] = 0;
-					b->enable = 1;
-					b->cmd_age = 0;
-					b->zeroed = 0;
-					b->by_sets = 1;
-				}
-				continue;
-			}
-			if (m[k].node != b->node || m[k].type != SWELL_MSG_FORCE_CMD) {
+				if (b->fx.st.sets == sets)
+					continue; /* a part of a set */
+				b->f_cN[0] = b->f_cN[1] = b->f_cN[2] = 0;
+				b->enable = 1;
+			} else if (m[k].node != b->node || m[k].type != SWELL_MSG_FORCE_CMD) {
 				b->ignored += m[k].type != SWELL_MSG_HEARTBEAT;
 				continue;
+			} else {
+				b->f_cN[0] = c->fx_cN;
+				b->f_cN[1] = c->fy_cN;
+				b->f_cN[2] = c->fz_cN;
+				b->enable = c->enable;
+				b->commands++;
 			}
-			b->f_cN[0] = m[k].u.force_cmd.fx_cN;
-			b->f_cN[1] = m[k].u.force_cmd.fy_cN;
-			b->f_cN[2] = m[k].u.force_cmd.fz_cN;
-			b->enable = m[k].u.force_cmd.enable;
+			b->by_sets = b->fx.st.sets != sets;
 			b->cmd_age = 0;
-			b->by_sets = 0;
 			b->zeroed = 0;
-			b->commands++;
 		}
 	}
 }
@@ -250,7 +247,6 @@ static void tick(struct bridge *b, const struct opts *o)
 {
 	struct swell_msg in[2 * HMC_RING], *newest = NULL;
 	size_t n, k;
-	static const int16_t zero[3] = { 0, 0, 0 };
 
 	take_commands(b);
 	/* the newest answer only: the controller gets one sample a tick */
@@ -281,10 +277,7 @@ static void tick(struct bridge *b, const struct opts *o)
 		b->hm_trips += b->enable && !b->zeroed;
 	}
 	hm_fx_tick(&b->fx, &b->hm, b->enable, !b->zeroed && !b->hm_zeroed);
-	if (b->zeroed || b->hm_zeroed)
-		hm_client_force(&b->hm, zero, 0);
-	else
-		hm_client_force(&b->hm, b->f_cN, b->enable);
+	hm_client_force(&b->hm, b->f_cN, b->enable && !b->zeroed && !b->hm_zeroed); /* else zero force */
 	if (b->cmd_age < UINT32_MAX)
 		b->cmd_age++;
 	if (b->ans_age < UINT32_MAX)
