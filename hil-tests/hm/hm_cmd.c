@@ -469,11 +469,9 @@ static int word(const char *s, size_t *i, char *w, size_t cap)
 	const size_t a = *i + strspn(s + *i, " \t"), n = strcspn(s + a, " \t");
 
 	*i = a + n;
-	if (n >= cap)
-		return 0;
-	memcpy(w, s + a, n);
-	w[n] = '\0';
-	return 1;
+	memcpy(w, s + a, n < cap ? n : 0); /* one that does not fit: "" */
+	w[n < cap ? n : 0] = '\0';
+	return n < cap;
 }
 
 /* One command, already trimmed and NUL-terminated. */

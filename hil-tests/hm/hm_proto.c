@@ -39,12 +39,11 @@ static struct latency {
 
 static void latency_answer(void)
 {
-	int64_t d;
+	const int64_t d = now_ns() - lat.sent_ns;
 
 	if (!lat.pending)
 		return;
 	lat.pending = 0;
-	d = now_ns() - lat.sent_ns;
 	lat.hist[d / 1000 > LAT_US ? LAT_US : d / 1000]++;
 	lat.n++;
 	if (d > lat.max_ns)

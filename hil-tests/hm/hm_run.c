@@ -62,10 +62,8 @@ int64_t now_ns(void)
 
 void setup_signals(void)
 {
-	struct sigaction sa;
+	const struct sigaction sa = { .sa_handler = on_signal };
 
-	memset(&sa, 0, sizeof(sa));
-	sa.sa_handler = on_signal;
 	sigaction(SIGINT, &sa, NULL);
 	sigaction(SIGTERM, &sa, NULL);
 	signal(SIGPIPE, SIG_IGN);

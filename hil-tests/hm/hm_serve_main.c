@@ -72,6 +72,7 @@ static void serve_summary(const struct opts *o, const struct hm_serve *srv, cons
 /* --inject: the bench's TCP faults at their simulated times, each announced on stderr. */
 static void inject(struct opts *o, struct hm_serve *srv, struct hm_dev *dev, double t)
 {
+	const char *what;
 	int k;
 
 	srv->reply_delay_ns = 0;
@@ -83,12 +84,8 @@ static void inject(struct opts *o, struct hm_serve *srv, struct hm_dev *dev, dou
 		if (j->done || t < j->at_s)
 			continue;
 		j->done = 1;
-		fprintf(stderr, "swell-hm: inject %s at %.4f s\n",
-			j->kind == 'd'           ? "delay"
-				: j->kind == 'g' ? "garbage"
-				: j->kind == 'r' ? "reset"
-						 : "stop",
-			t);
+		what = j->kind == 'd' ? "delay" : j->kind == 'g' ? "garbage" : j->kind == 'r' ? "reset" : "stop";
+		fprintf(stderr, "swell-hm: inject %s at %.4f s\n", what, t);
 		if (j->kind == 'g')
 			hm_serve_inject_garbage(srv);
 		else if (j->kind == 'r')

@@ -289,7 +289,7 @@ int main(int argc, char **argv)
 {
 	static struct bridge b;
 	struct opts o;
-	struct sigaction sa;
+	const struct sigaction sa = { .sa_handler = on_signal };
 	char err[160];
 	int64_t period, next, start, last_status;
 	uint64_t max_ticks;
@@ -310,8 +310,6 @@ int main(int argc, char **argv)
 	if (!b.l)
 		return 1;
 	b.carrier = swell_link_carrier(b.l);
-	memset(&sa, 0, sizeof(sa));
-	sa.sa_handler = on_signal;
 	sigaction(SIGINT, &sa, NULL);
 	sigaction(SIGTERM, &sa, NULL);
 	signal(SIGPIPE, SIG_IGN);

@@ -254,11 +254,9 @@ int hm_client_open(struct hm_client *c, const char *spec, uint32_t max_age_ticks
 	c->addr.sin_family = AF_INET;
 	c->addr.sin_port = htons((uint16_t)port);
 	if (inet_pton(AF_INET, host, &c->addr.sin_addr) != 1) {
-		struct addrinfo hints, *res = NULL;
+		const struct addrinfo hints = { .ai_family = AF_INET, .ai_socktype = SOCK_STREAM };
+		struct addrinfo *res = NULL;
 
-		memset(&hints, 0, sizeof(hints));
-		hints.ai_family = AF_INET;
-		hints.ai_socktype = SOCK_STREAM;
 		if (getaddrinfo(host, NULL, &hints, &res) != 0 || !res) {
 			snprintf(err, errlen, "hm:%s: cannot resolve '%s'", spec, host);
 			return -1;

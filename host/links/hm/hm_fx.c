@@ -64,28 +64,26 @@ size_t hm_fx_values(const struct swell_effect *e, char *buf, size_t cap)
 static void send_set(struct hm_fx *x, struct hm_client *c)
 {
 	char text[HMC_TEXT_MAX];
-	size_t n;
+	size_t n = sizeof(create_text) - 1;
+	int sent;
 
 	if (x->live) {
-		if (hm_fx_values(&x->set, text, sizeof(text)) == 0 || hm_client_set_extra(c, text) < 0) {
-			x->st.unsent++;
-			return;
-		}
-		x->st.updates++;
-		x->unsent = 0;
-		return;
+		sent = hm_fx_values(&x->set, text, sizeof(text)) > 0 && hm_client_set_extra(c, text) == 0;
+	} else {
+		memcpy(text, create_text, n);
+		n += hm_fx_values(&x->set, text + n, sizeof(text) - n - sizeof(enable_text));
+		memcpy(text + n, enable_text, sizeof(enable_text));
+		sent = n > sizeof(create_text) - 1 && hm_client_request(c, text, 1) == 0;
 	}
-	n = sizeof(create_text) - 1;
-	memcpy(text, create_text, n);
-	n += hm_fx_values(&x->set, text + n, sizeof(text) - n - sizeof(enable_text));
-	memcpy(text + n, enable_text, sizeof(enable_text));
-	if (n == sizeof(create_text) - 1 || hm_client_request(c, text, 1) < 0) {
+	if (!sent) {
 		x->st.unsent++;
 		return;
 	}
-	x->st.creations++;
+	x->st.updates += x->live != 0;
+	x->st.creations += !x->live;
+	if (!x->live)
+		x->session = c->st.startups;
 	x->live = 1;
-	x->session = c->st.startups;
 	x->unsent = 0;
 }
 
