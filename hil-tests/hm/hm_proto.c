@@ -328,14 +328,6 @@ static void wait_answer(struct dev *d, struct hm_state *s, const struct opts *o,
 	r->have_offset = 1;
 }
 
-/* Real time: sleep to the next absolute deadline, then take what arrived. */
-static void wait_deadline(struct dev *d, struct hm_state *s, struct run *r, int64_t *next, int64_t period_ns)
-{
-	sleep_deadline(r, next, period_ns);
-	while (dev_recv(d, s, 0) >= 0)
-		;
-}
-
 /* Ticks between samples while effect sets come: --sample-every, or by default every tick in real
  * time and in lockstep the sets' spacing once learned (from sets that came on time; a loop whose
  * answers time out, as on an emulated bus, should be given --sample-every). */
@@ -440,8 +432,11 @@ int proto_main(struct opts *o, FILE *log, const double x0[3])
 			if (o->lockstep)
 				wait_answer(&d, &s, o, &r, n);
 		}
-		if (!o->lockstep)
-			wait_deadline(&d, &s, &r, &next, period_ns);
+		if (!o->lockstep) { /* real time: sleep to the next absolute deadline, then take what arrived */
+			sleep_deadline(&r, &next, period_ns);
+			while (dev_recv(&d, &s, 0) >= 0)
+				;
+		}
 		deliver(&d, &s);
 		age = s.cmd_age;
 		memcpy(x, s.x, sizeof(x));

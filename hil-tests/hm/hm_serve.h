@@ -1,8 +1,7 @@
 /* The HapticMaster's TCP interface, served from the emulator's device loop (docs/hapticmaster.md).
  *
- * Framing both ways: an 8-byte header (text length, 32-bit big-endian, then four zero bytes) and that
- * many bytes of ASCII text. A fixed table of HM_SERVE_CLIENTS connections with fixed buffers; nothing
- * is allocated after hm_serve_open. hm_serve_poll never blocks: it is called once a device tick and
+ * Framing both ways: swell/hm_frame.h, the text ASCII. A fixed table of HM_SERVE_CLIENTS connections
+ * with fixed buffers; nothing is allocated after hm_serve_open. hm_serve_poll never blocks: it is called once a device tick and
  * does a bounded amount of work (HM_SERVE_REQS_PER_TICK requests per client, one buffer of reading).
  *
  * Bad input is answered or dropped, and counted by its reason:
