@@ -5,6 +5,7 @@
 #include <errno.h>
 #include <math.h>
 #include <stdarg.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -69,39 +70,80 @@ __attribute__((format(printf, 3, 4))) static void fail(struct hm_dev *d, struct 
 	put(o, "--- ERROR: %s", why);
 }
 
-static void put_vec(struct out *o, const double *v, int n)
+/* A value of n numbers ("%.9g", more than one as "[a,b,c]"), or with n 0 an int as true or false. */
+static void put_value(struct out *o, const void *field, int n)
 {
+	const double *v = field;
 	int k;
 
-	put(o, "[");
+	if (n == 0)
+		put(o, "%s", *(const int *)field ? "true" : "false");
 	for (k = 0; k < n; k++)
-		put(o, "%s%.9g", k ? "," : "", v[k]);
-	put(o, "]");
+		put(o, "%s%.9g", k ? "," : n > 1 ? "[" : "", v[k]);
+	if (n > 1)
+		put(o, "]");
 }
 
 /* ---- values ---- */
 
-static int parse_number(const char *s, double *x)
-{
-	char *end;
+/* What get and set name: an effect's parameters (kind: the effect kind that has it, -1 every kind;
+ * set: the answer to setting it, NULL when it is read only) and the device's own quantities. n: the
+ * numbers in the value, 0 for true or false (an int). */
+struct field {
+	const char *name;
+	int kind, n;
+	size_t off; /* in struct hm_effect, or struct hm_dev */
+	const char *set;
+};
 
-	if (!*s)
-		return -1;
-	errno = 0;
-	*x = strtod(s, &end);
-	while (*end == ' ' || *end == '\t')
-		end++;
-	return errno || end == s || *end || !isfinite(*x) ? -1 : 0;
+static const struct field params[] = {
+	{ "enabled", -1, 0, offsetof(struct hm_effect, enabled), NULL },
+	{ "pos", -1, 3, offsetof(struct hm_effect, pos_m), "Effect's position set" },
+	{ "vel", -1, 3, offsetof(struct hm_effect, vel_m_s), "Effect's velocity set" },
+	{ "att", -1, 4, offsetof(struct hm_effect, att), "Effect's attitude set" },
+	{ "stiffness", HM_FX_SPRING, 1, offsetof(struct hm_effect, spring.k_N_m), "Spring's stiffness set" },
+	{ "dampfactor", HM_FX_SPRING, 1, offsetof(struct hm_effect, spring.dampfactor), "Spring's damp factor set" },
+	{ "deadband", HM_FX_SPRING, 1, offsetof(struct hm_effect, spring.deadband_m), "Spring's deadband set" },
+	{ "direction", HM_FX_SPRING, 3, offsetof(struct hm_effect, spring.dir), "Spring's direction set" },
+	{ "maxforce", HM_FX_SPRING, 1, offsetof(struct hm_effect, spring.maxforce_N), "Spring's maximum force set" },
+	{ "dampglobal", HM_FX_SPRING, 0, offsetof(struct hm_effect, spring.dampglobal), "Spring's damping global set" },
+	{ "dampcoef", HM_FX_DAMPER, 3, offsetof(struct hm_effect, dampcoef_Ns_m), "Damper's damp coefficient set" },
+	{ "force", HM_FX_BIAS, 3, offsetof(struct hm_effect, force_N), "Bias force's force set" },
+};
+
+/* Read by get; "state" and "all" are taken too (valid_name) */
+static const struct field quantities[] = {
+	{ "measpos", -1, 3, offsetof(struct hm_dev, x_m), NULL },
+	{ "modelpos", -1, 3, offsetof(struct hm_dev, x_m), NULL },
+	{ "modelvel", -1, 3, offsetof(struct hm_dev, v_m_s), NULL },
+	{ "modelacc", -1, 3, offsetof(struct hm_dev, a_m_s2), NULL },
+	{ "measforce", -1, 3, offsetof(struct hm_dev, fmeas_N), NULL },
+	{ "inertia", -1, 1, offsetof(struct hm_dev, inertia_kg), NULL },
+	{ "coulombfriction", -1, 1, offsetof(struct hm_dev, coulomb_N), NULL },
+	{ "emergencybuttonpushed", -1, 0, offsetof(struct hm_dev, estop), NULL },
+	{ "position_calibrated", -1, 0, offsetof(struct hm_dev, force_calibrated), NULL },
+	{ "force_calibrated", -1, 0, offsetof(struct hm_dev, force_calibrated), NULL },
+};
+
+/* The field of t (n entries) called name, for an effect of this kind (-1: a quantity); NULL: none. */
+static const struct field *field(const struct field *t, size_t n, const char *name, int kind)
+{
+	for (; n > 0; n--, t++)
+		if (!strcmp(t->name, name) && (t->kind < 0 || t->kind == kind))
+			return t;
+	return NULL;
 }
 
-/* "[a,b,c]" (spaces allowed) with exactly n numbers. */
-static int parse_vec(const char *s, double *v, int n)
+/* n numbers: with n 1 a bare number (spaces and tabs may follow), else "[a,b,c]" with exactly n
+ * (spaces allowed around them). */
+static int parse_numbers(const char *s, double *v, int n)
 {
+	const int vec = n > 1;
 	int k;
 
-	while (*s == ' ')
+	while (vec && *s == ' ')
 		s++;
-	if (*s++ != '[')
+	if (vec && *s++ != '[')
 		return -1;
 	for (k = 0; k < n; k++) {
 		char *end;
@@ -110,11 +152,11 @@ static int parse_vec(const char *s, double *v, int n)
 		v[k] = strtod(s, &end);
 		if (errno || end == s || !isfinite(v[k]))
 			return -1;
-		while (*end == ' ')
+		while (*end == ' ' || (!vec && *end == '\t'))
 			end++;
-		if (*end != (k + 1 < n ? ',' : ']'))
+		if (vec && *end++ != (k + 1 < n ? ',' : ']'))
 			return -1;
-		s = end + 1;
+		s = end;
 	}
 	while (*s == ' ')
 		s++;
@@ -134,18 +176,6 @@ static int parse_bool(const char *s, int *b)
 
 static int valid_name(const char *s)
 {
-	static const char *const reserved[] = { "state",
-						"inertia",
-						"coulombfriction",
-						"all",
-						"measpos",
-						"measforce",
-						"modelpos",
-						"modelvel",
-						"modelacc",
-						"emergencybuttonpushed",
-						"position_calibrated",
-						"force_calibrated" };
 	size_t k;
 
 	for (k = 0; s[k]; k++) {
@@ -155,12 +185,8 @@ static int valid_name(const char *s)
 		    !((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || c == '_' || (k > 0 && c >= '0' && c <= '9')))
 			return 0;
 	}
-	if (k == 0)
-		return 0;
-	for (k = 0; k < sizeof(reserved) / sizeof(reserved[0]); k++)
-		if (!strcmp(s, reserved[k]))
-			return 0;
-	return 1;
+	return k > 0 && strcmp(s, "state") && strcmp(s, "all") &&
+		!field(quantities, sizeof(quantities) / sizeof(quantities[0]), s, -1);
 }
 
 static struct hm_effect *find(struct hm_dev *d, const char *name)
@@ -173,8 +199,10 @@ static struct hm_effect *find(struct hm_dev *d, const char *name)
 	return NULL;
 }
 
-/* Bias forces drop to zero: the device stopped, or their client is gone or silent. client -1: all. */
-static uint32_t zero_bias(struct hm_dev *d, int client)
+/* A client is gone or silent: the bias forces it set drop to zero, the springs and dampers it last set
+ * are disabled (the emulator's choice: docs/hapticmaster.md). client -1 (the device stopped): every
+ * bias force drops to zero, the springs and dampers stay. Returns how many were acting. */
+static uint32_t silence_client(struct hm_dev *d, int client)
 {
 	uint32_t n = 0;
 	int k;
@@ -182,29 +210,15 @@ static uint32_t zero_bias(struct hm_dev *d, int client)
 	for (k = 0; k < HM_EFFECTS_MAX; k++) {
 		struct hm_effect *e = &d->fx[k];
 
-		if (!e->used || e->kind != HM_FX_BIAS || (client >= 0 && e->owner != client))
+		if (!e->used || (client >= 0 ? e->owner != client : e->kind != HM_FX_BIAS))
 			continue;
-		n += e->force_N[0] != 0.0 || e->force_N[1] != 0.0 || e->force_N[2] != 0.0;
-		memset(e->force_N, 0, sizeof(e->force_N));
-		e->owner = -1;
-	}
-	return n;
-}
-
-/* A client is gone or silent: the bias forces it set drop to zero, the springs and dampers it last set
- * are disabled (the emulator's choice: docs/hapticmaster.md). Returns how many were acting. */
-static uint32_t silence_client(struct hm_dev *d, int client)
-{
-	uint32_t n = zero_bias(d, client);
-	int k;
-
-	for (k = 0; k < HM_EFFECTS_MAX; k++) {
-		struct hm_effect *e = &d->fx[k];
-
-		if (!e->used || e->kind == HM_FX_BIAS || e->owner != client)
-			continue;
-		n += (uint32_t)e->enabled;
-		e->enabled = 0;
+		if (e->kind == HM_FX_BIAS) {
+			n += e->force_N[0] != 0.0 || e->force_N[1] != 0.0 || e->force_N[2] != 0.0;
+			memset(e->force_N, 0, sizeof(e->force_N));
+		} else {
+			n += (uint32_t)e->enabled;
+			e->enabled = 0;
+		}
 		e->owner = -1;
 	}
 	return n;
@@ -235,7 +249,7 @@ static void cmd_state(struct hm_dev *d, struct out *o, const char *v)
 	if (s == HM_STATE_INIT)
 		d->force_calibrated = !d->init_fails_calibration;
 	if (s != HM_STATE_FORCE && s != HM_STATE_POSITION && s != HM_STATE_HOME)
-		zero_bias(d, -1); /* off, init, stop: a client sets its force again afterwards */
+		silence_client(d, -1); /* off, init, stop: a client sets its force again afterwards */
 	d->state = (enum hm_dev_state)s;
 	put(o, "state set to '%s'", v);
 }
@@ -255,9 +269,11 @@ static double spring_damping(const struct hm_spring *s, double m_kg)
 
 static void set_effect(struct hm_dev *d, struct out *o, int client, struct hm_effect *e, const char *p, const char *v)
 {
-	const char *kind = kind_names[e->kind];
-	double x, vec[4];
-	int b;
+	const struct field *q = field(params, sizeof(params) / sizeof(params[0]), p, (int)e->kind);
+	const double k = e->spring.k_N_m, m = d->inertia_kg, f = d->f_max_N;
+	const uint32_t errors = d->errors;
+	double x[4] = { 0.0, 0.0, 0.0, 0.0 }, n2 = 0.0;
+	int b = 0, bad, i;
 
 	if (!strcmp(p, "enable") || !strcmp(p, "disable")) {
 		if (*v) {
@@ -265,125 +281,69 @@ static void set_effect(struct hm_dev *d, struct out *o, int client, struct hm_ef
 			return;
 		}
 		e->enabled = p[0] == 'e';
+		if (e->kind != HM_FX_BIAS)
+			e->owner = client;
 		put(o, "Effect %s %s", e->name, e->enabled ? "enabled" : "disabled");
-	} else if (!strcmp(p, "pos") || !strcmp(p, "vel")) {
-		if (parse_vec(v, vec, 3) || fabs(vec[0]) > 10.0 || fabs(vec[1]) > 10.0 || fabs(vec[2]) > 10.0) {
-			fail(d, o, "malformed value '%s' for %s (want [x,y,z], |x| <= 10)", v, p);
-			return;
-		}
-		memcpy(p[0] == 'p' ? e->pos_m : e->vel_m_s, vec, 3 * sizeof(double));
-		put(o, "Effect's %s set", p[0] == 'p' ? "position" : "velocity");
-	} else if (!strcmp(p, "att")) {
-		double n2;
-
-		if (parse_vec(v, vec, 4) ||
-		    !((n2 = vec[0] * vec[0] + vec[1] * vec[1] + vec[2] * vec[2] + vec[3] * vec[3]) > 1e-12)) {
-			fail(d, o, "malformed value '%s' for att (want a quaternion [x,y,z,w], not zero)", v);
-			return;
-		}
-		for (b = 0; b < 4; b++)
-			e->att[b] = vec[b] / sqrt(n2);
-		put(o, "Effect's attitude set");
-	} else if (e->kind == HM_FX_SPRING && !strcmp(p, "stiffness")) {
-		if (parse_number(v, &x) || fabs(x) > 100000.0 ||
-		    !stable(d, x, e->spring.dampfactor * 2.0 * sqrt(fabs(x) * d->inertia_kg))) {
-			fail(d, o, "stiffness '%s' refused (|k| <= 100000 N/m, resolved at %g Hz on %g kg)", v,
-			     d->rate_hz, d->inertia_kg);
-			return;
-		}
-		e->spring.k_N_m = x;
-		put(o, "Spring's stiffness set");
-	} else if (e->kind == HM_FX_SPRING && !strcmp(p, "dampfactor")) {
-		if (parse_number(v, &x) || x < 0.0 || x > 10.0 ||
-		    !stable(d, e->spring.k_N_m, x * 2.0 * sqrt(fabs(e->spring.k_N_m) * d->inertia_kg))) {
-			fail(d, o, "dampfactor '%s' refused (0..10, resolved at %g Hz on %g kg)", v, d->rate_hz,
-			     d->inertia_kg);
-			return;
-		}
-		e->spring.dampfactor = x;
-		put(o, "Spring's damp factor set");
-	} else if (e->kind == HM_FX_SPRING && !strcmp(p, "deadband")) {
-		if (parse_number(v, &x) || x < 0.0 || x > 10.0) {
-			fail(d, o, "deadband '%s' refused (0..10 m)", v);
-			return;
-		}
-		e->spring.deadband_m = x;
-		put(o, "Spring's deadband set");
-	} else if (e->kind == HM_FX_SPRING && !strcmp(p, "direction")) {
-		double n;
-
-		if (parse_vec(v, vec, 3)) {
-			fail(d, o, "malformed value '%s' for direction (want [x,y,z])", v);
-			return;
-		}
-		n = sqrt(vec[0] * vec[0] + vec[1] * vec[1] + vec[2] * vec[2]);
-		for (b = 0; b < 3; b++)
-			e->spring.dir[b] = n > 1e-12 ? vec[b] / n : 0.0;
-		put(o, "Spring's direction set");
-	} else if (e->kind == HM_FX_SPRING && !strcmp(p, "maxforce")) {
-		if (parse_number(v, &x) || !(x > 0.0) || x > d->f_max_N) {
-			fail(d, o, "maxforce '%s' refused (0 < F <= %g N)", v, d->f_max_N);
-			return;
-		}
-		e->spring.maxforce_N = x;
-		put(o, "Spring's maximum force set");
-	} else if (e->kind == HM_FX_SPRING && !strcmp(p, "dampglobal")) {
-		if (parse_bool(v, &b)) {
-			fail(d, o, "malformed value '%s' for dampglobal (true or false)", v);
-			return;
-		}
-		e->spring.dampglobal = b;
-		put(o, "Spring's damping global set");
-	} else if (e->kind == HM_FX_DAMPER && !strcmp(p, "dampcoef")) {
-		if (parse_vec(v, vec, 3) || vec[0] < 0.0 || vec[1] < 0.0 || vec[2] < 0.0 || !stable(d, 0.0, vec[0]) ||
-		    !stable(d, 0.0, vec[1]) || !stable(d, 0.0, vec[2])) {
-			fail(d, o, "dampcoef '%s' refused (want [bx,by,bz] >= 0 N s/m, resolved at %g Hz on %g kg)", v,
-			     d->rate_hz, d->inertia_kg);
-			return;
-		}
-		memcpy(e->dampcoef_Ns_m, vec, 3 * sizeof(double));
-		put(o, "Damper's damp coefficient set");
-	} else if (e->kind == HM_FX_BIAS && !strcmp(p, "force")) {
-		if (parse_vec(v, vec, 3) || fabs(vec[0]) > d->f_max_N || fabs(vec[1]) > d->f_max_N ||
-		    fabs(vec[2]) > d->f_max_N) {
-			fail(d, o, "malformed value '%s' for force (want [fx,fy,fz], each within +-%g N)", v,
-			     d->f_max_N);
-			return;
-		}
-		memcpy(e->force_N, vec, 3 * sizeof(double));
-		e->owner = client;
-		put(o, "Bias force's force set");
-	} else {
-		fail(d, o, "%s '%s' has no parameter '%s'", kind, e->name, p);
+		return;
 	}
+	if (!q || !q->set) {
+		fail(d, o, "%s '%s' has no parameter '%s'", kind_names[e->kind], e->name, p);
+		return;
+	}
+	bad = q->n ? parse_numbers(v, x, q->n) : parse_bool(v, &b);
+	for (i = 0; i < q->n; i++)
+		n2 += x[i] * x[i];
+	/* each parameter's own limits: refused whole, the effect as it was */
+	if (!strcmp(p, "pos") || !strcmp(p, "vel")) {
+		if (bad || fabs(x[0]) > 10.0 || fabs(x[1]) > 10.0 || fabs(x[2]) > 10.0)
+			fail(d, o, "malformed value '%s' for %s (want [x,y,z], |x| <= 10)", v, p);
+	} else if (!strcmp(p, "att")) {
+		if (bad || !(n2 > 1e-12))
+			fail(d, o, "malformed value '%s' for att (want a quaternion [x,y,z,w], not zero)", v);
+	} else if (!strcmp(p, "stiffness")) {
+		if (bad || fabs(x[0]) > 100000.0 || !stable(d, x[0], e->spring.dampfactor * 2.0 * sqrt(fabs(x[0]) * m)))
+			fail(d, o, "stiffness '%s' refused (|k| <= 100000 N/m, resolved at %g Hz on %g kg)", v,
+			     d->rate_hz, m);
+	} else if (!strcmp(p, "dampfactor")) {
+		if (bad || x[0] < 0.0 || x[0] > 10.0 || !stable(d, k, x[0] * 2.0 * sqrt(fabs(k) * m)))
+			fail(d, o, "dampfactor '%s' refused (0..10, resolved at %g Hz on %g kg)", v, d->rate_hz, m);
+	} else if (!strcmp(p, "deadband")) {
+		if (bad || x[0] < 0.0 || x[0] > 10.0)
+			fail(d, o, "deadband '%s' refused (0..10 m)", v);
+	} else if (!strcmp(p, "maxforce")) {
+		if (bad || !(x[0] > 0.0) || x[0] > f)
+			fail(d, o, "maxforce '%s' refused (0 < F <= %g N)", v, f);
+	} else if (!strcmp(p, "dampcoef")) {
+		if (bad || x[0] < 0.0 || x[1] < 0.0 || x[2] < 0.0 || !stable(d, 0.0, x[0]) || !stable(d, 0.0, x[1]) ||
+		    !stable(d, 0.0, x[2]))
+			fail(d, o, "dampcoef '%s' refused (want [bx,by,bz] >= 0 N s/m, resolved at %g Hz on %g kg)", v,
+			     d->rate_hz, m);
+	} else if (!strcmp(p, "force")) {
+		if (bad || fabs(x[0]) > f || fabs(x[1]) > f || fabs(x[2]) > f)
+			fail(d, o, "malformed value '%s' for force (want [fx,fy,fz], each within +-%g N)", v, f);
+	} else if (bad) { /* direction, dampglobal: any value */
+		fail(d, o, "malformed value '%s' for %s (%s)", v, p, q->n ? "want [x,y,z]" : "true or false");
+	}
+	if (d->errors != errors)
+		return;
+	if (!strcmp(p, "att") || !strcmp(p, "direction")) /* unit length; a direction of zero: every way */
+		for (i = 0; i < q->n; i++)
+			x[i] = sqrt(n2) > 1e-12 ? x[i] / sqrt(n2) : 0.0;
+	if (q->n)
+		memcpy((char *)e + q->off, x, (size_t)q->n * sizeof(double));
+	else
+		memcpy((char *)e + q->off, &b, sizeof(b));
+	if (e->kind != HM_FX_BIAS || !strcmp(p, "force"))
+		e->owner = client; /* a spring or damper: whoever last set it; a bias force: its force */
+	put(o, "%s", q->set);
 }
 
 static void get_effect(struct hm_dev *d, struct out *o, const struct hm_effect *e, const char *p)
 {
-	if (!strcmp(p, "enabled"))
-		put(o, "%s", e->enabled ? "true" : "false");
-	else if (!strcmp(p, "pos"))
-		put_vec(o, e->pos_m, 3);
-	else if (!strcmp(p, "vel"))
-		put_vec(o, e->vel_m_s, 3);
-	else if (!strcmp(p, "att"))
-		put_vec(o, e->att, 4);
-	else if (e->kind == HM_FX_SPRING && !strcmp(p, "stiffness"))
-		put(o, "%.9g", e->spring.k_N_m);
-	else if (e->kind == HM_FX_SPRING && !strcmp(p, "dampfactor"))
-		put(o, "%.9g", e->spring.dampfactor);
-	else if (e->kind == HM_FX_SPRING && !strcmp(p, "deadband"))
-		put(o, "%.9g", e->spring.deadband_m);
-	else if (e->kind == HM_FX_SPRING && !strcmp(p, "direction"))
-		put_vec(o, e->spring.dir, 3);
-	else if (e->kind == HM_FX_SPRING && !strcmp(p, "maxforce"))
-		put(o, "%.9g", e->spring.maxforce_N);
-	else if (e->kind == HM_FX_SPRING && !strcmp(p, "dampglobal"))
-		put(o, "%s", e->spring.dampglobal ? "true" : "false");
-	else if (e->kind == HM_FX_DAMPER && !strcmp(p, "dampcoef"))
-		put_vec(o, e->dampcoef_Ns_m, 3);
-	else if (e->kind == HM_FX_BIAS && !strcmp(p, "force"))
-		put_vec(o, e->force_N, 3);
+	const struct field *q = field(params, sizeof(params) / sizeof(params[0]), p, (int)e->kind);
+
+	if (q)
+		put_value(o, (const char *)e + q->off, q->n);
 	else
 		fail(d, o, "%s '%s' has no parameter '%s'", kind_names[e->kind], e->name, p);
 }
@@ -391,6 +351,7 @@ static void get_effect(struct hm_dev *d, struct out *o, const struct hm_effect *
 static void cmd_get(struct hm_dev *d, struct out *o, const char *w1, const char *w2, const char *rest)
 {
 	const struct hm_effect *e = find(d, w1);
+	const struct field *q = field(quantities, sizeof(quantities) / sizeof(quantities[0]), w1, -1);
 
 	if (*w2) {
 		if (!e)
@@ -401,22 +362,8 @@ static void cmd_get(struct hm_dev *d, struct out *o, const char *w1, const char 
 			get_effect(d, o, e, w2);
 	} else if (!strcmp(w1, "state")) {
 		put(o, "%s", hm_dev_state_name(d->state));
-	} else if (!strcmp(w1, "measpos") || !strcmp(w1, "modelpos")) {
-		put_vec(o, d->x_m, 3);
-	} else if (!strcmp(w1, "modelvel")) {
-		put_vec(o, d->v_m_s, 3);
-	} else if (!strcmp(w1, "modelacc")) {
-		put_vec(o, d->a_m_s2, 3);
-	} else if (!strcmp(w1, "measforce")) {
-		put_vec(o, d->fmeas_N, 3);
-	} else if (!strcmp(w1, "inertia")) {
-		put(o, "%.9g", d->inertia_kg);
-	} else if (!strcmp(w1, "coulombfriction")) {
-		put(o, "%.9g", d->coulomb_N);
-	} else if (!strcmp(w1, "emergencybuttonpushed")) {
-		put(o, "%s", d->estop ? "true" : "false");
-	} else if (!strcmp(w1, "position_calibrated") || !strcmp(w1, "force_calibrated")) {
-		put(o, "%s", d->force_calibrated ? "true" : "false");
+	} else if (q) {
+		put_value(o, (const char *)d + q->off, q->n);
 	} else if (e) {
 		fail(d, o, "'get %s' needs a parameter", w1);
 	} else {
@@ -436,14 +383,14 @@ static void cmd_set(struct hm_dev *d, struct out *o, int client, const char *w1,
 		else
 			cmd_state(d, o, w2);
 	} else if (!strcmp(w1, "inertia")) {
-		if (parse_number(after_w1, &x) || x < 1.0 || x > 100.0) {
+		if (parse_numbers(after_w1, &x, 1) || x < 1.0 || x > 100.0) {
 			fail(d, o, "inertia '%s' refused (1..100 kg)", after_w1);
 			return;
 		}
 		d->inertia_kg = x;
 		put(o, "Inertia set");
 	} else if (!strcmp(w1, "coulombfriction")) {
-		if (parse_number(after_w1, &x) || x < 0.0 || x > 20.0) {
+		if (parse_numbers(after_w1, &x, 1) || x < 0.0 || x > 20.0) {
 			fail(d, o, "coulombfriction '%s' refused (0..20 N)", after_w1);
 			return;
 		}
@@ -452,13 +399,8 @@ static void cmd_set(struct hm_dev *d, struct out *o, int client, const char *w1,
 	} else if ((e = find(d, w1)) != NULL) {
 		if (!*w2)
 			fail(d, o, "'set %s' needs a parameter", w1);
-		else {
-			const uint32_t errors = d->errors;
-
+		else
 			set_effect(d, o, client, e, w2, rest);
-			if (d->errors == errors && e->kind != HM_FX_BIAS)
-				e->owner = client; /* a spring or damper answers to the client that last set it */
-		}
 	} else {
 		fail(d, o, "unknown effect or quantity '%s'", w1);
 	}
@@ -521,22 +463,15 @@ static void cmd_remove(struct hm_dev *d, struct out *o, const char *w1, const ch
 	}
 }
 
-/* Next word of s at *i (spaces and tabs between words) into w (cap bytes); 0 if it did not fit. */
+/* The next word of s at *i (spaces and tabs between words) into w; 0 when it does not fit in cap bytes. */
 static int word(const char *s, size_t *i, char *w, size_t cap)
 {
-	size_t n = 0;
+	const size_t a = *i + strspn(s + *i, " \t"), n = strcspn(s + a, " \t");
 
-	while (s[*i] == ' ' || s[*i] == '\t')
-		(*i)++;
-	while (s[*i] && s[*i] != ' ' && s[*i] != '\t') {
-		if (n + 1 >= cap) {
-			w[n] = '\0';
-			return 0;
-		}
-		w[n++] = s[(*i)++];
-	}
-	w[n] = '\0';
-	return 1;
+	*i = a + n;
+	memcpy(w, s + a, n < cap ? n : 0); /* one that does not fit: "" */
+	w[n < cap ? n : 0] = '\0';
+	return n < cap;
 }
 
 /* One command, already trimmed and NUL-terminated. */
@@ -544,23 +479,17 @@ static void command(struct hm_dev *d, struct out *o, int client, const char *s)
 {
 	char w0[32], w1[LINE_MAX_CHARS], w2[LINE_MAX_CHARS];
 	const char *after_w1, *rest;
-	size_t i = 0, j;
+	size_t i = 0;
 
 	d->commands++;
-	if (!word(s, &i, w0, sizeof(w0)) || !word(s, &i, w1, sizeof(w1))) {
+	if (!word(s, &i, w0, sizeof(w0))) {
 		fail(d, o, "unknown command '%.40s'", s);
 		return;
 	}
-	for (j = i; s[j] == ' ' || s[j] == '\t'; j++)
-		;
-	after_w1 = s + j;
-	if (!word(s, &i, w2, sizeof(w2))) {
-		fail(d, o, "word too long in '%.40s'", s);
-		return;
-	}
-	for (; s[i] == ' ' || s[i] == '\t'; i++)
-		;
-	rest = s + i;
+	word(s, &i, w1, sizeof(w1)); /* w1 and w2 fit: the whole command does */
+	after_w1 = s + i + strspn(s + i, " \t");
+	word(s, &i, w2, sizeof(w2));
+	rest = s + i + strspn(s + i, " \t");
 	if (!strcmp(w0, "get"))
 		cmd_get(d, o, w1, w2, rest);
 	else if (!strcmp(w0, "set"))
@@ -634,7 +563,7 @@ void hm_dev_set_estop(struct hm_dev *d, int pressed)
 	if (pressed && !d->estop) {
 		d->estop_stops++;
 		d->state = HM_STATE_STOP;
-		zero_bias(d, -1);
+		silence_client(d, -1);
 	}
 	d->estop = pressed != 0;
 }

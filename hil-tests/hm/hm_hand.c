@@ -145,66 +145,48 @@ void hm_hand_start(const struct hm_hand *h, double x0_m[3])
 	x0_m[2] = h->kind == HM_HAND_DROP ? h->z_m : 0.0;
 }
 
-static void grab(struct hm_hand *h, const double x_m[3])
-{
-	int k;
-
-	if (h->grabbed)
-		return;
-	for (k = 0; k < 3; k++)
-		h->grab_m[k] = x_m[k];
-	h->grabbed = 1;
-}
-
-static int let_go(struct hm_hand *h, double f_N[3])
-{
-	h->grabbed = 0;
-	f_N[0] = f_N[1] = f_N[2] = 0.0;
-	return 0;
-}
-
 int hm_hand_force(struct hm_hand *h, double t, const double x[3], const double v[3], double f_N[3])
 {
 	double target[3], target_v[3] = { 0.0, 0.0, 0.0 }, u;
-	int k;
+	int k, holding;
 
 	switch (h->kind) {
 	case HM_HAND_DROP:
-		if (t >= h->hold_s)
-			return let_go(h, f_N);
-		grab(h, x);
-		target[0] = h->grab_m[0];
-		target[1] = h->grab_m[1];
-		target[2] = h->z_m;
+		holding = t < h->hold_s;
 		break;
 	case HM_HAND_RELEASE:
-		if (t >= h->at_s)
-			return let_go(h, f_N);
-		grab(h, x);
-		memcpy(target, h->grab_m, sizeof(target));
+		holding = t < h->at_s;
 		break;
 	case HM_HAND_PRESS:
-		if (t < h->at_s || t >= h->at_s + h->ramp_s + h->hold_s)
-			return let_go(h, f_N);
-		grab(h, x);
-		memcpy(target, h->grab_m, sizeof(target));
+		holding = t >= h->at_s && t < h->at_s + h->ramp_s + h->hold_s;
+		break;
+	case HM_HAND_SHAKE:
+		holding = t >= h->at_s && !(h->for_s > 0.0 && t >= h->at_s + h->for_s);
+		break;
+	case HM_HAND_IDLE:
+	default:
+		holding = 0;
+	}
+	if (!holding) { /* let go */
+		h->grabbed = 0;
+		f_N[0] = f_N[1] = f_N[2] = 0.0;
+		return 0;
+	}
+	if (!h->grabbed) /* takes the handle where it is */
+		memcpy(h->grab_m, x, sizeof(h->grab_m));
+	h->grabbed = 1;
+	memcpy(target, h->grab_m, sizeof(target));
+	if (h->kind == HM_HAND_DROP) {
+		target[2] = h->z_m;
+	} else if (h->kind == HM_HAND_PRESS) {
 		u = (t - h->at_s) / h->ramp_s;
 		target[2] = h->grab_m[2] + (-h->depth_m - h->grab_m[2]) * (u < 1.0 ? u : 1.0);
 		if (u < 1.0)
 			target_v[2] = (-h->depth_m - h->grab_m[2]) / h->ramp_s;
-		break;
-	case HM_HAND_SHAKE:
-		if (t < h->at_s || (h->for_s > 0.0 && t >= h->at_s + h->for_s))
-			return let_go(h, f_N);
-		grab(h, x);
-		memcpy(target, h->grab_m, sizeof(target));
+	} else if (h->kind == HM_HAND_SHAKE) {
 		u = 2.0 * PI * h->f_hz * (t - h->at_s);
 		target[h->axis] += h->amp_m * sin(u);
 		target_v[h->axis] = h->amp_m * 2.0 * PI * h->f_hz * cos(u);
-		break;
-	case HM_HAND_IDLE:
-	default:
-		return let_go(h, f_N);
 	}
 	for (k = 0; k < 3; k++)
 		f_N[k] = h->k_N_m * (target[k] - x[k]) + h->b_Ns_m * (target_v[k] - v[k]);

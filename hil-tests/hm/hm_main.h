@@ -66,9 +66,9 @@ extern volatile sig_atomic_t stop_flag; /* SIGINT or SIGTERM came */
 void setup_signals(void);
 void setup_rt(struct opts *o, int watchdog_given);
 int64_t now_ns(void);
-double pct(const struct run *r, double p);
+void print_lateness(const struct run *r); /* the summary's "tick lateness" line */
 void sleep_deadline(struct run *r, int64_t *next, int64_t period_ns);
-void account(struct run *r, const struct hm_state *s, double z_mm, double t, double last_window, int holding);
+void account(struct run *r, const struct opts *o, const struct hm_state *s, double t, int holding);
 /* The frame: a position from the reference frame to the device's (metres), and back; the hand's
  * force for the device (reference-frame hand, forces mapped unscaled as the controller maps its own). */
 void frame_to_dev(const struct opts *o, const double ref_m[3], double dev_m[3]);

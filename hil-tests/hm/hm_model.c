@@ -89,19 +89,13 @@ enum swell_err hm_params_check(const struct hm_params *p, double stiff_extra_N_m
 
 void hm_init(struct hm_state *s, const double x0_m[3])
 {
-	int k;
-
 	memset(s, 0, sizeof(*s));
-	for (k = 0; k < 3; k++)
-		s->x[k] = x0_m[k];
+	memcpy(s->x, x0_m, sizeof(s->x));
 }
 
 void hm_command(struct hm_state *s, const double f_N[3], int enable)
 {
-	int k;
-
-	for (k = 0; k < 3; k++)
-		s->cmd_N[k] = f_N[k];
+	memcpy(s->cmd_N, f_N, sizeof(s->cmd_N));
 	s->cmd_enable = enable != 0;
 	s->have_cmd = 1;
 	s->cmd_age = 0;

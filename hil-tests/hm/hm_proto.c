@@ -5,12 +5,24 @@
 #include <string.h>
 #include <time.h>
 
+#include "hm_client.h"
 #include "hm_main.h"
 #include "swell/effect.h"
 #include "swell/force_safety.h"
 #include "swell/link.h"
 #include "swell/proto.h"
 #include "swell/transport.h"
+
+/* v rounded (half up) and saturated to +-lim for the wire: never a NaN (the checked parameters keep
+ * the model finite) */
+static int16_t sat(double v, double lim)
+{
+	double r = floor(v + 0.5);
+
+	return r != r ? 0 : (int16_t)(r > lim ? lim : r < -lim ? -lim : r);
+}
+
+#define sat16(v) sat((v), 30000.0)
 
 /* ---- link ---- */
 
@@ -27,29 +39,15 @@ static struct latency {
 
 static void latency_answer(void)
 {
-	int64_t d;
+	const int64_t d = now_ns() - lat.sent_ns;
 
 	if (!lat.pending)
 		return;
 	lat.pending = 0;
-	d = now_ns() - lat.sent_ns;
 	lat.hist[d / 1000 > LAT_US ? LAT_US : d / 1000]++;
 	lat.n++;
 	if (d > lat.max_ns)
 		lat.max_ns = d;
-}
-
-static double latency_pct(double p)
-{
-	uint64_t want = (uint64_t)ceil(p * (double)lat.n), seen = 0;
-	int k;
-
-	for (k = 0; k <= LAT_US; k++) {
-		seen += lat.hist[k];
-		if (want > 0 && seen >= want)
-			return k;
-	}
-	return 0;
 }
 
 /* --link-delay: up to 1 s of a controller's traffic at 2500 Hz (a FORCE_CMD a tick, heartbeats) */
@@ -94,47 +92,14 @@ struct dev {
 	uint32_t rx_type[256], tx_type[256]; /* messages by type over the run (one classic CAN frame each) */
 };
 
-static int dev_open(struct dev *d, const struct opts *o)
-{
-	const struct swell_link_open_opts uo = { .udp_host = o->host, .udp_bind_port = (uint16_t)o->bind_port };
-	struct swell_link_spec ls;
-	int rc;
-
-	memset(d, 0, sizeof(*d));
-	d->node = (uint8_t)o->node;
-	d->ctl_state = -1;
-	ls = o->ls;
-	ls.port = (uint16_t)o->port;
-	ls.iface = (uint8_t)o->iface;
-	rc = swell_link_open_spec(&d->l, &ls, &uo);
-	if (rc < 0) {
-		fprintf(stderr, "swell-hm: cannot open link %s: %s\n", o->link, strerror(-rc));
-		return -1;
-	}
-	d->carrier = swell_link_carrier(d->l);
-	return 0;
-}
-
 static void dev_send(struct dev *d, const struct swell_msg *m, size_t n, uint8_t seq)
 {
-	struct swell_frame f;
-	size_t used, k;
+	size_t k;
 
 	for (k = 0; k < n; k++)
 		d->tx_type[m[k].type]++;
-	while (n > 0) {
-		if (swell_link_encode(d->carrier, d->node, seq, m, n, &f, &used) != SWELL_OK || used == 0) {
-			d->send_errors++;
-			return;
-		}
-		if (swell_link_send(d->l, &f) < 0)
-			d->send_errors++;
-		m += used;
-		n -= used;
-	}
+	d->send_errors += hm_node_send(d->l, d->node, seq, m, n);
 }
-
-static int16_t sat16(double v);
 
 /* Acts on one message from the controller (after the link delay). */
 static void act(struct dev *d, struct hm_state *s, const struct swell_msg *m)
@@ -256,24 +221,6 @@ static int dev_recv(struct dev *d, struct hm_state *s, int timeout_ms)
 	return answers;
 }
 
-static int16_t sat16(double v)
-{
-	double r = floor(v + 0.5);
-
-	if (r != r)
-		return 0; /* never a NaN on the wire (the checked parameters keep the model finite) */
-	return (int16_t)(r > 30000.0 ? 30000 : r < -30000.0 ? -30000 : r);
-}
-
-static int16_t force_cN(double f_N)
-{
-	double r = floor(f_N * 100.0 + 0.5);
-
-	if (r != r)
-		return 0;
-	return (int16_t)(r > 25000.0 ? 25000 : r < -25000.0 ? -25000 : r);
-}
-
 /* Effect mode, every tick before the model steps: the force the last effect set produces at the
  * position and velocity the device reports (0.01 mm, 0.1 mm/s, as on the wire), through the device's
  * own limit stage (the set's F_max and rate). Rendered only while the set is fresh (eff_age below
@@ -308,13 +255,8 @@ static void effect_tick(struct dev *d, struct hm_state *s, const struct hm_param
 static void sample(struct dev *d, const struct hm_state *s, const double f_hand_N[3], uint8_t seq)
 {
 	struct swell_msg m[3];
-	uint8_t status = SWELL_DEV_POWERED;
-	int with_force = d->carrier == SWELL_CARRIER_PKT;
+	const int with_force = d->carrier == SWELL_CARRIER_PKT;
 
-	if (!s->estop)
-		status |= SWELL_DEV_FORCE_ON;
-	else
-		status |= SWELL_DEV_ESTOP;
 	memset(m, 0, sizeof(m));
 	m[0].type = SWELL_MSG_DEVICE_VEL;
 	m[0].node = d->node;
@@ -324,9 +266,9 @@ static void sample(struct dev *d, const struct hm_state *s, const double f_hand_
 	m[0].u.device_vel.seq = seq;
 	m[1].type = SWELL_MSG_DEVICE_FORCE;
 	m[1].node = d->node;
-	m[1].u.device_force.fx_cN = force_cN(f_hand_N[0]);
-	m[1].u.device_force.fy_cN = force_cN(f_hand_N[1]);
-	m[1].u.device_force.fz_cN = force_cN(f_hand_N[2]);
+	m[1].u.device_force.fx_cN = sat(f_hand_N[0] * 100.0, 25000.0);
+	m[1].u.device_force.fy_cN = sat(f_hand_N[1] * 100.0, 25000.0);
+	m[1].u.device_force.fz_cN = sat(f_hand_N[2] * 100.0, 25000.0);
 	m[1].u.device_force.seq = seq;
 	m[2].type = SWELL_MSG_DEVICE_POS;
 	m[2].node = d->node;
@@ -334,7 +276,7 @@ static void sample(struct dev *d, const struct hm_state *s, const double f_hand_
 	m[2].u.device_pos.y_10um = sat16(s->x[1] * 1e5);
 	m[2].u.device_pos.z_10um = sat16(s->x[2] * 1e5);
 	m[2].u.device_pos.seq = seq;
-	m[2].u.device_pos.status = status;
+	m[2].u.device_pos.status = SWELL_DEV_POWERED | (s->estop ? SWELL_DEV_ESTOP : SWELL_DEV_FORCE_ON);
 	if (!with_force)
 		m[1] = m[2];
 	lat.sent_ns = now_ns();
@@ -386,14 +328,6 @@ static void wait_answer(struct dev *d, struct hm_state *s, const struct opts *o,
 	r->have_offset = 1;
 }
 
-/* Real time: sleep to the next absolute deadline, then take what arrived. */
-static void wait_deadline(struct dev *d, struct hm_state *s, struct run *r, int64_t *next, int64_t period_ns)
-{
-	sleep_deadline(r, next, period_ns);
-	while (dev_recv(d, s, 0) >= 0)
-		;
-}
-
 /* Ticks between samples while effect sets come: --sample-every, or by default every tick in real
  * time and in lockstep the sets' spacing once learned (from sets that came on time; a loop whose
  * answers time out, as on an emulated bus, should be given --sample-every). */
@@ -420,11 +354,11 @@ static void summary(const struct opts *o, const struct dev *d, const struct hm_s
 		       "between samples, %u before the first (mod 256)\n",
 		       (unsigned long long)r->timeouts, o->timeout_ms, (unsigned long long)r->own_ticks, r->offset0);
 	else
-		printf("  tick lateness   p50 %.0f us, p99 %.0f us, max %.0f us; %llu periods lost\n", pct(r, 0.5),
-		       pct(r, 0.99), r->late_max_ns / 1e3, (unsigned long long)r->late_ticks);
+		print_lateness(r);
 	printf("  latency         sample -> command p50 %.0f us, p99 %.0f us, max %.0f us (%llu answers: the first "
 	       "FORCE_CMD after each DEVICE_POS, wall clock)\n",
-	       latency_pct(0.5), latency_pct(0.99), lat.max_ns / 1e3, (unsigned long long)lat.n);
+	       hm_hist_pct(lat.hist, LAT_US, lat.n, 0.5), hm_hist_pct(lat.hist, LAT_US, lat.n, 0.99), lat.max_ns / 1e3,
+	       (unsigned long long)lat.n);
 	printf("  watchdog        %u trips (%u ticks), %llu ticks with an enabled command not applied\n",
 	       s->watchdog_trips, o->p.watchdog_ticks, (unsigned long long)r->zeroed_ticks);
 	printf("  effects         %u sets, %u ticks rendered, %u went stale (freshness %u ticks); largest step at "
@@ -455,12 +389,17 @@ int proto_main(struct opts *o, FILE *log, const double x0[3])
 	struct dev d;
 	struct hm_state s;
 	int rc = 0;
-	double dt, last_window;
+	double dt;
 	int64_t start, next, period_ns, last_status;
 	uint64_t n, total;
 
-	if (dev_open(&d, o) < 0)
+	memset(&d, 0, sizeof(d));
+	d.node = (uint8_t)o->node;
+	d.ctl_state = -1;
+	d.l = hm_node_open(&o->ls, o->port, o->iface, o->host, o->bind_port, "swell-hm", o->link);
+	if (!d.l)
 		return 1;
+	d.carrier = swell_link_carrier(d.l);
 	d.eff_fresh_ticks = (uint32_t)lround(o->effect_fresh_ms * 1e-3 * o->p.rate_hz);
 	if (d.eff_fresh_ticks < 1)
 		d.eff_fresh_ticks = 1;
@@ -471,9 +410,6 @@ int proto_main(struct opts *o, FILE *log, const double x0[3])
 	dt = 1.0 / o->p.rate_hz;
 	period_ns = (int64_t)llround(1e9 / o->p.rate_hz);
 	total = (uint64_t)llround(o->seconds * o->p.rate_hz);
-	last_window = o->seconds > 1.0 ? o->seconds - 1.0 : 0.0;
-	r.z_min = INFINITY;
-	r.z_max = -INFINITY;
 	fprintf(stderr, "swell-hm: %s, %s at %g Hz, hand %s, m_v %g kg, b_v %g N s/m, watchdog %u ticks\n",
 		swell_link_name(d.l), o->lockstep ? "lockstep" : "real time", o->p.rate_hz, hm_hand_name(o->hand.kind),
 		o->p.mass_kg, o->p.damping_Ns_m, o->p.watchdog_ticks);
@@ -496,20 +432,18 @@ int proto_main(struct opts *o, FILE *log, const double x0[3])
 			if (o->lockstep)
 				wait_answer(&d, &s, o, &r, n);
 		}
-		if (!o->lockstep)
-			wait_deadline(&d, &s, &r, &next, period_ns);
+		if (!o->lockstep) { /* real time: sleep to the next absolute deadline, then take what arrived */
+			sleep_deadline(&r, &next, period_ns);
+			while (dev_recv(&d, &s, 0) >= 0)
+				;
+		}
 		deliver(&d, &s);
 		age = s.cmd_age;
 		memcpy(x, s.x, sizeof(x));
 		memcpy(v, s.v, sizeof(v));
 		effect_tick(&d, &s, &o->p);
 		hm_step(&o->p, &s, f_hand);
-		{
-			double ref[3];
-
-			frame_from_dev(o, s.x, ref);
-			account(&r, &s, ref[2] * 1e3, t, last_window, holding);
-		}
+		account(&r, o, &s, t, holding);
 		if (log)
 			fprintf(log,
 				"%.4f,%.3f,%.3f,%.3f,%.2f,%.2f,%.2f,%.2f,%.2f,%.2f,%.3f,%.3f,%.3f,%d,%u,%d,%d,%d\n", t,

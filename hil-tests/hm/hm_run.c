@@ -7,8 +7,10 @@
 #include <sys/mman.h>
 #include <time.h>
 
+#include "hm_client.h"
 #include "hm_main.h"
 
+#include "swell/link.h"
 #include "swell/param_table.h"
 
 /* The watchdog without real-time scheduling: 20 ms of ticks (the default 2 trips on every late tick). */
@@ -55,34 +57,23 @@ static void on_signal(int sig)
 
 int64_t now_ns(void)
 {
-	struct timespec t;
-
-	clock_gettime(CLOCK_MONOTONIC, &t);
-	return (int64_t)t.tv_sec * 1000000000 + t.tv_nsec;
+	return (int64_t)swell_link_now_ns();
 }
 
 void setup_signals(void)
 {
-	struct sigaction sa;
+	const struct sigaction sa = { .sa_handler = on_signal };
 
-	memset(&sa, 0, sizeof(sa));
-	sa.sa_handler = on_signal;
 	sigaction(SIGINT, &sa, NULL);
 	sigaction(SIGTERM, &sa, NULL);
 	signal(SIGPIPE, SIG_IGN);
 }
 
-double pct(const struct run *r, double p)
+void print_lateness(const struct run *r)
 {
-	uint64_t want = (uint64_t)ceil(p * (double)r->ticks), seen = 0;
-	int k;
-
-	for (k = 0; k <= HIST_US; k++) {
-		seen += r->hist[k];
-		if (want > 0 && seen >= want)
-			return k;
-	}
-	return 0;
+	printf("  tick lateness   p50 %.0f us, p99 %.0f us, max %.0f us; %llu periods lost\n",
+	       hm_hist_pct(r->hist, HIST_US, r->ticks, 0.5), hm_hist_pct(r->hist, HIST_US, r->ticks, 0.99),
+	       r->late_max_ns / 1e3, (unsigned long long)r->late_ticks);
 }
 
 /* Real time: sleep to the next absolute deadline; the lateness of the wake-up goes into r. */
@@ -106,21 +97,23 @@ void sleep_deadline(struct run *r, int64_t *next, int64_t period_ns)
 	}
 }
 
-/* After a tick: the figures of the summary. */
-void account(struct run *r, const struct hm_state *s, double z_mm, double t, double last_window, int holding)
+/* After a tick: the figures of the summary (z in the reference frame, over the last second). */
+void account(struct run *r, const struct opts *o, const struct hm_state *s, double t, int holding)
 {
 	double fc = sqrt(s->f_cmd_N[0] * s->f_cmd_N[0] + s->f_cmd_N[1] * s->f_cmd_N[1] + s->f_cmd_N[2] * s->f_cmd_N[2]);
-	double z = z_mm;
+	double ref[3], z;
 
 	r->ticks++;
 	r->zeroed_ticks += !s->applying && s->cmd_enable;
 	r->peak_f_N = fc > r->peak_f_N ? fc : r->peak_f_N;
-	if (t < last_window)
+	if (t < (o->seconds > 1.0 ? o->seconds - 1.0 : 0.0))
 		return;
+	frame_from_dev(o, s->x, ref);
+	z = ref[2] * 1e3;
+	r->z_min = r->z_n == 0 || z < r->z_min ? z : r->z_min;
+	r->z_max = r->z_n == 0 || z > r->z_max ? z : r->z_max;
 	r->z_sum += z;
 	r->z_n++;
-	r->z_min = z < r->z_min ? z : r->z_min;
-	r->z_max = z > r->z_max ? z : r->z_max;
 	r->held_late |= holding;
 }
 

@@ -14,6 +14,8 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "hm_client.h"
+#include "swell/link.h"
 #include "swell/num.h"
 
 int hm_serve_parse(const char *spec, struct sockaddr_in *sa, char *err, size_t errlen)
@@ -57,6 +59,7 @@ int hm_serve_parse(const char *spec, struct sockaddr_in *sa, char *err, size_t e
 int hm_serve_open(struct hm_serve *s, const char *spec, char *err, size_t errlen)
 {
 	struct sockaddr_in sa;
+	socklen_t sl = sizeof(sa);
 	char addr[INET_ADDRSTRLEN];
 	long port;
 	int k, one = 1;
@@ -81,12 +84,8 @@ int hm_serve_open(struct hm_serve *s, const char *spec, char *err, size_t errlen
 		s->lfd = -1;
 		return -1;
 	}
-	{
-		socklen_t sl = sizeof(sa);
-
-		if (getsockname(s->lfd, (struct sockaddr *)&sa, &sl) == 0) /* port 0: the one the kernel chose */
-			port = ntohs(sa.sin_port);
-	}
+	if (getsockname(s->lfd, (struct sockaddr *)&sa, &sl) == 0) /* port 0: the one the kernel chose */
+		port = ntohs(sa.sin_port);
 	snprintf(s->name, sizeof(s->name), "tcp %s:%ld", addr, port);
 	return 0;
 }
@@ -94,11 +93,8 @@ int hm_serve_open(struct hm_serve *s, const char *spec, char *err, size_t errlen
 static void drop(struct hm_serve *s, struct hm_dev *d, int k)
 {
 	close(s->c[k].fd);
+	memset(&s->c[k], 0, sizeof(s->c[k]));
 	s->c[k].fd = -1;
-	s->c[k].in_len = s->c[k].out_len = 0;
-	s->c[k].partial_since_ns = 0;
-	s->c[k].closing = 0;
-	s->c[k].held_n = 0;
 	hm_dev_client_gone(d, k);
 }
 
@@ -123,17 +119,11 @@ static size_t releasable(struct hm_conn *c, int64_t now)
 static int flush(struct hm_serve *s, int k)
 {
 	struct hm_conn *c = &s->c[k];
-	struct timespec t;
-	int64_t now;
-	size_t want;
 	unsigned j, keep;
 	size_t n;
-	int rc;
+	const int rc =
+		swell_hm_frame_flush(c->fd, c->out, &c->out_len, releasable(c, (int64_t)swell_link_now_ns()), &n);
 
-	clock_gettime(CLOCK_MONOTONIC, &t);
-	now = (int64_t)t.tv_sec * 1000000000 + t.tv_nsec;
-	want = releasable(c, now);
-	rc = swell_hm_frame_flush(c->fd, c->out, &c->out_len, want, &n);
 	s->st.bytes_out += (uint64_t)n;
 	for (j = keep = 0; j < c->held_n; j++) {
 		if (c->held_end[j] <= n)
@@ -154,11 +144,8 @@ static int queue(struct hm_serve *s, int k, const char *text, size_t n)
 		return -1;
 	s->st.replies++;
 	if (s->reply_delay_ns > 0 && c->held_n < HM_SERVE_HELD) {
-		struct timespec t;
-
-		clock_gettime(CLOCK_MONOTONIC, &t);
 		c->held_end[c->held_n] = c->out_len;
-		c->held_until_ns[c->held_n++] = (int64_t)t.tv_sec * 1000000000 + t.tv_nsec + s->reply_delay_ns;
+		c->held_until_ns[c->held_n++] = (int64_t)swell_link_now_ns() + s->reply_delay_ns;
 		s->st.delayed_replies++;
 	}
 	return 0;
@@ -233,19 +220,6 @@ void hm_serve_applied(struct hm_serve *s)
 	s->st.ages++;
 	if (age > s->st.age_max_ns)
 		s->st.age_max_ns = age;
-}
-
-double hm_serve_age_pct(const struct hm_serve *s, double p)
-{
-	uint64_t want = (uint64_t)(p * (double)s->st.ages + 0.999999), seen = 0;
-	int k;
-
-	for (k = 0; k <= HM_SERVE_AGE_US; k++) {
-		seen += s->st.age_hist[k];
-		if (want > 0 && seen >= want)
-			return k;
-	}
-	return 0;
 }
 
 /* Runs the whole requests in the input buffer, up to the tick's budget. -1: drop the client. */
@@ -325,10 +299,8 @@ void hm_serve_poll(struct hm_serve *s, struct hm_dev *d, int64_t now_ns)
 		if (c->fd < 0)
 			continue;
 		if (c->closing) {
-			if (flush(s, k) < 0 || c->out_len == 0) {
-				s->st.drop_closing_write += c->out_len > 0;
+			if (flush(s, k) < 0 || c->out_len == 0)
 				drop(s, d, k);
-			}
 			continue;
 		}
 		/* read only what fits: a client's flood waits in its own socket, not in ours */

@@ -1,8 +1,7 @@
 /* The HapticMaster's TCP interface, served from the emulator's device loop (docs/hapticmaster.md).
  *
- * Framing both ways: an 8-byte header (text length, 32-bit big-endian, then four zero bytes) and that
- * many bytes of ASCII text. A fixed table of HM_SERVE_CLIENTS connections with fixed buffers; nothing
- * is allocated after hm_serve_open. hm_serve_poll never blocks: it is called once a device tick and
+ * Framing both ways: swell/hm_frame.h, the text ASCII. A fixed table of HM_SERVE_CLIENTS connections
+ * with fixed buffers; nothing is allocated after hm_serve_open. hm_serve_poll never blocks: it is called once a device tick and
  * does a bounded amount of work (HM_SERVE_REQS_PER_TICK requests per client, one buffer of reading).
  *
  * Bad input is answered or dropped, and counted by its reason:
@@ -55,7 +54,7 @@ struct hm_conn {
 
 struct hm_serve_stats {
 	uint32_t accepted, refused_full, requests, replies;
-	uint32_t drop_header, drop_stalled, drop_not_reading, drop_closing_write;
+	uint32_t drop_header, drop_stalled, drop_not_reading;
 	uint32_t garbage, vanished, deferred_ticks;
 	uint32_t injected_resets, injected_garbage, delayed_replies;
 	uint64_t bytes_in, bytes_out;
@@ -88,9 +87,6 @@ void hm_serve_poll(struct hm_serve *s, struct hm_dev *d, int64_t now_ns);
 /* The device has just applied this tick's step: the requests run before it are counted with their
  * age (kernel arrival to now). */
 void hm_serve_applied(struct hm_serve *s);
-
-/* Percentile p (0..1) of the request age at application, in us. */
-double hm_serve_age_pct(const struct hm_serve *s, double p);
 
 /* Fault injection (the bench's TCP faults): every client's connection reset (RST), or 16 bytes of
  * unframed garbage written to every client; replies delayed by setting reply_delay_ns. */

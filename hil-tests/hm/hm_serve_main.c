@@ -4,6 +4,7 @@
 #include <poll.h>
 #include <string.h>
 
+#include "hm_client.h"
 #include "hm_cmd.h"
 #include "hm_main.h"
 #include "hm_serve.h"
@@ -53,14 +54,14 @@ static void serve_summary(const struct opts *o, const struct hm_serve *srv, cons
 	       (unsigned long long)st->bytes_out);
 	printf("  request age     p50 %.0f us, p99 %.0f us, max %.0f us at application (kernel arrival to the end "
 	       "of the step that applies it; %llu ticks)\n",
-	       hm_serve_age_pct(srv, 0.5), hm_serve_age_pct(srv, 0.99), st->age_max_ns / 1e3,
+	       hm_hist_pct(st->age_hist, HM_SERVE_AGE_US, st->ages, 0.5),
+	       hm_hist_pct(st->age_hist, HM_SERVE_AGE_US, st->ages, 0.99), st->age_max_ns / 1e3,
 	       (unsigned long long)st->ages);
 	if (o->lockstep)
 		printf("  timeouts        %llu (lockstep waits of %u ms without a request)\n",
 		       (unsigned long long)r->timeouts, o->timeout_ms);
 	else
-		printf("  tick lateness   p50 %.0f us, p99 %.0f us, max %.0f us; %llu periods lost\n", pct(r, 0.5),
-		       pct(r, 0.99), r->late_max_ns / 1e3, (unsigned long long)r->late_ticks);
+		print_lateness(r);
 	printf("  device          state %s, %u effects stopped by the watchdog (bias forces zeroed, springs and "
 	       "dampers disabled; %u ticks), %u by a vanished client, %u e-stops\n",
 	       hm_dev_state_name(dev->state), dev->watchdog_trips, dev->watchdog_ticks, dev->vanished_zeroed,
@@ -71,6 +72,7 @@ static void serve_summary(const struct opts *o, const struct hm_serve *srv, cons
 /* --inject: the bench's TCP faults at their simulated times, each announced on stderr. */
 static void inject(struct opts *o, struct hm_serve *srv, struct hm_dev *dev, double t)
 {
+	const char *what;
 	int k;
 
 	srv->reply_delay_ns = 0;
@@ -82,12 +84,8 @@ static void inject(struct opts *o, struct hm_serve *srv, struct hm_dev *dev, dou
 		if (j->done || t < j->at_s)
 			continue;
 		j->done = 1;
-		fprintf(stderr, "swell-hm: inject %s at %.4f s\n",
-			j->kind == 'd'           ? "delay"
-				: j->kind == 'g' ? "garbage"
-				: j->kind == 'r' ? "reset"
-						 : "stop",
-			t);
+		what = j->kind == 'd' ? "delay" : j->kind == 'g' ? "garbage" : j->kind == 'r' ? "reset" : "stop";
+		fprintf(stderr, "swell-hm: inject %s at %.4f s\n", what, t);
 		if (j->kind == 'g')
 			hm_serve_inject_garbage(srv);
 		else if (j->kind == 'r')
@@ -109,7 +107,7 @@ int serve_main(struct opts *o, FILE *log, const double x0[3])
 	static struct run r;
 	struct hm_state s;
 	char err[160];
-	double dt = 1.0 / o->p.rate_hz, last_window = o->seconds > 1.0 ? o->seconds - 1.0 : 0.0;
+	double dt = 1.0 / o->p.rate_hz;
 	int64_t start, next, period_ns = (int64_t)llround(1e9 / o->p.rate_hz), last_status;
 	uint64_t n, total = (uint64_t)llround(o->seconds * o->p.rate_hz);
 	uint32_t requests_seen = 0, req_age = 0;
@@ -125,8 +123,6 @@ int serve_main(struct opts *o, FILE *log, const double x0[3])
 	if (o->bias_watchdog_ms > 0 && dev.watchdog_ticks == 0)
 		dev.watchdog_ticks = 1;
 	hm_init(&s, x0);
-	r.z_min = INFINITY;
-	r.z_max = -INFINITY;
 	fprintf(stderr,
 		"swell-hm: serving the HapticMaster interface on %s, %s at %g Hz, hand %s, inertia %g kg, "
 		"bias watchdog %u ms\n",
@@ -134,24 +130,22 @@ int serve_main(struct opts *o, FILE *log, const double x0[3])
 		dev.inertia_kg, o->bias_watchdog_ms);
 	start = next = last_status = now_ns();
 	for (n = 0; n < total && !stop_flag; n++) {
-		double t = (double)n * dt, f_hand[3], f_fx[3], x[3], v[3];
+		double t = (double)n * dt, f_hand[3], f_fx[3], *x = dev.x_m, *v = dev.v_m_s;
 		int holding, k;
 
 		hm_dev_set_estop(&dev, t >= o->estop_s[0] && t < o->estop_s[1]);
 		inject(o, &srv, &dev, t);
+		/* the state before this tick's step: what the requests read, the log's x and v */
 		memcpy(dev.x_m, s.x, sizeof(dev.x_m));
 		memcpy(dev.v_m_s, s.v, sizeof(dev.v_m_s));
 		holding = frame_hand_force(o, t, s.x, s.v, f_hand);
-		for (k = 0; k < 3; k++)
-			dev.fmeas_N[k] = f_hand[k];
+		memcpy(dev.fmeas_N, f_hand, sizeof(dev.fmeas_N));
 		if (o->lockstep)
 			serve_wait(&srv, &dev, o, &r);
 		else {
 			sleep_deadline(&r, &next, period_ns);
 			hm_serve_poll(&srv, &dev, now_ns());
 		}
-		memcpy(x, s.x, sizeof(x));
-		memcpy(v, s.v, sizeof(v));
 		hm_dev_tick(&dev, s.x, s.v, f_fx);
 		hm_command(&s, f_fx, 1);
 		o->p.mass_kg = dev.inertia_kg;
@@ -163,12 +157,7 @@ int serve_main(struct opts *o, FILE *log, const double x0[3])
 		requests_seen = srv.st.requests;
 		for (k = 0; k < 3; k++)
 			dev.a_m_s2[k] = (s.v[k] - v[k]) / dt;
-		{
-			double ref[3];
-
-			frame_from_dev(o, s.x, ref);
-			account(&r, &s, ref[2] * 1e3, t, last_window, holding);
-		}
+		account(&r, o, &s, t, holding);
 		if (log)
 			fprintf(log,
 				"%.4f,%.3f,%.3f,%.3f,%.2f,%.2f,%.2f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%d,%d,%d,%d,%d\n", t,

@@ -182,13 +182,7 @@ static void on_signal(int sig)
 	stop_flag = 1;
 }
 
-static int64_t now_ns(void)
-{
-	struct timespec t;
-
-	clock_gettime(CLOCK_MONOTONIC, &t);
-	return (int64_t)t.tv_sec * 1000000000 + t.tv_nsec;
-}
+#define now_ns() ((int64_t)swell_link_now_ns())
 
 struct bridge {
 	struct swell_link *l;
@@ -209,24 +203,6 @@ struct bridge {
 	int hm_zeroed; /* ... since the last answer */
 };
 
-static int open_link(struct bridge *b, const struct opts *o)
-{
-	const struct swell_link_open_opts uo = { .udp_host = o->host, .udp_bind_port = (uint16_t)o->bind_port };
-	struct swell_link_spec ls;
-	int rc;
-
-	ls = o->ls;
-	ls.port = (uint16_t)o->port;
-	ls.iface = (uint8_t)o->iface;
-	rc = swell_link_open_spec(&b->l, &ls, &uo);
-	if (rc < 0) {
-		fprintf(stderr, "swell-hmbridge: cannot open link %s: %s\n", o->link, strerror(-rc));
-		return -1;
-	}
-	b->carrier = swell_link_carrier(b->l);
-	return 0;
-}
-
 /* Every FORCE_CMD and effect set waiting: the latest wins. In effect mode the controller sends no
  * FORCE_CMD while RUNNING: a complete set is then an enabled command with zero bias force, and its
  * freshness (--effect-fresh) the watchdog, as on swell-hm. */
@@ -242,48 +218,28 @@ static void take_commands(struct bridge *b)
 		if (swell_link_decode(b->carrier, &f, m, SWELL_CANFD_MSGS_MAX, &n, NULL, &b->st) != SWELL_OK)
 			continue; /* counted in st, never acted on */
 		for (k = 0; k < n; k++) {
+			const struct swell_msg_force_cmd *c = &m[k].u.force_cmd;
 			const uint32_t sets = b->fx.st.sets;
 
 			if (m[k].node == b->node && hm_fx_msg(&b->fx, &b->hm, &m[k])) {
-				if (b->fx.st.sets != sets) {
-					b->f_cN[0] = b->f_cN[1] = b->f_cN[2] = 0;
-					b->enable = 1;
-					b->cmd_age = 0;
-					b->zeroed = 0;
-					b->by_sets = 1;
-				}
-				continue;
-			}
-			if (m[k].node != b->node || m[k].type != SWELL_MSG_FORCE_CMD) {
+				if (b->fx.st.sets == sets)
+					continue; /* a part of a set */
+				b->f_cN[0] = b->f_cN[1] = b->f_cN[2] = 0;
+				b->enable = 1;
+			} else if (m[k].node != b->node || m[k].type != SWELL_MSG_FORCE_CMD) {
 				b->ignored += m[k].type != SWELL_MSG_HEARTBEAT;
 				continue;
+			} else {
+				b->f_cN[0] = c->fx_cN;
+				b->f_cN[1] = c->fy_cN;
+				b->f_cN[2] = c->fz_cN;
+				b->enable = c->enable;
+				b->commands++;
 			}
-			b->f_cN[0] = m[k].u.force_cmd.fx_cN;
-			b->f_cN[1] = m[k].u.force_cmd.fy_cN;
-			b->f_cN[2] = m[k].u.force_cmd.fz_cN;
-			b->enable = m[k].u.force_cmd.enable;
+			b->by_sets = b->fx.st.sets != sets;
 			b->cmd_age = 0;
-			b->by_sets = 0;
 			b->zeroed = 0;
-			b->commands++;
 		}
-	}
-}
-
-static void send_msgs(struct bridge *b, const struct swell_msg *m, size_t n, uint8_t seq)
-{
-	struct swell_frame f;
-	size_t used;
-
-	while (n > 0) {
-		if (swell_link_encode(b->carrier, b->node, seq, m, n, &f, &used) != SWELL_OK || used == 0) {
-			b->send_errors++;
-			return;
-		}
-		if (swell_link_send(b->l, &f) < 0)
-			b->send_errors++;
-		m += used;
-		n -= used;
 	}
 }
 
@@ -291,7 +247,6 @@ static void tick(struct bridge *b, const struct opts *o)
 {
 	struct swell_msg in[2 * HMC_RING], *newest = NULL;
 	size_t n, k;
-	static const int16_t zero[3] = { 0, 0, 0 };
 
 	take_commands(b);
 	/* the newest answer only: the controller gets one sample a tick */
@@ -307,7 +262,7 @@ static void tick(struct bridge *b, const struct opts *o)
 	if (newest) {
 		b->samples_dropped += n / 2 - 1;
 		b->samples_fwd++;
-		send_msgs(b, newest, 2, newest[1].u.device_pos.seq);
+		b->send_errors += hm_node_send(b->l, b->node, newest[1].u.device_pos.seq, newest, 2);
 		b->ans_age = 0;
 		b->hm_zeroed = 0;
 	} else {
@@ -322,10 +277,7 @@ static void tick(struct bridge *b, const struct opts *o)
 		b->hm_trips += b->enable && !b->zeroed;
 	}
 	hm_fx_tick(&b->fx, &b->hm, b->enable, !b->zeroed && !b->hm_zeroed);
-	if (b->zeroed || b->hm_zeroed)
-		hm_client_force(&b->hm, zero, 0);
-	else
-		hm_client_force(&b->hm, b->f_cN, b->enable);
+	hm_client_force(&b->hm, b->f_cN, b->enable && !b->zeroed && !b->hm_zeroed); /* else zero force */
 	if (b->cmd_age < UINT32_MAX)
 		b->cmd_age++;
 	if (b->ans_age < UINT32_MAX)
@@ -337,7 +289,7 @@ int main(int argc, char **argv)
 {
 	static struct bridge b;
 	struct opts o;
-	struct sigaction sa;
+	const struct sigaction sa = { .sa_handler = on_signal };
 	char err[160];
 	int64_t period, next, start, last_status;
 	uint64_t max_ticks;
@@ -354,10 +306,10 @@ int main(int argc, char **argv)
 	}
 	b.hm.inertia_g = (uint32_t)lround(o.inertia_kg * 1000.0);
 	hm_fx_init(&b.fx, &b.hm, (uint32_t)fmax(1.0, round(o.fresh_ms * o.rate_hz / 1000.0)));
-	if (open_link(&b, &o) < 0)
+	b.l = hm_node_open(&o.ls, o.port, o.iface, o.host, o.bind_port, "swell-hmbridge", o.link);
+	if (!b.l)
 		return 1;
-	memset(&sa, 0, sizeof(sa));
-	sa.sa_handler = on_signal;
+	b.carrier = swell_link_carrier(b.l);
 	sigaction(SIGINT, &sa, NULL);
 	sigaction(SIGTERM, &sa, NULL);
 	signal(SIGPIPE, SIG_IGN);

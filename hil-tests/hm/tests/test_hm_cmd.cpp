@@ -353,3 +353,20 @@ TEST_CASE("watchdog: a client silent for N ticks loses its bias force and its sp
 	CHECK(d.vanished_zeroed == 2);
 	CHECK(run(d, "get p enabled", 0) == "false");
 }
+
+TEST_CASE("owners: a bias force answers to the client that set its force, not to one that moved or enabled it, a "
+	  "spring to the client that last set anything on it")
+{
+	hm_dev d = in_force();
+	REQUIRE(run(d, "create biasforce a;set a force [0,0,1]", 0).find("ERROR") == std::string::npos);
+	REQUIRE(run(d, "set a pos [0,0,0.1];set a vel [0,0,0];set a att [0,0,0,1];set a enable", 1).find("ERROR") ==
+		std::string::npos);
+	REQUIRE(run(d, "create spring s;set s stiffness 10", 0).find("ERROR") == std::string::npos);
+	REQUIRE(run(d, "set s enable", 1).find("ERROR") == std::string::npos);
+	hm_dev_client_gone(&d, 1); // client 1's spring stops, client 0's bias force stays
+	CHECK(run(d, "get s enabled;get a enabled;get a force", 0) == "false;true;[0,0,1]");
+	CHECK(d.vanished_zeroed == 1);
+	hm_dev_client_gone(&d, 0);
+	CHECK(run(d, "get a force", 2) == "[0,0,0]");
+	CHECK(d.vanished_zeroed == 2);
+}

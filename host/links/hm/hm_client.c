@@ -3,6 +3,7 @@
 #include "hm_client.h"
 
 #include "swell/hm_frame.h"
+#include "swell/link.h"
 #include "swell/num.h"
 
 #include <arpa/inet.h>
@@ -14,13 +15,11 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/socket.h>
-#include <time.h>
 #include <unistd.h>
 
 #define BIAS "swell_bias"
-/* Every effect swell creates (the stream mode's bias, the effect mode's springs, damper and weight):
- * removed before every start-up and on exit, whichever mode left them. */
-#define REMOVE_ALL "remove " BIAS ";remove swell_pull;remove swell_push;remove swell_damp;remove swell_weight"
+/* Every effect swell creates (the stream mode's bias, the effect mode's springs, damper and weight) */
+#define REMOVE_ALL "remove " BIAS ";" HMC_FX_REMOVE
 #define REMOVE_N 5
 
 enum {
@@ -40,13 +39,7 @@ static const char init_text[] = REMOVE_ALL ";set state init;get position_calibra
 static const char start_text[] =
 	"set state force;create biasforce " BIAS ";set " BIAS " force [0,0,0];set " BIAS " enable";
 
-static int64_t now_ns(void)
-{
-	struct timespec t;
-
-	clock_gettime(CLOCK_MONOTONIC, &t);
-	return (int64_t)t.tv_sec * 1000000000 + t.tv_nsec;
-}
+#define now_ns() ((int64_t)swell_link_now_ns())
 
 const char *hm_client_phase_name(enum hmc_phase p)
 {
@@ -59,25 +52,24 @@ int hm_client_parse_fixed(const char **s, int scale, int32_t limit, int32_t *out
 {
 	const char *p = *s;
 	uint64_t mant = 0, q, r, pow = 1;
-	int neg = 0, digits = 0, exp10 = 0, any = 0, e;
+	int neg = 0, digits = 0, exp10 = 0, any = 0, dot = 0, e;
 
 	if (*p == '-' || *p == '+')
 		neg = *p++ == '-';
-	for (; *p >= '0' && *p <= '9'; p++, any = 1) {
+	for (;; p++) { /* the digits, one '.' among them */
+		if (*p == '.' && !dot) {
+			dot = 1;
+			continue;
+		}
+		if (*p < '0' || *p > '9')
+			break;
+		any = 1;
 		if (digits < 18) {
 			mant = mant * 10u + (uint64_t)(*p - '0');
 			digits += mant != 0;
+			exp10 -= dot;
 		} else {
-			exp10++; /* digits past 18 only scale */
-		}
-	}
-	if (*p == '.') {
-		for (p++; *p >= '0' && *p <= '9'; p++, any = 1) {
-			if (digits < 18) {
-				mant = mant * 10u + (uint64_t)(*p - '0');
-				digits += mant != 0;
-				exp10--;
-			}
+			exp10 += !dot; /* digits past 18 only scale */
 		}
 	}
 	if (!any)
@@ -119,6 +111,63 @@ int hm_client_parse_fixed(const char **s, int scale, int32_t limit, int32_t *out
 	return 0;
 }
 
+size_t hm_client_fmt_fixed(char *b, size_t cap, int64_t v, int decimals)
+{
+	static const uint64_t scale[] = { 1, 10, 100, 1000, 10000, 100000 };
+	const uint64_t a = v < 0 ? (uint64_t)(-v) : (uint64_t)v, d = scale[decimals];
+	const int n = snprintf(b, cap, "%s%llu.%0*llu", v < 0 ? "-" : "", (unsigned long long)(a / d), decimals,
+			       (unsigned long long)(a % d));
+
+	return n < 0 || (size_t)n >= cap ? cap : (size_t)n;
+}
+
+double hm_hist_pct(const uint32_t *hist, int last, uint64_t n, double p)
+{
+	const double x = p * (double)n;
+	uint64_t want = (uint64_t)x, seen = 0;
+	int k;
+
+	want += (double)want < x; /* rounded up */
+	for (k = 0; k <= last; k++) {
+		seen += hist[k];
+		if (want > 0 && seen >= want)
+			return k;
+	}
+	return 0;
+}
+
+struct swell_link *hm_node_open(const struct swell_link_spec *spec, unsigned port, unsigned iface, const char *host,
+				unsigned bind_port, const char *prog, const char *what)
+{
+	const struct swell_link_open_opts uo = { .udp_host = host, .udp_bind_port = (uint16_t)bind_port };
+	struct swell_link_spec ls = *spec;
+	struct swell_link *l = NULL;
+	int rc;
+
+	ls.port = (uint16_t)port;
+	ls.iface = (uint8_t)iface;
+	rc = swell_link_open_spec(&l, &ls, &uo);
+	if (rc < 0)
+		fprintf(stderr, "%s: cannot open link %s: %s\n", prog, what, strerror(-rc));
+	return rc < 0 ? NULL : l;
+}
+
+uint32_t hm_node_send(struct swell_link *l, uint8_t node, uint8_t seq, const struct swell_msg *m, size_t n)
+{
+	struct swell_frame f;
+	uint32_t errors = 0;
+	size_t used;
+
+	while (n > 0) {
+		if (swell_link_encode(swell_link_carrier(l), node, seq, m, n, &f, &used) != SWELL_OK || used == 0)
+			return errors + 1;
+		errors += swell_link_send(l, &f) < 0;
+		m += used;
+		n -= used;
+	}
+	return errors;
+}
+
 /* "[a,b,c]" into three fixed-point integers; *s moves past it. */
 static int parse_vec3(const char **s, int scale, int32_t limit, int32_t v[3])
 {
@@ -145,6 +194,13 @@ static int parse_vec3(const char **s, int scale, int32_t limit, int32_t v[3])
 	return 0;
 }
 
+/* The phase p until HMC_RETRY_MS from now. */
+static void hold(struct hm_client *c, enum hmc_phase p)
+{
+	c->phase = p;
+	c->retry_at_ns = now_ns() + (int64_t)HMC_RETRY_MS * 1000000;
+}
+
 static void disconnect(struct hm_client *c, int counted_reset)
 {
 	if (c->fd >= 0)
@@ -153,10 +209,8 @@ static void disconnect(struct hm_client *c, int counted_reset)
 	c->st.lost += c->ring_n;
 	c->ring_n = 0;
 	c->in_len = c->out_len = 0;
-	if (counted_reset)
-		c->st.resets++;
-	c->phase = HMC_DOWN;
-	c->retry_at_ns = now_ns() + (int64_t)HMC_RETRY_MS * 1000000;
+	c->st.resets += counted_reset != 0;
+	hold(c, HMC_DOWN);
 	c->status = 0;
 }
 
@@ -166,7 +220,7 @@ static void start_connect(struct hm_client *c)
 
 	c->fd = socket(AF_INET, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
 	if (c->fd < 0) {
-		c->retry_at_ns = now_ns() + (int64_t)HMC_RETRY_MS * 1000000;
+		hold(c, HMC_DOWN);
 		return;
 	}
 	setsockopt(c->fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof(one));
@@ -200,11 +254,9 @@ int hm_client_open(struct hm_client *c, const char *spec, uint32_t max_age_ticks
 	c->addr.sin_family = AF_INET;
 	c->addr.sin_port = htons((uint16_t)port);
 	if (inet_pton(AF_INET, host, &c->addr.sin_addr) != 1) {
-		struct addrinfo hints, *res = NULL;
+		const struct addrinfo hints = { .ai_family = AF_INET, .ai_socktype = SOCK_STREAM };
+		struct addrinfo *res = NULL;
 
-		memset(&hints, 0, sizeof(hints));
-		hints.ai_family = AF_INET;
-		hints.ai_socktype = SOCK_STREAM;
 		if (getaddrinfo(host, NULL, &hints, &res) != 0 || !res) {
 			snprintf(err, errlen, "hm:%s: cannot resolve '%s'", spec, host);
 			return -1;
@@ -265,16 +317,7 @@ static void refuse(struct hm_client *c, const char *why)
 		snprintf(c->refusal, sizeof(c->refusal), "%s", why);
 		c->refusal_seq++;
 	}
-	c->phase = HMC_HOLDOFF;
-	c->retry_at_ns = now_ns() + (int64_t)HMC_RETRY_MS * 1000000;
-}
-
-/* "-1.23" from -123 cN */
-static int fmt_cN(char *b, size_t n, int16_t v)
-{
-	int a = v < 0 ? -v : v;
-
-	return snprintf(b, n, "%s%d.%02d", v < 0 ? "-" : "", a / 100, a % 100);
+	hold(c, HMC_HOLDOFF);
 }
 
 void hm_client_force(struct hm_client *c, const int16_t f_cN[3], int enable)
@@ -293,7 +336,7 @@ void hm_client_force(struct hm_client *c, const int16_t f_cN[3], int enable)
 		return;
 	}
 	for (k = 0; k < 3; k++)
-		fmt_cN(f[k], sizeof(f[k]), zero ? 0 : f_cN[k]);
+		hm_client_fmt_fixed(f[k], sizeof(f[k]), zero ? 0 : f_cN[k], 2); /* "-1.23" from -123 cN */
 	n = snprintf(text, sizeof(text), "set " BIAS " force [%s,%s,%s];get measpos;get modelvel;get state%s%s", f[0],
 		     f[1], f[2], c->extra[0] ? ";" : "", c->extra);
 	c->extra[0] = '\0';
@@ -372,29 +415,24 @@ static int part_ok(const char *text, int i)
 }
 
 /* An answer to one of the start-up's three requests: the next request, RUNNING, or a refusal. */
-static size_t startup_answer(struct hm_client *c, int kind, const char *text)
+static void startup_answer(struct hm_client *c, int kind, const char *text)
 {
 	static const int16_t none[3] = { 0, 0, 0 };
+	char req[sizeof(init_text) + 40], kg[24];
+	int n;
 
-	if (kind == KIND_PROBE) {
-		if (!part_ok(text, 0) || !part_ok(text, 1))
-			refuse(c, "the device did not answer 'get emergencybuttonpushed;get state'");
-		else if (part_true(text, 0))
-			refuse(c, "the device's e-stop is pushed: no force until it is released");
-		else {
-			/* the inertia swell's force law is tuned for, after the calibrations are read */
-			char req[sizeof(init_text) + 40];
-			int n = c->inertia_g
-				? snprintf(req, sizeof(req), "%s;set inertia %u.%03u", init_text,
-					   (unsigned)(c->inertia_g / 1000u), (unsigned)(c->inertia_g % 1000u))
-				: snprintf(req, sizeof(req), "%s", init_text);
-
-			if (n < 0 || (size_t)n >= sizeof(req) || request(c, KIND_INIT, req, (size_t)n) < 0)
-				refuse(c, "no room for the start-up request");
-		}
-		return 0;
-	}
-	if (kind == KIND_INIT) {
+	if (kind == KIND_PROBE && (!part_ok(text, 0) || !part_ok(text, 1))) {
+		refuse(c, "the device did not answer 'get emergencybuttonpushed;get state'");
+	} else if (kind == KIND_PROBE && part_true(text, 0)) {
+		refuse(c, "the device's e-stop is pushed: no force until it is released");
+	} else if (kind == KIND_PROBE) {
+		/* the inertia swell's force law is tuned for, after the calibrations are read */
+		hm_client_fmt_fixed(kg, sizeof(kg), c->inertia_g, 3);
+		n = snprintf(req, sizeof(req), "%s%s%s", init_text, c->inertia_g ? ";set inertia " : "",
+			     c->inertia_g ? kg : "");
+		if (n < 0 || (size_t)n >= sizeof(req) || request(c, KIND_INIT, req, (size_t)n) < 0)
+			refuse(c, "no room for the start-up request");
+	} else if (kind == KIND_INIT) {
 		/* the removes may fail (nothing of swell's was there); init must not */
 		if (!part_ok(text, REMOVE_N))
 			refuse(c, "the device refused 'set state init' (e-stop, or its own fault)");
@@ -410,23 +448,15 @@ static size_t startup_answer(struct hm_client *c, int kind, const char *text)
 			refuse(c, "the device refused 'set inertia' (hm.inertia)");
 		else if (request(c, KIND_START, start_text, sizeof(start_text) - 1) < 0)
 			refuse(c, "no room for the start-up request");
-		return 0;
+	} else if (!part_ok(text, 0) || !part_ok(text, 1) || !part_ok(text, 2) || !part_ok(text, 3)) {
+		refuse(c, "the device refused the force state or swell's zero bias force");
+	} else {
+		c->phase = HMC_RUNNING;
+		c->refusal[0] = '\0';
+		/* a first sample at once: a controller clocked by the device ticks on it */
+		c->tick--;
+		hm_client_force(c, none, 0);
 	}
-	{
-		int i;
-
-		for (i = 0; i < 4; i++)
-			if (!part_ok(text, i)) {
-				refuse(c, "the device refused the force state or swell's zero bias force");
-				return 0;
-			}
-	}
-	c->phase = HMC_RUNNING;
-	c->refusal[0] = '\0';
-	/* a first sample at once: a controller clocked by the device ticks on it */
-	c->tick--;
-	hm_client_force(c, none, 0);
-	return 0;
 }
 
 /* One answer of len bytes; may write a sample into out. Returns messages written. */
@@ -448,8 +478,10 @@ static size_t answer(struct hm_client *c, char *text, struct swell_msg *out, siz
 	if ((uint64_t)rtt > c->st.rtt_ns_max)
 		c->st.rtt_ns_max = (uint64_t)rtt;
 	c->st.rtt_hist[rtt / 1000 > HMC_RTT_US ? HMC_RTT_US : rtt / 1000]++;
-	if (kind == KIND_PROBE || kind == KIND_INIT || kind == KIND_START)
-		return startup_answer(c, kind, text);
+	if (kind == KIND_PROBE || kind == KIND_INIT || kind == KIND_START) {
+		startup_answer(c, kind, text);
+		return 0;
+	}
 	if (kind == KIND_CHECKED && strstr(text, "---")) {
 		c->st.error_answers++;
 		c->fault_next = 1;
@@ -474,14 +506,10 @@ static size_t answer(struct hm_client *c, char *text, struct swell_msg *out, siz
 	if (!(status & SWELL_DEV_FORCE_ON) && c->phase == HMC_RUNNING) {
 		/* stopped by someone else, e-stop, or our effect is gone: start again after a pause */
 		c->st.not_force++;
-		c->phase = HMC_HOLDOFF;
-		c->retry_at_ns = now_ns() + (int64_t)HMC_RETRY_MS * 1000000;
+		hold(c, HMC_HOLDOFF);
 	}
-	if (age > c->max_age_ticks) {
-		c->st.late++;
-		return 0;
-	}
-	if (cap < 2)
+	c->st.late += age > c->max_age_ticks;
+	if (age > c->max_age_ticks || cap < 2)
 		return 0;
 	memset(out, 0, 2 * sizeof(*out));
 	out[0].type = SWELL_MSG_DEVICE_VEL;
@@ -596,20 +624,6 @@ int hm_client_zero_wait(struct hm_client *c, int wait_ms)
 	return c->fd >= 0 && c->st.answers >= want ? 0 : -1;
 }
 
-/* Percentile p (0..1) of the round trip, in us. */
-static double hm_client_rtt_pct(const struct hm_client *c, double p)
-{
-	uint64_t want = (uint64_t)(p * (double)c->st.answers + 0.999999), seen = 0;
-	int k;
-
-	for (k = 0; k <= HMC_RTT_US; k++) {
-		seen += c->st.rtt_hist[k];
-		if (want > 0 && seen >= want)
-			return k;
-	}
-	return 0;
-}
-
 void hm_client_report(const struct hm_client *c, FILE *f)
 {
 	const struct hmc_stats *s = &c->st;
@@ -620,7 +634,8 @@ void hm_client_report(const struct hm_client *c, FILE *f)
 		c->name, hm_client_phase_name(c->phase), s->requests, s->answers, s->samples, s->late, c->max_age_ticks,
 		s->lost, s->skipped, c->max_age_ticks + 1, s->error_answers, s->garbage);
 	fprintf(f, "  hm round trip   p50 %.0f us, p99 %.0f us, max %.0f us, mean %.0f us; most in flight %u\n",
-		hm_client_rtt_pct(c, 0.5), hm_client_rtt_pct(c, 0.99), (double)s->rtt_ns_max / 1e3,
+		hm_hist_pct(s->rtt_hist, HMC_RTT_US, s->answers, 0.5),
+		hm_hist_pct(s->rtt_hist, HMC_RTT_US, s->answers, 0.99), (double)s->rtt_ns_max / 1e3,
 		s->answers ? (double)s->rtt_ns_sum / s->answers / 1e3 : 0.0, s->max_inflight);
 	fprintf(f,
 		"  hm sessions     %u connections, %u resets, %u start-ups (%u failed), %u times found not in "

@@ -20,13 +20,19 @@
 #include <stdio.h>
 #include <stdint.h>
 
+#include "swell/link_spec.h"
 #include "swell/proto.h"
+
+struct swell_link;
 
 #define HMC_PORT 7654
 #define HMC_TEXT_MAX 1024 /* longest request or answer text */
 #define HMC_RING 32 /* requests in flight at most */
 #define HMC_RETRY_MS 200 /* reconnect and start-up retry period */
 #define HMC_RTT_US 20000 /* round-trip histogram range */
+/* The effect mode's effects (hm_fx.h), removed with the stream mode's bias force before every
+ * start-up and on exit, whichever mode left them. */
+#define HMC_FX_REMOVE "remove swell_pull;remove swell_push;remove swell_damp;remove swell_weight"
 
 enum hmc_phase {
 	HMC_DOWN,
@@ -105,6 +111,24 @@ int hm_client_zero_wait(struct hm_client *c, int wait_ms);
  * (scale 5: metres to 0.01 mm), rounded half away from zero and saturated to +-limit; *s moves past
  * it. -1 (nothing moved) when no number is there. No floating point. */
 int hm_client_parse_fixed(const char **s, int scale, int32_t limit, int32_t *out);
+
+/* The way back: v in units of 10^-decimals (0..5) as decimal text ("-0.00125", "2.000"); the length
+ * written, cap when it did not fit. */
+size_t hm_client_fmt_fixed(char *b, size_t cap, int64_t v, int decimals);
+
+/* The device node's link to the controller (swell-hmbridge, swell-hm): spec with the controller's
+ * port and USB interface, its UDP address host and our own UDP port. NULL when it cannot be opened,
+ * said on stderr after prog and the link's text (what). */
+struct swell_link *hm_node_open(const struct swell_link_spec *spec, unsigned port, unsigned iface, const char *host,
+				unsigned bind_port, const char *prog, const char *what);
+
+/* The device node's messages on it: as many frames of the link's carrier as they take, under node
+ * and seq. Returns how many failed. */
+uint32_t hm_node_send(struct swell_link *l, uint8_t node, uint8_t seq, const struct swell_msg *m, size_t n);
+
+/* Percentile p (0..1) of the n values counted in hist[0..last] (1 us bins, later ones in the last),
+ * in us: for the programs' reports (the round trip here, swell-hm's figures). */
+double hm_hist_pct(const uint32_t *hist, int last, uint64_t n, double p);
 
 /* The counters and round-trip times, a few lines of "  hm ..." for a program's report. */
 void hm_client_report(const struct hm_client *c, FILE *f);

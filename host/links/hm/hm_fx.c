@@ -3,8 +3,6 @@
 
 #include <string.h>
 
-static const char remove_text[] = "remove swell_pull;remove swell_push;remove swell_damp;remove swell_weight";
-
 static const char create_text[] =
 	"create spring swell_pull;create spring swell_push;create damper swell_damp;"
 	"create biasforce swell_weight;"
@@ -19,7 +17,7 @@ void hm_fx_init(struct hm_fx *x, struct hm_client *c, uint32_t fresh_ticks)
 	memset(x, 0, sizeof(*x));
 	x->fresh_ticks = fresh_ticks ? fresh_ticks : HM_FX_FRESH_TICKS;
 	x->session = c->st.startups;
-	c->cleanup = remove_text;
+	c->cleanup = HMC_FX_REMOVE;
 }
 
 int hm_fx_msg(struct hm_fx *x, const struct hm_client *c, const struct swell_msg *m)
@@ -39,31 +37,19 @@ int hm_fx_msg(struct hm_fx *x, const struct hm_client *c, const struct swell_msg
 	return 1;
 }
 
-/* v in units of 10^-decimals, as a decimal ("-0.00125"); the length written. */
-static size_t dec(char *b, size_t cap, int64_t v, int decimals)
-{
-	static const int64_t scale[] = { 1, 10, 100, 1000, 10000, 100000 };
-	const uint64_t a = v < 0 ? (uint64_t)(-v) : (uint64_t)v;
-	const uint64_t s = (uint64_t)scale[decimals];
-	int n = snprintf(b, cap, "%s%llu.%0*llu", v < 0 ? "-" : "", (unsigned long long)(a / s), decimals,
-			 (unsigned long long)(a % s));
-
-	return n < 0 || (size_t)n >= cap ? cap : (size_t)n;
-}
-
 size_t hm_fx_values(const struct swell_effect *e, char *buf, size_t cap)
 {
 	char pull[24], push[24], uw[24], k[24], nk[24], fmax[24], b[24], bias[24];
 	int n;
 
-	dec(pull, sizeof(pull), (int64_t)e->surface_10um + HM_FX_DEADBAND_10UM, 5);
-	dec(push, sizeof(push), (int64_t)e->surface_10um - e->h_10um + HM_FX_DEADBAND_10UM, 5);
-	dec(uw, sizeof(uw), e->uw_100ums, 4);
-	dec(k, sizeof(k), e->k_10mN_m, 2);
-	dec(nk, sizeof(nk), -(int64_t)e->k_10mN_m, 2);
-	dec(fmax, sizeof(fmax), e->fmax_cN, 2);
-	dec(b, sizeof(b), e->b_10mNs_m, 2);
-	dec(bias, sizeof(bias), e->bias_mN, 3);
+	hm_client_fmt_fixed(pull, sizeof(pull), (int64_t)e->surface_10um + HM_FX_DEADBAND_10UM, 5);
+	hm_client_fmt_fixed(push, sizeof(push), (int64_t)e->surface_10um - e->h_10um + HM_FX_DEADBAND_10UM, 5);
+	hm_client_fmt_fixed(uw, sizeof(uw), e->uw_100ums, 4);
+	hm_client_fmt_fixed(k, sizeof(k), e->k_10mN_m, 2);
+	hm_client_fmt_fixed(nk, sizeof(nk), -(int64_t)e->k_10mN_m, 2);
+	hm_client_fmt_fixed(fmax, sizeof(fmax), e->fmax_cN, 2);
+	hm_client_fmt_fixed(b, sizeof(b), e->b_10mNs_m, 2);
+	hm_client_fmt_fixed(bias, sizeof(bias), e->bias_mN, 3);
 	n = snprintf(buf, cap,
 		     "set swell_pull pos [0,0,%s];set swell_pull vel [0,0,%s];set swell_pull stiffness %s;"
 		     "set swell_pull maxforce %s;set swell_push pos [0,0,%s];set swell_push vel [0,0,%s];"
@@ -78,28 +64,26 @@ size_t hm_fx_values(const struct swell_effect *e, char *buf, size_t cap)
 static void send_set(struct hm_fx *x, struct hm_client *c)
 {
 	char text[HMC_TEXT_MAX];
-	size_t n;
+	size_t n = sizeof(create_text) - 1;
+	int sent;
 
 	if (x->live) {
-		if (hm_fx_values(&x->set, text, sizeof(text)) == 0 || hm_client_set_extra(c, text) < 0) {
-			x->st.unsent++;
-			return;
-		}
-		x->st.updates++;
-		x->unsent = 0;
-		return;
+		sent = hm_fx_values(&x->set, text, sizeof(text)) > 0 && hm_client_set_extra(c, text) == 0;
+	} else {
+		memcpy(text, create_text, n);
+		n += hm_fx_values(&x->set, text + n, sizeof(text) - n - sizeof(enable_text));
+		memcpy(text + n, enable_text, sizeof(enable_text));
+		sent = n > sizeof(create_text) - 1 && hm_client_request(c, text, 1) == 0;
 	}
-	n = sizeof(create_text) - 1;
-	memcpy(text, create_text, n);
-	n += hm_fx_values(&x->set, text + n, sizeof(text) - n - sizeof(enable_text));
-	memcpy(text + n, enable_text, sizeof(enable_text));
-	if (n == sizeof(create_text) - 1 || hm_client_request(c, text, 1) < 0) {
+	if (!sent) {
 		x->st.unsent++;
 		return;
 	}
-	x->st.creations++;
+	x->st.updates += x->live != 0;
+	x->st.creations += !x->live;
+	if (!x->live)
+		x->session = c->st.startups;
 	x->live = 1;
-	x->session = c->st.startups;
 	x->unsent = 0;
 }
 
@@ -122,7 +106,7 @@ void hm_fx_tick(struct hm_fx *x, struct hm_client *c, int enable, int trusted)
 	}
 	if (x->live && hm_client_fd(c) >= 0) {
 		hm_client_set_extra(c, ""); /* an update not sent yet must not follow the removal */
-		if (hm_client_request(c, remove_text, 0) < 0) {
+		if (hm_client_request(c, HMC_FX_REMOVE, 0) < 0) {
 			x->st.unsent++;
 			return; /* tried again next tick */
 		}
