@@ -9,13 +9,12 @@
 
 void feed_init(struct view_feed *f, struct view_model *vm, uint8_t node)
 {
-	memset(f, 0, sizeof(*f));
-	f->vm = vm;
-	f->node = node;
 	/* the controller's default body, 50 x 50 x 50 mm, until a CTL_INFO says otherwise */
-	f->obj_a_um = SWELL_POOL_BOX_UM;
-	f->obj_b_um = SWELL_POOL_BOX_UM;
-	f->obj_h_um = SWELL_POOL_BOX_UM;
+	*f = (struct view_feed){ .vm = vm,
+				 .node = node,
+				 .obj_a_um = SWELL_POOL_BOX_UM,
+				 .obj_b_um = SWELL_POOL_BOX_UM,
+				 .obj_h_um = SWELL_POOL_BOX_UM };
 }
 
 uint32_t feed_rejected(const struct view_feed *f)
@@ -24,6 +23,14 @@ uint32_t feed_rejected(const struct view_feed *f)
 	for (unsigned k = 0; k < SWELL_ERR_COUNT; k++)
 		n += f->st.rejected[k];
 	return n;
+}
+
+/* The controller restarted, or the scene changed: the pose sequence and the charts start again. */
+static void sequences_restart(struct view_feed *f)
+{
+	f->have_pose_seq = false;
+	if (f->charts)
+		charts_restart(f->charts);
 }
 
 static void on_scene(struct view_feed *f, const struct swell_msg_scene *s, uint64_t now_us)
@@ -43,11 +50,8 @@ static void on_scene(struct view_feed *f, const struct swell_msg_scene *s, uint6
 		vm_bad(f->vm);
 		return;
 	}
-	if (!had || f->vm->st.restarts != restarts) {
-		f->have_pose_seq = false;
-		if (f->charts)
-			charts_restart(f->charts);
-	}
+	if (!had || f->vm->st.restarts != restarts)
+		sequences_restart(f);
 }
 
 static void on_quad(struct view_feed *f, const struct swell_msg_height_quad *q, uint32_t pos)
@@ -77,9 +81,7 @@ static void on_heartbeat(struct view_feed *f, const struct swell_msg_heartbeat *
 	/* Back in BOOT after any other state: the controller restarted. */
 	if (f->have_state && hb->state == SWELL_CTL_BOOT && f->state != SWELL_CTL_BOOT) {
 		vm_restart(f->vm, now_us);
-		f->have_pose_seq = false;
-		if (f->charts)
-			charts_restart(f->charts);
+		sequences_restart(f);
 	}
 	f->have_state = true;
 	f->state = hb->state;

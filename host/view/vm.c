@@ -1,6 +1,7 @@
 /* The view model, see vm.h. */
 #include "vm.h"
 
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -231,9 +232,7 @@ void vm_rx(struct view_model *m, uint64_t now_us)
 void vm_ctl_info(struct view_model *m, const uint8_t version[3], uint32_t a_um, uint32_t b_um, uint32_t h_um)
 {
 	m->have_info = true;
-	m->fw_version[0] = version[0];
-	m->fw_version[1] = version[1];
-	m->fw_version[2] = version[2];
+	memcpy(m->fw_version, version, sizeof(m->fw_version));
 	m->obj.a_um = a_um;
 	m->obj.b_um = b_um;
 	m->obj.h_um = h_um;
@@ -245,13 +244,7 @@ void vm_heartbeat(struct view_model *m, const char *state, uint8_t error, uint16
 	m->ctrl_error = error;
 	m->ctrl_bad = bad;
 	m->ctrl_overruns = overruns;
-	size_t n = 0;
-	if (state)
-		for (; n < sizeof(m->ctrl_state) - 1 && state[n]; n++)
-			m->ctrl_state[n] = state[n];
-	m->ctrl_state[n] = 0;
-	if (n == 0)
-		strcpy(m->ctrl_state, "?");
+	snprintf(m->ctrl_state, sizeof(m->ctrl_state), "%s", state && state[0] ? state : "?");
 }
 
 void vm_clock(struct view_model *m, uint64_t ctrl_us, uint64_t rx_us)
@@ -318,17 +311,11 @@ void vm_tile_clean(struct view_model *m, uint16_t tx, uint16_t ty)
 
 const char *vm_status_str(enum view_status s)
 {
-	switch (s) {
-	case VIEW_LINK_DOWN:
-		return "LINK DOWN";
-	case VIEW_WAIT_SCENE:
-		return "WAITING FOR SCENE DESCRIPTION";
-	case VIEW_RESTARTED:
-		return "CONTROLLER RESTARTED - WAITING FOR SCENE";
-	case VIEW_STALE:
-		return "NO DATA - STALE";
-	case VIEW_LIVE:
-		return "LIVE";
-	}
-	return "?";
+	static const char *const names[] = { [VIEW_LINK_DOWN] = "LINK DOWN",
+					     [VIEW_WAIT_SCENE] = "WAITING FOR SCENE DESCRIPTION",
+					     [VIEW_RESTARTED] = "CONTROLLER RESTARTED - WAITING FOR SCENE",
+					     [VIEW_STALE] = "NO DATA - STALE",
+					     [VIEW_LIVE] = "LIVE" };
+
+	return (unsigned)s < sizeof(names) / sizeof(names[0]) ? names[s] : "?";
 }
