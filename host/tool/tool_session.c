@@ -308,6 +308,21 @@ enum tool_rc tool_request(struct tool_session *s, int set, uint16_t id, int32_t 
 	return TOOL_TIMEOUT;
 }
 
+enum tool_rc tool_get(struct tool_session *s, const struct swell_param_desc *d, int timeout_ms, int32_t *v,
+		      const char *what)
+{
+	enum swell_err why = SWELL_OK;
+	char err[200];
+	enum tool_rc rc = tool_request(s, 0, d->id, 0, timeout_ms, v, &why, err, sizeof(err));
+
+	if (rc == TOOL_REFUSED)
+		fprintf(stderr, "swell-tool: %s%sget %s refused: %s\n", what ? what : "", what ? ": " : "", d->name,
+			swell_err_str(why));
+	else if (rc != TOOL_OK)
+		fprintf(stderr, "swell-tool: %s%sget %s: %s\n", what ? what : "", what ? ": " : "", d->name, err);
+	return rc;
+}
+
 /* The cells under the object's footprint, [i0, i1] x [j0, j1]; 0 when pose, scene or size is unknown. */
 static int footprint(const struct tool_telemetry *t, long *i0, long *i1, long *j0, long *j1)
 {
