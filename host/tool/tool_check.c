@@ -323,15 +323,14 @@ int tool_check(struct tool_session *s, enum tool_rc open_rc, const char *open_er
 			enum swell_err why = SWELL_OK;
 			const uint64_t t0 = swell_link_now_ns();
 
+			double ms;
+
 			if (tool_request(s, 0, d->id, 0, co->timeout_ms, &v, &why, err, sizeof(err)) != TOOL_OK)
 				continue;
-			{
-				const double ms = (double)(swell_link_now_ns() - t0) / 1e6;
-
-				best = ms < best ? ms : best;
-				worst = ms > worst ? ms : worst;
-				n++;
-			}
+			ms = (double)(swell_link_now_ns() - t0) / 1e6;
+			best = ms < best ? ms : best;
+			worst = ms > worst ? ms : worst;
+			n++;
 		}
 		if (n == 0)
 			line(&t, "FAIL", "round trip", "no answer to a parameter read: %s", err);
@@ -372,10 +371,10 @@ int tool_check(struct tool_session *s, enum tool_rc open_rc, const char *open_er
 			if (pool[0] < 0 || pool[0] > lx || pool[1] < 0 || pool[1] > ly)
 				line(&t, "FAIL", "frame",
 				     "the handle (device %.1f, %.1f, %.1f mm) is at pool x %.1f, y %.1f mm, outside "
+				     "the pool's "
+				     "0..%.0f x 0..%.0f mm: fix: move the handle over the water, or place the pool in "
 				     "the "
-				     "pool's 0..%.0f x 0..%.0f mm: fix: move the handle over the water, or place the "
-				     "pool "
-				     "in the device's workspace with frame.x0 / frame.y0 / frame.axes (docs/frame.md)",
+				     "device's workspace with frame.x0 / frame.y0 / frame.axes (docs/frame.md)",
 				     f[6] * 1e-3, f[7] * 1e-3, f[8] * 1e-3, pool[0], pool[1], lx, ly);
 			else
 				line(&t, "ok", "frame",
@@ -418,10 +417,10 @@ int tool_check(struct tool_session *s, enum tool_rc open_rc, const char *open_er
 				if (strcmp(pc, "true") || strcmp(fc, "true"))
 					line(&t, "FAIL", "calibration",
 					     "the device reports position calibrated '%s', force sensor calibrated "
-					     "'%s': "
-					     "fix: calibrate it with the vendor's tools (handle free); swell's "
-					     "start-up "
-					     "inits it and gives no force until both are true",
+					     "'%s': fix: "
+					     "calibrate it with the vendor's tools (handle free); swell's start-up "
+					     "inits it and "
+					     "gives no force until both are true",
 					     pc, fc);
 				else
 					line(&t, "ok", "calibration",

@@ -97,7 +97,7 @@ int canvas_line_h(const struct canvas *c)
 	return SWELL_FONT_CELL_H * c->scale;
 }
 
-int canvas_text(struct canvas *c, int x, int y, const uint8_t rgb[3], const char *s)
+void canvas_text_size(const struct canvas *c, const char *s, int *w, int *h)
 {
 	int lines = 1, longest = 0, cur = 0;
 	for (const char *p = s; *p; p++) {
@@ -105,10 +105,16 @@ int canvas_text(struct canvas *c, int x, int y, const uint8_t rgb[3], const char
 		lines += *p == '\n';
 		longest = cur > longest ? cur : longest;
 	}
-	int x0 = x < 0 ? 0 : x, y0 = y < 0 ? 0 : y;
-	int x1 = x + longest * canvas_char_w(c), y1 = y + lines * canvas_line_h(c);
-	x1 = x1 > c->w ? c->w : x1;
-	y1 = y1 > c->h ? c->h : y1;
+	*w = longest * canvas_char_w(c);
+	*h = lines * canvas_line_h(c);
+}
+
+int canvas_text(struct canvas *c, int x, int y, const uint8_t rgb[3], const char *s)
+{
+	int x0 = x < 0 ? 0 : x, y0 = y < 0 ? 0 : y, x1, y1;
+	canvas_text_size(c, s, &x1, &y1);
+	x1 = x + x1 > c->w ? c->w : x + x1;
+	y1 = y + y1 > c->h ? c->h : y + y1;
 	for (int py = y0; py < y1; py++)
 		if (x1 > x0)
 			memset(c->ink + (size_t)py * (size_t)c->w + (size_t)x0, 0, (size_t)(x1 - x0));

@@ -216,12 +216,7 @@ void charts_range(const struct charts *c, int chart, uint64_t now_us, float *lo,
 		return;
 	}
 	case 1: { /* heights: both series, 5 % margin, whole grid steps of a quarter of the span */
-		bool any = false;
-		if (extent(c, CHART_BOTTOM, now_us, &a, &b)) {
-			mn = a;
-			mx = b;
-			any = true;
-		}
+		bool any = extent(c, CHART_BOTTOM, now_us, &mn, &mx);
 		if (extent(c, CHART_WATER, now_us, &a, &b)) {
 			mn = any ? fminf(mn, a) : a;
 			mx = any ? fmaxf(mx, b) : b;

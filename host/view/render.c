@@ -373,12 +373,9 @@ static bool water_make(struct render *r, int nx_cells, int ny_cells)
 	for (int j = 0; j < ny; j++)
 		for (int i = 0; i < nx; i++) {
 			unsigned a = (unsigned)(j * (nx + 1) + i), b = a + 1, c = a + (unsigned)nx + 1, d = c + 1;
-			idx[k++] = a;
-			idx[k++] = b;
-			idx[k++] = d;
-			idx[k++] = a;
-			idx[k++] = d;
-			idx[k++] = c;
+			const unsigned two[6] = { a, b, d, a, d, c }; /* two triangles */
+			memcpy(idx + k, two, sizeof(two));
+			k += 6;
 		}
 	glBindVertexArray(r->vao_water);
 	glBindBuffer(GL_ARRAY_BUFFER, r->vbo_water);
@@ -491,20 +488,15 @@ static void lit_arrow(struct render *r, const float *o, const float *dir, float 
 	v3_norm(u);
 	v3_cross(v, u, d);
 	float head = fminf(len * 0.45f, width * 4.5f), shaft = len - head, hw = width / 2, hh = width * 1.6f;
-	float p[8][3];
-	for (int k = 0; k < 8; k++) {
-		float su = (k % 4 == 1 || k % 4 == 2) ? hw : -hw, sv = (k % 4 >= 2) ? hw : -hw;
-		float t = k >= 4 ? shaft : 0;
+	/* three rings of four corners: the shaft's bottom and top, the head's base */
+	float p[12][3], (*b)[3] = p + 8, tip[3];
+	for (int k = 0; k < 12; k++) {
+		float half = k < 8 ? hw : hh, t = k >= 4 ? shaft : 0;
+		float su = (k % 4 == 1 || k % 4 == 2) ? half : -half, sv = (k % 4 >= 2) ? half : -half;
 		for (int a = 0; a < 3; a++)
 			p[k][a] = o[a] + d[a] * t + u[a] * su + v[a] * sv;
 	}
 	lit_hex(r, p, col);
-	float b[4][3], tip[3];
-	for (int k = 0; k < 4; k++) {
-		float su = (k == 1 || k == 2) ? hh : -hh, sv = (k >= 2) ? hh : -hh;
-		for (int a = 0; a < 3; a++)
-			b[k][a] = o[a] + d[a] * shaft + u[a] * su + v[a] * sv;
-	}
 	for (int a = 0; a < 3; a++)
 		tip[a] = o[a] + d[a] * len;
 	lit_quad(r, b[3], b[2], b[1], b[0], col);
@@ -620,10 +612,7 @@ static void camera(struct render *r, const struct view_model *m, float *mvp, flo
 		float hw = (float)sw / (2 * s), hh = (float)r->o.h / (2 * s);
 		float e[3] = { lx / 2, ly / 2, 5 }, at[3] = { lx / 2, ly / 2, 0 }, up[3] = { 0, 1, 0 };
 		mat_lookat(view, e, at, up);
-		/* the eye for lighting: straight above */
-		eye[0] = lx / 2;
-		eye[1] = ly / 2;
-		eye[2] = 5;
+		memcpy(eye, e, sizeof(e)); /* the eye for lighting: straight above */
 		mat_ortho(proj, -hw, hw, -hh, hh, 0.1f, 20);
 	} else {
 		if (!r->cam_set)
@@ -664,13 +653,8 @@ static void build_hud(struct render *r)
 	canvas_clear(c);
 	for (int k = 0; k < r->ntext; k++) {
 		const struct render_text *t = &r->text[k];
-		int lines = 1, longest = 0, cur = 0;
-		for (const char *p = t->s; *p; p++) {
-			cur = *p == '\n' ? 0 : cur + 1;
-			lines += *p == '\n';
-			longest = cur > longest ? cur : longest;
-		}
-		int tw = longest * canvas_char_w(c), th = lines * canvas_line_h(c);
+		int tw, th;
+		canvas_text_size(c, t->s, &tw, &th);
 		int x = t->x < 0 ? c->w + t->x * c->scale - tw : t->x * c->scale;
 		int y = t->y < 0 ? c->h + t->y * c->scale - th : t->y * c->scale;
 		const uint8_t rgb[3] = { t->r, t->g, t->b };

@@ -240,7 +240,6 @@ void vm_ctl_info(struct view_model *m, const uint8_t version[3], uint32_t a_um, 
 
 void vm_heartbeat(struct view_model *m, const char *state, uint8_t error, uint16_t bad, uint16_t overruns)
 {
-	m->have_heartbeat = true;
 	m->ctrl_error = error;
 	m->ctrl_bad = bad;
 	m->ctrl_overruns = overruns;
