@@ -46,8 +46,10 @@ static void line(struct tally *t, const char *verdict, const char *name, const c
 		t->skipped++;
 }
 
-int tool_hm_ask(const char *spec, const char *request, char *answer, size_t cap, int timeout_ms, char *err,
-		size_t errlen)
+/* "HOST[:PORT]" -> one request on the HapticMaster's TCP interface and its answer text. 0, or -1 with a
+ * one-line reason in err. */
+static int tool_hm_ask(const char *spec, const char *request, char *answer, size_t cap, int timeout_ms, char *err,
+		       size_t errlen)
 {
 	char host[64];
 	const char *colon = strrchr(spec, ':');

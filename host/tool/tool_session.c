@@ -60,9 +60,8 @@ static void take(struct tool_session *s, const struct swell_msg *m, uint64_t now
 		t->hb_ns = now;
 		break;
 	case SWELL_MSG_SCENE:
-		if (t->have_scene && t->scene.scene_id != m->u.scene.scene_id) {
+		if (t->have_scene && t->scene.scene_id != m->u.scene.scene_id)
 			memset(t->seen, 0, sizeof(t->seen)); /* a new pool: the old heights mean nothing */
-		}
 		t->scene = m->u.scene;
 		t->have_scene = 1;
 		break;
@@ -131,14 +130,6 @@ static int take_frame(struct tool_session *s, const struct swell_frame *f)
 	return ours;
 }
 
-/* UDP: a HEARTBEAT to the controller when one is due, so that it keeps this client: the node found,
- * else every node (a controller of another node than the one asked for is heard, and named). The ms
- * until the next; -1 on other carriers. */
-static int keep_alive(struct tool_session *s)
-{
-	return swell_client_keepalive(s->l, s->node, &s->keep_ns);
-}
-
 int tool_pump(struct tool_session *s, int ms)
 {
 	const uint64_t until = swell_link_now_ns() + ms_ns(ms);
@@ -148,7 +139,10 @@ int tool_pump(struct tool_session *s, int ms)
 		struct swell_frame f;
 		uint64_t now = swell_link_now_ns();
 		int left = now >= until ? 0 : (int)((until - now + 999999u) / 1000000u);
-		const int due = keep_alive(s);
+		/* UDP: a HEARTBEAT to the controller when one is due, so that it keeps this client: the node
+		 * found, else every node (a controller of another node than the one asked for is heard, and
+		 * named); due: the ms until the next, -1 on other carriers */
+		const int due = swell_client_keepalive(s->l, s->node, &s->keep_ns);
 		int rc = swell_link_recv(s->l, &f, due >= 0 && due < left ? due : left);
 
 		if (rc == 0) {
@@ -257,7 +251,7 @@ static int wait_answer(struct tool_session *s, uint16_t id, uint8_t seq, int ms,
 		struct swell_msg m[SWELL_CANFD_MSGS_MAX];
 		size_t n = 0, k;
 
-		keep_alive(s);
+		swell_client_keepalive(s->l, s->node, &s->keep_ns);
 		if (swell_link_recv(s->l, &f, 10) != 0)
 			continue;
 		take_frame(s, &f);

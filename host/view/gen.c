@@ -62,8 +62,9 @@ void gen_cells(struct gen_scene *s, uint16_t n)
 	s->dx_um = (uint16_t)(SWELL_POOL_SIDE_UM / n);
 }
 
-void gen_object_at(const struct gen_scene *s, uint64_t t_us, int16_t *z_10um, uint8_t *submersion_halfpct,
-		   int16_t *fz_cN)
+/* The pose and force of the scene at time t_us (the bob moves them). */
+static void gen_object_at(const struct gen_scene *s, uint64_t t_us, int16_t *z_10um, uint8_t *submersion_halfpct,
+			  int16_t *fz_cN)
 {
 	*z_10um = s->obj_z_10um;
 	*submersion_halfpct = s->submersion_halfpct;
@@ -86,7 +87,8 @@ void gen_info(struct gen_scene *s)
 	memcpy(s->obj_100um, (const uint16_t[3]){ 1000, 600, 400 }, sizeof(s->obj_100um));
 }
 
-int16_t gen_height(const struct gen_scene *s, uint16_t i, uint16_t j, uint64_t t_us)
+/* Height of cell (i, j) at time t_us in wire units (LSB 2^-6 mm, saturated to int12). */
+static int16_t gen_height(const struct gen_scene *s, uint16_t i, uint16_t j, uint64_t t_us)
 {
 	double x = ((double)i + 0.5) * s->dx_um, y = ((double)j + 0.5) * s->dx_um;
 	double h_um = 0;
