@@ -119,15 +119,11 @@ int canvas_text(struct canvas *c, int x, int y, const uint8_t rgb[3], const char
 		if (x1 > x0)
 			memset(c->ink + (size_t)py * (size_t)c->w + (size_t)x0, 0, (size_t)(x1 - x0));
 	int wdt = swell_font_draw(c->ink, c->w, c->h, x, y, c->scale, s);
+	const uint8_t opaque[4] = { rgb[0], rgb[1], rgb[2], 255 };
 	for (int py = y0; py < y1; py++)
 		for (int px = x0; px < x1; px++)
-			if (c->ink[(size_t)py * (size_t)c->w + (size_t)px]) {
-				uint8_t *q = c->rgba + ((size_t)py * (size_t)c->w + (size_t)px) * 4;
-				q[0] = rgb[0];
-				q[1] = rgb[1];
-				q[2] = rgb[2];
-				q[3] = 255;
-			}
+			if (c->ink[(size_t)py * (size_t)c->w + (size_t)px])
+				memcpy(c->rgba + ((size_t)py * (size_t)c->w + (size_t)px) * 4, opaque, 4);
 	return wdt;
 }
 

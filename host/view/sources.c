@@ -234,17 +234,12 @@ static void pattern_emit(void *ctx, const uint8_t *pkt, size_t len)
 	if ((s->faults & FAULT_DROP) && n % 7 == 3)
 		return;
 	if ((s->faults & FAULT_TRUNCATE) && n % 3 == 1) {
-		uint8_t cut[SWELL_PKT_MAX];
-		size_t cl = rnd(s) % len;
-		memcpy(cut, p, cl);
-		deliver(s, cut, cl); /* the cut packet arrives; its full copy never does */
+		deliver(s, p, rnd(s) % len); /* the cut packet arrives; its full copy never does */
 		return;
 	}
 	if ((s->faults & FAULT_CORRUPT) && n % 5 == 2) {
-		uint8_t bad[SWELL_PKT_MAX];
-		memcpy(bad, p, len);
-		bad[rnd(s) % len] ^= (uint8_t)(1u << (rnd(s) % 8));
-		deliver(s, bad, len);
+		p[rnd(s) % len] ^= (uint8_t)(1u << (rnd(s) % 8));
+		deliver(s, p, len);
 		return;
 	}
 	if (s->faults & FAULT_REORDER) {
