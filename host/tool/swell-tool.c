@@ -337,40 +337,35 @@ static int command(struct tool_session *s, const struct opts *o, int32_t cmd, un
 	enum swell_err why = SWELL_OK;
 	char err[200];
 	int32_t v = 0;
+	const char *name = swell_command_name(cmd);
 	const unsigned before = s->t.hb.state;
-	const uint64_t t0 = swell_link_now_ns();
+	const uint64_t t0 = swell_link_now_ns(), until = t0 + (uint64_t)o->timeout_ms * 1000000u;
 	enum tool_rc rc = tool_request(s, 1, SWELL_PARAM_COMMAND, cmd, o->timeout_ms, &v, &why, err, sizeof(err));
+	const uint32_t seq0 = s->t.hb.seq; /* the heartbeat after the answer (10 Hz) tells the state after it */
 
 	if (rc == TOOL_REFUSED) {
-		fprintf(stderr, "swell-tool: %s refused by the controller: %s (state %s)\n", swell_command_name(cmd),
-			swell_err_str(why), swell_state_name(s->t.hb.state));
+		fprintf(stderr, "swell-tool: %s refused by the controller: %s (state %s)\n", name, swell_err_str(why),
+			swell_state_name(s->t.hb.state));
 		return rc;
 	}
 	if (rc != TOOL_OK) {
-		fprintf(stderr, "swell-tool: %s: %s\n", swell_command_name(cmd), err);
+		fprintf(stderr, "swell-tool: %s: %s\n", name, err);
 		return rc;
 	}
-	/* the heartbeat (10 Hz) tells the state after it */
-	{
-		const uint32_t seq0 = s->t.hb.seq;
-		const uint64_t until = t0 + (uint64_t)o->timeout_ms * 1000000u;
-
-		while (swell_link_now_ns() < until) {
-			tool_pump(s, 20);
-			if (s->t.hb.seq != seq0 && (want_mask >> s->t.hb.state & 1u))
-				break;
-			if (tool_silent(s)) {
-				fprintf(stderr, "swell-tool: %s acknowledged, then the controller went silent\n",
-					swell_command_name(cmd));
-				return TOOL_TIMEOUT;
-			}
+	while (swell_link_now_ns() < until) {
+		tool_pump(s, 20);
+		if (s->t.hb.seq != seq0 && (want_mask >> s->t.hb.state & 1u))
+			break;
+		if (tool_silent(s)) {
+			fprintf(stderr, "swell-tool: %s acknowledged, then the controller went silent\n", name);
+			return TOOL_TIMEOUT;
 		}
 	}
-	printf("%s: acknowledged; state %s -> %s (%.0f ms)%s%s\n", swell_command_name(cmd), swell_state_name(before),
+	printf("%s: acknowledged; state %s -> %s (%.0f ms)%s%s\n", name, swell_state_name(before),
 	       swell_state_name(s->t.hb.state), (double)(swell_link_now_ns() - t0) / 1e6,
 	       s->t.hb.err ? ", last error: " : "", s->t.hb.err ? swell_err_str((enum swell_err)s->t.hb.err) : "");
 	if (!(want_mask >> s->t.hb.state & 1u)) {
-		fprintf(stderr, "swell-tool: %s: the state did not follow (still %s)%s\n", swell_command_name(cmd),
+		fprintf(stderr, "swell-tool: %s: the state did not follow (still %s)%s\n", name,
 			swell_state_name(s->t.hb.state),
 			cmd == SWELL_CMD_RUN ? ": the device must be there, powered and its e-stop released" : "");
 		return TOOL_REFUSED;
