@@ -2,6 +2,7 @@
 #include "feed.h"
 
 #include <ctype.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "swell/param.h"
@@ -86,11 +87,9 @@ static void on_heartbeat(struct view_feed *f, const struct swell_msg_heartbeat *
 	f->have_state = true;
 	f->state = hb->state;
 	char name[16];
-	const char *n = swell_state_name(hb->state);
-	size_t k = 0;
-	for (; k < sizeof(name) - 1 && n[k]; k++)
-		name[k] = (char)toupper((unsigned char)n[k]); /* the HUD shows state names in capitals */
-	name[k] = 0;
+	snprintf(name, sizeof(name), "%s", swell_state_name(hb->state));
+	for (char *p = name; *p; p++)
+		*p = (char)toupper((unsigned char)*p); /* the HUD shows state names in capitals */
 	vm_heartbeat(f->vm, name, hb->err, hb->bad_frames, hb->overruns);
 	if (f->have_hb) {
 		uint8_t d = (uint8_t)(hb->seq - f->hb_seq);

@@ -213,12 +213,11 @@ int main(int argc, char **argv)
 		source_poll(&src, &feed, t);
 		vm_tick(&app.vm, t);
 		charts_tick(&app.ch, t, app.vm.st.frames);
-		if (!o.headless) {
-			int fw, fh;
+		int fw = 0, fh = 0; /* the window's framebuffer: the frame is drawn at its size and blitted to it */
+		if (!o.headless)
 			glfwGetFramebufferSize(win, &fw, &fh);
-			if (!render_resize(&app.r, fw, fh))
-				break;
-		}
+		if (!o.headless && !render_resize(&app.r, fw, fh))
+			break;
 		if (t - app.tile_window_us >= 1000000u) {
 			app.tile_hz = (float)(app.r.tiles_uploaded - app.tile_window_start) * 1e6f /
 				(float)(t - app.tile_window_us);
@@ -242,8 +241,6 @@ int main(int argc, char **argv)
 		render_frame(&app.r, &app.vm, app.paused);
 		app.vm.obj = live_obj;
 		if (!o.headless) {
-			int fw, fh;
-			glfwGetFramebufferSize(win, &fw, &fh);
 			render_blit(&app.r, fw, fh);
 			glfwSwapBuffers(win);
 		}
