@@ -226,9 +226,8 @@ static int set_words(const struct opts *o, const struct swell_param_desc **d, in
 	if ((*d)->access == SWELL_PACCESS_RO)
 		return bad("%s is read only: the controller measures it (swell-tool get)", (*d)->name);
 	for (k = 2; k < o->argc; k++) /* "80 g" as two words, too */
-		if (strlen(text) + strlen(o->argv[k]) + 1 < sizeof(text)) {
+		if (strlen(text) + strlen(o->argv[k]) + 1 < sizeof(text))
 			strcat(text, o->argv[k]);
-		}
 	if (swell_param_parse(*d, text, raw, err, sizeof(err)) < 0)
 		return bad("%s", err);
 	return TOOL_OK;

@@ -151,9 +151,7 @@ int tool_pump(struct tool_session *s, int ms)
 		}
 		if (left == 0 || rc != -ETIMEDOUT) {
 			if (rc != -ETIMEDOUT && left > 0) { /* a USB device gone: wait out the time, do not spin */
-				struct timespec d = { 0, 10000000 };
-
-				nanosleep(&d, NULL);
+				nanosleep(&(struct timespec){ 0, 10000000 }, NULL);
 				continue;
 			}
 			return taken;

@@ -93,8 +93,7 @@ static bool seq_gap(struct charts *c, bool *have, uint8_t *last, uint8_t seq, ui
 
 void charts_restart(struct charts *c)
 {
-	c->have_pose = false;
-	c->have_force = false;
+	c->have_pose = c->have_force = false;
 }
 
 void charts_pose(struct charts *c, uint64_t t_us, uint8_t seq, float bottom_mm, float water_mm, float submersion_pct)

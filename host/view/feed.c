@@ -101,8 +101,7 @@ static void on_heartbeat(struct view_feed *f, const struct swell_msg_heartbeat *
 	if (!f->have_hb) {
 		f->have_hb = true;
 		f->hb_count = 0;
-		f->vm->have_offset = false;
-		f->vm->have_prev_best = false;
+		f->vm->have_offset = f->vm->have_prev_best = false;
 	}
 	f->hb_seq = hb->seq;
 	vm_clock(f->vm, f->hb_count * FEED_HEARTBEAT_US, f->rec_clock ? f->rec_us : now_us);

@@ -81,8 +81,7 @@ static void *reader(void *arg)
 	while (!atomic_load(&s->stop)) {
 		if (!s->link) { /* USB not there when we started: try again every 500 ms */
 			char err[128];
-			struct timespec d = { 0, 500000000 };
-			nanosleep(&d, NULL);
+			nanosleep(&(struct timespec){ 0, 500000000 }, NULL);
 			if (link_open(s, err, sizeof(err)) != 0)
 				continue;
 		}
@@ -93,8 +92,7 @@ static void *reader(void *arg)
 		if (rc == 0 || rc != last)
 			ring_put(s, rc, &f); /* report a lasting error once */
 		if (rc < 0 && rc != -ENODEV) {
-			struct timespec d = { 0, 50000000 }; /* a broken link: do not spin */
-			nanosleep(&d, NULL);
+			nanosleep(&(struct timespec){ 0, 50000000 }, NULL); /* a broken link: do not spin */
 		}
 		last = rc;
 	}

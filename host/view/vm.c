@@ -42,9 +42,7 @@ void vm_restart(struct view_model *m, uint64_t now_us)
 	drop_scene(m);
 	m->st.restarts++;
 	m->restart_us = now_us ? now_us : 1;
-	m->have_seq = false;
-	m->have_offset = false;
-	m->have_prev_best = false;
+	m->have_seq = m->have_offset = m->have_prev_best = false;
 	m->st.latency_valid = false;
 }
 
@@ -54,9 +52,7 @@ void vm_link(struct view_model *m, bool up, uint64_t now_us)
 		m->st.link_drops++;
 	if (!m->link_up && up) {
 		/* A replugged link starts a new stream: sequence numbers and clock start over. */
-		m->have_seq = false;
-		m->have_offset = false;
-		m->have_prev_best = false;
+		m->have_seq = m->have_offset = m->have_prev_best = false;
 		m->last_rx_us = now_us;
 	}
 	m->link_up = up;

@@ -34,14 +34,9 @@ static void usage(FILE *f)
 }
 
 /* ---- helpers ---- */
-static double factor_of(const struct swell_field_desc *f)
-{
-	return strtod(f->factor, NULL);
-}
-
 static void phys(char *buf, size_t n, int64_t raw, const struct swell_field_desc *f)
 {
-	snprintf(buf, n, "%.15g", (double)raw * factor_of(f));
+	snprintf(buf, n, "%.15g", (double)raw * strtod(f->factor, NULL));
 }
 
 static uint64_t rng_state = 1;
