@@ -18,14 +18,6 @@ void feed_init(struct view_feed *f, struct view_model *vm, uint8_t node)
 				 .obj_h_um = SWELL_POOL_BOX_UM };
 }
 
-uint32_t feed_rejected(const struct view_feed *f)
-{
-	uint32_t n = 0;
-	for (unsigned k = 0; k < SWELL_ERR_COUNT; k++)
-		n += f->st.rejected[k];
-	return n;
-}
-
 /* The controller restarted, or the scene changed: the pose sequence and the charts start again. */
 static void sequences_restart(struct view_feed *f)
 {
