@@ -9,7 +9,7 @@ void hud(struct app *a, const struct view_feed *f, const struct source *src, uin
 {
 	const struct view_model *m = &a->vm;
 	const struct view_stats *st = &m->st;
-	char buf[512], lat[48], fw[16] = "?";
+	char buf[512], lat[48] = "-", fw[16] = "?";
 	static const uint8_t cols[][3] = { [VIEW_LINK_DOWN] = { 255, 80, 70 },
 					   [VIEW_WAIT_SCENE] = { 255, 200, 60 },
 					   [VIEW_RESTARTED] = { 255, 150, 40 },
@@ -22,8 +22,6 @@ void hud(struct app *a, const struct view_feed *f, const struct source *src, uin
 	if (st->latency_valid)
 		snprintf(lat, sizeof(lat), "+%.1f MS OVER BEST (HEARTBEATS%s)", (double)st->latency_ms,
 			 f->rec_clock ? ", AS RECORDED" : "");
-	else
-		snprintf(lat, sizeof(lat), "-");
 	snprintf(buf, sizeof(buf),
 		 "SWELL-VIEW\n"
 		 "LINK   %s\n"
