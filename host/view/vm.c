@@ -69,9 +69,7 @@ bool vm_frame(struct view_model *m, uint32_t seq, unsigned seq_bits, uint64_t no
 	uint32_t mask = seq_bits >= 32 ? 0xffffffffu : (1u << seq_bits) - 1u;
 	uint32_t half = mask / 2u + 1u;
 
-	m->last_rx_us = now_us;
-	if (!m->link_up)
-		m->link_up = true; /* data proves the link is up */
+	vm_rx(m, now_us); /* a frame, late or not: data proves the link is up */
 	seq &= mask;
 	if (m->have_seq) {
 		uint32_t ahead = (seq - m->seq_next) & mask;
@@ -84,8 +82,6 @@ bool vm_frame(struct view_model *m, uint32_t seq, unsigned seq_bits, uint64_t no
 			m->st.late++;
 			if (m->st.dropped > 0)
 				m->st.dropped--;
-			m->st.frames++;
-			m->window_frames++;
 			return false;
 		}
 		/* a jump beyond the window (another sender, a run of late ones: the sender restarted its
@@ -97,8 +93,6 @@ bool vm_frame(struct view_model *m, uint32_t seq, unsigned seq_bits, uint64_t no
 	m->late_run = 0;
 	m->have_seq = true;
 	m->seq_next = (seq + 1u) & mask;
-	m->st.frames++;
-	m->window_frames++;
 	return true;
 }
 
