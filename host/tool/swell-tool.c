@@ -274,34 +274,11 @@ static void param_row(const struct swell_param_desc *d, int32_t raw, const char 
 	printf("%-18s %-16s %-30s %-14s %s\n", d->name, v, range, def, changeable);
 }
 
-/* params' rows of the pool, on a controller that answers them (a port that takes a pool at start-up). */
-static int pool_params(struct tool_session *s, const struct opts *o)
-{
-	uint16_t id;
-
-	for (id = SWELL_SCENE_NX; id <= SWELL_SCENE_DEPTH_UM; id++) {
-		const struct swell_param_desc *d = swell_scene_key(id);
-		enum swell_err why = SWELL_OK;
-		char err[200];
-		int32_t raw = 0;
-		enum tool_rc rc = tool_request(s, 0, id, 0, o->timeout_ms, &raw, &why, err, sizeof(err));
-
-		if (rc == TOOL_REFUSED)
-			return TOOL_OK; /* this controller takes no pool on the wire */
-		if (rc != TOOL_OK) {
-			fprintf(stderr, "swell-tool: get %s: %s\n", d->name, err);
-			return rc;
-		}
-		param_row(d, raw,
-			  s->t.hb.state == SWELL_CTL_RUNNING ? "no: running" : "yes: restarts, the water at rest");
-	}
-	return TOOL_OK;
-}
-
 static int cmd_params(struct tool_session *s, const struct opts *o)
 {
 	const struct swell_param_desc *t;
 	size_t n, k;
+	uint16_t id;
 	int worst = TOOL_OK;
 
 	tool_pump(s, 50);
@@ -327,7 +304,26 @@ static int cmd_params(struct tool_session *s, const struct opts *o)
 	}
 	printf("%-18s %-16s %-30s %-14s %s\n", SWELL_PARAM_COMMAND_NAME, "(write only)", "stop, run, clear", "-",
 	       "yes (clear: in fault)");
-	return worst == TOOL_OK ? pool_params(s, o) : worst;
+	if (worst != TOOL_OK)
+		return worst;
+	/* the pool's rows, on a controller that answers them (a port that takes a pool at start-up) */
+	for (id = SWELL_SCENE_NX; id <= SWELL_SCENE_DEPTH_UM; id++) {
+		const struct swell_param_desc *d = swell_scene_key(id);
+		enum swell_err why = SWELL_OK;
+		char err[200];
+		int32_t raw = 0;
+		enum tool_rc rc = tool_request(s, 0, id, 0, o->timeout_ms, &raw, &why, err, sizeof(err));
+
+		if (rc == TOOL_REFUSED)
+			return TOOL_OK; /* this controller takes no pool on the wire */
+		if (rc != TOOL_OK) {
+			fprintf(stderr, "swell-tool: get %s: %s\n", d->name, err);
+			return rc;
+		}
+		param_row(d, raw,
+			  s->t.hb.state == SWELL_CTL_RUNNING ? "no: running" : "yes: restarts, the water at rest");
+	}
+	return TOOL_OK;
 }
 
 /* Send a command, print its answer and the state it leads to (waited for up to the timeout). */
@@ -413,8 +409,6 @@ static void json_str(const char *k, const char *v)
 static int cmd_status(struct tool_session *s, const struct opts *o)
 {
 	const struct tool_telemetry *t = &s->t;
-	const struct swell_param_desc *md = swell_param_by_id(SWELL_PARAM_BODY_MASS_G);
-	const struct swell_param_desc *fm = swell_param_by_id(SWELL_PARAM_FORCE_MODE);
 	int32_t mode = 0;
 	const int wait_ms = 11 * o->timeout_ms / 10 + 1200; /* scene and info come at 1 Hz */
 	int32_t mass = 0;
@@ -428,9 +422,9 @@ static int cmd_status(struct tool_session *s, const struct opts *o)
 		fprintf(stderr, "swell-tool: status: the controller went silent\n");
 		return TOOL_TIMEOUT;
 	}
-	rc = tool_get(s, md, o->timeout_ms, &mass, NULL);
+	rc = tool_get(s, swell_param_by_id(SWELL_PARAM_BODY_MASS_G), o->timeout_ms, &mass, NULL);
 	if (rc == TOOL_OK)
-		rc = tool_get(s, fm, o->timeout_ms, &mode, NULL);
+		rc = tool_get(s, swell_param_by_id(SWELL_PARAM_FORCE_MODE), o->timeout_ms, &mode, NULL);
 	if (rc != TOOL_OK)
 		return rc;
 	tool_pump(s, 30); /* a pose and a force (100 Hz) */
