@@ -115,9 +115,8 @@ static int take_frame(struct tool_session *s, const struct swell_frame *f)
 			if (s->on_msg)
 				s->on_msg(s, &m[k], s->user);
 			ours++;
-		} else if (s->node < 0 || m[k].node != s->node) {
-			if (s->spec.node < 0 || m[k].node != s->spec.node)
-				s->other = m[k].node;
+		} else if (s->spec.node < 0 || m[k].node != s->spec.node) {
+			s->other = m[k].node; /* not ours, not the node asked for */
 		}
 	}
 	if (ours) {
