@@ -484,8 +484,7 @@ static int cmd_status(struct tool_session *s, const struct opts *o)
 	if (t->have_pose)
 		printf("; bottom at %.2f mm, %.1f %% submerged", t->pose.z_10um / 100.0,
 		       t->pose.submersion_halfpct / 2.0);
-	printf("\n");
-	printf("force mode   %s\n",
+	printf("\nforce mode   %s\n",
 	       mode ? "effect (springs, damper and gravity rendered by the device, updated every "
 		      "solver step)"
 		    : "stream (a force every device tick)");

@@ -228,7 +228,7 @@ static const char *type_name(const struct swell_field_desc *f)
 
 static void write_md_states(FILE *o)
 {
-	fprintf(o, "## Controller states\n\nHEARTBEAT.state:");
+	fprintf(o, "\n## Controller states\n\nHEARTBEAT.state:");
 #define SWELL_X(NAME, code, name) fprintf(o, " %d %s%s", code, name, code < SWELL_CTL_FAULT ? "," : ".");
 	SWELL_STATES(SWELL_X)
 #undef SWELL_X
@@ -523,7 +523,6 @@ static void write_md(FILE *o)
 		};
 		fprintf(o, "| %u | %s | %s |\n", e, swell_err_str((enum swell_err)e), why[e] ? why[e] : "");
 	}
-	fprintf(o, "\n");
 	write_md_states(o);
 	bus_load(o);
 }
