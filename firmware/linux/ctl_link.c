@@ -57,7 +57,6 @@ static int open_can(struct ctl_link *l, const char *spec, const char *iface, cha
 	if (fd < 0)
 		return refused(err, errlen, "CAN", spec, fd);
 	l->fd = fd;
-	snprintf(l->name, sizeof(l->name), "%s", spec); /* can:IFACE */
 	return 0;
 }
 
@@ -80,7 +79,6 @@ static int open_usb(struct ctl_link *l, const char *spec, const struct swell_lin
 		snprintf(err, errlen, "%s: FunctionFS open failed: %s", spec, strerror(-rc));
 		return -1;
 	}
-	snprintf(l->name, sizeof(l->name), "%s", spec); /* usb:FFS_DIR */
 	return 0;
 }
 
@@ -97,13 +95,13 @@ int ctl_link_open(struct ctl_link *l, const char *spec, int device_side, uint8_t
 	if (swell_link_spec_parse(spec, accept, device_side ? SWELL_UDP_PORT_DEVICE : SWELL_UDP_PORT_VIEWER, &ls, err,
 				  errlen))
 		return -2;
+	snprintf(l->name, sizeof(l->name), "%s", spec); /* can:IFACE, usb:FFS_DIR, hm:HOST; UDP names its port */
 	switch (ls.kind) {
 	case SWELL_LINK_UDP:
 		l->kind = CTL_LINK_UDP;
 		return open_udp(l, spec, &ls, device_side, err, errlen);
 	case SWELL_LINK_HM:
 		l->kind = CTL_LINK_HM;
-		snprintf(l->name, sizeof(l->name), "%s", spec);
 		if (hm_client_open(&l->hm, ls.name, CTL_HM_MAX_AGE_TICKS, err, errlen) < 0)
 			return -1;
 		hm_fx_init(&l->hmfx, &l->hm, HM_FX_FRESH_TICKS);

@@ -44,9 +44,7 @@ static void jitter_add(struct jitter *j, int64_t late_ns)
 
 static struct timespec ts_of(int64_t ns)
 {
-	struct timespec t = { (time_t)(ns / 1000000000), (long)(ns % 1000000000) };
-
-	return t;
+	return (struct timespec){ (time_t)(ns / 1000000000), (long)(ns % 1000000000) };
 }
 
 static int64_t now_ns(void) /* CLOCK_MONOTONIC, the links' clock */

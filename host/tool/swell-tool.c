@@ -194,20 +194,6 @@ static const struct swell_param_desc *param_named(const char *name)
 	return d;
 }
 
-static enum tool_rc get_value(struct tool_session *s, const struct opts *o, const struct swell_param_desc *d,
-			      int32_t *v)
-{
-	enum swell_err why = SWELL_OK;
-	char err[200];
-	enum tool_rc rc = tool_request(s, 0, d->id, 0, o->timeout_ms, v, &why, err, sizeof(err));
-
-	if (rc == TOOL_REFUSED)
-		fprintf(stderr, "swell-tool: get %s refused: %s\n", d->name, swell_err_str(why));
-	else if (rc != TOOL_OK)
-		fprintf(stderr, "swell-tool: get %s: %s\n", d->name, err);
-	return rc;
-}
-
 static int cmd_get(struct tool_session *s, const struct opts *o)
 {
 	const struct swell_param_desc *d;
@@ -215,12 +201,10 @@ static int cmd_get(struct tool_session *s, const struct opts *o)
 	int32_t v = 0;
 	enum tool_rc rc;
 
-	if (o->argc != 2)
-		return bad("%s", "get takes one parameter name");
 	d = param_named(o->argv[1]);
 	if (!d)
 		return TOOL_USAGE;
-	rc = get_value(s, o, d, &v);
+	rc = tool_get(s, d, o->timeout_ms, &v, NULL);
 	if (rc != TOOL_OK)
 		return rc;
 	swell_param_format(d, v, buf, sizeof(buf));
@@ -228,14 +212,37 @@ static int cmd_get(struct tool_session *s, const struct opts *o)
 	return TOOL_OK;
 }
 
-static int cmd_set(struct tool_session *s, const struct opts *o, const struct swell_param_desc *d, int32_t raw)
+/* set's words: the parameter and the value in its units (TOOL_OK), or the reason on one line. */
+static int set_words(const struct opts *o, const struct swell_param_desc **d, int32_t *raw)
 {
+	char text[64] = "", err[200];
+	int k;
+
+	if (o->argc < 3)
+		return bad("%s", "set takes a parameter name and a value, e.g. set body.mass 80g");
+	*d = param_named(o->argv[1]);
+	if (!*d)
+		return TOOL_USAGE;
+	if ((*d)->access == SWELL_PACCESS_RO)
+		return bad("%s is read only: the controller measures it (swell-tool get)", (*d)->name);
+	for (k = 2; k < o->argc; k++) /* "80 g" as two words, too */
+		if (strlen(text) + strlen(o->argv[k]) + 1 < sizeof(text))
+			strcat(text, o->argv[k]);
+	if (swell_param_parse(*d, text, raw, err, sizeof(err)) < 0)
+		return bad("%s", err);
+	return TOOL_OK;
+}
+
+static int cmd_set(struct tool_session *s, const struct opts *o)
+{
+	const struct swell_param_desc *d = NULL;
 	enum swell_err why = SWELL_OK;
 	char err[200], was[64], now[64];
-	int32_t before = 0, v = 0;
-	enum tool_rc rc;
+	int32_t raw = 0, before = 0, v = 0;
+	int rc = set_words(o, &d, &raw);
 
-	rc = get_value(s, o, d, &before);
+	if (rc == TOOL_OK)
+		rc = tool_get(s, d, o->timeout_ms, &before, NULL);
 	if (rc != TOOL_OK)
 		return rc;
 	swell_param_format(d, before, was, sizeof(was));
@@ -254,47 +261,56 @@ static int cmd_set(struct tool_session *s, const struct opts *o, const struct sw
 	return TOOL_OK;
 }
 
-/* set's words: the parameter and the value in its units (TOOL_OK), or the reason on one line. */
-static int set_words(const struct opts *o, const struct swell_param_desc **d, int32_t *raw)
+/* One row of params: the value in force, the range and default in units, and whether it may change now. */
+static void param_row(const struct swell_param_desc *d, int32_t raw, const char *changeable)
 {
-	char text[64] = "", err[200];
-	int k;
+	char v[48], lo[48], hi[48], def[48], range[100];
 
-	if (o->argc < 3)
-		return bad("%s", "set takes a parameter name and a value, e.g. set body.mass 80g");
-	*d = param_named(o->argv[1]);
-	if (!*d)
-		return TOOL_USAGE;
-	if ((*d)->access == SWELL_PACCESS_RO)
-		return bad("%s is read only: the controller measures it (swell-tool get)", (*d)->name);
-	for (k = 2; k < o->argc; k++) /* "80 g" as two words, too */
-		if (strlen(text) + strlen(o->argv[k]) + 1 < sizeof(text)) {
-			strcat(text, o->argv[k]);
-		}
-	if (swell_param_parse(*d, text, raw, err, sizeof(err)) < 0)
-		return bad("%s", err);
-	return TOOL_OK;
+	swell_param_format(d, raw, v, sizeof(v));
+	swell_param_format(d, d->min, lo, sizeof(lo));
+	swell_param_format(d, d->max, hi, sizeof(hi));
+	swell_param_format(d, d->def, def, sizeof(def));
+	snprintf(range, sizeof(range), "%s .. %s", lo, hi);
+	printf("%-18s %-16s %-30s %-14s %s\n", d->name, v, range, def, changeable);
 }
 
-static int cmd_set_args(struct tool_session *s, const struct opts *o)
+static int cmd_params(struct tool_session *s, const struct opts *o)
 {
-	const struct swell_param_desc *d = NULL;
-	int32_t raw = 0;
-	int rc = set_words(o, &d, &raw);
-
-	return rc != TOOL_OK ? rc : cmd_set(s, o, d, raw);
-}
-
-/* Whether the object is in the water now (its DRY parameters are refused then). */
-/* params' rows of the pool, on a controller that answers them (a port that takes a pool at start-up). */
-static int pool_params(struct tool_session *s, const struct opts *o)
-{
+	const struct swell_param_desc *t;
+	size_t n, k;
 	uint16_t id;
+	int worst = TOOL_OK;
 
+	tool_pump(s, 50);
+	t = swell_param_table(&n);
+	printf("%-18s %-16s %-30s %-14s %s\n", "parameter", "value", "range", "default", "changeable now");
+	for (k = 0; k < n; k++) {
+		int32_t raw = 0;
+		int rc = tool_get(s, &t[k], o->timeout_ms, &raw, NULL);
+
+		if (rc != TOOL_OK) {
+			worst = rc;
+			if (rc == TOOL_TIMEOUT)
+				return rc;
+			continue;
+		}
+		param_row(&t[k], raw,
+			  t[k].access == SWELL_PACCESS_RO ? "no: read only (measured)"
+				  : t[k].when == SWELL_PWHEN_DRY && tool_object_wet(s)
+				  ? "no: the object displaces water"
+				  : t[k].when == SWELL_PWHEN_IDLE && s->t.hb.state == SWELL_CTL_RUNNING
+				  ? "no: while running"
+				  : "yes");
+	}
+	printf("%-18s %-16s %-30s %-14s %s\n", SWELL_PARAM_COMMAND_NAME, "(write only)", "stop, run, clear", "-",
+	       "yes (clear: in fault)");
+	if (worst != TOOL_OK)
+		return worst;
+	/* the pool's rows, on a controller that answers them (a port that takes a pool at start-up) */
 	for (id = SWELL_SCENE_NX; id <= SWELL_SCENE_DEPTH_UM; id++) {
 		const struct swell_param_desc *d = swell_scene_key(id);
 		enum swell_err why = SWELL_OK;
-		char v[48], lo[48], hi[48], def[48], range[100], err[200];
+		char err[200];
 		int32_t raw = 0;
 		enum tool_rc rc = tool_request(s, 0, id, 0, o->timeout_ms, &raw, &why, err, sizeof(err));
 
@@ -304,52 +320,10 @@ static int pool_params(struct tool_session *s, const struct opts *o)
 			fprintf(stderr, "swell-tool: get %s: %s\n", d->name, err);
 			return rc;
 		}
-		swell_param_format(d, raw, v, sizeof(v));
-		swell_param_format(d, d->min, lo, sizeof(lo));
-		swell_param_format(d, d->max, hi, sizeof(hi));
-		swell_param_format(d, d->def, def, sizeof(def));
-		snprintf(range, sizeof(range), "%s .. %s", lo, hi);
-		printf("%-18s %-16s %-30s %-14s %s\n", d->name, v, range, def,
-		       s->t.hb.state == SWELL_CTL_RUNNING ? "no: running" : "yes: restarts, the water at rest");
+		param_row(d, raw,
+			  s->t.hb.state == SWELL_CTL_RUNNING ? "no: running" : "yes: restarts, the water at rest");
 	}
 	return TOOL_OK;
-}
-
-static int cmd_params(struct tool_session *s, const struct opts *o)
-{
-	const struct swell_param_desc *t;
-	size_t n, k;
-	int worst = TOOL_OK;
-
-	tool_pump(s, 50);
-	t = swell_param_table(&n);
-	printf("%-18s %-16s %-30s %-14s %s\n", "parameter", "value", "range", "default", "changeable now");
-	for (k = 0; k < n; k++) {
-		char v[48], lo[48], hi[48], def[48], range[100];
-		int32_t raw = 0;
-		int rc = get_value(s, o, &t[k], &raw);
-
-		if (rc != TOOL_OK) {
-			worst = rc;
-			if (rc == TOOL_TIMEOUT)
-				return rc;
-			continue;
-		}
-		swell_param_format(&t[k], raw, v, sizeof(v));
-		swell_param_format(&t[k], t[k].min, lo, sizeof(lo));
-		swell_param_format(&t[k], t[k].max, hi, sizeof(hi));
-		swell_param_format(&t[k], t[k].def, def, sizeof(def));
-		snprintf(range, sizeof(range), "%s .. %s", lo, hi);
-		printf("%-18s %-16s %-30s %-14s %s\n", t[k].name, v, range, def,
-		       t[k].access == SWELL_PACCESS_RO                              ? "no: read only (measured)"
-			       : t[k].when == SWELL_PWHEN_DRY && tool_object_wet(s) ? "no: the object displaces water"
-			       : t[k].when == SWELL_PWHEN_IDLE && s->t.hb.state == SWELL_CTL_RUNNING
-			       ? "no: while running"
-			       : "yes");
-	}
-	printf("%-18s %-16s %-30s %-14s %s\n", SWELL_PARAM_COMMAND_NAME, "(write only)", "stop, run, clear", "-",
-	       "yes (clear: in fault)");
-	return worst == TOOL_OK ? pool_params(s, o) : worst;
 }
 
 /* Send a command, print its answer and the state it leads to (waited for up to the timeout). */
@@ -358,40 +332,35 @@ static int command(struct tool_session *s, const struct opts *o, int32_t cmd, un
 	enum swell_err why = SWELL_OK;
 	char err[200];
 	int32_t v = 0;
+	const char *name = swell_command_name(cmd);
 	const unsigned before = s->t.hb.state;
-	const uint64_t t0 = swell_link_now_ns();
+	const uint64_t t0 = swell_link_now_ns(), until = t0 + (uint64_t)o->timeout_ms * 1000000u;
 	enum tool_rc rc = tool_request(s, 1, SWELL_PARAM_COMMAND, cmd, o->timeout_ms, &v, &why, err, sizeof(err));
+	const uint32_t seq0 = s->t.hb.seq; /* the heartbeat after the answer (10 Hz) tells the state after it */
 
 	if (rc == TOOL_REFUSED) {
-		fprintf(stderr, "swell-tool: %s refused by the controller: %s (state %s)\n", swell_command_name(cmd),
-			swell_err_str(why), swell_state_name(s->t.hb.state));
+		fprintf(stderr, "swell-tool: %s refused by the controller: %s (state %s)\n", name, swell_err_str(why),
+			swell_state_name(s->t.hb.state));
 		return rc;
 	}
 	if (rc != TOOL_OK) {
-		fprintf(stderr, "swell-tool: %s: %s\n", swell_command_name(cmd), err);
+		fprintf(stderr, "swell-tool: %s: %s\n", name, err);
 		return rc;
 	}
-	/* the heartbeat (10 Hz) tells the state after it */
-	{
-		const uint32_t seq0 = s->t.hb.seq;
-		const uint64_t until = t0 + (uint64_t)o->timeout_ms * 1000000u;
-
-		while (swell_link_now_ns() < until) {
-			tool_pump(s, 20);
-			if (s->t.hb.seq != seq0 && (want_mask >> s->t.hb.state & 1u))
-				break;
-			if (tool_silent(s)) {
-				fprintf(stderr, "swell-tool: %s acknowledged, then the controller went silent\n",
-					swell_command_name(cmd));
-				return TOOL_TIMEOUT;
-			}
+	while (swell_link_now_ns() < until) {
+		tool_pump(s, 20);
+		if (s->t.hb.seq != seq0 && (want_mask >> s->t.hb.state & 1u))
+			break;
+		if (tool_silent(s)) {
+			fprintf(stderr, "swell-tool: %s acknowledged, then the controller went silent\n", name);
+			return TOOL_TIMEOUT;
 		}
 	}
-	printf("%s: acknowledged; state %s -> %s (%.0f ms)%s%s\n", swell_command_name(cmd), swell_state_name(before),
+	printf("%s: acknowledged; state %s -> %s (%.0f ms)%s%s\n", name, swell_state_name(before),
 	       swell_state_name(s->t.hb.state), (double)(swell_link_now_ns() - t0) / 1e6,
 	       s->t.hb.err ? ", last error: " : "", s->t.hb.err ? swell_err_str((enum swell_err)s->t.hb.err) : "");
 	if (!(want_mask >> s->t.hb.state & 1u)) {
-		fprintf(stderr, "swell-tool: %s: the state did not follow (still %s)%s\n", swell_command_name(cmd),
+		fprintf(stderr, "swell-tool: %s: the state did not follow (still %s)%s\n", name,
 			swell_state_name(s->t.hb.state),
 			cmd == SWELL_CMD_RUN ? ": the device must be there, powered and its e-stop released" : "");
 		return TOOL_REFUSED;
@@ -418,16 +387,28 @@ static int cmd_estop(struct tool_session *s, const struct opts *o)
 	return command(s, o, SWELL_CMD_STOP, ~STATE_BIT(SWELL_CTL_RUNNING) & 0x1fu);
 }
 
-static void json_str(const char *k, const char *v, int last)
+static int cmd_arm(struct tool_session *s, const struct opts *o)
 {
-	printf("  \"%s\": \"%s\"%s\n", k, v, last ? "" : ",");
+	const int fault = s->t.hb.state == SWELL_CTL_FAULT;
+
+	return command(s, o, fault ? SWELL_CMD_CLEAR : SWELL_CMD_STOP,
+		       STATE_BIT(SWELL_CTL_ARMED) | (fault ? STATE_BIT(SWELL_CTL_IDLE) : 0));
+}
+
+static int cmd_scene(struct tool_session *s, const struct opts *o)
+{
+	return !strcmp(o->argv[1], "load") ? tool_scene_load(s, o->argv[2], o->timeout_ms)
+					   : tool_scene_save(s, o->argv[2], o->timeout_ms);
+}
+
+static void json_str(const char *k, const char *v)
+{
+	printf("  \"%s\": \"%s\",\n", k, v);
 }
 
 static int cmd_status(struct tool_session *s, const struct opts *o)
 {
 	const struct tool_telemetry *t = &s->t;
-	const struct swell_param_desc *md = swell_param_by_id(SWELL_PARAM_BODY_MASS_G);
-	const struct swell_param_desc *fm = swell_param_by_id(SWELL_PARAM_FORCE_MODE);
 	int32_t mode = 0;
 	const int wait_ms = 11 * o->timeout_ms / 10 + 1200; /* scene and info come at 1 Hz */
 	int32_t mass = 0;
@@ -441,9 +422,9 @@ static int cmd_status(struct tool_session *s, const struct opts *o)
 		fprintf(stderr, "swell-tool: status: the controller went silent\n");
 		return TOOL_TIMEOUT;
 	}
-	rc = get_value(s, o, md, &mass);
+	rc = tool_get(s, swell_param_by_id(SWELL_PARAM_BODY_MASS_G), o->timeout_ms, &mass, NULL);
 	if (rc == TOOL_OK)
-		rc = get_value(s, o, fm, &mode);
+		rc = tool_get(s, swell_param_by_id(SWELL_PARAM_FORCE_MODE), o->timeout_ms, &mode, NULL);
 	if (rc != TOOL_OK)
 		return rc;
 	tool_pump(s, 30); /* a pose and a force (100 Hz) */
@@ -451,17 +432,17 @@ static int cmd_status(struct tool_session *s, const struct opts *o)
 		snprintf(fw, sizeof(fw), "%u.%u.%u", t->info.fw_major, t->info.fw_minor, t->info.fw_patch);
 	if (o->json) {
 		printf("{\n");
-		json_str("link", s->name, 0);
+		json_str("link", s->name);
 		printf("  \"node\": %d,\n", s->node);
-		json_str("state", swell_state_name(t->hb.state), 0);
-		json_str("last_error", swell_err_str((enum swell_err)t->hb.err), 0);
+		json_str("state", swell_state_name(t->hb.state));
+		json_str("last_error", swell_err_str((enum swell_err)t->hb.err));
 		printf("  \"protocol_version\": %u,\n", t->hb.version);
 		if (t->have_info)
-			json_str("firmware_version", fw, 0);
+			json_str("firmware_version", fw);
 		else
 			printf("  \"firmware_version\": null,\n");
 		printf("  \"bad_frames\": %u,\n  \"overruns\": %u,\n", t->hb.bad_frames, t->hb.overruns);
-		json_str("force_mode", mode ? "effect" : "stream", 0);
+		json_str("force_mode", mode ? "effect" : "stream");
 		if (t->have_scene)
 			printf("  \"scene\": {\"id\": %u, \"nx\": %u, \"ny\": %u, \"dx_mm\": %.3f, \"depth_mm\": "
 			       "%.2f},\n",
@@ -503,8 +484,7 @@ static int cmd_status(struct tool_session *s, const struct opts *o)
 	if (t->have_pose)
 		printf("; bottom at %.2f mm, %.1f %% submerged", t->pose.z_10um / 100.0,
 		       t->pose.submersion_halfpct / 2.0);
-	printf("\n");
-	printf("force mode   %s\n",
+	printf("\nforce mode   %s\n",
 	       mode ? "effect (springs, damper and gravity rendered by the device, updated every "
 		      "solver step)"
 		    : "stream (a force every device tick)");
@@ -591,8 +571,6 @@ static int cmd_log(struct tool_session *s, const struct opts *o)
 	static struct log_state lg; /* reached from the session's callback */
 	double next_progress = 0, t;
 
-	if (o->argc != 2)
-		return bad("%s", "log takes one file name, e.g. log run.csv --seconds 10");
 	lg.f = fopen(o->argv[1], "w");
 	if (!lg.f) {
 		fprintf(stderr, "swell-tool: log: cannot write %s: %s\n", o->argv[1], strerror(errno));
@@ -636,8 +614,6 @@ static int cmd_plot(const struct opts *o)
 	FILE *f, *g;
 	int rows = 0, rc;
 
-	if (o->argc != 2)
-		return bad("%s", "plot takes one CSV file written by log");
 	f = fopen(o->argv[1], "r");
 	if (!f) {
 		fprintf(stderr, "swell-tool: plot: cannot read %s: %s\n", o->argv[1], strerror(errno));
@@ -691,68 +667,91 @@ static int cmd_plot(const struct opts *o)
 	return TOOL_OK;
 }
 
+/* The commands: the words each takes after its name (-1: set counts its own), what it says when they
+ * are not so, the options it takes, and what carries it out: run, or else the command cmd with the
+ * states it leads to (check and plot are not a session's commands: main runs them). */
+#define OPT_JSON 1u
+#define OPT_SECONDS 2u
+#define OPT_OUT 4u
+#define OPT_CHECK 8u
+
+static const struct tool_command {
+	const char *name;
+	int words;
+	const char *words_wrong; /* NULL: "takes no words after it" */
+	unsigned opts;
+	int (*run)(struct tool_session *s, const struct opts *o);
+	int32_t cmd;
+	unsigned want_mask;
+} commands[] = {
+	{ "status", 0, NULL, OPT_JSON, cmd_status, 0, 0 },
+	{ "get", 1, "get takes one parameter name", 0, cmd_get, 0, 0 },
+	{ "set", -1, NULL, 0, cmd_set, 0, 0 },
+	{ "params", 0, NULL, 0, cmd_params, 0, 0 },
+	{ "arm", 0, NULL, 0, cmd_arm, 0, 0 },
+	{ "run", 0, NULL, 0, NULL, SWELL_CMD_RUN, STATE_BIT(SWELL_CTL_RUNNING) },
+	{ "stop", 0, NULL, 0, NULL, SWELL_CMD_STOP, ~STATE_BIT(SWELL_CTL_RUNNING) & 0x1fu },
+	{ "clear", 0, NULL, 0, NULL, SWELL_CMD_CLEAR, ~STATE_BIT(SWELL_CTL_FAULT) & 0x1fu },
+	{ "estop", 0, NULL, 0, cmd_estop, 0, 0 },
+	{ "watch", 0, NULL, OPT_SECONDS, cmd_watch, 0, 0 },
+	{ "log", 1, "log takes one file name, e.g. log run.csv --seconds 10", OPT_SECONDS, cmd_log, 0, 0 },
+	{ "scene", 2, "scene takes load FILE or save FILE", 0, cmd_scene, 0, 0 },
+	{ "check", 0, NULL, OPT_CHECK, NULL, 0, 0 },
+	{ "plot", 1, "plot takes one CSV file written by log", OPT_OUT, NULL, 0, 0 },
+};
+
 /* A command's words and options, checked before the link is opened: bad arguments are told at once,
  * not after waiting for a controller. */
-static int check_words(const struct opts *o)
+static int check_words(const struct opts *o, const struct tool_command *c)
 {
-	const char *cmd = o->argv[0];
+	const char *cmd = c->name;
 	const struct swell_param_desc *d = NULL;
 	int32_t raw = 0;
-	int one = !strcmp(cmd, "get") || !strcmp(cmd, "log") || !strcmp(cmd, "plot");
 
-	if (o->json && strcmp(cmd, "status"))
+	if (o->json && !(c->opts & OPT_JSON))
 		return bad("--json is an option of status, not of %s", cmd);
-	if (o->seconds > 0 && strcmp(cmd, "watch") && strcmp(cmd, "log"))
+	if (o->seconds > 0 && !(c->opts & OPT_SECONDS))
 		return bad("--seconds is an option of watch and log, not of %s", cmd);
-	if (o->out && strcmp(cmd, "plot"))
+	if (o->out && !(c->opts & OPT_OUT))
 		return bad("--out is an option of plot, not of %s", cmd);
-	if ((o->hm || o->max_force > 0 || o->max_rate > 0 || o->max_rtt_ms > 0) && strcmp(cmd, "check"))
+	if ((o->hm || o->max_force > 0 || o->max_rate > 0 || o->max_rtt_ms > 0) && !(c->opts & OPT_CHECK))
 		return bad("--hm, --max-force, --max-rate and --max-rtt-ms are options of check, not of %s", cmd);
-	if (!strcmp(cmd, "set"))
+	if (c->words < 0)
 		return set_words(o, &d, &raw);
 	if (!strcmp(cmd, "get") && o->argc == 2 && !param_named(o->argv[1]))
 		return TOOL_USAGE;
-	if (one && o->argc != 2)
-		return bad("%s",
-			   !strcmp(cmd, "get")           ? "get takes one parameter name"
-				   : !strcmp(cmd, "log") ? "log takes one file name, e.g. log run.csv --seconds 10"
-							 : "plot takes one CSV file written by log");
-	if (!one && strcmp(cmd, "scene") && o->argc != 1)
-		return bad("%s takes no words after it", cmd);
+	if (o->argc != 1 + c->words ||
+	    (c->run == cmd_scene && strcmp(o->argv[1], "load") && strcmp(o->argv[1], "save")))
+		return c->words_wrong ? bad("%s", c->words_wrong) : bad("%s takes no words after it", cmd);
 	return TOOL_OK;
 }
-
-static const char *const session_cmds[] = { "status", "get",   "set",   "params", "arm",   "run",  "stop",
-					    "clear",  "estop", "watch", "log",    "scene", "check" };
 
 int main(int argc, char **argv)
 {
 	static struct tool_session s; /* the height grid: 256 KB, not on the stack */
 	struct opts o;
 	char err[256];
-	const char *cmd;
+	const struct tool_command *c;
 	size_t k;
-	int rc, known = 0;
+	int rc;
 
 	rc = parse_args(argc, argv, &o);
 	if (rc != TOOL_OK)
 		return rc;
-	cmd = o.argv[0];
-	for (k = 0; k < sizeof(session_cmds) / sizeof(session_cmds[0]); k++)
-		known |= !strcmp(cmd, session_cmds[k]);
-	if (!known && strcmp(cmd, "plot"))
-		return bad("unknown command '%s'", cmd);
-	rc = check_words(&o);
+	for (k = 0; k < sizeof(commands) / sizeof(commands[0]) && strcmp(o.argv[0], commands[k].name); k++)
+		;
+	if (k == sizeof(commands) / sizeof(commands[0]))
+		return bad("unknown command '%s'", o.argv[0]);
+	c = &commands[k];
+	rc = check_words(&o, c);
 	if (rc != TOOL_OK)
 		return rc;
-	if (!strcmp(cmd, "plot"))
+	if (c->opts & OPT_OUT)
 		return cmd_plot(&o);
-	if (!strcmp(cmd, "scene") && (o.argc != 3 || (strcmp(o.argv[1], "load") && strcmp(o.argv[1], "save"))))
-		return bad("%s", "scene takes load FILE or save FILE");
 	signal(SIGINT, on_signal);
 	signal(SIGTERM, on_signal);
 	rc = tool_open(&s, &o.spec, o.timeout_ms, err, sizeof(err));
-	if (!strcmp(cmd, "check")) {
+	if (c->opts & OPT_CHECK) {
 		const struct tool_check_opts co = { s.name,
 						    o.hm,
 						    o.max_force > 0 ? o.max_force : TOOL_CHECK_FORCE_N,
@@ -768,33 +767,7 @@ int main(int argc, char **argv)
 		fprintf(stderr, "swell-tool: %s\n", err);
 		return rc;
 	}
-	if (!strcmp(cmd, "status"))
-		rc = cmd_status(&s, &o);
-	else if (!strcmp(cmd, "get"))
-		rc = cmd_get(&s, &o);
-	else if (!strcmp(cmd, "set"))
-		rc = cmd_set_args(&s, &o);
-	else if (!strcmp(cmd, "params"))
-		rc = cmd_params(&s, &o);
-	else if (!strcmp(cmd, "arm"))
-		rc = command(&s, &o, s.t.hb.state == SWELL_CTL_FAULT ? SWELL_CMD_CLEAR : SWELL_CMD_STOP,
-			     STATE_BIT(SWELL_CTL_ARMED) |
-				     (s.t.hb.state == SWELL_CTL_FAULT ? STATE_BIT(SWELL_CTL_IDLE) : 0));
-	else if (!strcmp(cmd, "run"))
-		rc = command(&s, &o, SWELL_CMD_RUN, STATE_BIT(SWELL_CTL_RUNNING));
-	else if (!strcmp(cmd, "stop"))
-		rc = command(&s, &o, SWELL_CMD_STOP, ~STATE_BIT(SWELL_CTL_RUNNING) & 0x1fu);
-	else if (!strcmp(cmd, "clear"))
-		rc = command(&s, &o, SWELL_CMD_CLEAR, ~STATE_BIT(SWELL_CTL_FAULT) & 0x1fu);
-	else if (!strcmp(cmd, "estop"))
-		rc = cmd_estop(&s, &o);
-	else if (!strcmp(cmd, "watch"))
-		rc = cmd_watch(&s, &o);
-	else if (!strcmp(cmd, "scene"))
-		rc = !strcmp(o.argv[1], "load") ? tool_scene_load(&s, o.argv[2], o.timeout_ms)
-						: tool_scene_save(&s, o.argv[2], o.timeout_ms);
-	else
-		rc = cmd_log(&s, &o);
+	rc = c->run ? c->run(&s, &o) : command(&s, &o, c->cmd, c->want_mask);
 	tool_close(&s);
 	return rc;
 }

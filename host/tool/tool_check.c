@@ -46,8 +46,10 @@ static void line(struct tally *t, const char *verdict, const char *name, const c
 		t->skipped++;
 }
 
-int tool_hm_ask(const char *spec, const char *request, char *answer, size_t cap, int timeout_ms, char *err,
-		size_t errlen)
+/* "HOST[:PORT]" -> one request on the HapticMaster's TCP interface and its answer text. 0, or -1 with a
+ * one-line reason in err. */
+static int tool_hm_ask(const char *spec, const char *request, char *answer, size_t cap, int timeout_ms, char *err,
+		       size_t errlen)
 {
 	char host[64];
 	const char *colon = strrchr(spec, ':');
@@ -323,15 +325,14 @@ int tool_check(struct tool_session *s, enum tool_rc open_rc, const char *open_er
 			enum swell_err why = SWELL_OK;
 			const uint64_t t0 = swell_link_now_ns();
 
+			double ms;
+
 			if (tool_request(s, 0, d->id, 0, co->timeout_ms, &v, &why, err, sizeof(err)) != TOOL_OK)
 				continue;
-			{
-				const double ms = (double)(swell_link_now_ns() - t0) / 1e6;
-
-				best = ms < best ? ms : best;
-				worst = ms > worst ? ms : worst;
-				n++;
-			}
+			ms = (double)(swell_link_now_ns() - t0) / 1e6;
+			best = ms < best ? ms : best;
+			worst = ms > worst ? ms : worst;
+			n++;
 		}
 		if (n == 0)
 			line(&t, "FAIL", "round trip", "no answer to a parameter read: %s", err);
@@ -371,17 +372,15 @@ int tool_check(struct tool_session *s, enum tool_rc open_rc, const char *open_er
 						(axis[k] >= 0 && axis[k] < 3 ? f[6 + axis[k]] * 1e-3 : 0.0);
 			if (pool[0] < 0 || pool[0] > lx || pool[1] < 0 || pool[1] > ly)
 				line(&t, "FAIL", "frame",
-				     "the handle (device %.1f, %.1f, %.1f mm) is at pool x %.1f, y %.1f mm, outside "
-				     "the "
-				     "pool's 0..%.0f x 0..%.0f mm: fix: move the handle over the water, or place the "
-				     "pool "
-				     "in the device's workspace with frame.x0 / frame.y0 / frame.axes (docs/frame.md)",
+				     "the handle (device %.1f, %.1f, %.1f mm) is at pool x %.1f, y %.1f mm, "
+				     "outside the pool's 0..%.0f x 0..%.0f mm: fix: move the handle over the "
+				     "water, or place the pool in the device's workspace with frame.x0 / "
+				     "frame.y0 / frame.axes (docs/frame.md)",
 				     f[6] * 1e-3, f[7] * 1e-3, f[8] * 1e-3, pool[0], pool[1], lx, ly);
 			else
 				line(&t, "ok", "frame",
-				     "the handle (device %.1f, %.1f, %.1f mm) is at pool x %.1f, y %.1f, z %+.1f mm "
-				     "(pool "
-				     "0..%.0f x 0..%.0f mm, z 0 the rest level)",
+				     "the handle (device %.1f, %.1f, %.1f mm) is at pool x %.1f, y %.1f, z %+.1f "
+				     "mm (pool 0..%.0f x 0..%.0f mm, z 0 the rest level)",
 				     f[6] * 1e-3, f[7] * 1e-3, f[8] * 1e-3, pool[0], pool[1], pool[2], lx, ly);
 		}
 	}
@@ -405,30 +404,27 @@ int tool_check(struct tool_session *s, enum tool_rc open_rc, const char *open_er
 		char ans[HM_TEXT_MAX], part[32];
 		int pushed = -1;
 
-		if (co->hm) {
-			if (tool_hm_ask(co->hm,
-					"get emergencybuttonpushed;get position_calibrated;get force_calibrated", ans,
-					sizeof(ans), co->timeout_ms, err, sizeof(err)) == 0) {
-				char pc[32], fc[32];
+		if (co->hm &&
+		    tool_hm_ask(co->hm, "get emergencybuttonpushed;get position_calibrated;get force_calibrated", ans,
+				sizeof(ans), co->timeout_ms, err, sizeof(err)) == 0) {
+			char pc[32], fc[32];
 
-				answer_part(ans, 0, part, sizeof(part));
-				answer_part(ans, 1, pc, sizeof(pc));
-				answer_part(ans, 2, fc, sizeof(fc));
-				pushed = !strcmp(part, "true");
-				if (strcmp(pc, "true") || strcmp(fc, "true"))
-					line(&t, "FAIL", "calibration",
-					     "the device reports position calibrated '%s', force sensor calibrated "
-					     "'%s': "
-					     "fix: calibrate it with the vendor's tools (handle free); swell's "
-					     "start-up "
-					     "inits it and gives no force until both are true",
-					     pc, fc);
-				else
-					line(&t, "ok", "calibration",
-					     "position and force sensor calibrated (asked the device)");
-			}
-		} else if (have_status && heard)
+			answer_part(ans, 0, part, sizeof(part));
+			answer_part(ans, 1, pc, sizeof(pc));
+			answer_part(ans, 2, fc, sizeof(fc));
+			pushed = !strcmp(part, "true");
+			if (strcmp(pc, "true") || strcmp(fc, "true"))
+				line(&t, "FAIL", "calibration",
+				     "the device reports position calibrated '%s', force sensor calibrated '%s': "
+				     "fix: calibrate it with the vendor's tools (handle free); swell's start-up "
+				     "inits it and gives no force until both are true",
+				     pc, fc);
+			else
+				line(&t, "ok", "calibration",
+				     "position and force sensor calibrated (asked the device)");
+		} else if (!co->hm && have_status && heard) {
 			pushed = (st & SWELL_DEV_ESTOP) != 0;
+		}
 		if (pushed < 0 && state == SWELL_CTL_FAULT && s->t.hb.err == SWELL_ESTOP)
 			pushed = 1;
 		if (pushed > 0)

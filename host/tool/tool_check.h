@@ -24,9 +24,4 @@ struct tool_check_opts {
  * TOOL_OK only when none failed; TOOL_CHECK_FAILED otherwise. */
 int tool_check(struct tool_session *s, enum tool_rc open_rc, const char *open_err, const struct tool_check_opts *co);
 
-/* "HOST[:PORT]" -> one request on the HapticMaster's TCP interface and its answer text (for tests and
- * the check). 0, or -1 with a one-line reason in err. */
-int tool_hm_ask(const char *spec, const char *request, char *answer, size_t cap, int timeout_ms, char *err,
-		size_t errlen);
-
 #endif

@@ -12,20 +12,6 @@
 
 #define G_MM_S2 9810u /* the core's gravity (not a parameter) */
 
-static enum tool_rc get(struct tool_session *s, uint16_t id, int timeout_ms, int32_t *v, const char *what)
-{
-	enum swell_err why = SWELL_OK;
-	char err[200];
-	enum tool_rc rc = tool_request(s, 0, id, 0, timeout_ms, v, &why, err, sizeof(err));
-
-	if (rc == TOOL_REFUSED)
-		fprintf(stderr, "swell-tool: %s: get %s refused: %s\n", what, swell_param_by_id(id)->name,
-			swell_err_str(why));
-	else if (rc != TOOL_OK)
-		fprintf(stderr, "swell-tool: %s: %s\n", what, err);
-	return rc;
-}
-
 /* e from eq. 2 within 1e-4 of the one in force: the same solver rate (the built-in reference e was
  * rounded once, 5e-6 away from eq. 2 with g = 9.81). */
 static int same_e(q30_t a, q30_t b)
@@ -185,7 +171,7 @@ static enum tool_rc plan_steps(struct tool_session *s, const struct swell_scene 
 	for (k = 0; k < sc->n; k++) {
 		const enum tool_rc rc = swell_scene_key(sc->v[k].d->id)
 			? TOOL_OK
-			: get(s, sc->v[k].d->id, timeout_ms, &old[k], "scene load");
+			: tool_get(s, sc->v[k].d, timeout_ms, &old[k], "scene load");
 
 		if (rc != TOOL_OK)
 			return rc;
@@ -219,7 +205,7 @@ enum tool_rc tool_scene_load(struct tool_session *s, const char *path, int timeo
 	}
 	rc = tool_wait_full(s, 11 * timeout_ms / 10 + 1200);
 	if (rc == TOOL_OK)
-		rc = get(s, SWELL_PARAM_WAVE_E, timeout_ms, &e, "scene load");
+		rc = tool_get(s, swell_param_by_id(SWELL_PARAM_WAVE_E), timeout_ms, &e, "scene load");
 	if (rc != TOOL_OK)
 		return rc;
 	line = rate_differs(s, &sc, e, err, sizeof(err));
@@ -301,7 +287,7 @@ enum tool_rc tool_scene_save(struct tool_session *s, const char *path, int timeo
 	for (k = 0; k < n; k++) {
 		if (t[k].access == SWELL_PACCESS_RO)
 			continue; /* measured, not a setting */
-		rc = get(s, t[k].id, timeout_ms, &v, "scene save");
+		rc = tool_get(s, &t[k], timeout_ms, &v, "scene save");
 		if (rc != TOOL_OK)
 			return rc;
 		if (t[k].id == SWELL_PARAM_WAVE_E && (hz = solver_hz_of(&s->t, v)) != 0)

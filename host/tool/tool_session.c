@@ -60,9 +60,8 @@ static void take(struct tool_session *s, const struct swell_msg *m, uint64_t now
 		t->hb_ns = now;
 		break;
 	case SWELL_MSG_SCENE:
-		if (t->have_scene && t->scene.scene_id != m->u.scene.scene_id) {
+		if (t->have_scene && t->scene.scene_id != m->u.scene.scene_id)
 			memset(t->seen, 0, sizeof(t->seen)); /* a new pool: the old heights mean nothing */
-		}
 		t->scene = m->u.scene;
 		t->have_scene = 1;
 		break;
@@ -116,9 +115,8 @@ static int take_frame(struct tool_session *s, const struct swell_frame *f)
 			if (s->on_msg)
 				s->on_msg(s, &m[k], s->user);
 			ours++;
-		} else if (s->node < 0 || m[k].node != s->node) {
-			if (s->spec.node < 0 || m[k].node != s->spec.node)
-				s->other = m[k].node;
+		} else if (s->spec.node < 0 || m[k].node != s->spec.node) {
+			s->other = m[k].node; /* not ours, not the node asked for */
 		}
 	}
 	if (ours) {
@@ -131,14 +129,6 @@ static int take_frame(struct tool_session *s, const struct swell_frame *f)
 	return ours;
 }
 
-/* UDP: a HEARTBEAT to the controller when one is due, so that it keeps this client: the node found,
- * else every node (a controller of another node than the one asked for is heard, and named). The ms
- * until the next; -1 on other carriers. */
-static int keep_alive(struct tool_session *s)
-{
-	return swell_client_keepalive(s->l, s->node, &s->keep_ns);
-}
-
 int tool_pump(struct tool_session *s, int ms)
 {
 	const uint64_t until = swell_link_now_ns() + ms_ns(ms);
@@ -148,7 +138,10 @@ int tool_pump(struct tool_session *s, int ms)
 		struct swell_frame f;
 		uint64_t now = swell_link_now_ns();
 		int left = now >= until ? 0 : (int)((until - now + 999999u) / 1000000u);
-		const int due = keep_alive(s);
+		/* UDP: a HEARTBEAT to the controller when one is due, so that it keeps this client: the node
+		 * found, else every node (a controller of another node than the one asked for is heard, and
+		 * named); due: the ms until the next, -1 on other carriers */
+		const int due = swell_client_keepalive(s->l, s->node, &s->keep_ns);
 		int rc = swell_link_recv(s->l, &f, due >= 0 && due < left ? due : left);
 
 		if (rc == 0) {
@@ -157,9 +150,7 @@ int tool_pump(struct tool_session *s, int ms)
 		}
 		if (left == 0 || rc != -ETIMEDOUT) {
 			if (rc != -ETIMEDOUT && left > 0) { /* a USB device gone: wait out the time, do not spin */
-				struct timespec d = { 0, 10000000 };
-
-				nanosleep(&d, NULL);
+				nanosleep(&(struct timespec){ 0, 10000000 }, NULL);
 				continue;
 			}
 			return taken;
@@ -257,7 +248,7 @@ static int wait_answer(struct tool_session *s, uint16_t id, uint8_t seq, int ms,
 		struct swell_msg m[SWELL_CANFD_MSGS_MAX];
 		size_t n = 0, k;
 
-		keep_alive(s);
+		swell_client_keepalive(s->l, s->node, &s->keep_ns);
 		if (swell_link_recv(s->l, &f, 10) != 0)
 			continue;
 		take_frame(s, &f);
@@ -306,6 +297,21 @@ enum tool_rc tool_request(struct tool_session *s, int set, uint16_t id, int32_t 
 		snprintf(err, errlen, "no answer from node %d on %s within %d ms (its heartbeat goes on)", s->node,
 			 s->name, timeout_ms);
 	return TOOL_TIMEOUT;
+}
+
+enum tool_rc tool_get(struct tool_session *s, const struct swell_param_desc *d, int timeout_ms, int32_t *v,
+		      const char *what)
+{
+	enum swell_err why = SWELL_OK;
+	char err[200];
+	enum tool_rc rc = tool_request(s, 0, d->id, 0, timeout_ms, v, &why, err, sizeof(err));
+
+	if (rc == TOOL_REFUSED)
+		fprintf(stderr, "swell-tool: %s%sget %s refused: %s\n", what ? what : "", what ? ": " : "", d->name,
+			swell_err_str(why));
+	else if (rc != TOOL_OK)
+		fprintf(stderr, "swell-tool: %s%sget %s: %s\n", what ? what : "", what ? ": " : "", d->name, err);
+	return rc;
 }
 
 /* The cells under the object's footprint, [i0, i1] x [j0, j1]; 0 when pose, scene or size is unknown. */

@@ -13,6 +13,8 @@
 #include "swell/link_client.h"
 #include "swell/proto.h"
 
+struct swell_param_desc;
+
 enum tool_rc {
 	TOOL_OK = 0,
 	TOOL_FAIL = 1, /* runtime failure: the link cannot be opened, a file cannot be written */
@@ -83,6 +85,11 @@ int tool_silent(const struct tool_session *s);
  * controller went silent). */
 enum tool_rc tool_request(struct tool_session *s, int set, uint16_t id, int32_t value, int timeout_ms, int32_t *answer,
 			  enum swell_err *why, char *err, size_t errlen);
+
+/* tool_request's PARAM_GET of d, a failure told on stderr: "swell-tool: [WHAT: ]get NAME refused: why"
+ * or "swell-tool: [WHAT: ]get NAME: reason" (what: NULL for none). */
+enum tool_rc tool_get(struct tool_session *s, const struct swell_param_desc *d, int timeout_ms, int32_t *v,
+		      const char *what);
 
 /* The mean water level over the object's footprint (as far as heights were received), in mm, and the
  * largest |height| outside it (the waves), in mm. 0 when nothing is known. */

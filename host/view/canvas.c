@@ -97,7 +97,7 @@ int canvas_line_h(const struct canvas *c)
 	return SWELL_FONT_CELL_H * c->scale;
 }
 
-int canvas_text(struct canvas *c, int x, int y, const uint8_t rgb[3], const char *s)
+void canvas_text_size(const struct canvas *c, const char *s, int *w, int *h)
 {
 	int lines = 1, longest = 0, cur = 0;
 	for (const char *p = s; *p; p++) {
@@ -105,23 +105,25 @@ int canvas_text(struct canvas *c, int x, int y, const uint8_t rgb[3], const char
 		lines += *p == '\n';
 		longest = cur > longest ? cur : longest;
 	}
-	int x0 = x < 0 ? 0 : x, y0 = y < 0 ? 0 : y;
-	int x1 = x + longest * canvas_char_w(c), y1 = y + lines * canvas_line_h(c);
-	x1 = x1 > c->w ? c->w : x1;
-	y1 = y1 > c->h ? c->h : y1;
+	*w = longest * canvas_char_w(c);
+	*h = lines * canvas_line_h(c);
+}
+
+int canvas_text(struct canvas *c, int x, int y, const uint8_t rgb[3], const char *s)
+{
+	int x0 = x < 0 ? 0 : x, y0 = y < 0 ? 0 : y, x1, y1;
+	canvas_text_size(c, s, &x1, &y1);
+	x1 = x + x1 > c->w ? c->w : x + x1;
+	y1 = y + y1 > c->h ? c->h : y + y1;
 	for (int py = y0; py < y1; py++)
 		if (x1 > x0)
 			memset(c->ink + (size_t)py * (size_t)c->w + (size_t)x0, 0, (size_t)(x1 - x0));
 	int wdt = swell_font_draw(c->ink, c->w, c->h, x, y, c->scale, s);
+	const uint8_t opaque[4] = { rgb[0], rgb[1], rgb[2], 255 };
 	for (int py = y0; py < y1; py++)
 		for (int px = x0; px < x1; px++)
-			if (c->ink[(size_t)py * (size_t)c->w + (size_t)px]) {
-				uint8_t *q = c->rgba + ((size_t)py * (size_t)c->w + (size_t)px) * 4;
-				q[0] = rgb[0];
-				q[1] = rgb[1];
-				q[2] = rgb[2];
-				q[3] = 255;
-			}
+			if (c->ink[(size_t)py * (size_t)c->w + (size_t)px])
+				memcpy(c->rgba + ((size_t)py * (size_t)c->w + (size_t)px) * 4, opaque, 4);
 	return wdt;
 }
 

@@ -32,6 +32,8 @@ void canvas_fill(struct canvas *c, int x, int y, int w, int h, const uint8_t rgb
 void canvas_line(struct canvas *c, int x0, int y0, int x1, int y1, int thick, int dash, const uint8_t rgb[3]);
 /* Text in the HUD font at the canvas scale, opaque; returns its width in pixels. */
 int canvas_text(struct canvas *c, int x, int y, const uint8_t rgb[3], const char *s);
+/* The box text s takes at the canvas scale: its longest line and its lines, in pixels. */
+void canvas_text_size(const struct canvas *c, const char *s, int *w, int *h);
 /* Width in pixels of one character at the canvas scale, and of a line of text. */
 int canvas_char_w(const struct canvas *c);
 int canvas_line_h(const struct canvas *c);

@@ -3,6 +3,7 @@
 
 #include <errno.h>
 #include <math.h>
+#include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -62,46 +63,56 @@ static void push(struct charts *c, enum chart_series k, uint64_t t_us, float v, 
 		r->n++;
 }
 
+/* One CSV row, when a file is open. */
+static void csv_row(struct charts *c, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+
+static void csv_row(struct charts *c, const char *fmt, ...)
+{
+	va_list ap;
+
+	if (!c->csv)
+		return;
+	va_start(ap, fmt);
+	vfprintf(c->csv, fmt, ap);
+	va_end(ap);
+	c->csv_rows++;
+}
+
+/* A pose's or force's sequence number after *last: whether its sample starts a new line (the first,
+ * or one after a loss), the loss counted into *lost. */
+static bool seq_gap(struct charts *c, bool *have, uint8_t *last, uint8_t seq, uint32_t *lost)
+{
+	uint8_t d = (uint8_t)(seq - *last);
+	bool gap = !*have || d != 1;
+	if (*have && d > 1 && d < 128)
+		*lost += swell_seq_loss(d - 1u, &c->resyncs);
+	*have = true;
+	*last = seq;
+	return gap;
+}
+
 void charts_restart(struct charts *c)
 {
-	c->have_pose = false;
-	c->have_force = false;
+	c->have_pose = c->have_force = false;
 }
 
 void charts_pose(struct charts *c, uint64_t t_us, uint8_t seq, float bottom_mm, float water_mm, float submersion_pct)
 {
-	uint8_t d = (uint8_t)(seq - c->pose_seq);
-	bool gap = !c->have_pose || d != 1;
-	if (c->have_pose && d > 1 && d < 128)
-		c->lost_poses += swell_seq_loss(d - 1u, &c->resyncs);
-	c->have_pose = true;
-	c->pose_seq = seq;
+	bool gap = seq_gap(c, &c->have_pose, &c->pose_seq, seq, &c->lost_poses);
 	push(c, CHART_BOTTOM, t_us, bottom_mm, gap);
 	push(c, CHART_WATER, t_us, water_mm, gap);
 	push(c, CHART_SUBMERSION, t_us, submersion_pct, gap);
-	if (c->csv) {
-		fprintf(c->csv, "%.6f,%u,%.2f,%.3f,%.1f,,,,,,%u\n", (double)t_us * 1e-6, seq, (double)bottom_mm,
-			(double)water_mm, (double)submersion_pct, c->lost_poses);
-		c->csv_rows++;
-	}
+	csv_row(c, "%.6f,%u,%.2f,%.3f,%.1f,,,,,,%u\n", (double)t_us * 1e-6, seq, (double)bottom_mm, (double)water_mm,
+		(double)submersion_pct, c->lost_poses);
 }
 
 void charts_force(struct charts *c, uint64_t t_us, uint8_t seq, float fx_N, float fy_N, float fz_N, unsigned limited)
 {
-	uint8_t d = (uint8_t)(seq - c->force_seq);
-	bool gap = !c->have_force || d != 1;
-	if (c->have_force && d > 1 && d < 128)
-		c->lost_forces += swell_seq_loss(d - 1u, &c->resyncs);
-	c->have_force = true;
-	c->force_seq = seq;
+	bool gap = seq_gap(c, &c->have_force, &c->force_seq, seq, &c->lost_forces);
 	float fabs_N = sqrtf(fx_N * fx_N + fy_N * fy_N + fz_N * fz_N);
 	push(c, CHART_FZ, t_us, fz_N, gap);
 	push(c, CHART_FABS, t_us, fabs_N, gap);
-	if (c->csv) {
-		fprintf(c->csv, "%.6f,%u,,,,%.2f,%.3f,%u,,,\n", (double)t_us * 1e-6, seq, (double)fz_N, (double)fabs_N,
-			limited);
-		c->csv_rows++;
-	}
+	csv_row(c, "%.6f,%u,,,,%.2f,%.3f,%u,,,\n", (double)t_us * 1e-6, seq, (double)fz_N, (double)fabs_N, limited);
 }
 
 void charts_latency(struct charts *c, uint64_t t_us, float ms)
@@ -109,10 +120,7 @@ void charts_latency(struct charts *c, uint64_t t_us, float ms)
 	const struct chart_ring *r = &c->ring[CHART_LATENCY];
 	bool gap = r->n == 0 || t_us - r->s[(r->head + CHART_CAP - 1u) % CHART_CAP].t_us > CHART_GAP_US;
 	push(c, CHART_LATENCY, t_us, ms, gap);
-	if (c->csv) {
-		fprintf(c->csv, "%.6f,,,,,,,,,%.2f,\n", (double)t_us * 1e-6, (double)ms);
-		c->csv_rows++;
-	}
+	csv_row(c, "%.6f,,,,,,,,,%.2f,\n", (double)t_us * 1e-6, (double)ms);
 }
 
 void charts_tick(struct charts *c, uint64_t now_us, uint32_t frames_total)
@@ -128,10 +136,7 @@ void charts_tick(struct charts *c, uint64_t now_us, uint32_t frames_total)
 	float hz = (float)(frames_total - c->rate_frames) * 1e6f / (float)(now_us - c->rate_t_us);
 	/* a rate is a count over a bin, joined to the bin before it unless the display stalled */
 	push(c, CHART_RATE, now_us, hz, now_us - c->rate_t_us > 2 * CHART_RATE_BIN_US);
-	if (c->csv) {
-		fprintf(c->csv, "%.6f,,,,,,,,%.1f,,\n", (double)now_us * 1e-6, (double)hz);
-		c->csv_rows++;
-	}
+	csv_row(c, "%.6f,,,,,,,,%.1f,,\n", (double)now_us * 1e-6, (double)hz);
 	c->rate_t_us = now_us;
 	c->rate_frames = frames_total;
 }
@@ -210,12 +215,7 @@ void charts_range(const struct charts *c, int chart, uint64_t now_us, float *lo,
 		return;
 	}
 	case 1: { /* heights: both series, 5 % margin, whole grid steps of a quarter of the span */
-		bool any = false;
-		if (extent(c, CHART_BOTTOM, now_us, &a, &b)) {
-			mn = a;
-			mx = b;
-			any = true;
-		}
+		bool any = extent(c, CHART_BOTTOM, now_us, &mn, &mx);
 		if (extent(c, CHART_WATER, now_us, &a, &b)) {
 			mn = any ? fminf(mn, a) : a;
 			mx = any ? fmaxf(mx, b) : b;
@@ -307,8 +307,19 @@ static void label(struct canvas *cv, const struct plot *p, float v)
 void charts_draw(const struct charts *c, struct canvas *cv, uint64_t now_us)
 {
 	static const uint8_t panel[4] = { 8, 8, 8, 180 }, plot_bg[4] = { 16, 20, 26, 220 };
-	static const char *const titles[CHART_COUNT] = { "FORCE N", "HEIGHT MM", "SUBMERGED %", "FRAMES /S",
-							 "LATENCY MS" };
+	/* each chart's title, and its series in drawing order (named in the title last first) */
+	static const struct {
+		const char *title;
+		enum chart_series s[2];
+		const char *name[2];
+		const uint8_t *col[2];
+	} defs[CHART_COUNT] = {
+		{ "FORCE N", { CHART_FABS, CHART_FZ }, { "NORM", "Z" }, { col_fabs, col_fz } },
+		{ "HEIGHT MM", { CHART_WATER, CHART_BOTTOM }, { "WATER", "BOTTOM" }, { col_water, col_bottom } },
+		{ "SUBMERGED %", { CHART_SUBMERSION }, { NULL }, { col_subm } },
+		{ "FRAMES /S", { CHART_RATE }, { NULL }, { col_rate } },
+		{ "LATENCY MS", { CHART_LATENCY }, { NULL }, { col_lat } },
+	};
 	int cw = canvas_char_w(cv), lh = canvas_line_h(cv);
 
 	canvas_clear(cv);
@@ -324,22 +335,15 @@ void charts_draw(const struct charts *c, struct canvas *cv, uint64_t now_us)
 		charts_range(c, k, now_us, &p.lo, &p.hi, &step);
 
 		/* title and the series' names in their colours */
-		int x = cw + canvas_text(cv, cw, top, col_text, titles[k]) + cw;
-		char lim[32];
-		switch (k) {
-		case 0:
-			x += canvas_text(cv, x, top, col_fz, "Z") + cw;
-			x += canvas_text(cv, x, top, col_fabs, "NORM") + cw;
+		int x = cw + canvas_text(cv, cw, top, col_text, defs[k].title) + cw;
+		for (int s = 2; s-- > 0;)
+			if (defs[k].name[s])
+				x += canvas_text(cv, x, top, defs[k].col[s], defs[k].name[s]) + cw;
+		if (k == 0) {
+			char lim[32];
 			snprintf(lim, sizeof(lim), c->force_limit_N <= p.hi ? "LIMIT %g" : "LIMIT %g OFF",
 				 (double)c->force_limit_N);
 			canvas_text(cv, x, top, col_limit, lim);
-			break;
-		case 1:
-			x += canvas_text(cv, x, top, col_bottom, "BOTTOM") + cw;
-			canvas_text(cv, x, top, col_water, "WATER");
-			break;
-		default:
-			break;
 		}
 
 		canvas_fill(cv, p.x0, p.y0, p.w, p.h, plot_bg);
@@ -354,31 +358,12 @@ void charts_draw(const struct charts *c, struct canvas *cv, uint64_t now_us)
 		if (p.lo < 0 && p.hi > 0 && py_of_v(&p, 0) - p.y0 >= lh && p.y0 + p.h - py_of_v(&p, 0) >= lh)
 			label(cv, &p, 0); /* where it does not cover the end labels */
 
-		switch (k) {
-		case 0:
-			if (c->force_limit_N <= p.hi) {
-				canvas_line(cv, p.x0, py_of_v(&p, c->force_limit_N), p.x0 + p.w - 1,
-					    py_of_v(&p, c->force_limit_N), cv->scale, 3 * cv->scale, col_limit);
-				canvas_line(cv, p.x0, py_of_v(&p, -c->force_limit_N), p.x0 + p.w - 1,
-					    py_of_v(&p, -c->force_limit_N), cv->scale, 3 * cv->scale, col_limit);
-			}
-			draw_series(c, cv, &p, CHART_FABS, col_fabs);
-			draw_series(c, cv, &p, CHART_FZ, col_fz);
-			break;
-		case 1:
-			draw_series(c, cv, &p, CHART_WATER, col_water);
-			draw_series(c, cv, &p, CHART_BOTTOM, col_bottom);
-			break;
-		case 2:
-			draw_series(c, cv, &p, CHART_SUBMERSION, col_subm);
-			break;
-		case 3:
-			draw_series(c, cv, &p, CHART_RATE, col_rate);
-			break;
-		default:
-			draw_series(c, cv, &p, CHART_LATENCY, col_lat);
-			break;
-		}
+		if (k == 0 && c->force_limit_N <= p.hi)
+			for (int sign = 1; sign >= -1; sign -= 2)
+				canvas_line(cv, p.x0, py_of_v(&p, sign * c->force_limit_N), p.x0 + p.w - 1,
+					    py_of_v(&p, sign * c->force_limit_N), cv->scale, 3 * cv->scale, col_limit);
+		for (int s = 0; s < 2 && defs[k].col[s]; s++)
+			draw_series(c, cv, &p, defs[k].s[s], defs[k].col[s]);
 		if (k == CHART_COUNT - 1)
 			for (int s = 0; s <= 10; s += 2) {
 				char t[8];

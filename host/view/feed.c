@@ -2,6 +2,7 @@
 #include "feed.h"
 
 #include <ctype.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "swell/param.h"
@@ -9,21 +10,20 @@
 
 void feed_init(struct view_feed *f, struct view_model *vm, uint8_t node)
 {
-	memset(f, 0, sizeof(*f));
-	f->vm = vm;
-	f->node = node;
 	/* the controller's default body, 50 x 50 x 50 mm, until a CTL_INFO says otherwise */
-	f->obj_a_um = SWELL_POOL_BOX_UM;
-	f->obj_b_um = SWELL_POOL_BOX_UM;
-	f->obj_h_um = SWELL_POOL_BOX_UM;
+	*f = (struct view_feed){ .vm = vm,
+				 .node = node,
+				 .obj_a_um = SWELL_POOL_BOX_UM,
+				 .obj_b_um = SWELL_POOL_BOX_UM,
+				 .obj_h_um = SWELL_POOL_BOX_UM };
 }
 
-uint32_t feed_rejected(const struct view_feed *f)
+/* The controller restarted, or the scene changed: the pose sequence and the charts start again. */
+static void sequences_restart(struct view_feed *f)
 {
-	uint32_t n = 0;
-	for (unsigned k = 0; k < SWELL_ERR_COUNT; k++)
-		n += f->st.rejected[k];
-	return n;
+	f->have_pose_seq = false;
+	if (f->charts)
+		charts_restart(f->charts);
 }
 
 static void on_scene(struct view_feed *f, const struct swell_msg_scene *s, uint64_t now_us)
@@ -43,11 +43,8 @@ static void on_scene(struct view_feed *f, const struct swell_msg_scene *s, uint6
 		vm_bad(f->vm);
 		return;
 	}
-	if (!had || f->vm->st.restarts != restarts) {
-		f->have_pose_seq = false;
-		if (f->charts)
-			charts_restart(f->charts);
-	}
+	if (!had || f->vm->st.restarts != restarts)
+		sequences_restart(f);
 }
 
 static void on_quad(struct view_feed *f, const struct swell_msg_height_quad *q, uint32_t pos)
@@ -77,18 +74,14 @@ static void on_heartbeat(struct view_feed *f, const struct swell_msg_heartbeat *
 	/* Back in BOOT after any other state: the controller restarted. */
 	if (f->have_state && hb->state == SWELL_CTL_BOOT && f->state != SWELL_CTL_BOOT) {
 		vm_restart(f->vm, now_us);
-		f->have_pose_seq = false;
-		if (f->charts)
-			charts_restart(f->charts);
+		sequences_restart(f);
 	}
 	f->have_state = true;
 	f->state = hb->state;
 	char name[16];
-	const char *n = swell_state_name(hb->state);
-	size_t k = 0;
-	for (; k < sizeof(name) - 1 && n[k]; k++)
-		name[k] = (char)toupper((unsigned char)n[k]); /* the HUD shows state names in capitals */
-	name[k] = 0;
+	snprintf(name, sizeof(name), "%s", swell_state_name(hb->state));
+	for (char *p = name; *p; p++)
+		*p = (char)toupper((unsigned char)*p); /* the HUD shows state names in capitals */
 	vm_heartbeat(f->vm, name, hb->err, hb->bad_frames, hb->overruns);
 	if (f->have_hb) {
 		uint8_t d = (uint8_t)(hb->seq - f->hb_seq);
@@ -100,8 +93,7 @@ static void on_heartbeat(struct view_feed *f, const struct swell_msg_heartbeat *
 	if (!f->have_hb) {
 		f->have_hb = true;
 		f->hb_count = 0;
-		f->vm->have_offset = false;
-		f->vm->have_prev_best = false;
+		f->vm->have_offset = f->vm->have_prev_best = false;
 	}
 	f->hb_seq = hb->seq;
 	vm_clock(f->vm, f->hb_count * FEED_HEARTBEAT_US, f->rec_clock ? f->rec_us : now_us);

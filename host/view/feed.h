@@ -60,7 +60,4 @@ void feed_packet(struct view_feed *f, const uint8_t *pkt, size_t len, uint64_t n
 /* One CAN frame (classic when len <= 8 and !fd). id: 11-bit identifier. */
 void feed_can(struct view_feed *f, uint32_t id, const uint8_t *data, size_t len, bool fd, uint64_t now_us);
 
-/* Frames rejected by the decoders, all reasons. */
-uint32_t feed_rejected(const struct view_feed *f);
-
 #endif

@@ -62,8 +62,9 @@ void gen_cells(struct gen_scene *s, uint16_t n)
 	s->dx_um = (uint16_t)(SWELL_POOL_SIDE_UM / n);
 }
 
-void gen_object_at(const struct gen_scene *s, uint64_t t_us, int16_t *z_10um, uint8_t *submersion_halfpct,
-		   int16_t *fz_cN)
+/* The pose and force of the scene at time t_us (the bob moves them). */
+static void gen_object_at(const struct gen_scene *s, uint64_t t_us, int16_t *z_10um, uint8_t *submersion_halfpct,
+			  int16_t *fz_cN)
 {
 	*z_10um = s->obj_z_10um;
 	*submersion_halfpct = s->submersion_halfpct;
@@ -82,15 +83,12 @@ void gen_info(struct gen_scene *s)
 {
 	gen_default(s);
 	s->info = true;
-	s->fw_version[0] = 2;
-	s->fw_version[1] = 7;
-	s->fw_version[2] = 1;
-	s->obj_100um[0] = 1000;
-	s->obj_100um[1] = 600;
-	s->obj_100um[2] = 400;
+	memcpy(s->fw_version, (const uint8_t[3]){ 2, 7, 1 }, sizeof(s->fw_version));
+	memcpy(s->obj_100um, (const uint16_t[3]){ 1000, 600, 400 }, sizeof(s->obj_100um));
 }
 
-int16_t gen_height(const struct gen_scene *s, uint16_t i, uint16_t j, uint64_t t_us)
+/* Height of cell (i, j) at time t_us in wire units (LSB 2^-6 mm, saturated to int12). */
+static int16_t gen_height(const struct gen_scene *s, uint16_t i, uint16_t j, uint64_t t_us)
 {
 	double x = ((double)i + 0.5) * s->dx_um, y = ((double)j + 0.5) * s->dx_um;
 	double h_um = 0;
@@ -149,36 +147,29 @@ unsigned gen_frame(const struct gen_scene *s, uint64_t t_us, uint8_t frame, bool
 	struct packer p = { .seq = seq, .emit = emit, .ctx = ctx, .err = SWELL_OK };
 	struct swell_msg m;
 
-	if (heartbeat) {
-		memset(&m, 0, sizeof(m));
-		m.type = SWELL_MSG_HEARTBEAT;
-		m.u.heartbeat.state = s->state;
-		m.u.heartbeat.version = SWELL_PROTO_VERSION;
-		m.u.heartbeat.seq = hb_seq;
-		put(&p, &m);
-	}
-	if (scene) {
-		memset(&m, 0, sizeof(m));
-		m.type = SWELL_MSG_SCENE;
-		m.u.scene.nx = s->nx;
-		m.u.scene.ny = s->ny;
-		m.u.scene.h_shift = SWELL_PROTO_H_SHIFT;
-		m.u.scene.dx_um = s->dx_um;
-		m.u.scene.depth_10um = s->depth_10um;
-		m.u.scene.scene_id = s->scene_id;
-		put(&p, &m);
-		if (s->info) {
-			memset(&m, 0, sizeof(m));
-			m.type = SWELL_MSG_CTL_INFO;
-			m.u.ctl_info.fw_major = s->fw_version[0];
-			m.u.ctl_info.fw_minor = s->fw_version[1];
-			m.u.ctl_info.fw_patch = s->fw_version[2];
-			m.u.ctl_info.obj_a_100um = s->obj_100um[0];
-			m.u.ctl_info.obj_b_100um = s->obj_100um[1];
-			m.u.ctl_info.obj_h_100um = s->obj_100um[2];
-			put(&p, &m);
-		}
-	}
+	if (heartbeat)
+		put(&p,
+		    &(struct swell_msg){
+			    .type = SWELL_MSG_HEARTBEAT,
+			    .u.heartbeat = { .state = s->state, .version = SWELL_PROTO_VERSION, .seq = hb_seq } });
+	if (scene)
+		put(&p,
+		    &(struct swell_msg){ .type = SWELL_MSG_SCENE,
+					 .u.scene = { .nx = s->nx,
+						      .ny = s->ny,
+						      .h_shift = SWELL_PROTO_H_SHIFT,
+						      .dx_um = s->dx_um,
+						      .depth_10um = s->depth_10um,
+						      .scene_id = s->scene_id } });
+	if (scene && s->info)
+		put(&p,
+		    &(struct swell_msg){ .type = SWELL_MSG_CTL_INFO,
+					 .u.ctl_info = { .fw_major = s->fw_version[0],
+							 .fw_minor = s->fw_version[1],
+							 .fw_patch = s->fw_version[2],
+							 .obj_a_100um = s->obj_100um[0],
+							 .obj_b_100um = s->obj_100um[1],
+							 .obj_h_100um = s->obj_100um[2] } });
 	if (tiles) {
 		const unsigned tiles_x = SWELL_TILES(s->nx),
 			       quads = tiles_x * SWELL_TILES(s->ny) * SWELL_QUADS_PER_TILE;
@@ -195,21 +186,17 @@ unsigned gen_frame(const struct gen_scene *s, uint64_t t_us, uint8_t frame, bool
 	int16_t z_10um, fz_cN;
 	uint8_t sub;
 	gen_object_at(s, t_us, &z_10um, &sub, &fz_cN);
-	memset(&m, 0, sizeof(m));
-	m.type = SWELL_MSG_OBJECT_POSE;
-	m.u.object_pose.x_10um = s->obj_x_10um;
-	m.u.object_pose.y_10um = s->obj_y_10um;
-	m.u.object_pose.z_10um = z_10um;
-	m.u.object_pose.submersion_halfpct = sub;
-	m.u.object_pose.seq = frame;
-	put(&p, &m);
-	memset(&m, 0, sizeof(m));
-	m.type = SWELL_MSG_OBJECT_FORCE;
-	m.u.object_force.fx_cN = s->fx_cN;
-	m.u.object_force.fy_cN = s->fy_cN;
-	m.u.object_force.fz_cN = fz_cN;
-	m.u.object_force.seq = frame;
-	put(&p, &m);
+	put(&p,
+	    &(struct swell_msg){ .type = SWELL_MSG_OBJECT_POSE,
+				 .u.object_pose = { .x_10um = s->obj_x_10um,
+						    .y_10um = s->obj_y_10um,
+						    .z_10um = z_10um,
+						    .submersion_halfpct = sub,
+						    .seq = frame } });
+	put(&p,
+	    &(struct swell_msg){
+		    .type = SWELL_MSG_OBJECT_FORCE,
+		    .u.object_force = { .fx_cN = s->fx_cN, .fy_cN = s->fy_cN, .fz_cN = fz_cN, .seq = frame } });
 	flush(&p);
 	if (err)
 		*err = p.err;

@@ -47,22 +47,15 @@ void gen_ripple(struct gen_scene *s);
 void gen_bob(struct gen_scene *s);
 /* The same pool (0.4 m) in n x n cells (8..256): the benchmarks' bigger grids. */
 void gen_cells(struct gen_scene *s, uint16_t n);
-/* The pose and force of the scene at time t_us (the bob moves them). */
-void gen_object_at(const struct gen_scene *s, uint64_t t_us, int16_t *z_10um, uint8_t *submersion_halfpct,
-		   int16_t *fz_cN);
 /* bump-info: the default scene from a controller that sends CTL_INFO: firmware 2.7.1, an object of
  * 100 x 60 x 40 mm (not the viewer's 50 mm default). */
 void gen_info(struct gen_scene *s);
 
 typedef void (*gen_emit_fn)(void *ctx, const uint8_t *pkt, size_t len);
 
-/* Height of cell (i, j) at time t_us in wire units (LSB 2^-6 mm, saturated to int12). */
-int16_t gen_height(const struct gen_scene *s, uint16_t i, uint16_t j, uint64_t t_us);
-
 /* The packets of one controller frame at time t_us: heartbeat if `heartbeat`, scene (and CTL_INFO when
- * the scene has info) if `scene`, the
- * height quads of every tile if `tiles`, object pose and force. *seq is the packet sequence number,
- * advanced per packet. Returns the number of packets, or 0 with err set. */
+ * the scene has info) if `scene`, the height quads of every tile if `tiles`, object pose and force.
+ * *seq is the packet sequence number, advanced per packet. Returns the number of packets, or 0 with err set. */
 unsigned gen_frame(const struct gen_scene *s, uint64_t t_us, uint8_t frame, bool heartbeat, uint8_t hb_seq, bool scene,
 		   bool tiles, uint8_t *seq, gen_emit_fn emit, void *ctx, enum swell_err *err);
 

@@ -25,9 +25,7 @@ static double cpu_ms(void)
 
 static uint64_t now_us(void)
 {
-	struct timespec t;
-	clock_gettime(CLOCK_MONOTONIC, &t);
-	return (uint64_t)t.tv_sec * 1000000u + (uint64_t)t.tv_nsec / 1000u;
+	return swell_link_now_ns() / 1000u;
 }
 
 /* ---- window input ---- */
@@ -163,16 +161,11 @@ int main(int argc, char **argv)
 	feed.obj_h_um = o.obj_um[2];
 	if (!charts_init(&app.ch, o.force_limit_N)) {
 		fprintf(stderr, "swell-view: out of memory for the charts\n");
-		vm_free(&app.vm);
-		source_close(&src);
-		return 1;
+		goto fail;
 	}
 	if (o.csv && !charts_csv_open(&app.ch, o.csv, err, sizeof(err))) {
 		fprintf(stderr, "swell-view: %s\n", err);
-		charts_free(&app.ch);
-		vm_free(&app.vm);
-		source_close(&src);
-		return 1;
+		goto fail;
 	}
 	feed.charts = &app.ch;
 	app.charts_on = o.charts;
@@ -187,10 +180,7 @@ int main(int argc, char **argv)
 	glfwSetErrorCallback(on_glfw_error);
 	if (!glfwInit()) {
 		fprintf(stderr, "swell-view: no display (set DISPLAY, or run under xvfb-run)\n");
-		charts_free(&app.ch);
-		vm_free(&app.vm);
-		source_close(&src);
-		return 1;
+		goto fail;
 	}
 	glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
 	glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
@@ -201,11 +191,7 @@ int main(int argc, char **argv)
 		glfwCreateWindow(o.headless ? 64 : o.ro.w, o.headless ? 64 : o.ro.h, "swell-view", NULL, NULL);
 	if (!win) {
 		fprintf(stderr, "swell-view: no OpenGL 3.3 core context\n");
-		glfwTerminate();
-		charts_free(&app.ch);
-		vm_free(&app.vm);
-		source_close(&src);
-		return 1;
+		goto fail_glfw;
 	}
 	glfwMakeContextCurrent(win);
 	glfwSwapInterval(o.headless ? 0 : 1);
@@ -214,13 +200,8 @@ int main(int argc, char **argv)
 	glfwSetMouseButtonCallback(win, on_button);
 	glfwSetCursorPosCallback(win, on_cursor);
 	glfwSetScrollCallback(win, on_scroll);
-	if (!render_init(&app.r, &o.ro)) {
-		glfwTerminate();
-		charts_free(&app.ch);
-		vm_free(&app.vm);
-		source_close(&src);
-		return 1;
-	}
+	if (!render_init(&app.r, &o.ro))
+		goto fail_glfw;
 
 	float *frame_ms = o.timing ? malloc(sizeof(float) * 65536u) : NULL;
 	long timed = 0;
@@ -232,12 +213,11 @@ int main(int argc, char **argv)
 		source_poll(&src, &feed, t);
 		vm_tick(&app.vm, t);
 		charts_tick(&app.ch, t, app.vm.st.frames);
-		if (!o.headless) {
-			int fw, fh;
+		int fw = 0, fh = 0; /* the window's framebuffer: the frame is drawn at its size and blitted to it */
+		if (!o.headless)
 			glfwGetFramebufferSize(win, &fw, &fh);
-			if (!render_resize(&app.r, fw, fh))
-				break;
-		}
+		if (!o.headless && !render_resize(&app.r, fw, fh))
+			break;
 		if (t - app.tile_window_us >= 1000000u) {
 			app.tile_hz = (float)(app.r.tiles_uploaded - app.tile_window_start) * 1e6f /
 				(float)(t - app.tile_window_us);
@@ -261,8 +241,6 @@ int main(int argc, char **argv)
 		render_frame(&app.r, &app.vm, app.paused);
 		app.vm.obj = live_obj;
 		if (!o.headless) {
-			int fw, fh;
-			glfwGetFramebufferSize(win, &fw, &fh);
 			render_blit(&app.r, fw, fh);
 			glfwSwapBuffers(win);
 		}
@@ -337,4 +315,12 @@ int main(int argc, char **argv)
 	glfwDestroyWindow(win);
 	glfwTerminate();
 	return rc;
+
+fail_glfw:
+	glfwTerminate();
+fail:
+	charts_free(&app.ch);
+	vm_free(&app.vm);
+	source_close(&src);
+	return 1;
 }

@@ -11,7 +11,6 @@
 #include <string.h>
 
 #include "canvas.h"
-#include "font.h"
 #include "swell/pool.h"
 
 #define PI_F 3.14159265f
@@ -80,15 +79,11 @@ static void mat_lookat(float *m, const float *eye, const float *at, const float 
 	v3_norm(s);
 	v3_cross(u, s, f);
 	memset(m, 0, 16 * sizeof(float));
-	m[0] = s[0];
-	m[4] = s[1];
-	m[8] = s[2];
-	m[1] = u[0];
-	m[5] = u[1];
-	m[9] = u[2];
-	m[2] = -f[0];
-	m[6] = -f[1];
-	m[10] = -f[2];
+	for (int k = 0; k < 3; k++) { /* the rows: side, up, back */
+		m[4 * k] = s[k];
+		m[4 * k + 1] = u[k];
+		m[4 * k + 2] = -f[k];
+	}
 	m[12] = -(s[0] * eye[0] + s[1] * eye[1] + s[2] * eye[2]);
 	m[13] = -(u[0] * eye[0] + u[1] * eye[1] + u[2] * eye[2]);
 	m[14] = f[0] * eye[0] + f[1] * eye[1] + f[2] * eye[2];
@@ -268,12 +263,9 @@ static bool fb_make(struct render *r)
 	}
 	glBindFramebuffer(GL_FRAMEBUFFER, 0);
 
-	free(r->hud_rgba);
-	free(r->hud_ink);
+	canvas_free(&r->hud);
 	r->hud_ntext = -1; /* new size: rebuild the HUD */
-	r->hud_rgba = malloc((size_t)r->o.w * (size_t)r->o.h * 4);
-	r->hud_ink = malloc((size_t)r->o.w * (size_t)r->o.h);
-	if (!r->hud_rgba || !r->hud_ink)
+	if (!canvas_init(&r->hud, r->o.w, r->o.h, r->o.h >= 700 ? 2 : 1))
 		return false;
 	glBindTexture(GL_TEXTURE_2D, r->tex_hud);
 	glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, r->o.w, r->o.h, 0, GL_RGBA, GL_UNSIGNED_BYTE, NULL);
@@ -349,8 +341,7 @@ void render_free(struct render *r)
 	for (int k = 0; k < RENDER_OVERLAYS; k++)
 		glDeleteTextures(1, &r->ov[k].tex);
 	free(r->lit);
-	free(r->hud_rgba);
-	free(r->hud_ink);
+	canvas_free(&r->hud);
 	memset(r, 0, sizeof(*r));
 }
 
@@ -382,12 +373,9 @@ static bool water_make(struct render *r, int nx_cells, int ny_cells)
 	for (int j = 0; j < ny; j++)
 		for (int i = 0; i < nx; i++) {
 			unsigned a = (unsigned)(j * (nx + 1) + i), b = a + 1, c = a + (unsigned)nx + 1, d = c + 1;
-			idx[k++] = a;
-			idx[k++] = b;
-			idx[k++] = d;
-			idx[k++] = a;
-			idx[k++] = d;
-			idx[k++] = c;
+			const unsigned two[6] = { a, b, d, a, d, c }; /* two triangles */
+			memcpy(idx + k, two, sizeof(two));
+			k += 6;
 		}
 	glBindVertexArray(r->vao_water);
 	glBindBuffer(GL_ARRAY_BUFFER, r->vbo_water);
@@ -500,20 +488,15 @@ static void lit_arrow(struct render *r, const float *o, const float *dir, float 
 	v3_norm(u);
 	v3_cross(v, u, d);
 	float head = fminf(len * 0.45f, width * 4.5f), shaft = len - head, hw = width / 2, hh = width * 1.6f;
-	float p[8][3];
-	for (int k = 0; k < 8; k++) {
-		float su = (k % 4 == 1 || k % 4 == 2) ? hw : -hw, sv = (k % 4 >= 2) ? hw : -hw;
-		float t = k >= 4 ? shaft : 0;
+	/* three rings of four corners: the shaft's bottom and top, the head's base */
+	float p[12][3], (*b)[3] = p + 8, tip[3];
+	for (int k = 0; k < 12; k++) {
+		float half = k < 8 ? hw : hh, t = k >= 4 ? shaft : 0;
+		float su = (k % 4 == 1 || k % 4 == 2) ? half : -half, sv = (k % 4 >= 2) ? half : -half;
 		for (int a = 0; a < 3; a++)
 			p[k][a] = o[a] + d[a] * t + u[a] * su + v[a] * sv;
 	}
 	lit_hex(r, p, col);
-	float b[4][3], tip[3];
-	for (int k = 0; k < 4; k++) {
-		float su = (k == 1 || k == 2) ? hh : -hh, sv = (k >= 2) ? hh : -hh;
-		for (int a = 0; a < 3; a++)
-			b[k][a] = o[a] + d[a] * shaft + u[a] * su + v[a] * sv;
-	}
 	for (int a = 0; a < 3; a++)
 		tip[a] = o[a] + d[a] * len;
 	lit_quad(r, b[3], b[2], b[1], b[0], col);
@@ -629,10 +612,7 @@ static void camera(struct render *r, const struct view_model *m, float *mvp, flo
 		float hw = (float)sw / (2 * s), hh = (float)r->o.h / (2 * s);
 		float e[3] = { lx / 2, ly / 2, 5 }, at[3] = { lx / 2, ly / 2, 0 }, up[3] = { 0, 1, 0 };
 		mat_lookat(view, e, at, up);
-		/* the eye for lighting: straight above */
-		eye[0] = lx / 2;
-		eye[1] = ly / 2;
-		eye[2] = 5;
+		memcpy(eye, e, sizeof(e)); /* the eye for lighting: straight above */
 		mat_ortho(proj, -hw, hw, -hh, hh, 0.1f, 20);
 	} else {
 		if (!r->cam_set)
@@ -660,73 +640,31 @@ void render_text_add(struct render *r, int x, int y, uint8_t cr, uint8_t cg, uin
 	if (r->ntext >= RENDER_HUD_ITEMS)
 		return;
 	struct render_text *t = &r->text[r->ntext++];
-	memset(t, 0, sizeof(*t));
-	t->x = x;
-	t->y = y;
-	t->r = cr;
-	t->g = cg;
-	t->b = cb;
-	t->panel = panel;
+	*t = (struct render_text){ .x = x, .y = y, .r = cr, .g = cg, .b = cb, .panel = panel };
 	snprintf(t->s, sizeof(t->s), "%s", s);
-}
-
-static void text_extent(const char *s, int scale, int *w, int *h)
-{
-	int lines = 1, cur = 0, best = 0;
-	for (; *s; s++) {
-		if (*s == '\n') {
-			lines++;
-			cur = 0;
-			continue;
-		}
-		cur++;
-		if (cur > best)
-			best = cur;
-	}
-	*w = best * SWELL_FONT_CELL_W * scale;
-	*h = lines * SWELL_FONT_CELL_H * scale;
 }
 
 static void build_hud(struct render *r)
 {
-	int w = r->o.w, h = r->o.h, scale = h >= 700 ? 2 : 1, pad = 4 * scale;
-	memset(r->hud_rgba, 0, (size_t)w * (size_t)h * 4);
+	static const uint8_t panel[4] = { 8, 8, 8, 165 };
+	struct canvas *c = &r->hud;
+	int pad = 4 * c->scale;
+
+	canvas_clear(c);
 	for (int k = 0; k < r->ntext; k++) {
 		const struct render_text *t = &r->text[k];
 		int tw, th;
-		text_extent(t->s, scale, &tw, &th);
-		int x = t->x * scale, y = t->y * scale;
-		if (t->x < 0)
-			x = w + t->x * scale - tw;
-		if (t->y < 0)
-			y = h + t->y * scale - th;
+		canvas_text_size(c, t->s, &tw, &th);
+		int x = t->x < 0 ? c->w + t->x * c->scale - tw : t->x * c->scale;
+		int y = t->y < 0 ? c->h + t->y * c->scale - th : t->y * c->scale;
+		const uint8_t rgb[3] = { t->r, t->g, t->b };
 		if (t->panel)
-			for (int py = y - pad; py < y + th + pad - 2 * scale; py++)
-				for (int px = x - pad; px < x + tw + pad - scale; px++)
-					if (px >= 0 && py >= 0 && px < w && py < h) {
-						uint8_t *p = r->hud_rgba + ((size_t)py * w + px) * 4;
-						p[0] = p[1] = p[2] = 8;
-						p[3] = 165;
-					}
-		/* ink into the scratch plane, then colour it where it landed */
-		int x0 = x > 0 ? x : 0, y0 = y > 0 ? y : 0;
-		int x1 = x + tw < w ? x + tw : w, y1 = y + th < h ? y + th : h;
-		for (int py = y0; py < y1; py++)
-			memset(r->hud_ink + (size_t)py * w + x0, 0, (size_t)(x1 > x0 ? x1 - x0 : 0));
-		swell_font_draw(r->hud_ink, w, h, x, y, scale, t->s);
-		for (int py = y0; py < y1; py++)
-			for (int px = x0; px < x1; px++)
-				if (r->hud_ink[(size_t)py * w + px]) {
-					uint8_t *p = r->hud_rgba + ((size_t)py * w + px) * 4;
-					p[0] = t->r;
-					p[1] = t->g;
-					p[2] = t->b;
-					p[3] = 255;
-				}
+			canvas_fill(c, x - pad, y - pad, tw + 2 * pad - c->scale, th + 2 * pad - 2 * c->scale, panel);
+		canvas_text(c, x, y, rgb, t->s);
 	}
 	glBindTexture(GL_TEXTURE_2D, r->tex_hud);
 	glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-	glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, w, h, GL_RGBA, GL_UNSIGNED_BYTE, r->hud_rgba);
+	glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, c->w, c->h, GL_RGBA, GL_UNSIGNED_BYTE, c->rgba);
 	glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
 }
 

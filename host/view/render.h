@@ -13,6 +13,7 @@
 #include <stdbool.h>
 #include <stdint.h>
 
+#include "canvas.h"
 #include "vm.h"
 
 #define RENDER_HUD_ITEMS 24
@@ -76,7 +77,7 @@ struct render {
 	float *lit; /* pos3 nrm3 col3 per vertex */
 	int lit_n, lit_cap;
 	/* HUD */
-	uint8_t *hud_rgba, *hud_ink;
+	struct canvas hud; /* the HUD picture, the framebuffer's size */
 	struct render_text text[RENDER_HUD_ITEMS];
 	int ntext;
 	struct render_text hud_text[RENDER_HUD_ITEMS]; /* what the HUD texture holds */

@@ -58,13 +58,6 @@ static int link_open(struct source *s, char *err, size_t errlen)
 	return 0;
 }
 
-static uint64_t mono_us(void)
-{
-	struct timespec t;
-	clock_gettime(CLOCK_MONOTONIC, &t);
-	return (uint64_t)t.tv_sec * 1000000u + (uint64_t)t.tv_nsec / 1000u;
-}
-
 static void ring_put(struct source *s, int rc, const struct swell_frame *f)
 {
 	unsigned h = atomic_load_explicit(&s->head, memory_order_relaxed);
@@ -75,7 +68,7 @@ static void ring_put(struct source *s, int rc, const struct swell_frame *f)
 	}
 	struct rx_item *it = &s->ring[h % RX_RING];
 	it->rc = rc;
-	it->t_us = mono_us();
+	it->t_us = swell_link_now_ns() / 1000u;
 	if (f)
 		it->f = *f;
 	atomic_store_explicit(&s->head, h + 1u, memory_order_release);
@@ -88,8 +81,7 @@ static void *reader(void *arg)
 	while (!atomic_load(&s->stop)) {
 		if (!s->link) { /* USB not there when we started: try again every 500 ms */
 			char err[128];
-			struct timespec d = { 0, 500000000 };
-			nanosleep(&d, NULL);
+			nanosleep(&(struct timespec){ 0, 500000000 }, NULL);
 			if (link_open(s, err, sizeof(err)) != 0)
 				continue;
 		}
@@ -100,8 +92,7 @@ static void *reader(void *arg)
 		if (rc == 0 || rc != last)
 			ring_put(s, rc, &f); /* report a lasting error once */
 		if (rc < 0 && rc != -ENODEV) {
-			struct timespec d = { 0, 50000000 }; /* a broken link: do not spin */
-			nanosleep(&d, NULL);
+			nanosleep(&(struct timespec){ 0, 50000000 }, NULL); /* a broken link: do not spin */
 		}
 		last = rc;
 	}
@@ -173,11 +164,7 @@ bool source_open(struct source *s, const char *spec, const char *record, int usb
 	s->ring = calloc(RX_RING, sizeof(*s->ring));
 	if (!s->ring || pthread_create(&s->thread, NULL, reader, s) != 0) {
 		snprintf(err, errlen, "%s: cannot start the reader thread", spec);
-		free(s->ring);
-		s->ring = NULL;
-		atomic_store(&s->have_link, false);
-		swell_link_close(s->link);
-		s->link = NULL;
+		source_close(s);
 		return false;
 	}
 	s->threaded = true;
@@ -245,17 +232,12 @@ static void pattern_emit(void *ctx, const uint8_t *pkt, size_t len)
 	if ((s->faults & FAULT_DROP) && n % 7 == 3)
 		return;
 	if ((s->faults & FAULT_TRUNCATE) && n % 3 == 1) {
-		uint8_t cut[SWELL_PKT_MAX];
-		size_t cl = rnd(s) % len;
-		memcpy(cut, p, cl);
-		deliver(s, cut, cl); /* the cut packet arrives; its full copy never does */
+		deliver(s, p, rnd(s) % len); /* the cut packet arrives; its full copy never does */
 		return;
 	}
 	if ((s->faults & FAULT_CORRUPT) && n % 5 == 2) {
-		uint8_t bad[SWELL_PKT_MAX];
-		memcpy(bad, p, len);
-		bad[rnd(s) % len] ^= (uint8_t)(1u << (rnd(s) % 8));
-		deliver(s, bad, len);
+		p[rnd(s) % len] ^= (uint8_t)(1u << (rnd(s) % 8));
+		deliver(s, p, len);
 		return;
 	}
 	if (s->faults & FAULT_REORDER) {
@@ -379,9 +361,7 @@ static void link_poll(struct source *s, uint64_t now_us)
 				s->rec_damaged++;
 			s->ended = true;
 			vm_link(vm, false, now_us);
-			atomic_store(&s->have_link, false);
-			swell_link_close(s->link);
-			s->link = NULL;
+			source_close(s); /* not threaded: a replay */
 			return;
 		}
 		if (rc < 0) {
@@ -400,13 +380,12 @@ uint32_t source_poll(struct source *s, struct view_feed *f, uint64_t now_us)
 	s->feed = f;
 	s->now_us = now_us;
 	s->delivered = 0;
-	if (s->kind == SOURCE_PATTERN) {
-		if (!f->vm->link_up)
-			vm_link(f->vm, true, now_us);
+	if (s->kind == SOURCE_PATTERN && !f->vm->link_up)
+		vm_link(f->vm, true, now_us);
+	if (s->kind == SOURCE_PATTERN)
 		pattern_poll(s, now_us);
-		return s->delivered;
-	}
-	link_poll(s, now_us);
+	else
+		link_poll(s, now_us);
 	return s->delivered;
 }
 

@@ -5,22 +5,16 @@
 
 #include "view_main.h"
 
-static void status_colour(enum view_status s, uint8_t *c)
-{
-	static const uint8_t cols[][3] = { [VIEW_LINK_DOWN] = { 255, 80, 70 },
-					   [VIEW_WAIT_SCENE] = { 255, 200, 60 },
-					   [VIEW_RESTARTED] = { 255, 150, 40 },
-					   [VIEW_STALE] = { 255, 200, 60 },
-					   [VIEW_LIVE] = { 90, 230, 120 } };
-	memcpy(c, cols[s], 3);
-}
-
 void hud(struct app *a, const struct view_feed *f, const struct source *src, uint64_t now)
 {
 	const struct view_model *m = &a->vm;
 	const struct view_stats *st = &m->st;
-	char buf[512], lat[48], fw[16] = "?";
-	uint8_t c[3];
+	char buf[512], lat[48] = "-", fw[16] = "?";
+	static const uint8_t cols[][3] = { [VIEW_LINK_DOWN] = { 255, 80, 70 },
+					   [VIEW_WAIT_SCENE] = { 255, 200, 60 },
+					   [VIEW_RESTARTED] = { 255, 150, 40 },
+					   [VIEW_STALE] = { 255, 200, 60 },
+					   [VIEW_LIVE] = { 90, 230, 120 } }; /* the status line's colour */
 
 	render_text_clear(&a->r);
 	if (m->have_info)
@@ -28,8 +22,6 @@ void hud(struct app *a, const struct view_feed *f, const struct source *src, uin
 	if (st->latency_valid)
 		snprintf(lat, sizeof(lat), "+%.1f MS OVER BEST (HEARTBEATS%s)", (double)st->latency_ms,
 			 f->rec_clock ? ", AS RECORDED" : "");
-	else
-		snprintf(lat, sizeof(lat), "-");
 	snprintf(buf, sizeof(buf),
 		 "SWELL-VIEW\n"
 		 "LINK   %s\n"
@@ -63,7 +55,7 @@ void hud(struct app *a, const struct view_feed *f, const struct source *src, uin
 		render_text_add(&a->r, 8, -8, 200, 210, 220, true, buf);
 	}
 
-	status_colour(m->status, c);
+	const uint8_t *c = cols[m->status];
 	const char *s = vm_status_str(m->status);
 	if (m->status == VIEW_STALE)
 		snprintf(buf, sizeof(buf), "NO DATA FOR %.1f S", (double)(now - m->last_rx_us) * 1e-6);

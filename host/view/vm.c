@@ -1,6 +1,7 @@
 /* The view model, see vm.h. */
 #include "vm.h"
 
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -41,9 +42,7 @@ void vm_restart(struct view_model *m, uint64_t now_us)
 	drop_scene(m);
 	m->st.restarts++;
 	m->restart_us = now_us ? now_us : 1;
-	m->have_seq = false;
-	m->have_offset = false;
-	m->have_prev_best = false;
+	m->have_seq = m->have_offset = m->have_prev_best = false;
 	m->st.latency_valid = false;
 }
 
@@ -53,9 +52,7 @@ void vm_link(struct view_model *m, bool up, uint64_t now_us)
 		m->st.link_drops++;
 	if (!m->link_up && up) {
 		/* A replugged link starts a new stream: sequence numbers and clock start over. */
-		m->have_seq = false;
-		m->have_offset = false;
-		m->have_prev_best = false;
+		m->have_seq = m->have_offset = m->have_prev_best = false;
 		m->last_rx_us = now_us;
 	}
 	m->link_up = up;
@@ -72,9 +69,7 @@ bool vm_frame(struct view_model *m, uint32_t seq, unsigned seq_bits, uint64_t no
 	uint32_t mask = seq_bits >= 32 ? 0xffffffffu : (1u << seq_bits) - 1u;
 	uint32_t half = mask / 2u + 1u;
 
-	m->last_rx_us = now_us;
-	if (!m->link_up)
-		m->link_up = true; /* data proves the link is up */
+	vm_rx(m, now_us); /* a frame, late or not: data proves the link is up */
 	seq &= mask;
 	if (m->have_seq) {
 		uint32_t ahead = (seq - m->seq_next) & mask;
@@ -87,8 +82,6 @@ bool vm_frame(struct view_model *m, uint32_t seq, unsigned seq_bits, uint64_t no
 			m->st.late++;
 			if (m->st.dropped > 0)
 				m->st.dropped--;
-			m->st.frames++;
-			m->window_frames++;
 			return false;
 		}
 		/* a jump beyond the window (another sender, a run of late ones: the sender restarted its
@@ -100,8 +93,6 @@ bool vm_frame(struct view_model *m, uint32_t seq, unsigned seq_bits, uint64_t no
 	m->late_run = 0;
 	m->have_seq = true;
 	m->seq_next = (seq + 1u) & mask;
-	m->st.frames++;
-	m->window_frames++;
 	return true;
 }
 
@@ -231,9 +222,7 @@ void vm_rx(struct view_model *m, uint64_t now_us)
 void vm_ctl_info(struct view_model *m, const uint8_t version[3], uint32_t a_um, uint32_t b_um, uint32_t h_um)
 {
 	m->have_info = true;
-	m->fw_version[0] = version[0];
-	m->fw_version[1] = version[1];
-	m->fw_version[2] = version[2];
+	memcpy(m->fw_version, version, sizeof(m->fw_version));
 	m->obj.a_um = a_um;
 	m->obj.b_um = b_um;
 	m->obj.h_um = h_um;
@@ -241,17 +230,10 @@ void vm_ctl_info(struct view_model *m, const uint8_t version[3], uint32_t a_um, 
 
 void vm_heartbeat(struct view_model *m, const char *state, uint8_t error, uint16_t bad, uint16_t overruns)
 {
-	m->have_heartbeat = true;
 	m->ctrl_error = error;
 	m->ctrl_bad = bad;
 	m->ctrl_overruns = overruns;
-	size_t n = 0;
-	if (state)
-		for (; n < sizeof(m->ctrl_state) - 1 && state[n]; n++)
-			m->ctrl_state[n] = state[n];
-	m->ctrl_state[n] = 0;
-	if (n == 0)
-		strcpy(m->ctrl_state, "?");
+	snprintf(m->ctrl_state, sizeof(m->ctrl_state), "%s", state && state[0] ? state : "?");
 }
 
 void vm_clock(struct view_model *m, uint64_t ctrl_us, uint64_t rx_us)
@@ -318,17 +300,11 @@ void vm_tile_clean(struct view_model *m, uint16_t tx, uint16_t ty)
 
 const char *vm_status_str(enum view_status s)
 {
-	switch (s) {
-	case VIEW_LINK_DOWN:
-		return "LINK DOWN";
-	case VIEW_WAIT_SCENE:
-		return "WAITING FOR SCENE DESCRIPTION";
-	case VIEW_RESTARTED:
-		return "CONTROLLER RESTARTED - WAITING FOR SCENE";
-	case VIEW_STALE:
-		return "NO DATA - STALE";
-	case VIEW_LIVE:
-		return "LIVE";
-	}
-	return "?";
+	static const char *const names[] = { [VIEW_LINK_DOWN] = "LINK DOWN",
+					     [VIEW_WAIT_SCENE] = "WAITING FOR SCENE DESCRIPTION",
+					     [VIEW_RESTARTED] = "CONTROLLER RESTARTED - WAITING FOR SCENE",
+					     [VIEW_STALE] = "NO DATA - STALE",
+					     [VIEW_LIVE] = "LIVE" };
+
+	return (unsigned)s < sizeof(names) / sizeof(names[0]) ? names[s] : "?";
 }

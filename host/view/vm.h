@@ -83,7 +83,6 @@ struct view_model {
 	char ctrl_state[16]; /* controller state name from the heartbeat, "?" until one arrives */
 	uint8_t ctrl_error; /* enum swell_err the controller reports */
 	uint16_t ctrl_bad, ctrl_overruns; /* the controller's own counters */
-	bool have_heartbeat;
 	/* CTL_INFO: the controller's firmware version and the object size it simulates (obj.a/b/h_um
 	 * follow it once one has arrived; until then they are the viewer's --object fallback) */
 	bool have_info;

@@ -233,7 +233,7 @@ TEST_CASE("rejected packets are counted by reason and change nothing")
 	uint8_t junk[17] = {1, 2, 3};
 	feed_packet(&r.f, junk, sizeof(junk), 1);
 	CHECK(r.vm.st.bad == 3);
-	CHECK(feed_rejected(&r.f) == 3);
+	CHECK(swell_proto_rejected_total(&r.f.st) == 3);
 	CHECK(r.f.st.rejected[SWELL_ECRC] == 1);
 	CHECK(r.h(0, 0) == 0.0f);
 	CHECK(r.vm.st.pieces == 0);
