@@ -60,6 +60,16 @@ static void arg(struct builder *b, const char *fmt, ...)
 	b->s->argc++;
 }
 
+/* Each of n strings as an argument of its own, as it is. */
+static void words(struct builder *b, const char *const *w, size_t n)
+{
+	for (size_t i = 0; i < n; i++)
+		arg(b, "%s", w[i]);
+}
+
+#define WORDS(b, ...) \
+	words(b, (const char *const[]){ __VA_ARGS__ }, sizeof((const char *const[]){ __VA_ARGS__ }) / sizeof(char *))
+
 /* 1 when path holds a character that gdb's file name parsing cuts at or keeps literally. */
 static int gdb_unsafe(const char *path)
 {
@@ -69,18 +79,10 @@ static int gdb_unsafe(const char *path)
 static void gdb_begin(struct builder *b, const struct flash_opts *o, enum flash_step_kind kind, const char *what)
 {
 	step(b, kind, what);
-	arg(b, "gdb-multiarch");
-	arg(b, "-nx");
-	arg(b, "-batch");
-	arg(b, "-ex");
-	arg(b, "set confirm off");
-	arg(b, "-ex");
+	WORDS(b, "gdb-multiarch", "-nx", "-batch", "-ex", "set confirm off", "-ex");
 	if (o->gdb_server == FLASH_GDB_BMP) {
 		arg(b, "target extended-remote %s", o->gdb_remote);
-		arg(b, "-ex");
-		arg(b, "monitor swdp_scan");
-		arg(b, "-ex");
-		arg(b, "attach 1");
+		WORDS(b, "-ex", "monitor swdp_scan", "-ex", "attach 1");
 	} else {
 		arg(b, "target remote %s", o->gdb_remote);
 	}
@@ -89,10 +91,8 @@ static void gdb_begin(struct builder *b, const struct flash_opts *o, enum flash_
 static void build_gdb(struct builder *b, const struct flash_opts *o)
 {
 	gdb_begin(b, o, STEP_WRITE, "write and read back through the GDB remote");
-	if (o->gdb_server == FLASH_GDB_OPENOCD) {
-		arg(b, "-ex");
-		arg(b, "monitor reset halt");
-	}
+	if (o->gdb_server == FLASH_GDB_OPENOCD)
+		WORDS(b, "-ex", "monitor reset halt");
 	arg(b, "-ex");
 	if (o->elf)
 		arg(b, "load");
@@ -101,8 +101,7 @@ static void build_gdb(struct builder *b, const struct flash_opts *o)
 	arg(b, "-ex");
 	arg(b, "dump binary memory %s " BASE " 0x%08lx", o->readback, (unsigned long)(0x08000000ul + o->len));
 	/* Leave the target halted: it runs only after the read-back has been compared. */
-	arg(b, "-ex");
-	arg(b, "disconnect");
+	WORDS(b, "-ex", "disconnect");
 	if (o->elf)
 		arg(b, "%s", o->elf);
 	/* The dump is in the same session as the write: mark the step as the read-back too. */
@@ -111,14 +110,10 @@ static void build_gdb(struct builder *b, const struct flash_opts *o)
 	arg(b, "-ex");
 	switch (o->gdb_server) {
 	case FLASH_GDB_QEMU:
-		arg(b, "monitor system_reset");
-		arg(b, "-ex");
-		arg(b, "detach");
+		WORDS(b, "monitor system_reset", "-ex", "detach");
 		break;
 	case FLASH_GDB_OPENOCD:
-		arg(b, "monitor reset run");
-		arg(b, "-ex");
-		arg(b, "detach");
+		WORDS(b, "monitor reset run", "-ex", "detach");
 		break;
 	case FLASH_GDB_BMP:
 		arg(b, "kill");
@@ -135,47 +130,21 @@ int flash_plan_build(const struct flash_opts *o, struct flash_plan *p, char *why
 	case FLASH_DFU:
 		/* DfuSe (the STM32 ROM bootloader): download erases the pages it writes. */
 		step(&b, STEP_WRITE, "write over USB DFU (DfuSe)");
-		arg(&b, "dfu-util");
-		arg(&b, "-d");
-		arg(&b, "%s", o->dfu_device);
-		arg(&b, "-a");
-		arg(&b, "0");
-		arg(&b, "-s");
-		arg(&b, BASE);
-		arg(&b, "-D");
-		arg(&b, "%s", o->bin);
+		WORDS(&b, "dfu-util", "-d", o->dfu_device, "-a", "0", "-s", BASE, "-D", o->bin);
 		step(&b, STEP_READBACK, "read back over USB DFU");
-		arg(&b, "dfu-util");
-		arg(&b, "-d");
-		arg(&b, "%s", o->dfu_device);
-		arg(&b, "-a");
-		arg(&b, "0");
-		arg(&b, "-s");
+		WORDS(&b, "dfu-util", "-d", o->dfu_device, "-a", "0", "-s");
 		arg(&b, BASE ":%zu", o->len);
-		arg(&b, "-U");
-		arg(&b, "%s", o->readback);
+		WORDS(&b, "-U", o->readback);
 		/* Leaving DFU only after the read-back matched: a 4-byte upload with the leave modifier. */
 		step(&b, STEP_RESET, "leave DFU and start the image");
-		arg(&b, "dfu-util");
-		arg(&b, "-d");
-		arg(&b, "%s", o->dfu_device);
-		arg(&b, "-a");
-		arg(&b, "0");
-		arg(&b, "-s");
-		arg(&b, BASE ":4:leave");
-		arg(&b, "-U");
+		WORDS(&b, "dfu-util", "-d", o->dfu_device, "-a", "0", "-s", BASE ":4:leave", "-U");
 		arg(&b, "%s.leave", o->readback);
 		break;
 	case FLASH_SWD:
 		if (o->swd_tool == FLASH_SWD_OPENOCD) {
 			/* openocd erases, writes, reads back and compares itself ("verify"). */
 			step(&b, STEP_WRITE, "write, verify and reset over SWD (openocd)");
-			arg(&b, "openocd");
-			arg(&b, "-f");
-			arg(&b, "%s", o->openocd_interface);
-			arg(&b, "-f");
-			arg(&b, "target/stm32f4x.cfg");
-			arg(&b, "-c");
+			WORDS(&b, "openocd", "-f", o->openocd_interface, "-f", "target/stm32f4x.cfg", "-c");
 			if (o->elf)
 				arg(&b, "program %s verify reset exit", o->elf);
 			else
@@ -184,48 +153,29 @@ int flash_plan_build(const struct flash_opts *o, struct flash_plan *p, char *why
 			break;
 		}
 		step(&b, STEP_WRITE, "write over SWD (st-flash)");
-		arg(&b, "st-flash");
-		arg(&b, "write");
-		arg(&b, "%s", o->bin);
-		arg(&b, BASE);
+		WORDS(&b, "st-flash", "write", o->bin, BASE);
 		step(&b, STEP_READBACK, "read back over SWD (st-flash)");
-		arg(&b, "st-flash");
-		arg(&b, "read");
-		arg(&b, "%s", o->readback);
-		arg(&b, BASE);
+		WORDS(&b, "st-flash", "read", o->readback, BASE);
 		arg(&b, "%zu", o->len);
 		step(&b, STEP_RESET, "reset (st-flash)");
-		arg(&b, "st-flash");
-		arg(&b, "reset");
+		WORDS(&b, "st-flash", "reset");
 		break;
 	case FLASH_UART:
 		/* The ROM bootloader on USART1 (BOOT0 high at reset); stm32flash -v verifies too. */
 		step(&b, STEP_WRITE, "write and verify over the UART ROM bootloader (stm32flash)");
-		arg(&b, "stm32flash");
-		arg(&b, "-b");
+		WORDS(&b, "stm32flash", "-b");
 		arg(&b, "%u", o->baud);
-		arg(&b, "-w");
-		arg(&b, "%s", o->bin);
-		arg(&b, "-v");
-		arg(&b, "-S");
-		arg(&b, BASE);
-		arg(&b, "%s", o->serial);
+		WORDS(&b, "-w", o->bin, "-v", "-S", BASE, o->serial);
 		step(&b, STEP_READBACK, "read back over the UART ROM bootloader");
-		arg(&b, "stm32flash");
-		arg(&b, "-b");
+		WORDS(&b, "stm32flash", "-b");
 		arg(&b, "%u", o->baud);
-		arg(&b, "-r");
-		arg(&b, "%s", o->readback);
-		arg(&b, "-S");
+		WORDS(&b, "-r", o->readback, "-S");
 		arg(&b, BASE ":%zu", o->len);
-		arg(&b, "%s", o->serial);
+		WORDS(&b, o->serial);
 		step(&b, STEP_RESET, "start the image (stm32flash -g)");
-		arg(&b, "stm32flash");
-		arg(&b, "-b");
+		WORDS(&b, "stm32flash", "-b");
 		arg(&b, "%u", o->baud);
-		arg(&b, "-g");
-		arg(&b, BASE);
-		arg(&b, "%s", o->serial);
+		WORDS(&b, "-g", BASE, o->serial);
 		break;
 	case FLASH_GDB:
 		if (!o->elf && o->gdb_server != FLASH_GDB_QEMU) {

@@ -163,7 +163,9 @@ TEST_CASE("swell-tool check: a good chain (swell-ctl on swell-hm --serve, first-
 	for (const char *name :
 	     {"link", "controller", "device", "round trip", "frame", "force", "calibration", "e-stop", "effects"})
 		CHECK(line_of(r.out, name).rfind("ok", 0) == 0);
-	CHECK(has(line_of(r.out, "device"), "heard at 2"));
+	// the rate heard is wall clock (a loaded machine hears fewer samples); its ok is the check's own
+	// bound, checked above: here that the line names the rate it heard, the tick rate and the status
+	CHECK(has(line_of(r.out, "device"), " Hz (tick 2500 Hz), status 0x3 (powered, force on)"));
 	CHECK(has(line_of(r.out, "force"), "force.max 2 N, force.rate 20 N/s"));
 	CHECK(has(r.out, "check: 9 passed, 0 failed, 0 skipped"));
 	// without --hm the device's own answers are skipped, not failed
