@@ -28,6 +28,7 @@ struct opts {
 	int8_t offset = 3;
 	long big = 9;
 	double at[3] = {1, 2, 3};
+	int view = 5;
 	double hook_val = -1;
 	int hook_calls = 0;
 	std::vector<std::string> operands;
@@ -79,6 +80,7 @@ struct cli_run {
 			SWELL_CLI_WHOLE("--offset", o.offset, -100, 100, "mm"),
 			SWELL_CLI_WHOLE("--big", o.big, -1e12, 1e12, ""),
 			SWELL_CLI_LIST("--at", o.at, 3, -300, 300, "mm"),
+			SWELL_CLI_CHOICE("--view", o.view, "orbit|top|map"),
 			SWELL_CLI_HOOK("--hook", hook, 1),
 			SWELL_CLI_HOOK("--maybe", hook, 2),
 		};
@@ -101,9 +103,9 @@ struct cli_run {
 
 TEST_CASE("cli: each kind of option takes its value", "[cli]")
 {
-	cli_run r({"--flag", "--off",          "--name", "x.csv",         "--rate", "0.5",      "--gain",
-		   "-1.5",   "--timeout",      "1e-3",   "--port",        "65535",  "--offset", "-100",
-		   "--big",  "-1000000000000", "--at",   "-300,0.25,300", "--hook", "2.5"});
+	cli_run r({"--flag",    "--off",         "--name", "x.csv", "--rate",   "0.5",  "--gain", "-1.5",
+		   "--timeout", "1e-3",          "--port", "65535", "--offset", "-100", "--big",  "-1000000000000",
+		   "--at",      "-300,0.25,300", "--view", "map",   "--hook",   "2.5"});
 	INFO(r.why());
 	REQUIRE(r.result == 0);
 	CHECK(r.o.flag == 1);
@@ -118,8 +120,10 @@ TEST_CASE("cli: each kind of option takes its value", "[cli]")
 	CHECK(r.o.at[0] == -300);
 	CHECK(r.o.at[1] == 0.25);
 	CHECK(r.o.at[2] == 300);
+	CHECK(r.o.view == 2);
 	CHECK(r.o.hook_val == 2.5);
 	CHECK(r.why().empty());
+	CHECK(cli_run({"--view", "orbit"}).o.view == 0);
 }
 
 TEST_CASE("cli: an optional value is taken only when one follows", "[cli]")
@@ -160,6 +164,8 @@ TEST_CASE("cli: a refused value names itself and its range and leaves the option
 		{{"--at", "1,2,301"}, "--at '1,2,301' is not 3 comma-separated numbers"},
 		{{"--at", "1,,3"}, "--at '1,,3' is not 3 comma-separated numbers"},
 		{{"--at", "1,2,3,"}, "--at '1,2,3,' is not 3 comma-separated numbers"},
+		{{"--view", "side"}, "--view 'side' is not orbit, top or map"},
+		{{"--view", "orbi"}, "--view 'orbi' is not orbit, top or map"},
 		{{"--hook", "11"}, "--hook '11' is not a number in [1, 10]"},
 		{{"--port"}, "--port needs a value (see --help)"},
 		{{"--bogus"}, "unknown option '--bogus' (see --help)"},
@@ -182,6 +188,7 @@ TEST_CASE("cli: a refused value names itself and its range and leaves the option
 		CHECK(r.o.at[0] == 1);
 		CHECK(r.o.at[1] == 2);
 		CHECK(r.o.at[2] == 3);
+		CHECK(r.o.view == 5);
 		CHECK(r.o.hook_val == -1);
 	}
 }

@@ -1,7 +1,7 @@
 /* The host programs' command lines: a table of options and one scan over argv. Host only.
  *
  * Each program lists its options as a table of rows made with the macros below: a flag, a string, a
- * number in [lo, hi] (or (lo, hi]) with a unit, a whole number, a comma list of numbers, or a hook (the
+ * number in [lo, hi] (or (lo, hi]) with a unit, a whole number, a comma list of numbers, one of a few words, or a hook (the
  * program's own code for an option that needs it). -h and --help print the usage text. A refused
  * argument writes nothing (the destinations keep what they had) and gives one reason; swell_cli_parse
  * prints it as "PROG: reason" on stderr and exits 2 before the program has done anything.
@@ -10,6 +10,7 @@
  *   OPT 'V' is not a number in [LO, HI] UNIT           (a number, "(LO" for a bound that is excluded)
  *   OPT 'V' is not a whole number in [LO, HI] UNIT
  *   OPT 'V' is not N comma-separated numbers in [LO, HI] UNIT    ("N to M" when the count may vary)
+ *   OPT 'V' is not orbit, top or map                   (a choice among "orbit|top|map")
  *   OPT needs a value (see --help)
  *   unknown option 'OPT' (see --help)
  *   unexpected argument 'ARG' (see --help)                (a program without an operand hook)
@@ -33,6 +34,8 @@ enum swell_cli_kind {
 	SWELL_CLI_K_NUM, /* the float or double at dst (by size) becomes a number in range */
 	SWELL_CLI_K_WHOLE, /* the integer at dst (of size 1, 2, 4 or 8 bytes) becomes a whole number in range */
 	SWELL_CLI_K_LIST, /* the n doubles at dst become n comma-separated numbers in range */
+	SWELL_CLI_K_CHOICE, /* the integer at dst becomes the place (from 0) of the value among the words of
+			     * unit, "orbit|top|map" */
 	SWELL_CLI_K_HOOK, /* hook(c, name, value); n: 0 no value, 1 a value, 2 a value unless the next
 			    * argument is missing or starts with "--" */
 };
@@ -74,6 +77,10 @@ struct swell_cli_opt {
 #define SWELL_CLI_LIST(name, array, n, lo, hi, unit)                    \
 	{                                                               \
 		name, SWELL_CLI_K_LIST, array, 0, lo, hi, 0, unit, n, 0 \
+	}
+#define SWELL_CLI_CHOICE(name, field, words)                                            \
+	{                                                                               \
+		name, SWELL_CLI_K_CHOICE, &(field), sizeof(field), 0, 0, 0, words, 0, 0 \
 	}
 #define SWELL_CLI_HOOK(name, hook, takes)                              \
 	{                                                              \

@@ -102,6 +102,30 @@ static void put_whole(void *dst, size_t size, double x)
 		memcpy(dst, &u, 8);
 }
 
+/* v's place among the words "a|b|c", or -1 with the reason naming them: "is not a, b or c". */
+static int choice(struct swell_cli *c, const char *opt, const char *v, const char *words)
+{
+	const size_t n = strlen(v);
+	const char *w = words, *bar;
+	char list[256] = "";
+	size_t at = 0;
+	int k;
+
+	for (k = 0; *w; k++, w = bar + !!*bar) {
+		bar = w + strcspn(w, "|");
+		if ((size_t)(bar - w) == n && !strncmp(w, v, n))
+			return k;
+		at += (size_t)snprintf(list + at, sizeof(list) - at, "%s%.*s",
+				       k == 0         ? ""
+					       : *bar ? ", "
+						      : " or ",
+				       (int)(bar - w), w);
+		if (at >= sizeof(list))
+			break;
+	}
+	return swell_cli_refuse(c, "%s '%s' is not %s", opt, v, list);
+}
+
 /* One option and its value (NULL for none): 0 or -1 with c->why. */
 static int take(struct swell_cli *c, const struct swell_cli_opt *o, const char *v)
 {
@@ -133,6 +157,11 @@ static int take(struct swell_cli *c, const struct swell_cli_opt *o, const char *
 		return 0;
 	case SWELL_CLI_K_LIST:
 		return swell_cli_numbers(c, o->name, v, o->n, o->n, o->lo, o->hi, o->unit, o->dst) < 0 ? -1 : 0;
+	case SWELL_CLI_K_CHOICE:
+		if ((x = choice(c, o->name, v, o->unit)) < 0)
+			return -1;
+		put_whole(o->dst, o->size, x);
+		return 0;
 	case SWELL_CLI_K_HOOK:
 		return o->hook(c, o->name, v);
 	}
