@@ -3,6 +3,7 @@
  * with one "prog: reason" line on stderr (0 and the usage on stdout for --help). */
 #include <catch2/catch.hpp>
 
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <string>
@@ -24,6 +25,7 @@ struct opts {
 	double rate = 5;
 	float gain = 1.0f;
 	double timeout = 1;
+	double any = 4;
 	uint16_t port = 7;
 	int8_t offset = 3;
 	long big = 9;
@@ -75,6 +77,7 @@ struct cli_run {
 			SWELL_CLI_STR("--name", o.name),
 			SWELL_CLI_NUM("--rate", o.rate, 0.5, 100, "Hz"),
 			SWELL_CLI_NUM("--gain", o.gain, -2, 2, ""),
+			SWELL_CLI_NUM("--any", o.any, -HUGE_VAL, HUGE_VAL, ""),
 			SWELL_CLI_NUM_ABOVE("--timeout", o.timeout, 0, 600, "s"),
 			SWELL_CLI_WHOLE("--port", o.port, 1, 65535, ""),
 			SWELL_CLI_WHOLE("--offset", o.offset, -100, 100, "mm"),
@@ -124,6 +127,8 @@ TEST_CASE("cli: each kind of option takes its value", "[cli]")
 	CHECK(r.o.hook_val == 2.5);
 	CHECK(r.why().empty());
 	CHECK(cli_run({"--view", "orbit"}).o.view == 0);
+	CHECK(cli_run({"--any", "-1e300"}).o.any == -1e300);
+	CHECK(cli_run({"--any", "x"}).why() == "--any 'x' is not a number"); /* no range to say */
 }
 
 TEST_CASE("cli: an optional value is taken only when one follows", "[cli]")
@@ -152,6 +157,8 @@ TEST_CASE("cli: a refused value names itself and its range and leaves the option
 		{{"--rate", "nan"}, "--rate 'nan' is not a number"},
 		{{"--rate", "5x"}, "--rate '5x' is not a number"},
 		{{"--rate", ""}, "--rate '' is not a number"},
+		{{"--any", "inf"}, "--any 'inf' is not a number"},
+		{{"--any", "1e999"}, "--any '1e999' is not a number"},
 		{{"--gain", "3"}, "--gain '3' is not a number in [-2, 2]"},
 		{{"--timeout", "0"}, "--timeout '0' is not a number in (0, 600] s"},
 		{{"--port", "0"}, "--port '0' is not a whole number in [1, 65535]"},
@@ -182,6 +189,7 @@ TEST_CASE("cli: a refused value names itself and its range and leaves the option
 		CHECK(r.o.rate == 5);
 		CHECK(r.o.gain == 1.0f);
 		CHECK(r.o.timeout == 1);
+		CHECK(r.o.any == 4);
 		CHECK(r.o.port == 7);
 		CHECK(r.o.offset == 3);
 		CHECK(r.o.big == 9);

@@ -14,7 +14,8 @@
  *   OPT needs a value (see --help)
  *   unknown option 'OPT' (see --help)
  *   unexpected argument 'ARG' (see --help)                (a program without an operand hook)
- * Numbers are strtod's (decimal, exponent, hex); a whole number is one without a fraction. */
+ * Numbers are strtod's (decimal, exponent, hex) and finite; a whole number is one without a fraction; the
+ * range -HUGE_VAL to HUGE_VAL takes any number and the reason says no range. */
 #ifndef SWELL_CLI_H
 #define SWELL_CLI_H
 

@@ -35,13 +35,15 @@ static int one(const char *p, char **end, double lo, double hi, int above, doubl
 {
 	errno = 0;
 	*x = strtod(p, end);
-	return errno || *end == p || !(*x >= lo && *x <= hi) || (above && *x == lo) ? -1 : 0;
+	return errno || *end == p || !isfinite(*x) || !(*x >= lo && *x <= hi) || (above && *x == lo) ? -1 : 0;
 }
 
-/* The reason's range and unit: " in [lo, hi] unit". */
+/* The reason with the range and unit: " in [lo, hi] unit" (nothing for -HUGE_VAL to HUGE_VAL). */
 static int refuse_range(struct swell_cli *c, const char *opt, const char *v, const char *what, double lo, double hi,
 			int above, const char *unit)
 {
+	if (isinf(lo) && isinf(hi))
+		return swell_cli_refuse(c, "%s '%s' is not %s", opt, v, what);
 	return swell_cli_refuse(c, "%s '%s' is not %s in %c%.15g, %.15g]%s%s", opt, v, what, above ? '(' : '[', lo, hi,
 				*unit ? " " : "", unit);
 }
