@@ -22,6 +22,7 @@ struct opts {
 	int flag = 0;
 	bool off = true;
 	const char *name = "none";
+	const char *host = "127.0.0.1";
 	double rate = 5;
 	float gain = 1.0f;
 	double timeout = 1;
@@ -75,6 +76,7 @@ struct cli_run {
 			SWELL_CLI_FLAG("--flag", o.flag),
 			SWELL_CLI_SET("--off", o.off, 0),
 			SWELL_CLI_STR("--name", o.name),
+			SWELL_CLI_IPV4("--host", o.host),
 			SWELL_CLI_NUM("--rate", o.rate, 0.5, 100, "Hz"),
 			SWELL_CLI_NUM("--gain", o.gain, -2, 2, ""),
 			SWELL_CLI_NUM("--any", o.any, -HUGE_VAL, HUGE_VAL, ""),
@@ -106,14 +108,15 @@ struct cli_run {
 
 TEST_CASE("cli: each kind of option takes its value", "[cli]")
 {
-	cli_run r({"--flag",    "--off",         "--name", "x.csv", "--rate",   "0.5",  "--gain", "-1.5",
-		   "--timeout", "1e-3",          "--port", "65535", "--offset", "-100", "--big",  "-1000000000000",
-		   "--at",      "-300,0.25,300", "--view", "map",   "--hook",   "2.5"});
+	cli_run r({"--flag", "--off",          "--name",    "x.csv",         "--host", "10.1.2.3", "--rate",   "0.5",
+		   "--gain", "-1.5",           "--timeout", "1e-3",          "--port", "65535",    "--offset", "-100",
+		   "--big",  "-1000000000000", "--at",      "-300,0.25,300", "--view", "map",      "--hook",   "2.5"});
 	INFO(r.why());
 	REQUIRE(r.result == 0);
 	CHECK(r.o.flag == 1);
 	CHECK(r.o.off == false);
 	CHECK(std::string(r.o.name) == "x.csv");
+	CHECK(std::string(r.o.host) == "10.1.2.3");
 	CHECK(r.o.rate == 0.5);
 	CHECK(r.o.gain == -1.5f);
 	CHECK(r.o.timeout == 1e-3);
@@ -157,6 +160,8 @@ TEST_CASE("cli: a refused value names itself and its range and leaves the option
 		{{"--rate", "nan"}, "--rate 'nan' is not a number"},
 		{{"--rate", "5x"}, "--rate '5x' is not a number"},
 		{{"--rate", ""}, "--rate '' is not a number"},
+		{{"--host", "300.1.1.1"}, "--host '300.1.1.1' is not a dotted IPv4 address"},
+		{{"--host", "localhost"}, "--host 'localhost' is not a dotted IPv4 address"},
 		{{"--any", "inf"}, "--any 'inf' is not a number"},
 		{{"--any", "1e999"}, "--any '1e999' is not a number"},
 		{{"--gain", "3"}, "--gain '3' is not a number in [-2, 2]"},
@@ -190,6 +195,7 @@ TEST_CASE("cli: a refused value names itself and its range and leaves the option
 		CHECK(r.o.gain == 1.0f);
 		CHECK(r.o.timeout == 1);
 		CHECK(r.o.any == 4);
+		CHECK(std::string(r.o.host) == "127.0.0.1");
 		CHECK(r.o.port == 7);
 		CHECK(r.o.offset == 3);
 		CHECK(r.o.big == 9);

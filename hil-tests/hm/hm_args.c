@@ -144,16 +144,6 @@ static int link_opt(struct swell_cli *c, const char *opt, const char *v)
 	return 0;
 }
 
-static int host_opt(struct swell_cli *c, const char *opt, const char *v)
-{
-	struct in_addr ia;
-
-	if (inet_pton(AF_INET, v, &ia) != 1)
-		return swell_cli_refuse(c, "%s '%s' is not a dotted IPv4 address", opt, v);
-	((struct opts *)c->ctx)->host = v;
-	return 0;
-}
-
 /* --serve [ADDR:]PORT, the value optional */
 static int serve_opt(struct swell_cli *c, const char *opt, const char *v)
 {
@@ -292,7 +282,7 @@ void parse(int argc, char **argv, struct opts *o)
 		SWELL_CLI_FLAG("--rt", o->rt),
 		SWELL_CLI_HOOK("--serve", serve_opt, 2),
 		SWELL_CLI_HOOK("--link", link_opt, 1),
-		SWELL_CLI_HOOK("--host", host_opt, 1),
+		SWELL_CLI_IPV4("--host", o->host),
 		SWELL_CLI_WHOLE("--port", o->port, 1, 65535, ""),
 		SWELL_CLI_HOOK("--inject", inject_opt, 1),
 		SWELL_CLI_NUM("--effect-fresh", o->effect_fresh_ms, 0.1, 1000, "ms"),

@@ -10,6 +10,7 @@
  *   OPT 'V' is not a number in [LO, HI] UNIT           (a number, "(LO" for a bound that is excluded)
  *   OPT 'V' is not a whole number in [LO, HI] UNIT
  *   OPT 'V' is not N comma-separated numbers in [LO, HI] UNIT    ("N to M" when the count may vary)
+ *   OPT 'V' is not a dotted IPv4 address
  *   OPT 'V' is not orbit, top or map                   (a choice among "orbit|top|map")
  *   OPT needs a value (see --help)
  *   unknown option 'OPT' (see --help)
@@ -32,6 +33,7 @@ typedef int (*swell_cli_hook)(struct swell_cli *c, const char *opt, const char *
 enum swell_cli_kind {
 	SWELL_CLI_K_SET, /* no value: the integer at dst (of size bytes) becomes lo */
 	SWELL_CLI_K_STR, /* the const char * at dst points at the value */
+	SWELL_CLI_K_IPV4, /* the same, for a dotted IPv4 address */
 	SWELL_CLI_K_NUM, /* the float or double at dst (by size) becomes a number in range */
 	SWELL_CLI_K_WHOLE, /* the integer at dst (of size 1, 2, 4 or 8 bytes) becomes a whole number in range */
 	SWELL_CLI_K_LIST, /* the n doubles at dst become n comma-separated numbers in range */
@@ -62,6 +64,10 @@ struct swell_cli_opt {
 #define SWELL_CLI_STR(name, field)                                                \
 	{                                                                         \
 		name, SWELL_CLI_K_STR, &(field), sizeof(field), 0, 0, 0, "", 0, 0 \
+	}
+#define SWELL_CLI_IPV4(name, field)                                                \
+	{                                                                          \
+		name, SWELL_CLI_K_IPV4, &(field), sizeof(field), 0, 0, 0, "", 0, 0 \
 	}
 #define SWELL_CLI_NUM(name, field, lo, hi, unit)                                      \
 	{                                                                             \

@@ -1,5 +1,6 @@
 #include "swell/cli.h"
 
+#include <arpa/inet.h>
 #include <errno.h>
 #include <math.h>
 #include <stdarg.h>
@@ -131,6 +132,7 @@ static int choice(struct swell_cli *c, const char *opt, const char *v, const cha
 /* One option and its value (NULL for none): 0 or -1 with c->why. */
 static int take(struct swell_cli *c, const struct swell_cli_opt *o, const char *v)
 {
+	struct in_addr ip;
 	char *end;
 	double x;
 
@@ -138,6 +140,10 @@ static int take(struct swell_cli *c, const struct swell_cli_opt *o, const char *
 	case SWELL_CLI_K_SET:
 		put_whole(o->dst, o->size, o->lo);
 		return 0;
+	case SWELL_CLI_K_IPV4:
+		if (inet_pton(AF_INET, v, &ip) != 1)
+			return swell_cli_refuse(c, "%s '%s' is not a dotted IPv4 address", o->name, v);
+		/* fall through */
 	case SWELL_CLI_K_STR:
 		memcpy(o->dst, &v, sizeof(v));
 		return 0;
