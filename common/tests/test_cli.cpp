@@ -184,6 +184,8 @@ TEST_CASE("cli: a refused value names itself and its range and leaves the option
 		{{"--bogus", "1"}, "unknown option '--bogus' (see --help)"},
 		{{"stray"}, "unexpected argument 'stray' (see --help)"},
 		{{"-"}, "unexpected argument '-' (see --help)"},
+		{{"-5"}, "unexpected argument '-5' (see --help)"},
+		{{"-x"}, "unknown option '-x' (see --help)"},
 	};
 	for (const auto &b : table) {
 		cli_run r(b.args);
@@ -222,9 +224,9 @@ TEST_CASE("cli: the scan stops at the first refusal and at --help", "[cli]")
 
 TEST_CASE("cli: operands go to the program's hook, which may refuse them", "[cli]")
 {
-	cli_run r({"a.elf", "--flag", "b.elf"}, true);
+	cli_run r({"a.elf", "--flag", "b.elf", "-", "-5", "-.5"}, true);
 	CHECK(r.result == 0);
-	CHECK(r.o.operands == std::vector<std::string>{"a.elf", "b.elf"});
+	CHECK(r.o.operands == std::vector<std::string>{"a.elf", "b.elf", "-", "-5", "-.5"});
 	cli_run bad({"a.elf", "bad"}, true);
 	CHECK(bad.result == -1);
 	CHECK(bad.why() == "'bad' is not a file");

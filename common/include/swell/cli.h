@@ -100,7 +100,8 @@ struct swell_cli {
 	const struct swell_cli_opt *opt; /* the table */
 	size_t n_opt;
 	void *ctx; /* for the hooks */
-	/* an argument that is not an option ("-" is one): NULL refuses every one */
+	/* an argument that is not an option ("-" and a negative number "-5", "-.5" are none): NULL refuses
+	 * every one */
 	int (*operand)(struct swell_cli *c, const char *arg);
 	char why[512]; /* the reason of a refusal */
 };

@@ -189,7 +189,7 @@ int swell_cli_scan(struct swell_cli *c, int argc, char **argv)
 
 		if (!strcmp(a, "-h") || !strcmp(a, "--help"))
 			return 1;
-		if (a[0] != '-' || !a[1]) {
+		if (a[0] != '-' || !a[1] || a[1] == '.' || (a[1] >= '0' && a[1] <= '9')) { /* "-", "-5": operands */
 			if (!c->operand)
 				return swell_cli_refuse(c, "unexpected argument '%s' (see --help)", a);
 			if (c->operand(c, a) < 0)
