@@ -30,6 +30,7 @@ struct opts {
 	uint16_t port = 7;
 	int8_t offset = 3;
 	long big = 9;
+	uint16_t vid = 1;
 	double at[3] = {1, 2, 3};
 	int view = 5;
 	double hook_val = -1;
@@ -84,6 +85,7 @@ struct cli_run {
 			SWELL_CLI_WHOLE("--port", o.port, 1, 65535, ""),
 			SWELL_CLI_WHOLE("--offset", o.offset, -100, 100, "mm"),
 			SWELL_CLI_WHOLE("--big", o.big, -1e12, 1e12, ""),
+			SWELL_CLI_HEX("--vid", o.vid, 0, 0xFFFF),
 			SWELL_CLI_LIST("--at", o.at, 3, -300, 300, "mm"),
 			SWELL_CLI_CHOICE("--view", o.view, "orbit|top|map"),
 			SWELL_CLI_HOOK("--hook", hook, 1),
@@ -131,6 +133,8 @@ TEST_CASE("cli: each kind of option takes its value", "[cli]")
 	CHECK(r.why().empty());
 	CHECK(cli_run({"--view", "orbit"}).o.view == 0);
 	CHECK(cli_run({"--any", "-1e300"}).o.any == -1e300);
+	CHECK(cli_run({"--vid", "0483"}).o.vid == 0x483);
+	CHECK(cli_run({"--vid", "0xFFFF"}).o.vid == 0xFFFF);
 	CHECK(cli_run({"--any", "x"}).why() == "--any 'x' is not a number"); /* no range to say */
 }
 
@@ -162,6 +166,8 @@ TEST_CASE("cli: a refused value names itself and its range and leaves the option
 		{{"--rate", ""}, "--rate '' is not a number"},
 		{{"--host", "300.1.1.1"}, "--host '300.1.1.1' is not a dotted IPv4 address"},
 		{{"--host", "localhost"}, "--host 'localhost' is not a dotted IPv4 address"},
+		{{"--vid", "10000"}, "--vid '10000' is not a hexadecimal number in [0, ffff]"},
+		{{"--vid", "xyz"}, "--vid 'xyz' is not a hexadecimal number"},
 		{{"--any", "inf"}, "--any 'inf' is not a number"},
 		{{"--any", "1e999"}, "--any '1e999' is not a number"},
 		{{"--gain", "3"}, "--gain '3' is not a number in [-2, 2]"},
@@ -197,6 +203,7 @@ TEST_CASE("cli: a refused value names itself and its range and leaves the option
 		CHECK(r.o.gain == 1.0f);
 		CHECK(r.o.timeout == 1);
 		CHECK(r.o.any == 4);
+		CHECK(r.o.vid == 1);
 		CHECK(std::string(r.o.host) == "127.0.0.1");
 		CHECK(r.o.port == 7);
 		CHECK(r.o.offset == 3);

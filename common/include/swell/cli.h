@@ -9,6 +9,7 @@
  * The reasons, for an option OPT and its value V:
  *   OPT 'V' is not a number in [LO, HI] UNIT           (a number, "(LO" for a bound that is excluded)
  *   OPT 'V' is not a whole number in [LO, HI] UNIT
+ *   OPT 'V' is not a hexadecimal number in [LO, HI]       (LO and HI in hexadecimal)
  *   OPT 'V' is not N comma-separated numbers in [LO, HI] UNIT    ("N to M" when the count may vary)
  *   OPT 'V' is not a dotted IPv4 address
  *   OPT 'V' is not orbit, top or map                   (a choice among "orbit|top|map")
@@ -35,7 +36,8 @@ enum swell_cli_kind {
 	SWELL_CLI_K_STR, /* the const char * at dst points at the value */
 	SWELL_CLI_K_IPV4, /* the same, for a dotted IPv4 address */
 	SWELL_CLI_K_NUM, /* the float or double at dst (by size) becomes a number in range */
-	SWELL_CLI_K_WHOLE, /* the integer at dst (of size 1, 2, 4 or 8 bytes) becomes a whole number in range */
+	SWELL_CLI_K_WHOLE, /* the integer at dst (of size 1, 2, 4 or 8 bytes) becomes a whole number in range;
+			    * n 16: written in hexadecimal (strtol's, "0x" or not) */
 	SWELL_CLI_K_LIST, /* the n doubles at dst become n comma-separated numbers in range */
 	SWELL_CLI_K_CHOICE, /* the integer at dst becomes the place (from 0) of the value among the words of
 			     * unit, "orbit|top|map" */
@@ -80,6 +82,10 @@ struct swell_cli_opt {
 #define SWELL_CLI_WHOLE(name, field, lo, hi, unit)                                      \
 	{                                                                               \
 		name, SWELL_CLI_K_WHOLE, &(field), sizeof(field), lo, hi, 0, unit, 0, 0 \
+	}
+#define SWELL_CLI_HEX(name, field, lo, hi)                                             \
+	{                                                                              \
+		name, SWELL_CLI_K_WHOLE, &(field), sizeof(field), lo, hi, 0, "", 16, 0 \
 	}
 #define SWELL_CLI_LIST(name, array, n, lo, hi, unit)                    \
 	{                                                               \

@@ -1,4 +1,5 @@
 #include "swell/cli.h"
+#include "swell/num.h"
 
 #include <arpa/inet.h>
 #include <errno.h>
@@ -159,6 +160,15 @@ static int take(struct swell_cli *c, const struct swell_cli_opt *o, const char *
 		}
 		return 0;
 	case SWELL_CLI_K_WHOLE:
+		if (o->n == 16) {
+			long h;
+
+			if (swell_parse_long(v, 16, (long)o->lo, (long)o->hi, &h) < 0)
+				return swell_cli_refuse(c, "%s '%s' is not a hexadecimal number in [%lx, %lx]", o->name,
+							v, (long)o->lo, (long)o->hi);
+			put_whole(o->dst, o->size, (double)h);
+			return 0;
+		}
 		if (one(v, &end, o->lo, o->hi, o->above, &x) < 0 || *end || x != floor(x))
 			return refuse_range(c, o->name, v, "a whole number", o->lo, o->hi, o->above, o->unit);
 		put_whole(o->dst, o->size, x);
