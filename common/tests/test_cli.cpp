@@ -234,9 +234,34 @@ TEST_CASE("cli: operands go to the program's hook, which may refuse them", "[cli
 	cli_run r({"a.elf", "--flag", "b.elf", "-", "-5", "-.5"}, true);
 	CHECK(r.result == 0);
 	CHECK(r.o.operands == std::vector<std::string>{"a.elf", "b.elf", "-", "-5", "-.5"});
+	cli_run none({"a.elf"});
+	CHECK(none.result == -1);
+	CHECK(none.why() == "unexpected argument 'a.elf' (see --help)");
 	cli_run bad({"a.elf", "bad"}, true);
 	CHECK(bad.result == -1);
 	CHECK(bad.why() == "'bad' is not a file");
+}
+
+TEST_CASE("cli: without an operand hook, words are kept up to their limit", "[cli]")
+{
+	const char *words[2] = {nullptr, nullptr};
+	std::string argv0 = "prog", a = "can0", f = "--flag", b = "can1", x = "can2";
+	char *argv[] = {&argv0[0], &a[0], &f[0], &b[0], &x[0]};
+	int flag = 0;
+	const swell_cli_opt table[] = {SWELL_CLI_FLAG("--flag", flag)};
+	swell_cli c{};
+	c.opt = table;
+	c.n_opt = 1;
+	c.words = words;
+	c.max_words = 2;
+	CHECK(swell_cli_scan(&c, 4, argv) == 0);
+	CHECK(c.n_words == 2);
+	CHECK(std::string(words[0]) == "can0");
+	CHECK(std::string(words[1]) == "can1");
+	CHECK(flag == 1);
+	c.n_words = 0;
+	CHECK(swell_cli_scan(&c, 5, argv) == -1);
+	CHECK(std::string(c.why) == "unexpected argument 'can2' (see --help)");
 }
 
 TEST_CASE("cli: a list of varying length gives its count", "[cli]")

@@ -106,10 +106,13 @@ struct swell_cli {
 	const struct swell_cli_opt *opt; /* the table */
 	size_t n_opt;
 	void *ctx; /* for the hooks */
-	/* an argument that is not an option ("-" and a negative number "-5", "-.5" are none): NULL refuses
-	 * every one */
+	/* an argument that is not an option ("-" and a negative number "-5", "-.5" are none); NULL: into
+	 * words below */
 	int (*operand)(struct swell_cli *c, const char *arg);
 	char why[512]; /* the reason of a refusal */
+	/* without an operand hook: up to max_words of them into words[n_words++] (0: none taken) */
+	const char **words;
+	int max_words, n_words;
 };
 
 /* argv[1..argc-1] against the table: 0 done, 1 at -h/--help (nothing after it looked at), or -1 at the

@@ -200,10 +200,14 @@ int swell_cli_scan(struct swell_cli *c, int argc, char **argv)
 		if (!strcmp(a, "-h") || !strcmp(a, "--help"))
 			return 1;
 		if (a[0] != '-' || !a[1] || a[1] == '.' || (a[1] >= '0' && a[1] <= '9')) { /* "-", "-5": operands */
-			if (!c->operand)
+			if (c->operand) {
+				if (c->operand(c, a) < 0)
+					return -1;
+			} else if (c->n_words < c->max_words) {
+				c->words[c->n_words++] = a;
+			} else {
 				return swell_cli_refuse(c, "unexpected argument '%s' (see --help)", a);
-			if (c->operand(c, a) < 0)
-				return -1;
+			}
 			continue;
 		}
 		for (i = 0; i < c->n_opt && !o; i++)
