@@ -407,20 +407,9 @@ static int cmd_replay(const char *path, const struct opts *o)
 	return 0;
 }
 
-/* The command and its arguments, up to 3 words. */
-static const char *pos[3];
-static int npos;
-
-static int word(struct swell_cli *c, const char *w)
-{
-	if (npos == 3)
-		return swell_cli_refuse(c, "unexpected argument '%s' (see --help)", w);
-	pos[npos++] = w;
-	return 0;
-}
-
 int main(int argc, char **argv)
 {
+	const char *pos[3] = { NULL, NULL, NULL }; /* the command and its arguments */
 	struct opts o;
 
 	memset(&o, 0, sizeof(o));
@@ -443,9 +432,13 @@ int main(int argc, char **argv)
 		SWELL_CLI_WHOLE("--iface", o.usb.iface, 0, 255, ""),
 		SWELL_CLI_STR("--record", o.record),
 	};
-	struct swell_cli cli = { "swell-linktest", usage, opts, sizeof(opts) / sizeof(opts[0]), &o, word, "" };
+	struct swell_cli cli = {
+		"swell-linktest", usage, opts, sizeof(opts) / sizeof(opts[0]), &o, NULL, "", pos, 3, 0
+	};
+	int npos;
 
 	swell_cli_parse(&cli, argc, argv);
+	npos = cli.n_words;
 	if (!pos[0]) {
 		fprintf(stderr, "swell-linktest: no command given (see --help)\n");
 		return 2;
