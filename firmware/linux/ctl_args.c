@@ -253,7 +253,9 @@ void parse(int argc, char **argv, struct opts *o)
 		SWELL_CLI_HOOK("--fw-version", version_opt, 1),
 		SWELL_CLI_NUM_ABOVE("--seconds", o->seconds, 0, 1e7, "s"),
 	};
-	struct swell_cli cli = { "swell-ctl", usage, opts, sizeof(opts) / sizeof(opts[0]), o, NULL, "" };
+	struct swell_cli cli = {
+		.prog = "swell-ctl", .usage = usage, .opt = opts, .n_opt = SWELL_CLI_N(opts), .ctx = o
+	};
 	const uint16_t silent0 = o->cfg.silent_ticks;
 
 	o->cfg.silent_ticks = 0; /* not given: --silent-ticks takes 1 and up */

@@ -308,7 +308,9 @@ void parse(int argc, char **argv, struct opts *o)
 		SWELL_CLI_HOOK("--scene", scene_opt, 1),
 		SWELL_CLI_STR("--log", o->log),
 	};
-	struct swell_cli cli = { "swell-hm", usage, opts, sizeof(opts) / sizeof(opts[0]), o, NULL, "" };
+	struct swell_cli cli = {
+		.prog = "swell-hm", .usage = usage, .opt = opts, .n_opt = SWELL_CLI_N(opts), .ctx = o
+	};
 	const uint32_t watchdog0 = o->p.watchdog_ticks;
 
 	o->p.watchdog_ticks = 0; /* not given: --watchdog takes 1 and up */

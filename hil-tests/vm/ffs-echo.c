@@ -67,7 +67,12 @@ int main(int argc, char **argv)
 	int pending = 0, rc;
 
 	const struct swell_cli_opt opts[] = { SWELL_CLI_WHOLE("--count", count, 0, 1e18, "packets") };
-	struct swell_cli cli = { "swell-ffs-echo", usage, opts, 1, NULL, NULL, "", &dir, 1, 0 };
+	struct swell_cli cli = { .prog = "swell-ffs-echo",
+				 .usage = usage,
+				 .opt = opts,
+				 .n_opt = SWELL_CLI_N(opts),
+				 .words = &dir,
+				 .max_words = 1 };
 
 	swell_cli_parse(&cli, argc, argv);
 	if (!dir) {

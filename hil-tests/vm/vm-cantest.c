@@ -61,7 +61,12 @@ static int cmd_up(int argc, char **argv)
 		SWELL_CLI_WHOLE("--bitrate", bitrate, 10000, 1000000, "bit/s"),
 		SWELL_CLI_WHOLE("--restart-ms", restart_ms, 0, 60000, "ms"),
 	};
-	struct swell_cli cli = { "swell-vm-cantest", usage, opts, 2, NULL, NULL, "", &iface, 1, 0 };
+	struct swell_cli cli = { .prog = "swell-vm-cantest",
+				 .usage = usage,
+				 .opt = opts,
+				 .n_opt = SWELL_CLI_N(opts),
+				 .words = &iface,
+				 .max_words = 1 };
 
 	swell_cli_parse(&cli, argc, argv);
 	if (!iface) {
@@ -185,7 +190,12 @@ static int cmd_pair(int argc, char **argv)
 		SWELL_CLI_FLAG("--rtr-dlc", rtr_dlc),
 		SWELL_CLI_FLAG("--dump", dump),
 	};
-	struct swell_cli cli = { "swell-vm-cantest", usage, opts, 6, NULL, NULL, "", ifs, 2, 0 };
+	struct swell_cli cli = { .prog = "swell-vm-cantest",
+				 .usage = usage,
+				 .opt = opts,
+				 .n_opt = SWELL_CLI_N(opts),
+				 .words = ifs,
+				 .max_words = 2 };
 	const char *tx_if, *rx_if;
 
 	swell_cli_parse(&cli, argc, argv);

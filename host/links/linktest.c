@@ -432,9 +432,13 @@ int main(int argc, char **argv)
 		SWELL_CLI_WHOLE("--iface", o.usb.iface, 0, 255, ""),
 		SWELL_CLI_STR("--record", o.record),
 	};
-	struct swell_cli cli = {
-		"swell-linktest", usage, opts, sizeof(opts) / sizeof(opts[0]), &o, NULL, "", pos, 3, 0
-	};
+	struct swell_cli cli = { .prog = "swell-linktest",
+				 .usage = usage,
+				 .opt = opts,
+				 .n_opt = SWELL_CLI_N(opts),
+				 .ctx = &o,
+				 .words = pos,
+				 .max_words = 3 };
 	int npos;
 
 	swell_cli_parse(&cli, argc, argv);

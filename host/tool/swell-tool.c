@@ -136,7 +136,9 @@ static int parse_args(int argc, char **argv, struct opts *o)
 		SWELL_CLI_NUM_ABOVE("--max-rate", o->max_rate, 0, 1e6, "N/s"),
 		SWELL_CLI_NUM_ABOVE("--max-rtt-ms", o->max_rtt_ms, 0, 1e6, "ms"),
 	};
-	struct swell_cli cli = { "swell-tool", usage, opts, sizeof(opts) / sizeof(opts[0]), o, word, "" };
+	struct swell_cli cli = {
+		.prog = "swell-tool", .usage = usage, .opt = opts, .n_opt = SWELL_CLI_N(opts), .ctx = o, .operand = word
+	};
 
 	swell_cli_parse(&cli, argc, argv);
 	if (o->argc == 0)

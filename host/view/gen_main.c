@@ -65,7 +65,7 @@ int main(int argc, char **argv)
 		SWELL_CLI_STR("--out", out),
 		SWELL_CLI_WHOLE("--udp", port, 1, 65535, ""),
 	};
-	struct swell_cli cli = { "swell-view-gen", usage, opts, sizeof(opts) / sizeof(opts[0]), NULL, NULL, "" };
+	struct swell_cli cli = { .prog = "swell-view-gen", .usage = usage, .opt = opts, .n_opt = SWELL_CLI_N(opts) };
 
 	swell_cli_parse(&cli, argc, argv);
 	if (!out == (port < 0)) {

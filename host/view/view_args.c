@@ -129,7 +129,9 @@ void parse(int argc, char **argv, struct opts *o)
 		SWELL_CLI_SET("--no-hud", o->ro.hud, false),
 		SWELL_CLI_NUM("--fps", o->fps, 1, 1000, ""),
 	};
-	struct swell_cli cli = { "swell-view", usage, opts, sizeof(opts) / sizeof(opts[0]), o, NULL, "" };
+	struct swell_cli cli = {
+		.prog = "swell-view", .usage = usage, .opt = opts, .n_opt = SWELL_CLI_N(opts), .ctx = o
+	};
 
 	swell_cli_parse(&cli, argc, argv);
 	if (o->faults && strncmp(o->source, "pattern:", 8) != 0)

@@ -238,7 +238,9 @@ int main(int argc, char **argv)
 		SWELL_CLI_NUM("--stress-cells", o.stress_cells, 1e4, 1e12, ""),
 		SWELL_CLI_STR("--f405", o.f405),
 	};
-	struct swell_cli cli = { "swell-bench", usage, opts, sizeof(opts) / sizeof(opts[0]), &o, NULL, "" };
+	struct swell_cli cli = {
+		.prog = "swell-bench", .usage = usage, .opt = opts, .n_opt = SWELL_CLI_N(opts), .ctx = &o
+	};
 
 	swell_cli_parse(&cli, argc, argv);
 	if (!replot && mkdir(o.out, 0777) != 0 && errno != EEXIST) {

@@ -166,7 +166,12 @@ static void parse(int argc, char **argv, struct cfg *c)
 		SWELL_CLI_FLAG("--force", c->force),
 		SWELL_CLI_STR("--work-dir", c->work_dir),
 	};
-	struct swell_cli cli = { "swell-flash", usage, opts, sizeof(opts) / sizeof(opts[0]), c, image_arg, "" };
+	struct swell_cli cli = { .prog = "swell-flash",
+				 .usage = usage,
+				 .opt = opts,
+				 .n_opt = SWELL_CLI_N(opts),
+				 .ctx = c,
+				 .operand = image_arg };
 
 	swell_cli_parse(&cli, argc, argv);
 	if (!c->image)

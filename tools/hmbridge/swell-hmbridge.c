@@ -116,7 +116,9 @@ static void parse(int argc, char **argv, struct opts *o)
 		SWELL_CLI_NUM("--effect-fresh", o->fresh_ms, 0.1, 1000, "ms"),
 		SWELL_CLI_NUM("--seconds", o->seconds, 1e-3, 1e7, "s"),
 	};
-	struct swell_cli cli = { "swell-hmbridge", usage, opts, sizeof(opts) / sizeof(opts[0]), o, NULL, "" };
+	struct swell_cli cli = {
+		.prog = "swell-hmbridge", .usage = usage, .opt = opts, .n_opt = SWELL_CLI_N(opts), .ctx = o
+	};
 
 	swell_cli_parse(&cli, argc, argv);
 	if (o->hm && !*o->hm)

@@ -38,7 +38,7 @@ int main(int argc, char **argv)
 	volatile unsigned sink = 0;
 
 	const struct swell_cli_opt opts[] = { SWELL_CLI_WHOLE("--count", count, POOL, 1000000000, "messages") };
-	struct swell_cli cli = { "swell-protobench", usage, opts, 1, NULL, NULL, "" };
+	struct swell_cli cli = { .prog = "swell-protobench", .usage = usage, .opt = opts, .n_opt = SWELL_CLI_N(opts) };
 
 	swell_cli_parse(&cli, argc, argv);
 	/* runs of 8 messages of one type, so that CAN FD batches as it would for heights */

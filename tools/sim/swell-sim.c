@@ -133,7 +133,9 @@ static void parse_args(int argc, char **argv, struct opts *o)
 		SWELL_CLI_HOOK("--safety", object_opt, 1),
 		SWELL_CLI_HOOK("--trace", object_opt, 1),
 	};
-	struct swell_cli cli = { "swell-sim", usage, opts, sizeof(opts) / sizeof(opts[0]), o, NULL, "" };
+	struct swell_cli cli = {
+		.prog = "swell-sim", .usage = usage, .opt = opts, .n_opt = SWELL_CLI_N(opts), .ctx = o
+	};
 	const int r = swell_cli_scan(&cli, argc, argv);
 
 	if (r > 0) {

@@ -100,6 +100,9 @@ struct swell_cli_opt {
 		name, SWELL_CLI_K_HOOK, 0, 0, 0, 0, 0, "", takes, hook \
 	}
 
+#define SWELL_CLI_N(table) (sizeof(table) / sizeof((table)[0])) /* a table's rows */
+
+/* Set with designated initializers: { .prog = "swell-x", .usage = usage, .opt = opts, .n_opt = ... }. */
 struct swell_cli {
 	const char *prog; /* the messages' prefix */
 	const char *usage; /* -h, --help: on stdout */

@@ -61,7 +61,7 @@ int main(int argc, char **argv)
 		SWELL_CLI_FLAG("--cost", cost),
 		SWELL_CLI_CHOICE("--kernel", kernel, "auto|ref|fused|avx2"), /* enum swell_wave_kernel */
 	};
-	struct swell_cli cli = { "swell-fw-scene", usage, opts, sizeof(opts) / sizeof(opts[0]), NULL, NULL, "" };
+	struct swell_cli cli = { .prog = "swell-fw-scene", .usage = usage, .opt = opts, .n_opt = SWELL_CLI_N(opts) };
 
 	swell_cli_parse(&cli, argc, argv);
 	if (core_hz % SWELL_POOL_SOLVER_HZ != 0)
