@@ -247,7 +247,7 @@ void parse(int argc, char **argv, struct opts *o)
 		SWELL_CLI_WHOLE("--tick-hz", o->cfg.tick_hz, SWELL_TICK_HZ_MIN, SWELL_TICK_HZ_MAX, ""),
 		SWELL_CLI_WHOLE("--solver-hz", o->cfg.solver_hz, 1, SWELL_TICK_HZ_MAX, ""),
 		SWELL_CLI_WHOLE("--silent-ticks", o->cfg.silent_ticks, 1, 10000, ""),
-		SWELL_CLI_WHOLE("--host-budget", o->cfg.host_budget, 1, SWELL_CTL_QUEUE / 2, ""),
+		SWELL_CLI_WHOLE("--host-budget", o->cfg.host_budget, 1, SWELL_CTL_QUEUE / 2.0, ""),
 		SWELL_CLI_WHOLE("--pool-max", o->pool_max, SWELL_WAVE_MIN_SIDE, SWELL_WAVE_MAX_SIDE, ""),
 		SWELL_CLI_WHOLE("--node", o->cfg.node, 0, SWELL_NODE_MAX, ""),
 		SWELL_CLI_HOOK("--fw-version", version_opt, 1),

@@ -1,8 +1,9 @@
 /* The host programs' command lines: a table of options and one scan over argv. Host only.
  *
  * Each program lists its options as a table of rows made with the macros below: a flag, a string, a
- * number in [lo, hi] (or (lo, hi]) with a unit, a whole number, a comma list of numbers, one of a few words, or a hook (the
- * program's own code for an option that needs it). -h and --help print the usage text. A refused
+ * dotted IPv4 address, a number in [lo, hi] (or (lo, hi]) with a unit, a whole number (decimal or
+ * hexadecimal), a comma list of numbers, one of a few words, or a hook (the program's own code for an
+ * option that needs it). -h and --help print the usage text. A refused
  * argument writes nothing (the destinations keep what they had) and gives one reason; swell_cli_parse
  * prints it as "PROG: reason" on stderr and exits 2 before the program has done anything.
  *
@@ -58,47 +59,22 @@ struct swell_cli_opt {
 };
 
 /* Table rows; field is an lvalue (o->port), its size says how to write it. */
-#define SWELL_CLI_SET(name, field, value)                                                 \
-	{                                                                                 \
-		name, SWELL_CLI_K_SET, &(field), sizeof(field), value, value, 0, "", 0, 0 \
-	}
+/* clang-format off */
+#define SWELL_CLI_SET(name, field, value) { name, SWELL_CLI_K_SET, &(field), sizeof(field), value, value, 0, "", 0, 0 }
 #define SWELL_CLI_FLAG(name, field) SWELL_CLI_SET(name, field, 1)
-#define SWELL_CLI_STR(name, field)                                                \
-	{                                                                         \
-		name, SWELL_CLI_K_STR, &(field), sizeof(field), 0, 0, 0, "", 0, 0 \
-	}
-#define SWELL_CLI_IPV4(name, field)                                                \
-	{                                                                          \
-		name, SWELL_CLI_K_IPV4, &(field), sizeof(field), 0, 0, 0, "", 0, 0 \
-	}
-#define SWELL_CLI_NUM(name, field, lo, hi, unit)                                      \
-	{                                                                             \
-		name, SWELL_CLI_K_NUM, &(field), sizeof(field), lo, hi, 0, unit, 0, 0 \
-	}
-#define SWELL_CLI_NUM_ABOVE(name, field, lo, hi, unit)                                \
-	{                                                                             \
-		name, SWELL_CLI_K_NUM, &(field), sizeof(field), lo, hi, 1, unit, 0, 0 \
-	}
-#define SWELL_CLI_WHOLE(name, field, lo, hi, unit)                                      \
-	{                                                                               \
-		name, SWELL_CLI_K_WHOLE, &(field), sizeof(field), lo, hi, 0, unit, 0, 0 \
-	}
-#define SWELL_CLI_HEX(name, field, lo, hi)                                             \
-	{                                                                              \
-		name, SWELL_CLI_K_WHOLE, &(field), sizeof(field), lo, hi, 0, "", 16, 0 \
-	}
-#define SWELL_CLI_LIST(name, array, n, lo, hi, unit)                    \
-	{                                                               \
-		name, SWELL_CLI_K_LIST, array, 0, lo, hi, 0, unit, n, 0 \
-	}
-#define SWELL_CLI_CHOICE(name, field, words)                                            \
-	{                                                                               \
-		name, SWELL_CLI_K_CHOICE, &(field), sizeof(field), 0, 0, 0, words, 0, 0 \
-	}
-#define SWELL_CLI_HOOK(name, hook, takes)                              \
-	{                                                              \
-		name, SWELL_CLI_K_HOOK, 0, 0, 0, 0, 0, "", takes, hook \
-	}
+#define SWELL_CLI_STR(name, field) { name, SWELL_CLI_K_STR, &(field), 0, 0, 0, 0, "", 0, 0 }
+#define SWELL_CLI_IPV4(name, field) { name, SWELL_CLI_K_IPV4, &(field), 0, 0, 0, 0, "", 0, 0 }
+#define SWELL_CLI_NUM(name, field, lo, hi, unit) \
+	{ name, SWELL_CLI_K_NUM, &(field), sizeof(field), lo, hi, 0, unit, 0, 0 }
+#define SWELL_CLI_NUM_ABOVE(name, field, lo, hi, unit) \
+	{ name, SWELL_CLI_K_NUM, &(field), sizeof(field), lo, hi, 1, unit, 0, 0 }
+#define SWELL_CLI_WHOLE(name, field, lo, hi, unit) \
+	{ name, SWELL_CLI_K_WHOLE, &(field), sizeof(field), lo, hi, 0, unit, 0, 0 }
+#define SWELL_CLI_HEX(name, field, lo, hi) { name, SWELL_CLI_K_WHOLE, &(field), sizeof(field), lo, hi, 0, "", 16, 0 }
+#define SWELL_CLI_LIST(name, array, n, lo, hi, unit) { name, SWELL_CLI_K_LIST, array, 0, lo, hi, 0, unit, n, 0 }
+#define SWELL_CLI_CHOICE(name, field, words) { name, SWELL_CLI_K_CHOICE, &(field), sizeof(field), 0, 0, 0, words, 0, 0 }
+#define SWELL_CLI_HOOK(name, hook, takes) { name, SWELL_CLI_K_HOOK, 0, 0, 0, 0, 0, "", takes, hook }
+/* clang-format on */
 
 #define SWELL_CLI_N(table) (sizeof(table) / sizeof((table)[0])) /* a table's rows */
 

@@ -191,7 +191,7 @@ int swell_cli_scan(struct swell_cli *c, int argc, char **argv)
 	int k;
 
 	c->why[0] = '\0';
-	for (k = 1; k < argc; k++) {
+	for (k = 1; k < argc && argv[k]; k++) {
 		const char *a = argv[k], *v = k + 1 < argc ? argv[k + 1] : NULL;
 		const struct swell_cli_opt *o = NULL;
 		size_t i;
