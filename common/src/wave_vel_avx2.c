@@ -274,7 +274,7 @@ VA_FN void va_rows_pass(struct swell_wave *w, int j, int q, int awake, int up, u
 	struct va_pipe P[2];
 	struct va_fold F;
 	__m256i sn[2], cn[2], dh[2], c0, han;
-	int b = 0, k1, whole, k;
+	int b = 0, k1, k;
 
 	rows[0] = j > 0 ? hj - nx : hj;
 #pragma GCC unroll 4
@@ -297,19 +297,8 @@ VA_FN void va_rows_pass(struct swell_wave *w, int j, int q, int awake, int up, u
 	}
 	while (b < nv) { /* SWELL_WAVE_VEL_RUN tiles (the reference's run when awake), the last ones fewer */
 		k1 = b + SWELL_WAVE_VEL_RUN < nv ? b + SWELL_WAVE_VEL_RUN : nv;
-		whole = k1 < nv - 1 ? k1 : nv - 2; /* vectors before it have a whole next vector */
-		for (; b < whole; b++) {
-			va_colsums(rows, q, 8 * (b + 1), mask, 0, sn, cn, &han);
-			c0 = P[0].c0;
-#pragma GCC unroll 4
-			for (k = 0; k < q; k++)
-				va_step(trow, b, K, A, n, &P[k], sn[k], cn[k], u + (size_t)k * nx, mask, awake, damp, f,
-					&dh[k]);
-			va_fold_vec(K, &F, b, q, awake, c0, dh[0], hj, mask, 0, f);
-			F.ha = han;
-		}
-		if (b < k1 && b == nv - 2) { /* the last but one: the next vector may be narrower */
-			if (r < 8)
+		for (; b < k1 && b < nv - 1; b++) { /* the last but one's next vector may be narrower */
+			if (b == nv - 2 && r < 8)
 				va_colsums(rows, q, 8 * (b + 1), mask, 1, sn, cn, &han);
 			else
 				va_colsums(rows, q, 8 * (b + 1), mask, 0, sn, cn, &han);
@@ -320,7 +309,6 @@ VA_FN void va_rows_pass(struct swell_wave *w, int j, int q, int awake, int up, u
 					&dh[k]);
 			va_fold_vec(K, &F, b, q, awake, c0, dh[0], hj, mask, 0, f);
 			F.ha = han;
-			b++;
 		}
 		if (b < k1) { /* the last: the column right of it is its last column mirrored at the east wall */
 			const __m256i east = _mm256_min_epi32(_mm256_add_epi32(lane, _mm256_set1_epi32(1)),
