@@ -122,38 +122,30 @@ enum swell_err bench_field_init(struct bench_field *f, enum bench_impl impl, int
 	f->px = nx + 2;
 	n = (size_t)nx * ny;
 	np = (size_t)(nx + 2) * (ny + 2);
+	/* the wave forms' own words; ef16 its bytes a cell; the three-level kernels theirs a padded cell */
+	f->mem = calloc(impl == BENCH_EF32                  ? EF32_WORDS(nx, ny) * sizeof(int32_t)
+				: bench_impl_velocity(impl) ? SWELL_WAVE_WORDS(nx, ny) * sizeof(int32_t)
+							    : impl_info[impl].bytes * (impl == BENCH_EF16 ? n : np),
+			1);
+	if (!f->mem)
+		return SWELL_ESIZE;
 	switch (impl) {
 	case BENCH_EF32:
-		f->mem = calloc(EF32_WORDS(nx, ny), sizeof(int32_t));
-		if (!f->mem)
-			return SWELL_ESIZE;
 		err = ef32_init(&f->ef, (uint16_t)nx, (uint16_t)ny, f->mem, EF32_WORDS(nx, ny), &p);
-		if (err != SWELL_OK) {
-			free(f->mem);
-			return err;
-		}
-		set_coeffs(f, f->ef.e_eff, f->ef.q);
+		if (err == SWELL_OK)
+			set_coeffs(f, f->ef.e_eff, f->ef.q);
 		break;
 	case BENCH_VELOCITY:
 	case BENCH_VEL_REF:
 	case BENCH_VEL_FUSED:
-		f->mem = calloc(SWELL_WAVE_WORDS(nx, ny), sizeof(int32_t));
-		if (!f->mem)
-			return SWELL_ESIZE;
 		err = swell_wave_init(&f->w, (uint16_t)nx, (uint16_t)ny, f->mem, SWELL_WAVE_WORDS(nx, ny), &p);
 		if (err == SWELL_OK && impl != BENCH_VELOCITY)
 			err = swell_wave_set_kernel(&f->w,
 						    impl == BENCH_VEL_REF ? SWELL_KERNEL_REF : SWELL_KERNEL_FUSED);
-		if (err != SWELL_OK) {
-			free(f->mem);
-			return err;
-		}
-		set_coeffs(f, f->w.e_eff, f->w.q);
+		if (err == SWELL_OK)
+			set_coeffs(f, f->w.e_eff, f->w.q);
 		break;
 	case BENCH_EF16:
-		f->mem = calloc(1, 5 * n * sizeof(int16_t) + n * sizeof(int32_t));
-		if (!f->mem)
-			return SWELL_ESIZE;
 		f->v32 = f->mem;
 		f->h16 = (int16_t *)(f->v32 + n);
 		f->fe16 = f->h16 + n;
@@ -164,38 +156,30 @@ enum swell_err bench_field_init(struct bench_field *f, enum bench_impl impl, int
 	case BENCH_TL32_FLOOR:
 	case BENCH_TL32_RN:
 	case BENCH_TL32_RZ:
-		f->mem = calloc(3 * np, sizeof(int32_t));
-		if (!f->mem)
-			return SWELL_ESIZE;
 		f->h32 = f->mem;
 		f->hp32 = f->h32 + np;
 		f->hn32 = f->hp32 + np;
 		break;
 	case BENCH_TL16_RN:
-		f->mem = calloc(3 * np, sizeof(int16_t));
-		if (!f->mem)
-			return SWELL_ESIZE;
 		f->h16 = f->mem;
 		f->hp16 = f->h16 + np;
 		f->hn16 = f->hp16 + np;
 		break;
 	case BENCH_F32:
-		f->mem = calloc(3 * np, sizeof(float));
-		if (!f->mem)
-			return SWELL_ESIZE;
 		f->hf = f->mem;
 		f->hpf = f->hf + np;
 		f->hnf = f->hpf + np;
 		break;
 	case BENCH_F64:
 	default:
-		f->mem = calloc(3 * np, sizeof(double));
-		if (!f->mem)
-			return SWELL_ESIZE;
 		f->hd = f->mem;
 		f->hpd = f->hd + np;
 		f->hnd = f->hpd + np;
 		break;
+	}
+	if (err != SWELL_OK) {
+		free(f->mem);
+		return err;
 	}
 	if (!bench_impl_wave(impl)) {
 		/* the same quantised coefficients as wave.c */
