@@ -115,14 +115,18 @@ static void set_vel_frac(struct swell_wave *w)
 				  : w->u[a] / (1 << (old - f));
 }
 
+void swell_wave_force_coeffs(struct swell_wave *w, q30_t e_eff, q30_t q)
+{
+	w->e_eff = e_eff;
+	w->q = q;
+	set_vel_frac(w);
+	wake_all(w); /* new coefficients round differently: every tile awake */
+}
+
 static void apply_params(struct swell_wave *w, const struct swell_wave_params *p)
 {
 	w->p = *p;
-	w->e_eff = effective_e(p);
-	w->q = (q30_t)run_q(p->damping); /* odd: see wave.h */
-	set_vel_frac(w);
-	if (w->tile) /* new coefficients round differently: every tile awake */
-		wake_all(w);
+	swell_wave_force_coeffs(w, effective_e(p), (q30_t)run_q(p->damping)); /* q odd: see wave.h */
 }
 
 /* The layout: h, u (unless given apart), the flags. */
@@ -132,12 +136,7 @@ static enum swell_err init_at(struct swell_wave *w, uint16_t nx, uint16_t ny, in
 	size_t n = (size_t)nx * ny;
 	enum swell_err err;
 
-	if (!w || !storage)
-		return SWELL_EINVAL;
-	if (nx < SWELL_WAVE_MIN_SIDE || ny < SWELL_WAVE_MIN_SIDE || nx > SWELL_WAVE_MAX_SIDE ||
-	    ny > SWELL_WAVE_MAX_SIDE)
-		return SWELL_ESIZE;
-	err = swell_wave_check(p);
+	err = swell_wave_init_check(w, storage, nx, ny, p);
 	if (err != SWELL_OK)
 		return err;
 	if (words < SWELL_WAVE_WORDS(nx, ny) - (u ? n : 0))
@@ -352,11 +351,6 @@ ADD_TILES_F(add_tiles_u1, "1", "1")
 ADD_TILES_F(add_tiles_u2, "2", "2")
 ADD_TILES_F(add_tiles_u3, "3", "4")
 ADD_TILES_F(add_tiles_u4, "4", "8")
-#undef ADD_TILES_F
-#undef ADD_TILES
-#undef ADD_FOUR
-#undef ADD_CELLF
-#undef ADD_CELL0
 
 /* add_tiles_u with u's fraction bits f (0 to 4) */
 static void add_tiles_uf(int32_t *h, const int32_t *u, int n, int f)
@@ -718,23 +712,6 @@ void swell_wave_row(const struct swell_wave *w, int j, int32_t *out)
 		out[i] = w->h[a0 + i] - swell_wave_dh(w, a0 + i);
 }
 
-int64_t swell_wave_sum(const struct swell_wave *w, int i0, int i1, int j0, int j1)
-{
-	int64_t sum = 0;
-	int i, j;
-
-	for (j = j0; j < j1; j++) {
-		const size_t a0 = (size_t)j * w->nx;
-
-		for (i = i0; i < i1; i++)
-			sum += w->h[a0 + i];
-		if (j < w->done_row)
-			for (i = i0; i < i1; i++)
-				sum -= swell_wave_dh(w, a0 + i);
-	}
-	return sum;
-}
-
 #if defined(__thumb2__)
 /* The cell of register R (a value of d, the next of h in H): d's negative part (shifted right by the
  * velocity form's fraction bits: S is "" or ", asr #F") taken from h, the result compared with the
@@ -782,13 +759,6 @@ SCAN_GROUPS8(scan_groups8_f1, ", asr #1")
 SCAN_GROUPS8(scan_groups8_f2, ", asr #2")
 SCAN_GROUPS8(scan_groups8_f3, ", asr #3")
 SCAN_GROUPS8(scan_groups8_f4, ", asr #4")
-#undef SCAN_GROUPS8
-#undef SCAN_GROUP
-#undef SCAN_UPS
-#undef SCAN_END
-#undef SCAN_FOUR
-#undef SCAN_CELL
-#undef SCAN_UP
 
 /* scan_groups8 with d's negative part shifted right by f (0 to 4) */
 static void scan_groups8_shift(const int32_t *h, const int32_t *d, int g, int f, int32_t *top, int64_t *sum)
@@ -836,7 +806,13 @@ void swell_wave_ceiling(const struct swell_wave *w, int j0, int j1, int32_t *top
 
 int64_t swell_wave_volume(const struct swell_wave *w)
 {
-	return swell_wave_sum(w, 0, w->nx, 0, w->ny);
+	const size_t n = (size_t)w->nx * w->ny;
+	int64_t sum = 0;
+	size_t a;
+
+	for (a = 0; a < n; a++)
+		sum += swell_wave_h(w, a);
+	return sum;
 }
 
 /* 2 w (h_b - h_a)(n) (h_b - h_a)(n-1) for one edge; h(n-1) = h - change. */

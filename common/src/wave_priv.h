@@ -29,14 +29,6 @@
 
 #define SWELL_WAVE_VEL_RUN 8 /* tiles a call at most */
 
-/* A controller image may fix the grid's width at compile time (SWELL_WAVE_FIXED_NX): the row above
- * is then at a constant offset, which frees registers in the M4 kernels. Other widths are refused. */
-#ifdef SWELL_WAVE_FIXED_NX
-#define WAVE_NX(w) SWELL_WAVE_FIXED_NX
-#else
-#define WAVE_NX(w) ((w)->nx)
-#endif
-
 /* ARMv7E-M's DSP instructions (SMMLAR, SMMUL, SSAT) */
 #if defined(__ARM_FEATURE_DSP) && defined(__thumb2__)
 #include <arm_acle.h>
@@ -168,6 +160,19 @@ static inline void swell_tiles_touch(uint8_t *t, int tiles_x, int tiles_y, int t
 	swell_tiles_block(t, tiles_x, tiles_y, tx, ty, 1, (uint8_t)~T_SLEEPING, 0);
 }
 
+/* The first checks of an init (swell_wave_init's, ef32_init's): the state and the storage given, the
+ * sides within [SWELL_WAVE_MIN_SIDE, SWELL_WAVE_MAX_SIDE], the parameters (swell_wave_check). */
+static inline enum swell_err swell_wave_init_check(const void *w, const int32_t *storage, int nx, int ny,
+						   const struct swell_wave_params *p)
+{
+	if (!w || !storage)
+		return SWELL_EINVAL;
+	if (nx < SWELL_WAVE_MIN_SIDE || ny < SWELL_WAVE_MIN_SIDE || nx > SWELL_WAVE_MAX_SIDE ||
+	    ny > SWELL_WAVE_MAX_SIDE)
+		return SWELL_ESIZE;
+	return swell_wave_check(p);
+}
+
 /* The kernel k names, for this build and CPU, into *kernel (AUTO: the fastest there is); SWELL_EINVAL
  * and *kernel unchanged where the build or the CPU lacks it. */
 static inline enum swell_err swell_kernel_choose(enum swell_wave_kernel k, uint8_t *kernel)
@@ -190,6 +195,10 @@ static inline enum swell_err swell_kernel_choose(enum swell_wave_kernel k, uint8
  * changed cell a by change(ctx, a): swell_wave_energy's, and the bench's ef32's. */
 struct swell_energy swell_energy_of(const int32_t *h, int nx, int ny, q30_t e_eff,
 				    int32_t (*change)(const void *ctx, int a), const void *ctx);
+
+/* The coefficients e_eff and q as given (apply_params' with the checked ones; the bench's stress runs
+ * outside the validated region too), u's fraction bits for them, every tile awake. */
+void swell_wave_force_coeffs(struct swell_wave *w, q30_t e_eff, q30_t q);
 
 void swell_wave_vel_ref(struct swell_wave *w, int j, int tx0, int tx1, int damp, int64_t sum[2], int32_t *any);
 void swell_wave_vel_fused(struct swell_wave *w, int j, int tx0, int tx1, int damp, int64_t sum[2], int32_t *any);

@@ -356,12 +356,10 @@ VA_FN void va_rows(struct swell_wave *w, int j0, int j1, uint8_t *trow, int damp
 	struct va_acc A;
 	struct va_count n = { 0, 0 };
 	int64_t tot;
-	int j, tx, awake = 1;
-
 	/* a band none of whose tiles sleeps (or tiles do not sleep) runs without the tests */
-	if (w->sleep)
-		for (tx = 0; tx < w->tiles_x && awake; tx++)
-			awake = !(trow[tx] & T_SLEEPING);
+	const int awake = !w->sleep || !swell_tiles_row_any(trow, w->tiles_x, T_SLEEPING, 0);
+	int j;
+
 	K.c = _mm256_set1_epi32((int32_t)((int64_t)w->e_eff << (w->vel_frac + 1)));
 	K.q = _mm256_set1_epi32(w->q);
 	K.round = _mm256_set1_epi64x((int64_t)1 << 31);
@@ -451,11 +449,8 @@ VA_FN void va_update_rows(struct swell_wave *w, int j0, int j1, int f)
 		int32_t *h = w->h + (size_t)j * nx;
 		const int32_t *u = w->u + (size_t)j * nx;
 		__m256i sat = _mm256_setzero_si256();
-		uint8_t any = 0;
 
-		for (tx = 0; tx < w->tiles_x; tx++)
-			any |= trow[tx];
-		if (!(any & T_NONZERO)) { /* nothing moved in this band yet */
+		if (!swell_tiles_row_any(trow, w->tiles_x, T_NONZERO, 0)) { /* nothing moved in this band yet */
 			j = (j / SWELL_WAVE_TILE + 1) * SWELL_WAVE_TILE - 1;
 			continue;
 		}

@@ -699,12 +699,11 @@ void selftest_boot_request(void)
 	con_puts(swell_ctl_state_name(ctl.state));
 	con_puts(": ");
 	con_puts(swell_ctl_bootloader_requested(&ctl) ? "accepted" : "REFUSED");
-	con_puts(", force now ");
-	con_put_i64(ctl.force_dev_uN[0]);
-	con_putc(' ');
-	con_put_i64(ctl.force_dev_uN[1]);
-	con_putc(' ');
-	con_put_i64(ctl.force_dev_uN[2]);
+	con_puts(", force now");
+	for (k = 0; k < 3; k++) {
+		con_putc(' ');
+		con_put_i64(ctl.force_dev_uN[k]);
+	}
 	con_puts(" uN\n");
 	if (swell_ctl_bootloader_requested(&ctl))
 		boot_request_reset();

@@ -37,12 +37,7 @@ enum swell_err ef32_init(struct ef32 *w, uint16_t nx, uint16_t ny, int32_t *stor
 	const size_t n = (size_t)nx * ny;
 	enum swell_err err;
 
-	if (!w || !storage)
-		return SWELL_EINVAL;
-	if (nx < SWELL_WAVE_MIN_SIDE || ny < SWELL_WAVE_MIN_SIDE || nx > SWELL_WAVE_MAX_SIDE ||
-	    ny > SWELL_WAVE_MAX_SIDE)
-		return SWELL_ESIZE;
-	err = swell_wave_check(p);
+	err = swell_wave_init_check(w, storage, nx, ny, p);
 	if (err != SWELL_OK)
 		return err;
 	if (words < EF32_WORDS(nx, ny))
