@@ -21,22 +21,16 @@ const char *swell_dfu_state_name(unsigned state)
 
 const char *swell_dfu_status_name(unsigned status)
 {
-	switch (status) {
-	case SWELL_DFU_OK:
-		return "OK";
-	case SWELL_DFU_ERR_TARGET:
-		return "errTARGET";
-	case SWELL_DFU_ERR_CHECK_ERASED:
-		return "errCHECK_ERASED";
-	case SWELL_DFU_ERR_ADDRESS:
-		return "errADDRESS";
-	case SWELL_DFU_ERR_UNKNOWN:
-		return "errUNKNOWN";
-	case SWELL_DFU_ERR_STALLEDPKT:
-		return "errSTALLEDPKT";
-	default:
-		return "?";
-	}
+	static const char *const names[SWELL_DFU_ERR_STALLEDPKT + 1] = {
+		[SWELL_DFU_OK] = "OK",
+		[SWELL_DFU_ERR_TARGET] = "errTARGET",
+		[SWELL_DFU_ERR_CHECK_ERASED] = "errCHECK_ERASED",
+		[SWELL_DFU_ERR_ADDRESS] = "errADDRESS",
+		[SWELL_DFU_ERR_UNKNOWN] = "errUNKNOWN",
+		[SWELL_DFU_ERR_STALLEDPKT] = "errSTALLEDPKT",
+	};
+
+	return status <= SWELL_DFU_ERR_STALLEDPKT && names[status] ? names[status] : "?";
 }
 
 int swell_dfuse_sector(uint32_t off, uint32_t *start, uint32_t *size)

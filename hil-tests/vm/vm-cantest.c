@@ -42,22 +42,16 @@ static int parse_num(const char *opt, const char *s, long min, long max, long *o
 
 static const char *state_name(int state)
 {
-	switch (state) {
-	case CAN_STATE_ERROR_ACTIVE:
-		return "error-active";
-	case CAN_STATE_ERROR_WARNING:
-		return "error-warning";
-	case CAN_STATE_ERROR_PASSIVE:
-		return "error-passive";
-	case CAN_STATE_BUS_OFF:
-		return "bus-off";
-	case CAN_STATE_STOPPED:
-		return "stopped";
-	case CAN_STATE_SLEEPING:
-		return "sleeping";
-	default:
-		return "unknown";
-	}
+	static const char *const names[] = {
+		[CAN_STATE_ERROR_ACTIVE] = "error-active",
+		[CAN_STATE_ERROR_WARNING] = "error-warning",
+		[CAN_STATE_ERROR_PASSIVE] = "error-passive",
+		[CAN_STATE_BUS_OFF] = "bus-off",
+		[CAN_STATE_STOPPED] = "stopped",
+		[CAN_STATE_SLEEPING] = "sleeping",
+	};
+
+	return state >= 0 && state < (int)(sizeof(names) / sizeof(names[0])) && names[state] ? names[state] : "unknown";
 }
 
 static int cmd_up(int argc, char **argv)

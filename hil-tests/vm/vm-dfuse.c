@@ -92,28 +92,16 @@ static const char *const alt_names[SWELL_DFUSE_ALTS] = {
 
 static size_t string_desc(unsigned index, const char *serial, uint8_t *out, size_t cap)
 {
-	const char *s;
+	const char *const device[4] = { NULL, "STMicroelectronics", "STM32  BOOTLOADER", serial };
 
 	if (index == 0) {
 		const uint8_t lang[4] = { 4, USB_DT_STRING, 0x09, 0x04 };
 		memcpy(out, lang, sizeof(lang));
 		return sizeof(lang);
 	}
-	switch (index) {
-	case 1:
-		s = "STMicroelectronics";
-		break;
-	case 2:
-		s = "STM32  BOOTLOADER";
-		break;
-	case 3:
-		s = serial;
-		break;
-	default:
-		if (index - 4u >= SWELL_DFUSE_ALTS)
-			return 0;
-		s = alt_names[index - 4u];
-	}
+	if (index >= 4u + SWELL_DFUSE_ALTS)
+		return 0;
+	const char *s = index < 4u ? device[index] : alt_names[index - 4u];
 	size_t n = strlen(s);
 	if (2u + 2u * n > cap || 2u + 2u * n > 255u)
 		n = (cap < 255u ? cap - 2u : 253u) / 2u;
@@ -130,15 +118,9 @@ static size_t string_desc(unsigned index, const char *serial, uint8_t *out, size
 static size_t descriptors(uint8_t *b, unsigned xfer)
 {
 	static const uint8_t config[9] = { 9, USB_DT_CONFIG, 0, 0, 1, 1, 0, 0xC0, 50 };
-	const uint8_t dfu_func[9] = { 9,
-				      0x21,
-				      0x0B,
-				      0xFF,
-				      0x00, /* will detach, upload, download */
-				      (uint8_t)(xfer & 0xFFu),
-				      (uint8_t)(xfer >> 8),
-				      0x1A,
-				      0x01 };
+	/* DFU functional: will detach, upload, download; detach timeout 255 ms; wTransferSize; DfuSe 1.1a */
+	const uint8_t dfu_func[9] = { 9,    0x21, 0x0B, 0xFF, 0x00, (uint8_t)(xfer & 0xFFu), (uint8_t)(xfer >> 8),
+				      0x1A, 0x01 };
 	static const uint8_t device[18] = { 18,   USB_DT_DEVICE, 0x00, 0x02, 0,    0, 0, EP0_MAX, 0x83,
 					    0x04, 0x11,          0xDF, 0x00, 0x22, 1, 2, 3,       1 };
 	size_t n = 0;

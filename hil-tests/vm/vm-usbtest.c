@@ -34,18 +34,12 @@ static int parse_num(const char *opt, const char *s, int base, long min, long ma
 
 static const char *speed_name(int s)
 {
-	switch (s) {
-	case LIBUSB_SPEED_LOW:
-		return "low speed";
-	case LIBUSB_SPEED_FULL:
-		return "full speed";
-	case LIBUSB_SPEED_HIGH:
-		return "high speed";
-	case LIBUSB_SPEED_SUPER:
-		return "super speed";
-	default:
-		return "unknown speed";
-	}
+	static const char *const names[] = { [LIBUSB_SPEED_LOW] = "low speed",
+					     [LIBUSB_SPEED_FULL] = "full speed",
+					     [LIBUSB_SPEED_HIGH] = "high speed",
+					     [LIBUSB_SPEED_SUPER] = "super speed" };
+
+	return s >= 0 && s < (int)(sizeof(names) / sizeof(names[0])) && names[s] ? names[s] : "unknown speed";
 }
 
 /* Packet i: its length and its bytes depend on i (byte 0..3: i, little-endian). */
