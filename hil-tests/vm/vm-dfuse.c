@@ -498,23 +498,12 @@ int main(int argc, char **argv)
 			break;
 		}
 		for (size_t k = 0; k < (size_t)r / sizeof(ev[0]); k++) {
-			switch (ev[k].type) {
-			case GADGETFS_CONNECT:
+			if (ev[k].type == GADGETFS_SETUP && handle_setup(&d, &ev[k].u.setup) != 0)
+				rc = 1;
+			else if (ev[k].type == GADGETFS_CONNECT)
 				logline("usb", "connect, speed %d", (int)ev[k].u.speed);
-				break;
-			case GADGETFS_DISCONNECT:
-				logline("usb", "disconnect");
-				break;
-			case GADGETFS_SUSPEND:
-				logline("usb", "suspend");
-				break;
-			case GADGETFS_SETUP:
-				if (handle_setup(&d, &ev[k].u.setup) != 0)
-					rc = 1;
-				break;
-			default:
-				break;
-			}
+			else if (ev[k].type == GADGETFS_DISCONNECT || ev[k].type == GADGETFS_SUSPEND)
+				logline("usb", "%s", ev[k].type == GADGETFS_SUSPEND ? "suspend" : "disconnect");
 		}
 		if (rc)
 			break;
