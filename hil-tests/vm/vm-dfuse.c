@@ -14,7 +14,6 @@
 #include <linux/usb/gadgetfs.h>
 #include <poll.h>
 #include <sched.h>
-#include <signal.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -29,16 +28,9 @@
 #define EP0_MAX 64u
 #define GADGETFS_EP0_MAX 256u /* RBUF_SIZE of drivers/usb/gadget/legacy/inode.c: longer OUT data stalls */
 
-static volatile sig_atomic_t stop;
 static struct swell_dfuse target; /* 1 MiB of flash: static, not on the stack */
 static FILE *log_out;
 static double t0;
-
-static void on_signal(int sig)
-{
-	(void)sig;
-	stop = 1;
-}
 
 static void usage(FILE *to)
 {
@@ -423,11 +415,7 @@ int main(int argc, char **argv)
 	if (d.flash_fd < 0)
 		return 1;
 
-	struct sigaction sa;
-	memset(&sa, 0, sizeof(sa));
-	sa.sa_handler = on_signal; /* no SA_RESTART: poll returns EINTR */
-	sigaction(SIGTERM, &sa, NULL);
-	sigaction(SIGINT, &sa, NULL);
+	vm_catch_stop();
 
 	/* GadgetFS queues an OUT data stage as soon as the SETUP arrives and the host's next request
 	 * would overwrite it: answer before the host (a normal process) runs again, like hardware. */
@@ -457,7 +445,7 @@ int main(int argc, char **argv)
 
 	int rc = 0;
 	double leave_at = 0;
-	while (!stop) {
+	while (!vm_stop) {
 		if (target.leave && leave_at == 0)
 			leave_at = vm_now_s() + (double)leave_ms / 1000.0;
 		if (leave_at != 0 && vm_now_s() >= leave_at)

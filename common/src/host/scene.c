@@ -62,9 +62,7 @@ int swell_scene_put(struct swell_scene *sc, uint16_t id, int32_t raw)
 			return -1;
 		v = &sc->v[sc->n++];
 	}
-	v->d = d;
-	v->raw = raw;
-	v->line = 0;
+	*v = (struct swell_scene_value){ d, raw, 0 };
 	return 0;
 }
 
@@ -139,10 +137,7 @@ int swell_scene_load(const char *path, struct swell_scene *out, char *err, size_
 			snprintf(err, errlen, "%s:%d: more than %d values", path, line, SWELL_SCENE_PARAMS_MAX);
 			goto refuse;
 		}
-		sc.v[sc.n].d = d;
-		sc.v[sc.n].raw = raw;
-		sc.v[sc.n].line = line;
-		sc.n++;
+		sc.v[sc.n++] = (struct swell_scene_value){ d, raw, line };
 	}
 	if (ferror(f)) {
 		snprintf(err, errlen, "%s: read error", path);
