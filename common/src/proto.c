@@ -350,11 +350,8 @@ enum swell_err swell_pkt_encode(uint8_t node, uint8_t seq, const struct swell_ms
 	}
 	if (k == 0)
 		return SWELL_ESIZE;
-	buf[0] = SWELL_PKT_MAGIC;
-	buf[1] = SWELL_PROTO_VERSION;
-	buf[2] = node;
-	buf[3] = seq;
-	buf[4] = (uint8_t)k;
+	memcpy(buf, (const uint8_t[SWELL_PKT_HEADER]){ SWELL_PKT_MAGIC, SWELL_PROTO_VERSION, node, seq, (uint8_t)k },
+	       SWELL_PKT_HEADER);
 	crc = swell_crc32(0, buf, pos);
 	for (i = 0; i < 4; i++)
 		buf[pos++] = (uint8_t)(crc >> (8 * i)); /* little-endian */

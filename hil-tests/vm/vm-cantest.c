@@ -146,11 +146,9 @@ static void pattern(uint32_t i, struct can_frame *f)
 
 static int same(const struct can_frame *a, const struct can_frame *b)
 {
-	if (a->can_id != b->can_id || a->len != b->len)
-		return 0;
-	if (a->can_id & CAN_RTR_FLAG)
-		return 1;
-	return memcmp(a->data, b->data, a->len) == 0;
+	/* a remote frame's data is not compared */
+	return a->can_id == b->can_id && a->len == b->len &&
+		((a->can_id & CAN_RTR_FLAG) || memcmp(a->data, b->data, a->len) == 0);
 }
 
 static int open_raw(const char *iface)
