@@ -32,11 +32,6 @@ static int64_t div_rn(int64_t num, int64_t den)
 	return div_floor(num + den / 2, den);
 }
 
-static int32_t sat32(int64_t x)
-{
-	return swell_sat_i64(x);
-}
-
 int32_t swell_um_to_lsb(int64_t um)
 {
 	/* 2^16 / 1000 = 8192 / 125 */
@@ -44,7 +39,7 @@ int32_t swell_um_to_lsb(int64_t um)
 		um = (int64_t)1 << 40;
 	if (um < -((int64_t)1 << 40))
 		um = -((int64_t)1 << 40);
-	return sat32(div_rn(um * 8192, 125));
+	return swell_sat_i64(div_rn(um * 8192, 125));
 }
 
 int32_t swell_lsb_to_um(int64_t lsb)
@@ -53,7 +48,7 @@ int32_t swell_lsb_to_um(int64_t lsb)
 		lsb = (int64_t)1 << 50;
 	if (lsb < -((int64_t)1 << 50))
 		lsb = -((int64_t)1 << 50);
-	return sat32(div_rn(lsb * 125, 8192));
+	return swell_sat_i64(div_rn(lsb * 125, 8192));
 }
 
 enum swell_err swell_body_stiffness(const struct swell_body_params *p, int32_t *k_q8)
@@ -263,7 +258,7 @@ void swell_body_solver_stepped(struct swell_body *b, const struct swell_wave *w)
 	b->phase = 0;
 	b->u_prev = b->u_last;
 	/* the water the object wrote in the period just ended: its part of h(n) - h(n-1) from now on */
-	b->dep_v = b->dep_sv && area > 0 ? sat32(div_rn(b->dep_sv, area)) : 0;
+	b->dep_v = b->dep_sv && area > 0 ? swell_sat_i64(div_rn(b->dep_sv, area)) : 0;
 	b->dep_sv = 0;
 	/* In the water the ceiling is not needed (and the solver conserves sum(h)): the scan is paid
 	 * only in periods when the force law is idle. */
@@ -306,7 +301,7 @@ void swell_body_springs(int32_t k_q8, int32_t w_lsb, int32_t z_lsb, int32_t h_ls
 	int64_t push_stretch = (int64_t)w_lsb - h_lsb - z_lsb - deadband_lsb;
 
 	s->origin_pull_lsb = w_lsb;
-	s->origin_push_lsb = sat32((int64_t)w_lsb - h_lsb);
+	s->origin_push_lsb = swell_sat_i64((int64_t)w_lsb - h_lsb);
 	/* the pulling spring draws the object up toward its origin, from first contact */
 	s->pull_fine = pull_stretch > 0 ? (int64_t)k_q8 * pull_stretch : 0;
 	/* the pushing spring pushes it away from its origin (down), from full submersion */
@@ -318,7 +313,7 @@ static int32_t map_axis(const struct swell_body_xform *xf, int k, const int32_t 
 {
 	int64_t s = ((int64_t)xf->scale * dev[xf->axis[k]] + (1 << 15)) >> 16;
 
-	return sat32((offset ? xf->offset_um[k] : 0) + xf->sign[k] * s);
+	return swell_sat_i64((offset ? xf->offset_um[k] : 0) + xf->sign[k] * s);
 }
 
 /* Footprint of an object centred at (x, y), clipped to the pool; empty when x0 >= x1 or y0 >= y1. */
@@ -530,7 +525,7 @@ static void couple(struct swell_body *b, struct swell_wave *w, const struct swel
 static void device_force(const struct swell_body *b, struct swell_body_out *out)
 {
 	out->f_dev_uN[0] = out->f_dev_uN[1] = out->f_dev_uN[2] = 0;
-	out->f_dev_uN[b->xf.axis[2]] = sat32((int64_t)b->xf.sign[2] * out->f.total_uN);
+	out->f_dev_uN[b->xf.axis[2]] = swell_sat_i64((int64_t)b->xf.sign[2] * out->f.total_uN);
 }
 
 /* u_w through the low-pass, two equal first-order stages (critically damped second order):
@@ -548,7 +543,7 @@ static int64_t uw_filter(struct swell_body *b, int64_t u)
 /* LSB per solver step * 2^q -> um/s: 2^-16 mm * solver_hz = solver_hz * 125 / 8192 um/s. */
 static int32_t lsb_step_to_um_s(const struct swell_body *b, int64_t u, int q)
 {
-	return sat32(swell_shr_rn(u * (int64_t)b->sc.solver_hz * 125, 13 + q));
+	return swell_sat_i64(swell_shr_rn(u * (int64_t)b->sc.solver_hz * 125, 13 + q));
 }
 
 /* Contact with the floor at penetration p > 0 (LSB) and velocity v (um/s, up): a spring k_c p and a
@@ -568,7 +563,7 @@ static int32_t floor_force(int32_t p, int32_t v_um_s)
 static int32_t total_force(const struct swell_body_forces *f)
 {
 	/* symmetric saturation: a force and its negation are both representable */
-	return swell_clamp(sat32((int64_t)f->gravity_uN + f->up_uN + f->viscous_uN + f->floor_uN), -INT32_MAX,
+	return swell_clamp(swell_sat_i64((int64_t)f->gravity_uN + f->up_uN + f->viscous_uN + f->floor_uN), -INT32_MAX,
 			   INT32_MAX);
 }
 
@@ -664,8 +659,8 @@ void swell_body_tick_force(struct swell_body *b, const struct swell_wave *w, con
 	/* surface under the footprint, between h(n-1) and h(n) */
 	fp_sums(w, &f, &sh, &sv);
 	area = (int64_t)(f.x1 - f.x0) * (f.y1 - f.y0);
-	wv = sat32(div_rn(sv, area) + b->dep_v); /* dep_v: the velocity form's, else 0 */
-	wl = sat32(div_rn(sh, area) - div_rn((int64_t)wv * (int64_t)(kk - k), kk));
+	wv = swell_sat_i64(div_rn(sv, area) + b->dep_v); /* dep_v: the velocity form's, else 0 */
+	wl = swell_sat_i64(div_rn(sh, area) - div_rn((int64_t)wv * (int64_t)(kk - k), kk));
 	b->u_last = wv;
 	u = (int64_t)b->u_prev + div_rn(((int64_t)wv - b->u_prev) * (int64_t)k, kk);
 	out->surface_lsb = wl;
@@ -673,26 +668,26 @@ void swell_body_tick_force(struct swell_body *b, const struct swell_wave *w, con
 	/* the damper's u_w: low-passed, 2^8 finer than a LSB per step into the conversion */
 	out->surface_um_s = lsb_step_to_um_s(b, swell_shr_rn(uw_filter(b, u), 8), 8);
 
-	delta = swell_clamp(sat32((int64_t)wl - zw), 0, b->h_lsb);
+	delta = swell_clamp(swell_sat_i64((int64_t)wl - zw), 0, b->h_lsb);
 	out->delta_lsb = delta;
 
 	swell_body_springs(b->k_q8, wl, zw, b->h_lsb, b->deadband_lsb, &s);
 	out->origin_pull_lsb = s.origin_pull_lsb;
 	out->origin_push_lsb = s.origin_push_lsb;
-	out->f.pull_uN = sat32((s.pull_fine + ((int64_t)1 << (FINE_SHIFT - 1))) >> FINE_SHIFT);
-	out->f.push_uN = sat32(-((-s.push_fine + ((int64_t)1 << (FINE_SHIFT - 1))) >> FINE_SHIFT));
-	out->f.up_uN = sat32((s.pull_fine + s.push_fine + ((int64_t)1 << (FINE_SHIFT - 1))) >> FINE_SHIFT);
+	out->f.pull_uN = swell_sat_i64((s.pull_fine + ((int64_t)1 << (FINE_SHIFT - 1))) >> FINE_SHIFT);
+	out->f.push_uN = swell_sat_i64(-((-s.push_fine + ((int64_t)1 << (FINE_SHIFT - 1))) >> FINE_SHIFT));
+	out->f.up_uN = swell_sat_i64((s.pull_fine + s.push_fine + ((int64_t)1 << (FINE_SHIFT - 1))) >> FINE_SHIFT);
 
 	/* damper b_max s (v - u_w), s = delta / H */
 	bs = div_rn((int64_t)b->p.damper_uN_per_mm_s * delta, b->h_lsb);
 	dv = (int64_t)out->vz_um_s - out->surface_um_s;
-	out->f.viscous_uN = swell_clamp(sat32(-div_rn(bs * dv, 1000)), -INT32_MAX, INT32_MAX);
+	out->f.viscous_uN = swell_clamp(swell_sat_i64(-div_rn(bs * dv, 1000)), -INT32_MAX, INT32_MAX);
 	out->f.total_uN = total_force(&out->f);
 	device_force(b, out);
 
 	/* coupling: the depth below the mean level of the pool (see body.h), the water column at most */
-	mean = sat32(div_rn(b->water_sum, (int64_t)b->nx * b->ny));
-	f.delta_lsb = swell_clamp(sat32((int64_t)mean - zw), 0, b->h_lsb);
+	mean = swell_sat_i64(div_rn(b->water_sum, (int64_t)b->nx * b->ny));
+	f.delta_lsb = swell_clamp(swell_sat_i64((int64_t)mean - zw), 0, b->h_lsb);
 	b->pending = f;
 	b->pending_wet = delta > 0;
 	b->pending_set = 1;

@@ -7,45 +7,16 @@
 #include "swell/crc.h"
 #include "wave_priv.h"
 
-/* The tile flags (T_*) are in wave_priv.h. */
-
-/* 1 if any tile of a row of tiles has the flag: four flag bytes a word. */
+/* 1 if any tile of a row of tiles has the flag, or if all have it (the flags are in wave_priv.h) */
 static int tile_row_has(const struct swell_wave *w, const uint8_t *trow, uint8_t flag)
 {
-	const uint32_t mask = 0x01010101u * flag;
-	int x;
-
-	for (x = 0; x + 4 <= w->tiles_x; x += 4) {
-		uint32_t f;
-
-		memcpy(&f, trow + x, sizeof(f));
-		if (f & mask)
-			return 1;
-	}
-	for (; x < w->tiles_x; x++)
-		if (trow[x] & flag)
-			return 1;
-	return 0;
+	return swell_tiles_row_any(trow, w->tiles_x, flag, 0);
 }
 
 #if SWELL_WAVE_DSP
-/* 1 if every tile of a row of tiles has the flag: four flag bytes a word. */
 static int tile_row_all(const struct swell_wave *w, const uint8_t *trow, uint8_t flag)
 {
-	const uint32_t mask = 0x01010101u * flag;
-	int x;
-
-	for (x = 0; x + 4 <= w->tiles_x; x += 4) {
-		uint32_t f;
-
-		memcpy(&f, trow + x, sizeof(f));
-		if (~f & mask)
-			return 0;
-	}
-	for (; x < w->tiles_x; x++)
-		if (!(trow[x] & flag))
-			return 0;
-	return 1;
+	return !swell_tiles_row_any(trow, w->tiles_x, flag, 1);
 }
 
 /* How many tiles of a row of tiles sleep */
@@ -144,14 +115,18 @@ static void set_vel_frac(struct swell_wave *w)
 				  : w->u[a] / (1 << (old - f));
 }
 
+void swell_wave_force_coeffs(struct swell_wave *w, q30_t e_eff, q30_t q)
+{
+	w->e_eff = e_eff;
+	w->q = q;
+	set_vel_frac(w);
+	wake_all(w); /* new coefficients round differently: every tile awake */
+}
+
 static void apply_params(struct swell_wave *w, const struct swell_wave_params *p)
 {
 	w->p = *p;
-	w->e_eff = effective_e(p);
-	w->q = (q30_t)run_q(p->damping); /* odd: see wave.h */
-	set_vel_frac(w);
-	if (w->tile) /* new coefficients round differently: every tile awake */
-		wake_all(w);
+	swell_wave_force_coeffs(w, effective_e(p), (q30_t)run_q(p->damping)); /* q odd: see wave.h */
 }
 
 /* The layout: h, u (unless given apart), the flags. */
@@ -161,12 +136,7 @@ static enum swell_err init_at(struct swell_wave *w, uint16_t nx, uint16_t ny, in
 	size_t n = (size_t)nx * ny;
 	enum swell_err err;
 
-	if (!w || !storage)
-		return SWELL_EINVAL;
-	if (nx < SWELL_WAVE_MIN_SIDE || ny < SWELL_WAVE_MIN_SIDE || nx > SWELL_WAVE_MAX_SIDE ||
-	    ny > SWELL_WAVE_MAX_SIDE)
-		return SWELL_ESIZE;
-	err = swell_wave_check(p);
+	err = swell_wave_init_check(w, storage, nx, ny, p);
 	if (err != SWELL_OK)
 		return err;
 	if (words < SWELL_WAVE_WORDS(nx, ny) - (u ? n : 0))
@@ -236,16 +206,10 @@ void swell_wave_rest(struct swell_wave *w)
 
 void swell_wave_touched(struct swell_wave *w, int i, int j)
 {
-	int tx = i / SWELL_WAVE_TILE, ty = j / SWELL_WAVE_TILE, x, y;
-
 	if (i < 0 || j < 0 || i >= w->nx || j >= w->ny)
 		return;
-	w->tile[ty * w->tiles_x + tx] |= T_TOUCHED;
-	w->band_asleep = 0;
-	for (y = ty - 1; y <= ty + 1; y++) /* the rest of this step must not skip its neighbours */
-		for (x = tx - 1; x <= tx + 1; x++)
-			if (x >= 0 && y >= 0 && x < w->tiles_x && y < w->tiles_y)
-				w->tile[y * w->tiles_x + x] &= (uint8_t)~T_SLEEPING;
+	w->band_asleep = 0; /* the rest of this step must not skip the tile's neighbours */
+	swell_tiles_touch(w->tile, w->tiles_x, w->tiles_y, i / SWELL_WAVE_TILE, j / SWELL_WAVE_TILE);
 }
 
 int swell_wave_tile_changed(const struct swell_wave *w, size_t t)
@@ -259,57 +223,9 @@ void swell_wave_set_sleep(struct swell_wave *w, int on)
 	wake_all(w);
 }
 
-/* A tile may be skipped: its momentum was zero for two steps and nothing around it has changed since. */
-static int asleep(const struct swell_wave *w, int tx, int ty)
-{
-	const uint8_t *t = w->tile;
-	int x0 = tx > 0 ? tx - 1 : 0, x1 = tx + 1 < w->tiles_x ? tx + 1 : tx;
-	int y0 = ty > 0 ? ty - 1 : 0, y1 = ty + 1 < w->tiles_y ? ty + 1 : ty;
-	int x, y;
-
-	if (!(t[ty * w->tiles_x + tx] & T_ZERO))
-		return 0;
-	for (y = y0; y <= y1; y++)
-		for (x = x0; x <= x1; x++)
-			if (t[y * w->tiles_x + x] & (T_CHANGED | T_TOUCHED))
-				return 0;
-	return 1;
-}
-
-#if SWELL_WAVE_AVX2
-static int have_avx2(void)
-{
-	return __builtin_cpu_supports("avx2");
-}
-#endif
-
 enum swell_err swell_wave_set_kernel(struct swell_wave *w, enum swell_wave_kernel k)
 {
-	if (!w)
-		return SWELL_EINVAL;
-	switch (k) {
-	case SWELL_KERNEL_AUTO:
-#if SWELL_WAVE_AVX2
-		w->kernel = have_avx2() ? SWELL_KERNEL_AVX2 : SWELL_KERNEL_FUSED;
-#else
-		w->kernel = SWELL_KERNEL_FUSED;
-#endif
-		return SWELL_OK;
-	case SWELL_KERNEL_REF:
-	case SWELL_KERNEL_FUSED:
-		w->kernel = (uint8_t)k;
-		return SWELL_OK;
-	case SWELL_KERNEL_AVX2:
-#if SWELL_WAVE_AVX2
-		if (have_avx2()) {
-			w->kernel = SWELL_KERNEL_AVX2;
-			return SWELL_OK;
-		}
-#endif
-		return SWELL_EINVAL;
-	default:
-		return SWELL_EINVAL;
-	}
+	return w ? swell_kernel_choose(k, &w->kernel) : SWELL_EINVAL;
 }
 
 const char *swell_wave_kernel_name(enum swell_wave_kernel k)
@@ -365,31 +281,12 @@ static void step_row_vel(struct swell_wave *w, int j, uint8_t *trow, int damp)
 	w->vel_sum_h += sum[1];
 }
 
-/* At the first row of a band of tiles (flags trow), which of its tiles sleep in this step, and
- * whether all do (band_asleep). */
-static inline __attribute__((always_inline)) void band_start(struct swell_wave *w, int j, uint8_t *trow)
+/* At the first row of a band of tiles, which of its tiles sleep in this step, and whether all do
+ * (band_asleep). */
+static inline __attribute__((always_inline)) void band_start(struct swell_wave *w, int j)
 {
-	const int ty = j / SWELL_WAVE_TILE;
-	int tx;
-
-	if (w->sleep && j % SWELL_WAVE_TILE == 0) {
-		if (!tile_row_has(w, trow, T_ZERO)) {
-			/* no tile of the band was still for two steps (moving water): none sleeps */
-			for (tx = 0; tx < w->tiles_x; tx++)
-				trow[tx] &= (uint8_t)~T_SLEEPING;
-			w->band_asleep = 0;
-			return;
-		}
-		w->band_asleep = 1;
-		for (tx = 0; tx < w->tiles_x; tx++) {
-			if (asleep(w, tx, ty)) {
-				trow[tx] |= T_SLEEPING;
-			} else {
-				trow[tx] &= (uint8_t)~T_SLEEPING;
-				w->band_asleep = 0;
-			}
-		}
-	}
+	if (w->sleep && j % SWELL_WAVE_TILE == 0)
+		w->band_asleep = (uint8_t)swell_tiles_band(w->tile, w->tiles_x, w->tiles_y, j / SWELL_WAVE_TILE);
 }
 
 /* Row j, skipping sleeping tiles; the rows done: 1, or on the M4 those of the band up to end (the
@@ -399,7 +296,7 @@ static inline int step_row(struct swell_wave *w, int j, int end, int damp)
 	const int ty = j / SWELL_WAVE_TILE;
 	uint8_t *trow = &w->tile[ty * w->tiles_x];
 
-	band_start(w, j, trow);
+	band_start(w, j);
 	if (w->sleep && w->band_asleep) { /* the whole band of tiles sleeps: nothing to do in this row */
 		w->tiles_skipped += w->tiles_x;
 		return 1;
@@ -454,11 +351,6 @@ ADD_TILES_F(add_tiles_u1, "1", "1")
 ADD_TILES_F(add_tiles_u2, "2", "2")
 ADD_TILES_F(add_tiles_u3, "3", "4")
 ADD_TILES_F(add_tiles_u4, "4", "8")
-#undef ADD_TILES_F
-#undef ADD_TILES
-#undef ADD_FOUR
-#undef ADD_CELLF
-#undef ADD_CELL0
 
 /* add_tiles_u with u's fraction bits f (0 to 4) */
 static void add_tiles_uf(int32_t *h, const int32_t *u, int n, int f)
@@ -594,7 +486,7 @@ int swell_wave_step_rows(struct swell_wave *w, int rows)
 
 			j1 = (j / SWELL_WAVE_TILE + 1) * SWELL_WAVE_TILE;
 			j1 = j1 < end ? j1 : end;
-			band_start(w, j, trow);
+			band_start(w, j);
 			if (w->sleep && w->band_asleep) { /* the whole band of tiles sleeps */
 				w->tiles_skipped += (uint32_t)(w->tiles_x * (j1 - j));
 				update_rows(w, j1 - 1); /* one row behind */
@@ -621,31 +513,19 @@ int swell_wave_step_rows(struct swell_wave *w, int rows)
  * thousands of cells a step. */
 static void fix_run(struct swell_wave *w, size_t a, int n, int32_t d, int mom, uint8_t *t)
 {
-	int32_t *restrict h = w->h + a;
+	int32_t *restrict p = mom ? w->u + a : w->h + a;
+	const int32_t lo = mom ? SWELL_H_MIN : SWELL_HV_MIN, hi = mom ? SWELL_H_MAX : SWELL_HV_MAX;
 	uint32_t sat = 0;
 	int k;
 
-	*t |= T_NONZERO;
-	if (mom) {
-		int32_t *restrict u = w->u + a;
-
-		for (k = 0; k < n; k++) {
-			const int32_t x = u[k] + d, c = swell_clamp(x, SWELL_H_MIN, SWELL_H_MAX);
-
-			sat += c != x;
-			u[k] = c;
-		}
-		w->saturations += sat;
-		return;
-	}
 	for (k = 0; k < n; k++) {
-		const int32_t x = h[k] + d, c = swell_clamp(x, SWELL_HV_MIN, SWELL_HV_MAX);
+		const int32_t x = p[k] + d, c = swell_clamp(x, lo, hi);
 
 		sat += c != x;
-		h[k] = c;
+		p[k] = c;
 	}
 	w->saturations += sat;
-	*t |= T_TOUCHED;
+	*t |= mom ? T_NONZERO : T_NONZERO | T_TOUCHED;
 }
 
 /* Cells a fixer touches a step at most: a residual larger than this goes back in equal chunks, so the
@@ -662,16 +542,14 @@ static void give_back(struct swell_wave *w, int64_t r, int mom)
 	const size_t n = (size_t)w->nx * w->ny;
 	uint64_t left = (uint64_t)(r > 0 ? r : -r), q;
 	size_t a, tn;
-	int tx, ty, i, j, run, any = 0;
+	int i, j, run;
 	int32_t d;
 
 	if (!r || !w->nx || !w->ny) /* sides are at least 2: the second test is for the analyser */
 		return;
 	w->fixed_lsb += left;
-	for (ty = 0; ty < w->tiles_y && !any; ty++)
-		for (tx = 0; tx < w->tiles_x && !any; tx++)
-			any = (w->tile[ty * w->tiles_x + tx] & T_NONZERO) != 0;
-	if (!any) /* a residual from a rescale of u, with nothing moving: tile 0 takes it */
+	/* a residual from a rescale of u, with nothing moving: tile 0 takes it */
+	if (!swell_tiles_row_any(w->tile, w->tiles_x * w->tiles_y, T_NONZERO, 0))
 		w->tile[0] |= T_NONZERO;
 	q = (left + FIX_CELLS_MAX - 1) / FIX_CELLS_MAX;
 	/* |r| is under 2^4 LSB a cell (rounding, or a rescale of u) and cells are under 2^24: q < 2^20 */
@@ -834,23 +712,6 @@ void swell_wave_row(const struct swell_wave *w, int j, int32_t *out)
 		out[i] = w->h[a0 + i] - swell_wave_dh(w, a0 + i);
 }
 
-int64_t swell_wave_sum(const struct swell_wave *w, int i0, int i1, int j0, int j1)
-{
-	int64_t sum = 0;
-	int i, j;
-
-	for (j = j0; j < j1; j++) {
-		const size_t a0 = (size_t)j * w->nx;
-
-		for (i = i0; i < i1; i++)
-			sum += w->h[a0 + i];
-		if (j < w->done_row)
-			for (i = i0; i < i1; i++)
-				sum -= swell_wave_dh(w, a0 + i);
-	}
-	return sum;
-}
-
 #if defined(__thumb2__)
 /* The cell of register R (a value of d, the next of h in H): d's negative part (shifted right by the
  * velocity form's fraction bits: S is "" or ", asr #F") taken from h, the result compared with the
@@ -898,13 +759,6 @@ SCAN_GROUPS8(scan_groups8_f1, ", asr #1")
 SCAN_GROUPS8(scan_groups8_f2, ", asr #2")
 SCAN_GROUPS8(scan_groups8_f3, ", asr #3")
 SCAN_GROUPS8(scan_groups8_f4, ", asr #4")
-#undef SCAN_GROUPS8
-#undef SCAN_GROUP
-#undef SCAN_UPS
-#undef SCAN_END
-#undef SCAN_FOUR
-#undef SCAN_CELL
-#undef SCAN_UP
 
 /* scan_groups8 with d's negative part shifted right by f (0 to 4) */
 static void scan_groups8_shift(const int32_t *h, const int32_t *d, int g, int f, int32_t *top, int64_t *sum)
@@ -952,46 +806,57 @@ void swell_wave_ceiling(const struct swell_wave *w, int j0, int j1, int32_t *top
 
 int64_t swell_wave_volume(const struct swell_wave *w)
 {
-	return swell_wave_sum(w, 0, w->nx, 0, w->ny);
+	const size_t n = (size_t)w->nx * w->ny;
+	int64_t sum = 0;
+	size_t a;
+
+	for (a = 0; a < n; a++)
+		sum += swell_wave_h(w, a);
+	return sum;
 }
 
-/* The last step's change of cell a: the solver's own change dh(u) (wave.h) */
-static int32_t last_change(const struct swell_wave *w, int a)
+/* 2 w (h_b - h_a)(n) (h_b - h_a)(n-1) for one edge; h(n-1) = h - change. */
+static int64_t edge_pot2(const int32_t *h, int32_t (*change)(const void *, int), const void *ctx, int a, int b,
+			 int64_t two_w)
 {
-	return swell_wave_dh(w, (size_t)a);
+	const int64_t d_now = (int64_t)h[b] - h[a];
+
+	return two_w * d_now * (d_now - ((int64_t)change(ctx, b) - change(ctx, a)));
 }
 
-/* 2 w (h_b - h_a)(n) (h_b - h_a)(n-1) for one edge; h(n-1) = h - dh(u). */
-static int64_t edge_pot2(const struct swell_wave *w, int a, int b, int64_t two_w)
+struct swell_energy swell_energy_of(const int32_t *h, int nx, int ny, q30_t e_eff,
+				    int32_t (*change)(const void *ctx, int a), const void *ctx)
 {
-	int64_t d_now = (int64_t)w->h[b] - w->h[a];
-	int64_t d_prev = d_now - ((int64_t)last_change(w, b) - last_change(w, a));
-
-	return two_w * d_now * d_prev;
-}
-
-struct swell_energy swell_wave_energy(const struct swell_wave *w)
-{
-	const int nx = w->nx, ny = w->ny;
-	struct swell_energy en = { 0, 0, w->e_eff };
+	struct swell_energy en = { 0, 0, e_eff };
 	int i, j, a;
 
 	for (j = 0; j < ny; j++) {
 		for (i = 0; i < nx; i++) {
 			a = j * nx + i;
-			en.kin += (int64_t)last_change(w, a) * last_change(w, a);
+			en.kin += (int64_t)change(ctx, a) * change(ctx, a);
 			if (i + 1 < nx)
-				en.pot2 += edge_pot2(w, a, a + 1, (j == 0 || j == ny - 1) ? 3 : 2);
+				en.pot2 += edge_pot2(h, change, ctx, a, a + 1, (j == 0 || j == ny - 1) ? 3 : 2);
 			if (j + 1 >= ny)
 				continue;
-			en.pot2 += edge_pot2(w, a, a + nx, (i == 0 || i == nx - 1) ? 3 : 2);
+			en.pot2 += edge_pot2(h, change, ctx, a, a + nx, (i == 0 || i == nx - 1) ? 3 : 2);
 			if (i + 1 < nx)
-				en.pot2 += edge_pot2(w, a, a + nx + 1, 1);
+				en.pot2 += edge_pot2(h, change, ctx, a, a + nx + 1, 1);
 			if (i > 0)
-				en.pot2 += edge_pot2(w, a, a + nx - 1, 1);
+				en.pot2 += edge_pot2(h, change, ctx, a, a + nx - 1, 1);
 		}
 	}
 	return en;
+}
+
+/* The last step's change of cell a: the solver's own change dh(u) (wave.h) */
+static int32_t last_change(const void *w, int a)
+{
+	return swell_wave_dh(w, (size_t)a);
+}
+
+struct swell_energy swell_wave_energy(const struct swell_wave *w)
+{
+	return swell_energy_of(w->h, w->nx, w->ny, w->e_eff, last_change, w);
 }
 
 uint32_t swell_wave_checksum(const struct swell_wave *w)

@@ -23,18 +23,11 @@
 #define SWELL_WAVE_PRIV_H
 
 #include <stdint.h>
+#include <string.h>
 
 #include "swell/wave.h"
 
 #define SWELL_WAVE_VEL_RUN 8 /* tiles a call at most */
-
-/* A controller image may fix the grid's width at compile time (SWELL_WAVE_FIXED_NX): the row above
- * is then at a constant offset, which frees registers in the M4 kernels. Other widths are refused. */
-#ifdef SWELL_WAVE_FIXED_NX
-#define WAVE_NX(w) SWELL_WAVE_FIXED_NX
-#else
-#define WAVE_NX(w) ((w)->nx)
-#endif
 
 /* ARMv7E-M's DSP instructions (SMMLAR, SMMUL, SSAT) */
 #if defined(__ARM_FEATURE_DSP) && defined(__thumb2__)
@@ -69,18 +62,143 @@ static inline uint32_t swell_q_take(void)
 #define SWELL_WAVE_AVX2 0
 #endif
 
-/* Tile flags. Z1: every new u of the tile was zero in the last finished step. ZERO: in the last two
- * (then the kicks e L9 are zero too, not just cancelling an old momentum). NONZERO: some new u of the
- * step in progress is non-zero. CHANGED: a cell of the tile changed in the last finished step.
- * TOUCHED: a cell changed (from outside, or by the fixer) in the step in progress. */
+/* Tile flags, the solver's and the bench's ef32's (tools/bench/ef32, which adds its own bits 32 and
+ * 64): the tile's state is its momentum u (ef32: the flows of its edges). Z1: all of it was zero after
+ * the last finished step. ZERO: after the last two (then the kicks e L9 are zero too, not just
+ * cancelling an old momentum). NONZERO: some of it is non-zero in the step in progress. CHANGED: a
+ * cell of the tile changed in the last finished step. TOUCHED: a cell changed (from outside, or by
+ * the fixer) in the step in progress. */
 #define T_ZERO 1u
 #define T_NONZERO 2u
 #define T_CHANGED 4u
 #define T_TOUCHED 8u
 #define T_Z1 16u
-/* SLEEPING: decided at the first row of the tile's row in this step (asleep() is a 3 x 3 scan; one
- * decision serves the tile's eight rows); swell_wave_touched() clears it around the touched cell. */
+/* SLEEPING: decided at the first row of the tile's row in this step (swell_tiles_asleep() is a 3 x 3
+ * scan; one decision serves the tile's eight rows); swell_tiles_touch() clears it around the touched
+ * cell. */
 #define T_SLEEPING 128u
+
+/* 1 if any of the n flag bytes from trow (a row of tiles, or every tile) has the flag (lacks: lacks
+ * it): four flag bytes a word. */
+static inline int swell_tiles_row_any(const uint8_t *trow, int n, uint8_t flag, int lacks)
+{
+	const uint32_t mask = 0x01010101u * flag, flip = lacks ? mask : 0u;
+	int x;
+
+	for (x = 0; x + 4 <= n; x += 4) {
+		uint32_t f;
+
+		memcpy(&f, trow + x, sizeof(f));
+		if ((f ^ flip) & mask)
+			return 1;
+	}
+	for (; x < n; x++)
+		if ((trow[x] ^ flip) & flag)
+			return 1;
+	return 0;
+}
+
+/* A tile (tx, ty) of the tiles_x x tiles_y flags t may be skipped: its state was zero for two steps
+ * and nothing around it has changed since. */
+static inline int swell_tiles_asleep(const uint8_t *t, int tiles_x, int tiles_y, int tx, int ty)
+{
+	const int x0 = tx > 0 ? tx - 1 : 0, x1 = tx + 1 < tiles_x ? tx + 1 : tx;
+	const int y0 = ty > 0 ? ty - 1 : 0, y1 = ty + 1 < tiles_y ? ty + 1 : ty;
+	int x, y;
+
+	if (!(t[ty * tiles_x + tx] & T_ZERO))
+		return 0;
+	for (y = y0; y <= y1; y++)
+		for (x = x0; x <= x1; x++)
+			if (t[y * tiles_x + x] & (T_CHANGED | T_TOUCHED))
+				return 0;
+	return 1;
+}
+
+/* At the first row of the band of tiles ty: which of its tiles sleep in this step (T_SLEEPING);
+ * 1 if all do. */
+static inline __attribute__((always_inline)) int swell_tiles_band(uint8_t *t, int tiles_x, int tiles_y, int ty)
+{
+	uint8_t *trow = t + ty * tiles_x;
+	int tx, all = 1;
+
+	if (!swell_tiles_row_any(trow, tiles_x, T_ZERO, 0)) {
+		/* no tile of the band was still for two steps (moving water): none sleeps */
+		for (tx = 0; tx < tiles_x; tx++)
+			trow[tx] &= (uint8_t)~T_SLEEPING;
+		return 0;
+	}
+	for (tx = 0; tx < tiles_x; tx++) {
+		if (swell_tiles_asleep(t, tiles_x, tiles_y, tx, ty)) {
+			trow[tx] |= T_SLEEPING;
+		} else {
+			trow[tx] &= (uint8_t)~T_SLEEPING;
+			all = 0;
+		}
+	}
+	return all;
+}
+
+/* The tiles within r of the tile (tx, ty), clipped to the grid: t = (t & keep) | set. */
+static inline void swell_tiles_block(uint8_t *t, int tiles_x, int tiles_y, int tx, int ty, int r, uint8_t keep,
+				     uint8_t set)
+{
+	const int x0 = tx > r ? tx - r : 0, x1 = tx + r < tiles_x ? tx + r : tiles_x - 1;
+	const int y0 = ty > r ? ty - r : 0, y1 = ty + r < tiles_y ? ty + r : tiles_y - 1;
+	int x, y;
+
+	for (y = y0; y <= y1; y++)
+		for (x = x0; x <= x1; x++)
+			t[y * tiles_x + x] = (uint8_t)((t[y * tiles_x + x] & keep) | set);
+}
+
+/* A cell of the tile (tx, ty) changed from outside: the tile TOUCHED, and it and its neighbours not
+ * sleeping for the rest of this step. */
+static inline void swell_tiles_touch(uint8_t *t, int tiles_x, int tiles_y, int tx, int ty)
+{
+	t[ty * tiles_x + tx] |= T_TOUCHED;
+	swell_tiles_block(t, tiles_x, tiles_y, tx, ty, 1, (uint8_t)~T_SLEEPING, 0);
+}
+
+/* The first checks of an init (swell_wave_init's, ef32_init's): the state and the storage given, the
+ * sides within [SWELL_WAVE_MIN_SIDE, SWELL_WAVE_MAX_SIDE], the parameters (swell_wave_check). */
+static inline enum swell_err swell_wave_init_check(const void *w, const int32_t *storage, int nx, int ny,
+						   const struct swell_wave_params *p)
+{
+	if (!w || !storage)
+		return SWELL_EINVAL;
+	if (nx < SWELL_WAVE_MIN_SIDE || ny < SWELL_WAVE_MIN_SIDE || nx > SWELL_WAVE_MAX_SIDE ||
+	    ny > SWELL_WAVE_MAX_SIDE)
+		return SWELL_ESIZE;
+	return swell_wave_check(p);
+}
+
+/* The kernel k names, for this build and CPU, into *kernel (AUTO: the fastest there is); SWELL_EINVAL
+ * and *kernel unchanged where the build or the CPU lacks it. */
+static inline enum swell_err swell_kernel_choose(enum swell_wave_kernel k, uint8_t *kernel)
+{
+#if SWELL_WAVE_AVX2
+	const int avx2 = __builtin_cpu_supports("avx2");
+#else
+	const int avx2 = 0;
+#endif
+
+	if (k == SWELL_KERNEL_AUTO)
+		k = avx2 ? SWELL_KERNEL_AVX2 : SWELL_KERNEL_FUSED;
+	if (k != SWELL_KERNEL_REF && k != SWELL_KERNEL_FUSED && !(k == SWELL_KERNEL_AVX2 && avx2))
+		return SWELL_EINVAL;
+	*kernel = (uint8_t)k;
+	return SWELL_OK;
+}
+
+/* The exact integer energy (struct swell_energy) of the heights h (nx x ny, row-major) whose last step
+ * changed cell a by change(ctx, a): swell_wave_energy's, and the bench's ef32's. */
+struct swell_energy swell_energy_of(const int32_t *h, int nx, int ny, q30_t e_eff,
+				    int32_t (*change)(const void *ctx, int a), const void *ctx);
+
+/* The coefficients e_eff and q as given (apply_params' with the checked ones; the bench's stress runs
+ * outside the validated region too), u's fraction bits for them, every tile awake. */
+void swell_wave_force_coeffs(struct swell_wave *w, q30_t e_eff, q30_t q);
 
 void swell_wave_vel_ref(struct swell_wave *w, int j, int tx0, int tx1, int damp, int64_t sum[2], int32_t *any);
 void swell_wave_vel_fused(struct swell_wave *w, int j, int tx0, int tx1, int damp, int64_t sum[2], int32_t *any);

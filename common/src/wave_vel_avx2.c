@@ -274,7 +274,7 @@ VA_FN void va_rows_pass(struct swell_wave *w, int j, int q, int awake, int up, u
 	struct va_pipe P[2];
 	struct va_fold F;
 	__m256i sn[2], cn[2], dh[2], c0, han;
-	int b = 0, k1, whole, k;
+	int b = 0, k1, k;
 
 	rows[0] = j > 0 ? hj - nx : hj;
 #pragma GCC unroll 4
@@ -297,19 +297,8 @@ VA_FN void va_rows_pass(struct swell_wave *w, int j, int q, int awake, int up, u
 	}
 	while (b < nv) { /* SWELL_WAVE_VEL_RUN tiles (the reference's run when awake), the last ones fewer */
 		k1 = b + SWELL_WAVE_VEL_RUN < nv ? b + SWELL_WAVE_VEL_RUN : nv;
-		whole = k1 < nv - 1 ? k1 : nv - 2; /* vectors before it have a whole next vector */
-		for (; b < whole; b++) {
-			va_colsums(rows, q, 8 * (b + 1), mask, 0, sn, cn, &han);
-			c0 = P[0].c0;
-#pragma GCC unroll 4
-			for (k = 0; k < q; k++)
-				va_step(trow, b, K, A, n, &P[k], sn[k], cn[k], u + (size_t)k * nx, mask, awake, damp, f,
-					&dh[k]);
-			va_fold_vec(K, &F, b, q, awake, c0, dh[0], hj, mask, 0, f);
-			F.ha = han;
-		}
-		if (b < k1 && b == nv - 2) { /* the last but one: the next vector may be narrower */
-			if (r < 8)
+		for (; b < k1 && b < nv - 1; b++) { /* the last but one's next vector may be narrower */
+			if (b == nv - 2 && r < 8)
 				va_colsums(rows, q, 8 * (b + 1), mask, 1, sn, cn, &han);
 			else
 				va_colsums(rows, q, 8 * (b + 1), mask, 0, sn, cn, &han);
@@ -320,7 +309,6 @@ VA_FN void va_rows_pass(struct swell_wave *w, int j, int q, int awake, int up, u
 					&dh[k]);
 			va_fold_vec(K, &F, b, q, awake, c0, dh[0], hj, mask, 0, f);
 			F.ha = han;
-			b++;
 		}
 		if (b < k1) { /* the last: the column right of it is its last column mirrored at the east wall */
 			const __m256i east = _mm256_min_epi32(_mm256_add_epi32(lane, _mm256_set1_epi32(1)),
@@ -368,12 +356,10 @@ VA_FN void va_rows(struct swell_wave *w, int j0, int j1, uint8_t *trow, int damp
 	struct va_acc A;
 	struct va_count n = { 0, 0 };
 	int64_t tot;
-	int j, tx, awake = 1;
-
 	/* a band none of whose tiles sleeps (or tiles do not sleep) runs without the tests */
-	if (w->sleep)
-		for (tx = 0; tx < w->tiles_x && awake; tx++)
-			awake = !(trow[tx] & T_SLEEPING);
+	const int awake = !w->sleep || !swell_tiles_row_any(trow, w->tiles_x, T_SLEEPING, 0);
+	int j;
+
 	K.c = _mm256_set1_epi32((int32_t)((int64_t)w->e_eff << (w->vel_frac + 1)));
 	K.q = _mm256_set1_epi32(w->q);
 	K.round = _mm256_set1_epi64x((int64_t)1 << 31);
@@ -463,11 +449,8 @@ VA_FN void va_update_rows(struct swell_wave *w, int j0, int j1, int f)
 		int32_t *h = w->h + (size_t)j * nx;
 		const int32_t *u = w->u + (size_t)j * nx;
 		__m256i sat = _mm256_setzero_si256();
-		uint8_t any = 0;
 
-		for (tx = 0; tx < w->tiles_x; tx++)
-			any |= trow[tx];
-		if (!(any & T_NONZERO)) { /* nothing moved in this band yet */
+		if (!swell_tiles_row_any(trow, w->tiles_x, T_NONZERO, 0)) { /* nothing moved in this band yet */
 			j = (j / SWELL_WAVE_TILE + 1) * SWELL_WAVE_TILE - 1;
 			continue;
 		}

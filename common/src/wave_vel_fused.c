@@ -4,8 +4,6 @@
  * store (the heights' update is the driver's, one row behind). On ARMv7E-M: SMMLAR gives u + nearest(x C / 2^32) in one instruction (SMMUL and a range
  * test when damped), SSAT #28 the saturation (the sticky Q flag, read once a run) and SMMUL the
  * damping toward zero, as in the edge-flux kernel. Same bits as swell_wave_vel_ref. */
-#include <string.h>
-
 #include "wave_priv.h"
 
 /* An image that fixes its usual width (SWELL_WAVE_FIXED_NX) gets the kernel twice: with the width as
@@ -18,13 +16,6 @@
 #define VEL_FIXED(w) 0
 #endif
 
-#if defined(__ARM_FEATURE_DSP) && defined(__thumb2__)
-#include <arm_acle.h>
-#define VEL_DSP 1
-#else
-#define VEL_DSP 0
-#endif
-
 /* The new momentum of one cell from its momentum u and x = 2 L9 (wave_priv.h); c = e_eff 2^(f+1),
  * as int32 for the DSP path (it fits there) and as int64 (c64) for the portable one. */
 static inline __attribute__((always_inline)) int32_t vel_cell(int32_t u, int32_t x, int32_t c, int64_t c64, int32_t f,
@@ -32,7 +23,7 @@ static inline __attribute__((always_inline)) int32_t vel_cell(int32_t u, int32_t
 {
 	int32_t s;
 
-#if VEL_DSP
+#if SWELL_WAVE_DSP
 	if (dsp) {
 		int32_t r;
 
@@ -110,7 +101,7 @@ static inline __attribute__((always_inline)) void vel_run(struct swell_wave *w, 
 	uint32_t sat = 0;
 	int b, k;
 
-#if VEL_DSP
+#if SWELL_WAVE_DSP
 	if (dsp)
 		__set_saturation_occurred(0);
 #endif
@@ -159,7 +150,7 @@ static inline __attribute__((always_inline)) void vel_run(struct swell_wave *w, 
 	}
 	if (m % 8 || east)
 		any[m / 8] = a_or;
-#if VEL_DSP
+#if SWELL_WAVE_DSP
 	if (dsp)
 		sat = (uint32_t)__saturation_occurred();
 #endif
@@ -169,10 +160,7 @@ static inline __attribute__((always_inline)) void vel_run(struct swell_wave *w, 
 	sum[1] += damp ? run_tot : run_tot_h + tot_h;
 }
 
-#undef VEL_DOWN
-#undef VEL_UP
-
-#if VEL_DSP
+#if SWELL_WAVE_DSP
 /* ---- The damped row kernel in Cortex-M4 assembly ---------------------------------------------
  * Rows of a grid 64 or 128 cells wide, damped (F = 0), 64 cells a pass: the row below and the row
  * above are then at immediate offsets of the centre row (or the centre row itself, mirrored, at the
@@ -320,21 +308,6 @@ static __attribute__((naked, noinline)) void vel_band128(const int32_t *hp __att
 			 VR_Q("5", "6b") VR_Q("7", "8b") VR_Q("10", "11b"));
 }
 /* clang-format on */
-#undef VR_BAND_FN
-#undef VR_SUM8
-#undef VR_Q
-#undef VR_ADD16
-#undef VR_ADD4
-#undef VR_ROW_FN
-#undef VR_FIRST
-#undef VR_BLOCK_EAST
-#undef VR_BLOCK
-#undef VR_A
-#undef VR_B
-#undef VR_PAIR_EAST
-#undef VR_PAIR
-#undef VR_CELL
-#undef VR_X
 
 /* Whether the assembly takes the field: damped with F = 0 (the caller checks damp) and q > 2^29 */
 static int vel_m4_fits(const struct swell_wave *w)
@@ -439,7 +412,7 @@ static inline __attribute__((always_inline)) void vel_rows(struct swell_wave *w,
 							   int64_t sum[2], int32_t *any, int fixed)
 {
 	const int mid = j > 0 && j + 1 < w->ny;
-#if VEL_DSP
+#if SWELL_WAVE_DSP
 	const int dsp = ((int64_t)w->e_eff << (w->vel_frac + 1)) <= INT32_MAX; /* the coefficient fits */
 #else
 	const int dsp = 0;

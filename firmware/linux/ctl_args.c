@@ -1,12 +1,11 @@
 /* swell-ctl's command line and scene file; see ctl_main.h. */
 #include <math.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "ctl_main.h"
-#include "swell/num.h"
+#include "swell/cli.h"
 #include "swell/pool.h"
 
 static const char usage[] =
@@ -68,26 +67,7 @@ static const char usage[] =
 	"last heartbeat sent; a supervisor starts the flasher, then the new image).\n";
 
 /* A bad argument: one line on stderr, exit 2. */
-__attribute__((noreturn, format(printf, 1, 2))) static void die(const char *fmt, ...)
-{
-	va_list ap;
-
-	fputs("swell-ctl: ", stderr);
-	va_start(ap, fmt);
-	vfprintf(stderr, fmt, ap);
-	va_end(ap);
-	fputc('\n', stderr);
-	exit(2);
-}
-
-static long num(const char *opt, const char *v, long lo, long hi)
-{
-	long x;
-
-	if (swell_parse_long(v, 10, lo, hi, &x) < 0)
-		die("%s '%s' is not a whole number in [%ld, %ld]", opt, v, lo, hi);
-	return x;
-}
+#define die(...) swell_cli_die("swell-ctl", __VA_ARGS__)
 
 /* "X.Y.Z", each part 0..255, into v[3]; 0 on success. */
 static int parse_version(const char *s, uint8_t v[3])
@@ -102,16 +82,6 @@ static int parse_version(const char *s, uint8_t v[3])
 	v[1] = (uint8_t)b;
 	v[2] = (uint8_t)c;
 	return 0;
-}
-
-/* 1 when a is the option name, which takes a value: v, and there must be one. */
-static int is(const char *a, const char *name, const char *v)
-{
-	if (strcmp(a, name))
-		return 0;
-	if (!v)
-		die("this option needs a value: %s", a);
-	return 1;
 }
 
 /* The two links must not be one: the host link's telemetry sent into the device port, or one
@@ -239,10 +209,23 @@ int first_run_limits(struct swell_ctl *c, const struct opts *o)
 	return 0;
 }
 
+static int scene_opt(struct swell_cli *c, const char *opt, const char *v)
+{
+	(void)opt;
+	scene_start(c->ctx, v);
+	return 0;
+}
+
+static int version_opt(struct swell_cli *c, const char *opt, const char *v)
+{
+	if (parse_version(v, ((struct opts *)c->ctx)->cfg.fw_version))
+		return swell_cli_refuse(c, "%s must be X.Y.Z with each part 0..255, not %s", opt, v);
+	return 0;
+}
+
 void parse(int argc, char **argv, struct opts *o)
 {
 	enum swell_err e;
-	int k;
 
 	memset(o, 0, sizeof(*o));
 	o->device = "udp";
@@ -252,59 +235,34 @@ void parse(int argc, char **argv, struct opts *o)
 	swell_ctl_default_config(&o->cfg);
 	if (parse_version(SWELL_CTL_FW_VERSION, o->cfg.fw_version))
 		die("build version is not X.Y.Z: %s", SWELL_CTL_FW_VERSION);
-	for (k = 1; k < argc; k++) {
-		const char *a = argv[k], *v = k + 1 < argc ? argv[k + 1] : NULL;
+	const struct swell_cli_opt opts[] = {
+		SWELL_CLI_FLAG("--autorun", o->cfg.autorun),
+		SWELL_CLI_FLAG("--full-force", o->full_force),
+		SWELL_CLI_SET("--no-rt", o->rt, 0),
+		SWELL_CLI_FLAG("--quiet", o->quiet),
+		SWELL_CLI_STR("--device", o->device),
+		SWELL_CLI_STR("--host", o->host),
+		SWELL_CLI_HOOK("--scene", scene_opt, 1),
+		SWELL_CLI_CHOICE("--clock", o->device_clock, "internal|device"),
+		SWELL_CLI_WHOLE("--tick-hz", o->cfg.tick_hz, SWELL_TICK_HZ_MIN, SWELL_TICK_HZ_MAX, ""),
+		SWELL_CLI_WHOLE("--solver-hz", o->cfg.solver_hz, 1, SWELL_TICK_HZ_MAX, ""),
+		SWELL_CLI_WHOLE("--silent-ticks", o->cfg.silent_ticks, 1, 10000, ""),
+		SWELL_CLI_WHOLE("--host-budget", o->cfg.host_budget, 1, SWELL_CTL_QUEUE / 2.0, ""),
+		SWELL_CLI_WHOLE("--pool-max", o->pool_max, SWELL_WAVE_MIN_SIDE, SWELL_WAVE_MAX_SIDE, ""),
+		SWELL_CLI_WHOLE("--node", o->cfg.node, 0, SWELL_NODE_MAX, ""),
+		SWELL_CLI_HOOK("--fw-version", version_opt, 1),
+		SWELL_CLI_NUM_ABOVE("--seconds", o->seconds, 0, 1e7, "s"),
+	};
+	struct swell_cli cli = {
+		.prog = "swell-ctl", .usage = usage, .opt = opts, .n_opt = SWELL_CLI_N(opts), .ctx = o
+	};
+	const uint16_t silent0 = o->cfg.silent_ticks;
 
-		if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
-			fputs(usage, stdout);
-			exit(0);
-		} else if (!strcmp(a, "--autorun")) {
-			o->cfg.autorun = 1;
-		} else if (!strcmp(a, "--full-force")) {
-			o->full_force = 1;
-		} else if (!strcmp(a, "--no-rt")) {
-			o->rt = 0;
-		} else if (!strcmp(a, "--quiet")) {
-			o->quiet = 1;
-		} else if (strncmp(a, "--", 2)) {
-			die("unexpected argument (see --help): %s", a);
-		} else {
-			k++; /* an unknown option stops here anyway */
-			if (is(a, "--device", v))
-				o->device = v;
-			else if (is(a, "--host", v))
-				o->host = v;
-			else if (is(a, "--scene", v))
-				scene_start(o, v);
-			else if (is(a, "--clock", v)) {
-				if (strcmp(v, "internal") && strcmp(v, "device"))
-					die("--clock must be internal or device, not %s", v);
-				o->device_clock = !strcmp(v, "device");
-			} else if (is(a, "--tick-hz", v))
-				o->cfg.tick_hz = (uint32_t)num(a, v, SWELL_TICK_HZ_MIN, SWELL_TICK_HZ_MAX);
-			else if (is(a, "--solver-hz", v))
-				o->cfg.solver_hz = (uint32_t)num(a, v, 1, SWELL_TICK_HZ_MAX);
-			else if (is(a, "--silent-ticks", v)) {
-				o->cfg.silent_ticks = (uint16_t)num(a, v, 1, 10000);
-				o->silent_given = 1;
-			} else if (is(a, "--host-budget", v))
-				o->cfg.host_budget = (uint16_t)num(a, v, 1, SWELL_CTL_QUEUE / 2);
-			else if (is(a, "--pool-max", v))
-				o->pool_max = (uint16_t)num(a, v, SWELL_WAVE_MIN_SIDE, SWELL_WAVE_MAX_SIDE);
-			else if (is(a, "--node", v))
-				o->cfg.node = (uint8_t)num(a, v, 0, SWELL_NODE_MAX);
-			else if (is(a, "--fw-version", v)) {
-				if (parse_version(v, o->cfg.fw_version))
-					die("--fw-version must be X.Y.Z with each part 0..255, not %s", v);
-			} else if (is(a, "--seconds", v)) {
-				char *end;
-				o->seconds = strtod(v, &end);
-				if (*end || !(o->seconds > 0 && o->seconds < 1e7))
-					die("--seconds must be a positive number, not %s", v);
-			} else
-				die("unknown option (see --help): %s", a);
-		}
-	}
+	o->cfg.silent_ticks = 0; /* not given: --silent-ticks takes 1 and up */
+	swell_cli_parse(&cli, argc, argv);
+	o->silent_given = o->cfg.silent_ticks != 0;
+	if (!o->silent_given)
+		o->cfg.silent_ticks = silent0;
 	check_links(o);
 	/* the HapticMaster's TCP link sends its request when the tick's FORCE_CMD comes: one every tick */
 	o->cfg.cmd_every_tick = !strncmp(o->device, "hm:", 3);

@@ -12,6 +12,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include "swell/cli.h"
 #include "swell/link.h"
 #include "swell/param_table.h"
 #include "swell/transport.h"
@@ -505,7 +506,7 @@ int main(int argc, char **argv)
 	uint32_t id = SWELL_CAN_ID(SWELL_MSG_HEIGHT_QUAD, 5) | 0x400u;
 	unsigned node = 0, foreign = 5;
 	int restart_frame = 1;
-	int timeout_ms = 500, k, rc;
+	int timeout_ms = 500, rc;
 	long iface = 0;
 	struct swell_link_spec ls;
 	struct swell_link *l;
@@ -521,58 +522,22 @@ int main(int argc, char **argv)
 	spec = argv[2];
 	if (strcmp(cmd, "garbage") && strcmp(cmd, "flood") && strcmp(cmd, "params") && strcmp(cmd, "can-errors"))
 		die("unknown command ", cmd);
-	for (k = 3; k < argc; k += 2) {
-		const char *a = argv[k], *v = k + 1 < argc ? argv[k + 1] : NULL;
-		char *end = NULL;
+	const struct swell_cli_opt opts[] = {
+		SWELL_CLI_WHOLE("--count", count, 1, 100000000, ""),
+		SWELL_CLI_NUM("--rate", rate, 0, 1e6, "Hz"),
+		SWELL_CLI_WHOLE("--seed", rng_state, 0, 4294967295.0, ""),
+		SWELL_CLI_NUM_ABOVE("--seconds", seconds, 0, 3600, "s"),
+		SWELL_CLI_HEX("--id", id, 0, 0x7FF),
+		SWELL_CLI_WHOLE("--iface", iface, 0, 255, ""),
+		SWELL_CLI_WHOLE("--node", node, 0, SWELL_NODE_MAX, ""),
+		SWELL_CLI_WHOLE("--foreign-node", foreign, 1, SWELL_NODE_MAX, ""),
+		SWELL_CLI_CHOICE("--restart", restart_frame, "none|frame"),
+		SWELL_CLI_WHOLE("--timeout-ms", timeout_ms, 1, 60000, "ms"),
+	};
+	struct swell_cli cli = { .prog = "swell-inject", .usage = usage, .opt = opts, .n_opt = SWELL_CLI_N(opts) };
 
-		if (!v)
-			die("missing value for ", a);
-		errno = 0;
-		if (!strcmp(a, "--count")) {
-			count = strtol(v, &end, 10);
-			if (count < 1 || count > 100000000)
-				die("--count must be 1..1e8, not ", v);
-		} else if (!strcmp(a, "--rate")) {
-			rate = strtod(v, &end);
-			if (!(rate >= 0 && rate <= 1e6))
-				die("--rate must be 0..1e6 Hz, not ", v);
-		} else if (!strcmp(a, "--seed")) {
-			rng_state = (uint32_t)strtoul(v, &end, 10) | 1u;
-		} else if (!strcmp(a, "--seconds")) {
-			seconds = strtod(v, &end);
-			if (!(seconds > 0 && seconds <= 3600))
-				die("--seconds must be in (0, 3600], not ", v);
-		} else if (!strcmp(a, "--id")) {
-			id = (uint32_t)strtoul(v, &end, 16);
-			if (id > 0x7FF)
-				die("--id must be an 11-bit hex id, not ", v);
-		} else if (!strcmp(a, "--iface")) {
-			iface = strtol(v, &end, 10);
-			if (iface < 0 || iface > 255)
-				die("--iface must be 0..255, not ", v);
-		} else if (!strcmp(a, "--node")) {
-			node = (unsigned)strtoul(v, &end, 10);
-			if (node > SWELL_NODE_MAX)
-				die("--node must be 0..15, not ", v);
-		} else if (!strcmp(a, "--foreign-node")) {
-			foreign = (unsigned)strtoul(v, &end, 10);
-			if (foreign > SWELL_NODE_MAX || foreign == 0)
-				die("--foreign-node must be 1..15, not ", v);
-		} else if (!strcmp(a, "--restart")) {
-			if (strcmp(v, "frame") && strcmp(v, "none"))
-				die("--restart must be frame or none, not ", v);
-			restart_frame = !strcmp(v, "frame");
-			continue;
-		} else if (!strcmp(a, "--timeout-ms")) {
-			timeout_ms = (int)strtol(v, &end, 10);
-			if (timeout_ms < 1 || timeout_ms > 60000)
-				die("--timeout-ms must be 1..60000, not ", v);
-		} else {
-			die("unknown option ", a);
-		}
-		if (errno || !end || *end || !*v)
-			die("not a number: ", v);
-	}
+	swell_cli_parse(&cli, argc - 2, argv + 2); /* the options after COMMAND LINK */
+	rng_state |= 1u;
 	if (swell_link_spec_parse(spec, SWELL_LINK_ACCEPT_HOST_SIDE,
 				  !strcmp(cmd, "params") ? SWELL_UDP_PORT_VIEWER : SWELL_UDP_PORT_DEVICE, &ls, why,
 				  sizeof(why)))

@@ -1,13 +1,12 @@
 /* swell-hm's command line; see hm_main.h. */
 #include <arpa/inet.h>
-#include <errno.h>
 #include <math.h>
 #include <stdio.h>
-#include <stdlib.h>
 #include <string.h>
 
 #include "hm_main.h"
 #include "hm_serve.h"
+#include "swell/cli.h"
 #include "swell/link.h"
 #include "swell/pool.h"
 #include "swell/scene.h"
@@ -82,59 +81,6 @@ static const char usage[] =
 	"Exit status: 0 done, 1 a runtime failure (the link, the log, or no controller ever answered),\n"
 	"2 bad arguments (one line on stderr, nothing sent, no log written).\n";
 
-static void die(const char *fmt, const char *a, const char *b)
-{
-	fprintf(stderr, "swell-hm: ");
-	fprintf(stderr, fmt, a, b);
-	fputc('\n', stderr);
-	exit(2);
-}
-
-static double number(const char *opt, const char *v, double lo, double hi, const char *unit)
-{
-	char *end;
-	double x;
-
-	errno = 0;
-	x = strtod(v, &end);
-	if (errno || end == v || *end || !(x >= lo && x <= hi)) {
-		fprintf(stderr, "swell-hm: %s '%s' is not a number in [%g, %g]%s%s\n", opt, v, lo, hi, *unit ? " " : "",
-			unit);
-		exit(2);
-	}
-	return x;
-}
-
-static unsigned whole(const char *opt, const char *v, double lo, double hi, const char *unit)
-{
-	double x = number(opt, v, lo, hi, unit);
-
-	if (x != floor(x)) {
-		fprintf(stderr, "swell-hm: %s '%s' is not a whole number%s%s\n", opt, v, *unit ? " of " : "", unit);
-		exit(2);
-	}
-	return (unsigned)x;
-}
-
-/* "a,b[,c]": exactly n numbers in [lo, hi]. */
-static void numbers(const char *opt, const char *v, double *out, int n, double lo, double hi, const char *unit)
-{
-	const char *p = v;
-	char *end;
-	int k;
-
-	for (k = 0; k < n; k++) {
-		errno = 0;
-		out[k] = strtod(p, &end);
-		if (errno || end == p || !(out[k] >= lo && out[k] <= hi) || *end != (k + 1 < n ? ',' : '\0')) {
-			fprintf(stderr, "swell-hm: %s '%s' must be %d comma-separated numbers in [%g, %g] %s\n", opt, v,
-				n, lo, hi, unit);
-			exit(2);
-		}
-		p = end + 1;
-	}
-}
-
 /* Object and pool from a scene file: the defaults of the reference scene where it says nothing. */
 static void scene_object(struct opts *o, const char *path)
 {
@@ -145,7 +91,7 @@ static void scene_object(struct opts *o, const char *path)
 	int k;
 
 	if (swell_scene_load(path, &sc, err, sizeof(err)) < 0)
-		die("--scene %s%s", err, "");
+		swell_cli_die("swell-hm", "--scene %s", err);
 	if ((v = swell_scene_get(&sc, SWELL_PARAM_BODY_MASS_G)))
 		o->obj_mass_g = v->raw;
 	if ((v = swell_scene_get(&sc, SWELL_PARAM_BODY_A_UM)))
@@ -173,7 +119,8 @@ static void scene_object(struct opts *o, const char *path)
 
 		if (a[0] < 0 || a[0] > 2 || a[1] < 0 || a[1] > 2 || a[2] < 0 || a[2] > 2 || a[0] == a[1] ||
 		    a[0] == a[2] || a[1] == a[2])
-			die("--scene %s: frame.axes is not three different device axes 1..3%s", path, "");
+			swell_cli_die("swell-hm", "--scene %s: frame.axes is not three different device axes 1..3",
+				      path);
 		for (k = 0; k < 3; k++)
 			o->frame_axis[k] = a[k];
 	}
@@ -184,21 +131,118 @@ static void scene_object(struct opts *o, const char *path)
 	o->pool_mm[1] = ny * dx;
 }
 
-/* 1 for an option of this program that takes a value. */
-static int takes_value(const char *a)
+/* The options that need their own code: o is c->ctx. */
+static int link_opt(struct swell_cli *c, const char *opt, const char *v)
 {
-	static const char *const with_value[] = { "--bias-watchdog", "--bind-port",  "--damping",     "--effect-fresh",
-						  "--estop",         "--fmax",       "--hand",        "--host",
-						  "--iface",         "--inject",     "--limit",       "--link",
-						  "--log",           "--mass",       "--node",        "--object",
-						  "--pool",          "--port",       "--rate",        "--scene",
-						  "--seconds",       "--serve",      "--start",       "--timeout-ms",
-						  "--watchdog",      "--link-delay", "--sample-every" };
-	size_t k;
+	struct opts *o = c->ctx;
+	char why[160];
 
-	for (k = 0; k < sizeof(with_value) / sizeof(with_value[0]); k++)
-		if (!strcmp(a, with_value[k]))
-			return 1;
+	if (swell_link_spec_parse(v, SWELL_LINK_ACCEPT_HOST_SIDE, (uint16_t)o->port, &o->ls, why, sizeof(why)))
+		return swell_cli_refuse(c, "%s %s", opt, why);
+	o->link = v;
+	o->port = o->ls.port;
+	return 0;
+}
+
+/* --serve [ADDR:]PORT, the value optional */
+static int serve_opt(struct swell_cli *c, const char *opt, const char *v)
+{
+	struct sockaddr_in sa;
+	char why[160];
+
+	if (v && hm_serve_parse(v, &sa, why, sizeof(why)) < 0)
+		return swell_cli_refuse(c, "%s: %s", opt, why);
+	((struct opts *)c->ctx)->serve = v ? v : "127.0.0.1:7654";
+	return 0;
+}
+
+static int inject_opt(struct swell_cli *c, const char *opt, const char *v)
+{
+	struct opts *o = c->ctx;
+	struct inject j = { 0 };
+	char kind[16];
+	int used = 0;
+
+	if (o->n_inj >= 8)
+		return swell_cli_refuse(c, "%s: at most 8 injections", opt);
+	j.at_s = -1;
+	if (sscanf(v, "delay:at=%lf,for=%lf,ms=%lf%n", &j.at_s, &j.for_s, &j.ms, &used) == 3 && !v[used] &&
+	    j.for_s > 0 && j.ms > 0 && j.ms <= 10000)
+		j.kind = 'd';
+	else if (sscanf(v, "%15[a-z]:at=%lf%n", kind, &j.at_s, &used) == 2 && !v[used] &&
+		 (!strcmp(kind, "garbage") || !strcmp(kind, "reset") || !strcmp(kind, "stop")))
+		j.kind = kind[0];
+	if (!j.kind || !(j.at_s >= 0))
+		return swell_cli_refuse(
+			c,
+			"%s '%s' is not delay:at=S,for=S,ms=N (0 < N <= 10000), garbage:at=S, reset:at=S "
+			"or stop:at=S",
+			opt, v);
+	o->inj[o->n_inj++] = j;
+	return 0;
+}
+
+/* --limit: the same half-range on every axis, in metres */
+static int limit_opt(struct swell_cli *c, const char *opt, const char *v)
+{
+	struct opts *o = c->ctx;
+	double mm;
+
+	if (swell_cli_number(c, opt, v, 1, 300, "mm", &mm) < 0)
+		return -1;
+	o->p.limit_m[0] = o->p.limit_m[1] = o->p.limit_m[2] = mm * 1e-3;
+	return 0;
+}
+
+static int start_opt(struct swell_cli *c, const char *opt, const char *v)
+{
+	struct opts *o = c->ctx;
+
+	if (swell_cli_numbers(c, opt, v, 3, 3, -300, 300, "mm", o->start_mm) < 0)
+		return -1;
+	o->have_start = 1;
+	return 0;
+}
+
+static int estop_opt(struct swell_cli *c, const char *opt, const char *v)
+{
+	struct opts *o = c->ctx;
+	double ab[2];
+
+	if (swell_cli_numbers(c, opt, v, 2, 2, 0, 1e6, "s", ab) < 0)
+		return -1;
+	if (ab[1] <= ab[0])
+		return swell_cli_refuse(c, "%s A,B needs A < B, not '%s'", opt, v);
+	memcpy(o->estop_s, ab, sizeof(ab));
+	return 0;
+}
+
+static int hand_opt(struct swell_cli *c, const char *opt, const char *v)
+{
+	char why[160];
+
+	if (hm_hand_parse(v, &((struct opts *)c->ctx)->hand, why, sizeof(why)) != SWELL_OK)
+		return swell_cli_refuse(c, "%s: %s", opt, why);
+	return 0;
+}
+
+static int object_opt(struct swell_cli *c, const char *opt, const char *v)
+{
+	struct opts *o = c->ctx;
+	double ob[3];
+
+	if (swell_cli_numbers(c, opt, v, 3, 3, 1e-3, 1e6, "g, mm, mm", ob) < 0)
+		return -1;
+	o->obj_mass_g = ob[0];
+	o->obj_a_mm = ob[1];
+	o->obj_b_mm = ob[2];
+	return 0;
+}
+
+static int scene_opt(struct swell_cli *c, const char *opt, const char *v)
+{
+	(void)opt;
+	scene_object(c->ctx, v);
 	return 0;
 }
 
@@ -231,145 +275,58 @@ void parse(int argc, char **argv, struct opts *o)
 		o->frame_axis[k] = k;
 		o->frame_sign[k] = 1;
 	}
-	for (k = 1; k < argc; k++) {
-		const char *a = argv[k], *v = k + 1 < argc ? argv[k + 1] : NULL;
+	const struct swell_cli_opt opts[] = {
+		SWELL_CLI_FLAG("--lockstep", o->lockstep),
+		SWELL_CLI_FLAG("--quiet", o->quiet),
+		SWELL_CLI_FLAG("--uncalibrated", o->uncalibrated),
+		SWELL_CLI_FLAG("--rt", o->rt),
+		SWELL_CLI_HOOK("--serve", serve_opt, 2),
+		SWELL_CLI_HOOK("--link", link_opt, 1),
+		SWELL_CLI_IPV4("--host", o->host),
+		SWELL_CLI_WHOLE("--port", o->port, 1, 65535, ""),
+		SWELL_CLI_HOOK("--inject", inject_opt, 1),
+		SWELL_CLI_NUM("--effect-fresh", o->effect_fresh_ms, 0.1, 1000, "ms"),
+		SWELL_CLI_NUM("--link-delay", o->link_delay_ms, 0, 1000, "ms"),
+		SWELL_CLI_WHOLE("--sample-every", o->sample_every, 1, 255, "ticks"),
+		SWELL_CLI_WHOLE("--bias-watchdog", o->bias_watchdog_ms, 0, 60000, "ms"),
+		SWELL_CLI_WHOLE("--bind-port", o->bind_port, 0, 65535, ""),
+		SWELL_CLI_WHOLE("--node", o->node, 0, SWELL_NODE_MAX, ""),
+		SWELL_CLI_WHOLE("--iface", o->iface, 0, 255, ""),
+		SWELL_CLI_NUM("--rate", o->p.rate_hz, 100, 100000, "Hz"),
+		SWELL_CLI_WHOLE("--timeout-ms", o->timeout_ms, 1, 10000, "ms"),
+		SWELL_CLI_NUM("--seconds", o->seconds, 1e-3, 1e6, "s"),
+		SWELL_CLI_NUM("--mass", o->p.mass_kg, 0.01, 1000, "kg"),
+		SWELL_CLI_NUM("--damping", o->p.damping_Ns_m, 0, 10000, "N s/m"),
+		SWELL_CLI_HOOK("--limit", limit_opt, 1),
+		SWELL_CLI_NUM("--fmax", o->p.f_max_N, 1e-3, 250, "N"),
+		SWELL_CLI_WHOLE("--watchdog", o->p.watchdog_ticks, 1, 100000, "ticks"),
+		SWELL_CLI_HOOK("--start", start_opt, 1),
+		SWELL_CLI_HOOK("--estop", estop_opt, 1),
+		SWELL_CLI_HOOK("--hand", hand_opt, 1),
+		SWELL_CLI_HOOK("--object", object_opt, 1),
+		SWELL_CLI_LIST("--pool", o->pool_mm, 2, 1, 1e5, "mm"),
+		SWELL_CLI_HOOK("--scene", scene_opt, 1),
+		SWELL_CLI_STR("--log", o->log),
+	};
+	struct swell_cli cli = {
+		.prog = "swell-hm", .usage = usage, .opt = opts, .n_opt = SWELL_CLI_N(opts), .ctx = o
+	};
+	const uint32_t watchdog0 = o->p.watchdog_ticks;
 
-		if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
-			fputs(usage, stdout);
-			exit(0);
-		} else if (!strcmp(a, "--lockstep")) {
-			o->lockstep = 1;
-			continue;
-		} else if (!strcmp(a, "--quiet")) {
-			o->quiet = 1;
-			continue;
-		} else if (!strcmp(a, "--uncalibrated")) {
-			o->uncalibrated = 1;
-			continue;
-		} else if (!strcmp(a, "--rt")) {
-			o->rt = 1;
-			continue;
-		} else if (!strcmp(a, "--serve") && (k + 1 >= argc || !strncmp(argv[k + 1], "--", 2))) {
-			o->serve = "127.0.0.1:7654";
-			continue;
-		} else if (strncmp(a, "--", 2)) {
-			die("unexpected argument %s%s", a, "");
-		} else if (!v) {
-			die(takes_value(a) ? "%s needs a value%s" : "unknown option %s%s (see --help)", a, "");
-		}
-		k++;
-		if (!strcmp(a, "--link")) {
-			if (swell_link_spec_parse(v, SWELL_LINK_ACCEPT_HOST_SIDE, (uint16_t)o->port, &o->ls, why,
-						  sizeof(why)))
-				die("--link %s%s", why, "");
-			o->link = v;
-			o->port = o->ls.port;
-		} else if (!strcmp(a, "--host")) {
-			struct in_addr ia;
-
-			if (inet_pton(AF_INET, v, &ia) != 1)
-				die("--host '%s' is not a dotted IPv4 address%s", v, "");
-			o->host = v;
-		} else if (!strcmp(a, "--port"))
-			o->port = whole(a, v, 1, 65535, "");
-		else if (!strcmp(a, "--serve")) {
-			struct sockaddr_in sa;
-
-			if (hm_serve_parse(v, &sa, why, sizeof(why)) < 0)
-				die("--serve: %s%s", why, "");
-			o->serve = v;
-		} else if (!strcmp(a, "--inject")) {
-			struct inject *j = &o->inj[o->n_inj];
-			char kind[16];
-			int used = 0;
-
-			if (o->n_inj >= 8)
-				die("--inject: at most 8 injections%s%s", "", "");
-			memset(j, 0, sizeof(*j));
-			j->at_s = -1;
-			if (sscanf(v, "delay:at=%lf,for=%lf,ms=%lf%n", &j->at_s, &j->for_s, &j->ms, &used) == 3 &&
-			    !v[used] && j->for_s > 0 && j->ms > 0 && j->ms <= 10000)
-				j->kind = 'd';
-			else if (sscanf(v, "%15[a-z]:at=%lf%n", kind, &j->at_s, &used) == 2 && !v[used] &&
-				 (!strcmp(kind, "garbage") || !strcmp(kind, "reset") || !strcmp(kind, "stop")))
-				j->kind = kind[0];
-			if (!j->kind || !(j->at_s >= 0))
-				die("--inject '%s' is not delay:at=S,for=S,ms=N (0 < N <= 10000), garbage:at=S, "
-				    "reset:at=S "
-				    "or stop:at=S%s",
-				    v, "");
-			o->n_inj++;
-		} else if (!strcmp(a, "--effect-fresh"))
-			o->effect_fresh_ms = number(a, v, 0.1, 1000, "ms");
-		else if (!strcmp(a, "--link-delay"))
-			o->link_delay_ms = number(a, v, 0, 1000, "ms");
-		else if (!strcmp(a, "--sample-every"))
-			o->sample_every = whole(a, v, 1, 255, "ticks");
-		else if (!strcmp(a, "--bias-watchdog"))
-			o->bias_watchdog_ms = whole(a, v, 0, 60000, "ms");
-		else if (!strcmp(a, "--bind-port"))
-			o->bind_port = whole(a, v, 0, 65535, "");
-		else if (!strcmp(a, "--node"))
-			o->node = whole(a, v, 0, SWELL_NODE_MAX, "");
-		else if (!strcmp(a, "--iface"))
-			o->iface = whole(a, v, 0, 255, "");
-		else if (!strcmp(a, "--rate"))
-			o->p.rate_hz = number(a, v, 100, 100000, "Hz");
-		else if (!strcmp(a, "--timeout-ms"))
-			o->timeout_ms = whole(a, v, 1, 10000, "ms");
-		else if (!strcmp(a, "--seconds"))
-			o->seconds = number(a, v, 1e-3, 1e6, "s");
-		else if (!strcmp(a, "--mass"))
-			o->p.mass_kg = number(a, v, 0.01, 1000, "kg");
-		else if (!strcmp(a, "--damping"))
-			o->p.damping_Ns_m = number(a, v, 0, 10000, "N s/m");
-		else if (!strcmp(a, "--limit"))
-			o->p.limit_m[0] = o->p.limit_m[1] = o->p.limit_m[2] = number(a, v, 1, 300, "mm") * 1e-3;
-		else if (!strcmp(a, "--fmax"))
-			o->p.f_max_N = number(a, v, 1e-3, 250, "N");
-		else if (!strcmp(a, "--watchdog")) {
-			o->p.watchdog_ticks = whole(a, v, 1, 100000, "ticks");
-			o->watchdog_given = 1;
-		} else if (!strcmp(a, "--start")) {
-			numbers(a, v, o->start_mm, 3, -300, 300, "mm");
-			o->have_start = 1;
-		} else if (!strcmp(a, "--estop")) {
-			numbers(a, v, o->estop_s, 2, 0, 1e6, "s");
-			if (o->estop_s[1] <= o->estop_s[0])
-				die("--estop A,B needs A < B, not '%s'%s", v, "");
-		} else if (!strcmp(a, "--hand")) {
-			e = hm_hand_parse(v, &o->hand, why, sizeof(why));
-			if (e != SWELL_OK)
-				die("--hand: %s%s", why, "");
-		} else if (!strcmp(a, "--object")) {
-			double ob[3];
-
-			numbers(a, v, ob, 3, 1e-3, 1e6, "g, mm, mm");
-			o->obj_mass_g = ob[0];
-			o->obj_a_mm = ob[1];
-			o->obj_b_mm = ob[2];
-		} else if (!strcmp(a, "--pool")) {
-			numbers(a, v, o->pool_mm, 2, 1, 1e5, "mm");
-		} else if (!strcmp(a, "--scene")) {
-			scene_object(o, v);
-		} else if (!strcmp(a, "--log"))
-			o->log = v;
-		else
-			die("unknown option %s%s", a, "");
-	}
-	if (o->pool_mm[0] <= o->obj_a_mm || o->pool_mm[1] <= o->obj_b_mm) {
-		fprintf(stderr, "swell-hm: --pool %g,%g mm is not larger than the object's footprint %g x %g mm\n",
-			o->pool_mm[0], o->pool_mm[1], o->obj_a_mm, o->obj_b_mm);
-		exit(2);
-	}
+	o->p.watchdog_ticks = 0; /* not given: --watchdog takes 1 and up */
+	swell_cli_parse(&cli, argc, argv);
+	o->watchdog_given = o->p.watchdog_ticks != 0;
+	if (!o->watchdog_given)
+		o->p.watchdog_ticks = watchdog0;
+	if (o->pool_mm[0] <= o->obj_a_mm || o->pool_mm[1] <= o->obj_b_mm)
+		swell_cli_die("swell-hm", "--pool %g,%g mm is not larger than the object's footprint %g x %g mm",
+			      o->pool_mm[0], o->pool_mm[1], o->obj_a_mm, o->obj_b_mm);
 	e = hm_params_check(&o->p, o->hand.k_N_m, o->hand.b_Ns_m, why, sizeof(why));
 	if (e != SWELL_OK)
-		die("device parameters refused (%s): %s", swell_err_str(e), why);
+		swell_cli_die("swell-hm", "device parameters refused (%s): %s", swell_err_str(e), why);
 	if (o->have_start)
 		for (k = 0; k < 3; k++)
-			if (fabs(o->start_mm[k]) > o->p.limit_m[k] * 1e3) {
-				fprintf(stderr, "swell-hm: --start %.3f mm is outside the workspace (+-%.3f mm)\n",
-					o->start_mm[k], o->p.limit_m[k] * 1e3);
-				exit(2);
-			}
+			if (fabs(o->start_mm[k]) > o->p.limit_m[k] * 1e3)
+				swell_cli_die("swell-hm", "--start %.3f mm is outside the workspace (+-%.3f mm)",
+					      o->start_mm[k], o->p.limit_m[k] * 1e3);
 }

@@ -9,25 +9,23 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "swell/cli.h"
 #include "swell/link.h"
 #include "vm-util.h"
 
 #define PACKET 64u
 
-static void usage(FILE *to)
-{
-	fprintf(to,
-		"usage: swell-ffs-echo [--count N] DIR\n"
-		"Be the USB device of the hardware-in-the-loop VM: write the descriptors of one vendor\n"
-		"interface (class 0xFF, bulk OUT 0x01, bulk IN 0x81, %u-byte full-speed packets) to DIR/ep0\n"
-		"of a mounted FunctionFS instance, then send every packet received on OUT back on IN.\n"
-		"  --count N   exit after N packets echoed (default 0: until SIGTERM/SIGINT)\n"
-		"On exit prints the packets and bytes echoed. The gadget (VID/PID, UDC) is set up in\n"
-		"configfs by the caller (hil-tests/vm/vm-gadget).\n"
-		"Exit status: 0 done (N packets echoed, or SIGTERM/SIGINT), 1 the FunctionFS instance cannot be\n"
-		"opened or a transfer failed, 2 bad arguments.\n",
-		PACKET);
-}
+/* "64-byte": PACKET */
+static const char usage[] =
+	"usage: swell-ffs-echo [--count N] DIR\n"
+	"Be the USB device of the hardware-in-the-loop VM: write the descriptors of one vendor\n"
+	"interface (class 0xFF, bulk OUT 0x01, bulk IN 0x81, 64-byte full-speed packets) to DIR/ep0\n"
+	"of a mounted FunctionFS instance, then send every packet received on OUT back on IN.\n"
+	"  --count N   exit after N packets echoed (default 0: until SIGTERM/SIGINT)\n"
+	"On exit prints the packets and bytes echoed. The gadget (VID/PID, UDC) is set up in\n"
+	"configfs by the caller (hil-tests/vm/vm-gadget).\n"
+	"Exit status: 0 done (N packets echoed, or SIGTERM/SIGINT), 1 the FunctionFS instance cannot be\n"
+	"opened or a transfer failed, 2 bad arguments.\n";
 
 /* The link library's FunctionFS link: what swell-ctl's USB links are. A packet that finds every IN
  * slot in flight waits for one (a transfer's end wakes the poll); one received before an unplug is
@@ -60,26 +58,15 @@ int main(int argc, char **argv)
 	struct swell_frame f;
 	int pending = 0, rc;
 
-	for (int i = 1; i < argc; i++) {
-		if (!strcmp(argv[i], "-h") || !strcmp(argv[i], "--help")) {
-			usage(stdout);
-			return 0;
-		} else if (!strcmp(argv[i], "--count") && i + 1 < argc) {
-			char *end;
-			errno = 0;
-			count = strtoull(argv[++i], &end, 10);
-			if (errno || *end || argv[i][0] == '-') {
-				fprintf(stderr, "swell-ffs-echo: --count needs a number of packets, not '%s'\n",
-					argv[i]);
-				return 2;
-			}
-		} else if (argv[i][0] != '-' && !dir) {
-			dir = argv[i];
-		} else {
-			fprintf(stderr, "swell-ffs-echo: unexpected argument '%s' (see --help)\n", argv[i]);
-			return 2;
-		}
-	}
+	const struct swell_cli_opt opts[] = { SWELL_CLI_WHOLE("--count", count, 0, 1e18, "packets") };
+	struct swell_cli cli = { .prog = "swell-ffs-echo",
+				 .usage = usage,
+				 .opt = opts,
+				 .n_opt = SWELL_CLI_N(opts),
+				 .words = &dir,
+				 .max_words = 1 };
+
+	swell_cli_parse(&cli, argc, argv);
 	if (!dir) {
 		fprintf(stderr, "swell-ffs-echo: missing DIR, the FunctionFS mount point (see --help)\n");
 		return 2;

@@ -17,28 +17,21 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "swell/cli.h"
 #include "vm-util.h"
 
-static void usage(FILE *to)
-{
-	fprintf(to,
-		"usage: swell-vm-cantest up IFACE [--bitrate BIT_PER_S] [--restart-ms MS]\n"
-		"       swell-vm-cantest pair TX RX [--count N] [--window W] [--timeout-ms MS]\n"
-		"                                [--rtr-every K] [--rtr-dlc] [--dump]\n"
-		"up:   set IFACE's bitrate (default 1000000 bit/s) and bus-off auto-restart (default\n"
-		"      100 ms) through libsocketcan and start it; prints the bit timing the driver chose.\n"
-		"pair: send N numbered frames (default 1000; standard and extended ids, RTR, DLC 0..8) on TX\n"
-		"      with at most W frames in flight (default 8) and check that RX receives every one\n"
-		"      intact and in order within MS (default 1000 ms) each. Prints frames/s and exits\n"
-		"      non-zero if any frame is lost, corrupted or out of order. Every K-th frame\n"
-		"      (default 16, 0: none) is a remote request, with DLC 0 unless --rtr-dlc.\n"
-		"      --dump prints every received frame.\n");
-}
-
-static int parse_num(const char *opt, const char *s, long min, long max, long *out)
-{
-	return vm_parse_num("swell-vm-cantest", opt, s, 0, min, max, out);
-}
+static const char usage[] =
+	"usage: swell-vm-cantest up IFACE [--bitrate BIT_PER_S] [--restart-ms MS]\n"
+	"       swell-vm-cantest pair TX RX [--count N] [--window W] [--timeout-ms MS]\n"
+	"                                [--rtr-every K] [--rtr-dlc] [--dump]\n"
+	"up:   set IFACE's bitrate (default 1000000 bit/s) and bus-off auto-restart (default\n"
+	"      100 ms) through libsocketcan and start it; prints the bit timing the driver chose.\n"
+	"pair: send N numbered frames (default 1000; standard and extended ids, RTR, DLC 0..8) on TX\n"
+	"      with at most W frames in flight (default 8) and check that RX receives every one\n"
+	"      intact and in order within MS (default 1000 ms) each. Prints frames/s and exits\n"
+	"      non-zero if any frame is lost, corrupted or out of order. Every K-th frame\n"
+	"      (default 16, 0: none) is a remote request, with DLC 0 unless --rtr-dlc.\n"
+	"      --dump prints every received frame.\n";
 
 static const char *state_name(int state)
 {
@@ -58,21 +51,18 @@ static int cmd_up(int argc, char **argv)
 {
 	long bitrate = 1000000, restart_ms = 100;
 	const char *iface = NULL;
+	const struct swell_cli_opt opts[] = {
+		SWELL_CLI_WHOLE("--bitrate", bitrate, 10000, 1000000, "bit/s"),
+		SWELL_CLI_WHOLE("--restart-ms", restart_ms, 0, 60000, "ms"),
+	};
+	struct swell_cli cli = { .prog = "swell-vm-cantest",
+				 .usage = usage,
+				 .opt = opts,
+				 .n_opt = SWELL_CLI_N(opts),
+				 .words = &iface,
+				 .max_words = 1 };
 
-	for (int i = 0; i < argc; i++) {
-		if (!strcmp(argv[i], "--bitrate") && i + 1 < argc) {
-			if (parse_num("--bitrate", argv[++i], 10000, 1000000, &bitrate))
-				return 2;
-		} else if (!strcmp(argv[i], "--restart-ms") && i + 1 < argc) {
-			if (parse_num("--restart-ms", argv[++i], 0, 60000, &restart_ms))
-				return 2;
-		} else if (argv[i][0] != '-' && !iface) {
-			iface = argv[i];
-		} else {
-			fprintf(stderr, "swell-vm-cantest: up: unexpected argument '%s'\n", argv[i]);
-			return 2;
-		}
-	}
+	swell_cli_parse(&cli, argc, argv);
 	if (!iface) {
 		fprintf(stderr, "swell-vm-cantest: up: missing IFACE (e.g. can0)\n");
 		return 2;
@@ -183,34 +173,26 @@ static int cmd_pair(int argc, char **argv)
 {
 	long count = 1000, window = 8, timeout_ms = 1000;
 	int dump = 0;
-	const char *tx_if = NULL, *rx_if = NULL;
+	const char *ifs[2] = { NULL, NULL }; /* TX, RX */
+	const struct swell_cli_opt opts[] = {
+		SWELL_CLI_WHOLE("--count", count, 1, 100000000, ""),
+		SWELL_CLI_WHOLE("--window", window, 1, 64, "frames"),
+		SWELL_CLI_WHOLE("--timeout-ms", timeout_ms, 1, 600000, "ms"),
+		SWELL_CLI_WHOLE("--rtr-every", rtr_every, 0, 1000000, ""),
+		SWELL_CLI_FLAG("--rtr-dlc", rtr_dlc),
+		SWELL_CLI_FLAG("--dump", dump),
+	};
+	struct swell_cli cli = { .prog = "swell-vm-cantest",
+				 .usage = usage,
+				 .opt = opts,
+				 .n_opt = SWELL_CLI_N(opts),
+				 .words = ifs,
+				 .max_words = 2 };
+	const char *tx_if, *rx_if;
 
-	for (int i = 0; i < argc; i++) {
-		if (!strcmp(argv[i], "--count") && i + 1 < argc) {
-			if (parse_num("--count", argv[++i], 1, 100000000, &count))
-				return 2;
-		} else if (!strcmp(argv[i], "--window") && i + 1 < argc) {
-			if (parse_num("--window", argv[++i], 1, 64, &window))
-				return 2;
-		} else if (!strcmp(argv[i], "--timeout-ms") && i + 1 < argc) {
-			if (parse_num("--timeout-ms", argv[++i], 1, 600000, &timeout_ms))
-				return 2;
-		} else if (!strcmp(argv[i], "--rtr-every") && i + 1 < argc) {
-			if (parse_num("--rtr-every", argv[++i], 0, 1000000, &rtr_every))
-				return 2;
-		} else if (!strcmp(argv[i], "--rtr-dlc")) {
-			rtr_dlc = 1;
-		} else if (!strcmp(argv[i], "--dump")) {
-			dump = 1;
-		} else if (argv[i][0] != '-' && !tx_if) {
-			tx_if = argv[i];
-		} else if (argv[i][0] != '-' && !rx_if) {
-			rx_if = argv[i];
-		} else {
-			fprintf(stderr, "swell-vm-cantest: pair: unexpected argument '%s'\n", argv[i]);
-			return 2;
-		}
-	}
+	swell_cli_parse(&cli, argc, argv);
+	tx_if = ifs[0];
+	rx_if = ifs[1];
 	if (!tx_if || !rx_if) {
 		fprintf(stderr, "swell-vm-cantest: pair: needs TX and RX interfaces (e.g. can0 can1)\n");
 		return 2;
@@ -297,13 +279,13 @@ out:
 int main(int argc, char **argv)
 {
 	if (argc >= 2 && (!strcmp(argv[1], "-h") || !strcmp(argv[1], "--help"))) {
-		usage(stdout);
+		fputs(usage, stdout);
 		return 0;
 	}
 	if (argc >= 2 && !strcmp(argv[1], "up"))
-		return cmd_up(argc - 2, argv + 2);
+		return cmd_up(argc - 1, argv + 1);
 	if (argc >= 2 && !strcmp(argv[1], "pair"))
-		return cmd_pair(argc - 2, argv + 2);
+		return cmd_pair(argc - 1, argv + 1);
 	fprintf(stderr, "swell-vm-cantest: expected 'up' or 'pair' (see --help)\n");
 	return 2;
 }

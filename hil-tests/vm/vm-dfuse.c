@@ -22,6 +22,7 @@
 #include <unistd.h>
 
 #include "dfuse_target.h"
+#include "swell/cli.h"
 #include "vm-util.h"
 
 #define PROG "swell-vm-dfuse"
@@ -352,53 +353,32 @@ int main(int argc, char **argv)
 	int rt = 1;
 	struct dev d = { .bad_cell = -1, .ep0 = -1, .flash_fd = -1, .serial = "5357454C4C31", .dfu_requests = 0 };
 
-	for (int i = 1; i < argc; i++) {
-		const char *a = argv[i];
-		if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
-			usage(stdout);
-			return 0;
-		}
-		if (!strcmp(a, "--no-rt")) {
-			rt = 0;
-			continue;
-		}
-		if (i + 1 >= argc) {
-			fprintf(stderr, PROG ": unexpected argument '%s' or missing value (see --help)\n", a);
-			return 2;
-		}
-		const char *v = argv[++i];
-		if (!strcmp(a, "--flash")) {
-			flash_path = v;
-		} else if (!strcmp(a, "--log")) {
-			log_path = v;
-		} else if (!strcmp(a, "--gadgetfs")) {
-			gfs = v;
-		} else if (!strcmp(a, "--serial")) {
-			if (strlen(v) == 0 || strlen(v) > 60) {
-				fprintf(stderr, PROG ": --serial needs 1..60 characters\n");
-				return 2;
-			}
-			d.serial = v;
-		} else if (!strcmp(a, "--transfer-size")) {
-			if (vm_parse_num(PROG, a, v, 10, 1, GADGETFS_EP0_MAX, &xfer) != 0)
-				return 2;
-		} else if (!strcmp(a, "--bad-cell")) {
-			long addr;
-			if (vm_parse_num(PROG, a, v, 0, SWELL_DFUSE_FLASH_BASE,
-					 SWELL_DFUSE_FLASH_BASE + SWELL_DFUSE_FLASH_SIZE - 1, &addr) != 0)
-				return 2;
-			d.bad_cell = addr - (long)SWELL_DFUSE_FLASH_BASE;
-		} else if (!strcmp(a, "--poll-ms")) {
-			if (vm_parse_num(PROG, a, v, 10, 0, 10000, &poll_ms) != 0)
-				return 2;
-		} else if (!strcmp(a, "--leave-ms")) {
-			if (vm_parse_num(PROG, a, v, 10, 0, 10000, &leave_ms) != 0)
-				return 2;
-		} else {
-			fprintf(stderr, PROG ": unknown option '%s' (see --help)\n", a);
-			return 2;
-		}
+	long bad_addr = -1;
+	const struct swell_cli_opt opts[] = {
+		SWELL_CLI_SET("--no-rt", rt, 0),
+		SWELL_CLI_STR("--flash", flash_path),
+		SWELL_CLI_STR("--log", log_path),
+		SWELL_CLI_STR("--gadgetfs", gfs),
+		SWELL_CLI_STR("--serial", d.serial),
+		SWELL_CLI_WHOLE("--transfer-size", xfer, 1, GADGETFS_EP0_MAX, "bytes"),
+		SWELL_CLI_HEX("--bad-cell", bad_addr, SWELL_DFUSE_FLASH_BASE,
+			      SWELL_DFUSE_FLASH_BASE + SWELL_DFUSE_FLASH_SIZE - 1),
+		SWELL_CLI_WHOLE("--poll-ms", poll_ms, 0, 10000, "ms"),
+		SWELL_CLI_WHOLE("--leave-ms", leave_ms, 0, 10000, "ms"),
+	};
+	struct swell_cli cli = { .prog = PROG, .opt = opts, .n_opt = SWELL_CLI_N(opts) };
+	const int scanned = swell_cli_scan(&cli, argc, argv);
+
+	if (scanned > 0) {
+		usage(stdout);
+		return 0;
 	}
+	if (scanned < 0)
+		swell_cli_die(PROG, "%s", cli.why);
+	if (strlen(d.serial) == 0 || strlen(d.serial) > 60)
+		swell_cli_die(PROG, "--serial needs 1..60 characters");
+	if (bad_addr >= 0)
+		d.bad_cell = bad_addr - (long)SWELL_DFUSE_FLASH_BASE;
 	if (!flash_path) {
 		fprintf(stderr, PROG ": --flash FILE is required (see --help)\n");
 		return 2;

@@ -9,28 +9,21 @@
 #include <string.h>
 #include <time.h>
 
+#include "swell/cli.h"
 #include "vm-util.h"
 
 #define PACKET_MAX 64
 
-static void usage(FILE *to)
-{
-	fprintf(to,
-		"usage: swell-vm-usbtest [--vid HEX] [--pid HEX] [--count N] [--timeout-ms MS]\n"
-		"                        [--lengths fixed|vary] [--expect-ep-out HEX] [--expect-ep-in HEX]\n"
-		"Open USB device VID:PID (default 1209:0001) with libusb, claim its vendor interface\n"
-		"(class 0xFF) with one bulk OUT and one bulk IN endpoint, send N numbered packets\n"
-		"(default 1000; 64 bytes, or 1..64 bytes with --lengths vary) and check each comes back\n"
-		"intact and in order within MS (default 1000 ms). First checks that vendor control\n"
-		"requests to the interface are stalled. --expect-ep-* also checks the endpoint\n"
-		"addresses. Prints speed, endpoints, packets/s and round-trip times; exits non-zero on\n"
-		"any lost, short or corrupted packet.\n");
-}
-
-static int parse_num(const char *opt, const char *s, int base, long min, long max, long *out)
-{
-	return vm_parse_num("swell-vm-usbtest", opt, s, base, min, max, out);
-}
+static const char usage[] =
+	"usage: swell-vm-usbtest [--vid HEX] [--pid HEX] [--count N] [--timeout-ms MS]\n"
+	"                        [--lengths fixed|vary] [--expect-ep-out HEX] [--expect-ep-in HEX]\n"
+	"Open USB device VID:PID (default 1209:0001) with libusb, claim its vendor interface\n"
+	"(class 0xFF) with one bulk OUT and one bulk IN endpoint, send N numbered packets\n"
+	"(default 1000; 64 bytes, or 1..64 bytes with --lengths vary) and check each comes back\n"
+	"intact and in order within MS (default 1000 ms). First checks that vendor control\n"
+	"requests to the interface are stalled. --expect-ep-* also checks the endpoint\n"
+	"addresses. Prints speed, endpoints, packets/s and round-trip times; exits non-zero on\n"
+	"any lost, short or corrupted packet.\n";
 
 static const char *speed_name(int s)
 {
@@ -95,43 +88,18 @@ int main(int argc, char **argv)
 	long want_out = -1, want_in = -1;
 	int vary = 0;
 
-	for (int i = 1; i < argc; i++) {
-		const char *a = argv[i];
-		int more = i + 1 < argc;
-		if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
-			usage(stdout);
-			return 0;
-		} else if (!strcmp(a, "--vid") && more) {
-			if (parse_num(a, argv[++i], 16, 0, 0xFFFF, &vid))
-				return 2;
-		} else if (!strcmp(a, "--pid") && more) {
-			if (parse_num(a, argv[++i], 16, 0, 0xFFFF, &pid))
-				return 2;
-		} else if (!strcmp(a, "--count") && more) {
-			if (parse_num(a, argv[++i], 10, 1, 100000000, &count))
-				return 2;
-		} else if (!strcmp(a, "--timeout-ms") && more) {
-			if (parse_num(a, argv[++i], 10, 1, 600000, &timeout_ms))
-				return 2;
-		} else if (!strcmp(a, "--expect-ep-out") && more) {
-			if (parse_num(a, argv[++i], 16, 1, 0x0F, &want_out))
-				return 2;
-		} else if (!strcmp(a, "--expect-ep-in") && more) {
-			if (parse_num(a, argv[++i], 16, 0x81, 0x8F, &want_in))
-				return 2;
-		} else if (!strcmp(a, "--lengths") && more) {
-			i++;
-			if (!strcmp(argv[i], "vary")) {
-				vary = 1;
-			} else if (strcmp(argv[i], "fixed")) {
-				fprintf(stderr, "swell-vm-usbtest: --lengths is fixed or vary, not '%s'\n", argv[i]);
-				return 2;
-			}
-		} else {
-			fprintf(stderr, "swell-vm-usbtest: unexpected argument '%s' (see --help)\n", a);
-			return 2;
-		}
-	}
+	const struct swell_cli_opt opts[] = {
+		SWELL_CLI_HEX("--vid", vid, 0, 0xFFFF),
+		SWELL_CLI_HEX("--pid", pid, 0, 0xFFFF),
+		SWELL_CLI_WHOLE("--count", count, 1, 100000000, ""),
+		SWELL_CLI_WHOLE("--timeout-ms", timeout_ms, 1, 600000, "ms"),
+		SWELL_CLI_HEX("--expect-ep-out", want_out, 1, 0x0F),
+		SWELL_CLI_HEX("--expect-ep-in", want_in, 0x81, 0x8F),
+		SWELL_CLI_CHOICE("--lengths", vary, "fixed|vary"),
+	};
+	struct swell_cli cli = { .prog = "swell-vm-usbtest", .usage = usage, .opt = opts, .n_opt = SWELL_CLI_N(opts) };
+
+	swell_cli_parse(&cli, argc, argv);
 
 	libusb_context *ctx = NULL;
 	int r = libusb_init(&ctx);

@@ -8,34 +8,30 @@
 #include <string.h>
 #include <time.h>
 
+#include "swell/cli.h"
 #include "swell/link.h"
-#include "swell/num.h"
 #include "swell/transport.h"
 
-static void usage(FILE *f)
-{
-	fputs("usage: swell-linktest COMMAND [options]\n"
-	      "  can-pair TX RX [--count N] [--fd] [--bitrate BPS] [--record FILE]\n"
-	      "      send every message type on SocketCAN interface TX, receive and decode on RX\n"
-	      "      (both on one bus); check values and per-type sequence numbers\n"
-	      "  usb-echo [--vid HEX] [--pid HEX] [--iface N] [--count N] [--replug]\n"
-	      "      write packets to bulk OUT 0x01 of the device (default 1209:0001, interface 0),\n"
-	      "      expect each back unchanged on bulk IN 0x81; report round-trip times. With\n"
-	      "      --replug the device is expected to be unplugged and plugged in meanwhile: packets\n"
-	      "      lost while it is away are counted, and the link must reconnect and go on\n"
-	      "  udp-pair [--count N] [--record FILE]\n"
-	      "      the same check over two UDP links on 127.0.0.1, both directions\n"
-	      "  replay FILE [--fast]\n"
-	      "      decode a recording (at recorded speed, or as fast as possible with --fast)\n"
-	      "options:\n"
-	      "  --count N      frames to send, 1..10000000 (default 1000)\n"
-	      "  --fd           CAN FD frames (messages of one type batched up to 64 bytes)\n"
-	      "  --bitrate BPS  set the CAN bitrate first through libsocketcan (needs CAP_NET_ADMIN)\n"
-	      "  --record FILE  record every frame the receiving side gets\n"
-	      "  --timeout MS   receive timeout per frame in ms (default 1000)\n"
-	      "Exit status: 0 all frames correct, 1 a check failed, 2 bad arguments or no link.\n",
-	      f);
-}
+static const char usage[] = "usage: swell-linktest COMMAND [options]\n"
+			    "  can-pair TX RX [--count N] [--fd] [--bitrate BPS] [--record FILE]\n"
+			    "      send every message type on SocketCAN interface TX, receive and decode on RX\n"
+			    "      (both on one bus); check values and per-type sequence numbers\n"
+			    "  usb-echo [--vid HEX] [--pid HEX] [--iface N] [--count N] [--replug]\n"
+			    "      write packets to bulk OUT 0x01 of the device (default 1209:0001, interface 0),\n"
+			    "      expect each back unchanged on bulk IN 0x81; report round-trip times. With\n"
+			    "      --replug the device is expected to be unplugged and plugged in meanwhile: packets\n"
+			    "      lost while it is away are counted, and the link must reconnect and go on\n"
+			    "  udp-pair [--count N] [--record FILE]\n"
+			    "      the same check over two UDP links on 127.0.0.1, both directions\n"
+			    "  replay FILE [--fast]\n"
+			    "      decode a recording (at recorded speed, or as fast as possible with --fast)\n"
+			    "options:\n"
+			    "  --count N      frames to send, 1..10000000 (default 1000)\n"
+			    "  --fd           CAN FD frames (messages of one type batched up to 64 bytes)\n"
+			    "  --bitrate BPS  set the CAN bitrate first through libsocketcan (needs CAP_NET_ADMIN)\n"
+			    "  --record FILE  record every frame the receiving side gets\n"
+			    "  --timeout MS   receive timeout per frame in ms (default 1000)\n"
+			    "Exit status: 0 all frames correct, 1 a check failed, 2 bad arguments or no link.\n";
 
 struct opts {
 	unsigned long count;
@@ -413,62 +409,40 @@ static int cmd_replay(const char *path, const struct opts *o)
 
 int main(int argc, char **argv)
 {
+	const char *pos[3] = { NULL, NULL, NULL }; /* the command and its arguments */
 	struct opts o;
-	const char *pos[3] = { NULL, NULL, NULL };
-	int npos = 0, i;
 
 	memset(&o, 0, sizeof(o));
 	o.count = 1000;
 	o.timeout_ms = 1000;
 	swell_usb_opts_default(&o.usb);
 	if (argc < 2) {
-		usage(stderr);
+		fputs(usage, stderr);
 		return 2;
 	}
-	for (i = 1; i < argc; i++) {
-		const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
-		long x;
+	const struct swell_cli_opt opts[] = {
+		SWELL_CLI_FLAG("--fd", o.fd),
+		SWELL_CLI_FLAG("--fast", o.fast),
+		SWELL_CLI_FLAG("--replug", o.replug),
+		SWELL_CLI_WHOLE("--count", o.count, 1, 10000000, ""),
+		SWELL_CLI_WHOLE("--bitrate", o.bitrate, 10000, 8000000, "bit/s"),
+		SWELL_CLI_WHOLE("--timeout", o.timeout_ms, 1, 600000, "ms"),
+		SWELL_CLI_HEX("--vid", o.usb.vid, 0, 0xFFFF),
+		SWELL_CLI_HEX("--pid", o.usb.pid, 0, 0xFFFF),
+		SWELL_CLI_WHOLE("--iface", o.usb.iface, 0, 255, ""),
+		SWELL_CLI_STR("--record", o.record),
+	};
+	struct swell_cli cli = { .prog = "swell-linktest",
+				 .usage = usage,
+				 .opt = opts,
+				 .n_opt = SWELL_CLI_N(opts),
+				 .ctx = &o,
+				 .words = pos,
+				 .max_words = 3 };
+	int npos;
 
-		if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
-			usage(stdout);
-			return 0;
-		} else if (!strcmp(a, "--fd")) {
-			o.fd = 1;
-		} else if (!strcmp(a, "--fast")) {
-			o.fast = 1;
-		} else if (!strcmp(a, "--replug")) {
-			o.replug = 1;
-		} else if (a[0] == '-' && a[1] == '-') {
-			if (!v) {
-				fprintf(stderr, "swell-linktest: %s needs a value (see --help)\n", a);
-				return 2;
-			}
-			i++;
-			if (!strcmp(a, "--count") && !swell_parse_long(v, 10, 1, 10000000, &x)) {
-				o.count = (unsigned long)x;
-			} else if (!strcmp(a, "--bitrate") && !swell_parse_long(v, 10, 10000, 8000000, &x)) {
-				o.bitrate = (unsigned long)x;
-			} else if (!strcmp(a, "--timeout") && !swell_parse_long(v, 10, 1, 600000, &x)) {
-				o.timeout_ms = (int)x;
-			} else if (!strcmp(a, "--vid") && !swell_parse_long(v, 16, 0, 0xFFFF, &x)) {
-				o.usb.vid = (uint16_t)x;
-			} else if (!strcmp(a, "--pid") && !swell_parse_long(v, 16, 0, 0xFFFF, &x)) {
-				o.usb.pid = (uint16_t)x;
-			} else if (!strcmp(a, "--iface") && !swell_parse_long(v, 10, 0, 255, &x)) {
-				o.usb.iface = (int)x;
-			} else if (!strcmp(a, "--record")) {
-				o.record = v;
-			} else {
-				fprintf(stderr, "swell-linktest: bad option %s %s (see --help)\n", a, v);
-				return 2;
-			}
-		} else if (npos < 3) {
-			pos[npos++] = a;
-		} else {
-			fprintf(stderr, "swell-linktest: unexpected argument '%s' (see --help)\n", a);
-			return 2;
-		}
-	}
+	swell_cli_parse(&cli, argc, argv);
+	npos = cli.n_words;
 	if (!pos[0]) {
 		fprintf(stderr, "swell-linktest: no command given (see --help)\n");
 		return 2;

@@ -9,8 +9,8 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "swell/cli.h"
 #include "swell/link.h"
-#include "swell/num.h"
 #include "swell/param.h"
 #include "swell/scene.h"
 #include "swell/transport.h"
@@ -19,52 +19,49 @@
 #include "tool_session.h"
 #include "swell/param_text.h"
 
-static void usage(FILE *f)
-{
-	fputs("usage: swell-tool [--link SPEC] [--node N] [--timeout-ms MS] COMMAND [ARGS]\n"
-	      "The operator's console for a running controller (swell-ctl or the STM32F405 image), over its\n"
-	      "host link, as one of its clients (a viewer may run beside it).\n"
-	      "  --link SPEC      udp[:PORT] (default udp:47802, the clients' port of swell-ctl's host\n"
-	      "                   link, its listen=; kept alive with a heartbeat every second),\n"
-	      "                   can:IFACE, usb[:VID:PID]\n"
-	      "  --node N         the controller's node, 0..15 (default: the one controller heard)\n"
-	      "  --timeout-ms MS  how long to wait for the controller and for each answer, and the silence\n"
-	      "                   that means it is gone (default 1000; 600 at least)\n"
-	      "Commands:\n"
-	      "  status [--json]          state, last error, protocol and firmware version, counters, scene,\n"
-	      "                           object (size, mass, height, submersion, force)\n"
-	      "  get NAME                 one parameter, with its unit\n"
-	      "  set NAME VALUE[UNIT]     e.g. set body.mass 80g, set wave.damping 0.02, set body.h 4cm;\n"
-	      "                           prints the value now in force, or the controller's reason\n"
-	      "  params                   every parameter: value, unit, range, default, changeable now\n"
-	      "  arm                      force law off, device held (STOP; from a fault: CLEAR)\n"
-	      "  run | stop | clear       the commands RUN, STOP, CLEAR; each prints the answer and the\n"
-	      "                           state after it\n"
-	      "  estop                    software stop: autorun off and STOP at once (zero force within a\n"
-	      "                           tick); not the device's own e-stop\n"
-	      "  watch [--seconds S]      a live line at 10 Hz: state, object z and submersion, force,\n"
-	      "                           largest wave, link load (until SIGINT, or S seconds)\n"
-	      "  log FILE.csv [--seconds S]  S seconds (default 10) of telemetry at 100 Hz to a CSV file,\n"
-	      "                           with a progress line\n"
-	      "  scene load FILE.scene    a scene file as one change: another pool first (outside RUNNING, the\n"
-	      "                           controller restarts with it), then the parameters; a refused\n"
-	      "                           value puts back what was set and names the line\n"
-	      "  scene save FILE.scene    the scene in force, every parameter, to a file\n"
-	      "  check [--hm HOST[:PORT]] [--max-force N] [--max-rate N/S] [--max-rtt-ms MS]\n"
-	      "                           walk the chain before holding the handle, one line each with the fix:\n"
-	      "                           link, controller (version, state), device (heard, rate, status),\n"
-	      "                           round trip, frame (the handle over the pool), force limits (at most\n"
-	      "                           the first-run 2 N and 20 N/s unless given), e-stop, and with --hm the\n"
-	      "                           HapticMaster's own interface (read only): its e-stop and swell's\n"
-	      "                           effects left on it; exit 0 only when none fails\n"
-	      "  plot FILE.csv [--out FILE.png]  gnuplot PNG of a log: force, object bottom against the water\n"
-	      "                           under it, submersion (default FILE.png beside the CSV)\n"
-	      "Exit status: 0 done; 1 runtime failure (link, file); 2 bad arguments; 3 no controller heard;\n"
-	      "4 wrong node (another node heard, or several and no --node); 5 timeout (no answer, or the\n"
-	      "controller went silent); 6 refused (the controller's reason is printed; nothing changed); 7 check:\n"
-	      "a link of the chain failed.\n",
-	      f);
-}
+static const char usage[] =
+	"usage: swell-tool [--link SPEC] [--node N] [--timeout-ms MS] COMMAND [ARGS]\n"
+	"The operator's console for a running controller (swell-ctl or the STM32F405 image), over its\n"
+	"host link, as one of its clients (a viewer may run beside it).\n"
+	"  --link SPEC      udp[:PORT] (default udp:47802, the clients' port of swell-ctl's host\n"
+	"                   link, its listen=; kept alive with a heartbeat every second),\n"
+	"                   can:IFACE, usb[:VID:PID]\n"
+	"  --node N         the controller's node, 0..15 (default: the one controller heard)\n"
+	"  --timeout-ms MS  how long to wait for the controller and for each answer, and the silence\n"
+	"                   that means it is gone (default 1000; 600 at least)\n"
+	"Commands:\n"
+	"  status [--json]          state, last error, protocol and firmware version, counters, scene,\n"
+	"                           object (size, mass, height, submersion, force)\n"
+	"  get NAME                 one parameter, with its unit\n"
+	"  set NAME VALUE[UNIT]     e.g. set body.mass 80g, set wave.damping 0.02, set body.h 4cm;\n"
+	"                           prints the value now in force, or the controller's reason\n"
+	"  params                   every parameter: value, unit, range, default, changeable now\n"
+	"  arm                      force law off, device held (STOP; from a fault: CLEAR)\n"
+	"  run | stop | clear       the commands RUN, STOP, CLEAR; each prints the answer and the\n"
+	"                           state after it\n"
+	"  estop                    software stop: autorun off and STOP at once (zero force within a\n"
+	"                           tick); not the device's own e-stop\n"
+	"  watch [--seconds S]      a live line at 10 Hz: state, object z and submersion, force,\n"
+	"                           largest wave, link load (until SIGINT, or S seconds)\n"
+	"  log FILE.csv [--seconds S]  S seconds (default 10) of telemetry at 100 Hz to a CSV file,\n"
+	"                           with a progress line\n"
+	"  scene load FILE.scene    a scene file as one change: another pool first (outside RUNNING, the\n"
+	"                           controller restarts with it), then the parameters; a refused\n"
+	"                           value puts back what was set and names the line\n"
+	"  scene save FILE.scene    the scene in force, every parameter, to a file\n"
+	"  check [--hm HOST[:PORT]] [--max-force N] [--max-rate N/S] [--max-rtt-ms MS]\n"
+	"                           walk the chain before holding the handle, one line each with the fix:\n"
+	"                           link, controller (version, state), device (heard, rate, status),\n"
+	"                           round trip, frame (the handle over the pool), force limits (at most\n"
+	"                           the first-run 2 N and 20 N/s unless given), e-stop, and with --hm the\n"
+	"                           HapticMaster's own interface (read only): its e-stop and swell's\n"
+	"                           effects left on it; exit 0 only when none fails\n"
+	"  plot FILE.csv [--out FILE.png]  gnuplot PNG of a log: force, object bottom against the water\n"
+	"                           under it, submersion (default FILE.png beside the CSV)\n"
+	"Exit status: 0 done; 1 runtime failure (link, file); 2 bad arguments; 3 no controller heard;\n"
+	"4 wrong node (another node heard, or several and no --node); 5 timeout (no answer, or the\n"
+	"controller went silent); 6 refused (the controller's reason is printed; nothing changed); 7 check:\n"
+	"a link of the chain failed.\n";
 
 struct opts {
 	struct swell_client_spec spec;
@@ -94,11 +91,31 @@ static int bad(const char *fmt, const char *arg)
 	return TOOL_USAGE;
 }
 
+static int link_opt(struct swell_cli *c, const char *opt, const char *v)
+{
+	char why[160];
+
+	(void)opt;
+	if (swell_link_spec_parse(v, SWELL_LINK_ACCEPT_HOST_SIDE, SWELL_UDP_PORT_CLIENTS,
+				  &((struct opts *)c->ctx)->spec.link, why, sizeof(why)) < 0)
+		return swell_cli_refuse(c, "%s", why);
+	return 0;
+}
+
+/* The command and its words (a negative number among them is a word, not an option). */
+static int word(struct swell_cli *c, const char *w)
+{
+	struct opts *o = c->ctx;
+
+	if (o->argc == (int)(sizeof(o->argv) / sizeof(o->argv[0])))
+		return swell_cli_refuse(c, "too many words (swell-tool --help)");
+	o->argv[o->argc++] = (char *)w;
+	return 0;
+}
+
 static int parse_args(int argc, char **argv, struct opts *o)
 {
 	char err[160];
-	int k;
-	long v;
 
 	memset(o, 0, sizeof(o[0]));
 	o->timeout_ms = 1000;
@@ -107,67 +124,23 @@ static int parse_args(int argc, char **argv, struct opts *o)
 	if (swell_link_spec_parse("udp", SWELL_LINK_ACCEPT_HOST_SIDE, SWELL_UDP_PORT_CLIENTS, &o->spec.link, err,
 				  sizeof(err)) < 0)
 		return bad("%s", err);
-	for (k = 1; k < argc; k++) {
-		const char *a = argv[k], *val = k + 1 < argc ? argv[k + 1] : NULL;
+	const struct swell_cli_opt opts[] = {
+		SWELL_CLI_FLAG("--json", o->json),
+		SWELL_CLI_HOOK("--link", link_opt, 1),
+		SWELL_CLI_WHOLE("--node", o->spec.node, 0, SWELL_NODE_MAX, ""),
+		SWELL_CLI_WHOLE("--timeout-ms", o->timeout_ms, 1, 600000, "ms"),
+		SWELL_CLI_NUM_ABOVE("--seconds", o->seconds, 0, 86400, "s"),
+		SWELL_CLI_STR("--out", o->out),
+		SWELL_CLI_STR("--hm", o->hm),
+		SWELL_CLI_NUM_ABOVE("--max-force", o->max_force, 0, 1e6, "N"),
+		SWELL_CLI_NUM_ABOVE("--max-rate", o->max_rate, 0, 1e6, "N/s"),
+		SWELL_CLI_NUM_ABOVE("--max-rtt-ms", o->max_rtt_ms, 0, 1e6, "ms"),
+	};
+	struct swell_cli cli = {
+		.prog = "swell-tool", .usage = usage, .opt = opts, .n_opt = SWELL_CLI_N(opts), .ctx = o, .operand = word
+	};
 
-		if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
-			usage(stdout);
-			exit(0);
-		} else if (!strcmp(a, "--json")) {
-			o->json = 1;
-		} else if (a[0] == '-' && a[1] == '-' && !val) {
-			return bad("%s needs a value", a);
-		} else if (!strcmp(a, "--link")) {
-			if (swell_link_spec_parse(val, SWELL_LINK_ACCEPT_HOST_SIDE, SWELL_UDP_PORT_CLIENTS,
-						  &o->spec.link, err, sizeof(err)) < 0)
-				return bad("%s", err);
-			k++;
-		} else if (!strcmp(a, "--node")) {
-			if (swell_parse_long(val, 10, 0, SWELL_NODE_MAX, &v) < 0)
-				return bad("--node must be 0..15, not '%s'", val);
-			o->spec.node = (int)v;
-			k++;
-		} else if (!strcmp(a, "--timeout-ms")) {
-			if (swell_parse_long(val, 10, 1, 600000, &v) < 0)
-				return bad("--timeout-ms must be 1..600000, not '%s'", val);
-			o->timeout_ms = (int)v;
-			k++;
-		} else if (!strcmp(a, "--seconds")) {
-			char *end;
-
-			if (!val)
-				return bad("%s needs a value", a);
-			o->seconds = strtod(val, &end);
-			if (!*val || *end || !(o->seconds > 0 && o->seconds <= 86400))
-				return bad("--seconds must be in (0, 86400], not '%s'", val);
-			k++;
-		} else if (!strcmp(a, "--out")) {
-			o->out = val;
-			k++;
-		} else if (!strcmp(a, "--hm")) {
-			o->hm = val;
-			k++;
-		} else if (!strcmp(a, "--max-force") || !strcmp(a, "--max-rate") || !strcmp(a, "--max-rtt-ms")) {
-			char *end;
-			double x;
-
-			if (!val)
-				return bad("%s needs a value", a);
-			x = strtod(val, &end);
-			if (!*val || *end || !(x > 0 && x <= 1e6))
-				return bad("%s must be a number in (0, 1e6]", a);
-			*(!strcmp(a, "--max-force")          ? &o->max_force
-				  : !strcmp(a, "--max-rate") ? &o->max_rate
-							     : &o->max_rtt_ms) = x;
-			k++;
-		} else if (a[0] == '-' && a[1] && !(a[1] >= '0' && a[1] <= '9') && a[1] != '.') {
-			return bad("unknown option '%s'", a);
-		} else {
-			if (o->argc == (int)(sizeof(o->argv) / sizeof(o->argv[0])))
-				return bad("%s", "too many words");
-			o->argv[o->argc++] = argv[k];
-		}
-	}
+	swell_cli_parse(&cli, argc, argv);
 	if (o->argc == 0)
 		return bad("%s", "no command given");
 	return TOOL_OK;

@@ -8,8 +8,8 @@
 #include <time.h>
 
 #include "gen.h"
+#include "swell/cli.h"
 #include "swell/link.h"
-#include "swell/num.h"
 #include "swell/transport.h"
 
 static const char usage[] =
@@ -59,36 +59,15 @@ int main(int argc, char **argv)
 	const char *scene = "bump", *out = NULL;
 	long frames = 50, port = -1;
 
-	for (int i = 1; i < argc; i++) {
-		const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
-		if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
-			fputs(usage, stdout);
-			return 0;
-		}
-		if (!v) {
-			fprintf(stderr, "swell-view-gen: %s: unknown, or needs a value (see --help)\n", a);
-			return 2;
-		}
-		i++;
-		if (!strcmp(a, "--scene")) {
-			scene = v;
-		} else if (!strcmp(a, "--frames")) {
-			if (swell_parse_long(v, 10, 1, 1000000, &frames) < 0) {
-				fprintf(stderr, "swell-view-gen: --frames '%s' is not in 1..1000000\n", v);
-				return 2;
-			}
-		} else if (!strcmp(a, "--out")) {
-			out = v;
-		} else if (!strcmp(a, "--udp")) {
-			if (swell_parse_long(v, 10, 1, 65535, &port) < 0) {
-				fprintf(stderr, "swell-view-gen: --udp '%s' is not a port in 1..65535\n", v);
-				return 2;
-			}
-		} else {
-			fprintf(stderr, "swell-view-gen: unknown option '%s' (see --help)\n", a);
-			return 2;
-		}
-	}
+	const struct swell_cli_opt opts[] = {
+		SWELL_CLI_STR("--scene", scene),
+		SWELL_CLI_WHOLE("--frames", frames, 1, 1000000, ""),
+		SWELL_CLI_STR("--out", out),
+		SWELL_CLI_WHOLE("--udp", port, 1, 65535, ""),
+	};
+	struct swell_cli cli = { .prog = "swell-view-gen", .usage = usage, .opt = opts, .n_opt = SWELL_CLI_N(opts) };
+
+	swell_cli_parse(&cli, argc, argv);
 	if (!out == (port < 0)) {
 		fprintf(stderr, "swell-view-gen: give exactly one of --out FILE and --udp PORT (see --help)\n");
 		return 2;

@@ -1,10 +1,9 @@
 /* swell-view's command line; see view_main.h. */
-#include <errno.h>
 #include <math.h>
 #include <stdio.h>
-#include <stdlib.h>
 #include <string.h>
 
+#include "swell/cli.h"
 #include "swell/pool.h"
 #include "view_main.h"
 
@@ -55,24 +54,32 @@ static const char usage[] =
 	"C colour scale, G charts, V view (orbit, map), H HUD, Q or Esc quit.\n"
 	"Exit status: 0 done, 1 GL/window/file failure, 2 bad arguments.\n";
 
-static void bad(const char *fmt, const char *a)
+static int size_opt(struct swell_cli *c, const char *opt, const char *v)
 {
-	fprintf(stderr, "swell-view: ");
-	fprintf(stderr, fmt, a);
-	fprintf(stderr, " (see --help)\n");
-	exit(2);
+	struct opts *o = c->ctx;
+	int w, h;
+	char tail;
+
+	if (sscanf(v, "%dx%d%c", &w, &h, &tail) != 2 || w < 64 || h < 64 || w > 8192 || h > 8192)
+		return swell_cli_refuse(c, "%s '%s' is not WxH with sides in 64..8192 pixels (see --help)", opt, v);
+	o->ro.w = w;
+	o->ro.h = h;
+	return 0;
 }
 
-static double num(const char *opt, const char *v, double lo, double hi)
+static int object_opt(struct swell_cli *c, const char *opt, const char *v)
 {
-	char *end;
-	errno = 0;
-	double x = strtod(v, &end);
-	if (errno || *v == 0 || *end || !(x >= lo && x <= hi)) {
-		fprintf(stderr, "swell-view: %s '%s' is not a number in [%g, %g]\n", opt, v, lo, hi);
-		exit(2);
-	}
-	return x;
+	struct opts *o = c->ctx;
+	double x, y, z;
+	char tail;
+
+	if (sscanf(v, "%lfx%lfx%lf%c", &x, &y, &z, &tail) != 3 || !(x >= 1 && x <= 500) || !(y >= 1 && y <= 500) ||
+	    !(z >= 1 && z <= 500))
+		return swell_cli_refuse(c, "%s '%s' is not AxBxH in mm, each 1..500 (see --help)", opt, v);
+	o->obj_um[0] = (uint32_t)lround(x * 1000);
+	o->obj_um[1] = (uint32_t)lround(y * 1000);
+	o->obj_um[2] = (uint32_t)lround(z * 1000);
+	return 0;
 }
 
 void parse(int argc, char **argv, struct opts *o)
@@ -94,111 +101,40 @@ void parse(int argc, char **argv, struct opts *o)
 	o->ro.force_mm_per_N = 40;
 	o->ro.msaa = -1;
 	o->force_limit_N = 10; /* the controller's default f_max */
-	for (int k = 1; k < argc; k++) {
-		const char *a = argv[k];
-		const char *v = k + 1 < argc ? argv[k + 1] : NULL;
-#define NEED()                                      \
-	do {                                        \
-		if (!v)                             \
-			bad("%s needs a value", a); \
-		k++;                                \
-	} while (0)
-		if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
-			fputs(usage, stdout);
-			exit(0);
-		} else if (!strcmp(a, "--source")) {
-			NEED();
-			o->source = v;
-		} else if (!strcmp(a, "--faults")) {
-			NEED();
-			o->faults = v;
-		} else if (!strcmp(a, "--node")) {
-			NEED();
-			o->node = (int)num(a, v, 0, 15);
-		} else if (!strcmp(a, "--iface")) {
-			NEED();
-			o->iface = (int)num(a, v, 0, 255);
-		} else if (!strcmp(a, "--record")) {
-			NEED();
-			o->record = v;
-		} else if (!strcmp(a, "--headless")) {
-			o->headless = true;
-		} else if (!strcmp(a, "--steady")) {
-			o->steady = true;
-		} else if (!strcmp(a, "--size")) {
-			NEED();
-			int w, h;
-			char c;
-			if (sscanf(v, "%dx%d%c", &w, &h, &c) != 2 || w < 64 || h < 64 || w > 8192 || h > 8192)
-				bad("--size '%s' is not WxH with sides in 64..8192 pixels", v);
-			o->ro.w = w;
-			o->ro.h = h;
-		} else if (!strcmp(a, "--screenshot")) {
-			NEED();
-			o->shot = v;
-		} else if (!strcmp(a, "--after")) {
-			NEED();
-			o->after = (long)num(a, v, 1, 1e7);
-		} else if (!strcmp(a, "--frames")) {
-			NEED();
-			o->frames = (long)num(a, v, 1, 1e9);
-		} else if (!strcmp(a, "--view")) {
-			NEED();
-			if (!strcmp(v, "orbit"))
-				o->ro.view = RENDER_ORBIT;
-			else if (!strcmp(v, "top"))
-				o->ro.view = RENDER_TOP;
-			else if (!strcmp(v, "map"))
-				o->ro.view = RENDER_MAP;
-			else
-				bad("--view '%s' is not orbit, top or map", v);
-		} else if (!strcmp(a, "--charts")) {
-			o->charts = true;
-		} else if (!strcmp(a, "--timing")) {
-			o->timing = true;
-		} else if (!strcmp(a, "--csv")) {
-			NEED();
-			o->csv = v;
-		} else if (!strcmp(a, "--force-limit")) {
-			NEED();
-			o->force_limit_N = (float)num(a, v, 0.01, 250);
-		} else if (!strcmp(a, "--colour") || !strcmp(a, "--color")) {
-			o->ro.colour_scale = true;
-		} else if (!strcmp(a, "--range")) {
-			NEED();
-			o->ro.h_range_mm = (float)num(a, v, 0.01, 100);
-		} else if (!strcmp(a, "--zscale")) {
-			NEED();
-			o->ro.zscale = (float)num(a, v, 0.1, 100);
-		} else if (!strcmp(a, "--force-scale")) {
-			NEED();
-			o->ro.force_mm_per_N = (float)num(a, v, 0, 10000);
-		} else if (!strcmp(a, "--object")) {
-			NEED();
-			double x, y, z;
-			char c;
-			if (sscanf(v, "%lfx%lfx%lf%c", &x, &y, &z, &c) != 3 || !(x >= 1 && x <= 500) ||
-			    !(y >= 1 && y <= 500) || !(z >= 1 && z <= 500))
-				bad("--object '%s' is not AxBxH in mm, each 1..500", v);
-			o->obj_um[0] = (uint32_t)lround(x * 1000);
-			o->obj_um[1] = (uint32_t)lround(y * 1000);
-			o->obj_um[2] = (uint32_t)lround(z * 1000);
-		} else if (!strcmp(a, "--stale-ms")) {
-			NEED();
-			o->stale_ms = (uint32_t)num(a, v, 10, 60000);
-		} else if (!strcmp(a, "--msaa")) {
-			NEED();
-			o->ro.msaa = (int)num(a, v, 0, 16);
-		} else if (!strcmp(a, "--no-hud")) {
-			o->ro.hud = false;
-		} else if (!strcmp(a, "--fps")) {
-			NEED();
-			o->fps = num(a, v, 1, 1000);
-		} else {
-			bad("unknown option '%s'", a);
-		}
-#undef NEED
-	}
+	const struct swell_cli_opt opts[] = {
+		SWELL_CLI_STR("--source", o->source),
+		SWELL_CLI_STR("--faults", o->faults),
+		SWELL_CLI_WHOLE("--node", o->node, 0, 15, ""),
+		SWELL_CLI_WHOLE("--iface", o->iface, 0, 255, ""),
+		SWELL_CLI_STR("--record", o->record),
+		SWELL_CLI_FLAG("--headless", o->headless),
+		SWELL_CLI_FLAG("--steady", o->steady),
+		SWELL_CLI_HOOK("--size", size_opt, 1),
+		SWELL_CLI_STR("--screenshot", o->shot),
+		SWELL_CLI_WHOLE("--after", o->after, 1, 1e7, "frames"),
+		SWELL_CLI_WHOLE("--frames", o->frames, 1, 1e9, ""),
+		SWELL_CLI_CHOICE("--view", o->ro.view, "orbit|top|map"),
+		SWELL_CLI_FLAG("--charts", o->charts),
+		SWELL_CLI_FLAG("--timing", o->timing),
+		SWELL_CLI_STR("--csv", o->csv),
+		SWELL_CLI_NUM("--force-limit", o->force_limit_N, 0.01, 250, "N"),
+		SWELL_CLI_FLAG("--colour", o->ro.colour_scale),
+		SWELL_CLI_FLAG("--color", o->ro.colour_scale),
+		SWELL_CLI_NUM("--range", o->ro.h_range_mm, 0.01, 100, "mm"),
+		SWELL_CLI_NUM("--zscale", o->ro.zscale, 0.1, 100, ""),
+		SWELL_CLI_NUM("--force-scale", o->ro.force_mm_per_N, 0, 10000, "mm/N"),
+		SWELL_CLI_HOOK("--object", object_opt, 1),
+		SWELL_CLI_WHOLE("--stale-ms", o->stale_ms, 10, 60000, "ms"),
+		SWELL_CLI_WHOLE("--msaa", o->ro.msaa, 0, 16, ""),
+		SWELL_CLI_SET("--no-hud", o->ro.hud, false),
+		SWELL_CLI_NUM("--fps", o->fps, 1, 1000, ""),
+	};
+	struct swell_cli cli = {
+		.prog = "swell-view", .usage = usage, .opt = opts, .n_opt = SWELL_CLI_N(opts), .ctx = o
+	};
+
+	swell_cli_parse(&cli, argc, argv);
 	if (o->faults && strncmp(o->source, "pattern:", 8) != 0)
-		bad("--faults applies to pattern sources only, not '%s'", o->source);
+		swell_cli_die("swell-view", "--faults applies to pattern sources only, not '%s' (see --help)",
+			      o->source);
 }

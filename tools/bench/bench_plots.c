@@ -42,17 +42,16 @@ int write_plots(const struct opts *o)
 		"set xlabel 'steps'\n"
 		"set ylabel 'L-inf (mm)'\n"
 		"set multiplot layout 1,2\n"
-		"set key bottom right inside font ',8'\n"
-		"set title 'paper stencil'\n"
-		"plot for [i=1:words(impls)-1] 'error_steps.csv' index 0 using (strcol(1) eq word(impls,i) ? "
-		"$5 : 1/0):($6 > 1e-16 ? $6 : 1e-16) with linespoints pt i title word(impls,i), "
-		"'error_steps.csv' index 0 using (strcol(1) eq 'ef32' ? $5 : 1/0):($10 > 1e-16 ? $10 : "
-		"1/0) with lines dt 2 lc 'black' title 'discretisation (vs seiche)'\n"
-		"set title 'calibrated stencil'\n"
-		"plot for [i=1:words(impls)-1] 'error_steps.csv' index 1 using (strcol(1) eq word(impls,i) ? "
-		"$5 : 1/0):($6 > 1e-16 ? $6 : 1e-16) with linespoints pt i title word(impls,i), "
-		"'error_steps.csv' index 1 using (strcol(1) eq 'ef32' ? $5 : 1/0):($10 > 1e-16 ? $10 : "
-		"1/0) with lines dt 2 lc 'black' title 'discretisation (vs seiche)'\n"
+		"set key bottom right inside font ',8'\n");
+	for (k = 0; k < 2; k++) /* the paper stencil's, then the calibrated one's (index 0, 1) */
+		fprintf(fp,
+			"set title '%s stencil'\n"
+			"plot for [i=1:words(impls)-1] 'error_steps.csv' index %d using (strcol(1) eq word(impls,i) ? "
+			"$5 : 1/0):($6 > 1e-16 ? $6 : 1e-16) with linespoints pt i title word(impls,i), "
+			"'error_steps.csv' index %d using (strcol(1) eq 'ef32' ? $5 : 1/0):($10 > 1e-16 ? $10 : "
+			"1/0) with lines dt 2 lc 'black' title 'discretisation (vs seiche)'\n",
+			k ? "calibrated" : "paper", k, k);
+	fprintf(fp,
 		"unset multiplot\n"
 		"unset logscale\n"
 		"set key outside right\n"

@@ -5,6 +5,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "wave_priv.h"
+
 __extension__ typedef __int128 i128;
 
 enum rnd {
@@ -122,38 +124,30 @@ enum swell_err bench_field_init(struct bench_field *f, enum bench_impl impl, int
 	f->px = nx + 2;
 	n = (size_t)nx * ny;
 	np = (size_t)(nx + 2) * (ny + 2);
+	/* the wave forms' own words; ef16 its bytes a cell; the three-level kernels theirs a padded cell */
+	f->mem = calloc(impl == BENCH_EF32                  ? EF32_WORDS(nx, ny) * sizeof(int32_t)
+				: bench_impl_velocity(impl) ? SWELL_WAVE_WORDS(nx, ny) * sizeof(int32_t)
+							    : impl_info[impl].bytes * (impl == BENCH_EF16 ? n : np),
+			1);
+	if (!f->mem)
+		return SWELL_ESIZE;
 	switch (impl) {
 	case BENCH_EF32:
-		f->mem = calloc(EF32_WORDS(nx, ny), sizeof(int32_t));
-		if (!f->mem)
-			return SWELL_ESIZE;
 		err = ef32_init(&f->ef, (uint16_t)nx, (uint16_t)ny, f->mem, EF32_WORDS(nx, ny), &p);
-		if (err != SWELL_OK) {
-			free(f->mem);
-			return err;
-		}
-		set_coeffs(f, f->ef.e_eff, f->ef.q);
+		if (err == SWELL_OK)
+			set_coeffs(f, f->ef.e_eff, f->ef.q);
 		break;
 	case BENCH_VELOCITY:
 	case BENCH_VEL_REF:
 	case BENCH_VEL_FUSED:
-		f->mem = calloc(SWELL_WAVE_WORDS(nx, ny), sizeof(int32_t));
-		if (!f->mem)
-			return SWELL_ESIZE;
 		err = swell_wave_init(&f->w, (uint16_t)nx, (uint16_t)ny, f->mem, SWELL_WAVE_WORDS(nx, ny), &p);
 		if (err == SWELL_OK && impl != BENCH_VELOCITY)
 			err = swell_wave_set_kernel(&f->w,
 						    impl == BENCH_VEL_REF ? SWELL_KERNEL_REF : SWELL_KERNEL_FUSED);
-		if (err != SWELL_OK) {
-			free(f->mem);
-			return err;
-		}
-		set_coeffs(f, f->w.e_eff, f->w.q);
+		if (err == SWELL_OK)
+			set_coeffs(f, f->w.e_eff, f->w.q);
 		break;
 	case BENCH_EF16:
-		f->mem = calloc(1, 5 * n * sizeof(int16_t) + n * sizeof(int32_t));
-		if (!f->mem)
-			return SWELL_ESIZE;
 		f->v32 = f->mem;
 		f->h16 = (int16_t *)(f->v32 + n);
 		f->fe16 = f->h16 + n;
@@ -164,38 +158,30 @@ enum swell_err bench_field_init(struct bench_field *f, enum bench_impl impl, int
 	case BENCH_TL32_FLOOR:
 	case BENCH_TL32_RN:
 	case BENCH_TL32_RZ:
-		f->mem = calloc(3 * np, sizeof(int32_t));
-		if (!f->mem)
-			return SWELL_ESIZE;
 		f->h32 = f->mem;
 		f->hp32 = f->h32 + np;
 		f->hn32 = f->hp32 + np;
 		break;
 	case BENCH_TL16_RN:
-		f->mem = calloc(3 * np, sizeof(int16_t));
-		if (!f->mem)
-			return SWELL_ESIZE;
 		f->h16 = f->mem;
 		f->hp16 = f->h16 + np;
 		f->hn16 = f->hp16 + np;
 		break;
 	case BENCH_F32:
-		f->mem = calloc(3 * np, sizeof(float));
-		if (!f->mem)
-			return SWELL_ESIZE;
 		f->hf = f->mem;
 		f->hpf = f->hf + np;
 		f->hnf = f->hpf + np;
 		break;
 	case BENCH_F64:
 	default:
-		f->mem = calloc(3 * np, sizeof(double));
-		if (!f->mem)
-			return SWELL_ESIZE;
 		f->hd = f->mem;
 		f->hpd = f->hd + np;
 		f->hnd = f->hpd + np;
 		break;
+	}
+	if (err != SWELL_OK) {
+		free(f->mem);
+		return err;
 	}
 	if (!bench_impl_wave(impl)) {
 		/* the same quantised coefficients as wave.c */
@@ -238,19 +224,10 @@ enum swell_err bench_field_force(struct bench_field *f, q30_t e_eff, q30_t q)
 		return SWELL_ERANGE;
 	e_eff &= ~(q30_t)1;
 	set_coeffs(f, e_eff, q);
-	if (bench_impl_velocity(f->impl)) {
-		/* Bench-only: writes the solver's private coefficients to run it outside the validated
-		 * region. No controller code may do this; swell_wave_set_params refuses such values. */
-		int fr = 4;
-
-		f->w.e_eff = e_eff;
-		f->w.q = q;
-		/* its fraction bits, as wave.c chooses them (u is 0 here) */
-		while (fr > 0 && ((int64_t)e_eff << (fr + 1)) > INT32_MAX)
-			fr--;
-		f->w.vel_frac = (uint8_t)(q != SWELL_Q30_ONE ? 0 : fr);
-		memset(f->w.tile, 0, (size_t)f->w.tiles_x * f->w.tiles_y); /* wake every tile */
-	}
+	/* Bench-only: the solver's private coefficients, to run it outside the validated region. No
+	 * controller code may do this; swell_wave_set_params refuses such values. */
+	if (bench_impl_velocity(f->impl))
+		swell_wave_force_coeffs(&f->w, e_eff, q);
 	if (f->impl == BENCH_EF32)
 		ef32_force(&f->ef, e_eff, q);
 	f->e_eff_f = (float)f->e_eff;
@@ -613,67 +590,47 @@ static int two_w(const struct bench_field *f, int i, int j, int di, int dj)
 
 static const int edge_d[4][2] = { { 1, 0 }, { 0, 1 }, { 1, 1 }, { -1, 1 } };
 
-static double energy_fixed(const struct bench_field *f)
+/* E 2^31 = kin 2^31 + e_eff pot2, exact; one rounding to double at the end */
+static double energy_exact(const struct bench_field *f, i128 kin, i128 pot2)
 {
-	i128 kin = 0, pot2 = 0;
+	return (double)((kin << 31) + (i128)f->e_eff_q30 * pot2) / 2147483648.0;
+}
+
+double bench_field_energy(const struct bench_field *f)
+{
+	const int fixed = bench_impl_is_fixed(f->impl);
+	i128 kin = 0, pot2 = 0; /* fixed point: exact (the heights are whole LSB) */
+	long double kin_f = 0, pot2_f = 0; /* float */
 	int i, j, k;
 
 	if ((bench_impl_wave(f->impl)) && bench_field_max_abs_lsb(f) < (1 << 23) && f->nx * f->ny <= 65536) {
 		struct swell_energy en = f->impl == BENCH_EF32 ? ef32_energy(&f->ef) : swell_wave_energy(&f->w);
 
-		kin = en.kin;
-		pot2 = en.pot2;
-	} else {
-		for (j = 0; j < f->ny; j++) {
-			for (i = 0; i < f->nx; i++) {
-				int64_t v = (int64_t)cell_lsb(f, i, j, 0) - (int64_t)cell_lsb(f, i, j, 1);
-
-				kin += (i128)v * v;
-				for (k = 0; k < 4; k++) {
-					int bi = i + edge_d[k][0], bj = j + edge_d[k][1];
-					int64_t dn, dp;
-
-					if (bi < 0 || bi >= f->nx || bj >= f->ny)
-						continue;
-					dn = (int64_t)cell_lsb(f, bi, bj, 0) - (int64_t)cell_lsb(f, i, j, 0);
-					dp = (int64_t)cell_lsb(f, bi, bj, 1) - (int64_t)cell_lsb(f, i, j, 1);
-					pot2 += (i128)two_w(f, i, j, edge_d[k][0], edge_d[k][1]) * dn * dp;
-				}
-			}
-		}
+		return energy_exact(f, en.kin, en.pot2);
 	}
-	/* E 2^31 = kin 2^31 + e_eff pot2, exact; one rounding to double at the end */
-	return (double)((kin << 31) + (i128)f->e_eff_q30 * pot2) / 2147483648.0;
-}
-
-static double energy_float(const struct bench_field *f)
-{
-	long double kin = 0, pot2 = 0;
-	int i, j, k;
-
 	for (j = 0; j < f->ny; j++) {
 		for (i = 0; i < f->nx; i++) {
-			double v = cell_lsb(f, i, j, 0) - cell_lsb(f, i, j, 1);
+			const double v = cell_lsb(f, i, j, 0) - cell_lsb(f, i, j, 1);
 
-			kin += (long double)v * v;
+			kin += fixed ? (i128)(int64_t)v * (int64_t)v : 0;
+			kin_f += (long double)v * v;
 			for (k = 0; k < 4; k++) {
-				int bi = i + edge_d[k][0], bj = j + edge_d[k][1];
+				const int bi = i + edge_d[k][0], bj = j + edge_d[k][1];
 				double dn, dp;
 
 				if (bi < 0 || bi >= f->nx || bj >= f->ny)
 					continue;
 				dn = cell_lsb(f, bi, bj, 0) - cell_lsb(f, i, j, 0);
 				dp = cell_lsb(f, bi, bj, 1) - cell_lsb(f, i, j, 1);
-				pot2 += (long double)two_w(f, i, j, edge_d[k][0], edge_d[k][1]) * dn * dp;
+				if (fixed)
+					pot2 += (i128)two_w(f, i, j, edge_d[k][0], edge_d[k][1]) * (int64_t)dn *
+						(int64_t)dp;
+				else
+					pot2_f += (long double)two_w(f, i, j, edge_d[k][0], edge_d[k][1]) * dn * dp;
 			}
 		}
 	}
-	return (double)(kin + (long double)f->e_eff * pot2 / 2);
-}
-
-double bench_field_energy(const struct bench_field *f)
-{
-	return bench_impl_is_fixed(f->impl) ? energy_fixed(f) : energy_float(f);
+	return fixed ? energy_exact(f, kin, pot2) : (double)(kin_f + (long double)f->e_eff * pot2_f / 2);
 }
 
 double bench_field_max_abs_lsb(const struct bench_field *f)

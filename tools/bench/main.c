@@ -11,7 +11,7 @@
 #include <unistd.h>
 
 #include "bench.h"
-#include "swell/num.h"
+#include "swell/cli.h"
 
 static int failures;
 double f405_instr[BENCH_IMPL_COUNT];
@@ -97,74 +97,50 @@ void init_or_die(struct bench_field *f, enum bench_impl impl, int nx, double e, 
 
 /* ---- arguments -------------------------------------------------------------------------- */
 
-static void usage(FILE *fp)
+static const char usage[] = "usage: swell-bench [--quick | --full] [--out DIR] [options]\n"
+			    "Benchmarks the wave solver variants: host ns per cell-step against error (CSV + PNG),\n"
+			    "a stability map over (e, t) against the analytic limit e < (1+q)/(4q), and stress runs.\n"
+			    "  --quick            CI preset: 64x64, e in {0.05, 0.2, 0.45}, short runs (default)\n"
+			    "  --full             64, 128, 256; e in {0.05, 0.1, 0.2, 0.3, 0.45}; long stress runs\n"
+			    "  --out DIR          output directory (created; default bench-out)\n"
+			    "  --grids N,N,...    square grid sides (2..1024), overrides the preset\n"
+			    "  --e X,X,...        solver rates e (eq. 2), overrides the preset\n"
+			    "  --steps N          steps of each matrix error run\n"
+			    "  --reps N           timing repetitions (best of N)\n"
+			    "  --stress-cells X   cell-steps of each edge-of-stability run (e.g. 1e8)\n"
+			    "  --f405 FILE        'impl instructions-per-cell-step' lines from the STM32F405 image\n"
+			    "  --no-plots         CSV only\n"
+			    "  --replot           only redraw the PNGs from the CSV files already in --out\n"
+			    "  --help             this text\n"
+			    "Files: matrix.csv, error_steps.csv, stability.csv, boundary.csv, stress.csv, plots.gp,\n"
+			    "pareto.png, error_steps.png, stability.png. Exit 1 when a correctness check fails\n"
+			    "(never on time), 2 on bad arguments.\n";
+
+/* --grids: whole sides 2..1024 */
+static int grids_opt(struct swell_cli *c, const char *opt, const char *v)
 {
-	fprintf(fp,
-		"usage: swell-bench [--quick | --full] [--out DIR] [options]\n"
-		"Benchmarks the wave solver variants: host ns per cell-step against error (CSV + PNG),\n"
-		"a stability map over (e, t) against the analytic limit e < (1+q)/(4q), and stress runs.\n"
-		"  --quick            CI preset: 64x64, e in {0.05, 0.2, 0.45}, short runs (default)\n"
-		"  --full             64, 128, 256; e in {0.05, 0.1, 0.2, 0.3, 0.45}; long stress runs\n"
-		"  --out DIR          output directory (created; default bench-out)\n"
-		"  --grids N,N,...    square grid sides (2..1024), overrides the preset\n"
-		"  --e X,X,...        solver rates e (eq. 2), overrides the preset\n"
-		"  --steps N          steps of each matrix error run\n"
-		"  --reps N           timing repetitions (best of N)\n"
-		"  --stress-cells X   cell-steps of each edge-of-stability run (e.g. 1e8)\n"
-		"  --f405 FILE        'impl instructions-per-cell-step' lines from the STM32F405 image\n"
-		"  --no-plots         CSV only\n"
-		"  --replot           only redraw the PNGs from the CSV files already in --out\n"
-		"  --help             this text\n"
-		"Files: matrix.csv, error_steps.csv, stability.csv, boundary.csv, stress.csv, plots.gp,\n"
-		"pareto.png, error_steps.png, stability.png. Exit 1 when a correctness check fails\n"
-		"(never on time), 2 on bad arguments.\n");
+	struct opts *o = c->ctx;
+	double side[MAX_LIST];
+	int j, n = swell_cli_numbers(c, opt, v, 1, MAX_LIST, 2, 1024, "cells", side);
+
+	if (n < 0)
+		return -1;
+	for (j = 0; j < n; j++)
+		if (side[j] != (int)side[j])
+			return swell_cli_refuse(c, "%s '%s' is not whole numbers", opt, v);
+	for (j = 0; j < n; j++)
+		o->grids[j] = (int)side[j];
+	o->ngrids = n;
+	return 0;
 }
 
-static void bad(const char *fmt, const char *arg)
+static int e_opt(struct swell_cli *c, const char *opt, const char *v)
 {
-	fprintf(stderr, "swell-bench: ");
-	fprintf(stderr, fmt, arg);
-	fprintf(stderr, " (see --help)\n");
-	exit(2);
-}
+	struct opts *o = c->ctx;
+	const int n = swell_cli_numbers(c, opt, v, 1, MAX_LIST, 1e-6, 1.999, "", o->es);
 
-static long parse_long(const char *s, const char *what, long lo, long hi)
-{
-	long v;
-
-	if (swell_parse_long(s, 10, lo, hi, &v) < 0)
-		bad(what, s);
-	return v;
-}
-
-static double parse_double(const char *s, const char *what, double lo, double hi)
-{
-	char *end;
-	double v;
-
-	errno = 0;
-	v = strtod(s, &end);
-	if (errno || end == s || *end || !(v >= lo && v <= hi))
-		bad(what, s);
-	return v;
-}
-
-static int parse_list(const char *s, const char *what, double *out, double lo, double hi)
-{
-	char buf[256], *tok, *save = NULL;
-	int n = 0;
-
-	if (strlen(s) >= sizeof(buf))
-		bad(what, s);
-	strcpy(buf, s);
-	for (tok = strtok_r(buf, ",", &save); tok; tok = strtok_r(NULL, ",", &save)) {
-		if (n == MAX_LIST)
-			bad(what, s);
-		out[n++] = parse_double(tok, what, lo, hi);
-	}
-	if (!n)
-		bad(what, s);
-	return n;
+	o->nes = n < 0 ? o->nes : n;
+	return n < 0 ? -1 : 0;
 }
 
 /* Instructions per cell-step on the STM32F405 image: lines 'impl value', or the image's self-test
@@ -239,8 +215,8 @@ int main(int argc, char **argv)
 {
 	struct opts o;
 	struct stat st;
-	int k, full = 0, replot = 0;
-	double t0 = now_s(), list[MAX_LIST];
+	int k, full = 0, replot = 0, preset_given = 0;
+	double t0 = now_s();
 
 	memset(&o, 0, sizeof(o));
 	o.out = "bench-out";
@@ -249,51 +225,24 @@ int main(int argc, char **argv)
 		if (!strcmp(argv[k], "--full"))
 			full = 1;
 	preset(&o, full);
-	for (k = 1; k < argc; k++) {
-		const char *a = argv[k];
-		const char *v = k + 1 < argc ? argv[k + 1] : NULL;
+	const struct swell_cli_opt opts[] = {
+		SWELL_CLI_FLAG("--quick", preset_given), /* the preset is read above, before the others */
+		SWELL_CLI_FLAG("--full", preset_given),
+		SWELL_CLI_SET("--no-plots", o.plots, 0),
+		SWELL_CLI_FLAG("--replot", replot),
+		SWELL_CLI_STR("--out", o.out),
+		SWELL_CLI_HOOK("--grids", grids_opt, 1),
+		SWELL_CLI_HOOK("--e", e_opt, 1),
+		SWELL_CLI_WHOLE("--steps", o.steps, 20, 10000000, ""),
+		SWELL_CLI_WHOLE("--reps", o.reps, 1, 1000, ""),
+		SWELL_CLI_NUM("--stress-cells", o.stress_cells, 1e4, 1e12, ""),
+		SWELL_CLI_STR("--f405", o.f405),
+	};
+	struct swell_cli cli = {
+		.prog = "swell-bench", .usage = usage, .opt = opts, .n_opt = SWELL_CLI_N(opts), .ctx = &o
+	};
 
-		if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
-			usage(stdout);
-			return 0;
-		} else if (!strcmp(a, "--quick") || !strcmp(a, "--full")) {
-			continue;
-		} else if (!strcmp(a, "--no-plots")) {
-			o.plots = 0;
-			continue;
-		} else if (!strcmp(a, "--replot")) {
-			replot = 1;
-			continue;
-		}
-		if (strcmp(a, "--out") && strcmp(a, "--grids") && strcmp(a, "--e") && strcmp(a, "--steps") &&
-		    strcmp(a, "--reps") && strcmp(a, "--stress-cells") && strcmp(a, "--f405"))
-			bad("unknown option %s", a);
-		if (!v)
-			bad("option %s needs a value", a);
-		k++;
-		if (!strcmp(a, "--out")) {
-			o.out = v;
-		} else if (!strcmp(a, "--grids")) {
-			int j;
-
-			o.ngrids = parse_list(v, "bad --grids list '%s' (sides 2..1024)", list, 2, 1024);
-			for (j = 0; j < o.ngrids; j++) {
-				o.grids[j] = (int)list[j];
-				if (list[j] != o.grids[j])
-					bad("bad --grids list '%s' (whole numbers)", v);
-			}
-		} else if (!strcmp(a, "--e")) {
-			o.nes = parse_list(v, "bad --e list '%s' (each in (0, 2))", o.es, 1e-6, 1.999);
-		} else if (!strcmp(a, "--steps")) {
-			o.steps = parse_long(v, "bad --steps '%s' (20..10000000)", 20, 10000000);
-		} else if (!strcmp(a, "--reps")) {
-			o.reps = (int)parse_long(v, "bad --reps '%s' (1..1000)", 1, 1000);
-		} else if (!strcmp(a, "--stress-cells")) {
-			o.stress_cells = parse_double(v, "bad --stress-cells '%s' (1e4..1e12)", 1e4, 1e12);
-		} else if (!strcmp(a, "--f405")) {
-			o.f405 = v;
-		}
-	}
+	swell_cli_parse(&cli, argc, argv);
 	if (!replot && mkdir(o.out, 0777) != 0 && errno != EEXIST) {
 		fprintf(stderr, "swell-bench: cannot create %s: %s\n", o.out, strerror(errno));
 		return 2;

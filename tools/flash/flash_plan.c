@@ -14,16 +14,6 @@ const char *flash_backend_name(enum flash_backend b)
 	return (unsigned)b < FLASH_BACKEND_COUNT ? names[b] : "?";
 }
 
-int flash_backend_parse(const char *name)
-{
-	int i;
-
-	for (i = 0; i < FLASH_BACKEND_COUNT; i++)
-		if (!strcmp(name, names[i]))
-			return i;
-	return -1;
-}
-
 struct builder {
 	struct flash_plan *p;
 	struct flash_step *s;

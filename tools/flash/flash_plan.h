@@ -63,8 +63,6 @@ struct flash_plan {
 };
 
 const char *flash_backend_name(enum flash_backend b);
-/* The backend of a name ("dfu", "swd", "uart", "gdb"); -1 for anything else. */
-int flash_backend_parse(const char *name);
 
 /* Build the steps of o->backend into *p. 0, or -1 with a one-line reason in why (e.g. an
  * argument that does not fit, a BIN given to a GDB server that needs the ELF). */

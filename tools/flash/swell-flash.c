@@ -18,7 +18,7 @@
 #include "flash_boot.h"
 #include "flash_image.h"
 #include "flash_plan.h"
-#include "swell/num.h"
+#include "swell/cli.h"
 #include "swell/transport.h"
 
 #define MAX_FILE (16u * 1024u * 1024u)
@@ -72,7 +72,8 @@ static const char usage[] =
 
 struct cfg {
 	const char *image, *work_dir, *console, *expect_version;
-	int backend, dry_run, check_only, gdb_server_set, force;
+	int backend, dry_run, check_only, force;
+	int gdb_server; /* --gdb-server, -1: by --gdb-remote */
 	int boot, find; /* --enter-bootloader, --find given (find: also after boot, unless --no-find) */
 	struct swell_client_spec boot_link, find_link;
 	int node, iface; /* --node (-1: the one heard), --iface */
@@ -102,133 +103,82 @@ static double now_s(void)
 	return (double)t.tv_sec + (double)t.tv_nsec * 1e-9;
 }
 
-/* A host link of an option; exit 2 with the reason otherwise. */
-static void link_arg(const char *opt, const char *l, struct swell_client_spec *out)
+/* A host link of an option (--enter-bootloader, --find): o is c->ctx. */
+static int link_opt(struct swell_cli *c, const char *opt, const char *l)
 {
+	struct cfg *cf = c->ctx;
+	const int boot = !strcmp(opt, "--enter-bootloader");
 	char why[200];
 
-	if (swell_link_spec_parse(l, SWELL_LINK_ACCEPT_HOST_SIDE, SWELL_UDP_PORT_CLIENTS, &out->link, why, sizeof(why)))
-		die(2, "%s %s", opt, why);
+	if (swell_link_spec_parse(l, SWELL_LINK_ACCEPT_HOST_SIDE, SWELL_UDP_PORT_CLIENTS,
+				  boot ? &cf->boot_link.link : &cf->find_link.link, why, sizeof(why)))
+		return swell_cli_refuse(c, "%s %s", opt, why);
+	*(boot ? &cf->boot : &cf->find) = 1;
+	return 0;
 }
 
-static const char *need(int argc, char **argv, int *i)
+static int dfu_device_opt(struct swell_cli *c, const char *opt, const char *v)
 {
-	if (*i + 1 >= argc)
-		die(2, "%s needs a value (see --help)", argv[*i]);
-	return argv[++*i];
+	unsigned vid, pid;
+	char tail;
+
+	if (sscanf(v, "%4x:%4x%c", &vid, &pid, &tail) != 2)
+		return swell_cli_refuse(c, "%s '%s' is not VID:PID in hex", opt, v);
+	((struct cfg *)c->ctx)->o.dfu_device = v;
+	return 0;
+}
+
+/* The image, the one argument that is not an option. */
+static int image_arg(struct swell_cli *c, const char *a)
+{
+	struct cfg *cf = c->ctx;
+
+	if (cf->image)
+		return swell_cli_refuse(c, "more than one image given: '%s' and '%s'", cf->image, a);
+	cf->image = a;
+	return 0;
 }
 
 static void parse(int argc, char **argv, struct cfg *c)
 {
-	int i;
+	const struct swell_cli_opt opts[] = {
+		SWELL_CLI_CHOICE("--backend", c->backend, "dfu|swd|uart|gdb"),
+		SWELL_CLI_FLAG("--dry-run", c->dry_run),
+		SWELL_CLI_FLAG("--check-only", c->check_only),
+		SWELL_CLI_WHOLE("--mcu", c->mcu, 0, 0xFFFFFFFFu, ""),
+		SWELL_CLI_STR("--expect-version", c->expect_version),
+		SWELL_CLI_HOOK("--dfu-device", dfu_device_opt, 1),
+		SWELL_CLI_CHOICE("--swd-tool", c->o.swd_tool, "openocd|st-flash"),
+		SWELL_CLI_STR("--openocd-interface", c->o.openocd_interface),
+		SWELL_CLI_STR("--serial", c->o.serial),
+		SWELL_CLI_WHOLE("--baud", c->o.baud, 1200, 4000000, "bit/s"),
+		SWELL_CLI_STR("--gdb-remote", c->o.gdb_remote),
+		SWELL_CLI_CHOICE("--gdb-server", c->gdb_server, "openocd|qemu|bmp"),
+		SWELL_CLI_STR("--console", c->console),
+		SWELL_CLI_NUM_ABOVE("--console-timeout", c->console_timeout_s, 0, 600, "s"),
+		SWELL_CLI_HOOK("--enter-bootloader", link_opt, 1),
+		SWELL_CLI_HOOK("--find", link_opt, 1),
+		SWELL_CLI_WHOLE("--node", c->node, 0, 15, ""),
+		SWELL_CLI_WHOLE("--iface", c->iface, 0, 255, ""),
+		SWELL_CLI_NUM_ABOVE("--find-timeout", c->find_timeout_s, 0, 600, "s"),
+		SWELL_CLI_FLAG("--no-find", c->no_find),
+		SWELL_CLI_NUM("--dfu-wait", c->dfu_wait_s, 0, 60, "s"),
+		SWELL_CLI_FLAG("--force", c->force),
+		SWELL_CLI_STR("--work-dir", c->work_dir),
+	};
+	struct swell_cli cli = { .prog = "swell-flash",
+				 .usage = usage,
+				 .opt = opts,
+				 .n_opt = SWELL_CLI_N(opts),
+				 .ctx = c,
+				 .operand = image_arg };
 
-	for (i = 1; i < argc; i++) {
-		const char *a = argv[i];
-		char *end;
-
-		if (!strcmp(a, "--backend")) {
-			c->backend = flash_backend_parse(need(argc, argv, &i));
-			if (c->backend < 0)
-				die(2, "unknown backend '%s' (dfu, swd, uart or gdb)", argv[i]);
-		} else if (!strcmp(a, "--dry-run")) {
-			c->dry_run = 1;
-		} else if (!strcmp(a, "--check-only")) {
-			c->check_only = 1;
-		} else if (!strcmp(a, "--mcu")) {
-			c->mcu = strtoul(need(argc, argv, &i), &end, 0);
-			if (*end || !*argv[i] || c->mcu > 0xFFFFFFFFul)
-				die(2, "--mcu '%s' is not a number", argv[i]);
-		} else if (!strcmp(a, "--expect-version")) {
-			c->expect_version = need(argc, argv, &i);
-		} else if (!strcmp(a, "--dfu-device")) {
-			unsigned v, p;
-			char tail;
-
-			c->o.dfu_device = need(argc, argv, &i);
-			if (sscanf(c->o.dfu_device, "%4x:%4x%c", &v, &p, &tail) != 2)
-				die(2, "--dfu-device '%s' is not VID:PID in hex", c->o.dfu_device);
-		} else if (!strcmp(a, "--swd-tool")) {
-			const char *t = need(argc, argv, &i);
-
-			if (!strcmp(t, "openocd"))
-				c->o.swd_tool = FLASH_SWD_OPENOCD;
-			else if (!strcmp(t, "st-flash"))
-				c->o.swd_tool = FLASH_SWD_STFLASH;
-			else
-				die(2, "unknown --swd-tool '%s' (openocd or st-flash)", t);
-		} else if (!strcmp(a, "--openocd-interface")) {
-			c->o.openocd_interface = need(argc, argv, &i);
-		} else if (!strcmp(a, "--serial")) {
-			c->o.serial = need(argc, argv, &i);
-		} else if (!strcmp(a, "--baud")) {
-			long b;
-
-			if (swell_parse_long(need(argc, argv, &i), 10, 1200, 4000000, &b) < 0)
-				die(2, "--baud '%s' is not a rate in 1200..4000000 bit/s", argv[i]);
-			c->o.baud = (unsigned)b;
-		} else if (!strcmp(a, "--gdb-remote")) {
-			c->o.gdb_remote = need(argc, argv, &i);
-		} else if (!strcmp(a, "--gdb-server")) {
-			const char *s = need(argc, argv, &i);
-
-			if (!strcmp(s, "openocd"))
-				c->o.gdb_server = FLASH_GDB_OPENOCD;
-			else if (!strcmp(s, "qemu"))
-				c->o.gdb_server = FLASH_GDB_QEMU;
-			else if (!strcmp(s, "bmp"))
-				c->o.gdb_server = FLASH_GDB_BMP;
-			else
-				die(2, "unknown --gdb-server '%s' (openocd, qemu or bmp)", s);
-			c->gdb_server_set = 1;
-		} else if (!strcmp(a, "--console")) {
-			c->console = need(argc, argv, &i);
-		} else if (!strcmp(a, "--console-timeout")) {
-			c->console_timeout_s = strtod(need(argc, argv, &i), &end);
-			if (*end || !(c->console_timeout_s > 0 && c->console_timeout_s <= 600))
-				die(2, "--console-timeout '%s' is not a time in (0, 600] s", argv[i]);
-		} else if (!strcmp(a, "--enter-bootloader")) {
-			link_arg(a, need(argc, argv, &i), &c->boot_link);
-			c->boot = 1;
-		} else if (!strcmp(a, "--find")) {
-			link_arg(a, need(argc, argv, &i), &c->find_link);
-			c->find = 1;
-		} else if (!strcmp(a, "--node")) {
-			long n;
-
-			if (swell_parse_long(need(argc, argv, &i), 10, 0, 15, &n) < 0)
-				die(2, "--node '%s' is not a node id in 0..15", argv[i]);
-			c->node = (int)n;
-		} else if (!strcmp(a, "--iface")) {
-			long n;
-
-			if (swell_parse_long(need(argc, argv, &i), 10, 0, 255, &n) < 0)
-				die(2, "--iface '%s' is not a USB interface number in 0..255", argv[i]);
-			c->iface = (int)n;
-		} else if (!strcmp(a, "--find-timeout")) {
-			c->find_timeout_s = strtod(need(argc, argv, &i), &end);
-			if (*end || !(c->find_timeout_s > 0 && c->find_timeout_s <= 600))
-				die(2, "--find-timeout '%s' is not a time in (0, 600] s", argv[i]);
-		} else if (!strcmp(a, "--no-find")) {
-			c->no_find = 1;
-		} else if (!strcmp(a, "--dfu-wait")) {
-			c->dfu_wait_s = strtod(need(argc, argv, &i), &end);
-			if (*end || !(c->dfu_wait_s >= 0 && c->dfu_wait_s <= 60))
-				die(2, "--dfu-wait '%s' is not a time in [0, 60] s", argv[i]);
-		} else if (!strcmp(a, "--force")) {
-			c->force = 1;
-		} else if (!strcmp(a, "--work-dir")) {
-			c->work_dir = need(argc, argv, &i);
-		} else if (a[0] == '-' && a[1]) {
-			die(2, "unknown option '%s' (see --help)", a);
-		} else if (!c->image) {
-			c->image = a;
-		} else {
-			die(2, "more than one image given: '%s' and '%s'", c->image, a);
-		}
-	}
+	swell_cli_parse(&cli, argc, argv);
 	if (!c->image)
 		die(2, "no image given (see --help)");
-	if (!c->gdb_server_set && !strncmp(c->o.gdb_remote, "/dev/", 5))
+	if (c->gdb_server >= 0)
+		c->o.gdb_server = (enum flash_gdb_server)c->gdb_server;
+	else if (!strncmp(c->o.gdb_remote, "/dev/", 5))
 		c->o.gdb_server = FLASH_GDB_BMP;
 }
 
@@ -521,7 +471,7 @@ int main(int argc, char **argv)
 			fputs(usage, stdout);
 			return 0;
 		}
-	c.backend = -1;
+	c.backend = c.gdb_server = -1;
 	c.mcu = SWELL_FWIMAGE_MCU_STM32F405;
 	c.console_timeout_s = 10;
 	c.find_timeout_s = 10;

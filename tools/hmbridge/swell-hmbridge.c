@@ -18,7 +18,6 @@
  * are removed on the tick the set is older than --effect-fresh, the command is disabled, or the
  * watchdog zeroes the force, and on exit. */
 #define _GNU_SOURCE
-#include <arpa/inet.h>
 #include <errno.h>
 #include <math.h>
 #include <sched.h>
@@ -31,6 +30,7 @@
 
 #include "hm_client.h"
 #include "hm_fx.h"
+#include "swell/cli.h"
 #include "swell/link.h"
 #include "swell/param_table.h"
 #include "swell/pool.h"
@@ -78,33 +78,20 @@ struct opts {
 	int rt, quiet;
 };
 
-static void bad(const char *fmt, const char *a)
+static int link_opt(struct swell_cli *c, const char *opt, const char *v)
 {
-	fprintf(stderr, "swell-hmbridge: ");
-	fprintf(stderr, fmt, a);
-	fputc('\n', stderr);
-	exit(2);
-}
+	struct opts *o = c->ctx;
+	char why[200];
 
-static double number(const char *opt, const char *v, double lo, double hi, int whole)
-{
-	char *end;
-	double x;
-
-	errno = 0;
-	x = strtod(v, &end);
-	if (errno || end == v || *end || !(x >= lo && x <= hi) || (whole && x != floor(x))) {
-		fprintf(stderr, "swell-hmbridge: %s '%s' is not a %s in [%g, %g]\n", opt, v,
-			whole ? "whole number" : "number", lo, hi);
-		exit(2);
-	}
-	return x;
+	if (swell_link_spec_parse(v, SWELL_LINK_ACCEPT_HOST_SIDE, (uint16_t)o->port, &o->ls, why, sizeof(why)))
+		return swell_cli_refuse(c, "%s %s", opt, why);
+	o->link = v;
+	o->port = o->ls.port;
+	return 0;
 }
 
 static void parse(int argc, char **argv, struct opts *o)
 {
-	int k;
-
 	memset(o, 0, sizeof(*o));
 	o->link = "udp";
 	o->host = SWELL_UDP_HOST;
@@ -113,65 +100,31 @@ static void parse(int argc, char **argv, struct opts *o)
 	o->inertia_kg = SWELL_PARAM_DEF_HM_INERTIA / 1000.0;
 	o->watchdog = 2;
 	o->fresh_ms = 10.0;
-	for (k = 1; k < argc; k++) {
-		const char *a = argv[k], *v = k + 1 < argc ? argv[k + 1] : NULL;
+	const struct swell_cli_opt opts[] = {
+		SWELL_CLI_FLAG("--rt", o->rt),
+		SWELL_CLI_FLAG("--quiet", o->quiet),
+		SWELL_CLI_STR("--hm", o->hm),
+		SWELL_CLI_HOOK("--link", link_opt, 1),
+		SWELL_CLI_IPV4("--host", o->host),
+		SWELL_CLI_WHOLE("--port", o->port, 1, 65535, ""),
+		SWELL_CLI_WHOLE("--bind-port", o->bind_port, 0, 65535, ""),
+		SWELL_CLI_WHOLE("--iface", o->iface, 0, 255, ""),
+		SWELL_CLI_WHOLE("--node", o->node, 0, SWELL_NODE_MAX, ""),
+		SWELL_CLI_NUM("--inertia", o->inertia_kg, 0, 100, "kg"),
+		SWELL_CLI_NUM("--rate", o->rate_hz, 100, 10000, "Hz"),
+		SWELL_CLI_WHOLE("--watchdog", o->watchdog, 1, 1000, "ticks"),
+		SWELL_CLI_NUM("--effect-fresh", o->fresh_ms, 0.1, 1000, "ms"),
+		SWELL_CLI_NUM("--seconds", o->seconds, 1e-3, 1e7, "s"),
+	};
+	struct swell_cli cli = {
+		.prog = "swell-hmbridge", .usage = usage, .opt = opts, .n_opt = SWELL_CLI_N(opts), .ctx = o
+	};
 
-		if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
-			fputs(usage, stdout);
-			exit(0);
-		} else if (!strcmp(a, "--rt")) {
-			o->rt = 1;
-			continue;
-		} else if (!strcmp(a, "--quiet")) {
-			o->quiet = 1;
-			continue;
-		} else if (strncmp(a, "--", 2)) {
-			bad("unexpected argument %s", a);
-		} else if (!v) {
-			bad("missing value or unknown option %s", a);
-		}
-		k++;
-		if (!strcmp(a, "--hm")) {
-			if (!*v)
-				bad("--hm needs HOST[:PORT], not an empty word%s", "");
-			o->hm = v;
-		} else if (!strcmp(a, "--link")) {
-			char why[200];
-
-			if (swell_link_spec_parse(v, SWELL_LINK_ACCEPT_HOST_SIDE, (uint16_t)o->port, &o->ls, why,
-						  sizeof(why)))
-				bad("--link %s", why);
-			o->link = v;
-			o->port = o->ls.port;
-		} else if (!strcmp(a, "--host")) {
-			struct in_addr ia;
-
-			if (inet_pton(AF_INET, v, &ia) != 1)
-				bad("--host '%s' is not a dotted IPv4 address", v);
-			o->host = v;
-		} else if (!strcmp(a, "--port"))
-			o->port = (unsigned)number(a, v, 1, 65535, 1);
-		else if (!strcmp(a, "--bind-port"))
-			o->bind_port = (unsigned)number(a, v, 0, 65535, 1);
-		else if (!strcmp(a, "--iface"))
-			o->iface = (unsigned)number(a, v, 0, 255, 1);
-		else if (!strcmp(a, "--node"))
-			o->node = (unsigned)number(a, v, 0, SWELL_NODE_MAX, 1);
-		else if (!strcmp(a, "--inertia"))
-			o->inertia_kg = number(a, v, 0, 100, 0);
-		else if (!strcmp(a, "--rate"))
-			o->rate_hz = number(a, v, 100, 10000, 0);
-		else if (!strcmp(a, "--watchdog"))
-			o->watchdog = (unsigned)number(a, v, 1, 1000, 1);
-		else if (!strcmp(a, "--effect-fresh"))
-			o->fresh_ms = number(a, v, 0.1, 1000, 0);
-		else if (!strcmp(a, "--seconds"))
-			o->seconds = number(a, v, 1e-3, 1e7, 0);
-		else
-			bad("unknown option %s", a);
-	}
+	swell_cli_parse(&cli, argc, argv);
+	if (o->hm && !*o->hm)
+		swell_cli_die("swell-hmbridge", "--hm needs HOST[:PORT], not an empty word");
 	if (!o->hm)
-		bad("--hm HOST[:PORT] is required (the HapticMaster's address)%s", "");
+		swell_cli_die("swell-hmbridge", "--hm HOST[:PORT] is required (the HapticMaster's address)");
 }
 
 static volatile sig_atomic_t stop_flag;

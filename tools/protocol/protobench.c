@@ -6,17 +6,14 @@
 #include <string.h>
 #include <time.h>
 
+#include "swell/cli.h"
 #include "swell/proto.h"
 
-static void usage(FILE *f)
-{
-	fputs("usage: swell-protobench [--count N]\n"
-	      "Encodes and decodes N messages of every type (default 200000) on classic CAN, CAN FD\n"
-	      "and packets and prints ns per message for each, as CSV on stdout:\n"
-	      "  carrier,op,messages,ns_per_msg\n"
-	      "Exit status 1 if any decoded message differs from the one encoded.\n",
-	      f);
-}
+static const char usage[] = "usage: swell-protobench [--count N]\n"
+			    "Encodes and decodes N messages of every type (default 200000) on classic CAN, CAN FD\n"
+			    "and packets and prints ns per message for each, as CSV on stdout:\n"
+			    "  carrier,op,messages,ns_per_msg\n"
+			    "Exit status 1 if any decoded message differs from the one encoded.\n";
 
 static double now_ns(void)
 {
@@ -40,24 +37,10 @@ int main(int argc, char **argv)
 	double t0, t;
 	volatile unsigned sink = 0;
 
-	for (i = 1; i < (unsigned long)argc; i++) {
-		char *end;
+	const struct swell_cli_opt opts[] = { SWELL_CLI_WHOLE("--count", count, POOL, 1000000000, "messages") };
+	struct swell_cli cli = { .prog = "swell-protobench", .usage = usage, .opt = opts, .n_opt = SWELL_CLI_N(opts) };
 
-		if (!strcmp(argv[i], "-h") || !strcmp(argv[i], "--help")) {
-			usage(stdout);
-			return 0;
-		}
-		if (!strcmp(argv[i], "--count") && i + 1 < (unsigned long)argc) {
-			count = strtoul(argv[++i], &end, 10);
-			if (*end || count < POOL || count > 1000000000ul) {
-				fprintf(stderr, "swell-protobench: --count must be %u..1000000000 messages\n", POOL);
-				return 2;
-			}
-			continue;
-		}
-		fprintf(stderr, "swell-protobench: unknown argument '%s' (see --help)\n", argv[i]);
-		return 2;
-	}
+	swell_cli_parse(&cli, argc, argv);
 	/* runs of 8 messages of one type, so that CAN FD batches as it would for heights */
 	for (k = 0; k < POOL; k++) {
 		const struct swell_msg_desc *d = &swell_msg_descs[(k / 8) % swell_msg_desc_count];

@@ -7,6 +7,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
+#include "swell/cli.h"
 #include "swell/param.h"
 #include "swell/param_text.h"
 #include "swell/pool.h"
@@ -14,24 +15,20 @@
 #include "swell/scene.h"
 #include "swell/transport.h"
 
-static void usage(FILE *f)
-{
-	fputs("usage: swell-protogen [--md FILE] [--params FILE] [--dbc FILE]\n"
-	      "                      [--vectors FILE [--count N] [--seed S]] [--corpus DIR]\n"
-	      "Writes, from the one message table (swell/proto_table.h) and parameter table\n"
-	      "(swell/param_table.h, with the scene file's start-up keys):\n"
-	      "  --md FILE       the protocol reference: carriers, one annotated frame per message,\n"
-	      "                  the bus-load budget (docs/protocol.md)\n"
-	      "  --params FILE   the parameter and scene-key reference (docs/parameters.md)\n"
-	      "  --dbc FILE      the CAN database for node 0 (docs/swell.dbc)\n"
-	      "  --vectors FILE  classic CAN frames from the C encoder, one line each, with the\n"
-	      "                  physical values they encode (input of tools/protocol/dbc_check.py)\n"
-	      "  --count N       frames per message type in --vectors (default 200)\n"
-	      "  --seed S        random seed for --vectors (default 1)\n"
-	      "  --corpus DIR    seed inputs for the fuzzers in DIR/can, DIR/canfd, DIR/pkt\n"
-	      "Exit status: 0 written, 1 a file could not be written, 2 bad arguments.\n",
-	      f);
-}
+static const char usage[] = "usage: swell-protogen [--md FILE] [--params FILE] [--dbc FILE]\n"
+			    "                      [--vectors FILE [--count N] [--seed S]] [--corpus DIR]\n"
+			    "Writes, from the one message table (swell/proto_table.h) and parameter table\n"
+			    "(swell/param_table.h, with the scene file's start-up keys):\n"
+			    "  --md FILE       the protocol reference: carriers, one annotated frame per message,\n"
+			    "                  the bus-load budget (docs/protocol.md)\n"
+			    "  --params FILE   the parameter and scene-key reference (docs/parameters.md)\n"
+			    "  --dbc FILE      the CAN database for node 0 (docs/swell.dbc)\n"
+			    "  --vectors FILE  classic CAN frames from the C encoder, one line each, with the\n"
+			    "                  physical values they encode (input of tools/protocol/dbc_check.py)\n"
+			    "  --count N       frames per message type in --vectors (default 200)\n"
+			    "  --seed S        random seed for --vectors (default 1)\n"
+			    "  --corpus DIR    seed inputs for the fuzzers in DIR/can, DIR/canfd, DIR/pkt\n"
+			    "Exit status: 0 written, 1 a file could not be written, 2 bad arguments.\n";
 
 /* ---- helpers ---- */
 static void phys(char *buf, size_t n, int64_t raw, const struct swell_field_desc *f)
@@ -720,53 +717,23 @@ int main(int argc, char **argv)
 {
 	const char *md = NULL, *params = NULL, *dbc = NULL, *vec = NULL, *corpus = NULL;
 	unsigned long count = 200;
-	int i;
+
+	const struct swell_cli_opt opts[] = {
+		SWELL_CLI_STR("--md", md),
+		SWELL_CLI_STR("--params", params),
+		SWELL_CLI_STR("--dbc", dbc),
+		SWELL_CLI_STR("--vectors", vec),
+		SWELL_CLI_STR("--corpus", corpus),
+		SWELL_CLI_WHOLE("--count", count, 2, 100000, "frames"),
+		SWELL_CLI_WHOLE("--seed", rng_state, 1, 1e18, ""),
+	};
+	struct swell_cli cli = { .prog = "swell-protogen", .usage = usage, .opt = opts, .n_opt = SWELL_CLI_N(opts) };
 
 	if (argc < 2) {
-		usage(stderr);
+		fputs(usage, stderr);
 		return 2;
 	}
-	for (i = 1; i < argc; i++) {
-		const char *a = argv[i];
-		const char *v = i + 1 < argc ? argv[i + 1] : NULL;
-		char *end;
-
-		if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
-			usage(stdout);
-			return 0;
-		}
-		if (!v) {
-			fprintf(stderr, "swell-protogen: %s needs a value (see --help)\n", a);
-			return 2;
-		}
-		i++;
-		if (!strcmp(a, "--md")) {
-			md = v;
-		} else if (!strcmp(a, "--params")) {
-			params = v;
-		} else if (!strcmp(a, "--dbc")) {
-			dbc = v;
-		} else if (!strcmp(a, "--vectors")) {
-			vec = v;
-		} else if (!strcmp(a, "--corpus")) {
-			corpus = v;
-		} else if (!strcmp(a, "--count")) {
-			count = strtoul(v, &end, 10);
-			if (*end || count < 2 || count > 100000) {
-				fprintf(stderr, "swell-protogen: --count must be 2..100000 frames, got '%s'\n", v);
-				return 2;
-			}
-		} else if (!strcmp(a, "--seed")) {
-			rng_state = strtoull(v, &end, 10);
-			if (*end || rng_state == 0) {
-				fprintf(stderr, "swell-protogen: --seed must be a positive integer, got '%s'\n", v);
-				return 2;
-			}
-		} else {
-			fprintf(stderr, "swell-protogen: unknown option '%s' (see --help)\n", a);
-			return 2;
-		}
-	}
+	swell_cli_parse(&cli, argc, argv);
 	if (md && write_with(md, write_md))
 		return 1;
 	if (params && write_with(params, write_params))

@@ -62,87 +62,59 @@ void sim_object_usage(FILE *f)
 	      f);
 }
 
-static void die(const char *opt, const char *v, const char *why)
+/* n numbers, any finite ones */
+static int list(struct swell_cli *c, const char *opt, const char *v, double *out, int n)
 {
-	fprintf(stderr, "swell-sim: %s %s: %s\n", opt, v, why);
-	exit(2);
+	return swell_cli_numbers(c, opt, v, n, n, -HUGE_VAL, HUGE_VAL, "", out) < 0 ? -1 : 0;
 }
 
-static int parse_list(const char *opt, const char *s, double *out, int min, int max)
+int sim_object_option(struct swell_cli *c, const char *a, const char *v)
 {
-	char buf[128], *tok, *save = NULL, *end;
-	int k = 0;
-
-	if (strlen(s) >= sizeof(buf))
-		die(opt, s, "too long");
-	strcpy(buf, s);
-	for (tok = strtok_r(buf, ",", &save); tok; tok = strtok_r(NULL, ",", &save)) {
-		if (k == max)
-			die(opt, s, "too many values");
-		errno = 0;
-		out[k] = strtod(tok, &end);
-		if (errno || end == tok || *end || !isfinite(out[k]))
-			die(opt, s, "not a list of numbers");
-		k++;
-	}
-	if (k < min)
-		die(opt, s, "too few values");
-	return k;
-}
-
-int sim_object_option(const char *a, const char *v)
-{
+	const char *colon = strchr(v, ':');
+	const size_t n = colon ? (size_t)(colon - v) : strlen(v); /* --motion's name */
 	double x[3];
 
-	if (!so.first && strcmp(a, "--object") &&
-	    (!strcmp(a, "--motion") || !strcmp(a, "--at") || !strcmp(a, "--tick-hz") || !strcmp(a, "--damper") ||
-	     !strcmp(a, "--safety") || !strcmp(a, "--trace")))
+	if (!so.first && strcmp(a, "--object"))
 		so.first = a;
 	if (!strcmp(a, "--object")) {
-		parse_list(a, v, so.box, 4, 4);
+		if (list(c, a, v, so.box, 4) < 0)
+			return -1;
 		so.on = 1;
 	} else if (!strcmp(a, "--motion")) {
-		const char *c = strchr(v, ':');
-		size_t n = c ? (size_t)(c - v) : strlen(v);
+		static const char *const names[] = { "drop", "hold", "vosc", "hosc" }; /* enum motion */
+		int m = 0;
 
-		if (n == 4 && !strncmp(v, "drop", 4) && c) {
-			so.motion = M_DROP;
-			parse_list(a, c + 1, so.arg, 1, 1);
-		} else if (n == 4 && !strncmp(v, "hold", 4) && c) {
-			so.motion = M_HOLD;
-			parse_list(a, c + 1, so.arg, 1, 1);
-		} else if (n == 4 && (!strncmp(v, "vosc", 4) || !strncmp(v, "hosc", 4)) && c) {
-			so.motion = v[0] == 'v' ? M_VOSC : M_HOSC;
-			parse_list(a, c + 1, so.arg, 3, 3);
-			if (!(so.arg[0] > 0 && so.arg[0] <= 100))
-				die(a, v, "frequency must be in (0, 100] Hz");
-		} else {
-			die(a, v, "is not drop:H, hold:D, vosc:F,A,D or hosc:F,A,D");
-		}
-		if (!(fabs(so.arg[1]) < 1 && fabs(so.arg[2]) < 1 && fabs(so.arg[0]) < 1000))
-			die(a, v, "amplitudes and depths must be below 1 m");
+		while (m < 4 && (n != 4 || strncmp(v, names[m], 4)))
+			m++;
+		if (m == 4 || !colon)
+			return swell_cli_refuse(c, "%s %s: is not drop:H, hold:D, vosc:F,A,D or hosc:F,A,D", a, v);
+		x[1] = x[2] = 0;
+		if (list(c, a, colon + 1, x, m >= M_VOSC ? 3 : 1) < 0)
+			return -1;
+		if (m >= M_VOSC && !(x[0] > 0 && x[0] <= 100))
+			return swell_cli_refuse(c, "%s %s: frequency must be in (0, 100] Hz", a, v);
+		if (!(fabs(x[1]) < 1 && fabs(x[2]) < 1 && fabs(x[0]) < 1000))
+			return swell_cli_refuse(c, "%s %s: amplitudes and depths must be below 1 m", a, v);
+		so.motion = (enum motion)m;
+		memcpy(so.arg, x, sizeof(x));
 	} else if (!strcmp(a, "--at")) {
-		parse_list(a, v, so.at, 2, 2);
+		if (list(c, a, v, so.at, 2) < 0)
+			return -1;
 		so.have_at = 1;
 	} else if (!strcmp(a, "--tick-hz")) {
-		parse_list(a, v, x, 1, 1);
-		so.tick_hz = x[0];
+		return list(c, a, v, &so.tick_hz, 1);
 	} else if (!strcmp(a, "--damper")) {
-		parse_list(a, v, x, 1, 1);
-		if (!(x[0] >= 0 && x[0] <= 10000))
-			die(a, v, "must be in [0, 10000] N s/m");
-		so.damper = x[0];
+		return swell_cli_number(c, a, v, 0, 10000, "N s/m", &so.damper);
 	} else if (!strcmp(a, "--safety")) {
-		parse_list(a, v, x, 3, 3);
+		if (list(c, a, v, x, 3) < 0)
+			return -1;
 		so.f_max = x[0];
 		so.rate = x[1];
 		so.gain = x[2];
-	} else if (!strcmp(a, "--trace")) {
-		so.trace = v;
 	} else {
-		return 0;
+		so.trace = v; /* --trace */
 	}
-	return 1;
+	return 0;
 }
 
 int sim_object_active(void)

@@ -5,14 +5,15 @@
 
 #include <stdio.h>
 
+#include "swell/cli.h"
 #include "swell/wave.h"
 
 /* The object options, for --help. */
 void sim_object_usage(FILE *f);
 
-/* Take option a with value v if it is one of the object options: 1 taken, 0 not ours. A bad value
- * exits with status 2 and a one-line reason. */
-int sim_object_option(const char *a, const char *v);
+/* One of the object options (--object, --motion, --at, --tick-hz, --damper, --safety, --trace) with its
+ * value, a swell_cli hook: 0, or -1 with the reason in c->why. */
+int sim_object_option(struct swell_cli *c, const char *a, const char *v);
 
 /* 1 when --object was given. */
 int sim_object_active(void);

@@ -10,6 +10,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "swell/cli.h"
 #include "swell/pool.h"
 #include "swell/shape.h"
 #include "swell/wave.h"
@@ -47,10 +48,8 @@ enum init_kind {
 
 struct opts {
 	int nx, ny;
-	double e;
+	double e; /* NAN: not given; then e from dt, depth, dx (and g) when any of them is given */
 	double dt, depth, dx, g;
-	int have_e; /* --e given; else e from dt, depth, dx (and g) when any of them is given */
-	int have_dt, have_depth, have_dx;
 	double damping;
 	enum swell_stencil stencil;
 	long steps;
@@ -61,146 +60,94 @@ struct opts {
 	const char *dump_csv;
 };
 
-static void die(const char *fmt, const char *a, const char *b)
+/* --grid NXxNY: the sides are checked with the solver's other parameters */
+static int grid_opt(struct swell_cli *c, const char *opt, const char *v)
 {
-	fprintf(stderr, "swell-sim: ");
-	fprintf(stderr, fmt, a, b);
-	fputc('\n', stderr);
-	exit(2);
-}
+	struct opts *o = c->ctx;
+	int nx, ny;
+	char tail;
 
-static double parse_num(const char *opt, const char *s)
-{
-	char *end;
-	double v;
-
-	errno = 0;
-	v = strtod(s, &end);
-	if (errno || end == s || *end || !isfinite(v))
-		die("%s: '%s' is not a number", opt, s);
-	return v;
-}
-
-static void parse_list(const char *opt, const char *s, double *out, int n)
-{
-	char buf[128], *tok, *save = NULL;
-	int k = 0;
-
-	if (strlen(s) >= sizeof(buf))
-		die("%s: '%s' is too long", opt, s);
-	strcpy(buf, s);
-	for (tok = strtok_r(buf, ",", &save); tok; tok = strtok_r(NULL, ",", &save)) {
-		if (k == n)
-			die("%s: too many values in '%s'", opt, s);
-		out[k++] = parse_num(opt, tok);
-	}
-	if (k != n)
-		die("%s: too few values in '%s'", opt, s);
-}
-
-/* 1 for an option of this program (or of --object's) that takes a value. */
-static int takes_value(const char *a)
-{
-	static const char *const with_value[] = { "--grid",    "--e",        "--dt",      "--depth",  "--dx",
-						  "--g",       "--damping",  "--stencil", "--steps",  "--init",
-						  "--impl",    "--dump-csv", "--object",  "--motion", "--at",
-						  "--tick-hz", "--damper",   "--safety",  "--trace" };
-	size_t k;
-
-	for (k = 0; k < sizeof(with_value) / sizeof(with_value[0]); k++)
-		if (!strcmp(a, with_value[k]))
-			return 1;
+	if (sscanf(v, "%dx%d%c", &nx, &ny, &tail) != 2)
+		return swell_cli_refuse(c, "%s: '%s' is not NXxNY", opt, v);
+	o->nx = nx;
+	o->ny = ny;
 	return 0;
+}
+
+static int init_opt(struct swell_cli *c, const char *opt, const char *v)
+{
+	struct opts *o = c->ctx;
+	const int seiche = !strncmp(v, "seiche:", 7), gauss = !strncmp(v, "gauss:", 6);
+	double x[4];
+
+	if (!strcmp(v, "zero")) {
+		o->init = INIT_ZERO;
+		return 0;
+	}
+	if (!seiche && !gauss)
+		return swell_cli_refuse(c, "%s: '%s' is not zero, seiche:M,N,AMP_MM or gauss:X,Y,SIGMA,AMP_MM", opt, v);
+	if (swell_cli_numbers(c, opt, v + (seiche ? 7 : 6), 3 + gauss, 3 + gauss, -HUGE_VAL, HUGE_VAL, "", x) < 0)
+		return -1;
+	o->init = seiche ? INIT_SEICHE : INIT_GAUSS;
+	memcpy(o->init_arg, x, (size_t)(3 + gauss) * sizeof(x[0]));
+	return 0;
+}
+
+/* The floating object's options go to sim_object.c. */
+static int object_opt(struct swell_cli *c, const char *opt, const char *v)
+{
+	return sim_object_option(c, opt, v);
 }
 
 static void parse_args(int argc, char **argv, struct opts *o)
 {
-	int k;
-
 	*o = (struct opts){ .nx = SWELL_POOL_N,
 			    .ny = SWELL_POOL_N,
+			    .e = NAN, /* NAN: not given */
+			    .dt = NAN,
+			    .depth = NAN,
+			    .dx = NAN,
 			    .g = 9.81,
 			    .steps = 1000,
 			    .init = INIT_GAUSS,
 			    .init_arg = { 32, 32, 3, 2 } };
-	for (k = 1; k < argc; k++) {
-		const char *a = argv[k], *v = k + 1 < argc ? argv[k + 1] : NULL;
+	const struct swell_cli_opt opts[] = {
+		SWELL_CLI_FLAG("--no-sleep", o->no_sleep),
+		SWELL_CLI_HOOK("--grid", grid_opt, 1),
+		SWELL_CLI_NUM("--e", o->e, -HUGE_VAL, HUGE_VAL, ""),
+		SWELL_CLI_NUM("--dt", o->dt, -HUGE_VAL, HUGE_VAL, ""),
+		SWELL_CLI_NUM("--depth", o->depth, -HUGE_VAL, HUGE_VAL, ""),
+		SWELL_CLI_NUM("--dx", o->dx, -HUGE_VAL, HUGE_VAL, ""),
+		SWELL_CLI_NUM("--g", o->g, -HUGE_VAL, HUGE_VAL, ""),
+		SWELL_CLI_NUM("--damping", o->damping, -HUGE_VAL, HUGE_VAL, ""),
+		SWELL_CLI_CHOICE("--stencil", o->stencil, "paper|calibrated"),
+		SWELL_CLI_WHOLE("--steps", o->steps, 0, 1e12, ""),
+		SWELL_CLI_HOOK("--init", init_opt, 1),
+		SWELL_CLI_CHOICE("--impl", o->float64, "fixed|float64"),
+		SWELL_CLI_STR("--dump-csv", o->dump_csv),
+		SWELL_CLI_HOOK("--object", object_opt, 1),
+		SWELL_CLI_HOOK("--motion", object_opt, 1),
+		SWELL_CLI_HOOK("--at", object_opt, 1),
+		SWELL_CLI_HOOK("--tick-hz", object_opt, 1),
+		SWELL_CLI_HOOK("--damper", object_opt, 1),
+		SWELL_CLI_HOOK("--safety", object_opt, 1),
+		SWELL_CLI_HOOK("--trace", object_opt, 1),
+	};
+	struct swell_cli cli = {
+		.prog = "swell-sim", .usage = usage, .opt = opts, .n_opt = SWELL_CLI_N(opts), .ctx = o
+	};
+	const int r = swell_cli_scan(&cli, argc, argv);
 
-		if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
-			fputs(usage, stdout);
-			sim_object_usage(stdout);
-			exit(0);
-		}
-		if (!strcmp(a, "--no-sleep")) {
-			o->no_sleep = 1;
-			continue;
-		}
-		if (a[0] != '-' || a[1] != '-')
-			die("unexpected argument '%s'%s (see --help)", a, "");
-		if (!v)
-			die(takes_value(a) ? "%s needs a value%s" : "unknown option '%s'%s (see --help)", a, "");
-		k++;
-		if (!strcmp(a, "--grid")) {
-			char tail;
-			if (sscanf(v, "%dx%d%c", &o->nx, &o->ny, &tail) != 2)
-				die("--grid: '%s' is not NXxNY%s", v, "");
-		} else if (!strcmp(a, "--e")) {
-			o->e = parse_num(a, v);
-			o->have_e = 1;
-		} else if (!strcmp(a, "--dt")) {
-			o->dt = parse_num(a, v);
-			o->have_dt = 1;
-		} else if (!strcmp(a, "--depth")) {
-			o->depth = parse_num(a, v);
-			o->have_depth = 1;
-		} else if (!strcmp(a, "--dx")) {
-			o->dx = parse_num(a, v);
-			o->have_dx = 1;
-		} else if (!strcmp(a, "--g")) {
-			o->g = parse_num(a, v);
-		} else if (!strcmp(a, "--damping")) {
-			o->damping = parse_num(a, v);
-		} else if (!strcmp(a, "--stencil")) {
-			if (!strcmp(v, "paper"))
-				o->stencil = SWELL_STENCIL_PAPER;
-			else if (!strcmp(v, "calibrated"))
-				o->stencil = SWELL_STENCIL_CALIBRATED;
-			else
-				die("--stencil: '%s' is neither paper nor calibrated%s", v, "");
-		} else if (!strcmp(a, "--steps")) {
-			double n = parse_num(a, v);
-			if (n < 0 || n > 1e12 || n != floor(n))
-				die("--steps: '%s' is not a whole number in [0, 1e12]%s", v, "");
-			o->steps = (long)n;
-		} else if (!strcmp(a, "--init")) {
-			if (!strcmp(v, "zero")) {
-				o->init = INIT_ZERO;
-			} else if (!strncmp(v, "seiche:", 7)) {
-				o->init = INIT_SEICHE;
-				parse_list(a, v + 7, o->init_arg, 3);
-			} else if (!strncmp(v, "gauss:", 6)) {
-				o->init = INIT_GAUSS;
-				parse_list(a, v + 6, o->init_arg, 4);
-			} else {
-				die("--init: '%s' is not zero, seiche:M,N,AMP_MM or gauss:X,Y,SIGMA,AMP_MM%s", v, "");
-			}
-		} else if (!strcmp(a, "--impl")) {
-			if (!strcmp(v, "fixed"))
-				o->float64 = 0;
-			else if (!strcmp(v, "float64"))
-				o->float64 = 1;
-			else
-				die("--impl: '%s' is neither fixed nor float64%s", v, "");
-		} else if (!strcmp(a, "--dump-csv")) {
-			o->dump_csv = v;
-		} else if (sim_object_option(a, v)) {
-			/* taken by sim_object.c */
-		} else {
-			die("unknown option '%s'%s (see --help)", a, "");
-		}
+	if (r > 0) {
+		fputs(usage, stdout);
+		sim_object_usage(stdout);
+		exit(0);
 	}
+	if (r < 0)
+		swell_cli_die("swell-sim", "%s", cli.why);
 	if (sim_object_orphan())
-		die("%s is an option of the floating object: give --object too%s", sim_object_orphan(), "");
+		swell_cli_die("swell-sim", "%s is an option of the floating object: give --object too",
+			      sim_object_orphan());
 }
 
 static void die_num(const char *opt, double v, const char *why)
@@ -213,6 +160,8 @@ static void die_num(const char *opt, double v, const char *why)
 static struct swell_wave_params make_params(const struct opts *o)
 {
 	struct swell_wave_params p = { 0, 0, o->stencil };
+	const int have_e = !isnan(o->e), have_dt = !isnan(o->dt), have_depth = !isnan(o->depth),
+		  have_dx = !isnan(o->dx);
 	enum swell_err err;
 
 	if (o->nx < SWELL_WAVE_MIN_SIDE || o->ny < SWELL_WAVE_MIN_SIDE || o->nx > SWELL_WAVE_MAX_SIDE ||
@@ -225,32 +174,32 @@ static struct swell_wave_params make_params(const struct opts *o)
 		die_num("--damping", o->damping, "is outside [0, 1)");
 	p.damping = (q30_t)llround(o->damping * SWELL_Q30_ONE);
 	/* every value given is checked, used or not (a negative one used to fall back to the defaults) */
-	if (o->have_dt && !(o->dt * 1e6 >= 1 && o->dt * 1e6 < 4e9))
+	if (have_dt && !(o->dt * 1e6 >= 1 && o->dt * 1e6 < 4e9))
 		die_num("--dt", o->dt, "s is outside [1e-6, 4000)");
-	if (o->have_depth && !(o->depth * 1e6 >= 1 && o->depth * 1e6 < 4e9))
+	if (have_depth && !(o->depth * 1e6 >= 1 && o->depth * 1e6 < 4e9))
 		die_num("--depth", o->depth, "m is outside [1e-6, 4000)");
-	if (o->have_dx && !(o->dx * 1e6 >= 1 && o->dx * 1e6 < 4e9))
+	if (have_dx && !(o->dx * 1e6 >= 1 && o->dx * 1e6 < 4e9))
 		die_num("--dx", o->dx, "m is outside [1e-6, 4000)");
 	if (!(o->g * 1e3 >= 1 && o->g * 1e3 < 4e9))
 		die_num("--g", o->g, "m/s^2 is outside [1e-3, 4e6)");
-	if (o->have_e) {
+	if (have_e) {
 		if (!(o->e > 0 && o->e < 2))
 			die_num("--e", o->e, "is outside (0, 2)");
-		if (o->have_depth) {
+		if (have_depth) {
 			fprintf(stderr, "swell-sim: --e and --depth both set e (e = g dt^2 d / dx^2): give one\n");
 			exit(2);
 		}
 		p.e = (q30_t)llround(o->e * SWELL_Q30_ONE);
-	} else if (o->have_dt || o->have_depth || o->have_dx) {
+	} else if (have_dt || have_depth || have_dx) {
 		double us = o->dt * 1e6, d_um = o->depth * 1e6, dx_um = o->dx * 1e6, g = o->g * 1e3;
 
-		if (!o->have_dt || !o->have_depth || !o->have_dx) {
+		if (!have_dt || !have_depth || !have_dx) {
 			fprintf(stderr,
 				"swell-sim: e from the physical parameters needs all of --dt, --depth and --dx "
 				"(missing %s)\n",
-				!o->have_dt              ? "--dt"
-					: !o->have_depth ? "--depth"
-							 : "--dx");
+				!have_dt              ? "--dt"
+					: !have_depth ? "--depth"
+						      : "--dx");
 			exit(2);
 		}
 		err = swell_wave_e_from_physical((uint32_t)llround(g), (uint32_t)llround(us), (uint32_t)llround(d_um),
@@ -303,12 +252,14 @@ static void init_field(struct swell_wave *w, const struct opts *o)
 
 	if (o->init == INIT_SEICHE) {
 		if (a[0] < 0 || a[1] < 0 || a[0] > 65535 || a[1] > 65535 || a[0] != floor(a[0]) || a[1] != floor(a[1]))
-			die("--init seiche: mode numbers M, N must be whole numbers in [0, 65535]%s%s", "", "");
+			swell_cli_die("swell-sim",
+				      "--init seiche: mode numbers M, N must be whole numbers in [0, 65535]");
 		swell_shape_seiche(w->h, w->nx, w->ny, (uint16_t)a[0], (uint16_t)a[1],
 				   mm_to_lsb("--init seiche amplitude", a[2]));
 	} else if (o->init == INIT_GAUSS) {
 		if (!(a[2] >= 0.5 && a[2] < 4096) || !(fabs(a[0]) < 16384 && fabs(a[1]) < 16384))
-			die("--init gauss: sigma must be in [0.5, 4096) cells and X, Y within +-16384%s%s", "", "");
+			swell_cli_die("swell-sim",
+				      "--init gauss: sigma must be in [0.5, 4096) cells and X, Y within +-16384");
 		swell_shape_gauss(w->h, w->nx, w->ny, (q16_t)llround(a[0] * SWELL_Q16_ONE),
 				  (q16_t)llround(a[1] * SWELL_Q16_ONE), (q16_t)llround(a[2] * SWELL_Q16_ONE),
 				  mm_to_lsb("--init gauss amplitude", a[3]));
@@ -412,7 +363,7 @@ int main(int argc, char **argv)
 	swell_wave_set_sleep(&w, !o.no_sleep);
 	init_field(&w, &o);
 	if (sim_object_active()) {
-		int rc = sim_object_run(&w, o.dt, o.dx, o.steps, o.float64);
+		int rc = sim_object_run(&w, isnan(o.dt) ? 0 : o.dt, isnan(o.dx) ? 0 : o.dx, o.steps, o.float64);
 		free(store);
 		free(rstore);
 		free(mm);

@@ -172,9 +172,6 @@ static inline void swell_wave_quad(const struct swell_wave *w, size_t a, int32_t
 	}
 }
 
-/* sum of h(n) over cells [i0, i1) of rows [j0, j1) (a footprint), in LSB, exact */
-int64_t swell_wave_sum(const struct swell_wave *w, int i0, int i1, int j0, int j1);
-
 /* An area of cells [i0, i1] x [j0, j1] (inclusive) with weights: wx0 and wx1 of its end columns, wy0
  * and wy1 of its end rows, `one` (a whole cell's side) between (one column: wx0; one row: wy0); a
  * cell's weight is its column's times its row's. */

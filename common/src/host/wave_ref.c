@@ -22,14 +22,8 @@ void swell_wave_ref_from_fixed(struct swell_wave_ref *r, const struct swell_wave
 /* Height at (i, j) with mirrored ghost cells: h[-1] = h[0], h[n] = h[n-1]. */
 static double at(const struct swell_wave_ref *r, int i, int j)
 {
-	if (i < 0)
-		i = 0;
-	if (i >= r->nx)
-		i = r->nx - 1;
-	if (j < 0)
-		j = 0;
-	if (j >= r->ny)
-		j = r->ny - 1;
+	i = i < 0 ? 0 : i >= r->nx ? r->nx - 1 : i;
+	j = j < 0 ? 0 : j >= r->ny ? r->ny - 1 : j;
 	return r->h[j * r->nx + i];
 }
 

@@ -90,10 +90,23 @@ static void send_pose(struct swell_ctl *c)
 	ctl_push(c, SWELL_LINK_HOST, &f);
 }
 
-/* Two wire samples as sent[] holds them: the first in the low half. */
-static inline uint32_t sample_pair(int32_t h0, int32_t h1)
+/* Two heights of the core's field (|h| < 2^28: SSAT 27 in the solver) as the two samples sent[] holds
+ * for them: swell_height_to_sample with its rounding, floor((h + 2^(s-1)) / 2^s) saturated to 12 bits,
+ * in one shift of h + 2^(s-1) (no overflow for such h) and a pack of the two halves. */
+static inline uint32_t field_pair(int32_t h0, int32_t h1)
 {
-	return (uint32_t)(uint16_t)swell_height_to_sample(h0) | (uint32_t)(uint16_t)swell_height_to_sample(h1) << 16;
+	const int shift = 16 - SWELL_PROTO_H_SHIFT;
+	const int32_t half = (int32_t)1 << (shift - 1);
+	int32_t s0 = (h0 + half) >> shift, s1 = (h1 + half) >> shift;
+
+#if defined(__ARM_FEATURE_SAT)
+	s0 = __ssat(s0, 12);
+	s1 = __ssat(s1, 12);
+#else
+	s0 = swell_clamp(s0, -2048, 2047);
+	s1 = swell_clamp(s1, -2048, 2047);
+#endif
+	return (uint32_t)(uint16_t)s0 | (uint32_t)s1 << 16;
 }
 
 /* Read quad q into s[4] (cells outside the grid read 0): the heights of the last finished solver
@@ -113,8 +126,8 @@ static uint32_t quad_read(const struct swell_ctl *c, const struct swell_quad_at 
 		uint32_t w0, w1;
 
 		swell_wave_quad(&c->wave, a, x);
-		w0 = sample_pair(x[0], x[1]);
-		w1 = sample_pair(x[2], x[3]);
+		w0 = field_pair(x[0], x[1]);
+		w1 = field_pair(x[2], x[3]);
 
 		s[0] = (int16_t)(uint16_t)w0;
 		s[1] = (int16_t)(uint16_t)(w0 >> 16);
@@ -211,25 +224,6 @@ static __attribute__((noinline)) void quad_send_words(struct swell_ctl *c, struc
 	c->sent[a >> 1] = w0;
 	c->sent[(a >> 1) + 1] = w1;
 	c->n.quads_sent++;
-}
-
-/* Two heights of the core's field (|h| < 2^28: SSAT 27 in the solver) as the two samples sent[] holds
- * for them: swell_height_to_sample with its rounding, floor((h + 2^(s-1)) / 2^s) saturated to 12 bits,
- * in one shift of h + 2^(s-1) (no overflow for such h) and a pack of the two halves. */
-static inline uint32_t field_pair(int32_t h0, int32_t h1)
-{
-	const int shift = 16 - SWELL_PROTO_H_SHIFT;
-	const int32_t half = (int32_t)1 << (shift - 1);
-	int32_t s0 = (h0 + half) >> shift, s1 = (h1 + half) >> shift;
-
-#if defined(__ARM_FEATURE_SAT)
-	s0 = __ssat(s0, 12);
-	s1 = __ssat(s1, 12);
-#else
-	s0 = swell_clamp(s0, -2048, 2047);
-	s1 = swell_clamp(s1, -2048, 2047);
-#endif
-	return (uint32_t)(uint16_t)s0 | (uint32_t)s1 << 16;
 }
 
 /* What a scan may still do in this tick (messages to send, stale quads to read), and the cells read. */

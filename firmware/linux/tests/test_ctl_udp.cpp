@@ -232,10 +232,10 @@ TEST_CASE("swell-ctl: every bad argument and conflicting pair exits 2 with one l
 		int code;
 		const char *says;
 	} cases[] = {
-		{{"--bogus"}, 2, "unknown option (see --help): --bogus"},
-		{{"--bogus", "1"}, 2, "unknown option (see --help): --bogus"},
-		{{"--tick-hz"}, 2, "this option needs a value: --tick-hz"},
-		{{"stray"}, 2, "unexpected argument (see --help): stray"},
+		{{"--bogus"}, 2, "unknown option '--bogus' (see --help)"},
+		{{"--bogus", "1"}, 2, "unknown option '--bogus' (see --help)"},
+		{{"--tick-hz"}, 2, "--tick-hz needs a value (see --help)"},
+		{{"stray"}, 2, "unexpected argument 'stray' (see --help)"},
 		{{"--tick-hz", "abc"}, 2, "--tick-hz 'abc' is not a whole number"},
 		{{"--tick-hz", "5"}, 2, "--tick-hz '5' is not a whole number in [10, 100000]"},
 		{{"--solver-hz", "333"}, 2, "configuration refused"},
@@ -243,9 +243,9 @@ TEST_CASE("swell-ctl: every bad argument and conflicting pair exits 2 with one l
 		{{"--silent-ticks", "-3"}, 2, "--silent-ticks '-3'"},
 		{{"--node", "16"}, 2, "--node '16'"},
 		{{"--host-budget", "0"}, 2, "--host-budget '0'"},
-		{{"--clock", "wall"}, 2, "--clock must be internal or device, not wall"},
-		{{"--seconds", "-1"}, 2, "--seconds must be a positive number, not -1"},
-		{{"--seconds", "nan"}, 2, "--seconds must be a positive number, not nan"},
+		{{"--clock", "wall"}, 2, "--clock 'wall' is not internal or device"},
+		{{"--seconds", "-1"}, 2, "--seconds '-1' is not a number in (0, 10000000] s"},
+		{{"--seconds", "nan"}, 2, "--seconds 'nan' is not a number"},
 		{{"--fw-version", "1.2"}, 2, "--fw-version must be X.Y.Z"},
 		{{"--device", "tcp:1"},
 		 2,

@@ -6,7 +6,7 @@
 
 #include "../logic/core_run.h"
 #include "swell/ctl_pool.h"
-#include "swell/num.h"
+#include "swell/cli.h"
 #include "swell/scene.h"
 #include "../logic/scene.h"
 
@@ -49,62 +49,23 @@ int main(int argc, char **argv)
 	static struct swell_ctl ctl;
 	struct swell_wave w;
 	unsigned long steps = 200, n, core_ticks = 0, core_hz = SWELL_POOL_TICK_HZ, pool = 0;
-	long v;
 	enum swell_err err;
 	enum swell_wave_kernel kernel = SWELL_KERNEL_AUTO;
 	int i, k, cost = 0;
 
-	for (i = 1; i < argc; i++) {
-		if (!strcmp(argv[i], "-h") || !strcmp(argv[i], "--help")) {
-			fputs(usage, stdout);
-			return 0;
-		} else if (!strcmp(argv[i], "--steps") && i + 1 < argc) {
-			if (swell_parse_long(argv[++i], 10, 0, 100000000, &v) < 0) {
-				fprintf(stderr, "swell-fw-scene: --steps '%s' is not a count in [0, 1e8]\n", argv[i]);
-				return 2;
-			}
-			steps = (unsigned long)v;
-		} else if (!strcmp(argv[i], "--core") && i + 1 < argc) {
-			if (swell_parse_long(argv[++i], 10, 0, 100000000, &v) < 0) {
-				fprintf(stderr, "swell-fw-scene: --core '%s' is not a tick count in [0, 1e8]\n",
-					argv[i]);
-				return 2;
-			}
-			core_ticks = (unsigned long)v;
-		} else if (!strcmp(argv[i], "--core-hz") && i + 1 < argc) {
-			if (swell_parse_long(argv[++i], 10, 500, SWELL_TICK_HZ_MAX, &v) < 0 ||
-			    v % SWELL_POOL_SOLVER_HZ != 0) {
-				fprintf(stderr,
-					"swell-fw-scene: --core-hz '%s' is not a multiple of the 250 Hz solver "
-					"rate in [500, 100000]\n",
-					argv[i]);
-				return 2;
-			}
-			core_hz = (unsigned long)v;
-		} else if (!strcmp(argv[i], "--pool") && i + 1 < argc) {
-			if (swell_parse_long(argv[++i], 10, SWELL_WAVE_MIN_SIDE, SWELL_GRID_MAX, &v) < 0) {
-				fprintf(stderr, "swell-fw-scene: --pool '%s' is not a side in [2, 256] cells\n",
-					argv[i]);
-				return 2;
-			}
-			pool = (unsigned long)v;
-		} else if (!strcmp(argv[i], "--cost")) {
-			cost = 1;
-		} else if (!strcmp(argv[i], "--kernel") && i + 1 < argc) {
-			i++;
-			for (kernel = SWELL_KERNEL_REF; kernel <= SWELL_KERNEL_AVX2; kernel++)
-				if (!strcmp(argv[i], swell_wave_kernel_name(kernel)) ||
-				    (kernel == SWELL_KERNEL_FUSED && !strcmp(argv[i], "fused")))
-					break;
-			if (kernel > SWELL_KERNEL_AVX2) {
-				fprintf(stderr, "swell-fw-scene: --kernel '%s' is not ref, fused or avx2\n", argv[i]);
-				return 2;
-			}
-		} else {
-			fprintf(stderr, "swell-fw-scene: unknown argument '%s' (see --help)\n", argv[i]);
-			return 2;
-		}
-	}
+	const struct swell_cli_opt opts[] = {
+		SWELL_CLI_WHOLE("--steps", steps, 0, 100000000, ""),
+		SWELL_CLI_WHOLE("--core", core_ticks, 0, 100000000, "ticks"),
+		SWELL_CLI_WHOLE("--core-hz", core_hz, 500, SWELL_TICK_HZ_MAX, "Hz"),
+		SWELL_CLI_WHOLE("--pool", pool, SWELL_WAVE_MIN_SIDE, SWELL_GRID_MAX, "cells"),
+		SWELL_CLI_FLAG("--cost", cost),
+		SWELL_CLI_CHOICE("--kernel", kernel, "auto|ref|fused|avx2"), /* enum swell_wave_kernel */
+	};
+	struct swell_cli cli = { .prog = "swell-fw-scene", .usage = usage, .opt = opts, .n_opt = SWELL_CLI_N(opts) };
+
+	swell_cli_parse(&cli, argc, argv);
+	if (core_hz % SWELL_POOL_SOLVER_HZ != 0)
+		swell_cli_die("swell-fw-scene", "--core-hz %lu is not a multiple of the 250 Hz solver rate", core_hz);
 	err = fw_scene_init(&w, storage, FW_SCENE_WORDS);
 	if (err == SWELL_OK && swell_wave_set_kernel(&w, kernel) != SWELL_OK) {
 		fprintf(stderr, "swell-fw-scene: kernel %s is not available here\n", swell_wave_kernel_name(kernel));

@@ -36,6 +36,36 @@ static void put_insn(uint64_t ticks, uint64_t per)
 	con_put_ratio(ticks * INSN_NUM, per * INSN_DEN, 2);
 }
 
+/* instructions as % of a tick at tick_hz at one instruction a cycle (168 MHz), one decimal */
+static void put_pct(uint64_t systicks, uint32_t tick_hz)
+{
+	con_put_ratio(systicks * INSN_NUM * tick_hz * 100u, (uint64_t)INSN_DEN * 168000000u, 1);
+}
+
+/* instructions, then the text mid and them as % of a tick */
+static void put_insn_pct(uint64_t systicks, const char *mid, uint32_t tick_hz)
+{
+	put_insn(systicks, 1);
+	con_puts(mid);
+	put_pct(systicks, tick_hz);
+}
+
+/* "what: reason" of a refusal, a line */
+static void put_refused(const char *what, enum swell_err err)
+{
+	con_puts(what);
+	con_puts(swell_err_str(err));
+	con_putc('\n');
+}
+
+/* "s" then "nx" "x" "ny" */
+static void put_size(const char *s, uint32_t nx, uint32_t ny)
+{
+	con_puts_u32(s, nx);
+	con_putc('x');
+	con_put_u64(ny);
+}
+
 /* Naive three-level 9-point step on the interior cells, int32 with a Q1.31 e/2 (the cost
  * anchor of docs/stm32f405.md: a plain loop, no flux form, no walls): h' = 2h - h_prev + e L9. */
 __attribute__((noinline)) static void naive_step(int32_t *restrict prev, const int32_t *restrict h, int32_t e_half_q31)
@@ -92,9 +122,7 @@ static int run_split(uint32_t tick_hz, uint32_t solver_hz)
 	con_puts(", mean ");
 	put_insn(sum, (uint64_t)SWELL_FW_SELFTEST_STEPS * k);
 	con_puts(" instructions; worst tick uses ");
-	/* instructions / (168e6 / tick_hz) at one instruction a cycle, in % */
-	con_put_ratio((slice_max > finish_max ? slice_max : finish_max) * INSN_NUM * tick_hz * 100u,
-		      (uint64_t)INSN_DEN * 168000000u, 1);
+	put_pct(slice_max > finish_max ? slice_max : finish_max, tick_hz);
 	con_puts(" % of the tick at 168 MHz; checksum ");
 	con_puts(sum_crc == scene_checksum ? "identical\n" : "DIFFERS\n");
 	return sum_crc == scene_checksum;
@@ -108,9 +136,7 @@ static int run_scene(void)
 
 	err = fw_scene_init(&wave, wave_storage, FW_SCENE_WORDS);
 	if (err != SWELL_OK) {
-		con_puts("selftest: scene refused: ");
-		con_puts(swell_err_str(err));
-		con_putc('\n');
+		put_refused("selftest: scene refused: ", err);
 		return 0;
 	}
 	con_puts_hex32("selftest: scene pool 64x64 dx 6.25 mm depth 50 mm dt 4 ms e 0x", (uint32_t)wave.p.e);
@@ -292,8 +318,7 @@ static int vel_kernel_check(uint16_t nx, uint16_t ny)
 		else
 			same_tiles = memcmp(tiles, wave.tile, (size_t)wave.tiles_x * wave.tiles_y) == 0;
 	}
-	con_puts_u32("velocity kernel check ", nx);
-	con_puts_u32("x", ny);
+	put_size("velocity kernel check ", nx, ny);
 	con_puts_u32(": ", VEL_CHECK_STEPS);
 	con_puts_hex32(" clamping steps, reference 0x", sum[0]);
 	con_puts_hex32(" assembly 0x", sum[1]);
@@ -383,24 +408,16 @@ static int run_tick(uint32_t tim_clk_hz)
 #define CORE_MAX_K 10u
 #define SELFTEST_POOL_N 128u /* the larger pool's side: u alone in the fast block */
 
-/* instructions as % of a tick at tick_hz at one instruction a cycle (168 MHz), one decimal */
-static void put_pct(uint64_t systicks, uint32_t tick_hz)
-{
-	con_put_ratio(systicks * INSN_NUM * tick_hz * 100u, (uint64_t)INSN_DEN * 168000000u, 1);
-}
-
 /* "core" at 2500 Hz and "core1000" at 1000 Hz on the reference pool (the qemu-arm test compares them
  * with swell-fw-scene --core), "pool96x96" on another pool; then " at 2500 Hz" for the figures. */
 static void put_core_label(uint32_t tick_hz, uint16_t pool_n, int at)
 {
-	con_puts(pool_n ? "pool" : "core");
-	if (pool_n) {
-		con_put_u64(pool_n);
-		con_putc('x');
-		con_put_u64(pool_n);
-	} else if (tick_hz != 2500u && !at) {
-		con_put_u64(tick_hz);
-	}
+	if (pool_n)
+		put_size("pool", pool_n, pool_n);
+	else if (tick_hz != 2500u && !at)
+		con_puts_u32("core", tick_hz);
+	else
+		con_puts("core");
 	if (at) {
 		con_puts_u32(" at ", tick_hz);
 		con_puts(" Hz");
@@ -428,9 +445,7 @@ static int pool_set(uint16_t id, const char *name, int32_t value, enum swell_err
 	con_puts(" in ");
 	con_puts(swell_ctl_state_name(ctl.state));
 	if (ans.type == SWELL_MSG_PARAM_ACK) {
-		con_puts_u32(": ACK, pool now ", ctl.cfg.nx);
-		con_putc('x');
-		con_put_u64(ctl.cfg.ny);
+		put_size(": ACK, pool now ", ctl.cfg.nx, ctl.cfg.ny);
 		con_putc('\n');
 		mem_report(&ctl, &app_mem, &place);
 		return want_err == SWELL_OK && ans.u.param_ack.value == value && ans.u.param_ack.seq == 7;
@@ -438,9 +453,7 @@ static int pool_set(uint16_t id, const char *name, int32_t value, enum swell_err
 	ok = want_err == (enum swell_err)ans.u.param_nack.err && ctl.cfg.nx == nx && ctl.cfg.ny == ny;
 	con_puts(": NACK ");
 	con_puts(swell_err_str((enum swell_err)ans.u.param_nack.err));
-	con_puts_u32(", pool still ", ctl.cfg.nx);
-	con_putc('x');
-	con_put_u64(ctl.cfg.ny);
+	put_size(", pool still ", ctl.cfg.nx, ctl.cfg.ny);
 	con_puts(ok ? "\n" : " (UNEXPECTED)\n");
 	return ok;
 }
@@ -511,9 +524,7 @@ static int run_core(uint32_t tick_hz, uint32_t ticks, uint16_t pool_n)
 	enum swell_err err = fw_core_init(&ctl, &r, wave_storage, ARENA_WORDS, tick_hz);
 
 	if (err != SWELL_OK) {
-		con_puts("core: refused: ");
-		con_puts(swell_err_str(err));
-		con_putc('\n');
+		put_refused("core: refused: ", err);
 		return 0;
 	}
 	if (!pool_n && tick_hz == 2500u) { /* the reference pool, where the controller's start puts it */
@@ -574,18 +585,12 @@ static int run_core(uint32_t tick_hz, uint32_t ticks, uint16_t pool_n)
 	con_putc('\n');
 	put_core_label(tick_hz, pool_n, 1);
 	con_puts(": worst background ");
-	put_insn(bmax, 1);
-	con_puts(" instructions (");
-	put_pct(bmax, tick_hz);
+	put_insn_pct(bmax, " instructions (", tick_hz);
 	con_puts_u32(" % of the period, phase ", bworst_phase);
 	con_puts("), worst force path ");
-	put_insn(fmax, 1);
-	con_puts(" (");
-	put_pct(fmax, tick_hz);
+	put_insn_pct(fmax, " (", tick_hz);
 	con_puts(" %), worst whole tick ");
-	put_insn(wmax, 1);
-	con_puts(" (");
-	put_pct(wmax, tick_hz);
+	put_insn_pct(wmax, " (", tick_hz);
 	con_puts_u32(" %) at tick ", wworst_tick);
 	con_puts(", mean ");
 	put_insn(sum, ticks);
@@ -694,12 +699,11 @@ void selftest_boot_request(void)
 	con_puts(swell_ctl_state_name(ctl.state));
 	con_puts(": ");
 	con_puts(swell_ctl_bootloader_requested(&ctl) ? "accepted" : "REFUSED");
-	con_puts(", force now ");
-	con_put_i64(ctl.force_dev_uN[0]);
-	con_putc(' ');
-	con_put_i64(ctl.force_dev_uN[1]);
-	con_putc(' ');
-	con_put_i64(ctl.force_dev_uN[2]);
+	con_puts(", force now");
+	for (k = 0; k < 3; k++) {
+		con_putc(' ');
+		con_put_i64(ctl.force_dev_uN[k]);
+	}
 	con_puts(" uN\n");
 	if (swell_ctl_bootloader_requested(&ctl))
 		boot_request_reset();

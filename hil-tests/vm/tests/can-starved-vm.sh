@@ -3,10 +3,7 @@
 # iproute2's tc and can-utils' candump through run-vm --host-prog). The controller's "device starved"
 # path on the kernel's CAN stack: swell-ctl runs the loop on can0 (--autorun, silence limit 200
 # ticks) with swell-hm on can1 holding the object above the water (the weight is commanded), in
-# lockstep as in the bench scenarios ($tc qdisc add dev can0 root pfifo limit 10 || fail "tc could not put a pfifo on can0"
-candump -L can1,010:7FF >"$out/force.log" 2>&1 & # FORCE_CMD of node 0 (id 0x010)
-dump=$!
-swell-ctl --clock device, swell-hm --lockstep: on their own
+# lockstep as in the bench scenarios (swell-ctl --clock device, swell-hm --lockstep: on their own
 # clocks an emulated machine's scheduling gaps leave controller ticks without a sample, which keep
 # restarting the 250 ticks in a row of hearing the device that autorun's recovery needs). can0's
 # root queue is a pfifo from the start; its limit goes to 0 (every frame swell-ctl writes is refused,

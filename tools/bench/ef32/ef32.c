@@ -11,24 +11,7 @@
  * 2 around a touched tile, whose awake neighbours write around themselves). */
 static void mark_dirty(struct ef32 *w, int tx, int ty, int r)
 {
-	const int x0 = tx > r ? tx - r : 0, x1 = tx + r < w->tiles_x ? tx + r : w->tiles_x - 1;
-	const int y0 = ty > r ? ty - r : 0, y1 = ty + r < w->tiles_y ? ty + r : w->tiles_y - 1;
-	int x, y;
-
-	for (y = y0; y <= y1; y++)
-		for (x = x0; x <= x1; x++)
-			w->tile[y * w->tiles_x + x] |= T_DIRTY;
-}
-
-/* 1 if any tile of a row of tiles has the flag */
-static int tile_row_has(const struct ef32 *w, const uint8_t *trow, uint8_t flag)
-{
-	int x;
-
-	for (x = 0; x < w->tiles_x; x++)
-		if (trow[x] & flag)
-			return 1;
-	return 0;
+	swell_tiles_block(w->tile, w->tiles_x, w->tiles_y, tx, ty, r, 0xffu, T_DIRTY);
 }
 
 /* Every tile awake, and every tile's acc and v to be visited at the next finish. */
@@ -54,12 +37,7 @@ enum swell_err ef32_init(struct ef32 *w, uint16_t nx, uint16_t ny, int32_t *stor
 	const size_t n = (size_t)nx * ny;
 	enum swell_err err;
 
-	if (!w || !storage)
-		return SWELL_EINVAL;
-	if (nx < SWELL_WAVE_MIN_SIDE || ny < SWELL_WAVE_MIN_SIDE || nx > SWELL_WAVE_MAX_SIDE ||
-	    ny > SWELL_WAVE_MAX_SIDE)
-		return SWELL_ESIZE;
-	err = swell_wave_check(p);
+	err = swell_wave_init_check(w, storage, nx, ny, p);
 	if (err != SWELL_OK)
 		return err;
 	if (words < EF32_WORDS(nx, ny))
@@ -94,17 +72,11 @@ void ef32_rest(struct ef32 *w)
 
 void ef32_touched(struct ef32 *w, int i, int j)
 {
-	int tx = i / SWELL_WAVE_TILE, ty = j / SWELL_WAVE_TILE, x, y;
-
 	if (i < 0 || j < 0 || i >= w->nx || j >= w->ny)
 		return;
-	w->tile[ty * w->tiles_x + tx] |= T_TOUCHED;
-	w->band_asleep = 0;
-	mark_dirty(w, tx, ty, 2);
-	for (y = ty - 1; y <= ty + 1; y++) /* the rest of this step must not skip its neighbours */
-		for (x = tx - 1; x <= tx + 1; x++)
-			if (x >= 0 && y >= 0 && x < w->tiles_x && y < w->tiles_y)
-				w->tile[y * w->tiles_x + x] &= (uint8_t)~T_SLEEPING;
+	w->band_asleep = 0; /* the rest of this step must not skip the tile's neighbours */
+	mark_dirty(w, i / SWELL_WAVE_TILE, j / SWELL_WAVE_TILE, 2);
+	swell_tiles_touch(w->tile, w->tiles_x, w->tiles_y, i / SWELL_WAVE_TILE, j / SWELL_WAVE_TILE);
 }
 
 void ef32_set_sleep(struct ef32 *w, int on)
@@ -113,60 +85,16 @@ void ef32_set_sleep(struct ef32 *w, int on)
 	wake_all(w);
 }
 
-/* A tile may be skipped: its edges gave zero last step and nothing around it has changed since. */
-static int asleep(const struct ef32 *w, int tx, int ty)
-{
-	const uint8_t *t = w->tile;
-	int x0 = tx > 0 ? tx - 1 : 0, x1 = tx + 1 < w->tiles_x ? tx + 1 : tx;
-	int y0 = ty > 0 ? ty - 1 : 0, y1 = ty + 1 < w->tiles_y ? ty + 1 : ty;
-	int x, y;
-
-	if (!(t[ty * w->tiles_x + tx] & T_ZERO))
-		return 0;
-	for (y = y0; y <= y1; y++)
-		for (x = x0; x <= x1; x++)
-			if (t[y * w->tiles_x + x] & (T_CHANGED | T_TOUCHED))
-				return 0;
-	return 1;
-}
-
-static int have_avx2(void)
-{
-#if EF32_AVX2
-	return __builtin_cpu_supports("avx2");
-#else
-	return 0;
-#endif
-}
-
 enum swell_err ef32_set_kernel(struct ef32 *w, enum swell_wave_kernel k)
 {
-	if (!w)
-		return SWELL_EINVAL;
-	switch (k) {
-	case SWELL_KERNEL_AUTO:
-		w->kernel = have_avx2() ? SWELL_KERNEL_AVX2 : SWELL_KERNEL_FUSED;
-		return SWELL_OK;
-	case SWELL_KERNEL_REF:
-	case SWELL_KERNEL_FUSED:
-		w->kernel = (uint8_t)k;
-		return SWELL_OK;
-	case SWELL_KERNEL_AVX2:
-		if (have_avx2()) {
-			w->kernel = SWELL_KERNEL_AVX2;
-			return SWELL_OK;
-		}
-		return SWELL_EINVAL;
-	default:
-		return SWELL_EINVAL;
-	}
+	return w ? swell_kernel_choose(k, &w->kernel) : SWELL_EINVAL;
 }
 
 /* The edges owned by cells [i0, i1) of row j; non-zero if any new flow is non-zero. */
 static int32_t step_segment(struct ef32 *w, int j, int i0, int i1, int damp)
 {
 	switch (w->kernel) {
-#if EF32_AVX2
+#if SWELL_WAVE_AVX2
 	case SWELL_KERNEL_AVX2:
 		return ef32_kernel_avx2(w, j, i0, i1, damp);
 #endif
@@ -186,16 +114,10 @@ static void step_row(struct ef32 *w, int j, int damp)
 	int tx;
 
 	if (w->sleep && j % SWELL_WAVE_TILE == 0) {
-		w->band_asleep = 1;
-		for (tx = 0; tx < w->tiles_x; tx++) {
-			if (asleep(w, tx, ty)) {
-				trow[tx] |= T_SLEEPING;
-			} else {
-				trow[tx] &= (uint8_t)~T_SLEEPING;
+		w->band_asleep = (uint8_t)swell_tiles_band(w->tile, w->tiles_x, w->tiles_y, ty);
+		for (tx = 0; tx < w->tiles_x; tx++)
+			if (!(trow[tx] & T_SLEEPING))
 				mark_dirty(w, tx, ty, 1);
-				w->band_asleep = 0;
-			}
-		}
 	}
 	if (w->sleep && w->band_asleep) { /* the whole band of tiles sleeps: nothing to do in this row */
 		w->tiles_skipped += w->tiles_x;
@@ -294,7 +216,8 @@ void ef32_step(struct ef32 *w)
 	 * where the last step wrote it; a band of tiles with neither is skipped whole; then the two swap */
 	for (j = 0; j < w->ny; j++) {
 		if (w->sleep && j % SWELL_WAVE_TILE == 0 &&
-		    !tile_row_has(w, w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x, T_DIRTY | T_DIRTY_PREV)) {
+		    !swell_tiles_row_any(w->tile + (j / SWELL_WAVE_TILE) * w->tiles_x, w->tiles_x,
+					 T_DIRTY | T_DIRTY_PREV, 0)) {
 			j += SWELL_WAVE_TILE - 1;
 			continue;
 		}
@@ -319,37 +242,15 @@ int64_t ef32_volume(const struct ef32 *w)
 	return sum;
 }
 
-/* 2 w (h_b - h_a)(n) (h_b - h_a)(n-1) for one edge; h(n-1) = h - v. */
-static int64_t edge_pot2(const struct ef32 *w, int a, int b, int64_t two_w)
+/* The last step's change of cell a */
+static int32_t last_change(const void *w, int a)
 {
-	int64_t d_now = (int64_t)w->h[b] - w->h[a];
-	int64_t d_prev = d_now - ((int64_t)w->v[b] - w->v[a]);
-
-	return two_w * d_now * d_prev;
+	return ((const struct ef32 *)w)->v[a];
 }
 
 struct swell_energy ef32_energy(const struct ef32 *w)
 {
-	const int nx = w->nx, ny = w->ny;
-	struct swell_energy en = { 0, 0, w->e_eff };
-	int i, j, a;
-
-	for (j = 0; j < ny; j++) {
-		for (i = 0; i < nx; i++) {
-			a = j * nx + i;
-			en.kin += (int64_t)w->v[a] * w->v[a];
-			if (i + 1 < nx)
-				en.pot2 += edge_pot2(w, a, a + 1, (j == 0 || j == ny - 1) ? 3 : 2);
-			if (j + 1 >= ny)
-				continue;
-			en.pot2 += edge_pot2(w, a, a + nx, (i == 0 || i == nx - 1) ? 3 : 2);
-			if (i + 1 < nx)
-				en.pot2 += edge_pot2(w, a, a + nx + 1, 1);
-			if (i > 0)
-				en.pot2 += edge_pot2(w, a, a + nx - 1, 1);
-		}
-	}
-	return en;
+	return swell_energy_of(w->h, w->nx, w->ny, w->e_eff, last_change, w);
 }
 
 uint32_t ef32_checksum(const struct ef32 *w)

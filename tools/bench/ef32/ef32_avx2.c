@@ -2,7 +2,7 @@
  * tiles and the top row go to the fused kernel. Same bits as ef32_kernel_ref. */
 #include "ef32_priv.h"
 
-#if EF32_AVX2
+#if SWELL_WAVE_AVX2
 #include <immintrin.h>
 
 #define AVX2_FN __attribute__((target("avx2"))) static

@@ -8,28 +8,13 @@
 #include <stdint.h>
 
 #include "ef32.h"
+#include "wave_priv.h"
 
-/* x86-64 kernel with AVX2 (compiled for it, chosen after a CPU check) */
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(SWELL_NO_AVX2)
-#define EF32_AVX2 1
-#else
-#define EF32_AVX2 0
-#endif
-
-/* Tile flags. Z1: every flow of the tile's edges was zero after the last finished step. ZERO: after
- * the last two. NONZERO: some edge gave a non-zero flow in the step in progress. CHANGED: a cell of
- * the tile changed in the last finished step. TOUCHED: a cell changed (from outside, or at the
- * finish) in the step in progress. DIRTY: the step in progress may have written acc in this tile.
- * PREV: the same for the last finished step, whose acc is now v. SLEEPING: decided at the first row
- * of the tile's row in this step. */
-#define T_ZERO 1u
-#define T_NONZERO 2u
-#define T_CHANGED 4u
-#define T_TOUCHED 8u
-#define T_Z1 16u
+/* The solver's tile flags and sleeping (wave_priv.h, T_*), and two bits of ef32's own. DIRTY: the
+ * step in progress may have written acc in this tile. DIRTY_PREV: the same for the last finished
+ * step, whose acc is now v. */
 #define T_DIRTY 32u
 #define T_DIRTY_PREV 64u
-#define T_SLEEPING 128u
 
 /* The flows of cell (i, j) start at this word; the four kinds are 8 words apart. */
 #define FE 0
@@ -67,7 +52,7 @@ static inline int32_t flow_ref(int32_t f, int32_t dh, q30_t c, q30_t q, int damp
 
 int32_t ef32_kernel_ref(struct ef32 *w, int j, int i0, int i1, int damp);
 int32_t ef32_kernel_fused(struct ef32 *w, int j, int i0, int i1, int damp);
-#if EF32_AVX2
+#if SWELL_WAVE_AVX2
 int32_t ef32_kernel_avx2(struct ef32 *w, int j, int i0, int i1, int damp);
 #endif
 

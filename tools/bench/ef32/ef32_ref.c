@@ -2,6 +2,18 @@
  * the rule for one edge). */
 #include "ef32_priv.h"
 
+/* One edge: its new flow f (from the flow in *fl and the height difference dh), added to the cell's
+ * change *va and taken from its neighbour's *vb. */
+static void edge(const struct ef32 *w, int32_t *fl, int32_t dh, q30_t c, int damp, int32_t *va, int32_t *vb,
+		 uint32_t *sat, int32_t *any)
+{
+	const int32_t f = *fl = flow_ref(*fl, dh, c, w->q, damp, sat);
+
+	*any |= f;
+	*va += f;
+	*vb -= f;
+}
+
 /* The reference: one edge at a time, the E edges of the row, then the N, NE and NW edges up to the
  * next row; each flow added to its cell and taken from its neighbour at once. */
 int32_t ef32_kernel_ref(struct ef32 *w, int j, int i0, int i1, int damp)
@@ -11,35 +23,19 @@ int32_t ef32_kernel_ref(struct ef32 *w, int j, int i0, int i1, int damp)
 	const int32_t *h = w->h + j * nx, *hu = h + nx;
 	int32_t *v = w->acc + j * nx, *vu = v + nx;
 	uint32_t sat = 0;
-	int32_t f, any = 0, *fp;
+	int32_t any = 0, *fp;
 	int i;
 
-	for (i = i0; i < i1 && i + 1 < nx; i++) {
-		fp = flows_at(w, i, j);
-		fp[FE] = f = flow_ref(fp[FE], h[i + 1] - h[i], ce, w->q, damp, &sat);
-		any |= f;
-		v[i] += f;
-		v[i + 1] -= f;
-	}
+	for (i = i0; i < i1 && i + 1 < nx; i++)
+		edge(w, flows_at(w, i, j) + FE, h[i + 1] - h[i], ce, damp, &v[i], &v[i + 1], &sat, &any);
 	for (i = i0; i < i1 && j + 1 < w->ny; i++) {
 		fp = flows_at(w, i, j);
-		fp[FN] = f =
-			flow_ref(fp[FN], hu[i] - h[i], (i == 0 || i == nx - 1) ? w->c_wall : w->c_1, w->q, damp, &sat);
-		any |= f;
-		v[i] += f;
-		vu[i] -= f;
-		if (i + 1 < nx) {
-			fp[FNE] = f = flow_ref(fp[FNE], hu[i + 1] - h[i], w->c_half, w->q, damp, &sat);
-			any |= f;
-			v[i] += f;
-			vu[i + 1] -= f;
-		}
-		if (i > 0) {
-			fp[FNW] = f = flow_ref(fp[FNW], hu[i - 1] - h[i], w->c_half, w->q, damp, &sat);
-			any |= f;
-			v[i] += f;
-			vu[i - 1] -= f;
-		}
+		edge(w, fp + FN, hu[i] - h[i], (i == 0 || i == nx - 1) ? w->c_wall : w->c_1, damp, &v[i], &vu[i], &sat,
+		     &any);
+		if (i + 1 < nx)
+			edge(w, fp + FNE, hu[i + 1] - h[i], w->c_half, damp, &v[i], &vu[i + 1], &sat, &any);
+		if (i > 0)
+			edge(w, fp + FNW, hu[i - 1] - h[i], w->c_half, damp, &v[i], &vu[i - 1], &sat, &any);
 	}
 	w->saturations += sat;
 	return any;

@@ -36,12 +36,13 @@ TEST_CASE("swell-bench: bad arguments exit 2 with one line before any run, --rep
 	std::ofstream(file) << "not a directory\n";
 	REQUIRE(mkdir(empty.c_str(), 0777) == 0);
 	const std::vector<swell_test::BadArgs> cases = {
-		{{"--bogus"}, "unknown option --bogus", 2},
-		{{"--steps"}, "option --steps needs a value", 2},
-		{{"--steps", "5"}, "bad --steps '5'", 2},
-		{{"--grids", "1"}, "bad --grids list '1'", 2},
-		{{"--e", "2.5"}, "bad --e list '2.5'", 2},
-		{{"--reps", "0"}, "bad --reps '0'", 2},
+		{{"--bogus"}, "unknown option '--bogus'", 2},
+		{{"--steps"}, "--steps needs a value", 2},
+		{{"--steps", "5"}, "--steps '5' is not a whole number in [20, 10000000]", 2},
+		{{"--grids", "1"}, "--grids '1' is not 1 to 16 comma-separated numbers in [2, 1024] cells", 2},
+		{{"--e", "2.5"}, "--e '2.5' is not 1 to 16 comma-separated numbers in [1e-06, 1.999]", 2},
+		{{"--grids", "64.5"}, "--grids '64.5' is not whole numbers", 2},
+		{{"--reps", "0"}, "--reps '0' is not a whole number in [1, 1000]", 2},
 		{{"--out", file}, "is not a writable directory", 2},
 		{{"--out", "/proc/swell-bench"}, "cannot create /proc/swell-bench", 2},
 		{{"--replot", "--out", empty}, "matrix.csv is missing or empty (no results of a run to plot)", 1},

@@ -820,10 +820,10 @@ TEST_CASE("link options: bad specs, --node and --iface give one line and exit 2,
 	} bad[] = {{"--enter-bootloader can:", "--enter-bootloader 'can:': give the CAN interface, e.g. can:can0"},
 		   {"--enter-bootloader usb:1:2:3", "not usb:VID:PID in hex"},
 		   {"--find canfd:can0", "--find 'canfd:can0': swell's controller links are classic CAN"},
-		   {"--find udp --node 16", "--node '16' is not a node id in 0..15"},
-		   {"--find udp --node x", "--node 'x' is not a node id"},
+		   {"--find udp --node 16", "--node '16' is not a whole number in [0, 15]"},
+		   {"--find udp --node x", "--node 'x' is not a whole number"},
 		   {"--node 3", "--node is for --enter-bootloader or --find"},
-		   {"--find usb --iface 256", "--iface '256' is not a USB interface number"},
+		   {"--find usb --iface 256", "--iface '256' is not a whole number in [0, 255]"},
 		   {"--find can:can0 --iface 1", "--iface is for a usb link"}};
 	for (auto &b : bad) {
 		std::string out;

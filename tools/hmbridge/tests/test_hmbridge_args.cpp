@@ -21,8 +21,8 @@ TEST_CASE("swell-hmbridge: every bad argument exits 2 with one line naming it", 
 					   {{"--hm", "127.0.0.1", "--watchdog", "1.5"}, "--watchdog '1.5'"},
 					   {{"--hm", "127.0.0.1", "--effect-fresh", "0"}, "--effect-fresh '0'"},
 					   {{"--hm", "127.0.0.1", "--seconds", "x"}, "--seconds 'x'"},
-					   {{"--hm", "127.0.0.1", "--bogus", "1"}, "unknown option --bogus"},
-					   {{"--hm", "127.0.0.1", "stray"}, "unexpected argument stray"},
+					   {{"--hm", "127.0.0.1", "--bogus", "1"}, "unknown option '--bogus'"},
+					   {{"--hm", "127.0.0.1", "stray"}, "unexpected argument 'stray'"},
 					   {{"--hm", "127.0.0.1", "--port"}, "--port"},
 				   });
 }

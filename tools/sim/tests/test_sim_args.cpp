@@ -23,12 +23,12 @@ TEST_CASE("swell-sim: every bad argument and conflicting pair exits 2 with one l
 		{{"--damping", "-0.1"}, "--damping -0.1 is outside [0, 1)"},
 		{{"--grid", "1x64"}, "--grid 1x64: each side must be in"},
 		{{"--grid", "64y64"}, "--grid: '64y64' is not NXxNY"},
-		{{"--steps", "-1"}, "--steps: '-1' is not a whole number"},
-		{{"--steps", "1.5"}, "--steps: '1.5' is not a whole number"},
-		{{"--stencil", "fancy"}, "--stencil: 'fancy' is neither paper nor calibrated"},
+		{{"--steps", "-1"}, "--steps '-1' is not a whole number"},
+		{{"--steps", "1.5"}, "--steps '1.5' is not a whole number"},
+		{{"--stencil", "fancy"}, "--stencil 'fancy' is not paper or calibrated"},
 		{{"--init", "wave"}, "--init: 'wave' is not zero"},
-		{{"--impl", "double"}, "--impl: 'double' is neither fixed nor float64"},
-		{{"--e", "abc"}, "--e: 'abc' is not a number"},
+		{{"--impl", "double"}, "--impl 'double' is not fixed or float64"},
+		{{"--e", "abc"}, "--e 'abc' is not a number"},
 		{{"--bogus", "1"}, "unknown option '--bogus'"},
 		{{"stray"}, "unexpected argument 'stray'"},
 		{{"--steps"}, "--steps needs a value"},
@@ -37,7 +37,7 @@ TEST_CASE("swell-sim: every bad argument and conflicting pair exits 2 with one l
 		{{"--motion", "drop:0.02"}, "--motion is an option of the floating object: give --object too"},
 		{{"--at", "0.1,0.1"}, "--at is an option of the floating object"},
 		{{"--trace", "x.csv"}, "--trace is an option of the floating object"},
-		{{"--object", "0.06,0.06,0.04"}, "too few values"},
+		{{"--object", "0.06,0.06,0.04"}, "--object '0.06,0.06,0.04' is not 4 comma-separated numbers"},
 	};
 	/* each with a short run after it, but a value-less option stands last */
 	std::vector<swell_test::BadArgs> with_steps, last;
