@@ -50,8 +50,7 @@ enum swell_err swell_dfuse_init(struct swell_dfuse *t, uint32_t poll_ms, unsigne
 	t->xfer = (uint16_t)xfer;
 	memset(t->flash, 0xFF, sizeof(t->flash));
 	t->pointer = SWELL_DFUSE_FLASH_BASE;
-	t->state = SWELL_DFU_IDLE;
-	t->status = SWELL_DFU_OK;
+	t->state = SWELL_DFU_IDLE; /* status SWELL_DFU_OK: 0 */
 	t->poll_ms = poll_ms;
 	return SWELL_OK;
 }

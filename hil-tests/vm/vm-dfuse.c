@@ -116,10 +116,9 @@ static size_t descriptors(uint8_t *b, unsigned xfer)
 				      0x1A, 0x01 };
 	static const uint8_t device[18] = { 18,   USB_DT_DEVICE, 0x00, 0x02, 0,    0, 0, EP0_MAX, 0x83,
 					    0x04, 0x11,          0xDF, 0x00, 0x22, 1, 2, 3,       1 };
-	size_t n = 0;
+	size_t n = 4;
 
 	memset(b, 0, 4); /* tag */
-	n = 4;
 	memcpy(b + n, config, sizeof(config));
 	n += sizeof(config);
 	for (unsigned alt = 0; alt < SWELL_DFUSE_ALTS; alt++) {
@@ -198,12 +197,8 @@ static void reply_stall(const struct dev *d, int is_in)
 {
 	uint8_t dummy = 0;
 
-	if (is_in) {
-		if (read(d->ep0, &dummy, 0) < 0 && errno != EL2HLT)
-			logline("usb", "stall (IN) failed: %s", strerror(errno));
-	} else if (write(d->ep0, &dummy, 0) < 0 && errno != EL2HLT) {
-		logline("usb", "stall (OUT) failed: %s", strerror(errno));
-	}
+	if ((is_in ? read(d->ep0, &dummy, 0) : write(d->ep0, &dummy, 0)) < 0 && errno != EL2HLT)
+		logline("usb", "stall (%s) failed: %s", is_in ? "IN" : "OUT", strerror(errno));
 }
 
 static void reply_ack(const struct dev *d)

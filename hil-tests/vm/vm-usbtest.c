@@ -189,9 +189,8 @@ int main(int argc, char **argv)
 		}
 	}
 	double dt = vm_now_s() - t0;
-	printf("usb echo: vendor control requests IN and OUT stalled; %ld packets (%s lengths), %u bad, %.1f ms, %.0f "
-	       "packets/s, round trip "
-	       "mean %.0f us, max %.0f us\n",
+	printf("usb echo: vendor control requests IN and OUT stalled; %ld packets (%s lengths), %u bad, %.1f ms, "
+	       "%.0f packets/s, round trip mean %.0f us, max %.0f us\n",
 	       done, vary ? "1..64 byte" : "64 byte", (unsigned)bad, dt * 1e3, (double)done / dt,
 	       dt / (double)done * 1e6, rtt_max * 1e6);
 	if (bad) {
