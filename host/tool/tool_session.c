@@ -118,7 +118,7 @@ static int take_frame(struct tool_session *s, const struct swell_frame *f)
 		s->t.bytes += f->len;
 		s->t.msgs += (uint64_t)ours;
 		if (swell_link_carrier(s->l) == SWELL_CARRIER_CAN)
-			s->t.can_bits += SWELL_CAN_BITS(f->len);
+			s->t.can_bits += swell_can_bits(f->len);
 	}
 	return ours;
 }

@@ -134,7 +134,7 @@ static void bus_load(FILE *o)
 	fprintf(o,
 		"- Classic CAN: %u bits per 8-byte frame and %u per 7-byte frame, worst-case bit\n"
 		"  stuffing (47 + 8n + floor((33 + 8n) / 4)).\n",
-		SWELL_CAN_BITS(8), SWELL_CAN_BITS(7));
+		swell_can_bits(8), swell_can_bits(7));
 	fprintf(o,
 		"- CAN FD: 1 Mbit/s arbitration, 2 Mbit/s data, worst-case stuffing: %.1f us per\n"
 		"  8-byte frame, %.1f us per 64-byte frame (8 quads). Per-tick messages are of different\n"
@@ -160,23 +160,23 @@ static void bus_load(FILE *o)
 		const char *verdict;
 
 		if (r->carrier[0] == 'c' && r->minimal == 2) {
-			const double update = SWELL_CAN_BITS(msg_len(SWELL_MSG_EFFECT_SPRING)) +
-				SWELL_CAN_BITS(msg_len(SWELL_MSG_EFFECT_DAMPER)) +
-				SWELL_CAN_BITS(msg_len(SWELL_MSG_EFFECT_LIMIT)) +
-				SWELL_CAN_BITS(msg_len(SWELL_MSG_DEVICE_POS)) +
-				SWELL_CAN_BITS(msg_len(SWELL_MSG_DEVICE_VEL));
+			const double update = swell_can_bits(msg_len(SWELL_MSG_EFFECT_SPRING)) +
+				swell_can_bits(msg_len(SWELL_MSG_EFFECT_DAMPER)) +
+				swell_can_bits(msg_len(SWELL_MSG_EFFECT_LIMIT)) +
+				swell_can_bits(msg_len(SWELL_MSG_DEVICE_POS)) +
+				swell_can_bits(msg_len(SWELL_MSG_DEVICE_VEL));
 
-			busy_s = (update * UPDATE_HZ + SWELL_CAN_BITS(8) * (HB_HZ + SCENE_HZ + INFO_HZ + 2 * OBJ_HZ)) /
+			busy_s = (update * UPDATE_HZ + swell_can_bits(8) * (HB_HZ + SCENE_HZ + INFO_HZ + 2 * OBJ_HZ)) /
 				1e6;
-			quad_s_each = SWELL_CAN_BITS(msg_len(SWELL_MSG_HEIGHT_QUAD)) / 1e6;
+			quad_s_each = swell_can_bits(msg_len(SWELL_MSG_HEIGHT_QUAD)) / 1e6;
 		} else if (r->carrier[0] == 'c') {
-			double tick = SWELL_CAN_BITS(msg_len(SWELL_MSG_FORCE_CMD)) +
-				SWELL_CAN_BITS(msg_len(SWELL_MSG_DEVICE_POS));
+			double tick = swell_can_bits(msg_len(SWELL_MSG_FORCE_CMD)) +
+				swell_can_bits(msg_len(SWELL_MSG_DEVICE_POS));
 			if (!r->minimal)
-				tick += SWELL_CAN_BITS(msg_len(SWELL_MSG_DEVICE_VEL)) +
-					SWELL_CAN_BITS(msg_len(SWELL_MSG_DEVICE_FORCE));
-			busy_s = (tick * r->rate + SWELL_CAN_BITS(8) * (HB_HZ + SCENE_HZ + INFO_HZ + 2 * OBJ_HZ)) / 1e6;
-			quad_s_each = SWELL_CAN_BITS(msg_len(SWELL_MSG_HEIGHT_QUAD)) / 1e6;
+				tick += swell_can_bits(msg_len(SWELL_MSG_DEVICE_VEL)) +
+					swell_can_bits(msg_len(SWELL_MSG_DEVICE_FORCE));
+			busy_s = (tick * r->rate + swell_can_bits(8) * (HB_HZ + SCENE_HZ + INFO_HZ + 2 * OBJ_HZ)) / 1e6;
+			quad_s_each = swell_can_bits(msg_len(SWELL_MSG_HEIGHT_QUAD)) / 1e6;
 		} else if (r->carrier[0] == 'C') {
 			double tick = 2 * canfd_us(8, 1e6, 2e6) + 2 * canfd_us(8, 1e6, 2e6); /* 7 bytes -> 8 */
 			busy_s = (tick * r->rate + canfd_us(8, 1e6, 2e6) * (HB_HZ + SCENE_HZ + INFO_HZ + 2 * OBJ_HZ)) /

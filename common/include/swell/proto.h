@@ -47,9 +47,6 @@ struct swell_msg {
 #define SWELL_NODE_MAX 15u
 #define SWELL_CAN_ID(type, node) (((uint32_t)(type) << 4) | (uint32_t)(node))
 #define SWELL_CAN_LEN 8u
-/* Bits on the wire of a classic CAN frame, 11-bit id, n data bytes, worst-case bit stuffing: 47 + 8n fixed
- * bits, and at most one stuff bit per 4 bits of the 34 + 8n bits from SOF to the end of the CRC. */
-#define SWELL_CAN_BITS(n) (47u + 8u * (unsigned)(n) + (34u + 8u * (unsigned)(n)-1u) / 4u)
 #define SWELL_CANFD_LEN 64u
 #define SWELL_PKT_MAX 64u /* USB full-speed bulk packet; UDP datagrams use the same bound */
 #define SWELL_PKT_HEADER 5u
@@ -58,6 +55,13 @@ struct swell_msg {
 #define SWELL_MSG_LEN_MIN 3u /* shortest payload (checked in proto.c) */
 #define SWELL_CANFD_MSGS_MAX (SWELL_CANFD_LEN / 4u) /* slots are rounded up to 4 bytes */
 #define SWELL_PKT_MSGS_MAX ((SWELL_PKT_MAX - SWELL_PKT_OVERHEAD) / (1u + SWELL_MSG_LEN_MIN))
+
+/* Bits on the wire of a classic CAN frame, 11-bit id, n data bytes, worst-case bit stuffing: 47 + 8n fixed
+ * bits, and at most one stuff bit per 4 bits of the 34 + 8n bits from SOF to the end of the CRC. */
+static inline unsigned swell_can_bits(unsigned n)
+{
+	return 47u + 8u * n + (34u + 8u * n - 1u) / 4u;
+}
 
 /* ---- the table as data (for generic code, the generator, tests) ---- */
 enum swell_field_kind {
