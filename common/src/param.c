@@ -30,9 +30,7 @@ const struct swell_param_desc *swell_param_table(size_t *n)
 
 const struct swell_param_desc *swell_param_by_id(uint16_t id)
 {
-	size_t k;
-
-	for (k = 0; k < COUNT; k++)
+	for (size_t k = 0; k < COUNT; k++)
 		if (table[k].id == id)
 			return &table[k];
 	return NULL;
@@ -40,9 +38,7 @@ const struct swell_param_desc *swell_param_by_id(uint16_t id)
 
 const struct swell_param_desc *swell_param_by_name(const char *name)
 {
-	size_t k;
-
-	for (k = 0; name && k < COUNT; k++)
+	for (size_t k = 0; name && k < COUNT; k++)
 		if (strcmp(table[k].name, name) == 0)
 			return &table[k];
 	return NULL;
@@ -59,9 +55,7 @@ static const struct {
 
 const char *swell_command_name(int32_t value)
 {
-	size_t k;
-
-	for (k = 0; k < sizeof(commands) / sizeof(commands[0]); k++)
+	for (size_t k = 0; k < sizeof(commands) / sizeof(commands[0]); k++)
 		if (commands[k].value == value)
 			return commands[k].name;
 	return NULL;
@@ -69,9 +63,7 @@ const char *swell_command_name(int32_t value)
 
 int32_t swell_command_by_name(const char *name)
 {
-	size_t k;
-
-	for (k = 0; name && k < sizeof(commands) / sizeof(commands[0]); k++)
+	for (size_t k = 0; name && k < sizeof(commands) / sizeof(commands[0]); k++)
 		if (strcmp(commands[k].name, name) == 0)
 			return commands[k].value;
 	return -1;

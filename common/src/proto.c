@@ -46,9 +46,7 @@ const unsigned swell_msg_desc_count = sizeof(swell_msg_descs) / sizeof(swell_msg
 
 const struct swell_msg_desc *swell_msg_desc_find(unsigned type)
 {
-	unsigned i;
-
-	for (i = 0; i < swell_msg_desc_count; i++)
+	for (unsigned i = 0; i < swell_msg_desc_count; i++)
 		if (swell_msg_descs[i].type == type)
 			return &swell_msg_descs[i];
 	return NULL;
@@ -92,15 +90,11 @@ enum swell_err swell_msg_field_set(struct swell_msg *m, const struct swell_field
 
 int swell_msg_equal(const struct swell_msg *a, const struct swell_msg *b)
 {
-	const struct swell_msg_desc *d;
-	unsigned i;
+	const struct swell_msg_desc *d = swell_msg_desc_find(a->type);
 
-	if (a->type != b->type || a->node != b->node)
+	if (a->type != b->type || a->node != b->node || !d)
 		return 0;
-	d = swell_msg_desc_find(a->type);
-	if (!d)
-		return 0;
-	for (i = 0; i < d->nfields; i++)
+	for (unsigned i = 0; i < d->nfields; i++)
 		if (swell_msg_field_get(a, &d->fields[i]) != swell_msg_field_get(b, &d->fields[i]))
 			return 0;
 	return 1;
@@ -121,9 +115,8 @@ static enum swell_err count(struct swell_proto_stats *st, enum swell_err err, ui
 uint32_t swell_proto_rejected_total(const struct swell_proto_stats *st)
 {
 	uint64_t sum = 0;
-	unsigned i;
 
-	for (i = 0; i < SWELL_ERR_COUNT; i++)
+	for (unsigned i = 0; i < SWELL_ERR_COUNT; i++)
 		sum += st->rejected[i];
 	return sum > UINT32_MAX ? UINT32_MAX : (uint32_t)sum;
 }
@@ -350,11 +343,8 @@ enum swell_err swell_pkt_encode(uint8_t node, uint8_t seq, const struct swell_ms
 	}
 	if (k == 0)
 		return SWELL_ESIZE;
-	buf[0] = SWELL_PKT_MAGIC;
-	buf[1] = SWELL_PROTO_VERSION;
-	buf[2] = node;
-	buf[3] = seq;
-	buf[4] = (uint8_t)k;
+	memcpy(buf, (const uint8_t[SWELL_PKT_HEADER]){ SWELL_PKT_MAGIC, SWELL_PROTO_VERSION, node, seq, (uint8_t)k },
+	       SWELL_PKT_HEADER);
 	crc = swell_crc32(0, buf, pos);
 	for (i = 0; i < 4; i++)
 		buf[pos++] = (uint8_t)(crc >> (8 * i)); /* little-endian */

@@ -21,38 +21,24 @@ const char *swell_dfu_state_name(unsigned state)
 
 const char *swell_dfu_status_name(unsigned status)
 {
-	switch (status) {
-	case SWELL_DFU_OK:
-		return "OK";
-	case SWELL_DFU_ERR_TARGET:
-		return "errTARGET";
-	case SWELL_DFU_ERR_CHECK_ERASED:
-		return "errCHECK_ERASED";
-	case SWELL_DFU_ERR_ADDRESS:
-		return "errADDRESS";
-	case SWELL_DFU_ERR_UNKNOWN:
-		return "errUNKNOWN";
-	case SWELL_DFU_ERR_STALLEDPKT:
-		return "errSTALLEDPKT";
-	default:
-		return "?";
-	}
+	static const char *const names[SWELL_DFU_ERR_STALLEDPKT + 1] = {
+		[SWELL_DFU_OK] = "OK",
+		[SWELL_DFU_ERR_TARGET] = "errTARGET",
+		[SWELL_DFU_ERR_CHECK_ERASED] = "errCHECK_ERASED",
+		[SWELL_DFU_ERR_ADDRESS] = "errADDRESS",
+		[SWELL_DFU_ERR_UNKNOWN] = "errUNKNOWN",
+		[SWELL_DFU_ERR_STALLEDPKT] = "errSTALLEDPKT",
+	};
+
+	return status <= SWELL_DFU_ERR_STALLEDPKT && names[status] ? names[status] : "?";
 }
 
 int swell_dfuse_sector(uint32_t off, uint32_t *start, uint32_t *size)
 {
 	if (off >= SWELL_DFUSE_FLASH_SIZE)
 		return -1;
-	if (off < 0x10000u) { /* sectors 0-3 */
-		*size = 0x4000u;
-		*start = off & ~(*size - 1u);
-	} else if (off < 0x20000u) { /* sector 4 */
-		*start = 0x10000u;
-		*size = 0x10000u;
-	} else { /* sectors 5-11 */
-		*size = 0x20000u;
-		*start = off & ~(*size - 1u);
-	}
+	*size = off < 0x10000u ? 0x4000u : off < 0x20000u ? 0x10000u : 0x20000u; /* sectors 0-3, 4, 5-11 */
+	*start = off & ~(*size - 1u); /* each sector starts at a multiple of its size */
 	return 0;
 }
 
@@ -64,8 +50,7 @@ enum swell_err swell_dfuse_init(struct swell_dfuse *t, uint32_t poll_ms, unsigne
 	t->xfer = (uint16_t)xfer;
 	memset(t->flash, 0xFF, sizeof(t->flash));
 	t->pointer = SWELL_DFUSE_FLASH_BASE;
-	t->state = SWELL_DFU_IDLE;
-	t->status = SWELL_DFU_OK;
+	t->state = SWELL_DFU_IDLE; /* status SWELL_DFU_OK: 0 */
 	t->poll_ms = poll_ms;
 	return SWELL_OK;
 }
@@ -80,26 +65,19 @@ int swell_dfuse_set_alt(struct swell_dfuse *t, unsigned alt)
 
 void swell_dfuse_take_dirty(struct swell_dfuse *t, uint32_t *lo, uint32_t *hi)
 {
-	if (t->dirty_lo >= t->dirty_hi) {
-		*lo = *hi = 0;
-	} else {
-		*lo = t->dirty_lo;
-		*hi = t->dirty_hi;
-	}
+	const int any = t->dirty_lo < t->dirty_hi;
+
+	*lo = any ? t->dirty_lo : 0;
+	*hi = any ? t->dirty_hi : 0;
 	t->dirty_lo = t->dirty_hi = 0;
 }
 
 static void dirty(struct swell_dfuse *t, uint32_t lo, uint32_t hi)
 {
-	if (t->dirty_lo >= t->dirty_hi) {
-		t->dirty_lo = lo;
-		t->dirty_hi = hi;
-		return;
-	}
-	if (lo < t->dirty_lo)
-		t->dirty_lo = lo;
-	if (hi > t->dirty_hi)
-		t->dirty_hi = hi;
+	const int any = t->dirty_lo < t->dirty_hi; /* else the range is [lo, hi) alone */
+
+	t->dirty_lo = any && t->dirty_lo < lo ? t->dirty_lo : lo;
+	t->dirty_hi = any && t->dirty_hi > hi ? t->dirty_hi : hi;
 }
 
 /* Flash offset of [addr, addr + len) or -1 when any of it is outside the flash. */
@@ -310,9 +288,8 @@ static enum swell_dfuse_reply getstatus(struct swell_dfuse *t, const struct swel
 		break;
 	}
 	in[0] = t->status;
-	in[1] = (uint8_t)(poll & 0xFFu);
-	in[2] = (uint8_t)((poll >> 8) & 0xFFu);
-	in[3] = (uint8_t)((poll >> 16) & 0xFFu);
+	for (int k = 0; k < 3; k++) /* bwPollTimeout, 24 bits little-endian */
+		in[1 + k] = (uint8_t)(poll >> (8 * k));
 	in[4] = t->state;
 	in[5] = 0; /* iString */
 	if (t->state == SWELL_DFU_MANIFEST)

@@ -5,23 +5,15 @@
 
 #include <errno.h>
 #include <poll.h>
-#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "swell/cli.h"
 #include "swell/link.h"
+#include "vm-util.h"
 
 #define PACKET 64u
-
-static volatile sig_atomic_t stop;
-
-static void on_signal(int sig)
-{
-	(void)sig;
-	stop = 1;
-}
 
 /* "64-byte": PACKET */
 static const char usage[] =
@@ -80,11 +72,7 @@ int main(int argc, char **argv)
 		return 2;
 	}
 
-	struct sigaction sa;
-	memset(&sa, 0, sizeof(sa));
-	sa.sa_handler = on_signal; /* no SA_RESTART: poll returns EINTR */
-	sigaction(SIGTERM, &sa, NULL);
-	sigaction(SIGINT, &sa, NULL);
+	vm_catch_stop();
 
 	rc = swell_link_open_ffs(&l, dir, &iface);
 	if (rc < 0) {
@@ -92,7 +80,7 @@ int main(int argc, char **argv)
 		return 1;
 	}
 	rc = 0;
-	while (!stop && (count == 0 || swell_link_get_counters(l)->tx_frames < count)) {
+	while (!vm_stop && (count == 0 || swell_link_get_counters(l)->tx_frames < count)) {
 		if (!pending) { /* ep0's events and the next packet, waiting up to 100 ms */
 			const int r = swell_link_recv(l, &f, 100);
 

@@ -35,22 +35,16 @@ static const char usage[] =
 
 static const char *state_name(int state)
 {
-	switch (state) {
-	case CAN_STATE_ERROR_ACTIVE:
-		return "error-active";
-	case CAN_STATE_ERROR_WARNING:
-		return "error-warning";
-	case CAN_STATE_ERROR_PASSIVE:
-		return "error-passive";
-	case CAN_STATE_BUS_OFF:
-		return "bus-off";
-	case CAN_STATE_STOPPED:
-		return "stopped";
-	case CAN_STATE_SLEEPING:
-		return "sleeping";
-	default:
-		return "unknown";
-	}
+	static const char *const names[] = {
+		[CAN_STATE_ERROR_ACTIVE] = "error-active",
+		[CAN_STATE_ERROR_WARNING] = "error-warning",
+		[CAN_STATE_ERROR_PASSIVE] = "error-passive",
+		[CAN_STATE_BUS_OFF] = "bus-off",
+		[CAN_STATE_STOPPED] = "stopped",
+		[CAN_STATE_SLEEPING] = "sleeping",
+	};
+
+	return state >= 0 && state < (int)(sizeof(names) / sizeof(names[0])) && names[state] ? names[state] : "unknown";
 }
 
 static int cmd_up(int argc, char **argv)
@@ -142,11 +136,9 @@ static void pattern(uint32_t i, struct can_frame *f)
 
 static int same(const struct can_frame *a, const struct can_frame *b)
 {
-	if (a->can_id != b->can_id || a->len != b->len)
-		return 0;
-	if (a->can_id & CAN_RTR_FLAG)
-		return 1;
-	return memcmp(a->data, b->data, a->len) == 0;
+	/* a remote frame's data is not compared */
+	return a->can_id == b->can_id && a->len == b->len &&
+		((a->can_id & CAN_RTR_FLAG) || memcmp(a->data, b->data, a->len) == 0);
 }
 
 static int open_raw(const char *iface)

@@ -14,7 +14,6 @@
 #include <linux/usb/gadgetfs.h>
 #include <poll.h>
 #include <sched.h>
-#include <signal.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -30,16 +29,9 @@
 #define EP0_MAX 64u
 #define GADGETFS_EP0_MAX 256u /* RBUF_SIZE of drivers/usb/gadget/legacy/inode.c: longer OUT data stalls */
 
-static volatile sig_atomic_t stop;
 static struct swell_dfuse target; /* 1 MiB of flash: static, not on the stack */
 static FILE *log_out;
 static double t0;
-
-static void on_signal(int sig)
-{
-	(void)sig;
-	stop = 1;
-}
 
 static void usage(FILE *to)
 {
@@ -93,28 +85,16 @@ static const char *const alt_names[SWELL_DFUSE_ALTS] = {
 
 static size_t string_desc(unsigned index, const char *serial, uint8_t *out, size_t cap)
 {
-	const char *s;
+	const char *const device[4] = { NULL, "STMicroelectronics", "STM32  BOOTLOADER", serial };
 
 	if (index == 0) {
 		const uint8_t lang[4] = { 4, USB_DT_STRING, 0x09, 0x04 };
 		memcpy(out, lang, sizeof(lang));
 		return sizeof(lang);
 	}
-	switch (index) {
-	case 1:
-		s = "STMicroelectronics";
-		break;
-	case 2:
-		s = "STM32  BOOTLOADER";
-		break;
-	case 3:
-		s = serial;
-		break;
-	default:
-		if (index - 4u >= SWELL_DFUSE_ALTS)
-			return 0;
-		s = alt_names[index - 4u];
-	}
+	if (index >= 4u + SWELL_DFUSE_ALTS)
+		return 0;
+	const char *s = index < 4u ? device[index] : alt_names[index - 4u];
 	size_t n = strlen(s);
 	if (2u + 2u * n > cap || 2u + 2u * n > 255u)
 		n = (cap < 255u ? cap - 2u : 253u) / 2u;
@@ -131,21 +111,14 @@ static size_t string_desc(unsigned index, const char *serial, uint8_t *out, size
 static size_t descriptors(uint8_t *b, unsigned xfer)
 {
 	static const uint8_t config[9] = { 9, USB_DT_CONFIG, 0, 0, 1, 1, 0, 0xC0, 50 };
-	const uint8_t dfu_func[9] = { 9,
-				      0x21,
-				      0x0B,
-				      0xFF,
-				      0x00, /* will detach, upload, download */
-				      (uint8_t)(xfer & 0xFFu),
-				      (uint8_t)(xfer >> 8),
-				      0x1A,
-				      0x01 };
+	/* DFU functional: will detach, upload, download; detach timeout 255 ms; wTransferSize; DfuSe 1.1a */
+	const uint8_t dfu_func[9] = { 9,    0x21, 0x0B, 0xFF, 0x00, (uint8_t)(xfer & 0xFFu), (uint8_t)(xfer >> 8),
+				      0x1A, 0x01 };
 	static const uint8_t device[18] = { 18,   USB_DT_DEVICE, 0x00, 0x02, 0,    0, 0, EP0_MAX, 0x83,
 					    0x04, 0x11,          0xDF, 0x00, 0x22, 1, 2, 3,       1 };
-	size_t n = 0;
+	size_t n = 4;
 
 	memset(b, 0, 4); /* tag */
-	n = 4;
 	memcpy(b + n, config, sizeof(config));
 	n += sizeof(config);
 	for (unsigned alt = 0; alt < SWELL_DFUSE_ALTS; alt++) {
@@ -224,12 +197,8 @@ static void reply_stall(const struct dev *d, int is_in)
 {
 	uint8_t dummy = 0;
 
-	if (is_in) {
-		if (read(d->ep0, &dummy, 0) < 0 && errno != EL2HLT)
-			logline("usb", "stall (IN) failed: %s", strerror(errno));
-	} else if (write(d->ep0, &dummy, 0) < 0 && errno != EL2HLT) {
-		logline("usb", "stall (OUT) failed: %s", strerror(errno));
-	}
+	if ((is_in ? read(d->ep0, &dummy, 0) : write(d->ep0, &dummy, 0)) < 0 && errno != EL2HLT)
+		logline("usb", "stall (%s) failed: %s", is_in ? "IN" : "OUT", strerror(errno));
 }
 
 static void reply_ack(const struct dev *d)
@@ -421,11 +390,7 @@ int main(int argc, char **argv)
 	if (d.flash_fd < 0)
 		return 1;
 
-	struct sigaction sa;
-	memset(&sa, 0, sizeof(sa));
-	sa.sa_handler = on_signal; /* no SA_RESTART: poll returns EINTR */
-	sigaction(SIGTERM, &sa, NULL);
-	sigaction(SIGINT, &sa, NULL);
+	vm_catch_stop();
 
 	/* GadgetFS queues an OUT data stage as soon as the SETUP arrives and the host's next request
 	 * would overwrite it: answer before the host (a normal process) runs again, like hardware. */
@@ -455,7 +420,7 @@ int main(int argc, char **argv)
 
 	int rc = 0;
 	double leave_at = 0;
-	while (!stop) {
+	while (!vm_stop) {
 		if (target.leave && leave_at == 0)
 			leave_at = vm_now_s() + (double)leave_ms / 1000.0;
 		if (leave_at != 0 && vm_now_s() >= leave_at)
@@ -496,23 +461,12 @@ int main(int argc, char **argv)
 			break;
 		}
 		for (size_t k = 0; k < (size_t)r / sizeof(ev[0]); k++) {
-			switch (ev[k].type) {
-			case GADGETFS_CONNECT:
+			if (ev[k].type == GADGETFS_SETUP && handle_setup(&d, &ev[k].u.setup) != 0)
+				rc = 1;
+			else if (ev[k].type == GADGETFS_CONNECT)
 				logline("usb", "connect, speed %d", (int)ev[k].u.speed);
-				break;
-			case GADGETFS_DISCONNECT:
-				logline("usb", "disconnect");
-				break;
-			case GADGETFS_SUSPEND:
-				logline("usb", "suspend");
-				break;
-			case GADGETFS_SETUP:
-				if (handle_setup(&d, &ev[k].u.setup) != 0)
-					rc = 1;
-				break;
-			default:
-				break;
-			}
+			else if (ev[k].type == GADGETFS_DISCONNECT || ev[k].type == GADGETFS_SUSPEND)
+				logline("usb", "%s", ev[k].type == GADGETFS_SUSPEND ? "suspend" : "disconnect");
 		}
 		if (rc)
 			break;

@@ -27,18 +27,12 @@ static const char usage[] =
 
 static const char *speed_name(int s)
 {
-	switch (s) {
-	case LIBUSB_SPEED_LOW:
-		return "low speed";
-	case LIBUSB_SPEED_FULL:
-		return "full speed";
-	case LIBUSB_SPEED_HIGH:
-		return "high speed";
-	case LIBUSB_SPEED_SUPER:
-		return "super speed";
-	default:
-		return "unknown speed";
-	}
+	static const char *const names[] = { [LIBUSB_SPEED_LOW] = "low speed",
+					     [LIBUSB_SPEED_FULL] = "full speed",
+					     [LIBUSB_SPEED_HIGH] = "high speed",
+					     [LIBUSB_SPEED_SUPER] = "super speed" };
+
+	return s >= 0 && s < (int)(sizeof(names) / sizeof(names[0])) && names[s] ? names[s] : "unknown speed";
 }
 
 /* Packet i: its length and its bytes depend on i (byte 0..3: i, little-endian). */
@@ -195,9 +189,8 @@ int main(int argc, char **argv)
 		}
 	}
 	double dt = vm_now_s() - t0;
-	printf("usb echo: vendor control requests IN and OUT stalled; %ld packets (%s lengths), %u bad, %.1f ms, %.0f "
-	       "packets/s, round trip "
-	       "mean %.0f us, max %.0f us\n",
+	printf("usb echo: vendor control requests IN and OUT stalled; %ld packets (%s lengths), %u bad, %.1f ms, "
+	       "%.0f packets/s, round trip mean %.0f us, max %.0f us\n",
 	       done, vary ? "1..64 byte" : "64 byte", (unsigned)bad, dt * 1e3, (double)done / dt,
 	       dt / (double)done * 1e6, rtt_max * 1e6);
 	if (bad) {

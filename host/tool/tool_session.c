@@ -29,12 +29,6 @@ double tool_elapsed_s(const struct tool_session *s)
 	return (double)(swell_link_now_ns() - s->t0_ns) / 1e9;
 }
 
-/* Classic CAN frame with n data bytes, 11-bit id, worst-case stuffing (as docs/protocol.md). */
-static unsigned can_bits(unsigned n)
-{
-	return 47u + 8u * n + (34u + 8u * n - 1u) / 4u;
-}
-
 static void take_quad(struct tool_telemetry *t, const struct swell_msg_height_quad *q)
 {
 	const unsigned y = q->tile_y * SWELL_PROTO_TILE + q->row, x0 = q->tile_x * SWELL_PROTO_TILE + q->half * 4u;
@@ -124,7 +118,7 @@ static int take_frame(struct tool_session *s, const struct swell_frame *f)
 		s->t.bytes += f->len;
 		s->t.msgs += (uint64_t)ours;
 		if (swell_link_carrier(s->l) == SWELL_CARRIER_CAN)
-			s->t.can_bits += can_bits(f->len);
+			s->t.can_bits += swell_can_bits(f->len);
 	}
 	return ours;
 }

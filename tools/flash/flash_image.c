@@ -124,35 +124,22 @@ int flash_image_check(const uint8_t *file, size_t file_len, uint32_t want_mcu, s
 	if (err == SWELL_ETRUNC) {
 		fail(why, why_len, "truncated: %zu bytes, the header ends at byte %u", r.len,
 		     SWELL_FWIMAGE_OFFSET + SWELL_FWIMAGE_HDR_SIZE);
-		goto out;
-	}
-	if (err == SWELL_EUNKNOWN) {
+	} else if (err == SWELL_EUNKNOWN) {
 		fail(why, why_len, "no swell image header: magic at 0x%x is 0x%08x, want 0x%08x (\"SWIM\")",
 		     SWELL_FWIMAGE_OFFSET, (unsigned)le32(r.bytes + SWELL_FWIMAGE_OFFSET), SWELL_FWIMAGE_MAGIC);
-		goto out;
-	}
-	if (err != SWELL_OK) {
+	} else if (err != SWELL_OK) {
 		fail(why, why_len, "header version %u size %u, this tool reads version %u size %u",
 		     le16(r.bytes + SWELL_FWIMAGE_OFFSET + 4), le16(r.bytes + SWELL_FWIMAGE_OFFSET + 6),
 		     SWELL_FWIMAGE_HDR_VERSION, SWELL_FWIMAGE_HDR_SIZE);
-		goto out;
-	}
-	if (r.hdr.mcu_id != want_mcu) {
+	} else if (r.hdr.mcu_id != want_mcu) {
 		fail(why, why_len, "foreign image: built for MCU 0x%03x, target is 0x%03x%s", (unsigned)r.hdr.mcu_id,
 		     (unsigned)want_mcu, want_mcu == SWELL_FWIMAGE_MCU_STM32F405 ? " (STM32F405/407)" : "");
-		goto out;
-	}
-	if (r.hdr.length == 0) {
+	} else if (r.hdr.length == 0) {
 		fail(why, why_len, "not stamped: header length 0 (run swell-fwimage stamp after linking)");
-		goto out;
-	}
-	if (r.hdr.length != r.len) {
+	} else if (r.hdr.length != r.len) {
 		fail(why, why_len, "%s: header length %u bytes, image holds %zu bytes",
 		     r.hdr.length > r.len ? "truncated" : "length mismatch", (unsigned)r.hdr.length, r.len);
-		goto out;
-	}
-	err = swell_fwimage_verify(r.bytes, r.len, want_mcu, &hdr);
-	if (err != SWELL_OK) {
+	} else if (swell_fwimage_verify(r.bytes, r.len, want_mcu, &hdr) != SWELL_OK) {
 		/* which CRC: a zeroed header CRC was reported as an image CRC "mismatch" of two equal numbers */
 		const uint32_t hdr_crc = swell_crc32(0, r.bytes + SWELL_FWIMAGE_OFFSET, 28);
 
@@ -162,16 +149,13 @@ int flash_image_check(const uint8_t *file, size_t file_len, uint32_t want_mcu, s
 		else
 			fail(why, why_len, "corrupted: CRC-32 mismatch (header says image 0x%08x, computed 0x%08x)",
 			     (unsigned)r.hdr.crc, (unsigned)swell_fwimage_crc(r.bytes, r.len));
-		goto out;
+	} else if (hdr.flags != 0) {
+		fail(why, why_len, "header flags 0x%08x unknown to this tool (want 0)", (unsigned)hdr.flags);
+	} else {
+		r.hdr = hdr;
+		*img = r;
+		return 0;
 	}
-	r.hdr = hdr;
-	if (r.hdr.flags != 0) {
-		fail(why, why_len, "header flags 0x%08x unknown to this tool (want 0)", (unsigned)r.hdr.flags);
-		goto out;
-	}
-	*img = r;
-	return 0;
-out:
 	free(r.bytes);
 	return -1;
 }
@@ -181,24 +165,20 @@ int flash_read_file(const char *path, size_t max, uint8_t **buf, size_t *len, ch
 	FILE *f = fopen(path, "rb");
 	uint8_t *b;
 	size_t n;
+	int bad;
 
 	if (!f)
 		return fail(why, why_len, "%s: %s", path, strerror(errno));
 	b = malloc(max + 1);
-	if (!b) {
-		fclose(f);
-		return fail(why, why_len, "out of memory");
-	}
-	n = fread(b, 1, max + 1, f);
-	if (ferror(f)) {
-		fclose(f);
-		free(b);
-		return fail(why, why_len, "%s: read error", path);
-	}
+	n = b ? fread(b, 1, max + 1, f) : 0;
+	bad = b && ferror(f);
 	fclose(f);
-	if (n > max) {
+	if (!b)
+		return fail(why, why_len, "out of memory");
+	if (bad || n > max) {
 		free(b);
-		return fail(why, why_len, "%s: larger than %zu bytes", path, max);
+		return bad ? fail(why, why_len, "%s: read error", path)
+			   : fail(why, why_len, "%s: larger than %zu bytes", path, max);
 	}
 	*buf = b;
 	*len = n;

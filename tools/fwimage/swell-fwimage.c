@@ -35,47 +35,37 @@ _Noreturn static void fail(const char *path, const char *why)
 /* Why a header or image is refused, with the figures (what swell_fwimage_verify only names). */
 static void explain(const uint8_t *img, size_t len, uint32_t want_mcu, enum swell_err err, char *why, size_t n)
 {
-	struct swell_fwimage_hdr h;
-	uint32_t hdr_crc, crc;
+	struct swell_fwimage_hdr h = { 0 };
+	const int hdr_ok = swell_fwimage_read(img, len, &h) == SWELL_OK;
+	/* the CRCs only of a header that is there, for this MCU and as long as the file */
+	const int sized = hdr_ok && h.mcu_id == want_mcu && h.length == len;
+	const uint32_t hdr_crc = sized ? swell_crc32(0, img + SWELL_FWIMAGE_OFFSET, 28) : 0;
+	const uint32_t crc = sized ? swell_fwimage_crc(img, len) : 0;
 
-	if (swell_fwimage_read(img, len, &h) != SWELL_OK) {
-		if (err == SWELL_ETRUNC)
-			snprintf(why, n, "%zu bytes cannot hold the header (it ends at byte %u)", len,
-				 SWELL_FWIMAGE_OFFSET + SWELL_FWIMAGE_HDR_SIZE);
-		else if (err == SWELL_EUNKNOWN)
-			snprintf(why, n, "no swell image header at 0x%x (magic is not \"SWIM\")", SWELL_FWIMAGE_OFFSET);
-		else
-			snprintf(why, n, "header version or size unknown to this tool (want version %u, %u bytes)",
-				 SWELL_FWIMAGE_HDR_VERSION, SWELL_FWIMAGE_HDR_SIZE);
-		return;
-	}
-	if (h.mcu_id != want_mcu) {
+	if (!hdr_ok && err == SWELL_ETRUNC)
+		snprintf(why, n, "%zu bytes cannot hold the header (it ends at byte %u)", len,
+			 SWELL_FWIMAGE_OFFSET + SWELL_FWIMAGE_HDR_SIZE);
+	else if (!hdr_ok && err == SWELL_EUNKNOWN)
+		snprintf(why, n, "no swell image header at 0x%x (magic is not \"SWIM\")", SWELL_FWIMAGE_OFFSET);
+	else if (!hdr_ok)
+		snprintf(why, n, "header version or size unknown to this tool (want version %u, %u bytes)",
+			 SWELL_FWIMAGE_HDR_VERSION, SWELL_FWIMAGE_HDR_SIZE);
+	else if (h.mcu_id != want_mcu)
 		snprintf(why, n, "foreign image: built for MCU 0x%03x, expected 0x%03x", (unsigned)h.mcu_id,
 			 (unsigned)want_mcu);
-		return;
-	}
-	if (h.length == 0) {
+	else if (h.length == 0)
 		snprintf(why, n, "not stamped: header length 0 (run swell-fwimage stamp after linking)");
-		return;
-	}
-	if (h.length != len) {
+	else if (h.length != len)
 		snprintf(why, n, "%s: header length %u bytes, file holds %zu bytes",
 			 h.length > len ? "truncated" : "length mismatch", (unsigned)h.length, len);
-		return;
-	}
-	hdr_crc = swell_crc32(0, img + SWELL_FWIMAGE_OFFSET, 28);
-	if (hdr_crc != h.hdr_crc) {
+	else if (hdr_crc != h.hdr_crc)
 		snprintf(why, n, "corrupted header: header CRC-32 0x%08x, computed 0x%08x", (unsigned)h.hdr_crc,
 			 (unsigned)hdr_crc);
-		return;
-	}
-	crc = swell_fwimage_crc(img, len);
-	if (crc != h.crc) {
+	else if (crc != h.crc)
 		snprintf(why, n, "corrupted image: image CRC-32 0x%08x in the header, computed 0x%08x", (unsigned)h.crc,
 			 (unsigned)crc);
-		return;
-	}
-	snprintf(why, n, "%s", swell_err_str(err));
+	else
+		snprintf(why, n, "%s", swell_err_str(err));
 }
 
 /* The whole file (at most MAX_IMAGE bytes), or NULL with the reason said. */
@@ -137,7 +127,7 @@ int main(int argc, char **argv)
 {
 	const char *cmd, *path, *hdr_out = NULL;
 	unsigned long mcu = SWELL_FWIMAGE_MCU_STM32F405;
-	struct swell_fwimage_hdr h;
+	struct swell_fwimage_hdr h = { 0 };
 	enum swell_err err;
 	uint8_t *img;
 	size_t len;

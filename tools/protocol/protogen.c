@@ -68,13 +68,6 @@ static void random_msg(const struct swell_msg_desc *d, struct swell_msg *m, int 
 }
 
 /* ---- bus load ---- */
-/* Classic CAN, 11-bit id, n data bytes, worst-case bit stuffing: 47 + 8n fixed bits, and at most
- * one stuff bit per 4 bits of the 34 + 8n bits from SOF to the end of the CRC. */
-static unsigned can_bits(unsigned n)
-{
-	return 47u + 8u * n + (34u + 8u * n - 1u) / 4u;
-}
-
 /* CAN FD, 11-bit id, bit-rate switch: nominal bits (arbitration 17 + 4 stuff, CRC delimiter, ACK,
  * EOF, IFS: 13) and data-phase bits (ESI, DLC, data, worst-case dynamic stuffing, stuff count,
  * CRC-17/21 with its fixed stuff bits). Returns microseconds. */
@@ -141,7 +134,7 @@ static void bus_load(FILE *o)
 	fprintf(o,
 		"- Classic CAN: %u bits per 8-byte frame and %u per 7-byte frame, worst-case bit\n"
 		"  stuffing (47 + 8n + floor((33 + 8n) / 4)).\n",
-		can_bits(8), can_bits(7));
+		swell_can_bits(8), swell_can_bits(7));
 	fprintf(o,
 		"- CAN FD: 1 Mbit/s arbitration, 2 Mbit/s data, worst-case stuffing: %.1f us per\n"
 		"  8-byte frame, %.1f us per 64-byte frame (8 quads). Per-tick messages are of different\n"
@@ -167,19 +160,23 @@ static void bus_load(FILE *o)
 		const char *verdict;
 
 		if (r->carrier[0] == 'c' && r->minimal == 2) {
-			const double update = can_bits(msg_len(SWELL_MSG_EFFECT_SPRING)) +
-				can_bits(msg_len(SWELL_MSG_EFFECT_DAMPER)) + can_bits(msg_len(SWELL_MSG_EFFECT_LIMIT)) +
-				can_bits(msg_len(SWELL_MSG_DEVICE_POS)) + can_bits(msg_len(SWELL_MSG_DEVICE_VEL));
+			const double update = swell_can_bits(msg_len(SWELL_MSG_EFFECT_SPRING)) +
+				swell_can_bits(msg_len(SWELL_MSG_EFFECT_DAMPER)) +
+				swell_can_bits(msg_len(SWELL_MSG_EFFECT_LIMIT)) +
+				swell_can_bits(msg_len(SWELL_MSG_DEVICE_POS)) +
+				swell_can_bits(msg_len(SWELL_MSG_DEVICE_VEL));
 
-			busy_s = (update * UPDATE_HZ + can_bits(8) * (HB_HZ + SCENE_HZ + INFO_HZ + 2 * OBJ_HZ)) / 1e6;
-			quad_s_each = can_bits(msg_len(SWELL_MSG_HEIGHT_QUAD)) / 1e6;
+			busy_s = (update * UPDATE_HZ + swell_can_bits(8) * (HB_HZ + SCENE_HZ + INFO_HZ + 2 * OBJ_HZ)) /
+				1e6;
+			quad_s_each = swell_can_bits(msg_len(SWELL_MSG_HEIGHT_QUAD)) / 1e6;
 		} else if (r->carrier[0] == 'c') {
-			double tick = can_bits(msg_len(SWELL_MSG_FORCE_CMD)) + can_bits(msg_len(SWELL_MSG_DEVICE_POS));
+			double tick = swell_can_bits(msg_len(SWELL_MSG_FORCE_CMD)) +
+				swell_can_bits(msg_len(SWELL_MSG_DEVICE_POS));
 			if (!r->minimal)
-				tick += can_bits(msg_len(SWELL_MSG_DEVICE_VEL)) +
-					can_bits(msg_len(SWELL_MSG_DEVICE_FORCE));
-			busy_s = (tick * r->rate + can_bits(8) * (HB_HZ + SCENE_HZ + INFO_HZ + 2 * OBJ_HZ)) / 1e6;
-			quad_s_each = can_bits(msg_len(SWELL_MSG_HEIGHT_QUAD)) / 1e6;
+				tick += swell_can_bits(msg_len(SWELL_MSG_DEVICE_VEL)) +
+					swell_can_bits(msg_len(SWELL_MSG_DEVICE_FORCE));
+			busy_s = (tick * r->rate + swell_can_bits(8) * (HB_HZ + SCENE_HZ + INFO_HZ + 2 * OBJ_HZ)) / 1e6;
+			quad_s_each = swell_can_bits(msg_len(SWELL_MSG_HEIGHT_QUAD)) / 1e6;
 		} else if (r->carrier[0] == 'C') {
 			double tick = 2 * canfd_us(8, 1e6, 2e6) + 2 * canfd_us(8, 1e6, 2e6); /* 7 bytes -> 8 */
 			busy_s = (tick * r->rate + canfd_us(8, 1e6, 2e6) * (HB_HZ + SCENE_HZ + INFO_HZ + 2 * OBJ_HZ)) /

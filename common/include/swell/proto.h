@@ -56,6 +56,13 @@ struct swell_msg {
 #define SWELL_CANFD_MSGS_MAX (SWELL_CANFD_LEN / 4u) /* slots are rounded up to 4 bytes */
 #define SWELL_PKT_MSGS_MAX ((SWELL_PKT_MAX - SWELL_PKT_OVERHEAD) / (1u + SWELL_MSG_LEN_MIN))
 
+/* Bits on the wire of a classic CAN frame, 11-bit id, n data bytes, worst-case bit stuffing: 47 + 8n fixed
+ * bits, and at most one stuff bit per 4 bits of the 34 + 8n bits from SOF to the end of the CRC. */
+static inline unsigned swell_can_bits(unsigned n)
+{
+	return 47u + 8u * n + (34u + 8u * n - 1u) / 4u;
+}
+
 /* ---- the table as data (for generic code, the generator, tests) ---- */
 enum swell_field_kind {
 	SWELL_FK_PLAIN,

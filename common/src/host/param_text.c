@@ -20,18 +20,11 @@ void swell_param_format(const struct swell_param_desc *d, int32_t raw, char *buf
 /* The scale of an SI prefix; 0 for none known. */
 static double prefix_scale(char c)
 {
-	switch (c) {
-	case 'k':
-		return 1e3;
-	case 'c':
-		return 1e-2;
-	case 'm':
-		return 1e-3;
-	case 'u':
-		return 1e-6;
-	default:
-		return 0;
-	}
+	static const char prefixes[] = "kcmu";
+	static const double scales[] = { 1e3, 1e-2, 1e-3, 1e-6 };
+	const char *at = c ? strchr(prefixes, c) : NULL;
+
+	return at ? scales[at - prefixes] : 0;
 }
 
 /* Scale of user unit u against the parameter's unit pu: value_in_pu = value_in_u * scale. Both may
@@ -54,9 +47,7 @@ static double unit_scale(const char *u, const char *pu)
 		su = prefix_scale(u[0]);
 		bu = u + 1;
 	}
-	if (strcmp(bu, bp) != 0)
-		return 0;
-	return su / sp;
+	return strcmp(bu, bp) ? 0 : su / sp;
 }
 
 int swell_param_parse(const struct swell_param_desc *d, const char *text, int32_t *raw, char *err, size_t errlen)
@@ -74,8 +65,7 @@ int swell_param_parse(const struct swell_param_desc *d, const char *text, int32_
 		snprintf(err, errlen, "%s: '%s' is not a number", d->name, text);
 		return -1;
 	}
-	for (p = end; *p == ' '; p++)
-		;
+	p = end + strspn(end, " ");
 	n = strlen(p);
 	if (n >= sizeof(unit)) {
 		snprintf(err, errlen, "%s: unit '%s' is not %s", d->name, p, d->unit[0] ? d->unit : "(none)");

@@ -22,9 +22,7 @@ static const struct swell_param_desc keys[] = {
 
 const struct swell_param_desc *swell_scene_key(uint16_t id)
 {
-	size_t k;
-
-	for (k = 0; k < sizeof(keys) / sizeof(keys[0]); k++)
+	for (size_t k = 0; k < sizeof(keys) / sizeof(keys[0]); k++)
 		if (keys[k].id == id)
 			return &keys[k];
 	return NULL;
@@ -32,9 +30,7 @@ const struct swell_param_desc *swell_scene_key(uint16_t id)
 
 const struct swell_param_desc *swell_scene_desc_by_name(const char *name)
 {
-	size_t k;
-
-	for (k = 0; k < sizeof(keys) / sizeof(keys[0]); k++)
+	for (size_t k = 0; k < sizeof(keys) / sizeof(keys[0]); k++)
 		if (!strcmp(keys[k].name, name))
 			return &keys[k];
 	return swell_param_by_name(name);
@@ -42,9 +38,7 @@ const struct swell_param_desc *swell_scene_desc_by_name(const char *name)
 
 const struct swell_scene_value *swell_scene_get(const struct swell_scene *sc, uint16_t id)
 {
-	size_t k;
-
-	for (k = 0; k < sc->n; k++)
+	for (size_t k = 0; k < sc->n; k++)
 		if (sc->v[k].d->id == id)
 			return &sc->v[k];
 	return NULL;
@@ -62,9 +56,7 @@ int swell_scene_put(struct swell_scene *sc, uint16_t id, int32_t raw)
 			return -1;
 		v = &sc->v[sc->n++];
 	}
-	v->d = d;
-	v->raw = raw;
-	v->line = 0;
+	*v = (struct swell_scene_value){ d, raw, 0 };
 	return 0;
 }
 
@@ -139,10 +131,7 @@ int swell_scene_load(const char *path, struct swell_scene *out, char *err, size_
 			snprintf(err, errlen, "%s:%d: more than %d values", path, line, SWELL_SCENE_PARAMS_MAX);
 			goto refuse;
 		}
-		sc.v[sc.n].d = d;
-		sc.v[sc.n].raw = raw;
-		sc.v[sc.n].line = line;
-		sc.n++;
+		sc.v[sc.n++] = (struct swell_scene_value){ d, raw, line };
 	}
 	if (ferror(f)) {
 		snprintf(err, errlen, "%s: read error", path);
@@ -158,11 +147,9 @@ refuse:
 
 int swell_scene_write(FILE *f, const struct swell_scene *sc, const char *header)
 {
-	size_t k;
-
 	if (header)
 		fprintf(f, "# %s\n", header);
-	for (k = 0; k < sc->n; k++) { /* 12 digits: read back, every value rounds to the same raw one */
+	for (size_t k = 0; k < sc->n; k++) { /* 12 digits: read back, every value rounds to the same raw one */
 		const struct swell_param_desc *d = sc->v[k].d;
 
 		fprintf(f, "%-18s = %.12g%s%s\n", d->name, swell_param_phys(d, sc->v[k].raw), d->unit[0] ? " " : "",

@@ -126,21 +126,17 @@ static int replay_recv(struct swell_link *l, struct swell_frame *f, int timeout_
 	if (tmp.len > SWELL_LINK_MTU || fread(tmp.data, 1, tmp.len, p->f) != tmp.len)
 		return -EIO;
 	if (p->realtime) {
-		uint64_t due = p->t0 + tmp.t_ns, now = swell_link_now_ns();
+		const uint64_t now = swell_link_now_ns(), wait = p->t0 + tmp.t_ns > now ? p->t0 + tmp.t_ns - now : 0;
+		const uint64_t limit = timeout_ms >= 0 ? (uint64_t)timeout_ms * 1000000u : UINT64_MAX;
+		const uint64_t ns = wait < limit ? wait : limit; /* until it is due, or the timeout */
+		const struct timespec ts = { (time_t)(ns / 1000000000u), (long)(ns % 1000000000u) };
 
-		if (due > now) {
-			uint64_t wait = due - now;
-
-			if (timeout_ms >= 0 && wait > (uint64_t)timeout_ms * 1000000u) {
-				/* not due within the timeout: keep it for the next call */
-				fseek(p->f, -(long)(sizeof(hdr) + tmp.len), SEEK_CUR);
-				struct timespec ts = { timeout_ms / 1000, (long)(timeout_ms % 1000) * 1000000 };
-				nanosleep(&ts, NULL);
-				return -ETIMEDOUT;
-			}
-			struct timespec ts = { (time_t)(wait / 1000000000u), (long)(wait % 1000000000u) };
+		if (wait > limit) /* not due within the timeout: keep it for the next call */
+			fseek(p->f, -(long)(sizeof(hdr) + tmp.len), SEEK_CUR);
+		if (ns)
 			nanosleep(&ts, NULL);
-		}
+		if (wait > limit)
+			return -ETIMEDOUT;
 	}
 	*f = tmp;
 	return 0;

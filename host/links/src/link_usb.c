@@ -177,11 +177,8 @@ static int usb_recv(struct swell_link *l, struct swell_frame *f, int timeout_ms)
 		}
 		if (rc)
 			return rc;
-		/* libusb: 0 means no timeout */
-		rc = libusb_bulk_transfer(u->h, u->ep_in, buf, sizeof(buf), &got,
-					  left < 0            ? 0u
-						  : left == 0 ? 1u
-							      : (unsigned)left);
+		const unsigned ms = left < 0 ? 0u : left ? (unsigned)left : 1u; /* libusb: 0 means no timeout */
+		rc = libusb_bulk_transfer(u->h, u->ep_in, buf, sizeof(buf), &got, ms);
 		if (rc == LIBUSB_ERROR_TIMEOUT)
 			return -ETIMEDOUT;
 		if (rc == LIBUSB_ERROR_NO_DEVICE || rc == LIBUSB_ERROR_IO) {
@@ -233,9 +230,7 @@ int swell_link_open_usb(struct swell_link **out, const struct swell_usb_opts *op
 	rc = libusb_init(&u->ctx);
 	rc = rc < 0 ? errno_of(rc) : attach(u);
 	if (rc) {
-		if (u->ctx) /* NULL when libusb_init failed: libusb_exit(NULL) would end the default context */
-			libusb_exit(u->ctx);
-		free(u);
+		usb_close(&u->base); /* u->ctx NULL when libusb_init failed: usb_close leaves it alone */
 		return rc;
 	}
 	*out = &u->base;
