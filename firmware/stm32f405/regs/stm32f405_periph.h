@@ -10,7 +10,6 @@ struct gpio_regs {
 };
 REG_CHECK(struct gpio_regs, AFR, 0x20);
 #define GPIOA ((struct gpio_regs *)0x40020000u)
-#define GPIOB ((struct gpio_regs *)0x40020400u)
 #define GPIO_MODE_AF 2u
 #define GPIO_SPEED_HIGH 2u
 
@@ -22,7 +21,6 @@ struct usart_regs {
 #define USART_SR_TC (1u << 6)
 #define USART_CR1_UE (1u << 13)
 #define USART_CR1_TE (1u << 3)
-#define USART_CR1_RE (1u << 2)
 
 struct tim_regs {
 	volatile uint32_t CR1, CR2, SMCR, DIER, SR, EGR, CCMR1, CCMR2, CCER, CNT, PSC, ARR;
