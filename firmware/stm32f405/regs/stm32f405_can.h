@@ -59,11 +59,7 @@ REG_CHECK(struct can_regs, FB, 0x240);
 #define CAN_IER_BOFIE (1u << 10)
 #define CAN_IER_ERRIE (1u << 15)
 
-#define CAN_ESR_EPVF (1u << 1)
 #define CAN_ESR_BOFF (1u << 2)
-#define CAN_ESR_LEC_SHIFT 4
-#define CAN_ESR_TEC_SHIFT 16
-#define CAN_ESR_REC_SHIFT 24
 
 #define CAN_BTR_LBKM (1u << 30)
 #define CAN_BTR_SILM (1u << 31)

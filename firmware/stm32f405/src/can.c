@@ -241,20 +241,6 @@ void can_poll(uint32_t now_ms)
 	irq_restore(primask);
 }
 
-void can_status(struct can_status *out)
-{
-	uint32_t esr = CAN1->ESR;
-
-	out->tec = (uint8_t)(esr >> CAN_ESR_TEC_SHIFT);
-	out->rec = (uint8_t)(esr >> CAN_ESR_REC_SHIFT);
-	out->lec = (uint8_t)((esr >> CAN_ESR_LEC_SHIFT) & 7u);
-	out->error_passive = !!(esr & CAN_ESR_EPVF);
-	out->bus_off = !!(esr & CAN_ESR_BOFF);
-	out->bus_off_count = can.busoff.count;
-	out->rx_overruns = can.rx_overruns;
-	out->tx_aborted = can.tx_aborted;
-}
-
 uint32_t can_bus_offs(void)
 {
 	return can.busoff.count;
