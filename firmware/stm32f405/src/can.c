@@ -33,13 +33,6 @@ static int wait_msr(uint32_t mask, uint32_t want)
 	return 0;
 }
 
-static void irq_setup(unsigned irq, uint8_t prio)
-{
-	NVIC->IPR[irq] = (uint8_t)(prio << (8 - NVIC_PRIO_BITS));
-	NVIC->ICPR[irq / 32] = 1u << (irq % 32);
-	NVIC->ISER[irq / 32] = 1u << (irq % 32);
-}
-
 int can_probe(void)
 {
 	int ok;
@@ -107,8 +100,8 @@ enum swell_err can_start(uint32_t pclk1_hz, uint32_t bitrate, const struct can_f
 	can.rx_head = can.rx_tail = 0;
 	can_busoff_init(&can.busoff);
 	CAN1->IER = CAN_IER_FMPIE0 | CAN_IER_FOVIE0 | CAN_IER_BOFIE | CAN_IER_EPVIE | CAN_IER_ERRIE;
-	irq_setup(IRQ_CAN1_RX0, prio_rx);
-	irq_setup(IRQ_CAN1_SCE, prio_sce);
+	irq_enable_at(IRQ_CAN1_RX0, prio_rx);
+	irq_enable_at(IRQ_CAN1_SCE, prio_sce);
 	CAN1->MCR &= ~CAN_MCR_INRQ;
 	if (!wait_msr(CAN_MSR_INAK, 0))
 		return SWELL_ESTATE; /* no 11 recessive bits: bus stuck dominant or no transceiver */
