@@ -46,12 +46,9 @@ struct iwdg_regs {
 
 /* Interrupt numbers (position in the vector table minus 16). */
 enum stm32f405_irq {
-	IRQ_CAN1_TX = 19,
 	IRQ_CAN1_RX0 = 20,
-	IRQ_CAN1_RX1 = 21,
 	IRQ_CAN1_SCE = 22,
 	IRQ_TIM2 = 28,
-	IRQ_USART1 = 37,
 	IRQ_OTG_FS = 67,
 	IRQ_COUNT = 82,
 };

@@ -60,8 +60,5 @@ void tick_stop(void)
 
 void tick_read(struct tick_stats *out)
 {
-	out->count = stats.count;
-	out->overruns = stats.overruns;
-	out->last_cost = stats.last_cost;
-	out->max_cost = stats.max_cost;
+	*out = (struct tick_stats){ stats.count, stats.overruns, stats.last_cost, stats.max_cost };
 }

@@ -56,16 +56,11 @@ int usb_probe(void)
 
 static void fifo_write(unsigned ep, const uint8_t *d, uint32_t len)
 {
-	uint32_t i, w;
+	uint32_t i, k, w;
 
 	for (i = 0; i < len; i += 4) {
-		w = d[i];
-		if (i + 1 < len)
-			w |= (uint32_t)d[i + 1] << 8;
-		if (i + 2 < len)
-			w |= (uint32_t)d[i + 2] << 16;
-		if (i + 3 < len)
-			w |= (uint32_t)d[i + 3] << 24;
+		for (w = 0, k = 0; k < 4 && i + k < len; k++)
+			w |= (uint32_t)d[i + k] << (8 * k);
 		OTG_FIFO(ep) = w;
 	}
 }
@@ -250,10 +245,8 @@ void isr_otg_fs(void)
 		if (f & OTG_EPINT_XFRC)
 			usb.in_busy = 0;
 	}
-	if (gint & OTG_GINT_USBSUSP)
-		OTG->GINTSTS = OTG_GINT_USBSUSP;
-	if (gint & OTG_GINT_WKUPINT)
-		OTG->GINTSTS = OTG_GINT_WKUPINT;
+	if (gint & (OTG_GINT_USBSUSP | OTG_GINT_WKUPINT)) /* rc_w1: both acknowledged in one write */
+		OTG->GINTSTS = gint & (OTG_GINT_USBSUSP | OTG_GINT_WKUPINT);
 }
 
 enum swell_err usb_start(uint8_t prio, void (*on_out)(const uint8_t *data, uint32_t len))
