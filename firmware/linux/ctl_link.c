@@ -24,12 +24,8 @@ static int open_udp(struct ctl_link *l, const char *spec, const struct swell_lin
 		    size_t errlen)
 {
 	const int have_opt = device_side ? ls->have_peer : ls->have_listen;
-	struct sockaddr_in a, viewer;
+	struct sockaddr_in a = { .sin_family = AF_INET, .sin_addr.s_addr = htonl(INADDR_LOOPBACK) }, viewer = a;
 
-	memset(&a, 0, sizeof(a));
-	a.sin_family = AF_INET;
-	a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-	viewer = a;
 	viewer.sin_port = htons(ls->port);
 	a.sin_port = htons((uint16_t)(device_side ? ls->port : SWELL_UDP_PORT_CLIENTS));
 	if (!device_side && have_opt)

@@ -80,9 +80,7 @@ size_t swell_ctl_arena_words(uint16_t nx, uint16_t ny)
 
 static struct swell_body_scene body_scene(const struct swell_ctl_config *cfg)
 {
-	struct swell_body_scene sc = { cfg->dx_um, cfg->tick_hz, cfg->solver_hz };
-
-	return sc;
+	return (struct swell_body_scene){ cfg->dx_um, cfg->tick_hz, cfg->solver_hz };
 }
 
 /* frame.axes and frame.flip from the frame's axes and signs, and back (a code that is not three
@@ -176,12 +174,11 @@ static enum swell_err init_at(struct swell_ctl *c, const struct swell_ctl_config
 		swell_wave_init_vel_apart(&c->wave, cfg->nx, cfg->ny, arena, SWELL_WAVE_WORDS(cfg->nx, cfg->ny) - n,
 					  apart, n, &cfg->wave);
 		c->sent = (uint32_t *)(arena + SWELL_WAVE_WORDS(cfg->nx, cfg->ny) - n);
-		c->quad_stale = (uint16_t *)(c->sent + sent_words(cfg->nx, cfg->ny));
 	} else {
 		swell_wave_init(&c->wave, cfg->nx, cfg->ny, arena, SWELL_WAVE_WORDS(cfg->nx, cfg->ny), &cfg->wave);
 		c->sent = (uint32_t *)(arena + SWELL_WAVE_WORDS(cfg->nx, cfg->ny));
-		c->quad_stale = (uint16_t *)(c->sent + sent_words(cfg->nx, cfg->ny));
 	}
+	c->quad_stale = (uint16_t *)(c->sent + sent_words(cfg->nx, cfg->ny));
 	swell_body_init(&c->body, &cfg->body, &cfg->xform, &sc, &c->wave);
 	for (k = 0; k < 3; k++)
 		swell_fsafety_init(&c->safety[k], &sp);

@@ -174,17 +174,12 @@ static enum swell_err param_set(struct swell_ctl *c, uint16_t id, int32_t v)
 
 void ctl_param_msg(struct swell_ctl *c, const struct swell_msg *m)
 {
-	enum swell_err err;
-	int32_t v = 0;
+	const int set = m->type == SWELL_MSG_PARAM_SET;
+	const uint16_t id = set ? m->u.param_set.id : m->u.param_get.id;
+	int32_t v = set ? m->u.param_set.value : 0; /* a command (write only) is echoed as given */
+	enum swell_err err = set ? param_set(c, id, v) : SWELL_OK;
 
-	if (m->type == SWELL_MSG_PARAM_SET) {
-		err = param_set(c, m->u.param_set.id, m->u.param_set.value);
-		v = m->u.param_set.value; /* a command (write only) is echoed as given */
-		if (err == SWELL_OK && m->u.param_set.id != SWELL_PARAM_COMMAND)
-			err = param_get(c, m->u.param_set.id, &v); /* the value now in force */
-		answer(c, m->u.param_set.id, m->u.param_set.seq, err, v);
-		return;
-	}
-	err = param_get(c, m->u.param_get.id, &v);
-	answer(c, m->u.param_get.id, m->u.param_get.seq, err, v);
+	if (err == SWELL_OK && (!set || id != SWELL_PARAM_COMMAND))
+		err = param_get(c, id, &v); /* the value now in force */
+	answer(c, id, set ? m->u.param_set.seq : m->u.param_get.seq, err, v);
 }

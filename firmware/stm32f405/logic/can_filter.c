@@ -59,15 +59,9 @@ enum swell_err can_filter_plan(const struct can_filter_spec *specs, unsigned n, 
 					flush = k == 4;
 				}
 				if (flush && k) {
-					/* Unused slots repeat the last entry: harmless duplicates. */
-					for (; k < 4; k += 4 / per) {
-						if (per == 4) {
-							w[k] = w[k - 1];
-						} else {
-							w[k] = w[k - 2];
-							w[k + 1] = w[k - 1];
-						}
-					}
+					/* Unused slots repeat the last entry (id, or id and mask): harmless duplicates. */
+					for (; k < 4; k++)
+						w[k] = w[k - 4 / per];
 					banks[nb].fr1 = w[0] | w[1] << 16;
 					banks[nb].fr2 = w[2] | w[3] << 16;
 					banks[nb].list_mode = kind == CAN_FILTER_EXACT;

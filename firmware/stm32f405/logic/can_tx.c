@@ -10,13 +10,12 @@ enum swell_err can_tx_pick(uint32_t tme, const uint32_t pend_id[3], uint32_t new
 	for (m = 0; m < 3; m++)
 		if (!(tme & (1u << m)) && pend_id[m] == new_id)
 			lowest_ok = m + 1;
-	for (m = lowest_ok; m < 3; m++) {
+	for (m = lowest_ok; m < 3; m++)
 		if (tme & (1u << m)) {
 			*mb = m;
 			*abort = 0;
 			return SWELL_OK;
 		}
-	}
 	/* All usable mailboxes busy: abort the least urgent pending frame if less urgent than ours. */
 	for (m = lowest_ok; m < 3; m++)
 		if (pend_id[m] > new_id && (worst == 3 || pend_id[m] >= pend_id[worst]))

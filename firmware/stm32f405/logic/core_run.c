@@ -20,8 +20,6 @@ void fw_core_device(struct swell_ctl *c, struct fw_core_run *r)
 	/* 20 mm down to -25 mm at 50 mm/s, in 10 um units */
 	int64_t z = 2000 - (int64_t)r->tick * 5000 / c->cfg.tick_hz;
 
-	m.u.device_pos.x_10um = 0;
-	m.u.device_pos.y_10um = 0;
 	m.u.device_pos.z_10um = (int16_t)(z < -2500 ? -2500 : z);
 	m.u.device_pos.seq = r->seq++;
 	m.u.device_pos.status = SWELL_DEV_POWERED | SWELL_DEV_FORCE_ON;

@@ -2,15 +2,20 @@
 
 #include "swell/shape.h"
 
-enum swell_err fw_scene_init(struct swell_wave *w, int32_t *storage, size_t words)
+/* The scene's grid at rest level with the paper's stencil and the given damping. */
+static enum swell_err scene_wave(struct swell_wave *w, int32_t *storage, size_t words, q30_t damping)
 {
-	struct swell_wave_params p = { .damping = 0, .stencil = SWELL_STENCIL_PAPER };
+	struct swell_wave_params p = { .damping = damping, .stencil = SWELL_STENCIL_PAPER };
 	enum swell_err err;
 
 	err = swell_wave_e_from_physical(FW_SCENE_G_MM_S2, FW_SCENE_DT_US, FW_SCENE_DEPTH_UM, FW_SCENE_DX_UM, &p.e);
-	if (err != SWELL_OK)
-		return err;
-	err = swell_wave_init(w, FW_SCENE_NX, FW_SCENE_NY, storage, words, &p);
+	return err != SWELL_OK ? err : swell_wave_init(w, FW_SCENE_NX, FW_SCENE_NY, storage, words, &p);
+}
+
+enum swell_err fw_scene_init(struct swell_wave *w, int32_t *storage, size_t words)
+{
+	enum swell_err err = scene_wave(w, storage, words, 0);
+
 	if (err != SWELL_OK)
 		return err;
 	swell_shape_gauss(w->h, w->nx, w->ny, 32 * SWELL_Q16_ONE, 32 * SWELL_Q16_ONE, 3 * SWELL_Q16_ONE,
@@ -23,17 +28,11 @@ const char *const fw_cost_scene_name[FW_COST_SCENES] = { "calm", "local", "agita
 
 enum swell_err fw_cost_scene_init(struct swell_wave *w, int32_t *storage, size_t words, enum fw_cost_scene s)
 {
-	struct swell_wave_params p = { .damping = FW_COST_DAMPING, .stencil = SWELL_STENCIL_PAPER };
-	enum swell_err err;
+	enum swell_err err =
+		(unsigned)s < FW_COST_SCENES ? scene_wave(w, storage, words, FW_COST_DAMPING) : SWELL_EINVAL;
 	uint32_t x = 12345u;
 	int a;
 
-	if ((unsigned)s >= FW_COST_SCENES)
-		return SWELL_EINVAL;
-	err = swell_wave_e_from_physical(FW_SCENE_G_MM_S2, FW_SCENE_DT_US, FW_SCENE_DEPTH_UM, FW_SCENE_DX_UM, &p.e);
-	if (err != SWELL_OK)
-		return err;
-	err = swell_wave_init(w, FW_SCENE_NX, FW_SCENE_NY, storage, words, &p);
 	if (err != SWELL_OK)
 		return err;
 	if (s == FW_COST_LOCAL)

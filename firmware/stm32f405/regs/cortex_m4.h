@@ -21,7 +21,6 @@ REG_CHECK(struct scb_regs, BFAR, 0x38);
 REG_CHECK(struct scb_regs, CPACR, 0x88);
 #define SCB ((struct scb_regs *)0xE000ED00u)
 
-#define SCB_ICSR_PENDSVSET (1u << 28)
 #define SCB_ICSR_PENDSTSET (1u << 26)
 #define SCB_AIRCR_VECTKEY (0x05FAu << 16)
 #define SCB_AIRCR_PRIGROUP_SHIFT 8
@@ -33,11 +32,6 @@ REG_CHECK(struct scb_regs, CPACR, 0x88);
 #define SCB_CPACR_CP10_CP11_FULL (0xFu << 20)
 /* Index into SHPR for a system exception number 4..15. */
 #define SCB_SHPR_IDX(exc) ((exc)-4)
-#define EXC_MEMMANAGE 4
-#define EXC_BUSFAULT 5
-#define EXC_USAGEFAULT 6
-#define EXC_SVCALL 11
-#define EXC_PENDSV 14
 #define EXC_SYSTICK 15
 
 struct nvic_regs {
@@ -65,7 +59,6 @@ struct systick_regs {
 #define SYSTICK_CTRL_ENABLE (1u << 0)
 #define SYSTICK_CTRL_TICKINT (1u << 1)
 #define SYSTICK_CTRL_CLKSOURCE (1u << 2) /* 1: processor clock */
-#define SYSTICK_CTRL_COUNTFLAG (1u << 16)
 #define SYSTICK_MAX 0x00FFFFFFu /* 24-bit counter */
 
 #define DEMCR (*(volatile uint32_t *)0xE000EDFCu)

@@ -40,44 +40,26 @@ REG_CHECK(struct can_regs, FB, 0x240);
 #define CAN1 ((struct can_regs *)0x40006400u)
 
 #define CAN_MCR_INRQ (1u << 0)
-#define CAN_MCR_SLEEP (1u << 1)
-#define CAN_MCR_TXFP (1u << 2) /* 0: transmit by identifier priority */
-#define CAN_MCR_RFLM (1u << 3)
-#define CAN_MCR_NART (1u << 4)
-#define CAN_MCR_AWUM (1u << 5)
-#define CAN_MCR_ABOM (1u << 6)
-#define CAN_MCR_RESET (1u << 15)
-#define CAN_MCR_DBF (1u << 16)
 
 #define CAN_MSR_INAK (1u << 0)
 #define CAN_MSR_SLAK (1u << 1)
 #define CAN_MSR_ERRI (1u << 2)
 
-#define CAN_TSR_RQCP(m) (1u << (8 * (m)))
-#define CAN_TSR_TXOK(m) (1u << (8 * (m) + 1))
 #define CAN_TSR_ABRQ(m) (1u << (8 * (m) + 7))
 #define CAN_TSR_TME_SHIFT 26
 #define CAN_TSR_TME(m) (1u << (CAN_TSR_TME_SHIFT + (m)))
 
 #define CAN_RFR_FMP_MASK 3u
-#define CAN_RFR_FULL (1u << 3)
 #define CAN_RFR_FOVR (1u << 4)
 #define CAN_RFR_RFOM (1u << 5)
 
-#define CAN_IER_TMEIE (1u << 0)
 #define CAN_IER_FMPIE0 (1u << 1)
 #define CAN_IER_FOVIE0 (1u << 3)
-#define CAN_IER_EWGIE (1u << 8)
 #define CAN_IER_EPVIE (1u << 9)
 #define CAN_IER_BOFIE (1u << 10)
 #define CAN_IER_ERRIE (1u << 15)
 
-#define CAN_ESR_EWGF (1u << 0)
-#define CAN_ESR_EPVF (1u << 1)
 #define CAN_ESR_BOFF (1u << 2)
-#define CAN_ESR_LEC_SHIFT 4
-#define CAN_ESR_TEC_SHIFT 16
-#define CAN_ESR_REC_SHIFT 24
 
 #define CAN_BTR_LBKM (1u << 30)
 #define CAN_BTR_SILM (1u << 31)
@@ -86,9 +68,7 @@ REG_CHECK(struct can_regs, FB, 0x240);
 #define CAN_TIR_RTR (1u << 1)
 #define CAN_TIR_IDE (1u << 2)
 #define CAN_TIR_STID_SHIFT 21
-#define CAN_TIR_EXID_SHIFT 3
 
 #define CAN_FMR_FINIT (1u << 0)
-#define CAN_FMR_CAN2SB_SHIFT 8
 
 #endif

@@ -66,7 +66,6 @@ _Static_assert(sizeof(struct otg_outep_regs) == 0x20, "OUT endpoint stride");
 #define OTG_GRSTCTL_CSRST (1u << 0)
 #define OTG_GRSTCTL_RXFFLSH (1u << 4)
 #define OTG_GRSTCTL_TXFFLSH (1u << 5)
-#define OTG_GRSTCTL_TXFNUM_SHIFT 6
 #define OTG_GRSTCTL_TXFNUM_ALL (0x10u << 6)
 #define OTG_GRSTCTL_AHBIDL (1u << 31)
 #define OTG_GINT_RXFLVL (1u << 4)
@@ -82,8 +81,6 @@ _Static_assert(sizeof(struct otg_outep_regs) == 0x20, "OUT endpoint stride");
 #define OTG_GRXSTS_PKTSTS_SHIFT 17
 #define OTG_GRXSTS_PKTSTS_MASK 0xFu
 #define OTG_PKTSTS_OUT_DATA 2u
-#define OTG_PKTSTS_OUT_DONE 3u
-#define OTG_PKTSTS_SETUP_DONE 4u
 #define OTG_PKTSTS_SETUP_DATA 6u
 #define OTG_GCCFG_PWRDWN (1u << 16)
 #define OTG_GCCFG_NOVBUSSENS (1u << 21)
@@ -93,7 +90,6 @@ _Static_assert(sizeof(struct otg_outep_regs) == 0x20, "OUT endpoint stride");
 #define OTG_DCFG_DAD_MASK (0x7Fu << 4)
 #define OTG_DCTL_SDIS (1u << 1)
 #define OTG_DCTL_CGINAK (1u << 8)
-#define OTG_DCTL_CGONAK (1u << 10)
 
 #define OTG_EPCTL_MPSIZ_MASK 0x7FFu
 #define OTG_EPCTL_USBAEP (1u << 15)
@@ -104,7 +100,6 @@ _Static_assert(sizeof(struct otg_outep_regs) == 0x20, "OUT endpoint stride");
 #define OTG_EPCTL_CNAK (1u << 26)
 #define OTG_EPCTL_SNAK (1u << 27)
 #define OTG_EPCTL_SD0PID (1u << 28)
-#define OTG_EPCTL_EPDIS (1u << 30)
 #define OTG_EPCTL_EPENA (1u << 31)
 #define OTG_EPINT_XFRC (1u << 0)
 #define OTG_DOEPINT_STUP (1u << 3)

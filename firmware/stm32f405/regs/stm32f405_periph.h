@@ -10,7 +10,6 @@ struct gpio_regs {
 };
 REG_CHECK(struct gpio_regs, AFR, 0x20);
 #define GPIOA ((struct gpio_regs *)0x40020000u)
-#define GPIOB ((struct gpio_regs *)0x40020400u)
 #define GPIO_MODE_AF 2u
 #define GPIO_SPEED_HIGH 2u
 
@@ -22,7 +21,6 @@ struct usart_regs {
 #define USART_SR_TC (1u << 6)
 #define USART_CR1_UE (1u << 13)
 #define USART_CR1_TE (1u << 3)
-#define USART_CR1_RE (1u << 2)
 
 struct tim_regs {
 	volatile uint32_t CR1, CR2, SMCR, DIER, SR, EGR, CCMR1, CCMR2, CCER, CNT, PSC, ARR;
@@ -48,12 +46,9 @@ struct iwdg_regs {
 
 /* Interrupt numbers (position in the vector table minus 16). */
 enum stm32f405_irq {
-	IRQ_CAN1_TX = 19,
 	IRQ_CAN1_RX0 = 20,
-	IRQ_CAN1_RX1 = 21,
 	IRQ_CAN1_SCE = 22,
 	IRQ_TIM2 = 28,
-	IRQ_USART1 = 37,
 	IRQ_OTG_FS = 67,
 	IRQ_COUNT = 82,
 };

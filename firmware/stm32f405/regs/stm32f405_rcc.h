@@ -31,7 +31,6 @@ REG_CHECK(struct rcc_regs, CSR, 0x74);
 #define RCC_CR_HSIRDY (1u << 1)
 #define RCC_CR_HSEON (1u << 16)
 #define RCC_CR_HSERDY (1u << 17)
-#define RCC_CR_HSEBYP (1u << 18)
 #define RCC_CR_CSSON (1u << 19)
 #define RCC_CR_PLLON (1u << 24)
 #define RCC_CR_PLLRDY (1u << 25)
@@ -44,7 +43,6 @@ REG_CHECK(struct rcc_regs, CSR, 0x74);
 
 #define RCC_CFGR_SW_MASK 3u
 #define RCC_CFGR_SW_HSI 0u
-#define RCC_CFGR_SW_HSE 1u
 #define RCC_CFGR_SW_PLL 2u
 #define RCC_CFGR_SWS_SHIFT 2
 #define RCC_CFGR_HPRE_SHIFT 4
@@ -54,31 +52,24 @@ REG_CHECK(struct rcc_regs, CSR, 0x74);
 #define RCC_CFGR_PPRE_DIV4 5u
 
 #define RCC_AHB1ENR_GPIOA (1u << 0)
-#define RCC_AHB1ENR_GPIOB (1u << 1)
 #define RCC_AHB1ENR_CCMDATARAM (1u << 20)
 #define RCC_AHB2ENR_OTGFS (1u << 7)
 #define RCC_APB1ENR_TIM2 (1u << 0)
 #define RCC_APB1ENR_CAN1 (1u << 25)
 #define RCC_APB1ENR_PWR (1u << 28)
 #define RCC_APB1RSTR_CAN1 (1u << 25)
-#define RCC_APB2ENR_USART1 (1u << 4)
 
-#define RCC_CSR_LSION (1u << 0)
-#define RCC_CSR_LSIRDY (1u << 1)
 #define RCC_CSR_RMVF (1u << 24)
 #define RCC_CSR_BORRSTF (1u << 25)
 #define RCC_CSR_PINRSTF (1u << 26)
 #define RCC_CSR_PORRSTF (1u << 27)
 #define RCC_CSR_SFTRSTF (1u << 28)
 #define RCC_CSR_IWDGRSTF (1u << 29)
-#define RCC_CSR_WWDGRSTF (1u << 30)
-#define RCC_CSR_LPWRRSTF (1u << 31)
 
 struct flash_regs {
 	volatile uint32_t ACR, KEYR, OPTKEYR, SR, CR, OPTCR;
 };
 #define FLASH_IF ((struct flash_regs *)0x40023C00u)
-#define FLASH_ACR_LATENCY_MASK 7u
 #define FLASH_ACR_PRFTEN (1u << 8)
 #define FLASH_ACR_ICEN (1u << 9)
 #define FLASH_ACR_DCEN (1u << 10)

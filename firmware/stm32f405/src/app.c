@@ -86,6 +86,15 @@ static void send_usb(const struct swell_msg *m, size_t n)
 	}
 }
 
+static void send_on(int on_can, const struct swell_msg *m, size_t n)
+{
+	if (!on_can)
+		send_usb(m, n);
+	else
+		for (size_t j = 0; j < n; j++)
+			send_can(&m[j]);
+}
+
 /* Drain one of the core's queues onto its carrier. Bounded: a queue holds at most SWELL_CTL_QUEUE
  * messages, taken 8 at a time (SRAM and stack are tight). */
 static void drain(enum swell_ctl_link l)
@@ -96,11 +105,7 @@ static void drain(enum swell_ctl_link l)
 	size_t k;
 
 	if (l == SWELL_LINK_HOST && app.pool_ans_on) {
-		out[0] = app.pool_ans;
-		if (on_can)
-			send_can(&out[0]);
-		else
-			send_usb(out, 1);
+		send_on(on_can, &app.pool_ans, 1);
 		__asm__ volatile("dmb" ::: "memory");
 		app.pool_ans_on = 0;
 	}
@@ -115,12 +120,7 @@ static void drain(enum swell_ctl_link l)
 				safe_force_record(fc->enable ? fc->fx_cN : 0, fc->enable ? fc->fy_cN : 0,
 						  fc->enable ? fc->fz_cN : 0);
 		}
-		if (on_can) {
-			for (size_t j = 0; j < k; j++)
-				send_can(&out[j]);
-		} else {
-			send_usb(out, k);
-		}
+		send_on(on_can, out, k);
 	}
 }
 

@@ -33,13 +33,6 @@ static int wait_msr(uint32_t mask, uint32_t want)
 	return 0;
 }
 
-static void irq_setup(unsigned irq, uint8_t prio)
-{
-	NVIC->IPR[irq] = (uint8_t)(prio << (8 - NVIC_PRIO_BITS));
-	NVIC->ICPR[irq / 32] = 1u << (irq % 32);
-	NVIC->ISER[irq / 32] = 1u << (irq % 32);
-}
-
 int can_probe(void)
 {
 	int ok;
@@ -79,13 +72,12 @@ enum swell_err can_start(uint32_t pclk1_hz, uint32_t bitrate, const struct can_f
 	board_pin_af(SWELL_BOARD_CAN_RX_PORT, SWELL_BOARD_CAN_RX_PIN, 9u, 0);
 	board_pin_af(SWELL_BOARD_CAN_TX_PORT, SWELL_BOARD_CAN_TX_PIN, 9u, 0);
 
+	/* Initialisation mode, and with it: transmit by id priority (TXFP = 0), no automatic bus-off
+	 * recovery (we rate-limit it), automatic retransmission on, FIFO overrun keeps the old frames
+	 * (RFLM = 0 overwrites: we want the newest position, so leave RFLM clear). */
 	CAN1->MCR = CAN_MCR_INRQ;
 	if (!wait_msr(CAN_MSR_INAK | CAN_MSR_SLAK, CAN_MSR_INAK))
 		return SWELL_ESTATE;
-	/* Transmit by id priority (TXFP = 0), no automatic bus-off recovery (we rate-limit it),
-	 * automatic retransmission on, FIFO overrun keeps the old frames (RFLM = 0 overwrites: we want
-	 * the newest position, so leave RFLM clear). */
-	CAN1->MCR = CAN_MCR_INRQ;
 	CAN1->BTR = can_timing_btr(&t) | (loopback ? CAN_BTR_LBKM | CAN_BTR_SILM : 0);
 
 	CAN1->FMR |= CAN_FMR_FINIT;
@@ -107,8 +99,8 @@ enum swell_err can_start(uint32_t pclk1_hz, uint32_t bitrate, const struct can_f
 	can.rx_head = can.rx_tail = 0;
 	can_busoff_init(&can.busoff);
 	CAN1->IER = CAN_IER_FMPIE0 | CAN_IER_FOVIE0 | CAN_IER_BOFIE | CAN_IER_EPVIE | CAN_IER_ERRIE;
-	irq_setup(IRQ_CAN1_RX0, prio_rx);
-	irq_setup(IRQ_CAN1_SCE, prio_sce);
+	irq_enable_at(IRQ_CAN1_RX0, prio_rx);
+	irq_enable_at(IRQ_CAN1_SCE, prio_sce);
 	CAN1->MCR &= ~CAN_MCR_INRQ;
 	if (!wait_msr(CAN_MSR_INAK, 0))
 		return SWELL_ESTATE; /* no 11 recessive bits: bus stuck dominant or no transceiver */
@@ -239,20 +231,6 @@ void can_poll(uint32_t now_ms)
 	primask = irq_save();
 	can_busoff_attempted(&can.busoff, now_ms, ok);
 	irq_restore(primask);
-}
-
-void can_status(struct can_status *out)
-{
-	uint32_t esr = CAN1->ESR;
-
-	out->tec = (uint8_t)(esr >> CAN_ESR_TEC_SHIFT);
-	out->rec = (uint8_t)(esr >> CAN_ESR_REC_SHIFT);
-	out->lec = (uint8_t)((esr >> CAN_ESR_LEC_SHIFT) & 7u);
-	out->error_passive = !!(esr & CAN_ESR_EPVF);
-	out->bus_off = !!(esr & CAN_ESR_BOFF);
-	out->bus_off_count = can.busoff.count;
-	out->rx_overruns = can.rx_overruns;
-	out->tx_aborted = can.tx_aborted;
 }
 
 uint32_t can_bus_offs(void)

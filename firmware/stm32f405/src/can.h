@@ -13,15 +13,6 @@
 #include "loopback.h"
 #include "swell/err.h"
 
-struct can_status {
-	uint8_t tec, rec; /* transmit and receive error counters */
-	uint8_t lec; /* last error code (0 none .. 6 CRC) */
-	uint8_t error_passive, bus_off;
-	uint32_t bus_off_count; /* bus-off events since start */
-	uint32_t rx_overruns; /* frames lost because FIFO 0 was full */
-	uint32_t tx_aborted; /* lower-priority frames aborted for a more urgent one */
-};
-
 /* Does a bxCAN answer (enters initialisation mode within a bounded wait)? Leaves it in reset. */
 int can_probe(void);
 
@@ -45,8 +36,6 @@ void can_abort_all(void);
 
 /* Call from the main loop: runs the bus-off recovery once the hold-off has passed. */
 void can_poll(uint32_t now_ms);
-
-void can_status(struct can_status *out);
 
 /* Bus-off events since start (the port compares it each tick: a new one takes the device link down). */
 uint32_t can_bus_offs(void);

@@ -10,10 +10,9 @@
 
 static int wait_bits(volatile uint32_t *reg, uint32_t mask, uint32_t want, uint32_t loops)
 {
-	while (loops--) {
+	while (loops--)
 		if ((*reg & mask) == want)
 			return 1;
-	}
 	return 0;
 }
 
@@ -78,8 +77,7 @@ void clock_init(struct clock_info *ci)
 	ci->src = want;
 	ci->sysclk_hz = ci->hclk_hz = 168000000u;
 	ci->pclk1_hz = 42000000u;
-	ci->pclk2_hz = 84000000u;
-	ci->tim_apb1_hz = 84000000u;
+	ci->pclk2_hz = ci->tim_apb1_hz = 84000000u;
 }
 
 const char *clock_src_name(enum clock_src s)

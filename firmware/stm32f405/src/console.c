@@ -6,27 +6,22 @@
 
 #define TXE_WAIT_LOOPS 20000u /* > 1 character time at 9600 baud and 168 MHz */
 
-/* The board's console USART: base address, its enable bit, and on which APB it sits. */
+/* The board's console USART: base address and its enable bit; USART1 and 6 sit on APB2, 2 and 3 on
+ * APB1. */
+#define CON_ON_APB2 (SWELL_BOARD_CON_USART == 1 || SWELL_BOARD_CON_USART == 6)
+#define CON_ENR (*(CON_ON_APB2 ? &RCC->APB2ENR : &RCC->APB1ENR))
 #if SWELL_BOARD_CON_USART == 1
 #define CON ((struct usart_regs *)0x40011000u)
-#define CON_ENR RCC->APB2ENR
 #define CON_EN (1u << 4)
-#define CON_ON_APB2 1
 #elif SWELL_BOARD_CON_USART == 2
 #define CON ((struct usart_regs *)0x40004400u)
-#define CON_ENR RCC->APB1ENR
 #define CON_EN (1u << 17)
-#define CON_ON_APB2 0
 #elif SWELL_BOARD_CON_USART == 3
 #define CON ((struct usart_regs *)0x40004800u)
-#define CON_ENR RCC->APB1ENR
 #define CON_EN (1u << 18)
-#define CON_ON_APB2 0
 #elif SWELL_BOARD_CON_USART == 6
 #define CON ((struct usart_regs *)0x40011400u)
-#define CON_ENR RCC->APB2ENR
 #define CON_EN (1u << 5)
-#define CON_ON_APB2 1
 #else
 #error "SWELL_BOARD_CON_USART: 1, 2, 3 or 6 (boards/board.cmake checks it)"
 #endif
@@ -101,19 +96,14 @@ void con_put_i64(int64_t v)
 	}
 }
 
-void con_put_hex32(uint32_t v)
-{
-	static const char hex[] = "0123456789abcdef";
-	int s;
-
-	for (s = 28; s >= 0; s -= 4)
-		con_putc(hex[(v >> s) & 0xFu]);
-}
-
 void con_puts_hex32(const char *s, uint32_t v)
 {
+	static const char hex[] = "0123456789abcdef";
+	int k;
+
 	con_puts(s);
-	con_put_hex32(v);
+	for (k = 28; k >= 0; k -= 4)
+		con_putc(hex[(v >> k) & 0xFu]);
 }
 
 void con_put_ratio(uint64_t num, uint64_t den, unsigned decimals)

@@ -14,7 +14,6 @@ void con_putc(char c);
 void con_puts(const char *s);
 void con_put_u64(uint64_t v);
 void con_put_i64(int64_t v);
-void con_put_hex32(uint32_t v);
 /* s, then v in decimal or as 8 hex digits: a label and its value. */
 void con_puts_u32(const char *s, uint32_t v);
 void con_puts_hex32(const char *s, uint32_t v);

@@ -37,6 +37,7 @@ void fault_stop(const char *why)
 __attribute__((used, noreturn)) void fault_report(const struct fault_frame *f, uint32_t exc_return)
 {
 	uint32_t ipsr;
+	int k;
 
 	boot_probe_fault(); /* the ROM probe of a bootloader request: no return */
 	safe_force_zero();
@@ -50,12 +51,11 @@ __attribute__((used, noreturn)) void fault_report(const struct fault_frame *f, u
 	con_puts_hex32(" hfsr 0x", SCB->HFSR);
 	con_puts_hex32(" mmfar 0x", SCB->MMFAR);
 	con_puts_hex32(" bfar 0x", SCB->BFAR);
-	con_puts("\nFAULT: force now ");
-	con_put_i64(safe_force_cN(0));
-	con_putc(' ');
-	con_put_i64(safe_force_cN(1));
-	con_putc(' ');
-	con_put_i64(safe_force_cN(2));
+	con_puts("\nFAULT: force now");
+	for (k = 0; k < 3; k++) {
+		con_putc(' ');
+		con_put_i64(safe_force_cN(k));
+	}
 	con_puts(" cN (zeroed), waiting for the watchdog\n");
 	halt();
 }

@@ -41,9 +41,7 @@ enum swell_err image_check(struct image_info *out)
 uint32_t image_version(void)
 {
 	const uint8_t *hdr = (const uint8_t *)(uintptr_t)(FLASH_BASE + SWELL_FWIMAGE_OFFSET);
-	uint32_t v;
 
 	__asm__ volatile("" : "+r"(hdr)); /* the stamped flash, not the linked constant */
-	v = (uint32_t)hdr[12] | (uint32_t)hdr[13] << 8 | (uint32_t)hdr[14] << 16 | (uint32_t)hdr[15] << 24;
-	return v;
+	return (uint32_t)hdr[12] | (uint32_t)hdr[13] << 8 | (uint32_t)hdr[14] << 16 | (uint32_t)hdr[15] << 24;
 }

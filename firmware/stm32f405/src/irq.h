@@ -5,6 +5,8 @@
 
 #include <stdint.h>
 
+#include "../regs/cortex_m4.h"
+
 static inline uint32_t irq_save(void)
 {
 	uint32_t primask;
@@ -16,6 +18,14 @@ static inline uint32_t irq_save(void)
 static inline void irq_restore(uint32_t primask)
 {
 	__asm__ volatile("msr primask, %0" ::"r"(primask) : "memory");
+}
+
+/* One peripheral interrupt on at a priority, any old pending request cleared first. */
+static inline void irq_enable_at(unsigned irq, uint8_t prio)
+{
+	NVIC->IPR[irq] = (uint8_t)(prio << (8 - NVIC_PRIO_BITS));
+	NVIC->ICPR[irq / 32] = 1u << (irq % 32);
+	NVIC->ISER[irq / 32] = 1u << (irq % 32);
 }
 
 /* Mask every configurable interrupt for good (fault and reset paths). */

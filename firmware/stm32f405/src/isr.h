@@ -1,18 +1,14 @@
 /* Interrupt and exception handlers of the vector table (startup.c). Each is defined by the module
- * that owns the peripheral; the ones not linked fall back to irq_unexpected (weak aliases). */
+ * that owns the peripheral; the ones not linked fall back to irq_unexpected (weak aliases), as do
+ * the vectors no module handles. */
 #ifndef SWELL_FW_ISR_H
 #define SWELL_FW_ISR_H
 
 void isr_reset(void);
 void isr_nmi(void);
-void isr_svcall(void);
-void isr_debugmon(void);
-void isr_pendsv(void);
 void isr_systick(void);
 void isr_tim2(void);
-void isr_can1_tx(void);
 void isr_can1_rx0(void);
-void isr_can1_rx1(void);
 void isr_can1_sce(void);
 void isr_otg_fs(void);
 

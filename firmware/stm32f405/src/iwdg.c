@@ -16,14 +16,10 @@ int iwdg_start(uint32_t timeout_ms)
 	IWDG->KR = IWDG_KEY_UNLOCK;
 	IWDG->PR = 3; /* /32: 1 kHz at the nominal 32 kHz LSI, so 1 count = 1 ms */
 	IWDG->RLR = timeout_ms - 1; /* LSI is 17..47 kHz: the real timeout is 0.68..1.9 x this */
-	for (n = 0; n < IWDG_WAIT_LOOPS; n++) {
-		if (!(IWDG->SR & (IWDG_SR_PVU | IWDG_SR_RVU))) {
-			IWDG->KR = IWDG_KEY_REFRESH;
-			return 1;
-		}
-	}
+	for (n = 0; n < IWDG_WAIT_LOOPS && (IWDG->SR & (IWDG_SR_PVU | IWDG_SR_RVU)); n++)
+		;
 	IWDG->KR = IWDG_KEY_REFRESH;
-	return 0;
+	return n < IWDG_WAIT_LOOPS; /* 0: the prescaler and reload updates never finished */
 }
 
 void iwdg_kick(void)

@@ -36,9 +36,7 @@ int loopback_selftest(void)
 	uint32_t n, bad = 0, refused = 0;
 
 	for (n = 0; n < LOOPBACK_DEPTH + 2; n++) {
-		memset(&f, 0, sizeof(f));
-		f.id = 0x100u + n;
-		f.len = (uint8_t)(n % 9);
+		f = (struct fw_frame){ .id = 0x100u + n, .len = (uint8_t)(n % 9) };
 		memset(f.data, (int)(0xA0u + n), f.len);
 		if (loopback_send(&f) == SWELL_ESIZE)
 			refused++;

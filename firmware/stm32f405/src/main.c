@@ -109,10 +109,8 @@ int main(void)
 		fault_stop("image check failed");
 	}
 	con_puts_u32("version ", img.version >> 16);
-	con_putc('.');
-	con_put_u64((img.version >> 8) & 0xFFu);
-	con_putc('.');
-	con_put_u64(img.version & 0xFFu);
+	con_puts_u32(".", (img.version >> 8) & 0xFFu);
+	con_puts_u32(".", img.version & 0xFFu);
 	con_puts_u32(", ", img.length);
 	con_puts_hex32(" bytes, crc32 0x", img.crc);
 	con_puts(" ok\n");

@@ -23,11 +23,7 @@ static int block_is_ram(uint32_t base)
 
 void mem_probe(struct fw_mem *m, int32_t *sram, size_t sram_words)
 {
-	m->sram = sram;
-	m->sram_words = sram_words;
-	m->fast = 0;
-	m->fast_words = 0;
-	m->fast_name = "none";
+	*m = (struct fw_mem){ sram, sram_words, NULL, 0, "none" };
 	RCC->AHB1ENR |= RCC_AHB1ENR_CCMDATARAM; /* on at reset (RM0090), made sure of */
 	if (block_is_ram(MEM_CCM_BASE)) {
 		m->fast = (int32_t *)MEM_CCM_BASE;

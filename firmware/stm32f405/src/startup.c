@@ -25,14 +25,9 @@ __attribute__((naked)) void isr_default(void)
 	__asm__ volatile("b irq_unexpected");
 }
 
-void isr_svcall(void) __attribute__((weak, alias("isr_default")));
-void isr_debugmon(void) __attribute__((weak, alias("isr_default")));
-void isr_pendsv(void) __attribute__((weak, alias("isr_default")));
 void isr_systick(void) __attribute__((weak, alias("isr_default")));
 void isr_tim2(void) __attribute__((weak, alias("isr_default")));
-void isr_can1_tx(void) __attribute__((weak, alias("isr_default")));
 void isr_can1_rx0(void) __attribute__((weak, alias("isr_default")));
-void isr_can1_rx1(void) __attribute__((weak, alias("isr_default")));
 void isr_can1_sce(void) __attribute__((weak, alias("isr_default")));
 void isr_otg_fs(void) __attribute__((weak, alias("isr_default")));
 
@@ -56,17 +51,11 @@ __attribute__((section(".isr_vector"), used)) static const union vector vectors[
 	[4] = { isr_memmanage },
 	[5] = { isr_busfault },
 	[6] = { isr_usagefault },
-	[7 ... 10] = { irq_unexpected },
-	[11] = { isr_svcall },
-	[12] = { isr_debugmon },
-	[13] = { irq_unexpected },
-	[14] = { isr_pendsv },
+	[7 ... 14] = { irq_unexpected }, /* reserved, SVCall, DebugMon, PendSV: none used */
 	[15] = { isr_systick },
 	[IRQ(0)... IRQ(IRQ_COUNT - 1)] = { irq_unexpected },
 	[IRQ(IRQ_TIM2)] = { isr_tim2 },
-	[IRQ(IRQ_CAN1_TX)] = { isr_can1_tx },
 	[IRQ(IRQ_CAN1_RX0)] = { isr_can1_rx0 },
-	[IRQ(IRQ_CAN1_RX1)] = { isr_can1_rx1 },
 	[IRQ(IRQ_CAN1_SCE)] = { isr_can1_sce },
 	[IRQ(IRQ_OTG_FS)] = { isr_otg_fs },
 };

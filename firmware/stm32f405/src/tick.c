@@ -3,6 +3,7 @@
 #include "../logic/timer_div.h"
 #include "../regs/stm32f405_periph.h"
 #include "../regs/stm32f405_rcc.h"
+#include "irq.h"
 #include "isr.h"
 #include "timebase.h"
 
@@ -42,9 +43,7 @@ enum swell_err tick_start(uint32_t tim_clk_hz, uint32_t rate_hz, uint8_t prio, v
 	TIM2->SR = 0;
 	TIM2->CNT = 0;
 	TIM2->DIER = TIM_DIER_UIE;
-	NVIC->IPR[IRQ_TIM2] = (uint8_t)(prio << (8 - NVIC_PRIO_BITS));
-	NVIC->ICPR[IRQ_TIM2 / 32] = 1u << (IRQ_TIM2 % 32);
-	NVIC->ISER[IRQ_TIM2 / 32] = 1u << (IRQ_TIM2 % 32);
+	irq_enable_at(IRQ_TIM2, prio);
 	TIM2->CR1 |= TIM_CR1_CEN;
 	/* Writing ARR again is a no-op on silicon (ARPE = 0, same value); QEMU's timer model arms its
 	 * next update only on an ARR write while counting, so without it the tick never starts there. */
@@ -61,8 +60,5 @@ void tick_stop(void)
 
 void tick_read(struct tick_stats *out)
 {
-	out->count = stats.count;
-	out->overruns = stats.overruns;
-	out->last_cost = stats.last_cost;
-	out->max_cost = stats.max_cost;
+	*out = (struct tick_stats){ stats.count, stats.overruns, stats.last_cost, stats.max_cost };
 }

@@ -6,6 +6,7 @@
 #include "../regs/stm32f405_otgfs.h"
 #include "../regs/stm32f405_periph.h"
 #include "../regs/stm32f405_rcc.h"
+#include "irq.h"
 #include "isr.h"
 #include "swell/transport.h"
 
@@ -27,27 +28,27 @@ static struct {
 	volatile int in_busy;
 } usb;
 
-static int wait_clear(volatile uint32_t *reg, uint32_t mask, uint32_t loops)
+/* Bounded wait for GRSTCTL's mask bits to read want (all set or all clear); 1 when they do. */
+static int wait_grstctl(uint32_t mask, uint32_t want)
 {
-	while (loops--)
-		if (!(*reg & mask))
+	for (uint32_t n = 0; n < AHBIDL_WAIT_LOOPS; n++)
+		if ((OTG->GRSTCTL & mask) == want)
 			return 1;
 	return 0;
 }
 
-static int wait_set(volatile uint32_t *reg, uint32_t mask, uint32_t loops)
+/* Flush a FIFO (TXFFLSH with every TX FIFO, or RXFFLSH) and wait for the core to finish. */
+static void fifo_flush(uint32_t cmd)
 {
-	while (loops--)
-		if (*reg & mask)
-			return 1;
-	return 0;
+	OTG->GRSTCTL = cmd;
+	(void)wait_grstctl(cmd & (OTG_GRSTCTL_TXFFLSH | OTG_GRSTCTL_RXFFLSH), 0);
 }
 
 int usb_probe(void)
 {
 	RCC->AHB2ENR |= RCC_AHB2ENR_OTGFS;
 	(void)RCC->AHB2ENR;
-	if (wait_set(&OTG->GRSTCTL, OTG_GRSTCTL_AHBIDL, AHBIDL_WAIT_LOOPS))
+	if (wait_grstctl(OTG_GRSTCTL_AHBIDL, OTG_GRSTCTL_AHBIDL))
 		return 1;
 	RCC->AHB2ENR &= ~RCC_AHB2ENR_OTGFS;
 	return 0;
@@ -55,16 +56,11 @@ int usb_probe(void)
 
 static void fifo_write(unsigned ep, const uint8_t *d, uint32_t len)
 {
-	uint32_t i, w;
+	uint32_t i, k, w;
 
 	for (i = 0; i < len; i += 4) {
-		w = d[i];
-		if (i + 1 < len)
-			w |= (uint32_t)d[i + 1] << 8;
-		if (i + 2 < len)
-			w |= (uint32_t)d[i + 2] << 16;
-		if (i + 3 < len)
-			w |= (uint32_t)d[i + 3] << 24;
+		for (w = 0, k = 0; k < 4 && i + k < len; k++)
+			w |= (uint32_t)d[i + k] << (8 * k);
 		OTG_FIFO(ep) = w;
 	}
 }
@@ -87,11 +83,12 @@ static void ep0_out_arm(void)
 	OTG_OUT(0)->DOEPCTL |= OTG_EPCTL_CNAK | OTG_EPCTL_EPENA;
 }
 
-static void ep0_in(const uint8_t *d, uint32_t len)
+/* One packet IN on endpoint ep (0 control, 1 bulk). */
+static void ep_in(unsigned ep, const uint8_t *d, uint32_t len)
 {
-	OTG_IN(0)->DIEPTSIZ = (1u << OTG_TSIZ_PKTCNT_SHIFT) | len;
-	OTG_IN(0)->DIEPCTL |= OTG_EPCTL_CNAK | OTG_EPCTL_EPENA;
-	fifo_write(0, d, len);
+	OTG_IN(ep)->DIEPTSIZ = (1u << OTG_TSIZ_PKTCNT_SHIFT) | len;
+	OTG_IN(ep)->DIEPCTL |= OTG_EPCTL_CNAK | OTG_EPCTL_EPENA;
+	fifo_write(ep, d, len);
 }
 
 static void ep1_out_arm(void)
@@ -145,25 +142,25 @@ static void handle_setup(void)
 	usb_ctrl_decide(&s, &usb.st, usb.scratch, &r);
 	switch (r.action) {
 	case USB_CTRL_DATA_IN:
-		ep0_in(r.data, r.len); /* every reply fits one 64-byte packet (tested on the host) */
+		ep_in(0, r.data, r.len); /* every reply fits one 64-byte packet (tested on the host) */
 		break;
 	case USB_CTRL_SET_ADDRESS:
 		/* This core takes the new address before the status stage and answers it itself. */
 		OTG_DEV->DCFG = (OTG_DEV->DCFG & ~OTG_DCFG_DAD_MASK) | ((uint32_t)r.value << OTG_DCFG_DAD_SHIFT);
 		usb.st.address = r.value;
-		ep0_in(NULL, 0);
+		ep_in(0, NULL, 0);
 		break;
 	case USB_CTRL_SET_CONFIG:
 		configure(r.value);
-		ep0_in(NULL, 0);
+		ep_in(0, NULL, 0);
 		break;
 	case USB_CTRL_SET_HALT:
 	case USB_CTRL_CLEAR_HALT:
 		set_halt(r.ep, r.action == USB_CTRL_SET_HALT);
-		ep0_in(NULL, 0);
+		ep_in(0, NULL, 0);
 		break;
 	case USB_CTRL_STATUS:
-		ep0_in(NULL, 0);
+		ep_in(0, NULL, 0);
 		break;
 	default:
 		OTG_IN(0)->DIEPCTL |= OTG_EPCTL_STALL; /* cleared by the core on the next SETUP */
@@ -178,8 +175,7 @@ static void bus_reset(void)
 	OTG_DEV->DCFG &= ~OTG_DCFG_DAD_MASK;
 	usb.st = (struct usb_dev_state){ 0 };
 	configure(0);
-	OTG->GRSTCTL = OTG_GRSTCTL_TXFFLSH | OTG_GRSTCTL_TXFNUM_ALL;
-	(void)wait_clear(&OTG->GRSTCTL, OTG_GRSTCTL_TXFFLSH, AHBIDL_WAIT_LOOPS);
+	fifo_flush(OTG_GRSTCTL_TXFFLSH | OTG_GRSTCTL_TXFNUM_ALL);
 	OTG_DEV->DAINTMSK = (1u << 0) | (1u << 16);
 	OTG_DEV->DOEPMSK = OTG_EPINT_XFRC | OTG_DOEPINT_STUP;
 	OTG_DEV->DIEPMSK = OTG_EPINT_XFRC;
@@ -249,10 +245,8 @@ void isr_otg_fs(void)
 		if (f & OTG_EPINT_XFRC)
 			usb.in_busy = 0;
 	}
-	if (gint & OTG_GINT_USBSUSP)
-		OTG->GINTSTS = OTG_GINT_USBSUSP;
-	if (gint & OTG_GINT_WKUPINT)
-		OTG->GINTSTS = OTG_GINT_WKUPINT;
+	if (gint & (OTG_GINT_USBSUSP | OTG_GINT_WKUPINT)) /* rc_w1: both acknowledged in one write */
+		OTG->GINTSTS = gint & (OTG_GINT_USBSUSP | OTG_GINT_WKUPINT);
 }
 
 enum swell_err usb_start(uint8_t prio, void (*on_out)(const uint8_t *data, uint32_t len))
@@ -265,10 +259,10 @@ enum swell_err usb_start(uint8_t prio, void (*on_out)(const uint8_t *data, uint3
 	GPIOA->OSPEEDR |= (3u << 22) | (3u << 24);
 	GPIOA->MODER = (GPIOA->MODER & ~(0xFu << 22)) | (GPIO_MODE_AF << 22) | (GPIO_MODE_AF << 24);
 
-	if (!wait_set(&OTG->GRSTCTL, OTG_GRSTCTL_AHBIDL, AHBIDL_WAIT_LOOPS))
+	if (!wait_grstctl(OTG_GRSTCTL_AHBIDL, OTG_GRSTCTL_AHBIDL))
 		return SWELL_ESTATE;
 	OTG->GRSTCTL = OTG_GRSTCTL_CSRST;
-	if (!wait_clear(&OTG->GRSTCTL, OTG_GRSTCTL_CSRST, AHBIDL_WAIT_LOOPS))
+	if (!wait_grstctl(OTG_GRSTCTL_CSRST, 0))
 		return SWELL_ESTATE;
 	/* Embedded full-speed PHY, forced device mode, turnaround 6 for AHB above 32 MHz. */
 	OTG->GUSBCFG = OTG_GUSBCFG_PHYSEL | OTG_GUSBCFG_FDMOD | (6u << OTG_GUSBCFG_TRDT_SHIFT);
@@ -280,10 +274,8 @@ enum swell_err usb_start(uint8_t prio, void (*on_out)(const uint8_t *data, uint3
 	OTG->GRXFSIZ = RX_FIFO_WORDS;
 	OTG->DIEPTXF0 = (TX0_FIFO_WORDS << 16) | RX_FIFO_WORDS;
 	OTG->DIEPTXF[0] = (TX1_FIFO_WORDS << 16) | (RX_FIFO_WORDS + TX0_FIFO_WORDS);
-	OTG->GRSTCTL = OTG_GRSTCTL_TXFFLSH | OTG_GRSTCTL_TXFNUM_ALL;
-	(void)wait_clear(&OTG->GRSTCTL, OTG_GRSTCTL_TXFFLSH, AHBIDL_WAIT_LOOPS);
-	OTG->GRSTCTL = OTG_GRSTCTL_RXFFLSH;
-	(void)wait_clear(&OTG->GRSTCTL, OTG_GRSTCTL_RXFFLSH, AHBIDL_WAIT_LOOPS);
+	fifo_flush(OTG_GRSTCTL_TXFFLSH | OTG_GRSTCTL_TXFNUM_ALL);
+	fifo_flush(OTG_GRSTCTL_RXFFLSH);
 
 	usb.on_out = on_out;
 	usb.st = (struct usb_dev_state){ 0 };
@@ -291,9 +283,7 @@ enum swell_err usb_start(uint8_t prio, void (*on_out)(const uint8_t *data, uint3
 	OTG->GINTMSK = OTG_GINT_USBRST | OTG_GINT_ENUMDNE | OTG_GINT_RXFLVL | OTG_GINT_IEPINT | OTG_GINT_OEPINT |
 		OTG_GINT_USBSUSP | OTG_GINT_WKUPINT;
 	OTG->GAHBCFG = OTG_GAHBCFG_GINTMSK;
-	NVIC->IPR[IRQ_OTG_FS] = (uint8_t)(prio << (8 - NVIC_PRIO_BITS));
-	NVIC->ICPR[IRQ_OTG_FS / 32] = 1u << (IRQ_OTG_FS % 32);
-	NVIC->ISER[IRQ_OTG_FS / 32] = 1u << (IRQ_OTG_FS % 32);
+	irq_enable_at(IRQ_OTG_FS, prio);
 	OTG_DEV->DCTL &= ~OTG_DCTL_SDIS; /* connect: pull-up on DP */
 	return SWELL_OK;
 }
@@ -307,9 +297,7 @@ enum swell_err usb_send(const uint8_t *data, uint32_t len)
 	if ((OTG_IN(1)->DTXFSTS & 0xFFFFu) < (len + 3) / 4)
 		return SWELL_ESIZE;
 	usb.in_busy = 1;
-	OTG_IN(1)->DIEPTSIZ = (1u << OTG_TSIZ_PKTCNT_SHIFT) | len;
-	OTG_IN(1)->DIEPCTL |= OTG_EPCTL_CNAK | OTG_EPCTL_EPENA;
-	fifo_write(1, data, len);
+	ep_in(1, data, len);
 	return SWELL_OK;
 }
 
