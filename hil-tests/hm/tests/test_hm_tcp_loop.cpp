@@ -78,6 +78,21 @@ bool wait_requests_served(const std::string &csv, int ticks, row *last)
 	return false;
 }
 
+// waits (up to 60 s) until the log shows the device ticking with no client after simulated time t:
+// the end of a killed client's connection is in the log before the next one may connect (in
+// lockstep the device waits for a request before it ticks, and a client that connects within
+// that wait would make the device's first tick alone one with a client); whether it came
+bool wait_alone(const std::string &csv, double t)
+{
+	for (int k = 0; k < 6000; k++) {
+		for (const row &r : swell_test::read_hm_log(csv))
+			if (r.t > t && r.clients() == 0)
+				return true;
+		std::this_thread::sleep_for(std::chrono::milliseconds(10));
+	}
+	return false;
+}
+
 // waits (up to 60 s) for a heartbeat of the controller in `state` with last error `err` on its
 // telemetry port; whether one came
 bool wait_heartbeat(swell_test::MsgUdp &tele, uint8_t state, uint8_t err)
@@ -298,6 +313,7 @@ TEST_CASE("hm loop: the controller killed mid-run: the device zeroes its bias fo
 		killed_at = logged_until(csv);
 		first.stop(SIGKILL);
 	}
+	REQUIRE(wait_alone(csv, before_kill.t));
 	Ctl second(srv.port, "hm-restart-2");
 	wait_logged(csv, killed_at + 5.0);
 	CHECK(second.stop() == 0);
