@@ -55,6 +55,21 @@ void gen_bob(struct gen_scene *s)
 	s->bob_fz_cN = 100;
 }
 
+void gen_wake(struct gen_scene *s)
+{
+	gen_still(s);
+	s->wake_amp_um = 1200;
+	s->wake_len_um = 40000;
+	s->wake_speed_um_s = 100000;
+}
+
+void gen_still(struct gen_scene *s)
+{
+	gen_bob(s);
+	s->bump_amp_um = 0;
+	s->bump_sigma_um = 0;
+}
+
 void gen_cells(struct gen_scene *s, uint16_t n)
 {
 	s->nx = n;
@@ -101,6 +116,15 @@ static int16_t gen_height(const struct gen_scene *s, uint16_t i, uint16_t j, uin
 		double r = sqrt(x * x + y * y), t = (double)t_us * 1e-6;
 		double ph = 2 * 3.14159265358979 * (r - s->ripple_speed_um_s * t) / s->ripple_len_um;
 		h_um += s->ripple_amp_um * cos(ph) * exp(-r / (4.0 * s->ripple_len_um));
+	}
+	if (s->wake_amp_um && s->wake_len_um > 0) {
+		/* rings from the footprint's edge (the distance to the box's outline), fading outwards */
+		double half = SWELL_POOL_BOX_UM / 2.0, t = (double)t_us * 1e-6;
+		double ex = fmax(fabs(x - s->obj_x_10um * 10.0) - half, 0.0);
+		double ey = fmax(fabs(y - s->obj_y_10um * 10.0) - half, 0.0);
+		double r = sqrt(ex * ex + ey * ey);
+		double ph = 2 * 3.14159265358979 * (r - s->wake_speed_um_s * t) / s->wake_len_um;
+		h_um += s->wake_amp_um * cos(ph) * exp(-r / (2.0 * s->wake_len_um));
 	}
 	double q = h_um * 64.0 / 1000.0; /* LSB 2^-6 mm */
 	q = q > 2047 ? 2047 : q < -2048 ? -2048 : q;

@@ -20,6 +20,9 @@ struct gen_scene {
 	int32_t bump_x_um, bump_y_um, bump_sigma_um, bump_amp_um;
 	/* optional travelling ripple for the demo pattern: amplitude and wavelength, um; speed um/s */
 	int32_t ripple_amp_um, ripple_len_um, ripple_speed_um_s;
+	/* optional wake of the object (pattern wake): rings running out from its footprint's edge,
+	 * amplitude and wavelength um, speed um/s, fading over two wavelengths */
+	int32_t wake_amp_um, wake_len_um, wake_speed_um_s;
 	/* object */
 	int16_t obj_x_10um, obj_y_10um, obj_z_10um;
 	uint8_t submersion_halfpct;
@@ -45,6 +48,11 @@ void gen_ripple(struct gen_scene *s);
 /* bob: the default scene with the object bobbing: z = -10 + 6 sin(2 pi t / 2 s) mm, the submersion
  * following it (H = 50 mm), fz = 0.8 + 1.0 sin(2 pi t / 2 s) N, fx and fy as in the default. */
 void gen_bob(struct gen_scene *s);
+/* wake: bob with the object's waves: 1.2 mm rings of 40 mm wavelength running out from the
+ * footprint at 0.1 m/s, no bump (the demo's largest wave and a bobbing object's wake). */
+void gen_wake(struct gen_scene *s);
+/* still: bob on a still pool (no bump, no waves): the reference the wake is compared with. */
+void gen_still(struct gen_scene *s);
 /* The same pool (0.4 m) in n x n cells (8..256): the benchmarks' bigger grids. */
 void gen_cells(struct gen_scene *s, uint16_t n);
 /* bump-info: the default scene from a controller that sends CTL_INFO: firmware 2.7.1, an object of

@@ -51,6 +51,9 @@ static void on_key(GLFWwindow *w, int key, int sc, int action, int mods)
 	case GLFW_KEY_C:
 		a->r.o.colour_scale = !a->r.o.colour_scale;
 		break;
+	case GLFW_KEY_W:
+		a->r.o.shading = a->r.o.shading == RENDER_SHADE_WATER ? RENDER_SHADE_FLAT : RENDER_SHADE_WATER;
+		break;
 	case GLFW_KEY_G:
 		a->charts_on = !a->charts_on;
 		a->frozen = false; /* draw them once even while paused */

@@ -126,10 +126,16 @@ static const char *const water_vs = "#version 330 core\n"
 				    "  gl_Position = u_mvp * vec4(v_pos, 1.0);\n"
 				    "}\n";
 
-/* Water: Blinn-Phong sun from light_dir, a sky reflected by Schlick's Fresnel term (horizon pale,
- * zenith blue), a body colour tinted by height, more opaque at grazing angles (the floor shows when
- * looking down). The colour scale replaces the body colour; the map view is the colour scale with a
- * little hill shading, opaque. */
+/* Water. Both looks: normals by central differences of the received heights (the grid the mesh
+ * samples), a Blinn-Phong sun from light_dir, a sky (horizon pale, zenith blue) reflected by Schlick's
+ * Fresnel term. flat: a body colour tinted by height, more opaque at grazing angles. water: what is
+ * under the surface is the pool's tiled floor along the refracted ray (index 1.33), dimmed by the
+ * water on the sun's way down and the eye's way up (absorption strongest in red), and lit through the
+ * curved surface: the Laplacian of the heights focuses or spreads the sun (caustics, to first order in
+ * the floor's depth). A millimetre wave tilts the normal by a few degrees; the floor's lines bend and
+ * the caustics brighten by tens of percent, which is what makes such waves visible. Around the object
+ * a bright meniscus ring and its shadow on the surface, the sun's way. The colour scale replaces the
+ * body colour (flat look); the map view is the colour scale with a little hill shading, opaque. */
 static const char *const water_fs =
 	"#version 330 core\n"
 	"in vec2 v_uv; in vec3 v_pos;\n"
@@ -140,24 +146,56 @@ static const char *const water_fs =
 	"uniform vec3 u_light; uniform vec3 u_eye;\n"
 	"uniform int u_colour; uniform int u_map; uniform float u_range;\n"
 	"uniform vec3 u_ramp_lo; uniform vec3 u_ramp_mid; uniform vec3 u_ramp_hi;\n"
+	"uniform int u_water;\n" /* 1: the water look */
+	"uniform float u_depth;\n" /* m, the floor under the rest surface */
+	"uniform vec4 u_obj;\n" /* object footprint: centre x, y and half sizes, m (zw 0: none) */
+	"uniform vec2 u_obj_z;\n" /* its bottom and top as drawn, m */
 	"out vec4 o_col;\n"
+	"vec3 pool_floor(vec2 p) {\n" /* 50 mm tiles, two tones, grout lines at 25 mm + k 50 mm */
+	"  vec2 g = (p - 0.025) / 0.05, f = abs(fract(g) - 0.5);\n"
+	"  float grout = smoothstep(0.472, 0.490, max(f.x, f.y));\n"
+	"  vec3 tile = mix(vec3(0.86, 0.86, 0.80), vec3(0.80, 0.84, 0.80), mod(floor(g.x) + floor(g.y), 2.0));\n"
+	"  return mix(tile, vec3(0.64, 0.70, 0.70), grout);\n"
+	"}\n"
+	"float in_box(vec2 p) { vec2 q = abs(p - u_obj.xy) - u_obj.zw; return max(q.x, q.y) < 0.0 ? 1.0 : 0.0; }\n"
 	"void main() {\n"
 	"  float hc = texture(u_h, v_uv).r;\n"
-	"  float hx = texture(u_h, v_uv + vec2(u_texel.x, 0.0)).r - texture(u_h, v_uv - vec2(u_texel.x, 0.0)).r;\n"
-	"  float hy = texture(u_h, v_uv + vec2(0.0, u_texel.y)).r - texture(u_h, v_uv - vec2(0.0, u_texel.y)).r;\n"
-	"  vec3 n = normalize(vec3(-hx * u_zs / u_cell.x, -hy * u_zs / u_cell.y, 1.0));\n"
+	"  float hxp = texture(u_h, v_uv + vec2(u_texel.x, 0.0)).r, hxm = texture(u_h, v_uv - vec2(u_texel.x, 0.0)).r;\n"
+	"  float hyp = texture(u_h, v_uv + vec2(0.0, u_texel.y)).r, hym = texture(u_h, v_uv - vec2(0.0, u_texel.y)).r;\n"
+	"  vec3 n = normalize(vec3(-(hxp - hxm) * u_zs / u_cell.x, -(hyp - hym) * u_zs / u_cell.y, 1.0));\n"
 	"  vec3 v = normalize(u_eye - v_pos);\n"
 	"  float t = clamp(hc / u_range, -1.0, 1.0);\n"
 	"  vec3 ramp = t < 0.0 ? mix(u_ramp_mid, u_ramp_lo, -t) : mix(u_ramp_mid, u_ramp_hi, t);\n"
 	"  float d = max(dot(n, u_light), 0.0);\n"
 	"  if (u_map != 0) { o_col = vec4(ramp * (0.70 + 0.40 * d), 1.0); return; }\n"
-	"  vec3 base = u_colour != 0 ? ramp : mix(vec3(0.03, 0.22, 0.40), vec3(0.16, 0.55, 0.70), 0.5 + 0.5 * t);\n"
 	"  vec3 r = reflect(-v, n);\n"
 	"  vec3 sky = mix(vec3(0.70, 0.80, 0.88), vec3(0.22, 0.42, 0.72), clamp(r.z, 0.0, 1.0));\n"
 	"  float fr = 0.02 + 0.98 * pow(1.0 - max(dot(n, v), 0.0), 5.0);\n"
 	"  float s = pow(max(dot(n, normalize(u_light + v)), 0.0), 250.0);\n"
-	"  vec3 c = mix(base * (0.22 + 0.95 * d), sky, u_colour != 0 ? 0.5 * fr : fr) + vec3(0.50 * s);\n"
-	"  o_col = vec4(c, u_colour != 0 ? 0.90 : mix(0.80, 1.0, fr));\n"
+	"  if (u_water == 0 || u_colour != 0) {\n"
+	"    vec3 base = u_colour != 0 ? ramp : mix(vec3(0.03, 0.22, 0.40), vec3(0.16, 0.55, 0.70), 0.5 + 0.5 * t);\n"
+	"    vec3 c = mix(base * (0.22 + 0.95 * d), sky, u_colour != 0 ? 0.5 * fr : fr) + vec3(0.50 * s);\n"
+	"    o_col = vec4(c, u_colour != 0 ? 0.90 : mix(0.80, 1.0, fr));\n"
+	"    return;\n"
+	"  }\n"
+	"  vec3 rd = refract(-v, n, 0.75);\n"
+	"  float path = (v_pos.z + u_depth) / max(-rd.z, 0.25);\n"
+	"  float dx = 0.5 * u_cell.x, lap = (hxp + hxm + hyp + hym - 4.0 * hc) * u_zs / (dx * dx);\n"
+	"  float caustic = clamp(1.0 - 0.25 * u_depth * lap, 0.3, 2.5);\n"
+	"  vec3 absorb = exp(-vec3(16.0, 5.0, 2.5) * (path + u_depth / u_light.z));\n"
+	"  vec3 under = pool_floor(v_pos.xy + rd.xy * path) * caustic * absorb + vec3(0.02, 0.17, 0.28) * (1.0 - absorb);\n"
+	"  float shade = 1.0, ring = 0.0, inside = 0.0;\n"
+	"  if (u_obj.z > 0.0) {\n"
+	"    inside = in_box(v_pos.xy);\n"
+	"    vec2 sp = v_pos.xy + u_light.xy / u_light.z * max(u_obj_z.y - v_pos.z, 0.0);\n"
+	"    shade = 1.0 - 0.40 * in_box(sp) * (1.0 - inside);\n"
+	"    float e = length(max(abs(v_pos.xy - u_obj.xy) - u_obj.zw, 0.0));\n"
+	"    bool wet = u_obj_z.x < v_pos.z && v_pos.z < u_obj_z.y;\n"
+	"    ring = wet ? exp(-e / 0.0015) * (1.0 - inside) : 0.0;\n"
+	"  }\n"
+	"  vec3 c = mix(under * (0.25 + d) * shade, sky, fr) + vec3(0.60 * s) * shade;\n"
+	"  c = mix(c, vec3(0.80, 0.90, 0.98), 0.55 * ring);\n"
+	"  o_col = vec4(c, mix(1.0, 0.60, inside));\n"
 	"}\n";
 
 static const char *const hud_vs = "#version 330 core\n"
@@ -535,6 +573,7 @@ static void build_scene(struct render *r, const struct view_model *m, bool froze
 	lit_box(r, 0, -t, -depth, lx, 0, rim, wall_col);
 	lit_box(r, 0, ly, -depth, lx, ly + t, rim, wall_col);
 
+	r->obj_box[2] = 0; /* no object: no ring, no shadow */
 	if (!m->obj.valid)
 		return;
 	float ox = (float)m->obj.x_um * 1e-6f, oy = (float)m->obj.y_um * 1e-6f;
@@ -556,6 +595,10 @@ static void build_scene(struct render *r, const struct view_model *m, bool froze
 		z0 = zt - hgt; /* the force arrow starts at the outline's height */
 	} else {
 		lit_box(r, ox - a / 2, oy - b / 2, z0, ox + a / 2, oy + b / 2, z0 + hgt, obj_col);
+		const float box[4] = { ox, oy, a / 2, b / 2 };
+		memcpy(r->obj_box, box, sizeof(box));
+		r->obj_z[0] = z0;
+		r->obj_z[1] = z0 + hgt;
 	}
 
 	float f[3] = { (float)m->obj.fx_cN * 0.01f, (float)m->obj.fy_cN * 0.01f, (float)m->obj.fz_cN * 0.01f };
@@ -790,6 +833,10 @@ void render_frame(struct render *r, struct view_model *m, bool frozen)
 		glUniform3fv(glGetUniformLocation(r->prog_water, "u_ramp_mid"), 1, canvas_ramp_mid);
 		glUniform3fv(glGetUniformLocation(r->prog_water, "u_ramp_hi"), 1, canvas_ramp_high);
 		glUniform1f(glGetUniformLocation(r->prog_water, "u_range"), r->o.h_range_mm);
+		glUniform1i(glGetUniformLocation(r->prog_water, "u_water"), r->o.shading == RENDER_SHADE_WATER);
+		glUniform1f(glGetUniformLocation(r->prog_water, "u_depth"), (float)m->scene.depth_um * 1e-6f);
+		glUniform4fv(glGetUniformLocation(r->prog_water, "u_obj"), 1, r->obj_box);
+		glUniform2fv(glGetUniformLocation(r->prog_water, "u_obj_z"), 1, r->obj_z);
 		glBindVertexArray(r->vao_water);
 		glDrawElements(GL_TRIANGLES, r->water_indices, GL_UNSIGNED_INT, (void *)0);
 		glViewport(0, 0, r->o.w, r->o.h);

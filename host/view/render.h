@@ -26,11 +26,20 @@ enum render_view {
 	RENDER_MAP
 };
 
+/* water: the pool as light shows it (normals from the received heights, sun highlight, sky by
+ * Fresnel, the tiled floor through the water with its caustics, the object's contact ring and
+ * shadow); flat: one body colour with sun and sky only. Both draw the same heights. */
+enum render_shading {
+	RENDER_SHADE_WATER,
+	RENDER_SHADE_FLAT
+};
+
 #define RENDER_OVERLAYS 2 /* CPU-drawn pictures over the scene: the charts, the colour legend */
 
 struct render_opts {
 	int w, h; /* framebuffer size, pixels */
 	enum render_view view;
+	enum render_shading shading;
 	bool colour_scale; /* colour the water by height (blue - white - red over +-h_range_mm) */
 	float h_range_mm;
 	bool hud;
@@ -63,6 +72,8 @@ struct render_overlay {
 struct render {
 	struct render_opts o;
 	int scene_right; /* pixels at the right edge kept free of the scene (the charts' panel) */
+	float obj_box[4]; /* the object's footprint as drawn: centre x, y and half sizes, m (half x 0: none) */
+	float obj_z[2]; /* its bottom and top as drawn, m */
 	float obj_water_mm; /* the water under the object as drawn (held with the heights while frozen) */
 	struct render_overlay ov[RENDER_OVERLAYS];
 	struct render_cam cam;

@@ -145,8 +145,13 @@ bool source_open(struct source *s, const char *spec, const char *record, int usb
 			s->animate = true;
 		} else if (strcmp(name, "bob") == 0) {
 			gen_bob(&s->g);
+		} else if (strcmp(name, "wake") == 0) {
+			gen_wake(&s->g);
+			s->animate = true;
+		} else if (strcmp(name, "still") == 0) {
+			gen_still(&s->g);
 		} else {
-			snprintf(err, errlen, "unknown pattern '%s' (bump, bump2, ripple, bob; NAME:N for N x N cells)",
+			snprintf(err, errlen, "unknown pattern '%s' (bump, bump2, ripple, bob, wake, still; NAME:N for N x N cells)",
 				 name);
 			return false;
 		}

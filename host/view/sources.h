@@ -9,7 +9,9 @@
  * and one in-process source for tests and demos:
  *   pattern:NAME[:N]   a known scene encoded with the real encoders (gen.h), labelled "PATTERN" on
  *                      screen: bump (static), bump2 (its mirror image), ripple (animated), bob (the
- *                      object bobbing, its force following); N x N cells instead of 64 x 64. Faults
+ *                      object bobbing, its force following), wake (bob with rings running out from
+ *                      the object: waves to see), still (bob on still water: the wake's reference);
+ *                      N x N cells instead of 64 x 64. Faults
  *                      can be injected into its packet stream (source_faults) to test the decode path. */
 #ifndef SWELL_VIEW_SOURCES_H
 #define SWELL_VIEW_SOURCES_H

@@ -14,8 +14,9 @@ static const char usage[] =
 	"  --source SRC        udp[:PORT]        datagrams on 127.0.0.1 (default udp:47801, as swell-ctl sends)\n"
 	"                      can:IFACE, canfd:IFACE  SocketCAN (classic, FD); usb[:VID:PID]  libusb bulk\n"
 	"                      replay:FILE       a recording, at recorded speed; replay-fast:FILE at full speed\n"
-	"                      pattern:bump|ripple|bob[:N]  a known scene through the real encoders (labelled\n"
-	"                      on screen; bob: the object bobs, its force follows; N x N cells, 8..256)\n"
+	"                      pattern:bump|bump2|ripple|bob|wake|still[:N]  a known scene through the real\n"
+	"                      encoders (labelled on screen; bob: the object bobs, its force follows; wake:\n"
+	"                      bob with rings running out from it; still: bob on still water; N x N cells)\n"
 	"  --faults LIST       inject into a pattern: garbage,truncate,corrupt,reorder,drop,noscene,restart\n"
 	"  --node N            show only controller node N (0..15; default: any)\n"
 	"  --iface N           USB interface of the controller's host link (0..255; default 0; 1 when\n"
@@ -28,6 +29,10 @@ static const char usage[] =
 	"  --frames N          exit after N frames\n"
 	"  --view orbit|top|map  camera: orbit (default; mouse), top (straight down, pool fitted) or map\n"
 	"                      (straight down: a height map in the colour scale, the object's footprint)\n"
+	"  --shading water|flat  how the water is lit: water (default: normals from the received heights,\n"
+	"                      sun highlight, sky reflection by Fresnel's law, the tiled floor seen through\n"
+	"                      the water and its caustics, a ring and shadow where the object meets it) or\n"
+	"                      flat (one body colour, sun and sky only: the older, quieter look)\n"
 	"  --colour            colour the water by height (blue low, red high), with a legend in mm\n"
 	"  --charts            strip charts of the last 10 s: force z and |F| against the limit, the\n"
 	"                      object's bottom and the water under it, submersion, frame rate, latency\n"
@@ -51,7 +56,7 @@ static const char usage[] =
 	"  -h, --help          this text\n"
 	"\n"
 	"Mouse: left drag orbits, wheel zooms. Keys: R reset view, S screenshot, P or space pause,\n"
-	"C colour scale, G charts, V view (orbit, map), H HUD, Q or Esc quit.\n"
+	"C colour scale, W water shading (water, flat), G charts, V view (orbit, map), H HUD, Q or Esc quit.\n"
 	"Exit status: 0 done, 1 GL/window/file failure, 2 bad arguments.\n";
 
 static int size_opt(struct swell_cli *c, const char *opt, const char *v)
@@ -118,6 +123,7 @@ void parse(int argc, char **argv, struct opts *o)
 		SWELL_CLI_FLAG("--timing", o->timing),
 		SWELL_CLI_STR("--csv", o->csv),
 		SWELL_CLI_NUM("--force-limit", o->force_limit_N, 0.01, 250, "N"),
+		SWELL_CLI_CHOICE("--shading", o->ro.shading, "water|flat"),
 		SWELL_CLI_FLAG("--colour", o->ro.colour_scale),
 		SWELL_CLI_FLAG("--color", o->ro.colour_scale),
 		SWELL_CLI_NUM("--range", o->ro.h_range_mm, 0.01, 100, "mm"),

@@ -1077,6 +1077,75 @@ TEST_CASE("the map view shows heights in the colour scale and the object's footp
 	CHECK(std::abs(int(flat[0]) - int(flat[2])) < 30);
 }
 
+// Luminance statistics of the water seen straight down, away from the object: the pool inside its
+// walls less a margin, less the object's footprint, its contact ring and the shadow it casts the sun's
+// way (-x, -y of it: the light comes from +x, +y, high). With near = true, only the water within
+// 60 mm of the footprint's edge (the wake); otherwise all of it.
+struct luma_stats {
+	double sd = 0, grad = 0; // standard deviation, mean |horizontal difference| of neighbours
+	long n = 0;
+};
+luma_stats water_luma(const image &im, double ox, double oy, bool near)
+{
+	const double half = OBJ / 2, m = 0.006;
+	double s = 0, s2 = 0, g = 0;
+	luma_stats st;
+	for (int r = int(row_of(L - m)); r < int(row_of(m)); r++)
+		for (int c = int(col_of(m)); c < int(col_of(L - m)) - 1; c++) {
+			double x = (c - W / 2.0) / S + L / 2, y = (H / 2.0 - r) / S + L / 2;
+			double ex = std::max(std::fabs(x - ox) - half, 0.0), ey = std::max(std::fabs(y - oy) - half, 0.0);
+			bool shadow = x > ox - half - 0.05 && x < ox + half + 0.008 && y > oy - half - 0.025 && y < oy + half + 0.008;
+			double e = std::hypot(ex, ey);
+			if (shadow || e < 0.008 || (near && e > 0.06))
+				continue;
+			double l = luma(im.at(c, r));
+			s += l;
+			s2 += l * l;
+			g += std::fabs(luma(im.at(c + 1, r)) - l);
+			st.n++;
+		}
+	double mean = s / double(st.n);
+	st.sd = std::sqrt(std::max(s2 / double(st.n) - mean * mean, 0.0));
+	st.grad = g / double(st.n);
+	return st;
+}
+
+TEST_CASE("the water look shows millimetre waves: a bobbing object's wake varies the light 3x a still pool's")
+{
+	// pattern wake: the object bobbing with 1.2 mm rings of 40 mm running out from it (the demo's
+	// largest wave); pattern still: the same object on still water. Same run, same camera.
+	const double ox = 0.30 * L, oy = 0.35 * L;
+	image wake = shot("pattern:wake"), still = shot("pattern:still");
+	image wake_flat = shot("pattern:wake", "--shading flat"), still_flat = shot("pattern:still", "--shading flat");
+	luma_stats w = water_luma(wake, ox, oy, false), st = water_luma(still, ox, oy, false);
+	luma_stats wn = water_luma(wake, ox, oy, true), sn = water_luma(still, ox, oy, true);
+	luma_stats fw = water_luma(wake_flat, ox, oy, false), fs = water_luma(still_flat, ox, oy, false);
+	INFO("water look, whole pool: luma sd " << w.sd << " with waves, " << st.sd << " still (ratio " << w.sd / st.sd
+						 << "); mean gradient " << w.grad << " / " << st.grad);
+	INFO("water look, within 60 mm of the object: luma sd " << wn.sd << " with its wake, " << sn.sd << " still (ratio "
+								   << wn.sd / sn.sd << ")");
+	INFO("flat look, whole pool: luma sd " << fw.sd << " with waves, " << fs.sd << " still");
+	REQUIRE(w.n > 10000);
+	REQUIRE(wn.n > 2000);
+	CHECK(w.sd >= 3 * st.sd);
+	CHECK(w.grad >= 2 * st.grad); // sharper edges too, though the tiles' lines have edges of their own
+	CHECK(wn.sd >= 3 * sn.sd); // the wake is seen around the object
+	CHECK(w.sd >= 2 * fw.sd); // and the water look shows it better than the flat one
+	// the flat look is the older picture: the same waves, much less light variation
+	CHECK(fw.sd > fs.sd);
+}
+
+TEST_CASE("the flat shading is one flag away: a still pool in one body colour, no floor pattern")
+{
+	// a still pool in the flat look is one colour (no tiles): its luminance hardly varies
+	const double ox = 0.30 * L, oy = 0.35 * L;
+	luma_stats fs = water_luma(shot("pattern:still", "--shading flat"), ox, oy, false);
+	luma_stats ws = water_luma(shot("pattern:still"), ox, oy, false);
+	INFO("still pool luma sd: flat " << fs.sd << ", water look (its floor tiles) " << ws.sd);
+	CHECK(fs.sd < 3.0);
+	CHECK(ws.sd > fs.sd + 1.0);
+}
+
 TEST_CASE("a 256 x 256 pool, drawn on a coarser mesh, shows its bump and object where they are")
 {
 	// the same 0.4 m scene in 256 x 256 cells of 1.5625 mm: the mesh has 128 x 128 quads, the
