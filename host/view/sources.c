@@ -151,7 +151,8 @@ bool source_open(struct source *s, const char *spec, const char *record, int usb
 		} else if (strcmp(name, "still") == 0) {
 			gen_still(&s->g);
 		} else {
-			snprintf(err, errlen, "unknown pattern '%s' (bump, bump2, ripple, bob, wake, still; NAME:N for N x N cells)",
+			snprintf(err, errlen,
+				 "unknown pattern '%s' (bump, bump2, ripple, bob, wake, still; NAME:N for N x N cells)",
 				 name);
 			return false;
 		}
