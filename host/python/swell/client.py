@@ -6,7 +6,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 from decimal import Decimal, ROUND_HALF_EVEN
-from typing import Dict, Iterator, List, MutableMapping, Optional
+from typing import Dict, Iterator, List, MutableMapping, Optional, Tuple
 
 from . import _tables as T
 from . import proto
@@ -66,6 +66,58 @@ class Param:
 PARAMS: Dict[str, Param] = {
     p[1]: Param(p[0], p[1], p[2], p[3], p[4], Decimal(p[5]), p[6], p[7], p[8], p[9]) for p in T.PARAMS
 }
+
+
+_PREFIX = {"k": Decimal(1000), "": Decimal(1), "c": Decimal("0.01"), "m": Decimal("0.001"), "u": Decimal("0.000001")}
+_SCENE_UNITS = {"pool.nx": "cells", "pool.ny": "cells", "pool.dx": "mm", "pool.depth": "mm", "solver.hz": "Hz"}
+
+
+def _convert(value: Decimal, unit: str, want: str, where: str) -> Decimal:
+    """value in unit as a number in the unit `want`, through SI prefixes (80 g, 0.08 kg, 4 cm)."""
+    if unit == want or not unit:
+        return value
+    for pf, scale in _PREFIX.items():
+        if pf and unit.startswith(pf) and len(unit) > len(pf):
+            base = unit[len(pf):]
+        elif not pf:
+            base = unit
+        else:
+            continue
+        for wpf, wscale in _PREFIX.items():
+            if want == wpf + base:
+                return value * scale / wscale
+    raise ValueError("%s: unit '%s' is not one for %s" % (where, unit, want or "a plain number"))
+
+
+def parse_scene(path: str) -> List[Tuple[int, str, float]]:
+    """(line, name, value in the parameter's unit) of a scene file; ValueError names a bad line."""
+    out = []
+    with open(path) as f:
+        for n, text in enumerate(f, 1):
+            text = text.split("#", 1)[0].strip()
+            if not text:
+                continue
+            if "=" not in text:
+                raise ValueError("%s:%d: not 'name = value unit'" % (path, n))
+            name, rest = (x.strip() for x in text.split("=", 1))
+            words = rest.split()
+            if not words or len(words) > 2:
+                raise ValueError("%s:%d: '%s' is not 'value unit'" % (path, n, rest))
+            if name in _SCENE_UNITS:
+                want = _SCENE_UNITS[name]
+            elif name in PARAMS:
+                want = PARAMS[name].unit
+            else:
+                raise ValueError("%s:%d: unknown key '%s'" % (path, n, name))
+            try:
+                value = Decimal(words[0])
+            except ArithmeticError:
+                raise ValueError("%s:%d: '%s' is not a number" % (path, n, words[0])) from None
+            unit = words[1] if len(words) == 2 else ""
+            if want == "cells" and unit == "cells":
+                unit = want
+            out.append((n, name, float(_convert(value, unit, want, "%s:%d" % (path, n)))))
+    return out
 
 
 @dataclass
@@ -250,6 +302,42 @@ class Controller:
     def reset(self) -> None:
         """CLEAR: fault -> idle once the device is heard again."""
         self._command("clear")
+
+    def estop(self) -> None:
+        """Software stop: autorun off and STOP at once (the force law off until RUN)."""
+        self.request("PARAM_SET", {"id": PARAMS["ctl.autorun"].id, "value": 0}, "estop: ctl.autorun = 0")
+        self._command("stop")
+
+    def load_scene(self, path: str) -> List[str]:
+        """Sends a scene file (`name = value unit` lines) as one change, parameters in file order; if
+        the controller refuses one, those already set are put back in reverse order and Refused names
+        the line. The pool (pool.*) must be the running one: changing it is swell-tool's (scene load).
+        Returns the names set."""
+        entries = parse_scene(path)
+        scene = self.latest.get("SCENE")
+        if scene is None:
+            self.info  # waits for SCENE
+            scene = self.latest["SCENE"]
+        running = {"pool.nx": scene["nx"], "pool.ny": scene["ny"], "pool.dx": scene.physical("dx_um"),
+                   "pool.depth": scene.physical("depth_10um")}
+        for line, name, value in entries:
+            if name in running and abs(value - running[name]) > 1e-9:
+                raise Refused("%s:%d: %s = %g, the running pool has %g (change the pool with swell-tool scene "
+                              "load)" % (path, line, name, value, running[name]), 5)
+        done: List[Tuple[str, int]] = []
+        try:
+            for line, name, value in entries:
+                if name in running or name == "solver.hz":
+                    continue
+                before = self.params.raw(name)
+                self.params[name] = value
+                done.append((name, before))
+                del line
+        except Refused as e:
+            for name, raw in reversed(done):
+                self.params.set_raw(name, raw)
+            raise Refused("%s: %s (%d set before it put back)" % (path, str(e), len(done)), e.error) from None
+        return [n for n, _ in done]
 
     def wait_state(self, state: str, timeout: float = 5.0) -> None:
         end = time.monotonic() + timeout

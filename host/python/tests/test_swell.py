@@ -179,3 +179,51 @@ def test_the_worked_example_drops_records_plots_and_rests_within_half_a_percent(
         assert os.path.getsize(png) > 10000
     finally:
         lp.stop()
+
+
+def test_a_scene_file_is_one_change_or_none(loop, tmp_path):
+    ok = tmp_path / "ok.scene"
+    ok.write_text("# damping and limits, settable while the object floats\npool.nx = 64 cells\n"
+                  "pool.dx = 6.25 mm\nwave.damping = 0.002\nforce.max = 900 cN\nforce.rate = 0.4 kN/s\n")
+    bad = tmp_path / "bad.scene"
+    bad.write_text("wave.damping = 0.003\nforce.max = 8 N\nbody.mass = 80 g\n")
+    other = tmp_path / "other.scene"
+    other.write_text("pool.nx = 128 cells\nwave.damping = 0.004\n")
+    with swell.connect(loop.link) as c:
+        d0, f0, r0 = (c.params.raw(n) for n in ("wave.damping", "force.max", "force.rate"))
+        assert c.load_scene(str(ok)) == ["wave.damping", "force.max", "force.rate"]
+        assert c.params["wave.damping"] == pytest.approx(0.002, abs=1e-9)
+        assert c.params["force.max"] == pytest.approx(9.0)
+        assert c.params["force.rate"] == pytest.approx(400.0)
+        mid = [c.params.raw(n) for n in ("wave.damping", "force.max")]
+        with pytest.raises(swell.Refused, match="not allowed in this state.*2 set before it put back"):
+            c.load_scene(str(bad))  # the object floats: body.mass is refused, the two before it undone
+        assert [c.params.raw(n) for n in ("wave.damping", "force.max")] == mid
+        with pytest.raises(swell.Refused, match="the running pool has 64"):
+            c.load_scene(str(other))
+        assert [c.params.raw(n) for n in ("wave.damping", "force.max")] == mid
+        for n, raw in (("wave.damping", d0), ("force.max", f0), ("force.rate", r0)):
+            c.params.set_raw(n, raw)
+    for text, why in (("wave.damping 0.1\n", "not 'name = value unit'"), ("body.mass = 80 furlongs\n", "unit"),
+                      ("body.colour = 3\n", "unknown key")):
+        (tmp_path / "x.scene").write_text(text)
+        with pytest.raises(ValueError, match=why):
+            swell.client.parse_scene(str(tmp_path / "x.scene"))
+
+
+def test_estop_stops_the_force_law_and_autorun_stays_off_until_asked(tmp_path):
+    lp = Loop(str(tmp_path))
+    try:
+        lp.wait_floating()
+        with swell.connect(lp.link) as c:
+            assert c.state == "running"
+            c.estop()
+            c.wait_state("armed", 2.0)
+            assert c.params["ctl.autorun"] == 0
+            with c.stream() as s:
+                a = s.to_numpy(seconds=0.5)
+            assert np.all(a["fz"][len(a) // 2:] == 0)  # no force while stopped
+            c.start()
+            c.wait_state("running", 2.0)
+    finally:
+        lp.stop()
