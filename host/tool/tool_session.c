@@ -338,10 +338,10 @@ double tool_water_under_mm(const struct tool_session *s)
 	for (j = j0 < 0 ? 0 : j0; j <= j1 && j < t->scene.ny; j++)
 		for (i = i0 < 0 ? 0 : i0; i <= i1 && i < t->scene.nx; i++)
 			if (t->seen[j * TOOL_GRID_MAX + i]) {
-				sum += t->grid[j * TOOL_GRID_MAX + i];
+				sum += swell_sample_to_height(t->grid[j * TOOL_GRID_MAX + i]);
 				n++;
 			}
-	return n ? sum / (double)n / (1 << SWELL_PROTO_H_SHIFT) : 0;
+	return n ? sum / (double)n / 65536.0 : 0; /* solver units, 2^-16 mm */
 }
 
 double tool_wave_max_mm(const struct tool_session *s)
@@ -361,5 +361,5 @@ double tool_wave_max_mm(const struct tool_session *s)
 			if (t->seen[a] && h > worst && !(i >= i0 && i <= i1 && j >= j0 && j <= j1))
 				worst = h;
 		}
-	return worst / (double)(1 << SWELL_PROTO_H_SHIFT);
+	return swell_sample_to_height((int16_t)worst) / 65536.0; /* solver units, 2^-16 mm */
 }

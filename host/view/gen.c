@@ -126,9 +126,10 @@ static int16_t gen_height(const struct gen_scene *s, uint16_t i, uint16_t j, uin
 		double ph = 2 * 3.14159265358979 * (r - s->wake_speed_um_s * t) / s->wake_len_um;
 		h_um += s->wake_amp_um * cos(ph) * exp(-r / (2.0 * s->wake_len_um));
 	}
-	double q = h_um * 64.0 / 1000.0; /* LSB 2^-6 mm */
-	q = q > 2047 ? 2047 : q < -2048 ? -2048 : q;
-	return (int16_t)lround(q);
+	/* to the solver's units (2^-16 mm, saturated to what int32 holds), then the wire's codec */
+	double h16 = h_um * 65.536;
+	h16 = h16 > 2147483647.0 ? 2147483647.0 : h16 < -2147483648.0 ? -2147483648.0 : h16;
+	return swell_height_to_sample((int32_t)lround(h16));
 }
 
 struct packer {

@@ -155,6 +155,25 @@ static inline int16_t swell_height_to_sample(int32_t h)
 #endif
 }
 
+/* Two solver heights with |h| < 2^28 (the solver saturates its field to 27 bits) as two wire samples
+ * packed as sample 0 | sample 1 << 16: the rounding of swell_height_to_sample, in one shift of
+ * h + 2^(shift-1) (no overflow for such h). The controller's telemetry scans the grid in pairs. */
+static inline uint32_t swell_height_pair_to_samples(int32_t h0, int32_t h1)
+{
+	const int shift = 16 - SWELL_PROTO_H_SHIFT;
+	const int32_t half = (int32_t)1 << (shift - 1);
+	int32_t s0 = (h0 + half) >> shift, s1 = (h1 + half) >> shift;
+
+#if defined(__ARM_FEATURE_SAT)
+	s0 = __ssat(s0, 12);
+	s1 = __ssat(s1, 12);
+#else
+	s0 = s0 < -2048 ? -2048 : s0 > 2047 ? 2047 : s0;
+	s1 = s1 < -2048 ? -2048 : s1 > 2047 ? 2047 : s1;
+#endif
+	return (uint32_t)(uint16_t)s0 | (uint32_t)s1 << 16;
+}
+
 /* Wire sample to solver units: exact (sample * 2^10). */
 static inline int32_t swell_sample_to_height(int16_t sample)
 {

@@ -90,25 +90,6 @@ static void send_pose(struct swell_ctl *c)
 	ctl_push(c, SWELL_LINK_HOST, &f);
 }
 
-/* Two heights of the core's field (|h| < 2^28: SSAT 27 in the solver) as the two samples sent[] holds
- * for them: swell_height_to_sample with its rounding, floor((h + 2^(s-1)) / 2^s) saturated to 12 bits,
- * in one shift of h + 2^(s-1) (no overflow for such h) and a pack of the two halves. */
-static inline uint32_t field_pair(int32_t h0, int32_t h1)
-{
-	const int shift = 16 - SWELL_PROTO_H_SHIFT;
-	const int32_t half = (int32_t)1 << (shift - 1);
-	int32_t s0 = (h0 + half) >> shift, s1 = (h1 + half) >> shift;
-
-#if defined(__ARM_FEATURE_SAT)
-	s0 = __ssat(s0, 12);
-	s1 = __ssat(s1, 12);
-#else
-	s0 = swell_clamp(s0, -2048, 2047);
-	s1 = swell_clamp(s1, -2048, 2047);
-#endif
-	return (uint32_t)(uint16_t)s0 | (uint32_t)s1 << 16;
-}
-
 /* Read quad q into s[4] (cells outside the grid read 0): the heights of the last finished solver
  * step (swell_wave_h). Returns how many of its cells are in the grid (0: a quad of a partial tile
  * wholly outside), and sets *changed when any sample differs from the one last sent. */
@@ -126,8 +107,8 @@ static uint32_t quad_read(const struct swell_ctl *c, const struct swell_quad_at 
 		uint32_t w0, w1;
 
 		swell_wave_quad(&c->wave, a, x);
-		w0 = field_pair(x[0], x[1]);
-		w1 = field_pair(x[2], x[3]);
+		w0 = swell_height_pair_to_samples(x[0], x[1]);
+		w1 = swell_height_pair_to_samples(x[2], x[3]);
 
 		s[0] = (int16_t)(uint16_t)w0;
 		s[1] = (int16_t)(uint16_t)(w0 >> 16);
@@ -254,8 +235,8 @@ static uint32_t scan_whole_tile(struct swell_ctl *c, uint32_t q, uint32_t run, s
 		reads--;
 		o = (bit >> 1) * nx + 4u * (bit & 1u);
 		swell_wave_quad(&c->wave, corner + o, x);
-		w0 = field_pair(x[0], x[1]);
-		w1 = field_pair(x[2], x[3]);
+		w0 = swell_height_pair_to_samples(x[0], x[1]);
+		w1 = swell_height_pair_to_samples(x[2], x[3]);
 		if (w0 != sent[o >> 1] || w1 != sent[(o >> 1) + 1]) {
 			quad_send_words(c, at, bit, corner + o, w0, w1);
 			msgs--;
