@@ -185,7 +185,9 @@ int main(int argc, char **argv)
 		SWELL_CLI_STR("--if", iface),
 		SWELL_CLI_STR("--ready-file", ready),
 	};
-	struct swell_cli cli = { .prog = "swell-vm-canbridge", .usage = usage, .opt = opts, .n_opt = SWELL_CLI_N(opts) };
+	struct swell_cli cli = {
+		.prog = "swell-vm-canbridge", .usage = usage, .opt = opts, .n_opt = SWELL_CLI_N(opts)
+	};
 	struct bridge_counts c = { 0 };
 	int line_fd, can_fd, rc;
 
