@@ -1,0 +1,222 @@
+/* swell-vm-canbridge: joins the CAN tunnel (a serial line carrying classic CAN frames as the
+ * 16 bytes of Linux struct can_frame, can_id little-endian) to a SocketCAN interface, both ways,
+ * so programs in the VM see the peer at the tunnel's other end (the emulated STM32F405) as a node
+ * on that bus. */
+#define _DEFAULT_SOURCE
+
+#include <errno.h>
+#include <fcntl.h>
+#include <inttypes.h>
+#include <linux/can.h>
+#include <linux/can/raw.h>
+#include <net/if.h>
+#include <poll.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <termios.h>
+#include <unistd.h>
+
+#include "swell/cli.h"
+#include "vm-util.h"
+
+#define TUNNEL_FRAME_BYTES 16u
+
+static const char usage[] =
+	"usage: swell-vm-canbridge [--tty PATH] [--if IFACE] [--ready-file PATH]\n"
+	"Copies classic CAN frames between the tunnel serial line PATH (default /dev/ttyS1; each\n"
+	"frame is 16 bytes: u32 can_id little-endian with the EFF/RTR/ERR flags, u8 len, 3 pad,\n"
+	"8 data) and the SocketCAN interface IFACE (default can0), both ways, until SIGTERM or\n"
+	"SIGINT, or until the line closes. Frames with len > 8 from the line are counted and dropped.\n"
+	"Writes PATH of --ready-file once both ends are open. At the end prints the frame counts.\n";
+
+struct bridge_counts {
+	uint64_t line_to_can;
+	uint64_t can_to_line;
+	uint64_t bad_len;
+	uint64_t can_write_fail;
+};
+
+static int open_line(const char *path)
+{
+	struct termios tio;
+	int fd = open(path, O_RDWR | O_NOCTTY);
+
+	if (fd < 0)
+		return -1;
+	/* Raw 8-bit, no echo, no CR/LF translation, no flow control: the line carries binary. */
+	if (tcgetattr(fd, &tio) == 0) {
+		cfmakeraw(&tio);
+		tio.c_cflag |= CLOCAL | CREAD;
+		tio.c_cflag &= ~(tcflag_t)CRTSCTS;
+		cfsetispeed(&tio, B115200);
+		cfsetospeed(&tio, B115200);
+		tio.c_cc[VMIN] = 1;
+		tio.c_cc[VTIME] = 0;
+		if (tcsetattr(fd, TCSANOW, &tio) != 0) {
+			close(fd);
+			return -1;
+		}
+	}
+	return fd;
+}
+
+static int open_can(const char *iface)
+{
+	struct sockaddr_can addr;
+	unsigned int index = if_nametoindex(iface);
+	int fd;
+
+	if (index == 0)
+		return -1;
+	fd = socket(PF_CAN, SOCK_RAW, CAN_RAW);
+	if (fd < 0)
+		return -1;
+	memset(&addr, 0, sizeof(addr));
+	addr.can_family = AF_CAN;
+	addr.can_ifindex = (int)index;
+	if (bind(fd, (struct sockaddr *)&addr, sizeof(addr)) != 0) {
+		close(fd);
+		return -1;
+	}
+	return fd;
+}
+
+static void frame_to_bytes(const struct can_frame *f, uint8_t out[TUNNEL_FRAME_BYTES])
+{
+	memset(out, 0, TUNNEL_FRAME_BYTES);
+	out[0] = (uint8_t)(f->can_id & 0xffu);
+	out[1] = (uint8_t)((f->can_id >> 8) & 0xffu);
+	out[2] = (uint8_t)((f->can_id >> 16) & 0xffu);
+	out[3] = (uint8_t)((f->can_id >> 24) & 0xffu);
+	out[4] = f->len;
+	memcpy(out + 8, f->data, 8);
+}
+
+static int bytes_to_frame(const uint8_t in[TUNNEL_FRAME_BYTES], struct can_frame *f)
+{
+	if (in[4] > CAN_MAX_DLEN)
+		return -1;
+	memset(f, 0, sizeof(*f));
+	f->can_id = (canid_t)in[0] | (canid_t)in[1] << 8 | (canid_t)in[2] << 16 | (canid_t)in[3] << 24;
+	f->len = in[4];
+	memcpy(f->data, in + 8, 8);
+	return 0;
+}
+
+static int write_all(int fd, const uint8_t *p, size_t n)
+{
+	while (n > 0) {
+		ssize_t w = write(fd, p, n);
+
+		if (w < 0) {
+			if (errno == EINTR)
+				continue;
+			return -1;
+		}
+		p += w;
+		n -= (size_t)w;
+	}
+	return 0;
+}
+
+/* Moves frames until a stop signal or the end of the line; returns 0, or -1 on an I/O error. */
+static int run_bridge(int line_fd, int can_fd, struct bridge_counts *c)
+{
+	uint8_t acc[TUNNEL_FRAME_BYTES];
+	size_t have = 0;
+
+	while (!vm_stop) {
+		struct pollfd pfd[2] = { { .fd = line_fd, .events = POLLIN }, { .fd = can_fd, .events = POLLIN } };
+		int n = poll(pfd, 2, 200);
+
+		if (n < 0) {
+			if (errno == EINTR)
+				continue;
+			return -1;
+		}
+		if (pfd[0].revents & (POLLIN | POLLHUP | POLLERR)) {
+			ssize_t r = read(line_fd, acc + have, sizeof(acc) - have);
+
+			if (r == 0)
+				return 0; /* the peer closed the line */
+			if (r < 0 && errno != EINTR && errno != EAGAIN)
+				return -1;
+			if (r > 0)
+				have += (size_t)r;
+			if (have == sizeof(acc)) {
+				struct can_frame f;
+
+				have = 0;
+				if (bytes_to_frame(acc, &f) != 0) {
+					c->bad_len++;
+				} else if (write(can_fd, &f, sizeof(f)) != (ssize_t)sizeof(f)) {
+					/* a full queue or bus-off on the VM side: the frame is lost, as on a bus */
+					c->can_write_fail++;
+				} else {
+					c->line_to_can++;
+				}
+			}
+		}
+		if (pfd[1].revents & POLLIN) {
+			struct can_frame f;
+			uint8_t out[TUNNEL_FRAME_BYTES];
+			ssize_t r = read(can_fd, &f, sizeof(f));
+
+			if (r == (ssize_t)sizeof(f)) {
+				frame_to_bytes(&f, out);
+				if (write_all(line_fd, out, sizeof(out)) != 0)
+					return -1;
+				c->can_to_line++;
+			} else if (r < 0 && errno != EINTR && errno != EAGAIN) {
+				return -1;
+			}
+		}
+	}
+	return 0;
+}
+
+int main(int argc, char **argv)
+{
+	const char *tty = "/dev/ttyS1", *iface = "can0", *ready = NULL;
+	const struct swell_cli_opt opts[] = {
+		SWELL_CLI_STR("--tty", tty),
+		SWELL_CLI_STR("--if", iface),
+		SWELL_CLI_STR("--ready-file", ready),
+	};
+	struct swell_cli cli = {
+		.prog = "swell-vm-canbridge", .usage = usage, .opt = opts, .n_opt = SWELL_CLI_N(opts)
+	};
+	struct bridge_counts c = { 0 };
+	int line_fd, can_fd, rc;
+
+	swell_cli_parse(&cli, argc, argv);
+	vm_catch_stop();
+	can_fd = open_can(iface);
+	if (can_fd < 0) {
+		fprintf(stderr, "swell-vm-canbridge: cannot open CAN interface %s: %s\n", iface, strerror(errno));
+		return 1;
+	}
+	line_fd = open_line(tty);
+	if (line_fd < 0) {
+		fprintf(stderr, "swell-vm-canbridge: cannot open the tunnel line %s: %s\n", tty, strerror(errno));
+		close(can_fd);
+		return 1;
+	}
+	if (ready) {
+		FILE *f = fopen(ready, "w");
+
+		if (f)
+			fclose(f);
+	}
+	rc = run_bridge(line_fd, can_fd, &c);
+	printf("swell-vm-canbridge: %s <-> %s: %" PRIu64 " frames line->can, %" PRIu64 " can->line, %" PRIu64
+	       " bad length, %" PRIu64 " refused by the interface\n",
+	       tty, iface, c.line_to_can, c.can_to_line, c.bad_len, c.can_write_fail);
+	if (rc != 0)
+		fprintf(stderr, "swell-vm-canbridge: I/O error: %s\n", strerror(errno));
+	close(line_fd);
+	close(can_fd);
+	return rc != 0 ? 1 : 0;
+}
