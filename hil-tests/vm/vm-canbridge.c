@@ -29,7 +29,8 @@ static const char usage[] =
 	"frame is 16 bytes: u32 can_id little-endian with the EFF/RTR/ERR flags, u8 len, 3 pad,\n"
 	"8 data) and the SocketCAN interface IFACE (default can0), both ways, until SIGTERM or\n"
 	"SIGINT, or until the line closes. Frames with len > 8 from the line are counted and dropped.\n"
-	"Writes PATH of --ready-file once both ends are open. At the end prints the frame counts.\n";
+	"Writes PATH of --ready-file once both ends are open. At the end prints the frame counts.\n"
+	"Exit status: 0 stopped by a signal or the line closed, 1 a line or CAN I/O error, 2 bad arguments.\n";
 
 struct bridge_counts {
 	uint64_t line_to_can;
