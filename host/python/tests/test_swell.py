@@ -338,3 +338,17 @@ def test_check_on_a_dead_link_fails_the_link_and_skips_the_rest_as_swell_tool_do
     assert p.returncode == 7 and not mine.ok
     same_verdicts(mine, p.stdout)
     assert str(mine) == p.stdout.rstrip("\n")  # every word: nothing here depends on timing
+
+
+def test_lost_packets_are_counted_by_sequence_number_across_wraps_of_the_counter():
+    from swell import bulk
+    sent = np.arange(5000)
+    pose = sent // 25  # a coarser clock: one pose every 25 packets
+    keep = np.ones(len(sent), bool)
+    keep[[10, 11, 700]] = False  # three single losses
+    keep[1000:1300] = False  # 300 in a row: more than the 8-bit counter's wrap
+    keep[4000:4256] = False  # exactly one wrap: the seq alone shows no gap at all
+    seq, clock = sent[keep] % 256, pose[keep]
+    assert bulk.lost_by_seq(seq, clock) == 3 + 300 + 256
+    assert bulk.lost_by_seq(seq) == 3 + (300 - 256)  # without a clock a wrap is not seen
+    assert bulk.lost_by_seq(sent % 256, pose) == 0
