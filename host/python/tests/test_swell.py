@@ -38,6 +38,54 @@ def test_every_message_decodes_to_the_values_the_c_encoder_put_in(tmp_path):
     assert n == 50 * len(proto.MESSAGES)
 
 
+def frames_of(rows):
+    """bulk.Frames of (can_id, bytes) rows."""
+    from swell import bulk
+    fr = bulk.Frames.empty(len(rows))
+    for i, (cid, data) in enumerate(rows):
+        fr.data[i, :len(data)] = np.frombuffer(data, np.uint8)
+        fr.length[i], fr.can_id[i], fr.t[i] = len(data), cid, i
+    return fr
+
+
+def test_the_bulk_decoder_gives_what_the_message_decoder_gives_and_refuses_what_it_refuses(tmp_path):
+    from swell import bulk
+    import random
+    vec = tmp_path / "vectors.txt"
+    subprocess.run([os.path.join(BIN, "swell-protogen"), "--vectors", str(vec), "--count", "20", "--seed", "5"],
+                   check=True, capture_output=True)
+    rows = [(int(ln.split()[0], 16), bytes.fromhex(ln.split()[1])) for ln in vec.read_text().splitlines()
+            if not ln.startswith("#")]
+    rows.append((0x220, bytes(7) + b"\x80"))  # OBJECT_FORCE with a reserved bit: refused
+    rows.append((0x7F0, bytes(8)))  # an unknown type: refused
+    dec = bulk.decode(frames_of(rows), "can")
+    want = [(i, proto.can_decode(cid, d)) for i, (cid, d) in enumerate(rows[:-2])]
+    assert list(dec.refused) == [False] * (len(rows) - 2) + [True, True]
+    for name, d in dec.msgs.items():
+        mine = [(int(d["order"][k]) // 64, {f: int(d[f][k]) for f in d if f not in ("t", "order", "node")})
+                for k in range(len(d["order"]))]
+        assert mine == [(i, m.raw) for i, m in want if m.name == name]
+    # packets of several messages; damaged copies refused whole, the good ones unchanged
+    rnd = random.Random(7)
+    msgs = [m for _, m in want]
+    pkts = []
+    for k in range(300):
+        group = rnd.sample(msgs, rnd.randint(1, 5))
+        try:
+            pkts.append(proto.packet_encode(3, k & 0xFF, group))
+        except proto.ProtocolError:
+            pass  # more than a packet holds
+    bad = [pkts[0][:-1] + bytes([pkts[0][-1] ^ 1]), pkts[1][:9], bytes([pkts[2][0], 9]) + pkts[2][2:]]
+    dec = bulk.decode(frames_of([(0, p) for p in pkts + bad]), "pkt")
+    assert not dec.refused[:len(pkts)].any() and dec.refused[len(pkts):].all()
+    assert list(dec.seq[:len(pkts)]) == [p[3] for p in pkts]
+    got = sorted((int(d["order"][k]), name, tuple(int(d[f.name][k]) for f in proto.MESSAGES[name].fields))
+                 for name, d in dec.msgs.items() for k in range(len(d["order"])))
+    ref = sorted((i * 64 + j, m.name, tuple(m.raw[f.name] for f in m.desc.fields))
+                 for i, p in enumerate(pkts) for j, m in enumerate(proto.packet_decode(p)[2]))
+    assert got == ref
+
+
 def test_packets_round_trip_and_every_damaged_one_is_refused():
     msgs = [proto.Message("OBJECT_POSE", 3, {"x_10um": 20000, "y_10um": -5, "z_10um": -3937,
                                              "submersion_halfpct": 157, "seq": 9}),
