@@ -294,13 +294,16 @@ class Controller:
 
     def _pump(self, timeout_s: float) -> int:
         """Frames for up to timeout_s (returns soon after the first ones: everything waiting is taken
-        in bulk). Returns the number of frames."""
-        now = time.monotonic()
-        n = self.link.fill(self._rx.head(1), 0, now + max(timeout_s, 0.0), max(timeout_s, 1e-4), self._keepalive)
+        in bulk); 0: only what is waiting. Returns the number of frames."""
+        if timeout_s <= 0:
+            n = self.link.fill(self._rx, 0, 0.0, 0.0, self._keepalive)
+        else:
+            now = time.monotonic()
+            n = self.link.fill(self._rx.head(1), 0, now + timeout_s, timeout_s, self._keepalive)
+            if n:  # more may wait behind the first: take them too (up to the buffer), without waiting
+                n = self.link.fill(self._rx, n, 0.0, 0.0)
         if n == 0:
             return 0
-        # more may wait behind the first: take them too (up to the buffer), without waiting
-        n = self.link.fill(self._rx, n, 0.0, 0.0)
         fr = self._rx.head(n)
         fr = Frames(fr.data.copy(), fr.length.copy(), fr.t.copy(), fr.can_id.copy())
         self._take(fr, bulk.decode(fr, self.link.carrier))

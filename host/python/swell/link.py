@@ -56,7 +56,7 @@ class Link:
             now = time.monotonic()
             if tick:
                 tick(now)
-            if now >= deadline or now - last >= wait_s > 0:
+            if wait_s > 0 and (now >= deadline or now - last >= wait_s):
                 break
             f = self.recv(min(deadline - now, 0.05) if wait_s > 0 else 0.0)
             if f is None and wait_s <= 0:

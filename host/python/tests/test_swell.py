@@ -464,3 +464,27 @@ def test_check_with_the_hapticmasters_interface_gives_swell_tools_verdicts(tmp_p
     if not failed:
         assert mine["force"].text == "force.max 2 N, force.rate 20 N/s (at most 2 N, 20 N/s)"
         assert mine["effects"].text == lines_of_tool(out)[8][2]
+
+
+def test_a_link_without_its_own_fill_takes_frames_through_recv():
+    """CAN and USB fill their rows through recv(): what waits is taken, a long frame is not."""
+    from swell import bulk, link
+
+    class Canned(link.Link):
+        carrier = "can"
+
+        def __init__(self, frames):
+            self.frames = list(frames)
+
+        def recv(self, timeout_s):
+            return self.frames.pop(0) if self.frames else None
+
+    src = [("can", 0x210 + k % 16, bytes([k]) * 8) for k in range(10)] + [("can", 0x100, bytes(70))]
+    fr = bulk.Frames.empty(8)
+    assert Canned(src).fill(fr, 0, 0.0, 0.0) == 8  # only what is waiting, up to the rows there are
+    assert [int(x) for x in fr.can_id] == [0x210 + k for k in range(8)]
+    assert fr.data[3, :8].tobytes() == bytes([3]) * 8 and list(fr.length) == [8] * 8
+    fr = bulk.Frames.empty(20)
+    import time
+    n = Canned(src).fill(fr, 2, time.monotonic() + 0.2, 0.05)
+    assert n == 12 and int(fr.can_id[11]) == 0x219  # the 70-byte frame is dropped
