@@ -443,7 +443,8 @@ def test_check_with_the_hapticmasters_interface_gives_swell_tools_verdicts(tmp_p
         with swell.connect(link, timeout=5.0) as c:
             c.wait_state("armed", 10.0)  # heard, not running (the force law waits for RUN)
             end = time.monotonic() + 5  # dev.rate counts the last whole second: a second after the start-up
-            while c.params["dev.rate"] * 2 < c.params["ctl.tick_hz"] and time.monotonic() < end:
+            while ("device" not in failed and c.params["dev.rate"] * 2 < c.params["ctl.tick_hz"]
+                   and time.monotonic() < end):
                 time.sleep(0.2)
             mine, rc, out = agreeing(lambda: (c.check(hm=spec),) + tuple(
                 (lambda p: (p.returncode, p.stdout))(subprocess.run(
