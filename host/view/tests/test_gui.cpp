@@ -1094,7 +1094,8 @@ luma_stats water_luma(const image &im, double ox, double oy, bool near)
 		for (int c = int(col_of(m)); c < int(col_of(L - m)) - 1; c++) {
 			double x = (c - W / 2.0) / S + L / 2, y = (H / 2.0 - r) / S + L / 2;
 			double ex = std::max(std::fabs(x - ox) - half, 0.0), ey = std::max(std::fabs(y - oy) - half, 0.0);
-			bool shadow = x > ox - half - 0.05 && x < ox + half + 0.008 && y > oy - half - 0.025 && y < oy + half + 0.008;
+			bool shadow =
+				x > ox - half - 0.05 && x < ox + half + 0.008 && y > oy - half - 0.025 && y < oy + half + 0.008;
 			double e = std::hypot(ex, ey);
 			if (shadow || e < 0.008 || (near && e > 0.06))
 				continue;
@@ -1121,9 +1122,9 @@ TEST_CASE("the water look shows millimetre waves: a bobbing object's wake varies
 	luma_stats wn = water_luma(wake, ox, oy, true), sn = water_luma(still, ox, oy, true);
 	luma_stats fw = water_luma(wake_flat, ox, oy, false), fs = water_luma(still_flat, ox, oy, false);
 	INFO("water look, whole pool: luma sd " << w.sd << " with waves, " << st.sd << " still (ratio " << w.sd / st.sd
-						 << "); mean gradient " << w.grad << " / " << st.grad);
+						<< "); mean gradient " << w.grad << " / " << st.grad);
 	INFO("water look, within 60 mm of the object: luma sd " << wn.sd << " with its wake, " << sn.sd << " still (ratio "
-								   << wn.sd / sn.sd << ")");
+								<< wn.sd / sn.sd << ")");
 	INFO("flat look, whole pool: luma sd " << fw.sd << " with waves, " << fs.sd << " still");
 	REQUIRE(w.n > 10000);
 	REQUIRE(wn.n > 2000);
