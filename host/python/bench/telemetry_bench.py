@@ -21,8 +21,6 @@ import time
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.dirname(HERE))
 
-import numpy as np  # noqa: E402
-
 import swell  # noqa: E402
 from swell import bulk, proto  # noqa: E402
 

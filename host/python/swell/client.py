@@ -5,7 +5,7 @@ bulk (bulk.py): the controller sends telemetry at its tick rate, 2500 Hz."""
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from decimal import Decimal, InvalidOperation, ROUND_HALF_EVEN
 from typing import Callable, Dict, Iterator, List, MutableMapping, Optional, Tuple, Union
 
