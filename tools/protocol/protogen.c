@@ -728,6 +728,8 @@ static void write_python(FILE *o)
 		SWELL_UDP_HOST, SWELL_UDP_PORT_DEVICE, SWELL_UDP_PORT_VIEWER, SWELL_UDP_PORT_CLIENTS);
 	fprintf(o, "UDP_PORT_TOOLS_FIRST = %u\nUDP_PORT_TOOLS_COUNT = %u\nUDP_KEEPALIVE_MS = %u\n",
 		SWELL_UDP_PORT_TOOLS_FIRST, SWELL_UDP_PORT_TOOLS_COUNT, SWELL_UDP_KEEPALIVE_MS);
+	fprintf(o, "UDP_CLIENT_SILENT_MS = %u\nUSB_VID = 0x%04X\nUSB_PID = 0x%04X\n", SWELL_UDP_CLIENT_SILENT_MS,
+		SWELL_USB_VID, SWELL_USB_PID);
 	fprintf(o, "PARAM_COMMAND_ID = %u\n\n", (unsigned)SWELL_PARAM_COMMAND_ID);
 
 	fputs("# (name, type, length, from, to, fields); a field is\n"

@@ -34,6 +34,9 @@ def main() -> int:
     delta_m = m_kg / (RHO * a_m * b_m)
     pool_m2 = (info.grid[0] * info.dx_mm / 1000.0) * (info.grid[1] * info.dx_mm / 1000.0)
     expect_mm = (-delta_m + a_m * b_m * delta_m / pool_m2) * 1000.0
+    if not len(t):
+        print("drop_and_plot: no samples in %.1f s" % a.seconds, file=sys.stderr)
+        return 1
     last = t[t["t"] >= t["t"][-1] - 1.0]
     rest_mm = float(last["z"].mean())
     err = abs(rest_mm - expect_mm) / abs(expect_mm)
@@ -44,7 +47,7 @@ def main() -> int:
     fig, (ax1, ax2) = plt.subplots(2, 1, sharex=True, figsize=(7, 5))
     ax1.plot(t["t"], t["fz"], lw=1)
     ax1.set_ylabel("force z (N)")
-    ax1.set_title("swell: the object dropped, %d samples, %d lost" % (len(t), s.lost))
+    ax1.set_title("swell: the object dropped, %d samples, %d lost" % (len(t), t.lost_samples))
     ax2.plot(t["t"], t["z"], lw=1, label="bottom of the object")
     ax2.axhline(expect_mm, color="k", ls="--", lw=0.8, label="level-corrected rest %.3f mm" % expect_mm)
     ax2.set_ylabel("z (mm)")
@@ -52,8 +55,9 @@ def main() -> int:
     ax2.legend(loc="lower right")
     fig.tight_layout()
     fig.savefig(a.out, dpi=90)
-    print("rest depth %.3f mm over the last second, expected %.3f mm (%.3f %% off); %d samples, %d lost; plot %s"
-          % (rest_mm, expect_mm, 100 * err, len(t), s.lost, a.out))
+    print("rest depth %.3f mm over the last second, expected %.3f mm (%.3f %% off); %d samples, %d lost; "
+          "%d packets, %d lost; plot %s" % (rest_mm, expect_mm, 100 * err, len(t), t.lost_samples, t.packets,
+                                            t.lost_packets, a.out))
     return 0 if err <= 0.005 else 1
 
 

@@ -180,9 +180,8 @@ def packet_decode(pkt: bytes) -> Tuple[int, int, List[Message]]:
 
 
 def heights_mm(m: Message) -> Tuple[float, float, float, float]:
-    """The four heights of a HEIGHT_QUAD in mm (LSB 2^-H_SHIFT mm)."""
-    scale = 1.0 / (1 << T.H_SHIFT)
-    return tuple(m.raw["h%d" % k] * scale for k in range(4))  # type: ignore[return-value]
+    """The four heights of a HEIGHT_QUAD in mm (the fields' factor from the table)."""
+    return tuple(m.physical("h%d" % k) for k in range(4))  # type: ignore[return-value]
 
 
 def state_name(code: int) -> str:
