@@ -22,7 +22,9 @@ static const char usage[] =
 	"  pool.nx and pool.ny through the core's ctl_pool.c; the same bits wherever the buffers are).\n"
 	"--cost: also run the three cost scenes (calm, local, agitated; damped, 40 steps) and print\n"
 	"  each one's checksum, as the image's self-test does.\n"
-	"--kernel ref|fused|avx2: the solver kernel (default: the fastest; all are bit-identical).\n";
+	"--kernel ref|fused|avx2: the solver kernel (default: the fastest; all are bit-identical).\n"
+	"Exit status: 0 done, 1 a scene or the core refused its set-up, 2 bad arguments or a kernel\n"
+	"this machine does not have.\n";
 
 /* A scene bound with err: the kernel chosen, then steps of it; 0 (said why) when either is refused. */
 static int run_steps(struct swell_wave *w, enum swell_err err, enum swell_wave_kernel kernel, unsigned long steps,
