@@ -1,0 +1,220 @@
+/* The energy account of the hand-water loop and the time-domain passivity controller (swell/ctl.h,
+ * docs/energy.md). Integers only: sums in picojoules (uN x um) in int64, saturating; no division on
+ * the force path but the controller's one, and only on a tick where it acts.
+ *
+ * Rounding, per term:
+ *   W        exact in pJ: force (uN, the wire's whole cN) x differenced position (um, the device's
+ *            10 um samples) per axis; the position's quantisation telescopes, so the sum over a run
+ *            is exact for a piecewise constant force.
+ *   m g z    exact in pJ (gravity in uN x pool z in um).
+ *   springs  1/2 k s^2: k s to uN 2^-4 (floor), its product with s to pJ rounded to nearest: below
+ *            one pJ plus s x 2^-4 uN (< 0.05 uJ at 500 mm); the linear part beyond full submersion
+ *            k H (uN, nearest) x (s - H) (um, nearest).
+ *   floor    1/2 k_c p^2 with p in um (nearest), linear beyond the contact's force limit.
+ *   water    the solver's invariant scaled to pJ, rounded to nearest (swell_ctl_water_pJ).
+ *   uJ       the figures are the pJ sums / 10^6, rounded to nearest (ties away from zero). */
+#include <stddef.h>
+
+#include "ctl_priv.h"
+#include "swell/pool.h"
+
+#define PJ_MAX INT64_MAX
+#define PJ_MIN (-INT64_MAX)
+/* the controller acts from this speed up (um/s): below it a damping force would need a gain beyond
+ * any the safety stage lets through; the account keeps what it could not take out */
+#define PC_V_MIN_UM_S 1000
+
+static int64_t sat_add64(int64_t a, int64_t b)
+{
+	if (b > 0 && a > PJ_MAX - b)
+		return PJ_MAX;
+	if (b < 0 && a < PJ_MIN - b)
+		return PJ_MIN;
+	return a + b;
+}
+
+static int64_t pj_to_uj(int64_t pj)
+{
+	return pj >= 0 ? (pj + 500000) / 1000000 : -((-pj + 500000) / 1000000);
+}
+
+/* The force on the wire for an axis, in uN: the whole cN the device is sent. */
+static int32_t wire_uN(const struct swell_ctl *c, int32_t uN)
+{
+	return (int32_t)ctl_force_cN(c, uN) * 10000;
+}
+
+/* The buoyancy springs' energy at stretch s (LSB) of the pulling spring: 0 below contact, 1/2 k s^2
+ * to full submersion, then linear (the pushing spring holds the force at k H). */
+static int64_t springs_pJ(const struct swell_body *b, int64_t s)
+{
+	int64_t sc, f_q4, e;
+
+	if (s <= 0)
+		return 0;
+	sc = s < b->h_lsb ? s : b->h_lsb;
+	f_q4 = ((int64_t)b->k_q8 * sc) >> 20; /* uN 2^-4, <= 2^34 (k H <= 2^30 uN) */
+	/* 1/2 f s [uN 2^-4 x LSB] -> pJ: x 1000 / 2^(4 + 16 + 1) */
+	e = swell_shr_rn(swell_shr_rn(f_q4 * sc, 11) * 1000, 10);
+	if (s > sc) {
+		const int64_t f_h_uN = swell_shr_rn((int64_t)b->k_q8 * b->h_lsb, 24);
+
+		e = sat_add64(e, f_h_uN * swell_lsb_to_um(s - sc));
+	}
+	return e;
+}
+
+/* The floor's contact spring at penetration p (LSB): 1/2 k_c p^2 up to its force limit, then linear. */
+static int64_t floor_pJ(int32_t p_lsb)
+{
+	const int64_t k_uN_um = SWELL_BODY_FLOOR_K / 1000; /* uN/um */
+	const int64_t p_sat = SWELL_BODY_FLOOR_F_MAX_UN / k_uN_um; /* um */
+	int64_t p = swell_lsb_to_um(p_lsb);
+
+	if (p <= 0)
+		return 0;
+	if (p <= p_sat)
+		return k_uN_um * p * p / 2;
+	return k_uN_um * p_sat * p_sat / 2 + (int64_t)SWELL_BODY_FLOOR_F_MAX_UN * (p - p_sat);
+}
+
+/* S(n) without the water: the object's weight, the buoyancy springs as rendered, the floor. */
+static int64_t object_pJ(const struct swell_ctl *c, const struct swell_body_out *o)
+{
+	const struct swell_body *b = &c->body;
+	int64_t s = -(int64_t)o->f.gravity_uN * o->z_um; /* m g z */
+	int32_t z, zw;
+
+	if (o->skipped)
+		return s;
+	z = swell_clamp(swell_um_to_lsb(o->z_um), -((int32_t)1 << 30), (int32_t)1 << 30);
+	zw = z < o->floor_lsb ? o->floor_lsb : z;
+	s = sat_add64(s, springs_pJ(b, (int64_t)o->surface_lsb - zw - b->deadband_lsb));
+	if (o->penetration_lsb > 0)
+		s = sat_add64(s, floor_pJ(o->penetration_lsb));
+	return s;
+}
+
+int64_t swell_ctl_water_pJ(const struct swell_wave *w, uint32_t dx_um, uint32_t rho_kg_m3, uint32_t g_mm_s2)
+{
+	const struct swell_energy en = swell_wave_energy(w);
+	/* E_J = rho g dx^2 / (2 e_eff) (kin + e_eff pot2 / 2) LSB^2, LSB = 2^-16 mm (docs/energy.md):
+	 * in pJ with g in mm/s^2 and dx in um, rho g dx^2 1e-9 2^-33 (kin 2^30 / e_eff + pot2 / 2) */
+	const uint64_t rgd = (uint64_t)rho_kg_m3 * g_mm_s2 * dx_um * dx_um; /* < 2^14 2^17 2^32 */
+	uint64_t kin = 0, pot = 0;
+	int64_t e;
+
+	if (en.e_eff <= 0 || en.kin < 0)
+		return 0;
+	if (!swell_muldiv_u64((uint64_t)en.kin, rgd, (uint64_t)en.e_eff * 8000000000ull, &kin))
+		kin = (uint64_t)PJ_MAX;
+	if (!swell_muldiv_u64((uint64_t)(en.pot2 < 0 ? -en.pot2 : en.pot2), rgd, 16000000000ull, &pot))
+		pot = (uint64_t)PJ_MAX;
+	if (kin > (uint64_t)PJ_MAX)
+		kin = (uint64_t)PJ_MAX;
+	if (pot > (uint64_t)PJ_MAX)
+		pot = (uint64_t)PJ_MAX;
+	e = sat_add64((int64_t)kin, en.pot2 < 0 ? -(int64_t)pot : (int64_t)pot);
+	return e;
+}
+
+void ctl_energy_water(struct swell_ctl *c)
+{
+	if (c->cfg.energy_water)
+		c->energy.water_pJ =
+			swell_ctl_water_pJ(&c->wave, c->cfg.dx_um, c->cfg.body.rho_kg_m3, c->cfg.body.g_mm_s2);
+}
+
+/* D(n) = W(n) - (S(n) - S(0)) */
+static int64_t balance(const struct swell_ctl_energy_sums *e)
+{
+	return sat_add64(e->work_pJ, -sat_add64(e->stored_pJ, -e->stored0_pJ));
+}
+
+void ctl_energy_observe(struct swell_ctl *c, int running, int32_t f_dev_uN[3])
+{
+	struct swell_ctl_energy_sums *e = &c->energy;
+	int64_t dw = 0, dd = 0, d, v2 = 0, q;
+	int k;
+
+	if (!running) {
+		e->running = 0;
+		return;
+	}
+	if (!e->running) { /* the run's first tick: S(0) here, nothing held before it */
+		e->work_pJ = e->damped_pJ = e->min_balance_pJ = 0;
+		e->stored0_pJ = sat_add64(object_pJ(c, &c->out), e->water_pJ);
+		e->water0_pJ = e->water_pJ;
+		for (k = 0; k < 3; k++) {
+			e->pos_um[k] = c->pos_um[k];
+			e->force_uN[k] = e->pc_force_uN[k] = 0;
+		}
+		e->ticks = e->controller_ticks = 0;
+		e->running = 1;
+	}
+	/* W: the force held since the last tick times the way the device went meanwhile */
+	for (k = 0; k < 3; k++) {
+		const int32_t dx = c->pos_um[k] - e->pos_um[k]; /* |pos| <= 300 mm on the wire */
+
+		dw -= (int64_t)e->force_uN[k] * dx;
+		dd -= (int64_t)e->pc_force_uN[k] * dx;
+		e->pos_um[k] = c->pos_um[k];
+		e->pc_force_uN[k] = 0;
+	}
+	e->work_pJ = sat_add64(e->work_pJ, dw);
+	e->damped_pJ = sat_add64(e->damped_pJ, dd);
+	e->stored_pJ = sat_add64(object_pJ(c, &c->out), e->water_pJ);
+	e->ticks++;
+	d = balance(e);
+	if (d < e->min_balance_pJ)
+		e->min_balance_pJ = d;
+	if (!c->cfg.passivity || d >= 0)
+		return;
+	/* the controller: alpha = -D / (v^2 dt), the force -alpha v on every axis, before the safety
+	 * stage (whose limits hold); what it takes out shows in W on the next tick */
+	for (k = 0; k < 3; k++)
+		v2 += (int64_t)c->vel_um_s[k] * c->vel_um_s[k];
+	if (v2 < (int64_t)PC_V_MIN_UM_S * PC_V_MIN_UM_S)
+		return;
+	/* -D tick_hz in pJ/s (= uN um/s), held below 2^40 so that times v (< 2^22 um/s on the wire) it
+	 * fits */
+	q = -d > ((int64_t)1 << 40) / (int64_t)c->cfg.tick_hz ? ((int64_t)1 << 40) : -d * (int64_t)c->cfg.tick_hz;
+	for (k = 0; k < 3; k++) {
+		const int64_t f = -(q * c->vel_um_s[k]) / v2; /* uN, toward zero */
+		const int32_t lim = (int32_t)c->cfg.safety.f_max_uN;
+
+		e->pc_force_uN[k] = swell_clamp(swell_sat_i64(f), -lim, lim);
+		f_dev_uN[k] =
+			swell_clamp(swell_sat_i64((int64_t)f_dev_uN[k] + e->pc_force_uN[k]), -INT32_MAX, INT32_MAX);
+	}
+	e->controller_ticks++;
+}
+
+void ctl_energy_commanded(struct swell_ctl *c)
+{
+	struct swell_ctl_energy_sums *e = &c->energy;
+	int k;
+
+	if (!e->running)
+		return;
+	for (k = 0; k < 3; k++)
+		e->force_uN[k] = wire_uN(c, c->force_dev_uN[k]);
+}
+
+enum swell_err swell_ctl_energy(const struct swell_ctl *c, struct swell_energy_account *out)
+{
+	const struct swell_ctl_energy_sums *e;
+
+	if (!c || !out)
+		return SWELL_EINVAL;
+	e = &c->energy;
+	out->work_uJ = pj_to_uj(e->work_pJ);
+	out->stored_uJ = pj_to_uj(sat_add64(e->stored_pJ, -e->stored0_pJ));
+	out->balance_uJ = pj_to_uj(balance(e));
+	out->created_uJ = pj_to_uj(-e->min_balance_pJ);
+	out->damped_uJ = pj_to_uj(e->damped_pJ);
+	out->water_uJ = pj_to_uj(sat_add64(e->water_pJ, -e->water0_pJ));
+	out->ticks = e->ticks;
+	out->controller_ticks = e->controller_ticks;
+	return SWELL_OK;
+}
