@@ -50,7 +50,7 @@ static const struct swell_ctl_config pool_config = {
 	.frame_axes = SWELL_PARAM_DEF_FRAME_AXES,
 	.frame_flip = SWELL_PARAM_DEF_FRAME_FLIP,
 	.hm_inertia_g = SWELL_PARAM_DEF_HM_INERTIA,
-	.passivity = 0,
+	.passivity = SWELL_PARAM_DEF_FORCE_PASSIVITY,
 	.energy_water = 1,
 };
 

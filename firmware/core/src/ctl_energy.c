@@ -44,44 +44,38 @@ static int32_t wire_uN(const struct swell_ctl *c, int32_t uN)
 	return (int32_t)ctl_force_cN(c, uN) * 10000;
 }
 
-/* The buoyancy springs' energy at stretch s (LSB) of the pulling spring: 0 below contact, 1/2 k s^2
- * to full submersion, then linear (the pushing spring holds the force at k H). */
-static int64_t springs_pJ(const struct swell_body *b, int64_t s)
+/* The stretch (LSB) at which a spring of stiffness k_q8 (uN 2^-24 per LSB) reaches f_uN, rounded up
+ * (f <= 2^30, k_q8 >= 1: no overflow). A 64-bit division: only where a limit cuts the spring. */
+static int64_t stretch_at(int64_t k_q8, int64_t f_uN)
+{
+	return ((f_uN << 24) + k_q8 - 1) / k_q8;
+}
+
+/* The energy of a spring of stiffness k_q8 stretched by s (LSB) whose force stops growing at the
+ * stretch s_sat: 1/2 k s^2 up to s_sat, then k s_sat (s - s_sat). */
+static int64_t spring_pJ(int64_t k_q8, int64_t s, int64_t s_sat)
 {
 	int64_t sc, f_q4, e;
 
 	if (s <= 0)
 		return 0;
-	sc = s < b->h_lsb ? s : b->h_lsb;
-	f_q4 = ((int64_t)b->k_q8 * sc) >> 20; /* uN 2^-4, <= 2^34 (k H <= 2^30 uN) */
+	sc = s < s_sat ? s : s_sat;
+	f_q4 = (k_q8 * sc) >> 20; /* uN 2^-4, <= 2^34 */
 	/* 1/2 f s [uN 2^-4 x LSB] -> pJ: x 1000 / 2^(4 + 16 + 1) */
 	e = swell_shr_rn(swell_shr_rn(f_q4 * sc, 11) * 1000, 10);
-	if (s > sc) {
-		const int64_t f_h_uN = swell_shr_rn((int64_t)b->k_q8 * b->h_lsb, 24);
-
-		e = sat_add64(e, f_h_uN * swell_lsb_to_um(s - sc));
-	}
+	if (s > sc)
+		e = sat_add64(e, swell_shr_rn(k_q8 * sc, 24) * swell_lsb_to_um(s - sc));
 	return e;
 }
 
-/* The floor's contact spring at penetration p (LSB): 1/2 k_c p^2 up to its force limit, then linear. */
-static int64_t floor_pJ(int32_t p_lsb)
-{
-	const int64_t k_uN_um = SWELL_BODY_FLOOR_K / 1000; /* uN/um */
-	const int64_t p_sat = SWELL_BODY_FLOOR_F_MAX_UN / k_uN_um; /* um */
-	int64_t p = swell_lsb_to_um(p_lsb);
-
-	if (p <= 0)
-		return 0;
-	if (p <= p_sat)
-		return k_uN_um * p * p / 2;
-	return k_uN_um * p_sat * p_sat / 2 + (int64_t)SWELL_BODY_FLOOR_F_MAX_UN * (p - p_sat);
-}
-
-/* S(n) without the water: the object's weight, the buoyancy springs as rendered, the floor. */
+/* S(n) without the water: the object's weight, the buoyancy springs and the floor's contact spring
+ * as rendered: each spring's force stops growing where the safety stage's limit (or the floor's own)
+ * stops the device's, so that a clamped force is not counted as energy stored. */
 static int64_t object_pJ(const struct swell_ctl *c, const struct swell_body_out *o)
 {
 	const struct swell_body *b = &c->body;
+	const int64_t f_max = c->cfg.safety.f_max_uN, f_kh = swell_shr_rn((int64_t)b->k_q8 * b->h_lsb, 24);
+	const int64_t floor_k_q8 = (int64_t)SWELL_BODY_FLOOR_K << 8; /* uN/mm -> uN 2^-24 per LSB */
 	int64_t s = -(int64_t)o->f.gravity_uN * o->z_um; /* m g z */
 	int32_t z, zw;
 
@@ -89,9 +83,16 @@ static int64_t object_pJ(const struct swell_ctl *c, const struct swell_body_out 
 		return s;
 	z = swell_clamp(swell_um_to_lsb(o->z_um), -((int32_t)1 << 30), (int32_t)1 << 30);
 	zw = z < o->floor_lsb ? o->floor_lsb : z;
-	s = sat_add64(s, springs_pJ(b, (int64_t)o->surface_lsb - zw - b->deadband_lsb));
+	/* the net buoyancy: k clamp(w - z - deadband, 0, H), the pushing spring holding it at k H */
+	s = sat_add64(s,
+		      spring_pJ(b->k_q8, (int64_t)o->surface_lsb - zw - b->deadband_lsb,
+				f_kh <= f_max ? b->h_lsb : stretch_at(b->k_q8, f_max)));
 	if (o->penetration_lsb > 0)
-		s = sat_add64(s, floor_pJ(o->penetration_lsb));
+		s = sat_add64(
+			s,
+			spring_pJ(floor_k_q8, o->penetration_lsb,
+				  stretch_at(floor_k_q8,
+					     f_max < SWELL_BODY_FLOOR_F_MAX_UN ? f_max : SWELL_BODY_FLOOR_F_MAX_UN)));
 	return s;
 }
 
@@ -99,7 +100,8 @@ int64_t swell_ctl_water_pJ(const struct swell_wave *w, uint32_t dx_um, uint32_t 
 {
 	const struct swell_energy en = swell_wave_energy(w);
 	/* E_J = rho g dx^2 / (2 e_eff) (kin + e_eff pot2 / 2) LSB^2, LSB = 2^-16 mm (docs/energy.md):
-	 * in pJ with g in mm/s^2 and dx in um, rho g dx^2 1e-9 2^-33 (kin 2^30 / e_eff + pot2 / 2) */
+	 * in pJ with g in mm/s^2 and dx in um: rho g dx^2 1e-9 2^-33 (kin 2^30 / e_eff + pot2 / 2), each
+	 * term rounded to nearest by swell_muldiv_u64 (the pot2 divisor 2^34 1e9 fits 64 bits) */
 	const uint64_t rgd = (uint64_t)rho_kg_m3 * g_mm_s2 * dx_um * dx_um; /* < 2^14 2^17 2^32 */
 	uint64_t kin = 0, pot = 0;
 	int64_t e;
@@ -108,7 +110,7 @@ int64_t swell_ctl_water_pJ(const struct swell_wave *w, uint32_t dx_um, uint32_t 
 		return 0;
 	if (!swell_muldiv_u64((uint64_t)en.kin, rgd, (uint64_t)en.e_eff * 8000000000ull, &kin))
 		kin = (uint64_t)PJ_MAX;
-	if (!swell_muldiv_u64((uint64_t)(en.pot2 < 0 ? -en.pot2 : en.pot2), rgd, 16000000000ull, &pot))
+	if (!swell_muldiv_u64((uint64_t)(en.pot2 < 0 ? -en.pot2 : en.pot2), rgd, 17179869184000000000ull, &pot))
 		pot = (uint64_t)PJ_MAX;
 	if (kin > (uint64_t)PJ_MAX)
 		kin = (uint64_t)PJ_MAX;
@@ -188,6 +190,7 @@ void ctl_energy_observe(struct swell_ctl *c, int running, int32_t f_dev_uN[3])
 			swell_clamp(swell_sat_i64((int64_t)f_dev_uN[k] + e->pc_force_uN[k]), -INT32_MAX, INT32_MAX);
 	}
 	e->controller_ticks++;
+	e->acted = 1;
 }
 
 void ctl_energy_commanded(struct swell_ctl *c)

@@ -98,6 +98,7 @@ struct swell_ctl_energy_sums {
 	int32_t pc_force_uN[3]; /* of which the passivity controller's */
 	uint32_t ticks, controller_ticks;
 	uint8_t running; /* a run is being counted */
+	uint8_t acted; /* the controller acted since the last ENERGY message */
 };
 
 struct swell_ctl {
