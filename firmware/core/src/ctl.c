@@ -51,7 +51,7 @@ static const struct swell_ctl_config pool_config = {
 	.frame_flip = SWELL_PARAM_DEF_FRAME_FLIP,
 	.hm_inertia_g = SWELL_PARAM_DEF_HM_INERTIA,
 	.passivity = SWELL_PARAM_DEF_FORCE_PASSIVITY,
-	.energy_water = 1,
+	.energy_water = 0, /* swell-ctl sets it; the STM32F405 image has no room for the pass */
 };
 
 void swell_ctl_default_config(struct swell_ctl_config *cfg)
@@ -484,7 +484,7 @@ static uint32_t force_law(struct swell_ctl *c)
 	}
 	if (running && c->cfg.force_mode == SWELL_FORCE_EFFECT)
 		effect_update(c, f_dev_uN);
-	ctl_energy_observe(c, running, f_dev_uN);
+	ctl_energy_force(c, running, f_dev_uN);
 	if (!running)
 		c->effect_sent = 0;
 	for (k = 0; k < 3; k++) {
@@ -495,7 +495,6 @@ static uint32_t force_law(struct swell_ctl *c)
 		rate_after += c->safety[k].rate_limited;
 	}
 	c->limits = (uint8_t)((after != before ? 1u : 0u) | (rate_after != rate_before ? 2u : 0u));
-	ctl_energy_commanded(c);
 	send_force(c, 0);
 	return work;
 }
@@ -521,6 +520,7 @@ void swell_ctl_tick_background(struct swell_ctl *c)
 	/* the force part's coupling, before the field moves on; while the object stays in the water its
 	 * cells are written once a period, at the step's end (swell_body_couple_later); written now, the
 	 * tiles it left and those it covers are stale for the telemetry */
+	ctl_energy_account(c);
 	placed = c->body.placed;
 	swell_body_couple_later(&c->body, &c->wave);
 	ctl_mark_water_moved(c, &placed);

@@ -133,75 +133,100 @@ static int64_t balance(const struct swell_ctl_energy_sums *e)
 	return sat_add64(e->work_pJ, -sat_add64(e->stored_pJ, -e->stored0_pJ));
 }
 
-void ctl_energy_observe(struct swell_ctl *c, int running, int32_t f_dev_uN[3])
+/* The number of significant bits of x > 0 (CLZ on the Cortex-M4). */
+static int bits64(uint64_t x)
+{
+	return 64 - __builtin_clzll(x);
+}
+
+/* num 2^16 / den for num > 0 and den >= 2^16, to 15 significant bits (truncated): both are normalised
+ * to a 32-bit dividend with its top bit set and a 16-bit divisor, so that one 32-bit division does it
+ * (a 64-bit one is a library call of some hundred instructions on the Cortex-M4). */
+static uint64_t div_q16(uint64_t num, uint64_t den)
+{
+	const int sd = bits64(den) - 16, sn = bits64(num) - 32, sh = 16 + sn - sd;
+	const uint32_t n32 = (uint32_t)(sn >= 0 ? num >> sn : num << -sn), d16 = (uint32_t)(den >> sd);
+	const uint64_t q = n32 / d16; /* 2^15 .. 2^17 */
+
+	return sh >= 0 ? q << sh : q >> -sh;
+}
+
+void ctl_energy_force(struct swell_ctl *c, int running, int32_t f_dev_uN[3])
 {
 	struct swell_ctl_energy_sums *e = &c->energy;
-	int64_t dw = 0, dd = 0, d, v2 = 0, q;
-	int k;
+	const int ax = c->cfg.xform.axis[2]; /* the device axis of pool z: the only one the force law drives */
+	const int32_t lim = (int32_t)c->cfg.safety.f_max_uN, v = c->vel_um_s[ax];
+	int64_t alpha_q16, f;
+	uint64_t neg_d;
 
+	e->pc_uN[0] = e->pc_uN[1] = e->pc_uN[2] = 0;
 	if (!running) {
 		e->running = 0;
 		return;
 	}
-	if (!e->running) { /* the run's first tick: S(0) here, nothing held before it */
-		e->work_pJ = e->damped_pJ = e->min_balance_pJ = 0;
-		e->stored0_pJ = sat_add64(object_pJ(c, &c->out), e->water_pJ);
-		e->water0_pJ = e->water_pJ;
-		for (k = 0; k < 3; k++) {
-			e->pos_um[k] = c->pos_um[k];
-			e->force_uN[k] = e->pc_force_uN[k] = 0;
-		}
-		e->ticks = e->controller_ticks = 0;
+	e->pos_now_um[0] = c->pos_um[0];
+	e->pos_now_um[1] = c->pos_um[1];
+	e->pos_now_um[2] = c->pos_um[2];
+	if (!e->running) { /* the run's first tick: the background part takes S(0) */
 		e->running = 1;
-	}
-	/* W: the force held since the last tick times the way the device went meanwhile */
-	for (k = 0; k < 3; k++) {
-		const int32_t dx = c->pos_um[k] - e->pos_um[k]; /* |pos| <= 300 mm on the wire */
-
-		dw -= (int64_t)e->force_uN[k] * dx;
-		dd -= (int64_t)e->pc_force_uN[k] * dx;
-		e->pos_um[k] = c->pos_um[k];
-		e->pc_force_uN[k] = 0;
-	}
-	e->work_pJ = sat_add64(e->work_pJ, dw);
-	e->damped_pJ = sat_add64(e->damped_pJ, dd);
-	e->stored_pJ = sat_add64(object_pJ(c, &c->out), e->water_pJ);
-	e->ticks++;
-	d = balance(e);
-	if (d < e->min_balance_pJ)
-		e->min_balance_pJ = d;
-	if (!c->cfg.passivity || d >= 0)
+		e->fresh = 1;
 		return;
-	/* the controller: alpha = -D / (v^2 dt), the force -alpha v on every axis, before the safety
-	 * stage (whose limits hold); what it takes out shows in W on the next tick */
-	for (k = 0; k < 3; k++)
-		v2 += (int64_t)c->vel_um_s[k] * c->vel_um_s[k];
-	if (v2 < (int64_t)PC_V_MIN_UM_S * PC_V_MIN_UM_S)
-		return;
-	/* -D tick_hz in pJ/s (= uN um/s), held below 2^40 so that times v (< 2^22 um/s on the wire) it
-	 * fits */
-	q = -d > ((int64_t)1 << 40) / (int64_t)c->cfg.tick_hz ? ((int64_t)1 << 40) : -d * (int64_t)c->cfg.tick_hz;
-	for (k = 0; k < 3; k++) {
-		const int64_t f = -(q * c->vel_um_s[k]) / v2; /* uN, toward zero */
-		const int32_t lim = (int32_t)c->cfg.safety.f_max_uN;
-
-		e->pc_force_uN[k] = swell_clamp(swell_sat_i64(f), -lim, lim);
-		f_dev_uN[k] =
-			swell_clamp(swell_sat_i64((int64_t)f_dev_uN[k] + e->pc_force_uN[k]), -INT32_MAX, INT32_MAX);
 	}
+	if (!c->cfg.passivity || e->balance_pJ >= 0 || (v > -PC_V_MIN_UM_S && v < PC_V_MIN_UM_S))
+		return;
+	/* the controller: alpha = -D / (v^2 dt), the force -alpha v, before the safety stage (whose
+	 * limits hold); what it takes out shows in W. Only along the axis the force law drives: the
+	 * environment exchanges no energy on the others. alpha in uN per um/s, Q16: -D (held below 2^40
+	 * pJ) times tick_hz (< 2^17) over v^2 (>= 10^6), held below 2^40 (a force far beyond any limit),
+	 * so that times v (< 2^22 um/s on the wire) it stays below 2^62 */
+	neg_d = (uint64_t)(-e->balance_pJ < ((int64_t)1 << 40) ? -e->balance_pJ : ((int64_t)1 << 40));
+	alpha_q16 = (int64_t)div_q16(neg_d * c->cfg.tick_hz, (uint64_t)((int64_t)v * v));
+	if (alpha_q16 > ((int64_t)1 << 40))
+		alpha_q16 = (int64_t)1 << 40;
+	f = -((alpha_q16 * v) >> 16);
+	e->pc_uN[ax] = (int32_t)(f > lim ? lim : (f < -lim ? -lim : f));
+	f_dev_uN[ax] = swell_clamp(swell_sat_i64((int64_t)f_dev_uN[ax] + e->pc_uN[ax]), -INT32_MAX, INT32_MAX);
 	e->controller_ticks++;
 	e->acted = 1;
 }
 
-void ctl_energy_commanded(struct swell_ctl *c)
+void ctl_energy_account(struct swell_ctl *c)
 {
 	struct swell_ctl_energy_sums *e = &c->energy;
+	int64_t dw = 0, dd = 0;
 	int k;
 
 	if (!e->running)
 		return;
-	for (k = 0; k < 3; k++)
+	if (e->fresh) { /* S(0) here, nothing held before it */
+		e->fresh = 0;
+		e->work_pJ = e->damped_pJ = e->min_balance_pJ = e->balance_pJ = 0;
+		e->stored0_pJ = sat_add64(object_pJ(c, &c->out), e->water_pJ);
+		e->stored_pJ = e->stored0_pJ;
+		e->water0_pJ = e->water_pJ;
+		e->ticks = e->controller_ticks = 0;
+	} else {
+		/* W: the force held since the last tick times the way the device went meanwhile */
+		for (k = 0; k < 3; k++) {
+			const int32_t dx = e->pos_now_um[k] - e->pos_um[k]; /* |pos| <= 300 mm on the wire */
+
+			dw -= (int64_t)e->force_uN[k] * dx;
+			dd -= (int64_t)e->pc_held_uN[k] * dx;
+		}
+		e->work_pJ = sat_add64(e->work_pJ, dw);
+		e->damped_pJ = sat_add64(e->damped_pJ, dd);
+		e->stored_pJ = sat_add64(object_pJ(c, &c->out), e->water_pJ);
+		e->balance_pJ = balance(e);
+		if (e->balance_pJ < e->min_balance_pJ)
+			e->min_balance_pJ = e->balance_pJ;
+	}
+	e->ticks++;
+	/* what is held from now on: this tick's force as the wire carries it, and the controller's part */
+	for (k = 0; k < 3; k++) {
+		e->pos_um[k] = e->pos_now_um[k];
 		e->force_uN[k] = wire_uN(c, c->force_dev_uN[k]);
+		e->pc_held_uN[k] = e->pc_uN[k];
+	}
 }
 
 enum swell_err swell_ctl_energy(const struct swell_ctl *c, struct swell_energy_account *out)

@@ -92,8 +92,7 @@ struct Loop {
 	std::deque<swell_msg_force_cmd> line;
 	unsigned delay;
 	double t = 0, f_max_seen_N = 0, df_max_seen_N = 0, f_last_N = 0;
-	Loop(const swell_ctl_config &cfg, const char *hand_spec, unsigned delay_ticks = 0)
-	    : ctl(cfg), delay(delay_ticks)
+	Loop(const swell_ctl_config &cfg, const char *hand_spec, unsigned delay_ticks = 0) : ctl(cfg), delay(delay_ticks)
 	{
 		char why[160];
 		double x0[3];
@@ -247,13 +246,14 @@ TEST_CASE("energy: the reference drop in lockstep with the HapticMaster model cr
 	for (int pc = 0; pc <= 1; pc++) {
 		swell_ctl_config cfg = pool();
 		cfg.passivity = (uint8_t)pc;
+		cfg.energy_water = 1;
 		Loop l(cfg, "drop:z=20,hold=0.5");
 		l.run(10.0);
 		const swell_energy_account e = l.ctl.energy();
-		WARN("drop, passivity " << pc << ": W " << e.work_uJ << " uJ, S " << e.stored_uJ << " uJ (water "
-					<< e.water_uJ << "), D " << e.balance_uJ << " uJ, created " << e.created_uJ
-					<< " uJ, damped " << e.damped_uJ << " uJ on " << e.controller_ticks << " ticks, z "
-					<< l.s.x[2] * 1e3 << " mm");
+		WARN("drop, passivity " << pc << ": W " << e.work_uJ << " uJ, S " << e.stored_uJ << " uJ (water " << e.water_uJ
+					<< "), D " << e.balance_uJ << " uJ, created " << e.created_uJ << " uJ, damped "
+					<< e.damped_uJ << " uJ on " << e.controller_ticks << " ticks, z " << l.s.x[2] * 1e3
+					<< " mm");
 		CHECK(e.created_uJ <= 1000);
 		CHECK(e.ticks > 20000);
 	}
@@ -272,13 +272,14 @@ TEST_CASE("energy: a stiff buoyancy spring behind 10 ms of link delay bounces an
 		cfg.passivity = (uint8_t)pc;
 		cfg.body.a_um = cfg.body.b_um = 200000;
 		cfg.body.damper_uN_per_mm_s = 0;
+		cfg.energy_water = 1;
 		Loop l(cfg, "drop:z=2,hold=0.5", 25);
 		l.run(6.0);
 		const swell_energy_account e = l.ctl.energy();
 		WARN("delayed box, passivity " << pc << ": W " << e.work_uJ << " uJ, S " << e.stored_uJ << " uJ, D "
-						 << e.balance_uJ << " uJ, created " << e.created_uJ << " uJ, damped "
-						 << e.damped_uJ << " uJ on " << e.controller_ticks << " ticks; |F| max "
-						 << l.f_max_seen_N << " N, |dF| max " << l.df_max_seen_N << " N a tick");
+					       << e.balance_uJ << " uJ, created " << e.created_uJ << " uJ, damped " << e.damped_uJ
+					       << " uJ on " << e.controller_ticks << " ticks; |F| max " << l.f_max_seen_N
+					       << " N, |dF| max " << l.df_max_seen_N << " N a tick");
 		created[pc] = e.created_uJ;
 		CHECK(l.f_max_seen_N <= cfg.safety.f_max_uN * 1e-6 + 1e-9);
 		CHECK(l.df_max_seen_N <= (double)(cfg.safety.rate_uN_per_s / cfg.tick_hz) * 1e-6 + 0.01 + 1e-9);
@@ -319,8 +320,8 @@ TEST_CASE("energy: pressed into the floor's contact on a prescribed path, the ra
 		}
 		const swell_energy_account e = c.energy();
 		WARN("floor path, passivity " << pc << ": W " << e.work_uJ << " uJ, S " << e.stored_uJ << " uJ, D "
-					      << e.balance_uJ << " uJ, created " << e.created_uJ << " uJ, damped "
-					      << e.damped_uJ << " uJ on " << e.controller_ticks << " ticks");
+					      << e.balance_uJ << " uJ, created " << e.created_uJ << " uJ, damped " << e.damped_uJ
+					      << " uJ on " << e.controller_ticks << " ticks");
 		created[pc] = e.created_uJ;
 		CHECK(f_max <= cfg.safety.f_max_uN);
 		CHECK(df_max <= cfg.safety.rate_uN_per_s / cfg.tick_hz);

@@ -86,18 +86,22 @@ struct swell_ctl_counters {
 };
 
 /* The energy account's sums (ctl_energy.c), in picojoules (uN x um), saturating: an int64 holds
- * +-9.2e6 J, a 10-minute run at 2500 Hz with 1000 N and 1 m/s on every axis stays below 2e15. */
+ * +-9.2e6 J, a 10-minute run at 2500 Hz with 1000 N and 1 m/s on every axis stays below 2e15. The
+ * force part keeps the tick's position and adds the controller's force; the background part counts. */
 struct swell_ctl_energy_sums {
 	int64_t work_pJ; /* W */
 	int64_t stored0_pJ, stored_pJ; /* S(0), S(n) */
-	int64_t min_balance_pJ; /* the least D of the run (0 at its start) */
+	int64_t balance_pJ, min_balance_pJ; /* D after the last tick counted, and the least of the run */
 	int64_t damped_pJ; /* what the passivity controller's force took out, as W counts it */
 	int64_t water_pJ, water0_pJ; /* the water's share of S(n) and S(0) (energy_water) */
+	int32_t pos_now_um[3]; /* the device position the force part used */
 	int32_t pos_um[3]; /* the device position of the last tick counted */
-	int32_t force_uN[3]; /* the force commanded on it (after the safety stage) */
-	int32_t pc_force_uN[3]; /* of which the passivity controller's */
+	int32_t force_uN[3]; /* the force commanded on it (after the safety stage, the wire's cN) */
+	int32_t pc_uN[3]; /* the controller's force this tick (asked for, before the safety stage) */
+	int32_t pc_held_uN[3]; /* and on the last tick counted */
 	uint32_t ticks, controller_ticks;
 	uint8_t running; /* a run is being counted */
+	uint8_t fresh; /* its first tick: S(0) to take */
 	uint8_t acted; /* the controller acted since the last ENERGY message */
 };
 
