@@ -215,6 +215,18 @@ static void run_all(struct loop_point *pt, struct loop_result *res, long n, int 
 		pthread_join(th[k], NULL);
 }
 
+/* calloc, or the run ends (a host bench: nothing to save) */
+static void *zalloc(size_t n, size_t size)
+{
+	void *p = calloc(n ? n : 1, size);
+
+	if (!p) {
+		fprintf(stderr, "swell-bench: out of memory\n");
+		exit(1);
+	}
+	return p;
+}
+
 static const char *mode_name(int mode)
 {
 	return mode ? "effect" : "stream";
@@ -280,16 +292,17 @@ static void write_plots(const struct lopts *o)
 		"set xrange [-0.5:4.5]\n"
 		"set xtics 1\n"
 		"set grid\n"
-		"set key outside right font ',8'\n"
+		"set key below horizontal font ',8' spacing 0.9\n"
 		"set xlabel 'link delay (ticks, controller -> device)'\n"
 		"set ylabel 'stiffness / (rho g a b of the 50 mm cube)'\n",
-		o->nrate > 1 ? 760 : 420);
+		o->nrate > 1 ? 1100 : 600);
 	for (mode = 0; mode < 2; mode++) {
 		if (o->mode != 2 && o->mode != mode)
 			continue;
 		fprintf(fp,
-			"set output 'loop-%s.png'\nset multiplot layout %d,2 title '%s mode: b_v %g N s/m, b_max %g N "
-			"s/m; marker offset by device mass'\n",
+			"set output 'loop-%s.png'\nset multiplot layout %d,2 title '%s mode: device damping %g N s/m, "
+			"force "
+			"law damper b_{max} %g N s/m; markers offset by device mass'\n",
 			mode_name(mode), o->nrate, mode_name(mode), o->damping[0], o->damper[0]);
 		for (ir = 0; ir < o->nrate; ir++)
 			for (pas = 0; pas < 2; pas++) {
@@ -352,7 +365,7 @@ int bench_loop_main(int argc, char **argv)
 	struct lopts o;
 	struct stat st;
 	int full = 0, preset_given = 0, nobisect = 0, k, fails = 0;
-	int modes[2], nmodes = 0, pass[2], npass = 0;
+	int modes[2] = { 0, 0 }, nmodes = 0, pass[2] = { 0, 0 }, npass = 0;
 	long n = 0, i;
 	struct loop_point *pt;
 	struct loop_result *res;
@@ -409,11 +422,7 @@ int bench_loop_main(int argc, char **argv)
 	}
 
 	/* the map */
-	pt = calloc((size_t)nmodes * o.nrate * o.nmass * o.ndamping * o.ndamper * o.ndelay * o.nk * npass, sizeof(*pt));
-	if (!pt) {
-		fprintf(stderr, "swell-bench: out of memory\n");
-		return 1;
-	}
+	pt = zalloc((size_t)nmodes * o.nrate * o.nmass * o.ndamping * o.ndamper * o.ndelay * o.nk * npass, sizeof(*pt));
 	{
 		int im, ir, ima, idg, idp, idl, ik, ip;
 
@@ -439,17 +448,15 @@ int bench_loop_main(int argc, char **argv)
 										p->water_energy = o.water_energy;
 									}
 	}
-	res = calloc((size_t)n, sizeof(*res));
-	if (!res) {
-		fprintf(stderr, "swell-bench: out of memory\n");
-		return 1;
-	}
+	res = zalloc((size_t)n, sizeof(*res));
 	printf("swell-bench loop %s preset: %ld points, output in %s/\n", o.preset, n, o.out);
 	if (o.trace) { /* one point, its ticks */
-		FILE *tf = fopen(o.trace, "w");
+		FILE *tf = n == 1 ? fopen(o.trace, "w") : NULL;
 
-		if (!tf || n != 1) {
+		if (!tf) {
 			fprintf(stderr, "swell-bench loop: --trace needs one point and a writable file\n");
+			free(pt);
+			free(res);
 			return 2;
 		}
 		fprintf(tf, "t_s,z_mm,v_mm_s,f_N,hand_N,state\n");
@@ -524,19 +531,15 @@ int bench_loop_main(int argc, char **argv)
 	}
 
 	/* the critical stiffness: per combination without the controller, bracket from the map, bisect */
-	if (o.bisect && (pass[0] == 0)) {
+	if (o.bisect && npass > 0 && o.nk > 0 && pass[0] == 0) {
 		const long per = (long)npass * o.nk; /* a combination's points: passivity x k, k fastest */
 		const long ncomb = n / per;
-		struct crit *cr = calloc((size_t)ncomb, sizeof(*cr));
-		struct loop_point *bp = calloc((size_t)ncomb, sizeof(*bp));
-		struct loop_result *br = calloc((size_t)ncomb, sizeof(*br));
+		struct crit *cr = zalloc((size_t)ncomb, sizeof(*cr));
+		struct loop_point *bp = zalloc((size_t)ncomb, sizeof(*bp));
+		struct loop_result *br = zalloc((size_t)ncomb, sizeof(*br));
 		long c2, step;
 		FILE *fc;
 
-		if (!cr || !bp || !br) {
-			fprintf(stderr, "swell-bench: out of memory\n");
-			return 1;
-		}
 		for (c2 = 0; c2 < ncomb; c2++) {
 			const struct loop_point *p0 = &pt[c2 * per];
 			const struct loop_result *r0 = &res[c2 * per];
