@@ -40,12 +40,14 @@ struct lopts {
 static const char loop_usage[] =
 	"usage: swell-bench loop [--quick | --full] [--out DIR] [options]\n"
 	"The coupled hand-device-controller-water loop's stability map: the controller core against the\n"
-	"HapticMaster model in lockstep, one process, deterministic. Each point holds the device 5 mm below\n"
-	"the object's floating depth for 1 s and lets go; the free response is stable (its swing decays),\n"
-	"a limit cycle (the last window's swing at least 1/2 of the first's, its envelope not falling by 3 %/s),\n"
-	"or divergent (30 mm from the floating depth, the force limit, or grown and growing). The delay is on the\n"
-	"controller -> device path. Stiffness: multiples of rho g a b of the 50 mm cube (24.5 N/m; the\n"
-	"object a = b = 50 mm x sqrt(multiple), floating half submerged, in a 128 x 128 pool).\n"
+	"HapticMaster model in lockstep, one process, deterministic. Each point lowers the object from 5 mm\n"
+	"above the water to 5 mm below its floating depth in 1 s, holds it there until 2 s and lets go. Over\n"
+	"windows of one period of the spring on the device's mass, the swing after the release is: divergent\n"
+	"when 30 mm from the floating depth, at the force limit, or larger than the release's swing and\n"
+	"growing by more than 3 %/s; a limit cycle when larger than the release's swing, or at least half of\n"
+	"it and not falling by 3 %/s; else stable. The delay is on the controller -> device path. Stiffness:\n"
+	"multiples of rho g a b of the 50 mm cube (24.5 N/m; the object a = b = 50 mm x sqrt(multiple),\n"
+	"floating half submerged, in a 128 x 128 pool).\n"
 	"  --quick            CI preset: 1000 Hz, 2 kg, 2 N s/m, no b_max; k 2,8,16,32,64; delays 0-4 (default)\n"
 	"  --full             1000 and 2500 Hz; 0.5, 2, 4 kg; 0.5, 2 N s/m; b_max 0, 15; k 0.25 to 64\n"
 	"  --out DIR          output directory (created; default bench-out)\n"
@@ -292,48 +294,54 @@ static void write_plots(const struct lopts *o)
 		"set xrange [-0.5:4.5]\n"
 		"set xtics 1\n"
 		"set grid\n"
-		"set key below horizontal font ',8' spacing 0.9\n"
+		"set key below horizontal font ',9'\n"
 		"set xlabel 'link delay (ticks, controller -> device)'\n"
 		"set ylabel 'stiffness / (rho g a b of the 50 mm cube)'\n",
 		o->nrate > 1 ? 1100 : 600);
 	for (mode = 0; mode < 2; mode++) {
 		if (o->mode != 2 && o->mode != mode)
 			continue;
+		static const char *const cls[] = { "stable", "limit-cycle", "divergent", "beyond-effect-range" };
+		static const char *const col[] = { "dark-green", "orange", "red", "gray" };
+		static const char *const shape[] = { "squares", "circles", "triangles", "diamonds" };
+		char masses[256] = "";
+
+		for (im = 0; im < o->nmass && im < 4; im++)
+			snprintf(masses + strlen(masses), sizeof(masses) - strlen(masses), "%s%s %g kg", im ? ", " : "",
+				 shape[im], o->mass[im]);
 		fprintf(fp,
-			"set output 'loop-%s.png'\nset multiplot layout %d,2 title '%s mode: device damping %g N s/m, "
-			"force "
-			"law damper b_{max} %g N s/m; markers offset by device mass'\n",
-			mode_name(mode), o->nrate, mode_name(mode), o->damping[0], o->damper[0]);
+			"set output 'loop-%s.png'\nset multiplot layout %d,2 title \"%s mode: device damping %g N s/m, "
+			"force law damper b_{max} %g N s/m\\n%s (offset); dashed: theory\"\n",
+			mode_name(mode), o->nrate, mode_name(mode), o->damping[0], o->damper[0], masses);
 		for (ir = 0; ir < o->nrate; ir++)
 			for (pas = 0; pas < 2; pas++) {
 				fprintf(fp, "set title '%g Hz, %s the passivity controller'\nplot ", o->rate[ir],
 					pas ? "with" : "without");
-				for (im = 0; im < o->nmass; im++) {
+				for (im = 0; im < o->nmass && im < 4; im++) {
 					const double off = o->nmass > 1 ? 0.25 * (im - (o->nmass - 1) / 2.0) : 0.0;
-					static const char *const cls[] = { "stable", "limit-cycle", "divergent",
-									   "beyond-effect-range" };
-					static const char *const col[] = { "dark-green", "orange", "red", "gray" };
 					int kc;
 
-					for (kc = 0; kc < 4; kc++)
+					for (kc = 0; kc < 4; kc++) {
 						fprintf(fp,
 							"'loop.csv' using (strcol(1) eq '%s' && $2 == %g && $11 == %d "
 							"&& "
 							"$8 == %g && $9 == %g && $7 == %g && strcol(12) eq '%s' ? $10 "
 							"+ %g : "
-							"1/0):3 with points pt %d ps 1.6 lc '%s' title '%s%s%g kg', "
-							"\\\n     ",
+							"1/0):3 with points pt %d ps 1.6 lc '%s' ",
 							mode_name(mode), o->rate[ir], pas, o->mass[im], o->damping[0],
-							o->damper[0], cls[kc], off, 5 + 2 * im, col[kc], cls[kc],
-							o->nmass > 1 ? " " : " ", o->mass[im]);
+							o->damper[0], cls[kc], off, 5 + 2 * im, col[kc]);
+						if (im == 0)
+							fprintf(fp, "title '%s', \\\n     ", cls[kc]);
+						else
+							fprintf(fp, "notitle, \\\n     ");
+					}
 					fprintf(fp,
 						"'loop_theory.csv' using (strcol(1) eq '%s' && $2 == %g && $3 == %g && "
-						"$4 == "
-						"%g && $5 == %g ? $6 + %g : 1/0):($7 > 0 ? $7 : 1/0) with linespoints "
-						"dt 2 "
-						"pt 2 lc 'black' title 'theory %g kg'%s",
+						"$4 == %g && $5 == %g ? $6 + %g : 1/0):($7 > 0 ? $7 : 1/0) with "
+						"linespoints dt 2 pt %d ps 0.8 lc 'black' %s%s",
 						mode_name(mode), o->rate[ir], o->mass[im], o->damping[0], o->damper[0],
-						off, o->mass[im], im + 1 < o->nmass ? ", \\\n     " : "\n");
+						off, 4 + 2 * im, im == 0 ? "title 'theory'" : "notitle",
+						im + 1 < o->nmass && im + 1 < 4 ? ", \\\n     " : "\n");
 				}
 			}
 		fprintf(fp, "unset multiplot\n");
@@ -352,8 +360,8 @@ static void write_plots(const struct lopts *o)
 
 /* The critical stiffness of one (mode, rate, mass, damping, damper, delay) without the passivity
  * controller: the sweep's bracket (highest stable multiple below the lowest unstable one), then
- * BISECT_STEPS halvings in log2. *lo_out, *hi_out: the final bracket; 0 when bisection ran, 1 when
- * even the largest multiple is stable, -1 when the smallest is not. */
+ * BISECT_STEPS halvings in log2. lo, hi: the bracket; state 0 when bisection ran, 1 when even the
+ * largest multiple is stable, -1 when the smallest is not. */
 struct crit {
 	struct loop_point base;
 	double lo, hi;

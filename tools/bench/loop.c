@@ -418,17 +418,23 @@ void loop_run(const struct loop_point *p, struct loop_result *r)
 	r->p2p_first_mm = nw > 0 ? p2p[0] : 0.0;
 	r->p2p_last_mm = nw > 0 ? p2p[nw - 1] : 0.0;
 	r->sigma_per_s = envelope_rate(p2p, (int)(nw / 2), (int)nw, w_s);
-	/* divergent: beyond the bound or at the force limit, or grown past the first swing and still
-	 * growing; a limit cycle: the swing kept at least half the first's, its envelope not falling; else
-	 * stable (the water's waves keep a small swing going, whose envelope wanders either way) */
-	if (r->peak_dev_mm > LOOP_BOUND_MM || r->force_limited ||
-	    (r->sigma_per_s > LOOP_SIGMA_TOL && r->p2p_last_mm > r->p2p_first_mm))
-		r->cls = LOOP_DIVERGENT;
-	else if (r->sigma_per_s >= -LOOP_SIGMA_TOL && r->p2p_last_mm >= LOOP_FLOOR_MM &&
-		 r->p2p_last_mm >= 0.5 * r->p2p_first_mm)
-		r->cls = LOOP_LIMIT_CYCLE;
-	else
-		r->cls = LOOP_STABLE;
+	/* against the swing the release starts, 2 |z_release - z_eq| peak to peak: divergent beyond the
+	 * bound or at the force limit, or grown past that swing and still growing; a limit cycle: grown
+	 * past it, or kept at least half of it with an envelope not falling; else stable (the water's
+	 * waves keep a small swing going, whose envelope wanders either way) */
+	{
+		const double ref = 2.0 * fabs(r->z_release_mm - r->z_eq_mm);
+
+		if (r->peak_dev_mm > LOOP_BOUND_MM || r->force_limited ||
+		    (r->sigma_per_s > LOOP_SIGMA_TOL && r->p2p_last_mm > ref))
+			r->cls = LOOP_DIVERGENT;
+		else if (r->p2p_last_mm > ref ||
+			 (r->sigma_per_s >= -LOOP_SIGMA_TOL && r->p2p_last_mm >= LOOP_FLOOR_MM &&
+			  r->p2p_last_mm >= 0.5 * ref))
+			r->cls = LOOP_LIMIT_CYCLE;
+		else
+			r->cls = LOOP_STABLE;
+	}
 out:
 	free(p2p);
 	free(c);
