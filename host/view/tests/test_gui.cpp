@@ -1014,7 +1014,8 @@ TEST_CASE("the CSV file of --csv holds the pattern's pose and force as received,
 		std::string line;
 		REQUIRE(std::getline(in, line));
 		CHECK(line ==
-		      "t_s,pose_seq,bottom_mm,water_mm,submersion_pct,fz_N,f_abs_N,limited,frame_hz,latency_ms,lost_poses");
+		      "t_s,pose_seq,bottom_mm,water_mm,submersion_pct,fz_N,f_abs_N,limited,frame_hz,latency_ms,"
+		      "lost_poses,created_mJ,balance_mJ");
 		int poses = 0, forces = 0, seq_gaps = 0, last_seq = -1;
 		long lost = 0;
 		double worst_z = 0, worst_f = 0;
@@ -1024,7 +1025,7 @@ TEST_CASE("the CSV file of --csv holds the pattern's pose and force as received,
 			for (size_t c; (c = line.find(',', at)) != std::string::npos; at = c + 1)
 				f.push_back(line.substr(at, c - at));
 			f.push_back(line.substr(at));
-			REQUIRE(f.size() == 11);
+			REQUIRE(f.size() == 13);
 			double t = std::atof(f[0].c_str());
 			if (!f[2].empty()) {
 				poses++;
@@ -1094,7 +1095,8 @@ luma_stats water_luma(const image &im, double ox, double oy, bool near)
 		for (int c = int(col_of(m)); c < int(col_of(L - m)) - 1; c++) {
 			double x = (c - W / 2.0) / S + L / 2, y = (H / 2.0 - r) / S + L / 2;
 			double ex = std::max(std::fabs(x - ox) - half, 0.0), ey = std::max(std::fabs(y - oy) - half, 0.0);
-			bool shadow = x > ox - half - 0.05 && x < ox + half + 0.008 && y > oy - half - 0.025 && y < oy + half + 0.008;
+			bool shadow =
+				x > ox - half - 0.05 && x < ox + half + 0.008 && y > oy - half - 0.025 && y < oy + half + 0.008;
 			double e = std::hypot(ex, ey);
 			if (shadow || e < 0.008 || (near && e > 0.06))
 				continue;
@@ -1121,9 +1123,9 @@ TEST_CASE("the water look shows millimetre waves: a bobbing object's wake varies
 	luma_stats wn = water_luma(wake, ox, oy, true), sn = water_luma(still, ox, oy, true);
 	luma_stats fw = water_luma(wake_flat, ox, oy, false), fs = water_luma(still_flat, ox, oy, false);
 	INFO("water look, whole pool: luma sd " << w.sd << " with waves, " << st.sd << " still (ratio " << w.sd / st.sd
-						 << "); mean gradient " << w.grad << " / " << st.grad);
+						<< "); mean gradient " << w.grad << " / " << st.grad);
 	INFO("water look, within 60 mm of the object: luma sd " << wn.sd << " with its wake, " << sn.sd << " still (ratio "
-								   << wn.sd / sn.sd << ")");
+								<< wn.sd / sn.sd << ")");
 	INFO("flat look, whole pool: luma sd " << fw.sd << " with waves, " << fs.sd << " still");
 	REQUIRE(w.n > 10000);
 	REQUIRE(wn.n > 2000);
