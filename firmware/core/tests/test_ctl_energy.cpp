@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdint>
 #include <deque>
+#include <random>
 #include <vector>
 
 extern "C" {
@@ -330,4 +331,81 @@ TEST_CASE("energy: pressed into the floor's contact on a prescribed path, the ra
 	// inside the same limit, cannot add force fast enough to hold D at zero (docs/energy.md)
 	CHECK(created[0] > 1000);
 	CHECK(created[1] < created[0]);
+}
+
+TEST_CASE("passivity: the controller's force is -D / (v^2 dt) v along the force law's axis, to 15 significant "
+	  "bits, asked for on the tick after D went below zero",
+	  "[energy][passivity]")
+{
+	// the device goes down through the water reporting its velocity upward: the damper then pushes
+	// along the motion, D falls below zero and the controller acts on every tick after
+	swell_ctl_config cfg = pool();
+	cfg.passivity = 1;
+	Ctl c(cfg);
+	int32_t x[3] = {0, 0, 10000}, v[3] = {0, 0, 0};
+	for (int n = 0; n < 20; n++) {
+		c.sample(x, v);
+		c.tick();
+	}
+	REQUIRE(c.c.state == SWELL_CTL_RUNNING);
+	int checked = 0;
+	for (int n = 0; n < 2500 && x[2] > -30000; n++) {
+		x[2] -= 20;
+		v[2] = 50000; // wrong sign: 50 mm/s up while it goes down at 50 mm/s
+		c.sample(x, v);
+		const int64_t d = c.c.energy.balance_pJ; // D after the last tick: what this tick's force part sees
+		swell_ctl_tick_force(&c.c);
+		const int32_t pc = c.c.energy.pc_uN[2];
+		if (d < 0 && pc != 0 && std::llabs(pc) < (int64_t)cfg.safety.f_max_uN) {
+			const double want =
+				(double)d * cfg.tick_hz / ((double)v[2] * v[2]) * v[2]; // -alpha v, alpha = -D/(v^2 dt)
+			INFO("tick " << n << ": D " << d << " pJ, controller " << pc << " uN, want " << want);
+			CHECK(std::fabs(pc - want) <= std::fabs(want) * std::ldexp(1.0, -14) + 1.0);
+			checked++;
+		}
+		if (d >= 0)
+			CHECK(pc == 0);
+		swell_ctl_tick_background(&c.c);
+		swell_msg out[SWELL_CTL_QUEUE];
+		swell_ctl_tx(&c.c, SWELL_LINK_DEVICE, out, SWELL_CTL_QUEUE);
+		swell_ctl_tx(&c.c, SWELL_LINK_HOST, out, SWELL_CTL_QUEUE);
+	}
+	INFO("ticks with the controller's force below the limit, checked: " << checked);
+	CHECK(checked >= 10);
+	CHECK(c.energy().controller_ticks > 100);
+}
+
+TEST_CASE("passivity: on random device traffic every FORCE_CMD stays within force.max and moves by at most "
+	  "force.rate a tick, with the controller acting",
+	  "[energy][passivity][safety]")
+{
+	std::mt19937 rng(7);
+	for (int run = 0; run < 4; run++) {
+		swell_ctl_config cfg = pool();
+		cfg.passivity = 1;
+		cfg.safety.f_max_uN = run % 2 ? 2000000u : 10000000u;
+		cfg.safety.rate_uN_per_s = run < 2 ? 500000000u : 50000000u;
+		Ctl c(cfg);
+		const int32_t step = (int32_t)(cfg.safety.rate_uN_per_s / cfg.tick_hz), lim = (int32_t)cfg.safety.f_max_uN;
+		int32_t x[3] = {0, 0, 5000}, v[3] = {0, 0, 0}, f_last = 0;
+		std::uniform_int_distribution<int32_t> dz(-60, 40), dxy(-50, 50), gain(-3, 1);
+		int violations = 0;
+		for (int n = 0; n < 20000; n++) {
+			const int32_t step_z = dz(rng);
+			x[0] += dxy(rng);
+			x[1] += dxy(rng);
+			x[2] = std::clamp(x[2] + step_z, -80000, 40000);
+			// mostly against the motion: the damper pushes along it and the account sees energy created
+			v[2] = step_z * 2500 * gain(rng);
+			c.sample(x, v);
+			const swell_msg_force_cmd f = c.tick();
+			const int32_t uN = f.fz_cN * 10000;
+			violations += std::abs(uN) > lim || (n > 20 && std::abs(uN - f_last) > step + 5000);
+			f_last = uN;
+		}
+		const swell_energy_account e = c.energy();
+		INFO("run " << run << ": the controller acted on " << e.controller_ticks << " ticks");
+		CHECK(e.controller_ticks > 100);
+		CHECK(violations == 0);
+	}
 }
