@@ -75,6 +75,13 @@ TEST_CASE("loop: a stiff point with 4 ticks of delay and no passivity controller
 	CHECK(r.e_created_max_J > 10 * e0);
 	CHECK(r.ctl_created_J > 10 * e0);
 	CHECK(r.ctl_damped_J == 0); /* no controller, nothing it took out */
+	CHECK(r.ctl_passivity == 0);
+
+	/* with it (force.passivity 1 through the host link), the controller takes energy out */
+	p.passivity = 1;
+	loop_run(&p, &r);
+	CHECK(r.ctl_passivity == 1);
+	CHECK(r.ctl_damped_J > 0);
 }
 
 TEST_CASE("loop: effect mode refuses a spring stiffer than EFFECT_SPRING carries instead of rendering a softer one",
