@@ -16,7 +16,6 @@
 #include "bench_loop.h"
 #include "loop.h"
 #include "swell/cli.h"
-#include "swell/param.h"
 
 #define LIST SWELL_CLI_LIST_MAX
 #define THEORY_K_HI 1e5 /* N/m: the theory's search ends here */
