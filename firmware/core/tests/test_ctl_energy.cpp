@@ -261,7 +261,7 @@ TEST_CASE("energy: the reference drop in lockstep with the HapticMaster model cr
 }
 
 TEST_CASE("energy: a stiff buoyancy spring behind 10 ms of link delay bounces and the account shows energy "
-	  "created; the controller's force stays within the safety limits",
+	  "created, and the controller's force stays within the safety limits",
 	  "[energy][loop][passivity]")
 {
 	// a 300 x 300 mm box (buoyancy k = rho g a b = 883 N/m) without its damper, dropped onto the
@@ -289,7 +289,7 @@ TEST_CASE("energy: a stiff buoyancy spring behind 10 ms of link delay bounces an
 }
 
 TEST_CASE("energy: pressed into the floor's contact on a prescribed path, the rate-limited stiff contact "
-	  "creates energy; the controller takes some out and its force stays within the safety limits",
+	  "creates energy, and the controller takes some out within the safety limits",
 	  "[energy][passivity]")
 {
 	int64_t created[2] = {0, 0};
