@@ -8,9 +8,10 @@
  *            is exact for a piecewise constant force.
  *   m g z    exact in pJ (gravity in uN x pool z in um).
  *   springs  1/2 k s^2: k s to uN 2^-4 (floor), its product with s to pJ rounded to nearest: below
- *            one pJ plus s x 2^-4 uN (< 0.05 uJ at 500 mm); the linear part beyond full submersion
- *            k H (uN, nearest) x (s - H) (um, nearest).
- *   floor    1/2 k_c p^2 with p in um (nearest), linear beyond the contact's force limit.
+ *            one pJ plus s x 2^-4 uN (< 0.05 uJ at 500 mm); the linear part beyond the stretch
+ *            where the force stops growing (full submersion, or force.max) k s_sat (uN, nearest)
+ *            x (s - s_sat) (um, nearest).
+ *   floor    the same with the contact's stiffness, up to its own limit or force.max.
  *   water    the solver's invariant scaled to pJ, rounded to nearest (swell_ctl_water_pJ).
  *   uJ       the figures are the pJ sums / 10^6, rounded to nearest (ties away from zero). */
 #include <stddef.h>
