@@ -189,8 +189,9 @@ enum swell_err swell_ctl_init_apart(struct swell_ctl *c, const struct swell_ctl_
  *      force commanded after the safety stage on the previous tick (the force held while the device
  *      moved), dx the device's differenced position (DEVICE_POS), both on the device's axes;
  *   S  what the environment stores more than at the run's start: the object's weight m g z, the
- *      buoyancy springs as rendered (1/2 k s^2 up to full submersion, linear beyond), the floor's
- *      contact spring, and the water's energy (the solver's invariant, on ports that keep it);
+ *      buoyancy springs as rendered (1/2 k s^2 up to full submersion or force.max, linear beyond),
+ *      the floor's contact spring (the same), and the water's energy (the solver's invariant, on
+ *      ports that keep it);
  *   D  = W - S: what the environment dissipated; below zero it created energy;
  *   created = max(0, -min D) over the run; damped: what the passivity controller (force.passivity)
  *   took out. All in microjoules, rounded to nearest from the core's picojoule sums. */
@@ -199,7 +200,8 @@ struct swell_energy_account {
 	int64_t stored_uJ; /* S(n) - S(0) */
 	int64_t balance_uJ; /* D = W - (S(n) - S(0)) */
 	int64_t created_uJ; /* max(0, -min D), never negative */
-	int64_t damped_uJ; /* dissipated by the passivity controller, never negative */
+	int64_t damped_uJ; /* the passivity controller's force times the motion (below 0 only where the
+			    * reported velocity disagrees with the motion) */
 	int64_t water_uJ; /* the water's part of S(n) - S(0) */
 	uint32_t ticks; /* ticks counted in this run */
 	uint32_t controller_ticks; /* ticks on which the passivity controller added damping */
