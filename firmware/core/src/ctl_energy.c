@@ -173,7 +173,10 @@ void ctl_energy_force(struct swell_ctl *c, int running, int32_t f_dev_uN[3])
 		e->fresh = 1;
 		return;
 	}
-	if (!c->cfg.passivity || e->balance_pJ >= 0 || (v > -PC_V_MIN_UM_S && v < PC_V_MIN_UM_S))
+	/* stream mode only: in effect mode the device renders the effect set itself, and a force added
+	 * here would reach the safety stage's watch, not the device */
+	if (!c->cfg.passivity || c->cfg.force_mode != SWELL_FORCE_STREAM || e->balance_pJ >= 0 ||
+	    (v > -PC_V_MIN_UM_S && v < PC_V_MIN_UM_S))
 		return;
 	/* the controller: alpha = -D / (v^2 dt), the force -alpha v, before the safety stage (whose
 	 * limits hold); what it takes out shows in W. Only along the axis the force law drives: the

@@ -441,3 +441,31 @@ TEST_CASE("passivity: on random device traffic every FORCE_CMD stays within forc
 		CHECK(violations == 0);
 	}
 }
+
+TEST_CASE("passivity: in effect mode the controller stays out (the device renders the effect set itself) while "
+	  "the account goes on",
+	  "[energy][passivity][effect]")
+{
+	// the same wrong-signed velocity that makes the controller act on every tick in stream mode
+	swell_ctl_config cfg = pool();
+	cfg.passivity = 1;
+	cfg.force_mode = SWELL_FORCE_EFFECT;
+	Ctl c(cfg);
+	int32_t x[3] = {0, 0, 10000}, v[3] = {0, 0, 0};
+	for (int n = 0; n < 20; n++) {
+		c.sample(x, v);
+		c.tick();
+	}
+	REQUIRE(c.c.state == SWELL_CTL_RUNNING);
+	for (int n = 0; n < 2000 && x[2] > -30000; n++) {
+		x[2] -= 20;
+		v[2] = 50000;
+		c.sample(x, v);
+		c.tick();
+		CHECK(c.c.energy.pc_uN[2] == 0);
+	}
+	const swell_energy_account e = c.energy();
+	CHECK(e.controller_ticks == 0);
+	CHECK(e.ticks > 1500);
+	CHECK(e.created_uJ > 0); // the damper pushed along the motion: the account saw it
+}

@@ -169,7 +169,7 @@ PARAMS = (
     (23, "force.mode", 0, 1, 0, "1", "", False, "idle",
      "0 stream (FORCE_CMD every tick), 1 effect (springs, damper and gravity as device effects, every update)"),
     (24, "force.passivity", 0, 1, 0, "1", "", False, "any",
-     "1: the time-domain passivity controller adds damping while the energy account shows energy created (docs/energy.md), inside force.max and force.rate; 0: the account only observes"),
+     "1: the time-domain passivity controller adds damping while the energy account shows energy created (docs/energy.md), inside force.max and force.rate, in stream mode; 0: the account only observes"),
     (30, "link.silent_ticks", 1, 10000, 2, "1", "ticks", False, "any",
      "device silent this many ticks (effect mode: at least two update periods): zero force and FAULT"),
     (31, "ctl.autorun", 0, 1, 0, "1", "", False, "any",
