@@ -266,6 +266,7 @@ void parse(int argc, char **argv, struct opts *o)
 	check_links(o);
 	/* the HapticMaster's TCP link sends its request when the tick's FORCE_CMD comes: one every tick */
 	o->cfg.cmd_every_tick = !strncmp(o->device, "hm:", 3);
+	o->cfg.energy_water = 1; /* the energy account keeps the water's share here (docs/energy.md) */
 	o->cfg.recover_ticks = (uint16_t)(o->cfg.tick_hz / 10 > 0 ? o->cfg.tick_hz / 10 : 1);
 	if (o->scene_path)
 		scene_e(o);

@@ -112,4 +112,16 @@ void report(const struct opts *o, const struct port *p, const struct jitter *jit
 	       "(row segments clamped)\n",
 	       peak_h / (double)SWELL_H_ONE_MM, p->c.wave.saturations);
 	printf("  final force     %+.3f N (zero sent on exit)\n", p->c.force_dev_uN[2] / 1e6);
+	{
+		struct swell_energy_account e;
+
+		(void)swell_ctl_energy(&p->c, &e);
+		/* docs/energy.md: the last run's account at the controller's port */
+		printf("  energy          created %.3f mJ; W %.3f mJ, S - S(0) %.3f mJ (water %.3f mJ), D %.3f mJ "
+		       "over %u ticks of the last run\n",
+		       e.created_uJ / 1e3, e.work_uJ / 1e3, e.stored_uJ / 1e3, e.water_uJ / 1e3, e.balance_uJ / 1e3,
+		       e.ticks);
+		printf("  passivity       %s: damping on %u ticks, %.3f mJ taken out\n",
+		       p->c.cfg.passivity ? "on" : "off (observing only)", e.controller_ticks, e.damped_uJ / 1e3);
+	}
 }

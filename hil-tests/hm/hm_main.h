@@ -56,6 +56,10 @@ struct run {
 	int held_late; /* the hand held the handle in the last second: no free float to compare */
 	uint32_t hist[HIST_US + 1];
 	int64_t late_max_ns;
+	/* the energy at the device's port (docs/energy.md): W the work of the hand on what the device
+	 * renders, -F_cmd . dx with the force it applied over the tick; D = W less the object's static
+	 * energy gained since the start (its weight, the buoyancy with the water at rest, the floor) */
+	double w_port_J, s0_J, d_port_J, d_min_J;
 };
 
 /* hm_args.c: the options from the command line; exits 2 with one line on stderr when they are bad. */
@@ -69,6 +73,9 @@ int64_t now_ns(void);
 void print_lateness(const struct run *r); /* the summary's "tick lateness" line */
 void sleep_deadline(struct run *r, int64_t *next, int64_t period_ns);
 void account(struct run *r, const struct opts *o, const struct hm_state *s, double t, int holding);
+/* The object's static energy at reference-frame z (m, its bottom), J (docs/energy.md). */
+double static_energy_J(const struct opts *o, double z_m);
+void print_energy(const struct run *r); /* the summary's "energy" line */
 /* The frame: a position from the reference frame to the device's (metres), and back; the hand's
  * force for the device (reference-frame hand, forces mapped unscaled as the controller maps its own). */
 void frame_to_dev(const struct opts *o, const double ref_m[3], double dev_m[3]);

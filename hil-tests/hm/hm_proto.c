@@ -446,10 +446,11 @@ int proto_main(struct opts *o, FILE *log, const double x0[3])
 		account(&r, o, &s, t, holding);
 		if (log)
 			fprintf(log,
-				"%.4f,%.3f,%.3f,%.3f,%.2f,%.2f,%.2f,%.2f,%.2f,%.2f,%.3f,%.3f,%.3f,%d,%u,%d,%d,%d\n", t,
-				x[0] * 1e3, x[1] * 1e3, x[2] * 1e3, v[0] * 1e3, v[1] * 1e3, v[2] * 1e3, s.f_cmd_N[0],
+				"%.4f,%.3f,%.3f,%.3f,%.2f,%.2f,%.2f,%.2f,%.2f,%.2f,%.3f,%.3f,%.3f,%d,%u,%d,%d,%d,%."
+				"4f\n",
+				t, x[0] * 1e3, x[1] * 1e3, x[2] * 1e3, v[0] * 1e3, v[1] * 1e3, v[2] * 1e3, s.f_cmd_N[0],
 				s.f_cmd_N[1], s.f_cmd_N[2], f_hand[0], f_hand[1], f_hand[2], s.cmd_enable, age,
-				s.applying, d.ctl_state, holding);
+				s.applying, d.ctl_state, holding, r.d_port_J * 1e3);
 		if (!o->quiet && now_ns() - last_status > 1000000000) {
 			last_status = now_ns();
 			fprintf(stderr, "\rswell-hm: t %.1f s, z %+.2f mm, F_cmd %+.3f N, ctl %d   ", t, s.x[2] * 1e3,

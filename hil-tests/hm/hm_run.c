@@ -10,6 +10,7 @@
 #include "hm_client.h"
 #include "hm_main.h"
 
+#include "swell/body.h"
 #include "swell/link.h"
 #include "swell/param_table.h"
 
@@ -97,18 +98,65 @@ void sleep_deadline(struct run *r, int64_t *next, int64_t period_ns)
 	}
 }
 
+/* The object's static energy at reference-frame z (its bottom, m): its weight m g z, the buoyancy
+ * k s (k = rho g a b) whose submersion s is measured from the pool's mean level, which the displaced
+ * water raises by a b s / A_pool (so s = -z / (1 - r), r = a b / A_pool, up to full submersion H, where
+ * the force stays k H), and the floor's contact spring below -depth (the controller's constants). */
+double static_energy_J(const struct opts *o, double z_m)
+{
+	const double g = 9.81, m = o->obj_mass_g * 1e-3, a = o->obj_a_mm * 1e-3, b = o->obj_b_mm * 1e-3;
+	const double h = o->obj_h_mm * 1e-3, depth = o->depth_mm * 1e-3;
+	const double k = RHO_KG_M3 * g * a * b, r = a * b / (o->pool_mm[0] * o->pool_mm[1] * 1e-6);
+	const double kc = SWELL_BODY_FLOOR_K * 1e-3, fc_max = SWELL_BODY_FLOOR_F_MAX_UN * 1e-6, pc = fc_max / kc;
+	double e = m * g * z_m, s = -z_m / (1.0 - r), p;
+
+	if (s > h)
+		e += (1.0 - r) * 0.5 * k * h * h + k * h * (-z_m - h * (1.0 - r));
+	else if (s > 0)
+		e += (1.0 - r) * 0.5 * k * s * s;
+	p = -depth - z_m;
+	if (p > pc)
+		e += 0.5 * kc * pc * pc + fc_max * (p - pc);
+	else if (p > 0)
+		e += 0.5 * kc * p * p;
+	return e;
+}
+
+void print_energy(const struct run *r)
+{
+	printf("  energy          created %.3f mJ at the device's port; W %.3f mJ, D %.3f mJ at the end (the force "
+	       "applied times the device's own motion, against the object's static energy)\n",
+	       r->d_min_J < 0 ? -r->d_min_J * 1e3 : 0.0, r->w_port_J * 1e3, r->d_port_J * 1e3);
+}
+
 /* After a tick: the figures of the summary (z in the reference frame, over the last second). */
 void account(struct run *r, const struct opts *o, const struct hm_state *s, double t, int holding)
 {
 	double fc = sqrt(s->f_cmd_N[0] * s->f_cmd_N[0] + s->f_cmd_N[1] * s->f_cmd_N[1] + s->f_cmd_N[2] * s->f_cmd_N[2]);
 	double ref[3], z;
+	int k;
 
+	/* the hand's work on what the device renders: the force applied over the tick times the way
+	 * the device went (semi-implicit Euler: dx = v(n+1) dt) */
+	for (k = 0; k < 3; k++)
+		r->w_port_J -= s->f_cmd_N[k] * s->v[k] / o->p.rate_hz;
+	frame_from_dev(o, s->x, ref);
+	if (r->ticks == 0) {
+		double x0[3];
+
+		for (k = 0; k < 3; k++)
+			x0[k] = s->x[k] - s->v[k] / o->p.rate_hz;
+		frame_from_dev(o, x0, ref);
+		r->s0_J = static_energy_J(o, ref[2]);
+		frame_from_dev(o, s->x, ref);
+	}
+	r->d_port_J = r->w_port_J - (static_energy_J(o, ref[2]) - r->s0_J);
+	r->d_min_J = r->d_port_J < r->d_min_J ? r->d_port_J : r->d_min_J;
 	r->ticks++;
 	r->zeroed_ticks += !s->applying && s->cmd_enable;
 	r->peak_f_N = fc > r->peak_f_N ? fc : r->peak_f_N;
 	if (t < (o->seconds > 1.0 ? o->seconds - 1.0 : 0.0))
 		return;
-	frame_from_dev(o, s->x, ref);
 	z = ref[2] * 1e3;
 	r->z_min = r->z_n == 0 || z < r->z_min ? z : r->z_min;
 	r->z_max = r->z_n == 0 || z > r->z_max ? z : r->z_max;
@@ -157,6 +205,7 @@ void summary_head(const struct opts *o, const struct hm_state *s, const struct r
 			       z_rest + z_level, z_level, (zm - z_rest - z_level) / -(z_rest + z_level) * 100.0);
 		}
 	}
+	print_energy(r);
 }
 
 /* the reference frame's origin in the pool: the controller's default offset */

@@ -47,8 +47,8 @@ int main(int argc, char **argv)
 		/* --serve: the effects' force; the ticks since a request was last run, the number of
 		 * clients and the device state (0 off, 1 init, 2 home, 3 force, 4 position, 5 stop) instead
 		 * of the swell protocol's command columns */
-		fputs(o.serve ? "req_age,clients,applied,dev_state,holding\n"
-			      : "enable,cmd_age,applied,ctl_state,holding\n",
+		fputs(o.serve ? "req_age,clients,applied,dev_state,holding,d_port_mJ\n"
+			      : "enable,cmd_age,applied,ctl_state,holding,d_port_mJ\n",
 		      log);
 	}
 	setup_signals();

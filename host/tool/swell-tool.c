@@ -42,7 +42,8 @@ static const char usage[] =
 	"  estop                    software stop: autorun off and STOP at once (zero force within a\n"
 	"                           tick); not the device's own e-stop\n"
 	"  watch [--seconds S]      a live line at 10 Hz: state, object z and submersion, force,\n"
-	"                           largest wave, link load (until SIGINT, or S seconds)\n"
+	"                           largest wave, energy created in the run (+ while the passivity\n"
+	"                           controller acts), link load (until SIGINT, or S seconds)\n"
 	"  log FILE.csv [--seconds S]  S seconds (default 10) of telemetry at 100 Hz to a CSV file,\n"
 	"                           with a progress line\n"
 	"  scene load FILE.scene    a scene file as one change: another pool first (outside RUNNING, the\n"
@@ -434,7 +435,14 @@ static int cmd_status(struct tool_session *s, const struct opts *o)
 			       t->pose.x_10um / 100.0, t->pose.y_10um / 100.0, t->pose.z_10um / 100.0,
 			       t->pose.submersion_halfpct / 2.0, t->force.fx_cN / 100.0, t->force.fy_cN / 100.0,
 			       t->force.fz_cN / 100.0, t->force.limits);
-		printf("}\n}\n");
+		printf("},\n");
+		if (t->have_energy)
+			printf("  \"energy\": {\"created_mJ\": %.3f, \"balance_mJ\": %.2f, \"passivity\": %u, "
+			       "\"acting\": %u}\n}\n",
+			       t->energy.created_uJ / 1000.0, t->energy.balance_10uJ / 100.0, t->energy.passivity,
+			       t->energy.acting);
+		else
+			printf("  \"energy\": null\n}\n");
 		return TOOL_OK;
 	}
 	printf("controller   node %d on %s, state %s, last error: %s\n", s->node, s->name,
@@ -465,6 +473,11 @@ static int cmd_status(struct tool_session *s, const struct opts *o)
 		printf("force        %.2f %.2f %.2f N%s%s\n", t->force.fx_cN / 100.0, t->force.fy_cN / 100.0,
 		       t->force.fz_cN / 100.0, t->force.limits & 1u ? ", clamped to the limit" : "",
 		       t->force.limits & 2u ? ", rate limited" : "");
+	if (t->have_energy)
+		printf("energy       created %.3f mJ, D %.2f mJ in the run (docs/energy.md); passivity controller "
+		       "%s%s\n",
+		       t->energy.created_uJ / 1000.0, t->energy.balance_10uJ / 100.0,
+		       t->energy.passivity ? "on" : "off", t->energy.acting ? ", acting" : "");
 	return TOOL_OK;
 }
 
@@ -505,10 +518,12 @@ static int cmd_watch(struct tool_session *s, const struct opts *o)
 			return TOOL_TIMEOUT;
 		}
 		load_line(s, &l, lb, sizeof(lb));
-		printf("%s%7.1f s  %-7s  z %7.2f mm  sub %5.1f %%  F %6.2f %6.2f %6.2f N  wave %5.2f mm  %s%s",
+		printf("%s%7.1f s  %-7s  z %7.2f mm  sub %5.1f %%  F %6.2f %6.2f %6.2f N  wave %5.2f mm  "
+		       "created %7.3f mJ%s  %s%s",
 		       tty ? "\r" : "", tool_elapsed_s(s), swell_state_name(s->t.hb.state), s->t.pose.z_10um / 100.0,
 		       s->t.pose.submersion_halfpct / 2.0, s->t.force.fx_cN / 100.0, s->t.force.fy_cN / 100.0,
-		       s->t.force.fz_cN / 100.0, tool_wave_max_mm(s), lb, tty ? "   " : "\n");
+		       s->t.force.fz_cN / 100.0, tool_wave_max_mm(s), s->t.energy.created_uJ / 1000.0,
+		       s->t.energy.acting ? "+" : " ", lb, tty ? "   " : "\n");
 		fflush(stdout);
 	}
 	if (tty)

@@ -73,6 +73,10 @@ static void take(struct tool_session *s, const struct swell_msg *m, uint64_t now
 		t->have_force = 1;
 		t->force_ns = now;
 		break;
+	case SWELL_MSG_ENERGY:
+		t->energy = m->u.energy;
+		t->have_energy = 1;
+		break;
 	case SWELL_MSG_HEIGHT_QUAD:
 		take_quad(t, &m->u.height_quad);
 		break;

@@ -30,12 +30,13 @@ enum tool_rc {
 #define TOOL_SILENT_MS 600 /* at least: heartbeats come at 10 Hz, six missed and the controller is gone */
 
 struct tool_telemetry {
-	int have_hb, have_scene, have_info, have_pose, have_force;
+	int have_hb, have_scene, have_info, have_pose, have_force, have_energy;
 	struct swell_msg_heartbeat hb;
 	struct swell_msg_scene scene;
 	struct swell_msg_ctl_info info;
 	struct swell_msg_object_pose pose;
 	struct swell_msg_object_force force;
+	struct swell_msg_energy energy; /* the energy account of the run (docs/energy.md), 10 Hz */
 	uint64_t hb_ns, pose_ns, force_ns; /* when each last came (CLOCK_MONOTONIC) */
 	uint64_t frames, bytes, msgs; /* received from our node since the session opened */
 	uint64_t can_bits; /* CAN: bits on the wire (worst-case stuffing) of those frames */

@@ -16,6 +16,7 @@
 static const uint8_t col_fz[3] = { 90, 200, 255 }, col_fabs[3] = { 255, 170, 60 }, col_limit[3] = { 255, 70, 70 };
 static const uint8_t col_bottom[3] = { 255, 150, 30 }, col_water[3] = { 80, 150, 255 };
 static const uint8_t col_subm[3] = { 110, 220, 130 }, col_rate[3] = { 220, 220, 230 }, col_lat[3] = { 240, 210, 80 };
+static const uint8_t col_created[3] = { 255, 90, 200 }, col_balance[3] = { 120, 230, 230 };
 static const uint8_t col_text[3] = { 200, 210, 220 }, col_grid[3] = { 70, 78, 88 }, col_axis[3] = { 120, 128, 140 };
 
 bool charts_init(struct charts *c, float force_limit_N)
@@ -49,7 +50,8 @@ bool charts_csv_open(struct charts *c, const char *path, char *err, size_t errle
 		return false;
 	}
 	/* one row a received sample; a column is empty when the row's message does not carry it */
-	fputs("t_s,pose_seq,bottom_mm,water_mm,submersion_pct,fz_N,f_abs_N,limited,frame_hz,latency_ms,lost_poses\n",
+	fputs("t_s,pose_seq,bottom_mm,water_mm,submersion_pct,fz_N,f_abs_N,limited,frame_hz,latency_ms,lost_poses,"
+	      "created_mJ,balance_mJ\n",
 	      c->csv);
 	return true;
 }
@@ -102,7 +104,7 @@ void charts_pose(struct charts *c, uint64_t t_us, uint8_t seq, float bottom_mm, 
 	push(c, CHART_BOTTOM, t_us, bottom_mm, gap);
 	push(c, CHART_WATER, t_us, water_mm, gap);
 	push(c, CHART_SUBMERSION, t_us, submersion_pct, gap);
-	csv_row(c, "%.6f,%u,%.2f,%.3f,%.1f,,,,,,%u\n", (double)t_us * 1e-6, seq, (double)bottom_mm, (double)water_mm,
+	csv_row(c, "%.6f,%u,%.2f,%.3f,%.1f,,,,,,%u,,\n", (double)t_us * 1e-6, seq, (double)bottom_mm, (double)water_mm,
 		(double)submersion_pct, c->lost_poses);
 }
 
@@ -112,7 +114,7 @@ void charts_force(struct charts *c, uint64_t t_us, uint8_t seq, float fx_N, floa
 	float fabs_N = sqrtf(fx_N * fx_N + fy_N * fy_N + fz_N * fz_N);
 	push(c, CHART_FZ, t_us, fz_N, gap);
 	push(c, CHART_FABS, t_us, fabs_N, gap);
-	csv_row(c, "%.6f,%u,,,,%.2f,%.3f,%u,,,\n", (double)t_us * 1e-6, seq, (double)fz_N, (double)fabs_N, limited);
+	csv_row(c, "%.6f,%u,,,,%.2f,%.3f,%u,,,,,\n", (double)t_us * 1e-6, seq, (double)fz_N, (double)fabs_N, limited);
 }
 
 void charts_latency(struct charts *c, uint64_t t_us, float ms)
@@ -120,7 +122,18 @@ void charts_latency(struct charts *c, uint64_t t_us, float ms)
 	const struct chart_ring *r = &c->ring[CHART_LATENCY];
 	bool gap = r->n == 0 || t_us - r->s[(r->head + CHART_CAP - 1u) % CHART_CAP].t_us > CHART_GAP_US;
 	push(c, CHART_LATENCY, t_us, ms, gap);
-	csv_row(c, "%.6f,,,,,,,,,%.2f,\n", (double)t_us * 1e-6, (double)ms);
+	csv_row(c, "%.6f,,,,,,,,,%.2f,,,\n", (double)t_us * 1e-6, (double)ms);
+}
+
+void charts_energy(struct charts *c, uint64_t t_us, float created_mJ, float balance_mJ, unsigned acting)
+{
+	const struct chart_ring *r = &c->ring[CHART_CREATED];
+	/* 10 Hz: joined unless silence came between */
+	bool gap = r->n == 0 || t_us - r->s[(r->head + CHART_CAP - 1u) % CHART_CAP].t_us > CHART_GAP_US;
+	(void)acting;
+	push(c, CHART_CREATED, t_us, created_mJ, gap);
+	push(c, CHART_BALANCE, t_us, balance_mJ, gap);
+	csv_row(c, "%.6f,,,,,,,,,,,%.3f,%.2f\n", (double)t_us * 1e-6, (double)created_mJ, (double)balance_mJ);
 }
 
 void charts_tick(struct charts *c, uint64_t now_us, uint32_t frames_total)
@@ -136,7 +149,7 @@ void charts_tick(struct charts *c, uint64_t now_us, uint32_t frames_total)
 	float hz = (float)(frames_total - c->rate_frames) * 1e6f / (float)(now_us - c->rate_t_us);
 	/* a rate is a count over a bin, joined to the bin before it unless the display stalled */
 	push(c, CHART_RATE, now_us, hz, now_us - c->rate_t_us > 2 * CHART_RATE_BIN_US);
-	csv_row(c, "%.6f,,,,,,,,%.1f,,\n", (double)now_us * 1e-6, (double)hz);
+	csv_row(c, "%.6f,,,,,,,,%.1f,,,,\n", (double)now_us * 1e-6, (double)hz);
 	c->rate_t_us = now_us;
 	c->rate_frames = frames_total;
 }
@@ -231,6 +244,17 @@ void charts_range(const struct charts *c, int chart, uint64_t now_us, float *lo,
 		*hi = 100;
 		*step = 25;
 		return;
+	case 5: { /* energy: from 0 (or the least D below it) to the peak plus 10 %, at least 1 mJ */
+		bool any = extent(c, CHART_CREATED, now_us, &mn, &mx);
+		if (extent(c, CHART_BALANCE, now_us, &a, &b)) {
+			mn = any ? fminf(mn, a) : a;
+			mx = any ? fmaxf(mx, b) : b;
+		}
+		*hi = charts_nice(fmaxf(1.1f * fmaxf(mx, -mn), 1.0f));
+		*lo = mn < 0 ? -*hi : 0;
+		*step = *hi / 2;
+		return;
+	}
 	default: { /* rate, latency: from 0 to the peak plus 15 %, at least 10 */
 		float peak = 0;
 		if (extent(c, chart == 3 ? CHART_RATE : CHART_LATENCY, now_us, &a, &b))
@@ -319,6 +343,7 @@ void charts_draw(const struct charts *c, struct canvas *cv, uint64_t now_us)
 		{ "SUBMERGED %", { CHART_SUBMERSION }, { NULL }, { col_subm } },
 		{ "FRAMES /S", { CHART_RATE }, { NULL }, { col_rate } },
 		{ "LATENCY MS", { CHART_LATENCY }, { NULL }, { col_lat } },
+		{ "ENERGY MJ", { CHART_BALANCE, CHART_CREATED }, { "D", "CREATED" }, { col_balance, col_created } },
 	};
 	int cw = canvas_char_w(cv), lh = canvas_line_h(cv);
 

@@ -1,7 +1,8 @@
 /* Live strip charts of what swell-view receives: the last 10 s of the commanded force (z and |F|,
  * with the controller's force limit), the object's bottom against the water surface under it, the
- * submersion, and the link's frame rate and latency. Every sample comes from a received frame
- * (OBJECT_POSE, OBJECT_FORCE, HEARTBEAT) at its receive time; a lost pose or force (a jump in its
+ * submersion, the link's frame rate and latency, and the controller's energy account (energy created
+ * and the balance D, docs/energy.md). Every sample comes from a received frame (OBJECT_POSE,
+ * OBJECT_FORCE, HEARTBEAT, ENERGY) at its receive time; a lost pose or force (a jump in its
  * sequence number) or silence longer than CHART_GAP_US leaves a gap in the line, never an invented
  * value. The same samples can go to a CSV file as they arrive.
  *
@@ -31,6 +32,8 @@ enum chart_series {
 	CHART_SUBMERSION, /* %, as the controller reports it */
 	CHART_RATE, /* frames/s received (good frames) */
 	CHART_LATENCY, /* ms over the best path (vm_clock) */
+	CHART_CREATED, /* mJ, energy created in the controller's run (ENERGY) */
+	CHART_BALANCE, /* mJ, the run's balance D (ENERGY) */
 	CHART_SERIES
 };
 
@@ -72,6 +75,9 @@ void charts_pose(struct charts *c, uint64_t t_us, uint8_t seq, float bottom_mm, 
 void charts_force(struct charts *c, uint64_t t_us, uint8_t seq, float fx_N, float fy_N, float fz_N, unsigned limited);
 /* A latency estimate, at a heartbeat. */
 void charts_latency(struct charts *c, uint64_t t_us, float ms);
+/* A received ENERGY: energy created and the balance D of the controller's run, mJ; acting: the
+ * passivity controller acted since the last one. */
+void charts_energy(struct charts *c, uint64_t t_us, float created_mJ, float balance_mJ, unsigned acting);
 /* Advance time with the count of good frames received so far: adds a frame-rate sample every
  * CHART_RATE_BIN_US. */
 void charts_tick(struct charts *c, uint64_t now_us, uint32_t frames_total);
@@ -86,10 +92,10 @@ float charts_water_under(const struct view_model *m, int32_t x_um, int32_t y_um,
  * and the grid step. */
 void charts_range(const struct charts *c, int chart, uint64_t now_us, float *lo, float *hi, float *step);
 
-/* Draw the five charts onto the whole canvas for the window ending at now_us. */
+/* Draw the six charts onto the whole canvas for the window ending at now_us. */
 void charts_draw(const struct charts *c, struct canvas *cv, uint64_t now_us);
 /* The canvas size charts_draw is laid out for at `scale` (and the number of charts). */
-#define CHART_COUNT 5
+#define CHART_COUNT 6
 void charts_size(int scale, int *w, int *h);
 
 /* A "nice" ceiling: the smallest of 1, 2, 2.5, 5 x 10^k not below x (x > 0). */

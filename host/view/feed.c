@@ -172,6 +172,11 @@ static void on_msg(struct view_feed *f, const struct swell_msg *m, uint64_t now_
 				     (float)q->fz_cN * 0.01f, q->limits);
 		break;
 	}
+	case SWELL_MSG_ENERGY:
+		if (f->charts)
+			charts_energy(f->charts, now_us, (float)m->u.energy.created_uJ * 1e-3f,
+				      (float)m->u.energy.balance_10uJ * 1e-2f, m->u.energy.acting);
+		break;
 	default:
 		break; /* device and parameter traffic: not the viewer's business */
 	}

@@ -94,6 +94,14 @@ static void gen_object_at(const struct gen_scene *s, uint64_t t_us, int16_t *z_1
 	*fz_cN = (int16_t)lround(s->fz_cN + s->bob_fz_cN * ph);
 }
 
+void gen_energy_at(const struct gen_scene *s, uint64_t t_us, uint32_t *created_uJ, int32_t *balance_10uJ)
+{
+	double ph = s->bob_period_us ? sin(2 * 3.14159265358979 * (double)(t_us % s->bob_period_us) / s->bob_period_us)
+				     : 0.0;
+	*created_uJ = (uint32_t)(t_us / 2000u); /* 0.5 mJ a second */
+	*balance_10uJ = (int32_t)lround(200.0 * ph); /* +-2 mJ */
+}
+
 void gen_info(struct gen_scene *s)
 {
 	gen_default(s);
@@ -177,6 +185,14 @@ unsigned gen_frame(const struct gen_scene *s, uint64_t t_us, uint8_t frame, bool
 		    &(struct swell_msg){
 			    .type = SWELL_MSG_HEARTBEAT,
 			    .u.heartbeat = { .state = s->state, .version = SWELL_PROTO_VERSION, .seq = hb_seq } });
+	if (heartbeat && s->bob_period_us) { /* the bob's energy account: created grows, D swings */
+		uint32_t created_uJ;
+		int32_t balance_10uJ;
+		gen_energy_at(s, t_us, &created_uJ, &balance_10uJ);
+		put(&p,
+		    &(struct swell_msg){ .type = SWELL_MSG_ENERGY,
+					 .u.energy = { .created_uJ = created_uJ, .balance_10uJ = balance_10uJ } });
+	}
 	if (scene)
 		put(&p,
 		    &(struct swell_msg){ .type = SWELL_MSG_SCENE,

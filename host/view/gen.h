@@ -61,6 +61,10 @@ void gen_info(struct gen_scene *s);
 
 typedef void (*gen_emit_fn)(void *ctx, const uint8_t *pkt, size_t len);
 
+/* The bob pattern's energy account at t_us (one ENERGY a heartbeat): created 0.5 mJ a second, D a
+ * sine of +-2 mJ with the bob's period. */
+void gen_energy_at(const struct gen_scene *s, uint64_t t_us, uint32_t *created_uJ, int32_t *balance_10uJ);
+
 /* The packets of one controller frame at time t_us: heartbeat if `heartbeat`, scene (and CTL_INFO when
  * the scene has info) if `scene`, the height quads of every tile if `tiles`, object pose and force.
  * *seq is the packet sequence number, advanced per packet. Returns the number of packets, or 0 with err set. */

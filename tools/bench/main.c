@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include "bench.h"
+#include "bench_loop.h"
 #include "swell/cli.h"
 
 static int failures;
@@ -98,6 +99,7 @@ void init_or_die(struct bench_field *f, enum bench_impl impl, int nx, double e, 
 /* ---- arguments -------------------------------------------------------------------------- */
 
 static const char usage[] = "usage: swell-bench [--quick | --full] [--out DIR] [options]\n"
+			    "       swell-bench loop [options]   (the coupled loop's stability map, below)\n"
 			    "Benchmarks the wave solver variants: host ns per cell-step against error (CSV + PNG),\n"
 			    "a stability map over (e, t) against the analytic limit e < (1+q)/(4q), and stress runs.\n"
 			    "  --quick            CI preset: 64x64, e in {0.05, 0.2, 0.45}, short runs (default)\n"
@@ -114,7 +116,7 @@ static const char usage[] = "usage: swell-bench [--quick | --full] [--out DIR] [
 			    "  --help             this text\n"
 			    "Files: matrix.csv, error_steps.csv, stability.csv, boundary.csv, stress.csv, plots.gp,\n"
 			    "pareto.png, error_steps.png, stability.png. Exit 1 when a correctness check fails\n"
-			    "(never on time), 2 on bad arguments.\n";
+			    "(never on time), 2 on bad arguments.\n\n";
 
 /* --grids: whole sides 2..1024 */
 static int grids_opt(struct swell_cli *c, const char *opt, const char *v)
@@ -218,6 +220,14 @@ int main(int argc, char **argv)
 	int k, full = 0, replot = 0, preset_given = 0;
 	double t0 = now_s();
 
+	if (argc > 1 && !strcmp(argv[1], "loop"))
+		return bench_loop_main(argc - 1, argv + 1);
+	for (k = 1; k < argc; k++)
+		if (!strcmp(argv[k], "--help") || !strcmp(argv[k], "-h")) {
+			fputs(usage, stdout);
+			fputs(bench_loop_usage(), stdout);
+			return 0;
+		}
 	memset(&o, 0, sizeof(o));
 	o.out = "bench-out";
 	o.plots = 1;

@@ -93,9 +93,10 @@ struct load_row {
 	int minimal; /* 1: FORCE_CMD + DEVICE_POS only; 2: effect mode (an effect set and a sample an update) */
 };
 
-/* Telemetry that is not per tick: heartbeat 10 Hz both ways, scene and controller info 1 Hz each,
+/* Telemetry that is not per tick: heartbeat 10 Hz both ways, ENERGY 10 Hz, scene and controller info 1 Hz each,
  * object pose and force at 100 Hz (viewer rate). */
 #define HB_HZ 20.0
+#define ENERGY_HZ 10.0 /* the energy account, with the controller's heartbeat */
 #define SCENE_HZ 1.0
 #define INFO_HZ 1.0
 #define OBJ_HZ 100.0
@@ -129,9 +130,9 @@ static void bus_load(FILE *o)
 		"update (%.0f Hz, the solver's rate, whatever the haptic rate), EFFECT_SPRING, EFFECT_DAMPER\n"
 		"and EFFECT_LIMIT down and DEVICE_POS and DEVICE_VEL up (the device reports once an update;\n"
 		"no FORCE_CMD while RUNNING). Telemetry on the same bus: HEARTBEAT %.0f/s (both directions),\n"
-		"SCENE %.0f/s, CTL_INFO %.0f/s, OBJECT_POSE and OBJECT_FORCE %.0f/s each. What is left\n"
+		"ENERGY %.0f/s, SCENE %.0f/s, CTL_INFO %.0f/s, OBJECT_POSE and OBJECT_FORCE %.0f/s each. What is left\n"
 		"carries HEIGHT_QUADs; a full refresh of the 64 x 64 reference grid is %u quads.\n\n",
-		UPDATE_HZ, HB_HZ, SCENE_HZ, INFO_HZ, OBJ_HZ, grid_quads);
+		UPDATE_HZ, HB_HZ, ENERGY_HZ, SCENE_HZ, INFO_HZ, OBJ_HZ, grid_quads);
 	fprintf(o,
 		"- Classic CAN: %u bits per 8-byte frame and %u per 7-byte frame, worst-case bit\n"
 		"  stuffing (47 + 8n + floor((33 + 8n) / 4)).\n",
@@ -153,7 +154,7 @@ static void bus_load(FILE *o)
 		USB_PACKETS_PER_MS,
 		SWELL_PKT_OVERHEAD + 3u + msg_len(SWELL_MSG_DEVICE_POS) + msg_len(SWELL_MSG_DEVICE_VEL) +
 			msg_len(SWELL_MSG_DEVICE_FORCE),
-		(unsigned)(HB_HZ + SCENE_HZ + INFO_HZ + OBJ_HZ),
+		(unsigned)(HB_HZ + ENERGY_HZ + SCENE_HZ + INFO_HZ + OBJ_HZ),
 		(SWELL_PKT_MAX - SWELL_PKT_OVERHEAD) / (1u + msg_len(SWELL_MSG_HEIGHT_QUAD)));
 	for (i = 0; i < sizeof(rows) / sizeof(rows[0]); i++) {
 		const struct load_row *r = &rows[i];
@@ -167,7 +168,8 @@ static void bus_load(FILE *o)
 				swell_can_bits(msg_len(SWELL_MSG_DEVICE_POS)) +
 				swell_can_bits(msg_len(SWELL_MSG_DEVICE_VEL));
 
-			busy_s = (update * UPDATE_HZ + swell_can_bits(8) * (HB_HZ + SCENE_HZ + INFO_HZ + 2 * OBJ_HZ)) /
+			busy_s = (update * UPDATE_HZ +
+				  swell_can_bits(8) * (HB_HZ + ENERGY_HZ + SCENE_HZ + INFO_HZ + 2 * OBJ_HZ)) /
 				1e6;
 			quad_s_each = swell_can_bits(msg_len(SWELL_MSG_HEIGHT_QUAD)) / 1e6;
 		} else if (r->carrier[0] == 'c') {
@@ -176,16 +178,19 @@ static void bus_load(FILE *o)
 			if (!r->minimal)
 				tick += swell_can_bits(msg_len(SWELL_MSG_DEVICE_VEL)) +
 					swell_can_bits(msg_len(SWELL_MSG_DEVICE_FORCE));
-			busy_s = (tick * r->rate + swell_can_bits(8) * (HB_HZ + SCENE_HZ + INFO_HZ + 2 * OBJ_HZ)) / 1e6;
+			busy_s = (tick * r->rate +
+				  swell_can_bits(8) * (HB_HZ + ENERGY_HZ + SCENE_HZ + INFO_HZ + 2 * OBJ_HZ)) /
+				1e6;
 			quad_s_each = swell_can_bits(msg_len(SWELL_MSG_HEIGHT_QUAD)) / 1e6;
 		} else if (r->carrier[0] == 'C') {
 			double tick = 2 * canfd_us(8, 1e6, 2e6) + 2 * canfd_us(8, 1e6, 2e6); /* 7 bytes -> 8 */
-			busy_s = (tick * r->rate + canfd_us(8, 1e6, 2e6) * (HB_HZ + SCENE_HZ + INFO_HZ + 2 * OBJ_HZ)) /
+			busy_s = (tick * r->rate +
+				  canfd_us(8, 1e6, 2e6) * (HB_HZ + ENERGY_HZ + SCENE_HZ + INFO_HZ + 2 * OBJ_HZ)) /
 				1e6;
 			quad_s_each = canfd_us(64, 1e6, 2e6) / 8.0 / 1e6;
 		} else {
 			double per_s = USB_PACKETS_PER_MS * 1000.0;
-			busy_s = (2.0 * r->rate + HB_HZ + SCENE_HZ + INFO_HZ + OBJ_HZ) / per_s;
+			busy_s = (2.0 * r->rate + HB_HZ + ENERGY_HZ + SCENE_HZ + INFO_HZ + OBJ_HZ) / per_s;
 			/* whole records per packet */
 			const unsigned quads_per_pkt =
 				(SWELL_PKT_MAX - SWELL_PKT_OVERHEAD) / (1u + msg_len(SWELL_MSG_HEIGHT_QUAD));

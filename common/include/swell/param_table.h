@@ -64,6 +64,9 @@
 	  "haptic gain on the force law's output, Q15.16, 0 to 4")                                                     \
 	P(FORCE_MODE, 23, "force.mode", force_mode, uint8_t, CORE, 0, 1, 0, "1", "", RW, IDLE,                         \
 	  "0 stream (FORCE_CMD every tick), 1 effect (springs, damper and gravity as device effects, every update)")   \
+	P(FORCE_PASSIVITY, 24, "force.passivity", passivity, uint8_t, CORE, 0, 1, 0, "1", "", RW, ANY,                 \
+	  "1: the time-domain passivity controller adds damping while the energy account shows energy created "        \
+	  "(docs/energy.md), inside force.max and force.rate, in stream mode; 0: the account only observes")           \
 	P(SILENT_TICKS, 30, "link.silent_ticks", silent_ticks, uint16_t, CORE, 1, 10000, 2, "1", "ticks", RW, ANY,     \
 	  "device silent this many ticks (effect mode: at least two update periods): zero force and FAULT")            \
 	P(AUTORUN, 31, "ctl.autorun", autorun, uint8_t, CORE, 0, 1, 0, "1", "", RW, ANY,                               \

@@ -86,6 +86,8 @@ enum swell_ctl_state {
 	M(OBJECT_FORCE, object_force, 0x22, 8, CTL, VIEW, "Force the force law commands, viewer rate.")               \
 	M(CTL_INFO, ctl_info, 0x23, 8, CTL, VIEW,                                                                     \
 	  "Firmware version and object size, 1 Hz and on change, so that a viewer or flasher can join late.")         \
+	M(ENERGY, energy, 0x24, 8, CTL, VIEW,                                                                         \
+	  "The energy account of the run (docs/energy.md), with the heartbeat: energy created and the balance D.")    \
 	M(HEIGHT_QUAD, height_quad, 0x30, 8, CTL, VIEW,                                                               \
 	  "Four heights of one tile row; a changed tile is sent as its 16 quads. Lowest priority.")
 
@@ -197,6 +199,14 @@ enum swell_ctl_state {
 	F(m, obj_a_100um, uint16_t, 24, 13, 1, 8191, PLAIN, "0.1", "mm", "object footprint along x (saturated)") \
 	F(m, obj_b_100um, uint16_t, 37, 13, 1, 8191, PLAIN, "0.1", "mm", "object footprint along y (saturated)") \
 	F(m, obj_h_100um, uint16_t, 50, 13, 1, 8191, PLAIN, "0.1", "mm", "object height (saturated)")
+
+#define SWELL_PROTO_FIELDS_energy(F, m)                                                                               \
+	F(m, created_uJ, uint32_t, 0, 32, 0, 4294967295u, PLAIN, "0.001", "mJ",                                       \
+	  "energy created in this run, max(0, -min D), saturating")                                                   \
+	F(m, balance_10uJ, int32_t, 32, 24, -8388607, 8388607, PLAIN, "0.01", "mJ",                                   \
+	  "D = W - (S - S(0)): dissipated since the run began (below 0: created), saturating")                        \
+	F(m, acting, uint8_t, 56, 1, 0, 1, PLAIN, "1", "", "1: the passivity controller acted since the last ENERGY") \
+	F(m, passivity, uint8_t, 57, 1, 0, 1, PLAIN, "1", "", "force.passivity in force")
 
 #define SWELL_PROTO_FIELDS_height_quad(F, m)                                                      \
 	F(m, tile_x, uint8_t, 0, 5, 0, 31, PLAIN, "1", "", "tile column")                         \

@@ -50,6 +50,8 @@ static const struct swell_ctl_config pool_config = {
 	.frame_axes = SWELL_PARAM_DEF_FRAME_AXES,
 	.frame_flip = SWELL_PARAM_DEF_FRAME_FLIP,
 	.hm_inertia_g = SWELL_PARAM_DEF_HM_INERTIA,
+	.passivity = SWELL_PARAM_DEF_FORCE_PASSIVITY,
+	.energy_water = 0, /* swell-ctl sets it; the STM32F405 image has no room for the pass */
 };
 
 void swell_ctl_default_config(struct swell_ctl_config *cfg)
@@ -114,7 +116,7 @@ enum swell_err swell_ctl_check(const struct swell_ctl_config *cfg)
 		return SWELL_ERANGE;
 	if (cfg->silent_ticks < 1 || cfg->silent_ticks > 10000 || cfg->recover_ticks < 1 || cfg->host_budget < 1 ||
 	    cfg->host_budget > SWELL_CTL_QUEUE / 2 || cfg->node > SWELL_NODE_MAX || cfg->autorun > 1 ||
-	    cfg->force_mode > SWELL_FORCE_EFFECT)
+	    cfg->force_mode > SWELL_FORCE_EFFECT || cfg->passivity > 1 || cfg->energy_water > 1)
 		return SWELL_ERANGE;
 	if (cfg->frame_axes != frame_axes_code(&cfg->xform) || cfg->frame_flip != frame_flip_code(&cfg->xform))
 		return SWELL_EINVAL;
@@ -482,6 +484,7 @@ static uint32_t force_law(struct swell_ctl *c)
 	}
 	if (running && c->cfg.force_mode == SWELL_FORCE_EFFECT)
 		effect_update(c, f_dev_uN);
+	ctl_energy_force(c, running, f_dev_uN);
 	if (!running)
 		c->effect_sent = 0;
 	for (k = 0; k < 3; k++) {
@@ -517,6 +520,7 @@ void swell_ctl_tick_background(struct swell_ctl *c)
 	/* the force part's coupling, before the field moves on; while the object stays in the water its
 	 * cells are written once a period, at the step's end (swell_body_couple_later); written now, the
 	 * tiles it left and those it covers are stale for the telemetry */
+	ctl_energy_account(c);
 	placed = c->body.placed;
 	swell_body_couple_later(&c->body, &c->wave);
 	ctl_mark_water_moved(c, &placed);

@@ -93,4 +93,14 @@ void ctl_mark_water_moved(struct swell_ctl *c, const struct swell_body_fp *befor
  * returns the cells done. */
 uint32_t ctl_solver_slice(struct swell_ctl *c);
 
+/* ctl_energy.c, the force part, after the force law and before the safety stage: keeps the tick's
+ * device position; with force.passivity on and the account's D below zero, adds the controller's
+ * force to f_dev_uN (device axes). Outside RUNNING it ends the run. */
+void ctl_energy_force(struct swell_ctl *c, int running, int32_t f_dev_uN[3]);
+/* The background part: W to the force part's position, S(n), D and its least value; the force now
+ * held, as the wire carries it. */
+void ctl_energy_account(struct swell_ctl *c);
+/* The background part at a solver step's end: the water's energy, when the port keeps it. */
+void ctl_energy_water(struct swell_ctl *c);
+
 #endif

@@ -36,6 +36,7 @@ uint32_t ctl_solver_slice(struct swell_ctl *c)
 		swell_body_place(&c->body, w);
 		ctl_mark_water_moved(c, &placed);
 		swell_body_solver_stepped(&c->body, w);
+		ctl_energy_water(c);
 		c->n.solver_steps++;
 		/* the rows, the last row's heights and the ceiling scan of the rows left */
 		work = (rows + 2u * (w->ny - done0)) * w->nx;

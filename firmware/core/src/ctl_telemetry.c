@@ -333,11 +333,33 @@ static uint32_t send_heights(struct swell_ctl *c, uint32_t budget, uint32_t scan
 	return left.cells;
 }
 
+/* The energy account with the heartbeat (docs/energy.md): created and D of the run in progress or
+ * the last one. */
+static void send_energy(struct swell_ctl *c)
+{
+	struct swell_msg m = ctl_msg(c, SWELL_MSG_ENERGY);
+	struct swell_energy_account e;
+
+	(void)swell_ctl_energy(c, &e);
+	m.u.energy.created_uJ = e.created_uJ > (int64_t)UINT32_MAX ? UINT32_MAX : (uint32_t)e.created_uJ;
+	m.u.energy.balance_10uJ = (int32_t)(e.balance_uJ / 10 > 8388607            ? 8388607
+						    : e.balance_uJ / 10 < -8388607 ? -8388607
+										   : e.balance_uJ / 10);
+	m.u.energy.acting = c->energy.acted;
+	m.u.energy.passivity = c->cfg.passivity;
+	c->energy.acted = 0;
+	ctl_push(c, SWELL_LINK_HOST, &m);
+}
+
 /* The sends of the background part of tick t (docs/design.md). */
 uint32_t ctl_telemetry(struct swell_ctl *c, uint32_t t, uint32_t budget)
 {
 	if (t % ctl_period(c, HEARTBEAT_HZ) == 0) {
 		ctl_send_heartbeat(c);
+		budget--;
+	}
+	if (budget && t % ctl_period(c, HEARTBEAT_HZ) == 3 % ctl_period(c, HEARTBEAT_HZ)) {
+		send_energy(c);
 		budget--;
 	}
 	if (budget && t % ctl_period(c, SCENE_HZ) == 1 % ctl_period(c, SCENE_HZ)) {

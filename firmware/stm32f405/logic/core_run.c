@@ -10,6 +10,7 @@ enum swell_err fw_core_init(struct swell_ctl *c, struct fw_core_run *r, int32_t 
 	cfg.tick_hz = tick_hz;
 	cfg.safety.tick_hz = tick_hz;
 	cfg.autorun = 1;
+	cfg.passivity = 1; /* the force path measured with the energy account's controller on */
 	*r = (struct fw_core_run){ 0 };
 	return swell_ctl_init(c, &cfg, arena, words);
 }
@@ -21,8 +22,16 @@ void fw_core_device(struct swell_ctl *c, struct fw_core_run *r)
 	int64_t z = 2000 - (int64_t)r->tick * 5000 / c->cfg.tick_hz;
 
 	m.u.device_pos.z_10um = (int16_t)(z < -2500 ? -2500 : z);
-	m.u.device_pos.seq = r->seq++;
+	m.u.device_pos.seq = r->seq;
 	m.u.device_pos.status = SWELL_DEV_POWERED | SWELL_DEV_FORCE_ON;
+	swell_ctl_rx(c, SWELL_LINK_DEVICE, &m);
+	/* and its velocity (0.1 mm/s), which the damper and the passivity controller read: in the water
+	 * with the wrong sign, so that the damper pushes along the motion, the energy account sees energy
+	 * created and the passivity controller acts on every tick from then on (its cost is in the force
+	 * path's figure) */
+	m = (struct swell_msg){ .type = SWELL_MSG_DEVICE_VEL, .node = c->cfg.node };
+	m.u.device_vel.vz_100ums = (int16_t)(z > 0 ? -500 : z > -2500 ? 500 : 0);
+	m.u.device_vel.seq = r->seq++;
 	swell_ctl_rx(c, SWELL_LINK_DEVICE, &m);
 	r->tick++;
 }

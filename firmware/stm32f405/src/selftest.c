@@ -583,6 +583,15 @@ static int run_core(uint32_t tick_hz, uint32_t ticks, uint16_t pool_n)
 	con_put_i64(r.last_fz_uN);
 	con_puts_u32(" uN, solver steps ", ctl.n.solver_steps);
 	con_putc('\n');
+	{
+		struct swell_energy_account e;
+
+		(void)swell_ctl_energy(&ctl, &e);
+		con_puts("core: energy created ");
+		con_put_i64(e.created_uJ);
+		con_puts_u32(" uJ, passivity controller on ", e.controller_ticks);
+		con_puts(" ticks\n");
+	}
 	put_core_label(tick_hz, pool_n, 1);
 	con_puts(": worst background ");
 	put_insn_pct(bmax, " instructions (", tick_hz);

@@ -72,11 +72,12 @@ echo "qemu-selftest: pool ${pool% *} x ${pool% *}, ${pool#* } ticks: target chec
 grep '^\(core\|pool\).* Hz: worst background [0-9]' "$out" | sed 's/^/qemu-selftest: /'
 # the tick's budgets at 2500 Hz on the reference scene, in instructions under -icount (exact) and by
 # the cycle model of docs/stm32f405.md (tools/bench/m4-cycles.py on a trace of the force path:
-# 1.81 cycles an instruction; its solver kernels 1.27): the force path (device sample to FORCE_CMD)
-# at most 2850 instructions; the worst whole tick at most 31 % of the period at one instruction a
+# 1.81 cycles an instruction; its solver kernels 1.27): the force path (device sample to FORCE_CMD,
+# with the energy account's passivity controller acting: the self-test's core run turns it on and
+# makes it act, firmware/stm32f405/logic/core_run.c) at most 3000 instructions; the worst whole tick at most 31 % of the period at one instruction a
 # cycle (the aim of 35 % is reached; the measured figures and their cycles by the model are in
 # docs/benchmarks.md, the model's check is qemu-arm.worst-tick-cycles-within-budget)
-force_budget=2850 tick_budget_pct=31
+force_budget=3000 tick_budget_pct=31
 line=$(grep '^core at 2500 Hz: worst background [0-9]' "$out")
 force=$(echo "$line" | sed -n 's/.*worst force path \([0-9.]*\) .*/\1/p')
 whole=$(echo "$line" | sed -n 's/.*worst whole tick [0-9.]* (\([0-9.]*\) %).*/\1/p')

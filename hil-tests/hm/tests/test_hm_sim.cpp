@@ -510,3 +510,39 @@ TEST_CASE("runtime failures exit 1 with the reason: no controller ever answered,
 		CHECK(text.find(c.why) != std::string::npos);
 	}
 }
+
+TEST_CASE("energy: the drop creates at most 1 mJ at the controller's port and at the device's, and a link delay "
+	  "shows at the device's port only")
+{
+	// docs/energy.md: the controller counts the force it sent against the positions it got; the
+	// device the force it applied (held, delayed) against its own motion
+	double device_mJ[2] = {0, 0}, ctl_mJ[2] = {0, 0};
+	const char *delay[2] = {"0", "20"};
+	for (int k = 0; k < 2; k++) {
+		closed_loop cl(std::string("energy-delay-") + delay[k]);
+		std::vector<std::string> args = cl.hm_args("drop:z=20,hold=0.5", 10.0);
+		args.insert(args.end(), {"--link-delay", delay[k]});
+		const std::string s = cl.run(args);
+		const std::string ctl = swell_test::slurp(cl.ctl_out);
+		INFO(s << "\n" << ctl);
+		device_mJ[k] = figure(s, "energy          created");
+		ctl_mJ[k] = figure(ctl, "energy          created");
+		// the log's last column is the device's balance D: its least value is the energy created
+		std::ifstream f(cl.csv);
+		std::string line;
+		double d_min = 0;
+		std::getline(f, line);
+		while (std::getline(f, line)) {
+			const double d = std::strtod(line.c_str() + line.rfind(',') + 1, nullptr);
+			d_min = std::min(d_min, d);
+		}
+		CHECK(-d_min == Approx(device_mJ[k]).margin(0.0015));
+	}
+	std::printf("energy created in the drop: controller %.3f / %.3f mJ, device %.3f / %.3f mJ (link delay 0 / 20 "
+		    "ms)\n",
+		    ctl_mJ[0], ctl_mJ[1], device_mJ[0], device_mJ[1]);
+	CHECK(ctl_mJ[0] <= 1.0);
+	CHECK(device_mJ[0] <= 1.0);
+	CHECK(ctl_mJ[1] <= 1.0);
+	CHECK(device_mJ[1] > device_mJ[0]);
+}

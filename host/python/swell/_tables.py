@@ -126,6 +126,12 @@ MESSAGES = (
         ("obj_b_100um", 37, 13, 1, 8191, "PLAIN", "0.1", "mm"),
         ("obj_h_100um", 50, 13, 1, 8191, "PLAIN", "0.1", "mm"),
     )),
+    ("ENERGY", 0x24, 8, "CTL", "VIEW", (
+        ("created_uJ", 0, 32, 0, 4294967295, "PLAIN", "0.001", "mJ"),
+        ("balance_10uJ", 32, 24, -8388607, 8388607, "PLAIN", "0.01", "mJ"),
+        ("acting", 56, 1, 0, 1, "PLAIN", "1", ""),
+        ("passivity", 57, 1, 0, 1, "PLAIN", "1", ""),
+    )),
     ("HEIGHT_QUAD", 0x30, 8, "CTL", "VIEW", (
         ("tile_x", 0, 5, 0, 31, "PLAIN", "1", ""),
         ("tile_y", 5, 5, 0, 31, "PLAIN", "1", ""),
@@ -165,6 +171,8 @@ PARAMS = (
      "haptic gain on the force law's output, Q15.16, 0 to 4"),
     (23, "force.mode", 0, 1, 0, "1", "", False, "idle",
      "0 stream (FORCE_CMD every tick), 1 effect (springs, damper and gravity as device effects, every update)"),
+    (24, "force.passivity", 0, 1, 0, "1", "", False, "any",
+     "1: the time-domain passivity controller adds damping while the energy account shows energy created (docs/energy.md), inside force.max and force.rate, in stream mode; 0: the account only observes"),
     (30, "link.silent_ticks", 1, 10000, 2, "1", "ticks", False, "any",
      "device silent this many ticks (effect mode: at least two update periods): zero force and FAULT"),
     (31, "ctl.autorun", 0, 1, 0, "1", "", False, "any",

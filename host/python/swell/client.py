@@ -167,6 +167,15 @@ class Info:
     depth_mm: float
 
 
+@dataclass
+class Energy:
+    """The controller's energy account of its run (ENERGY, 10 Hz; docs/energy.md)."""
+    created_mJ: float
+    balance_mJ: float
+    passivity: bool
+    acting: bool
+
+
 class Params(MutableMapping):
     """c.params["body.damper"] reads from the controller; assignment writes and waits for the
     answer. Values are numbers in the parameter's unit (PARAMS[name].unit) or strings with a unit
@@ -397,6 +406,18 @@ class Controller:
         return Info(self.node, "%d.%d.%d" % (i["fw_major"], i["fw_minor"], i["fw_patch"]),
                     tuple(i.physical(k) for k in ("obj_a_100um", "obj_b_100um", "obj_h_100um")),
                     (s["nx"], s["ny"]), s.physical("dx_um"), s.physical("depth_10um"))
+
+    @property
+    def energy(self) -> Energy:
+        """Energy created and the balance D of the controller's run, whether its passivity
+        controller is on and acted since the last report (ENERGY, 10 Hz)."""
+        end = time.monotonic() + max(self.timeout, 0.5)
+        while "ENERGY" not in self.latest:
+            if time.monotonic() > end:
+                raise Timeout("no ENERGY from the controller in %.1f s" % max(self.timeout, 0.5))
+            self._pump(0.1)
+        e = self.latest["ENERGY"]
+        return Energy(e.physical("created_uJ"), e.physical("balance_10uJ"), bool(e["passivity"]), bool(e["acting"]))
 
     # ---- commands ----
     def _command(self, name: str) -> None:

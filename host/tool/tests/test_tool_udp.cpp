@@ -124,6 +124,7 @@ TEST_CASE("swell-tool over UDP: status in text and JSON, get and set with units,
 	CHECK(has(js.out, "\"protocol_version\": 1,"));
 	CHECK(has(js.out, "\"nx\": 64, \"ny\": 64"));
 	CHECK(has(js.out, "\"mass_g\": 100,"));
+	CHECK(has(js.out, "\"energy\": {\"created_mJ\": 0.000, \"balance_mJ\": 0.00, \"passivity\": 0"));
 
 	Result s1 = r.tool("set force.max 5N");
 	CHECK(s1.status == 0);
@@ -171,6 +172,7 @@ TEST_CASE("swell-tool over UDP: run, stop, clear and estop answer with the state
 	Result w = r.tool("watch --seconds 1");
 	CHECK(w.status == 0);
 	CHECK(has(w.out, "running  z"));
+	CHECK(has(w.out, " mJ ")); /* the energy created in the run */
 
 	const std::string csv = r.dir + "/run.csv", png = r.dir + "/run.png";
 	std::remove(png.c_str());

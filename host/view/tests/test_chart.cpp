@@ -229,6 +229,7 @@ TEST_CASE("CSV rows carry each received sample with its receive time, empty wher
 	charts_force(&f.ch, 1500000, 7, 3.0f, 0.0f, 4.0f, 1);
 	charts_pose(&f.ch, 1520000, 9, -12.0f, 0.25f, 24.0f); // seq 8 lost
 	charts_latency(&f.ch, 1600000, 3.5f);
+	charts_energy(&f.ch, 1700000, 1.25f, -0.5f, 1);
 	charts_free(&f.ch); // closes the file
 	REQUIRE(charts_init(&f.ch, 2.0f));
 	std::ifstream in(path);
@@ -236,12 +237,15 @@ TEST_CASE("CSV rows carry each received sample with its receive time, empty wher
 	for (std::string l; std::getline(in, l);)
 		rows.push_back(l);
 	std::remove(path);
-	REQUIRE(rows.size() == 5);
-	CHECK(rows[0] == "t_s,pose_seq,bottom_mm,water_mm,submersion_pct,fz_N,f_abs_N,limited,frame_hz,latency_ms,lost_poses");
-	CHECK(rows[1] == "1.500000,7,-12.50,0.250,25.0,,,,,,0");
-	CHECK(rows[2] == "1.500000,7,,,,4.00,5.000,1,,,");
-	CHECK(rows[3] == "1.520000,9,-12.00,0.250,24.0,,,,,,1");
-	CHECK(rows[4] == "1.600000,,,,,,,,,3.50,");
+	REQUIRE(rows.size() == 6);
+	CHECK(rows[0] ==
+	      "t_s,pose_seq,bottom_mm,water_mm,submersion_pct,fz_N,f_abs_N,limited,frame_hz,latency_ms,lost_poses,"
+	      "created_mJ,balance_mJ");
+	CHECK(rows[1] == "1.500000,7,-12.50,0.250,25.0,,,,,,0,,");
+	CHECK(rows[2] == "1.500000,7,,,,4.00,5.000,1,,,,,");
+	CHECK(rows[3] == "1.520000,9,-12.00,0.250,24.0,,,,,,1,,");
+	CHECK(rows[4] == "1.600000,,,,,,,,,3.50,,,");
+	CHECK(rows[5] == "1.700000,,,,,,,,,,,1.250,-0.50");
 }
 
 TEST_CASE("the legend's bar runs from the colour of -range at the bottom to +range at the top")
@@ -269,4 +273,47 @@ TEST_CASE("the legend's bar runs from the colour of -range at the bottom to +ran
 	CHECK(int(hi[0]) > int(hi[2]) + 150); // red at the top
 	CHECK(int(lo[2]) > int(lo[0]) + 150); // blue at the bottom
 	canvas_free(&c);
+}
+
+TEST_CASE("the energy chart plots the created energy and the balance D of ENERGY at their values, from 0 up or "
+	  "symmetric when D goes below 0")
+{
+	fixture f;
+	// 6 s of ENERGY at 10 Hz: created 0.5 mJ a second, D 2 mJ sin
+	const uint64_t t0 = 50000000;
+	for (int k = 0; k <= 60; k++) {
+		const double t = k * 0.1;
+		charts_energy(&f.ch, t0 + uint64_t(k) * 100000, float(0.5 * t), float(2.0 * std::sin(t)), 0);
+	}
+	const uint64_t now = t0 + 60 * 100000;
+	float lo, hi, step;
+	charts_range(&f.ch, 5, now, &lo, &hi, &step);
+	CHECK(hi == Approx(5.0f)); // nice(1.1 x 3 mJ)
+	CHECK(lo == Approx(-5.0f)); // D went below 0
+	charts_draw(&f.ch, &f.cv, now);
+	const plot_box p = plot_of(5, f.cv.w);
+	const std::vector<bool> created = columns_with(f.cv, p, 255, 90, 200);
+	// the last sample (3 mJ) at the right edge: the created line's pixel in the last column is there
+	int y_found = -1;
+	for (int y = p.y0; y < p.y0 + p.h; y++)
+		if (is_rgb(f.cv, p.x0 + p.w - 1, y, 255, 90, 200))
+			y_found = y;
+	const int y_want = p.y0 + int(std::lround((hi - 3.0) / (hi - lo) * (p.h - 1)));
+	INFO("created at the right edge: y " << y_found << ", want " << y_want);
+	CHECK(std::abs(y_found - y_want) <= 1);
+	// drawn over the 6 s received, nothing over the 4 s before
+	int drawn = 0, before = 0;
+	const int first = int(0.4 * (p.w - 1)); // the column of the first sample, 6 s back
+	for (int x = 0; x < p.w; x++) {
+		drawn += x >= first + 2 && created[size_t(x)];
+		before += x < first - 2 && created[size_t(x)];
+	}
+	CHECK(drawn >= int(0.6 * (p.w - 1)) - 4);
+	CHECK(before == 0);
+	// a run without energy created keeps the axis from 0
+	fixture g;
+	charts_energy(&g.ch, t0, 0.0f, 1.5f, 0);
+	charts_range(&g.ch, 5, t0, &lo, &hi, &step);
+	CHECK(lo == 0.0f);
+	CHECK(hi == Approx(2.0f));
 }

@@ -914,10 +914,13 @@ const double BOB_T0 = 1.02;
 double bob_sin(double t_s) { return std::sin(2 * M_PI * std::fmod(t_s - BOB_T0, 2.0) / 2.0); }
 double bob_fz(double t_s) { return 0.8 + 1.0 * bob_sin(t_s); }
 double bob_bottom_mm(double t_s) { return -10.0 + 6.0 * bob_sin(t_s); }
+// its energy account (gen_energy_at), with the heartbeats: created 0.5 mJ a second, D 2 mJ sin
+double bob_created_mJ(double t_s) { return 0.5 * (t_s - BOB_T0); }
+double bob_balance_mJ(double t_s) { return 2.0 * bob_sin(t_s); }
 
 } // namespace
 
-TEST_CASE("the charts plot the force and pose the pattern sends, at the values and times it sends them")
+TEST_CASE("the charts plot the force, pose and energy the pattern sends, at the values and times it sends them")
 {
 	// 1024 x 768: charts at scale 2; frame 300 is t = 7 s: 6 s of samples in the window
 	const int w = 1024, after = 300;
@@ -987,6 +990,10 @@ TEST_CASE("the charts plot the force and pose the pattern sends, at the values a
 	compare(plot(1, -20, 5), bottom_rgb, bob_bottom_mm, 0.6, "object bottom (mm)");
 	compare(
 		plot(2, 0, 100), sub_rgb, [](double t) { return -bob_bottom_mm(t) / 50.0 * 100.0; }, 2.5, "submersion (%)");
+	// energy: created up to 3 mJ, D +-2 mJ: +-(nice(1.1 x 3) = 5) mJ; 0.14 mJ a pixel
+	const uint8_t created_rgb[3] = {255, 90, 200}, balance_rgb[3] = {120, 230, 230};
+	compare(plot(5, -5, 5), created_rgb, bob_created_mJ, 0.25, "energy created (mJ)");
+	compare(plot(5, -5, 5), balance_rgb, bob_balance_mJ, 0.25, "energy balance D (mJ)");
 	// the limit line: dashed red at +2.5 N and -2.5 N
 	plot_px f = plot(0, -5, 5);
 	for (double lim : {2.5, -2.5}) {
@@ -1014,7 +1021,8 @@ TEST_CASE("the CSV file of --csv holds the pattern's pose and force as received,
 		std::string line;
 		REQUIRE(std::getline(in, line));
 		CHECK(line ==
-		      "t_s,pose_seq,bottom_mm,water_mm,submersion_pct,fz_N,f_abs_N,limited,frame_hz,latency_ms,lost_poses");
+		      "t_s,pose_seq,bottom_mm,water_mm,submersion_pct,fz_N,f_abs_N,limited,frame_hz,latency_ms,"
+		      "lost_poses,created_mJ,balance_mJ");
 		int poses = 0, forces = 0, seq_gaps = 0, last_seq = -1;
 		long lost = 0;
 		double worst_z = 0, worst_f = 0;
@@ -1024,7 +1032,7 @@ TEST_CASE("the CSV file of --csv holds the pattern's pose and force as received,
 			for (size_t c; (c = line.find(',', at)) != std::string::npos; at = c + 1)
 				f.push_back(line.substr(at, c - at));
 			f.push_back(line.substr(at));
-			REQUIRE(f.size() == 11);
+			REQUIRE(f.size() == 13);
 			double t = std::atof(f[0].c_str());
 			if (!f[2].empty()) {
 				poses++;

@@ -65,6 +65,10 @@ struct swell_ctl_config {
 	uint16_t frame_axes; /* (axis[0] + 1) * 100 + (axis[1] + 1) * 10 + axis[2] + 1 */
 	uint8_t frame_flip; /* bit k: sign[k] is -1 */
 	uint32_t hm_inertia_g; /* hm.inertia: a HapticMaster link's port sets the device to it, 0: not */
+	uint8_t passivity; /* force.passivity: 1 the time-domain passivity controller acts, 0 it only observes */
+	/* set by a port that keeps the water's energy in the account (a pass over the field at each solver
+	 * step's end, in the background part; docs/energy.md): 0 leaves it out of S and D on every port */
+	uint8_t energy_water;
 	uint8_t fw_version[3]; /* major, minor, patch of the running firmware, sent in CTL_INFO */
 };
 
@@ -79,6 +83,26 @@ struct swell_ctl_counters {
 	uint32_t quads_refreshed; /* of which resent unchanged, to repair losses */
 	uint32_t params_set, params_refused;
 	uint32_t ignored; /* messages that make no sense here (wrong direction, bootloader while running) */
+};
+
+/* The energy account's sums (ctl_energy.c), in picojoules (uN x um), saturating: an int64 holds
+ * +-9.2e6 J, a 10-minute run at 2500 Hz with 1000 N and 1 m/s on every axis stays below 2e15. The
+ * force part keeps the tick's position and adds the controller's force; the background part counts. */
+struct swell_ctl_energy_sums {
+	int64_t work_pJ; /* W */
+	int64_t stored0_pJ, stored_pJ; /* S(0), S(n) */
+	int64_t balance_pJ, min_balance_pJ; /* D after the last tick counted, and the least of the run */
+	int64_t damped_pJ; /* what the passivity controller's force took out, as W counts it */
+	int64_t water_pJ, water0_pJ; /* the water's share of S(n) and S(0) (energy_water) */
+	int32_t pos_now_um[3]; /* the device position the force part used */
+	int32_t pos_um[3]; /* the device position of the last tick counted */
+	int32_t force_uN[3]; /* the force commanded on it (after the safety stage, the wire's cN) */
+	int32_t pc_uN[3]; /* the controller's force this tick (asked for, before the safety stage) */
+	int32_t pc_held_uN[3]; /* and on the last tick counted */
+	uint32_t ticks, controller_ticks;
+	uint8_t running; /* a run is being counted */
+	uint8_t fresh; /* its first tick: S(0) to take */
+	uint8_t acted; /* the controller acted since the last ENERGY message */
 };
 
 struct swell_ctl {
@@ -133,6 +157,7 @@ struct swell_ctl {
 
 	struct swell_ctl_queue q[SWELL_LINKS];
 	struct swell_ctl_counters n;
+	struct swell_ctl_energy_sums energy;
 };
 
 /* int32 words of the arena the controller needs for an nx x ny scene (wave storage + sent heights). */
@@ -157,6 +182,39 @@ size_t swell_ctl_arena_words_apart(uint16_t nx, uint16_t ny);
 size_t swell_ctl_apart_words(uint16_t nx, uint16_t ny);
 enum swell_err swell_ctl_init_apart(struct swell_ctl *c, const struct swell_ctl_config *cfg, int32_t *arena,
 				    size_t words, int32_t *apart, size_t apart_words);
+
+/* The energy account of the hand-water loop (docs/energy.md), kept by the core on every tick of a
+ * run (from the tick that enters RUNNING to the one that leaves it; the next run starts it again):
+ *   W  the work the hand did on the virtual environment, sum over device samples of -F . dx, F the
+ *      force commanded after the safety stage on the previous tick (the force held while the device
+ *      moved), dx the device's differenced position (DEVICE_POS), both on the device's axes;
+ *   S  what the environment stores more than at the run's start: the object's weight m g z, the
+ *      buoyancy springs as rendered (1/2 k s^2 up to full submersion or force.max, linear beyond),
+ *      the floor's contact spring (the same), and the water's energy (the solver's invariant, on
+ *      ports that keep it);
+ *   D  = W - S: what the environment dissipated; below zero it created energy;
+ *   created = max(0, -min D) over the run; damped: what the passivity controller (force.passivity)
+ *   took out. All in microjoules, rounded to nearest from the core's picojoule sums. */
+struct swell_energy_account {
+	int64_t work_uJ; /* W */
+	int64_t stored_uJ; /* S(n) - S(0) */
+	int64_t balance_uJ; /* D = W - (S(n) - S(0)) */
+	int64_t created_uJ; /* max(0, -min D), never negative */
+	int64_t damped_uJ; /* the passivity controller's force times the motion (below 0 only where the
+			    * reported velocity disagrees with the motion) */
+	int64_t water_uJ; /* the water's part of S(n) - S(0) */
+	uint32_t ticks; /* ticks counted in this run */
+	uint32_t controller_ticks; /* ticks on which the passivity controller added damping */
+};
+
+/* The energy account of the current (or the last) run into *out; SWELL_EINVAL for a null pointer.
+ * Reads only: a port or a bench may call it between any two ticks. */
+enum swell_err swell_ctl_energy(const struct swell_ctl *c, struct swell_energy_account *out);
+
+/* The water's energy in picojoules from the solver's invariant (swell_wave_energy): rho g dx^2 /
+ * (2 e_eff) (kin + e_eff pot2 / 2) LSB^2, the physical energy of a wave about nine cells long
+ * (docs/energy.md says why and for which waves it is less or more). One pass over the field. */
+int64_t swell_ctl_water_pJ(const struct swell_wave *w, uint32_t dx_um, uint32_t rho_kg_m3, uint32_t g_mm_s2);
 
 /* The port side (rx, tick, tx, link events, reports): swell/ctl_port.h. */
 
