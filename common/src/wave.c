@@ -815,13 +815,31 @@ int64_t swell_wave_volume(const struct swell_wave *w)
 	return sum;
 }
 
+/* The energy sums saturate at the int64 range instead of wrapping: a field of waves many times
+ * the depth (heights past about 128 mm on a 256 x 256 pool) would take a sum of squares beyond it.
+ * Inside the range the sums are exact, as before. */
+static int64_t sat_mul64(int64_t a, int64_t b)
+{
+	int64_t r;
+
+	if (__builtin_mul_overflow(a, b, &r))
+		return (a < 0) != (b < 0) ? INT64_MIN : INT64_MAX;
+	return r;
+}
+
+static void sat_acc64(int64_t *sum, int64_t x)
+{
+	if (__builtin_add_overflow(*sum, x, sum))
+		*sum = x < 0 ? INT64_MIN : INT64_MAX;
+}
+
 /* 2 w (h_b - h_a)(n) (h_b - h_a)(n-1) for one edge; h(n-1) = h - change. */
 static int64_t edge_pot2(const int32_t *h, int32_t (*change)(const void *, int), const void *ctx, int a, int b,
 			 int64_t two_w)
 {
 	const int64_t d_now = (int64_t)h[b] - h[a];
 
-	return two_w * d_now * (d_now - ((int64_t)change(ctx, b) - change(ctx, a)));
+	return sat_mul64(two_w, sat_mul64(d_now, d_now - ((int64_t)change(ctx, b) - change(ctx, a))));
 }
 
 struct swell_energy swell_energy_of(const int32_t *h, int nx, int ny, q30_t e_eff,
@@ -833,16 +851,17 @@ struct swell_energy swell_energy_of(const int32_t *h, int nx, int ny, q30_t e_ef
 	for (j = 0; j < ny; j++) {
 		for (i = 0; i < nx; i++) {
 			a = j * nx + i;
-			en.kin += (int64_t)change(ctx, a) * change(ctx, a);
+			sat_acc64(&en.kin, (int64_t)change(ctx, a) * change(ctx, a)); /* < 2^64: at most 2^62 */
 			if (i + 1 < nx)
-				en.pot2 += edge_pot2(h, change, ctx, a, a + 1, (j == 0 || j == ny - 1) ? 3 : 2);
+				sat_acc64(&en.pot2,
+					  edge_pot2(h, change, ctx, a, a + 1, (j == 0 || j == ny - 1) ? 3 : 2));
 			if (j + 1 >= ny)
 				continue;
-			en.pot2 += edge_pot2(h, change, ctx, a, a + nx, (i == 0 || i == nx - 1) ? 3 : 2);
+			sat_acc64(&en.pot2, edge_pot2(h, change, ctx, a, a + nx, (i == 0 || i == nx - 1) ? 3 : 2));
 			if (i + 1 < nx)
-				en.pot2 += edge_pot2(h, change, ctx, a, a + nx + 1, 1);
+				sat_acc64(&en.pot2, edge_pot2(h, change, ctx, a, a + nx + 1, 1));
 			if (i > 0)
-				en.pot2 += edge_pot2(h, change, ctx, a, a + nx - 1, 1);
+				sat_acc64(&en.pot2, edge_pot2(h, change, ctx, a, a + nx - 1, 1));
 		}
 	}
 	return en;

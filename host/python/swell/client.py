@@ -5,7 +5,7 @@ bulk (bulk.py): the controller sends telemetry at its tick rate, 2500 Hz."""
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from decimal import Decimal, InvalidOperation, ROUND_HALF_EVEN
 from typing import Callable, Dict, Iterator, List, MutableMapping, Optional, Tuple, Union
 
@@ -232,6 +232,8 @@ class Params(MutableMapping):
 SAMPLE_DTYPE = np.dtype([("t", "f8"), ("seq", "u1"), ("x", "f4"), ("y", "f4"), ("z", "f4"), ("submersion", "f4"),
                          ("fx", "f4"), ("fy", "f4"), ("fz", "f4"), ("limits", "u1")])
 STATE_DTYPE = np.dtype([("t", "f8"), ("state", "u1"), ("err", "u1"), ("bad_frames", "u2"), ("overruns", "u2")])
+ENERGY_DTYPE = np.dtype([("t", "f8"), ("created_mJ", "f8"), ("balance_mJ", "f8"), ("passivity", "u1"),
+                         ("acting", "u1")])
 
 
 def _factor(msg: str, fieldname: str) -> float:
@@ -560,9 +562,10 @@ class Telemetry:
     (N, on the device), limits (OBJECT_POSE joined with the OBJECT_FORCE of its seq, 100 a second);
     heights: (n, ny, nx) float32 snapshots of the water's height (mm above the rest level, NaN where
     no height has come yet) at heights_t; states: t, state, err, bad_frames, overruns of every
-    heartbeat. packets / lost_packets: the frames received and the ones missing by the packet
-    sequence numbers the controller sent; refused: frames the decoder refused. The controller
-    reports no energy: there is no energy array."""
+    heartbeat; energy: t, created_mJ, balance_mJ, passivity, acting of every ENERGY (the controller's
+    energy account, 10 a second, docs/energy.md). packets / lost_packets: the frames received and
+    the ones missing by the packet sequence numbers the controller sent; refused: frames the decoder
+    refused."""
     samples: np.ndarray
     heights: np.ndarray
     heights_t: np.ndarray
@@ -573,6 +576,7 @@ class Telemetry:
     refused: int = 0
     seconds: float = 0.0
     t0: float = 0.0  # the capture's start, monotonic seconds
+    energy: np.ndarray = field(default_factory=lambda: np.zeros(0, ENERGY_DTYPE))
 
     def __getitem__(self, key):
         return self.samples[key]
@@ -745,6 +749,14 @@ class Stream:
                 states[k] = hb[k]
         if len(states):
             states["t"] = hb["t"] - t0
+        en = bulk.of_node(dec.msgs["ENERGY"], node) if "ENERGY" in dec.msgs else {}
+        energy = np.zeros(len(en.get("t", ())), ENERGY_DTYPE)
+        if len(energy):
+            energy["t"] = en["t"] - t0
+            energy["created_mJ"] = en["created_uJ"] * 0.001
+            energy["balance_mJ"] = en["balance_10uJ"] * 0.01
+            energy["passivity"] = en["passivity"]
+            energy["acting"] = en["acting"]
         q = bulk.of_node(dec.msgs["HEIGHT_QUAD"], node) if "HEIGHT_QUAD" in dec.msgs else {}
         snaps, snap_t, at = [], [], 0
         if heights_hz > 0 and seconds > 0:
@@ -761,7 +773,7 @@ class Stream:
         heights = np.array(snaps, np.float32) if snaps else np.zeros((0,) + shape, np.float32)
         return Telemetry(samples, heights, np.array(snap_t),
                          states, int(own.sum()), lost_packets, lost_samples, int(dec.refused.sum()),
-                         float(seconds), t0)
+                         float(seconds), t0, energy)
 
 
 def connect(spec: str = "udp:127.0.0.1:%d" % T.UDP_PORT_CLIENTS, timeout: float = 2.0) -> Controller:

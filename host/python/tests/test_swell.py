@@ -213,6 +213,9 @@ def test_telemetry_into_numpy_and_a_recording_of_it(loop, tmp_path):
         assert np.all(np.diff(a["t"]) >= 0)
         assert np.all((a["submersion"] > 50) & (a["submersion"] <= 100))  # the object floats
         assert a.heights.shape == (10, 64, 64) and np.allclose(a.heights_t, np.arange(1, 11) / 10)
+        # the energy account, 10 a second: the same figures c.energy reads, never below zero created
+        assert 5 <= len(a.energy) <= 12 and np.all(np.diff(a.energy["t"]) > 0)
+        assert np.all(a.energy["created_mJ"] >= 0) and np.all(np.diff(a.energy["created_mJ"]) >= 0)
         assert np.isfinite(a.heights[-1]).all()  # every cell heard within a second
         assert abs(float(np.nanmean(a.heights[-1]))) < 5  # mm around the rest level
         assert set(a.states["state"]) == {3} and 2 <= len(a.states) <= 11  # running, 10 heartbeats a second
