@@ -14,10 +14,7 @@ struct field {
 	std::vector<int32_t> h, dh;
 };
 
-int32_t change_of(const void *ctx, int a)
-{
-	return static_cast<const field *>(ctx)->dh[size_t(a)];
-}
+int32_t change_of(const void *ctx, int a) { return static_cast<const field *>(ctx)->dh[size_t(a)]; }
 } // namespace
 
 TEST_CASE("energy sums: a small field's sums are exact, a checkerboard at the height range saturates instead of wrapping",
