@@ -114,6 +114,8 @@ uint64_t bxcan_bits_ns(const struct bxcan *b, uint32_t nbits)
 	uint64_t brp = (b->btr & 0x3FFu) + 1u, ts1 = (b->btr >> 16) & 0xFu, ts2 = (b->btr >> 20) & 7u;
 	uint64_t num = (uint64_t)nbits * brp * (ts1 + ts2 + 3u) * 1000000000u;
 
+	if (!b->pclk_hz)
+		return NONE;
 	return (num + b->pclk_hz - 1u) / b->pclk_hz;
 }
 

@@ -230,7 +230,8 @@ enum bxcan_rx {
  * AWUM, wakes the node (the frame itself is lost: the node synchronises after it). */
 enum bxcan_rx bxcan_bus_rx(struct bxcan *b, const struct bxcan_frame *f, uint64_t t_ns);
 
-/* Interrupt lines (RM0090 32.8), BXCAN_IRQ_* bits, as levels. */
+/* Interrupt lines (RM0090 32.8), BXCAN_IRQ_* bits, as levels at the model's time (the last call that
+ * carried a time: call bxcan_advance first to sample them at a later time). */
 unsigned bxcan_irq_lines(const struct bxcan *b);
 
 /* Bus errors for tests and the emulator. Transmit errors count per attempt of the node's frames. */

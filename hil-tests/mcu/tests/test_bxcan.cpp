@@ -852,3 +852,79 @@ TEST_CASE("bxcan: bad arguments change nothing", "[bxcan]")
 	bxcan_write(&c, BXCAN_MCR + 2, BXCAN_MCR_INRQ, 0);
 	CHECK(bxcan_read(&c, BXCAN_MCR, 0) == 0x00010002u);
 }
+
+// The register sequences of firmware/stm32f405/src/can.c (can_start, can_send, isr_can1_rx0,
+// isr_can1_sce, can_poll), written out against the model as the driver performs them.
+TEST_CASE("bxcan: the driver's start, send, receive interrupt and bus-off recovery work on the model", "[bxcan]")
+{
+	Node n;
+	// can_start: initialisation, timing, the filter bank for node 5, interrupts, leave init.
+	n.wr(BXCAN_MCR, BXCAN_MCR_INRQ);
+	REQUIRE((n.rd(BXCAN_MSR) & (BXCAN_MSR_INAK | BXCAN_MSR_SLAK)) == BXCAN_MSR_INAK);
+	n.wr(BXCAN_BTR, driver_btr());
+	can_filter_spec spec{ 5, 0x00F, CAN_FILTER_MASK, 0 };
+	can_filter_bank bank[CAN_FILTER_BANKS_CAN1];
+	unsigned nb = 0;
+	REQUIRE(can_filter_plan(&spec, 1, bank, CAN_FILTER_BANKS_CAN1, &nb) == SWELL_OK);
+	n.wr(BXCAN_FMR, n.rd(BXCAN_FMR) | BXCAN_FMR_FINIT);
+	n.wr(BXCAN_FA1R, 0);
+	n.wr(BXCAN_FS1R, 0);
+	n.wr(BXCAN_FM1R, 0);
+	n.wr(BXCAN_FFA1R, 0);
+	for (unsigned b = 0; b < nb; b++) {
+		n.wr(BXCAN_FR1(b), bank[b].fr1);
+		n.wr(BXCAN_FR2(b), bank[b].fr2);
+	}
+	n.wr(BXCAN_FA1R, (1u << nb) - 1u);
+	n.wr(BXCAN_FMR, n.rd(BXCAN_FMR) & ~BXCAN_FMR_FINIT);
+	n.wr(BXCAN_IER, BXCAN_IER_FMPIE0 | BXCAN_IER_FOVIE0 | BXCAN_IER_BOFIE | BXCAN_IER_EPVIE | BXCAN_IER_ERRIE);
+	n.wr(BXCAN_MCR, n.rd(BXCAN_MCR) & ~BXCAN_MCR_INRQ);
+	n.later(11000);
+	REQUIRE((n.rd(BXCAN_MSR) & BXCAN_MSR_INAK) == 0u);
+
+	// can_send into the free mailbox TSR names, id << 21 | TXRQ.
+	const uint32_t code = (n.rd(BXCAN_TSR) >> BXCAN_TSR_CODE_SHIFT) & 3u;
+	n.queue(code, 0x215, 8, 0x11223344u, 0x55667788u);
+	n.settle();
+	REQUIRE(n.sent.size() == 1u);
+	CHECK(n.sent[0].f.id == 0x215u);
+
+	// Four frames for node 5 arrive before the receive interrupt runs: FMP 3, FOVR, the line is up.
+	for (uint32_t type = 1; type <= 4; type++) {
+		bxcan_frame f = std_frame(type << 4 | 5, 2, static_cast<uint8_t>(type));
+		bxcan_bus_rx(&n.c, &f, n.t);
+	}
+	REQUIRE(bxcan_irq_lines(&n.c) == BXCAN_IRQ_RX0);
+	// isr_can1_rx0: clear FOVR, then at most 3 frames, each released with RFOM.
+	std::vector<uint32_t> got;
+	if (n.rd(BXCAN_RF0R) & BXCAN_RFR_FOVR)
+		n.wr(BXCAN_RF0R, BXCAN_RFR_FOVR);
+	for (int k = 0; k < 3 && (n.rd(BXCAN_RF0R) & BXCAN_RFR_FMP_MASK); k++) {
+		got.push_back(n.rd(BXCAN_RIR(0)) >> 21);
+		n.wr(BXCAN_RF0R, BXCAN_RFR_RFOM);
+	}
+	CHECK(got == std::vector<uint32_t>{ 0x15, 0x25, 0x45 });
+	CHECK(bxcan_irq_lines(&n.c) == 0u); // FULL stays set but FFIE0 is off
+
+	// A bus-off: the status interrupt sees BOFF and clears ERRI; the line drops.
+	bxcan_inject_bus_off(&n.c, n.t);
+	REQUIRE(bxcan_irq_lines(&n.c) == BXCAN_IRQ_SCE);
+	CHECK((n.rd(BXCAN_ESR) & BXCAN_ESR_BOFF) != 0u);
+	n.wr(BXCAN_MSR, BXCAN_MSR_ERRI);
+	CHECK(bxcan_irq_lines(&n.c) == 0u);
+	// can_send refuses while BOFF; can_poll after the hold-off: enter and leave init. Its success test
+	// (INAK clear) comes after 11 bits; BOFF itself clears after 128 x 11 bits from leaving init.
+	n.later(100000000);
+	n.wr(BXCAN_MCR, n.rd(BXCAN_MCR) | BXCAN_MCR_INRQ);
+	REQUIRE((n.rd(BXCAN_MSR) & BXCAN_MSR_INAK) != 0u);
+	n.wr(BXCAN_MCR, n.rd(BXCAN_MCR) & ~BXCAN_MCR_INRQ);
+	const uint64_t t_leave = n.t;
+	n.at(t_leave + 11000);
+	CHECK((n.rd(BXCAN_MSR) & BXCAN_MSR_INAK) == 0u);
+	CHECK((n.rd(BXCAN_ESR) & BXCAN_ESR_BOFF) != 0u);
+	n.at(t_leave + 1408000);
+	CHECK((n.rd(BXCAN_ESR) & BXCAN_ESR_BOFF) == 0u);
+	n.queue(0, 0x215, 1);
+	n.settle();
+	CHECK(n.sent.size() == 2u);
+}
