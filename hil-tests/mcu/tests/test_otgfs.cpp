@@ -97,7 +97,7 @@ TEST_CASE("OTG_FS core soft reset and FIFO flushes clear after a read, and empty
 	CHECK(otgfs_fault(b.m.get()) == nullptr);
 }
 
-TEST_CASE("OTG_FS attaches only with PHY power, VBUS, device mode and SDIS clear; a detach ends the session")
+TEST_CASE("OTG_FS attaches only with PHY power, VBUS, device mode and SDIS clear, and a detach ends the session")
 {
 	Bench b;
 	b.wr(GUSBCFG, 1u << 30);
@@ -261,7 +261,7 @@ TEST_CASE("OTG_FS stalls a halted bulk endpoint and SD0PID puts its data toggle 
 	CHECK((b.rd(DOEPCTL(1)) & STALL) == 0u);
 }
 
-TEST_CASE("OTG_FS receive FIFO: a full FIFO NAKs OUT data; entries pop in order with XFRC on the completion entry")
+TEST_CASE("OTG_FS receive FIFO: a full FIFO NAKs OUT data, entries pop in order with XFRC on the completion entry")
 {
 	Bench b;
 	b.enumerate();

@@ -161,7 +161,7 @@ TEST_CASE("USB/IP codec: the protocol document's CmdIntrIN capture decodes field
 	CHECK(std::vector<uint8_t>(again, again + USBIP_HDR_LEN) == b);
 }
 
-TEST_CASE("USB/IP codec: RET_SUBMIT and RET_UNLINK carry a negative status big-endian; an unknown command is refused")
+TEST_CASE("USB/IP codec: RET_SUBMIT and RET_UNLINK carry a negative status big-endian, and an unknown command is refused")
 {
 	usbip_hdr h{};
 	h.command = USBIP_RET_SUBMIT;
@@ -298,7 +298,7 @@ TEST_CASE("USB/IP server: 200 bulk URBs OUT come back IN intact, in order, with 
 	CHECK(otgfs_fault(l.m.get()) == nullptr);
 }
 
-TEST_CASE("USB/IP server: unlinking a pending URB answers -ECONNRESET and no RET_SUBMIT; an answered one 0")
+TEST_CASE("USB/IP server: unlinking a pending URB answers -ECONNRESET and no RET_SUBMIT, an answered one 0")
 {
 	Link l;
 	l.import_device();
