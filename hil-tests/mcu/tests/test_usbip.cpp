@@ -161,7 +161,8 @@ TEST_CASE("USB/IP codec: the protocol document's CmdIntrIN capture decodes field
 	CHECK(std::vector<uint8_t>(again, again + USBIP_HDR_LEN) == b);
 }
 
-TEST_CASE("USB/IP codec: RET_SUBMIT and RET_UNLINK carry a negative status big-endian, and an unknown command is refused")
+TEST_CASE(
+	"USB/IP codec: RET_SUBMIT and RET_UNLINK carry a negative status big-endian, and an unknown command is refused")
 {
 	usbip_hdr h{};
 	h.command = USBIP_RET_SUBMIT;
