@@ -451,7 +451,8 @@ static void start_tx(struct bxcan *b)
 /* A failed attempt of mailbox m (RM0090 32.7.1 "Transmit handling", 32.7.6 fault confinement). */
 static void tx_failed(struct bxcan *b, unsigned m, unsigned outcome)
 {
-	b->tsr &= ~BXCAN_TSR_TXOK(m);
+	/* TXOK, ALST and TERR describe the last attempt (32.9.2 CAN_TSR). */
+	b->tsr &= ~(BXCAN_TSR_TXOK(m) | BXCAN_TSR_ALST(m) | BXCAN_TSR_TERR(m));
 	if (outcome == OUT_ARB_LOST) {
 		b->tsr |= BXCAN_TSR_ALST(m);
 		b->bus_free_ns = after(b, b->t_ns, BITS_INTERMISSION);
@@ -913,7 +914,7 @@ void bxcan_inject_bus_off(struct bxcan *b, uint64_t now_ns)
 
 		b->tx_mb = -1;
 		b->msr &= ~BXCAN_MSR_TXM;
-		b->tsr = (b->tsr & ~BXCAN_TSR_TXOK(m)) | BXCAN_TSR_TERR(m);
+		b->tsr = (b->tsr & ~(BXCAN_TSR_TXOK(m) | BXCAN_TSR_ALST(m))) | BXCAN_TSR_TERR(m);
 		if ((b->mcr & BXCAN_MCR_NART) || (b->tsr & BXCAN_TSR_ABRQ(m)))
 			mb_empty(b, m, 0);
 	}

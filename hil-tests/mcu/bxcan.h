@@ -217,7 +217,8 @@ void bxcan_write(struct bxcan *b, uint32_t off, uint32_t value, uint64_t now_ns)
 void bxcan_advance(struct bxcan *b, uint64_t now_ns);
 uint64_t bxcan_next_event_ns(const struct bxcan *b);
 
-/* Outcomes of bxcan_bus_rx. */
+/* Outcomes of bxcan_bus_rx. FIFO0, FIFO1, FILTERED and LOST: the node received the frame and
+ * acknowledged it (in silent mode it receives without acknowledging: CAN_BTR.SILM); OFF: it did not. */
 enum bxcan_rx {
 	BXCAN_RX_FIFO0 = 0, /* stored in FIFO 0 (RFLM = 0 overrun: it replaced the newest one) */
 	BXCAN_RX_FIFO1 = 1,

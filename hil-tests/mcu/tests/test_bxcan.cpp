@@ -828,12 +828,30 @@ TEST_CASE("bxcan: lost arbitration sets ALST and retries without counting an err
 	n.start(driver_btr());
 	bxcan_inject_arbitration_lost(&n.c, 2);
 	n.queue(0, 0x7F0, 0);
+	const uint64_t t0 = n.t;
+	bxcan_frame f = std_frame(0x7F0, 0);
+	const uint32_t bits = bxcan_frame_bits(&f, nullptr);
 	n.at(bxcan_next_event_ns(&n.c));
+	CHECK(n.t - t0 == 1000u * bits); // the bus stays busy with the winner's frame
 	CHECK((n.rd(BXCAN_TSR) & (BXCAN_TSR_ALST(0) | BXCAN_TSR_TME(0))) == BXCAN_TSR_ALST(0));
 	CHECK(n.tec() == 0u);
 	n.settle();
 	CHECK(n.sent.size() == 1u);
 	CHECK((n.rd(BXCAN_TSR) & (BXCAN_TSR_ALST(0) | BXCAN_TSR_TXOK(0))) == BXCAN_TSR_TXOK(0));
+	// The flags describe the last attempt: a lost arbitration, then an error, shows TERR alone.
+	bxcan_inject_arbitration_lost(&n.c, 1);
+	bxcan_inject_tx_errors(&n.c, 1);
+	n.queue(1, 0x7F1, 0);
+	n.at(bxcan_next_event_ns(&n.c)); // start
+	n.at(bxcan_next_event_ns(&n.c)); // arbitration lost
+	CHECK((n.rd(BXCAN_TSR) & (BXCAN_TSR_ALST(1) | BXCAN_TSR_TERR(1))) == BXCAN_TSR_ALST(1));
+	n.at(bxcan_next_event_ns(&n.c)); // retry
+	n.at(bxcan_next_event_ns(&n.c)); // bit error
+	CHECK((n.rd(BXCAN_TSR) & (BXCAN_TSR_ALST(1) | BXCAN_TSR_TERR(1))) == BXCAN_TSR_TERR(1));
+	CHECK(n.tec() == 8u);
+	n.settle();
+	CHECK((n.rd(BXCAN_TSR) & (BXCAN_TSR_ALST(1) | BXCAN_TSR_TERR(1) | BXCAN_TSR_TXOK(1))) == BXCAN_TSR_TXOK(1));
+	CHECK(n.tec() == 7u);
 }
 
 TEST_CASE("bxcan: bad arguments change nothing", "[bxcan]")
