@@ -163,11 +163,31 @@ static void error_event(struct bxcan *b, unsigned lec)
 		b->msr |= BXCAN_MSR_ERRI;
 }
 
+/* The recovery sequence: occ more occurrences of 11 recessive bits from now (paused while the bus is
+ * stuck dominant). */
+static void start_recovery(struct bxcan *b, unsigned occ)
+{
+	b->boff_occ_left = (uint16_t)occ;
+	b->boff_start_ns = b->t_ns;
+	b->boff_end_ns = b->dominant ? NONE : after(b, b->t_ns, occ * BITS_SYNC);
+}
+
+static void stop_recovery(struct bxcan *b)
+{
+	b->boff_occ_left = 0;
+	b->boff_end_ns = NONE;
+}
+
 static void enter_bus_off(struct bxcan *b)
 {
 	b->boff = 1;
+	b->dom_role = 0; /* a bus-off node takes no part in the bus */
+	b->dom_next_ns = NONE;
 	/* RM0090 32.7.6: with ABOM the recovery sequence starts by itself; else on leaving init. */
-	b->boff_end_ns = (b->mcr & BXCAN_MCR_ABOM) ? after(b, b->t_ns, BOFF_OCCURRENCES * BITS_SYNC) : NONE;
+	if (b->mcr & BXCAN_MCR_ABOM)
+		start_recovery(b, BOFF_OCCURRENCES);
+	else
+		stop_recovery(b);
 }
 
 /* ---- transmit mailboxes (RM0090 32.7.1) ---- */
@@ -351,7 +371,11 @@ static void set_mode(struct bxcan *b, unsigned mode)
 		b->msr &= ~BXCAN_MSR_SLAKI; /* cleared by hardware with SLAK */
 	}
 	if (mode != MODE_NORMAL && !(b->mcr & BXCAN_MCR_ABOM) && b->boff)
-		b->boff_end_ns = NONE; /* a manual recovery restarts on the next exit from init */
+		stop_recovery(b); /* a manual recovery restarts on the next exit from init */
+	if (mode != MODE_NORMAL) {
+		b->dom_role = 0;
+		b->dom_next_ns = NONE;
+	}
 }
 
 /* Figure "bxCAN operating modes" (32.4): INRQ & !SLEEP -> init, SLEEP & !INRQ -> sleep, neither ->
@@ -374,7 +398,7 @@ static void update_mode(struct bxcan *b)
 			set_mode(b, want);
 		return;
 	}
-	if (b->sync_end_ns == NONE)
+	if (b->sync_end_ns == NONE && !b->dominant)
 		b->sync_end_ns = after(b, b->t_ns, BITS_SYNC);
 }
 
@@ -385,7 +409,7 @@ static void sync_done(struct bxcan *b)
 	set_mode(b, MODE_NORMAL);
 	/* Manual bus-off recovery (ABOM = 0): the sync's 11 bits are the first of the 128 occurrences. */
 	if (b->boff && from_init && !(b->mcr & BXCAN_MCR_ABOM))
-		b->boff_end_ns = after(b, b->t_ns, (BOFF_OCCURRENCES - 1) * BITS_SYNC);
+		start_recovery(b, BOFF_OCCURRENCES - 1);
 }
 
 static void recovered(struct bxcan *b)
@@ -393,7 +417,7 @@ static void recovered(struct bxcan *b)
 	b->boff = 0;
 	b->tec = 0;
 	b->rec = 0;
-	b->boff_end_ns = NONE;
+	stop_recovery(b);
 	esr_update(b);
 	if (b->bus_free_ns < b->t_ns)
 		b->bus_free_ns = b->t_ns;
@@ -417,7 +441,8 @@ static int can_start(const struct bxcan *b)
 	int silent_only = (b->btr & BXCAN_BTR_SILM) && !(b->btr & BXCAN_BTR_LBKM);
 
 	/* Silent mode "cannot start a transmission" (32.5.1): requests wait. */
-	return b->mode == MODE_NORMAL && !b->boff && b->tx_mb < 0 && !silent_only && best_pending(b) >= 0;
+	return b->mode == MODE_NORMAL && !b->boff && !b->dominant && b->tx_mb < 0 && !silent_only &&
+		best_pending(b) >= 0;
 }
 
 static void start_tx(struct bxcan *b)
@@ -502,6 +527,22 @@ static void end_tx(struct bxcan *b)
 	update_mode(b); /* an init or sleep request waited for the frame's end */
 }
 
+/* Stuck dominant bus: 8 more dominant bits after the error flag (ISO 11898-1 fault confinement). */
+static void dominant_bits(struct bxcan *b)
+{
+	unsigned lec = (b->esr & BXCAN_ESR_LEC_MASK) >> BXCAN_ESR_LEC_SHIFT;
+
+	if (b->dom_role == 2) {
+		b->tec = (uint16_t)(b->tec + 8u);
+		if (b->tec > 255)
+			enter_bus_off(b);
+	} else {
+		b->rec = (uint8_t)(b->rec > 247 ? 255u : b->rec + 8u);
+	}
+	error_event(b, lec);
+	b->dom_next_ns = b->dom_role ? after(b, b->t_ns, 8) : NONE;
+}
+
 uint64_t bxcan_next_event_ns(const struct bxcan *b)
 {
 	uint64_t t = NONE;
@@ -514,6 +555,8 @@ uint64_t bxcan_next_event_ns(const struct bxcan *b)
 		t = b->sync_end_ns;
 	if (b->boff && b->boff_end_ns < t)
 		t = b->boff_end_ns;
+	if (b->dom_role && b->dom_next_ns < t)
+		t = b->dom_next_ns;
 	if (can_start(b)) {
 		uint64_t s = b->bus_free_ns > b->t_ns ? b->bus_free_ns : b->t_ns;
 
@@ -541,6 +584,8 @@ void bxcan_advance(struct bxcan *b, uint64_t now_ns)
 			sync_done(b);
 		else if (b->boff && b->boff_end_ns == t)
 			recovered(b);
+		else if (b->dom_role && b->dom_next_ns == t)
+			dominant_bits(b);
 		else
 			start_tx(b);
 	}
@@ -572,6 +617,12 @@ static void core_reset(struct bxcan *b)
 	b->bus_free_ns = b->t_ns;
 	b->sync_end_ns = NONE;
 	b->boff_end_ns = NONE;
+	b->boff_start_ns = 0;
+	b->boff_occ_left = 0;
+	b->dom_role = 0;
+	b->dom_next_ns = NONE;
+	if (b->dominant)
+		b->msr &= ~(BXCAN_MSR_RX | BXCAN_MSR_SAMP);
 }
 
 void bxcan_reset(struct bxcan *b)
@@ -755,8 +806,8 @@ static void write_mcr(struct bxcan *b, uint32_t v)
 		return;
 	}
 	b->mcr = v & MCR_RW;
-	if (b->boff && (b->mcr & BXCAN_MCR_ABOM) && b->boff_end_ns == NONE)
-		b->boff_end_ns = after(b, b->t_ns, BOFF_OCCURRENCES * BITS_SYNC);
+	if (b->boff && (b->mcr & BXCAN_MCR_ABOM) && !b->boff_occ_left)
+		start_recovery(b, BOFF_OCCURRENCES);
 	update_mode(b);
 }
 
@@ -853,7 +904,7 @@ enum bxcan_rx bxcan_bus_rx(struct bxcan *b, const struct bxcan_frame *f, uint64_
 		}
 		return BXCAN_RX_OFF;
 	}
-	if (b->mode != MODE_NORMAL || b->boff || (b->btr & BXCAN_BTR_LBKM))
+	if (b->mode != MODE_NORMAL || b->boff || b->dominant || (b->btr & BXCAN_BTR_LBKM))
 		return BXCAN_RX_OFF;
 	return receive(b, f);
 }
@@ -933,4 +984,54 @@ void bxcan_inject_rx_errors(struct bxcan *b, uint32_t n, uint64_t now_ns)
 		return;
 	b->rec = (uint8_t)(b->rec + n > 255u ? 255u : b->rec + n);
 	error_event(b, BXCAN_LEC_CRC);
+}
+
+void bxcan_inject_bus_dominant(struct bxcan *b, bool on, uint64_t now_ns)
+{
+	if (!b)
+		return;
+	bxcan_advance(b, now_ns);
+	if (on == b->dominant)
+		return;
+	b->dominant = on;
+	if (on) {
+		b->msr &= ~(BXCAN_MSR_RX | BXCAN_MSR_SAMP);
+		b->sync_end_ns = NONE;
+		if (b->boff && b->boff_end_ns != NONE) {
+			/* Pause the recovery, keeping the occurrences of 11 recessive bits already seen. */
+			uint64_t done = (b->t_ns - b->boff_start_ns) / bxcan_bits_ns(b, BITS_SYNC);
+
+			b->boff_occ_left = (uint16_t)(done >= b->boff_occ_left ? 1u : b->boff_occ_left - done);
+			b->boff_end_ns = NONE;
+		}
+		if (b->mode != MODE_NORMAL || b->boff)
+			return;
+		if (b->tx_mb >= 0) {
+			unsigned m = (unsigned)b->tx_mb;
+
+			b->tx_mb = -1;
+			b->msr &= ~BXCAN_MSR_TXM;
+			b->dom_role = 2;
+			tx_failed(b, m, OUT_BIT_ERR);
+		} else {
+			b->dom_role = 1;
+			b->rec = (uint8_t)(b->rec == 255 ? 255u : b->rec + 1u);
+			error_event(b, BXCAN_LEC_STUFF);
+		}
+		if (b->dom_role && !b->boff)
+			b->dom_next_ns = after(b, b->t_ns, BITS_ERROR_FRAME);
+		else
+			b->dom_role = 0;
+		update_mode(b);
+		return;
+	}
+	b->msr |= BXCAN_MSR_RX | BXCAN_MSR_SAMP;
+	b->dom_role = 0;
+	b->dom_next_ns = NONE;
+	if (b->boff && b->boff_occ_left) {
+		b->boff_start_ns = b->t_ns;
+		b->boff_end_ns = after(b, b->t_ns, b->boff_occ_left * BITS_SYNC);
+	}
+	b->bus_free_ns = after(b, b->t_ns, BITS_SYNC); /* bus idle: 11 recessive bits */
+	update_mode(b);
 }

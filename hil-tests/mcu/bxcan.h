@@ -15,9 +15,9 @@
  * 7 EOF bits; 3 bits of intermission separate the node's frames. See bxcan_frame_bits.
  *
  * Not modelled (the rest of the bus is ideal): bit-level arbitration against other nodes (frames from
- * bxcan_bus_rx never collide with the node's own; lost arbitration is injected), the bus stuck
- * dominant, error frames from other nodes beyond injected counts, time-triggered mode (TTCM: no time
- * stamps, TIME fields read 0), debug freeze (DBF), CAN2. */
+ * bxcan_bus_rx never collide with the node's own; lost arbitration is injected), error frames from
+ * other nodes beyond injected counts, time-triggered mode (TTCM: no time stamps, TIME fields read 0),
+ * debug freeze (DBF), CAN2. */
 #ifndef SWELL_MCU_BXCAN_H
 #define SWELL_MCU_BXCAN_H
 
@@ -190,10 +190,14 @@ struct bxcan {
 	uint64_t tx_end_ns; /* end of the attempt on the wire */
 	uint64_t bus_free_ns; /* earliest start of the node's next frame */
 	uint64_t sync_end_ns; /* 11 recessive bits seen: leaving initialisation or sleep (UINT64_MAX: none) */
-	uint64_t boff_end_ns; /* bus-off recovery done (UINT64_MAX: none running) */
+	uint64_t boff_end_ns; /* bus-off recovery done (UINT64_MAX: none running or paused) */
+	uint64_t boff_start_ns; /* start of the running part of the recovery */
+	uint16_t boff_occ_left; /* occurrences of 11 recessive bits still needed; 0: no recovery */
+	uint8_t dom_role; /* stuck dominant bus: 0 not affected, 1 receiver, 2 transmitter */
+	uint64_t dom_next_ns; /* next +8 on the error counter of a stuck dominant bus */
 
 	/* injected bus conditions (they belong to the bus: a reset keeps them) */
-	bool no_ack;
+	bool no_ack, dominant;
 	uint32_t tx_errors_left, arb_lost_left;
 };
 
@@ -248,6 +252,14 @@ void bxcan_inject_arbitration_lost(struct bxcan *b, uint32_t n);
 void bxcan_inject_bus_off(struct bxcan *b, uint64_t now_ns);
 /* n receive errors (REC + 1 each, LEC CRC) at now_ns; only while in normal mode and not bus-off. */
 void bxcan_inject_rx_errors(struct bxcan *b, uint32_t n, uint64_t now_ns);
+/* From now_ns the bus is stuck dominant (on) or free again (off). While stuck: CAN_MSR.RX and SAMP
+ * read 0, no 11 recessive bits come (initialisation and sleep cannot be left, a bus-off recovery
+ * pauses with the occurrences it has counted), nothing is sent or received. A node in normal mode
+ * detects an error at once: a frame on the wire fails (bit error, TEC + 8: the node is transmitter),
+ * else a stuff error (REC + 1: receiver); then ISO 11898-1's rule for dominant bits after an error
+ * flag adds 8 to that counter at the 14th dominant bit and every 8 bits after (a transmitter goes
+ * bus-off, a receiver's REC stops at 255). Once free, the node sends again after 11 recessive bits. */
+void bxcan_inject_bus_dominant(struct bxcan *b, bool on, uint64_t now_ns);
 
 /* Helpers, public for the tests. CRC-15 of the first nbits bits of bytes (MSB first; ISO 11898-1
  * polynomial 0x4599, initial 0). */

@@ -854,6 +854,73 @@ TEST_CASE("bxcan: lost arbitration sets ALST and retries without counting an err
 	CHECK(n.tec() == 7u);
 }
 
+TEST_CASE("bxcan: on a bus stuck dominant init cannot be left and a transmitter goes bus-off", "[bxcan]")
+{
+	// The driver's can_start on a stuck bus: INAK never clears (its "no 11 recessive bits").
+	Node n;
+	n.wr(BXCAN_MCR, BXCAN_MCR_INRQ);
+	n.wr(BXCAN_BTR, driver_btr());
+	bxcan_inject_bus_dominant(&n.c, true, n.t);
+	CHECK((n.rd(BXCAN_MSR) & (BXCAN_MSR_RX | BXCAN_MSR_SAMP)) == 0u);
+	n.wr(BXCAN_MCR, 0);
+	n.later(10000000);
+	CHECK((n.rd(BXCAN_MSR) & BXCAN_MSR_INAK) != 0u);
+	CHECK(bxcan_next_event_ns(&n.c) == UINT64_MAX);
+	bxcan_inject_bus_dominant(&n.c, false, n.t);
+	CHECK((n.rd(BXCAN_MSR) & (BXCAN_MSR_RX | BXCAN_MSR_SAMP)) == (BXCAN_MSR_RX | BXCAN_MSR_SAMP));
+	const uint64_t t_free = n.t;
+	n.at(t_free + 10999);
+	CHECK((n.rd(BXCAN_MSR) & BXCAN_MSR_INAK) != 0u);
+	n.at(t_free + 11000);
+	CHECK((n.rd(BXCAN_MSR) & BXCAN_MSR_INAK) == 0u);
+
+	// A transmitter: the frame fails at once (TEC 8), then + 8 at the 14th dominant bit and every
+	// 8 bits: bus-off (TEC 256) 14 + 30 x 8 = 254 bits later. With ABOM the recovery waits for the bus.
+	Node t;
+	t.start(driver_btr(), BXCAN_MCR_ABOM);
+	t.queue(0, 0x99, 8);
+	t.later(20000);
+	const uint64_t t_stuck = t.t;
+	bxcan_inject_bus_dominant(&t.c, true, t.t);
+	CHECK(t.tec() == 8u);
+	CHECK(t.lec() == BXCAN_LEC_BIT_RECESSIVE);
+	CHECK(!t.empty(0));
+	t.at(t_stuck + 253999);
+	CHECK(t.tec() == 248u);
+	CHECK((t.rd(BXCAN_ESR) & BXCAN_ESR_BOFF) == 0u);
+	t.at(t_stuck + 254000);
+	CHECK((t.rd(BXCAN_ESR) & BXCAN_ESR_BOFF) != 0u);
+	t.later(50000000);
+	CHECK((t.rd(BXCAN_ESR) & BXCAN_ESR_BOFF) != 0u);
+	CHECK(t.sent.empty());
+	bxcan_inject_bus_dominant(&t.c, false, t.t);
+	const uint64_t t_free2 = t.t;
+	t.at(t_free2 + 1408000 - 1);
+	CHECK((t.rd(BXCAN_ESR) & BXCAN_ESR_BOFF) != 0u);
+	t.at(t_free2 + 1408000);
+	CHECK((t.rd(BXCAN_ESR) & BXCAN_ESR_BOFF) == 0u);
+	t.settle();
+	CHECK(t.sent.size() == 1u);
+
+	// An idle node is a receiver: stuff error (REC 1), then + 8 per 8 bits up to 255, never bus-off.
+	Node r;
+	r.start(driver_btr());
+	r.wr(BXCAN_IER, BXCAN_IER_EPVIE | BXCAN_IER_ERRIE);
+	const uint64_t r_stuck = r.t;
+	bxcan_inject_bus_dominant(&r.c, true, r.t);
+	CHECK(r.rec() == 1u);
+	CHECK(r.lec() == BXCAN_LEC_STUFF);
+	r.at(r_stuck + 1000 * (14 + 15 * 8)); // 16 steps: REC 129, error passive
+	CHECK(r.rec() == 129u);
+	CHECK((r.rd(BXCAN_ESR) & BXCAN_ESR_EPVF) != 0u);
+	CHECK(bxcan_irq_lines(&r.c) == BXCAN_IRQ_SCE);
+	r.later(1000000);
+	CHECK(r.rec() == 255u);
+	CHECK((r.rd(BXCAN_ESR) & BXCAN_ESR_BOFF) == 0u);
+	bxcan_frame f = std_frame(0x1, 0);
+	CHECK(bxcan_bus_rx(&r.c, &f, r.t) == BXCAN_RX_OFF);
+}
+
 TEST_CASE("bxcan: bad arguments change nothing", "[bxcan]")
 {
 	bxcan c{};
