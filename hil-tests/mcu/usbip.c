@@ -5,6 +5,7 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <string.h>
+#include <sys/socket.h>
 #include <unistd.h>
 
 #define BULK_MPS 64u
@@ -639,7 +640,11 @@ static enum usbip_step parse(struct usbip_server *s)
 static int flush_tx(struct usbip_server *s)
 {
 	while (s->tx_len) {
-		ssize_t n = write(s->fd, s->tx, s->tx_len);
+		/* send: a peer that closed is an error here, not a SIGPIPE; write for a non-socket */
+		ssize_t n = send(s->fd, s->tx, s->tx_len, MSG_NOSIGNAL);
+
+		if (n < 0 && errno == ENOTSOCK)
+			n = write(s->fd, s->tx, s->tx_len);
 
 		if (n < 0) {
 			if (errno == EINTR)

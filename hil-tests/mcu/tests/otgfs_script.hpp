@@ -81,8 +81,13 @@ constexpr uint32_t EPENA = 1u << 31, CNAK = 1u << 26, SNAK = 1u << 27, STALL = 1
 constexpr uint32_t XFRC = 1u << 0, STUP = 1u << 3;
 
 const uint8_t device_desc[18] = { 18, 1, 0x00, 0x02, 0, 0, 0, 64, 0x09, 0x12, 0x01, 0x00, 0x00, 0x01, 0, 0, 0, 1 };
-const uint8_t config_desc[32] = { 9, 2, 32, 0, 1, 1,    0, 0x80, 50, 9, 4, 0, 0,    2, 0xFF, 0,
-				  0, 0, 7,  5, 0, 0x01, 2, 64,   0,  0, 7, 5, 0x81, 2, 64,   0 };
+// configuration, interface (class 0xFF, 2 endpoints), bulk OUT 0x01 and bulk IN 0x81 of 64 bytes
+const uint8_t config_desc[32] = {
+	9, 2, 32,   0, 1,  1,    0, 0x80, 50, // configuration
+	9, 4, 0,    0, 2,  0xFF, 0, 0,    0, // interface
+	7, 5, 0x01, 2, 64, 0,    0, // bulk OUT
+	7, 5, 0x81, 2, 64, 0,    0, // bulk IN
+};
 
 struct Driver {
 	otgfs *m;
