@@ -1,0 +1,323 @@
+/* swell-vm-usbip-bridge: the VM end of the USB tunnel. The serial line carries the USB/IP protocol
+ * (the kernel's Documentation/usb/usbip_protocol.rst) to a server at the other end (swell-mcu's
+ * OTG FS model, hil-tests/mcu/usbip.c). The bridge imports the server's device (OP_REQ_IMPORT),
+ * hands one end of a Unix socket pair to the kernel's vhci-hcd (sysfs attach) and copies bytes
+ * between the other end and the line, so the VM's USB stack enumerates the device and programs use
+ * it through libusb as they would a board on a USB port. */
+#define _DEFAULT_SOURCE
+
+#include <errno.h>
+#include <fcntl.h>
+#include <inttypes.h>
+#include <poll.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <termios.h>
+#include <unistd.h>
+
+#include "swell/cli.h"
+#include "vm-util.h"
+
+#define OP_HDR 8u
+#define DEV_REC 312u /* the device record of OP_REP_IMPORT */
+#define BUSID_LEN 32u
+#define PUMP_BUF 65536u
+
+static const char usage[] =
+	"usage: swell-vm-usbip-bridge [--tty PATH] [--busid ID] [--vhci DIR] [--import-timeout-s S]\n"
+	"                             [--ready-file PATH]\n"
+	"Imports the USB device that the USB/IP server at the other end of the serial line PATH\n"
+	"(default /dev/ttyS2) exports as bus ID ID (default 1-1), waiting up to S seconds (default\n"
+	"120) for its answer, attaches it to a free port of the kernel's vhci-hcd (DIR, default\n"
+	"/sys/devices/platform/vhci_hcd.0) through a Unix socket pair, and copies the USB/IP stream\n"
+	"between the socket and the line until SIGTERM or SIGINT (then the port is detached) or until\n"
+	"either side closes. Writes --ready-file once the device is attached. At the end prints the\n"
+	"bytes moved each way. Exit 0, 1 on an import or attach failure or an I/O error.\n";
+
+static int open_line(const char *path)
+{
+	struct termios tio;
+	int fd = open(path, O_RDWR | O_NOCTTY);
+
+	if (fd < 0)
+		return -1;
+	/* Raw 8-bit, no echo, no CR/LF translation, no flow control: the line carries binary. */
+	if (tcgetattr(fd, &tio) == 0) {
+		cfmakeraw(&tio);
+		tio.c_cflag |= CLOCAL | CREAD;
+		tio.c_cflag &= ~(tcflag_t)CRTSCTS;
+		cfsetispeed(&tio, B115200);
+		cfsetospeed(&tio, B115200);
+		tio.c_cc[VMIN] = 1;
+		tio.c_cc[VTIME] = 0;
+		if (tcsetattr(fd, TCSANOW, &tio) != 0) {
+			close(fd);
+			return -1;
+		}
+	}
+	return fd;
+}
+
+static uint32_t be32(const uint8_t *p)
+{
+	return (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | p[3];
+}
+
+static int write_all(int fd, const uint8_t *p, size_t n)
+{
+	while (n > 0) {
+		ssize_t w = write(fd, p, n);
+
+		if (w < 0) {
+			if (errno == EINTR)
+				continue;
+			return -1;
+		}
+		p += w;
+		n -= (size_t)w;
+	}
+	return 0;
+}
+
+/* Read exactly n bytes before the deadline; 0, or -1 (errno ETIMEDOUT at the deadline). */
+static int read_all(int fd, uint8_t *p, size_t n, double deadline_s)
+{
+	while (n > 0 && !vm_stop) {
+		struct pollfd pfd = { .fd = fd, .events = POLLIN };
+		double left = deadline_s - vm_now_s();
+		ssize_t r;
+
+		if (left <= 0) {
+			errno = ETIMEDOUT;
+			return -1;
+		}
+		if (poll(&pfd, 1, (int)(left * 1000) + 1) <= 0)
+			continue;
+		r = read(fd, p, n);
+		if (r == 0) {
+			errno = ECONNRESET;
+			return -1;
+		}
+		if (r < 0) {
+			if (errno == EINTR || errno == EAGAIN)
+				continue;
+			return -1;
+		}
+		p += r;
+		n -= (size_t)r;
+	}
+	return vm_stop ? -1 : 0;
+}
+
+struct imported {
+	uint32_t busnum, devnum, speed;
+	uint16_t vid, pid;
+};
+
+static const char *import_device(int line, const char *busid, double timeout_s, struct imported *d)
+{
+	uint8_t req[OP_HDR + BUSID_LEN] = { 0x01, 0x11, 0x80, 0x03 }, rep[OP_HDR + DEV_REC];
+
+	memcpy(req + OP_HDR, busid, strnlen(busid, BUSID_LEN - 1));
+	if (write_all(line, req, sizeof(req)) != 0)
+		return "cannot write OP_REQ_IMPORT to the line";
+	if (read_all(line, rep, OP_HDR, vm_now_s() + timeout_s) != 0)
+		return errno == ETIMEDOUT ? "no OP_REP_IMPORT from the server in time"
+					  : "the line closed before OP_REP_IMPORT";
+	if (rep[2] != 0x00 || rep[3] != 0x03)
+		return "the server answered something other than OP_REP_IMPORT";
+	if (be32(rep + 4) != 0)
+		return "the server refused the import (no such bus ID)";
+	if (read_all(line, rep + OP_HDR, DEV_REC, vm_now_s() + 10) != 0)
+		return "the device record of OP_REP_IMPORT did not come";
+	d->busnum = be32(rep + 0x128);
+	d->devnum = be32(rep + 0x12C);
+	d->speed = be32(rep + 0x130);
+	d->vid = (uint16_t)(rep[0x134] << 8 | rep[0x135]);
+	d->pid = (uint16_t)(rep[0x136] << 8 | rep[0x137]);
+	return NULL;
+}
+
+/* A free high-speed hub port of vhci-hcd (its status file: "hs  0000 004 ..." with state 4,
+ * VDEV_ST_NULL); the high-speed root hub takes low, full and high speed devices. -1 if none. */
+static int free_port(const char *vhci)
+{
+	char path[512], line[256];
+	int port = -1;
+	FILE *f;
+
+	snprintf(path, sizeof(path), "%s/status", vhci);
+	f = fopen(path, "r");
+	if (!f)
+		return -1;
+	while (port < 0 && fgets(line, sizeof(line), f)) {
+		char hub[8];
+		unsigned p, sta;
+
+		if (sscanf(line, "%7s %u %u", hub, &p, &sta) == 3 && !strcmp(hub, "hs") && sta == 4)
+			port = (int)p;
+	}
+	fclose(f);
+	return port;
+}
+
+static int sysfs_write(const char *vhci, const char *file, const char *text)
+{
+	char path[512];
+	int fd, rc;
+
+	snprintf(path, sizeof(path), "%s/%s", vhci, file);
+	fd = open(path, O_WRONLY);
+	if (fd < 0)
+		return -1;
+	rc = write_all(fd, (const uint8_t *)text, strlen(text));
+	close(fd);
+	return rc;
+}
+
+struct pipe_buf {
+	uint8_t b[PUMP_BUF];
+	size_t len;
+	uint64_t moved;
+};
+
+/* Read what src has into the buffer (0, or -1 when src closed or failed). */
+static int pump_in(int src, struct pipe_buf *p)
+{
+	ssize_t r;
+
+	if (p->len == sizeof(p->b))
+		return 0;
+	r = read(src, p->b + p->len, sizeof(p->b) - p->len);
+	if (r == 0)
+		return -1;
+	if (r < 0)
+		return errno == EINTR || errno == EAGAIN ? 0 : -1;
+	p->len += (size_t)r;
+	return 0;
+}
+
+static int pump_out(int dst, struct pipe_buf *p)
+{
+	ssize_t w;
+
+	if (!p->len)
+		return 0;
+	w = write(dst, p->b, p->len);
+	if (w < 0)
+		return errno == EINTR || errno == EAGAIN ? 0 : -1;
+	memmove(p->b, p->b + w, p->len - (size_t)w);
+	p->len -= (size_t)w;
+	p->moved += (uint64_t)w;
+	return 0;
+}
+
+static struct pipe_buf to_line, to_vhci;
+
+/* Copies both ways until a stop signal or either side's end; returns 0, or -1 on an I/O error. */
+static int run_pump(int line, int sock)
+{
+	(void)fcntl(line, F_SETFL, fcntl(line, F_GETFL) | O_NONBLOCK);
+	(void)fcntl(sock, F_SETFL, fcntl(sock, F_GETFL) | O_NONBLOCK);
+	while (!vm_stop) {
+		struct pollfd pfd[2] = { { .fd = line, .events = POLLIN }, { .fd = sock, .events = POLLIN } };
+		int n;
+
+		if (to_line.len)
+			pfd[0].events |= POLLOUT;
+		if (to_vhci.len)
+			pfd[1].events |= POLLOUT;
+		n = poll(pfd, 2, 200);
+		if (n < 0) {
+			if (errno == EINTR)
+				continue;
+			return -1;
+		}
+		if ((pfd[0].revents & (POLLIN | POLLHUP | POLLERR)) && pump_in(line, &to_vhci) != 0)
+			return 0; /* the server closed the line */
+		if ((pfd[1].revents & (POLLIN | POLLHUP | POLLERR)) && pump_in(sock, &to_line) != 0)
+			return 0; /* vhci let go of the device */
+		if (pump_out(line, &to_line) != 0 || pump_out(sock, &to_vhci) != 0)
+			return -1;
+	}
+	return 0;
+}
+
+int main(int argc, char **argv)
+{
+	const char *tty = "/dev/ttyS2", *busid = "1-1", *vhci = "/sys/devices/platform/vhci_hcd.0", *ready = NULL, *err;
+	double timeout_s = 120;
+	const struct swell_cli_opt opts[] = {
+		SWELL_CLI_STR("--tty", tty),
+		SWELL_CLI_STR("--busid", busid),
+		SWELL_CLI_STR("--vhci", vhci),
+		SWELL_CLI_NUM_ABOVE("--import-timeout-s", timeout_s, 0, 3600, "s"),
+		SWELL_CLI_STR("--ready-file", ready),
+	};
+	struct swell_cli cli = {
+		.prog = "swell-vm-usbip-bridge", .usage = usage, .opt = opts, .n_opt = SWELL_CLI_N(opts)
+	};
+	struct imported d = { 0 };
+	char text[64];
+	int line, sv[2], port, rc;
+
+	swell_cli_parse(&cli, argc, argv);
+	vm_catch_stop();
+	line = open_line(tty);
+	if (line < 0) {
+		fprintf(stderr, "swell-vm-usbip-bridge: cannot open the tunnel line %s: %s\n", tty, strerror(errno));
+		return 1;
+	}
+	err = import_device(line, busid, timeout_s, &d);
+	if (err) {
+		fprintf(stderr, "swell-vm-usbip-bridge: %s: %s\n", tty, err);
+		close(line);
+		return 1;
+	}
+	port = free_port(vhci);
+	if (port < 0) {
+		fprintf(stderr, "swell-vm-usbip-bridge: no free high-speed port in %s/status (is vhci-hcd loaded?)\n",
+			vhci);
+		close(line);
+		return 1;
+	}
+	if (socketpair(AF_UNIX, SOCK_STREAM, 0, sv) != 0) {
+		fprintf(stderr, "swell-vm-usbip-bridge: socketpair: %s\n", strerror(errno));
+		close(line);
+		return 1;
+	}
+	/* "port sockfd devid speed": the kernel takes its own reference to the socket */
+	snprintf(text, sizeof(text), "%d %d %" PRIu32 " %" PRIu32, port, sv[0], (d.busnum << 16) | d.devnum, d.speed);
+	if (sysfs_write(vhci, "attach", text) != 0) {
+		fprintf(stderr, "swell-vm-usbip-bridge: attach '%s' refused: %s\n", text, strerror(errno));
+		close(line);
+		close(sv[0]);
+		close(sv[1]);
+		return 1;
+	}
+	close(sv[0]);
+	printf("swell-vm-usbip-bridge: %04x:%04x (bus %" PRIu32 " device %" PRIu32 ", speed %" PRIu32
+	       ") attached to vhci port %d\n",
+	       d.vid, d.pid, d.busnum, d.devnum, d.speed, port);
+	fflush(stdout);
+	if (ready) {
+		FILE *f = fopen(ready, "w");
+
+		if (f)
+			fclose(f);
+	}
+	rc = run_pump(line, sv[1]);
+	if (vm_stop) {
+		snprintf(text, sizeof(text), "%d", port);
+		(void)sysfs_write(vhci, "detach", text);
+	}
+	printf("swell-vm-usbip-bridge: %s <-> vhci port %d: %" PRIu64 " bytes to the line, %" PRIu64 " to vhci\n", tty,
+	       port, to_line.moved, to_vhci.moved);
+	if (rc != 0)
+		fprintf(stderr, "swell-vm-usbip-bridge: I/O error: %s\n", strerror(errno));
+	close(line);
+	close(sv[1]);
+	return rc != 0 ? 1 : 0;
+}
