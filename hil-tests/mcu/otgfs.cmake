@@ -18,7 +18,7 @@ if(NOT SWELL_TEST_PROGRAMS)
 endif()
 target_link_libraries(mcu_test_otgfs_vm PRIVATE swell_mcu_otgfs Catch2::Catch2WithMain)
 set_target_properties(mcu_test_otgfs_vm PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)
-set(otgfs_vm_test "mcu: USB tunnel, the VM's Linux enumerates the OTG FS model over USB/IP (ttyS2, vhci-hcd) and swell-vm-usbtest echoes 300 packets of 1..64 bytes intact")
+set(otgfs_vm_test "mcu: USB tunnel, the VM's Linux enumerates the OTG FS model over USB/IP (virtio-serial, vhci-hcd) and swell-vm-usbtest echoes 300 packets of 1..64 bytes intact")
 add_test(NAME "${otgfs_vm_test}" COMMAND mcu_test_otgfs_vm)
 set_tests_properties("${otgfs_vm_test}" PROPERTIES LABELS mcu FIXTURES_REQUIRED swell_vm_image TIMEOUT 400
   SKIP_RETURN_CODE 77 ENVIRONMENT

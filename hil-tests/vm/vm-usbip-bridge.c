@@ -1,6 +1,6 @@
-/* swell-vm-usbip-bridge: the VM end of the USB tunnel. The serial line carries the USB/IP protocol
- * (the kernel's Documentation/usb/usbip_protocol.rst) to a server at the other end (swell-mcu's
- * OTG FS model, hil-tests/mcu/usbip.c). The bridge imports the server's device (OP_REQ_IMPORT),
+/* swell-vm-usbip-bridge: the VM end of the USB tunnel. The line (a virtio-serial port or a serial
+ * port) carries the USB/IP protocol (the kernel's Documentation/usb/usbip_protocol.rst) to a server
+ * at the other end (swell-mcu's OTG FS model, hil-tests/mcu/usbip.c). The bridge imports the server's device (OP_REQ_IMPORT),
  * hands one end of a Unix socket pair to the kernel's vhci-hcd (sysfs attach) and copies bytes
  * between the other end and the line, so the VM's USB stack enumerates the device and programs use
  * it through libusb as they would a board on a USB port. */
@@ -28,13 +28,14 @@
 static const char usage[] =
 	"usage: swell-vm-usbip-bridge [--tty PATH] [--busid ID] [--vhci DIR] [--import-timeout-s S]\n"
 	"                             [--ready-file PATH]\n"
-	"Imports the USB device that the USB/IP server at the other end of the serial line PATH\n"
-	"(default /dev/ttyS2) exports as bus ID ID (default 1-1), waiting up to S seconds (default\n"
-	"120) for its answer, attaches it to a free port of the kernel's vhci-hcd (DIR, default\n"
-	"/sys/devices/platform/vhci_hcd.0) through a Unix socket pair, and copies the USB/IP stream\n"
-	"between the socket and the line until SIGTERM or SIGINT (then the port is detached) or until\n"
-	"either side closes. Writes --ready-file once the device is attached. At the end prints the\n"
-	"bytes moved each way. Exit 0, 1 on an import or attach failure or an I/O error.\n";
+	"Imports the USB device that the USB/IP server at the other end of the line PATH (a serial\n"
+	"port, default /dev/ttyS2, or a virtio-serial port such as /dev/vport0p1) exports as bus ID\n"
+	"ID (default 1-1), waiting up to S seconds (default 120) for its answer, attaches it to a\n"
+	"free port of the kernel's vhci-hcd (DIR, default /sys/devices/platform/vhci_hcd.0) through\n"
+	"a Unix socket pair, and copies the USB/IP stream between the socket and the line until\n"
+	"SIGTERM or SIGINT (then the port is detached) or until either side closes. Writes\n"
+	"--ready-file once the device is attached. At the end prints the bytes moved each way.\n"
+	"Exit 0, 1 on an import or attach failure or an I/O error.\n";
 
 static int open_line(const char *path)
 {

@@ -1,6 +1,6 @@
-// The USB tunnel end to end: the HIL VM (hil-tests/vm/run-vm --usb-tunnel) imports the OTG FS model
-// through swell-vm-usbip-bridge and vhci-hcd, and the VM's Linux enumerates it and runs
-// swell-vm-usbtest (libusb) against it. This process is the USB/IP server (usbip.c) with the model
+// The USB tunnel end to end: the HIL VM (hil-tests/vm/run-vm --usb-tunnel, on its default
+// virtio-serial line) imports the OTG FS model through swell-vm-usbip-bridge and vhci-hcd, and the
+// VM's Linux enumerates it and runs swell-vm-usbtest (libusb) against it. This process is the USB/IP server (usbip.c) with the model
 // driven by the scripted driver of otgfs_script.hpp, standing where swell-mcu runs the image.
 // Environment: SWELL_RUN_VM (the run-vm script), SWELL_VM_IMAGE (build-image's output),
 // SWELL_VM_BIN (the programs for the VM); the test is skipped (exit 77) without them.
