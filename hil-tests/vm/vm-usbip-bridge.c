@@ -35,7 +35,8 @@ static const char usage[] =
 	"a Unix socket pair, and copies the USB/IP stream between the socket and the line until\n"
 	"SIGTERM or SIGINT (then the port is detached) or until either side closes. Writes\n"
 	"--ready-file once the device is attached. At the end prints the bytes moved each way.\n"
-	"Exit 0, 1 on an import or attach failure or an I/O error.\n";
+	"Exit status: 0 stopped by a signal or either side closed, 1 an import, attach or I/O\n"
+	"failure, 2 bad arguments.\n";
 
 static int open_line(const char *path)
 {
