@@ -1,6 +1,7 @@
 # The USB OTG FS device model of the emulated STM32F405 (otgfs.c, RM0090 section 34) and its USB/IP
 # server (usbip.c), with their unit tests (a driver scripted from the manual's programming model
-# stands in for the image). Included by this directory's CMakeLists.txt.
+# stands in for the image). Included by this directory's CMakeLists.txt; it needs no unicorn, so the
+# include can come before that file's unicorn check.
 add_library(swell_mcu_otgfs STATIC ${CMAKE_CURRENT_LIST_DIR}/otgfs.c ${CMAKE_CURRENT_LIST_DIR}/usbip.c)
 target_include_directories(swell_mcu_otgfs PUBLIC ${CMAKE_CURRENT_LIST_DIR})
 
