@@ -363,6 +363,9 @@ static void complete(struct usbip_server *s, struct usbip_urb *u, int32_t status
 	s->stats.ret_submits++;
 	if (status)
 		s->stats.errors++;
+	s->stats.stalls += status == USBIP_EPIPE;
+	s->stats.no_answers += status == USBIP_EPROTO;
+	s->stats.babbles += status == USBIP_EOVERFLOW;
 }
 
 /* One transaction's outcome: 1 the transfer is done (status in *st), 0 go on, -1 NAK (wait). */

@@ -113,7 +113,9 @@ struct usbip_urb {
 };
 
 struct usbip_stats {
-	uint32_t submits, unlinks, ret_submits, errors, bytes_in, bytes_out;
+	uint32_t submits, unlinks, ret_submits, bytes_in, bytes_out;
+	uint32_t errors; /* RET_SUBMITs with a status, of which: */
+	uint32_t stalls, no_answers, babbles; /* -EPIPE, -EPROTO, -EOVERFLOW */
 };
 
 struct usbip_server {

@@ -271,6 +271,8 @@ TEST_CASE("USB/IP server: control URBs: GET_DESCRIPTOR returns the descriptor, S
 	r = l.ret(d, USBIP_DIR_IN);
 	CHECK(r.u.ret_submit.status == USBIP_EPIPE);
 	CHECK(r.u.ret_submit.actual_length == 0u);
+	CHECK(l.srv->stats.stalls == 1u);
+	CHECK(l.srv->stats.errors == 1u);
 }
 
 TEST_CASE("USB/IP server: 200 bulk URBs OUT come back IN intact, in order, with the IN URB queued first")
