@@ -221,6 +221,22 @@ static void app_send_zero_force(void)
 		send_can(&m);
 }
 
+/* Sleep until an interrupt when the loop has nothing to do: no tick since the loop last looked (the
+ * watchdog kick, can_poll's time and the bootloader countdown move only with the tick count) and no
+ * background part due. Race-free: checked with interrupts masked, and WFI wakes on an interrupt that
+ * is pending even while PRIMASK masks it (ARMv7-M ARM B1.5.19); it is taken at the cpsie, so the loop
+ * runs again right after the interrupt that woke it. */
+static void idle_until_interrupt(uint32_t seen_count)
+{
+	struct tick_stats st;
+
+	__asm__ volatile("cpsid i" ::: "memory");
+	tick_read(&st);
+	if (st.count == seen_count && !swell_ctl_background_due(&app_ctl))
+		__asm__ volatile("dsb\n\twfi" ::: "memory");
+	__asm__ volatile("cpsie i" ::: "memory");
+}
+
 void app_run(const struct clock_info *ci, int can_ok, int usb_ok, const struct app_prio *prio, uint32_t watchdog_ms)
 {
 	struct swell_ctl_config cfg;
@@ -283,5 +299,6 @@ void app_run(const struct clock_info *ci, int can_ok, int usb_ok, const struct a
 			} else if ((int32_t)(st.count - boot_at) >= 0)
 				boot_request_reset();
 		}
+		idle_until_interrupt(st.count);
 	}
 }
