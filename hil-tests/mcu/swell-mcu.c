@@ -1,0 +1,328 @@
+/* swell-mcu: the emulated STM32F405 running the product image (docs/stm32f405-emulator.md). */
+#define _GNU_SOURCE
+#include <errno.h>
+#include <poll.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "mcu.h"
+#include "mcu_can1.h"
+#include "swell/cli.h"
+
+static const char usage[] =
+	"usage: swell-mcu --image ELF [--seconds S] [--console FILE] [--cpi C] [--hse-hz HZ]\n"
+	"                 [--hse-delay-us US] [--trace-irq FILE] [--can-tunnel PATH] [--quiet]\n"
+	"Runs the STM32F405 image ELF (the product image, swell-fw.elf, unmodified) on an emulated\n"
+	"Cortex-M4 (unicorn) with register-level models of the peripherals it uses, in virtual time:\n"
+	"a run repeats bit for bit. Prints the image's console (its USART) and, on stderr, a summary:\n"
+	"virtual and host time, instructions, interrupts taken, time asleep in WFI.\n"
+	"  --image ELF        the image (ELF32 ARM; its PT_LOAD segments go to flash and RAM)\n"
+	"  --seconds S        virtual seconds to run (default 1)\n"
+	"  --console FILE     the console USART's output (default: stdout)\n"
+	"  --cpi C            cycles per instruction, a fixed cost (default 1: the repository's cycle\n"
+	"                     figures count instructions, QEMU -icount)\n"
+	"  --hse-hz HZ        the board's crystal (default 8000000, the image's default board; 0: none,\n"
+	"                     the image falls back to HSI)\n"
+	"  --hse-delay-us US  HSERDY this long after HSEON (default 1000)\n"
+	"  --trace-irq FILE   every exception entry, tail-chain and return with its virtual time\n"
+	"  --can-tunnel PATH  CAN1's bus on a Unix stream socket: listens on PATH, takes one connection\n"
+	"                     (hil-tests/vm/run-vm --can-tunnel PATH), then runs with virtual time paced\n"
+	"                     to wall time (never ahead of it); frames both ways as 16-byte Linux struct\n"
+	"                     can_frame records (le32 can_id with the EFF/RTR/ERR flags, u8 len, 3 pad,\n"
+	"                     8 data). Ends when the peer leaves (status 0) or the time runs out; the\n"
+	"                     summary says how far virtual time fell behind wall time\n"
+	"  --quiet            no summary on stderr\n"
+	"CAN1 is the bxCAN model; without --can-tunnel its bus has no other node (frames go unacknowledged).\n"
+	"Exit status: 0 the virtual time ran out, 1 set-up error (image, files), 2 bad arguments,\n"
+	"3 watchdog reset (the IWDG was not refreshed), 4 the CPU stopped (an instruction or access the\n"
+	"emulator does not carry out: the report names the pc), 5 the image asked for a system reset.\n";
+
+struct opts {
+	const char *image, *console, *trace_irq, *tunnel;
+	double seconds, cpi;
+	uint32_t hse_hz, hse_delay_us;
+	int quiet;
+};
+
+static double host_seconds(void)
+{
+	struct timespec ts;
+
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
+}
+
+/* The CAN tunnel: the bus side of CAN1 on a Unix stream socket, paced to wall time. */
+#define TUNNEL_FRAME 16u
+#define CAN_EFF 0x80000000u
+#define CAN_RTR 0x40000000u
+#define CAN_ERR 0x20000000u
+
+struct tunnel {
+	int fd;
+	struct mcu_can1_dev *can;
+	uint8_t buf[TUNNEL_FRAME];
+	size_t have;
+	double wall0, max_behind_s, behind_s;
+	uint64_t rx, tx, dropped;
+	int closed;
+};
+
+static int tunnel_listen(const char *path, struct tunnel *t)
+{
+	struct sockaddr_un a = { .sun_family = AF_UNIX };
+	struct stat st;
+	int lfd;
+
+	if (strlen(path) >= sizeof(a.sun_path)) {
+		fprintf(stderr, "swell-mcu: --can-tunnel %s: path too long for a Unix socket\n", path);
+		return -1;
+	}
+	if (stat(path, &st) == 0) {
+		if (!S_ISSOCK(st.st_mode)) {
+			fprintf(stderr, "swell-mcu: --can-tunnel %s: exists and is no socket\n", path);
+			return -1;
+		}
+		unlink(path); /* a socket left by an earlier run */
+	}
+	memcpy(a.sun_path, path, strlen(path) + 1);
+	lfd = socket(AF_UNIX, SOCK_STREAM, 0);
+	if (lfd < 0 || bind(lfd, (struct sockaddr *)&a, sizeof(a)) != 0 || listen(lfd, 1) != 0) {
+		fprintf(stderr, "swell-mcu: --can-tunnel %s: %s\n", path, strerror(errno));
+		if (lfd >= 0)
+			close(lfd);
+		return -1;
+	}
+	fprintf(stderr, "swell-mcu: CAN tunnel: listening on %s\n", path);
+	t->fd = accept(lfd, NULL, NULL);
+	close(lfd);
+	unlink(path);
+	if (t->fd < 0) {
+		fprintf(stderr, "swell-mcu: --can-tunnel %s: accept: %s\n", path, strerror(errno));
+		return -1;
+	}
+	fprintf(stderr, "swell-mcu: CAN tunnel: peer connected\n");
+	return 0;
+}
+
+static void tunnel_tx(void *user, const struct bxcan_frame *f, uint64_t t_ns)
+{
+	struct tunnel *t = user;
+	uint8_t rec[TUNNEL_FRAME] = { 0 };
+	uint32_t id = (f->ide ? (f->id & 0x1FFFFFFFu) | CAN_EFF : f->id & 0x7FFu) | (f->rtr ? CAN_RTR : 0u);
+	unsigned n = f->dlc > 8 ? 8u : f->dlc;
+
+	(void)t_ns;
+	if (t->closed)
+		return;
+	for (int i = 0; i < 4; i++)
+		rec[i] = (uint8_t)(id >> (8 * i));
+	rec[4] = (uint8_t)n;
+	if (!f->rtr)
+		memcpy(rec + 8, f->data, n);
+	if (send(t->fd, rec, sizeof(rec), MSG_NOSIGNAL) != (ssize_t)sizeof(rec))
+		t->closed = 1;
+	else
+		t->tx++;
+}
+
+static void tunnel_frame(struct mcu *m, struct tunnel *t)
+{
+	const uint8_t *r = t->buf;
+	uint32_t id = (uint32_t)r[0] | (uint32_t)r[1] << 8 | (uint32_t)r[2] << 16 | (uint32_t)r[3] << 24;
+	struct bxcan_frame f = { 0 };
+
+	if ((id & CAN_ERR) || r[4] > 8) {
+		t->dropped++;
+		return;
+	}
+	f.ide = (id & CAN_EFF) != 0;
+	f.rtr = (id & CAN_RTR) != 0;
+	f.id = f.ide ? id & 0x1FFFFFFFu : id & 0x7FFu;
+	f.dlc = r[4];
+	memcpy(f.data, r + 8, 8);
+	mcu_can1_bus_rx(m, t->can, &f);
+	t->rx++;
+}
+
+/* The run's I/O hook: frames in, and virtual time held back to wall time. */
+static int tunnel_hook(struct mcu *m, void *ctx)
+{
+	struct tunnel *t = ctx;
+
+	for (;;) {
+		double ahead = mcu_seconds(m->now) - (host_seconds() - t->wall0);
+		struct pollfd p = { t->fd, POLLIN, 0 };
+		struct timespec ts = { 0, 0 };
+		ssize_t n;
+		int r;
+
+		if (t->closed)
+			return -1;
+		if (-ahead > t->max_behind_s)
+			t->max_behind_s = -ahead;
+		t->behind_s = ahead < 0 ? -ahead : 0;
+		if (ahead > 0) {
+			ts.tv_sec = (time_t)ahead;
+			ts.tv_nsec = (long)((ahead - (double)ts.tv_sec) * 1e9);
+		}
+		r = ppoll(&p, 1, &ts, NULL);
+		if (r < 0 && errno != EINTR)
+			return MCU_EXIT_ERROR;
+		if (r <= 0) {
+			if (ahead <= 0)
+				return 0;
+			continue;
+		}
+		n = read(t->fd, t->buf + t->have, TUNNEL_FRAME - t->have);
+		if (n == 0 || (n < 0 && errno != EINTR && errno != EAGAIN)) {
+			fprintf(stderr, "swell-mcu: CAN tunnel: the peer left at %.6f s virtual\n",
+				mcu_seconds(m->now));
+			t->closed = 1;
+			return -1;
+		}
+		if (n > 0)
+			t->have += (size_t)n;
+		if (t->have == TUNNEL_FRAME) {
+			tunnel_frame(m, t);
+			t->have = 0;
+		}
+	}
+}
+
+static const char *exc_name(unsigned e, char *buf, size_t len)
+{
+	static const char *const sys[16] = { "",           "Reset", "NMI",    "HardFault", "MemManage", "BusFault",
+					     "UsageFault", "",      "",       "",          "",          "SVCall",
+					     "DebugMon",   "",      "PendSV", "SysTick" };
+
+	if (e < 16)
+		return sys[e];
+	switch (e - 16) {
+	case 20:
+		return "CAN1_RX0";
+	case 19:
+		return "CAN1_TX";
+	case 21:
+		return "CAN1_RX1";
+	case 22:
+		return "CAN1_SCE";
+	case 28:
+		return "TIM2";
+	case 67:
+		return "OTG_FS";
+	default:
+		snprintf(buf, len, "IRQ%u", e - 16);
+		return buf;
+	}
+}
+
+static void summary(struct mcu *m, double host_s, int rc)
+{
+	char b[16];
+	double v = mcu_seconds(m->now);
+
+	fprintf(stderr,
+		"swell-mcu: %.6f s virtual in %.2f s host (%.2f x real time), %llu instructions, cpi %.3f, "
+		"sysclk %u Hz, asleep in WFI %.1f %% of the time, exit %d\n",
+		v, host_s, host_s > 0 ? v / host_s : 0.0, (unsigned long long)m->insns, m->cpi_milli / 1000.0,
+		m->clk.sysclk_hz, v > 0 ? 100.0 * mcu_seconds(m->wfi_units) / v : 0.0, rc);
+	fprintf(stderr, "swell-mcu: exceptions taken:");
+	for (unsigned e = 1; e < MCU_EXCS; e++)
+		if (m->irq_taken[e])
+			fprintf(stderr, " %s %llu", exc_name(e, b, sizeof(b)), (unsigned long long)m->irq_taken[e]);
+	fprintf(stderr, "\n");
+}
+
+int main(int argc, char **argv)
+{
+	struct opts o = { .seconds = 1.0, .cpi = 1.0, .hse_hz = 8000000u, .hse_delay_us = 1000u };
+	const struct swell_cli_opt table[] = {
+		SWELL_CLI_STR("--image", o.image),
+		SWELL_CLI_NUM_ABOVE("--seconds", o.seconds, 0, 86400, "s"),
+		SWELL_CLI_STR("--console", o.console),
+		SWELL_CLI_NUM("--cpi", o.cpi, 0.5, 8, "cycles"),
+		SWELL_CLI_WHOLE("--hse-hz", o.hse_hz, 0, 50000000, "Hz"),
+		SWELL_CLI_WHOLE("--hse-delay-us", o.hse_delay_us, 0, 1000000, "us"),
+		SWELL_CLI_STR("--trace-irq", o.trace_irq),
+		SWELL_CLI_STR("--can-tunnel", o.tunnel),
+		SWELL_CLI_FLAG("--quiet", o.quiet),
+	};
+	struct swell_cli cli = { .prog = "swell-mcu", .usage = usage, .opt = table, .n_opt = SWELL_CLI_N(table) };
+	struct mcu *m;
+	struct mcu_stm32_opts so;
+	struct mcu_can1_dev *can;
+	struct tunnel t = { .fd = -1 };
+	FILE *con = stdout;
+	char why[256];
+	double t0;
+	int rc;
+
+	swell_cli_parse(&cli, argc, argv);
+	if (!o.image)
+		swell_cli_die("swell-mcu", "--image ELF is needed (see --help)");
+	if (o.hse_hz && (MCU_TIME_HZ % o.hse_hz || o.hse_hz < 4000000u))
+		swell_cli_die("swell-mcu", "--hse-hz %u: 4..50 MHz dividing %llu Hz", o.hse_hz,
+			      (unsigned long long)MCU_TIME_HZ);
+	m = calloc(1, sizeof(*m));
+	can = calloc(1, sizeof(*can));
+	if (!m || !can)
+		return MCU_EXIT_ERROR;
+	if (o.console && strcmp(o.console, "-") != 0 && !(con = fopen(o.console, "w"))) {
+		fprintf(stderr, "swell-mcu: %s: %s\n", o.console, strerror(errno));
+		return MCU_EXIT_ERROR;
+	}
+	if (o.trace_irq && !(m->trace_irq = fopen(o.trace_irq, "w"))) {
+		fprintf(stderr, "swell-mcu: %s: %s\n", o.trace_irq, strerror(errno));
+		return MCU_EXIT_ERROR;
+	}
+	so = (struct mcu_stm32_opts){ con, o.hse_hz, o.hse_delay_us };
+	if (mcu_init(m, (uint32_t)(o.cpi * 1000.0 + 0.5), why, sizeof(why)) != 0 ||
+	    mcu_load_elf(m, o.image, why, sizeof(why)) != 0 || mcu_reset(m, why, sizeof(why)) != 0) {
+		fprintf(stderr, "swell-mcu: %s\n", why);
+		mcu_free(m);
+		return MCU_EXIT_ERROR;
+	}
+	if (mcu_scs_add(m) != 0 || mcu_stm32_add(m, &so) != 0 || mcu_can1_add(m, can) != 0) {
+		fprintf(stderr, "swell-mcu: the peripheral models could not be mapped\n");
+		mcu_free(m);
+		return MCU_EXIT_ERROR;
+	}
+	if (o.tunnel) {
+		t.can = can;
+		if (tunnel_listen(o.tunnel, &t) != 0) {
+			mcu_free(m);
+			return MCU_EXIT_ERROR;
+		}
+		bxcan_set_tx_callback(&can->b, tunnel_tx, &t);
+	}
+	t0 = host_seconds();
+	t.wall0 = t0;
+	/* paced: the hook every 100 us of virtual time (a frame takes 47 us or more at 1 Mbit/s) */
+	rc = mcu_run(m, (uint64_t)(o.seconds * (double)MCU_TIME_HZ + 0.5), MCU_TIME_HZ / 10000u,
+		     o.tunnel ? tunnel_hook : 0, &t);
+	fflush(con);
+	if (!o.quiet)
+		summary(m, host_seconds() - t0, rc);
+	if (o.tunnel && !o.quiet)
+		fprintf(stderr,
+			"swell-mcu: CAN tunnel: %llu frames to the peer, %llu from it (%llu dropped: error frames or "
+			"length > 8); virtual time behind wall time by %.1f ms at most, %.1f ms at the end\n",
+			(unsigned long long)t.tx, (unsigned long long)t.rx, (unsigned long long)t.dropped,
+			1e3 * t.max_behind_s, 1e3 * t.behind_s);
+	if (t.fd >= 0)
+		close(t.fd);
+	if (con != stdout)
+		fclose(con);
+	if (m->trace_irq)
+		fclose(m->trace_irq);
+	mcu_free(m);
+	free(m);
+	free(can);
+	return rc;
+}
