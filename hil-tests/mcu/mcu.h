@@ -103,6 +103,7 @@ struct mcu {
 	unsigned n_rcc_reset;
 	uint64_t irq_taken[MCU_EXCS];
 	uint64_t wfi_count, wfi_units; /* WFIs, and the virtual time slept in them */
+	uint64_t iwdg_refreshes; /* IWDG_KR 0xAAAA writes while the watchdog runs */
 };
 
 /* Address to "symbol+0x12" (or the bare address) in buf. */

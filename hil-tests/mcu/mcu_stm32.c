@@ -507,6 +507,7 @@ static void iwdg_write(struct mcu *m, void *ctx, uint32_t off, unsigned size, ui
 			iwdg_reload(m, w);
 		} else if (v == 0xAAAAu && w->running) {
 			iwdg_reload(m, w);
+			m->iwdg_refreshes++;
 		}
 		break;
 	case 0x4:

@@ -16,7 +16,8 @@
 
 static const char usage[] =
 	"usage: swell-mcu --image ELF [--seconds S] [--console FILE] [--cpi C] [--hse-hz HZ]\n"
-	"                 [--hse-delay-us US] [--trace-irq FILE] [--can-tunnel PATH] [--quiet]\n"
+	"                 [--hse-delay-us US] [--trace-irq FILE] [--can-tunnel PATH] [--tx-log FILE]\n"
+	"                 [--report FILE] [--no-can] [--quiet]\n"
 	"Runs the STM32F405 image ELF (the product image, swell-fw.elf, unmodified) on an emulated\n"
 	"Cortex-M4 (unicorn) with register-level models of the peripherals it uses, in virtual time:\n"
 	"a run repeats bit for bit. Prints the image's console (its USART) and, on stderr, a summary:\n"
@@ -37,13 +38,21 @@ static const char usage[] =
 	"                     8 data). Ends when the peer leaves (status 0) or the time runs out; the\n"
 	"                     summary says how far virtual time fell behind wall time\n"
 	"  --quiet            no summary on stderr\n"
-	"CAN1 is the bxCAN model; without --can-tunnel its bus has no other node (frames go unacknowledged).\n"
+	"  --tx-log FILE      every frame CAN1 sent: 'T_NS ID DLC DATA' (virtual ns of its EOF, hex id and\n"
+	"                     bytes)\n"
+	"  --report FILE      the run's figures that repeat bit for bit, one 'NAME VALUE' a line: virtual\n"
+	"                     seconds, instructions, cycles, seconds asleep, exceptions taken by kind, IWDG\n"
+	"                     refreshes, CAN1 frames sent, the exit status\n"
+	"  --no-can           no CAN1 model (its registers read 0): the image finds no link and stops\n"
+	"CAN1 is the bxCAN model; without --can-tunnel its bus is ideal and empty: every frame the image\n"
+	"sends is acknowledged, nothing else comes.\n"
 	"Exit status: 0 the virtual time ran out, 1 set-up error (image, files), 2 bad arguments,\n"
 	"3 watchdog reset (the IWDG was not refreshed), 4 the CPU stopped (an instruction or access the\n"
 	"emulator does not carry out: the report names the pc), 5 the image asked for a system reset.\n";
 
 struct opts {
-	const char *image, *console, *trace_irq, *tunnel;
+	const char *image, *console, *trace_irq, *tunnel, *tx_log, *report;
+	int no_can;
 	double seconds, cpi;
 	uint32_t hse_hz, hse_delay_us;
 	int quiet;
@@ -63,14 +72,21 @@ static double host_seconds(void)
 #define CAN_RTR 0x40000000u
 #define CAN_ERR 0x20000000u
 
+#define TUNNEL_QUEUE 64u
+
 struct tunnel {
 	int fd;
 	struct mcu_can1_dev *can;
 	uint8_t buf[TUNNEL_FRAME];
 	size_t have;
+	/* frames from the peer wait here for the bus: one after the other, each its length in bits */
+	struct bxcan_frame q[TUNNEL_QUEUE];
+	uint32_t q_head, q_tail;
+	uint64_t bus_free; /* virtual time the last frame from the peer ends */
 	double wall0, max_behind_s, behind_s;
 	uint64_t rx, tx, dropped;
 	int closed;
+	FILE *log; /* --tx-log */
 };
 
 static int tunnel_listen(const char *path, struct tunnel *t)
@@ -117,7 +133,16 @@ static void tunnel_tx(void *user, const struct bxcan_frame *f, uint64_t t_ns)
 	uint32_t id = (f->ide ? (f->id & 0x1FFFFFFFu) | CAN_EFF : f->id & 0x7FFu) | (f->rtr ? CAN_RTR : 0u);
 	unsigned n = f->dlc > 8 ? 8u : f->dlc;
 
-	(void)t_ns;
+	if (t->log) {
+		fprintf(t->log, "%llu %03x %u ", (unsigned long long)t_ns, (unsigned)f->id, (unsigned)f->dlc);
+		for (unsigned i = 0; !f->rtr && i < n; i++)
+			fprintf(t->log, "%02x", f->data[i]);
+		fputc('\n', t->log);
+	}
+	if (t->fd < 0) {
+		t->tx++;
+		return;
+	}
 	if (t->closed)
 		return;
 	for (int i = 0; i < 4; i++)
@@ -131,7 +156,7 @@ static void tunnel_tx(void *user, const struct bxcan_frame *f, uint64_t t_ns)
 		t->tx++;
 }
 
-static void tunnel_frame(struct mcu *m, struct tunnel *t)
+static void tunnel_frame(struct tunnel *t)
 {
 	const uint8_t *r = t->buf;
 	uint32_t id = (uint32_t)r[0] | (uint32_t)r[1] << 8 | (uint32_t)r[2] << 16 | (uint32_t)r[3] << 24;
@@ -146,8 +171,24 @@ static void tunnel_frame(struct mcu *m, struct tunnel *t)
 	f.id = f.ide ? id & 0x1FFFFFFFu : id & 0x7FFu;
 	f.dlc = r[4];
 	memcpy(f.data, r + 8, 8);
-	mcu_can1_bus_rx(m, t->can, &f);
-	t->rx++;
+	t->q[t->q_head++ % TUNNEL_QUEUE] = f;
+}
+
+/* The queued frames whose turn on the bus has come: each ends at least a frame's length (with the 3
+ * bits of intermission) after the one before it; it is taken as ending now, the hook's time. */
+static void tunnel_deliver(struct mcu *m, struct tunnel *t)
+{
+	while (t->q_tail != t->q_head) {
+		const struct bxcan_frame *f = &t->q[t->q_tail % TUNNEL_QUEUE];
+		uint64_t len = mcu_can1_units(bxcan_bits_ns(&t->can->b, bxcan_frame_bits(f, NULL) + 3u));
+
+		if (t->bus_free + len > m->now)
+			return; /* not yet: the bus is still busy with the one before */
+		t->bus_free = m->now;
+		mcu_can1_bus_rx(m, t->can, f);
+		t->q_tail++;
+		t->rx++;
+	}
 }
 
 /* The run's I/O hook: frames in, and virtual time held back to wall time. */
@@ -164,6 +205,7 @@ static int tunnel_hook(struct mcu *m, void *ctx)
 
 		if (t->closed)
 			return -1;
+		tunnel_deliver(m, t);
 		if (-ahead > t->max_behind_s)
 			t->max_behind_s = -ahead;
 		t->behind_s = ahead < 0 ? -ahead : 0;
@@ -171,6 +213,8 @@ static int tunnel_hook(struct mcu *m, void *ctx)
 			ts.tv_sec = (time_t)ahead;
 			ts.tv_nsec = (long)((ahead - (double)ts.tv_sec) * 1e9);
 		}
+		if (t->q_head - t->q_tail >= TUNNEL_QUEUE)
+			p.events = 0; /* the queue is full: the socket waits */
 		r = ppoll(&p, 1, &ts, NULL);
 		if (r < 0 && errno != EINTR)
 			return MCU_EXIT_ERROR;
@@ -189,7 +233,7 @@ static int tunnel_hook(struct mcu *m, void *ctx)
 		if (n > 0)
 			t->have += (size_t)n;
 		if (t->have == TUNNEL_FRAME) {
-			tunnel_frame(m, t);
+			tunnel_frame(t);
 			t->have = 0;
 		}
 	}
@@ -222,6 +266,26 @@ static const char *exc_name(unsigned e, char *buf, size_t len)
 	}
 }
 
+static int write_report(const char *path, struct mcu *m, const struct tunnel *t, int rc)
+{
+	FILE *f = fopen(path, "w");
+	char b[16];
+
+	if (!f) {
+		fprintf(stderr, "swell-mcu: %s: %s\n", path, strerror(errno));
+		return -1;
+	}
+	fprintf(f, "virtual_s %.9f\ninstructions %llu\ncycles %llu\nasleep_s %.9f\n", mcu_seconds(m->now),
+		(unsigned long long)m->insns, (unsigned long long)m->cycles, mcu_seconds(m->wfi_units));
+	for (unsigned e = 1; e < MCU_EXCS; e++)
+		if (m->irq_taken[e])
+			fprintf(f, "exceptions %s %llu\n", exc_name(e, b, sizeof(b)),
+				(unsigned long long)m->irq_taken[e]);
+	fprintf(f, "iwdg_refreshes %llu\ncan1_frames_sent %llu\nexit %d\n", (unsigned long long)m->iwdg_refreshes,
+		(unsigned long long)t->tx, rc);
+	return fclose(f) == 0 ? 0 : -1;
+}
+
 static void summary(struct mcu *m, double host_s, int rc)
 {
 	char b[16];
@@ -251,6 +315,9 @@ int main(int argc, char **argv)
 		SWELL_CLI_WHOLE("--hse-delay-us", o.hse_delay_us, 0, 1000000, "us"),
 		SWELL_CLI_STR("--trace-irq", o.trace_irq),
 		SWELL_CLI_STR("--can-tunnel", o.tunnel),
+		SWELL_CLI_STR("--tx-log", o.tx_log),
+		SWELL_CLI_STR("--report", o.report),
+		SWELL_CLI_FLAG("--no-can", o.no_can),
 		SWELL_CLI_FLAG("--quiet", o.quiet),
 	};
 	struct swell_cli cli = { .prog = "swell-mcu", .usage = usage, .opt = table, .n_opt = SWELL_CLI_N(table) };
@@ -269,6 +336,8 @@ int main(int argc, char **argv)
 	if (o.hse_hz && (MCU_TIME_HZ % o.hse_hz || o.hse_hz < 4000000u))
 		swell_cli_die("swell-mcu", "--hse-hz %u: 4..50 MHz dividing %llu Hz", o.hse_hz,
 			      (unsigned long long)MCU_TIME_HZ);
+	if (o.no_can && (o.tunnel || o.tx_log))
+		swell_cli_die("swell-mcu", "--no-can leaves no CAN1 for --can-tunnel or --tx-log");
 	m = calloc(1, sizeof(*m));
 	can = calloc(1, sizeof(*can));
 	if (!m || !can)
@@ -288,7 +357,11 @@ int main(int argc, char **argv)
 		mcu_free(m);
 		return MCU_EXIT_ERROR;
 	}
-	if (mcu_scs_add(m) != 0 || mcu_stm32_add(m, &so) != 0 || mcu_can1_add(m, can) != 0) {
+	if (o.tx_log && !(t.log = fopen(o.tx_log, "w"))) {
+		fprintf(stderr, "swell-mcu: %s: %s\n", o.tx_log, strerror(errno));
+		return MCU_EXIT_ERROR;
+	}
+	if (mcu_scs_add(m) != 0 || mcu_stm32_add(m, &so) != 0 || (!o.no_can && mcu_can1_add(m, can) != 0)) {
 		fprintf(stderr, "swell-mcu: the peripheral models could not be mapped\n");
 		mcu_free(m);
 		return MCU_EXIT_ERROR;
@@ -299,12 +372,13 @@ int main(int argc, char **argv)
 			mcu_free(m);
 			return MCU_EXIT_ERROR;
 		}
-		bxcan_set_tx_callback(&can->b, tunnel_tx, &t);
 	}
+	if (!o.no_can)
+		bxcan_set_tx_callback(&can->b, tunnel_tx, &t);
 	t0 = host_seconds();
 	t.wall0 = t0;
-	/* paced: the hook every 100 us of virtual time (a frame takes 47 us or more at 1 Mbit/s) */
-	rc = mcu_run(m, (uint64_t)(o.seconds * (double)MCU_TIME_HZ + 0.5), MCU_TIME_HZ / 10000u,
+	/* paced: the hook every 20 us of virtual time (a frame takes 47 us or more at 1 Mbit/s) */
+	rc = mcu_run(m, (uint64_t)(o.seconds * (double)MCU_TIME_HZ + 0.5), MCU_TIME_HZ / 50000u,
 		     o.tunnel ? tunnel_hook : 0, &t);
 	fflush(con);
 	if (!o.quiet)
@@ -317,6 +391,10 @@ int main(int argc, char **argv)
 			1e3 * t.max_behind_s, 1e3 * t.behind_s);
 	if (t.fd >= 0)
 		close(t.fd);
+	if (t.log)
+		fclose(t.log);
+	if (o.report && write_report(o.report, m, &t, rc) != 0 && rc == MCU_EXIT_OK)
+		rc = MCU_EXIT_ERROR;
 	if (con != stdout)
 		fclose(con);
 	if (m->trace_irq)
