@@ -63,9 +63,12 @@ struct Run {
 Run run_vm_with(const Env &env, const std::string &commands)
 {
 	Run out;
-	char dir[] = "/tmp/swell-usbip.XXXXXX";
-	REQUIRE(mkdtemp(dir) != nullptr);
-	std::string sock = std::string(dir) + "/usb.sock";
+	const char *tmp = std::getenv("TMPDIR");
+	std::string tmpl = std::string(tmp && *tmp ? tmp : "/tmp") + "/swell-usbip.XXXXXX";
+	std::vector<char> dir(tmpl.begin(), tmpl.end());
+	dir.push_back('\0');
+	REQUIRE(mkdtemp(dir.data()) != nullptr);
+	std::string sock = std::string(dir.data()) + "/usb.sock";
 	int lfd = listen_unix(sock);
 	pid_t pid = fork();
 	REQUIRE(pid >= 0);
@@ -114,7 +117,7 @@ Run run_vm_with(const Env &env, const std::string &commands)
 		close(cfd);
 	close(lfd);
 	unlink(sock.c_str());
-	rmdir(dir);
+	rmdir(dir.data());
 	out.submits = srv->stats.submits;
 	out.errors = srv->stats.errors;
 	out.faults = otgfs_fault_count(m.get());
