@@ -101,6 +101,12 @@ struct mcu {
 		void *ctx;
 	} rcc_reset[8];
 	unsigned n_rcc_reset;
+	struct {
+		uint32_t off, bit; /* an RCC enable register's offset and the peripheral's bit */
+		void (*fn)(struct mcu *m, void *ctx, int on);
+		void *ctx;
+	} rcc_enable[8];
+	unsigned n_rcc_enable;
 	uint64_t irq_taken[MCU_EXCS];
 	uint64_t wfi_count, wfi_units; /* WFIs, and the virtual time slept in them */
 	uint64_t iwdg_refreshes; /* IWDG_KR 0xAAAA writes while the watchdog runs */
@@ -120,6 +126,10 @@ void mcu_exc_pend(struct mcu *m, unsigned exc);
 /* A model's reset line in RCC (RM0090 7.3.5 to 7.3.9: AHB1RSTR 0x10 .. APB2RSTR 0x24): fn runs when
  * the image sets `bit` at offset `off`. 0, or -1 when the table is full. */
 int mcu_rcc_on_reset(struct mcu *m, uint32_t off, uint32_t bit, void (*fn)(struct mcu *m, void *ctx), void *ctx);
+/* A model's clock enable in RCC (RM0090 7.3.10 to 7.3.14: AHB1ENR 0x30 .. APB2ENR 0x44): fn runs
+ * with the bit's new value when a write changes it. 0, or -1 when the table is full. */
+int mcu_rcc_on_enable(struct mcu *m, uint32_t off, uint32_t bit, void (*fn)(struct mcu *m, void *ctx, int on),
+		      void *ctx);
 /* Report an access to a register nothing models, once per address. */
 void mcu_unmodelled(struct mcu *m, const char *what, uint32_t addr, int is_write, uint32_t v);
 

@@ -491,6 +491,19 @@ int mcu_rcc_on_reset(struct mcu *m, uint32_t off, uint32_t bit, void (*fn)(struc
 	return 0;
 }
 
+int mcu_rcc_on_enable(struct mcu *m, uint32_t off, uint32_t bit, void (*fn)(struct mcu *m, void *ctx, int on),
+		      void *ctx)
+{
+	if (m->n_rcc_enable >= sizeof(m->rcc_enable) / sizeof(m->rcc_enable[0]))
+		return -1;
+	m->rcc_enable[m->n_rcc_enable].off = off;
+	m->rcc_enable[m->n_rcc_enable].bit = bit;
+	m->rcc_enable[m->n_rcc_enable].fn = fn;
+	m->rcc_enable[m->n_rcc_enable].ctx = ctx;
+	m->n_rcc_enable++;
+	return 0;
+}
+
 static void advance_all(struct mcu *m)
 {
 	for (unsigned i = 0; i < m->n_periph; i++)

@@ -182,6 +182,9 @@ static void rcc_write(struct mcu *m, void *ctx, uint32_t off, unsigned size, uin
 		c->r[off / 4] = v;
 		break;
 	default:
+		for (unsigned i = 0; i < m->n_rcc_enable; i++)
+			if (m->rcc_enable[i].off == off && ((v ^ c->r[off / 4]) & m->rcc_enable[i].bit))
+				m->rcc_enable[i].fn(m, m->rcc_enable[i].ctx, (v & m->rcc_enable[i].bit) != 0);
 		c->r[off / 4] = v;
 	}
 	rcc_advance(m, c, m->now);

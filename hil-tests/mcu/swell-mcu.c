@@ -12,12 +12,13 @@
 
 #include "mcu.h"
 #include "mcu_can1.h"
+#include "mcu_usb.h"
 #include "swell/cli.h"
 
 static const char usage[] =
 	"usage: swell-mcu --image ELF [--seconds S] [--console FILE] [--cpi C] [--hse-hz HZ]\n"
 	"                 [--hse-delay-us US] [--trace-irq FILE] [--can-tunnel PATH] [--tx-log FILE]\n"
-	"                 [--report FILE] [--no-can] [--quiet]\n"
+	"                 [--report FILE] [--no-can] [--usb] [--usb-tunnel PATH] [--quiet]\n"
 	"Runs the STM32F405 image ELF (the product image, swell-fw.elf, unmodified) on an emulated\n"
 	"Cortex-M4 (unicorn) with register-level models of the peripherals it uses, in virtual time:\n"
 	"a run repeats bit for bit. Prints the image's console (its USART) and, on stderr, a summary:\n"
@@ -44,6 +45,11 @@ static const char usage[] =
 	"                     seconds, instructions, cycles, seconds asleep, exceptions taken by kind, IWDG\n"
 	"                     refreshes, CAN1 frames sent, the exit status\n"
 	"  --no-can           no CAN1 model (its registers read 0): the image finds no link and stops\n"
+	"  --usb              the OTG FS model, no host attached (without --usb or --usb-tunnel the OTG FS\n"
+	"                     registers read 0 and the image finds no USB; on silicon the core answers)\n"
+	"  --usb-tunnel PATH  the OTG FS model behind a USB/IP server: listens on the Unix socket PATH, takes\n"
+	"                     one connection (hil-tests/vm/run-vm --usb-tunnel PATH), address 3; paced to\n"
+	"                     wall time as with --can-tunnel; ends when the host lets go\n"
 	"CAN1 is the bxCAN model; without --can-tunnel its bus is ideal and empty: every frame the image\n"
 	"sends is acknowledged, nothing else comes.\n"
 	"Exit status: 0 the virtual time ran out, 1 set-up error (image, files), 2 bad arguments,\n"
@@ -51,8 +57,8 @@ static const char usage[] =
 	"emulator does not carry out: the report names the pc), 5 the image asked for a system reset.\n";
 
 struct opts {
-	const char *image, *console, *trace_irq, *tunnel, *tx_log, *report;
-	int no_can;
+	const char *image, *console, *trace_irq, *tunnel, *tx_log, *report, *usb_tunnel;
+	int no_can, usb;
 	double seconds, cpi;
 	uint32_t hse_hz, hse_delay_us;
 	int quiet;
@@ -73,6 +79,7 @@ static double host_seconds(void)
 #define CAN_ERR 0x20000000u
 
 #define TUNNEL_QUEUE 64u
+#define USB_ADDRESS 3u /* the address the USB/IP server gives the device */
 
 struct tunnel {
 	int fd;
@@ -87,21 +94,24 @@ struct tunnel {
 	uint64_t rx, tx, dropped;
 	int closed;
 	FILE *log; /* --tx-log */
+	struct mcu_usb_dev *usb; /* --usb-tunnel: the USB/IP server's device (NULL: none) */
+	int usb_fd;
 };
 
-static int tunnel_listen(const char *path, struct tunnel *t)
+/* Listen on the Unix stream socket PATH and take one connection; the connected fd, or -1. */
+static int listen_one(const char *opt, const char *path)
 {
 	struct sockaddr_un a = { .sun_family = AF_UNIX };
 	struct stat st;
-	int lfd;
+	int lfd, fd;
 
 	if (strlen(path) >= sizeof(a.sun_path)) {
-		fprintf(stderr, "swell-mcu: --can-tunnel %s: path too long for a Unix socket\n", path);
+		fprintf(stderr, "swell-mcu: %s %s: path too long for a Unix socket\n", opt, path);
 		return -1;
 	}
 	if (stat(path, &st) == 0) {
 		if (!S_ISSOCK(st.st_mode)) {
-			fprintf(stderr, "swell-mcu: --can-tunnel %s: exists and is no socket\n", path);
+			fprintf(stderr, "swell-mcu: %s %s: exists and is no socket\n", opt, path);
 			return -1;
 		}
 		unlink(path); /* a socket left by an earlier run */
@@ -109,21 +119,20 @@ static int tunnel_listen(const char *path, struct tunnel *t)
 	memcpy(a.sun_path, path, strlen(path) + 1);
 	lfd = socket(AF_UNIX, SOCK_STREAM, 0);
 	if (lfd < 0 || bind(lfd, (struct sockaddr *)&a, sizeof(a)) != 0 || listen(lfd, 1) != 0) {
-		fprintf(stderr, "swell-mcu: --can-tunnel %s: %s\n", path, strerror(errno));
+		fprintf(stderr, "swell-mcu: %s %s: %s\n", opt, path, strerror(errno));
 		if (lfd >= 0)
 			close(lfd);
 		return -1;
 	}
-	fprintf(stderr, "swell-mcu: CAN tunnel: listening on %s\n", path);
-	t->fd = accept(lfd, NULL, NULL);
+	fprintf(stderr, "swell-mcu: %s: listening on %s\n", opt, path);
+	fd = accept(lfd, NULL, NULL);
 	close(lfd);
 	unlink(path);
-	if (t->fd < 0) {
-		fprintf(stderr, "swell-mcu: --can-tunnel %s: accept: %s\n", path, strerror(errno));
-		return -1;
-	}
-	fprintf(stderr, "swell-mcu: CAN tunnel: peer connected\n");
-	return 0;
+	if (fd < 0)
+		fprintf(stderr, "swell-mcu: %s %s: accept: %s\n", opt, path, strerror(errno));
+	else
+		fprintf(stderr, "swell-mcu: %s: peer connected\n", opt);
+	return fd;
 }
 
 static void tunnel_tx(void *user, const struct bxcan_frame *f, uint64_t t_ns)
@@ -191,21 +200,52 @@ static void tunnel_deliver(struct mcu *m, struct tunnel *t)
 	}
 }
 
-/* The run's I/O hook: frames in, and virtual time held back to wall time. */
+/* A readable CAN tunnel: the bytes of the next frame. -1 when the peer left. */
+static int tunnel_read(struct mcu *m, struct tunnel *t)
+{
+	ssize_t n = read(t->fd, t->buf + t->have, TUNNEL_FRAME - t->have);
+
+	if (n == 0 || (n < 0 && errno != EINTR && errno != EAGAIN)) {
+		fprintf(stderr, "swell-mcu: CAN tunnel: the peer left at %.6f s virtual\n", mcu_seconds(m->now));
+		t->closed = 1;
+		return -1;
+	}
+	if (n > 0)
+		t->have += (size_t)n;
+	if (t->have == TUNNEL_FRAME) {
+		tunnel_frame(t);
+		t->have = 0;
+	}
+	return 0;
+}
+
+/* The run's I/O hook with a tunnel: frames and USB/IP traffic in and out, virtual time held back to
+ * wall time (the sleep wakes on either socket). */
 static int tunnel_hook(struct mcu *m, void *ctx)
 {
 	struct tunnel *t = ctx;
 
 	for (;;) {
 		double ahead = mcu_seconds(m->now) - (host_seconds() - t->wall0);
-		struct pollfd p = { t->fd, POLLIN, 0 };
+		struct pollfd p[2] = { { t->fd, POLLIN, 0 }, { t->usb_fd, POLLIN, 0 } };
 		struct timespec ts = { 0, 0 };
-		ssize_t n;
 		int r;
 
 		if (t->closed)
 			return -1;
-		tunnel_deliver(m, t);
+		if (t->fd >= 0)
+			tunnel_deliver(m, t);
+		if (t->usb) {
+			enum usbip_step st = mcu_usb_step(m, t->usb);
+
+			if (st == USBIP_CLOSED) {
+				fprintf(stderr, "swell-mcu: USB tunnel: the host let go at %.6f s virtual (%s)\n",
+					mcu_seconds(m->now), t->usb->srv.error ? t->usb->srv.error : "closed");
+				return -1;
+			}
+			if (usbip_server_wants_write(&t->usb->srv))
+				p[1].events |= POLLOUT;
+		}
 		if (-ahead > t->max_behind_s)
 			t->max_behind_s = -ahead;
 		t->behind_s = ahead < 0 ? -ahead : 0;
@@ -214,8 +254,8 @@ static int tunnel_hook(struct mcu *m, void *ctx)
 			ts.tv_nsec = (long)((ahead - (double)ts.tv_sec) * 1e9);
 		}
 		if (t->q_head - t->q_tail >= TUNNEL_QUEUE)
-			p.events = 0; /* the queue is full: the socket waits */
-		r = ppoll(&p, 1, &ts, NULL);
+			p[0].events = 0; /* the queue is full: the socket waits */
+		r = ppoll(p, 2, &ts, NULL);
 		if (r < 0 && errno != EINTR)
 			return MCU_EXIT_ERROR;
 		if (r <= 0) {
@@ -223,19 +263,10 @@ static int tunnel_hook(struct mcu *m, void *ctx)
 				return 0;
 			continue;
 		}
-		n = read(t->fd, t->buf + t->have, TUNNEL_FRAME - t->have);
-		if (n == 0 || (n < 0 && errno != EINTR && errno != EAGAIN)) {
-			fprintf(stderr, "swell-mcu: CAN tunnel: the peer left at %.6f s virtual\n",
-				mcu_seconds(m->now));
-			t->closed = 1;
+		if (t->fd >= 0 && (p[0].revents & (POLLIN | POLLHUP | POLLERR)) && tunnel_read(m, t) != 0)
 			return -1;
-		}
-		if (n > 0)
-			t->have += (size_t)n;
-		if (t->have == TUNNEL_FRAME) {
-			tunnel_frame(t);
-			t->have = 0;
-		}
+		if (ahead <= 0 && !(p[0].revents & POLLIN))
+			return 0; /* the USB side is stepped at the next hook */
 	}
 }
 
@@ -318,13 +349,16 @@ int main(int argc, char **argv)
 		SWELL_CLI_STR("--tx-log", o.tx_log),
 		SWELL_CLI_STR("--report", o.report),
 		SWELL_CLI_FLAG("--no-can", o.no_can),
+		SWELL_CLI_FLAG("--usb", o.usb),
+		SWELL_CLI_STR("--usb-tunnel", o.usb_tunnel),
 		SWELL_CLI_FLAG("--quiet", o.quiet),
 	};
 	struct swell_cli cli = { .prog = "swell-mcu", .usage = usage, .opt = table, .n_opt = SWELL_CLI_N(table) };
 	struct mcu *m;
 	struct mcu_stm32_opts so;
 	struct mcu_can1_dev *can;
-	struct tunnel t = { .fd = -1 };
+	struct mcu_usb_dev *usb = NULL;
+	struct tunnel t = { .fd = -1, .usb_fd = -1 };
 	FILE *con = stdout;
 	char why[256];
 	double t0;
@@ -366,9 +400,22 @@ int main(int argc, char **argv)
 		mcu_free(m);
 		return MCU_EXIT_ERROR;
 	}
+	if ((o.usb || o.usb_tunnel) && (!(usb = calloc(1, sizeof(*usb))) || mcu_usb_add(m, usb) != 0)) {
+		fprintf(stderr, "swell-mcu: the OTG FS model could not be mapped\n");
+		mcu_free(m);
+		return MCU_EXIT_ERROR;
+	}
+	if (o.usb_tunnel) {
+		if ((t.usb_fd = listen_one("--usb-tunnel", o.usb_tunnel)) < 0) {
+			mcu_free(m);
+			return MCU_EXIT_ERROR;
+		}
+		mcu_usb_serve(usb, t.usb_fd, USB_ADDRESS);
+		t.usb = usb;
+	}
+	t.can = can;
 	if (o.tunnel) {
-		t.can = can;
-		if (tunnel_listen(o.tunnel, &t) != 0) {
+		if ((t.fd = listen_one("--can-tunnel", o.tunnel)) < 0) {
 			mcu_free(m);
 			return MCU_EXIT_ERROR;
 		}
@@ -379,18 +426,27 @@ int main(int argc, char **argv)
 	t.wall0 = t0;
 	/* paced: the hook every 20 us of virtual time (a frame takes 47 us or more at 1 Mbit/s) */
 	rc = mcu_run(m, (uint64_t)(o.seconds * (double)MCU_TIME_HZ + 0.5), MCU_TIME_HZ / 50000u,
-		     o.tunnel ? tunnel_hook : 0, &t);
+		     o.tunnel || o.usb_tunnel ? tunnel_hook : 0, &t);
 	fflush(con);
 	if (!o.quiet)
 		summary(m, host_seconds() - t0, rc);
-	if (o.tunnel && !o.quiet)
+	if ((o.tunnel || o.usb_tunnel) && !o.quiet)
 		fprintf(stderr,
 			"swell-mcu: CAN tunnel: %llu frames to the peer, %llu from it (%llu dropped: error frames or "
 			"length > 8); virtual time behind wall time by %.1f ms at most, %.1f ms at the end\n",
 			(unsigned long long)t.tx, (unsigned long long)t.rx, (unsigned long long)t.dropped,
 			1e3 * t.max_behind_s, 1e3 * t.behind_s);
+	if (o.usb_tunnel && !o.quiet)
+		fprintf(stderr,
+			"swell-mcu: USB tunnel: %u URBs submitted, %u answered (%u with an error), %u bytes in, %u "
+			"out\n",
+			usb->srv.stats.submits, usb->srv.stats.ret_submits, usb->srv.stats.errors,
+			usb->srv.stats.bytes_in, usb->srv.stats.bytes_out);
 	if (t.fd >= 0)
 		close(t.fd);
+	if (t.usb_fd >= 0)
+		close(t.usb_fd);
+	free(usb);
 	if (t.log)
 		fclose(t.log);
 	if (o.report && write_report(o.report, m, &t, rc) != 0 && rc == MCU_EXIT_OK)
