@@ -6,6 +6,7 @@
 #include "console.h"
 #include "fault.h"
 #include "image.h"
+#include "irq.h"
 #include "iwdg.h"
 #include "mem.h"
 #include "safe.h"
@@ -223,18 +224,18 @@ static void app_send_zero_force(void)
 
 /* Sleep until an interrupt when the loop has nothing to do: no tick since the loop last looked (the
  * watchdog kick, can_poll's time and the bootloader countdown move only with the tick count) and no
- * background part due. Race-free: checked with interrupts masked, and WFI wakes on an interrupt that
- * is pending even while PRIMASK masks it (ARMv7-M ARM B1.5.19); it is taken at the cpsie, so the loop
- * runs again right after the interrupt that woke it. */
+ * background part due. Race-free: checked with interrupts masked (irq.h), and WFI wakes on an
+ * interrupt that is pending even while PRIMASK masks it (ARMv7-M ARM B1.5.19); it is taken once the
+ * mask is restored, so the loop runs again right after the interrupt that woke it. */
 static void idle_until_interrupt(uint32_t seen_count)
 {
 	struct tick_stats st;
+	uint32_t primask = irq_save();
 
-	__asm__ volatile("cpsid i" ::: "memory");
 	tick_read(&st);
 	if (st.count == seen_count && !swell_ctl_background_due(&app_ctl))
 		__asm__ volatile("dsb\n\twfi" ::: "memory");
-	__asm__ volatile("cpsie i" ::: "memory");
+	irq_restore(primask);
 }
 
 void app_run(const struct clock_info *ci, int can_ok, int usb_ok, const struct app_prio *prio, uint32_t watchdog_ms)
