@@ -334,6 +334,85 @@ static void summary(struct mcu *m, double host_s, int rc)
 	fprintf(stderr, "\n");
 }
 
+/* Everything a run holds, allocated once. */
+struct world {
+	struct mcu m;
+	struct mcu_can1_dev can;
+	struct mcu_usb_dev usb;
+	struct tunnel t;
+	FILE *con;
+};
+
+static FILE *open_out(const char *path)
+{
+	FILE *f = fopen(path, "w");
+
+	if (!f)
+		fprintf(stderr, "swell-mcu: %s: %s\n", path, strerror(errno));
+	return f;
+}
+
+/* Set up, run, report; the caller releases what w holds. */
+static int run(const struct opts *o, struct world *w)
+{
+	struct mcu *m = &w->m;
+	struct tunnel *t = &w->t;
+	struct mcu_stm32_opts so;
+	char why[256];
+	double t0;
+	int rc;
+
+	if ((o->console && strcmp(o->console, "-") != 0 && !(w->con = open_out(o->console))) ||
+	    (o->trace_irq && !(m->trace_irq = open_out(o->trace_irq))) ||
+	    (o->tx_log && !(t->log = open_out(o->tx_log))))
+		return MCU_EXIT_ERROR;
+	so = (struct mcu_stm32_opts){ w->con, o->hse_hz, o->hse_delay_us };
+	if (mcu_init(m, (uint32_t)(o->cpi * 1000.0 + 0.5), why, sizeof(why)) != 0 ||
+	    mcu_load_elf(m, o->image, why, sizeof(why)) != 0 || mcu_reset(m, why, sizeof(why)) != 0) {
+		fprintf(stderr, "swell-mcu: %s\n", why);
+		return MCU_EXIT_ERROR;
+	}
+	if (mcu_scs_add(m) != 0 || mcu_stm32_add(m, &so) != 0 || (!o->no_can && mcu_can1_add(m, &w->can) != 0) ||
+	    ((o->usb || o->usb_tunnel) && mcu_usb_add(m, &w->usb) != 0)) {
+		fprintf(stderr, "swell-mcu: the peripheral models could not be mapped\n");
+		return MCU_EXIT_ERROR;
+	}
+	if (o->usb_tunnel) {
+		if ((t->usb_fd = listen_one("--usb-tunnel", o->usb_tunnel)) < 0)
+			return MCU_EXIT_ERROR;
+		mcu_usb_serve(&w->usb, t->usb_fd, USB_ADDRESS);
+		t->usb = &w->usb;
+	}
+	t->can = &w->can;
+	if (o->tunnel && (t->fd = listen_one("--can-tunnel", o->tunnel)) < 0)
+		return MCU_EXIT_ERROR;
+	if (!o->no_can)
+		bxcan_set_tx_callback(&w->can.b, tunnel_tx, t);
+	t0 = host_seconds();
+	t->wall0 = t0;
+	/* paced: the hook every 20 us of virtual time (a frame takes 47 us or more at 1 Mbit/s) */
+	rc = mcu_run(m, (uint64_t)(o->seconds * (double)MCU_TIME_HZ + 0.5), MCU_TIME_HZ / 50000u,
+		     o->tunnel || o->usb_tunnel ? tunnel_hook : 0, t);
+	fflush(w->con);
+	if (!o->quiet)
+		summary(m, host_seconds() - t0, rc);
+	if ((o->tunnel || o->usb_tunnel) && !o->quiet)
+		fprintf(stderr,
+			"swell-mcu: CAN tunnel: %llu frames to the peer, %llu from it (%llu dropped: error frames or "
+			"length > 8); virtual time behind wall time by %.1f ms at most, %.1f ms at the end\n",
+			(unsigned long long)t->tx, (unsigned long long)t->rx, (unsigned long long)t->dropped,
+			1e3 * t->max_behind_s, 1e3 * t->behind_s);
+	if (o->usb_tunnel && !o->quiet)
+		fprintf(stderr,
+			"swell-mcu: USB tunnel: %u URBs submitted, %u answered (%u with an error), %u bytes in, %u "
+			"out\n",
+			w->usb.srv.stats.submits, w->usb.srv.stats.ret_submits, w->usb.srv.stats.errors,
+			w->usb.srv.stats.bytes_in, w->usb.srv.stats.bytes_out);
+	if (o->report && write_report(o->report, m, t, rc) != 0 && rc == MCU_EXIT_OK)
+		rc = MCU_EXIT_ERROR;
+	return rc;
+}
+
 int main(int argc, char **argv)
 {
 	struct opts o = { .seconds = 1.0, .cpi = 1.0, .hse_hz = 8000000u, .hse_delay_us = 1000u };
@@ -354,14 +433,7 @@ int main(int argc, char **argv)
 		SWELL_CLI_FLAG("--quiet", o.quiet),
 	};
 	struct swell_cli cli = { .prog = "swell-mcu", .usage = usage, .opt = table, .n_opt = SWELL_CLI_N(table) };
-	struct mcu *m;
-	struct mcu_stm32_opts so;
-	struct mcu_can1_dev *can;
-	struct mcu_usb_dev *usb = NULL;
-	struct tunnel t = { .fd = -1, .usb_fd = -1 };
-	FILE *con = stdout;
-	char why[256];
-	double t0;
+	struct world *w;
 	int rc;
 
 	swell_cli_parse(&cli, argc, argv);
@@ -372,91 +444,23 @@ int main(int argc, char **argv)
 			      (unsigned long long)MCU_TIME_HZ);
 	if (o.no_can && (o.tunnel || o.tx_log))
 		swell_cli_die("swell-mcu", "--no-can leaves no CAN1 for --can-tunnel or --tx-log");
-	m = calloc(1, sizeof(*m));
-	can = calloc(1, sizeof(*can));
-	if (!m || !can)
+	w = calloc(1, sizeof(*w));
+	if (!w)
 		return MCU_EXIT_ERROR;
-	if (o.console && strcmp(o.console, "-") != 0 && !(con = fopen(o.console, "w"))) {
-		fprintf(stderr, "swell-mcu: %s: %s\n", o.console, strerror(errno));
-		return MCU_EXIT_ERROR;
-	}
-	if (o.trace_irq && !(m->trace_irq = fopen(o.trace_irq, "w"))) {
-		fprintf(stderr, "swell-mcu: %s: %s\n", o.trace_irq, strerror(errno));
-		return MCU_EXIT_ERROR;
-	}
-	so = (struct mcu_stm32_opts){ con, o.hse_hz, o.hse_delay_us };
-	if (mcu_init(m, (uint32_t)(o.cpi * 1000.0 + 0.5), why, sizeof(why)) != 0 ||
-	    mcu_load_elf(m, o.image, why, sizeof(why)) != 0 || mcu_reset(m, why, sizeof(why)) != 0) {
-		fprintf(stderr, "swell-mcu: %s\n", why);
-		mcu_free(m);
-		return MCU_EXIT_ERROR;
-	}
-	if (o.tx_log && !(t.log = fopen(o.tx_log, "w"))) {
-		fprintf(stderr, "swell-mcu: %s: %s\n", o.tx_log, strerror(errno));
-		return MCU_EXIT_ERROR;
-	}
-	if (mcu_scs_add(m) != 0 || mcu_stm32_add(m, &so) != 0 || (!o.no_can && mcu_can1_add(m, can) != 0)) {
-		fprintf(stderr, "swell-mcu: the peripheral models could not be mapped\n");
-		mcu_free(m);
-		return MCU_EXIT_ERROR;
-	}
-	if ((o.usb || o.usb_tunnel) && (!(usb = calloc(1, sizeof(*usb))) || mcu_usb_add(m, usb) != 0)) {
-		fprintf(stderr, "swell-mcu: the OTG FS model could not be mapped\n");
-		mcu_free(m);
-		return MCU_EXIT_ERROR;
-	}
-	if (o.usb_tunnel) {
-		if ((t.usb_fd = listen_one("--usb-tunnel", o.usb_tunnel)) < 0) {
-			mcu_free(m);
-			return MCU_EXIT_ERROR;
-		}
-		mcu_usb_serve(usb, t.usb_fd, USB_ADDRESS);
-		t.usb = usb;
-	}
-	t.can = can;
-	if (o.tunnel) {
-		if ((t.fd = listen_one("--can-tunnel", o.tunnel)) < 0) {
-			mcu_free(m);
-			return MCU_EXIT_ERROR;
-		}
-	}
-	if (!o.no_can)
-		bxcan_set_tx_callback(&can->b, tunnel_tx, &t);
-	t0 = host_seconds();
-	t.wall0 = t0;
-	/* paced: the hook every 20 us of virtual time (a frame takes 47 us or more at 1 Mbit/s) */
-	rc = mcu_run(m, (uint64_t)(o.seconds * (double)MCU_TIME_HZ + 0.5), MCU_TIME_HZ / 50000u,
-		     o.tunnel || o.usb_tunnel ? tunnel_hook : 0, &t);
-	fflush(con);
-	if (!o.quiet)
-		summary(m, host_seconds() - t0, rc);
-	if ((o.tunnel || o.usb_tunnel) && !o.quiet)
-		fprintf(stderr,
-			"swell-mcu: CAN tunnel: %llu frames to the peer, %llu from it (%llu dropped: error frames or "
-			"length > 8); virtual time behind wall time by %.1f ms at most, %.1f ms at the end\n",
-			(unsigned long long)t.tx, (unsigned long long)t.rx, (unsigned long long)t.dropped,
-			1e3 * t.max_behind_s, 1e3 * t.behind_s);
-	if (o.usb_tunnel && !o.quiet)
-		fprintf(stderr,
-			"swell-mcu: USB tunnel: %u URBs submitted, %u answered (%u with an error), %u bytes in, %u "
-			"out\n",
-			usb->srv.stats.submits, usb->srv.stats.ret_submits, usb->srv.stats.errors,
-			usb->srv.stats.bytes_in, usb->srv.stats.bytes_out);
-	if (t.fd >= 0)
-		close(t.fd);
-	if (t.usb_fd >= 0)
-		close(t.usb_fd);
-	free(usb);
-	if (t.log)
-		fclose(t.log);
-	if (o.report && write_report(o.report, m, &t, rc) != 0 && rc == MCU_EXIT_OK)
-		rc = MCU_EXIT_ERROR;
-	if (con != stdout)
-		fclose(con);
-	if (m->trace_irq)
-		fclose(m->trace_irq);
-	mcu_free(m);
-	free(m);
-	free(can);
+	w->con = stdout;
+	w->t.fd = w->t.usb_fd = -1;
+	rc = run(&o, w);
+	if (w->t.fd >= 0)
+		close(w->t.fd);
+	if (w->t.usb_fd >= 0)
+		close(w->t.usb_fd);
+	if (w->t.log)
+		fclose(w->t.log);
+	if (w->con && w->con != stdout)
+		fclose(w->con);
+	if (w->m.trace_irq)
+		fclose(w->m.trace_irq);
+	mcu_free(&w->m);
+	free(w);
 	return rc;
 }
