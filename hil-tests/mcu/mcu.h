@@ -19,6 +19,11 @@
 #define MCU_NEVER UINT64_MAX
 #define MCU_IRQS 82 /* STM32F405 interrupt lines (RM0090 table 61) */
 #define MCU_EXCS (16 + MCU_IRQS) /* exception numbers: 1..15 system, 16.. interrupts */
+/* RCC_CSR's reset flags (RM0090 7.3.21) */
+#define MCU_CSR_PINRSTF (1u << 26)
+#define MCU_CSR_PORRSTF (1u << 27)
+#define MCU_CSR_SFTRSTF (1u << 28)
+#define MCU_CSR_IWDGRSTF (1u << 29)
 
 /* Exit statuses of swell-mcu (its --help says the same). */
 enum mcu_exit {
@@ -95,6 +100,15 @@ struct mcu {
 	FILE *report; /* warnings and the end-of-run report (stderr) */
 	int watchdog_bit; /* the IWDG ran out (set by its model) */
 	int reset_req; /* AIRCR.SYSRESETREQ written */
+	int restart_on_reset; /* a reset restarts the MCU (else it ends the run: MCU_EXIT_WATCHDOG, _RESET) */
+	uint64_t resets; /* system resets carried out */
+	uint32_t reset_flags; /* RCC_CSR's flags of the reset being carried out */
+	uint64_t tim2_stop_at; /* fault injection: TIM2's counter stops here until the next reset */
+	struct {
+		void (*fn)(struct mcu *m, void *ctx);
+		void *ctx;
+	} sys_reset[8];
+	unsigned n_sys_reset;
 	struct {
 		uint32_t off, bit; /* an RCC reset register's offset and the peripheral's bit */
 		void (*fn)(struct mcu *m, void *ctx);
@@ -130,6 +144,9 @@ int mcu_rcc_on_reset(struct mcu *m, uint32_t off, uint32_t bit, void (*fn)(struc
  * with the bit's new value when a write changes it. 0, or -1 when the table is full. */
 int mcu_rcc_on_enable(struct mcu *m, uint32_t off, uint32_t bit, void (*fn)(struct mcu *m, void *ctx, int on),
 		      void *ctx);
+/* A model's part in a system reset (RM0090 7.1.2: every register but RCC_CSR's flags and the backup
+ * domain back to its reset value, SRAM kept): fn runs in registration order. 0, or -1 when full. */
+int mcu_on_system_reset(struct mcu *m, void (*fn)(struct mcu *m, void *ctx), void *ctx);
 /* Report an access to a register nothing models, once per address. */
 void mcu_unmodelled(struct mcu *m, const char *what, uint32_t addr, int is_write, uint32_t v);
 

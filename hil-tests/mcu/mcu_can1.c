@@ -86,5 +86,8 @@ int mcu_can1_add(struct mcu *m, struct mcu_can1_dev *c)
 
 	if (bxcan_init(&c->b, m->clk.pclk1_hz ? m->clk.pclk1_hz : 16000000u) != 0)
 		return -1;
-	return mcu_add_periph(m, &p) || mcu_rcc_on_reset(m, RCC_APB1RSTR, RCC_APB1_CAN1, can1_reset, c) ? -1 : 0;
+	return mcu_add_periph(m, &p) || mcu_rcc_on_reset(m, RCC_APB1RSTR, RCC_APB1_CAN1, can1_reset, c) ||
+			mcu_on_system_reset(m, can1_reset, c)
+		? -1
+		: 0;
 }

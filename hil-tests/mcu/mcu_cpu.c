@@ -504,6 +504,16 @@ int mcu_rcc_on_enable(struct mcu *m, uint32_t off, uint32_t bit, void (*fn)(stru
 	return 0;
 }
 
+int mcu_on_system_reset(struct mcu *m, void (*fn)(struct mcu *m, void *ctx), void *ctx)
+{
+	if (m->n_sys_reset >= sizeof(m->sys_reset) / sizeof(m->sys_reset[0]))
+		return -1;
+	m->sys_reset[m->n_sys_reset].fn = fn;
+	m->sys_reset[m->n_sys_reset].ctx = ctx;
+	m->n_sys_reset++;
+	return 0;
+}
+
 static void advance_all(struct mcu *m)
 {
 	for (unsigned i = 0; i < m->n_periph; i++)
@@ -596,10 +606,36 @@ int mcu_reset(struct mcu *m, char *why, size_t why_len)
 	}
 	memset(&m->nvic, 0, sizeof(m->nvic));
 	m->vtor = 0;
+	set_reg(m, UC_ARM_REG_CONTROL, 0);
+	set_reg(m, UC_ARM_REG_PRIMASK, 0);
+	set_reg(m, UC_ARM_REG_BASEPRI, 0);
 	set_reg(m, UC_ARM_REG_SP, sp);
 	set_reg(m, UC_ARM_REG_LR, 0xFFFFFFFFu);
 	set_reg(m, UC_ARM_REG_PC, pc);
 	set_reg(m, UC_ARM_REG_XPSR, 1u << 24);
+	return 0;
+}
+
+/* A system reset (RM0090 7.1.2) carried out: the models back to their reset state, the clocks back
+ * to HSI, the CPU from the vector table; memory keeps its contents. */
+static int system_reset(struct mcu *m, uint32_t flags)
+{
+	char why[160];
+
+	m->reset_flags = flags;
+	m->watchdog_bit = m->reset_req = 0;
+	m->resets++;
+	m->clk = (struct mcu_clocks){ 16000000u, 16000000u, 16000000u, 16000000u, (uint32_t)(MCU_TIME_HZ / 16000000u) };
+	m->ccr = 0x200u;
+	m->shcsr = m->cfsr = m->hfsr = m->cpacr = m->dwt_ctrl = 0;
+	for (unsigned i = 0; i < m->n_sys_reset; i++)
+		m->sys_reset[i].fn(m, m->sys_reset[i].ctx);
+	if (mcu_reset(m, why, sizeof(why)) != 0) {
+		fprintf(m->report, "swell-mcu: reset at %.6f s: %s\n", mcu_seconds(m->now), why);
+		return MCU_EXIT_CPU;
+	}
+	fprintf(m->report, "swell-mcu: system reset at %.6f s (%s)\n", mcu_seconds(m->now),
+		flags & MCU_CSR_IWDGRSTF ? "watchdog" : "requested by the image");
 	return 0;
 }
 
@@ -661,10 +697,13 @@ int mcu_run(struct mcu *m, uint64_t until, uint64_t slice, mcu_io_hook hook, voi
 			next_hook = m->now + slice;
 			advance_all(m);
 		}
-		if (m->watchdog_bit)
-			return MCU_EXIT_WATCHDOG;
-		if (m->reset_req)
-			return MCU_EXIT_RESET;
+		if (m->watchdog_bit || m->reset_req) {
+			if (!m->restart_on_reset)
+				return m->watchdog_bit ? MCU_EXIT_WATCHDOG : MCU_EXIT_RESET;
+			rc = system_reset(m, MCU_CSR_PINRSTF | (m->watchdog_bit ? MCU_CSR_IWDGRSTF : MCU_CSR_SFTRSTF));
+			if (rc)
+				return rc;
+		}
 		(void)take_pending(m, &rc);
 		if (rc)
 			return rc;
@@ -703,5 +742,7 @@ int mcu_run(struct mcu *m, uint64_t until, uint64_t slice, mcu_io_hook hook, voi
 			sleep_wfi(m, until, next_hook);
 		}
 	}
-	return m->watchdog_bit ? MCU_EXIT_WATCHDOG : MCU_EXIT_OK;
+	if (m->watchdog_bit || m->reset_req)
+		return m->restart_on_reset ? MCU_EXIT_OK : m->watchdog_bit ? MCU_EXIT_WATCHDOG : MCU_EXIT_RESET;
+	return MCU_EXIT_OK;
 }

@@ -384,6 +384,15 @@ static void dwt_write(struct mcu *m, void *ctx, uint32_t off, unsigned size, uin
 	}
 }
 
+static void scs_reset(struct mcu *m, void *ctx)
+{
+	struct scs *c = ctx;
+
+	*c = (struct scs){ .fpccr = 0xC0000000u };
+	c->st.per = m->clk.units_per_cycle * 8u;
+	c->st.next_zero = MCU_NEVER;
+}
+
 int mcu_scs_add(struct mcu *m)
 {
 	struct scs *c = &scs_state;
@@ -392,9 +401,7 @@ int mcu_scs_add(struct mcu *m)
 	};
 	const struct mcu_periph dwt = { "DWT", DWT_BASE, 0x1000, c, dwt_read, dwt_write, 0, 0, 0 };
 
-	*c = (struct scs){ .fpccr = 0xC0000000u };
-	c->st.per = m->clk.units_per_cycle * 8u;
-	c->st.next_zero = MCU_NEVER;
+	scs_reset(m, c);
 	m->ccr = 0x200u; /* STKALIGN */
-	return mcu_add_periph(m, &scs) || mcu_add_periph(m, &dwt) ? -1 : 0;
+	return mcu_add_periph(m, &scs) || mcu_add_periph(m, &dwt) || mcu_on_system_reset(m, scs_reset, c) ? -1 : 0;
 }

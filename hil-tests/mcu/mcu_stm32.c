@@ -281,6 +281,7 @@ struct tim {
 	uint32_t cr1, dier, sr, psc, psc_active, arr, cnt0;
 	uint64_t t0, per; /* CNT = cnt0 + (now - t0) / per while counting */
 	uint64_t next_update;
+	uint64_t stop_at; /* injected: the counter stops here (MCU_NEVER: never) */
 	uint32_t other[24]; /* CR2, SMCR, CCMRx, CCER, CCRx, ... held, not modelled */
 };
 
@@ -293,6 +294,8 @@ static uint64_t tim_per(struct mcu *m, const struct tim *t)
 
 static uint64_t tim_counts(const struct tim *t, uint64_t now)
 {
+	if (now > t->stop_at)
+		now = t->stop_at;
 	return (t->cr1 & TIM_CR1_CEN) && now > t->t0 ? (now - t->t0) / t->per : 0u;
 }
 
@@ -325,7 +328,7 @@ static void tim_advance(struct mcu *m, void *ctx, uint64_t now)
 {
 	struct tim *t = ctx;
 
-	while (t->next_update <= now) {
+	while (t->next_update <= now && t->next_update <= t->stop_at) {
 		/* update event: CNT 0, the prescaler's preload taken, UIF unless UDIS */
 		t->t0 = t->next_update;
 		t->cnt0 = 0;
@@ -340,8 +343,10 @@ static void tim_advance(struct mcu *m, void *ctx, uint64_t now)
 
 static uint64_t tim_next_event(struct mcu *m, void *ctx)
 {
+	const struct tim *t = ctx;
+
 	(void)m;
-	return ((struct tim *)ctx)->next_update;
+	return t->next_update <= t->stop_at ? t->next_update : MCU_NEVER;
 }
 
 static uint32_t tim_read(struct mcu *m, void *ctx, uint32_t off, unsigned size)
@@ -654,6 +659,7 @@ static void usart_write(struct mcu *m, void *ctx, uint32_t off, unsigned size, u
 /* ---- the set ---- */
 
 static struct {
+	struct mcu_stm32_opts opts;
 	struct rcc rcc;
 	struct plain_regs flash, pwr, syscfg;
 	struct gpio gpio[9];
@@ -662,20 +668,21 @@ static struct {
 	struct usart usart[4];
 } st32; /* one emulated MCU per process */
 
-int mcu_stm32_add(struct mcu *m, const struct mcu_stm32_opts *o)
+/* Power-on or system reset (RM0090 7.1): the reset values; RCC_CSR keeps its flags and gains the
+ * reset's own (power-on and pin at power-on). An injected TIM2 stop lasts until a reset. */
+static void stm32_reset(struct mcu *m, void *ctx)
 {
 	static const uint32_t usart_base[4] = { 0x40011000u, 0x40004400u, 0x40004800u, 0x40011400u };
 	static const uint32_t gpio_moder[9] = { 0xA8000000u, 0x00000280u };
-	static const char *const usart_name[4] = { "USART1", "USART2", "USART3", "USART6" };
-	static const char *const gpio_name[9] = { "GPIOA", "GPIOB", "GPIOC", "GPIOD", "GPIOE",
-						  "GPIOF", "GPIOG", "GPIOH", "GPIOI" };
-	int err = 0;
+	const struct mcu_stm32_opts *o = &st32.opts;
+	uint32_t csr = m->resets ? (st32.rcc.r[RCC_CSR] & 0xFE000000u) | m->reset_flags : CSR_PORRSTF | CSR_PINRSTF;
 
-	memset(&st32, 0, sizeof(st32));
+	(void)ctx;
+	memset(&st32.rcc, 0, sizeof(st32.rcc));
 	st32.rcc.r[RCC_CR] = 0x83u | CR_HSIRDY;
 	st32.rcc.r[RCC_PLLCFGR] = 0x24003010u;
 	st32.rcc.r[0x30 / 4] = 0x00100000u; /* AHB1ENR: CCMDATARAMEN */
-	st32.rcc.r[RCC_CSR] = CSR_PORRSTF | CSR_PINRSTF; /* a power-on reset */
+	st32.rcc.r[RCC_CSR] = csr;
 	st32.rcc.hse_hz = o->hse_hz;
 	st32.rcc.hse_delay_us = o->hse_delay_us;
 	st32.rcc.hse_ready_at = st32.rcc.pll_ready_at = MCU_NEVER;
@@ -683,7 +690,26 @@ int mcu_stm32_add(struct mcu *m, const struct mcu_stm32_opts *o)
 	st32.pwr = (struct plain_regs){ "PWR", PWR_BASE, 2, { 0x4000u, 0 } };
 	st32.syscfg = (struct plain_regs){ "SYSCFG", SYSCFG_BASE, 1, { 0 } }; /* MEMRMP only */
 	st32.tim2 = (struct tim){ .arr = 0xFFFFFFFFu, .next_update = MCU_NEVER, .per = 1 };
+	st32.tim2.stop_at = m->resets ? MCU_NEVER : m->tim2_stop_at;
 	st32.iwdg = (struct iwdg){ .rlr = 0xFFFu, .bite_at = MCU_NEVER, .sr_clear_at = MCU_NEVER };
+	for (unsigned i = 0; i < 9; i++)
+		st32.gpio[i] = (struct gpio){ .port = i, .r = { gpio_moder[i] } };
+	for (unsigned i = 0; i < 4; i++)
+		st32.usart[i] = (struct usart){ .base = usart_base[i], .apb2 = i == 0 || i == 3, .out = o->console };
+	mcu_irq_line(m, TIM2_IRQ, 0);
+}
+
+int mcu_stm32_add(struct mcu *m, const struct mcu_stm32_opts *o)
+{
+	static const uint32_t usart_base[4] = { 0x40011000u, 0x40004400u, 0x40004800u, 0x40011400u };
+	static const char *const usart_name[4] = { "USART1", "USART2", "USART3", "USART6" };
+	static const char *const gpio_name[9] = { "GPIOA", "GPIOB", "GPIOC", "GPIOD", "GPIOE",
+						  "GPIOF", "GPIOG", "GPIOH", "GPIOI" };
+	int err = 0;
+
+	memset(&st32, 0, sizeof(st32));
+	st32.opts = *o;
+	stm32_reset(m, &st32);
 	{
 		const struct mcu_periph p[] = {
 			{ "RCC", RCC_BASE, 0x400, &st32.rcc, rcc_read, rcc_write, rcc_advance, rcc_next_event, 0 },
@@ -703,8 +729,6 @@ int mcu_stm32_add(struct mcu *m, const struct mcu_stm32_opts *o)
 			gpio_name[i], GPIO_BASE + 0x400u * i, 0x400, &st32.gpio[i], gpio_read, gpio_write, 0, 0, 0
 		};
 
-		st32.gpio[i].port = i;
-		st32.gpio[i].r[0] = gpio_moder[i];
 		err |= mcu_add_periph(m, &p);
 	}
 	for (unsigned i = 0; i < 4; i++) {
@@ -712,8 +736,7 @@ int mcu_stm32_add(struct mcu *m, const struct mcu_stm32_opts *o)
 					      &st32.usart[i], usart_read,       usart_write,
 					      usart_advance,  usart_next_event, 0 };
 
-		st32.usart[i] = (struct usart){ .base = usart_base[i], .apb2 = i == 0 || i == 3, .out = o->console };
 		err |= mcu_add_periph(m, &p);
 	}
-	return err ? -1 : 0;
+	return err || mcu_on_system_reset(m, stm32_reset, &st32) ? -1 : 0;
 }

@@ -55,6 +55,16 @@ static void usb_clock(struct mcu *m, void *ctx, int on)
 	line(m, u);
 }
 
+/* A system reset: the core back to its reset values, its clock off (the host side sees a detach). */
+static void usb_reset(struct mcu *m, void *ctx)
+{
+	struct mcu_usb_dev *u = ctx;
+
+	otgfs_init(&u->otg, MCU_TIME_HZ);
+	otgfs_set_clock(&u->otg, 0);
+	line(m, u);
+}
+
 int mcu_usb_add(struct mcu *m, struct mcu_usb_dev *u)
 {
 	const struct mcu_periph p = { "OTG_FS",  OTGFS_MODEL_BASE, OTGFS_MODEL_SIZE, u, usb_read,
@@ -62,7 +72,10 @@ int mcu_usb_add(struct mcu *m, struct mcu_usb_dev *u)
 
 	otgfs_init(&u->otg, MCU_TIME_HZ);
 	otgfs_set_clock(&u->otg, 0); /* AHB2ENR.OTGFSEN is 0 at reset */
-	return mcu_add_periph(m, &p) || mcu_rcc_on_enable(m, RCC_AHB2ENR, RCC_AHB2_OTGFS, usb_clock, u) ? -1 : 0;
+	return mcu_add_periph(m, &p) || mcu_rcc_on_enable(m, RCC_AHB2ENR, RCC_AHB2_OTGFS, usb_clock, u) ||
+			mcu_on_system_reset(m, usb_reset, u)
+		? -1
+		: 0;
 }
 
 void mcu_usb_serve(struct mcu_usb_dev *u, int fd, uint8_t address)

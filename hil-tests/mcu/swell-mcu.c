@@ -18,7 +18,8 @@
 static const char usage[] =
 	"usage: swell-mcu --image ELF [--seconds S] [--console FILE] [--cpi C] [--hse-hz HZ]\n"
 	"                 [--hse-delay-us US] [--trace-irq FILE] [--can-tunnel PATH] [--tx-log FILE]\n"
-	"                 [--report FILE] [--no-can] [--usb] [--usb-tunnel PATH] [--quiet]\n"
+	"                 [--report FILE] [--no-can] [--usb] [--usb-tunnel PATH] [--stop-tim2 S]\n"
+	"                 [--on-reset end|restart] [--quiet]\n"
 	"Runs the STM32F405 image ELF (the product image, swell-fw.elf, unmodified) on an emulated\n"
 	"Cortex-M4 (unicorn) with register-level models of the peripherals it uses, in virtual time:\n"
 	"a run repeats bit for bit. Prints the image's console (its USART) and, on stderr, a summary:\n"
@@ -43,13 +44,18 @@ static const char usage[] =
 	"                     bytes)\n"
 	"  --report FILE      the run's figures that repeat bit for bit, one 'NAME VALUE' a line: virtual\n"
 	"                     seconds, instructions, cycles, seconds asleep, exceptions taken by kind, IWDG\n"
-	"                     refreshes, CAN1 frames sent, the exit status\n"
+	"                     refreshes, CAN1 frames sent, resets carried out, the exit status\n"
 	"  --no-can           no CAN1 model (its registers read 0): the image finds no link and stops\n"
 	"  --usb              the OTG FS model, no host attached (without --usb or --usb-tunnel the OTG FS\n"
 	"                     registers read 0 and the image finds no USB; on silicon the core answers)\n"
 	"  --usb-tunnel PATH  the OTG FS model behind a USB/IP server: listens on the Unix socket PATH, takes\n"
 	"                     one connection (hil-tests/vm/run-vm --usb-tunnel PATH), address 3; paced to\n"
 	"                     wall time as with --can-tunnel; ends when the host lets go\n"
+	"  --stop-tim2 S      fault injection: TIM2's counter stops at S virtual seconds, until the next\n"
+	"                     reset (the image's tick stops: its watchdog must bite)\n"
+	"  --on-reset end|restart  a reset (the watchdog's, or one the image requests) ends the run (end,\n"
+	"                     the default: status 3 or 5) or restarts the MCU (restart: every register to\n"
+	"                     its reset value, RCC_CSR's flags saying why, memory kept) and runs on\n"
 	"CAN1 is the bxCAN model; without --can-tunnel its bus is ideal and empty: every frame the image\n"
 	"sends is acknowledged, nothing else comes.\n"
 	"Exit status: 0 the virtual time ran out, 1 set-up error (image, files), 2 bad arguments,\n"
@@ -58,7 +64,8 @@ static const char usage[] =
 
 struct opts {
 	const char *image, *console, *trace_irq, *tunnel, *tx_log, *report, *usb_tunnel;
-	int no_can, usb;
+	int no_can, usb, on_reset;
+	double stop_tim2;
 	double seconds, cpi;
 	uint32_t hse_hz, hse_delay_us;
 	int quiet;
@@ -312,8 +319,8 @@ static int write_report(const char *path, struct mcu *m, const struct tunnel *t,
 		if (m->irq_taken[e])
 			fprintf(f, "exceptions %s %llu\n", exc_name(e, b, sizeof(b)),
 				(unsigned long long)m->irq_taken[e]);
-	fprintf(f, "iwdg_refreshes %llu\ncan1_frames_sent %llu\nexit %d\n", (unsigned long long)m->iwdg_refreshes,
-		(unsigned long long)t->tx, rc);
+	fprintf(f, "iwdg_refreshes %llu\ncan1_frames_sent %llu\nresets %llu\nexit %d\n",
+		(unsigned long long)m->iwdg_refreshes, (unsigned long long)t->tx, (unsigned long long)m->resets, rc);
 	return fclose(f) == 0 ? 0 : -1;
 }
 
@@ -367,6 +374,8 @@ static int run(const struct opts *o, struct world *w)
 	    (o->tx_log && !(t->log = open_out(o->tx_log))))
 		return MCU_EXIT_ERROR;
 	so = (struct mcu_stm32_opts){ w->con, o->hse_hz, o->hse_delay_us };
+	m->restart_on_reset = o->on_reset == 1;
+	m->tim2_stop_at = o->stop_tim2 >= 0 ? (uint64_t)(o->stop_tim2 * (double)MCU_TIME_HZ + 0.5) : MCU_NEVER;
 	if (mcu_init(m, (uint32_t)(o->cpi * 1000.0 + 0.5), why, sizeof(why)) != 0 ||
 	    mcu_load_elf(m, o->image, why, sizeof(why)) != 0 || mcu_reset(m, why, sizeof(why)) != 0) {
 		fprintf(stderr, "swell-mcu: %s\n", why);
@@ -415,7 +424,7 @@ static int run(const struct opts *o, struct world *w)
 
 int main(int argc, char **argv)
 {
-	struct opts o = { .seconds = 1.0, .cpi = 1.0, .hse_hz = 8000000u, .hse_delay_us = 1000u };
+	struct opts o = { .seconds = 1.0, .cpi = 1.0, .hse_hz = 8000000u, .hse_delay_us = 1000u, .stop_tim2 = -1 };
 	const struct swell_cli_opt table[] = {
 		SWELL_CLI_STR("--image", o.image),
 		SWELL_CLI_NUM_ABOVE("--seconds", o.seconds, 0, 86400, "s"),
@@ -430,6 +439,8 @@ int main(int argc, char **argv)
 		SWELL_CLI_FLAG("--no-can", o.no_can),
 		SWELL_CLI_FLAG("--usb", o.usb),
 		SWELL_CLI_STR("--usb-tunnel", o.usb_tunnel),
+		SWELL_CLI_NUM("--stop-tim2", o.stop_tim2, 0, 86400, "s"),
+		SWELL_CLI_CHOICE("--on-reset", o.on_reset, "end|restart"),
 		SWELL_CLI_FLAG("--quiet", o.quiet),
 	};
 	struct swell_cli cli = { .prog = "swell-mcu", .usage = usage, .opt = table, .n_opt = SWELL_CLI_N(table) };
