@@ -3,7 +3,9 @@
  * exceptions on an M-profile core by itself).
  *
  * Memory (RM0090 section 2.3, figure 5): flash 1 MiB at 0x08000000, aliased at 0 (BOOT0 low); SRAM1
- * and SRAM2, 128 KiB at 0x20000000; CCM data RAM 64 KiB at 0x10000000. Peripheral blocks are models
+ * and SRAM2, 128 KiB at 0x20000000; CCM data RAM 64 KiB at 0x10000000; system memory at 0x1FFF0000
+ * reads 0 (the ROM bootloader is not modelled: the image finds no bootloader's vector table there and
+ * starts itself, as its boot code expects of a part without one). Peripheral blocks are models
  * (mcu_add_periph); an access to a peripheral address nothing models reads 0, is dropped if a write,
  * and is reported once.
  *
@@ -38,6 +40,8 @@
 #define SRAM_SIZE (128u * 1024u)
 #define CCM_BASE 0x10000000u
 #define CCM_SIZE (64u * 1024u)
+#define SYSMEM_BASE 0x1FFF0000u /* system memory: the ST ROM bootloader, not modelled (reads 0) */
+#define SYSMEM_SIZE 0x8000u
 #define EXC_RETURN_PAGE 0xFFFFF000u
 
 #define QEMU_EXCP_EXCEPTION_EXIT 8 /* unicorn's interrupt number of a return through EXC_RETURN */
@@ -561,6 +565,8 @@ int mcu_init(struct mcu *m, uint32_t cpi_milli, char *why, size_t why_len)
 		e = uc_mem_map(m->uc, SRAM_BASE, SRAM_SIZE, UC_PROT_ALL);
 	if (e == UC_ERR_OK)
 		e = uc_mem_map(m->uc, CCM_BASE, CCM_SIZE, UC_PROT_READ | UC_PROT_WRITE);
+	if (e == UC_ERR_OK)
+		e = uc_mem_map(m->uc, SYSMEM_BASE, SYSMEM_SIZE, UC_PROT_READ);
 	if (e == UC_ERR_OK)
 		e = uc_mem_map(m->uc, EXC_RETURN_PAGE, 0x1000, UC_PROT_READ | UC_PROT_EXEC);
 	if (e == UC_ERR_OK)
