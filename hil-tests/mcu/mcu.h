@@ -15,6 +15,10 @@
 
 #include <unicorn/unicorn.h>
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 #define MCU_TIME_HZ 336000000ull
 #define MCU_NEVER UINT64_MAX
 #define MCU_IRQS 82 /* STM32F405 interrupt lines (RM0090 table 61) */
@@ -183,5 +187,9 @@ typedef int (*mcu_io_hook)(struct mcu *m, void *ctx);
 int mcu_run(struct mcu *m, uint64_t until, uint64_t slice, mcu_io_hook hook, void *hook_ctx);
 /* The next peripheral event (MCU_NEVER: none). */
 uint64_t mcu_next_event(struct mcu *m);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif
