@@ -1,4 +1,4 @@
-@ exc_probe.s: the exception probe of test_mcu_cpu.cpp (its bytes are in that file; to change it:
+@ exc_probe.s: the exception probe of test_cpu.cpp (its bytes are in that file; to change it:
 @ arm-none-eabi-as exc_probe.s -o p.o && arm-none-eabi-ld -Ttext=0x08000000 p.o -o p.elf &&
 @ arm-none-eabi-objcopy -O binary p.elf p.bin, then the bytes of p.bin into the test).
 @ Thread mode with live FP state (s0, s15 = 1.5) and SP 4 bytes off 8-byte alignment pends IRQ0
