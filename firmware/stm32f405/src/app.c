@@ -268,19 +268,23 @@ void app_run(const struct clock_info *ci, int can_ok, int usb_ok, const struct a
 		err = usb_start(prio->usb, on_usb_out);
 		app.usb_on = err == SWELL_OK;
 	}
-	if (err == SWELL_OK)
+	if (err == SWELL_OK) {
+		/* The banner before the tick starts: the console waits on its USART (5 ms for this line at
+		 * 115200 baud). Written once the tick ran, it held the main loop over the first ticks, whose
+		 * background parts then never ran: 4 overruns at every boot, the solver a step behind. */
+		con_puts("controller: ");
+		con_put_u64(tick_hz);
+		con_puts(" Hz tick, device on ");
+		con_puts(app.device_on_can ? "CAN 1 Mbit/s" : "USB");
+		con_puts(app.usb_on ? ", host on USB\n" : ", host on CAN\n");
 		err = tick_start(ci->tim_apb1_hz, tick_hz, prio->tick, app_tick);
-	con_puts("controller: ");
+	}
 	if (err != SWELL_OK) {
-		con_puts("start refused: ");
+		con_puts("controller: start refused: ");
 		con_puts(swell_err_str(err));
 		con_putc('\n');
 		fault_stop("controller start refused");
 	}
-	con_put_u64(tick_hz);
-	con_puts(" Hz tick, device on ");
-	con_puts(app.device_on_can ? "CAN 1 Mbit/s" : "USB");
-	con_puts(app.usb_on ? ", host on USB\n" : ", host on CAN\n");
 	iwdg_start(watchdog_ms);
 	for (;;) {
 		tick_read(&st);
