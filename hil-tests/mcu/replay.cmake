@@ -1,0 +1,23 @@
+# hil-tests/mcu/replay.cmake: the emulated STM32F405's deterministic replay (mcu_replay.c: a recorded
+# bus fed into CAN1 tick by tick, the frames the image sends logged with their virtual time, bus
+# faults at virtual times), swell-mcu-replay, and the tests on the product image (label mcu):
+# docs/stm32f405-emulator.md, "Scenarios and the force identity". Included by this directory's
+# CMakeLists.txt after swell_mcu.
+add_library(swell_mcu_replay STATIC ${CMAKE_CURRENT_LIST_DIR}/mcu_replay.c)
+target_include_directories(swell_mcu_replay PUBLIC ${CMAKE_CURRENT_LIST_DIR})
+target_link_libraries(swell_mcu_replay PUBLIC swell_mcu)
+add_executable(swell-mcu-replay ${CMAKE_CURRENT_LIST_DIR}/mcu_replay_main.c)
+target_link_libraries(swell-mcu-replay PRIVATE swell_mcu_replay swell_common_host)
+
+set(mcu_image ${SWELL_BENCH_BIN_DIR}/../firmware/stm32f405/image/swell-fw.elf)
+set(mcu_work ${CMAKE_BINARY_DIR}/hil-tests/mcu/out)
+
+# The force identity: one drop recorded from swell-hm, replayed to swell-ctl (--clock device, UDP) and
+# to the image in the emulator (CAN1), gives the same FORCE_CMD payload at every tick.
+set(mcu_identity "mcu: one recorded drop gives swell-ctl and the emulated STM32F405 image bit-identical FORCE_CMD payloads at every one of 3000 ticks")
+add_test(NAME "${mcu_identity}"
+  COMMAND sh -c "[ -f \"$1\" ] || { echo \"no image $1: build swell_fw_image\"; exit 77; }; shift; exec \"$@\""
+          sh ${mcu_image} ${CMAKE_CURRENT_LIST_DIR}/tests/force-identity run --bin ${SWELL_BENCH_BIN_DIR}
+          --image ${mcu_image} --work ${mcu_work}/identity --seconds 3 --hand drop:z=20,hold=0.2)
+set_tests_properties("${mcu_identity}" PROPERTIES LABELS mcu TIMEOUT 240 SKIP_RETURN_CODE 77
+  PASS_REGULAR_EXPRESSION "OK: 3000 ticks compared, FORCE_CMD payloads bit-identical")
