@@ -106,6 +106,7 @@ int main(int argc, char **argv)
 	}
 	so = (struct mcu_stm32_opts){ con, 8000000u, 1000u };
 	why[0] = 0;
+	m->tim2_stop_at = MCU_NEVER; /* TIM2 runs (swell-mcu --stop-tim2 stops it) */
 	if (mcu_init(m, 1000u, why, sizeof(why)) != 0 || mcu_load_elf(m, o.image, why, sizeof(why)) != 0 ||
 	    mcu_reset(m, why, sizeof(why)) != 0 || mcu_scs_add(m) != 0 || mcu_stm32_add(m, &so) != 0 ||
 	    mcu_can1_add(m, &run.can) != 0 || mcu_replay_start(&run.r, m, &run.can, log, why, sizeof(why)) != 0) {
