@@ -49,6 +49,7 @@
 struct cpu_state {
 	uint8_t *flash;
 	uc_hook h_block, h_code, h_intr, h_unmapped;
+	uint64_t stop_at; /* the block start the CPU stops at, before its first instruction (UINT64_MAX: none) */
 };
 
 static struct cpu_state *state_of(struct mcu *m)
@@ -342,15 +343,21 @@ static int exc_return(struct mcu *m, uint32_t excret)
 /* ---- unicorn hooks ---- */
 
 /* At the start of each translated block: stop there when an event is due (interrupts are taken
- * between blocks; unicorn keeps the IT state whole there). */
+ * between blocks; unicorn keeps the IT state whole there). The stop itself is made in the code hook of
+ * the block's first instruction, before it runs: unicorn 2.0.1 stopped from a block hook runs that
+ * instruction and then reports the block's start as the PC, so the restart ran it again (an LDMIA
+ * with writeback loaded the next four words: the force identity found it). */
 static void on_block(uc_engine *uc, uint64_t addr, uint32_t size, void *user)
 {
 	struct mcu *m = user;
 
-	(void)addr;
 	(void)size;
 	if (m->now >= m->deadline ||
 	    (m->pend_check && first_pending(m) && group_of(m, prio_of(m, first_pending(m))) < exec_prio(m, 1, 0))) {
+		if (addr < EXC_RETURN_PAGE) {
+			state_of(m)->stop_at = addr;
+			return;
+		}
 		m->stop_req = 1;
 		uc_emu_stop(uc);
 	}
@@ -363,8 +370,13 @@ static void on_code(uc_engine *uc, uint64_t addr, uint32_t size, void *user)
 {
 	struct mcu *m = user;
 
-	(void)uc;
 	(void)size;
+	if (addr == state_of(m)->stop_at) {
+		state_of(m)->stop_at = UINT64_MAX;
+		m->stop_req = 1;
+		uc_emu_stop(uc);
+		return;
+	}
 	if (addr < EXC_RETURN_PAGE)
 		charge(m, 1);
 }
@@ -722,6 +734,7 @@ int mcu_run(struct mcu *m, uint64_t until, uint64_t slice, mcu_io_hook hook, voi
 			deadline = m->now + 1; /* at least one block */
 		m->deadline = deadline;
 		m->stop_req = 0;
+		state_of(m)->stop_at = UINT64_MAX;
 		m->exc_return = 0;
 		m->cpu_intno = 0;
 		pc = reg(m, UC_ARM_REG_PC);
