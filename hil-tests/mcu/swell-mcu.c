@@ -17,7 +17,8 @@
 
 static const char usage[] =
 	"usage: swell-mcu --image ELF [--seconds S] [--console FILE] [--cpi C] [--hse-hz HZ]\n"
-	"                 [--hse-delay-us US] [--trace-irq FILE] [--can-tunnel PATH] [--tx-log FILE]\n"
+	"                 [--hse-delay-us US] [--trace-irq FILE] [--can-tunnel PATH [--no-hello]]\n"
+	"                 [--tx-log FILE]\n"
 	"                 [--report FILE] [--no-can] [--usb] [--usb-tunnel PATH] [--stop-tim2 S]\n"
 	"                 [--on-reset end|restart] [--quiet]\n"
 	"Runs the STM32F405 image ELF (the product image, swell-fw.elf, unmodified) on an emulated\n"
@@ -35,10 +36,14 @@ static const char usage[] =
 	"  --trace-irq FILE   every exception entry, tail-chain and return with its virtual time\n"
 	"  --can-tunnel PATH  CAN1's bus on a Unix stream socket: listens on PATH, takes one connection\n"
 	"                     (hil-tests/vm/run-vm --can-tunnel PATH), then runs with virtual time paced\n"
-	"                     to wall time (never ahead of it); frames both ways as 16-byte Linux struct\n"
-	"                     can_frame records (le32 can_id with the EFF/RTR/ERR flags, u8 len, 3 pad,\n"
-	"                     8 data). Ends when the peer leaves (status 0) or the time runs out; the\n"
-	"                     summary says how far virtual time fell behind wall time\n"
+	"                     to wall time: never ahead of it, and a lag over 5 ms is not made up (virtual\n"
+	"                     time goes on in step from there; the summary adds up what was lost). Frames\n"
+	"                     both ways as 16-byte Linux struct can_frame records (le32 can_id with the\n"
+	"                     EFF/RTR/ERR flags, u8 len, 3 pad, 8 data); a peer that does not take them\n"
+	"                     holds the emulator up. The MCU starts when the peer's first frame comes (a\n"
+	"                     hello: before it the VM's end of the line is not open); it goes onto the\n"
+	"                     bus as any frame. Ends when the peer leaves (status 0) or the time runs out\n"
+	"  --no-hello         with --can-tunnel: start at once, without waiting for the peer's first frame\n"
 	"  --quiet            no summary on stderr\n"
 	"  --tx-log FILE      every frame CAN1 sent: 'T_NS ID DLC DATA' (virtual ns of its EOF, hex id and\n"
 	"                     bytes)\n"
@@ -64,7 +69,7 @@ static const char usage[] =
 
 struct opts {
 	const char *image, *console, *trace_irq, *tunnel, *tx_log, *report, *usb_tunnel;
-	int no_can, usb, on_reset;
+	int no_can, usb, on_reset, no_hello;
 	double stop_tim2;
 	double seconds, cpi;
 	uint32_t hse_hz, hse_delay_us;
@@ -86,6 +91,8 @@ static double host_seconds(void)
 #define CAN_ERR 0x20000000u
 
 #define TUNNEL_QUEUE 64u
+#define MAX_LAG_S 0.005 /* pacing: behind by more than this, virtual time goes on from where it is */
+#define TUNNEL_SNDBUF 4096 /* bytes queued towards the peer: 256 frames, at most a fraction of a second */
 #define USB_ADDRESS 3u /* the address the USB/IP server gives the device */
 
 struct tunnel {
@@ -97,7 +104,11 @@ struct tunnel {
 	struct bxcan_frame q[TUNNEL_QUEUE];
 	uint32_t q_head, q_tail;
 	uint64_t bus_free; /* virtual time the last frame from the peer ends */
-	double wall0, max_behind_s, behind_s;
+	/* pacing: virtual time runs at most as fast as the wall clock from wall0; when it falls more than
+	 * MAX_LAG_S behind (a slow stretch, or a peer that did not take frames), wall0 moves up so that it
+	 * goes on in step instead of racing to catch up; behind_s sums those moves */
+	double wall0, behind_s;
+	uint64_t lag_events;
 	uint64_t rx, tx, dropped;
 	int closed;
 	FILE *log; /* --tx-log */
@@ -226,6 +237,28 @@ static int tunnel_read(struct mcu *m, struct tunnel *t)
 	return 0;
 }
 
+/* The tunnel's first frame comes from the peer (a hello, any frame): only then is the VM's end of
+ * the line open, and bytes sent before it would reach its tty, not the bridge. The MCU starts then;
+ * the hello goes onto the bus as any frame. -1 when the peer leaves first. */
+static int wait_hello(struct tunnel *t)
+{
+	fprintf(stderr, "swell-mcu: CAN tunnel: waiting for the peer's first frame\n");
+	while (t->have < TUNNEL_FRAME) {
+		ssize_t n = read(t->fd, t->buf + t->have, TUNNEL_FRAME - t->have);
+
+		if (n == 0 || (n < 0 && errno != EINTR)) {
+			fprintf(stderr, "swell-mcu: CAN tunnel: the peer left before its first frame\n");
+			return -1;
+		}
+		if (n > 0)
+			t->have += (size_t)n;
+	}
+	tunnel_frame(t);
+	t->have = 0;
+	fprintf(stderr, "swell-mcu: CAN tunnel: the peer's first frame came: the MCU starts\n");
+	return 0;
+}
+
 /* The run's I/O hook with a tunnel: frames and USB/IP traffic in and out, virtual time held back to
  * wall time (the sleep wakes on either socket). */
 static int tunnel_hook(struct mcu *m, void *ctx)
@@ -253,9 +286,12 @@ static int tunnel_hook(struct mcu *m, void *ctx)
 			if (usbip_server_wants_write(&t->usb->srv))
 				p[1].events |= POLLOUT;
 		}
-		if (-ahead > t->max_behind_s)
-			t->max_behind_s = -ahead;
-		t->behind_s = ahead < 0 ? -ahead : 0;
+		if (-ahead > MAX_LAG_S) {
+			t->wall0 += -ahead;
+			t->behind_s += -ahead;
+			t->lag_events++;
+			ahead = 0;
+		}
 		if (ahead > 0) {
 			ts.tv_sec = (time_t)ahead;
 			ts.tv_nsec = (long)((ahead - (double)ts.tv_sec) * 1e9);
@@ -393,8 +429,15 @@ static int run(const struct opts *o, struct world *w)
 		t->usb = &w->usb;
 	}
 	t->can = &w->can;
-	if (o->tunnel && (t->fd = listen_one("--can-tunnel", o->tunnel)) < 0)
-		return MCU_EXIT_ERROR;
+	if (o->tunnel) {
+		const int sndbuf = TUNNEL_SNDBUF;
+
+		if ((t->fd = listen_one("--can-tunnel", o->tunnel)) < 0)
+			return MCU_EXIT_ERROR;
+		(void)setsockopt(t->fd, SOL_SOCKET, SO_SNDBUF, &sndbuf, sizeof(sndbuf));
+		if (!o->no_hello && wait_hello(t) != 0)
+			return MCU_EXIT_OK;
+	}
 	if (!o->no_can)
 		bxcan_set_tx_callback(&w->can.b, tunnel_tx, t);
 	t0 = host_seconds();
@@ -407,10 +450,12 @@ static int run(const struct opts *o, struct world *w)
 		summary(m, host_seconds() - t0, rc);
 	if ((o->tunnel || o->usb_tunnel) && !o->quiet)
 		fprintf(stderr,
-			"swell-mcu: CAN tunnel: %llu frames to the peer, %llu from it (%llu dropped: error frames or "
-			"length > 8); virtual time behind wall time by %.1f ms at most, %.1f ms at the end\n",
+			"swell-mcu: tunnel: %llu frames to the peer, %llu from it (%llu dropped: error frames or "
+			"length > 8); virtual time fell behind the wall clock by %.1f ms in all, in %llu stretches "
+			"over "
+			"%.0f ms\n",
 			(unsigned long long)t->tx, (unsigned long long)t->rx, (unsigned long long)t->dropped,
-			1e3 * t->max_behind_s, 1e3 * t->behind_s);
+			1e3 * t->behind_s, (unsigned long long)t->lag_events, 1e3 * MAX_LAG_S);
 	if (o->usb_tunnel && !o->quiet)
 		fprintf(stderr,
 			"swell-mcu: USB tunnel: %u URBs submitted, %u answered (%u with an error), %u bytes in, %u "
@@ -434,6 +479,7 @@ int main(int argc, char **argv)
 		SWELL_CLI_WHOLE("--hse-delay-us", o.hse_delay_us, 0, 1000000, "us"),
 		SWELL_CLI_STR("--trace-irq", o.trace_irq),
 		SWELL_CLI_STR("--can-tunnel", o.tunnel),
+		SWELL_CLI_FLAG("--no-hello", o.no_hello),
 		SWELL_CLI_STR("--tx-log", o.tx_log),
 		SWELL_CLI_STR("--report", o.report),
 		SWELL_CLI_FLAG("--no-can", o.no_can),
