@@ -21,3 +21,12 @@ add_test(NAME "${mcu_identity}"
           --image ${mcu_image} --work ${mcu_work}/identity --seconds 3 --hand drop:z=20,hold=0.2)
 set_tests_properties("${mcu_identity}" PROPERTIES LABELS mcu TIMEOUT 240 SKIP_RETURN_CODE 77
   PASS_REGULAR_EXPRESSION "OK: 3000 ticks compared, FORCE_CMD payloads bit-identical")
+
+# The CAN fault paths on the real driver: bus-off, no ACK, every TX mailbox full, transmit errors, a
+# stuck bus and an RX FIFO overrun, each injected into the bxCAN model at a virtual time while the
+# image holds the object; the image's force record and the commands a device would render are judged.
+set(mcu_faults "mcu: CAN faults on the image's driver (bus-off, no ACK, TX mailboxes full, transmit errors, stuck bus): the image zeroes its force within 5 ticks, the device within 2, both recover; an RX overrun loses no tick")
+add_test(NAME "${mcu_faults}" COMMAND ${CMAKE_CURRENT_LIST_DIR}/tests/can-faults ${SWELL_BENCH_BIN_DIR} ${mcu_image}
+                                      ${mcu_work}/can-faults)
+set_tests_properties("${mcu_faults}" PROPERTIES LABELS mcu TIMEOUT 240 SKIP_RETURN_CODE 77
+  PASS_REGULAR_EXPRESSION "can-faults: OK")

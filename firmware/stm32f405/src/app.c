@@ -29,6 +29,10 @@ static struct {
 	struct swell_msg usb_rx[USB_RING];
 	volatile uint32_t usb_head, usb_tail;
 	uint32_t usb_dropped, bad_frames_reported, overruns_seen, bus_offs_seen;
+	/* device commands on CAN that the driver refused, in a row (every mailbox held by frames that do
+	 * not leave: no ACK, lost arbitration, a stuck bus) */
+	uint32_t unsent_run;
+	int starving, aborted; /* aborted: the spell's abort frees a mailbox, which proves nothing */
 	struct swell_proto_stats stats;
 	uint8_t usb_seq;
 	struct fw_pool_at place;
@@ -64,12 +68,14 @@ static void on_usb_out(const uint8_t *pkt, uint32_t len)
 	}
 }
 
-static void send_can(const struct swell_msg *m)
+/* SWELL_OK when the driver took the frame into a mailbox; refused when every mailbox holds something
+ * more urgent (or a frame of the same id that has not left). */
+static enum swell_err send_can(const struct swell_msg *m)
 {
 	struct fw_frame f = { 0 };
+	enum swell_err err = swell_can_encode(m, &f.id, f.data, &f.len);
 
-	if (swell_can_encode(m, &f.id, f.data, &f.len) == SWELL_OK)
-		(void)can_send(&f); /* refused when every mailbox holds something more urgent */
+	return err == SWELL_OK ? can_send(&f) : err;
 }
 
 static void send_usb(const struct swell_msg *m, size_t n)
@@ -93,7 +99,12 @@ static void send_on(int on_can, const struct swell_msg *m, size_t n)
 		send_usb(m, n);
 	else
 		for (size_t j = 0; j < n; j++)
-			send_can(&m[j]);
+			if (send_can(&m[j]) != SWELL_OK && m[j].type == SWELL_MSG_FORCE_CMD)
+				app.unsent_run++; /* the device link's command did not reach the carrier */
+			else if (m[j].type == SWELL_MSG_FORCE_CMD && !app.aborted)
+				app.unsent_run = 0; /* taken: the one before it left its mailbox */
+			else if (m[j].type == SWELL_MSG_FORCE_CMD)
+				app.aborted = 0;
 }
 
 /* Drain one of the core's queues onto its carrier. Bounded: a queue holds at most SWELL_CTL_QUEUE
@@ -187,6 +198,22 @@ static void app_tick(void)
 		app.bus_offs_seen = can_bus_offs();
 		swell_ctl_link_down(&app_ctl, SWELL_LINK_DEVICE);
 	}
+	/* A starved device (docs/links.md, as swell-ctl): no command of the device link reached the bus for
+	 * the silence limit while the device is there (it still talks: nobody acknowledges, higher ids hold
+	 * the bus, the bus is stuck). The loop faults as for a silent device; at the start of each spell the
+	 * safe state aborts the commands stuck in the mailboxes, whose force is stale by the time the bus
+	 * takes them, and queues a zero command in their place. */
+	if (app.device_on_can && app.unsent_run >= swell_ctl_silent_limit(&app_ctl) &&
+	    (app_ctl.state == SWELL_CTL_ARMED || app_ctl.state == SWELL_CTL_RUNNING || app.starving)) {
+		if (!app.starving) {
+			app.starving = 1;
+			app.aborted = 1;
+			safe_force_zero();
+		}
+		swell_ctl_link_down(&app_ctl, SWELL_LINK_DEVICE);
+	} else if (app.unsent_run == 0) {
+		app.starving = 0;
+	}
 	swell_ctl_tick_force(&app_ctl);
 	drain(SWELL_LINK_DEVICE);
 	if (host_shares_device_carrier())
@@ -219,7 +246,7 @@ static void app_send_zero_force(void)
 	const struct swell_msg m = { .type = SWELL_MSG_FORCE_CMD, .node = app_ctl.cfg.node };
 
 	if (app.device_on_can)
-		send_can(&m);
+		(void)send_can(&m); /* after the mailboxes' abort: taken unless the bus has them all */
 }
 
 /* Sleep until an interrupt when the loop has nothing to do: no tick since the loop last looked (the
