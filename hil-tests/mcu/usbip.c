@@ -687,6 +687,11 @@ enum usbip_step usbip_server_step(struct usbip_server *s, uint64_t now)
 	st = parse(s);
 	if (st == USBIP_CLOSED)
 		return st;
+	if (s->phase == PH_URB && !otgfs_host_attached(s->dev)) {
+		/* USB/IP has no message for an unplug: the importer sees it as the connection's end */
+		(void)flush_tx(s);
+		return fail(s, "USB/IP: the device left the bus");
+	}
 	if (s->phase == PH_ENUM)
 		enum_next(s, now);
 	pending = run_transfers(s, now);

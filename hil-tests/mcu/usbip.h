@@ -13,6 +13,10 @@
  *                     (status 0, -EPIPE on a STALL, -EPROTO when the device does not answer)
  *   USBIP_CMD_UNLINK -> USBIP_RET_UNLINK: -ECONNRESET and no RET_SUBMIT when the URB was still
  *                     pending, 0 when it had already been answered
+ * A device that leaves the bus after the import (its pull-up off: DCTL.SDIS, a core reset, the
+ * clock stopped) ends the session (USBIP_CLOSED): USB/IP has no message for an unplug, and the
+ * importing host takes the connection's end as one. The caller closes the fd and may accept the
+ * next connection with a fresh server, which enumerates the device again once it is back.
  * A NAK is retried at the next step: the caller (the emulator's loop) runs the CPU in between and
  * calls usbip_server_step again soon while it returns USBIP_BUSY. Nothing is allocated: struct
  * usbip_server is the whole state. */

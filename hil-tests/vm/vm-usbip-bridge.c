@@ -3,7 +3,9 @@
  * at the other end (swell-mcu's OTG FS model, hil-tests/mcu/usbip.c). The bridge imports the server's device (OP_REQ_IMPORT),
  * hands one end of a Unix socket pair to the kernel's vhci-hcd (sysfs attach) and copies bytes
  * between the other end and the line, so the VM's USB stack enumerates the device and programs use
- * it through libusb as they would a board on a USB port. */
+ * it through libusb as they would a board on a USB port. The server closing the line is an unplug:
+ * the port is detached, and the device imported again when the line comes back (QEMU's socket
+ * chardev reconnects; a virtio-serial port polls as hung up meanwhile). */
 #define _DEFAULT_SOURCE
 
 #include <errno.h>
@@ -15,6 +17,7 @@
 #include <string.h>
 #include <sys/socket.h>
 #include <termios.h>
+#include <time.h>
 #include <unistd.h>
 
 #include "swell/cli.h"
@@ -33,8 +36,10 @@ static const char usage[] =
 	"ID (default 1-1), waiting up to S seconds (default 120) for its answer, attaches it to a\n"
 	"free port of the kernel's vhci-hcd (DIR, default /sys/devices/platform/vhci_hcd.0) through\n"
 	"a Unix socket pair, and copies the USB/IP stream between the socket and the line until\n"
-	"SIGTERM or SIGINT (then the port is detached) or until either side closes. Writes\n"
-	"--ready-file once the device is attached. At the end prints the bytes moved each way.\n"
+	"SIGTERM or SIGINT (then the port is detached) or until either side closes. When the server\n"
+	"closes a virtio-serial line (the device unplugged), the port is detached and the device\n"
+	"imported again once the line is back. Writes --ready-file once the device is first attached.\n"
+	"At the end prints the sessions and the bytes moved each way.\n"
 	"Exit status: 0 stopped by a signal or either side closed, 1 an import, attach or I/O\n"
 	"failure, 2 bad arguments.\n";
 
@@ -218,8 +223,15 @@ static int pump_out(int dst, struct pipe_buf *p)
 
 static struct pipe_buf to_line, to_vhci;
 
-/* Copies both ways until a stop signal or either side's end; returns 0, or -1 on an I/O error. */
-static int run_pump(int line, int sock)
+enum pump_end {
+	END_STOP,
+	END_LINE,
+	END_VHCI,
+	END_ERROR
+};
+
+/* Copies both ways until a stop signal, either side's end or an I/O error. */
+static enum pump_end run_pump(int line, int sock)
 {
 	(void)fcntl(line, F_SETFL, fcntl(line, F_GETFL) | O_NONBLOCK);
 	(void)fcntl(sock, F_SETFL, fcntl(sock, F_GETFL) | O_NONBLOCK);
@@ -235,21 +247,99 @@ static int run_pump(int line, int sock)
 		if (n < 0) {
 			if (errno == EINTR)
 				continue;
-			return -1;
+			return END_ERROR;
 		}
 		if ((pfd[0].revents & (POLLIN | POLLHUP | POLLERR)) && pump_in(line, &to_vhci) != 0)
-			return 0; /* the server closed the line */
+			return END_LINE; /* the server closed the line: the device is unplugged */
 		if ((pfd[1].revents & (POLLIN | POLLHUP | POLLERR)) && pump_in(sock, &to_line) != 0)
-			return 0; /* vhci let go of the device */
+			return END_VHCI; /* vhci let go of the device */
 		if (pump_out(line, &to_line) != 0 || pump_out(sock, &to_vhci) != 0)
-			return -1;
+			return END_ERROR;
 	}
-	return 0;
+	return END_STOP;
+}
+
+/* A virtio-serial port whose host side went away polls as hung up until the host side is back
+ * (QEMU's socket chardev reconnects): wait for that, or for a stop. 0 when it is back. */
+static int wait_line_back(int line)
+{
+	while (!vm_stop) {
+		struct pollfd pfd = { .fd = line, .events = POLLIN };
+
+		if (poll(&pfd, 1, 100) >= 0 && !(pfd.revents & (POLLHUP | POLLERR)))
+			return 0;
+		if (pfd.revents & (POLLHUP | POLLERR)) {
+			struct timespec ts = { 0, 100000000 };
+
+			nanosleep(&ts, NULL);
+		}
+	}
+	return -1;
+}
+
+/* The first attach writes the ready file. */
+static void mark_ready(const char *ready)
+{
+	FILE *f;
+
+	if (!ready)
+		return;
+	f = fopen(ready, "w");
+	if (f)
+		fclose(f);
+}
+
+/* One session: import, attach to a free port, copy until an end. *port is the port used (-1: none). */
+static enum pump_end session(int line, const char *busid, const char *vhci, double timeout_s, const char *ready,
+			     int *port, const char **err)
+{
+	struct imported d = { 0 };
+	char text[64];
+	int sv[2];
+	enum pump_end end;
+
+	*port = -1;
+	*err = import_device(line, busid, timeout_s, &d);
+	if (*err)
+		return END_ERROR;
+	*port = free_port(vhci);
+	if (*port < 0) {
+		*err = "no free high-speed port in the vhci status (is vhci-hcd loaded?)";
+		return END_ERROR;
+	}
+	if (socketpair(AF_UNIX, SOCK_STREAM, 0, sv) != 0) {
+		*err = "socketpair failed";
+		return END_ERROR;
+	}
+	/* "port sockfd devid speed": the kernel takes its own reference to the socket */
+	snprintf(text, sizeof(text), "%d %d %" PRIu32 " %" PRIu32, *port, sv[0], (d.busnum << 16) | d.devnum, d.speed);
+	if (sysfs_write(vhci, "attach", text) != 0) {
+		*err = "vhci-hcd refused the attach";
+		close(sv[0]);
+		close(sv[1]);
+		*port = -1;
+		return END_ERROR;
+	}
+	close(sv[0]);
+	printf("swell-vm-usbip-bridge: %04x:%04x (bus %" PRIu32 " device %" PRIu32 ", speed %" PRIu32
+	       ") attached to vhci port %d\n",
+	       d.vid, d.pid, d.busnum, d.devnum, d.speed, *port);
+	fflush(stdout);
+	mark_ready(ready);
+	to_line.len = to_vhci.len = 0;
+	end = run_pump(line, sv[1]);
+	if (end != END_VHCI) { /* an unplug, or the end: the port lets the device go */
+		snprintf(text, sizeof(text), "%d", *port);
+		(void)sysfs_write(vhci, "detach", text);
+	}
+	close(sv[1]);
+	return end;
 }
 
 int main(int argc, char **argv)
 {
-	const char *tty = "/dev/ttyS2", *busid = "1-1", *vhci = "/sys/devices/platform/vhci_hcd.0", *ready = NULL, *err;
+	const char *tty = "/dev/ttyS2", *busid = "1-1", *vhci = "/sys/devices/platform/vhci_hcd.0", *ready = NULL,
+		   *err = NULL;
 	double timeout_s = 120;
 	const struct swell_cli_opt opts[] = {
 		SWELL_CLI_STR("--tty", tty),
@@ -261,9 +351,9 @@ int main(int argc, char **argv)
 	struct swell_cli cli = {
 		.prog = "swell-vm-usbip-bridge", .usage = usage, .opt = opts, .n_opt = SWELL_CLI_N(opts)
 	};
-	struct imported d = { 0 };
-	char text[64];
-	int line, sv[2], port, rc;
+	unsigned sessions = 0;
+	int line, port = -1, rc = 0;
+	enum pump_end end;
 
 	swell_cli_parse(&cli, argc, argv);
 	vm_catch_stop();
@@ -272,54 +362,26 @@ int main(int argc, char **argv)
 		fprintf(stderr, "swell-vm-usbip-bridge: cannot open the tunnel line %s: %s\n", tty, strerror(errno));
 		return 1;
 	}
-	err = import_device(line, busid, timeout_s, &d);
-	if (err) {
-		fprintf(stderr, "swell-vm-usbip-bridge: %s: %s\n", tty, err);
-		close(line);
-		return 1;
+	for (;;) {
+		end = session(line, busid, vhci, timeout_s, ready, &port, &err);
+		if (end == END_ERROR) {
+			if (err)
+				fprintf(stderr, "swell-vm-usbip-bridge: %s: %s\n", tty, err);
+			else
+				fprintf(stderr, "swell-vm-usbip-bridge: I/O error: %s\n", strerror(errno));
+			rc = 1;
+			break;
+		}
+		sessions++;
+		if (end != END_LINE)
+			break;
+		printf("swell-vm-usbip-bridge: the server closed the line: device unplugged from vhci port %d\n", port);
+		fflush(stdout);
+		if (wait_line_back(line) != 0)
+			break;
 	}
-	port = free_port(vhci);
-	if (port < 0) {
-		fprintf(stderr, "swell-vm-usbip-bridge: no free high-speed port in %s/status (is vhci-hcd loaded?)\n",
-			vhci);
-		close(line);
-		return 1;
-	}
-	if (socketpair(AF_UNIX, SOCK_STREAM, 0, sv) != 0) {
-		fprintf(stderr, "swell-vm-usbip-bridge: socketpair: %s\n", strerror(errno));
-		close(line);
-		return 1;
-	}
-	/* "port sockfd devid speed": the kernel takes its own reference to the socket */
-	snprintf(text, sizeof(text), "%d %d %" PRIu32 " %" PRIu32, port, sv[0], (d.busnum << 16) | d.devnum, d.speed);
-	if (sysfs_write(vhci, "attach", text) != 0) {
-		fprintf(stderr, "swell-vm-usbip-bridge: attach '%s' refused: %s\n", text, strerror(errno));
-		close(line);
-		close(sv[0]);
-		close(sv[1]);
-		return 1;
-	}
-	close(sv[0]);
-	printf("swell-vm-usbip-bridge: %04x:%04x (bus %" PRIu32 " device %" PRIu32 ", speed %" PRIu32
-	       ") attached to vhci port %d\n",
-	       d.vid, d.pid, d.busnum, d.devnum, d.speed, port);
-	fflush(stdout);
-	if (ready) {
-		FILE *f = fopen(ready, "w");
-
-		if (f)
-			fclose(f);
-	}
-	rc = run_pump(line, sv[1]);
-	if (vm_stop) {
-		snprintf(text, sizeof(text), "%d", port);
-		(void)sysfs_write(vhci, "detach", text);
-	}
-	printf("swell-vm-usbip-bridge: %s <-> vhci port %d: %" PRIu64 " bytes to the line, %" PRIu64 " to vhci\n", tty,
-	       port, to_line.moved, to_vhci.moved);
-	if (rc != 0)
-		fprintf(stderr, "swell-vm-usbip-bridge: I/O error: %s\n", strerror(errno));
+	printf("swell-vm-usbip-bridge: %s <-> vhci: %u sessions, %" PRIu64 " bytes to the line, %" PRIu64 " to vhci\n",
+	       tty, sessions, to_line.moved, to_vhci.moved);
 	close(line);
-	close(sv[1]);
-	return rc != 0 ? 1 : 0;
+	return rc;
 }

@@ -97,7 +97,7 @@ struct Driver {
 	bool in1_busy = false;
 	std::deque<std::vector<uint8_t>> echo; // bulk OUT packets waiting to go back IN
 	std::vector<uint8_t> out_pkt;
-	unsigned resets = 0, enumerations = 0, setups = 0;
+	unsigned resets = 0, enumerations = 0, setups = 0, bulk_outs = 0, bulk_ins = 0;
 
 	Driver(otgfs *model, uint64_t *clock) : m(model), now(clock)
 	{
@@ -283,6 +283,7 @@ struct Driver {
 			wr(DOEPINT(1), f);
 			if (f & XFRC) {
 				echo.push_back(out_pkt);
+				bulk_outs++;
 				arm_ep1_out();
 			}
 		}
@@ -291,8 +292,10 @@ struct Driver {
 		if (d & (1u << 1)) {
 			uint32_t f = rd(DIEPINT(1));
 			wr(DIEPINT(1), f);
-			if (f & XFRC)
+			if (f & XFRC) {
 				in1_busy = false;
+				bulk_ins++;
+			}
 		}
 		if (g & SOF)
 			wr(GINTSTS, SOF);

@@ -15,6 +15,7 @@
 #include <unistd.h>
 
 #include <cstdlib>
+#include <ctime>
 #include <memory>
 #include <string>
 
@@ -55,12 +56,22 @@ int listen_unix(const std::string &path)
 
 struct Run {
 	int status = -1;
-	uint32_t submits = 0, errors = 0, faults = 0;
+	uint32_t submits = 0, errors = 0, faults = 0, sessions = 0;
 	std::string server_error;
+	bool unplugged = false, replugged = false;
 };
 
-// Start run-vm with the commands, serve the tunnel until it exits.
-Run run_vm_with(const Env &env, const std::string &commands)
+double wall_s()
+{
+	timespec ts{};
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
+}
+
+// Start run-vm with the commands, serve the tunnel until it exits. unplug_after > 0: once that
+// many bulk IN packets went out, the driver takes its pull-up off (DCTL.SDIS) for 3 s, which ends
+// the session; the next connection (QEMU dials again) imports the device anew.
+Run run_vm_with(const Env &env, const std::string &commands, unsigned unplug_after = 0)
 {
 	Run out;
 	const char *tmp = std::getenv("TMPDIR");
@@ -84,28 +95,51 @@ Run run_vm_with(const Env &env, const std::string &commands)
 	Driver drv(m.get(), &now);
 	REQUIRE(drv.start());
 	int cfd = -1;
-	bool done = false;
-	while (!done) {
-		if (waitpid(pid, &out.status, WNOHANG) == pid) {
-			done = true;
+	double t_done = 0, t_unplug = 0;
+	auto tally = [&] {
+		out.submits += srv->stats.submits;
+		out.errors += srv->stats.errors;
+		if (srv->error)
+			out.server_error = srv->error;
+	};
+	for (;;) {
+		if (waitpid(pid, &out.status, WNOHANG) == pid)
 			break;
+		if (unplug_after && !out.unplugged) {
+			if (!t_done && drv.bulk_ins >= unplug_after)
+				t_done = wall_s();
+			if (t_done && wall_s() > t_done + 0.5) {
+				drv.wr(DCTL, drv.rd(DCTL) | 2u); // SDIS: the pull-up off
+				out.unplugged = true;
+				t_unplug = wall_s();
+			}
+		}
+		if (out.unplugged && !out.replugged && wall_s() > t_unplug + 3.0) {
+			drv.wr(DCTL, drv.rd(DCTL) & ~2u);
+			out.replugged = true;
 		}
 		if (cfd < 0) {
 			pollfd p{ lfd, POLLIN, 0 };
-			if (poll(&p, 1, 100) == 1) {
+			if (poll(&p, 1, 50) == 1) {
 				cfd = accept(lfd, nullptr, nullptr);
-				if (cfd >= 0)
+				if (cfd >= 0) {
 					usbip_server_init(srv.get(), cfd, m.get(), 3);
+					out.sessions++;
+				}
 			}
+			drv.isr();
+			now += 50000;
+			otgfs_advance(m.get(), now);
 			continue;
 		}
 		enum usbip_step st = usbip_server_step(srv.get(), now);
 		drv.isr();
 		now += 20000; // 20 us of the device's time per turn
 		otgfs_advance(m.get(), now);
-		if (st == USBIP_CLOSED) {
+		if (st == USBIP_CLOSED) { // the VM let go, or the device left the bus: wait for the next dial
+			tally();
 			close(cfd);
-			cfd = -2; // the VM closed its end: wait for run-vm to finish
+			cfd = -1;
 			continue;
 		}
 		if (st == USBIP_IDLE) {
@@ -113,16 +147,14 @@ Run run_vm_with(const Env &env, const std::string &commands)
 			(void)poll(&p, 1, 5);
 		}
 	}
-	if (cfd >= 0)
+	if (cfd >= 0) {
+		tally();
 		close(cfd);
+	}
 	close(lfd);
 	unlink(sock.c_str());
 	rmdir(dir.data());
-	out.submits = srv->stats.submits;
-	out.errors = srv->stats.errors;
 	out.faults = otgfs_fault_count(m.get());
-	if (srv->error)
-		out.server_error = srv->error;
 	return out;
 }
 
@@ -141,5 +173,36 @@ TEST_CASE("USB tunnel: the VM's Linux enumerates the OTG FS model over USB/IP an
 	REQUIRE(WIFEXITED(r.status));
 	CHECK(WEXITSTATUS(r.status) == 0);
 	CHECK(r.submits >= 600); // 300 OUT and 300 IN URBs at least
+	CHECK(r.faults == 0u);
+}
+
+TEST_CASE("USB tunnel: an unplug (the pull-up off) takes the device off the VM's bus and the replug brings it back to "
+	  "libusb")
+{
+	Env env;
+	if (!env.ok()) {
+		WARN("SWELL_RUN_VM, SWELL_VM_IMAGE or SWELL_VM_BIN not set: skipped");
+		std::exit(77);
+	}
+	// The VM: 100 packets, then the device must vanish from vhci-hcd and come back configured, and
+	// 100 packets again.
+	const std::string dev = "/sys/devices/platform/vhci_hcd.0/usb*/[0-9]*-[0-9]*/bConfigurationValue";
+	const std::string cmds = "swell-vm-usbtest --count 100 --lengths vary && "
+				 "n=0; while cat " +
+		dev +
+		" >/dev/null 2>&1; do [ $n -lt 300 ] || exit 11; sleep 0.1; "
+		"n=$((n+1)); done; echo unplugged after $n && "
+		"n=0; until cat " +
+		dev +
+		" 2>/dev/null | grep -q '^[1-9]'; do [ $n -lt 600 ] || exit 12; "
+		"sleep 0.1; n=$((n+1)); done; echo back after $n && "
+		"swell-vm-usbtest --count 100 --lengths vary";
+	Run r = run_vm_with(env, cmds, 100);
+	INFO("server: " << r.server_error);
+	REQUIRE(WIFEXITED(r.status));
+	CHECK(WEXITSTATUS(r.status) == 0);
+	CHECK(r.unplugged);
+	CHECK(r.replugged);
+	CHECK(r.sessions == 2u);
 	CHECK(r.faults == 0u);
 }

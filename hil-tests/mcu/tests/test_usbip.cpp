@@ -351,3 +351,30 @@ TEST_CASE("USB/IP server: a command it cannot take closes the connection with a 
 	REQUIRE(l.srv->error != nullptr);
 	CHECK(std::string(l.srv->error).find("reply") != std::string::npos);
 }
+
+TEST_CASE("USB/IP server: a device that leaves the bus ends the session, and a new session imports it again")
+{
+	Link l;
+	l.import_device();
+	l.drv.wr(DCTL, 2u); // SDIS: the pull-up off, as an unplug
+	CHECK(!l.wait_bytes(1, 100));
+	CHECK(l.last == USBIP_CLOSED);
+	REQUIRE(l.srv->error != nullptr);
+	CHECK(std::string(l.srv->error).find("left the bus") != std::string::npos);
+	// the caller's next connection: a fresh server finds the device once it is back
+	close(l.fd[0]);
+	close(l.fd[1]);
+	REQUIRE(socketpair(AF_UNIX, SOCK_STREAM, 0, l.fd) == 0);
+	REQUIRE(fcntl(l.fd[0], F_SETFL, O_NONBLOCK) == 0);
+	usbip_server_init(l.srv.get(), l.fd[1], l.m.get(), 9);
+	l.got.clear();
+	l.drv.wr(DCTL, 0u);
+	l.import_device();
+	CHECK(l.dev.devnum == 9u);
+	CHECK(l.drv.resets == 2u);
+	std::vector<uint8_t> d;
+	const uint8_t get_dev[8] = { 0x80, 6, 0, 1, 0, 0, 18, 0 };
+	l.submit(USBIP_DIR_IN, 0, 18, get_dev);
+	CHECK(l.ret(d, USBIP_DIR_IN).u.ret_submit.status == 0);
+	CHECK(d.size() == 18);
+}
