@@ -17,8 +17,8 @@
 
 static const char usage[] =
 	"usage: swell-mcu --image ELF [--seconds S] [--console FILE] [--cpi C] [--hse-hz HZ]\n"
-	"                 [--hse-delay-us US] [--trace-irq FILE] [--can-tunnel PATH [--no-hello]]\n"
-	"                 [--tx-log FILE]\n"
+	"                 [--hse-delay-us US] [--trace-irq FILE] [--can-tunnel PATH [--no-hello]\n"
+	"                 [--paced-by-device MS]] [--tx-log FILE]\n"
 	"                 [--report FILE] [--no-can] [--usb] [--usb-tunnel PATH] [--stop-tim2 S]\n"
 	"                 [--on-reset end|restart] [--quiet]\n"
 	"Runs the STM32F405 image ELF (the product image, swell-fw.elf, unmodified) on an emulated\n"
@@ -44,6 +44,12 @@ static const char usage[] =
 	"                     hello: before it the VM's end of the line is not open); it goes onto the\n"
 	"                     bus as any frame. Ends when the peer leaves (status 0) or the time runs out\n"
 	"  --no-hello         with --can-tunnel: start at once, without waiting for the peer's first frame\n"
+	"  --paced-by-device MS  with --can-tunnel: the device clocks virtual time instead of the wall\n"
+	"                     clock: before each TIM2 tick it waits until a DEVICE_POS came from the peer\n"
+	"                     since the tick before (a device in lockstep, swell-hm --lockstep, sends the\n"
+	"                     next one when the tick's FORCE_CMD reaches it), at most MS of wall time; a\n"
+	"                     wait that runs out means the device is gone: wall-time pacing until its next\n"
+	"                     sample, so the image's silence limit counts ticks as on silicon (0: off)\n"
 	"  --quiet            no summary on stderr\n"
 	"  --tx-log FILE      every frame CAN1 sent: 'T_NS ID DLC DATA' (virtual ns of its EOF, hex id and\n"
 	"                     bytes)\n"
@@ -70,7 +76,7 @@ static const char usage[] =
 struct opts {
 	const char *image, *console, *trace_irq, *tunnel, *tx_log, *report, *usb_tunnel;
 	int no_can, usb, on_reset, no_hello;
-	double stop_tim2;
+	double stop_tim2, device_ms;
 	double seconds, cpi;
 	uint32_t hse_hz, hse_delay_us;
 	int quiet;
@@ -94,6 +100,9 @@ static double host_seconds(void)
 #define MAX_LAG_S 0.005 /* pacing: behind by more than this, virtual time goes on from where it is */
 #define TUNNEL_SNDBUF 4096 /* bytes queued towards the peer: 256 frames, at most a fraction of a second */
 #define USB_ADDRESS 3u /* the address the USB/IP server gives the device */
+/* --paced-by-device: virtual time waits this long before a tick for the device's sample (its frames
+ * then take about 350 us on the bus, and the RX interrupt runs before the tick) */
+#define DEVICE_LEAD_S 0.0006
 
 struct tunnel {
 	int fd;
@@ -114,6 +123,13 @@ struct tunnel {
 	FILE *log; /* --tx-log */
 	struct mcu_usb_dev *usb; /* --usb-tunnel: the USB/IP server's device (NULL: none) */
 	int usb_fd;
+	/* --paced-by-device: before each TIM2 tick virtual time waits (at most device_s of wall time)
+	 * until a DEVICE_POS came from the peer since the last tick; a wait that runs out means the device
+	 * is gone (lost): wall-time pacing until its next sample */
+	double device_s;
+	const struct mcu_periph *tim2;
+	uint64_t tick_at, waits, waited_out;
+	int sample, lost;
 };
 
 /* Listen on the Unix stream socket PATH and take one connection; the connected fd, or -1. */
@@ -198,6 +214,8 @@ static void tunnel_frame(struct tunnel *t)
 	f.id = f.ide ? id & 0x1FFFFFFFu : id & 0x7FFu;
 	f.dlc = r[4];
 	memcpy(f.data, r + 8, 8);
+	if (!f.ide && !f.rtr && f.id >> 4 == 0x02u) /* DEVICE_POS (swell/proto_table.h), any node */
+		t->sample = 1, t->lost = 0;
 	t->q[t->q_head++ % TUNNEL_QUEUE] = f;
 }
 
@@ -259,12 +277,54 @@ static int wait_hello(struct tunnel *t)
 	return 0;
 }
 
+/* --paced-by-device, before a tick: read the tunnel until the device's sample has come or device_s of
+ * wall time passed (then lost). -1 when the peer left. */
+static int device_wait(struct mcu *m, struct tunnel *t)
+{
+	const double end = host_seconds() + t->device_s;
+
+	t->waits++;
+	while (!t->sample) {
+		const double left = end - host_seconds();
+		struct pollfd p = { t->fd, POLLIN, 0 };
+		struct timespec ts = { 0, 0 };
+		int r;
+
+		if (left <= 0 || t->q_head - t->q_tail >= TUNNEL_QUEUE) {
+			t->lost = 1;
+			t->waited_out++;
+			return 0;
+		}
+		ts.tv_sec = (time_t)left;
+		ts.tv_nsec = (long)((left - (double)ts.tv_sec) * 1e9);
+		r = ppoll(&p, 1, &ts, NULL);
+		if (r < 0 && errno != EINTR)
+			return -1;
+		if (r > 0 && tunnel_read(m, t) != 0)
+			return -1;
+	}
+	return 0;
+}
+
 /* The run's I/O hook with a tunnel: frames and USB/IP traffic in and out, virtual time held back to
- * wall time (the sleep wakes on either socket). */
+ * wall time (the sleep wakes on either socket), or with --paced-by-device to the device's samples. */
 static int tunnel_hook(struct mcu *m, void *ctx)
 {
 	struct tunnel *t = ctx;
 
+	if (t->device_s > 0 && t->tim2 && t->fd >= 0) {
+		const uint64_t u = t->tim2->next_event(m, t->tim2->ctx);
+
+		if (u != t->tick_at) { /* a tick began: the next one waits for the next sample */
+			t->tick_at = u;
+			t->sample = 0;
+		}
+		if (!t->lost && u != MCU_NEVER && !t->sample && mcu_seconds(u - m->now) <= DEVICE_LEAD_S &&
+		    device_wait(m, t) != 0)
+			return -1;
+		if (!t->lost) /* the device clocks: no wall-time pacing, and none to make up after */
+			t->wall0 = host_seconds() - mcu_seconds(m->now);
+	}
 	for (;;) {
 		double ahead = mcu_seconds(m->now) - (host_seconds() - t->wall0);
 		struct pollfd p[2] = { { t->fd, POLLIN, 0 }, { t->usb_fd, POLLIN, 0 } };
@@ -429,6 +489,10 @@ static int run(const struct opts *o, struct world *w)
 		t->usb = &w->usb;
 	}
 	t->can = &w->can;
+	t->device_s = o->device_ms / 1000.0;
+	for (unsigned i = 0; i < m->n_periph; i++)
+		if (!strcmp(m->periph[i].name, "TIM2"))
+			t->tim2 = &m->periph[i];
 	if (o->tunnel) {
 		const int sndbuf = TUNNEL_SNDBUF;
 
@@ -456,6 +520,11 @@ static int run(const struct opts *o, struct world *w)
 			"%.0f ms\n",
 			(unsigned long long)t->tx, (unsigned long long)t->rx, (unsigned long long)t->dropped,
 			1e3 * t->behind_s, (unsigned long long)t->lag_events, 1e3 * MAX_LAG_S);
+	if (o->tunnel && t->device_s > 0 && !o->quiet)
+		fprintf(stderr,
+			"swell-mcu: paced by the device: %llu ticks waited for its sample, %llu waits ran out "
+			"(%.0f ms: the device gone, wall-time pacing until it came back)\n",
+			(unsigned long long)t->waits, (unsigned long long)t->waited_out, 1e3 * t->device_s);
 	if (o->usb_tunnel && !o->quiet)
 		fprintf(stderr,
 			"swell-mcu: USB tunnel: %u URBs submitted, %u answered (%u with an error), %u bytes in, %u "
@@ -480,6 +549,7 @@ int main(int argc, char **argv)
 		SWELL_CLI_STR("--trace-irq", o.trace_irq),
 		SWELL_CLI_STR("--can-tunnel", o.tunnel),
 		SWELL_CLI_FLAG("--no-hello", o.no_hello),
+		SWELL_CLI_NUM("--paced-by-device", o.device_ms, 0, 60000, "ms"),
 		SWELL_CLI_STR("--tx-log", o.tx_log),
 		SWELL_CLI_STR("--report", o.report),
 		SWELL_CLI_FLAG("--no-can", o.no_can),
