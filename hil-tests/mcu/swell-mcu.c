@@ -512,19 +512,16 @@ static int run(const struct opts *o, struct world *w)
 	fflush(w->con);
 	if (!o->quiet)
 		summary(m, host_seconds() - t0, rc);
+	if (o->tunnel && !o->quiet)
+		fprintf(stderr,
+			"swell-mcu: CAN tunnel: %llu frames to the peer, %llu from it (%llu dropped: error frames or "
+			"length > 8)\n",
+			(unsigned long long)t->tx, (unsigned long long)t->rx, (unsigned long long)t->dropped);
 	if ((o->tunnel || o->usb_tunnel) && !o->quiet)
 		fprintf(stderr,
-			"swell-mcu: tunnel: %llu frames to the peer, %llu from it (%llu dropped: error frames or "
-			"length > 8); virtual time fell behind the wall clock by %.1f ms in all, in %llu stretches "
-			"over "
-			"%.0f ms\n",
-			(unsigned long long)t->tx, (unsigned long long)t->rx, (unsigned long long)t->dropped,
+			"swell-mcu: paced to the wall clock: virtual time fell behind it by %.1f ms in all, in %llu "
+			"stretches over %.0f ms\n",
 			1e3 * t->behind_s, (unsigned long long)t->lag_events, 1e3 * MAX_LAG_S);
-	if (o->tunnel && t->device_s > 0 && !o->quiet)
-		fprintf(stderr,
-			"swell-mcu: paced by the device: %llu ticks waited for its sample, %llu waits ran out "
-			"(%.0f ms: the device gone, wall-time pacing until it came back)\n",
-			(unsigned long long)t->waits, (unsigned long long)t->waited_out, 1e3 * t->device_s);
 	if (o->usb_tunnel && !o->quiet)
 		fprintf(stderr,
 			"swell-mcu: USB tunnel: %u URBs submitted, %u answered (%u with an error), %u bytes in, %u "
