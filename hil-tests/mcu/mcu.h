@@ -90,7 +90,9 @@ struct mcu {
 	int cpu_intno; /* an exception unicorn raised that the emulator does not carry out (0: none) */
 	struct mcu_clocks clk;
 	struct mcu_nvic nvic;
-	uint32_t vtor, ccr, shcsr, cfsr, hfsr, cpacr, demcr, dwt_ctrl, aircr_extra;
+	uint32_t vtor, ccr, shcsr, cfsr, hfsr, cpacr, demcr, dwt_ctrl, aircr_extra, bfar;
+	uint32_t fault_addr; /* the address of the last access outside memory (for BFAR) */
+	uint64_t faults; /* faults taken (UsageFault, BusFault, HardFault) */
 	struct mcu_periph periph[MCU_PERIPHS_MAX];
 	unsigned n_periph;
 	/* unmodelled registers reported so far (reported once each) */

@@ -427,8 +427,9 @@ static bool on_unmapped(uc_engine *uc, uc_mem_type type, uint64_t addr, int size
 	(void)type;
 	(void)size;
 	(void)value;
+	m->fault_addr = (uint32_t)addr;
 	if (!((addr >= 0x40000000u && addr < 0x60000000u) || (addr >= 0xE0000000u && addr < 0xE0100000u)))
-		return false;
+		return false; /* a bus fault (mcu_run) */
 	u = malloc(sizeof(*u));
 	if (!u)
 		return false;
@@ -657,6 +658,45 @@ static int system_reset(struct mcu *m, uint32_t flags)
 	return 0;
 }
 
+/* ARMv7-M ARM B3.2.15 (CFSR), B3.2.16 (HFSR), B1.5.14 (fault behavior). */
+#define CFSR_IBUSERR (1u << 8)
+#define CFSR_PRECISERR (1u << 9)
+#define CFSR_BFARVALID (1u << 15)
+#define CFSR_UNDEFINSTR (1u << 16)
+#define CFSR_INVSTATE (1u << 17)
+#define CFSR_NOCP (1u << 19)
+#define CFSR_UNALIGNED (1u << 24)
+#define HFSR_FORCED (1u << 30)
+#define QEMU_EXCP_UDEF 1
+#define QEMU_EXCP_NOCP 17
+#define QEMU_EXCP_INVSTATE 18
+#define QEMU_EXCP_UNALIGNED 22
+
+/* A synchronous fault of the instruction at PC (B1.5.14): its own exception (4 MemManage, 5 BusFault,
+ * 6 UsageFault) when SHCSR enables it and it may preempt, else HardFault with HFSR.FORCED; a fault
+ * while HardFault is active is a lockup, which ends the run. */
+static int take_fault(struct mcu *m, unsigned exc, uint32_t cfsr_bits, const char *what)
+{
+	const uint32_t ena = exc == 4 ? 1u << 16 : exc == 5 ? 1u << 17 : 1u << 18;
+	char b[160];
+
+	if (!(m->shcsr & ena) || group_of(m, prio_of(m, exc)) >= exec_prio(m, 1, 0)) {
+		if (m->nvic.active[3] || m->nvic.active[2]) {
+			snprintf(b, sizeof(b), "lockup: %s in the HardFault or NMI handler", what);
+			return cpu_error(m, b);
+		}
+		m->hfsr |= HFSR_FORCED;
+		exc = 3;
+	}
+	m->cfsr |= cfsr_bits;
+	if (cfsr_bits & CFSR_BFARVALID)
+		m->bfar = m->fault_addr;
+	m->faults++;
+	if (m->trace_irq)
+		fprintf(m->trace_irq, "%.9f fault %s\n", mcu_seconds(m->now), what);
+	return exc_enter(m, exc);
+}
+
 /* unicorn leaves a run by itself after WFI (and nothing else): the instruction before PC. */
 static int after_wfi(struct mcu *m)
 {
@@ -739,21 +779,41 @@ int mcu_run(struct mcu *m, uint64_t until, uint64_t slice, mcu_io_hook hook, voi
 		m->cpu_intno = 0;
 		pc = reg(m, UC_ARM_REG_PC);
 		e = uc_emu_start(m->uc, pc | 1u, 0xFFFFFFFFu, 0, 0);
-		if (e != UC_ERR_OK) {
+		if (e == UC_ERR_READ_UNMAPPED || e == UC_ERR_WRITE_UNMAPPED) {
+			rc = take_fault(m, 5, CFSR_PRECISERR | CFSR_BFARVALID, "bus error (access outside memory)");
+			if (rc)
+				return rc;
+		} else if (e == UC_ERR_FETCH_UNMAPPED) {
+			rc = take_fault(m, 5, CFSR_IBUSERR, "bus error (instruction fetch outside memory)");
+			if (rc)
+				return rc;
+		} else if (e == UC_ERR_INSN_INVALID) { /* unicorn's report of an undefined instruction */
+			rc = take_fault(m, 6, CFSR_UNDEFINSTR, "usage fault (undefined instruction)");
+			if (rc)
+				return rc;
+		} else if (e != UC_ERR_OK) {
 			char what[96];
 
 			snprintf(what, sizeof(what), "unicorn: %s", uc_strerror(e));
 			return cpu_error(m, what);
-		}
-		if (m->exc_return) {
+		} else if (m->exc_return) {
 			rc = exc_return(m, reg(m, UC_ARM_REG_PC) | 1u);
+			if (rc)
+				return rc;
+		} else if (m->cpu_intno == QEMU_EXCP_UDEF || m->cpu_intno == QEMU_EXCP_NOCP ||
+			   m->cpu_intno == QEMU_EXCP_INVSTATE || m->cpu_intno == QEMU_EXCP_UNALIGNED) {
+			rc = take_fault(m, 6,
+					m->cpu_intno == QEMU_EXCP_UDEF               ? CFSR_UNDEFINSTR
+						: m->cpu_intno == QEMU_EXCP_NOCP     ? CFSR_NOCP
+						: m->cpu_intno == QEMU_EXCP_INVSTATE ? CFSR_INVSTATE
+										     : CFSR_UNALIGNED,
+					"usage fault");
 			if (rc)
 				return rc;
 		} else if (m->cpu_intno) {
 			char what[64];
 
-			snprintf(what, sizeof(what), "CPU exception %d (undefined instruction, SVC, BKPT or abort)",
-				 m->cpu_intno);
+			snprintf(what, sizeof(what), "CPU exception %d (SVC or BKPT: not modelled)", m->cpu_intno);
 			return cpu_error(m, what);
 		} else if (!m->stop_req) {
 			if (!after_wfi(m))

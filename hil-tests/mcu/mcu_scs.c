@@ -219,9 +219,10 @@ static uint32_t scs_read(struct mcu *m, void *ctx, uint32_t off, unsigned size)
 		return m->cfsr;
 	case 0xD2C:
 		return m->hfsr;
-	case 0xD34:
-	case 0xD38:
+	case 0xD34: /* MMFAR: no MPU, never valid */
 		return 0;
+	case 0xD38:
+		return m->bfar;
 	case 0xD88:
 		return m->cpacr;
 	case 0xDFC:
@@ -318,6 +319,9 @@ static void scs_write(struct mcu *m, void *ctx, uint32_t off, unsigned size, uin
 		return;
 	case 0xD2C:
 		m->hfsr &= ~v;
+		return;
+	case 0xD38:
+		m->bfar = v;
 		return;
 	case 0xD88:
 		m->cpacr = v;
