@@ -710,9 +710,33 @@ static int after_wfi(struct mcu *m)
 }
 
 /* Sleep after WFI: until an exception is pending that would preempt were PRIMASK clear, or `until`. */
-static void sleep_wfi(struct mcu *m, uint64_t until, uint64_t next_hook)
+/* The run loop's I/O hook and when it is due next. */
+struct io {
+	mcu_io_hook hook;
+	void *ctx;
+	uint64_t next, slice;
+};
+
+/* The hook when it is due: 0 on, else the run's end (a negative return ends it with OK). */
+static int io_due(struct mcu *m, struct io *io)
+{
+	int rc;
+
+	if (!io->hook || m->now < io->next)
+		return 0;
+	rc = io->hook(m, io->ctx);
+	io->next = m->now + io->slice;
+	advance_all(m);
+	return rc < 0 ? -1 : rc;
+}
+
+/* Sleep after WFI: until an exception is pending that would preempt were PRIMASK clear, or `until`;
+ * the hook runs at its times meanwhile (frames from a tunnel may wake the CPU). 0, or the hook's
+ * end of the run. */
+static int sleep_wfi(struct mcu *m, uint64_t until, struct io *io)
 {
 	uint64_t t0 = m->now;
+	int rc = 0;
 
 	m->wfi_count++;
 	for (;;) {
@@ -720,26 +744,31 @@ static void sleep_wfi(struct mcu *m, uint64_t until, uint64_t next_hook)
 		uint64_t t;
 
 		advance_all(m);
+		if (m->watchdog_bit || m->reset_req)
+			break;
 		e = first_pending(m);
 		if (e && group_of(m, prio_of(m, e)) < exec_prio(m, 0, 0))
 			break;
 		t = mcu_next_event(m);
-		if (next_hook < t)
-			t = next_hook;
+		if (io->hook && io->next < t)
+			t = io->next;
 		if (t >= until) {
 			m->now = until;
 			break;
 		}
-		if (t <= m->now)
-			break; /* the hook is due: let it run */
-		m->now = t;
+		if (t > m->now)
+			m->now = t;
+		rc = io_due(m, io);
+		if (rc)
+			break;
 	}
 	m->wfi_units += m->now - t0;
+	return rc;
 }
 
 int mcu_run(struct mcu *m, uint64_t until, uint64_t slice, mcu_io_hook hook, void *hook_ctx)
 {
-	uint64_t next_hook = hook ? m->now : MCU_NEVER;
+	struct io io = { hook, hook_ctx, hook ? m->now : MCU_NEVER, slice };
 	int rc = 0;
 
 	while (m->now < until) {
@@ -748,13 +777,9 @@ int mcu_run(struct mcu *m, uint64_t until, uint64_t slice, mcu_io_hook hook, voi
 		uint32_t pc;
 
 		advance_all(m);
-		if (hook && m->now >= next_hook) {
-			rc = hook(m, hook_ctx);
-			if (rc)
-				return rc < 0 ? MCU_EXIT_OK : rc;
-			next_hook = m->now + slice;
-			advance_all(m);
-		}
+		rc = io_due(m, &io);
+		if (rc)
+			return rc < 0 ? MCU_EXIT_OK : rc;
 		if (m->watchdog_bit || m->reset_req) {
 			if (!m->restart_on_reset)
 				return m->watchdog_bit ? MCU_EXIT_WATCHDOG : MCU_EXIT_RESET;
@@ -766,8 +791,8 @@ int mcu_run(struct mcu *m, uint64_t until, uint64_t slice, mcu_io_hook hook, voi
 		if (rc)
 			return rc;
 		deadline = mcu_next_event(m);
-		if (next_hook < deadline)
-			deadline = next_hook;
+		if (io.next < deadline)
+			deadline = io.next;
 		if (until < deadline)
 			deadline = until;
 		if (deadline <= m->now)
@@ -818,7 +843,9 @@ int mcu_run(struct mcu *m, uint64_t until, uint64_t slice, mcu_io_hook hook, voi
 		} else if (!m->stop_req) {
 			if (!after_wfi(m))
 				return cpu_error(m, "unicorn stopped without a reason");
-			sleep_wfi(m, until, next_hook);
+			rc = sleep_wfi(m, until, &io);
+			if (rc)
+				return rc < 0 ? MCU_EXIT_OK : rc;
 		}
 	}
 	if (m->watchdog_bit || m->reset_req)
