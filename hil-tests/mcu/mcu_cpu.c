@@ -50,6 +50,8 @@ struct cpu_state {
 	uint8_t *flash;
 	uc_hook h_block, h_code, h_intr, h_unmapped;
 	uint64_t stop_at; /* the block start the CPU stops at, before its first instruction (UINT64_MAX: none) */
+	void *unmodelled_pages[64]; /* the pages mapped for unmodelled peripheral addresses, freed at the end */
+	unsigned n_unmodelled_pages;
 };
 
 static struct cpu_state *state_of(struct mcu *m)
@@ -430,14 +432,14 @@ static bool on_unmapped(uc_engine *uc, uc_mem_type type, uint64_t addr, int size
 	m->fault_addr = (uint32_t)addr;
 	if (!((addr >= 0x40000000u && addr < 0x60000000u) || (addr >= 0xE0000000u && addr < 0xE0100000u)))
 		return false; /* a bus fault (mcu_run) */
-	u = malloc(sizeof(*u));
-	if (!u)
+	if (state_of(m)->n_unmodelled_pages >= 64 || !(u = malloc(sizeof(*u))))
 		return false;
 	*u = (struct unmodelled_ctx){ m, page };
 	if (uc_mmio_map(uc, page, 0x400, unmodelled_read, u, unmodelled_write, u) != UC_ERR_OK) {
 		free(u);
 		return false;
 	}
+	state_of(m)->unmodelled_pages[state_of(m)->n_unmodelled_pages++] = u;
 	return true;
 }
 
@@ -604,6 +606,8 @@ void mcu_free(struct mcu *m)
 	if (m->uc)
 		uc_close(m->uc);
 	if (s) {
+		for (unsigned i = 0; i < s->n_unmodelled_pages; i++)
+			free(s->unmodelled_pages[i]);
 		free(s->flash);
 		free(s);
 	}
