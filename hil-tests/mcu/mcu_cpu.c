@@ -16,8 +16,9 @@
  * exception that would preempt ignoring PRIMASK is pending; virtual time jumps to the next event,
  * CYCCNT does not count (the core clock is gated in Sleep mode, RM0090 5.3.3).
  *
- * Exceptions (ARMv7-M ARM B1.5): the CPU's IPSR stays 0 (unicorn runs everything as thread mode on
- * the main stack); the emulator keeps the active exceptions and their priorities, stacks the frame
+ * Exceptions (ARMv7-M ARM B1.5): the emulator keeps the active exceptions and their priorities (and
+ * sets the CPU's IPSR to the active one, which only MRS reads: unicorn takes the handler mode's
+ * EXC_RETURN branch to the same exception-exit trap and leaves the return to us), stacks the frame
  * (B1.5.6 PushStack: 8 words r0-r3, r12, lr, return address, xPSR on MSP, 8-byte aligned with xPSR
  * bit 9 recording the padding; the extended 26-word frame with s0-s15 and FPSCR when CONTROL.FPCA is
  * set), sets LR to EXC_RETURN and PC to the vector at VTOR. A branch to an EXC_RETURN value reaches
@@ -256,6 +257,7 @@ static int exc_enter(struct mcu *m, unsigned exc)
 	set_reg(m, UC_ARM_REG_XPSR, (xpsr & ~0x0600FC00u) | 1u << 24); /* IT state cleared */
 	set_reg(m, UC_ARM_REG_CONTROL, control & ~4u); /* FPCA = 0 in the handler */
 	set_reg(m, UC_ARM_REG_PC, handler | 1u);
+	set_reg(m, UC_ARM_REG_IPSR, exc);
 	m->nvic.pending[exc] = 0;
 	m->nvic.active[exc] = 1;
 	m->nvic.stack[m->nvic.depth++] = exc;
@@ -309,6 +311,7 @@ static int exc_return(struct mcu *m, uint32_t excret)
 		set_reg(m, UC_ARM_REG_CONTROL, control & ~4u);
 		set_reg(m, UC_ARM_REG_LR, excret);
 		set_reg(m, UC_ARM_REG_PC, handler | 1u);
+		set_reg(m, UC_ARM_REG_IPSR, next);
 		m->nvic.pending[next] = 0;
 		m->nvic.active[next] = 1;
 		m->nvic.stack[m->nvic.depth++] = next;
@@ -338,6 +341,7 @@ static int exc_return(struct mcu *m, uint32_t excret)
 	set_reg(m, UC_ARM_REG_CONTROL, (excret & 0x10u) ? control & ~4u : control | 4u);
 	set_reg(m, UC_ARM_REG_SP, (frame + size) | ((xpsr >> 9) & 1u) << 2);
 	set_reg(m, UC_ARM_REG_XPSR, (xpsr & ~0x3FFu) | 1u << 24);
+	set_reg(m, UC_ARM_REG_IPSR, m->nvic.depth ? m->nvic.stack[m->nvic.depth - 1] : 0u);
 	set_reg(m, UC_ARM_REG_PC, pc | 1u);
 	return 0;
 }
@@ -636,6 +640,7 @@ int mcu_reset(struct mcu *m, char *why, size_t why_len)
 	set_reg(m, UC_ARM_REG_LR, 0xFFFFFFFFu);
 	set_reg(m, UC_ARM_REG_PC, pc);
 	set_reg(m, UC_ARM_REG_XPSR, 1u << 24);
+	set_reg(m, UC_ARM_REG_IPSR, 0);
 	return 0;
 }
 

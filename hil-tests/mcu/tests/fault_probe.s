@@ -4,7 +4,7 @@
 @ Thread mode runs UDF with UsageFault enabled, then a load from 0x60000000 (no memory) with BusFault
 @ disabled (HardFault, FORCED), then one from 0x60000004 with BusFault enabled. Each handler logs its
 @ marker, HFSR (HardFault), CFSR, BFAR and the stacked pc at LOG, clears the status and returns past
-@ the 16-bit instruction.
+@ the 16-bit instruction; each handler logs IPSR after its marker, and the thread at the end.
 .syntax unified
 .cpu cortex-m4
 .thumb
@@ -46,6 +46,8 @@ main:
 	ldr r1, [r0]
 	movs r0, #3
 	bl log
+	mrs r0, ipsr
+	bl log
 3:	wfi
 	b 3b
 .thumb_func
@@ -78,6 +80,8 @@ hardfault:
 	push {r4, lr}
 	movs r0, #0x30
 	bl log
+	mrs r0, ipsr
+	bl log
 	ldr r4, =HFSR
 	ldr r0, [r4]
 	bl log
@@ -89,12 +93,16 @@ busfault:
 	push {r4, lr}
 	movs r0, #0x50
 	bl log
+	mrs r0, ipsr
+	bl log
 	bl report_skip
 	pop {r4, pc}
 .thumb_func
 usagefault:
 	push {r4, lr}
 	movs r0, #0x60
+	bl log
+	mrs r0, ipsr
 	bl log
 	bl report_skip
 	pop {r4, pc}
