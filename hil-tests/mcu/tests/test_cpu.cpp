@@ -157,7 +157,7 @@ TEST_CASE("WFI with nothing to wake it sleeps to the end of the run, and a run r
 }
 
 TEST_CASE("an undefined instruction is a UsageFault, a load from no memory a BusFault, escalated to HardFault "
-	  "while BusFault is disabled; IPSR, CFSR, HFSR, BFAR and the stacked pc say which",
+	  "while BusFault is disabled, and IPSR, CFSR, HFSR, BFAR and the stacked pc say which",
 	  "[mcu]")
 {
 	const run_result r = run_image(fault_probe, sizeof(fault_probe), MCU_TIME_HZ / 1000u);
