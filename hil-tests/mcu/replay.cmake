@@ -30,3 +30,21 @@ add_test(NAME "${mcu_faults}" COMMAND ${CMAKE_CURRENT_LIST_DIR}/tests/can-faults
                                       ${mcu_work}/can-faults)
 set_tests_properties("${mcu_faults}" PROPERTIES LABELS mcu TIMEOUT 240 SKIP_RETURN_CODE 77
   PASS_REGULAR_EXPRESSION "can-faults: OK")
+
+# HIL scenarios with the image as the controller (run-scenario, topology f405-can): one VM boot
+# (fixture swell_vm_image of hil-tests/vm), the image on swell-mcu for the whole boot, paced by the
+# device's samples; the scenario files' own criteria. About 5 minutes of wall time on 2 cores.
+if(EXISTS ${PROJECT_SOURCE_DIR}/hil-tests/vm/run-vm)
+  set(mcu_f405_runs drop@f405-can shake@f405-can linkloss@f405-can busoff@f405-can params@f405-can
+                      flood@f405-can estop@f405-can)
+  string(REPLACE "@f405-can" "" mcu_f405_names "${mcu_f405_runs}")
+  string(REPLACE ";" ", " mcu_f405_names "${mcu_f405_names}")
+  set(mcu_scn "mcu: the product image on swell-mcu as the controller of the HIL scenarios on the VM's CAN bus (f405-can, one boot): ${mcu_f405_names} pass their criteria")
+  add_test(NAME "${mcu_scn}"
+    COMMAND sh -c "[ -f \"$1\" ] || { echo \"no image $1: build swell_fw_image\"; exit 77; }; shift; exec \"$@\""
+            sh ${mcu_image} ${PROJECT_SOURCE_DIR}/hil-tests/bench/run-scenario --place vm --bin ${SWELL_BENCH_BIN_DIR}
+            --image ${CMAKE_BINARY_DIR}/vm --f405 ${mcu_image} --out ${mcu_work}/f405-can --timeout 900
+            ${mcu_f405_runs})
+  set_tests_properties("${mcu_scn}" PROPERTIES LABELS mcu FIXTURES_REQUIRED swell_vm_image TIMEOUT 960
+    SKIP_RETURN_CODE 77 PASS_REGULAR_EXPRESSION "run-scenario: PASS, 7 scenario")
+endif()

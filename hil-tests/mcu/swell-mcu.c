@@ -42,7 +42,9 @@ static const char usage[] =
 	"                     EFF/RTR/ERR flags, u8 len, 3 pad, 8 data); a peer that does not take them\n"
 	"                     holds the emulator up. The MCU starts when the peer's first frame comes (a\n"
 	"                     hello: before it the VM's end of the line is not open); it goes onto the\n"
-	"                     bus as any frame. Ends when the peer leaves (status 0) or the time runs out\n"
+	"                     bus as any frame. Ends when the peer leaves (status 0) or the time runs out.\n"
+	"                     A frame of extended id 0x1F05B0FF from the peer is no frame: it puts CAN1\n"
+	"                     bus-off when its turn comes (the HIL scenarios' bus-off, run-scenario f405-can)\n"
 	"  --no-hello         with --can-tunnel: start at once, without waiting for the peer's first frame\n"
 	"  --paced-by-device MS  with --can-tunnel: the device clocks virtual time instead of the wall\n"
 	"                     clock: before each TIM2 tick it waits until a DEVICE_POS came from the peer\n"
@@ -97,6 +99,7 @@ static double host_seconds(void)
 #define CAN_ERR 0x20000000u
 
 #define TUNNEL_QUEUE 64u
+#define TUNNEL_BUSOFF_ID 0x1F05B0FFu /* a frame of this extended id from the peer puts CAN1 bus-off */
 #define MAX_LAG_S 0.005 /* pacing: behind by more than this, virtual time goes on from where it is */
 #define TUNNEL_SNDBUF 4096 /* bytes queued towards the peer: 256 frames, at most a fraction of a second */
 #define USB_ADDRESS 3u /* the address the USB/IP server gives the device */
@@ -128,7 +131,7 @@ struct tunnel {
 	 * is gone (lost): wall-time pacing until its next sample */
 	double device_s;
 	const struct mcu_periph *tim2;
-	uint64_t tick_at, waits, waited_out;
+	uint64_t tick_at, waits, waited_out, busoffs;
 	int sample, lost;
 };
 
@@ -227,6 +230,16 @@ static void tunnel_deliver(struct mcu *m, struct tunnel *t)
 		const struct bxcan_frame *f = &t->q[t->q_tail % TUNNEL_QUEUE];
 		uint64_t len = mcu_can1_units(bxcan_bits_ns(&t->can->b, bxcan_frame_bits(f, NULL) + 3u));
 
+		if (f->ide && f->id == TUNNEL_BUSOFF_ID) { /* no frame: the tests' bus-off, now */
+			bxcan_inject_bus_off(&t->can->b, mcu_can1_ns(m->now));
+			mcu_can1_bus_rx(m, t->can, NULL);
+			t->q_tail++;
+			t->busoffs++;
+			fprintf(stderr,
+				"swell-mcu: CAN tunnel: CAN1 put bus-off at %.6f s virtual (the peer's request)\n",
+				mcu_seconds(m->now));
+			continue;
+		}
 		if (t->bus_free + len > m->now)
 			return; /* not yet: the bus is still busy with the one before */
 		t->bus_free = m->now;
@@ -522,6 +535,11 @@ static int run(const struct opts *o, struct world *w)
 			"swell-mcu: paced to the wall clock: virtual time fell behind it by %.1f ms in all, in %llu "
 			"stretches over %.0f ms\n",
 			1e3 * t->behind_s, (unsigned long long)t->lag_events, 1e3 * MAX_LAG_S);
+	if (o->tunnel && t->device_s > 0 && !o->quiet)
+		fprintf(stderr,
+			"swell-mcu: paced by the device: %llu ticks waited for its sample, %llu waits ran out "
+			"(%.0f ms: the device gone, wall-time pacing until it came back)\n",
+			(unsigned long long)t->waits, (unsigned long long)t->waited_out, 1e3 * t->device_s);
 	if (o->usb_tunnel && !o->quiet)
 		fprintf(stderr,
 			"swell-mcu: USB tunnel: %u URBs submitted, %u answered (%u with an error), %u bytes in, %u "
