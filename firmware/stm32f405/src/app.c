@@ -123,11 +123,12 @@ static void send_on(int on_can, const struct swell_msg *m, size_t n)
 				app.aborted = 0;
 }
 
-/* The host link's carrier: USB while a USB host has the device configured, CAN otherwise (when CAN
- * runs). Decided at every host drain, so answers follow the cable. */
+/* The host link's carrier: USB while a USB host has the device configured and not suspended
+ * (usb_host_active), CAN otherwise (when CAN runs). Decided at every host drain, so answers follow
+ * the cable. */
 static int host_on_can(void)
 {
-	return app.can_on && !(app.usb_on && usb_configured());
+	return app.can_on && !(app.usb_on && usb_host_active());
 }
 
 /* The device link's queue onto its carrier. Bounded: a queue holds at most SWELL_CTL_QUEUE messages,
