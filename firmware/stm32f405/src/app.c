@@ -46,7 +46,7 @@ static struct {
 	/* the host drain's pending messages, oldest first; touched only by the context that drains the
 	 * host queue (host_drained_in_tick) */
 	struct swell_msg host_pend[HOST_PEND];
-	uint32_t host_pend_n, host_telemetry_dropped;
+	uint32_t host_pend_n;
 } app;
 
 static enum swell_ctl_link link_of(const struct swell_msg *m)
@@ -197,7 +197,6 @@ static int host_room(void)
 	for (; i + 1 < HOST_PEND; i++)
 		app.host_pend[i] = app.host_pend[i + 1];
 	app.host_pend_n--;
-	app.host_telemetry_dropped++;
 	return 1;
 }
 
