@@ -6,6 +6,7 @@
 #include "console.h"
 #include "fault.h"
 #include "image.h"
+#include "irq.h"
 #include "iwdg.h"
 #include "mem.h"
 #include "safe.h"
@@ -19,6 +20,9 @@ struct swell_ctl app_ctl;
 struct fw_mem app_mem;
 
 #define USB_RING 8u /* decoded messages from USB waiting for the tick (SPSC: USB ISR -> tick) */
+/* Host messages taken from the core's queue that the carrier has not taken yet (the bulk IN endpoint
+ * still holds the previous packet, or every CAN mailbox is full): sent first at the next drain. */
+#define HOST_PEND 16u
 /* Ticks between an accepted ENTER_BOOTLOADER and the reset: the zero force and the last heartbeat
  * leave through the normal drains first. */
 #define BOOT_DRAIN_TICKS 3u
@@ -28,6 +32,10 @@ static struct {
 	struct swell_msg usb_rx[USB_RING];
 	volatile uint32_t usb_head, usb_tail;
 	uint32_t usb_dropped, bad_frames_reported, overruns_seen, bus_offs_seen;
+	/* device commands on CAN that the driver refused, in a row (every mailbox held by frames that do
+	 * not leave: no ACK, lost arbitration, a stuck bus) */
+	uint32_t unsent_run;
+	int starving, aborted; /* aborted: the spell's abort frees a mailbox, which proves nothing */
 	struct swell_proto_stats stats;
 	uint8_t usb_seq;
 	struct fw_pool_at place;
@@ -35,6 +43,10 @@ static struct {
 	 * running, and its answer, sent by the host link's drain */
 	struct swell_msg pool_req, pool_ans;
 	volatile uint8_t pool_req_on, pool_ans_on;
+	/* the host drain's pending messages, oldest first; touched only by the context that drains the
+	 * host queue (host_drained_in_tick) */
+	struct swell_msg host_pend[HOST_PEND];
+	uint32_t host_pend_n;
 } app;
 
 static enum swell_ctl_link link_of(const struct swell_msg *m)
@@ -63,72 +75,162 @@ static void on_usb_out(const uint8_t *pkt, uint32_t len)
 	}
 }
 
-static void send_can(const struct swell_msg *m)
+/* SWELL_OK when the driver took the frame into a mailbox; refused when every mailbox holds something
+ * more urgent (or a frame of the same id that has not left). */
+static enum swell_err send_can(const struct swell_msg *m)
 {
 	struct fw_frame f = { 0 };
+	enum swell_err err = swell_can_encode(m, &f.id, f.data, &f.len);
 
-	if (swell_can_encode(m, &f.id, f.data, &f.len) == SWELL_OK)
-		(void)can_send(&f); /* refused when every mailbox holds something more urgent */
+	return err == SWELL_OK ? can_send(&f) : err;
 }
 
-static void send_usb(const struct swell_msg *m, size_t n)
+/* How many messages of the front of m went out (or could never go: dropped), as many as fit in each
+ * 64-byte packet; stops at the first packet the endpoint refuses (not configured, or the previous
+ * packet still in flight). */
+static size_t send_usb(const struct swell_msg *m, size_t n)
 {
 	uint8_t pkt[SWELL_PKT_MAX];
-	size_t len, used;
+	size_t len, used, sent = 0;
 
-	while (n && usb_configured()) {
-		if (swell_pkt_encode(app_ctl.cfg.node, app.usb_seq, m, n, pkt, sizeof(pkt), &len, &used) != SWELL_OK ||
-		    usb_send(pkt, (uint32_t)len) != SWELL_OK)
-			return; /* IN endpoint busy: telemetry is dropped, the next tick sends fresh data */
+	while (sent < n && usb_configured()) {
+		if (swell_pkt_encode(app_ctl.cfg.node, app.usb_seq, m + sent, n - sent, pkt, sizeof(pkt), &len,
+				     &used) != SWELL_OK ||
+		    !used) {
+			sent++; /* a message no packet carries: it would hold the link up */
+			continue;
+		}
+		if (usb_send(pkt, (uint32_t)len) != SWELL_OK)
+			break;
 		app.usb_seq++;
-		m += used;
-		n -= used;
+		sent += used;
 	}
+	return sent;
 }
 
+/* The device link's messages: what the carrier refuses is dropped (the next tick sends fresh ones). */
 static void send_on(int on_can, const struct swell_msg *m, size_t n)
 {
 	if (!on_can)
-		send_usb(m, n);
+		(void)send_usb(m, n);
 	else
 		for (size_t j = 0; j < n; j++)
-			send_can(&m[j]);
+			if (send_can(&m[j]) != SWELL_OK && m[j].type == SWELL_MSG_FORCE_CMD)
+				app.unsent_run++; /* the device link's command did not reach the carrier */
+			else if (m[j].type == SWELL_MSG_FORCE_CMD && !app.aborted)
+				app.unsent_run = 0; /* taken: the one before it left its mailbox */
+			else if (m[j].type == SWELL_MSG_FORCE_CMD)
+				app.aborted = 0;
 }
 
-/* Drain one of the core's queues onto its carrier. Bounded: a queue holds at most SWELL_CTL_QUEUE
- * messages, taken 8 at a time (SRAM and stack are tight). */
-static void drain(enum swell_ctl_link l)
+/* The host link's carrier: USB while a USB host has the device configured and not suspended
+ * (usb_host_active), CAN otherwise (when CAN runs). Decided at every host drain, so answers follow
+ * the cable. */
+static int host_on_can(void)
+{
+	return app.can_on && !(app.usb_on && usb_host_active());
+}
+
+/* The device link's queue onto its carrier. Bounded: a queue holds at most SWELL_CTL_QUEUE messages,
+ * taken 8 at a time (SRAM and stack are tight). */
+static void drain_device(void)
 {
 	struct swell_msg out[8];
-	int on_can = l == SWELL_LINK_DEVICE ? app.device_on_can : !app.usb_on;
 	uint32_t n;
 	size_t k;
 
-	if (l == SWELL_LINK_HOST && app.pool_ans_on) {
-		send_on(on_can, &app.pool_ans, 1);
-		__asm__ volatile("dmb" ::: "memory");
-		app.pool_ans_on = 0;
-	}
 	for (n = 0; n < SWELL_CTL_QUEUE / 8; n++) {
-		k = swell_ctl_tx(&app_ctl, l, out, 8);
+		k = swell_ctl_tx(&app_ctl, SWELL_LINK_DEVICE, out, 8);
 		if (!k)
 			break;
-		for (size_t j = 0; l == SWELL_LINK_DEVICE && j < k; j++) {
+		for (size_t j = 0; j < k; j++) {
 			const struct swell_msg_force_cmd *fc = &out[j].u.force_cmd;
 
 			if (out[j].type == SWELL_MSG_FORCE_CMD)
 				safe_force_record(fc->enable ? fc->fx_cN : 0, fc->enable ? fc->fy_cN : 0,
 						  fc->enable ? fc->fz_cN : 0);
 		}
-		send_on(on_can, out, k);
+		send_on(app.device_on_can, out, k);
 	}
 }
 
-/* Device and host on the same carrier: both queues go out from the tick interrupt, so that the
- * carrier's driver is never entered from two priorities. */
-static int host_shares_device_carrier(void)
+/* Telemetry a newer sample replaces: what the host drain gives up when its pending buffer is full. */
+static int host_is_telemetry(const struct swell_msg *m)
 {
-	return app.device_on_can == !app.usb_on;
+	return m->type == SWELL_MSG_HEIGHT_QUAD || m->type == SWELL_MSG_OBJECT_POSE ||
+		m->type == SWELL_MSG_OBJECT_FORCE;
+}
+
+/* The pending messages the carrier takes, oldest first, until it refuses one. */
+static void host_flush(int on_can)
+{
+	size_t sent = 0;
+
+	if (!on_can)
+		sent = send_usb(app.host_pend, app.host_pend_n);
+	else
+		for (; sent < app.host_pend_n; sent++) {
+			struct fw_frame f = { 0 };
+
+			/* a message no frame carries is dropped: it would hold the link up */
+			if (swell_can_encode(&app.host_pend[sent], &f.id, f.data, &f.len) == SWELL_OK &&
+			    can_send(&f) != SWELL_OK)
+				break;
+		}
+	for (size_t j = sent; j < app.host_pend_n; j++)
+		app.host_pend[j - sent] = app.host_pend[j];
+	app.host_pend_n -= (uint32_t)sent;
+}
+
+/* Room for one more pending message: a full buffer gives up its oldest telemetry. 0 when it holds
+ * only answers, heartbeats and the like (they wait in the core's queue then). */
+static int host_room(void)
+{
+	uint32_t i;
+
+	if (app.host_pend_n < HOST_PEND)
+		return 1;
+	for (i = 0; i < HOST_PEND && !host_is_telemetry(&app.host_pend[i]); i++)
+		;
+	if (i == HOST_PEND)
+		return 0;
+	for (; i + 1 < HOST_PEND; i++)
+		app.host_pend[i] = app.host_pend[i + 1];
+	app.host_pend_n--;
+	return 1;
+}
+
+/* The host link's queue onto its carrier. Nothing taken from the core is lost because the carrier is
+ * busy: what it refuses stays pending (bounded, HOST_PEND) and goes first at the next drain; when the
+ * carrier is slower than the core queues, the oldest pending telemetry gives way to newer messages.
+ * Bounded: at most SWELL_CTL_QUEUE messages taken, each one move of the pending buffer. */
+static void drain_host(void)
+{
+	int on_can = host_on_can();
+	uint32_t n;
+
+	host_flush(on_can);
+	if (app.pool_ans_on && host_room()) {
+		app.host_pend[app.host_pend_n++] = app.pool_ans;
+		__asm__ volatile("dmb" ::: "memory");
+		app.pool_ans_on = 0;
+	}
+	for (n = 0; n < SWELL_CTL_QUEUE && host_room(); n++) {
+		if (!swell_ctl_tx(&app_ctl, SWELL_LINK_HOST, &app.host_pend[app.host_pend_n], 1))
+			break;
+		app.host_pend_n++;
+	}
+	host_flush(on_can);
+}
+
+/* Which context drains the host queue, fixed at start-up. Device on USB (no CAN): the host is on USB
+ * too, and both queues go out from the tick interrupt, so that the USB driver is never entered from
+ * two priorities. Device on CAN: the host queue goes out in thread mode right after the background
+ * part (fresh telemetry), on USB or CAN as host_on_can says; can_send masks interrupts around the
+ * mailboxes, so the tick's device drain and thread mode's host drain may both use it. */
+static int host_drained_in_tick(void)
+{
+	return !app.device_on_can;
 }
 
 /* The tick (TIM2, priority 0): inputs, the force part of the core's tick, the force out. The solver
@@ -186,10 +288,26 @@ static void app_tick(void)
 		app.bus_offs_seen = can_bus_offs();
 		swell_ctl_link_down(&app_ctl, SWELL_LINK_DEVICE);
 	}
+	/* A starved device (docs/links.md, as swell-ctl): no command of the device link reached the bus for
+	 * the silence limit while the device is there (it still talks: nobody acknowledges, higher ids hold
+	 * the bus, the bus is stuck). The loop faults as for a silent device; at the start of each spell the
+	 * safe state aborts the commands stuck in the mailboxes, whose force is stale by the time the bus
+	 * takes them, and queues a zero command in their place. */
+	if (app.device_on_can && app.unsent_run >= swell_ctl_silent_limit(&app_ctl) &&
+	    (app_ctl.state == SWELL_CTL_ARMED || app_ctl.state == SWELL_CTL_RUNNING || app.starving)) {
+		if (!app.starving) {
+			app.starving = 1;
+			app.aborted = 1;
+			safe_force_zero();
+		}
+		swell_ctl_link_down(&app_ctl, SWELL_LINK_DEVICE);
+	} else if (app.unsent_run == 0) {
+		app.starving = 0;
+	}
 	swell_ctl_tick_force(&app_ctl);
-	drain(SWELL_LINK_DEVICE);
-	if (host_shares_device_carrier())
-		drain(SWELL_LINK_HOST);
+	drain_device();
+	if (host_drained_in_tick())
+		drain_host();
 }
 
 /* Thread mode, lowest priority: the background part of the tick the interrupt just ran. */
@@ -198,8 +316,8 @@ static void app_background(void)
 	if (!swell_ctl_background_due(&app_ctl))
 		return;
 	swell_ctl_tick_background(&app_ctl);
-	if (!host_shares_device_carrier())
-		drain(SWELL_LINK_HOST);
+	if (!host_drained_in_tick())
+		drain_host();
 }
 
 void app_fw_version(uint8_t v[3])
@@ -218,7 +336,23 @@ static void app_send_zero_force(void)
 	const struct swell_msg m = { .type = SWELL_MSG_FORCE_CMD, .node = app_ctl.cfg.node };
 
 	if (app.device_on_can)
-		send_can(&m);
+		(void)send_can(&m); /* after the mailboxes' abort: taken unless the bus has them all */
+}
+
+/* Sleep until an interrupt when the loop has nothing to do: no tick since the loop last looked (the
+ * watchdog kick, can_poll's time and the bootloader countdown move only with the tick count) and no
+ * background part due. Race-free: checked with interrupts masked (irq.h), and WFI wakes on an
+ * interrupt that is pending even while PRIMASK masks it (ARMv7-M ARM B1.5.19); it is taken once the
+ * mask is restored, so the loop runs again right after the interrupt that woke it. */
+static void idle_until_interrupt(uint32_t seen_count)
+{
+	struct tick_stats st;
+	uint32_t primask = irq_save();
+
+	tick_read(&st);
+	if (st.count == seen_count && !swell_ctl_background_due(&app_ctl))
+		__asm__ volatile("dsb\n\twfi" ::: "memory");
+	irq_restore(primask);
 }
 
 void app_run(const struct clock_info *ci, int can_ok, int usb_ok, const struct app_prio *prio, uint32_t watchdog_ms)
@@ -251,19 +385,25 @@ void app_run(const struct clock_info *ci, int can_ok, int usb_ok, const struct a
 		err = usb_start(prio->usb, on_usb_out);
 		app.usb_on = err == SWELL_OK;
 	}
-	if (err == SWELL_OK)
+	if (err == SWELL_OK) {
+		/* The banner before the tick starts: the console waits on its USART (5 ms for this line at
+		 * 115200 baud). Written once the tick ran, it held the main loop over the first ticks, whose
+		 * background parts then never ran: 4 overruns at every boot, the solver a step behind. */
+		con_puts("controller: ");
+		con_put_u64(tick_hz);
+		con_puts(" Hz tick, device on ");
+		con_puts(app.device_on_can ? "CAN 1 Mbit/s" : "USB");
+		con_puts(!app.usb_on          ? ", host on CAN\n"
+				 : app.can_on ? ", host on USB while configured, else CAN\n"
+					      : ", host on USB\n");
 		err = tick_start(ci->tim_apb1_hz, tick_hz, prio->tick, app_tick);
-	con_puts("controller: ");
+	}
 	if (err != SWELL_OK) {
-		con_puts("start refused: ");
+		con_puts("controller: start refused: ");
 		con_puts(swell_err_str(err));
 		con_putc('\n');
 		fault_stop("controller start refused");
 	}
-	con_put_u64(tick_hz);
-	con_puts(" Hz tick, device on ");
-	con_puts(app.device_on_can ? "CAN 1 Mbit/s" : "USB");
-	con_puts(app.usb_on ? ", host on USB\n" : ", host on CAN\n");
 	iwdg_start(watchdog_ms);
 	for (;;) {
 		tick_read(&st);
@@ -283,5 +423,6 @@ void app_run(const struct clock_info *ci, int can_ok, int usb_ok, const struct a
 			} else if ((int32_t)(st.count - boot_at) >= 0)
 				boot_request_reset();
 		}
+		idle_until_interrupt(st.count);
 	}
 }

@@ -73,8 +73,9 @@ enum swell_err can_start(uint32_t pclk1_hz, uint32_t bitrate, const struct can_f
 	board_pin_af(SWELL_BOARD_CAN_TX_PORT, SWELL_BOARD_CAN_TX_PIN, 9u, 0);
 
 	/* Initialisation mode, and with it: transmit by id priority (TXFP = 0), no automatic bus-off
-	 * recovery (we rate-limit it), automatic retransmission on, FIFO overrun keeps the old frames
-	 * (RFLM = 0 overwrites: we want the newest position, so leave RFLM clear). */
+	 * recovery (we rate-limit it), automatic retransmission on, and RFLM = 0: on a FIFO overrun the
+	 * new frame replaces the last one stored, the two oldest stay (RM0090 32.7.5), so the newest
+	 * position gets through. */
 	CAN1->MCR = CAN_MCR_INRQ;
 	if (!wait_msr(CAN_MSR_INAK | CAN_MSR_SLAK, CAN_MSR_INAK))
 		return SWELL_ESTATE;

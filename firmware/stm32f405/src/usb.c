@@ -26,6 +26,9 @@ static struct {
 	uint8_t scratch[USB_STRING_MAX];
 	uint8_t out_buf[SWELL_USB_PACKET];
 	volatile int in_busy;
+	/* the bus idle 3 ms (USBSUSP): the host suspended the device, or the cable is out (no VBUS
+	 * sensing: an unplug looks like a suspend); cleared by a resume or a bus reset */
+	volatile int suspended;
 } usb;
 
 /* Bounded wait for GRSTCTL's mask bits to read want (all set or all clear); 1 when they do. */
@@ -208,6 +211,7 @@ void isr_otg_fs(void)
 
 	if (gint & OTG_GINT_USBRST) {
 		OTG->GINTSTS = OTG_GINT_USBRST;
+		usb.suspended = 0;
 		bus_reset();
 	}
 	if (gint & OTG_GINT_ENUMDNE) {
@@ -245,8 +249,10 @@ void isr_otg_fs(void)
 		if (f & OTG_EPINT_XFRC)
 			usb.in_busy = 0;
 	}
-	if (gint & (OTG_GINT_USBSUSP | OTG_GINT_WKUPINT)) /* rc_w1: both acknowledged in one write */
+	if (gint & (OTG_GINT_USBSUSP | OTG_GINT_WKUPINT)) { /* rc_w1: both acknowledged in one write */
 		OTG->GINTSTS = gint & (OTG_GINT_USBSUSP | OTG_GINT_WKUPINT);
+		usb.suspended = !(gint & OTG_GINT_WKUPINT); /* both at once: the resume came last */
+	}
 }
 
 enum swell_err usb_start(uint8_t prio, void (*on_out)(const uint8_t *data, uint32_t len))
@@ -304,4 +310,9 @@ enum swell_err usb_send(const uint8_t *data, uint32_t len)
 int usb_configured(void)
 {
 	return usb.st.config != 0;
+}
+
+int usb_host_active(void)
+{
+	return usb.st.config != 0 && !usb.suspended;
 }

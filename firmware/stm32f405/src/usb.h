@@ -21,4 +21,8 @@ enum swell_err usb_send(const uint8_t *data, uint32_t len);
 
 int usb_configured(void);
 
+/* Configured by a USB host and not suspended: a host reads the bulk IN endpoint. On silicon without
+ * VBUS sensing a pulled cable shows as a suspend, so this falls back to 0 then. */
+int usb_host_active(void);
+
 #endif
