@@ -22,7 +22,7 @@ struct fw_mem app_mem;
 #define USB_RING 8u /* decoded messages from USB waiting for the tick (SPSC: USB ISR -> tick) */
 /* Host messages taken from the core's queue that the carrier has not taken yet (the bulk IN endpoint
  * still holds the previous packet, or every CAN mailbox is full): sent first at the next drain. */
-#define HOST_PEND 16u
+#define HOST_PEND 12u
 /* Ticks between an accepted ENTER_BOOTLOADER and the reset: the zero force and the last heartbeat
  * leave through the normal drains first. */
 #define BOOT_DRAIN_TICKS 3u
