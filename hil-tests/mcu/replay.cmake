@@ -12,12 +12,20 @@ target_link_libraries(swell-mcu-replay PRIVATE swell_mcu_replay swell_common_hos
 set(mcu_image ${SWELL_BENCH_BIN_DIR}/../firmware/stm32f405/image/swell-fw.elf)
 set(mcu_work ${CMAKE_BINARY_DIR}/hil-tests/mcu/out)
 
+# Scripts that import the swell package (numpy) run under Debian's python3, as the python label does
+# (another python3 first on PATH may lack Debian's numpy).
+if(SWELL_DEBIAN_PYTHON3)
+  set(mcu_py ${SWELL_DEBIAN_PYTHON3})
+else()
+  set(mcu_py python3)
+endif()
+
 # The force identity: one drop recorded from swell-hm, replayed to swell-ctl (--clock device, UDP) and
 # to the image in the emulator (CAN1), gives the same FORCE_CMD payload at every tick.
 set(mcu_identity "mcu: one recorded drop gives swell-ctl and the emulated STM32F405 image bit-identical FORCE_CMD payloads at every one of 3000 ticks")
 add_test(NAME "${mcu_identity}"
   COMMAND sh -c "[ -f \"$1\" ] || { echo \"no image $1: build swell_fw_image\"; exit 77; }; shift; exec \"$@\""
-          sh ${mcu_image} ${CMAKE_CURRENT_LIST_DIR}/tests/force-identity run --bin ${SWELL_BENCH_BIN_DIR}
+          sh ${mcu_image} ${mcu_py} ${CMAKE_CURRENT_LIST_DIR}/tests/force-identity run --bin ${SWELL_BENCH_BIN_DIR}
           --image ${mcu_image} --work ${mcu_work}/identity --seconds 3 --hand drop:z=20,hold=0.2)
 set_tests_properties("${mcu_identity}" PROPERTIES LABELS mcu TIMEOUT 240 SKIP_RETURN_CODE 77
   PASS_REGULAR_EXPRESSION "OK: 3000 ticks compared, FORCE_CMD payloads bit-identical")
@@ -26,7 +34,7 @@ set_tests_properties("${mcu_identity}" PROPERTIES LABELS mcu TIMEOUT 240 SKIP_RE
 # stuck bus and an RX FIFO overrun, each injected into the bxCAN model at a virtual time while the
 # image holds the object; the image's force record and the commands a device would render are judged.
 set(mcu_faults "mcu: CAN faults on the image's driver (bus-off, no ACK, TX mailboxes full, transmit errors, stuck bus): the image zeroes its force within 5 ticks, the device within 2, both recover; an RX overrun loses no tick")
-add_test(NAME "${mcu_faults}" COMMAND ${CMAKE_CURRENT_LIST_DIR}/tests/can-faults ${SWELL_BENCH_BIN_DIR} ${mcu_image}
+add_test(NAME "${mcu_faults}" COMMAND ${mcu_py} ${CMAKE_CURRENT_LIST_DIR}/tests/can-faults ${SWELL_BENCH_BIN_DIR} ${mcu_image}
                                       ${mcu_work}/can-faults)
 set_tests_properties("${mcu_faults}" PROPERTIES LABELS mcu TIMEOUT 240 SKIP_RETURN_CODE 77
   PASS_REGULAR_EXPRESSION "can-faults: OK")
