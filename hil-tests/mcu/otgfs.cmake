@@ -21,7 +21,7 @@ if(SWELL_TEST_PROGRAMS)
   set_target_properties(mcu_test_otgfs_vm PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)
   set(otgfs_vm_test "mcu: USB tunnel, the VM's Linux enumerates the OTG FS model over USB/IP (virtio-serial, vhci-hcd), swell-vm-usbtest echoes 300 packets of 1..64 bytes intact, and an unplug and replug of the device reach libusb")
   add_test(NAME "${otgfs_vm_test}" COMMAND mcu_test_otgfs_vm)
-  set_tests_properties("${otgfs_vm_test}" PROPERTIES LABELS mcu FIXTURES_REQUIRED swell_vm_image TIMEOUT 400
+  set_tests_properties("${otgfs_vm_test}" PROPERTIES LABELS mcu FIXTURES_REQUIRED swell_vm_image RESOURCE_LOCK swell_vm TIMEOUT 400
     SKIP_RETURN_CODE 77 ENVIRONMENT
     "SWELL_RUN_VM=${PROJECT_SOURCE_DIR}/hil-tests/vm/run-vm;SWELL_VM_IMAGE=${CMAKE_BINARY_DIR}/vm;SWELL_VM_BIN=${CMAKE_BINARY_DIR}/bin")
 endif()

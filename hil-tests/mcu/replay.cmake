@@ -55,6 +55,6 @@ if(EXISTS ${PROJECT_SOURCE_DIR}/hil-tests/vm/run-vm)
             sh ${mcu_image} ${PROJECT_SOURCE_DIR}/hil-tests/bench/run-scenario --place vm --bin ${SWELL_BENCH_BIN_DIR}
             --image ${CMAKE_BINARY_DIR}/vm --f405 ${mcu_image} --out ${mcu_work}/f405-can --timeout 900
             ${mcu_f405_runs})
-  set_tests_properties("${mcu_scn}" PROPERTIES LABELS mcu FIXTURES_REQUIRED swell_vm_image TIMEOUT 960
+  set_tests_properties("${mcu_scn}" PROPERTIES LABELS mcu FIXTURES_REQUIRED swell_vm_image RESOURCE_LOCK swell_vm TIMEOUT 960
     SKIP_RETURN_CODE 77 PASS_REGULAR_EXPRESSION "run-scenario: PASS, 6 scenario")
 endif()
