@@ -235,16 +235,7 @@ static const char *mode_name(int mode)
 
 static FILE *lopen(const struct lopts *o, const char *name)
 {
-	char path[4096];
-	FILE *fp;
-
-	snprintf(path, sizeof(path), "%s/%s", o->out, name);
-	fp = fopen(path, "w");
-	if (!fp) {
-		fprintf(stderr, "swell-bench: cannot write %s: %s\n", path, strerror(errno));
-		exit(1);
-	}
-	return fp;
+	return open_out_in(o->out, name);
 }
 
 /* the theory's critical multiple for a point's loop: stream mode has the link's delay in the force

@@ -71,18 +71,23 @@ const char *stencil_name(enum swell_stencil st)
 	return st == SWELL_STENCIL_CALIBRATED ? "calibrated" : "paper";
 }
 
-FILE *open_out(const struct opts *o, const char *name)
+FILE *open_out_in(const char *dir, const char *name)
 {
 	char path[4096];
 	FILE *fp;
 
-	snprintf(path, sizeof(path), "%s/%s", o->out, name);
+	snprintf(path, sizeof(path), "%s/%s", dir, name);
 	fp = fopen(path, "w");
 	if (!fp) {
 		fprintf(stderr, "swell-bench: cannot write %s: %s\n", path, strerror(errno));
 		exit(1);
 	}
 	return fp;
+}
+
+FILE *open_out(const struct opts *o, const char *name)
+{
+	return open_out_in(o->out, name);
 }
 
 void init_or_die(struct bench_field *f, enum bench_impl impl, int nx, double e, double t, enum swell_stencil st)
