@@ -19,6 +19,7 @@
 #include <unistd.h>
 
 #include "swell/cli.h"
+#include "vm-line.h"
 #include "vm-util.h"
 
 #define TUNNEL_FRAME_BYTES 16u
@@ -38,30 +39,6 @@ struct bridge_counts {
 	uint64_t bad_len;
 	uint64_t can_write_fail;
 };
-
-static int open_line(const char *path)
-{
-	struct termios tio;
-	int fd = open(path, O_RDWR | O_NOCTTY);
-
-	if (fd < 0)
-		return -1;
-	/* Raw 8-bit, no echo, no CR/LF translation, no flow control: the line carries binary. */
-	if (tcgetattr(fd, &tio) == 0) {
-		cfmakeraw(&tio);
-		tio.c_cflag |= CLOCAL | CREAD;
-		tio.c_cflag &= ~(tcflag_t)CRTSCTS;
-		cfsetispeed(&tio, B115200);
-		cfsetospeed(&tio, B115200);
-		tio.c_cc[VMIN] = 1;
-		tio.c_cc[VTIME] = 0;
-		if (tcsetattr(fd, TCSANOW, &tio) != 0) {
-			close(fd);
-			return -1;
-		}
-	}
-	return fd;
-}
 
 static int open_can(const char *iface)
 {
@@ -224,7 +201,7 @@ int main(int argc, char **argv)
 		fprintf(stderr, "swell-vm-canbridge: cannot open CAN interface %s: %s\n", iface, strerror(errno));
 		return 1;
 	}
-	line_fd = open_line(tty);
+	line_fd = vm_open_line(tty);
 	if (line_fd < 0) {
 		fprintf(stderr, "swell-vm-canbridge: cannot open the tunnel line %s: %s\n", tty, strerror(errno));
 		close(can_fd);

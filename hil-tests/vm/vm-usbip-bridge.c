@@ -21,6 +21,7 @@
 #include <unistd.h>
 
 #include "swell/cli.h"
+#include "vm-line.h"
 #include "vm-util.h"
 
 #define OP_HDR 8u
@@ -42,30 +43,6 @@ static const char usage[] =
 	"At the end prints the sessions and the bytes moved each way.\n"
 	"Exit status: 0 stopped by a signal or either side closed, 1 an import, attach or I/O\n"
 	"failure, 2 bad arguments.\n";
-
-static int open_line(const char *path)
-{
-	struct termios tio;
-	int fd = open(path, O_RDWR | O_NOCTTY);
-
-	if (fd < 0)
-		return -1;
-	/* Raw 8-bit, no echo, no CR/LF translation, no flow control: the line carries binary. */
-	if (tcgetattr(fd, &tio) == 0) {
-		cfmakeraw(&tio);
-		tio.c_cflag |= CLOCAL | CREAD;
-		tio.c_cflag &= ~(tcflag_t)CRTSCTS;
-		cfsetispeed(&tio, B115200);
-		cfsetospeed(&tio, B115200);
-		tio.c_cc[VMIN] = 1;
-		tio.c_cc[VTIME] = 0;
-		if (tcsetattr(fd, TCSANOW, &tio) != 0) {
-			close(fd);
-			return -1;
-		}
-	}
-	return fd;
-}
 
 static uint32_t be32(const uint8_t *p)
 {
@@ -357,7 +334,7 @@ int main(int argc, char **argv)
 
 	swell_cli_parse(&cli, argc, argv);
 	vm_catch_stop();
-	line = open_line(tty);
+	line = vm_open_line(tty);
 	if (line < 0) {
 		fprintf(stderr, "swell-vm-usbip-bridge: cannot open the tunnel line %s: %s\n", tty, strerror(errno));
 		return 1;
