@@ -86,14 +86,14 @@ static enum swell_err send_can(const struct swell_msg *m)
 }
 
 /* How many messages of the front of m went out (or could never go: dropped), as many as fit in each
- * 64-byte packet; stops at the first packet the endpoint refuses (not configured, or the previous
- * packet still in flight). */
+ * 64-byte packet; stops at the first packet the endpoint refuses (not configured, suspended, or the
+ * previous packet still in flight). */
 static size_t send_usb(const struct swell_msg *m, size_t n)
 {
 	uint8_t pkt[SWELL_PKT_MAX];
 	size_t len, used, sent = 0;
 
-	while (sent < n && usb_configured()) {
+	while (sent < n && usb_host_active()) {
 		if (swell_pkt_encode(app_ctl.cfg.node, app.usb_seq, m + sent, n - sent, pkt, sizeof(pkt), &len,
 				     &used) != SWELL_OK ||
 		    !used) {
@@ -209,6 +209,16 @@ static void drain_host(void)
 	int on_can = host_on_can();
 	uint32_t n;
 
+	if (!on_can && !usb_host_active()) {
+		/* USB only, and no host on it (the cable out, suspended, not configured): what the host link
+		 * holds has nobody to go to, and would reach the next host stale; dropped (bounded: one
+		 * queue's worth) */
+		for (n = 0; n < SWELL_CTL_QUEUE && swell_ctl_tx(&app_ctl, SWELL_LINK_HOST, app.host_pend, 1); n++)
+			;
+		app.host_pend_n = 0;
+		app.pool_ans_on = 0;
+		return;
+	}
 	host_flush(on_can);
 	if (app.pool_ans_on && host_room()) {
 		app.host_pend[app.host_pend_n++] = app.pool_ans;
@@ -288,6 +298,14 @@ static void app_tick(void)
 		app.bus_offs_seen = can_bus_offs();
 		swell_ctl_link_down(&app_ctl, SWELL_LINK_DEVICE);
 	}
+	/* The device link on USB without a host to read it (usb_host_active: the cable out, which shows as
+	 * the bus's suspend 6 ms after the last frame; a bus reset; SET_CONFIGURATION 0): the device link is
+	 * down at every such tick, as on a CAN bus-off: the core faults, its force and the record go to
+	 * zero at this tick, and nothing of it waits in the endpoint (the driver took the unread packet
+	 * back). Once a host configures the device again, the device's samples bring the loop back as after
+	 * any loss (autorun: recover_ticks of the device heard; or the host's clear). */
+	if (!app.device_on_can && !usb_host_active())
+		swell_ctl_link_down(&app_ctl, SWELL_LINK_DEVICE);
 	/* A starved device (docs/links.md, as swell-ctl): no command of the device link reached the bus for
 	 * the silence limit while the device is there (it still talks: nobody acknowledges, higher ids hold
 	 * the bus, the bus is stuck). The loop faults as for a silent device; at the start of each spell the
