@@ -19,8 +19,9 @@ static const char usage[] =
 	"usage: swell-mcu --image ELF [--seconds S] [--console FILE] [--cpi C] [--hse-hz HZ]\n"
 	"                 [--hse-delay-us US] [--trace-irq FILE] [--can-tunnel PATH [--no-hello]\n"
 	"                 [--paced-by-device MS]] [--tx-log FILE]\n"
-	"                 [--report FILE] [--no-can] [--usb] [--usb-tunnel PATH] [--stop-tim2 S]\n"
-	"                 [--on-reset end|restart] [--quiet]\n"
+	"                 [--report FILE] [--no-can] [--usb] [--usb-tunnel PATH [--usb-lockstep]\n"
+	"                 [--usb-replug MS] [--usb-log FILE]] [--stop-tim2 S] [--on-reset end|restart]\n"
+	"                 [--quiet]\n"
 	"Runs the STM32F405 image ELF (the product image, swell-fw.elf, unmodified) on an emulated\n"
 	"Cortex-M4 (unicorn) with register-level models of the peripherals it uses, in virtual time:\n"
 	"a run repeats bit for bit. Prints the image's console (its USART) and, on stderr, a summary:\n"
@@ -63,7 +64,23 @@ static const char usage[] =
 	"                     registers read 0 and the image finds no USB; on silicon the core answers)\n"
 	"  --usb-tunnel PATH  the OTG FS model behind a USB/IP server: listens on the Unix socket PATH, takes\n"
 	"                     one connection (hil-tests/vm/run-vm --usb-tunnel PATH), address 3; paced to\n"
-	"                     wall time as with --can-tunnel; ends when the host lets go\n"
+	"                     wall time as with --can-tunnel; ends when the host lets go (the session's end\n"
+	"                     is the cable pulled out: the OTG FS core's suspend 6 ms later)\n"
+	"  --usb-lockstep     with --usb-tunnel: the host clocks virtual time instead of the wall clock: it\n"
+	"                     runs only while a URB (or the server's enumeration) waits on the device, and\n"
+	"                     stands while the server has nothing pending, so a host that submits its next\n"
+	"                     URB once the last is answered makes a run repeat bit for bit; with the cable\n"
+	"                     out it runs by itself (--usb-replug)\n"
+	"  --usb-replug MS    with --usb-tunnel: a host that lets go pulls the cable out and the run goes\n"
+	"                     on; MS ms of virtual time later the next connection on PATH is the cable put\n"
+	"                     back (bus reset, enumeration: a new session), taken when it comes\n"
+	"                     (--usb-lockstep: virtual time stands until it comes)\n"
+	"  --usb-log FILE     with --usb-tunnel: the USB side in virtual time, one 'T_NS EVENT' a line:\n"
+	"                     'session N in|out' (the cable), 'reset' (a host's bus reset), 'suspend' (the\n"
+	"                     core's USBSUSP raised), 'suspend-seen' (the image's driver acknowledged it),\n"
+	"                     'configured 0|1' (bulk IN endpoint 1 (de)activated, seen within 20 us),\n"
+	"                     'tick' (each TIM2 update) and 'force FX FY FZ' (the image's record of the\n"
+	"                     force it commands, safe.c, in cN, when it changes, seen within 20 us)\n"
 	"  --stop-tim2 S      fault injection: TIM2's counter stops at S virtual seconds, until the next\n"
 	"                     reset (the image's tick stops: its watchdog must bite)\n"
 	"  --on-reset end|restart  a reset (the watchdog's, or one the image requests) ends the run (end,\n"
@@ -76,8 +93,9 @@ static const char usage[] =
 	"emulator does not carry out: the report names the pc), 5 the image asked for a system reset.\n";
 
 struct opts {
-	const char *image, *console, *trace_irq, *tunnel, *tx_log, *report, *usb_tunnel;
-	int no_can, usb, on_reset, no_hello;
+	const char *image, *console, *trace_irq, *tunnel, *tx_log, *report, *usb_tunnel, *usb_log;
+	int no_can, usb, on_reset, no_hello, usb_lockstep;
+	double usb_replug_ms;
 	double stop_tim2, device_ms;
 	double seconds, cpi;
 	uint32_t hse_hz, hse_delay_us;
@@ -106,6 +124,7 @@ static double host_seconds(void)
 /* --paced-by-device: virtual time waits this long before a tick for the device's sample (its frames
  * then take about 350 us on the bus, and the RX interrupt runs before the tick) */
 #define DEVICE_LEAD_S 0.0006
+#define LOCKSTEP_WAIT_MS 60000 /* --usb-lockstep: a host silent this long (wall time) ends the run */
 
 struct tunnel {
 	int fd;
@@ -125,7 +144,16 @@ struct tunnel {
 	int closed;
 	FILE *log; /* --tx-log */
 	struct mcu_usb_dev *usb; /* --usb-tunnel: the USB/IP server's device (NULL: none) */
-	int usb_fd;
+	int usb_fd; /* the session's connection; -1 between sessions (the cable out) */
+	int usb_lfd, usb_lockstep; /* --usb-replug: the listening socket, kept; --usb-lockstep */
+	const char *usb_path;
+	uint64_t usb_replug_units, replug_at; /* --usb-replug (MCU_NEVER: off); the next session's earliest */
+	unsigned sessions;
+	FILE *usb_log; /* --usb-log, with what it last saw */
+	uint32_t force_addr, ulog_resets, ulog_suspends, ulog_seen;
+	int32_t ulog_force[3];
+	int ulog_cfg;
+	uint64_t ulog_tick;
 	/* --paced-by-device: before each TIM2 tick virtual time waits (at most device_s of wall time)
 	 * until a DEVICE_POS came from the peer since the last tick; a wait that runs out means the device
 	 * is gone (lost): wall-time pacing until its next sample */
@@ -135,12 +163,12 @@ struct tunnel {
 	int sample, lost;
 };
 
-/* Listen on the Unix stream socket PATH and take one connection; the connected fd, or -1. */
-static int listen_one(const char *opt, const char *path)
+/* Listen on the Unix stream socket PATH; the listening fd, or -1. */
+static int listen_on(const char *opt, const char *path)
 {
 	struct sockaddr_un a = { .sun_family = AF_UNIX };
 	struct stat st;
-	int lfd, fd;
+	int lfd;
 
 	if (strlen(path) >= sizeof(a.sun_path)) {
 		fprintf(stderr, "swell-mcu: %s %s: path too long for a Unix socket\n", opt, path);
@@ -162,13 +190,31 @@ static int listen_one(const char *opt, const char *path)
 		return -1;
 	}
 	fprintf(stderr, "swell-mcu: %s: listening on %s\n", opt, path);
-	fd = accept(lfd, NULL, NULL);
-	close(lfd);
-	unlink(path);
+	return lfd;
+}
+
+/* Take one connection on the listening fd lfd (blocking); the connected fd, or -1. */
+static int accept_one(const char *opt, const char *path, int lfd)
+{
+	int fd = accept(lfd, NULL, NULL);
+
 	if (fd < 0)
 		fprintf(stderr, "swell-mcu: %s %s: accept: %s\n", opt, path, strerror(errno));
 	else
 		fprintf(stderr, "swell-mcu: %s: peer connected\n", opt);
+	return fd;
+}
+
+/* Listen on the Unix stream socket PATH and take one connection; the connected fd, or -1. */
+static int listen_one(const char *opt, const char *path)
+{
+	int lfd = listen_on(opt, path), fd;
+
+	if (lfd < 0)
+		return -1;
+	fd = accept_one(opt, path, lfd);
+	close(lfd);
+	unlink(path);
 	return fd;
 }
 
@@ -319,6 +365,118 @@ static int device_wait(struct mcu *m, struct tunnel *t)
 	return 0;
 }
 
+static unsigned long long units_ns(uint64_t t)
+{
+	return (unsigned long long)(t * 1000u / (MCU_TIME_HZ / 1000000u));
+}
+
+/* --usb-log: what changed since the hook last looked (the model's events at their own times). */
+static void usb_log_step(struct mcu *m, struct tunnel *t)
+{
+	const struct otgfs *o = &t->usb->otg;
+	FILE *f = t->usb_log;
+	int32_t fc[3] = { 0, 0, 0 };
+	int cfg = (o->diepctl[1] >> 15) & 1; /* USBAEP of IN endpoint 1: the image's configuration */
+
+	if (!f)
+		return;
+	if (t->tim2) {
+		const uint64_t u = t->tim2->next_event(m, t->tim2->ctx);
+
+		if (u != t->ulog_tick) {
+			if (t->ulog_tick && t->ulog_tick <= m->now)
+				fprintf(f, "%llu tick\n", units_ns(t->ulog_tick));
+			t->ulog_tick = u;
+		}
+	}
+	if (o->stats.resets != t->ulog_resets) {
+		t->ulog_resets = o->stats.resets;
+		fprintf(f, "%llu reset\n", units_ns(m->now));
+	}
+	if (o->stats.suspends != t->ulog_suspends) {
+		t->ulog_suspends = o->stats.suspends;
+		fprintf(f, "%llu suspend\n", units_ns(o->suspend_at));
+	}
+	if (o->stats.suspends_seen != t->ulog_seen) {
+		t->ulog_seen = o->stats.suspends_seen;
+		fprintf(f, "%llu suspend-seen\n", units_ns(o->suspend_seen_at));
+	}
+	if (cfg != t->ulog_cfg) {
+		t->ulog_cfg = cfg;
+		fprintf(f, "%llu configured %d\n", units_ns(m->now), cfg);
+	}
+	if (t->force_addr && uc_mem_read(m->uc, t->force_addr, fc, sizeof(fc)) == UC_ERR_OK &&
+	    memcmp(fc, t->ulog_force, sizeof(fc)) != 0) {
+		memcpy(t->ulog_force, fc, sizeof(fc));
+		fprintf(f, "%llu force %d %d %d\n", units_ns(m->now), fc[0], fc[1], fc[2]);
+	}
+}
+
+/* The USB side at a hook: the session's step, and between sessions (--usb-replug) the cable out until
+ * the next connection. With --usb-lockstep it waits for the host while nothing waits on the device.
+ * 0 on (*events: what the session's fd waits for), -1 the run ends (the host let go), or an exit
+ * status. */
+static int usb_hook(struct mcu *m, struct tunnel *t, short *events)
+{
+	*events = POLLIN;
+	usb_log_step(m, t);
+	if (t->usb_fd < 0) {
+		struct pollfd p = { t->usb_lfd, POLLIN, 0 };
+		int r;
+
+		if (m->now < t->replug_at)
+			return 0;
+		r = poll(&p, 1, t->usb_lockstep ? LOCKSTEP_WAIT_MS : 0);
+		if (r == 0 && t->usb_lockstep) {
+			fprintf(stderr, "swell-mcu: USB tunnel: no new session within %d s (--usb-lockstep)\n",
+				LOCKSTEP_WAIT_MS / 1000);
+			return MCU_EXIT_ERROR;
+		}
+		if (r <= 0)
+			return r < 0 && errno != EINTR ? MCU_EXIT_ERROR : 0; /* nobody yet: the cable stays out */
+		if ((t->usb_fd = accept_one("--usb-tunnel", t->usb_path, t->usb_lfd)) < 0)
+			return MCU_EXIT_ERROR;
+		mcu_usb_serve(t->usb, t->usb_fd, USB_ADDRESS);
+		t->sessions++;
+		fprintf(stderr, "swell-mcu: USB tunnel: session %u (the cable in) at %.6f s virtual\n", t->sessions,
+			mcu_seconds(m->now));
+		if (t->usb_log)
+			fprintf(t->usb_log, "%llu session %u in\n", units_ns(m->now), t->sessions);
+	}
+	for (;;) {
+		enum usbip_step st = mcu_usb_step(m, t->usb);
+		struct pollfd p;
+		int r;
+
+		if (st == USBIP_CLOSED) {
+			fprintf(stderr, "swell-mcu: USB tunnel: the host let go at %.6f s virtual (%s)\n",
+				mcu_seconds(m->now), t->usb->srv.error ? t->usb->srv.error : "closed");
+			if (t->usb_log)
+				fprintf(t->usb_log, "%llu session %u out\n", units_ns(m->now), t->sessions);
+			if (t->usb_replug_units == MCU_NEVER)
+				return -1;
+			close(t->usb_fd);
+			t->usb_fd = -1;
+			t->replug_at = m->now + t->usb_replug_units;
+			return 0;
+		}
+		if (usbip_server_wants_write(&t->usb->srv))
+			*events |= POLLOUT;
+		if (!t->usb_lockstep || usbip_server_waiting(&t->usb->srv))
+			return 0;
+		/* lockstep: nothing waits on the device, time stands until the host says more */
+		p = (struct pollfd){ t->usb_fd, *events, 0 };
+		r = poll(&p, 1, LOCKSTEP_WAIT_MS);
+		if (r == 0) {
+			fprintf(stderr, "swell-mcu: USB tunnel: the host sent nothing for %d s (--usb-lockstep)\n",
+				LOCKSTEP_WAIT_MS / 1000);
+			return MCU_EXIT_ERROR;
+		}
+		if (r < 0 && errno != EINTR)
+			return MCU_EXIT_ERROR;
+	}
+}
+
 /* The run's I/O hook with a tunnel: frames and USB/IP traffic in and out, virtual time held back to
  * wall time (the sleep wakes on either socket), or with --paced-by-device to the device's samples. */
 static int tunnel_hook(struct mcu *m, void *ctx)
@@ -338,9 +496,14 @@ static int tunnel_hook(struct mcu *m, void *ctx)
 		if (!t->lost) /* the device clocks: no wall-time pacing, and none to make up after */
 			t->wall0 = host_seconds() - mcu_seconds(m->now);
 	}
+	if (t->usb && t->usb_lockstep) { /* the host clocks: no wall-time pacing (no CAN tunnel then) */
+		short ev;
+
+		return usb_hook(m, t, &ev);
+	}
 	for (;;) {
 		double ahead = mcu_seconds(m->now) - (host_seconds() - t->wall0);
-		struct pollfd p[2] = { { t->fd, POLLIN, 0 }, { t->usb_fd, POLLIN, 0 } };
+		struct pollfd p[2] = { { t->fd, POLLIN, 0 }, { -1, POLLIN, 0 } };
 		struct timespec ts = { 0, 0 };
 		int r;
 
@@ -349,15 +512,10 @@ static int tunnel_hook(struct mcu *m, void *ctx)
 		if (t->fd >= 0)
 			tunnel_deliver(m, t);
 		if (t->usb) {
-			enum usbip_step st = mcu_usb_step(m, t->usb);
-
-			if (st == USBIP_CLOSED) {
-				fprintf(stderr, "swell-mcu: USB tunnel: the host let go at %.6f s virtual (%s)\n",
-					mcu_seconds(m->now), t->usb->srv.error ? t->usb->srv.error : "closed");
-				return -1;
-			}
-			if (usbip_server_wants_write(&t->usb->srv))
-				p[1].events |= POLLOUT;
+			r = usb_hook(m, t, &p[1].events);
+			if (r)
+				return r;
+			p[1].fd = t->usb_fd;
 		}
 		if (-ahead > MAX_LAG_S) {
 			t->wall0 += -ahead;
@@ -496,10 +654,30 @@ static int run(const struct opts *o, struct world *w)
 		return MCU_EXIT_ERROR;
 	}
 	if (o->usb_tunnel) {
-		if ((t->usb_fd = listen_one("--usb-tunnel", o->usb_tunnel)) < 0)
+		t->usb_path = o->usb_tunnel;
+		t->usb_lockstep = o->usb_lockstep;
+		t->usb_replug_units = o->usb_replug_ms >= 0
+			? (uint64_t)(o->usb_replug_ms * 1e-3 * (double)MCU_TIME_HZ + 0.5)
+			: MCU_NEVER;
+		if (o->usb_log) {
+			if (!(t->usb_log = open_out(o->usb_log)))
+				return MCU_EXIT_ERROR;
+			setvbuf(t->usb_log, NULL, _IOLBF, 0); /* whole lines for a reader while it runs */
+			t->force_addr = mcu_symbol_addr(m, "force_cN"); /* safe.c: the force last commanded */
+			fprintf(t->usb_log, "# swell-mcu USB log: T_NS EVENT (virtual ns)%s\n",
+				t->force_addr ? "" : "; the image has no force_cN: no force lines");
+		}
+		if (t->usb_replug_units == MCU_NEVER)
+			t->usb_fd = listen_one("--usb-tunnel", o->usb_tunnel);
+		else if ((t->usb_lfd = listen_on("--usb-tunnel", o->usb_tunnel)) >= 0)
+			t->usb_fd = accept_one("--usb-tunnel", o->usb_tunnel, t->usb_lfd);
+		if (t->usb_fd < 0)
 			return MCU_EXIT_ERROR;
 		mcu_usb_serve(&w->usb, t->usb_fd, USB_ADDRESS);
 		t->usb = &w->usb;
+		t->sessions = 1;
+		if (t->usb_log)
+			fprintf(t->usb_log, "0 session 1 in\n");
 	}
 	t->can = &w->can;
 	t->device_s = o->device_ms / 1000.0;
@@ -530,7 +708,7 @@ static int run(const struct opts *o, struct world *w)
 			"swell-mcu: CAN tunnel: %llu frames to the peer, %llu from it (%llu dropped: error frames or "
 			"length > 8)\n",
 			(unsigned long long)t->tx, (unsigned long long)t->rx, (unsigned long long)t->dropped);
-	if ((o->tunnel || o->usb_tunnel) && !o->quiet)
+	if ((o->tunnel || (o->usb_tunnel && !o->usb_lockstep)) && !o->quiet)
 		fprintf(stderr,
 			"swell-mcu: paced to the wall clock: virtual time fell behind it by %.1f ms in all, in %llu "
 			"stretches over %.0f ms\n",
@@ -542,9 +720,9 @@ static int run(const struct opts *o, struct world *w)
 			(unsigned long long)t->waits, (unsigned long long)t->waited_out, 1e3 * t->device_s);
 	if (o->usb_tunnel && !o->quiet)
 		fprintf(stderr,
-			"swell-mcu: USB tunnel: %u URBs submitted, %u answered (%u with an error), %u bytes in, %u "
-			"out\n",
-			w->usb.srv.stats.submits, w->usb.srv.stats.ret_submits, w->usb.srv.stats.errors,
+			"swell-mcu: USB tunnel: %u session(s); the last: %u URBs submitted, %u answered (%u with an "
+			"error), %u bytes in, %u out\n",
+			t->sessions, w->usb.srv.stats.submits, w->usb.srv.stats.ret_submits, w->usb.srv.stats.errors,
 			w->usb.srv.stats.bytes_in, w->usb.srv.stats.bytes_out);
 	if (o->report && write_report(o->report, m, t, rc) != 0 && rc == MCU_EXIT_OK)
 		rc = MCU_EXIT_ERROR;
@@ -553,7 +731,12 @@ static int run(const struct opts *o, struct world *w)
 
 int main(int argc, char **argv)
 {
-	struct opts o = { .seconds = 1.0, .cpi = 1.0, .hse_hz = 8000000u, .hse_delay_us = 1000u, .stop_tim2 = -1 };
+	struct opts o = { .seconds = 1.0,
+			  .cpi = 1.0,
+			  .hse_hz = 8000000u,
+			  .hse_delay_us = 1000u,
+			  .stop_tim2 = -1,
+			  .usb_replug_ms = -1 };
 	const struct swell_cli_opt table[] = {
 		SWELL_CLI_STR("--image", o.image),
 		SWELL_CLI_NUM_ABOVE("--seconds", o.seconds, 0, 86400, "s"),
@@ -570,6 +753,9 @@ int main(int argc, char **argv)
 		SWELL_CLI_FLAG("--no-can", o.no_can),
 		SWELL_CLI_FLAG("--usb", o.usb),
 		SWELL_CLI_STR("--usb-tunnel", o.usb_tunnel),
+		SWELL_CLI_FLAG("--usb-lockstep", o.usb_lockstep),
+		SWELL_CLI_NUM("--usb-replug", o.usb_replug_ms, 0, 3600000, "ms"),
+		SWELL_CLI_STR("--usb-log", o.usb_log),
 		SWELL_CLI_NUM("--stop-tim2", o.stop_tim2, 0, 86400, "s"),
 		SWELL_CLI_CHOICE("--on-reset", o.on_reset, "end|restart"),
 		SWELL_CLI_FLAG("--quiet", o.quiet),
@@ -586,16 +772,26 @@ int main(int argc, char **argv)
 			      (unsigned long long)MCU_TIME_HZ);
 	if (o.no_can && (o.tunnel || o.tx_log))
 		swell_cli_die("swell-mcu", "--no-can leaves no CAN1 for --can-tunnel or --tx-log");
+	if (!o.usb_tunnel && (o.usb_lockstep || o.usb_replug_ms >= 0 || o.usb_log))
+		swell_cli_die("swell-mcu", "--usb-lockstep, --usb-replug and --usb-log need --usb-tunnel");
+	if (o.usb_lockstep && o.tunnel)
+		swell_cli_die("swell-mcu", "--usb-lockstep: the USB host clocks virtual time, a CAN tunnel cannot");
 	w = calloc(1, sizeof(*w));
 	if (!w)
 		return MCU_EXIT_ERROR;
 	w->con = stdout;
-	w->t.fd = w->t.usb_fd = -1;
+	w->t.fd = w->t.usb_fd = w->t.usb_lfd = -1;
 	rc = run(&o, w);
 	if (w->t.fd >= 0)
 		close(w->t.fd);
 	if (w->t.usb_fd >= 0)
 		close(w->t.usb_fd);
+	if (w->t.usb_lfd >= 0) {
+		close(w->t.usb_lfd);
+		unlink(o.usb_tunnel);
+	}
+	if (w->t.usb_log)
+		fclose(w->t.usb_log);
 	if (w->t.log)
 		fclose(w->t.log);
 	if (w->con && w->con != stdout)
