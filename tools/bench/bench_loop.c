@@ -562,13 +562,14 @@ int bench_loop_main(int argc, char **argv)
 		 * account, per mode, and how many stream points keep both within PASSIVE_MJ */
 		if (npass > 0 && pass[npass - 1]) {
 			double port[2] = { 0, 0 }, acct[2] = { 0, 0 };
-			int within = 0, stream_pts = 0;
+			int within = 0, stream_pts = 0, npts[2] = { 0, 0 };
 
 			for (i = 0; i < n; i++) {
 				const int md = pt[i].mode;
 
 				if (!pt[i].passivity || res[i].cls > LOOP_DIVERGENT)
 					continue;
+				npts[md]++;
 				port[md] = fmax(port[md], res[i].e_created_max_J * 1e3);
 				acct[md] = fmax(acct[md], res[i].ctl_created_J * 1e3);
 				if (md == 0) {
@@ -577,12 +578,16 @@ int bench_loop_main(int argc, char **argv)
 						res[i].ctl_created_J * 1e3 <= PASSIVE_MJ;
 				}
 			}
-			printf("  largest energy created with the controller (force.pc_damping %s, force.pc_delay %s): "
-			       "stream %.3g mJ at the device port, %.3g mJ in the controller's account; effect %.3g "
-			       "mJ, "
-			       "%.3g mJ (the device renders the set: the controller does not act)\n",
-			       o.pc_damping > 0 ? "given" : "default", o.pc_delay_given ? "given" : "the link's",
-			       port[0], acct[0], port[1], acct[1]);
+			printf("  largest energy created with the controller (force.pc_damping %s, force.pc_delay %s):",
+			       o.pc_damping > 0 ? "given" : "default", o.pc_delay_given ? "given" : "the link's");
+			if (npts[0])
+				printf(" stream %.3g mJ at the device port, %.3g mJ in the controller's account%s",
+				       port[0], acct[0], npts[1] ? ";" : "");
+			if (npts[1])
+				printf(" effect %.3g mJ, %.3g mJ (the device renders the set: the controller does not "
+				       "act)",
+				       port[1], acct[1]);
+			printf("\n");
 			if (stream_pts) {
 				printf("  passive with the controller: %d of %d stream points create at most %g mJ at "
 				       "the "

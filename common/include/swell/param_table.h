@@ -64,7 +64,7 @@
 	  "haptic gain on the force law's output, Q15.16, 0 to 4")                                                     \
 	P(FORCE_MODE, 23, "force.mode", force_mode, uint8_t, CORE, 0, 1, 0, "1", "", RW, IDLE,                         \
 	  "0 stream (FORCE_CMD every tick), 1 effect (springs, damper and gravity as device effects, every update)")   \
-	P(FORCE_PASSIVITY, 24, "force.passivity", passivity, uint8_t, CORE, 0, 1, 0, "1", "", RW, ANY,                 \
+	P(FORCE_PASSIVITY, 24, "force.passivity", passivity, uint8_t, CORE, 0, 1, 1, "1", "", RW, ANY,                 \
 	  "1: the time-domain passivity controller adds damping, at most force.pc_damping, while the energy "          \
 	  "account shows energy created (docs/energy.md), inside force.max and force.rate, in stream mode; 0: "        \
 	  "the account only observes")                                                                                 \

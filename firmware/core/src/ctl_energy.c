@@ -188,9 +188,10 @@ void ctl_energy_force(struct swell_ctl *c, int running, int32_t f_dev_uN[3])
 	/* the controller: the damping alpha = -D / (v^2 dt) that would take the energy created out within
 	 * a tick, bounded by force.pc_damping (b_max, uN per mm/s): a damping that large, behind the link's
 	 * delay, is active itself. The force -alpha v goes before the safety stage (whose limits hold); what
-	 * it takes out shows in W, on the ticks the device applies it. -D held below 2^40 pJ; -D tick_hz
-	 * 1000 < 2^62 against b_max v^2 (b_max <= 2^20, v^2 < 2^44 for the wire's 3 m/s) */
-	neg_d = (uint64_t)(-e->balance_pJ < ((int64_t)1 << 40) ? -e->balance_pJ : ((int64_t)1 << 40));
+	 * it takes out shows in W, on the ticks the device applies it. -D held at most 2^36 pJ (69 mJ: at
+	 * 50 N s/m and 2500 Hz the bound still acts up to 1.8 m/s), so that -D tick_hz 1000 < 2^63
+	 * (tick_hz <= 100000), against b_max v^2 < 2^64 (b_max <= 10^6, v^2 < 2^44 for the wire's 3 m/s) */
+	neg_d = (uint64_t)(-e->balance_pJ < ((int64_t)1 << 36) ? -e->balance_pJ : ((int64_t)1 << 36));
 	num = neg_d * c->cfg.tick_hz * 1000u; /* uN um/s x 1000: alpha in uN per mm/s times v^2 */
 	if (num >= b_max * v2) {
 		/* bounded: -b_max v / 1000, b_max v / 1000 as (b_max v 4194) >> 22 (2^22 / 1000 = 4194.3:

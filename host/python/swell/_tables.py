@@ -171,7 +171,7 @@ PARAMS = (
      "haptic gain on the force law's output, Q15.16, 0 to 4"),
     (23, "force.mode", 0, 1, 0, "1", "", False, "idle",
      "0 stream (FORCE_CMD every tick), 1 effect (springs, damper and gravity as device effects, every update)"),
-    (24, "force.passivity", 0, 1, 0, "1", "", False, "any",
+    (24, "force.passivity", 0, 1, 1, "1", "", False, "any",
      "1: the time-domain passivity controller adds damping, at most force.pc_damping, while the energy account shows energy created (docs/energy.md), inside force.max and force.rate, in stream mode; 0: the account only observes"),
     (25, "force.pc_delay", 0, 7, 0, "1", "ticks", False, "any",
      "stream mode: the device applies a FORCE_CMD this many ticks after the controller sends it (the link's delay); the energy account pairs each motion with the force applied then: the device's port (docs/energy.md)"),
