@@ -423,6 +423,40 @@ TEST_CASE("passivity: the controller's force is -alpha v along the force law's a
 	CHECK(c.energy().controller_ticks > 100);
 }
 
+TEST_CASE("passivity: with D far below zero, the fastest speed the wire carries and a fast tick, the "
+	  "controller asks for force.pc_damping times the speed against the motion (its bound's test does not wrap)",
+	  "[energy][passivity]")
+{
+	// the bound's test multiplies -D by the tick rate and 1000: at 50 kHz a D of -0.369 J makes that
+	// 2^64 and a little, which, wrapped, would pick the unbounded alpha (2000 N s/m here, force.max at
+	// 3 m/s) instead of the bound's 100 N s/m (300 N)
+	swell_ctl_config cfg = pool();
+	cfg.tick_hz = cfg.safety.tick_hz = 50000;
+	cfg.solver_hz = 250;
+	cfg.pc_damping_uN_per_mm_s = 100000; // 100 N s/m
+	cfg.safety.f_max_uN = 1000000000u; // 1000 N
+	Ctl c(cfg);
+	int32_t x[3] = {0, 0, 10000}, v[3] = {0, 0, 0};
+	for (int n = 0; n < 20; n++) {
+		c.sample(x, v);
+		c.tick();
+	}
+	REQUIRE(c.c.state == SWELL_CTL_RUNNING);
+	for (int32_t speed : {3000000, -3000000, 100, -100}) {
+		v[2] = speed;
+		c.sample(x, v);
+		c.c.energy.balance_pJ = -368934881475; // ceil(2^64 / (50000 x 1000)) pJ
+		swell_ctl_tick_force(&c.c);
+		const double want = -100.0 * speed; // -b_max v: uN per um/s times um/s
+		INFO("v " << speed << " um/s: controller " << c.c.energy.pc_uN[2] << " uN, want " << want);
+		CHECK(std::fabs(c.c.energy.pc_uN[2] - want) <= std::fabs(want) * 1e-4 + 1.0);
+		swell_ctl_tick_background(&c.c);
+		swell_msg out[SWELL_CTL_QUEUE];
+		swell_ctl_tx(&c.c, SWELL_LINK_DEVICE, out, SWELL_CTL_QUEUE);
+		swell_ctl_tx(&c.c, SWELL_LINK_HOST, out, SWELL_CTL_QUEUE);
+	}
+}
+
 TEST_CASE("energy: with force.pc_delay set to the link's delay, W is the work of the force the device applied "
 	  "over its motion, to the picojoule; with 0 behind the same delay it is not",
 	  "[energy][loop]")
