@@ -458,7 +458,7 @@ TEST_CASE("passivity: with D far below zero, the fastest speed the wire carries 
 }
 
 TEST_CASE("energy: with force.pc_delay set to the link's delay, W is the work of the force the device applied "
-	  "over its motion, to the picojoule; with 0 behind the same delay it is not",
+	  "over its motion, to the picojoule, and with 0 behind the same delay it is not",
 	  "[energy][loop]")
 {
 	// the 200 mm box without its damper behind 6 ticks: its force changes on most ticks, so that a

@@ -87,7 +87,7 @@ TEST_CASE("loop: a stiff point with 4 ticks of delay and no passivity controller
 }
 
 TEST_CASE("loop: with the passivity controller at its own bound the stiffest point behind 4 ticks settles and "
-	  "creates at most 1 mJ at the device port and in the controller's account; with force.pc_damping at "
+	  "creates at most 1 mJ at the device port and in the controller's account, and with force.pc_damping at "
 	  "1000 N s/m, beyond what a damping behind the delay keeps stable on the device, it diverges",
 	  "[bench][loop][passivity]")
 {
@@ -181,7 +181,7 @@ TEST_CASE("loop theory: Schur-Cohn counts roots against the unit circle, and the
 }
 
 TEST_CASE("loop theory: a damping behind d ticks on the device is stable up to 2 m / T - b without delay and "
-	  "about pi m / (2 (d + 1/2) T) with it; force.pc_damping's default is below a third of that for the lightest "
+	  "about pi m / (2 (d + 1/2) T) with it, and force.pc_damping's default is below a third of that for the lightest "
 	  "device (0.5 kg) up to 4 ticks at 1000 Hz",
 	  "[bench][loop][theory][passivity]")
 {
