@@ -20,6 +20,7 @@
 #define LIST SWELL_CLI_LIST_MAX
 #define THEORY_K_HI 1e5 /* N/m: the theory's search ends here */
 #define BISECT_STEPS 5 /* halvings of the bracket in log2 k: 1/32 of an octave, 2 % */
+#define PASSIVE_MJ 1.0 /* the quick map's claim: with the controller no stream point creates more */
 
 struct lopts {
 	const char *out;
@@ -34,6 +35,8 @@ struct lopts {
 	int plots;
 	int bisect;
 	int water_energy;
+	double pc_damping; /* force.pc_damping N s/m; 0 the controller's default */
+	int pc_delay_given, pc_delay; /* force.pc_delay ticks, else the point's link delay */
 };
 
 static const char loop_usage[] =
@@ -58,6 +61,10 @@ static const char loop_usage[] =
 	"  --rates X,...      device and controller rate, Hz (1000, 2500)\n"
 	"  --modes WHICH      stream, effect or both (force.mode)\n"
 	"  --passivity WHICH  off, on or both (the controller's time-domain passivity controller)\n"
+	"  --pc-damping X     force.pc_damping, the passivity controller's damping at most, N s/m (default: the\n"
+	"                     controller's)\n"
+	"  --pc-delay N       force.pc_delay, the link delay the controller's account assumes, ticks in [0, 7]\n"
+	"                     (default: each point's own delay, as a lab sets it for its link)\n"
 	"  --water-energy     the controller's energy account keeps the water's energy (a pass over the field\n"
 	"                     each solver step, about 9/10 of the run time; off: weight and springs only)\n"
 	"  --seconds S        free response after the release (at least 6 periods of the spring on the mass)\n"
@@ -105,6 +112,24 @@ static void lpreset(struct lopts *o, int full)
 	o->jobs = 2;
 	o->plots = 1;
 	o->bisect = 1;
+}
+
+/* 1 when o runs the quick preset's map as it is (any points, both controller settings the
+ * controller's own): the map the passivity claim is made for */
+static int quick_map(const struct lopts *o)
+{
+	struct lopts q;
+
+	memset(&q, 0, sizeof(q));
+	lpreset(&q, 0);
+	return !strcmp(o->preset, "quick") && o->nk == q.nk && !memcmp(o->k, q.k, sizeof(q.k[0]) * (size_t)q.nk) &&
+		o->ndamper == q.ndamper && !memcmp(o->damper, q.damper, sizeof(q.damper[0]) * (size_t)q.ndamper) &&
+		o->nmass == q.nmass && !memcmp(o->mass, q.mass, sizeof(q.mass[0]) * (size_t)q.nmass) &&
+		o->ndamping == q.ndamping &&
+		!memcmp(o->damping, q.damping, sizeof(q.damping[0]) * (size_t)q.ndamping) && o->ndelay == q.ndelay &&
+		!memcmp(o->delay, q.delay, sizeof(q.delay[0]) * (size_t)q.ndelay) && o->nrate == q.nrate &&
+		!memcmp(o->rate, q.rate, sizeof(q.rate[0]) * (size_t)q.nrate) && o->seconds == q.seconds &&
+		o->pc_damping <= 0 && !o->pc_delay_given;
 }
 
 static int list_hook(struct swell_cli *c, const char *opt, const char *v, double lo, double hi, const char *unit,
@@ -371,6 +396,7 @@ int bench_loop_main(int argc, char **argv)
 
 	memset(&o, 0, sizeof(o));
 	o.out = "bench-out";
+	o.pc_delay = -1; /* not given */
 	for (k = 1; k < argc; k++)
 		if (!strcmp(argv[k], "--full"))
 			full = 1;
@@ -393,6 +419,8 @@ int bench_loop_main(int argc, char **argv)
 			SWELL_CLI_FLAG("--no-bisect", nobisect),
 			SWELL_CLI_SET("--no-plots", o.plots, 0),
 			SWELL_CLI_FLAG("--water-energy", o.water_energy),
+			SWELL_CLI_NUM("--pc-damping", o.pc_damping, 0.1, 1000, "N s/m"),
+			SWELL_CLI_WHOLE("--pc-delay", o.pc_delay, 0, 7, "ticks"),
 			SWELL_CLI_STR("--trace", o.trace),
 		};
 		struct swell_cli cli = { .prog = "swell-bench loop",
@@ -404,6 +432,7 @@ int bench_loop_main(int argc, char **argv)
 		swell_cli_parse(&cli, argc, argv);
 	}
 	o.bisect = !nobisect;
+	o.pc_delay_given = o.pc_delay >= 0;
 	if (mkdir(o.out, 0777) != 0 && errno != EEXIST) {
 		fprintf(stderr, "swell-bench loop: cannot create %s: %s\n", o.out, strerror(errno));
 		return 2;
@@ -441,6 +470,9 @@ int bench_loop_main(int argc, char **argv)
 										p->damper_Ns_m = o.damper[idp];
 										p->delay = (int)o.delay[idl];
 										p->passivity = pass[ip];
+										p->pc_damping_Ns_m = o.pc_damping;
+										p->pc_delay_given = o.pc_delay_given;
+										p->pc_delay = o.pc_delay;
 										p->k_mult = o.k[ik];
 										p->seconds = o.seconds;
 										p->water_energy = o.water_energy;
@@ -525,6 +557,53 @@ int bench_loop_main(int argc, char **argv)
 			       "largest without the controller: stable %.3g mJ, limit cycle %.3g mJ, divergent %.3g "
 			       "mJ\n",
 			       emax[0] * 1e3, emax[1] * 1e3, emax[2] * 1e3);
+		}
+		/* with the controller: the most any point created at the device port and in the controller's
+		 * account, per mode, and how many stream points keep both within PASSIVE_MJ */
+		if (npass > 0 && pass[npass - 1]) {
+			double port[2] = { 0, 0 }, acct[2] = { 0, 0 };
+			int within = 0, stream_pts = 0, npts[2] = { 0, 0 };
+
+			for (i = 0; i < n; i++) {
+				const int md = pt[i].mode;
+
+				if (!pt[i].passivity || res[i].cls > LOOP_DIVERGENT)
+					continue;
+				npts[md]++;
+				port[md] = fmax(port[md], res[i].e_created_max_J * 1e3);
+				acct[md] = fmax(acct[md], res[i].ctl_created_J * 1e3);
+				if (md == 0) {
+					stream_pts++;
+					within += res[i].e_created_max_J * 1e3 <= PASSIVE_MJ &&
+						res[i].ctl_created_J * 1e3 <= PASSIVE_MJ;
+				}
+			}
+			printf("  largest energy created with the controller (force.pc_damping %s, force.pc_delay %s):",
+			       o.pc_damping > 0 ? "given" : "default", o.pc_delay_given ? "given" : "the link's");
+			if (npts[0])
+				printf(" stream %.3g mJ at the device port, %.3g mJ in the controller's account%s",
+				       port[0], acct[0], npts[1] ? ";" : "");
+			if (npts[1])
+				printf(" effect %.3g mJ, %.3g mJ (the device renders the set: the controller does not "
+				       "act)",
+				       port[1], acct[1]);
+			printf("\n");
+			if (stream_pts) {
+				printf("  passive with the controller: %d of %d stream points create at most %g mJ at "
+				       "the "
+				       "device port and in the controller's account (ratio %.3f)\n",
+				       within, stream_pts, PASSIVE_MJ, (double)within / stream_pts);
+				/* the quick map's claim (docs/energy.md), with the controller's own settings */
+				if (quick_map(&o) && within < stream_pts) {
+					fprintf(stderr,
+						"swell-bench: loop CHECK FAILED: with the passivity controller %d "
+						"stream "
+						"point%s of the quick map create%s more than %g mJ\n",
+						stream_pts - within, stream_pts - within == 1 ? "" : "s",
+						stream_pts - within == 1 ? "s" : "", PASSIVE_MJ);
+					fails++;
+				}
+			}
 		}
 	}
 

@@ -100,6 +100,37 @@ double loop_theory_k_crit(double m, double b, double B, int d, double T, double 
 	return lo;
 }
 
+int loop_theory_damper_stable(double m, double b, double B, int d, double T)
+{
+	/* m z^d (z - 1 + bT/m) + B T */
+	double c[17] = { 0 };
+
+	if (d < 0 || d > 15)
+		return 0;
+	c[d + 1] += m;
+	c[d] += -m + b * T;
+	c[0] += B * T;
+	return loop_schur_stable(c, d + 1);
+}
+
+double loop_theory_b_crit(double m, double b, int d, double T, double b_hi)
+{
+	double lo = 0.0, hi = b_hi;
+	int it;
+
+	if (loop_theory_damper_stable(m, b, b_hi, d, T))
+		return b_hi;
+	for (it = 0; it < 60; it++) {
+		const double mid = 0.5 * (lo + hi);
+
+		if (loop_theory_damper_stable(m, b, mid, d, T))
+			lo = mid;
+		else
+			hi = mid;
+	}
+	return lo;
+}
+
 /* ---- the loop ---- */
 
 /* v rounded half up and saturated for the wire, as the device sends it */
@@ -230,6 +261,8 @@ void loop_run(const struct loop_point *p, struct loop_result *r)
 	double *p2p = NULL;
 	size_t words;
 	const struct swell_param_desc *pas = swell_param_by_name("force.passivity");
+	const struct swell_param_desc *pdl = swell_param_by_name("force.pc_delay"),
+				      *pdm = swell_param_by_name("force.pc_damping");
 	struct swell_energy_account acc;
 	double d_rel = 0.0, d_min = 0.0, run_max = 0.0;
 	const double T = 1.0 / p->rate_hz, pool_m = LOOP_POOL_N * SWELL_POOL_DX_UM * 1e-6;
@@ -320,6 +353,16 @@ void loop_run(const struct loop_point *p, struct loop_result *r)
 	/* force.passivity through the host link where the table has it (else the configuration's) */
 	if (p->passivity && pas && ctl_param(c, pas->id, 1) != 0) {
 		refuse(r, "force.passivity 1 refused", NULL);
+		goto out;
+	}
+	/* the link's delay, as a lab sets it for its own link: the account pairs each motion with the force
+	 * the device applied then (stream mode; effect mode renders at the device's own state) */
+	if (pdl && ctl_param(c, pdl->id, p->pc_delay_given ? p->pc_delay : d) != 0) {
+		refuse(r, "force.pc_delay refused", NULL);
+		goto out;
+	}
+	if (p->pc_damping_Ns_m > 0.0 && pdm && ctl_param(c, pdm->id, (int32_t)lround(p->pc_damping_Ns_m * 1e3)) != 0) {
+		refuse(r, "force.pc_damping refused", NULL);
 		goto out;
 	}
 	r->ctl_passivity = c->cfg.passivity;

@@ -47,6 +47,8 @@ struct loop_point {
 	double mass_kg, damping_Ns_m; /* the device's virtual mass and damping */
 	int delay; /* ticks on the controller -> device path */
 	int passivity; /* force.passivity */
+	double pc_damping_Ns_m; /* force.pc_damping; 0: the controller's default */
+	int pc_delay_given, pc_delay; /* force.pc_delay in ticks when pc_delay_given, else the link's delay */
 	int water_energy; /* the controller keeps the water's energy in its account (a pass over the field
 			   * each solver step: most of a point's run time) */
 	double seconds; /* of free response after the release */
@@ -94,6 +96,13 @@ const char *loop_class_name(enum loop_class c);
 int loop_theory_stable(double m, double b, double k, double B, int d, double T);
 /* The largest k (N/m) with every root inside, by bisection up to k_hi; k_hi when stable to there. */
 double loop_theory_k_crit(double m, double b, double B, int d, double T, double k_hi);
+/* The passivity controller's damping B behind d ticks on the device alone (no spring): the velocity's
+ * loop m (v[n+1] - v[n]) = T (-b v[n] - B v[n-d]), characteristic polynomial
+ *     m z^d (z - 1 + bT/m) + B T,
+ * 1 when its d + 1 roots are inside the unit circle; the largest stable B (N s/m) by bisection up to
+ * b_hi. For d >= 1 close to pi m / (2 (d + 1/2) T): the continuous delayed damper's limit. */
+int loop_theory_damper_stable(double m, double b, double B, int d, double T);
+double loop_theory_b_crit(double m, double b, int d, double T, double b_hi);
 /* Schur-Cohn: 1 when every root of c[0] + c[1] z + ... + c[n] z^n (c[n] != 0, n <= 16) has |z| < 1. */
 int loop_schur_stable(const double *c, int n);
 

@@ -64,9 +64,18 @@
 	  "haptic gain on the force law's output, Q15.16, 0 to 4")                                                     \
 	P(FORCE_MODE, 23, "force.mode", force_mode, uint8_t, CORE, 0, 1, 0, "1", "", RW, IDLE,                         \
 	  "0 stream (FORCE_CMD every tick), 1 effect (springs, damper and gravity as device effects, every update)")   \
-	P(FORCE_PASSIVITY, 24, "force.passivity", passivity, uint8_t, CORE, 0, 1, 0, "1", "", RW, ANY,                 \
-	  "1: the time-domain passivity controller adds damping while the energy account shows energy created "        \
-	  "(docs/energy.md), inside force.max and force.rate, in stream mode; 0: the account only observes")           \
+	P(FORCE_PASSIVITY, 24, "force.passivity", passivity, uint8_t, CORE, 0, 1, 1, "1", "", RW, ANY,                 \
+	  "1: the time-domain passivity controller adds damping, at most force.pc_damping, while the energy "          \
+	  "account shows energy created (docs/energy.md), inside force.max and force.rate, in stream mode; 0: "        \
+	  "the account only observes")                                                                                 \
+	P(FORCE_PC_DELAY, 25, "force.pc_delay", pc_delay, uint8_t, CORE, 0, 7, 0, "1", "ticks", RW, ANY,               \
+	  "stream mode: the device applies a FORCE_CMD this many ticks after the controller sends it (the "            \
+	  "link's delay); the energy account pairs each motion with the force applied then: the device's "             \
+	  "port (docs/energy.md)")                                                                                     \
+	P(FORCE_PC_DAMPING, 26, "force.pc_damping", pc_damping_uN_per_mm_s, uint32_t, CORE, 0, 1000000, 50000,         \
+	  "0.001", "N*s/m", RW, ANY,                                                                                   \
+	  "the passivity controller's damping at most (raw uN per mm/s): a larger one, reaching the device "           \
+	  "the link's delay late, feeds the motion it answers (docs/energy.md)")                                       \
 	P(SILENT_TICKS, 30, "link.silent_ticks", silent_ticks, uint16_t, CORE, 1, 10000, 2, "1", "ticks", RW, ANY,     \
 	  "device silent this many ticks (effect mode: at least two update periods): zero force and FAULT")            \
 	P(AUTORUN, 31, "ctl.autorun", autorun, uint8_t, CORE, 0, 1, 0, "1", "", RW, ANY,                               \
@@ -99,7 +108,6 @@
 	  "the device's last position y, in its own frame")                                                            \
 	P(DEV_Z, 65, "dev.z", pos_um[2], int32_t, CORE, -300000, 300000, 0, "0.001", "mm", RO, ANY,                    \
 	  "the device's last position z, in its own frame")
-
 #define SWELL_PARAM_COMMAND_ID 40
 #define SWELL_PARAM_COMMAND_NAME "ctl.command"
 

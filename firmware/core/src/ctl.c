@@ -51,6 +51,8 @@ static const struct swell_ctl_config pool_config = {
 	.frame_flip = SWELL_PARAM_DEF_FRAME_FLIP,
 	.hm_inertia_g = SWELL_PARAM_DEF_HM_INERTIA,
 	.passivity = SWELL_PARAM_DEF_FORCE_PASSIVITY,
+	.pc_delay = SWELL_PARAM_DEF_FORCE_PC_DELAY,
+	.pc_damping_uN_per_mm_s = SWELL_PARAM_DEF_FORCE_PC_DAMPING,
 	.energy_water = 0, /* swell-ctl sets it; the STM32F405 image has no room for the pass */
 };
 
@@ -116,7 +118,8 @@ enum swell_err swell_ctl_check(const struct swell_ctl_config *cfg)
 		return SWELL_ERANGE;
 	if (cfg->silent_ticks < 1 || cfg->silent_ticks > 10000 || cfg->recover_ticks < 1 || cfg->host_budget < 1 ||
 	    cfg->host_budget > SWELL_CTL_QUEUE / 2 || cfg->node > SWELL_NODE_MAX || cfg->autorun > 1 ||
-	    cfg->force_mode > SWELL_FORCE_EFFECT || cfg->passivity > 1 || cfg->energy_water > 1)
+	    cfg->force_mode > SWELL_FORCE_EFFECT || cfg->passivity > 1 || cfg->energy_water > 1 ||
+	    cfg->pc_delay >= SWELL_CTL_PC_RING || cfg->pc_damping_uN_per_mm_s > 1000000)
 		return SWELL_ERANGE;
 	if (cfg->frame_axes != frame_axes_code(&cfg->xform) || cfg->frame_flip != frame_flip_code(&cfg->xform))
 		return SWELL_EINVAL;

@@ -21,9 +21,6 @@
 
 #define PJ_MAX INT64_MAX
 #define PJ_MIN (-INT64_MAX)
-/* the controller acts from this speed up (um/s): below it a damping force would need a gain beyond
- * any the safety stage lets through; the account keeps what it could not take out */
-#define PC_V_MIN_UM_S 1000
 
 static int64_t sat_add64(int64_t a, int64_t b)
 {
@@ -152,13 +149,24 @@ static uint64_t div_q16(uint64_t num, uint64_t den)
 	return sh >= 0 ? q << sh : q >> -sh;
 }
 
+/* The ring slot of the force the device applied over the step the account counts next: the one sent
+ * force.pc_delay ticks before the last tick's (stream mode; in effect mode the device renders the set at
+ * its own state, so the force the account computes is the one applied: no delay). */
+static unsigned held_slot(const struct swell_ctl *c)
+{
+	const unsigned d = c->cfg.force_mode == SWELL_FORCE_STREAM ? c->cfg.pc_delay : 0u;
+
+	return (c->energy.ring_head - d) & (SWELL_CTL_PC_RING - 1u);
+}
+
 void ctl_energy_force(struct swell_ctl *c, int running, int32_t f_dev_uN[3])
 {
 	struct swell_ctl_energy_sums *e = &c->energy;
 	const int ax = c->cfg.xform.axis[2]; /* the device axis of pool z: the only one the force law drives */
 	const int32_t lim = (int32_t)c->cfg.safety.f_max_uN, v = c->vel_um_s[ax];
-	int64_t alpha_q16, f;
-	uint64_t neg_d;
+	const uint64_t b_max = c->cfg.pc_damping_uN_per_mm_s, v2 = (uint64_t)((int64_t)v * v);
+	uint64_t neg_d, num;
+	int64_t f;
 
 	e->pc_uN[0] = e->pc_uN[1] = e->pc_uN[2] = 0;
 	if (!running) {
@@ -175,19 +183,34 @@ void ctl_energy_force(struct swell_ctl *c, int running, int32_t f_dev_uN[3])
 	}
 	/* stream mode only: in effect mode the device renders the effect set itself, and a force added
 	 * here would reach the safety stage's watch, not the device */
-	if (!c->cfg.passivity || c->cfg.force_mode != SWELL_FORCE_STREAM || e->balance_pJ >= 0 ||
-	    (v > -PC_V_MIN_UM_S && v < PC_V_MIN_UM_S))
+	if (!c->cfg.passivity || c->cfg.force_mode != SWELL_FORCE_STREAM || e->balance_pJ >= 0 || v == 0 || b_max == 0)
 		return;
-	/* the controller: alpha = -D / (v^2 dt), the force -alpha v, before the safety stage (whose
-	 * limits hold); what it takes out shows in W. Only along the axis the force law drives: the
-	 * environment exchanges no energy on the others. alpha in uN per um/s, Q16: -D (held below 2^40
-	 * pJ) times tick_hz (< 2^17) over v^2 (>= 10^6), held below 2^40 (a force far beyond any limit),
-	 * so that times v (< 2^22 um/s on the wire) it stays below 2^62 */
-	neg_d = (uint64_t)(-e->balance_pJ < ((int64_t)1 << 40) ? -e->balance_pJ : ((int64_t)1 << 40));
-	alpha_q16 = (int64_t)div_q16(neg_d * c->cfg.tick_hz, (uint64_t)((int64_t)v * v));
-	if (alpha_q16 > ((int64_t)1 << 40))
-		alpha_q16 = (int64_t)1 << 40;
-	f = -((alpha_q16 * v) >> 16);
+	/* the controller: the damping alpha = -D / (v^2 dt) that would take the energy created out within
+	 * a tick, bounded by force.pc_damping (b_max, uN per mm/s): a damping that large, behind the link's
+	 * delay, is active itself. The force -alpha v goes before the safety stage (whose limits hold); what
+	 * it takes out shows in W, on the ticks the device applies it. -D held at most 2^36 pJ (69 mJ: at
+	 * 50 N s/m and 2500 Hz the bound still acts up to 1.8 m/s), so that -D tick_hz 1000 < 2^63
+	 * (tick_hz <= 100000), against b_max v^2 < 2^64 (b_max <= 10^6, v^2 < 2^44 for the wire's 3 m/s) */
+	neg_d = (uint64_t)(-e->balance_pJ < ((int64_t)1 << 36) ? -e->balance_pJ : ((int64_t)1 << 36));
+	num = neg_d * c->cfg.tick_hz * 1000u; /* uN um/s x 1000: alpha in uN per mm/s times v^2 */
+	if (num >= b_max * v2) {
+		/* bounded: -b_max v / 1000, b_max v / 1000 as (b_max v 4194) >> 22 (2^22 / 1000 = 4194.3:
+		 * 7e-5 low), rounded toward minus infinity; |b_max v| < 2^42 */
+		f = -(((int64_t)b_max * v * 4194) >> 22);
+	} else {
+		/* alpha = -D tick_hz / v^2 (uN per um/s, Q16), below b_max: one 32-bit division (div_q16
+		 * needs a divisor of at least 2^16; v^2 below it is scaled up with the dividend, which is
+		 * then below b_max v^2 / 1000 < 2^36) */
+		uint64_t n2 = neg_d * c->cfg.tick_hz, d2 = v2;
+		int64_t alpha_q16;
+
+		while (d2 < ((uint64_t)1 << 16)) {
+			d2 <<= 4;
+			n2 <<= 4;
+		}
+		alpha_q16 = (int64_t)div_q16(n2, d2);
+		f = -((alpha_q16 * v) >> 16);
+	}
 	e->pc_uN[ax] = (int32_t)(f > lim ? lim : (f < -lim ? -lim : f));
 	f_dev_uN[ax] = swell_clamp(swell_sat_i64((int64_t)f_dev_uN[ax] + e->pc_uN[ax]), -INT32_MAX, INT32_MAX);
 	e->controller_ticks++;
@@ -197,26 +220,31 @@ void ctl_energy_force(struct swell_ctl *c, int running, int32_t f_dev_uN[3])
 void ctl_energy_account(struct swell_ctl *c)
 {
 	struct swell_ctl_energy_sums *e = &c->energy;
-	int64_t dw = 0, dd = 0;
+	const int ax = c->cfg.xform.axis[2];
+	int64_t dw = 0, dd;
+	unsigned h;
 	int k;
 
 	if (!e->running)
 		return;
-	if (e->fresh) { /* S(0) here, nothing held before it */
+	if (e->fresh) { /* S(0) here, nothing held before it: the forces before the run were zero */
 		e->fresh = 0;
 		e->work_pJ = e->damped_pJ = e->min_balance_pJ = e->balance_pJ = 0;
 		e->stored0_pJ = sat_add64(object_pJ(c, &c->out), e->water_pJ);
 		e->stored_pJ = e->stored0_pJ;
 		e->water0_pJ = e->water_pJ;
 		e->ticks = e->controller_ticks = 0;
+		for (h = 0; h < SWELL_CTL_PC_RING; h++)
+			e->ring_cN[h] = e->pc_ring_cN[h] = 0;
 	} else {
-		/* W: the force held since the last tick times the way the device went meanwhile */
-		for (k = 0; k < 3; k++) {
-			const int32_t dx = e->pos_now_um[k] - e->pos_um[k]; /* |pos| <= 300 mm on the wire */
-
-			dw -= (int64_t)e->force_uN[k] * dx;
-			dd -= (int64_t)e->pc_held_uN[k] * dx;
-		}
+		/* W: the force the device held since the last tick times the way it went meanwhile; along the
+		 * force law's axis the force sent pc_delay ticks before the last tick's (stream mode). The
+		 * other axes carry no force of the force law: the last tick's. |pos| <= 300 mm on the wire */
+		h = held_slot(c);
+		for (k = 0; k < 3; k++)
+			dw -= (k == ax ? (int64_t)e->ring_cN[h] * 10000 : (int64_t)e->force_uN[k]) *
+				(e->pos_now_um[k] - e->pos_um[k]);
+		dd = -(int64_t)e->pc_ring_cN[h] * 10000 * (e->pos_now_um[ax] - e->pos_um[ax]);
 		e->work_pJ = sat_add64(e->work_pJ, dw);
 		e->damped_pJ = sat_add64(e->damped_pJ, dd);
 		e->stored_pJ = sat_add64(object_pJ(c, &c->out), e->water_pJ);
@@ -225,12 +253,14 @@ void ctl_energy_account(struct swell_ctl *c)
 			e->min_balance_pJ = e->balance_pJ;
 	}
 	e->ticks++;
-	/* what is held from now on: this tick's force as the wire carries it, and the controller's part */
+	/* what is sent from now on: this tick's force as the wire carries it, and the controller's part */
 	for (k = 0; k < 3; k++) {
 		e->pos_um[k] = e->pos_now_um[k];
 		e->force_uN[k] = wire_uN(c, c->force_dev_uN[k]);
-		e->pc_held_uN[k] = e->pc_uN[k];
 	}
+	e->ring_head = (uint8_t)((e->ring_head + 1u) & (SWELL_CTL_PC_RING - 1u));
+	e->ring_cN[e->ring_head] = ctl_force_cN(c, c->force_dev_uN[ax]);
+	e->pc_ring_cN[e->ring_head] = ctl_to_cN(e->pc_uN[ax]);
 }
 
 enum swell_err swell_ctl_energy(const struct swell_ctl *c, struct swell_energy_account *out)

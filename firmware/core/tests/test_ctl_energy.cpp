@@ -93,6 +93,9 @@ struct Loop {
 	std::deque<swell_msg_force_cmd> line;
 	unsigned delay;
 	double t = 0, f_max_seen_N = 0, df_max_seen_N = 0, f_last_N = 0;
+	/* the device port's work as the device applied it: the cN it held times the wire's 10 um steps */
+	int64_t port_work_pJ = 0;
+	int32_t held_cN[3] = {0, 0, 0}, wire_um[3] = {0, 0, 0};
 	Loop(const swell_ctl_config &cfg, const char *hand_spec, unsigned delay_ticks = 0) : ctl(cfg), delay(delay_ticks)
 	{
 		char why[160];
@@ -114,6 +117,9 @@ struct Loop {
 			for (int k = 0; k < 3; k++) {
 				x[k] = (int32_t)std::lround(s.x[k] * 1e6);
 				v[k] = (int32_t)std::lround(s.v[k] * 1e6);
+				const int32_t w = (int32_t)std::lround(x[k] / 10.0) * 10; // as Ctl::sample sends it
+				port_work_pJ -= (int64_t)held_cN[k] * 10000 * (w - wire_um[k]);
+				wire_um[k] = w;
 			}
 			ctl.sample(x, v);
 			line.push_back(ctl.tick());
@@ -121,6 +127,9 @@ struct Loop {
 			if (line.size() > delay) {
 				const double fN[3] = {f.fx_cN * 0.01, f.fy_cN * 0.01, f.fz_cN * 0.01};
 				hm_command(&s, fN, f.enable);
+				held_cN[0] = f.enable ? f.fx_cN : 0;
+				held_cN[1] = f.enable ? f.fy_cN : 0;
+				held_cN[2] = f.enable ? f.fz_cN : 0;
 				line.pop_front();
 				f_max_seen_N = std::max(f_max_seen_N, std::fabs(fN[2]));
 				df_max_seen_N = std::max(df_max_seen_N, std::fabs(fN[2] - f_last_N));
@@ -305,6 +314,7 @@ TEST_CASE("passivity: a stiff buoyancy spring behind 4 ticks of link delay creat
 		cfg.body.damper_uN_per_mm_s = 0;
 		cfg.safety.rate_uN_per_s = 2000000000u;
 		cfg.energy_water = 1;
+		cfg.pc_delay = 4;
 		Loop l(cfg, "drop:z=2,hold=0.5", 4);
 		l.run(6.0);
 		const swell_energy_account e = l.ctl.energy();
@@ -365,14 +375,17 @@ TEST_CASE("energy: pressed into the floor's contact on a prescribed path, the ra
 	CHECK(created[1] < created[0]);
 }
 
-TEST_CASE("passivity: the controller's force is -D / (v^2 dt) v along the force law's axis, to 15 significant "
-	  "bits, asked for on the tick after D went below zero",
+TEST_CASE("passivity: the controller's force is -alpha v along the force law's axis, alpha = -D / (v^2 dt) to 15 "
+	  "significant bits while below force.pc_damping, else force.pc_damping, asked for on the tick after D went "
+	  "below zero",
 	  "[energy][passivity]")
 {
 	// the device goes down through the water reporting its velocity upward: the damper then pushes
-	// along the motion, D falls below zero and the controller acts on every tick after
+	// along the motion, D falls below zero and the controller acts on every tick after; -D grows until
+	// alpha reaches the bound
 	swell_ctl_config cfg = pool();
 	cfg.passivity = 1;
+	cfg.pc_damping_uN_per_mm_s = 200000; // 200 N s/m: 10 N at the 50 mm/s reported, below force.max
 	Ctl c(cfg);
 	int32_t x[3] = {0, 0, 10000}, v[3] = {0, 0, 0};
 	for (int n = 0; n < 20; n++) {
@@ -380,7 +393,7 @@ TEST_CASE("passivity: the controller's force is -D / (v^2 dt) v along the force 
 		c.tick();
 	}
 	REQUIRE(c.c.state == SWELL_CTL_RUNNING);
-	int checked = 0;
+	int below = 0, bounded = 0;
 	for (int n = 0; n < 2500 && x[2] > -30000; n++) {
 		x[2] -= 20;
 		v[2] = 50000; // wrong sign: 50 mm/s up while it goes down at 50 mm/s
@@ -388,27 +401,93 @@ TEST_CASE("passivity: the controller's force is -D / (v^2 dt) v along the force 
 		const int64_t d = c.c.energy.balance_pJ; // D after the last tick: what this tick's force part sees
 		swell_ctl_tick_force(&c.c);
 		const int32_t pc = c.c.energy.pc_uN[2];
-		if (d < 0 && pc != 0 && std::llabs(pc) < (int64_t)cfg.safety.f_max_uN) {
-			const double want =
-				(double)d * cfg.tick_hz / ((double)v[2] * v[2]) * v[2]; // -alpha v, alpha = -D/(v^2 dt)
-			INFO("tick " << n << ": D " << d << " pJ, controller " << pc << " uN, want " << want);
-			CHECK(std::fabs(pc - want) <= std::fabs(want) * std::ldexp(1.0, -14) + 1.0);
-			checked++;
-		}
-		if (d >= 0)
+		const double alpha = -(double)d * cfg.tick_hz / ((double)v[2] * v[2]); // uN per um/s
+		const double b_max = cfg.pc_damping_uN_per_mm_s / 1000.0;
+		if (d < 0) {
+			const double want = -std::min(alpha, b_max) * v[2];
+			INFO("tick " << n << ": D " << d << " pJ, alpha " << alpha << ", controller " << pc << " uN, want "
+				     << want);
+			CHECK(std::fabs(pc - want) <= std::fabs(want) * std::ldexp(1.0, -13) + 1.0);
+			(alpha < b_max ? below : bounded)++;
+		} else {
 			CHECK(pc == 0);
+		}
 		swell_ctl_tick_background(&c.c);
 		swell_msg out[SWELL_CTL_QUEUE];
 		swell_ctl_tx(&c.c, SWELL_LINK_DEVICE, out, SWELL_CTL_QUEUE);
 		swell_ctl_tx(&c.c, SWELL_LINK_HOST, out, SWELL_CTL_QUEUE);
 	}
-	INFO("ticks with the controller's force below the limit, checked: " << checked);
-	CHECK(checked >= 10);
+	INFO("ticks with alpha below the bound " << below << ", at it " << bounded);
+	CHECK(below >= 10);
+	CHECK(bounded >= 10);
 	CHECK(c.energy().controller_ticks > 100);
 }
 
+TEST_CASE("passivity: with D far below zero, the fastest speed the wire carries and a fast tick, the "
+	  "controller asks for force.pc_damping times the speed against the motion (its bound's test does not wrap)",
+	  "[energy][passivity]")
+{
+	// the bound's test multiplies -D by the tick rate and 1000: at 50 kHz a D of -0.369 J makes that
+	// 2^64 and a little, which, wrapped, would pick the unbounded alpha (2000 N s/m here, force.max at
+	// 3 m/s) instead of the bound's 100 N s/m (300 N)
+	swell_ctl_config cfg = pool();
+	cfg.tick_hz = cfg.safety.tick_hz = 50000;
+	cfg.solver_hz = 250;
+	cfg.pc_damping_uN_per_mm_s = 100000; // 100 N s/m
+	cfg.safety.f_max_uN = 1000000000u; // 1000 N
+	Ctl c(cfg);
+	int32_t x[3] = {0, 0, 10000}, v[3] = {0, 0, 0};
+	for (int n = 0; n < 20; n++) {
+		c.sample(x, v);
+		c.tick();
+	}
+	REQUIRE(c.c.state == SWELL_CTL_RUNNING);
+	for (int32_t speed : {3000000, -3000000, 100, -100}) {
+		v[2] = speed;
+		c.sample(x, v);
+		c.c.energy.balance_pJ = -368934881475; // ceil(2^64 / (50000 x 1000)) pJ
+		swell_ctl_tick_force(&c.c);
+		const double want = -100.0 * speed; // -b_max v: uN per um/s times um/s
+		INFO("v " << speed << " um/s: controller " << c.c.energy.pc_uN[2] << " uN, want " << want);
+		CHECK(std::fabs(c.c.energy.pc_uN[2] - want) <= std::fabs(want) * 1e-4 + 1.0);
+		swell_ctl_tick_background(&c.c);
+		swell_msg out[SWELL_CTL_QUEUE];
+		swell_ctl_tx(&c.c, SWELL_LINK_DEVICE, out, SWELL_CTL_QUEUE);
+		swell_ctl_tx(&c.c, SWELL_LINK_HOST, out, SWELL_CTL_QUEUE);
+	}
+}
+
+TEST_CASE("energy: with force.pc_delay set to the link's delay, W is the work of the force the device applied "
+	  "over its motion, to the picojoule, and with 0 behind the same delay it is not",
+	  "[energy][loop]")
+{
+	// the 200 mm box without its damper behind 6 ticks: its force changes on most ticks, so that a
+	// force paired with the wrong tick's motion shows. The test sums what the device held (the cN it
+	// was sent, 6 ticks late) times the wire's position steps, from 1 s into the run to 3 s
+	for (int told = 0; told <= 1; told++) {
+		swell_ctl_config cfg = pool();
+		cfg.body.a_um = cfg.body.b_um = 200000;
+		cfg.body.damper_uN_per_mm_s = 0;
+		cfg.safety.rate_uN_per_s = 2000000000u;
+		cfg.pc_delay = (uint8_t)(told ? 6 : 0);
+		Loop l(cfg, "drop:z=2,hold=0.5", 6);
+		l.run(1.0);
+		REQUIRE(l.ctl.c.state == SWELL_CTL_RUNNING);
+		const int64_t w0 = l.ctl.c.energy.work_pJ, p0 = l.port_work_pJ;
+		l.run(2.0);
+		const int64_t w = l.ctl.c.energy.work_pJ - w0, port = l.port_work_pJ - p0;
+		INFO("force.pc_delay " << (int)cfg.pc_delay << ": W " << w << " pJ, the device's port " << port << " pJ");
+		REQUIRE(port != 0);
+		if (told)
+			CHECK(w == port);
+		else
+			CHECK(std::llabs(w - port) > 1000000); // more than a microjoule apart
+	}
+}
+
 TEST_CASE("passivity: on random device traffic every FORCE_CMD stays within force.max and moves by at most "
-	  "force.rate a tick, with the controller acting",
+	  "force.rate a tick, and the controller's force within force.pc_damping times the speed, with the controller "
+	  "acting",
 	  "[energy][passivity][safety]")
 {
 	std::mt19937 rng(7);
@@ -421,7 +500,7 @@ TEST_CASE("passivity: on random device traffic every FORCE_CMD stays within forc
 		const int32_t step = (int32_t)(cfg.safety.rate_uN_per_s / cfg.tick_hz), lim = (int32_t)cfg.safety.f_max_uN;
 		int32_t x[3] = {0, 0, 5000}, v[3] = {0, 0, 0}, f_last = 0;
 		std::uniform_int_distribution<int32_t> dz(-60, 40), dxy(-50, 50), gain(-3, 1);
-		int violations = 0;
+		int violations = 0, over_bound = 0;
 		for (int n = 0; n < 20000; n++) {
 			const int32_t step_z = dz(rng);
 			x[0] += dxy(rng);
@@ -433,12 +512,16 @@ TEST_CASE("passivity: on random device traffic every FORCE_CMD stays within forc
 			const swell_msg_force_cmd f = c.tick();
 			const int32_t uN = f.fz_cN * 10000;
 			violations += std::abs(uN) > lim || (n > 20 && std::abs(uN - f_last) > step + 5000);
+			// the controller's own force: never more than force.pc_damping times the speed reported
+			over_bound += std::fabs((double)c.c.energy.pc_uN[2]) >
+				cfg.pc_damping_uN_per_mm_s / 1000.0 * std::fabs((double)v[2]) + 1.0;
 			f_last = uN;
 		}
 		const swell_energy_account e = c.energy();
 		INFO("run " << run << ": the controller acted on " << e.controller_ticks << " ticks");
 		CHECK(e.controller_ticks > 100);
 		CHECK(violations == 0);
+		CHECK(over_bound == 0);
 	}
 }
 

@@ -94,12 +94,12 @@ TEST_CASE("a parameter set to a new value inside its range reads back that value
 	struct {
 		const char *name;
 		int32_t v;
-	} sets[] = {{"wave.e", 200000000},    {"wave.damping", 2000000}, {"wave.stencil", 1},   {"body.mass", 80},
-		    {"body.a", 40000},        {"body.b", 30000},         {"body.h", 20000},     {"body.damper", 3000},
-		    {"force.max", 5000000},   {"force.rate", 100000000}, {"force.gain", 32768}, {"force.mode", 1},
-		    {"link.silent_ticks", 5}, {"ctl.autorun", 1},        {"frame.x0", 150000},  {"frame.y0", 250000},
-		    {"frame.z0", -20000},     {"frame.axes", 213},       {"frame.flip", 3},     {"hm.inertia", 3000},
-		    {"force.passivity", 1}};
+	} sets[] = {{"wave.e", 200000000},    {"wave.damping", 2000000}, {"wave.stencil", 1},        {"body.mass", 80},
+		    {"body.a", 40000},        {"body.b", 30000},         {"body.h", 20000},          {"body.damper", 3000},
+		    {"force.max", 5000000},   {"force.rate", 100000000}, {"force.gain", 32768},      {"force.mode", 1},
+		    {"link.silent_ticks", 5}, {"ctl.autorun", 1},        {"frame.x0", 150000},       {"frame.y0", 250000},
+		    {"frame.z0", -20000},     {"frame.axes", 213},       {"frame.flip", 3},          {"hm.inertia", 3000},
+		    {"force.passivity", 0},   {"force.pc_delay", 3},     {"force.pc_damping", 20000}};
 	size_t n = 0, rw = 0;
 	const swell_param_desc *t = swell_param_table(&n);
 	for (size_t i = 0; i < n; i++)
@@ -119,7 +119,9 @@ TEST_CASE("a parameter set to a new value inside its range reads back that value
 	CHECK(k.c.cfg.body.mass_g == 80u);
 	CHECK(k.c.cfg.wave.stencil == SWELL_STENCIL_CALIBRATED);
 	CHECK(k.c.cfg.silent_ticks == 5);
-	CHECK(k.c.cfg.passivity == 1);
+	CHECK(k.c.cfg.passivity == 0);
+	CHECK(k.c.cfg.pc_delay == 3);
+	CHECK(k.c.cfg.pc_damping_uN_per_mm_s == 20000u);
 	Core k2;
 	int32_t v = 0;
 	REQUIRE(k2.ask(SWELL_MSG_PARAM_SET, SWELL_PARAM_FRAME_SCALE, 131072, &v) == SWELL_OK);

@@ -3,11 +3,13 @@
 #include "swell_test.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <string>
 
 extern "C" {
 #include "loop.h"
+#include "swell/param_table.h"
 }
 
 namespace {
@@ -84,6 +86,55 @@ TEST_CASE("loop: a stiff point with 4 ticks of delay and no passivity controller
 	CHECK(r.ctl_damped_J > 0);
 }
 
+TEST_CASE("loop: with the passivity controller at its own bound the stiffest point behind 4 ticks settles and "
+	  "creates at most 1 mJ at the device port and in the controller's account, and with force.pc_damping at "
+	  "1000 N s/m, beyond what a damping behind the delay keeps stable on the device, it diverges",
+	  "[bench][loop][passivity]")
+{
+	loop_point p = point(0, 64, 4);
+	p.passivity = 1;
+	loop_result r{};
+	loop_run(&p, &r);
+	INFO("default bound: " << loop_class_name(r.cls) << ", created " << r.e_created_max_J * 1e3 << " mJ, controller "
+			       << r.ctl_created_J * 1e3 << " mJ, damped " << r.ctl_damped_J * 1e3 << " mJ");
+	CHECK(r.cls == LOOP_STABLE);
+	CHECK(r.e_created_max_J <= 1e-3);
+	CHECK(r.ctl_created_J <= 1e-3);
+	CHECK(r.ctl_damped_J > 0);
+
+	p.pc_damping_Ns_m = 1000;
+	loop_run(&p, &r);
+	INFO("1000 N s/m: " << loop_class_name(r.cls) << ", created " << r.e_created_max_J * 1e3 << " mJ");
+	CHECK(r.cls == LOOP_DIVERGENT);
+	CHECK(r.e_created_max_J > 1e-3);
+}
+
+TEST_CASE("swell-bench loop: the quick map's stream points with the passivity controller all create at most 1 mJ "
+	  "(the summary's ratio 1.000), while without it the active region shows (divergent points)",
+	  "[bench][loop][passivity]")
+{
+	char t[] = "/tmp/swell-bench-loop-XXXXXX";
+	REQUIRE(mkdtemp(t) != nullptr);
+	const std::string dir = t;
+	const swell_test::Run r = swell_test::run(
+		{SWELL_BENCH_BIN, "loop", "--quick", "--modes", "stream", "--no-plots", "--no-bisect", "--out", dir});
+	INFO(r.out << r.err);
+	REQUIRE(r.code == 0);
+	int without[4] = {0, 0, 0, 0}, within = -1, of = -1;
+	const size_t a = r.out.find("without the passivity controller: ");
+	const size_t b = r.out.find("passive with the controller: ");
+	REQUIRE(a != std::string::npos);
+	REQUIRE(b != std::string::npos);
+	REQUIRE(std::sscanf(r.out.c_str() + a, "without the passivity controller: %d / %d / %d / %d", &without[0], &without[1],
+			    &without[2], &without[3]) == 4);
+	REQUIRE(std::sscanf(r.out.c_str() + b, "passive with the controller: %d of %d", &within, &of) == 2);
+	CHECK(of == 25);
+	CHECK(within == of);
+	CHECK(r.out.find("(ratio 1.000)") != std::string::npos);
+	CHECK(without[2] > 0);
+	CHECK(std::system(("rm -rf '" + dir + "'").c_str()) == 0);
+}
+
 TEST_CASE("loop: effect mode refuses a spring stiffer than EFFECT_SPRING carries instead of rendering a softer one",
 	  "[bench][loop]")
 {
@@ -127,6 +178,28 @@ TEST_CASE("loop theory: Schur-Cohn counts roots against the unit circle, and the
 			last = kc;
 		}
 	}
+}
+
+TEST_CASE("loop theory: a damping behind d ticks on the device is stable up to 2 m / T - b without delay and "
+	  "about pi m / (2 (d + 1/2) T) with it, and force.pc_damping's default is below a third of that for the lightest "
+	  "device (0.5 kg) up to 4 ticks at 1000 Hz",
+	  "[bench][loop][theory][passivity]")
+{
+	for (double rate : {1000.0, 2500.0})
+		for (double m : {0.5, 2.0, 4.0}) {
+			const double T = 1.0 / rate, b = 0.5;
+			CHECK(loop_theory_b_crit(m, b, 0, T, 1e6) == Approx(2 * m / T - b).epsilon(1e-6));
+			double last = INFINITY;
+			for (int d = 1; d <= 8; d++) {
+				const double bc = loop_theory_b_crit(m, b, d, T, 1e6), approx = M_PI * m / (2 * (d + 0.5) * T);
+				INFO(rate << " Hz, " << m << " kg, d " << d << ": B_crit " << bc
+					  << " N s/m, pi m / (2 (d + 1/2) T) " << approx);
+				CHECK(bc < last);
+				CHECK(std::fabs(bc / approx - 1) < 0.06);
+				last = bc;
+			}
+		}
+	CHECK(3 * SWELL_PARAM_DEF_FORCE_PC_DAMPING / 1000.0 < loop_theory_b_crit(0.5, 0.5, 4, 1e-3, 1e6));
 }
 
 TEST_CASE("swell-bench loop: the same map twice (two threads) gives the same loop.csv, byte for byte", "[bench][loop]")

@@ -66,6 +66,8 @@ struct swell_ctl_config {
 	uint8_t frame_flip; /* bit k: sign[k] is -1 */
 	uint32_t hm_inertia_g; /* hm.inertia: a HapticMaster link's port sets the device to it, 0: not */
 	uint8_t passivity; /* force.passivity: 1 the time-domain passivity controller acts, 0 it only observes */
+	uint8_t pc_delay; /* force.pc_delay: the link's command delay in ticks the account pairs forces with, 0 .. 7 */
+	uint32_t pc_damping_uN_per_mm_s; /* force.pc_damping: the passivity controller's damping at most */
 	/* set by a port that keeps the water's energy in the account (a pass over the field at each solver
 	 * step's end, in the background part; docs/energy.md): 0 leaves it out of S and D on every port */
 	uint8_t energy_water;
@@ -88,6 +90,7 @@ struct swell_ctl_counters {
 /* The energy account's sums (ctl_energy.c), in picojoules (uN x um), saturating: an int64 holds
  * +-9.2e6 J, a 10-minute run at 2500 Hz with 1000 N and 1 m/s on every axis stays below 2e15. The
  * force part keeps the tick's position and adds the controller's force; the background part counts. */
+#define SWELL_CTL_PC_RING 8 /* force.pc_delay + 1 at most, a power of two */
 struct swell_ctl_energy_sums {
 	int64_t work_pJ; /* W */
 	int64_t stored0_pJ, stored_pJ; /* S(0), S(n) */
@@ -96,13 +99,17 @@ struct swell_ctl_energy_sums {
 	int64_t water_pJ, water0_pJ; /* the water's share of S(n) and S(0) (energy_water) */
 	int32_t pos_now_um[3]; /* the device position the force part used */
 	int32_t pos_um[3]; /* the device position of the last tick counted */
-	int32_t force_uN[3]; /* the force commanded on it (after the safety stage, the wire's cN) */
+	int32_t force_uN[3]; /* the force commanded on the last tick (after the safety stage, the wire's cN) */
 	int32_t pc_uN[3]; /* the controller's force this tick (asked for, before the safety stage) */
-	int32_t pc_held_uN[3]; /* and on the last tick counted */
+	/* along the force law's axis, the last SWELL_CTL_PC_RING ticks, newest at ring_head: the force sent
+	 * (the wire's cN) and the controller's part of it (cN, nearest, within the wire's 250 N); the device
+	 * applies the one force.pc_delay ticks old */
+	int16_t ring_cN[SWELL_CTL_PC_RING], pc_ring_cN[SWELL_CTL_PC_RING];
 	uint32_t ticks, controller_ticks;
 	uint8_t running; /* a run is being counted */
 	uint8_t fresh; /* its first tick: S(0) to take */
 	uint8_t acted; /* the controller acted since the last ENERGY message */
+	uint8_t ring_head; /* the newest slot of ring_cN and pc_ring_cN */
 };
 
 struct swell_ctl {
