@@ -108,11 +108,38 @@ static size_t send_usb(const struct swell_msg *m, size_t n)
 	return sent;
 }
 
+/* The first `sent` pending host messages went out: the rest moves up. */
+static void host_sent(size_t sent)
+{
+	for (size_t j = sent; j < app.host_pend_n; j++)
+		app.host_pend[j - sent] = app.host_pend[j];
+	app.host_pend_n -= (uint32_t)sent;
+}
+
+/* Device on USB: the host link is on the same IN endpoint, which holds one packet until the host has
+ * read it. The tick's device messages go first in that packet and the host's pending messages fill
+ * what is left of it; sent alone, the device's packet took the endpoint at every tick (a FORCE_CMD
+ * each tick) and the host's answers never went out. What does not fit is dropped for the device (the
+ * next tick sends fresh ones) and stays pending for the host. Both from the tick interrupt. */
+static void send_usb_with_host(const struct swell_msg *m, size_t n)
+{
+	struct swell_msg all[SWELL_PKT_MSGS_MAX];
+	size_t nd = n < SWELL_PKT_MSGS_MAX ? n : SWELL_PKT_MSGS_MAX, nh = 0, sent;
+
+	for (size_t j = 0; j < nd; j++)
+		all[j] = m[j];
+	for (; nd + nh < SWELL_PKT_MSGS_MAX && nh < app.host_pend_n; nh++)
+		all[nd + nh] = app.host_pend[nh];
+	sent = send_usb(all, nd + nh);
+	if (sent > nd)
+		host_sent(sent - nd);
+}
+
 /* The device link's messages: what the carrier refuses is dropped (the next tick sends fresh ones). */
 static void send_on(int on_can, const struct swell_msg *m, size_t n)
 {
 	if (!on_can)
-		(void)send_usb(m, n);
+		send_usb_with_host(m, n);
 	else
 		for (size_t j = 0; j < n; j++)
 			if (send_can(&m[j]) != SWELL_OK && m[j].type == SWELL_MSG_FORCE_CMD)
@@ -177,9 +204,7 @@ static void host_flush(int on_can)
 			    can_send(&f) != SWELL_OK)
 				break;
 		}
-	for (size_t j = sent; j < app.host_pend_n; j++)
-		app.host_pend[j - sent] = app.host_pend[j];
-	app.host_pend_n -= (uint32_t)sent;
+	host_sent(sent);
 }
 
 /* Room for one more pending message: a full buffer gives up its oldest telemetry. 0 when it holds
