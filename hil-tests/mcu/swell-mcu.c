@@ -1,7 +1,9 @@
 /* swell-mcu: the emulated STM32F405 running the product image (docs/stm32f405-emulator.md). */
 #define _GNU_SOURCE
 #include <errno.h>
+#include <fcntl.h>
 #include <poll.h>
+#include <signal.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/socket.h>
@@ -17,9 +19,9 @@
 
 static const char usage[] =
 	"usage: swell-mcu --image ELF [--seconds S] [--console FILE] [--cpi C] [--hse-hz HZ]\n"
-	"                 [--hse-delay-us US] [--trace-irq FILE] [--can-tunnel PATH [--no-hello]\n"
-	"                 [--paced-by-device MS]] [--tx-log FILE]\n"
-	"                 [--report FILE] [--no-can] [--usb] [--usb-tunnel PATH] [--stop-tim2 S]\n"
+	"                 [--hse-delay-us US] [--trace-irq FILE] [--can-tunnel PATH [--no-hello]]\n"
+	"                 [--paced-by-device MS] [--tx-log FILE] [--report FILE] [--no-can] [--usb]\n"
+	"                 [--usb-tunnel PATH [--usb-replug]] [--stop-tim2 S]\n"
 	"                 [--on-reset end|restart] [--quiet]\n"
 	"Runs the STM32F405 image ELF (the product image, swell-fw.elf, unmodified) on an emulated\n"
 	"Cortex-M4 (unicorn) with register-level models of the peripherals it uses, in virtual time:\n"
@@ -46,12 +48,15 @@ static const char usage[] =
 	"                     A frame of extended id 0x1F05B0FF from the peer is no frame: it puts CAN1\n"
 	"                     bus-off when its turn comes (the HIL scenarios' bus-off, run-scenario f405-can)\n"
 	"  --no-hello         with --can-tunnel: start at once, without waiting for the peer's first frame\n"
-	"  --paced-by-device MS  with --can-tunnel: the device clocks virtual time instead of the wall\n"
-	"                     clock: before each TIM2 tick it waits until a DEVICE_POS came from the peer\n"
-	"                     since the tick before (a device in lockstep, swell-hm --lockstep, sends the\n"
-	"                     next one when the tick's FORCE_CMD reaches it), at most MS of wall time; a\n"
-	"                     wait that runs out means the device is gone: wall-time pacing until its next\n"
-	"                     sample, so the image's silence limit counts ticks as on silicon (0: off)\n"
+	"  --paced-by-device MS  with --can-tunnel or --usb-tunnel: the device clocks virtual time instead\n"
+	"                     of the wall clock: before each TIM2 tick it waits until the device's sample\n"
+	"                     came since the tick before (CAN: a DEVICE_POS from the peer, 0.6 ms ahead of\n"
+	"                     the tick; USB: bulk OUT data from the host, 0.1 ms ahead: a quarter of the\n"
+	"                     2500 Hz tick the image runs with its device on USB; a device in lockstep,\n"
+	"                     swell-hm --lockstep, sends the next one when the tick's FORCE_CMD reaches it),\n"
+	"                     at most MS of wall time; a wait that runs out means the device is gone:\n"
+	"                     wall-time pacing until its next sample, so the image's silence limit counts\n"
+	"                     ticks as on silicon (0: off)\n"
 	"  --quiet            no summary on stderr\n"
 	"  --tx-log FILE      every frame CAN1 sent: 'T_NS ID DLC DATA' (virtual ns of its EOF, hex id and\n"
 	"                     bytes)\n"
@@ -64,6 +69,11 @@ static const char usage[] =
 	"  --usb-tunnel PATH  the OTG FS model behind a USB/IP server: listens on the Unix socket PATH, takes\n"
 	"                     one connection (hil-tests/vm/run-vm --usb-tunnel PATH), address 3; paced to\n"
 	"                     wall time as with --can-tunnel; ends when the host lets go\n"
+	"  --usb-replug       with --usb-tunnel: a host that lets go (closes the connection, or breaks the\n"
+	"                     protocol, as swell-vm-usbip-bridge's unplug does) pulls the cable instead of\n"
+	"                     ending the run: the MCU runs on and the next connection (QEMU's socket\n"
+	"                     chardev dials again) plugs the device in again; SIGTERM or SIGINT ends the\n"
+	"                     run with its summary\n"
 	"  --stop-tim2 S      fault injection: TIM2's counter stops at S virtual seconds, until the next\n"
 	"                     reset (the image's tick stops: its watchdog must bite)\n"
 	"  --on-reset end|restart  a reset (the watchdog's, or one the image requests) ends the run (end,\n"
@@ -77,7 +87,7 @@ static const char usage[] =
 
 struct opts {
 	const char *image, *console, *trace_irq, *tunnel, *tx_log, *report, *usb_tunnel;
-	int no_can, usb, on_reset, no_hello;
+	int no_can, usb, on_reset, no_hello, usb_replug;
 	double stop_tim2, device_ms;
 	double seconds, cpi;
 	uint32_t hse_hz, hse_delay_us;
@@ -106,6 +116,16 @@ static double host_seconds(void)
 /* --paced-by-device: virtual time waits this long before a tick for the device's sample (its frames
  * then take about 350 us on the bus, and the RX interrupt runs before the tick) */
 #define DEVICE_LEAD_S 0.0006
+/* over USB the sample is in the receive FIFO once its OUT is acknowledged: the OTG interrupt runs
+ * before the tick within a quarter of the 2500 Hz tick, and the tick before has sent its FORCE_CMD */
+#define DEVICE_LEAD_USB_S 0.0001
+
+static volatile sig_atomic_t stop_signal; /* --usb-replug: SIGTERM or SIGINT ends the run */
+
+static void on_stop_signal(int sig)
+{
+	stop_signal = sig;
+}
 
 struct tunnel {
 	int fd;
@@ -126,6 +146,10 @@ struct tunnel {
 	FILE *log; /* --tx-log */
 	struct mcu_usb_dev *usb; /* --usb-tunnel: the USB/IP server's device (NULL: none) */
 	int usb_fd;
+	int usb_lfd; /* --usb-replug: the listening socket the next connection comes on (-1: none) */
+	const char *usb_path;
+	uint32_t usb_out_seen; /* the server's bulk OUT bytes at the last look: more is a device sample */
+	uint64_t unplugs;
 	/* --paced-by-device: before each TIM2 tick virtual time waits (at most device_s of wall time)
 	 * until a DEVICE_POS came from the peer since the last tick; a wait that runs out means the device
 	 * is gone (lost): wall-time pacing until its next sample */
@@ -135,8 +159,9 @@ struct tunnel {
 	int sample, lost;
 };
 
-/* Listen on the Unix stream socket PATH and take one connection; the connected fd, or -1. */
-static int listen_one(const char *opt, const char *path)
+/* Listen on the Unix stream socket PATH and take one connection; the connected fd, or -1. keep: NULL,
+ * or where the listening socket stays open (non-blocking) for the next connection. */
+static int listen_one(const char *opt, const char *path, int *keep)
 {
 	struct sockaddr_un a = { .sun_family = AF_UNIX };
 	struct stat st;
@@ -163,8 +188,13 @@ static int listen_one(const char *opt, const char *path)
 	}
 	fprintf(stderr, "swell-mcu: %s: listening on %s\n", opt, path);
 	fd = accept(lfd, NULL, NULL);
-	close(lfd);
-	unlink(path);
+	if (keep && fd >= 0) {
+		*keep = lfd;
+		(void)fcntl(lfd, F_SETFL, fcntl(lfd, F_GETFL) | O_NONBLOCK);
+	} else {
+		close(lfd);
+		unlink(path);
+	}
 	if (fd < 0)
 		fprintf(stderr, "swell-mcu: %s %s: accept: %s\n", opt, path, strerror(errno));
 	else
@@ -290,8 +320,20 @@ static int wait_hello(struct tunnel *t)
 	return 0;
 }
 
-/* --paced-by-device, before a tick: read the tunnel until the device's sample has come or device_s of
- * wall time passed (then lost). -1 when the peer left. */
+/* The USB device's sample: bulk OUT data the server handed the model since the last look (the host
+ * link's requests share the endpoint: one of those counts as well). */
+static void usb_sample(struct tunnel *t)
+{
+	if (t->usb->srv.stats.bytes_out != t->usb_out_seen) {
+		t->usb_out_seen = t->usb->srv.stats.bytes_out;
+		t->sample = 1, t->lost = 0;
+	}
+}
+
+static int usb_step(struct mcu *m, struct tunnel *t);
+
+/* --paced-by-device, before a tick: read the tunnel (and step the USB server) until the device's
+ * sample has come or device_s of wall time passed (then lost). -1 when the peer left. */
 static int device_wait(struct mcu *m, struct tunnel *t)
 {
 	const double end = host_seconds() + t->device_s;
@@ -299,24 +341,75 @@ static int device_wait(struct mcu *m, struct tunnel *t)
 	t->waits++;
 	while (!t->sample) {
 		const double left = end - host_seconds();
-		struct pollfd p = { t->fd, POLLIN, 0 };
+		struct pollfd p[2] = { { t->fd, POLLIN, 0 }, { t->usb_fd, POLLIN, 0 } };
 		struct timespec ts = { 0, 0 };
 		int r;
 
-		if (left <= 0 || t->q_head - t->q_tail >= TUNNEL_QUEUE) {
+		if (t->usb && t->usb_fd >= 0) {
+			if (usb_step(m, t) != 0)
+				return -1;
+			if (t->sample)
+				break;
+			if (usbip_server_wants_write(&t->usb->srv))
+				p[1].events |= POLLOUT;
+		}
+		if (left <= 0 || stop_signal || (t->fd < 0 && t->usb_fd < 0) || t->q_head - t->q_tail >= TUNNEL_QUEUE) {
 			t->lost = 1;
 			t->waited_out++;
 			return 0;
 		}
-		ts.tv_sec = (time_t)left;
-		ts.tv_nsec = (long)((left - (double)ts.tv_sec) * 1e9);
-		r = ppoll(&p, 1, &ts, NULL);
+		/* USB: a NAKed transfer is retried at the next step, 1 ms at most apart */
+		if (t->usb && left > 0.001) {
+			ts.tv_nsec = 1000000;
+		} else {
+			ts.tv_sec = (time_t)left;
+			ts.tv_nsec = (long)((left - (double)ts.tv_sec) * 1e9);
+		}
+		r = ppoll(p, 2, &ts, NULL);
 		if (r < 0 && errno != EINTR)
 			return -1;
-		if (r > 0 && tunnel_read(m, t) != 0)
+		if (r > 0 && t->fd >= 0 && (p[0].revents & (POLLIN | POLLHUP | POLLERR)) && tunnel_read(m, t) != 0)
 			return -1;
 	}
 	return 0;
+}
+
+/* A step of the USB/IP server and its interrupt line; the device's sample noted. The host letting go
+ * ends the run (-1), or with --usb-replug pulls the cable: the fd closed, the next connection awaited
+ * on the listening socket. */
+static int usb_step(struct mcu *m, struct tunnel *t)
+{
+	enum usbip_step st;
+
+	if (t->usb_fd < 0)
+		return 0;
+	st = mcu_usb_step(m, t->usb);
+	usb_sample(t);
+	if (st != USBIP_CLOSED)
+		return 0;
+	fprintf(stderr, "swell-mcu: USB tunnel: the host let go at %.6f s virtual (%s)%s\n", mcu_seconds(m->now),
+		t->usb->srv.error ? t->usb->srv.error : "closed",
+		t->usb_lfd >= 0 ? ": the cable is out until the next connection" : "");
+	if (t->usb_lfd < 0)
+		return -1;
+	close(t->usb_fd);
+	t->usb_fd = -1;
+	t->unplugs++;
+	return 0;
+}
+
+/* --usb-replug: a connection waiting on the listening socket plugs the device in again. */
+static void usb_replug(struct mcu *m, struct tunnel *t)
+{
+	int fd = accept(t->usb_lfd, NULL, NULL);
+
+	if (fd < 0)
+		return;
+	fprintf(stderr, "swell-mcu: USB tunnel: a host connected at %.6f s virtual: plugged in again\n",
+		mcu_seconds(m->now));
+	t->usb_fd = fd;
+	mcu_usb_serve(t->usb, fd, USB_ADDRESS);
+	t->usb_out_seen = t->usb->srv.stats.bytes_out;
 }
 
 /* The run's I/O hook with a tunnel: frames and USB/IP traffic in and out, virtual time held back to
@@ -325,14 +418,17 @@ static int tunnel_hook(struct mcu *m, void *ctx)
 {
 	struct tunnel *t = ctx;
 
-	if (t->device_s > 0 && t->tim2 && t->fd >= 0) {
+	if (stop_signal)
+		return -1;
+	if (t->device_s > 0 && t->tim2 && (t->fd >= 0 || t->usb)) {
 		const uint64_t u = t->tim2->next_event(m, t->tim2->ctx);
+		const double lead = t->fd >= 0 ? DEVICE_LEAD_S : DEVICE_LEAD_USB_S;
 
 		if (u != t->tick_at) { /* a tick began: the next one waits for the next sample */
 			t->tick_at = u;
 			t->sample = 0;
 		}
-		if (!t->lost && u != MCU_NEVER && !t->sample && mcu_seconds(u - m->now) <= DEVICE_LEAD_S &&
+		if (!t->lost && u != MCU_NEVER && !t->sample && mcu_seconds(u - m->now) <= lead &&
 		    device_wait(m, t) != 0)
 			return -1;
 		if (!t->lost) /* the device clocks: no wall-time pacing, and none to make up after */
@@ -340,25 +436,20 @@ static int tunnel_hook(struct mcu *m, void *ctx)
 	}
 	for (;;) {
 		double ahead = mcu_seconds(m->now) - (host_seconds() - t->wall0);
-		struct pollfd p[2] = { { t->fd, POLLIN, 0 }, { t->usb_fd, POLLIN, 0 } };
+		struct pollfd p[3] = { { t->fd, POLLIN, 0 }, { t->usb_fd, POLLIN, 0 }, { -1, POLLIN, 0 } };
 		struct timespec ts = { 0, 0 };
 		int r;
 
-		if (t->closed)
+		if (t->closed || stop_signal)
 			return -1;
 		if (t->fd >= 0)
 			tunnel_deliver(m, t);
-		if (t->usb) {
-			enum usbip_step st = mcu_usb_step(m, t->usb);
-
-			if (st == USBIP_CLOSED) {
-				fprintf(stderr, "swell-mcu: USB tunnel: the host let go at %.6f s virtual (%s)\n",
-					mcu_seconds(m->now), t->usb->srv.error ? t->usb->srv.error : "closed");
-				return -1;
-			}
-			if (usbip_server_wants_write(&t->usb->srv))
-				p[1].events |= POLLOUT;
-		}
+		if (t->usb && usb_step(m, t) != 0)
+			return -1;
+		if (t->usb && t->usb_fd >= 0 && usbip_server_wants_write(&t->usb->srv))
+			p[1].events |= POLLOUT;
+		if (t->usb && t->usb_fd < 0)
+			p[2].fd = t->usb_lfd; /* unplugged: the next connection wakes the sleep */
 		if (-ahead > MAX_LAG_S) {
 			t->wall0 += -ahead;
 			t->behind_s += -ahead;
@@ -371,7 +462,7 @@ static int tunnel_hook(struct mcu *m, void *ctx)
 		}
 		if (t->q_head - t->q_tail >= TUNNEL_QUEUE)
 			p[0].events = 0; /* the queue is full: the socket waits */
-		r = ppoll(p, 2, &ts, NULL);
+		r = ppoll(p, 3, &ts, NULL);
 		if (r < 0 && errno != EINTR)
 			return MCU_EXIT_ERROR;
 		if (r <= 0) {
@@ -381,6 +472,8 @@ static int tunnel_hook(struct mcu *m, void *ctx)
 		}
 		if (t->fd >= 0 && (p[0].revents & (POLLIN | POLLHUP | POLLERR)) && tunnel_read(m, t) != 0)
 			return -1;
+		if (p[2].revents & POLLIN)
+			usb_replug(m, t);
 		if (ahead <= 0 && !(p[0].revents & POLLIN))
 			return 0; /* the USB side is stepped at the next hook */
 	}
@@ -496,8 +589,9 @@ static int run(const struct opts *o, struct world *w)
 		return MCU_EXIT_ERROR;
 	}
 	if (o->usb_tunnel) {
-		if ((t->usb_fd = listen_one("--usb-tunnel", o->usb_tunnel)) < 0)
+		if ((t->usb_fd = listen_one("--usb-tunnel", o->usb_tunnel, o->usb_replug ? &t->usb_lfd : NULL)) < 0)
 			return MCU_EXIT_ERROR;
+		t->usb_path = o->usb_tunnel;
 		mcu_usb_serve(&w->usb, t->usb_fd, USB_ADDRESS);
 		t->usb = &w->usb;
 	}
@@ -509,7 +603,7 @@ static int run(const struct opts *o, struct world *w)
 	if (o->tunnel) {
 		const int sndbuf = TUNNEL_SNDBUF;
 
-		if ((t->fd = listen_one("--can-tunnel", o->tunnel)) < 0)
+		if ((t->fd = listen_one("--can-tunnel", o->tunnel, NULL)) < 0)
 			return MCU_EXIT_ERROR;
 		(void)setsockopt(t->fd, SOL_SOCKET, SO_SNDBUF, &sndbuf, sizeof(sndbuf));
 		if (!o->no_hello && wait_hello(t) != 0)
@@ -535,7 +629,7 @@ static int run(const struct opts *o, struct world *w)
 			"swell-mcu: paced to the wall clock: virtual time fell behind it by %.1f ms in all, in %llu "
 			"stretches over %.0f ms\n",
 			1e3 * t->behind_s, (unsigned long long)t->lag_events, 1e3 * MAX_LAG_S);
-	if (o->tunnel && t->device_s > 0 && !o->quiet)
+	if ((o->tunnel || o->usb_tunnel) && t->device_s > 0 && !o->quiet)
 		fprintf(stderr,
 			"swell-mcu: paced by the device: %llu ticks waited for its sample, %llu waits ran out "
 			"(%.0f ms: the device gone, wall-time pacing until it came back)\n",
@@ -546,6 +640,10 @@ static int run(const struct opts *o, struct world *w)
 			"out\n",
 			w->usb.srv.stats.submits, w->usb.srv.stats.ret_submits, w->usb.srv.stats.errors,
 			w->usb.srv.stats.bytes_in, w->usb.srv.stats.bytes_out);
+	if (o->usb_replug && !o->quiet)
+		fprintf(stderr,
+			"swell-mcu: USB tunnel: the cable pulled %llu times (the counts above: the last connection)\n",
+			(unsigned long long)t->unplugs);
 	if (o->report && write_report(o->report, m, t, rc) != 0 && rc == MCU_EXIT_OK)
 		rc = MCU_EXIT_ERROR;
 	return rc;
@@ -570,6 +668,7 @@ int main(int argc, char **argv)
 		SWELL_CLI_FLAG("--no-can", o.no_can),
 		SWELL_CLI_FLAG("--usb", o.usb),
 		SWELL_CLI_STR("--usb-tunnel", o.usb_tunnel),
+		SWELL_CLI_FLAG("--usb-replug", o.usb_replug),
 		SWELL_CLI_NUM("--stop-tim2", o.stop_tim2, 0, 86400, "s"),
 		SWELL_CLI_CHOICE("--on-reset", o.on_reset, "end|restart"),
 		SWELL_CLI_FLAG("--quiet", o.quiet),
@@ -586,16 +685,26 @@ int main(int argc, char **argv)
 			      (unsigned long long)MCU_TIME_HZ);
 	if (o.no_can && (o.tunnel || o.tx_log))
 		swell_cli_die("swell-mcu", "--no-can leaves no CAN1 for --can-tunnel or --tx-log");
+	if (o.usb_replug && !o.usb_tunnel)
+		swell_cli_die("swell-mcu", "--usb-replug needs --usb-tunnel");
+	if (o.usb_replug) {
+		signal(SIGTERM, on_stop_signal);
+		signal(SIGINT, on_stop_signal);
+	}
 	w = calloc(1, sizeof(*w));
 	if (!w)
 		return MCU_EXIT_ERROR;
 	w->con = stdout;
-	w->t.fd = w->t.usb_fd = -1;
+	w->t.fd = w->t.usb_fd = w->t.usb_lfd = -1;
 	rc = run(&o, w);
 	if (w->t.fd >= 0)
 		close(w->t.fd);
 	if (w->t.usb_fd >= 0)
 		close(w->t.usb_fd);
+	if (w->t.usb_lfd >= 0) {
+		close(w->t.usb_lfd);
+		unlink(w->t.usb_path);
+	}
 	if (w->t.log)
 		fclose(w->t.log);
 	if (w->con && w->con != stdout)
