@@ -472,7 +472,7 @@ static int tunnel_hook(struct mcu *m, void *ctx)
 		}
 		if (t->fd >= 0 && (p[0].revents & (POLLIN | POLLHUP | POLLERR)) && tunnel_read(m, t) != 0)
 			return -1;
-		if (p[2].revents & POLLIN)
+		if (t->usb && (p[2].revents & POLLIN))
 			usb_replug(m, t);
 		if (ahead <= 0 && !(p[0].revents & POLLIN))
 			return 0; /* the USB side is stepped at the next hook */
