@@ -42,9 +42,12 @@ static const char usage[] =
 	"                     time goes on in step from there; the summary adds up what was lost). Frames\n"
 	"                     both ways as 16-byte Linux struct can_frame records (le32 can_id with the\n"
 	"                     EFF/RTR/ERR flags, u8 len, 3 pad, 8 data); a peer that does not take them\n"
-	"                     holds the emulator up. The MCU starts when the peer's first frame comes (a\n"
-	"                     hello: before it the VM's end of the line is not open); it goes onto the\n"
-	"                     bus as any frame. Ends when the peer leaves (status 0) or the time runs out.\n"
+	"                     holds the emulator up. The peer's frames wait in a queue of 64 for the bus,\n"
+	"                     which takes the lowest id among each node's first (the id's low 4 bits);\n"
+	"                     a full queue drops its least urgent frame, counted. The MCU starts when the\n"
+	"                     peer's first frame comes (a hello: before it the VM's end of the line is not\n"
+	"                     open); it goes onto the bus as any frame. Ends when the peer leaves (status\n"
+	"                     0) or the time runs out.\n"
 	"                     A frame of extended id 0x1F05B0FF from the peer is no frame: it puts CAN1\n"
 	"                     bus-off when its turn comes (the HIL scenarios' bus-off, run-scenario f405-can)\n"
 	"  --no-hello         with --can-tunnel: start at once, without waiting for the peer's first frame\n"
@@ -132,9 +135,11 @@ struct tunnel {
 	struct mcu_can1_dev *can;
 	uint8_t buf[TUNNEL_FRAME];
 	size_t have;
-	/* frames from the peer wait here for the bus: one after the other, each its length in bits */
+	/* frames from the peer wait here for the bus, in the order they came: one after the other, each
+	 * its length in bits, the next by arbitration among each node's first (tunnel_deliver) */
 	struct bxcan_frame q[TUNNEL_QUEUE];
-	uint32_t q_head, q_tail;
+	uint32_t qn;
+	uint64_t bus_full; /* frames the bus could not carry: dropped from a full queue */
 	uint64_t bus_free; /* virtual time the last frame from the peer ends */
 	/* pacing: virtual time runs at most as fast as the wall clock from wall0; when it falls more than
 	 * MAX_LAG_S behind (a slow stretch, or a peer that did not take frames), wall0 moves up so that it
@@ -232,6 +237,47 @@ static void tunnel_tx(void *user, const struct bxcan_frame *f, uint64_t t_ns)
 		t->tx++;
 }
 
+/* Arbitration's rank: the lower, the more urgent (a standard id before an extended one of the same
+ * base id); the swell protocol's node is an id's low 4 bits. */
+static uint32_t frame_rank(const struct bxcan_frame *f)
+{
+	return f->ide ? (f->id >> 18) << 1 | 1u : f->id << 1;
+}
+
+static int node_first(const struct tunnel *t, uint32_t i)
+{
+	for (uint32_t j = 0; j < i; j++)
+		if ((t->q[j].id & 0xFu) == (t->q[i].id & 0xFu))
+			return 0;
+	return 1;
+}
+
+static void tunnel_take(struct tunnel *t, uint32_t k)
+{
+	memmove(&t->q[k], &t->q[k + 1], (t->qn - k - 1) * sizeof(t->q[0]));
+	t->qn--;
+}
+
+/* A frame from the peer into the queue; a full one gives up its least urgent frame (the latest of
+ * them) for it, or this one when it is no more urgent. 1 when it was queued. */
+static int tunnel_queue(struct tunnel *t, const struct bxcan_frame *f)
+{
+	uint32_t worst = 0;
+
+	if (t->qn == TUNNEL_QUEUE) {
+		t->bus_full++;
+		for (uint32_t i = 1; i < t->qn; i++)
+			if (frame_rank(&t->q[i]) >= frame_rank(&t->q[worst]))
+				worst = i;
+		if (frame_rank(f) >= frame_rank(&t->q[worst]) ||
+		    (t->q[worst].ide && t->q[worst].id == TUNNEL_BUSOFF_ID))
+			return 0;
+		tunnel_take(t, worst);
+	}
+	t->q[t->qn++] = *f;
+	return 1;
+}
+
 static void tunnel_frame(struct tunnel *t)
 {
 	const uint8_t *r = t->buf;
@@ -247,34 +293,44 @@ static void tunnel_frame(struct tunnel *t)
 	f.id = f.ide ? id & 0x1FFFFFFFu : id & 0x7FFu;
 	f.dlc = r[4];
 	memcpy(f.data, r + 8, 8);
+	if (!tunnel_queue(t, &f))
+		return;
 	if (!f.ide && !f.rtr && f.id >> 4 == 0x02u) /* DEVICE_POS (swell/proto_table.h), any node */
 		t->sample = 1, t->lost = 0;
-	t->q[t->q_head++ % TUNNEL_QUEUE] = f;
 }
 
-/* The queued frames whose turn on the bus has come: each ends at least a frame's length (with the 3
- * bits of intermission) after the one before it; it is taken as ending now, the hook's time. */
+/* The queued frame whose turn on the bus has come: each ends at least a frame's length (with the 3
+ * bits of intermission) after the one before it; it is taken as ending now, the hook's time. The
+ * frames wait for virtual time, which the device's pace holds at a fraction of the wall clock, while
+ * a flooding node in the VM sends at wall-clock speed: the bus takes the next frame by arbitration
+ * (the lowest id among each node's first, a node's own frames in order), so that a device's sample
+ * does not wait behind a flood of less urgent frames, and a full queue drops its least urgent frame
+ * (tunnel_queue), as a saturated bus leaves those unsent. */
 static void tunnel_deliver(struct mcu *m, struct tunnel *t)
 {
-	while (t->q_tail != t->q_head) {
-		const struct bxcan_frame *f = &t->q[t->q_tail % TUNNEL_QUEUE];
-		uint64_t len = mcu_can1_units(bxcan_bits_ns(&t->can->b, bxcan_frame_bits(f, NULL) + 3u));
+	while (t->qn) {
+		uint32_t k = 0;
+		uint64_t len;
 
-		if (f->ide && f->id == TUNNEL_BUSOFF_ID) { /* no frame: the tests' bus-off, now */
+		if (t->q[0].ide && t->q[0].id == TUNNEL_BUSOFF_ID) { /* no frame: the tests' bus-off, now */
 			bxcan_inject_bus_off(&t->can->b, mcu_can1_ns(m->now));
 			mcu_can1_bus_rx(m, t->can, NULL);
-			t->q_tail++;
+			tunnel_take(t, 0);
 			t->busoffs++;
 			fprintf(stderr,
 				"swell-mcu: CAN tunnel: CAN1 put bus-off at %.6f s virtual (the peer's request)\n",
 				mcu_seconds(m->now));
 			continue;
 		}
+		for (uint32_t i = 1; i < t->qn; i++)
+			if (frame_rank(&t->q[i]) < frame_rank(&t->q[k]) && node_first(t, i))
+				k = i;
+		len = mcu_can1_units(bxcan_bits_ns(&t->can->b, bxcan_frame_bits(&t->q[k], NULL) + 3u));
 		if (t->bus_free + len > m->now)
 			return; /* not yet: the bus is still busy with the one before */
 		t->bus_free = m->now;
-		mcu_can1_bus_rx(m, t->can, f);
-		t->q_tail++;
+		mcu_can1_bus_rx(m, t->can, &t->q[k]);
+		tunnel_take(t, k);
 		t->rx++;
 	}
 }
@@ -353,7 +409,7 @@ static int device_wait(struct mcu *m, struct tunnel *t)
 			if (usbip_server_wants_write(&t->usb->srv))
 				p[1].events |= POLLOUT;
 		}
-		if (left <= 0 || stop_signal || (t->fd < 0 && t->usb_fd < 0) || t->q_head - t->q_tail >= TUNNEL_QUEUE) {
+		if (left <= 0 || stop_signal || (t->fd < 0 && t->usb_fd < 0)) {
 			t->lost = 1;
 			t->waited_out++;
 			return 0;
@@ -460,8 +516,6 @@ static int tunnel_hook(struct mcu *m, void *ctx)
 			ts.tv_sec = (time_t)ahead;
 			ts.tv_nsec = (long)((ahead - (double)ts.tv_sec) * 1e9);
 		}
-		if (t->q_head - t->q_tail >= TUNNEL_QUEUE)
-			p[0].events = 0; /* the queue is full: the socket waits */
 		r = ppoll(p, 3, &ts, NULL);
 		if (r < 0 && errno != EINTR)
 			return MCU_EXIT_ERROR;
@@ -622,8 +676,9 @@ static int run(const struct opts *o, struct world *w)
 	if (o->tunnel && !o->quiet)
 		fprintf(stderr,
 			"swell-mcu: CAN tunnel: %llu frames to the peer, %llu from it (%llu dropped: error frames or "
-			"length > 8)\n",
-			(unsigned long long)t->tx, (unsigned long long)t->rx, (unsigned long long)t->dropped);
+			"length > 8; %llu the bus could not carry: dropped from the full queue)\n",
+			(unsigned long long)t->tx, (unsigned long long)t->rx, (unsigned long long)t->dropped,
+			(unsigned long long)t->bus_full);
 	if ((o->tunnel || o->usb_tunnel) && !o->quiet)
 		fprintf(stderr,
 			"swell-mcu: paced to the wall clock: virtual time fell behind it by %.1f ms in all, in %llu "
