@@ -19,7 +19,8 @@ int mcu_usb_add(struct mcu *m, struct mcu_usb_dev *u);
 /* Serve the device on the connected stream fd (USB/IP), as USB address `address`. */
 void mcu_usb_serve(struct mcu_usb_dev *u, int fd, uint8_t address);
 /* One step of the server at the emulator's time; the interrupt line after it. USBIP_CLOSED: the
- * host let go (u->srv.error says why). */
+ * host let go (u->srv.error says why), and the cable is out (the model's suspend follows); a new
+ * session (mcu_usb_serve) puts it back with its bus reset. */
 enum usbip_step mcu_usb_step(struct mcu *m, struct mcu_usb_dev *u);
 
 #endif

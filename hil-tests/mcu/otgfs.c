@@ -51,6 +51,8 @@ enum {
 #define GINT_RXFLVL BIT(4)
 #define GINT_GINAKEFF BIT(6)
 #define GINT_GONAKEFF BIT(7)
+#define GINT_ESUSP BIT(10)
+#define GINT_USBSUSP BIT(11)
 #define GINT_USBRST BIT(12)
 #define GINT_ENUMDNE BIT(13)
 #define GINT_IEPINT BIT(18)
@@ -62,6 +64,7 @@ enum {
 #define GCCFG_VBUSBSEN BIT(19)
 #define GCCFG_NOVBUSSENS BIT(21)
 #define DCFG_DAD(v) (((v) >> 4) & 0x7Fu)
+#define DSTS_SUSPSTS BIT(0)
 #define DCTL_SDIS BIT(1)
 #define DCTL_GINSTS BIT(2)
 #define DCTL_GONSTS BIT(3)
@@ -287,8 +290,25 @@ int otgfs_host_attached(const struct otgfs *m)
 
 static void check_attach(struct otgfs *m)
 {
-	if (!otgfs_host_attached(m))
+	if (!otgfs_host_attached(m)) {
 		m->bus = BUS_DETACHED;
+		/* off the bus: no suspend; the idle time of an unplugged cable counts from the attach */
+		m->suspend_stage = 0;
+		m->idle_since = m->now;
+	}
+}
+
+/* The cable is out and the device's pull-up on: the lines idle (J), no SOF, no token. RM0090 34.6
+ * ("Suspended state"): after 3 ms of idleness the core raises the early suspend (GINTSTS.ESUSP),
+ * confirmed 3 ms later by the suspend (USBSUSP), and sets DSTS.SUSPSTS. The next stage's time. */
+static uint64_t suspend_due(const struct otgfs *m)
+{
+	return m->idle_since + m->hz * OTGFS_SUSPEND_MS / 1000u * (m->suspend_stage + 1u);
+}
+
+static int suspend_counting(const struct otgfs *m)
+{
+	return m->cable_out && m->suspend_stage < 2 && m->bus == BUS_DETACHED && otgfs_host_attached(m);
 }
 
 void otgfs_advance(struct otgfs *m, uint64_t now)
@@ -297,6 +317,15 @@ void otgfs_advance(struct otgfs *m, uint64_t now)
 		now = m->now; /* time never runs backwards */
 	m->now = now;
 	check_attach(m);
+	while (suspend_counting(m) && now >= suspend_due(m)) {
+		if (m->suspend_stage++ == 0) {
+			m->gintsts |= GINT_ESUSP;
+		} else {
+			m->gintsts |= GINT_USBSUSP;
+			m->suspend_at = m->idle_since + 2u * (m->hz * OTGFS_SUSPEND_MS / 1000u);
+			m->stats.suspends++;
+		}
+	}
 	if (m->bus == BUS_RESET && now >= m->reset_end) {
 		/* 34.17.5 "Endpoint initialization on enumeration completion": full speed, EP0 64 bytes */
 		m->bus = BUS_RUNNING;
@@ -317,6 +346,8 @@ void otgfs_advance(struct otgfs *m, uint64_t now)
 
 uint64_t otgfs_next_event_ns(const struct otgfs *m)
 {
+	if (suspend_counting(m))
+		return suspend_due(m);
 	if (m->bus == BUS_RESET)
 		return m->reset_end;
 	if (m->bus == BUS_RUNNING && (m->gintmsk & GINT_SOF) && !(m->gintsts & GINT_SOF))
@@ -329,6 +360,10 @@ int otgfs_host_reset(struct otgfs *m, uint64_t now)
 	otgfs_advance(m, now);
 	if (!otgfs_host_attached(m))
 		return -1;
+	/* A host that drives a reset is on the cable. The reset is activity on the lines: a suspended
+	 * core leaves the suspend (DSTS.SUSPSTS clears; WKUPINT is for a host's resume, K state, only). */
+	m->cable_out = 0;
+	m->suspend_stage = 0;
 	/* The core sees the reset (USBRST) and deactivates every endpoint but 0 (DIEPCTLx/DOEPCTLx
 	 * USBAEP, 34.16.4); the application's part is 34.17.5 "Endpoint initialization on USB reset". */
 	m->bus = BUS_RESET;
@@ -347,6 +382,24 @@ int otgfs_host_reset(struct otgfs *m, uint64_t now)
 int otgfs_host_running(const struct otgfs *m)
 {
 	return m->bus == BUS_RUNNING && otgfs_host_attached(m);
+}
+
+void otgfs_host_unplug(struct otgfs *m, uint64_t now)
+{
+	otgfs_advance(m, now);
+	if (m->cable_out)
+		return;
+	m->cable_out = 1;
+	m->stats.unplugs++;
+	/* no host: no reset, no frames, no token answered; the lines idle from now (or from the attach) */
+	m->bus = BUS_DETACHED;
+	m->idle_since = now;
+	m->suspend_stage = 0;
+}
+
+int otgfs_host_plugged(const struct otgfs *m)
+{
+	return !m->cable_out;
 }
 
 uint8_t otgfs_host_address(const struct otgfs *m)
@@ -647,6 +700,8 @@ static uint32_t dsts(const struct otgfs *m)
 
 	if (m->bus == BUS_RUNNING)
 		v |= (3u << 1) | ((uint32_t)(m->last_frame & 0x3FFFu) << 8); /* ENUMSPD full speed 48 MHz */
+	if (m->suspend_stage == 2)
+		v |= DSTS_SUSPSTS;
 	return v;
 }
 
@@ -838,6 +893,10 @@ void otgfs_write(struct otgfs *m, uint32_t off, uint32_t v, uint64_t now)
 		m->grstctl_reads = 0;
 		break;
 	case R_GINTSTS:
+		if (v & m->gintsts & GINT_USBSUSP) { /* the application acknowledged the suspend */
+			m->stats.suspends_seen++;
+			m->suspend_seen_at = m->now;
+		}
 		m->gintsts &= ~(v & GINT_RC_W1);
 		break;
 	case R_GINTMSK:

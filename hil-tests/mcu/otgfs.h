@@ -12,8 +12,8 @@
  * What is modelled (register names as in RM0090 34.16, programming model 34.17):
  *   GRSTCTL   CSRST, RXFFLSH, TXFFLSH with TXFNUM (one FIFO or all); each clears on the second
  *             read of GRSTCTL after the write ("several clocks"); AHBIDL always set
- *   GINTSTS   CMOD (device), SOF, RXFLVL, USBRST, ENUMDNE, IEPINT, OEPINT, GINAKEFF, GONAKEFF,
- *             the rc_w1 bits; GINTMSK; GAHBCFG GINTMSK and TXFELVL; the IRQ line
+ *   GINTSTS   CMOD (device), SOF, RXFLVL, ESUSP, USBSUSP, USBRST, ENUMDNE, IEPINT, OEPINT,
+ *             GINAKEFF, GONAKEFF, the rc_w1 bits; GINTMSK; GAHBCFG GINTMSK and TXFELVL; the IRQ line
  *   GRXSTSR/P the receive FIFO (GRXFSIZ words): status entries interleaved with data words
  *             (34.17.6 "Packet read from the receive FIFO"): OUT data (2), OUT transfer completed
  *             (3, XFRC when popped), SETUP stage done (4, STUP when popped, pushed at the first
@@ -22,7 +22,7 @@
  *             window at 0x1000 + n * 0x1000 pushes to IN endpoint n's FIFO (TXFNUM), and pops the
  *             receive FIFO on read
  *   DCFG (DAD, taken at once; the old address still answers the status stage of SET_ADDRESS),
- *   DCTL (SDIS, SGINAK/CGINAK, SGONAK/CGONAK), DSTS (ENUMSPD full speed, FNSOF)
+ *   DCTL (SDIS, SGINAK/CGINAK, SGONAK/CGONAK), DSTS (SUSPSTS, ENUMSPD full speed, FNSOF)
  *   DIEPCTLx/DOEPCTLx (MPSIZ, USBAEP, DPID, NAKSTS, EPTYP, STALL, TXFNUM, CNAK, SNAK, SD0PID,
  *             SD1PID, EPDIS, EPENA), DIEPTSIZx/DOEPTSIZx (XFRSIZ, PKTCNT, STUPCNT),
  *             DIEPINTx/DOEPINTx (rc_w1; TXFE read-only), DIEPMSK, DOEPMSK, DAINT, DAINTMSK,
@@ -30,8 +30,11 @@
  *   GCCFG (PWRDWN, NOVBUSSENS, VBUSBSEN), GUSBCFG (FDMOD, FHMOD), PCGCCTL (STPPCLK)
  * The device is attached to the bus (D+ pull-up) while its clock runs, it is in device mode,
  * the PHY is powered (PWRDWN), VBUS is seen (NOVBUSSENS, or VBUSBSEN with VBUS), the PHY clock
- * runs (STPPCLK clear) and SDIS is clear. Other registers keep what is written (host mode,
- * OTG protocol, suspend and resume, isochronous transfers are not modelled).
+ * runs (STPPCLK clear) and SDIS is clear. The cable (otgfs_host_unplug, otgfs_host_reset): pulled
+ * out, the attached device sees idle lines and goes through the early suspend (ESUSP) into the
+ * suspend (USBSUSP, DSTS.SUSPSTS); a host's reset brings it back. Other registers keep what is
+ * written (host mode, OTG protocol, a host's suspend and resume signalling (WKUPINT), remote
+ * wakeup, VBUS session end (GOTGINT.SEDET), isochronous transfers are not modelled).
  *
  * Programming errors the real core would turn into lost or wrong data are recorded
  * (otgfs_fault): a transmit FIFO overflow, FIFOs outside the FIFO RAM or overlapping, a read of
@@ -53,6 +56,7 @@ extern "C" {
 #define OTGFS_EPS 4 /* endpoints 0..3, each IN and OUT */
 #define OTGFS_RAM_WORDS 320 /* 1.25 KB of FIFO RAM */
 #define OTGFS_RESET_MS 10u /* a host's bus reset: 10 ms (USB 2.0 7.1.7.5) */
+#define OTGFS_SUSPEND_MS 3u /* idle lines: ESUSP after 3 ms, USBSUSP 3 ms later (RM0090 34.6) */
 /* full-speed frames: 1 ms */
 #define OTGFS_NO_EVENT UINT64_MAX
 
@@ -72,6 +76,7 @@ struct otgfs_txfifo {
 
 struct otgfs_stats {
 	uint32_t setups, out_acks, in_acks, naks, stalls, noresps, resets;
+	uint32_t unplugs, suspends, suspends_seen; /* cable pulled; USBSUSP raised; acknowledged by the driver */
 };
 
 struct otgfs {
@@ -92,6 +97,11 @@ struct otgfs {
 	int bus; /* 0 detached, 1 reset in progress, 2 running */
 	uint64_t hz, now, reset_end, sof_origin, last_frame;
 	uint8_t old_addr, old_addr_valid; /* the address before the last DAD change (SET_ADDRESS) */
+	/* the cable: out (otgfs_host_unplug) until a host resets the bus; the lines idle since idle_since;
+	 * suspend_stage 0 counting, 1 ESUSP raised, 2 USBSUSP raised (suspended, DSTS.SUSPSTS) */
+	int cable_out;
+	uint8_t suspend_stage;
+	uint64_t idle_since, suspend_at, suspend_seen_at; /* the last USBSUSP raised, acknowledged */
 	/* diagnostics */
 	const char *fault;
 	uint32_t faults;
@@ -129,8 +139,15 @@ uint32_t otgfs_fault_count(const struct otgfs *m);
 
 /* Is the D+ pull-up on (the host sees a full-speed device)? */
 int otgfs_host_attached(const struct otgfs *m);
-/* Drive a bus reset now; it ends (ENUMDNE) OTGFS_RESET_MS later. Returns 0, -1 when detached. */
+/* Drive a bus reset now; it ends (ENUMDNE) OTGFS_RESET_MS later. Returns 0, -1 when detached. A
+ * reset is a host on the cable: it plugs an unplugged cable back in and ends a suspend (SUSPSTS). */
 int otgfs_host_reset(struct otgfs *m, uint64_t now);
+/* The cable pulled out now: no host, no frames, nothing answered; with the pull-up on, the idle lines
+ * raise GINTSTS.ESUSP 3 ms later and USBSUSP (DSTS.SUSPSTS) 3 ms after that (RM0090 34.6,
+ * "Suspended state"; with NOVBUSSENS no session end is seen). Until the next otgfs_host_reset. */
+void otgfs_host_unplug(struct otgfs *m, uint64_t now);
+/* 0 while the cable is out. */
+int otgfs_host_plugged(const struct otgfs *m);
 /* Reset done, device attached: transactions are answered. */
 int otgfs_host_running(const struct otgfs *m);
 /* The device address the core answers (DCFG.DAD), for a host's checks. */

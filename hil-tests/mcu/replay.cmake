@@ -39,6 +39,15 @@ add_test(NAME "${mcu_faults}" COMMAND ${mcu_py} ${CMAKE_CURRENT_LIST_DIR}/tests/
 set_tests_properties("${mcu_faults}" PROPERTIES LABELS mcu TIMEOUT 240 SKIP_RETURN_CODE 77
   PASS_REGULAR_EXPRESSION "can-faults: OK")
 
+# A USB unplug with the image's device link on USB (--no-can): swell-mcu's USB tunnel in lockstep (the
+# script, a USB/IP host playing the device, clocks virtual time: deterministic), the session's end is the
+# cable out, the next session the cable in (--usb-replug); swell-mcu's --usb-log is judged.
+set(mcu_unplug "mcu: USB unplug with the image's device link on USB: its force zero within 2 ticks of its driver seeing the suspend, no stale FORCE_CMD after the replug, the weight commanded again within 150 ms of the new configuration")
+add_test(NAME "${mcu_unplug}" COMMAND ${mcu_py} ${CMAKE_CURRENT_LIST_DIR}/tests/usb-unplug ${SWELL_BENCH_BIN_DIR}/swell-mcu
+                                      ${mcu_image} ${mcu_work}/usb-unplug)
+set_tests_properties("${mcu_unplug}" PROPERTIES LABELS mcu TIMEOUT 120 SKIP_RETURN_CODE 77
+  PASS_REGULAR_EXPRESSION "usb-unplug: OK")
+
 # HIL scenarios with the image as the controller (run-scenario, topology f405-can): one VM boot
 # (fixture swell_vm_image of hil-tests/vm), the image on swell-mcu for the whole boot, paced by the
 # device's samples; the scenario files' own criteria. About 100 s of wall time on 2 cores.

@@ -1,7 +1,6 @@
 /* swell-mcu: the emulated STM32F405 running the product image (docs/stm32f405-emulator.md). */
 #define _GNU_SOURCE
 #include <errno.h>
-#include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
 #include <stdlib.h>
@@ -20,9 +19,10 @@
 static const char usage[] =
 	"usage: swell-mcu --image ELF [--seconds S] [--console FILE] [--cpi C] [--hse-hz HZ]\n"
 	"                 [--hse-delay-us US] [--trace-irq FILE] [--can-tunnel PATH [--no-hello]]\n"
-	"                 [--paced-by-device MS] [--tx-log FILE] [--report FILE] [--no-can] [--usb]\n"
-	"                 [--usb-tunnel PATH [--usb-replug]] [--stop-tim2 S]\n"
-	"                 [--on-reset end|restart] [--quiet]\n"
+	"                 [--paced-by-device MS] [--tx-log FILE]\n"
+	"                 [--report FILE] [--no-can] [--usb] [--usb-tunnel PATH [--usb-lockstep]\n"
+	"                 [--usb-replug MS] [--usb-log FILE]] [--stop-tim2 S] [--on-reset end|restart]\n"
+	"                 [--quiet]\n"
 	"Runs the STM32F405 image ELF (the product image, swell-fw.elf, unmodified) on an emulated\n"
 	"Cortex-M4 (unicorn) with register-level models of the peripherals it uses, in virtual time:\n"
 	"a run repeats bit for bit. Prints the image's console (its USART) and, on stderr, a summary:\n"
@@ -59,7 +59,7 @@ static const char usage[] =
 	"                     swell-hm --lockstep, sends the next one when the tick's FORCE_CMD reaches it),\n"
 	"                     at most MS of wall time; a wait that runs out means the device is gone:\n"
 	"                     wall-time pacing until its next sample, so the image's silence limit counts\n"
-	"                     ticks as on silicon (0: off)\n"
+	"                     ticks as on silicon (0: off; not with --usb-lockstep, where the host clocks)\n"
 	"  --quiet            no summary on stderr\n"
 	"  --tx-log FILE      every frame CAN1 sent: 'T_NS ID DLC DATA' (virtual ns of its EOF, hex id and\n"
 	"                     bytes)\n"
@@ -71,12 +71,24 @@ static const char usage[] =
 	"                     registers read 0 and the image finds no USB; on silicon the core answers)\n"
 	"  --usb-tunnel PATH  the OTG FS model behind a USB/IP server: listens on the Unix socket PATH, takes\n"
 	"                     one connection (hil-tests/vm/run-vm --usb-tunnel PATH), address 3; paced to\n"
-	"                     wall time as with --can-tunnel; ends when the host lets go\n"
-	"  --usb-replug       with --usb-tunnel: a host that lets go (closes the connection, or breaks the\n"
-	"                     protocol, as swell-vm-usbip-bridge's unplug does) pulls the cable instead of\n"
-	"                     ending the run: the MCU runs on and the next connection (QEMU's socket\n"
-	"                     chardev dials again) plugs the device in again; SIGTERM or SIGINT ends the\n"
-	"                     run with its summary\n"
+	"                     wall time as with --can-tunnel; ends when the host lets go (the session's end\n"
+	"                     is the cable pulled out: the OTG FS core's suspend 6 ms later)\n"
+	"  --usb-lockstep     with --usb-tunnel: the host clocks virtual time instead of the wall clock: it\n"
+	"                     runs only while a URB (or the server's enumeration) waits on the device, and\n"
+	"                     stands while the server has nothing pending, so a host that submits its next\n"
+	"                     URB once the last is answered makes a run repeat bit for bit; with the cable\n"
+	"                     out it runs by itself (--usb-replug)\n"
+	"  --usb-replug MS    with --usb-tunnel: a host that lets go pulls the cable out and the run goes\n"
+	"                     on; MS ms of virtual time later the next connection on PATH is the cable put\n"
+	"                     back (bus reset, enumeration: a new session), taken when it comes\n"
+	"                     (--usb-lockstep: virtual time stands until it comes); SIGTERM or SIGINT then\n"
+	"                     ends the run with its summary\n"
+	"  --usb-log FILE     with --usb-tunnel: the USB side in virtual time, one 'T_NS EVENT' a line:\n"
+	"                     'session N in|out' (the cable), 'reset' (a host's bus reset), 'suspend' (the\n"
+	"                     core's USBSUSP raised), 'suspend-seen' (the image's driver acknowledged it),\n"
+	"                     'configured 0|1' (bulk IN endpoint 1 (de)activated, seen within 20 us),\n"
+	"                     'tick' (each TIM2 update) and 'force FX FY FZ' (the image's record of the\n"
+	"                     force it commands, safe.c, in cN, when it changes, seen within 20 us)\n"
 	"  --stop-tim2 S      fault injection: TIM2's counter stops at S virtual seconds, until the next\n"
 	"                     reset (the image's tick stops: its watchdog must bite)\n"
 	"  --on-reset end|restart  a reset (the watchdog's, or one the image requests) ends the run (end,\n"
@@ -89,8 +101,9 @@ static const char usage[] =
 	"emulator does not carry out: the report names the pc), 5 the image asked for a system reset.\n";
 
 struct opts {
-	const char *image, *console, *trace_irq, *tunnel, *tx_log, *report, *usb_tunnel;
-	int no_can, usb, on_reset, no_hello, usb_replug;
+	const char *image, *console, *trace_irq, *tunnel, *tx_log, *report, *usb_tunnel, *usb_log;
+	int no_can, usb, on_reset, no_hello, usb_lockstep;
+	double usb_replug_ms;
 	double stop_tim2, device_ms;
 	double seconds, cpi;
 	uint32_t hse_hz, hse_delay_us;
@@ -129,6 +142,7 @@ static void on_stop_signal(int sig)
 {
 	stop_signal = sig;
 }
+#define LOCKSTEP_WAIT_MS 60000 /* --usb-lockstep: a host silent this long (wall time) ends the run */
 
 struct tunnel {
 	int fd;
@@ -140,6 +154,7 @@ struct tunnel {
 	struct bxcan_frame q[TUNNEL_QUEUE];
 	uint32_t qn;
 	uint64_t bus_full; /* frames the bus could not carry: dropped from a full queue */
+	uint32_t usb_out_seen; /* --paced-by-device over USB: the server's bulk OUT bytes at the last look */
 	uint64_t bus_free; /* virtual time the last frame from the peer ends */
 	/* pacing: virtual time runs at most as fast as the wall clock from wall0; when it falls more than
 	 * MAX_LAG_S behind (a slow stretch, or a peer that did not take frames), wall0 moves up so that it
@@ -150,11 +165,16 @@ struct tunnel {
 	int closed;
 	FILE *log; /* --tx-log */
 	struct mcu_usb_dev *usb; /* --usb-tunnel: the USB/IP server's device (NULL: none) */
-	int usb_fd;
-	int usb_lfd; /* --usb-replug: the listening socket the next connection comes on (-1: none) */
+	int usb_fd; /* the session's connection; -1 between sessions (the cable out) */
+	int usb_lfd, usb_lockstep; /* --usb-replug: the listening socket, kept; --usb-lockstep */
 	const char *usb_path;
-	uint32_t usb_out_seen; /* the server's bulk OUT bytes at the last look: more is a device sample */
-	uint64_t unplugs;
+	uint64_t usb_replug_units, replug_at; /* --usb-replug (MCU_NEVER: off); the next session's earliest */
+	unsigned sessions;
+	FILE *usb_log; /* --usb-log, with what it last saw */
+	uint32_t force_addr, ulog_resets, ulog_suspends, ulog_seen;
+	int32_t ulog_force[3];
+	int ulog_cfg;
+	uint64_t ulog_tick;
 	/* --paced-by-device: before each TIM2 tick virtual time waits (at most device_s of wall time)
 	 * until a DEVICE_POS came from the peer since the last tick; a wait that runs out means the device
 	 * is gone (lost): wall-time pacing until its next sample */
@@ -164,13 +184,12 @@ struct tunnel {
 	int sample, lost;
 };
 
-/* Listen on the Unix stream socket PATH and take one connection; the connected fd, or -1. keep: NULL,
- * or where the listening socket stays open (non-blocking) for the next connection. */
-static int listen_one(const char *opt, const char *path, int *keep)
+/* Listen on the Unix stream socket PATH; the listening fd, or -1. */
+static int listen_on(const char *opt, const char *path)
 {
 	struct sockaddr_un a = { .sun_family = AF_UNIX };
 	struct stat st;
-	int lfd, fd;
+	int lfd;
 
 	if (strlen(path) >= sizeof(a.sun_path)) {
 		fprintf(stderr, "swell-mcu: %s %s: path too long for a Unix socket\n", opt, path);
@@ -192,18 +211,31 @@ static int listen_one(const char *opt, const char *path, int *keep)
 		return -1;
 	}
 	fprintf(stderr, "swell-mcu: %s: listening on %s\n", opt, path);
-	fd = accept(lfd, NULL, NULL);
-	if (keep && fd >= 0) {
-		*keep = lfd;
-		(void)fcntl(lfd, F_SETFL, fcntl(lfd, F_GETFL) | O_NONBLOCK);
-	} else {
-		close(lfd);
-		unlink(path);
-	}
+	return lfd;
+}
+
+/* Take one connection on the listening fd lfd (blocking); the connected fd, or -1. */
+static int accept_one(const char *opt, const char *path, int lfd)
+{
+	int fd = accept(lfd, NULL, NULL);
+
 	if (fd < 0)
 		fprintf(stderr, "swell-mcu: %s %s: accept: %s\n", opt, path, strerror(errno));
 	else
 		fprintf(stderr, "swell-mcu: %s: peer connected\n", opt);
+	return fd;
+}
+
+/* Listen on the Unix stream socket PATH and take one connection; the connected fd, or -1. */
+static int listen_one(const char *opt, const char *path)
+{
+	int lfd = listen_on(opt, path), fd;
+
+	if (lfd < 0)
+		return -1;
+	fd = accept_one(opt, path, lfd);
+	close(lfd);
+	unlink(path);
 	return fd;
 }
 
@@ -376,20 +408,22 @@ static int wait_hello(struct tunnel *t)
 	return 0;
 }
 
+static int usb_hook(struct mcu *m, struct tunnel *t, short *events);
+
 /* The USB device's sample: bulk OUT data the server handed the model since the last look (the host
- * link's requests share the endpoint: one of those counts as well). */
+ * link's requests share the endpoint: one of those counts as well, and so does a new session's
+ * count starting again). */
 static void usb_sample(struct tunnel *t)
 {
-	if (t->usb->srv.stats.bytes_out != t->usb_out_seen) {
+	if (t->usb_fd >= 0 && t->usb->srv.stats.bytes_out != t->usb_out_seen) {
 		t->usb_out_seen = t->usb->srv.stats.bytes_out;
 		t->sample = 1, t->lost = 0;
 	}
 }
 
-static int usb_step(struct mcu *m, struct tunnel *t);
-
 /* --paced-by-device, before a tick: read the tunnel (and step the USB server) until the device's
- * sample has come or device_s of wall time passed (then lost). -1 when the peer left. */
+ * sample has come or device_s of wall time passed (then lost). 0, -1 when the peer left, or an exit
+ * status. */
 static int device_wait(struct mcu *m, struct tunnel *t)
 {
 	const double end = host_seconds() + t->device_s;
@@ -397,17 +431,18 @@ static int device_wait(struct mcu *m, struct tunnel *t)
 	t->waits++;
 	while (!t->sample) {
 		const double left = end - host_seconds();
-		struct pollfd p[2] = { { t->fd, POLLIN, 0 }, { t->usb_fd, POLLIN, 0 } };
+		struct pollfd p[2] = { { t->fd, POLLIN, 0 }, { -1, POLLIN, 0 } };
 		struct timespec ts = { 0, 0 };
 		int r;
 
-		if (t->usb && t->usb_fd >= 0) {
-			if (usb_step(m, t) != 0)
-				return -1;
+		if (t->usb) {
+			r = usb_hook(m, t, &p[1].events);
+			if (r)
+				return r;
+			usb_sample(t);
 			if (t->sample)
 				break;
-			if (usbip_server_wants_write(&t->usb->srv))
-				p[1].events |= POLLOUT;
+			p[1].fd = t->usb_fd;
 		}
 		if (left <= 0 || stop_signal || (t->fd < 0 && t->usb_fd < 0)) {
 			t->lost = 1;
@@ -430,42 +465,116 @@ static int device_wait(struct mcu *m, struct tunnel *t)
 	return 0;
 }
 
-/* A step of the USB/IP server and its interrupt line; the device's sample noted. The host letting go
- * ends the run (-1), or with --usb-replug pulls the cable: the fd closed, the next connection awaited
- * on the listening socket. */
-static int usb_step(struct mcu *m, struct tunnel *t)
+static unsigned long long units_ns(uint64_t t)
 {
-	enum usbip_step st;
-
-	if (t->usb_fd < 0)
-		return 0;
-	st = mcu_usb_step(m, t->usb);
-	usb_sample(t);
-	if (st != USBIP_CLOSED)
-		return 0;
-	fprintf(stderr, "swell-mcu: USB tunnel: the host let go at %.6f s virtual (%s)%s\n", mcu_seconds(m->now),
-		t->usb->srv.error ? t->usb->srv.error : "closed",
-		t->usb_lfd >= 0 ? ": the cable is out until the next connection" : "");
-	if (t->usb_lfd < 0)
-		return -1;
-	close(t->usb_fd);
-	t->usb_fd = -1;
-	t->unplugs++;
-	return 0;
+	return (unsigned long long)(t * 1000u / (MCU_TIME_HZ / 1000000u));
 }
 
-/* --usb-replug: a connection waiting on the listening socket plugs the device in again. */
-static void usb_replug(struct mcu *m, struct tunnel *t)
+/* --usb-log: what changed since the hook last looked (the model's events at their own times). */
+static void usb_log_step(struct mcu *m, struct tunnel *t)
 {
-	int fd = accept(t->usb_lfd, NULL, NULL);
+	const struct otgfs *o = &t->usb->otg;
+	FILE *f = t->usb_log;
+	int32_t fc[3] = { 0, 0, 0 };
+	int cfg = (o->diepctl[1] >> 15) & 1; /* USBAEP of IN endpoint 1: the image's configuration */
 
-	if (fd < 0)
+	if (!f)
 		return;
-	fprintf(stderr, "swell-mcu: USB tunnel: a host connected at %.6f s virtual: plugged in again\n",
-		mcu_seconds(m->now));
-	t->usb_fd = fd;
-	mcu_usb_serve(t->usb, fd, USB_ADDRESS);
-	t->usb_out_seen = t->usb->srv.stats.bytes_out;
+	if (t->tim2) {
+		const uint64_t u = t->tim2->next_event(m, t->tim2->ctx);
+
+		if (u != t->ulog_tick) {
+			if (t->ulog_tick && t->ulog_tick <= m->now)
+				fprintf(f, "%llu tick\n", units_ns(t->ulog_tick));
+			t->ulog_tick = u;
+		}
+	}
+	if (o->stats.resets != t->ulog_resets) {
+		t->ulog_resets = o->stats.resets;
+		fprintf(f, "%llu reset\n", units_ns(m->now));
+	}
+	if (o->stats.suspends != t->ulog_suspends) {
+		t->ulog_suspends = o->stats.suspends;
+		fprintf(f, "%llu suspend\n", units_ns(o->suspend_at));
+	}
+	if (o->stats.suspends_seen != t->ulog_seen) {
+		t->ulog_seen = o->stats.suspends_seen;
+		fprintf(f, "%llu suspend-seen\n", units_ns(o->suspend_seen_at));
+	}
+	if (cfg != t->ulog_cfg) {
+		t->ulog_cfg = cfg;
+		fprintf(f, "%llu configured %d\n", units_ns(m->now), cfg);
+	}
+	if (t->force_addr && uc_mem_read(m->uc, t->force_addr, fc, sizeof(fc)) == UC_ERR_OK &&
+	    memcmp(fc, t->ulog_force, sizeof(fc)) != 0) {
+		memcpy(t->ulog_force, fc, sizeof(fc));
+		fprintf(f, "%llu force %d %d %d\n", units_ns(m->now), fc[0], fc[1], fc[2]);
+	}
+}
+
+/* The USB side at a hook: the session's step, and between sessions (--usb-replug) the cable out until
+ * the next connection. With --usb-lockstep it waits for the host while nothing waits on the device.
+ * 0 on (*events: what the session's fd waits for), -1 the run ends (the host let go), or an exit
+ * status. */
+static int usb_hook(struct mcu *m, struct tunnel *t, short *events)
+{
+	*events = POLLIN;
+	usb_log_step(m, t);
+	if (t->usb_fd < 0) {
+		struct pollfd p = { t->usb_lfd, POLLIN, 0 };
+		int r;
+
+		if (m->now < t->replug_at)
+			return 0;
+		r = poll(&p, 1, t->usb_lockstep ? LOCKSTEP_WAIT_MS : 0);
+		if (r == 0 && t->usb_lockstep) {
+			fprintf(stderr, "swell-mcu: USB tunnel: no new session within %d s (--usb-lockstep)\n",
+				LOCKSTEP_WAIT_MS / 1000);
+			return MCU_EXIT_ERROR;
+		}
+		if (r <= 0)
+			return r < 0 && errno != EINTR ? MCU_EXIT_ERROR : 0; /* nobody yet: the cable stays out */
+		if ((t->usb_fd = accept_one("--usb-tunnel", t->usb_path, t->usb_lfd)) < 0)
+			return MCU_EXIT_ERROR;
+		mcu_usb_serve(t->usb, t->usb_fd, USB_ADDRESS);
+		t->sessions++;
+		fprintf(stderr, "swell-mcu: USB tunnel: session %u (the cable in) at %.6f s virtual\n", t->sessions,
+			mcu_seconds(m->now));
+		if (t->usb_log)
+			fprintf(t->usb_log, "%llu session %u in\n", units_ns(m->now), t->sessions);
+	}
+	for (;;) {
+		enum usbip_step st = mcu_usb_step(m, t->usb);
+		struct pollfd p;
+		int r;
+
+		if (st == USBIP_CLOSED) {
+			fprintf(stderr, "swell-mcu: USB tunnel: the host let go at %.6f s virtual (%s)\n",
+				mcu_seconds(m->now), t->usb->srv.error ? t->usb->srv.error : "closed");
+			if (t->usb_log)
+				fprintf(t->usb_log, "%llu session %u out\n", units_ns(m->now), t->sessions);
+			if (t->usb_replug_units == MCU_NEVER)
+				return -1;
+			close(t->usb_fd);
+			t->usb_fd = -1;
+			t->replug_at = m->now + t->usb_replug_units;
+			return 0;
+		}
+		if (usbip_server_wants_write(&t->usb->srv))
+			*events |= POLLOUT;
+		if (!t->usb_lockstep || usbip_server_waiting(&t->usb->srv))
+			return 0;
+		/* lockstep: nothing waits on the device, time stands until the host says more */
+		p = (struct pollfd){ t->usb_fd, *events, 0 };
+		r = poll(&p, 1, LOCKSTEP_WAIT_MS);
+		if (r == 0) {
+			fprintf(stderr, "swell-mcu: USB tunnel: the host sent nothing for %d s (--usb-lockstep)\n",
+				LOCKSTEP_WAIT_MS / 1000);
+			return MCU_EXIT_ERROR;
+		}
+		if (r < 0 && errno != EINTR)
+			return MCU_EXIT_ERROR;
+	}
 }
 
 /* The run's I/O hook with a tunnel: frames and USB/IP traffic in and out, virtual time held back to
@@ -476,36 +585,43 @@ static int tunnel_hook(struct mcu *m, void *ctx)
 
 	if (stop_signal)
 		return -1;
-	if (t->device_s > 0 && t->tim2 && (t->fd >= 0 || t->usb)) {
+	if (t->device_s > 0 && t->tim2 && (t->fd >= 0 || (t->usb && !t->usb_lockstep))) {
 		const uint64_t u = t->tim2->next_event(m, t->tim2->ctx);
 		const double lead = t->fd >= 0 ? DEVICE_LEAD_S : DEVICE_LEAD_USB_S;
+		int r;
 
 		if (u != t->tick_at) { /* a tick began: the next one waits for the next sample */
 			t->tick_at = u;
 			t->sample = 0;
 		}
 		if (!t->lost && u != MCU_NEVER && !t->sample && mcu_seconds(u - m->now) <= lead &&
-		    device_wait(m, t) != 0)
-			return -1;
+		    (r = device_wait(m, t)) != 0)
+			return r;
 		if (!t->lost) /* the device clocks: no wall-time pacing, and none to make up after */
 			t->wall0 = host_seconds() - mcu_seconds(m->now);
 	}
+	if (t->usb && t->usb_lockstep) { /* the host clocks: no wall-time pacing (no CAN tunnel then) */
+		short ev;
+
+		return usb_hook(m, t, &ev);
+	}
 	for (;;) {
 		double ahead = mcu_seconds(m->now) - (host_seconds() - t->wall0);
-		struct pollfd p[3] = { { t->fd, POLLIN, 0 }, { t->usb_fd, POLLIN, 0 }, { -1, POLLIN, 0 } };
+		struct pollfd p[2] = { { t->fd, POLLIN, 0 }, { -1, POLLIN, 0 } };
 		struct timespec ts = { 0, 0 };
 		int r;
 
-		if (t->closed || stop_signal)
+		if (t->closed)
 			return -1;
 		if (t->fd >= 0)
 			tunnel_deliver(m, t);
-		if (t->usb && usb_step(m, t) != 0)
-			return -1;
-		if (t->usb && t->usb_fd >= 0 && usbip_server_wants_write(&t->usb->srv))
-			p[1].events |= POLLOUT;
-		if (t->usb && t->usb_fd < 0)
-			p[2].fd = t->usb_lfd; /* unplugged: the next connection wakes the sleep */
+		if (t->usb) {
+			r = usb_hook(m, t, &p[1].events);
+			if (r)
+				return r;
+			usb_sample(t);
+			p[1].fd = t->usb_fd;
+		}
 		if (-ahead > MAX_LAG_S) {
 			t->wall0 += -ahead;
 			t->behind_s += -ahead;
@@ -516,7 +632,7 @@ static int tunnel_hook(struct mcu *m, void *ctx)
 			ts.tv_sec = (time_t)ahead;
 			ts.tv_nsec = (long)((ahead - (double)ts.tv_sec) * 1e9);
 		}
-		r = ppoll(p, 3, &ts, NULL);
+		r = ppoll(p, 2, &ts, NULL);
 		if (r < 0 && errno != EINTR)
 			return MCU_EXIT_ERROR;
 		if (r <= 0) {
@@ -526,8 +642,6 @@ static int tunnel_hook(struct mcu *m, void *ctx)
 		}
 		if (t->fd >= 0 && (p[0].revents & (POLLIN | POLLHUP | POLLERR)) && tunnel_read(m, t) != 0)
 			return -1;
-		if (t->usb && (p[2].revents & POLLIN))
-			usb_replug(m, t);
 		if (ahead <= 0 && !(p[0].revents & POLLIN))
 			return 0; /* the USB side is stepped at the next hook */
 	}
@@ -643,11 +757,30 @@ static int run(const struct opts *o, struct world *w)
 		return MCU_EXIT_ERROR;
 	}
 	if (o->usb_tunnel) {
-		if ((t->usb_fd = listen_one("--usb-tunnel", o->usb_tunnel, o->usb_replug ? &t->usb_lfd : NULL)) < 0)
-			return MCU_EXIT_ERROR;
 		t->usb_path = o->usb_tunnel;
+		t->usb_lockstep = o->usb_lockstep;
+		t->usb_replug_units = o->usb_replug_ms >= 0
+			? (uint64_t)(o->usb_replug_ms * 1e-3 * (double)MCU_TIME_HZ + 0.5)
+			: MCU_NEVER;
+		if (o->usb_log) {
+			if (!(t->usb_log = open_out(o->usb_log)))
+				return MCU_EXIT_ERROR;
+			setvbuf(t->usb_log, NULL, _IOLBF, 0); /* whole lines for a reader while it runs */
+			t->force_addr = mcu_symbol_addr(m, "force_cN"); /* safe.c: the force last commanded */
+			fprintf(t->usb_log, "# swell-mcu USB log: T_NS EVENT (virtual ns)%s\n",
+				t->force_addr ? "" : "; the image has no force_cN: no force lines");
+		}
+		if (t->usb_replug_units == MCU_NEVER)
+			t->usb_fd = listen_one("--usb-tunnel", o->usb_tunnel);
+		else if ((t->usb_lfd = listen_on("--usb-tunnel", o->usb_tunnel)) >= 0)
+			t->usb_fd = accept_one("--usb-tunnel", o->usb_tunnel, t->usb_lfd);
+		if (t->usb_fd < 0)
+			return MCU_EXIT_ERROR;
 		mcu_usb_serve(&w->usb, t->usb_fd, USB_ADDRESS);
 		t->usb = &w->usb;
+		t->sessions = 1;
+		if (t->usb_log)
+			fprintf(t->usb_log, "0 session 1 in\n");
 	}
 	t->can = &w->can;
 	t->device_s = o->device_ms / 1000.0;
@@ -657,7 +790,7 @@ static int run(const struct opts *o, struct world *w)
 	if (o->tunnel) {
 		const int sndbuf = TUNNEL_SNDBUF;
 
-		if ((t->fd = listen_one("--can-tunnel", o->tunnel, NULL)) < 0)
+		if ((t->fd = listen_one("--can-tunnel", o->tunnel)) < 0)
 			return MCU_EXIT_ERROR;
 		(void)setsockopt(t->fd, SOL_SOCKET, SO_SNDBUF, &sndbuf, sizeof(sndbuf));
 		if (!o->no_hello && wait_hello(t) != 0)
@@ -679,26 +812,22 @@ static int run(const struct opts *o, struct world *w)
 			"length > 8; %llu the bus could not carry: dropped from the full queue)\n",
 			(unsigned long long)t->tx, (unsigned long long)t->rx, (unsigned long long)t->dropped,
 			(unsigned long long)t->bus_full);
-	if ((o->tunnel || o->usb_tunnel) && !o->quiet)
+	if ((o->tunnel || (o->usb_tunnel && !o->usb_lockstep)) && !o->quiet)
 		fprintf(stderr,
 			"swell-mcu: paced to the wall clock: virtual time fell behind it by %.1f ms in all, in %llu "
 			"stretches over %.0f ms\n",
 			1e3 * t->behind_s, (unsigned long long)t->lag_events, 1e3 * MAX_LAG_S);
-	if ((o->tunnel || o->usb_tunnel) && t->device_s > 0 && !o->quiet)
+	if ((o->tunnel || (o->usb_tunnel && !o->usb_lockstep)) && t->device_s > 0 && !o->quiet)
 		fprintf(stderr,
 			"swell-mcu: paced by the device: %llu ticks waited for its sample, %llu waits ran out "
 			"(%.0f ms: the device gone, wall-time pacing until it came back)\n",
 			(unsigned long long)t->waits, (unsigned long long)t->waited_out, 1e3 * t->device_s);
 	if (o->usb_tunnel && !o->quiet)
 		fprintf(stderr,
-			"swell-mcu: USB tunnel: %u URBs submitted, %u answered (%u with an error), %u bytes in, %u "
-			"out\n",
-			w->usb.srv.stats.submits, w->usb.srv.stats.ret_submits, w->usb.srv.stats.errors,
+			"swell-mcu: USB tunnel: %u session(s); the last: %u URBs submitted, %u answered (%u with an "
+			"error), %u bytes in, %u out\n",
+			t->sessions, w->usb.srv.stats.submits, w->usb.srv.stats.ret_submits, w->usb.srv.stats.errors,
 			w->usb.srv.stats.bytes_in, w->usb.srv.stats.bytes_out);
-	if (o->usb_replug && !o->quiet)
-		fprintf(stderr,
-			"swell-mcu: USB tunnel: the cable pulled %llu times (the counts above: the last connection)\n",
-			(unsigned long long)t->unplugs);
 	if (o->report && write_report(o->report, m, t, rc) != 0 && rc == MCU_EXIT_OK)
 		rc = MCU_EXIT_ERROR;
 	return rc;
@@ -706,7 +835,12 @@ static int run(const struct opts *o, struct world *w)
 
 int main(int argc, char **argv)
 {
-	struct opts o = { .seconds = 1.0, .cpi = 1.0, .hse_hz = 8000000u, .hse_delay_us = 1000u, .stop_tim2 = -1 };
+	struct opts o = { .seconds = 1.0,
+			  .cpi = 1.0,
+			  .hse_hz = 8000000u,
+			  .hse_delay_us = 1000u,
+			  .stop_tim2 = -1,
+			  .usb_replug_ms = -1 };
 	const struct swell_cli_opt table[] = {
 		SWELL_CLI_STR("--image", o.image),
 		SWELL_CLI_NUM_ABOVE("--seconds", o.seconds, 0, 86400, "s"),
@@ -723,7 +857,9 @@ int main(int argc, char **argv)
 		SWELL_CLI_FLAG("--no-can", o.no_can),
 		SWELL_CLI_FLAG("--usb", o.usb),
 		SWELL_CLI_STR("--usb-tunnel", o.usb_tunnel),
-		SWELL_CLI_FLAG("--usb-replug", o.usb_replug),
+		SWELL_CLI_FLAG("--usb-lockstep", o.usb_lockstep),
+		SWELL_CLI_NUM("--usb-replug", o.usb_replug_ms, 0, 3600000, "ms"),
+		SWELL_CLI_STR("--usb-log", o.usb_log),
 		SWELL_CLI_NUM("--stop-tim2", o.stop_tim2, 0, 86400, "s"),
 		SWELL_CLI_CHOICE("--on-reset", o.on_reset, "end|restart"),
 		SWELL_CLI_FLAG("--quiet", o.quiet),
@@ -740,9 +876,14 @@ int main(int argc, char **argv)
 			      (unsigned long long)MCU_TIME_HZ);
 	if (o.no_can && (o.tunnel || o.tx_log))
 		swell_cli_die("swell-mcu", "--no-can leaves no CAN1 for --can-tunnel or --tx-log");
-	if (o.usb_replug && !o.usb_tunnel)
-		swell_cli_die("swell-mcu", "--usb-replug needs --usb-tunnel");
-	if (o.usb_replug) {
+	if (!o.usb_tunnel && (o.usb_lockstep || o.usb_replug_ms >= 0 || o.usb_log))
+		swell_cli_die("swell-mcu", "--usb-lockstep, --usb-replug and --usb-log need --usb-tunnel");
+	if (o.usb_lockstep && o.tunnel)
+		swell_cli_die("swell-mcu", "--usb-lockstep: the USB host clocks virtual time, a CAN tunnel cannot");
+	if (o.usb_lockstep && o.device_ms > 0)
+		swell_cli_die("swell-mcu",
+			      "--usb-lockstep: the USB host clocks virtual time, --paced-by-device cannot");
+	if (o.usb_replug_ms >= 0) {
 		signal(SIGTERM, on_stop_signal);
 		signal(SIGINT, on_stop_signal);
 	}
@@ -758,8 +899,10 @@ int main(int argc, char **argv)
 		close(w->t.usb_fd);
 	if (w->t.usb_lfd >= 0) {
 		close(w->t.usb_lfd);
-		unlink(w->t.usb_path);
+		unlink(o.usb_tunnel);
 	}
+	if (w->t.usb_log)
+		fclose(w->t.usb_log);
 	if (w->t.log)
 		fclose(w->t.log);
 	if (w->con && w->con != stdout)

@@ -662,7 +662,7 @@ static int flush_tx(struct usbip_server *s)
 	return 0;
 }
 
-enum usbip_step usbip_server_step(struct usbip_server *s, uint64_t now)
+static enum usbip_step step(struct usbip_server *s, uint64_t now)
 {
 	enum usbip_step st;
 	int pending;
@@ -701,4 +701,24 @@ enum usbip_step usbip_server_step(struct usbip_server *s, uint64_t now)
 	if (flush_tx(s) != 0)
 		return fail(s, "USB/IP: write error");
 	return pending || s->phase == PH_ENUM || s->tx_len ? USBIP_BUSY : USBIP_IDLE;
+}
+
+/* The session's end is the cable's: the device sees the bus go idle (its suspend). */
+enum usbip_step usbip_server_step(struct usbip_server *s, uint64_t now)
+{
+	const enum usbip_step st = step(s, now);
+
+	if (st == USBIP_CLOSED)
+		otgfs_host_unplug(s->dev, now);
+	return st;
+}
+
+int usbip_server_waiting(const struct usbip_server *s)
+{
+	if (s->phase == PH_ENUM)
+		return 1;
+	for (unsigned i = 0; i < USBIP_URBS_MAX; i++)
+		if (s->urbs[i].in_use)
+			return 1;
+	return 0;
 }

@@ -15,8 +15,10 @@
  *                     pending, 0 when it had already been answered
  * A device that leaves the bus after the import (its pull-up off: DCTL.SDIS, a core reset, the
  * clock stopped) ends the session (USBIP_CLOSED): USB/IP has no message for an unplug, and the
- * importing host takes the connection's end as one. The caller closes the fd and may accept the
- * next connection with a fresh server, which enumerates the device again once it is back.
+ * importing host takes the connection's end as one. The other way round, a session that ends (the
+ * peer closed, or a protocol error) pulls the cable (otgfs_host_unplug: the device's suspend 6 ms
+ * later). The caller closes the fd and may accept the next connection with a fresh server, which
+ * enumerates the device again once it is back (its bus reset plugs the cable in).
  * A NAK is retried at the next step: the caller (the emulator's loop) runs the CPU in between and
  * calls usbip_server_step again soon while it returns USBIP_BUSY. Nothing is allocated: struct
  * usbip_server is the whole state. */
@@ -150,6 +152,8 @@ void usbip_server_init(struct usbip_server *s, int fd, struct otgfs *dev, uint8_
 enum usbip_step usbip_server_step(struct usbip_server *s, uint64_t now);
 /* Replies wait for the fd to take them (poll for POLLOUT). */
 int usbip_server_wants_write(const struct usbip_server *s);
+/* A URB, or the server's own enumeration, waits on the device (time must run for it to move on). */
+int usbip_server_waiting(const struct usbip_server *s);
 
 #ifdef __cplusplus
 }

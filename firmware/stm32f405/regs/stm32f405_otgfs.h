@@ -66,6 +66,7 @@ _Static_assert(sizeof(struct otg_outep_regs) == 0x20, "OUT endpoint stride");
 #define OTG_GRSTCTL_CSRST (1u << 0)
 #define OTG_GRSTCTL_RXFFLSH (1u << 4)
 #define OTG_GRSTCTL_TXFFLSH (1u << 5)
+#define OTG_GRSTCTL_TXFNUM_SHIFT 6
 #define OTG_GRSTCTL_TXFNUM_ALL (0x10u << 6)
 #define OTG_GRSTCTL_AHBIDL (1u << 31)
 #define OTG_GINT_RXFLVL (1u << 4)
@@ -100,8 +101,10 @@ _Static_assert(sizeof(struct otg_outep_regs) == 0x20, "OUT endpoint stride");
 #define OTG_EPCTL_CNAK (1u << 26)
 #define OTG_EPCTL_SNAK (1u << 27)
 #define OTG_EPCTL_SD0PID (1u << 28)
+#define OTG_EPCTL_EPDIS (1u << 30)
 #define OTG_EPCTL_EPENA (1u << 31)
 #define OTG_EPINT_XFRC (1u << 0)
+#define OTG_EPINT_EPDISD (1u << 1)
 #define OTG_DOEPINT_STUP (1u << 3)
 #define OTG_TSIZ_PKTCNT_SHIFT 19
 #define OTG_DOEPTSIZ0_STUPCNT_SHIFT 29

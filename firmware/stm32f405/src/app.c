@@ -86,14 +86,14 @@ static enum swell_err send_can(const struct swell_msg *m)
 }
 
 /* How many messages of the front of m went out (or could never go: dropped), as many as fit in each
- * 64-byte packet; stops at the first packet the endpoint refuses (not configured, or the previous
- * packet still in flight). */
+ * 64-byte packet; stops at the first packet the endpoint refuses (not configured, suspended, or the
+ * previous packet still in flight). */
 static size_t send_usb(const struct swell_msg *m, size_t n)
 {
 	uint8_t pkt[SWELL_PKT_MAX];
 	size_t len, used, sent = 0;
 
-	while (sent < n && usb_configured()) {
+	while (sent < n && usb_host_active()) {
 		if (swell_pkt_encode(app_ctl.cfg.node, app.usb_seq, m + sent, n - sent, pkt, sizeof(pkt), &len,
 				     &used) != SWELL_OK ||
 		    !used) {
@@ -108,46 +108,40 @@ static size_t send_usb(const struct swell_msg *m, size_t n)
 	return sent;
 }
 
-/* The first `sent` pending host messages went out: the rest moves up. */
-static void host_sent(size_t sent)
+/* The device link's messages on CAN: what the carrier refuses is dropped (the next tick sends fresh
+ * ones). */
+static void send_device_can(const struct swell_msg *m, size_t n)
 {
-	for (size_t j = sent; j < app.host_pend_n; j++)
-		app.host_pend[j - sent] = app.host_pend[j];
-	app.host_pend_n -= (uint32_t)sent;
+	for (size_t j = 0; j < n; j++)
+		if (send_can(&m[j]) != SWELL_OK && m[j].type == SWELL_MSG_FORCE_CMD)
+			app.unsent_run++; /* the device link's command did not reach the carrier */
+		else if (m[j].type == SWELL_MSG_FORCE_CMD && !app.aborted)
+			app.unsent_run = 0; /* taken: the one before it left its mailbox */
+		else if (m[j].type == SWELL_MSG_FORCE_CMD)
+			app.aborted = 0;
 }
 
-/* Device on USB: the host link is on the same IN endpoint, which holds one packet until the host has
- * read it. The tick's device messages go first in that packet and the host's pending messages fill
- * what is left of it; sent alone, the device's packet took the endpoint at every tick (a FORCE_CMD
- * each tick) and the host's answers never went out. What does not fit is dropped for the device (the
- * next tick sends fresh ones) and stays pending for the host. Both from the tick interrupt. */
-static void send_usb_with_host(const struct swell_msg *m, size_t n)
+/* The first n pending host messages went out (or were dropped): the rest move up. */
+static void host_taken(size_t n)
 {
-	struct swell_msg all[SWELL_PKT_MSGS_MAX];
-	size_t nd = n < SWELL_PKT_MSGS_MAX ? n : SWELL_PKT_MSGS_MAX, nh = 0, sent;
-
-	for (size_t j = 0; j < nd; j++)
-		all[j] = m[j];
-	for (; nd + nh < SWELL_PKT_MSGS_MAX && nh < app.host_pend_n; nh++)
-		all[nd + nh] = app.host_pend[nh];
-	sent = send_usb(all, nd + nh);
-	if (sent > nd)
-		host_sent(sent - nd);
+	for (size_t j = n; j < app.host_pend_n; j++)
+		app.host_pend[j - n] = app.host_pend[j];
+	app.host_pend_n -= (uint32_t)n;
 }
 
-/* The device link's messages: what the carrier refuses is dropped (the next tick sends fresh ones). */
-static void send_on(int on_can, const struct swell_msg *m, size_t n)
+/* The device link's messages on USB (the k first of out, which has room for 8). Both links share the
+ * one bulk IN endpoint, and a packet goes out at most every tick: the host's pending messages ride in
+ * the device's packet, after the device's own, as many as fit (alone, the device's packet would
+ * leave the endpoint busy at every host drain, and the host link would get nothing). What the
+ * endpoint refuses: the device's messages are dropped, the host's stay pending. */
+static void send_device_usb(struct swell_msg *out, size_t k)
 {
-	if (!on_can)
-		send_usb_with_host(m, n);
-	else
-		for (size_t j = 0; j < n; j++)
-			if (send_can(&m[j]) != SWELL_OK && m[j].type == SWELL_MSG_FORCE_CMD)
-				app.unsent_run++; /* the device link's command did not reach the carrier */
-			else if (m[j].type == SWELL_MSG_FORCE_CMD && !app.aborted)
-				app.unsent_run = 0; /* taken: the one before it left its mailbox */
-			else if (m[j].type == SWELL_MSG_FORCE_CMD)
-				app.aborted = 0;
+	size_t h = 0, sent;
+
+	for (; k + h < 8 && h < app.host_pend_n; h++)
+		out[k + h] = app.host_pend[h];
+	sent = send_usb(out, k + h);
+	host_taken(sent > k ? sent - k : 0);
 }
 
 /* The host link's carrier: USB while a USB host has the device configured and not suspended
@@ -177,7 +171,10 @@ static void drain_device(void)
 				safe_force_record(fc->enable ? fc->fx_cN : 0, fc->enable ? fc->fy_cN : 0,
 						  fc->enable ? fc->fz_cN : 0);
 		}
-		send_on(app.device_on_can, out, k);
+		if (app.device_on_can)
+			send_device_can(out, k);
+		else
+			send_device_usb(out, k);
 	}
 }
 
@@ -204,7 +201,7 @@ static void host_flush(int on_can)
 			    can_send(&f) != SWELL_OK)
 				break;
 		}
-	host_sent(sent);
+	host_taken(sent);
 }
 
 /* Room for one more pending message: a full buffer gives up its oldest telemetry. 0 when it holds
@@ -225,6 +222,22 @@ static int host_room(void)
 	return 1;
 }
 
+/* The start-up parameter's answer and the core's host queue into the pending buffer, while it has room
+ * (bounded: at most SWELL_CTL_QUEUE messages taken). */
+static void host_fill(void)
+{
+	if (app.pool_ans_on && host_room()) {
+		app.host_pend[app.host_pend_n++] = app.pool_ans;
+		__asm__ volatile("dmb" ::: "memory");
+		app.pool_ans_on = 0;
+	}
+	for (uint32_t n = 0; n < SWELL_CTL_QUEUE && host_room(); n++) {
+		if (!swell_ctl_tx(&app_ctl, SWELL_LINK_HOST, &app.host_pend[app.host_pend_n], 1))
+			break;
+		app.host_pend_n++;
+	}
+}
+
 /* The host link's queue onto its carrier. Nothing taken from the core is lost because the carrier is
  * busy: what it refuses stays pending (bounded, HOST_PEND) and goes first at the next drain; when the
  * carrier is slower than the core queues, the oldest pending telemetry gives way to newer messages.
@@ -234,17 +247,18 @@ static void drain_host(void)
 	int on_can = host_on_can();
 	uint32_t n;
 
-	host_flush(on_can);
-	if (app.pool_ans_on && host_room()) {
-		app.host_pend[app.host_pend_n++] = app.pool_ans;
-		__asm__ volatile("dmb" ::: "memory");
+	if (!on_can && !usb_host_active()) {
+		/* USB only, and no host on it (the cable out, suspended, not configured): what the host link
+		 * holds has nobody to go to, and would reach the next host stale; dropped (bounded: one
+		 * queue's worth) */
+		for (n = 0; n < SWELL_CTL_QUEUE && swell_ctl_tx(&app_ctl, SWELL_LINK_HOST, app.host_pend, 1); n++)
+			;
+		app.host_pend_n = 0;
 		app.pool_ans_on = 0;
+		return;
 	}
-	for (n = 0; n < SWELL_CTL_QUEUE && host_room(); n++) {
-		if (!swell_ctl_tx(&app_ctl, SWELL_LINK_HOST, &app.host_pend[app.host_pend_n], 1))
-			break;
-		app.host_pend_n++;
-	}
+	host_flush(on_can);
+	host_fill();
 	host_flush(on_can);
 }
 
@@ -313,6 +327,14 @@ static void app_tick(void)
 		app.bus_offs_seen = can_bus_offs();
 		swell_ctl_link_down(&app_ctl, SWELL_LINK_DEVICE);
 	}
+	/* The device link on USB without a host to read it (usb_host_active: the cable out, which shows as
+	 * the bus's suspend 6 ms after the last frame; a bus reset; SET_CONFIGURATION 0): the device link is
+	 * down at every such tick, as on a CAN bus-off: the core faults, its force and the record go to
+	 * zero at this tick, and nothing of it waits in the endpoint (the driver took the unread packet
+	 * back). Once a host configures the device again, the device's samples bring the loop back as after
+	 * any loss (autorun: recover_ticks of the device heard; or the host's clear). */
+	if (!app.device_on_can && !usb_host_active())
+		swell_ctl_link_down(&app_ctl, SWELL_LINK_DEVICE);
 	/* A starved device (docs/links.md, as swell-ctl): no command of the device link reached the bus for
 	 * the silence limit while the device is there (it still talks: nobody acknowledges, higher ids hold
 	 * the bus, the bus is stuck). The loop faults as for a silent device; at the start of each spell the
@@ -330,6 +352,8 @@ static void app_tick(void)
 		app.starving = 0;
 	}
 	swell_ctl_tick_force(&app_ctl);
+	if (host_drained_in_tick() && usb_host_active())
+		host_fill(); /* USB only: what fits rides in the device's packet */
 	drain_device();
 	if (host_drained_in_tick())
 		drain_host();

@@ -26,7 +26,8 @@ static struct {
 	uint8_t scratch[USB_STRING_MAX];
 	uint8_t out_buf[SWELL_USB_PACKET];
 	volatile int in_busy;
-	/* the bus idle 3 ms (USBSUSP): the host suspended the device, or the cable is out (no VBUS
+	/* the bus idle (USBSUSP, RM0090 34.6 "Suspended state": the early suspend after 3 ms of idle
+	 * lines, confirmed 3 ms later): the host suspended the device, or the cable is out (no VBUS
 	 * sensing: an unplug looks like a suspend); cleared by a resume or a bus reset */
 	volatile int suspended;
 } usb;
@@ -173,6 +174,22 @@ static void handle_setup(void)
 	ep0_out_arm();
 }
 
+/* Take back the bulk IN packet the host has not read (RM0090 34.17.6, "IN endpoint disable"): NAK
+ * the endpoint, disable it, flush its transmit FIFO. For the suspend: the host is gone or asleep, and
+ * what the packet says is stale by the time one reads the endpoint again. Bounded waits. */
+static void in_abort(void)
+{
+	OTG_IN(1)->DIEPCTL |= OTG_EPCTL_SNAK;
+	if (OTG_IN(1)->DIEPCTL & OTG_EPCTL_EPENA) {
+		OTG_IN(1)->DIEPCTL |= OTG_EPCTL_EPDIS | OTG_EPCTL_SNAK;
+		for (uint32_t n = 0; n < AHBIDL_WAIT_LOOPS && !(OTG_IN(1)->DIEPINT & OTG_EPINT_EPDISD); n++)
+			;
+		OTG_IN(1)->DIEPINT = OTG_EPINT_EPDISD;
+	}
+	fifo_flush(OTG_GRSTCTL_TXFFLSH | (1u << OTG_GRSTCTL_TXFNUM_SHIFT));
+	usb.in_busy = 0;
+}
+
 static void bus_reset(void)
 {
 	OTG_DEV->DCFG &= ~OTG_DCFG_DAD_MASK;
@@ -251,7 +268,16 @@ void isr_otg_fs(void)
 	}
 	if (gint & (OTG_GINT_USBSUSP | OTG_GINT_WKUPINT)) { /* rc_w1: both acknowledged in one write */
 		OTG->GINTSTS = gint & (OTG_GINT_USBSUSP | OTG_GINT_WKUPINT);
-		usb.suspended = !(gint & OTG_GINT_WKUPINT); /* both at once: the resume came last */
+		if (gint & OTG_GINT_USBSUSP) {
+			/* usb_send refuses from now on (the tick preempts this handler: it sees the flag first
+			 * or has sent before the abort), then the packet waiting for the host goes */
+			usb.suspended = 1;
+			__asm__ volatile("dmb" ::: "memory");
+			if (usb.st.config)
+				in_abort();
+		}
+		if (gint & OTG_GINT_WKUPINT)
+			usb.suspended = 0; /* both at once: the resume came last */
 	}
 }
 
@@ -296,7 +322,7 @@ enum swell_err usb_start(uint8_t prio, void (*on_out)(const uint8_t *data, uint3
 
 enum swell_err usb_send(const uint8_t *data, uint32_t len)
 {
-	if (!usb.st.config)
+	if (!usb.st.config || usb.suspended)
 		return SWELL_ESTATE;
 	if (!data || len > SWELL_USB_PACKET || usb.in_busy || (usb.st.halted & 2u))
 		return SWELL_ESIZE;
@@ -305,11 +331,6 @@ enum swell_err usb_send(const uint8_t *data, uint32_t len)
 	usb.in_busy = 1;
 	ep_in(1, data, len);
 	return SWELL_OK;
-}
-
-int usb_configured(void)
-{
-	return usb.st.config != 0;
 }
 
 int usb_host_active(void)

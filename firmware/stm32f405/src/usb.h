@@ -15,14 +15,15 @@ int usb_probe(void);
 /* Start the device; on_out receives every bulk OUT packet (interrupt context, <= 64 bytes). */
 enum swell_err usb_start(uint8_t prio, void (*on_out)(const uint8_t *data, uint32_t len));
 
-/* Queue one bulk IN packet (<= 64 bytes). SWELL_ESTATE when not configured, SWELL_ESIZE when the
- * previous packet is still in flight or len > 64. */
+/* Queue one bulk IN packet (<= 64 bytes). SWELL_ESTATE when not configured or suspended (nothing is
+ * queued for a bus without a host: the packet a suspend finds unread is taken back), SWELL_ESIZE when
+ * the previous packet is still in flight or len > 64. */
 enum swell_err usb_send(const uint8_t *data, uint32_t len);
 
-int usb_configured(void);
-
 /* Configured by a USB host and not suspended: a host reads the bulk IN endpoint. On silicon without
- * VBUS sensing a pulled cable shows as a suspend, so this falls back to 0 then. */
+ * VBUS sensing a pulled cable shows as a suspend (6 ms after the last frame), so this falls back to 0
+ * then; a bus reset or SET_CONFIGURATION 0 also makes it 0 (deconfigured) until the next
+ * SET_CONFIGURATION. */
 int usb_host_active(void);
 
 #endif

@@ -340,3 +340,69 @@ TEST_CASE("OTG_FS CSRST takes the device off the bus until the host resets it ag
 	CHECK(otgfs_host_attached(b.m.get()));
 	CHECK(b.host.reset());
 }
+
+TEST_CASE("OTG_FS with the cable pulled raises ESUSP 3 ms and USBSUSP 6 ms later, answers no token, and a host's "
+	  "reset brings it back to enumeration")
+{
+	constexpr uint32_t ESUSP = 1u << 10, USBSUSP = 1u << 11;
+	Bench b;
+	b.enumerate();
+	b.wr(GINTMSK, ESUSP | USBSUSP); // no driver interrupts here: the test reads the flags itself
+	const uint64_t out_at = b.now;
+	otgfs_host_unplug(b.m.get(), out_at);
+	CHECK(!otgfs_host_plugged(b.m.get()));
+	CHECK(!otgfs_host_running(b.m.get()));
+	CHECK(otgfs_host_attached(b.m.get())); // the pull-up is still on
+	CHECK(otgfs_next_event_ns(b.m.get()) == out_at + 3 * FRAME_NS);
+	uint8_t buf[64];
+	uint32_t n = 0;
+	CHECK(otgfs_host_in(b.m.get(), b.now, 5, 1, buf, sizeof(buf), &n) == OTGFS_NORESP);
+	b.now = out_at + 3 * FRAME_NS - 1;
+	CHECK((b.rd(GINTSTS) & (ESUSP | USBSUSP)) == 0u);
+	b.now += 1;
+	CHECK((b.rd(GINTSTS) & (ESUSP | USBSUSP)) == ESUSP);
+	CHECK((b.rd(DSTS) & 1u) == 0u);
+	CHECK(otgfs_next_event_ns(b.m.get()) == out_at + 6 * FRAME_NS);
+	b.now = out_at + 6 * FRAME_NS;
+	CHECK((b.rd(GINTSTS) & USBSUSP) != 0u);
+	CHECK((b.rd(DSTS) & 1u) == 1u); // SUSPSTS
+	CHECK(otgfs_irq(b.m.get()));
+	CHECK(b.m->suspend_at == out_at + 6 * FRAME_NS);
+	CHECK(otgfs_next_event_ns(b.m.get()) == OTGFS_NO_EVENT); // suspended: nothing more by itself
+	b.now += 5 * FRAME_NS;
+	b.wr(GINTSTS, ESUSP | USBSUSP); // the driver's acknowledgment is recorded
+	CHECK(b.m->stats.suspends == 1u);
+	CHECK(b.m->stats.suspends_seen == 1u);
+	CHECK(b.m->suspend_seen_at == b.now);
+	CHECK(!otgfs_irq(b.m.get()));
+	// cable in: the host resets the port; the suspend ends and the device enumerates again
+	b.wr(GINTMSK, 0);
+	b.enumerate();
+	CHECK(otgfs_host_plugged(b.m.get()));
+	CHECK((b.rd(DSTS) & 1u) == 0u);
+	CHECK(b.m->stats.resets == 2u);
+	std::vector<uint8_t> p{ 1, 2, 3 }, back;
+	REQUIRE(b.host.out(1, p) == OTGFS_ACK);
+	REQUIRE(b.host.in(1, back) == OTGFS_ACK);
+	CHECK(back == p);
+	CHECK(otgfs_fault(b.m.get()) == nullptr);
+}
+
+TEST_CASE("OTG_FS with the cable out and the pull-up off raises no suspend; the idle time counts from the attach")
+{
+	constexpr uint32_t ESUSP = 1u << 10, USBSUSP = 1u << 11;
+	Bench b;
+	b.enumerate();
+	b.wr(GINTMSK, ESUSP | USBSUSP);
+	otgfs_host_unplug(b.m.get(), b.now);
+	b.wr(DCTL, 2u); // SDIS: off the bus
+	b.now += 10 * FRAME_NS;
+	CHECK((b.rd(GINTSTS) & (ESUSP | USBSUSP)) == 0u);
+	CHECK(otgfs_next_event_ns(b.m.get()) == OTGFS_NO_EVENT);
+	b.wr(DCTL, 0u);
+	const uint64_t on_at = b.now;
+	b.now = on_at + 6 * FRAME_NS - 1;
+	CHECK((b.rd(GINTSTS) & USBSUSP) == 0u);
+	b.now += 1;
+	CHECK((b.rd(GINTSTS) & USBSUSP) != 0u);
+}

@@ -378,3 +378,38 @@ TEST_CASE("USB/IP server: a device that leaves the bus ends the session, and a n
 	CHECK(l.ret(d, USBIP_DIR_IN).u.ret_submit.status == 0);
 	CHECK(d.size() == 18);
 }
+
+TEST_CASE("USB/IP server: the host closing the connection pulls the cable (the device's suspend 6 ms later), the "
+	  "next session plugs it in again, and waiting says when a URB waits on the device")
+{
+	constexpr uint32_t USBSUSP = 1u << 11;
+	Link l;
+	CHECK(!usbip_server_waiting(l.srv.get()));
+	l.import_device();
+	const uint8_t set_cfg[8] = { 0x00, 9, 1, 0, 0, 0, 0, 0 };
+	std::vector<uint8_t> d;
+	l.submit(USBIP_DIR_OUT, 0, 0, set_cfg);
+	CHECK(l.ret(d, USBIP_DIR_OUT).u.ret_submit.status == 0);
+	// a bulk IN with nothing to send waits on the device
+	l.submit(USBIP_DIR_IN, 1, 64, nullptr);
+	CHECK(!l.wait_bytes(1, 20));
+	CHECK(usbip_server_waiting(l.srv.get()));
+	close(l.fd[0]); // the host lets go
+	l.fd[0] = -1;
+	CHECK(usbip_server_step(l.srv.get(), l.now) == USBIP_CLOSED);
+	const uint64_t out_at = l.now;
+	CHECK(!otgfs_host_plugged(l.m.get()));
+	CHECK((otgfs_read(l.m.get(), GINTSTS, out_at + 6000000u - 1) & USBSUSP) == 0u);
+	CHECK((otgfs_read(l.m.get(), GINTSTS, out_at + 6000000u) & USBSUSP) != 0u);
+	l.now = out_at + 6000000u;
+	// the next session
+	close(l.fd[1]);
+	REQUIRE(socketpair(AF_UNIX, SOCK_STREAM, 0, l.fd) == 0);
+	REQUIRE(fcntl(l.fd[0], F_SETFL, O_NONBLOCK) == 0);
+	usbip_server_init(l.srv.get(), l.fd[1], l.m.get(), 7);
+	l.got.clear();
+	l.import_device();
+	CHECK(otgfs_host_plugged(l.m.get()));
+	CHECK(l.drv.resets == 2u);
+	CHECK(!usbip_server_waiting(l.srv.get()));
+}
