@@ -72,9 +72,16 @@ static void drop(struct usb_link *u)
 {
 	if (!u->h)
 		return;
-	if (u->in_state == IN_FLIGHT && libusb_cancel_transfer(u->in) == 0)
+	if (u->in_state == IN_FLIGHT) {
+		/* completed before the handle closes, whatever the cancel says (a device gone completes it
+		 * with NO_DEVICE at the next events): a transfer closed in flight keeps a reference to the
+		 * old device, and submitted again it crashed swell-hm after a replug */
+		(void)libusb_cancel_transfer(u->in);
 		for (int i = 0; i < 100 && u->in_state == IN_FLIGHT; i++)
-			(void)pump(u, 10); /* the cancel completes it (a second at most) */
+			(void)pump(u, 10);
+		if (u->in_state == IN_FLIGHT) /* never completed in a second: not used again */
+			u->in = libusb_alloc_transfer(0);
+	}
 	u->in_state = IN_IDLE; /* what it held is lost with the device */
 	libusb_release_interface(u->h, u->o.iface);
 	libusb_close(u->h);
@@ -206,6 +213,8 @@ static int usb_recv(struct swell_link *l, struct swell_frame *f, int timeout_ms)
 		}
 		if (rc)
 			return rc;
+		if (!u->in)
+			return -ENOMEM;
 		if (u->in_state == IN_IDLE) {
 			libusb_fill_bulk_transfer(u->in, u->h, u->ep_in, u->in_buf, sizeof(u->in_buf), in_done, u, 0);
 			rc = libusb_submit_transfer(u->in);
