@@ -24,7 +24,7 @@ struct usb_link {
 	libusb_device_handle *h;
 	uint8_t ep_out, ep_in; /* in use: the configured ones, or what the descriptor has */
 	uint64_t last_try_ns;
-	struct libusb_transfer *in; /* the IN transfer, allocated at open */
+	struct libusb_transfer *in; /* the IN transfer of this handle (NULL: none yet) */
 	int in_state; /* IN_IDLE, IN_FLIGHT (submitted), IN_DONE (completed, not yet taken) */
 	unsigned char in_buf[SWELL_LINK_MTU];
 };
@@ -74,14 +74,18 @@ static void drop(struct usb_link *u)
 		return;
 	if (u->in_state == IN_FLIGHT) {
 		/* completed before the handle closes, whatever the cancel says (a device gone completes it
-		 * with NO_DEVICE at the next events): a transfer closed in flight keeps a reference to the
-		 * old device, and submitted again it crashed swell-hm after a replug */
+		 * with NO_DEVICE at the next events) */
 		(void)libusb_cancel_transfer(u->in);
 		for (int i = 0; i < 100 && u->in_state == IN_FLIGHT; i++)
 			(void)pump(u, 10);
-		if (u->in_state == IN_FLIGHT) /* never completed in a second: not used again */
-			u->in = libusb_alloc_transfer(0);
 	}
+	/* The transfer goes with the handle: libusb keeps the device it was submitted to until it is
+	 * freed or submitted again, and submitted again after the context was renewed (ensure) that
+	 * old device's release read the freed context and crashed swell-hm after a replug. One that
+	 * never completed stays libusb's (left, not freed). */
+	if (u->in && u->in_state != IN_FLIGHT)
+		libusb_free_transfer(u->in);
+	u->in = NULL;
 	u->in_state = IN_IDLE; /* what it held is lost with the device */
 	libusb_release_interface(u->h, u->o.iface);
 	libusb_close(u->h);
@@ -213,7 +217,7 @@ static int usb_recv(struct swell_link *l, struct swell_frame *f, int timeout_ms)
 		}
 		if (rc)
 			return rc;
-		if (!u->in)
+		if (!u->in && !(u->in = libusb_alloc_transfer(0)))
 			return -ENOMEM;
 		if (u->in_state == IN_IDLE) {
 			libusb_fill_bulk_transfer(u->in, u->h, u->ep_in, u->in_buf, sizeof(u->in_buf), in_done, u, 0);
@@ -266,8 +270,6 @@ static void usb_close(struct swell_link *l)
 	struct usb_link *u = (struct usb_link *)l;
 
 	drop(u);
-	if (u->in)
-		libusb_free_transfer(u->in);
 	if (u->ctx)
 		libusb_exit(u->ctx);
 	free(u);
@@ -291,9 +293,8 @@ int swell_link_open_usb(struct swell_link **out, const struct swell_usb_opts *op
 		swell_usb_opts_default(&u->o);
 	u->base.ops = &usb_ops;
 	u->base.carrier = SWELL_CARRIER_PKT;
-	u->in = libusb_alloc_transfer(0);
 	rc = libusb_init(&u->ctx);
-	rc = rc < 0 ? errno_of(rc) : !u->in ? -ENOMEM : attach(u);
+	rc = rc < 0 ? errno_of(rc) : attach(u);
 	if (rc) {
 		usb_close(&u->base); /* u->ctx NULL when libusb_init failed: usb_close leaves it alone */
 		return rc;
