@@ -2,6 +2,7 @@
 #define _GNU_SOURCE
 #include <errno.h>
 #include <poll.h>
+#include <signal.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/socket.h>
@@ -17,8 +18,8 @@
 
 static const char usage[] =
 	"usage: swell-mcu --image ELF [--seconds S] [--console FILE] [--cpi C] [--hse-hz HZ]\n"
-	"                 [--hse-delay-us US] [--trace-irq FILE] [--can-tunnel PATH [--no-hello]\n"
-	"                 [--paced-by-device MS]] [--tx-log FILE]\n"
+	"                 [--hse-delay-us US] [--trace-irq FILE] [--can-tunnel PATH [--no-hello]]\n"
+	"                 [--paced-by-device MS] [--tx-log FILE]\n"
 	"                 [--report FILE] [--no-can] [--usb] [--usb-tunnel PATH [--usb-lockstep]\n"
 	"                 [--usb-replug MS] [--usb-log FILE]] [--stop-tim2 S] [--on-reset end|restart]\n"
 	"                 [--quiet]\n"
@@ -41,18 +42,24 @@ static const char usage[] =
 	"                     time goes on in step from there; the summary adds up what was lost). Frames\n"
 	"                     both ways as 16-byte Linux struct can_frame records (le32 can_id with the\n"
 	"                     EFF/RTR/ERR flags, u8 len, 3 pad, 8 data); a peer that does not take them\n"
-	"                     holds the emulator up. The MCU starts when the peer's first frame comes (a\n"
-	"                     hello: before it the VM's end of the line is not open); it goes onto the\n"
-	"                     bus as any frame. Ends when the peer leaves (status 0) or the time runs out.\n"
+	"                     holds the emulator up. The peer's frames wait in a queue of 64 for the bus,\n"
+	"                     which takes the lowest id among each node's first (the id's low 4 bits);\n"
+	"                     a full queue drops its least urgent frame, counted. The MCU starts when the\n"
+	"                     peer's first frame comes (a hello: before it the VM's end of the line is not\n"
+	"                     open); it goes onto the bus as any frame. Ends when the peer leaves (status\n"
+	"                     0) or the time runs out.\n"
 	"                     A frame of extended id 0x1F05B0FF from the peer is no frame: it puts CAN1\n"
 	"                     bus-off when its turn comes (the HIL scenarios' bus-off, run-scenario f405-can)\n"
 	"  --no-hello         with --can-tunnel: start at once, without waiting for the peer's first frame\n"
-	"  --paced-by-device MS  with --can-tunnel: the device clocks virtual time instead of the wall\n"
-	"                     clock: before each TIM2 tick it waits until a DEVICE_POS came from the peer\n"
-	"                     since the tick before (a device in lockstep, swell-hm --lockstep, sends the\n"
-	"                     next one when the tick's FORCE_CMD reaches it), at most MS of wall time; a\n"
-	"                     wait that runs out means the device is gone: wall-time pacing until its next\n"
-	"                     sample, so the image's silence limit counts ticks as on silicon (0: off)\n"
+	"  --paced-by-device MS  with --can-tunnel or --usb-tunnel: the device clocks virtual time instead\n"
+	"                     of the wall clock: before each TIM2 tick it waits until the device's sample\n"
+	"                     came since the tick before (CAN: a DEVICE_POS from the peer, 0.6 ms ahead of\n"
+	"                     the tick; USB: bulk OUT data from the host, 0.1 ms ahead: a quarter of the\n"
+	"                     2500 Hz tick the image runs with its device on USB; a device in lockstep,\n"
+	"                     swell-hm --lockstep, sends the next one when the tick's FORCE_CMD reaches it),\n"
+	"                     at most MS of wall time; a wait that runs out means the device is gone:\n"
+	"                     wall-time pacing until its next sample, so the image's silence limit counts\n"
+	"                     ticks as on silicon (0: off; not with --usb-lockstep, where the host clocks)\n"
 	"  --quiet            no summary on stderr\n"
 	"  --tx-log FILE      every frame CAN1 sent: 'T_NS ID DLC DATA' (virtual ns of its EOF, hex id and\n"
 	"                     bytes)\n"
@@ -74,7 +81,8 @@ static const char usage[] =
 	"  --usb-replug MS    with --usb-tunnel: a host that lets go pulls the cable out and the run goes\n"
 	"                     on; MS ms of virtual time later the next connection on PATH is the cable put\n"
 	"                     back (bus reset, enumeration: a new session), taken when it comes\n"
-	"                     (--usb-lockstep: virtual time stands until it comes)\n"
+	"                     (--usb-lockstep: virtual time stands until it comes); SIGTERM or SIGINT then\n"
+	"                     ends the run with its summary\n"
 	"  --usb-log FILE     with --usb-tunnel: the USB side in virtual time, one 'T_NS EVENT' a line:\n"
 	"                     'session N in|out' (the cable), 'reset' (a host's bus reset), 'suspend' (the\n"
 	"                     core's USBSUSP raised), 'suspend-seen' (the image's driver acknowledged it),\n"
@@ -124,6 +132,16 @@ static double host_seconds(void)
 /* --paced-by-device: virtual time waits this long before a tick for the device's sample (its frames
  * then take about 350 us on the bus, and the RX interrupt runs before the tick) */
 #define DEVICE_LEAD_S 0.0006
+/* over USB the sample is in the receive FIFO once its OUT is acknowledged: the OTG interrupt runs
+ * before the tick within a quarter of the 2500 Hz tick, and the tick before has sent its FORCE_CMD */
+#define DEVICE_LEAD_USB_S 0.0001
+
+static volatile sig_atomic_t stop_signal; /* --usb-replug: SIGTERM or SIGINT ends the run */
+
+static void on_stop_signal(int sig)
+{
+	stop_signal = sig;
+}
 #define LOCKSTEP_WAIT_MS 60000 /* --usb-lockstep: a host silent this long (wall time) ends the run */
 
 struct tunnel {
@@ -131,9 +149,12 @@ struct tunnel {
 	struct mcu_can1_dev *can;
 	uint8_t buf[TUNNEL_FRAME];
 	size_t have;
-	/* frames from the peer wait here for the bus: one after the other, each its length in bits */
+	/* frames from the peer wait here for the bus, in the order they came: one after the other, each
+	 * its length in bits, the next by arbitration among each node's first (tunnel_deliver) */
 	struct bxcan_frame q[TUNNEL_QUEUE];
-	uint32_t q_head, q_tail;
+	uint32_t qn;
+	uint64_t bus_full; /* frames the bus could not carry: dropped from a full queue */
+	uint32_t usb_out_seen; /* --paced-by-device over USB: the server's bulk OUT bytes at the last look */
 	uint64_t bus_free; /* virtual time the last frame from the peer ends */
 	/* pacing: virtual time runs at most as fast as the wall clock from wall0; when it falls more than
 	 * MAX_LAG_S behind (a slow stretch, or a peer that did not take frames), wall0 moves up so that it
@@ -248,6 +269,47 @@ static void tunnel_tx(void *user, const struct bxcan_frame *f, uint64_t t_ns)
 		t->tx++;
 }
 
+/* Arbitration's rank: the lower, the more urgent (a standard id before an extended one of the same
+ * base id); the swell protocol's node is an id's low 4 bits. */
+static uint32_t frame_rank(const struct bxcan_frame *f)
+{
+	return f->ide ? (f->id >> 18) << 1 | 1u : f->id << 1;
+}
+
+static int node_first(const struct tunnel *t, uint32_t i)
+{
+	for (uint32_t j = 0; j < i; j++)
+		if ((t->q[j].id & 0xFu) == (t->q[i].id & 0xFu))
+			return 0;
+	return 1;
+}
+
+static void tunnel_take(struct tunnel *t, uint32_t k)
+{
+	memmove(&t->q[k], &t->q[k + 1], (t->qn - k - 1) * sizeof(t->q[0]));
+	t->qn--;
+}
+
+/* A frame from the peer into the queue; a full one gives up its least urgent frame (the latest of
+ * them) for it, or this one when it is no more urgent. 1 when it was queued. */
+static int tunnel_queue(struct tunnel *t, const struct bxcan_frame *f)
+{
+	uint32_t worst = 0;
+
+	if (t->qn == TUNNEL_QUEUE) {
+		t->bus_full++;
+		for (uint32_t i = 1; i < t->qn; i++)
+			if (frame_rank(&t->q[i]) >= frame_rank(&t->q[worst]))
+				worst = i;
+		if (frame_rank(f) >= frame_rank(&t->q[worst]) ||
+		    (t->q[worst].ide && t->q[worst].id == TUNNEL_BUSOFF_ID))
+			return 0;
+		tunnel_take(t, worst);
+	}
+	t->q[t->qn++] = *f;
+	return 1;
+}
+
 static void tunnel_frame(struct tunnel *t)
 {
 	const uint8_t *r = t->buf;
@@ -263,34 +325,44 @@ static void tunnel_frame(struct tunnel *t)
 	f.id = f.ide ? id & 0x1FFFFFFFu : id & 0x7FFu;
 	f.dlc = r[4];
 	memcpy(f.data, r + 8, 8);
+	if (!tunnel_queue(t, &f))
+		return;
 	if (!f.ide && !f.rtr && f.id >> 4 == 0x02u) /* DEVICE_POS (swell/proto_table.h), any node */
 		t->sample = 1, t->lost = 0;
-	t->q[t->q_head++ % TUNNEL_QUEUE] = f;
 }
 
-/* The queued frames whose turn on the bus has come: each ends at least a frame's length (with the 3
- * bits of intermission) after the one before it; it is taken as ending now, the hook's time. */
+/* The queued frame whose turn on the bus has come: each ends at least a frame's length (with the 3
+ * bits of intermission) after the one before it; it is taken as ending now, the hook's time. The
+ * frames wait for virtual time, which the device's pace holds at a fraction of the wall clock, while
+ * a flooding node in the VM sends at wall-clock speed: the bus takes the next frame by arbitration
+ * (the lowest id among each node's first, a node's own frames in order), so that a device's sample
+ * does not wait behind a flood of less urgent frames, and a full queue drops its least urgent frame
+ * (tunnel_queue), as a saturated bus leaves those unsent. */
 static void tunnel_deliver(struct mcu *m, struct tunnel *t)
 {
-	while (t->q_tail != t->q_head) {
-		const struct bxcan_frame *f = &t->q[t->q_tail % TUNNEL_QUEUE];
-		uint64_t len = mcu_can1_units(bxcan_bits_ns(&t->can->b, bxcan_frame_bits(f, NULL) + 3u));
+	while (t->qn) {
+		uint32_t k = 0;
+		uint64_t len;
 
-		if (f->ide && f->id == TUNNEL_BUSOFF_ID) { /* no frame: the tests' bus-off, now */
+		if (t->q[0].ide && t->q[0].id == TUNNEL_BUSOFF_ID) { /* no frame: the tests' bus-off, now */
 			bxcan_inject_bus_off(&t->can->b, mcu_can1_ns(m->now));
 			mcu_can1_bus_rx(m, t->can, NULL);
-			t->q_tail++;
+			tunnel_take(t, 0);
 			t->busoffs++;
 			fprintf(stderr,
 				"swell-mcu: CAN tunnel: CAN1 put bus-off at %.6f s virtual (the peer's request)\n",
 				mcu_seconds(m->now));
 			continue;
 		}
+		for (uint32_t i = 1; i < t->qn; i++)
+			if (frame_rank(&t->q[i]) < frame_rank(&t->q[k]) && node_first(t, i))
+				k = i;
+		len = mcu_can1_units(bxcan_bits_ns(&t->can->b, bxcan_frame_bits(&t->q[k], NULL) + 3u));
 		if (t->bus_free + len > m->now)
 			return; /* not yet: the bus is still busy with the one before */
 		t->bus_free = m->now;
-		mcu_can1_bus_rx(m, t->can, f);
-		t->q_tail++;
+		mcu_can1_bus_rx(m, t->can, &t->q[k]);
+		tunnel_take(t, k);
 		t->rx++;
 	}
 }
@@ -336,8 +408,22 @@ static int wait_hello(struct tunnel *t)
 	return 0;
 }
 
-/* --paced-by-device, before a tick: read the tunnel until the device's sample has come or device_s of
- * wall time passed (then lost). -1 when the peer left. */
+static int usb_hook(struct mcu *m, struct tunnel *t, short *events);
+
+/* The USB device's sample: bulk OUT data the server handed the model since the last look (the host
+ * link's requests share the endpoint: one of those counts as well, and so does a new session's
+ * count starting again). */
+static void usb_sample(struct tunnel *t)
+{
+	if (t->usb_fd >= 0 && t->usb->srv.stats.bytes_out != t->usb_out_seen) {
+		t->usb_out_seen = t->usb->srv.stats.bytes_out;
+		t->sample = 1, t->lost = 0;
+	}
+}
+
+/* --paced-by-device, before a tick: read the tunnel (and step the USB server) until the device's
+ * sample has come or device_s of wall time passed (then lost). 0, -1 when the peer left, or an exit
+ * status. */
 static int device_wait(struct mcu *m, struct tunnel *t)
 {
 	const double end = host_seconds() + t->device_s;
@@ -345,21 +431,35 @@ static int device_wait(struct mcu *m, struct tunnel *t)
 	t->waits++;
 	while (!t->sample) {
 		const double left = end - host_seconds();
-		struct pollfd p = { t->fd, POLLIN, 0 };
+		struct pollfd p[2] = { { t->fd, POLLIN, 0 }, { -1, POLLIN, 0 } };
 		struct timespec ts = { 0, 0 };
 		int r;
 
-		if (left <= 0 || t->q_head - t->q_tail >= TUNNEL_QUEUE) {
+		if (t->usb) {
+			r = usb_hook(m, t, &p[1].events);
+			if (r)
+				return r;
+			usb_sample(t);
+			if (t->sample)
+				break;
+			p[1].fd = t->usb_fd;
+		}
+		if (left <= 0 || stop_signal || (t->fd < 0 && t->usb_fd < 0)) {
 			t->lost = 1;
 			t->waited_out++;
 			return 0;
 		}
-		ts.tv_sec = (time_t)left;
-		ts.tv_nsec = (long)((left - (double)ts.tv_sec) * 1e9);
-		r = ppoll(&p, 1, &ts, NULL);
+		/* USB: a NAKed transfer is retried at the next step, 1 ms at most apart */
+		if (t->usb && left > 0.001) {
+			ts.tv_nsec = 1000000;
+		} else {
+			ts.tv_sec = (time_t)left;
+			ts.tv_nsec = (long)((left - (double)ts.tv_sec) * 1e9);
+		}
+		r = ppoll(p, 2, &ts, NULL);
 		if (r < 0 && errno != EINTR)
 			return -1;
-		if (r > 0 && tunnel_read(m, t) != 0)
+		if (r > 0 && t->fd >= 0 && (p[0].revents & (POLLIN | POLLHUP | POLLERR)) && tunnel_read(m, t) != 0)
 			return -1;
 	}
 	return 0;
@@ -483,16 +583,20 @@ static int tunnel_hook(struct mcu *m, void *ctx)
 {
 	struct tunnel *t = ctx;
 
-	if (t->device_s > 0 && t->tim2 && t->fd >= 0) {
+	if (stop_signal)
+		return -1;
+	if (t->device_s > 0 && t->tim2 && (t->fd >= 0 || (t->usb && !t->usb_lockstep))) {
 		const uint64_t u = t->tim2->next_event(m, t->tim2->ctx);
+		const double lead = t->fd >= 0 ? DEVICE_LEAD_S : DEVICE_LEAD_USB_S;
+		int r;
 
 		if (u != t->tick_at) { /* a tick began: the next one waits for the next sample */
 			t->tick_at = u;
 			t->sample = 0;
 		}
-		if (!t->lost && u != MCU_NEVER && !t->sample && mcu_seconds(u - m->now) <= DEVICE_LEAD_S &&
-		    device_wait(m, t) != 0)
-			return -1;
+		if (!t->lost && u != MCU_NEVER && !t->sample && mcu_seconds(u - m->now) <= lead &&
+		    (r = device_wait(m, t)) != 0)
+			return r;
 		if (!t->lost) /* the device clocks: no wall-time pacing, and none to make up after */
 			t->wall0 = host_seconds() - mcu_seconds(m->now);
 	}
@@ -515,6 +619,7 @@ static int tunnel_hook(struct mcu *m, void *ctx)
 			r = usb_hook(m, t, &p[1].events);
 			if (r)
 				return r;
+			usb_sample(t);
 			p[1].fd = t->usb_fd;
 		}
 		if (-ahead > MAX_LAG_S) {
@@ -527,8 +632,6 @@ static int tunnel_hook(struct mcu *m, void *ctx)
 			ts.tv_sec = (time_t)ahead;
 			ts.tv_nsec = (long)((ahead - (double)ts.tv_sec) * 1e9);
 		}
-		if (t->q_head - t->q_tail >= TUNNEL_QUEUE)
-			p[0].events = 0; /* the queue is full: the socket waits */
 		r = ppoll(p, 2, &ts, NULL);
 		if (r < 0 && errno != EINTR)
 			return MCU_EXIT_ERROR;
@@ -706,14 +809,15 @@ static int run(const struct opts *o, struct world *w)
 	if (o->tunnel && !o->quiet)
 		fprintf(stderr,
 			"swell-mcu: CAN tunnel: %llu frames to the peer, %llu from it (%llu dropped: error frames or "
-			"length > 8)\n",
-			(unsigned long long)t->tx, (unsigned long long)t->rx, (unsigned long long)t->dropped);
+			"length > 8; %llu the bus could not carry: dropped from the full queue)\n",
+			(unsigned long long)t->tx, (unsigned long long)t->rx, (unsigned long long)t->dropped,
+			(unsigned long long)t->bus_full);
 	if ((o->tunnel || (o->usb_tunnel && !o->usb_lockstep)) && !o->quiet)
 		fprintf(stderr,
 			"swell-mcu: paced to the wall clock: virtual time fell behind it by %.1f ms in all, in %llu "
 			"stretches over %.0f ms\n",
 			1e3 * t->behind_s, (unsigned long long)t->lag_events, 1e3 * MAX_LAG_S);
-	if (o->tunnel && t->device_s > 0 && !o->quiet)
+	if ((o->tunnel || (o->usb_tunnel && !o->usb_lockstep)) && t->device_s > 0 && !o->quiet)
 		fprintf(stderr,
 			"swell-mcu: paced by the device: %llu ticks waited for its sample, %llu waits ran out "
 			"(%.0f ms: the device gone, wall-time pacing until it came back)\n",
@@ -776,6 +880,13 @@ int main(int argc, char **argv)
 		swell_cli_die("swell-mcu", "--usb-lockstep, --usb-replug and --usb-log need --usb-tunnel");
 	if (o.usb_lockstep && o.tunnel)
 		swell_cli_die("swell-mcu", "--usb-lockstep: the USB host clocks virtual time, a CAN tunnel cannot");
+	if (o.usb_lockstep && o.device_ms > 0)
+		swell_cli_die("swell-mcu",
+			      "--usb-lockstep: the USB host clocks virtual time, --paced-by-device cannot");
+	if (o.usb_replug_ms >= 0) {
+		signal(SIGTERM, on_stop_signal);
+		signal(SIGINT, on_stop_signal);
+	}
 	w = calloc(1, sizeof(*w));
 	if (!w)
 		return MCU_EXIT_ERROR;

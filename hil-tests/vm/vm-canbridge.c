@@ -1,7 +1,10 @@
 /* swell-vm-canbridge: joins the CAN tunnel (a serial line carrying classic CAN frames as the
  * 16 bytes of Linux struct can_frame, can_id little-endian) to a SocketCAN interface, both ways,
  * so programs in the VM see the peer at the tunnel's other end (the emulated STM32F405) as a node
- * on that bus. */
+ * on that bus. Neither direction waits for the other: frames for the line wait in a queue of their
+ * own while the line is full, and the line is read all the while. (Written in one go, a full line
+ * stopped the bridge from reading it; the peer, whose frames then filled the other direction, stopped
+ * reading its end: both waited for good. A third node's flood did that.) */
 #define _DEFAULT_SOURCE
 
 #include <errno.h>
@@ -30,6 +33,9 @@ static const char usage[] =
 	"frame is 16 bytes: u32 can_id little-endian with the EFF/RTR/ERR flags, u8 len, 3 pad,\n"
 	"8 data) and the SocketCAN interface IFACE (default can0), both ways, until SIGTERM or\n"
 	"SIGINT, or until the line closes. Frames with len > 8 from the line are counted and dropped.\n"
+	"Frames for the line wait in a queue of 64 while the line is full; a frame that comes when it\n"
+	"is full drops the queue's lowest-priority frame (highest id) if it outranks it, else itself,\n"
+	"as arbitration leaves the least urgent frames unsent on a saturated bus; counted.\n"
 	"Writes PATH of --ready-file once both ends are open. At the end prints the frame counts.\n"
 	"Exit status: 0 stopped by a signal or the line closed, 1 a line or CAN I/O error, 2 bad arguments.\n";
 
@@ -38,6 +44,14 @@ struct bridge_counts {
 	uint64_t can_to_line;
 	uint64_t bad_len;
 	uint64_t can_write_fail;
+	uint64_t line_dropped; /* for the line, dropped from a full queue */
+};
+
+/* Frames for the line: q[0] may be partly written (head_sent bytes of it). */
+#define LINE_QUEUE 64u
+struct line_queue {
+	struct can_frame q[LINE_QUEUE];
+	size_t n, head_sent;
 };
 
 static int open_can(const char *iface)
@@ -83,22 +97,6 @@ static int bytes_to_frame(const uint8_t in[TUNNEL_FRAME_BYTES], struct can_frame
 	return 0;
 }
 
-static int write_all(int fd, const uint8_t *p, size_t n)
-{
-	while (n > 0) {
-		ssize_t w = write(fd, p, n);
-
-		if (w < 0) {
-			if (errno == EINTR)
-				continue;
-			return -1;
-		}
-		p += w;
-		n -= (size_t)w;
-	}
-	return 0;
-}
-
 /* Frames moved per system call at most: under TCG each call costs the VM tens of microseconds, so a
  * backlog goes in batches rather than one frame a call. */
 #define BATCH_FRAMES 64u
@@ -125,25 +123,63 @@ static void line_frames_to_can(int can_fd, uint8_t *buf, size_t *have, struct br
 	*have -= off;
 }
 
-/* Reads the frames the interface has queued (at least one, as poll said; at most BATCH_FRAMES) and
- * writes them to the line in one go. 0, or -1 on an I/O error of the line. */
-static int can_frames_to_line(int can_fd, int line_fd, struct bridge_counts *c)
+/* Arbitration's rank of a frame: the lower, the more urgent (a standard id before an extended one
+ * of the same base id). */
+static uint32_t rank(const struct can_frame *f)
+{
+	return f->can_id & CAN_EFF_FLAG ? ((f->can_id & CAN_EFF_MASK) >> 18) << 1 | 1u
+					: (f->can_id & CAN_SFF_MASK) << 1;
+}
+
+/* A frame into the queue; a full queue gives up its least urgent frame not yet begun, or this one. */
+static void enqueue(struct line_queue *lq, const struct can_frame *f, struct bridge_counts *c)
+{
+	size_t worst = lq->head_sent ? 1 : 0, i;
+
+	if (lq->n < LINE_QUEUE) {
+		lq->q[lq->n++] = *f;
+		return;
+	}
+	c->line_dropped++;
+	for (i = worst + 1; i < lq->n; i++)
+		if (rank(&lq->q[i]) >= rank(&lq->q[worst]))
+			worst = i; /* the latest of the least urgent */
+	if (worst >= lq->n || rank(f) >= rank(&lq->q[worst]))
+		return;
+	memmove(&lq->q[worst], &lq->q[worst + 1], (lq->n - worst - 1) * sizeof(lq->q[0]));
+	lq->q[lq->n - 1] = *f;
+}
+
+/* Reads the frames the interface has queued (at most BATCH_FRAMES) into the line's queue. */
+static void can_frames_to_queue(int can_fd, struct line_queue *lq, struct bridge_counts *c)
+{
+	for (size_t n = 0; n < BATCH_FRAMES; n++) {
+		struct can_frame f;
+
+		if (recv(can_fd, &f, sizeof(f), MSG_DONTWAIT) != (ssize_t)sizeof(f))
+			break;
+		enqueue(lq, &f, c);
+		c->can_to_line++;
+	}
+}
+
+/* Writes what the line takes of the queue without waiting. 0, or -1 on an I/O error of the line. */
+static int queue_to_line(int line_fd, struct line_queue *lq)
 {
 	uint8_t out[BATCH_FRAMES * TUNNEL_FRAME_BYTES];
-	size_t n = 0;
+	size_t k = lq->n < BATCH_FRAMES ? lq->n : BATCH_FRAMES, done;
+	ssize_t w;
 
-	while (n < BATCH_FRAMES) {
-		struct can_frame f;
-		ssize_t r = recv(can_fd, &f, sizeof(f), n == 0 ? 0 : MSG_DONTWAIT);
-
-		if (r != (ssize_t)sizeof(f))
-			break;
-		frame_to_bytes(&f, out + n * TUNNEL_FRAME_BYTES);
-		n++;
-	}
-	if (n > 0 && write_all(line_fd, out, n * TUNNEL_FRAME_BYTES) != 0)
-		return -1;
-	c->can_to_line += n;
+	for (size_t i = 0; i < k; i++)
+		frame_to_bytes(&lq->q[i], out + i * TUNNEL_FRAME_BYTES);
+	w = write(line_fd, out + lq->head_sent, k * TUNNEL_FRAME_BYTES - lq->head_sent);
+	if (w < 0)
+		return errno == EINTR || errno == EAGAIN ? 0 : -1;
+	done = lq->head_sent + (size_t)w;
+	lq->head_sent = done % TUNNEL_FRAME_BYTES;
+	done /= TUNNEL_FRAME_BYTES;
+	memmove(&lq->q[0], &lq->q[done], (lq->n - done) * sizeof(lq->q[0]));
+	lq->n -= done;
 	return 0;
 }
 
@@ -152,10 +188,16 @@ static int run_bridge(int line_fd, int can_fd, struct bridge_counts *c)
 {
 	uint8_t acc[BATCH_FRAMES * TUNNEL_FRAME_BYTES];
 	size_t have = 0;
+	static struct line_queue lq;
 
+	(void)fcntl(line_fd, F_SETFL, fcntl(line_fd, F_GETFL) | O_NONBLOCK);
 	while (!vm_stop) {
 		struct pollfd pfd[2] = { { .fd = line_fd, .events = POLLIN }, { .fd = can_fd, .events = POLLIN } };
-		int n = poll(pfd, 2, 200);
+		int n;
+
+		if (lq.n)
+			pfd[0].events |= POLLOUT;
+		n = poll(pfd, 2, 200);
 
 		if (n < 0) {
 			if (errno == EINTR)
@@ -174,7 +216,9 @@ static int run_bridge(int line_fd, int can_fd, struct bridge_counts *c)
 				line_frames_to_can(can_fd, acc, &have, c);
 			}
 		}
-		if ((pfd[1].revents & POLLIN) && can_frames_to_line(can_fd, line_fd, c) != 0)
+		if (pfd[1].revents & POLLIN)
+			can_frames_to_queue(can_fd, &lq, c);
+		if (lq.n && queue_to_line(line_fd, &lq) != 0)
 			return -1;
 	}
 	return 0;
@@ -215,8 +259,9 @@ int main(int argc, char **argv)
 	}
 	rc = run_bridge(line_fd, can_fd, &c);
 	printf("swell-vm-canbridge: %s <-> %s: %" PRIu64 " frames line->can, %" PRIu64 " can->line, %" PRIu64
-	       " bad length, %" PRIu64 " refused by the interface\n",
-	       tty, iface, c.line_to_can, c.can_to_line, c.bad_len, c.can_write_fail);
+	       " bad length, %" PRIu64 " refused by the interface, %" PRIu64 " of can->line dropped from the full "
+	       "queue\n",
+	       tty, iface, c.line_to_can, c.can_to_line, c.bad_len, c.can_write_fail, c.line_dropped);
 	if (rc != 0)
 		fprintf(stderr, "swell-vm-canbridge: I/O error: %s\n", strerror(errno));
 	close(line_fd);

@@ -5,7 +5,9 @@
  * between the other end and the line, so the VM's USB stack enumerates the device and programs use
  * it through libusb as they would a board on a USB port. The server closing the line is an unplug:
  * the port is detached, and the device imported again when the line comes back (QEMU's socket
- * chardev reconnects; a virtio-serial port polls as hung up meanwhile). */
+ * chardev reconnects; a virtio-serial port polls as hung up meanwhile). SIGUSR1 pulls the cable from
+ * this end (the port detached, the session ended: a command USB/IP does not have, on which the server
+ * closes the line, as USB/IP servers do), SIGUSR2 plugs it in again (imported once the line is back). */
 #define _DEFAULT_SOURCE
 
 #include <errno.h>
@@ -39,8 +41,12 @@ static const char usage[] =
 	"a Unix socket pair, and copies the USB/IP stream between the socket and the line until\n"
 	"SIGTERM or SIGINT (then the port is detached) or until either side closes. When the server\n"
 	"closes a virtio-serial line (the device unplugged), the port is detached and the device\n"
-	"imported again once the line is back. Writes --ready-file once the device is first attached.\n"
-	"At the end prints the sessions and the bytes moved each way.\n"
+	"imported again once the line is back. SIGUSR1 pulls the cable: the port is detached and the\n"
+	"session ended (a USB/IP command of code 0, which the protocol does not have: the server closes\n"
+	"the line, as a USB/IP server does on a command it does not know; swell-mcu --usb-replug takes\n"
+	"that as the cable pulled); SIGUSR2 plugs it in again: the device is imported again once the\n"
+	"line is back. Writes --ready-file once the device is first attached.\n"
+	"At the end prints the sessions, the unplugs and the bytes moved each way.\n"
 	"Exit status: 0 stopped by a signal or either side closed, 1 an import, attach or I/O\n"
 	"failure, 2 bad arguments.\n";
 
@@ -200,10 +206,21 @@ static int pump_out(int dst, struct pipe_buf *p)
 
 static struct pipe_buf to_line, to_vhci;
 
+static volatile sig_atomic_t unplug_asked, plug_asked; /* SIGUSR1, SIGUSR2 */
+
+static void on_usr(int sig)
+{
+	if (sig == SIGUSR1)
+		unplug_asked = 1;
+	else
+		plug_asked = 1;
+}
+
 enum pump_end {
 	END_STOP,
 	END_LINE,
 	END_VHCI,
+	END_UNPLUG,
 	END_ERROR
 };
 
@@ -216,6 +233,8 @@ static enum pump_end run_pump(int line, int sock)
 		struct pollfd pfd[2] = { { .fd = line, .events = POLLIN }, { .fd = sock, .events = POLLIN } };
 		int n;
 
+		if (unplug_asked)
+			return END_UNPLUG;
 		if (to_line.len)
 			pfd[0].events |= POLLOUT;
 		if (to_vhci.len)
@@ -252,6 +271,38 @@ static int wait_line_back(int line)
 		}
 	}
 	return -1;
+}
+
+/* SIGUSR1: the session ended from this end. USB/IP has no message for it: a command header of code 0
+ * (no command), on which the server closes the line; what it still sends is dropped until the line
+ * hangs up (QEMU's socket chardev lost its peer) or has been quiet for 1.5 s (QEMU dials again after
+ * 1 s: a guest busy elsewhere may take the hang-up and the new connection together, and never see
+ * the line hung up). The old session sends nothing after the server's close. 1 when it hung up. */
+static int end_session(int line)
+{
+	uint8_t hdr[48] = { 0 }, junk[4096];
+	double quiet_until = vm_now_s() + 1.5;
+
+	(void)fcntl(line, F_SETFL, fcntl(line, F_GETFL) & ~O_NONBLOCK);
+	/* what vhci sent before it let go goes first: the header then starts a message */
+	if (write_all(line, to_line.b, to_line.len) != 0 || write_all(line, hdr, sizeof(hdr)) != 0)
+		return 0; /* already gone */
+	to_line.moved += to_line.len;
+	to_line.len = 0;
+	while (!vm_stop && vm_now_s() < quiet_until) {
+		struct pollfd pfd = { .fd = line, .events = POLLIN };
+		ssize_t r;
+
+		if (poll(&pfd, 1, 100) <= 0)
+			continue;
+		if (pfd.revents & (POLLHUP | POLLERR))
+			return 1;
+		r = read(line, junk, sizeof(junk));
+		if (r == 0 || (r < 0 && errno != EINTR && errno != EAGAIN))
+			return 1;
+		quiet_until = vm_now_s() + 1.5;
+	}
+	return 0;
 }
 
 /* The first attach writes the ready file. */
@@ -328,12 +379,17 @@ int main(int argc, char **argv)
 	struct swell_cli cli = {
 		.prog = "swell-vm-usbip-bridge", .usage = usage, .opt = opts, .n_opt = SWELL_CLI_N(opts)
 	};
-	unsigned sessions = 0;
+	unsigned sessions = 0, unplugs = 0;
 	int line, port = -1, rc = 0;
 	enum pump_end end;
+	struct sigaction sa;
 
 	swell_cli_parse(&cli, argc, argv);
 	vm_catch_stop();
+	memset(&sa, 0, sizeof(sa));
+	sa.sa_handler = on_usr; /* no SA_RESTART: a poll they interrupt returns */
+	sigaction(SIGUSR1, &sa, NULL);
+	sigaction(SIGUSR2, &sa, NULL);
 	line = vm_open_line(tty);
 	if (line < 0) {
 		fprintf(stderr, "swell-vm-usbip-bridge: cannot open the tunnel line %s: %s\n", tty, strerror(errno));
@@ -350,6 +406,28 @@ int main(int argc, char **argv)
 			break;
 		}
 		sessions++;
+		if (end == END_UNPLUG) {
+			unplugs++;
+			plug_asked = 0;
+			printf("swell-vm-usbip-bridge: cable pulled (SIGUSR1) at %.3f s: vhci port %d detached, "
+			       "session ended\n",
+			       vm_now_s(), port);
+			fflush(stdout);
+			printf("swell-vm-usbip-bridge: the session ended (%s)\n",
+			       end_session(line) ? "the line hung up" : "the line quiet for 1.5 s");
+			fflush(stdout);
+			while (!vm_stop && !plug_asked) {
+				struct timespec ts = { 0, 20000000 };
+
+				nanosleep(&ts, NULL);
+			}
+			unplug_asked = 0;
+			if (vm_stop || wait_line_back(line) != 0)
+				break;
+			printf("swell-vm-usbip-bridge: plugged in again (SIGUSR2) at %.3f s\n", vm_now_s());
+			fflush(stdout);
+			continue;
+		}
 		if (end != END_LINE)
 			break;
 		printf("swell-vm-usbip-bridge: the server closed the line: device unplugged from vhci port %d\n", port);
@@ -357,8 +435,9 @@ int main(int argc, char **argv)
 		if (wait_line_back(line) != 0)
 			break;
 	}
-	printf("swell-vm-usbip-bridge: %s <-> vhci: %u sessions, %" PRIu64 " bytes to the line, %" PRIu64 " to vhci\n",
-	       tty, sessions, to_line.moved, to_vhci.moved);
+	printf("swell-vm-usbip-bridge: %s <-> vhci: %u sessions, %u unplugs, %" PRIu64 " bytes to the line, %" PRIu64
+	       " to vhci\n",
+	       tty, sessions, unplugs, to_line.moved, to_vhci.moved);
 	close(line);
 	return rc;
 }

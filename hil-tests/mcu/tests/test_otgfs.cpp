@@ -388,7 +388,7 @@ TEST_CASE("OTG_FS with the cable pulled raises ESUSP 3 ms and USBSUSP 6 ms later
 	CHECK(otgfs_fault(b.m.get()) == nullptr);
 }
 
-TEST_CASE("OTG_FS with the cable out and the pull-up off raises no suspend; the idle time counts from the attach")
+TEST_CASE("OTG_FS with the cable out and the pull-up off raises no suspend, and the idle time counts from the attach")
 {
 	constexpr uint32_t ESUSP = 1u << 10, USBSUSP = 1u << 11;
 	Bench b;

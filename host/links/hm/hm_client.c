@@ -5,6 +5,7 @@
 #include "swell/hm_frame.h"
 #include "swell/link.h"
 #include "swell/num.h"
+#include "swell/proto.h"
 
 #include <arpa/inet.h>
 #include <errno.h>
@@ -136,10 +137,31 @@ double hm_hist_pct(const uint32_t *hist, int last, uint64_t n, double p)
 	return 0;
 }
 
+/* A device node's acceptance filter on classic CAN: the messages the controller sends the device, and
+ * the controller's heartbeat. A device's CAN controller filters so too; without it the socket queued
+ * the whole bus (the host link's telemetry on a shared bus, a third node's flood), and a device process
+ * a loaded machine left unscheduled for 0.3 s lost commands when that queue overflowed. */
+static size_t device_filters(struct swell_can_filter *f, size_t cap)
+{
+	size_t n = 0;
+
+	for (unsigned i = 0; i < swell_msg_desc_count && n < cap; i++) {
+		const struct swell_msg_desc *d = &swell_msg_descs[i];
+
+		if (!strcmp(d->to, "DEV") || d->type == SWELL_MSG_HEARTBEAT)
+			f[n++] = (struct swell_can_filter){ SWELL_CAN_ID(d->type, 0), 0x7F0u };
+	}
+	return n;
+}
+
 struct swell_link *hm_node_open(const struct swell_link_spec *spec, unsigned port, unsigned iface, const char *host,
 				unsigned bind_port, const char *prog, const char *what)
 {
-	const struct swell_link_open_opts uo = { .udp_host = host, .udp_bind_port = (uint16_t)bind_port };
+	struct swell_can_filter flt[16];
+	const size_t nflt = device_filters(flt, sizeof(flt) / sizeof(flt[0]));
+	const struct swell_link_open_opts uo = {
+		.udp_host = host, .udp_bind_port = (uint16_t)bind_port, .can_filters = flt, .can_nfilters = nflt
+	};
 	struct swell_link_spec ls = *spec;
 	struct swell_link *l = NULL;
 	int rc;

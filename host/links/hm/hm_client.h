@@ -117,8 +117,9 @@ int hm_client_parse_fixed(const char **s, int scale, int32_t limit, int32_t *out
 size_t hm_client_fmt_fixed(char *b, size_t cap, int64_t v, int decimals);
 
 /* The device node's link to the controller (swell-hmbridge, swell-hm): spec with the controller's
- * port and USB interface, its UDP address host and our own UDP port. NULL when it cannot be opened,
- * said on stderr after prog and the link's text (what). */
+ * port and USB interface, its UDP address host and our own UDP port; on classic CAN it takes only
+ * the controller's messages to the device and its heartbeat. NULL when it cannot be opened, said on
+ * stderr after prog and the link's text (what). */
 struct swell_link *hm_node_open(const struct swell_link_spec *spec, unsigned port, unsigned iface, const char *host,
 				unsigned bind_port, const char *prog, const char *what);
 

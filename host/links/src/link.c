@@ -198,10 +198,14 @@ int swell_link_open_spec(struct swell_link **out, const struct swell_link_spec *
 		return swell_link_open_udp(out, host, o->udp_bind_tries ? 0 : o->udp_bind_port, host, s->port);
 	case SWELL_LINK_CAN:
 	case SWELL_LINK_CANFD: {
-		struct swell_can_opts co = { 0 }; /* every id: other nodes are told apart by decoding */
+		struct swell_can_opts co = { 0 }; /* every id unless filtered: nodes are told apart by decoding */
 
 		co.fd = s->kind == SWELL_LINK_CANFD;
 		co.error_frames = o->can_errors;
+		if (!co.fd) {
+			co.filters = o->can_filters;
+			co.nfilters = o->can_nfilters;
+		}
 		return swell_link_open_can(out, s->name, &co);
 	}
 	case SWELL_LINK_USB: {

@@ -1,4 +1,8 @@
-/* libusb link: one swell packet per bulk transfer; survives unplug and replug. */
+/* libusb link: one swell packet per bulk transfer; survives unplug and replug. One IN transfer stays
+ * submitted between receives: a packet the device sends while nobody waits lands in it, and a receive
+ * that finds nothing (timeout 0: a poll) costs no transfer cancelled on the bus. A synchronous
+ * transfer with a timeout would be cancelled at each timeout: over USB/IP (vhci-hcd) every cancel is
+ * an unlink round trip, and libusb waits at least 1 ms for a poll. */
 #define _GNU_SOURCE
 #include "link_priv.h"
 
@@ -20,7 +24,29 @@ struct usb_link {
 	libusb_device_handle *h;
 	uint8_t ep_out, ep_in; /* in use: the configured ones, or what the descriptor has */
 	uint64_t last_try_ns;
+	struct libusb_transfer *in; /* the IN transfer of this handle (NULL: none yet) */
+	int in_state; /* IN_IDLE, IN_FLIGHT (submitted), IN_DONE (completed, not yet taken) */
+	unsigned char in_buf[SWELL_LINK_MTU];
 };
+
+enum {
+	IN_IDLE,
+	IN_FLIGHT,
+	IN_DONE
+};
+
+static void LIBUSB_CALL in_done(struct libusb_transfer *t)
+{
+	((struct usb_link *)t->user_data)->in_state = IN_DONE;
+}
+
+/* libusb's events for up to ms (0: what is there now, -1: until one). */
+static int pump(struct usb_link *u, int ms)
+{
+	struct timeval tv = { ms / 1000, (ms % 1000) * 1000 };
+
+	return ms < 0 ? libusb_handle_events(u->ctx) : libusb_handle_events_timeout_completed(u->ctx, &tv, NULL);
+}
 
 void swell_usb_opts_default(struct swell_usb_opts *o)
 {
@@ -46,6 +72,21 @@ static void drop(struct usb_link *u)
 {
 	if (!u->h)
 		return;
+	if (u->in_state == IN_FLIGHT) {
+		/* completed before the handle closes, whatever the cancel says (a device gone completes it
+		 * with NO_DEVICE at the next events) */
+		(void)libusb_cancel_transfer(u->in);
+		for (int i = 0; i < 100 && u->in_state == IN_FLIGHT; i++)
+			(void)pump(u, 10);
+	}
+	/* The transfer goes with the handle: libusb keeps the device it was submitted to until it is
+	 * freed or submitted again, and submitted again after the context was renewed (ensure) that
+	 * old device's release read the freed context and crashed swell-hm after a replug. One that
+	 * never completed stays libusb's (left, not freed). */
+	if (u->in && u->in_state != IN_FLIGHT)
+		libusb_free_transfer(u->in);
+	u->in = NULL;
+	u->in_state = IN_IDLE; /* what it held is lost with the device */
 	libusb_release_interface(u->h, u->o.iface);
 	libusb_close(u->h);
 	u->h = NULL;
@@ -163,8 +204,7 @@ static int usb_recv(struct swell_link *l, struct swell_frame *f, int timeout_ms)
 	uint64_t deadline = swell_link_deadline(timeout_ms);
 
 	for (;;) {
-		unsigned char buf[SWELL_LINK_MTU];
-		int left = swell_link_ms_left(deadline, timeout_ms), got = 0, rc = ensure(u);
+		int left = swell_link_ms_left(deadline, timeout_ms), rc = ensure(u);
 
 		if (rc == -ENODEV) {
 			/* unplugged: wait for it to come back until the deadline */
@@ -177,24 +217,50 @@ static int usb_recv(struct swell_link *l, struct swell_frame *f, int timeout_ms)
 		}
 		if (rc)
 			return rc;
-		const unsigned ms = left < 0 ? 0u : left ? (unsigned)left : 1u; /* libusb: 0 means no timeout */
-		rc = libusb_bulk_transfer(u->h, u->ep_in, buf, sizeof(buf), &got, ms);
-		if (rc == LIBUSB_ERROR_TIMEOUT)
-			return -ETIMEDOUT;
-		if (rc == LIBUSB_ERROR_NO_DEVICE || rc == LIBUSB_ERROR_IO) {
+		if (!u->in && !(u->in = libusb_alloc_transfer(0)))
+			return -ENOMEM;
+		if (u->in_state == IN_IDLE) {
+			libusb_fill_bulk_transfer(u->in, u->h, u->ep_in, u->in_buf, sizeof(u->in_buf), in_done, u, 0);
+			rc = libusb_submit_transfer(u->in);
+			if (rc == LIBUSB_ERROR_NO_DEVICE || rc == LIBUSB_ERROR_IO) {
+				drop(u);
+				continue;
+			}
+			if (rc < 0)
+				return errno_of(rc);
+			u->in_state = IN_FLIGHT;
+		}
+		while (u->in_state == IN_FLIGHT) {
+			rc = pump(u, left);
+			if (rc < 0 && rc != LIBUSB_ERROR_INTERRUPTED)
+				return errno_of(rc);
+			if (u->in_state != IN_FLIGHT)
+				break;
+			if (rc == LIBUSB_ERROR_INTERRUPTED)
+				return -EINTR;
+			left = swell_link_ms_left(deadline, timeout_ms);
+			if (left == 0)
+				return -ETIMEDOUT; /* the transfer stays submitted for the next receive */
+		}
+		u->in_state = IN_IDLE;
+		switch (u->in->status) {
+		case LIBUSB_TRANSFER_COMPLETED:
+			break;
+		case LIBUSB_TRANSFER_OVERFLOW:
+			l->cnt.rx_dropped++;
+			continue;
+		case LIBUSB_TRANSFER_STALL:
+			return -EPIPE;
+		case LIBUSB_TRANSFER_CANCELLED:
+			continue;
+		default: /* an error or the device gone: opened again */
 			drop(u);
 			continue;
 		}
-		if (rc == LIBUSB_ERROR_OVERFLOW) {
-			l->cnt.rx_dropped++;
-			continue;
-		}
-		if (rc < 0)
-			return errno_of(rc);
 		memset(f, 0, sizeof(*f));
 		f->t_ns = swell_link_now_ns();
-		f->len = (uint16_t)got;
-		memcpy(f->data, buf, (size_t)got);
+		f->len = (uint16_t)u->in->actual_length;
+		memcpy(f->data, u->in_buf, (size_t)u->in->actual_length);
 		return 0;
 	}
 }

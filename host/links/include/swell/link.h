@@ -211,6 +211,8 @@ struct swell_link_open_opts {
 	uint16_t udp_bind_tries; /* > 0: the first free of this many ports from udp_bind_port, else any free one */
 	int udp_answer; /* 1: bind the spec's port and answer whoever sent last; 0: send to the spec's port */
 	int can_errors; /* CAN: receive error frames (counted in bus_errors) */
+	const struct swell_can_filter *can_filters; /* classic CAN: the ids taken (NULL: every id) */
+	size_t can_nfilters;
 	const struct swell_usb_ffs_iface *ffs_iface; /* FunctionFS: the interface written; NULL: refused */
 };
 /* UDP, CAN (classic frames; FD for canfd:), USB (libusb, the spec's VID, PID and interface),
