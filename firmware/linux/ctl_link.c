@@ -285,9 +285,14 @@ static void send_msgs(struct ctl_link *l, const struct swell_msg *m, size_t n)
 
 		if (l->kind ==
 		    CTL_LINK_CAN) { /* one frame a message; a full TX queue drops (the next tick is fresher) */
-			const int bad = swell_link_encode(SWELL_CARRIER_CAN, 0, 0, &m[k++], 1, &f, &used) != SWELL_OK ||
-				swell_can_write(l->fd, &f, 0) != 0;
+			int bad = swell_link_encode(SWELL_CARRIER_CAN, 0, 0, &m[k++], 1, &f, &used) != SWELL_OK;
 
+			if (!bad) { /* a write may take the interface's down report before any read does */
+				const int rc = swell_can_write(l->fd, &f, 0);
+
+				swell_can_io_result(&l->can, rc);
+				bad = rc != 0;
+			}
 			l->tx_errors += bad;
 			l->frames_tx += !bad;
 			continue;

@@ -67,6 +67,7 @@ static int can_send(struct swell_link *l, const struct swell_frame *f)
 			break;
 		nanosleep(&ms, NULL);
 	}
+	swell_can_io_result(&((struct can_link *)l)->health, rc);
 	return rc;
 }
 
@@ -159,20 +160,36 @@ enum swell_can_event swell_can_error_frame(struct swell_can_health *h, uint32_t 
 	return SWELL_CAN_EV_STATE;
 }
 
+void swell_can_io_result(struct swell_can_health *h, int rc)
+{
+	if (rc == 0) {
+		h->down_seen = 0;
+		return;
+	}
+	if (rc != -ENETDOWN)
+		return;
+	if (!h->down_seen)
+		h->downs++;
+	h->down_seen = 1;
+	h->tx_err = h->rx_err = 0;
+	if (h->state == SWELL_CAN_BUS_OFF) {
+		h->state = SWELL_CAN_ACTIVE;
+		h->restarts++;
+	}
+}
+
 int swell_can_read(int fd, struct swell_can_health *h, struct canfd_frame *f)
 {
 	const ssize_t r = read(fd, f, sizeof(*f));
 
-	if (r < 0 && errno == ENETDOWN) {
-		h->downs++;
-		h->tx_err = h->rx_err = 0;
-		if (h->state == SWELL_CAN_BUS_OFF) {
-			h->state = SWELL_CAN_ACTIVE;
-			h->restarts++;
-		}
-	}
-	if (r < 0)
+	if (r < 0) {
+		const int e = errno;
+
+		swell_can_io_result(h, -e);
+		errno = e;
 		return -1;
+	}
+	swell_can_io_result(h, 0);
 	if (r != CAN_MTU && r != CANFD_MTU) {
 		errno = EIO;
 		return -1;

@@ -424,6 +424,41 @@ TEST_CASE("CAN read (the CAN link's and swell-ctl's) gives a data frame's size, 
 	close(sv[1]);
 }
 
+TEST_CASE("CAN health: the interface going down counts once a spell, whether a write or a read hears of it, and "
+	  "ends a bus-off",
+	  "[links]")
+{
+	swell_can_health h{};
+	h.state = SWELL_CAN_BUS_OFF;
+	h.tx_err = 255;
+	swell_can_io_result(&h, -ENETDOWN); // a write took the kernel's report
+	CHECK(h.downs == 1);
+	CHECK(h.state == SWELL_CAN_ACTIVE);
+	CHECK(h.restarts == 1);
+	CHECK(h.tx_err == 0);
+	swell_can_io_result(&h, -ENETDOWN); // every write while it stays down: the same down
+	swell_can_io_result(&h, -ENOBUFS);
+	swell_can_io_result(&h, -EAGAIN);
+	CHECK(h.downs == 1);
+	CHECK(h.restarts == 1);
+	swell_can_io_result(&h, 0); // a frame went through: up again
+	swell_can_io_result(&h, -ENETDOWN);
+	CHECK(h.downs == 2);
+	CHECK(h.restarts == 1); // not bus-off this time: no restart
+
+	// a read that hears of it: the same count
+	int sv[2];
+	REQUIRE(socketpair(AF_UNIX, SOCK_SEQPACKET, 0, sv) == 0);
+	swell_can_health r{};
+	canfd_frame f{};
+	can_frame data{};
+	REQUIRE(write(sv[0], &data, CAN_MTU) == ssize_t(CAN_MTU));
+	CHECK(swell_can_read(sv[1], &r, &f) == int(CAN_MTU));
+	CHECK(r.downs == 0);
+	close(sv[0]);
+	close(sv[1]);
+}
+
 TEST_CASE("CAN link names its states", "[links]")
 {
 	CHECK(std::string(swell_can_state_name(SWELL_CAN_ACTIVE)) == "error-active");

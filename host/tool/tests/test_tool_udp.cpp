@@ -124,7 +124,8 @@ TEST_CASE("swell-tool over UDP: status in text and JSON, get and set with units,
 	CHECK(has(js.out, "\"protocol_version\": 1,"));
 	CHECK(has(js.out, "\"nx\": 64, \"ny\": 64"));
 	CHECK(has(js.out, "\"mass_g\": 100,"));
-	CHECK(has(js.out, "\"energy\": {\"created_mJ\": 0.000, \"balance_mJ\": 0.00, \"passivity\": 0"));
+	// the passivity controller is on by default (force.passivity 1)
+	CHECK(has(js.out, "\"energy\": {\"created_mJ\": 0.000, \"balance_mJ\": 0.00, \"passivity\": 1"));
 
 	Result s1 = r.tool("set force.max 5N");
 	CHECK(s1.status == 0);

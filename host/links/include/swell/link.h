@@ -121,6 +121,7 @@ struct swell_can_health {
 	uint32_t no_ack, prot, overflows, tx_timeouts, lost_arb, transceiver;
 	uint32_t dropped_off; /* data frames that arrived while bus-off (dropped, never acted on) */
 	uint32_t downs; /* the interface went down (a down/up restart leaves bus-off too) */
+	uint8_t down_seen; /* ENETDOWN seen and no frame read or written since: one down, counted once */
 };
 
 /* Take one error frame (can_id carries CAN_ERR_FLAG; data the 8 bytes of linux/can/error.h) into h.
@@ -139,6 +140,12 @@ const struct swell_can_health *swell_link_can_health(const struct swell_link *l)
  * interface going down (ENETDOWN) counts in h->downs and ends a bus-off: brought up again it starts
  * error-active, and a down/up restart sends no RESTARTED frame. */
 int swell_can_read(int fd, struct swell_can_health *h, struct canfd_frame *f);
+/* What a socket operation on the interface said, into h: -ENETDOWN (the interface went down: the
+ * kernel reports it once to the first read or write after it, and to every write while it stays
+ * down) counts one down and ends a bus-off, as swell_can_read does; 0 (a frame went through) ends the
+ * spell, so that the next ENETDOWN is a new down. Other values change nothing. The writers call it
+ * with swell_can_write's result: a write that came first takes the report from the read. */
+void swell_can_io_result(struct swell_can_health *h, int rc);
 /* One frame written to a SocketCAN socket, never waiting: 0, or a negative errno (-ENOBUFS when the
  * transmit queue is full, -EMSGSIZE for an FD frame on a classic socket: fd_mode 0). The CAN link's
  * send waits for room; swell-ctl's tick drops instead, the next tick sends a fresher value. */
