@@ -389,6 +389,29 @@ static int outcome(struct usbip_urb *u, enum otgfs_resp r, int32_t *st)
 	}
 }
 
+/* One IN transaction of endpoint ep (max packet size mps) into the URB's buffer: outcome()'s value,
+ * 1 with USBIP_EOVERFLOW for more data than the URB has room for; 0 when the data was taken, *end then
+ * says whether the transfer is complete (a short packet, or the URB full). */
+static int in_packet(struct usbip_server *s, struct usbip_urb *u, uint64_t now, uint8_t ep, uint32_t mps, int32_t *st,
+		     int *end)
+{
+	const uint32_t len = u->h.u.submit.length;
+	uint32_t n = 0;
+	uint8_t pkt[64];
+	const int o = outcome(u, otgfs_host_in(s->dev, now, s->bus_addr, ep, pkt, sizeof(pkt), &n), st);
+
+	if (o)
+		return o;
+	if (n > len - u->actual) {
+		*st = USBIP_EOVERFLOW;
+		return 1;
+	}
+	memcpy(u->buf + u->actual, pkt, n);
+	u->actual += n;
+	*end = n < mps || u->actual >= len;
+	return 0;
+}
+
 static int control_step(struct usbip_server *s, struct usbip_urb *u, uint64_t now, int32_t *st)
 {
 	uint32_t len = u->h.u.submit.length, n = 0;
@@ -407,19 +430,12 @@ static int control_step(struct usbip_server *s, struct usbip_urb *u, uint64_t no
 		uint32_t left = len - u->actual, chunk = left < s->ep0_mps ? left : s->ep0_mps;
 
 		if (in) {
-			r = otgfs_host_in(s->dev, now, s->bus_addr, 0, pkt, sizeof(pkt), &n);
-			o = outcome(u, r, st);
-			if (o)
-				return o;
-			if (n > left) {
-				*st = USBIP_EOVERFLOW;
-				return 1;
-			}
-			memcpy(u->buf + u->actual, pkt, n);
-			u->actual += n;
-			if (n < s->ep0_mps || u->actual >= len)
+			int end = 0;
+
+			o = in_packet(s, u, now, 0, s->ep0_mps, st, &end);
+			if (o == 0 && end)
 				u->stage = 2;
-			return 0;
+			return o;
 		}
 		r = otgfs_host_out(s->dev, now, s->bus_addr, 0, u->buf + u->actual, chunk);
 		o = outcome(u, r, st);
@@ -445,26 +461,19 @@ static int control_step(struct usbip_server *s, struct usbip_urb *u, uint64_t no
 static int bulk_step(struct usbip_server *s, struct usbip_urb *u, uint64_t now, int32_t *st)
 {
 	uint32_t len = u->h.u.submit.length, n = 0, left = len - u->actual;
-	uint8_t ep = (uint8_t)u->h.ep, pkt[BULK_MPS];
+	const uint8_t ep = (uint8_t)u->h.ep;
 	enum otgfs_resp r;
 	int o;
 
 	if (u->h.direction == USBIP_DIR_IN) {
-		r = otgfs_host_in(s->dev, now, s->bus_addr, ep, pkt, sizeof(pkt), &n);
-		o = outcome(u, r, st);
-		if (o)
-			return o;
-		if (n > left) {
-			*st = USBIP_EOVERFLOW;
-			return 1;
-		}
-		memcpy(u->buf + u->actual, pkt, n);
-		u->actual += n;
-		if (n < BULK_MPS || u->actual >= len) {
+		int end = 0;
+
+		o = in_packet(s, u, now, ep, BULK_MPS, st, &end);
+		if (o == 0 && end) {
 			*st = 0;
 			return 1;
 		}
-		return 0;
+		return o;
 	}
 	if (!left) {
 		int zlp = !u->zlp_sent &&
