@@ -56,6 +56,15 @@ struct Ctl {
 		m.u.device_vel.seq = seq++;
 		swell_ctl_rx(&c, SWELL_LINK_DEVICE, &m);
 	}
+	/* Held at x with velocity v for the 20 ticks autorun takes to start: the loop must be RUNNING. */
+	void start(const int32_t x_um[3], const int32_t v_um_s[3])
+	{
+		for (int n = 0; n < 20; n++) {
+			sample(x_um, v_um_s);
+			tick();
+		}
+		REQUIRE(c.state == SWELL_CTL_RUNNING);
+	}
 	/* The tick's FORCE_CMD (enable 0 when none). */
 	swell_msg_force_cmd tick()
 	{
@@ -149,11 +158,7 @@ TEST_CASE("energy: W is the analytic work of a constant force over a known displ
 	swell_ctl_config cfg = pool();
 	Ctl c(cfg);
 	int32_t x[3] = {0, 0, 100000}, v[3] = {0, 0, 0};
-	for (int n = 0; n < 20; n++) {
-		c.sample(x, v);
-		c.tick();
-	}
-	REQUIRE(c.c.state == SWELL_CTL_RUNNING);
+	c.start(x, v);
 	for (int n = 0; n < 400; n++) { // the rate limit has the force at m g by now
 		c.sample(x, v);
 		c.tick();
@@ -189,11 +194,7 @@ TEST_CASE("energy: the buoyancy springs' and the weight's fixed point energy aga
 		return sub <= h ? 0.5 * k * sub * sub : 0.5 * k * h * h + k * h * (sub - h);
 	};
 	int32_t x[3] = {0, 0, 20000}, v[3] = {0, 0, 0};
-	for (int n = 0; n < 20; n++) {
-		c.sample(x, v);
-		c.tick();
-	}
-	REQUIRE(c.c.state == SWELL_CTL_RUNNING);
+	c.start(x, v);
 	const double z0 = 0.020, A = 0.045, w = 2 * M_PI * 0.5;
 	double worst = 0;
 	for (int n = 1; n <= 5000; n++) {
@@ -388,11 +389,7 @@ TEST_CASE("passivity: the controller's force is -alpha v along the force law's a
 	cfg.pc_damping_uN_per_mm_s = 200000; // 200 N s/m: 10 N at the 50 mm/s reported, below force.max
 	Ctl c(cfg);
 	int32_t x[3] = {0, 0, 10000}, v[3] = {0, 0, 0};
-	for (int n = 0; n < 20; n++) {
-		c.sample(x, v);
-		c.tick();
-	}
-	REQUIRE(c.c.state == SWELL_CTL_RUNNING);
+	c.start(x, v);
 	int below = 0, bounded = 0;
 	for (int n = 0; n < 2500 && x[2] > -30000; n++) {
 		x[2] -= 20;
@@ -437,11 +434,7 @@ TEST_CASE("passivity: with D far below zero, the fastest speed the wire carries 
 	cfg.safety.f_max_uN = 1000000000u; // 1000 N
 	Ctl c(cfg);
 	int32_t x[3] = {0, 0, 10000}, v[3] = {0, 0, 0};
-	for (int n = 0; n < 20; n++) {
-		c.sample(x, v);
-		c.tick();
-	}
-	REQUIRE(c.c.state == SWELL_CTL_RUNNING);
+	c.start(x, v);
 	for (int32_t speed : {3000000, -3000000, 100, -100}) {
 		v[2] = speed;
 		c.sample(x, v);
@@ -535,11 +528,7 @@ TEST_CASE("passivity: in effect mode the controller stays out (the device render
 	cfg.force_mode = SWELL_FORCE_EFFECT;
 	Ctl c(cfg);
 	int32_t x[3] = {0, 0, 10000}, v[3] = {0, 0, 0};
-	for (int n = 0; n < 20; n++) {
-		c.sample(x, v);
-		c.tick();
-	}
-	REQUIRE(c.c.state == SWELL_CTL_RUNNING);
+	c.start(x, v);
 	for (int n = 0; n < 2000 && x[2] > -30000; n++) {
 		x[2] -= 20;
 		v[2] = 50000;
